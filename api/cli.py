@@ -1,0 +1,183 @@
+"""The ``rcb`` command line: thin commands over the supervisor.
+
+Exit codes: 0 success, 2 bad input (the message names the field and value), 3 infeasible
+(the message names the conflicting limits), 4 solver failure.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+
+from api import render
+from models import fields
+from models.catalogue import get_tool
+from models.errors import InputError
+from models.kinematics import CONTEXT, PARAMETERS
+from models.tool import Tool, predict_all
+from supervisor.errors import InfeasibleError, SolverError
+from supervisor.optimizer import optimize_plan
+from supervisor.plan import DEFAULT_FLANK_WEAR_MM, load_plan
+
+app = typer.Typer(
+    name="rcb",
+    help="Robust optimisation and Recursive Constraint Bounding of cutting parameters.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+_out = Console()
+_err = Console(stderr=True)
+
+JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
+
+
+@contextmanager
+def _errors() -> Iterator[None]:
+    """Turn domain errors into one line on stderr and a non-zero exit code."""
+    try:
+        yield
+    except InputError as err:
+        _err.print(f"rcb: error: {err}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(2) from None
+    except InfeasibleError as err:
+        _err.print(f"rcb: infeasible: {err}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(3) from None
+    except SolverError as err:
+        _err.print(f"rcb: solver: {err}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(4) from None
+
+
+def _emit(data: dict[str, Any]) -> None:
+    typer.echo(json.dumps(data, indent=2))
+
+
+def _pairs(items: list[str], option: str) -> dict[str, float]:
+    result: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise InputError(option, item, "must be NAME=VALUE")
+        try:
+            number = float(value)
+        except ValueError:
+            raise InputError(f"{option} {name}", value, "must be a number") from None
+        result[name.strip()] = fields.number(number, f"{option} {name}", minimum=0.0)
+    return result
+
+
+@app.command()
+def predict(
+    tool: Annotated[str, typer.Option("--tool", help="Tool name (catalogue or --plan).")],
+    depth_mm: Annotated[float | None, typer.Option("--depth-mm", help="Turning depth [mm].")] = None,
+    feed_mm_rev: Annotated[
+        float | None, typer.Option("--feed-mm-rev", help="Turning feed [mm/rev].")
+    ] = None,
+    speed_m_min: Annotated[
+        float | None, typer.Option("--speed-m-min", help="Cutting speed [m/min].")
+    ] = None,
+    axial_depth_mm: Annotated[
+        float | None, typer.Option("--axial-depth-mm", help="Milling axial depth [mm].")
+    ] = None,
+    radial_depth_mm: Annotated[
+        float | None, typer.Option("--radial-depth-mm", help="Milling radial depth [mm].")
+    ] = None,
+    feed_per_tooth_mm: Annotated[
+        float | None, typer.Option("--feed-per-tooth-mm", help="Milling feed per tooth [mm].")
+    ] = None,
+    workpiece_diameter_mm: Annotated[
+        float | None,
+        typer.Option("--diameter-mm", help="Turning: workpiece diameter [mm] (adds torque, rpm)."),
+    ] = None,
+    tool_diameter_mm: Annotated[
+        float | None, typer.Option("--tool-diameter-mm", help="Milling: tool diameter [mm].")
+    ] = None,
+    flute_count: Annotated[
+        int | None, typer.Option("--flutes", help="Milling: number of flutes.")
+    ] = None,
+    flank_wear_mm: Annotated[
+        float,
+        typer.Option("--flank-wear-mm", help="Allowable flank wear for tool life [mm]."),
+    ] = DEFAULT_FLANK_WEAR_MM,
+    rel_uncertainty: Annotated[
+        list[str] | None,
+        typer.Option("--rel-uncertainty", help="Setpoint uncertainty NAME=Δx/x (repeatable)."),
+    ] = None,
+    plan: Annotated[
+        Path | None, typer.Option("--plan", help="Take the tool from this plan file.")
+    ] = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Predict every model of a tool, with its band, at one set of cutting parameters."""
+    given = {
+        "depth_mm": depth_mm,
+        "feed_mm_rev": feed_mm_rev,
+        "speed_m_min": speed_m_min,
+        "axial_depth_mm": axial_depth_mm,
+        "radial_depth_mm": radial_depth_mm,
+        "feed_per_tooth_mm": feed_per_tooth_mm,
+        "workpiece_diameter_mm": workpiece_diameter_mm,
+        "tool_diameter_mm": tool_diameter_mm,
+        "flute_count": None if flute_count is None else float(flute_count),
+        "flank_wear_mm": flank_wear_mm,
+    }
+    with _errors():
+        found = _tool(tool, plan)
+        allowed = PARAMETERS[found.process] + CONTEXT[found.process]
+        point: dict[str, float] = {}
+        for name, value in given.items():
+            option = "--" + name.replace("_", "-")
+            if value is None:
+                if name in PARAMETERS[found.process]:
+                    raise InputError(option, None, f"required for {found.process} tool {tool!r}")
+                continue
+            if name not in allowed:
+                raise InputError(option, value, f"not used by {found.process} tool {tool!r}")
+            point[name] = fields.number(value, option, positive=True)
+        rel = _pairs(rel_uncertainty or [], "--rel-uncertainty")
+        for name in rel:
+            if name not in PARAMETERS[found.process]:
+                raise InputError("--rel-uncertainty", name, "not a cutting parameter of this tool")
+        predicted = predict_all(found, point, rel)
+    if as_json:
+        _emit(
+            {
+                "tool": found.name,
+                "process": found.process,
+                "point": point,
+                "predicted": render.predictions_json(predicted),
+            }
+        )
+    else:
+        _out.print(render.predictions_table(f"{found.name} at {point}", predicted))
+
+
+def _tool(name: str, plan: Path | None) -> Tool:
+    if plan is None:
+        return get_tool(name, "--tool")
+    tools = load_plan(plan).tools
+    if name in tools:
+        return tools[name]
+    return get_tool(name, "--tool")
+
+
+@app.command()
+def optimize(
+    plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
+    as_json: JsonOption = False,
+) -> None:
+    """Robust optimum of every operation of a plan: max MRR, every limit met at the band edge."""
+    with _errors():
+        result = optimize_plan(load_plan(plan_file))
+    if as_json:
+        _emit(render.plan_json(result))
+        return
+    _out.print(render.plan_table(result))
+    for op in result.operations:
+        _out.print(render.predictions_table(f"{op.name} ({op.tool})", op.predicted))

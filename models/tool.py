@@ -1,0 +1,144 @@
+"""Cutting tools (inserts, end mills) and the models that describe them."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from models import fields, kinematics
+from models.errors import InputError
+from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
+from models.powerlaw import PowerLawModel, Prediction
+from models.quantities import MODEL_QUANTITIES
+
+_TOOL_KEYS = ("name", "process", "description", "material", "source", "models")
+_MODEL_KEYS = ("K", "dK", "exponents", "source", "reference")
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A cutting tool with its models, keyed by quantity name.
+
+    Parameters
+    ----------
+    name : str
+        Catalogue designation, e.g. ``CNMG432RN``.
+    process : {"turning", "milling"}
+        The process the tool and its models are for.
+    models : Mapping[str, PowerLawModel]
+        One model per predicted quantity (``force_N``, ``roughness_um``, ``tool_life_mm3`` ...).
+    description, material, source : str
+        Provenance: what the tool is, the work material the models hold for, where they come from.
+    """
+
+    name: str
+    process: Process
+    models: Mapping[str, PowerLawModel] = field(default_factory=dict)
+    description: str = ""
+    material: str = ""
+    source: str = ""
+
+
+def variables(process: Process) -> tuple[str, ...]:
+    """Names a model of ``process`` may use as inputs: the parameters and the context."""
+    return PARAMETERS[process] + CONTEXT[process]
+
+
+def process_of(value: object, path: str) -> Process:
+    """Check a process name."""
+    for process in PROCESSES:
+        if value == process:
+            return process
+    raise InputError(path, value, f"unknown process; expected one of: {', '.join(PROCESSES)}")
+
+
+def model_from_mapping(
+    quantity: str, data: object, process: Process, path: str, default_source: str = ""
+) -> PowerLawModel:
+    """Read one power-law model ``{K, dK, exponents, source?, reference?}``."""
+    if quantity not in MODEL_QUANTITIES:
+        known = ", ".join(MODEL_QUANTITIES)
+        raise InputError(path, quantity, f"unknown model quantity; known: {known}")
+    table = fields.mapping(data, path)
+    fields.only_keys(table, _MODEL_KEYS, path)
+    if "K" not in table:
+        raise InputError(f"{path}.K", None, "required field missing")
+    exponents = fields.number_table(
+        table.get("exponents", {}), f"{path}.exponents", variables(process)
+    )
+    return PowerLawModel(
+        quantity=quantity,
+        K=fields.number(table["K"], f"{path}.K", positive=True),
+        dK=fields.number(table.get("dK", 0.0), f"{path}.dK", minimum=0.0),
+        exponents=exponents,
+        source=fields.text(table, "source", path, default=default_source),
+        reference=fields.text(table, "reference", path, default=""),
+    )
+
+
+def tool_from_mapping(data: object, path: str) -> Tool:
+    """Read a tool ``{name, process, models: {quantity: model}, ...}`` as in a plan file."""
+    table = fields.mapping(data, path)
+    fields.only_keys(table, _TOOL_KEYS, path)
+    name = fields.text(table, "name", path)
+    process = process_of(table.get("process"), f"{path}.process")
+    source = fields.text(table, "source", path, default="plan file")
+    models_table: Mapping[str, Any] = fields.mapping(table.get("models", {}), f"{path}.models")
+    if not models_table:
+        raise InputError(f"{path}.models", {}, "a tool needs at least one model")
+    models = {
+        q: model_from_mapping(q, m, process, f"{path}.models.{q}", source)
+        for q, m in models_table.items()
+    }
+    return Tool(
+        name=name,
+        process=process,
+        models=models,
+        description=fields.text(table, "description", path, default=""),
+        material=fields.text(table, "material", path, default=""),
+        source=source,
+    )
+
+
+def predict_all(
+    tool: Tool,
+    point: Mapping[str, float],
+    rel_uncertainty: Mapping[str, float] | None = None,
+) -> dict[str, Prediction]:
+    """Every model of ``tool`` at ``point``, and the machine quantities that follow from them.
+
+    Parameters
+    ----------
+    tool : Tool
+        The tool whose models to evaluate.
+    point : Mapping[str, float]
+        The cutting parameters of the tool's process, and whichever context values are known
+        (``workpiece_diameter_mm`` or ``tool_diameter_mm`` and ``flute_count``,
+        ``flank_wear_mm``).
+    rel_uncertainty : Mapping[str, float], optional
+        Relative setpoint uncertainties ``Δx/x`` [-].
+
+    Returns
+    -------
+    dict[str, Prediction]
+        Model quantities; ``power_kW`` (``F·v/60000``, band from the force band) when the tool
+        has a force model; ``torque_Nm`` (``F·D/2000``), ``spindle_rpm`` and
+        ``feed_rate_mm_min`` when the diameter is known (kinematics are exact: band 0).
+    """
+    process = tool.process
+    predicted = {q: m.predict(point, rel_uncertainty) for q, m in tool.models.items()}
+    force = predicted.get("force_N")
+    if force is not None:
+        per_newton = kinematics.power_per_newton_monomial().evaluate(point)
+        predicted["power_kW"] = Prediction(force.value * per_newton, force.band * per_newton)
+    if kinematics.DIAMETER[process] in point:
+        if force is not None:
+            per_newton = kinematics.torque_per_newton_monomial(process).evaluate(point)
+            predicted["torque_Nm"] = Prediction(force.value * per_newton, force.band * per_newton)
+        rpm = kinematics.spindle_rpm_monomial(process).evaluate(point)
+        predicted["spindle_rpm"] = Prediction(rpm, 0.0)
+        if process == "turning" or "flute_count" in point:
+            rate = kinematics.feed_rate_monomial(process).evaluate(point)
+            predicted["feed_rate_mm_min"] = Prediction(rate, 0.0)
+    return predicted

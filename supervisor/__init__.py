@@ -1,0 +1,1 @@
+"""Decisions as pure functions on frozen objects: plans, the robust optimiser."""

@@ -1,0 +1,112 @@
+"""The robust optimisation of one operation as a log-linear program.
+
+With ``x = ln`` of the cutting parameters every constrained quantity is a monomial, so each
+robust constraint is one linear row ``a·x <= rhs`` (Ivester & Heigel Eqs. 10-13, "linearized
+through a logarithmic transformation"; DESIGN.md, "The robust optimisation"):
+
+- model maxima at the upper band edge: ``ln(K + ΔK_eff) + e·x <= ln(limit)`` (Eqs. 11-12),
+- tool life at the lower band edge: ``ln(K − ΔK_eff) + e·x >= ln(parts_per_edge · volume)``
+  (Eq. 13, written as the minimum it is; ``mr`` from Eq. 8 at the allowable flank wear),
+- machine limits: spindle speed, feed rate, power ``F·v/60000`` and torque ``F·D/2000`` with
+  the upper force band,
+- objective: maximise ``ln(MRR)`` (Eq. 10).
+
+``ΔK_eff = K · ΔY/Y`` carries the setpoint uncertainties too (GUM, :mod:`models.powerlaw`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from models import kinematics
+from models.monomial import Monomial
+from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, Sense
+from models.tool import Tool
+from supervisor.errors import Conflict, InfeasibleError
+from supervisor.plan import PARTS_PER_EDGE, Machine, Operation
+
+
+@dataclass(frozen=True)
+class Row:
+    """One linear constraint ``coefficients · x <= rhs`` on ``x = ln(parameters)``.
+
+    ``name`` is the quantity it limits; ``limit`` and ``sense`` are as the engineer gave them.
+    """
+
+    name: str
+    coefficients: tuple[float, ...]
+    rhs: float
+    limit: float
+    sense: Sense
+
+
+@dataclass(frozen=True)
+class LogLinearProgram:
+    """Data of one operation's log-linear program (no solver objects)."""
+
+    operation: str
+    parameters: tuple[str, ...]
+    objective: tuple[float, ...]
+    rows: tuple[Row, ...]
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+
+
+def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearProgram:
+    """Build the robust log-linear program of ``operation`` with ``tool`` on ``machine``."""
+    process = operation.process
+    params = kinematics.PARAMETERS[process]
+    context = operation.context
+    rel = operation.setpoint_rel_uncertainty
+
+    def row(name: str, monomial: Monomial, limit: float, sense: Sense = "max") -> Row:
+        fixed = monomial.fix(context)
+        coefficients = tuple(fixed.exponents.get(p, 0.0) for p in params)
+        rhs = math.log(limit) - math.log(fixed.coefficient)
+        if sense == "min":
+            return Row(name, tuple(-a for a in coefficients), -rhs, limit, sense)
+        return Row(name, coefficients, rhs, limit, sense)
+
+    def edge(quantity: str, sense: Sense) -> Monomial:
+        model = tool.models[quantity]
+        rel_band = model.relative_band(rel)
+        factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band
+        if factor <= 0:
+            conflict = Conflict(quantity, operation.limits[PARTS_PER_EDGE], 0.0, sense)
+            raise InfeasibleError(operation.name, (conflict,), (f"{quantity} band >= K",))
+        return model.monomial.scaled(factor)
+
+    rows: list[Row] = []
+    for quantity, limit in operation.limits.items():
+        if quantity in MODEL_QUANTITIES:
+            rows.append(row(quantity, edge(quantity, "max"), limit))
+        elif quantity == PARTS_PER_EDGE:
+            required = limit * operation.volume_mm3
+            rows.append(row("tool_life_mm3", edge("tool_life_mm3", "min"), required, "min"))
+    machine_limits = machine.limits()
+    for quantity, limit in operation.limits.items():
+        if quantity in DERIVED_QUANTITIES:
+            machine_limits[quantity] = min(limit, machine_limits.get(quantity, math.inf))
+    for quantity, limit in machine_limits.items():
+        if quantity == "spindle_rpm":
+            rows.append(row(quantity, kinematics.spindle_rpm_monomial(process), limit))
+        elif quantity == "feed_rate_mm_min":
+            rows.append(row(quantity, kinematics.feed_rate_monomial(process), limit))
+        elif quantity == "power_kW":
+            force = edge("force_N", "max")
+            rows.append(row(quantity, force * kinematics.power_per_newton_monomial(), limit))
+        elif quantity == "torque_Nm":
+            force = edge("force_N", "max")
+            per_newton = kinematics.torque_per_newton_monomial(process)
+            rows.append(row(quantity, force * per_newton, limit))
+    mrr = kinematics.mrr_monomial(process).fix(context)
+    bounds = [operation.bounds[p] for p in params]
+    return LogLinearProgram(
+        operation=operation.name,
+        parameters=params,
+        objective=tuple(mrr.exponents.get(p, 0.0) for p in params),
+        rows=tuple(rows),
+        lower=tuple(math.log(lo) for lo, _ in bounds),
+        upper=tuple(math.log(hi) for _, hi in bounds),
+    )
