@@ -75,7 +75,9 @@ def _pairs(items: list[str], option: str) -> dict[str, float]:
 @app.command()
 def predict(
     tool: Annotated[str, typer.Option("--tool", help="Tool name (catalogue or --plan).")],
-    depth_mm: Annotated[float | None, typer.Option("--depth-mm", help="Turning depth [mm].")] = None,
+    depth_mm: Annotated[
+        float | None, typer.Option("--depth-mm", help="Turning depth [mm].")
+    ] = None,
     feed_mm_rev: Annotated[
         float | None, typer.Option("--feed-mm-rev", help="Turning feed [mm/rev].")
     ] = None,

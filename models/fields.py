@@ -25,7 +25,9 @@ def only_keys(data: Mapping[str, Any], allowed: Iterable[str], path: str) -> Non
     for key in data:
         if key not in allowed:
             where = f"{path}.{key}" if path else key
-            raise InputError(where, data[key], f"unknown field; expected one of: {', '.join(allowed)}")
+            raise InputError(
+                where, data[key], f"unknown field; expected one of: {', '.join(allowed)}"
+            )
 
 
 def text(data: Mapping[str, Any], key: str, path: str, default: str | None = None) -> str:
@@ -41,7 +43,9 @@ def text(data: Mapping[str, Any], key: str, path: str, default: str | None = Non
     return value
 
 
-def number(value: object, path: str, *, positive: bool = False, minimum: float | None = None) -> float:
+def number(
+    value: object, path: str, *, positive: bool = False, minimum: float | None = None
+) -> float:
     """A finite real number (not a bool), optionally positive or at least ``minimum``."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise InputError(path, value, "must be a number")

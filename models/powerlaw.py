@@ -1,10 +1,10 @@
-"""Empirical power-law models with an uncertainty band on K, and their first-order propagation.
+r"""Empirical power-law models with an uncertainty band on K, and their first-order propagation.
 
 .. math::
 
-    Y = K \\prod_i x_i^{e_i}, \\qquad
-    \\left(\\frac{\\Delta Y}{Y}\\right)^2 = \\left(\\frac{\\Delta K}{K}\\right)^2
-        + \\sum_i \\left(e_i \\frac{\\Delta x_i}{x_i}\\right)^2
+    Y = K \prod_i x_i^{e_i}, \qquad
+    \left(\frac{\Delta Y}{Y}\right)^2 = \left(\frac{\Delta K}{K}\right)^2
+        + \sum_i \left(e_i \frac{\Delta x_i}{x_i}\right)^2
 
 References
 ----------
@@ -109,10 +109,10 @@ class PowerLawModel:
 def relative_band(
     dK_over_K: float, exponents: Mapping[str, float], rel_uncertainty: Mapping[str, float]
 ) -> float:
-    """First-order relative band of a power law.
+    r"""First-order relative band of a power law.
 
-    .. math:: \\frac{\\Delta Y}{Y} = \\sqrt{\\left(\\frac{\\Delta K}{K}\\right)^2
-              + \\sum_i \\left(e_i \\frac{\\Delta x_i}{x_i}\\right)^2}
+    .. math:: \frac{\Delta Y}{Y} = \sqrt{\left(\frac{\Delta K}{K}\right)^2
+              + \sum_i \left(e_i \frac{\Delta x_i}{x_i}\right)^2}
 
     Parameters
     ----------

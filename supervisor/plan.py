@@ -161,7 +161,9 @@ def _machine(data: object) -> Machine:
         raise InputError("machine", None, "required table missing")
     table = fields.mapping(data, "machine")
     fields.only_keys(table, ("name", *_MACHINE_LIMITS), "machine")
-    limits = {k: fields.optional_number(table, k, "machine", positive=True) for k in _MACHINE_LIMITS}
+    limits = {
+        k: fields.optional_number(table, k, "machine", positive=True) for k in _MACHINE_LIMITS
+    }
     return Machine(name=fields.text(table, "name", "machine"), **limits)
 
 
@@ -197,7 +199,9 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
     for quantity in ("power_kW", "torque_Nm"):
         if quantity in {*limits, *machine.limits()} and "force_N" not in tool.models:
             raise PlanError(
-                f"{path}.tool", tool.name, f"{quantity} is limited but the tool has no force_N model"
+                f"{path}.tool",
+                tool.name,
+                f"{quantity} is limited but the tool has no force_N model",
             )
     rel = fields.number_table(
         table.get("setpoint_rel_uncertainty", {}),
@@ -245,7 +249,9 @@ def _limits(data: object, path: str, tool: Tool) -> dict[str, float]:
     for key in limits:
         needed = "tool_life_mm3" if key == PARTS_PER_EDGE else key
         if needed in MODEL_QUANTITIES and needed not in tool.models:
-            raise PlanError(f"{path}.{key}", limits[key], f"tool {tool.name!r} has no {needed} model")
+            raise PlanError(
+                f"{path}.{key}", limits[key], f"tool {tool.name!r} has no {needed} model"
+            )
     return limits
 
 
