@@ -31,7 +31,9 @@ from supervisor.plan import PARTS_PER_EDGE, Machine, Operation
 class Row:
     """One linear constraint ``coefficients · x <= rhs`` on ``x = ln(parameters)``.
 
-    ``name`` is the quantity it limits; ``limit`` and ``sense`` are as the engineer gave them.
+    ``name`` is the quantity it limits, ``limit`` the limit in that quantity's unit and
+    ``sense`` whether it is a maximum or a minimum. ``given_as`` names the limit as the
+    engineer wrote it, which is ``limit / scale`` (``parts_per_edge`` is tool life / volume).
     """
 
     name: str
@@ -39,6 +41,8 @@ class Row:
     rhs: float
     limit: float
     sense: Sense
+    given_as: str
+    scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -60,21 +64,25 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
     context = operation.context
     rel = operation.setpoint_rel_uncertainty
 
-    def row(name: str, monomial: Monomial, limit: float, sense: Sense = "max") -> Row:
+    def row(
+        name: str, monomial: Monomial, limit: float, sense: Sense = "max", scale: float = 1.0
+    ) -> Row:
         fixed = monomial.fix(context)
         coefficients = tuple(fixed.exponents.get(p, 0.0) for p in params)
         rhs = math.log(limit) - math.log(fixed.coefficient)
         if sense == "min":
-            return Row(name, tuple(-a for a in coefficients), -rhs, limit, sense)
-        return Row(name, coefficients, rhs, limit, sense)
+            coefficients, rhs = tuple(-a for a in coefficients), -rhs
+        given_as = PARTS_PER_EDGE if name == "tool_life_mm3" else name
+        return Row(name, coefficients, rhs, limit, sense, given_as, scale)
 
     def edge(quantity: str, sense: Sense) -> Monomial:
         model = tool.models[quantity]
         rel_band = model.relative_band(rel)
         factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band
         if factor <= 0:
-            conflict = Conflict(quantity, operation.limits[PARTS_PER_EDGE], 0.0, sense)
-            raise InfeasibleError(operation.name, (conflict,), (f"{quantity} band >= K",))
+            conflict = Conflict(PARTS_PER_EDGE, operation.limits[PARTS_PER_EDGE], 0.0, sense)
+            held = (f"{quantity} band >= K: no tool life is guaranteed",)
+            raise InfeasibleError(operation.name, (conflict,), held)
         return model.monomial.scaled(factor)
 
     rows: list[Row] = []
@@ -82,8 +90,9 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         if quantity in MODEL_QUANTITIES:
             rows.append(row(quantity, edge(quantity, "max"), limit))
         elif quantity == PARTS_PER_EDGE:
-            required = limit * operation.volume_mm3
-            rows.append(row("tool_life_mm3", edge("tool_life_mm3", "min"), required, "min"))
+            volume = operation.volume_mm3
+            lower_edge = edge("tool_life_mm3", "min")
+            rows.append(row("tool_life_mm3", lower_edge, limit * volume, "min", volume))
     machine_limits = machine.limits()
     for quantity, limit in operation.limits.items():
         if quantity in DERIVED_QUANTITIES:

@@ -206,7 +206,8 @@ def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
     for row, slack, lhs in zip(lp.rows, s.value, A @ x.value, strict=True):
         if slack > BINDING_TOL:
             factor = math.exp(slack) if row.sense == "max" else math.exp(-slack)
-            conflicts.append(Conflict(row.name, row.limit, row.limit * factor, row.sense))
+            given = row.limit / row.scale
+            conflicts.append(Conflict(row.given_as, given, given * factor, row.sense))
         elif row.rhs - lhs <= BINDING_TOL:
             against.append(row.name)
     for p, v, lo, hi in zip(lp.parameters, x.value, lp.lower, lp.upper, strict=True):
