@@ -7,25 +7,68 @@ Exit codes: 0 success, 2 bad input (the message names the field and value), 3 in
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
+import sys
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any
 
+import pydantic
 import typer
 from rich.console import Console
+from typer.core import TyperGroup
+
+try:  # recent typer vendors click as typer._click; its exceptions are not click's
+    from typer._click import exceptions as click_errors
+except ImportError:  # pragma: no cover - typer that uses click itself
+    from click import exceptions as click_errors  # type: ignore[no-redef]
 
 from api import render
 from models import fields
 from models.catalogue import get_tool
-from models.errors import InputError
+from models.errors import InputError, ModelDomainError
 from models.kinematics import CONTEXT, PARAMETERS
 from models.tool import Tool, predict_all
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 
+
+class _OneLineErrors(TyperGroup):
+    """Report usage errors (a value that is not a number, a missing argument) in one line."""
+
+    def main(
+        self,
+        args: Sequence[str] | None = None,
+        prog_name: str | None = None,
+        complete_var: str | None = None,
+        standalone_mode: bool = True,
+        windows_expand_args: bool = True,
+        **extra: Any,
+    ) -> Any:
+        """Run the command; on a usage error print ``rcb: error: ...`` and exit 2."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, False, windows_expand_args, **extra)
+        try:
+            code = super().main(args, prog_name, complete_var, False, windows_expand_args, **extra)
+        except click_errors.NoArgsIsHelpError as err:
+            typer.echo(err.ctx.get_help() if err.ctx else err.format_message())
+            sys.exit(err.exit_code)
+        except click_errors.ClickException as err:
+            message = " ".join(err.format_message().split())
+            if isinstance(err.__cause__, pydantic.ValidationError):  # typer's own coercion
+                given = ", ".join(repr(e.get("input")) for e in err.__cause__.errors())
+                message = f"{message} (got {given})"
+            typer.echo(f"rcb: error: {message}", err=True)
+            sys.exit(err.exit_code)
+        except typer.Abort:
+            typer.echo("rcb: aborted", err=True)
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)
+
+
 app = typer.Typer(
+    cls=_OneLineErrors,
     name="rcb",
     help="Robust optimisation and Recursive Constraint Bounding of cutting parameters.",
     no_args_is_help=True,
@@ -134,7 +177,7 @@ def predict(
         allowed = PARAMETERS[found.process] + CONTEXT[found.process]
         point: dict[str, float] = {}
         for name, value in given.items():
-            option = "--" + name.replace("_", "-")
+            option = _OPTIONS[name]
             if value is None:
                 if name in PARAMETERS[found.process]:
                     raise InputError(option, None, f"required for {found.process} tool {tool!r}")
@@ -146,7 +189,10 @@ def predict(
         for name in rel:
             if name not in PARAMETERS[found.process]:
                 raise InputError("--rel-uncertainty", name, "not a cutting parameter of this tool")
-        predicted = predict_all(found, point, rel)
+        try:
+            predicted = predict_all(found, point, rel)
+        except ModelDomainError as err:
+            raise InputError(_OPTIONS.get(err.field, err.field), err.value, err.reason) from None
     if as_json:
         _emit(
             {
@@ -158,6 +204,20 @@ def predict(
         )
     else:
         _out.print(render.predictions_table(f"{found.name} at {point}", predicted))
+
+
+_OPTIONS = {
+    "depth_mm": "--depth-mm",
+    "feed_mm_rev": "--feed-mm-rev",
+    "speed_m_min": "--speed-m-min",
+    "axial_depth_mm": "--axial-depth-mm",
+    "radial_depth_mm": "--radial-depth-mm",
+    "feed_per_tooth_mm": "--feed-per-tooth-mm",
+    "workpiece_diameter_mm": "--diameter-mm",
+    "tool_diameter_mm": "--tool-diameter-mm",
+    "flute_count": "--flutes",
+    "flank_wear_mm": "--flank-wear-mm",
+}
 
 
 def _tool(name: str, plan: Path | None) -> Tool:

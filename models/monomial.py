@@ -38,8 +38,19 @@ class Monomial:
             x = point[name]
             if not x > 0 or not math.isfinite(x):
                 raise ModelDomainError(name, x, "must be a positive finite number")
-            value *= x**exponent
+            try:
+                value *= x**exponent
+            except OverflowError:
+                value = math.inf
+        if not (math.isfinite(value) and value > 0):
+            raise self._out_of_range(point)
         return value
+
+    def _out_of_range(self, point: Mapping[str, float]) -> ModelDomainError:
+        """Name the variable whose power moves the value furthest (in ln) out of float range."""
+        terms = {n: abs(e * math.log(point[n])) for n, e in self.exponents.items()}
+        name = max(terms, key=lambda n: terms[n])
+        return ModelDomainError(name, point[name], "out of range: the model's value overflows")
 
     def fix(self, constants: Mapping[str, float]) -> Monomial:
         """Fold the variables named in ``constants`` into the coefficient."""

@@ -43,8 +43,8 @@ class Conflict:
     def describe(self) -> str:
         """One phrase: ``force_N <= 100 needs >= 512.3``."""
         if self.sense == "max":
-            return f"{self.name} <= {self.limit:.4g} needs a limit of at least {self.required:.4g}"
-        return f"{self.name} >= {self.limit:.4g} can reach at most {self.required:.4g}"
+            return f"{self.name} <= {self.limit:.6g} needs a limit of at least {self.required:.4g}"
+        return f"{self.name} >= {self.limit:.6g} can reach at most {self.required:.4g}"
 
 
 class InfeasibleError(SupervisorError):

@@ -65,15 +65,19 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
     rel = operation.setpoint_rel_uncertainty
 
     def row(
-        name: str, monomial: Monomial, limit: float, sense: Sense = "max", scale: float = 1.0
+        name: str,
+        monomial: Monomial,
+        limit: float,
+        sense: Sense = "max",
+        scale: float = 1.0,
+        given_as: str = "",
     ) -> Row:
         fixed = monomial.fix(context)
         coefficients = tuple(fixed.exponents.get(p, 0.0) for p in params)
         rhs = math.log(limit) - math.log(fixed.coefficient)
         if sense == "min":
             coefficients, rhs = tuple(-a for a in coefficients), -rhs
-        given_as = PARTS_PER_EDGE if name == "tool_life_mm3" else name
-        return Row(name, coefficients, rhs, limit, sense, given_as, scale)
+        return Row(name, coefficients, rhs, limit, sense, given_as or name, scale)
 
     def edge(quantity: str, sense: Sense) -> Monomial:
         model = tool.models[quantity]
@@ -81,7 +85,12 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band
         if factor <= 0:
             conflict = Conflict(PARTS_PER_EDGE, operation.limits[PARTS_PER_EDGE], 0.0, sense)
-            held = (f"{quantity} band >= K: no tool life is guaranteed",)
+            causes = ", ".join(f"setpoint_rel_uncertainty.{k}={v:g}" for k, v in rel.items())
+            held = (
+                f"{quantity} band {rel_band:.3g}·K >= K from dK={model.dK:g}"
+                + (f" and {causes}" if causes else "")
+                + ": no tool life is guaranteed",
+            )
             raise InfeasibleError(operation.name, (conflict,), held)
         return model.monomial.scaled(factor)
 
@@ -92,23 +101,24 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         elif quantity == PARTS_PER_EDGE:
             volume = operation.volume_mm3
             lower_edge = edge("tool_life_mm3", "min")
-            rows.append(row("tool_life_mm3", lower_edge, limit * volume, "min", volume))
-    machine_limits = machine.limits()
+            rows.append(
+                row("tool_life_mm3", lower_edge, limit * volume, "min", volume, PARTS_PER_EDGE)
+            )
+    # the tighter of the machine's limit and the operation's own, named as it was given
+    machine_limits = {q: (v, f"machine.max_{q}") for q, v in machine.limits().items()}
     for quantity, limit in operation.limits.items():
-        if quantity in DERIVED_QUANTITIES:
-            machine_limits[quantity] = min(limit, machine_limits.get(quantity, math.inf))
-    for quantity, limit in machine_limits.items():
+        if quantity in DERIVED_QUANTITIES and limit < machine_limits.get(quantity, (math.inf,))[0]:
+            machine_limits[quantity] = (limit, quantity)
+    for quantity, (limit, given_as) in machine_limits.items():
         if quantity == "spindle_rpm":
-            rows.append(row(quantity, kinematics.spindle_rpm_monomial(process), limit))
+            monomial = kinematics.spindle_rpm_monomial(process)
         elif quantity == "feed_rate_mm_min":
-            rows.append(row(quantity, kinematics.feed_rate_monomial(process), limit))
+            monomial = kinematics.feed_rate_monomial(process)
         elif quantity == "power_kW":
-            force = edge("force_N", "max")
-            rows.append(row(quantity, force * kinematics.power_per_newton_monomial(), limit))
-        elif quantity == "torque_Nm":
-            force = edge("force_N", "max")
-            per_newton = kinematics.torque_per_newton_monomial(process)
-            rows.append(row(quantity, force * per_newton, limit))
+            monomial = edge("force_N", "max") * kinematics.power_per_newton_monomial()
+        else:  # torque_Nm
+            monomial = edge("force_N", "max") * kinematics.torque_per_newton_monomial(process)
+        rows.append(row(quantity, monomial, limit, given_as=given_as))
     mrr = kinematics.mrr_monomial(process).fix(context)
     bounds = [operation.bounds[p] for p in params]
     return LogLinearProgram(

@@ -18,10 +18,11 @@ import cvxpy as cp
 import numpy as np
 
 from models import kinematics
+from models.errors import ModelDomainError
 from models.kinematics import Process
 from models.powerlaw import Prediction
 from models.tool import Tool, predict_all
-from supervisor.errors import Conflict, InfeasibleError, SolverError
+from supervisor.errors import Conflict, InfeasibleError, PlanError, SolverError
 from supervisor.formulation import LogLinearProgram, formulate
 from supervisor.plan import Machine, Operation, Plan
 
@@ -155,10 +156,13 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
 
 def optimize_plan(plan: Plan) -> PlanResult:
     """Robust optimum of every operation of ``plan`` (see :func:`optimize_operation`)."""
-    results = tuple(
-        optimize_operation(op, plan.tools[op.tool], plan.machine) for op in plan.operations
-    )
-    return PlanResult(plan=plan.name, machine=plan.machine.name, operations=results)
+    results = []
+    for i, op in enumerate(plan.operations):
+        try:
+            results.append(optimize_operation(op, plan.tools[op.tool], plan.machine))
+        except ModelDomainError as err:
+            raise PlanError(f"operations[{i}].{err.field}", err.value, err.reason) from None
+    return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
 
 
 def _binding(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> tuple[str, ...]:
@@ -209,7 +213,7 @@ def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
             given = row.limit / row.scale
             conflicts.append(Conflict(row.given_as, given, given * factor, row.sense))
         elif row.rhs - lhs <= BINDING_TOL:
-            against.append(row.name)
+            against.append(row.given_as)
     for p, v, lo, hi in zip(lp.parameters, x.value, lp.lower, lp.upper, strict=True):
         if v - lo <= BINDING_TOL:
             against.append(f"{p} >= {math.exp(lo):.4g}")

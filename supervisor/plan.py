@@ -15,7 +15,7 @@ from typing import Any
 from models import fields
 from models.catalogue import catalogue
 from models.errors import InputError
-from models.kinematics import CONTEXT, DIAMETER, PARAMETERS, Process
+from models.kinematics import CONTEXT, PARAMETERS, Process
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from models.tool import Tool, process_of, tool_from_mapping
 from supervisor.errors import PlanError
@@ -232,9 +232,9 @@ def _context(table: Mapping[str, Any], path: str, process: Process) -> dict[str,
         context[key] = fields.number(table[key], f"{path}.{key}", positive=True)
         if key == "flute_count" and not context[key].is_integer():
             raise InputError(f"{path}.{key}", table[key], "must be a whole number of flutes")
-    other = DIAMETER["milling" if process == "turning" else "turning"]
-    if other in table:
-        raise InputError(f"{path}.{other}", table[other], f"not used by a {process} operation")
+    for other in sorted({k for keys in CONTEXT.values() for k in keys} - set(CONTEXT[process])):
+        if other in table:
+            raise InputError(f"{path}.{other}", table[other], f"not used by a {process} operation")
     wear = fields.optional_number(table, "allowable_flank_wear_mm", path, positive=True)
     context["flank_wear_mm"] = DEFAULT_FLANK_WEAR_MM if wear is None else wear
     return context

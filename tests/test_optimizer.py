@@ -5,13 +5,15 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+from dataclasses import replace
 
 import pytest
 from numpy.testing import assert_allclose
 
 from api.cli import app
 from models.catalogue import get_tool
-from supervisor.optimizer import is_dpp, optimize_operation, optimize_plan
+from supervisor.formulation import formulate
+from supervisor.optimizer import _program, is_dpp, optimize_operation, optimize_plan
 from supervisor.plan import load_plan, plan_from_mapping
 
 from conftest import DEMO_PLAN
@@ -80,8 +82,24 @@ def test_programs_are_dpp_and_resolve_the_same():
     first = optimize_operation(op, plan.tools[op.tool], plan.machine)
     again = optimize_operation(op, plan.tools[op.tool], plan.machine)
     assert first == again
-    assert is_dpp(3, 3)  # rough-od: force, roughness, tool life
-    assert is_dpp(3, 7) and is_dpp(4, 2)
+    for op in plan.operations:
+        lp = formulate(op, plan.tools[op.tool], plan.machine)
+        assert is_dpp(len(lp.parameters), len(lp.rows))
+
+
+def test_a_band_change_reuses_the_compiled_program():
+    plan = load_plan(DEMO_PLAN)
+    op = plan.operations[0]
+    tool = plan.tools[op.tool]
+    narrower = replace(tool.models["force_N"], dK=100.0)
+    tool2 = replace(tool, models={**tool.models, "force_N": narrower})
+    before = _program.cache_info()
+    slow = optimize_operation(op, tool, plan.machine)
+    fast = optimize_operation(op, tool2, plan.machine)
+    after = _program.cache_info()
+    assert after.misses - before.misses <= 1  # at most the first compile of this structure
+    assert after.hits - before.hits >= 1
+    assert fast.mrr_cm3_min > slow.mrr_cm3_min  # a narrower force band lets the cut go faster
 
 
 # Ivester & Heigel Table 5 rows R: (d, f, v); the paper rounds feeds down to 0.01 mm/rev.
