@@ -203,7 +203,8 @@ def predict(
             }
         )
     else:
-        _out.print(render.predictions_table(f"{found.name} at {point}", predicted))
+        at = ", ".join(f"{k}={v:g}" for k, v in point.items())
+        _out.print(render.predictions_table(f"{found.name} ({found.process}) at {at}", predicted))
 
 
 _OPTIONS = {

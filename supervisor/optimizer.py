@@ -1,15 +1,17 @@
-"""The robust optimiser: one parametrised (DPP) cvxpy program per problem shape, solved by HiGHS.
+"""The robust optimiser: parametrised (DPP) cvxpy programs, solved by HiGHS.
 
-A program is built once per (number of parameters, number of constraint rows) and re-solved
-with new parameter values, so re-optimising after every part costs one solver call
-(cvxpy "Disciplined Parametrized Programming").
+A plan's operations are solved together as one program of independent blocks. A program is
+compiled once per shape (the number of parameters and constraint rows of each operation) and
+re-solved with new parameter values, so re-optimising a plan after every part costs one solver
+call (cvxpy "Disciplined Parametrized Programming").
 """
 
 from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -78,46 +80,100 @@ class PlanResult:
         return sum(op.time_min for op in self.operations)
 
 
-class _Program:
-    """A DPP cvxpy LP ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` of one shape."""
+#: (number of parameters, number of constraint rows) of each operation in a program
+_Shape = tuple[tuple[int, int], ...]
+
+
+class _Block:
+    """One operation's ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` with parameters."""
 
     def __init__(self, n: int, m: int) -> None:
-        self.lock = threading.Lock()
         self.x = cp.Variable(n)
         self.c = cp.Parameter(n)
         self.lo = cp.Parameter(n)
         self.hi = cp.Parameter(n)
-        constraints = [self.x >= self.lo, self.x <= self.hi]
+        self.constraints = [self.x >= self.lo, self.x <= self.hi]
         self.A = cp.Parameter((m, n)) if m else None
         self.b = cp.Parameter(m) if m else None
         if self.A is not None:
-            constraints.append(self.A @ self.x <= self.b)
-        self.problem = cp.Problem(cp.Maximize(self.c @ self.x), constraints)
+            self.constraints.append(self.A @ self.x <= self.b)
+        self.objective = self.c @ self.x
 
-    def solve(self, lp: LogLinearProgram) -> tuple[str, np.ndarray[Any, Any] | None]:
+    def load(self, lp: LogLinearProgram) -> None:
+        self.c.value = np.asarray(lp.objective)
+        self.lo.value = np.asarray(lp.lower)
+        self.hi.value = np.asarray(lp.upper)
+        if self.A is not None and self.b is not None:
+            self.A.value = np.array([r.coefficients for r in lp.rows])
+            self.b.value = np.array([r.rhs for r in lp.rows])
+
+
+class _Program:
+    """A DPP cvxpy LP of independent blocks, one per operation, solved in one call.
+
+    The blocks share no variable, so the optimum of the sum of their objectives is each
+    block's own optimum; one call amortises cvxpy's per-solve overhead over the plan.
+    """
+
+    def __init__(self, shape: _Shape) -> None:
+        self.lock = threading.Lock()
+        self.blocks = [_Block(n, m) for n, m in shape]
+        objective = self.blocks[0].objective
+        for block in self.blocks[1:]:
+            objective = objective + block.objective
+        constraints = [c for b in self.blocks for c in b.constraints]
+        self.problem = cp.Problem(cp.Maximize(objective), constraints)
+
+    def solve(self, lps: Sequence[LogLinearProgram]) -> tuple[str, list[np.ndarray[Any, Any]]]:
         with self.lock:
-            self.c.value = np.asarray(lp.objective)
-            self.lo.value = np.asarray(lp.lower)
-            self.hi.value = np.asarray(lp.upper)
-            if self.A is not None and self.b is not None:
-                self.A.value = np.array([r.coefficients for r in lp.rows])
-                self.b.value = np.array([r.rhs for r in lp.rows])
+            for block, lp in zip(self.blocks, lps, strict=True):
+                block.load(lp)
             try:
-                self.problem.solve(solver=cp.HIGHS)
+                # no warm start: a solve must not depend on what was solved before
+                self.problem.solve(solver=cp.HIGHS, warm_start=False)
             except cp.error.SolverError as err:
-                raise SolverError(f"operation {lp.operation!r}: solver failed ({err})") from err
-            x = None if self.x.value is None else np.array(self.x.value)
-            return str(self.problem.status), x
+                names = [lp.operation for lp in lps]
+                raise SolverError(f"operations {names}: solver failed ({err})") from err
+            status = str(self.problem.status)
+            if status != cp.OPTIMAL:
+                return status, []
+            return status, [np.array(b.x.value) for b in self.blocks]
+
+
+def _shape(lps: Sequence[LogLinearProgram]) -> _Shape:
+    return tuple((len(lp.parameters), len(lp.rows)) for lp in lps)
 
 
 @cache
-def _program(n: int, m: int) -> _Program:
-    return _Program(n, m)
+def _program(shape: _Shape) -> _Program:
+    return _Program(shape)
 
 
-def is_dpp(n: int, m: int) -> bool:
-    """Whether the cached program of this shape is DPP (re-solvable without re-compiling)."""
-    return bool(_program(n, m).problem.is_dpp())
+def is_dpp(lps: Sequence[LogLinearProgram]) -> bool:
+    """Whether the program for these operations is DPP (re-solvable without re-compiling)."""
+    return bool(_program(_shape(lps)).problem.is_dpp())
+
+
+def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
+    """Optimal ln-parameters of every program, solved together.
+
+    Raises
+    ------
+    InfeasibleError
+        For the first operation that has no feasible point, with its conflicts.
+    SolverError
+        A status other than optimal or infeasible.
+    """
+    status, xs = _program(_shape(lps)).solve(lps)
+    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+        if len(lps) == 1:
+            raise _diagnose(lps[0])
+        for lp in lps:  # which one? rare, so solve them one by one
+            _solve([lp])
+    if status != cp.OPTIMAL:
+        names = [lp.operation for lp in lps]
+        raise SolverError(f"operations {names}: solver status {status}, not optimal")
+    return [np.clip(x, lp.lower, lp.upper) for x, lp in zip(xs, lps, strict=True)]
 
 
 def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> OperationResult:
@@ -131,12 +187,42 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
         The solver gave no optimal status, or the optimum fails the re-check.
     """
     lp = formulate(operation, tool, machine)
-    status, x = _program(len(lp.parameters), len(lp.rows)).solve(lp)
-    if status == cp.INFEASIBLE:
-        raise _diagnose(lp)
-    if status != cp.OPTIMAL or x is None:
-        raise SolverError(f"operation {operation.name!r}: solver status {status}, not optimal")
-    x = np.clip(x, lp.lower, lp.upper)
+    (x,) = _solve([lp])
+    return _result(operation, tool, lp, x)
+
+
+def optimize_plan(plan: Plan) -> PlanResult:
+    """Robust optimum of every operation of ``plan``, solved as one program.
+
+    Errors as :func:`optimize_operation`; a model that cannot be evaluated for an operation's
+    inputs is a :class:`PlanError` naming ``operations[i].<field>``.
+    """
+    tools = [plan.tools[op.tool] for op in plan.operations]
+    lps = []
+    for i, (op, tool) in enumerate(zip(plan.operations, tools, strict=True)):
+        with _fields_of(i):
+            lps.append(formulate(op, tool, plan.machine))
+    xs = _solve(lps)
+    results = []
+    for i, (op, tool, lp, x) in enumerate(zip(plan.operations, tools, lps, xs, strict=True)):
+        with _fields_of(i):
+            results.append(_result(op, tool, lp, x))
+    return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
+
+
+@contextmanager
+def _fields_of(index: int) -> Iterator[None]:
+    """Name a model-domain error by the plan field it comes from."""
+    try:
+        yield
+    except ModelDomainError as err:
+        raise PlanError(f"operations[{index}].{err.field}", err.value, err.reason) from None
+
+
+def _result(
+    operation: Operation, tool: Tool, lp: LogLinearProgram, x: np.ndarray[Any, Any]
+) -> OperationResult:
+    """Predictions, re-check and timing at the optimum ``x`` (ln-parameters) of ``lp``."""
     setpoint = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
     point = {**setpoint, **operation.context}
     predicted = predict_all(tool, point, operation.setpoint_rel_uncertainty)
@@ -152,17 +238,6 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
         time_min=operation.volume_mm3 / (1000.0 * mrr),
         binding=_binding(lp, x),
     )
-
-
-def optimize_plan(plan: Plan) -> PlanResult:
-    """Robust optimum of every operation of ``plan`` (see :func:`optimize_operation`)."""
-    results = []
-    for i, op in enumerate(plan.operations):
-        try:
-            results.append(optimize_operation(op, plan.tools[op.tool], plan.machine))
-        except ModelDomainError as err:
-            raise PlanError(f"operations[{i}].{err.field}", err.value, err.reason) from None
-    return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
 
 
 def _binding(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> tuple[str, ...]:
@@ -202,13 +277,19 @@ def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
         cp.Minimize(cp.sum(s)),
         [A @ x <= b + s, x >= np.asarray(lp.lower), x <= np.asarray(lp.upper)],
     )
-    problem.solve(solver=cp.HIGHS)
+    problem.solve(solver=cp.HIGHS, warm_start=False)
     if problem.status != cp.OPTIMAL or s.value is None or x.value is None:
         return InfeasibleError(lp.operation, (), ("the parameter bounds",))
+    # Every row the elastic optimum must relax conflicts, however little: the main solve
+    # already found the program infeasible. If round-off hides them all, name the largest.
+    slacks = np.asarray(s.value)
+    violated = slacks > 1e-12
+    if not violated.any():
+        violated = slacks == slacks.max()
     conflicts: list[Conflict] = []
     against: list[str] = []
-    for row, slack, lhs in zip(lp.rows, s.value, A @ x.value, strict=True):
-        if slack > BINDING_TOL:
+    for row, slack, lhs, bad in zip(lp.rows, slacks, A @ x.value, violated, strict=True):
+        if bad:
             factor = math.exp(slack) if row.sense == "max" else math.exp(-slack)
             given = row.limit / row.scale
             conflicts.append(Conflict(row.given_as, given, given * factor, row.sense))

@@ -82,9 +82,9 @@ def test_programs_are_dpp_and_resolve_the_same():
     first = optimize_operation(op, plan.tools[op.tool], plan.machine)
     again = optimize_operation(op, plan.tools[op.tool], plan.machine)
     assert first == again
-    for op in plan.operations:
-        lp = formulate(op, plan.tools[op.tool], plan.machine)
-        assert is_dpp(len(lp.parameters), len(lp.rows))
+    lps = [formulate(op, plan.tools[op.tool], plan.machine) for op in plan.operations]
+    assert is_dpp(lps)  # the six operations as one program
+    assert all(is_dpp([lp]) for lp in lps)
 
 
 def test_a_band_change_reuses_the_compiled_program():
