@@ -130,7 +130,7 @@ class _Program:
                 block.load(lp)
             try:
                 # no warm start: a solve must not depend on what was solved before
-                self.problem.solve(solver=cp.HIGHS, warm_start=False)
+                self.problem.solve(solver=cp.HIGHS, warm_start=False, presolve="off")
             except cp.error.SolverError as err:
                 names = [lp.operation for lp in lps]
                 raise SolverError(f"operations {names}: solver failed ({err})") from err
@@ -277,7 +277,7 @@ def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
         cp.Minimize(cp.sum(s)),
         [A @ x <= b + s, x >= np.asarray(lp.lower), x <= np.asarray(lp.upper)],
     )
-    problem.solve(solver=cp.HIGHS, warm_start=False)
+    problem.solve(solver=cp.HIGHS, warm_start=False, presolve="off")
     if problem.status != cp.OPTIMAL or s.value is None or x.value is None:
         return InfeasibleError(lp.operation, (), ("the parameter bounds",))
     # Every row the elastic optimum must relax conflicts, however little: the main solve
