@@ -80,6 +80,8 @@ class PlanResult:
         return sum(op.time_min for op in self.operations)
 
 
+_INFEASIBLE = (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE)
+
 #: (number of parameters, number of constraint rows) of each operation in a program
 _Shape = tuple[tuple[int, int], ...]
 
@@ -128,16 +130,27 @@ class _Program:
         with self.lock:
             for block, lp in zip(self.blocks, lps, strict=True):
                 block.load(lp)
-            try:
-                # no warm start: a solve must not depend on what was solved before
-                self.problem.solve(solver=cp.HIGHS, warm_start=False, presolve="off")
-            except cp.error.SolverError as err:
-                names = [lp.operation for lp in lps]
-                raise SolverError(f"operations {names}: solver failed ({err})") from err
-            status = str(self.problem.status)
+            status = self._run(lps)
+            if status in _INFEASIBLE:
+                # HiGHS presolve can call a program infeasible whose limit clears the least
+                # reachable value by a few ppm; a solve without presolve settles it. Without
+                # presolve an infeasible program can end "unknown", so only an optimum counts.
+                retried = self._run(lps, presolve="off")
+                status = retried if retried == cp.OPTIMAL else status
             if status != cp.OPTIMAL:
                 return status, []
             return status, [np.array(b.x.value) for b in self.blocks]
+
+    def _run(self, lps: Sequence[LogLinearProgram], **options: str) -> str:
+        try:
+            # no warm start: a solve must not depend on what was solved before
+            self.problem.solve(solver=cp.HIGHS, warm_start=False, **options)
+        except cp.error.SolverError as err:
+            names = [lp.operation for lp in lps]
+            raise SolverError(f"operations {names}: solver failed ({err})") from err
+        except ValueError:  # cvxpy cannot unpack a result HiGHS left "unknown"
+            return "unknown"
+        return str(self.problem.status)
 
 
 def _shape(lps: Sequence[LogLinearProgram]) -> _Shape:
@@ -165,7 +178,7 @@ def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
         A status other than optimal or infeasible.
     """
     status, xs = _program(_shape(lps)).solve(lps)
-    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+    if status in _INFEASIBLE:
         if len(lps) == 1:
             raise _diagnose(lps[0])
         for lp in lps:  # which one? rare, so solve them one by one
@@ -277,7 +290,7 @@ def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
         cp.Minimize(cp.sum(s)),
         [A @ x <= b + s, x >= np.asarray(lp.lower), x <= np.asarray(lp.upper)],
     )
-    problem.solve(solver=cp.HIGHS, warm_start=False, presolve="off")
+    problem.solve(solver=cp.HIGHS, warm_start=False)
     if problem.status != cp.OPTIMAL or s.value is None or x.value is None:
         return InfeasibleError(lp.operation, (), ("the parameter bounds",))
     # Every row the elastic optimum must relax conflicts, however little: the main solve
