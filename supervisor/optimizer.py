@@ -283,6 +283,8 @@ def _recheck(
 def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
     """Elastic LP: the least total ln-violation of the rows within the bounds."""
     n, m = len(lp.parameters), len(lp.rows)
+    if m == 0:  # only bounds, and those were checked low <= high
+        return InfeasibleError(lp.operation, (), ("the parameter bounds",))
     x, s = cp.Variable(n), cp.Variable(m, nonneg=True)
     A = np.array([r.coefficients for r in lp.rows])
     b = np.array([r.rhs for r in lp.rows])
