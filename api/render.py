@@ -59,20 +59,34 @@ def predictions_table(title: str, predicted: Mapping[str, Prediction]) -> Table:
     return table
 
 
+#: Short column headings of the cutting parameters.
+_PARAMETER_HEADINGS = {
+    "depth_mm": "d\nmm",
+    "feed_mm_rev": "f\nmm/rev",
+    "axial_depth_mm": "ap\nmm",
+    "radial_depth_mm": "ae\nmm",
+    "feed_per_tooth_mm": "fz\nmm",
+    "speed_m_min": "v\nm/min",
+}
+
+
 def plan_table(result: PlanResult) -> Table:
-    """One row per operation: setpoint, MRR, time, binding constraints."""
+    """One row per operation: each cutting parameter, MRR, time, binding constraints.
+
+    Fits 80 columns for a turning plan; the tool is in each operation's own table.
+    """
     table = Table(title=f"plan {result.plan} on {result.machine}: robust optimum")
-    for column in ("operation", "tool", "setpoint", "MRR cm³/min", "time min", "binding"):
-        table.add_column(column)
+    params = [p for p in _PARAMETER_HEADINGS if any(p in op.setpoint for op in result.operations)]
+    table.add_column("operation", overflow="fold", min_width=9)
+    for p in params:
+        table.add_column(_PARAMETER_HEADINGS[p], justify="right", no_wrap=True)
+    table.add_column("MRR\ncm³/min", justify="right", no_wrap=True)
+    table.add_column("time\nmin", justify="right", no_wrap=True)
+    table.add_column("binding", no_wrap=True)
     for op in result.operations:
-        setpoint = "\n".join(f"{k}={_fmt(v)}" for k, v in op.setpoint.items())
+        values = [_fmt(op.setpoint[p]) if p in op.setpoint else "" for p in params]
         table.add_row(
-            op.name,
-            op.tool,
-            setpoint,
-            _fmt(op.mrr_cm3_min),
-            _fmt(op.time_min),
-            "\n".join(op.binding),
+            op.name, *values, _fmt(op.mrr_cm3_min), _fmt(op.time_min), "\n".join(op.binding)
         )
     table.caption = f"cycle time {result.cycle_time_min:.4g} min"
     return table

@@ -225,3 +225,18 @@ def test_no_limit_goes_to_the_upper_bounds():
     op = _solve(data)
     assert op.setpoint == pytest.approx({"depth_mm": 3.0, "feed_mm_rev": 0.6, "speed_m_min": 200})
     assert set(op.binding) == {"depth_mm", "feed_mm_rev", "speed_m_min"}
+
+
+def test_table_output_shows_the_json_numbers(runner):
+    # The rich table (80 columns when piped) carries the same setpoints as --json.
+    table = runner.invoke(app, ["optimize", str(DEMO_PLAN)], env={"COLUMNS": "80"})
+    assert table.exit_code == 0, table.output
+    for line in table.stdout.splitlines():
+        assert len(line) <= 80, line
+    data = json.loads(runner.invoke(app, ["optimize", str(DEMO_PLAN), "--json"]).stdout)
+    rough = data["operations"][0]
+    row = next(line for line in table.stdout.splitlines() if "rough-od " in line)
+    for value in (rough["setpoint"]["depth_mm"], rough["setpoint"]["feed_mm_rev"]):
+        assert f"{value:.4g}" in row  # 2.944, 0.3248 (Table 5 step 1 row R: 3.0, 0.32)
+    assert f"{rough['mrr_cm3_min']:.4g}" in row  # 191.2
+    assert f"cycle time {data['cycle_time_min']:.4g} min" in table.stdout
