@@ -204,20 +204,29 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
     return _result(operation, tool, lp, x)
 
 
-def optimize_plan(plan: Plan) -> PlanResult:
+def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanResult:
     """Robust optimum of every operation of ``plan``, solved as one program.
+
+    Parameters
+    ----------
+    plan : Plan
+        The plan.
+    tools : Mapping[str, Tool], optional
+        The tool of an operation, by operation name, where its models differ from the plan's
+        (RCB keeps a band per operation and quantity; a simulation uses the true models).
 
     Errors as :func:`optimize_operation`; a model that cannot be evaluated for an operation's
     inputs is a :class:`PlanError` naming ``operations[i].<field>``.
     """
-    tools = [plan.tools[op.tool] for op in plan.operations]
+    overrides = tools or {}
+    used = [overrides.get(op.name) or plan.tools[op.tool] for op in plan.operations]
     lps = []
-    for i, (op, tool) in enumerate(zip(plan.operations, tools, strict=True)):
+    for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
         with _fields_of(i):
             lps.append(formulate(op, tool, plan.machine))
     xs = _solve(lps)
     results = []
-    for i, (op, tool, lp, x) in enumerate(zip(plan.operations, tools, lps, xs, strict=True)):
+    for i, (op, tool, lp, x) in enumerate(zip(plan.operations, used, lps, xs, strict=True)):
         with _fields_of(i):
             results.append(_result(op, tool, lp, x))
     return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
