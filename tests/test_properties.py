@@ -639,7 +639,8 @@ def two_tool_plan(operations: list[str]) -> dict[str, Any]:
 
 def test_an_infeasible_operation_stays_infeasible_after_a_feasible_one():
     # Failed at e73a820: the cached program warm-started HiGHS with a's optimum, b then got
-    # status kUnknown and cvxpy's ValueError("Cannot unpack invalid solution") escaped.
+    # status kUnknown and cvxpy's ValueError("Cannot unpack invalid solution") escaped. At
+    # 3aebb94 (presolve off) b alone ended kUnknown and raised the same ValueError.
     with pytest.raises(InfeasibleError) as alone:
         optimize_plan(plan_from_mapping(two_tool_plan(["b"])))
     assert alone.value.operation == "b"
@@ -688,6 +689,8 @@ def test_a_limit_slightly_too_tight_is_named_as_the_conflict():
 
 
 def test_a_power_limit_just_above_its_least_value_is_met():
+    # Failed at e73a820 and dd5f149: HiGHS presolve called this feasible program infeasible,
+    # and the diagnosis, finding no slack, named a conflict whose required == limit.
     # Power F·v/60000 with F = 148.41316·d^5.1e-6·f^0.375 is least at the lower corner of the
     # bounds, 0.0928193789 kW: the lower corner meets the limit with 2 ppm to spare.
     limit = 0.092819564
