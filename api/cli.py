@@ -16,6 +16,7 @@ from typing import Annotated, Any
 import pydantic
 import typer
 from rich.console import Console
+from rich.progress import Progress
 from typer.core import TyperGroup
 
 try:  # recent typer vendors click as typer._click; its exceptions are not click's
@@ -29,9 +30,11 @@ from models.catalogue import get_tool
 from models.errors import InputError, ModelDomainError
 from models.kinematics import CONTEXT, PARAMETERS
 from models.tool import Tool, predict_all
+from supervisor.demo import run_demo
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import DEFAULT_FLANK_WEAR_MM, load_plan
+from supervisor.rcb import RcbSettings
 
 
 class _OneLineErrors(TyperGroup):
@@ -79,6 +82,9 @@ _out = Console()
 _err = Console(stderr=True)
 
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
+
+#: The paper's demonstration part, relative to the directory rcb runs in (the repository).
+DEMO_PLAN = Path("examples/ivester_demo_part.toml")
 
 
 @contextmanager
@@ -244,3 +250,40 @@ def optimize(
     _out.print(render.plan_table(result))
     for op in result.operations:
         _out.print(render.predictions_table(f"{op.name} ({op.tool})", op.predicted))
+
+
+@app.command()
+def demo(
+    parts: Annotated[int, typer.Option("--parts", help="Parts made with RCB.", min=1)] = 20,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the virtual lathe.")] = 1,
+    strategy: Annotated[
+        str, typer.Option("--strategy", help="RCB strategy: ivester (paper) or bayes.")
+    ] = "ivester",
+    alpha: Annotated[
+        float, typer.Option("--alpha", help="Fraction of the margin a band shrinks by.")
+    ] = 0.25,
+    plan_file: Annotated[
+        Path, typer.Option("--plan", help="The plan (default: the paper's demonstration part).")
+    ] = DEMO_PLAN,
+    as_json: JsonOption = False,
+) -> None:
+    """The paper's demonstration: catalogue, robust start, then RCB part by part on a virtual lathe.
+
+    Writes nothing: the parts are simulated in memory.
+    """
+    with _errors():
+        settings = RcbSettings(strategy=strategy, alpha=alpha)  # type: ignore[arg-type]
+        plan = load_plan(plan_file)
+        if as_json:
+            result = run_demo(plan, parts, seed, settings)
+        else:
+            with Progress(console=_err, transient=True) as progress:
+                task = progress.add_task(f"RCB ({strategy}) on the virtual lathe", total=parts)
+                result = run_demo(
+                    plan, parts, seed, settings, lambda n: progress.update(task, completed=n)
+                )
+    if as_json:
+        _emit(render.demo_json(result, strategy, seed))
+        return
+    for table in render.demo_tables(result):
+        _out.print(table)

@@ -9,7 +9,9 @@ from rich.table import Table
 
 from models.powerlaw import Prediction
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
+from supervisor.demo import DemoResult, Row
 from supervisor.optimizer import OperationResult, PlanResult
+from supervisor.report import Measurement
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
 
@@ -90,3 +92,92 @@ def plan_table(result: PlanResult) -> Table:
         )
     table.caption = f"cycle time {result.cycle_time_min:.4g} min"
     return table
+
+
+def _row_json(row: Row) -> dict[str, Any]:
+    return {
+        "setpoint": dict(row.setpoint),
+        "mrr_cm3_min": row.mrr_cm3_min,
+        "time_min": row.time_min,
+        "predicted": predictions_json(row.predicted),
+        "measured": {
+            q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in row.measured.items()
+        },
+    }
+
+
+def demo_json(result: DemoResult, strategy: str, seed: int) -> dict[str, Any]:
+    """``rcb demo --json``: rows C, R, final per operation, cycle times, violations."""
+    return {
+        "strategy": strategy,
+        "seed": seed,
+        "parts": result.parts,
+        "violations": result.violations,
+        "flagged": result.flagged,
+        "setpoint_version": result.final_state.version,
+        "operations": [
+            {
+                "name": op.name,
+                "catalog": None if op.catalog is None else _row_json(op.catalog),
+                "robust": _row_json(op.robust),
+                "final": _row_json(op.final),
+            }
+            for op in result.operations
+        ],
+        "cycle_time_min": dict(result.cycle_time_min),
+    }
+
+
+def _pm(p: Prediction | None) -> str:
+    return "" if p is None else f"{_fmt(p.value)} ± {_fmt(p.band)}"
+
+
+def _meas(m: Measurement | None) -> str:
+    return "" if m is None else f"{_fmt(m.value)} ± {_fmt(m.uncertainty)}"
+
+
+def demo_tables(result: DemoResult) -> list[Table]:
+    """One Table-5-like table per operation, then the cycle times."""
+    tables = []
+    for op in result.operations:
+        table = Table(title=f"{op.name}", title_justify="left")
+        for column in ("", "d mm", "f mm/rev", "v m/min", "MRR cm³/min"):
+            table.add_column(column, justify="right", no_wrap=True)
+        for column in ("F N model", "Ra µm model", "F N meas.", "Ra µm meas."):
+            table.add_column(column, justify="right", no_wrap=True)
+        labelled = (("C", op.catalog), ("R", op.robust), ("final", op.final))
+        for label, row in labelled:
+            if row is None:
+                continue
+            s = row.setpoint
+            table.add_row(
+                label,
+                *(_fmt(s[p]) for p in ("depth_mm", "feed_mm_rev", "speed_m_min") if p in s),
+                _fmt(row.mrr_cm3_min),
+                _pm(row.predicted.get("force_N")),
+                _pm(row.predicted.get("roughness_um")),
+                _meas(row.measured.get("force_N")),
+                _meas(row.measured.get("roughness_um")),
+            )
+        tables.append(table)
+    cycle = result.cycle_time_min
+    summary = Table(title="cycle time", title_justify="left")
+    for column in ("", "min", "vs catalogue", "vs robust"):
+        summary.add_column(column, justify="right")
+    for label in ("catalog", "robust", "final"):
+        value = cycle[label]
+        if value is None:
+            continue
+        summary.add_row(
+            label, _fmt(value), _change(value, cycle["catalog"]), _change(value, cycle["robust"])
+        )
+    summary.caption = (
+        f"{result.parts} parts, {result.violations} true-limit violations, "
+        f"{result.flagged} flagged measurements, setpoint version {result.final_state.version}"
+    )
+    tables.append(summary)
+    return tables
+
+
+def _change(value: float, reference: float | None) -> str:
+    return "" if not reference else f"{100 * (value / reference - 1):+.1f} %"

@@ -46,6 +46,7 @@ _OPERATION_KEYS = (
     "flute_count",
     "allowable_flank_wear_mm",
     "setpoint_rel_uncertainty",
+    "catalog_setpoint",
 )
 
 
@@ -91,6 +92,8 @@ class Operation:
         Fixed inputs: diameter, flute count, ``flank_wear_mm`` (the allowable flank wear).
     setpoint_rel_uncertainty : Mapping[str, float]
         Relative uncertainty ``Δx/x`` of the cutting parameters as the machine holds them [-].
+    catalog_setpoint : Mapping[str, float]
+        The shop's current parameters (tool maker's catalogue), for comparison; may be empty.
     """
 
     name: str
@@ -102,6 +105,7 @@ class Operation:
     context: Mapping[str, float]
     setpoint_rel_uncertainty: Mapping[str, float] = field(default_factory=dict)
     description: str = ""
+    catalog_setpoint: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -219,7 +223,19 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         context=context,
         setpoint_rel_uncertainty=rel,
         description=fields.text(table, "description", path, default=""),
+        catalog_setpoint=_catalog_setpoint(table.get("catalog_setpoint"), path, process),
     )
+
+
+def _catalog_setpoint(data: object, path: str, process: Process) -> dict[str, float]:
+    if data is None:
+        return {}
+    where = f"{path}.catalog_setpoint"
+    setpoint = fields.number_table(data, where, PARAMETERS[process], positive=True)
+    for param in PARAMETERS[process]:
+        if param not in setpoint:
+            raise InputError(f"{where}.{param}", None, "required when catalog_setpoint is given")
+    return setpoint
 
 
 def _context(table: Mapping[str, Any], path: str, process: Process) -> dict[str, float]:

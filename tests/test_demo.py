@@ -1,0 +1,84 @@
+"""`rcb demo`: the paper's demonstration on the virtual lathe, end to end."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from api.cli import app
+from supervisor.optimizer import optimize_plan
+from supervisor.plan import load_plan
+from supervisor.simulate import oracle_tools, sample_machine
+
+from conftest import DEMO_PLAN
+
+
+@pytest.fixture(scope="module")
+def demo_json():
+    from typer.testing import CliRunner
+
+    result = CliRunner().invoke(app, ["demo", "--json", "--plan", str(DEMO_PLAN)])
+    assert result.exit_code == 0, result.output
+    return json.loads(result.stdout)
+
+
+def test_demo_json_contract(demo_json):
+    assert demo_json["parts"] == 20 and demo_json["strategy"] == "ivester"
+    names = [op["name"] for op in demo_json["operations"]]
+    assert names[0] == "rough-od" and len(names) == 6
+    for op in demo_json["operations"]:
+        for row in ("catalog", "robust", "final"):
+            assert set(op[row]) >= {"setpoint", "mrr_cm3_min", "predicted", "measured"}
+    # Table 5 step 1 row C: 1.3 mm, 0.25 mm/rev, 187 m/min = 60.8 cm³/min (d·f·v)
+    assert op_row(demo_json, "rough-od", "catalog")["mrr_cm3_min"] == pytest.approx(60.775)
+    assert set(demo_json["cycle_time_min"]) == {"catalog", "robust", "final"}
+
+
+def op_row(data, name, row):
+    return next(op[row] for op in data["operations"] if op["name"] == name)
+
+
+def test_demo_is_safe_and_faster_at_each_stage(demo_json):
+    cycle = demo_json["cycle_time_min"]
+    assert demo_json["violations"] == 0
+    assert cycle["robust"] < cycle["catalog"]  # the robust start beats the catalogue
+    assert cycle["final"] < cycle["robust"]  # RCB beats the robust start
+    for op in demo_json["operations"]:  # never less productive than the robust start
+        assert op["final"]["mrr_cm3_min"] >= op["robust"]["mrr_cm3_min"] * 0.98, op["name"]
+
+
+def test_no_safe_controller_beats_the_oracle(demo_json):
+    # The oracle (true models, no band) is the best any controller can do; with no true-limit
+    # crossed, the final setpoints cannot remove material faster.
+    plan = load_plan(DEMO_PLAN)
+    oracle = optimize_plan(plan, oracle_tools(sample_machine(plan, demo_json["seed"])))
+    assert demo_json["cycle_time_min"]["final"] >= oracle.cycle_time_min * (1 - 1e-6)
+
+
+def test_demo_is_repeatable_and_seeded(runner):
+    a = runner.invoke(app, ["demo", "--json", "--parts", "3", "--seed", "7"]).stdout
+    b = runner.invoke(app, ["demo", "--json", "--parts", "3", "--seed", "7"]).stdout
+    c = runner.invoke(app, ["demo", "--json", "--parts", "3", "--seed", "8"]).stdout
+    assert a == b and a != c
+
+
+def test_demo_table_output(runner):
+    result = runner.invoke(app, ["demo", "--parts", "2"], env={"COLUMNS": "140"})
+    assert result.exit_code == 0, result.output
+    assert "rough-od" in result.stdout and "cycle time" in result.stdout
+    assert "vs catalogue" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--strategy", "pid"], "strategy"),
+        (["--alpha", "0"], "alpha"),
+        (["--parts", "0"], "--parts"),
+    ],
+)
+def test_demo_bad_arguments(runner, args, needle):
+    result = runner.invoke(app, ["demo", *args])
+    assert result.exit_code == 2
+    assert needle in result.stderr and "Traceback" not in result.stderr
