@@ -129,11 +129,11 @@ def demo_json(result: DemoResult, strategy: str, seed: int) -> dict[str, Any]:
 
 
 def _pm(p: Prediction | None) -> str:
-    return "" if p is None else f"{_fmt(p.value)} ± {_fmt(p.band)}"
+    return "" if p is None else f"{_fmt(p.value)}\n±{p.band:.3g}"
 
 
 def _meas(m: Measurement | None) -> str:
-    return "" if m is None else f"{_fmt(m.value)} ± {_fmt(m.uncertainty)}"
+    return "" if m is None else f"{_fmt(m.value)}\n±{m.uncertainty:.3g}"
 
 
 def demo_tables(result: DemoResult) -> list[Table]:
@@ -141,9 +141,9 @@ def demo_tables(result: DemoResult) -> list[Table]:
     tables = []
     for op in result.operations:
         table = Table(title=f"{op.name}", title_justify="left")
-        for column in ("", "d mm", "f mm/rev", "v m/min", "MRR cm³/min"):
-            table.add_column(column, justify="right", no_wrap=True)
-        for column in ("F N model", "Ra µm model", "F N meas.", "Ra µm meas."):
+        columns = ("", "d\nmm", "f\nmm/rev", "v\nm/min", "MRR\ncm³/min")
+        columns += ("F N\nmodel", "Ra µm\nmodel", "F N\nmeas.", "Ra µm\nmeas.")
+        for column in columns:
             table.add_column(column, justify="right", no_wrap=True)
         labelled = (("C", op.catalog), ("R", op.robust), ("final", op.final))
         for label, row in labelled:
