@@ -141,7 +141,7 @@ def demo_tables(result: DemoResult) -> list[Table]:
     tables = []
     for op in result.operations:
         table = Table(title=f"{op.name}", title_justify="left")
-        columns = ("", "d\nmm", "f\nmm/rev", "v\nm/min", "MRR\ncm³/min")
+        columns: tuple[str, ...] = ("", "d\nmm", "f\nmm/rev", "v\nm/min", "MRR\ncm³/min")
         columns += ("F N\nmodel", "Ra µm\nmodel", "F N\nmeas.", "Ra µm\nmeas.")
         for column in columns:
             table.add_column(column, justify="right", no_wrap=True)
