@@ -102,12 +102,22 @@ class _Block:
         self.objective = self.c @ self.x
 
     def load(self, lp: LogLinearProgram) -> None:
-        self.c.value = np.asarray(lp.objective)
-        self.lo.value = np.asarray(lp.lower)
-        self.hi.value = np.asarray(lp.upper)
+        _assign(self.c, lp.objective)
+        _assign(self.lo, lp.lower)
+        _assign(self.hi, lp.upper)
         if self.A is not None and self.b is not None:
-            self.A.value = np.array([r.coefficients for r in lp.rows])
-            self.b.value = np.array([r.rhs for r in lp.rows])
+            _assign(self.A, [r.coefficients for r in lp.rows])
+            _assign(self.b, [r.rhs for r in lp.rows])
+
+
+def _assign(parameter: Any, values: Sequence[Any]) -> None:
+    """Set a parameter only when its value changed.
+
+    cvxpy validates every assignment, and between parts RCB moves only the right-hand sides.
+    """
+    array = np.asarray(values, dtype=float)
+    if parameter.value is None or not np.array_equal(parameter.value, array):
+        parameter.value = array
 
 
 class _Program:
