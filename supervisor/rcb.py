@@ -34,7 +34,8 @@ Two strategies:
         μ' = σ'^2 \left(\frac{μ}{σ^2 + τ^2} + \frac{z}{σ_z^2}\right)
 
     K becomes ``exp(μ')``, so a pessimistic model is corrected upward as well as an optimistic
-    one downward, and the band becomes the larger of ``k σ'`` and the Ivester law's result
+    one downward, and the band becomes the larger of ``k·sqrt(σ'² + τ²)`` (the predicted
+    spread at the next setpoint, which is not the one measured) and the Ivester law's result
     (never narrower than the law would allow, and never below the floor).
 
 References
@@ -362,7 +363,9 @@ def _apply(
         )
     band = max(predicted.band - settings.alpha * margin, floor)
     if settings.strategy == "bayes":
-        band = max(band, settings.coverage_k * sigma * y_new.value)
+        # the band used at the next (different) setpoint is the predicted one: σ'² + τ²
+        predicted_sigma = math.hypot(sigma, settings.discrepancy)
+        band = max(band, settings.coverage_k * predicted_sigma * y_new.value)
     if band >= predicted.band:
         new = _with_band(model, predicted.band, y_new.value, point, rel)
         return decision("hold", new, margin, False, "band at its floor"), new, sigma
