@@ -150,6 +150,11 @@ class RcbState:
         The update law.
     sigma : Mapping[tuple[str, str], float]
         ``bayes``: posterior standard deviation of ``ln K`` per (operation, quantity).
+    seen : Mapping[tuple[str, str], float]
+        Per (operation, quantity), the most demanding measurement so far as a K-equivalent:
+        the largest ``(y + u)/Π x_i^e_i`` for a maximum, the smallest ``(y − u)/Π x_i^e_i``
+        for a minimum. A band never shrinks so far that it stops covering it, as Ivester &
+        Heigel's bands are "the range of K that encompasses all of the points".
     """
 
     plan: Plan
@@ -158,6 +163,7 @@ class RcbState:
     version: int
     settings: RcbSettings
     sigma: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    seen: Mapping[tuple[str, str], float] = field(default_factory=dict)
 
 
 def start(plan: Plan, settings: RcbSettings | None = None) -> RcbState:
@@ -207,33 +213,35 @@ def update(
             raise InputError(f"operations.{name}", name, f"not an operation of {state.plan.name!r}")
     tools = dict(state.tools)
     sigma = dict(state.sigma)
-    decisions: list[Decision] = []
-    for name, measured in report.measurements.items():
-        for quantity, measurement in measured.items():
-            _check_quantity(tools[name], name, quantity)
-            decision, model, s = _apply(
-                state, operations[name], results[name], quantity, measurement
-            )
-            decisions.append(decision)
-            tools[name] = _with_model(tools[name], model)
-            sigma[(name, quantity)] = s
+    seen = dict(state.seen)
+    measured_items = [
+        (name, quantity, measurement)
+        for name, measured in report.measurements.items()
+        for quantity, measurement in measured.items()
+    ]
     for name, wear in report.tool_wear.items():
         _check_quantity(tools[name], name, "tool_life_mm3")
-        measurement = _tool_life_measured(state, operations[name], results[name], wear)
-        decision, model, s = _apply(
-            state, operations[name], results[name], "tool_life_mm3", measurement
+        wear_measured = _tool_life_measured(state, operations[name], results[name], wear)
+        measured_items.append((name, "tool_life_mm3", wear_measured))
+    for name, quantity, _ in measured_items:  # check the whole report before applying any
+        _check_quantity(tools[name], name, quantity)
+    decisions: list[Decision] = []
+    for name, quantity, measurement in measured_items:
+        key = (name, quantity)
+        decision, model, sigma[key], seen[key] = _apply(
+            state, operations[name], results[name], quantity, measurement
         )
         decisions.append(decision)
         tools[name] = _with_model(tools[name], model)
-        sigma[(name, "tool_life_mm3")] = s
     if tools == dict(state.tools):
-        return replace(state, sigma=sigma), tuple(decisions)
+        return replace(state, sigma=sigma, seen=seen), tuple(decisions)
     new = replace(
         state,
         tools=tools,
         setpoints=optimize_plan(state.plan, tools),
         version=state.version + 1,
         sigma=sigma,
+        seen=seen,
     )
     return new, tuple(decisions)
 
@@ -299,8 +307,8 @@ def _apply(
     result: OperationResult,
     quantity: str,
     measurement: Measurement,
-) -> tuple[Decision, PowerLawModel, float]:
-    """The law for one measured quantity: decision, new model, new σ of ln K."""
+) -> tuple[Decision, PowerLawModel, float, float]:
+    """The law for one measured quantity: decision, new model, new σ of ln K, new ``seen``."""
     settings = state.settings
     model = state.tools[operation.name].models[quantity]
     sigma = state.sigma.get((operation.name, quantity), (model.dK / model.K) / settings.coverage_k)
@@ -334,8 +342,14 @@ def _apply(
             reason=why,
         )
 
+    # the most demanding measurement so far, as a K-equivalent (RcbState.seen)
+    shape = predicted.value / model.K  # Π x_i^e_i at the part's setpoint
+    edge_now = (y + u) / shape if sense == "max" else max(y - u, 0.0) / shape
+    before = state.seen.get((operation.name, quantity), edge_now)
+    worst = max(before, edge_now) if sense == "max" else min(before, edge_now)
     if limit is None:
-        return decision("hold", model, math.nan, False, "no limit on this quantity"), model, sigma
+        hold = decision("hold", model, math.nan, False, "no limit on this quantity")
+        return hold, model, sigma, worst
     margin = limit - (y + u) if sense == "max" else (y - u) - limit
     past_limit = y > limit if sense == "max" else y < limit
     outside = abs(y - predicted.value) > predicted.band
@@ -344,34 +358,33 @@ def _apply(
     if settings.strategy == "bayes" and y > 0:
         model, sigma = _bayes(model, point, measurement, sigma, settings)
     y_new = model.predict(point, rel)
+    # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
+    cover = (worst / model.K - 1.0 if sense == "max" else 1.0 - worst / model.K) * y_new.value
     if past_limit or outside:
-        band = max(predicted.band, abs(y - y_new.value) + u)
+        band = max(predicted.band, abs(y - y_new.value) + u, cover)
         new = _with_band(model, band, y_new.value, point, rel)
         why = "measurement past the limit" if past_limit else "measurement outside the band"
         action: Action = "expand" if new.predict(point, rel).band > predicted.band else "hold"
-        return (
-            decision(action, new, margin, True, f"{why}: never shrink; band covers it"),
-            new,
-            sigma,
-        )
+        flagged = decision(action, new, margin, True, f"{why}: never shrink; band covers it")
+        return flagged, new, sigma, worst
     if margin <= 0:
-        new = _with_band(model, predicted.band, y_new.value, point, rel)
-        return (
-            decision("hold", new, margin, False, "no margin: measured + u at the limit"),
-            new,
-            sigma,
-        )
+        new = _with_band(model, max(predicted.band, cover), y_new.value, point, rel)
+        no_margin = decision("hold", new, margin, False, "no margin: measured + u at the limit")
+        return no_margin, new, sigma, worst
     band = max(predicted.band - settings.alpha * margin, floor)
     if settings.strategy == "bayes":
         # the band used at the next (different) setpoint is the predicted one: σ'² + τ²
         predicted_sigma = math.hypot(sigma, settings.discrepancy)
         band = max(band, settings.coverage_k * predicted_sigma * y_new.value)
+    why = f"margin {margin:.4g} > 0: band shrinks by {settings.alpha:g} of it (floor {floor:.4g})"
+    if cover > band:
+        band = cover
+        why = "margin > 0, but the band keeps covering the most demanding measurement so far"
     if band >= predicted.band:
         new = _with_band(model, predicted.band, y_new.value, point, rel)
-        return decision("hold", new, margin, False, "band at its floor"), new, sigma
+        return decision("hold", new, margin, False, "band at its floor"), new, sigma, worst
     new = _with_band(model, band, y_new.value, point, rel)
-    why = f"margin {margin:.4g} > 0: band shrinks by {settings.alpha:g} of it (floor {floor:.4g})"
-    return decision("shrink", new, margin, False, why), new, sigma
+    return decision("shrink", new, margin, False, why), new, sigma, worst
 
 
 def _with_band(
@@ -382,6 +395,8 @@ def _with_band(
     rel: Mapping[str, float],
 ) -> PowerLawModel:
     """The model whose band at ``point`` is ``band`` (ΔK from the first-order law)."""
+    if math.isclose(band, model.predict(point, rel).band, rel_tol=1e-12, abs_tol=0.0):
+        return model  # unchanged: no round trip through floats, no new setpoint version
     setpoint_part = model.relative_band(rel) ** 2 - (model.dK / model.K) ** 2
     dK_over_K = math.sqrt(max((band / value) ** 2 - setpoint_part, 0.0))
     return replace(model, dK=model.K * dK_over_K)
