@@ -11,6 +11,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from models import fields
 from models.errors import InputError
 
 
@@ -64,3 +65,61 @@ class PartReport:
     setpoint_version: int
     measurements: Mapping[str, Mapping[str, Measurement]] = field(default_factory=dict)
     tool_wear: Mapping[str, ToolWear] = field(default_factory=dict)
+
+
+_REPORT_KEYS = ("serial", "setpoint_version", "operations")
+_OPERATION_KEYS = ("name", "measurements", "tool_wear")
+
+
+def report_from_mapping(data: object) -> PartReport:
+    """Read a part report as the MES sends it; every error names the field and its value.
+
+    ``{"serial", "setpoint_version", "operations": [{"name", "measurements": {quantity:
+    {"value", "uncertainty"}}, "tool_wear"?: {"flank_wear_mm": {"value", "uncertainty"},
+    "volume_mm3"}}]}``. Whether the operations and quantities exist in the plan is checked by
+    :func:`supervisor.rcb.update`, which refuses the whole report before applying any of it.
+    """
+    table = fields.mapping(data, "report")
+    fields.only_keys(table, _REPORT_KEYS, "")
+    version = table.get("setpoint_version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise InputError("setpoint_version", version, "must be a whole number >= 1")
+    operations = table.get("operations")
+    if not isinstance(operations, list):
+        raise InputError("operations", operations, "must be a list of operations")
+    measurements: dict[str, dict[str, Measurement]] = {}
+    wear: dict[str, ToolWear] = {}
+    for i, entry in enumerate(operations):
+        path = f"operations[{i}]"
+        op = fields.mapping(entry, path)
+        fields.only_keys(op, _OPERATION_KEYS, path)
+        name = fields.text(op, "name", path)
+        if name in measurements:
+            raise InputError(f"{path}.name", name, "operation reported twice")
+        measured = fields.mapping(op.get("measurements", {}), f"{path}.measurements")
+        measurements[name] = {
+            q: _measurement(m, f"{path}.measurements.{q}") for q, m in measured.items()
+        }
+        if "tool_wear" in op:
+            where = f"{path}.tool_wear"
+            w = fields.mapping(op["tool_wear"], where)
+            fields.only_keys(w, ("flank_wear_mm", "volume_mm3"), where)
+            if "volume_mm3" not in w:
+                raise InputError(f"{where}.volume_mm3", None, "required field missing")
+            wear[name] = ToolWear(
+                _measurement(w.get("flank_wear_mm"), f"{where}.flank_wear_mm"),
+                fields.number(w["volume_mm3"], f"{where}.volume_mm3", positive=True),
+            )
+    return PartReport(fields.text(table, "serial", ""), version, measurements, wear)
+
+
+def _measurement(data: object, path: str) -> Measurement:
+    table = fields.mapping(data, path)
+    fields.only_keys(table, ("value", "uncertainty"), path)
+    for key in ("value", "uncertainty"):
+        if key not in table:
+            raise InputError(f"{path}.{key}", None, "required field missing")
+    return Measurement(
+        fields.number(table["value"], f"{path}.value", minimum=0.0),
+        fields.number(table["uncertainty"], f"{path}.uncertainty", minimum=0.0),
+    )
