@@ -70,7 +70,8 @@ def run_demo(
     plan : Plan
         The plan; operations with a ``catalog_setpoint`` get a catalogue row.
     parts : int
-        Parts made after the robust start (each one reported and applied).
+        Parts made with RCB (each one reported and applied); one more part at the final
+        setpoints gives the final row's measurements and counts for violations too.
     seed : int
         Seed of the true process and of the measurement noise.
     settings : RcbSettings, optional
@@ -84,7 +85,6 @@ def run_demo(
     catalog = _catalog_rows(plan, machine, rng)
     robust_setpoints = state.setpoints
     first: Mapping[str, Mapping[str, Measurement]] = {}
-    last: Mapping[str, Mapping[str, Measurement]] = {}
     violations = 0
     trail: list[tuple[Decision, ...]] = []
     for i in range(parts):
@@ -93,12 +93,14 @@ def run_demo(
         violations += len(outcome.violations)
         if i == 0:
             first = outcome.measurements
-        last = outcome.measurements
         report = PartReport(f"{seed}-{i + 1}", state.version, outcome.measurements)
         state, decisions = update(state, report)
         trail.append(decisions)
         if on_part is not None:
             on_part(i + 1)
+    # one more part at the final setpoints shows what they make (measured, not applied)
+    check = run_part(machine, {op.name: op.setpoint for op in state.setpoints.operations}, rng)
+    violations += len(check.violations)
     rows = []
     for robust, final in zip(robust_setpoints.operations, state.setpoints.operations, strict=True):
         rows.append(
@@ -112,13 +114,12 @@ def run_demo(
                     robust.predicted,
                     first.get(robust.name, {}),
                 ),
-                # the final setpoints are what the next part would run: not yet measured
                 final=Row(
                     final.setpoint,
                     final.mrr_cm3_min,
                     final.time_min,
                     final.predicted,
-                    last.get(final.name, {}),
+                    check.measurements.get(final.name, {}),
                 ),
             )
         )
