@@ -7,6 +7,7 @@ Exit codes: 0 success, 2 bad input (the message names the field and value), 3 in
 from __future__ import annotations
 
 import json
+import os
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -24,7 +25,11 @@ try:  # recent typer vendors click as typer._click; its exceptions are not click
 except ImportError:  # pragma: no cover - typer that uses click itself
     from click import exceptions as click_errors  # type: ignore[no-redef]
 
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import ArgumentError, OperationalError
+
 from api import render
+from db.engine import DEFAULT_URL, upgrade
 from models import fields
 from models.catalogue import get_tool
 from models.errors import InputError, ModelDomainError
@@ -287,3 +292,37 @@ def demo(
         return
     for table in render.demo_tables(result):
         _out.print(table)
+
+
+db_app = typer.Typer(help="The database: migrations.", no_args_is_help=True)
+app.add_typer(db_app, name="db")
+
+DbOption = Annotated[
+    str | None,
+    typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
+]
+
+
+def _database_url(db: str | None) -> str:
+    return db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL
+
+
+@db_app.command("upgrade")
+def db_upgrade(db: DbOption = None) -> None:
+    """Create or migrate the database to the newest schema."""
+    url = _database_url(db)
+    with _errors():
+        try:
+            upgrade(url)
+        except (ArgumentError, OperationalError) as err:
+            raise InputError(
+                "--db",
+                url,
+                f"cannot use this database ({err.__class__.__name__}: {str(err).splitlines()[0]})",
+            ) from None
+    _err.print(
+        f"rcb: database {make_url(url).render_as_string(hide_password=True)} is up to date",
+        markup=False,
+        highlight=False,
+        soft_wrap=True,
+    )

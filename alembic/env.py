@@ -1,0 +1,24 @@
+"""Alembic environment: the metadata of db.tables, the engine of db.engine."""
+
+from __future__ import annotations
+
+from alembic import context
+from db.engine import make_engine
+from db.tables import Base
+
+config = context.config
+url = config.attributes.get("url") or config.get_main_option("sqlalchemy.url")
+if not url:
+    raise SystemExit("rcb db: no database URL given to the migrations")
+
+engine = make_engine(url)
+with engine.connect() as connection:
+    context.configure(
+        connection=connection,
+        target_metadata=Base.metadata,
+        render_as_batch=connection.dialect.name == "sqlite",
+        compare_type=True,
+    )
+    with context.begin_transaction():
+        context.run_migrations()
+engine.dispose()

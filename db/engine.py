@@ -1,0 +1,59 @@
+"""Engines: SQLite (embedded default) and PostgreSQL (psycopg 3), and migrations.
+
+SQLite runs in WAL mode with a busy timeout, foreign keys on, and every transaction opened
+with ``BEGIN IMMEDIATE``: a writer takes the write lock when it starts instead of upgrading a
+read lock later, which is what raises "database is locked" under concurrent writers
+(SQLite docs, "Write-Ahead Logging" and "BEGIN TRANSACTION"; SQLAlchemy docs, pysqlite
+"Serializable isolation / Savepoints / Transactional DDL").
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import Engine, create_engine, event
+from sqlalchemy.engine import make_url
+
+#: The embedded default database, in the directory rcb runs in.
+DEFAULT_URL = "sqlite:///./rcb.db"
+#: Milliseconds a SQLite writer waits for the lock before giving up.
+SQLITE_BUSY_TIMEOUT_MS = 30_000
+#: The Alembic scripts (top-level ``alembic/`` of the repository).
+MIGRATIONS = Path(__file__).resolve().parent.parent / "alembic"
+
+
+def make_engine(url: str) -> Engine:
+    """An engine for ``url`` with the settings above for SQLite."""
+    parsed = make_url(url)
+    if parsed.get_backend_name() != "sqlite":
+        return create_engine(url, pool_pre_ping=True)
+    engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000})
+
+    @event.listens_for(engine, "connect")
+    def _connect(dbapi_connection: Any, _record: Any) -> None:
+        dbapi_connection.isolation_level = None  # SQLAlchemy emits BEGIN itself (below)
+        cursor = dbapi_connection.cursor()
+        if parsed.database not in (None, "", ":memory:"):
+            cursor.execute("PRAGMA journal_mode=WAL")
+        cursor.execute(f"PRAGMA busy_timeout={SQLITE_BUSY_TIMEOUT_MS}")
+        cursor.execute("PRAGMA foreign_keys=ON")
+        cursor.close()
+
+    @event.listens_for(engine, "begin")
+    def _begin(connection: Any) -> None:
+        connection.exec_driver_sql("BEGIN IMMEDIATE")
+
+    return engine
+
+
+def upgrade(url: str, revision: str = "head") -> None:
+    """Apply the Alembic migrations to ``url`` up to ``revision``."""
+    from alembic.config import Config
+
+    from alembic import command
+
+    config = Config()
+    config.set_main_option("script_location", str(MIGRATIONS))
+    config.attributes["url"] = url
+    command.upgrade(config, revision)

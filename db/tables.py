@@ -1,0 +1,245 @@
+"""SQLAlchemy 2.0 tables: machines, tools, plans, versions of models and setpoints, parts.
+
+History is append-only: a band change is a new row in ``operation_model_versions``, a new
+optimum a new ``setpoint_versions`` row with its ``setpoints``; nothing is updated in place
+except ``plans.current_setpoint_version`` (a pointer) and an idempotency record's state.
+Units live in column names, as in the domain objects.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import JSON, DateTime, ForeignKey, MetaData, String, Text, UniqueConstraint
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+#: Stable constraint names, so Alembic migrations name them the same on every database.
+NAMING_CONVENTION = {
+    "ix": "ix_%(column_0_label)s",
+    "uq": "uq_%(table_name)s_%(column_0_N_name)s",
+    "ck": "ck_%(table_name)s_%(constraint_name)s",
+    "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
+    "pk": "pk_%(table_name)s",
+}
+
+
+def utcnow() -> datetime:
+    """Timezone-aware current time (stored as UTC)."""
+    return datetime.now(UTC)
+
+
+class Base(DeclarativeBase):
+    """Declarative base with the naming convention."""
+
+    metadata = MetaData(naming_convention=NAMING_CONVENTION)
+    type_annotation_map = {
+        dict[str, Any]: JSON,
+        list[Any]: JSON,
+        datetime: DateTime(timezone=True),
+    }
+
+
+class Machine(Base):
+    """A machine tool and its limits (NULL: no limit)."""
+
+    __tablename__ = "machines"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200), unique=True)
+    max_power_kW: Mapped[float | None]
+    max_spindle_rpm: Mapped[float | None]
+    max_torque_Nm: Mapped[float | None]
+    max_feed_rate_mm_min: Mapped[float | None]
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class Tool(Base):
+    """A cutting tool (catalogue or added by an engineer)."""
+
+    __tablename__ = "tools"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200), unique=True)
+    process: Mapped[str] = mapped_column(String(20))
+    description: Mapped[str] = mapped_column(Text, default="")
+    material: Mapped[str] = mapped_column(Text, default="")
+    source: Mapped[str] = mapped_column(Text, default="")
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class ToolModel(Base):
+    """A tool's baseline model of one quantity, with provenance."""
+
+    __tablename__ = "tool_models"
+    __table_args__ = (UniqueConstraint("tool_id", "quantity"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    tool_id: Mapped[int] = mapped_column(ForeignKey("tools.id"))
+    quantity: Mapped[str] = mapped_column(String(50))
+    K: Mapped[float]
+    dK: Mapped[float]
+    exponents: Mapped[dict[str, Any]]
+    source: Mapped[str] = mapped_column(Text, default="")
+    reference: Mapped[str] = mapped_column(Text, default="")
+
+
+class Plan(Base):
+    """A plan: the structure as given (JSON) and the current setpoint version."""
+
+    __tablename__ = "plans"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200))
+    machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"))
+    body: Mapped[dict[str, Any]]
+    current_setpoint_version: Mapped[int] = mapped_column(default=1)
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class Operation(Base):
+    """One operation of a plan, in plan order."""
+
+    __tablename__ = "operations"
+    __table_args__ = (UniqueConstraint("plan_id", "name"), UniqueConstraint("plan_id", "position"))
+    id: Mapped[int] = mapped_column(primary_key=True)
+    plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))
+    position: Mapped[int]
+    name: Mapped[str] = mapped_column(String(200))
+    process: Mapped[str] = mapped_column(String(20))
+    tool_id: Mapped[int] = mapped_column(ForeignKey("tools.id"))
+    volume_mm3: Mapped[float]
+    limits: Mapped[dict[str, Any]]
+    bounds: Mapped[dict[str, Any]]
+    context: Mapped[dict[str, Any]]
+
+
+class OperationModelVersion(Base):
+    """The model in force for one operation and quantity, version by version.
+
+    Bands are per operation and quantity (Ivester & Heigel Table 5 treats steps 2 and 3, both
+    VCMR331, separately). ``cause`` is ``initial``, ``part`` (with ``part_id``) or ``replan``.
+    """
+
+    __tablename__ = "operation_model_versions"
+    __table_args__ = (UniqueConstraint("operation_id", "quantity", "version"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))
+    quantity: Mapped[str] = mapped_column(String(50))
+    version: Mapped[int]
+    K: Mapped[float]
+    dK: Mapped[float]
+    exponents: Mapped[dict[str, Any]]
+    cause: Mapped[str] = mapped_column(String(20))
+    part_id: Mapped[int | None] = mapped_column(ForeignKey("parts.id"))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class SetpointVersion(Base):
+    """One version of a plan's setpoints and why it was made."""
+
+    __tablename__ = "setpoint_versions"
+    __table_args__ = (UniqueConstraint("plan_id", "version"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))
+    version: Mapped[int]
+    cause: Mapped[str] = mapped_column(String(20))
+    part_id: Mapped[int | None] = mapped_column(ForeignKey("parts.id"))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class Setpoint(Base):
+    """One operation's parameters, predictions with bands and binding limits in a version."""
+
+    __tablename__ = "setpoints"
+    __table_args__ = (UniqueConstraint("setpoint_version_id", "operation_id"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    setpoint_version_id: Mapped[int] = mapped_column(ForeignKey("setpoint_versions.id"))
+    operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))
+    parameters: Mapped[dict[str, Any]]
+    predicted: Mapped[dict[str, Any]]
+    binding: Mapped[list[Any]]
+    mrr_cm3_min: Mapped[float]
+    time_min: Mapped[float]
+
+
+class Part(Base):
+    """A part reported by the MES; ``setpoint_version`` is the one it was made with."""
+
+    __tablename__ = "parts"
+    __table_args__ = (UniqueConstraint("plan_id", "serial"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))
+    serial: Mapped[str] = mapped_column(String(200))
+    setpoint_version: Mapped[int]
+    received_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class Measurement(Base):
+    """One measured quantity of one operation of a part; ``raw`` keeps an unconverted signal."""
+
+    __tablename__ = "measurements"
+    __table_args__ = (UniqueConstraint("part_id", "operation_id", "quantity"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"))
+    operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))
+    quantity: Mapped[str] = mapped_column(String(50))
+    value: Mapped[float]
+    uncertainty: Mapped[float]
+    raw: Mapped[dict[str, Any] | None]
+
+
+class RcbDecision(Base):
+    """What one measurement did to one band (supervisor.rcb.Decision)."""
+
+    __tablename__ = "rcb_decisions"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"))
+    operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))
+    quantity: Mapped[str] = mapped_column(String(50))
+    action: Mapped[str] = mapped_column(String(10))
+    margin: Mapped[float | None]
+    band_before: Mapped[float]
+    band_after: Mapped[float]
+    dK_before: Mapped[float]
+    dK_after: Mapped[float]
+    K_before: Mapped[float]
+    K_after: Mapped[float]
+    flagged: Mapped[bool]
+    reason: Mapped[str] = mapped_column(Text)
+
+
+class ApiKey(Base):
+    """An API key, stored only as a hash, with its role."""
+
+    __tablename__ = "api_keys"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    key_hash: Mapped[str] = mapped_column(String(128), unique=True)
+    role: Mapped[str] = mapped_column(String(20))
+    label: Mapped[str] = mapped_column(Text, default="")
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+    revoked_at: Mapped[datetime | None]
+
+
+class IdempotencyRecord(Base):
+    """A POST's Idempotency-Key: its request hash and, once done, the stored response."""
+
+    __tablename__ = "idempotency_records"
+    __table_args__ = (UniqueConstraint("api_key_id", "key"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    api_key_id: Mapped[int | None] = mapped_column(ForeignKey("api_keys.id"))
+    key: Mapped[str] = mapped_column(String(255))
+    request_hash: Mapped[str] = mapped_column(String(64))
+    state: Mapped[str] = mapped_column(String(20))
+    response_status: Mapped[int | None]
+    response_body: Mapped[dict[str, Any] | None]
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class AuditEntry(Base):
+    """Append-only audit log: who did what, when, with what result."""
+
+    __tablename__ = "audit_log"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    at: Mapped[datetime] = mapped_column(default=utcnow)
+    actor: Mapped[str] = mapped_column(String(200))
+    action: Mapped[str] = mapped_column(String(100))
+    target: Mapped[str] = mapped_column(Text, default="")
+    result: Mapped[str] = mapped_column(String(50))
+    detail: Mapped[dict[str, Any] | None]
