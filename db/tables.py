@@ -82,13 +82,15 @@ class ToolModel(Base):
 
 
 class Plan(Base):
-    """A plan: the structure as given (JSON) and the current setpoint version."""
+    """A plan: the structure as given (JSON), its RCB law and the current setpoint version."""
 
     __tablename__ = "plans"
     id: Mapped[int] = mapped_column(primary_key=True)
     name: Mapped[str] = mapped_column(String(200))
     machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"))
     body: Mapped[dict[str, Any]]
+    strategy: Mapped[str] = mapped_column(String(20), default="ivester")
+    alpha: Mapped[float] = mapped_column(default=0.25)
     current_setpoint_version: Mapped[int] = mapped_column(default=1)
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
 
@@ -243,3 +245,20 @@ class AuditEntry(Base):
     target: Mapped[str] = mapped_column(Text, default="")
     result: Mapped[str] = mapped_column(String(50))
     detail: Mapped[dict[str, Any] | None]
+
+
+class BandState(Base):
+    """RCB state of one operation and quantity after a part, beyond its model version.
+
+    ``seen``: the most demanding measurement so far as a K-equivalent (supervisor.rcb);
+    ``sigma``: the posterior σ of ln K (bayes). Appended per part; the newest row is in force.
+    """
+
+    __tablename__ = "band_states"
+    __table_args__ = (UniqueConstraint("operation_id", "quantity", "part_id"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))
+    quantity: Mapped[str] = mapped_column(String(50))
+    part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"))
+    seen: Mapped[float]
+    sigma: Mapped[float]

@@ -380,7 +380,7 @@ def _apply(
     if cover > band:
         band = cover
         why = "margin > 0, but the band keeps covering the most demanding measurement so far"
-    if band >= predicted.band:
+    if band >= predicted.band or math.isclose(band, predicted.band, rel_tol=1e-12):
         new = _with_band(model, predicted.band, y_new.value, point, rel)
         return decision("hold", new, margin, False, "band at its floor"), new, sigma, worst
     new = _with_band(model, band, y_new.value, point, rel)

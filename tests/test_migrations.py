@@ -2,21 +2,13 @@
 
 from __future__ import annotations
 
-import os
-import uuid
-from collections.abc import Iterator
-
-import pytest
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
-from sqlalchemy import inspect, text
-from sqlalchemy.engine import make_url
+from sqlalchemy import inspect
 
 from api.cli import app
 from db.engine import make_engine, upgrade
 from db.tables import Base
-
-POSTGRES = os.environ.get("RCB_TEST_POSTGRES_URL")
 
 
 def _no_difference(url: str) -> None:
@@ -41,22 +33,6 @@ def test_sqlite_upgrade_head_then_no_difference(tmp_path):
         assert connection.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
         assert connection.exec_driver_sql("PRAGMA foreign_keys").scalar() == 1
     engine.dispose()
-
-
-@pytest.fixture
-def empty_postgres() -> Iterator[str]:
-    if not POSTGRES:
-        pytest.skip("RCB_TEST_POSTGRES_URL not set: no PostgreSQL to test against")
-    name = f"rcb_test_{uuid.uuid4().hex[:12]}"
-    admin = make_engine(POSTGRES).execution_options(isolation_level="AUTOCOMMIT")
-    with admin.connect() as connection:
-        connection.execute(text(f'CREATE DATABASE "{name}"'))
-    try:
-        yield make_url(POSTGRES).set(database=name).render_as_string(hide_password=False)
-    finally:
-        with admin.connect() as connection:
-            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
 
 
 def test_postgres_upgrade_head_then_no_difference(empty_postgres):

@@ -2,7 +2,7 @@
 
 Revision ID: 0001
 Revises:
-Create Date: 2026-11-22 03:37:53.405649
+Create Date: 2026-11-22 03:41:15.484942
 """
 
 from __future__ import annotations
@@ -89,6 +89,8 @@ def upgrade() -> None:
         sa.Column("name", sa.String(length=200), nullable=False),
         sa.Column("machine_id", sa.Integer(), nullable=False),
         sa.Column("body", sa.JSON(), nullable=False),
+        sa.Column("strategy", sa.String(length=20), nullable=False),
+        sa.Column("alpha", sa.Double(), nullable=False),
         sa.Column("current_setpoint_version", sa.Integer(), nullable=False),
         sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
         sa.ForeignKeyConstraint(
@@ -144,6 +146,28 @@ def upgrade() -> None:
         sa.ForeignKeyConstraint(["plan_id"], ["plans.id"], name=op.f("fk_parts_plan_id_plans")),
         sa.PrimaryKeyConstraint("id", name=op.f("pk_parts")),
         sa.UniqueConstraint("plan_id", "serial", name=op.f("uq_parts_plan_id_serial")),
+    )
+    op.create_table(
+        "band_states",
+        sa.Column("id", sa.Integer(), nullable=False),
+        sa.Column("operation_id", sa.Integer(), nullable=False),
+        sa.Column("quantity", sa.String(length=50), nullable=False),
+        sa.Column("part_id", sa.Integer(), nullable=False),
+        sa.Column("seen", sa.Double(), nullable=False),
+        sa.Column("sigma", sa.Double(), nullable=False),
+        sa.ForeignKeyConstraint(
+            ["operation_id"], ["operations.id"], name=op.f("fk_band_states_operation_id_operations")
+        ),
+        sa.ForeignKeyConstraint(
+            ["part_id"], ["parts.id"], name=op.f("fk_band_states_part_id_parts")
+        ),
+        sa.PrimaryKeyConstraint("id", name=op.f("pk_band_states")),
+        sa.UniqueConstraint(
+            "operation_id",
+            "quantity",
+            "part_id",
+            name=op.f("uq_band_states_operation_id_quantity_part_id"),
+        ),
     )
     op.create_table(
         "measurements",
@@ -278,6 +302,7 @@ def downgrade() -> None:
     op.drop_table("rcb_decisions")
     op.drop_table("operation_model_versions")
     op.drop_table("measurements")
+    op.drop_table("band_states")
     op.drop_table("parts")
     op.drop_table("operations")
     op.drop_table("tool_models")
