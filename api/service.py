@@ -84,7 +84,7 @@ def report_part(*, engine: Engine, plan_id: int, body: Mapping[str, Any]) -> dic
             "operation": d.operation,
             "quantity": d.quantity,
             "action": d.action,
-            "margin": None if d.margin != d.margin else d.margin,
+            "margin": d.margin,
             "band_before": d.band_before,
             "band_after": d.band_after,
             "predicted": d.predicted,

@@ -226,7 +226,7 @@ def catalogue_cycle(plan: Plan) -> float | None:
         if not op.catalog_setpoint:
             return None
         mrr = kinematics.mrr_monomial(op.process).evaluate({**op.catalog_setpoint, **op.context})
-        total += op.volume_mm3 / (1000.0 * mrr)
+        total += kinematics.machining_time_min(op.volume_mm3, mrr)
     return total
 
 

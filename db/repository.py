@@ -6,6 +6,7 @@ The caller owns the transaction (one use case, one transaction: :mod:`api.servic
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import asdict
 from typing import Any
 
 from sqlalchemy import func, select
@@ -16,7 +17,7 @@ from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
 from supervisor.optimizer import OperationResult, PlanResult
 from supervisor.plan import Plan, plan_from_mapping
-from supervisor.rcb import Decision, RcbSettings, RcbState
+from supervisor.rcb import Decision, RcbSettings, RcbState, prior_sigma
 from supervisor.report import PartReport
 
 
@@ -98,7 +99,7 @@ def load_state(*, session: Session, plan_row: t.Plan) -> RcbState:
             )
             state = _latest_band_state(session, ops[op.name].id, quantity)
             if state is None:
-                sigma[(op.name, quantity)] = (baseline.dK / baseline.K) / settings.coverage_k
+                sigma[(op.name, quantity)] = prior_sigma(baseline, settings)
             else:
                 sigma[(op.name, quantity)] = state.sigma
                 seen[(op.name, quantity)] = state.seen
@@ -196,7 +197,7 @@ def add_part(
                 operation_id=ops[d.operation].id,
                 quantity=d.quantity,
                 action=d.action,
-                margin=None if d.margin != d.margin else d.margin,
+                margin=d.margin,
                 band_before=d.band_before,
                 band_after=d.band_after,
                 dK_before=d.dK_before,
@@ -233,12 +234,7 @@ def add_part(
 
 def _machine(session: Session, plan: Plan) -> t.Machine:
     m = plan.machine
-    limits = {
-        "max_power_kW": m.max_power_kW,
-        "max_spindle_rpm": m.max_spindle_rpm,
-        "max_torque_Nm": m.max_torque_Nm,
-        "max_feed_rate_mm_min": m.max_feed_rate_mm_min,
-    }
+    limits = {k: v for k, v in asdict(m).items() if k != "name"}
     row = session.scalars(select(t.Machine).where(t.Machine.name == m.name)).one_or_none()
     if row is None:
         row = t.Machine(name=m.name, **limits)

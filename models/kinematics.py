@@ -64,6 +64,11 @@ def mrr_monomial(process: Process) -> Monomial:
     )
 
 
+def machining_time_min(volume_mm3: float, mrr_cm3_min: float) -> float:
+    """Time to remove ``volume_mm3`` [mm³] at ``mrr_cm3_min`` [cm³/min]: ``V / (1000 Q)`` [min]."""
+    return volume_mm3 / (1000.0 * mrr_cm3_min)
+
+
 def power_per_newton_monomial() -> Monomial:
     """Cutting power per newton of cutting force, ``v / 60000`` [kW/N] with v [m/min]."""
     return Monomial(1.0 / 60000.0, {"speed_m_min": 1.0})

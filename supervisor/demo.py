@@ -155,7 +155,7 @@ def _catalog_rows(plan: Plan, machine: VirtualMachine, rng: np.random.Generator)
         rows[op.name] = Row(
             setpoint=op.catalog_setpoint,
             mrr_cm3_min=mrr,
-            time_min=op.volume_mm3 / (1000.0 * mrr),
+            time_min=kinematics.machining_time_min(op.volume_mm3, mrr),
             predicted=predict_all(plan.tools[op.tool], point, op.setpoint_rel_uncertainty),
             measured=outcome.measurements.get(op.name, {}),
         )

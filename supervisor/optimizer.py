@@ -267,7 +267,7 @@ def _result(
         setpoint=setpoint,
         predicted=predicted,
         mrr_cm3_min=mrr,
-        time_min=operation.volume_mm3 / (1000.0 * mrr),
+        time_min=kinematics.machining_time_min(operation.volume_mm3, mrr),
         binding=_binding(lp, x),
     )
 

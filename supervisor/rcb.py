@@ -109,14 +109,15 @@ class Decision:
     """What one measurement did to one band.
 
     ``margin`` is ``limit − (measured + u)`` for a maximum and ``(measured − u) − limit`` for
-    a minimum; ``band_*`` are ``ΔY`` at the setpoint the part was made with; ``flagged`` marks a
+    a minimum (``margin`` and ``limit`` are ``None`` for a quantity without a limit);
+    ``band_*`` are ``ΔY`` at the setpoint the part was made with; ``flagged`` marks a
     measurement outside the band or past the limit.
     """
 
     operation: str
     quantity: str
     action: Action
-    margin: float
+    margin: float | None
     band_before: float
     band_after: float
     dK_before: float
@@ -126,7 +127,7 @@ class Decision:
     predicted: float
     measured: float
     uncertainty: float
-    limit: float
+    limit: float | None
     flagged: bool
     reason: str
 
@@ -166,12 +167,17 @@ class RcbState:
     seen: Mapping[tuple[str, str], float] = field(default_factory=dict)
 
 
+def prior_sigma(model: PowerLawModel, settings: RcbSettings) -> float:
+    """σ of ln K before any measurement: the band read as ±k σ, ``(ΔK/K)/k``."""
+    return (model.dK / model.K) / settings.coverage_k
+
+
 def start(plan: Plan, settings: RcbSettings | None = None) -> RcbState:
     """The initial state: catalogue models, robust optimum as setpoint version 1."""
     settings = settings or RcbSettings()
     tools = {op.name: plan.tools[op.tool] for op in plan.operations}
     sigma = {
-        (op, q): (m.dK / m.K) / settings.coverage_k
+        (op, q): prior_sigma(m, settings)
         for op, tool in tools.items()
         for q, m in tool.models.items()
     }
@@ -311,7 +317,7 @@ def _apply(
     """The law for one measured quantity: decision, new model, new σ of ln K, new ``seen``."""
     settings = state.settings
     model = state.tools[operation.name].models[quantity]
-    sigma = state.sigma.get((operation.name, quantity), (model.dK / model.K) / settings.coverage_k)
+    sigma = state.sigma.get((operation.name, quantity), prior_sigma(model, settings))
     point = {**result.setpoint, **operation.context}
     rel = operation.setpoint_rel_uncertainty
     predicted = model.predict(point, rel)
@@ -321,7 +327,7 @@ def _apply(
     floor = settings.floors.get(quantity, u)
 
     def decision(
-        action: Action, new: PowerLawModel, margin: float, flag: bool, why: str
+        action: Action, new: PowerLawModel, margin: float | None, flag: bool, why: str
     ) -> Decision:
         return Decision(
             operation=operation.name,
@@ -337,7 +343,7 @@ def _apply(
             predicted=predicted.value,
             measured=y,
             uncertainty=u,
-            limit=math.nan if limit is None else limit,
+            limit=limit,
             flagged=flag,
             reason=why,
         )
@@ -348,7 +354,7 @@ def _apply(
     before = state.seen.get((operation.name, quantity), edge_now)
     worst = max(before, edge_now) if sense == "max" else min(before, edge_now)
     if limit is None:
-        hold = decision("hold", model, math.nan, False, "no limit on this quantity")
+        hold = decision("hold", model, None, False, "no limit on this quantity")
         return hold, model, sigma, worst
     margin = limit - (y + u) if sense == "max" else (y - u) - limit
     past_limit = y > limit if sense == "max" else y < limit
