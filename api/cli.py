@@ -28,8 +28,8 @@ except ImportError:  # pragma: no cover - typer that uses click itself
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
-from api import render
-from db.engine import DEFAULT_URL, upgrade
+from api import render, service
+from db.engine import DEFAULT_URL, make_engine, upgrade
 from models import fields
 from models.catalogue import get_tool
 from models.errors import InputError, ModelDomainError
@@ -307,22 +307,95 @@ def _database_url(db: str | None) -> str:
     return db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL
 
 
+def _migrate(url: str) -> None:
+    try:
+        upgrade(url)
+    except (ArgumentError, OperationalError) as err:
+        raise InputError(
+            "--db",
+            url,
+            f"cannot use this database ({err.__class__.__name__}: {str(err).splitlines()[0]})",
+        ) from None
+
+
+def _shown(url: str) -> str:
+    return make_url(url).render_as_string(hide_password=True)
+
+
 @db_app.command("upgrade")
 def db_upgrade(db: DbOption = None) -> None:
     """Create or migrate the database to the newest schema."""
     url = _database_url(db)
     with _errors():
+        _migrate(url)
+    _say(f"rcb: database {_shown(url)} is up to date")
+
+
+def _say(text: str) -> None:
+    _err.print(text, markup=False, highlight=False, soft_wrap=True)
+
+
+keys_app = typer.Typer(help="API keys of the REST service.", no_args_is_help=True)
+app.add_typer(keys_app, name="keys")
+
+
+@keys_app.command("create")
+def keys_create(
+    role: Annotated[str, typer.Option(help="mes, engineer or viewer.")],
+    label: Annotated[str, typer.Option(help="Who or what the key is for.")] = "",
+    db: DbOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Create an API key; it is printed once and stored only as a hash."""
+    url = _database_url(db)
+    with _errors():
+        _migrate(url)
+        created = service.create_key(engine=make_engine(url), role=role, label=label)
+    if as_json:
+        _emit(created)
+        return
+    typer.echo(created["key"])
+    _say(f"rcb: key {created['id']} ({created['role']}) created; it is not shown again")
+
+
+@keys_app.command("revoke")
+def keys_revoke(
+    key_id: Annotated[int, typer.Argument(metavar="ID", help="The key's id.")],
+    db: DbOption = None,
+) -> None:
+    """Revoke an API key (kept in the audit log, refused from now on)."""
+    url = _database_url(db)
+    with _errors():
+        _migrate(url)
         try:
-            upgrade(url)
-        except (ArgumentError, OperationalError) as err:
-            raise InputError(
-                "--db",
-                url,
-                f"cannot use this database ({err.__class__.__name__}: {str(err).splitlines()[0]})",
-            ) from None
-    _err.print(
-        f"rcb: database {make_url(url).render_as_string(hide_password=True)} is up to date",
-        markup=False,
-        highlight=False,
-        soft_wrap=True,
+            revoked = service.revoke_key(engine=make_engine(url), key_id=key_id)
+        except service.NotFoundError as err:
+            raise InputError("ID", key_id, "no such API key") from err
+    _say(f"rcb: key {revoked['id']} ({revoked['role']}) revoked")
+
+
+@app.command()
+def serve(
+    db: DbOption = None,
+    host: Annotated[str, typer.Option(help="Address to listen on.")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(min=1, max=65535, help="TCP port.")] = 8000,
+    workers: Annotated[int, typer.Option(min=1, max=64, help="Worker processes.")] = 1,
+    access_log: Annotated[bool, typer.Option(help="Log every request.")] = True,
+) -> None:
+    """Serve the REST API (under /api/v1) with uvicorn; migrates the database first."""
+    import uvicorn
+
+    url = _database_url(db)
+    with _errors():
+        _migrate(url)
+    os.environ["RCB_DATABASE_URL"] = url  # the workers' factory reads it
+    _say(f"rcb: serving {_shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
+    uvicorn.run(
+        "api.app:app_from_env",
+        factory=True,
+        host=host,
+        port=port,
+        workers=workers,
+        access_log=access_log,
+        log_level="info",
     )

@@ -7,10 +7,12 @@ from typing import Any
 
 from rich.table import Table
 
-from models.powerlaw import Prediction
+from models.powerlaw import PowerLawModel, Prediction
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
+from models.tool import Tool
 from supervisor.demo import DemoResult, Row
 from supervisor.optimizer import OperationResult, PlanResult
+from supervisor.rcb import Decision
 from supervisor.report import Measurement
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
@@ -42,6 +44,45 @@ def plan_json(result: PlanResult) -> dict[str, Any]:
         "machine": result.machine,
         "operations": [operation_json(op) for op in result.operations],
         "cycle_time_min": result.cycle_time_min,
+    }
+
+
+def decision_json(d: Decision) -> dict[str, Any]:
+    """One RCB decision as in a part report's ``updates``."""
+    return {
+        "operation": d.operation,
+        "quantity": d.quantity,
+        "action": d.action,
+        "margin": d.margin,
+        "band_before": d.band_before,
+        "band_after": d.band_after,
+        "predicted": d.predicted,
+        "measured": d.measured,
+        "flagged": d.flagged,
+        "reason": d.reason,
+    }
+
+
+def model_json(model: PowerLawModel) -> dict[str, Any]:
+    """A power-law model with its provenance."""
+    return {
+        "K": model.K,
+        "dK": model.dK,
+        "exponents": dict(model.exponents),
+        "source": model.source,
+        "reference": model.reference,
+    }
+
+
+def tool_json(tool: Tool) -> dict[str, Any]:
+    """A tool in the plan-file format, with its baseline models and provenance."""
+    return {
+        "name": tool.name,
+        "process": tool.process,
+        "description": tool.description,
+        "material": tool.material,
+        "source": tool.source,
+        "models": {q: model_json(m) for q, m in tool.models.items()},
     }
 
 

@@ -1,19 +1,34 @@
-"""Use cases, each one transaction: load, decide with supervisor/, save with db/.
+"""Use cases that write, each one transaction: load, decide with supervisor/, save with db/.
 
-The CLI and (next) the REST routes call these; neither re-implements them.
+The CLI and the REST routes call these; neither re-implements them. Every write runs through
+:func:`_write`, which makes it idempotent when given an Idempotency-Key (IETF draft
+"The Idempotency-Key HTTP Header Field"): the key's record is stored in the same transaction
+as the write, a completed key returns its stored response, a key used with another request is
+refused, and a key whose request is still running is reported in flight. Every write, and
+every refused one, is appended to the audit log.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import hashlib
+import json
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
 from sqlalchemy import Engine
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from api import render
+from db import access, keylock, library
 from db import repository as repo
+from db.access import Actor
+from db.errors import ConflictError
+from models.catalogue import catalogue
 from models.errors import InputError
+from models.tool import tool_from_mapping
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import plan_from_mapping
 from supervisor.rcb import RcbSettings, update
@@ -28,36 +43,203 @@ class NotFoundError(LookupError):
         super().__init__(f"{field} = {value!r}: not found")
 
 
-def create_plan(
-    *, engine: Engine, body: Mapping[str, Any], strategy: str = "ivester", alpha: float = 0.25
-) -> dict[str, Any]:
-    """Check and optimise a plan, store it with setpoint version 1."""
-    plan = plan_from_mapping(body)
-    settings = RcbSettings(strategy=strategy, alpha=alpha)  # type: ignore[arg-type]
-    result = optimize_plan(plan)
-    with Session(engine) as session, session.begin():
-        plan_id = repo.add_plan(
-            session=session, body=body, plan=plan, result=result, settings=settings
+class InFlightError(Exception):
+    """A request with this Idempotency-Key is still being processed."""
+
+    def __init__(self, key: str) -> None:
+        self.field, self.value = "Idempotency-Key", key
+        super().__init__(f"Idempotency-Key = {key!r}: a request with this key is in flight")
+
+
+class KeyReuseError(Exception):
+    """An Idempotency-Key already used for a different request."""
+
+    def __init__(self, key: str) -> None:
+        self.field, self.value = "Idempotency-Key", key
+        super().__init__(
+            f"Idempotency-Key = {key!r}: already used for a different request; use a new key"
         )
-    return {"id": plan_id, "name": plan.name, "setpoint_version": 1, **_operations(result)}
 
 
-def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """The setpoints in force."""
-    with Session(engine) as session, session.begin():
-        row = _plan(session, plan_id)
-        version = row.current_setpoint_version
-        result = repo.setpoints_of(session=session, plan_row=row, version=version)
-    return {"plan_id": plan_id, "setpoint_version": version, **_operations(result)}
+@dataclass(frozen=True)
+class Idempotency:
+    """An Idempotency-Key and the fingerprint of the request it was sent with."""
+
+    key: str
+    request_hash: str
 
 
-def report_part(*, engine: Engine, plan_id: int, body: Mapping[str, Any]) -> dict[str, Any]:
+def fingerprint(method: str, path: str, body: object) -> str:
+    """SHA-256 of the method, path and canonical JSON of the body."""
+    canonical = json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    return hashlib.sha256(f"{method} {path}\n{canonical}".encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Written:
+    """The response of a write: status, body, and whether it is a stored replay."""
+
+    status: int
+    body: dict[str, Any]
+    replayed: bool = False
+
+
+Work = Callable[[Session], tuple[int, dict[str, Any]]]
+
+
+def _write(
+    engine: Engine,
+    *,
+    actor: Actor,
+    action: str,
+    target: str,
+    idempotency: Idempotency | None,
+    work: Work,
+) -> Written:
+    scope = f"{actor.id}:{idempotency.key}" if idempotency else ""
+    guard = keylock.in_flight(engine, scope) if idempotency else _free()
+    try:
+        with guard as free:
+            if not free:
+                raise InFlightError(idempotency.key if idempotency else "")
+            with Session(engine) as session, session.begin():
+                if idempotency is not None:
+                    stored = _stored(session, actor, idempotency)
+                    if stored is not None:
+                        access.audit(
+                            session=session,
+                            actor=actor.name,
+                            action=action,
+                            target=target,
+                            result=f"replayed {stored.status}",
+                        )
+                        return stored
+                status, body = work(session)
+                if idempotency is not None:
+                    access.add_idempotency(
+                        session=session,
+                        api_key_id=actor.id,
+                        key=idempotency.key,
+                        request_hash=idempotency.request_hash,
+                        status=status,
+                        body=body,
+                    )
+                access.audit(
+                    session=session,
+                    actor=actor.name,
+                    action=action,
+                    target=target,
+                    result=str(status),
+                )
+                return Written(status, body)
+    except IntegrityError as err:
+        # a concurrent write won a unique constraint (same serial, same key): nothing was stored
+        raise ConflictError(
+            "request", target, "a concurrent request stored the same thing"
+        ) from err
+
+
+class _free:
+    def __enter__(self) -> bool:
+        return True
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+
+def _stored(session: Session, actor: Actor, idempotency: Idempotency) -> Written | None:
+    if not access.claim_key(session=session, scope=f"{actor.id}:{idempotency.key}"):
+        raise InFlightError(idempotency.key)
+    record = access.find_idempotency(session=session, api_key_id=actor.id, key=idempotency.key)
+    if record is None:
+        return None
+    if record.request_hash != idempotency.request_hash:
+        raise KeyReuseError(idempotency.key)
+    return Written(record.response_status or 200, dict(record.response_body or {}), True)
+
+
+@contextmanager
+def _audited(engine: Engine, actor: Actor, action: str, target: str) -> Iterator[None]:
+    """Append a refused write (any exception) to the audit log, then let it propagate."""
+    try:
+        yield
+    except Exception as err:
+        detail = {
+            "error": err.__class__.__name__,
+            "field": str(getattr(err, "field", "")),
+            "message": str(err)[:500],
+        }
+        with Session(engine) as session, session.begin():
+            access.audit(
+                session=session,
+                actor=actor.name,
+                action=action,
+                target=target,
+                result="refused",
+                detail=detail,
+            )
+        raise
+
+
+def create_plan(
+    *,
+    engine: Engine,
+    body: Mapping[str, Any],
+    strategy: str = "ivester",
+    alpha: float = 0.25,
+    actor: Actor = access.CLI_ACTOR,
+    idempotency: Idempotency | None = None,
+) -> Written:
+    """Check and optimise a plan, store it with setpoint version 1 (status 201)."""
+    with _audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
+        settings = RcbSettings(strategy=strategy, alpha=alpha)  # type: ignore[arg-type]
+        with Session(engine) as session:
+            stored_tools = library.load_tools(session=session)
+        plan = plan_from_mapping(body, stored_tools)
+        result = optimize_plan(plan)  # outside the write transaction: it needs no lock
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            plan_id = repo.add_plan(
+                session=session, body=body, plan=plan, result=result, settings=settings
+            )
+            return 201, {"id": plan_id, "name": plan.name, "setpoint_version": 1, **_ops(result)}
+
+        return _write(
+            engine,
+            actor=actor,
+            action="create plan",
+            target=f"plan {plan.name}",
+            idempotency=idempotency,
+            work=work,
+        )
+
+
+def report_part(
+    *,
+    engine: Engine,
+    plan_id: int,
+    body: Mapping[str, Any],
+    actor: Actor = access.CLI_ACTOR,
+    idempotency: Idempotency | None = None,
+) -> Written:
     """Apply one part report: RCB at the version the part was made with, all or nothing."""
+    with _audited(engine, actor, "report part", f"plan {plan_id} part {body.get('serial', '')}"):
+        return _report_part(engine, plan_id, body, actor, idempotency)
+
+
+def _report_part(
+    engine: Engine,
+    plan_id: int,
+    body: Mapping[str, Any],
+    actor: Actor,
+    idempotency: Idempotency | None,
+) -> Written:
     report = report_from_mapping(body)
-    with Session(engine) as session, session.begin():
+
+    def work(session: Session) -> tuple[int, dict[str, Any]]:
         row = _plan(session, plan_id, lock=True)
         if repo.serial_exists(session=session, plan_id=plan_id, serial=report.serial):
-            raise repo.ConflictError("serial", report.serial, "already reported for this plan")
+            raise ConflictError("serial", report.serial, "already reported for this plan")
         state = repo.load_state(session=session, plan_row=row)
         made_with = None
         if report.setpoint_version != state.version:
@@ -79,28 +261,98 @@ def report_part(*, engine: Engine, plan_id: int, body: Mapping[str, Any]) -> dic
             before=state,
             after=new_state,
         )
-    updates = [
-        {
-            "operation": d.operation,
-            "quantity": d.quantity,
-            "action": d.action,
-            "margin": d.margin,
-            "band_before": d.band_before,
-            "band_after": d.band_after,
-            "predicted": d.predicted,
-            "measured": d.measured,
-            "flagged": d.flagged,
-            "reason": d.reason,
+        updates = [render.decision_json(d) for d in decisions]
+        return 201, {
+            "part_id": part_id,
+            "serial": report.serial,
+            "setpoint_version": new_state.version,
+            "updates": updates,
+            **_ops(new_state.setpoints),
         }
-        for d in decisions
-    ]
-    return {
-        "part_id": part_id,
-        "serial": report.serial,
-        "setpoint_version": new_state.version,
-        "updates": updates,
-        **_operations(new_state.setpoints),
-    }
+
+    return _write(
+        engine,
+        actor=actor,
+        action="report part",
+        target=f"plan {plan_id} part {report.serial}",
+        idempotency=idempotency,
+        work=work,
+    )
+
+
+def add_tool(
+    *,
+    engine: Engine,
+    body: Mapping[str, Any],
+    actor: Actor = access.CLI_ACTOR,
+    idempotency: Idempotency | None = None,
+) -> Written:
+    """Store a new tool with its baseline models (status 201); the name must be new."""
+    with _audited(engine, actor, "add tool", f"tool {body.get('name', '')}"):
+        tool = tool_from_mapping(body, "tool")
+        if tool.name in catalogue():
+            raise ConflictError("name", tool.name, "a catalogue tool has this name")
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            library.add_tool(session=session, tool=tool)
+            return 201, render.tool_json(tool)
+
+        return _write(
+            engine,
+            actor=actor,
+            action="add tool",
+            target=f"tool {tool.name}",
+            idempotency=idempotency,
+            work=work,
+        )
+
+
+def create_key(*, engine: Engine, role: str, label: str = "") -> dict[str, Any]:
+    """A new API key of ``role``, printed once: ``{"key", "role", "id"}``."""
+    if role not in access.ROLES:
+        raise InputError("--role", role, f"expected one of: {', '.join(access.ROLES)}")
+    with Session(engine) as session, session.begin():
+        key_id, key = access.create_key(session=session, role=role, label=label)
+        access.audit(
+            session=session, actor="cli", action="create key", target=f"key {key_id}", result=role
+        )
+    return {"key": key, "role": role, "id": key_id}
+
+
+def revoke_key(*, engine: Engine, key_id: int) -> dict[str, Any]:
+    """Revoke an API key; it stays stored for the audit log."""
+    with Session(engine) as session, session.begin():
+        row = access.revoke_key(session=session, key_id=key_id)
+        if row is None:
+            raise NotFoundError("ID", key_id)
+        access.audit(
+            session=session, actor="cli", action="revoke key", target=f"key {key_id}", result="ok"
+        )
+        return {"id": key_id, "role": row.role, "revoked_at": row.revoked_at}
+
+
+def authenticate(*, engine: Engine, key: str | None, action: str) -> Actor | None:
+    """The actor of a Bearer key, or None (the failure is audited)."""
+    with Session(engine) as session, session.begin():
+        actor = access.authenticate(session=session, key=key) if key else None
+        if actor is None:
+            access.audit(
+                session=session,
+                actor="anonymous",
+                action=action,
+                target="",
+                result="unauthenticated",
+                detail={"reason": "no key" if not key else "unknown or revoked key"},
+            )
+    return actor
+
+
+def audit_forbidden(*, engine: Engine, actor: Actor, action: str) -> None:
+    """Record a request refused for the actor's role."""
+    with Session(engine) as session, session.begin():
+        access.audit(
+            session=session, actor=actor.name, action=action, target="", result="forbidden"
+        )
 
 
 def _plan(session: Session, plan_id: int, lock: bool = False) -> Any:
@@ -110,5 +362,5 @@ def _plan(session: Session, plan_id: int, lock: bool = False) -> Any:
     return row
 
 
-def _operations(result: Any) -> dict[str, Any]:
+def _ops(result: Any) -> dict[str, Any]:
     return {"operations": render.plan_json(result)["operations"]}

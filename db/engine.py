@@ -19,6 +19,7 @@ from sqlalchemy.engine import make_url
 DEFAULT_URL = "sqlite:///./rcb.db"
 #: Milliseconds a SQLite writer waits for the lock before giving up.
 SQLITE_BUSY_TIMEOUT_MS = 30_000
+_READ_ONLY = "rcb_read_only"
 #: The Alembic scripts (top-level ``alembic/`` of the repository).
 MIGRATIONS = Path(__file__).resolve().parent.parent / "alembic"
 
@@ -42,9 +43,19 @@ def make_engine(url: str) -> Engine:
 
     @event.listens_for(engine, "begin")
     def _begin(connection: Any) -> None:
-        connection.exec_driver_sql("BEGIN IMMEDIATE")
+        read_only = connection.get_execution_options().get(_READ_ONLY, False)
+        connection.exec_driver_sql("BEGIN" if read_only else "BEGIN IMMEDIATE")
 
     return engine
+
+
+def reader(engine: Engine) -> Engine:
+    """The same engine for read-only use.
+
+    On SQLite its transactions open with a deferred ``BEGIN``, so readers do not queue for the
+    write lock (WAL gives each reader a consistent snapshot).
+    """
+    return engine.execution_options(**{_READ_ONLY: True})
 
 
 def upgrade(url: str, revision: str = "head") -> None:

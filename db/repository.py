@@ -13,20 +13,14 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.errors import ConflictError
+from db.library import ensure_tool, load_tools
 from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
 from supervisor.optimizer import OperationResult, PlanResult
 from supervisor.plan import Plan, plan_from_mapping
 from supervisor.rcb import Decision, RcbSettings, RcbState, prior_sigma
 from supervisor.report import PartReport
-
-
-class ConflictError(Exception):
-    """The request contradicts what is stored (a duplicate serial, a tool redefined)."""
-
-    def __init__(self, field: str, value: object, reason: str) -> None:
-        self.field, self.value, self.reason = field, value, reason
-        super().__init__(f"{field} = {value!r}: {reason}")
 
 
 def add_plan(
@@ -51,7 +45,7 @@ def add_plan(
     session.flush()
     ops: dict[str, t.Operation] = {}
     for position, op in enumerate(plan.operations):
-        tool = _tool(session, plan.tools[op.tool])
+        tool = ensure_tool(session=session, tool=plan.tools[op.tool])
         row = t.Operation(
             plan_id=plan_row.id,
             position=position,
@@ -83,8 +77,8 @@ def get_plan_row(*, session: Session, plan_id: int, lock: bool = False) -> t.Pla
 
 def load_state(*, session: Session, plan_row: t.Plan) -> RcbState:
     """The RCB state of a plan as stored: models, band states and setpoints in force."""
-    plan = plan_from_mapping(plan_row.body)
     ops = _operations(session, plan_row.id)
+    plan = plan_from_mapping(plan_row.body, plan_tools(session=session, plan_id=plan_row.id))
     tools: dict[str, Tool] = {}
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}
@@ -111,6 +105,14 @@ def load_state(*, session: Session, plan_row: t.Plan) -> RcbState:
     )
     return RcbState(
         plan, tools, setpoints, plan_row.current_setpoint_version, settings, sigma, seen
+    )
+
+
+def plan_tools(*, session: Session, plan_id: int) -> dict[str, Tool]:
+    """The stored tools a plan's operations use (its body may name tools added over REST)."""
+    names = select(t.Tool.name).join(t.Operation, t.Operation.tool_id == t.Tool.id)
+    return load_tools(
+        session=session, names=session.scalars(names.where(t.Operation.plan_id == plan_id))
     )
 
 
@@ -242,41 +244,6 @@ def _machine(session: Session, plan: Plan) -> t.Machine:
         session.flush()
     elif {k: getattr(row, k) for k in limits} != limits:
         raise ConflictError("machine.name", m.name, "a machine of this name has other limits")
-    return row
-
-
-def _tool(session: Session, tool: Tool) -> t.Tool:
-    row = session.scalars(select(t.Tool).where(t.Tool.name == tool.name)).one_or_none()
-    stored = {q: (m.K, m.dK, dict(m.exponents)) for q, m in tool.models.items()}
-    if row is None:
-        row = t.Tool(
-            name=tool.name,
-            process=tool.process,
-            description=tool.description,
-            material=tool.material,
-            source=tool.source,
-        )
-        session.add(row)
-        session.flush()
-        for q, m in tool.models.items():
-            session.add(
-                t.ToolModel(
-                    tool_id=row.id,
-                    quantity=q,
-                    K=m.K,
-                    dK=m.dK,
-                    exponents=dict(m.exponents),
-                    source=m.source,
-                    reference=m.reference,
-                )
-            )
-        return row
-    existing = {
-        r.quantity: (r.K, r.dK, dict(r.exponents))
-        for r in session.scalars(select(t.ToolModel).where(t.ToolModel.tool_id == row.id))
-    }
-    if existing != stored:
-        raise ConflictError("tools.name", tool.name, "a tool of this name has other models")
     return row
 
 

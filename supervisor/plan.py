@@ -134,12 +134,16 @@ def load_plan(path: Path) -> Plan:
     return plan_from_mapping(data)
 
 
-def plan_from_mapping(data: object) -> Plan:
-    """Build and check a plan from its TOML/JSON structure."""
+def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -> Plan:
+    """Build and check a plan from its TOML/JSON structure.
+
+    Tools are looked up inline first, then in ``library`` (e.g. the tools stored in the
+    database), then in the packaged catalogue.
+    """
     table = fields.mapping(data, "plan")
     fields.only_keys(table, _PLAN_KEYS, "")
     machine = _machine(table.get("machine"))
-    inline = _inline_tools(table.get("tools", []))
+    inline = {**(library or {}), **_inline_tools(table.get("tools", []))}
     ops_data = table.get("operations")
     if not isinstance(ops_data, list) or not ops_data:
         raise InputError("operations", ops_data, "a plan needs a list of at least one operation")

@@ -9,9 +9,10 @@ import pytest
 from numpy.testing import assert_allclose
 from sqlalchemy.orm import Session
 
-from api import service
+from api import queries, service
 from db import repository as repo
 from db.engine import make_engine, upgrade
+from db.errors import ConflictError
 from models.errors import InputError
 from supervisor.plan import plan_from_mapping
 from supervisor.rcb import start, update
@@ -64,7 +65,7 @@ def _reports(n, seed=3):
 
 
 def test_mes_loop_round_trips_through_the_database(engine):
-    created = service.create_plan(engine=engine, body=BODY)
+    created = service.create_plan(engine=engine, body=BODY).body
     plan_id = created["id"]
     assert created["setpoint_version"] == 1
     assert_allclose(created["operations"][0]["mrr_cm3_min"], 191.2, rtol=0.005)  # Table 5 step 1 R
@@ -72,7 +73,7 @@ def test_mes_loop_round_trips_through_the_database(engine):
     mrr = [created["operations"][0]["mrr_cm3_min"]]
     exact = 0
     for body in bodies:
-        answer = service.report_part(engine=engine, plan_id=plan_id, body=body)
+        answer = service.report_part(engine=engine, plan_id=plan_id, body=body).body
         for u in answer["updates"]:
             if u["action"] == "shrink":
                 # the law: 0.25 of the margin, or less where the floor or coverage stops it
@@ -82,7 +83,7 @@ def test_mes_loop_round_trips_through_the_database(engine):
         mrr.append(answer["operations"][0]["mrr_cm3_min"])
     assert exact >= 5  # most shrinks are exactly a quarter of the margin
     assert mrr[-1] > mrr[0]  # the roughing OD runs faster than the robust start
-    current = service.current_setpoints(engine=engine, plan_id=plan_id)
+    current = queries.current_setpoints(engine=engine, plan_id=plan_id)
     assert current["setpoint_version"] == replayed.version
     # the state stored and reloaded equals the state replayed in memory
     with Session(engine) as session:
@@ -97,33 +98,33 @@ def test_mes_loop_round_trips_through_the_database(engine):
 
 
 def test_duplicate_serial_and_bad_reports_store_nothing(engine):
-    plan_id = service.create_plan(engine=engine, body=BODY)["id"]
+    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
     bodies, _ = _reports(1)
-    service.report_part(engine=engine, plan_id=plan_id, body=bodies[0])
-    with pytest.raises(repo.ConflictError) as err:
-        service.report_part(engine=engine, plan_id=plan_id, body=bodies[0])
+    service.report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
+    with pytest.raises(ConflictError) as err:
+        service.report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
     assert err.value.field == "serial"
     bad = {**bodies[0], "serial": "SN-9999"}
     bad["operations"] = [
         {"name": "rough-od", "measurements": {"forse_N": {"value": 1, "uncertainty": 1}}}
     ]
     with pytest.raises(InputError):
-        service.report_part(engine=engine, plan_id=plan_id, body=bad)
+        service.report_part(engine=engine, plan_id=plan_id, body=bad).body
     with pytest.raises(service.NotFoundError):
-        service.current_setpoints(engine=engine, plan_id=plan_id + 100)
+        queries.current_setpoints(engine=engine, plan_id=plan_id + 100)
     with Session(engine) as session:
         assert repo.count_parts(session=session, plan_id=plan_id) == 1
-    assert service.current_setpoints(engine=engine, plan_id=plan_id)["setpoint_version"] == 2
+    assert queries.current_setpoints(engine=engine, plan_id=plan_id)["setpoint_version"] == 2
 
 
 def test_a_part_made_with_an_older_version_is_judged_at_that_version(engine):
-    created = service.create_plan(engine=engine, body=BODY)
+    created = service.create_plan(engine=engine, body=BODY).body
     plan_id = created["id"]
     bodies, _ = _reports(1)
-    moved = service.report_part(engine=engine, plan_id=plan_id, body=bodies[0])
+    moved = service.report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
     assert moved["setpoint_version"] == 2
     late = {**bodies[0], "serial": "SN-LATE"}  # made with version 1, reported after the move
-    answer = service.report_part(engine=engine, plan_id=plan_id, body=late)
+    answer = service.report_part(engine=engine, plan_id=plan_id, body=late).body
     v1 = {op["name"]: op["predicted"] for op in created["operations"]}
     v2 = {op["name"]: op["predicted"] for op in moved["operations"]}
     for u in answer["updates"]:

@@ -1,0 +1,295 @@
+"""The REST service the MES calls between parts (FastAPI, under ``/api/v1``).
+
+``create_app(url)`` builds the app on a database; ``app_from_env`` is the factory uvicorn
+workers import (``RCB_DATABASE_URL``). Routes are thin: authentication and roles, then one call
+of :mod:`api.service` (writes) or :mod:`api.queries` (reads).
+"""
+
+# no "from __future__ import annotations": FastAPI must see the route annotations, which use
+# names local to create_app
+
+import os
+import re
+from collections.abc import Callable
+from typing import Annotated, Any, Literal
+
+from fastapi import Body, Depends, FastAPI, Header, Path, Query, Request
+from fastapi.responses import JSONResponse
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+
+from api import problems, queries, schemas, service
+from api.problems import ProblemError
+from db.access import Actor
+from db.engine import DEFAULT_URL, make_engine
+
+PREFIX = "/api/v1"
+_KEY_PATTERN = re.compile(r"^[\x21-\x7e]{1,255}$")  # visible ASCII, as an sf-string allows
+
+_bearer = HTTPBearer(auto_error=False, description="An API key from `rcb keys create`.")
+_PROBLEMS: dict[int | str, dict[str, Any]] = {
+    status: {"model": schemas.Problem, "content": {problems.MEDIA_TYPE: {}}}
+    for status in (400, 401, 403, 404, 409, 422)
+}
+
+
+def create_app(url: str) -> FastAPI:
+    """The service on the database at ``url`` (migrated beforehand: ``rcb db upgrade``)."""
+    engine = make_engine(url)
+    app = FastAPI(
+        title="rcb-supervisor",
+        version="1",
+        summary="Robust cutting parameters, tightened part by part (Recursive Constraint Bounding)",
+        openapi_url=f"{PREFIX}/openapi.json",
+        docs_url=f"{PREFIX}/docs",
+        redoc_url=None,
+        responses=_PROBLEMS,
+    )
+    app.state.engine = engine
+    problems.install(app)
+
+    def role(*allowed: str) -> Callable[..., Actor]:
+        def check(
+            request: Request,
+            credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
+        ) -> Actor:
+            action = f"{request.method} {request.url.path}"
+            key = credentials.credentials if credentials else None
+            actor = service.authenticate(engine=engine, key=key, action=action)
+            if actor is None:
+                raise ProblemError(
+                    401,
+                    "unauthorized",
+                    "missing API key" if key is None else "unknown or revoked API key",
+                    "Authorization",
+                    headers={"WWW-Authenticate": "Bearer"},
+                )
+            if actor.role not in allowed:
+                service.audit_forbidden(engine=engine, actor=actor, action=action)
+                raise ProblemError(
+                    403,
+                    "forbidden",
+                    f"role {actor.role!r} may not do this; allowed: {', '.join(allowed)}",
+                    "Authorization",
+                    actor.role,
+                )
+            return actor
+
+        return check
+
+    anyone = Depends(role("mes", "engineer", "viewer"))
+    reporter = Depends(role("mes", "engineer"))
+    engineer = Depends(role("engineer"))
+    PlanId = Annotated[int, Path(ge=1, le=2**62)]
+
+    @app.get(f"{PREFIX}/health", response_model=schemas.Health, tags=["service"])
+    def health() -> dict[str, str]:
+        """Liveness; no key needed."""
+        return {"status": "ok"}
+
+    @app.post(
+        f"{PREFIX}/plans",
+        status_code=201,
+        response_model=schemas.PlanCreated,
+        tags=["plans"],
+        responses={201: {"headers": _REPLAYED}},
+    )
+    def create_plan(
+        request: Request,
+        body: Annotated[dict[str, Any], Body(openapi_examples=_PLAN_EXAMPLE)],
+        actor: Annotated[Actor, engineer],
+        strategy: Literal["ivester", "bayes"] = "ivester",
+        alpha: Annotated[float, Query(gt=0, le=1, allow_inf_nan=False)] = 0.25,
+        idempotency_key: Annotated[str | None, Header()] = None,
+    ) -> JSONResponse:
+        """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
+        written = service.create_plan(
+            engine=engine,
+            body=body,
+            strategy=strategy,
+            alpha=alpha,
+            actor=actor,
+            idempotency=_idempotency(request, idempotency_key, body, required=False),
+        )
+        return _written(written)
+
+    @app.get(f"{PREFIX}/plans", response_model=schemas.PlanList, tags=["plans"])
+    def list_plans(actor: Annotated[Actor, anyone]) -> dict[str, Any]:
+        """Every plan."""
+        return queries.list_plans(engine=engine)
+
+    @app.get(f"{PREFIX}/plans/{{plan_id}}", response_model=schemas.PlanDetail, tags=["plans"])
+    def get_plan(plan_id: PlanId, actor: Annotated[Actor, anyone]) -> dict[str, Any]:
+        """One plan: machine limits, operations, and the structure it was created from."""
+        return queries.get_plan(engine=engine, plan_id=plan_id)
+
+    @app.get(
+        f"{PREFIX}/plans/{{plan_id}}/setpoints", response_model=schemas.Setpoints, tags=["mes"]
+    )
+    def setpoints(plan_id: PlanId, actor: Annotated[Actor, anyone]) -> dict[str, Any]:
+        """The setpoints in force: what the next part is made with."""
+        return queries.current_setpoints(engine=engine, plan_id=plan_id)
+
+    @app.post(
+        f"{PREFIX}/plans/{{plan_id}}/parts",
+        status_code=201,
+        response_model=schemas.PartCreated,
+        tags=["mes"],
+        responses={201: {"headers": _REPLAYED}},
+    )
+    def report_part(
+        request: Request,
+        plan_id: PlanId,
+        report: schemas.PartReportIn,
+        actor: Annotated[Actor, reporter],
+        idempotency_key: Annotated[str | None, Header()] = None,
+    ) -> JSONResponse:
+        """Report a made part; RCB applies at the setpoint version it was made with."""
+        body = report.model_dump(mode="json", exclude_none=True)
+        written = service.report_part(
+            engine=engine,
+            plan_id=plan_id,
+            body=body,
+            actor=actor,
+            idempotency=_idempotency(request, idempotency_key, body, required=True),
+        )
+        return _written(written)
+
+    @app.get(f"{PREFIX}/plans/{{plan_id}}/parts", response_model=schemas.PartsPage, tags=["mes"])
+    def parts(
+        plan_id: PlanId,
+        actor: Annotated[Actor, anyone],
+        cursor: Annotated[str | None, Query(max_length=40)] = None,
+        limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = 50,
+    ) -> dict[str, Any]:
+        """The plan's parts, oldest first, a page at a time."""
+        return queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=limit)
+
+    @app.get(f"{PREFIX}/plans/{{plan_id}}/history", response_model=schemas.History, tags=["review"])
+    def plan_history(plan_id: PlanId, actor: Annotated[Actor, anyone]) -> dict[str, Any]:
+        """Every setpoint version with its cause and the bands in force."""
+        return queries.plan_history(engine=engine, plan_id=plan_id)
+
+    @app.get(
+        f"{PREFIX}/plans/{{plan_id}}/models", response_model=schemas.PlanModels, tags=["review"]
+    )
+    def plan_models(plan_id: PlanId, actor: Annotated[Actor, anyone]) -> dict[str, Any]:
+        """Per operation and quantity the model in force."""
+        return queries.models_in_force(engine=engine, plan_id=plan_id)
+
+    @app.get(
+        f"{PREFIX}/plans/{{plan_id}}/models/versions",
+        response_model=schemas.ModelVersions,
+        tags=["review"],
+    )
+    def model_versions(
+        plan_id: PlanId,
+        actor: Annotated[Actor, anyone],
+        operation: Annotated[str | None, Query(max_length=200)] = None,
+        quantity: Annotated[str | None, Query(max_length=50)] = None,
+    ) -> dict[str, Any]:
+        """Every model version with its cause, optionally of one operation and quantity."""
+        return queries.model_versions(
+            engine=engine, plan_id=plan_id, operation=operation, quantity=quantity
+        )
+
+    @app.get(f"{PREFIX}/tools", response_model=schemas.ToolList, tags=["tools"])
+    def list_tools(actor: Annotated[Actor, anyone]) -> dict[str, Any]:
+        """The packaged catalogue and the tools added by engineers."""
+        return queries.list_tools(engine=engine)
+
+    @app.get(f"{PREFIX}/tools/{{name}}", response_model=schemas.ToolOut, tags=["tools"])
+    def get_tool(
+        name: Annotated[str, Path(max_length=200)], actor: Annotated[Actor, anyone]
+    ) -> dict[str, Any]:
+        """One tool with its baseline models and their provenance."""
+        return queries.get_tool(engine=engine, name=name)
+
+    @app.post(
+        f"{PREFIX}/tools",
+        status_code=201,
+        response_model=schemas.ToolOut,
+        tags=["tools"],
+        responses={201: {"headers": _REPLAYED}},
+    )
+    def add_tool(
+        request: Request,
+        tool: schemas.ToolIn,
+        actor: Annotated[Actor, engineer],
+        idempotency_key: Annotated[str | None, Header()] = None,
+    ) -> JSONResponse:
+        """Add a tool with its baseline models (a new name; stored tools never change)."""
+        body = tool.model_dump(mode="json")
+        written = service.add_tool(
+            engine=engine,
+            body=body,
+            actor=actor,
+            idempotency=_idempotency(request, idempotency_key, body, required=False),
+        )
+        return _written(written)
+
+    return app
+
+
+def app_from_env() -> FastAPI:
+    """The app on ``$RCB_DATABASE_URL`` (default ``./rcb.db``): the uvicorn worker factory."""
+    return create_app(os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL)
+
+
+_REPLAYED = {
+    "Idempotent-Replayed": {
+        "description": "`true` when this is the stored response of an earlier request",
+        "schema": {"type": "string"},
+    }
+}
+
+_PLAN_EXAMPLE = {
+    "one operation": {
+        "summary": "Rough OD of Ivester & Heigel's demonstration part (Table 4 step 1)",
+        "value": {
+            "name": "demo-rough-od",
+            "machine": {"name": "lathe-22kW", "max_power_kW": 22},
+            "operations": [
+                {
+                    "name": "rough-od",
+                    "tool": "CNMG432RN",
+                    "workpiece_diameter_mm": 60,
+                    "volume_mm3": 86400,
+                    "limits": {"force_N": 2000, "roughness_um": 4.0},
+                    "bounds": {
+                        "depth_mm": [0.5, 3.0],
+                        "feed_mm_rev": [0.1, 0.6],
+                        "speed_m_min": [100, 200],
+                    },
+                }
+            ],
+        },
+    }
+}
+
+
+def _idempotency(
+    request: Request, key: str | None, body: object, *, required: bool
+) -> service.Idempotency | None:
+    if key is None:
+        if required:
+            raise ProblemError(
+                400,
+                "idempotency_key_missing",
+                "this POST needs an Idempotency-Key header",
+                "Idempotency-Key",
+            )
+        return None
+    if not _KEY_PATTERN.match(key):
+        raise ProblemError(
+            400,
+            "idempotency_key_invalid",
+            "Idempotency-Key must be 1 to 255 visible ASCII characters",
+            "Idempotency-Key",
+            key,
+        )
+    return service.Idempotency(key, service.fingerprint("POST", request.url.path, body))
+
+
+def _written(written: service.Written) -> JSONResponse:
+    headers = {"Idempotent-Replayed": "true"} if written.replayed else None
+    return JSONResponse(written.body, status_code=written.status, headers=headers)

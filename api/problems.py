@@ -1,0 +1,174 @@
+"""RFC 9457 problem details: every error the REST service returns, as ``application/problem+json``.
+
+Each problem carries a machine-readable ``code`` and, where one is to blame, the offending
+``field`` (a dotted path like ``operations[0].measurements.force_N.value``) and its ``value``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from api.service import InFlightError, KeyReuseError, NotFoundError
+from db.errors import ConflictError
+from models.errors import InputError
+from supervisor.errors import InfeasibleError, SolverError
+
+MEDIA_TYPE = "application/problem+json"
+_TYPE_BASE = "urn:rcb-supervisor:problem:"
+_log = logging.getLogger("rcb.api")
+
+
+class ProblemError(Exception):
+    """An error the REST layer itself raises (authentication, a missing header)."""
+
+    def __init__(
+        self,
+        status: int,
+        code: str,
+        detail: str,
+        field: str | None = None,
+        value: object = None,
+        headers: dict[str, str] | None = None,
+    ) -> None:
+        self.status, self.code, self.detail = status, code, detail
+        self.field, self.value, self.headers = field, value, headers
+        super().__init__(detail)
+
+
+_TITLES = {
+    400: "Bad request",
+    401: "Unauthorized",
+    403: "Forbidden",
+    404: "Not found",
+    405: "Method not allowed",
+    409: "Conflict",
+    415: "Unsupported media type",
+    422: "Unprocessable content",
+    500: "Internal server error",
+}
+
+
+def problem(
+    request: Request,
+    status: int,
+    code: str,
+    detail: str,
+    field: str | None = None,
+    value: object = None,
+    errors: list[dict[str, Any]] | None = None,
+    headers: dict[str, str] | None = None,
+) -> JSONResponse:
+    """A problem+json response."""
+    body: dict[str, Any] = {
+        "type": _TYPE_BASE + code,
+        "title": _TITLES.get(status, "Error"),
+        "status": status,
+        "detail": detail,
+        "instance": request.url.path,
+        "code": code,
+        "field": field,
+        "value": _jsonable(value),
+    }
+    if errors is not None:
+        body["errors"] = errors
+    return JSONResponse(body, status_code=status, media_type=MEDIA_TYPE, headers=headers)
+
+
+def _jsonable(value: object) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    try:
+        json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError):
+        return repr(value)
+    return value
+
+
+def field_path(loc: Sequence[str | int]) -> str:
+    """``("body", "operations", 0, "name")`` → ``operations[0].name``."""
+    parts = list(loc)
+    if parts and parts[0] in ("body", "query", "path", "header"):
+        parts = parts[1:]
+    out = ""
+    for part in parts:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "body"
+
+
+def install(app: FastAPI) -> None:
+    """Register the handlers that turn every error into problem+json."""
+
+    @app.exception_handler(ProblemError)
+    async def _problem(request: Request, err: ProblemError) -> JSONResponse:
+        return problem(
+            request, err.status, err.code, err.detail, err.field, err.value, headers=err.headers
+        )
+
+    @app.exception_handler(InputError)
+    async def _input(request: Request, err: InputError) -> JSONResponse:
+        return problem(request, 422, "invalid", str(err), err.field, err.value)
+
+    @app.exception_handler(InfeasibleError)
+    async def _infeasible(request: Request, err: InfeasibleError) -> JSONResponse:
+        field = f"operations.{err.operation}.limits"
+        return problem(request, 422, "infeasible", str(err), field, err.operation)
+
+    @app.exception_handler(SolverError)
+    async def _solver(request: Request, err: SolverError) -> JSONResponse:
+        _log.error("solver failure: %s", err)
+        return problem(request, 500, "solver", str(err))
+
+    @app.exception_handler(NotFoundError)
+    async def _not_found(request: Request, err: NotFoundError) -> JSONResponse:
+        return problem(request, 404, "not_found", str(err), err.field, err.value)
+
+    @app.exception_handler(ConflictError)
+    async def _conflict(request: Request, err: ConflictError) -> JSONResponse:
+        return problem(request, 409, "conflict", str(err), err.field, err.value)
+
+    @app.exception_handler(InFlightError)
+    async def _in_flight(request: Request, err: InFlightError) -> JSONResponse:
+        return problem(request, 409, "in_flight", str(err), err.field, err.value)
+
+    @app.exception_handler(KeyReuseError)
+    async def _reuse(request: Request, err: KeyReuseError) -> JSONResponse:
+        return problem(request, 422, "idempotency_key_reused", str(err), err.field, err.value)
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation(request: Request, err: RequestValidationError) -> JSONResponse:
+        errors = [
+            {
+                "field": field_path(e.get("loc", ())),
+                "message": e.get("msg", ""),
+                "value": _jsonable(e.get("input")),
+            }
+            for e in err.errors()
+        ]
+        first = errors[0] if errors else {"field": "body", "message": "invalid", "value": None}
+        if any(e.get("type") == "json_invalid" for e in err.errors()):
+            return problem(request, 400, "malformed_json", "the body is not valid JSON", "body")
+        detail = f"{first['field']} = {first['value']!r}: {first['message']}"
+        return problem(
+            request, 422, "invalid", detail, first["field"], first["value"], errors=errors
+        )
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, err: StarletteHTTPException) -> JSONResponse:
+        code = {404: "not_found", 405: "method_not_allowed"}.get(err.status_code, "http_error")
+        return problem(
+            request, err.status_code, code, str(err.detail), headers=getattr(err, "headers", None)
+        )
+
+    @app.exception_handler(Exception)
+    async def _unexpected(request: Request, err: Exception) -> JSONResponse:
+        _log.exception("unexpected error on %s %s", request.method, request.url.path)
+        return problem(request, 500, "internal", "internal error; nothing was stored")

@@ -1,0 +1,342 @@
+"""Pydantic models of the REST bodies: they make the OpenAPI document and check responses.
+
+Request bodies are checked again by the domain readers (:mod:`supervisor.report`,
+:mod:`supervisor.plan`), whose errors name the dotted field; these models describe them.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class _Out(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Problem(BaseModel):
+    """RFC 9457 problem details, with the offending field."""
+
+    type: str
+    title: str
+    status: int
+    detail: str
+    instance: str | None = None
+    code: str = Field(description="machine-readable error code")
+    field: str | None = Field(None, description="the offending field, as a dotted path")
+    value: Any = Field(None, description="the offending value")
+    errors: list[dict[str, Any]] | None = None
+
+
+class Health(_Out):
+    """Liveness."""
+
+    status: Literal["ok"]
+
+
+class Band(_Out):
+    """A prediction and its band ± ΔY."""
+
+    value: float
+    band: float
+
+
+class OperationSetpoint(_Out):
+    """One operation's setpoint as in ``rcb optimize --json``."""
+
+    name: str
+    tool: str
+    process: str
+    setpoint: dict[str, float]
+    predicted: dict[str, Band]
+    mrr_cm3_min: float
+    time_min: float
+    binding: list[str]
+
+
+class PlanCreated(_Out):
+    """A new plan and its first setpoints."""
+
+    id: int
+    name: str
+    setpoint_version: int
+    operations: list[OperationSetpoint]
+
+
+class Setpoints(_Out):
+    """The setpoints in force."""
+
+    plan_id: int
+    setpoint_version: int
+    operations: list[OperationSetpoint]
+
+
+class MeasurementIn(BaseModel):
+    """A measured value and its (expanded) uncertainty, in the quantity's unit."""
+
+    model_config = ConfigDict(extra="forbid")
+    value: float = Field(ge=0)
+    uncertainty: float = Field(ge=0)
+
+
+class ToolWearIn(BaseModel):
+    """Flank wear of the operation's edge and the volume the edge has cut so far."""
+
+    model_config = ConfigDict(extra="forbid")
+    flank_wear_mm: MeasurementIn
+    volume_mm3: float = Field(gt=0)
+
+
+class OperationReport(BaseModel):
+    """What was measured on one operation of a part."""
+
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field(min_length=1)
+    measurements: dict[str, MeasurementIn] = Field(default_factory=dict)
+    tool_wear: ToolWearIn | None = None
+
+
+class PartReportIn(BaseModel):
+    """A part report from the MES."""
+
+    model_config = ConfigDict(extra="forbid")
+    serial: str = Field(min_length=1, max_length=200)
+    setpoint_version: int = Field(ge=1)
+    operations: list[OperationReport]
+
+
+class Update(_Out):
+    """What one measurement did to one band."""
+
+    operation: str
+    quantity: str
+    action: Literal["shrink", "hold", "expand"]
+    margin: float | None
+    band_before: float
+    band_after: float
+    predicted: float | None = None
+    measured: float | None = None
+    flagged: bool
+    reason: str
+
+
+class PartCreated(_Out):
+    """The part stored, what RCB did, and the setpoints now in force."""
+
+    part_id: int
+    serial: str
+    setpoint_version: int
+    updates: list[Update]
+    operations: list[OperationSetpoint]
+
+
+class MeasurementOut(_Out):
+    """A stored measurement."""
+
+    value: float
+    uncertainty: float
+
+
+class ToolWearOut(_Out):
+    """A stored flank-wear measurement."""
+
+    flank_wear_mm: MeasurementOut
+    volume_mm3: float | None
+
+
+class PartOperation(_Out):
+    """One operation of a stored part."""
+
+    name: str
+    measurements: dict[str, MeasurementOut]
+    tool_wear: ToolWearOut | None = None
+
+
+class PartOut(_Out):
+    """A stored part."""
+
+    part_id: int
+    serial: str
+    setpoint_version: int
+    received_at: datetime
+    operations: list[PartOperation]
+    updates: list[Update]
+
+
+class PartsPage(_Out):
+    """A page of parts; pass ``next_cursor`` as ``cursor`` for the next (null: no more)."""
+
+    items: list[PartOut]
+    next_cursor: str | None
+
+
+class PlanSummary(_Out):
+    """A plan in a list."""
+
+    id: int
+    name: str
+    machine: str
+    strategy: str
+    alpha: float
+    setpoint_version: int
+    parts: int
+    created_at: datetime
+
+
+class PlanList(_Out):
+    """Every plan."""
+
+    plans: list[PlanSummary]
+
+
+class PlanOperation(_Out):
+    """An operation's definition."""
+
+    name: str
+    tool: str
+    process: str
+    volume_mm3: float
+    limits: dict[str, float]
+    bounds: dict[str, list[float]]
+    context: dict[str, float]
+
+
+class PlanDetail(PlanSummary):
+    """A plan with its machine limits, operations and the structure it was created from."""
+
+    machine_limits: dict[str, float | None]
+    operations: list[PlanOperation]
+    body: dict[str, Any]
+
+
+class ModelInForce(_Out):
+    """A model version of one operation and quantity."""
+
+    K: float
+    dK: float
+    version: int
+
+
+class HistoryOperation(_Out):
+    """One operation in a setpoint version, with the models in force."""
+
+    name: str
+    tool: str
+    setpoint: dict[str, float]
+    predicted: dict[str, Band]
+    mrr_cm3_min: float
+    time_min: float
+    binding: list[str]
+    models: dict[str, ModelInForce]
+
+
+class HistoryVersion(_Out):
+    """One setpoint version and its cause (``initial``, ``part`` with the serial, ``replan``)."""
+
+    version: int
+    cause: str
+    part_id: int | None
+    serial: str | None
+    created_at: datetime
+    cycle_time_min: float
+    operations: list[HistoryOperation]
+
+
+class History(_Out):
+    """Every setpoint version of a plan, oldest first."""
+
+    plan_id: int
+    versions: list[HistoryVersion]
+
+
+class ModelVersion(_Out):
+    """A stored model version."""
+
+    version: int
+    K: float
+    dK: float
+    exponents: dict[str, float]
+    cause: str
+    serial: str | None
+    created_at: datetime
+
+
+class OperationModels(_Out):
+    """The models in force for one operation."""
+
+    name: str
+    tool: str
+    models: dict[str, ModelVersion]
+
+
+class PlanModels(_Out):
+    """The models in force, per operation and quantity."""
+
+    plan_id: int
+    operations: list[OperationModels]
+
+
+class ModelVersionRow(ModelVersion):
+    """A model version with its operation and quantity."""
+
+    operation: str
+    quantity: str
+
+
+class ModelVersions(_Out):
+    """Model versions, oldest first."""
+
+    plan_id: int
+    versions: list[ModelVersionRow]
+
+
+class ModelIn(BaseModel):
+    """A power-law model ``Y = K·Π x_i^e_i`` with band ±ΔK."""
+
+    model_config = ConfigDict(extra="forbid")
+    K: float = Field(gt=0)
+    dK: float = Field(0.0, ge=0)
+    exponents: dict[str, float] = Field(default_factory=dict)
+    source: str = ""
+    reference: str = ""
+
+
+class ToolIn(BaseModel):
+    """A tool with its models, as in a plan file's ``[[tools]]``."""
+
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field(min_length=1, max_length=200)
+    process: Literal["turning", "milling"]
+    description: str = ""
+    material: str = ""
+    source: str = "REST"
+    models: dict[str, ModelIn] = Field(min_length=1)
+
+
+class ModelOut(_Out):
+    """A baseline model with provenance."""
+
+    K: float
+    dK: float
+    exponents: dict[str, float]
+    source: str
+    reference: str
+
+
+class ToolOut(_Out):
+    """A tool with its baseline models and provenance."""
+
+    name: str
+    process: str
+    description: str
+    material: str
+    source: str
+    models: dict[str, ModelOut]
+
+
+class ToolList(_Out):
+    """The catalogue and the stored tools."""
+
+    tools: list[ToolOut]

@@ -1,0 +1,123 @@
+"""Read-only queries for review: plans, parts page by page, setpoint history, model versions.
+
+Each returns plain rows or dicts; :mod:`api.queries` shapes them for JSON.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from datetime import UTC
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from db import tables as t
+
+
+def plans(*, session: Session) -> list[dict[str, Any]]:
+    """Every plan with its machine, current setpoint version and part count."""
+    counts = select(t.Part.plan_id, func.count().label("n")).group_by(t.Part.plan_id).subquery()
+    rows = session.execute(
+        select(t.Plan, t.Machine.name, counts.c.n)
+        .join(t.Machine, t.Plan.machine_id == t.Machine.id)
+        .outerjoin(counts, counts.c.plan_id == t.Plan.id)
+        .order_by(t.Plan.id)
+    ).all()
+    return [summary(plan, machine, n or 0) for plan, machine, n in rows]
+
+
+def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
+    """The fields a plan list shows."""
+    return {
+        "id": plan.id,
+        "name": plan.name,
+        "machine": machine,
+        "strategy": plan.strategy,
+        "alpha": plan.alpha,
+        "setpoint_version": plan.current_setpoint_version,
+        "parts": parts,
+        "created_at": plan.created_at
+        if plan.created_at.tzinfo
+        else plan.created_at.replace(tzinfo=UTC),  # SQLite drops the zone; stored as UTC
+    }
+
+
+def operations(*, session: Session, plan_id: int) -> list[tuple[t.Operation, t.Tool]]:
+    """A plan's operations in order, with their tools."""
+    return [
+        (op, tool)
+        for op, tool in session.execute(
+            select(t.Operation, t.Tool)
+            .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+            .where(t.Operation.plan_id == plan_id)
+            .order_by(t.Operation.position)
+        ).all()
+    ]
+
+
+def parts_page(
+    *, session: Session, plan_id: int, after_id: int, limit: int
+) -> tuple[list[t.Part], dict[int, list[t.Measurement]], dict[int, list[t.RcbDecision]]]:
+    """Up to ``limit`` parts with id > ``after_id``, oldest first, with measurements, decisions."""
+    parts = list(
+        session.scalars(
+            select(t.Part)
+            .where(t.Part.plan_id == plan_id, t.Part.id > after_id)
+            .order_by(t.Part.id)
+            .limit(limit)
+        )
+    )
+    ids = [p.id for p in parts]
+    measurements: dict[int, list[t.Measurement]] = defaultdict(list)
+    decisions: dict[int, list[t.RcbDecision]] = defaultdict(list)
+    if ids:
+        for m in session.scalars(
+            select(t.Measurement).where(t.Measurement.part_id.in_(ids)).order_by(t.Measurement.id)
+        ):
+            measurements[m.part_id].append(m)
+        for d in session.scalars(
+            select(t.RcbDecision).where(t.RcbDecision.part_id.in_(ids)).order_by(t.RcbDecision.id)
+        ):
+            decisions[d.part_id].append(d)
+    return parts, measurements, decisions
+
+
+def setpoint_versions(
+    *, session: Session, plan_id: int
+) -> list[tuple[t.SetpointVersion, str | None, list[t.Setpoint]]]:
+    """Every setpoint version of a plan, oldest first, with the causing serial and setpoints."""
+    versions = session.execute(
+        select(t.SetpointVersion, t.Part.serial)
+        .outerjoin(t.Part, t.SetpointVersion.part_id == t.Part.id)
+        .where(t.SetpointVersion.plan_id == plan_id)
+        .order_by(t.SetpointVersion.version)
+    ).all()
+    setpoints: dict[int, list[t.Setpoint]] = defaultdict(list)
+    for sp in session.scalars(
+        select(t.Setpoint)
+        .join(t.SetpointVersion, t.Setpoint.setpoint_version_id == t.SetpointVersion.id)
+        .where(t.SetpointVersion.plan_id == plan_id)
+    ):
+        setpoints[sp.setpoint_version_id].append(sp)
+    return [(v, serial, setpoints[v.id]) for v, serial in versions]
+
+
+def model_versions(
+    *, session: Session, plan_id: int, operation: str | None = None, quantity: str | None = None
+) -> list[tuple[t.OperationModelVersion, str, str | None]]:
+    """Model versions of a plan's operations (oldest first), with operation name and serial."""
+    query = (
+        select(t.OperationModelVersion, t.Operation.name, t.Part.serial)
+        .join(t.Operation, t.OperationModelVersion.operation_id == t.Operation.id)
+        .outerjoin(t.Part, t.OperationModelVersion.part_id == t.Part.id)
+        .where(t.Operation.plan_id == plan_id)
+        .order_by(
+            t.Operation.position, t.OperationModelVersion.quantity, t.OperationModelVersion.version
+        )
+    )
+    if operation is not None:
+        query = query.where(t.Operation.name == operation)
+    if quantity is not None:
+        query = query.where(t.OperationModelVersion.quantity == quantity)
+    return [(v, name, serial) for v, name, serial in session.execute(query).all()]

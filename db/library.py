@@ -1,0 +1,82 @@
+"""Tools and their baseline models in the database: stored, loaded back, listed."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from db import tables as t
+from db.errors import ConflictError
+from models.powerlaw import PowerLawModel
+from models.tool import Tool, process_of
+
+
+def ensure_tool(*, session: Session, tool: Tool) -> t.Tool:
+    """The row of ``tool``, stored if new; a stored tool of that name must have the same models."""
+    row = session.scalars(select(t.Tool).where(t.Tool.name == tool.name)).one_or_none()
+    if row is None:
+        return add_tool(session=session, tool=tool)
+    stored = {q: (m.K, m.dK, dict(m.exponents)) for q, m in tool.models.items()}
+    existing = {
+        r.quantity: (r.K, r.dK, dict(r.exponents))
+        for r in session.scalars(select(t.ToolModel).where(t.ToolModel.tool_id == row.id))
+    }
+    if existing != stored:
+        raise ConflictError("tools.name", tool.name, "a tool of this name has other models")
+    return row
+
+
+def add_tool(*, session: Session, tool: Tool) -> t.Tool:
+    """Store a new tool and its models; the name must be free."""
+    if session.scalars(select(t.Tool.id).where(t.Tool.name == tool.name)).first() is not None:
+        raise ConflictError("name", tool.name, "a tool of this name is already stored")
+    row = t.Tool(
+        name=tool.name,
+        process=tool.process,
+        description=tool.description,
+        material=tool.material,
+        source=tool.source,
+    )
+    session.add(row)
+    session.flush()
+    for q, m in tool.models.items():
+        session.add(
+            t.ToolModel(
+                tool_id=row.id,
+                quantity=q,
+                K=m.K,
+                dK=m.dK,
+                exponents=dict(m.exponents),
+                source=m.source,
+                reference=m.reference,
+            )
+        )
+    session.flush()
+    return row
+
+
+def load_tools(*, session: Session, names: Iterable[str] | None = None) -> dict[str, Tool]:
+    """Stored tools by name (all, or those named), with their baseline models."""
+    query = select(t.Tool).order_by(t.Tool.name)
+    if names is not None:
+        query = query.where(t.Tool.name.in_(list(names)))
+    rows = list(session.scalars(query))
+    models: dict[int, dict[str, PowerLawModel]] = {row.id: {} for row in rows}
+    if rows:
+        for m in session.scalars(select(t.ToolModel).where(t.ToolModel.tool_id.in_(models))):
+            models[m.tool_id][m.quantity] = PowerLawModel(
+                m.quantity, m.K, m.dK, dict(m.exponents), m.source, m.reference
+            )
+    return {
+        row.name: Tool(
+            row.name,
+            process_of(row.process, "tool.process"),
+            models[row.id],
+            row.description,
+            row.material,
+            row.source,
+        )
+        for row in rows
+    }
