@@ -218,7 +218,8 @@ def create_app(url: str) -> FastAPI:
         idempotency_key: Annotated[str | None, Header()] = None,
     ) -> JSONResponse:
         """Add a tool with its baseline models (a new name; stored tools never change)."""
-        body = tool.model_dump(mode="json")
+        body = tool.model_dump(mode="json", exclude_none=True)
+        body.setdefault("source", "REST API")  # the reader's default would say "plan file"
         written = service.add_tool(
             engine=engine,
             body=body,

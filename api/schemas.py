@@ -7,9 +7,12 @@ Request bodies are checked again by the domain readers (:mod:`supervisor.report`
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
+
+#: A string with something in it (the domain readers refuse blank text).
+Text = Annotated[str, Field(pattern=r"\S")]
 
 
 class _Out(BaseModel):
@@ -299,19 +302,19 @@ class ModelIn(BaseModel):
     K: float = Field(gt=0)
     dK: float = Field(0.0, ge=0)
     exponents: dict[str, float] = Field(default_factory=dict)
-    source: str = ""
-    reference: str = ""
+    source: Text | None = Field(None, description="default: the tool's source")
+    reference: Text | None = Field(None, description="where in the source (table, equation)")
 
 
 class ToolIn(BaseModel):
     """A tool with its models, as in a plan file's ``[[tools]]``."""
 
     model_config = ConfigDict(extra="forbid")
-    name: str = Field(min_length=1, max_length=200)
+    name: Annotated[str, Field(max_length=200)] = Field(pattern=r"\S")
     process: Literal["turning", "milling"]
-    description: str = ""
-    material: str = ""
-    source: str = "REST"
+    description: Text | None = None
+    material: Text | None = None
+    source: Text | None = Field(None, description="where the models come from (default: REST API)")
     models: dict[str, ModelIn] = Field(min_length=1)
 
 

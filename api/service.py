@@ -289,7 +289,7 @@ def add_tool(
 ) -> Written:
     """Store a new tool with its baseline models (status 201); the name must be new."""
     with _audited(engine, actor, "add tool", f"tool {body.get('name', '')}"):
-        tool = tool_from_mapping(body, "tool")
+        tool = tool_from_mapping(body, "")
         if tool.name in catalogue():
             raise ConflictError("name", tool.name, "a catalogue tool has this name")
 

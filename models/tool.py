@@ -40,6 +40,10 @@ class Tool:
     source: str = ""
 
 
+def _at(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
 def variables(process: Process) -> tuple[str, ...]:
     """Names a model of ``process`` may use as inputs: the parameters and the context."""
     return PARAMETERS[process] + CONTEXT[process]
@@ -63,14 +67,14 @@ def model_from_mapping(
     table = fields.mapping(data, path)
     fields.only_keys(table, _MODEL_KEYS, path)
     if "K" not in table:
-        raise InputError(f"{path}.K", None, "required field missing")
+        raise InputError(_at(path, "K"), None, "required field missing")
     exponents = fields.number_table(
-        table.get("exponents", {}), f"{path}.exponents", variables(process)
+        table.get("exponents", {}), _at(path, "exponents"), variables(process)
     )
     return PowerLawModel(
         quantity=quantity,
-        K=fields.number(table["K"], f"{path}.K", positive=True),
-        dK=fields.number(table.get("dK", 0.0), f"{path}.dK", minimum=0.0),
+        K=fields.number(table["K"], _at(path, "K"), positive=True),
+        dK=fields.number(table.get("dK", 0.0), _at(path, "dK"), minimum=0.0),
         exponents=exponents,
         source=fields.text(table, "source", path, default=default_source),
         reference=fields.text(table, "reference", path, default=""),
@@ -82,13 +86,13 @@ def tool_from_mapping(data: object, path: str) -> Tool:
     table = fields.mapping(data, path)
     fields.only_keys(table, _TOOL_KEYS, path)
     name = fields.text(table, "name", path)
-    process = process_of(table.get("process"), f"{path}.process")
+    process = process_of(table.get("process"), _at(path, "process"))
     source = fields.text(table, "source", path, default="plan file")
-    models_table: Mapping[str, Any] = fields.mapping(table.get("models", {}), f"{path}.models")
+    models_table: Mapping[str, Any] = fields.mapping(table.get("models", {}), _at(path, "models"))
     if not models_table:
-        raise InputError(f"{path}.models", {}, "a tool needs at least one model")
+        raise InputError(_at(path, "models"), {}, "a tool needs at least one model")
     models = {
-        q: model_from_mapping(q, m, process, f"{path}.models.{q}", source)
+        q: model_from_mapping(q, m, process, _at(path, f"models.{q}"), source)
         for q, m in models_table.items()
     }
     return Tool(

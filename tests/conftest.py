@@ -14,6 +14,8 @@ from typer.testing import CliRunner
 
 from db.engine import make_engine
 
+from live import LiveServer
+
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
 POSTGRES = os.environ.get("RCB_TEST_POSTGRES_URL")
@@ -26,6 +28,16 @@ def runner() -> CliRunner:
 
 @pytest.fixture
 def empty_postgres() -> Iterator[str]:
+    yield from _fresh_postgres()
+
+
+@pytest.fixture(scope="module")
+def module_postgres() -> Iterator[str]:
+    yield from _fresh_postgres()
+
+
+def _fresh_postgres() -> Iterator[str]:
+    """A new, empty PostgreSQL database, dropped afterwards."""
     if not POSTGRES:
         pytest.skip("RCB_TEST_POSTGRES_URL not set: no PostgreSQL to test against")
     name = f"rcb_test_{uuid.uuid4().hex[:12]}"
@@ -38,3 +50,24 @@ def empty_postgres() -> Iterator[str]:
         with admin.connect() as connection:
             connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
         admin.dispose()
+
+
+@pytest.fixture(params=["sqlite", "postgres"])
+def backend_url(request, tmp_path) -> str:
+    """An empty database: a SQLite file, or a fresh PostgreSQL database."""
+    if request.param == "sqlite":
+        return f"sqlite:///{tmp_path / 'rcb.db'}"
+    return request.getfixturevalue("empty_postgres")
+
+
+@pytest.fixture(scope="module", params=["sqlite", "postgres"])
+def server(request, tmp_path_factory) -> Iterator[LiveServer]:
+    """A running ``rcb serve`` on a fresh database, shared by a module's tests."""
+    if request.param == "sqlite":
+        url = f"sqlite:///{tmp_path_factory.mktemp('db') / 'rcb.db'}"
+    else:
+        url = request.getfixturevalue("module_postgres")
+    live = LiveServer(url, tmp_path_factory.mktemp("log") / "serve.log")
+    live.start()
+    yield live
+    live.stop()

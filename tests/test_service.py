@@ -100,16 +100,16 @@ def test_mes_loop_round_trips_through_the_database(engine):
 def test_duplicate_serial_and_bad_reports_store_nothing(engine):
     plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
     bodies, _ = _reports(1)
-    service.report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
+    service.report_part(engine=engine, plan_id=plan_id, body=bodies[0])
     with pytest.raises(ConflictError) as err:
-        service.report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
+        service.report_part(engine=engine, plan_id=plan_id, body=bodies[0])
     assert err.value.field == "serial"
     bad = {**bodies[0], "serial": "SN-9999"}
     bad["operations"] = [
         {"name": "rough-od", "measurements": {"forse_N": {"value": 1, "uncertainty": 1}}}
     ]
     with pytest.raises(InputError):
-        service.report_part(engine=engine, plan_id=plan_id, body=bad).body
+        service.report_part(engine=engine, plan_id=plan_id, body=bad)
     with pytest.raises(service.NotFoundError):
         queries.current_setpoints(engine=engine, plan_id=plan_id + 100)
     with Session(engine) as session:

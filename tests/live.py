@@ -1,0 +1,85 @@
+"""A real ``rcb serve`` process on 127.0.0.1 for REST tests, and an httpx client for it."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+
+from api import service
+from db.engine import make_engine, upgrade
+
+RCB = Path(sys.executable).with_name("rcb")
+ROLES = ("mes", "engineer", "viewer")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class LiveServer:
+    """``rcb serve --db URL`` in its own process group; ``keys`` holds one API key per role."""
+
+    def __init__(self, url: str, log: Path, workers: int = 1) -> None:
+        self.url, self.log, self.workers = url, log, workers
+        self.port = free_port()
+        self.base = f"http://127.0.0.1:{self.port}/api/v1"
+        self.process: subprocess.Popen[bytes] | None = None
+        upgrade(url)
+        engine = make_engine(url)
+        self.keys = {r: service.create_key(engine=engine, role=r)["key"] for r in ROLES}
+        engine.dispose()
+
+    def start(self, timeout_s: float = 60.0) -> None:
+        command = [str(RCB), "serve", "--db", self.url, "--port", str(self.port)]
+        command += ["--workers", str(self.workers), "--no-access-log"]
+        with self.log.open("ab") as log:
+            self.process = subprocess.Popen(
+                command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
+            )
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise RuntimeError(f"rcb serve exited: {self.log.read_text()[-3000:]}")
+            try:
+                if httpx.get(f"{self.base}/health", timeout=1.0).status_code == 200:
+                    return
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.1)
+        self.stop()
+        raise RuntimeError(f"rcb serve did not answer in {timeout_s} s: {self.log.read_text()}")
+
+    def kill(self) -> None:
+        """``kill -9`` the whole server (process group): no shutdown, no cleanup."""
+        if self.process is not None:
+            os.killpg(self.process.pid, signal.SIGKILL)
+            self.process.wait(timeout=10)
+            self.process = None
+
+    def stop(self) -> None:
+        """Graceful stop (SIGTERM), SIGKILL if it hangs."""
+        if self.process is None:
+            return
+        os.killpg(self.process.pid, signal.SIGTERM)
+        try:
+            self.process.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.process.pid, signal.SIGKILL)
+            self.process.wait(timeout=10)
+        self.process = None
+
+    def client(
+        self, role: str | None = "engineer", headers: dict[str, str] | None = None
+    ) -> httpx.Client:
+        """A client sending the key of ``role`` (None: no key) and ``headers``."""
+        sent = {"Authorization": f"Bearer {self.keys[role]}"} if role else {}
+        return httpx.Client(base_url=self.base, headers={**sent, **(headers or {})}, timeout=60.0)

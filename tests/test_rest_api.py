@@ -1,0 +1,293 @@
+"""The REST contract against a real ``rcb serve`` (uvicorn) on SQLite and PostgreSQL."""
+
+from __future__ import annotations
+
+import tomllib
+import uuid
+
+import pytest
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from db import tables as t
+from db.engine import make_engine
+
+from conftest import DEMO_PLAN
+
+PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+LIMITS = {op["name"]: op["limits"] for op in PLAN["operations"]}
+UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}  # Table 5's measured ± columns, order of
+
+
+def _report(serial, setpoints):
+    """Measurements equal to the predictions at the setpoints in force: inside the band, with
+    the margin the band edge leaves below the limit."""
+    return {
+        "serial": serial,
+        "setpoint_version": setpoints["setpoint_version"],
+        "operations": [
+            {
+                "name": op["name"],
+                "measurements": {
+                    q: {"value": op["predicted"][q]["value"], "uncertainty": u}
+                    for q, u in UNCERTAINTY.items()
+                },
+            }
+            for op in setpoints["operations"]
+        ],
+    }
+
+
+def _post_part(client, plan_id, body, key):
+    return client.post(f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": key})
+
+
+def test_health_needs_no_key(server):
+    with server.client(role=None) as c:
+        r = c.get("/health")
+    assert r.status_code == 200 and r.json() == {"status": "ok"}
+
+
+def test_mes_loop_shrinks_bands_by_a_quarter_of_the_margin_and_replays_change_nothing(server):
+    with server.client("engineer") as eng, server.client("mes") as mes:
+        created = eng.post("/plans", json=PLAN)
+        assert created.status_code == 201, created.text
+        plan = created.json()
+        assert plan["setpoint_version"] == 1
+        # Ivester & Heigel Table 5, step 1 R: 191 cm³/min at the robust start
+        assert plan["operations"][0]["mrr_cm3_min"] == pytest.approx(191.2, rel=0.005)
+        plan_id = plan["id"]
+        setpoints = mes.get(f"/plans/{plan_id}/setpoints").json()
+        assert setpoints["operations"] == plan["operations"]
+        first_mrr = {op["name"]: op["mrr_cm3_min"] for op in setpoints["operations"]}
+        answers, sent, exact = [], [], 0
+        for i in range(10):
+            body, key = _report(f"SN-{i:03d}", setpoints), f"part-{plan_id}-{i}"
+            r = _post_part(mes, plan_id, body, key)
+            assert r.status_code == 201, r.text
+            answer = r.json()
+            assert "Idempotent-Replayed" not in r.headers
+            assert answer["setpoint_version"] == setpoints["setpoint_version"] + 1
+            by_op = {op["name"]: op for op in setpoints["operations"]}
+            for u in answer["updates"]:
+                limit = LIMITS[u["operation"]][u["quantity"]]
+                made = by_op[u["operation"]]["predicted"][u["quantity"]]
+                margin = limit - (made["value"] + UNCERTAINTY[u["quantity"]])
+                assert u["margin"] == pytest.approx(margin, rel=1e-9)
+                assert not u["flagged"] and margin > 0
+                assert u["band_before"] == pytest.approx(made["band"], rel=1e-9)
+                law = made["band"] - 0.25 * margin  # Ivester & Heigel, RCB: α = 0.25
+                floor = UNCERTAINTY[u["quantity"]]  # the band never narrows below it
+                if u["action"] == "hold":  # already at the floor (or the coverage below)
+                    assert u["band_after"] == u["band_before"] and law < u["band_before"]
+                elif "keeps covering" in u["reason"]:  # never narrower than a measurement seen
+                    assert max(law, floor) < u["band_after"] < u["band_before"]
+                else:
+                    assert u["band_after"] == pytest.approx(max(law, floor), rel=1e-9)
+                    exact += law > floor
+            answers.append(answer)
+            sent.append((body, key))
+            setpoints = {"setpoint_version": answer["setpoint_version"], **answer}
+        last_mrr = {op["name"]: op["mrr_cm3_min"] for op in setpoints["operations"]}
+        assert all(last_mrr[name] >= first_mrr[name] * (1 - 1e-9) for name in first_mrr)
+        assert last_mrr["rough-od"] > first_mrr["rough-od"] * 1.02
+        assert len(answers[0]["updates"]) == 2 * len(PLAN["operations"])
+        assert exact >= 20  # the binding limits shrink by exactly a quarter, part after part
+
+        history_before = eng.get(f"/plans/{plan_id}/history").json()
+        for (body, key), answer in zip(sent, answers, strict=True):
+            again = _post_part(mes, plan_id, body, key)
+            assert again.status_code == 201
+            assert again.headers["Idempotent-Replayed"] == "true"
+            assert again.json() == answer
+        assert eng.get(f"/plans/{plan_id}/history").json() == history_before
+        current = mes.get(f"/plans/{plan_id}/setpoints").json()
+        assert current["setpoint_version"] == 11
+        detail = eng.get(f"/plans/{plan_id}").json()
+        assert detail["parts"] == 10 and detail["setpoint_version"] == 11
+
+
+def test_parts_pages_cover_every_part_once_in_order(server):
+    with server.client("engineer") as c:
+        plan_id = c.post("/plans", json=PLAN).json()["id"]
+        setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
+        for i in range(7):
+            r = _post_part(c, plan_id, _report(f"P{i}", setpoints), f"pg-{plan_id}-{i}")
+            setpoints = r.json()
+        serials, cursor = [], None
+        while True:
+            params = {"limit": 3, **({"cursor": cursor} if cursor else {})}
+            page = c.get(f"/plans/{plan_id}/parts", params=params).json()
+            serials += [p["serial"] for p in page["items"]]
+            cursor = page["next_cursor"]
+            if cursor is None:
+                break
+        assert serials == [f"P{i}" for i in range(7)]
+        first = c.get(f"/plans/{plan_id}/parts", params={"limit": 1}).json()["items"][0]
+        assert first["setpoint_version"] == 1
+        assert first["operations"][0]["measurements"]["force_N"]["uncertainty"] == 3.0
+        assert {u["action"] for u in first["updates"]} == {"shrink"}
+        bad = c.get(f"/plans/{plan_id}/parts", params={"cursor": "abc"})
+        assert bad.status_code == 422 and bad.json()["field"] == "cursor"
+
+
+def test_history_and_model_versions_record_every_change_with_its_cause(server):
+    with server.client("engineer") as c:
+        plan_id = c.post("/plans", json=PLAN).json()["id"]
+        setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
+        for i in range(2):
+            setpoints = _post_part(
+                c, plan_id, _report(f"H{i}", setpoints), f"h-{plan_id}-{i}"
+            ).json()
+        history = c.get(f"/plans/{plan_id}/history").json()["versions"]
+        assert [(v["version"], v["cause"], v["serial"]) for v in history] == [
+            (1, "initial", None),
+            (2, "part", "H0"),
+            (3, "part", "H1"),
+        ]
+        force = [v["operations"][0]["models"]["force_N"] for v in history]
+        assert [m["version"] for m in force] == [1, 2, 3]
+        assert force[0]["dK"] > force[1]["dK"] > force[2]["dK"]  # the band narrows part by part
+        assert force[0]["K"] == 2130.0  # Ivester & Heigel Table 2, CNMG432RN force K
+        versions = c.get(
+            f"/plans/{plan_id}/models/versions",
+            params={"operation": "rough-od", "quantity": "force_N"},
+        ).json()["versions"]
+        assert [(v["version"], v["cause"], v["serial"]) for v in versions] == [
+            (1, "initial", None),
+            (2, "part", "H0"),
+            (3, "part", "H1"),
+        ]
+        in_force = c.get(f"/plans/{plan_id}/models").json()["operations"]
+        assert in_force[0]["models"]["force_N"]["dK"] == versions[-1]["dK"]
+        # steps 2 and 3 use the same insert (VCMR331) but keep separate bands (Table 5)
+        by_name = {op["name"]: op for op in in_force}
+        grooves, contour = by_name["rough-grooves"], by_name["rough-contour"]
+        assert grooves["tool"] == contour["tool"] == "VCMR331"
+        assert grooves["models"]["force_N"]["dK"] != contour["models"]["force_N"]["dK"]
+        missing = c.get(f"/plans/{plan_id}/models/versions", params={"operation": "nope"})
+        assert missing.status_code == 404 and missing.json()["field"] == "operation"
+
+
+def test_tools_can_be_added_read_back_and_used_by_a_plan(server):
+    name = f"TEST-{uuid.uuid4().hex[:8]}"
+    tool = {
+        "name": name,
+        "process": "turning",
+        "description": "a shop's own insert, fitted from test cuts",
+        "material": "AISI 1045",
+        "source": "test cuts 2026-11",
+        "models": {
+            "force_N": {
+                "K": 2000.0,
+                "dK": 200.0,
+                "exponents": {"depth_mm": 0.9, "feed_mm_rev": 0.8},
+            },
+            "roughness_um": {"K": 15.0, "dK": 2.0, "exponents": {"feed_mm_rev": 1.2}},
+        },
+    }
+    with server.client("engineer") as c, server.client("viewer") as v:
+        r = c.post("/tools", json=tool)
+        assert r.status_code == 201, r.text
+        got = v.get(f"/tools/{name}").json()
+        assert got["models"]["force_N"]["K"] == 2000.0 and got["source"] == "test cuts 2026-11"
+        assert name in {x["name"] for x in v.get("/tools").json()["tools"]}
+        assert "CNMG432RN" in {x["name"] for x in v.get("/tools").json()["tools"]}
+        again = c.post("/tools", json=tool)
+        assert again.status_code == 409 and again.json()["field"] == "name"
+        plan = {**PLAN, "operations": [{**PLAN["operations"][0], "tool": name}]}
+        plan["operations"][0]["limits"] = {"force_N": 2000, "roughness_um": 4.0}
+        created = c.post("/plans", json=plan)
+        assert created.status_code == 201, created.text
+        assert created.json()["operations"][0]["tool"] == name
+
+
+@pytest.mark.parametrize(
+    ("role", "method", "path", "status"),
+    [
+        (None, "get", "/plans", 401),
+        ("wrong", "get", "/plans", 401),
+        ("viewer", "post", "/plans/1/parts", 403),
+        ("mes", "post", "/plans", 403),
+        ("mes", "post", "/tools", 403),
+        ("viewer", "get", "/plans", 200),
+    ],
+)
+def test_roles(server, role, method, path, status):
+    headers = {}
+    if role == "wrong":
+        headers["Authorization"] = "Bearer rcb_not-a-key"
+    with server.client(None if role == "wrong" else role, headers=headers) as c:
+        r = getattr(c, method)(path, **({"json": {}} if method == "post" else {}))
+    assert r.status_code == status, r.text
+    if status >= 400:
+        assert r.headers["content-type"] == "application/problem+json"
+        assert r.json()["status"] == status and r.json()["field"] == "Authorization"
+    if status == 401:
+        assert r.headers["www-authenticate"] == "Bearer"
+
+
+def test_errors_are_problems_naming_the_field(server):
+    with server.client("engineer") as c:
+        plan_id = c.post("/plans", json=PLAN).json()["id"]
+        setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
+        body = _report("E1", setpoints)
+        missing = c.post(f"/plans/{plan_id}/parts", json=body)
+        assert missing.status_code == 400 and missing.json()["field"] == "Idempotency-Key"
+        assert _post_part(c, plan_id, body, f"e-{plan_id}").status_code == 201
+        reused = _post_part(c, plan_id, {**body, "serial": "E2"}, f"e-{plan_id}")
+        assert reused.status_code == 422 and reused.json()["code"] == "idempotency_key_reused"
+        duplicate = _post_part(c, plan_id, body, f"e-{plan_id}-other")
+        assert duplicate.status_code == 409 and duplicate.json()["field"] == "serial"
+        negative = {**body, "serial": "E3"}
+        negative["operations"] = [
+            {"name": "rough-od", "measurements": {"force_N": {"value": -5, "uncertainty": 3}}}
+        ]
+        r = _post_part(c, plan_id, negative, f"e-{plan_id}-neg")
+        assert r.status_code == 422
+        assert r.json()["field"] == "operations[0].measurements.force_N.value"
+        assert r.json()["value"] == -5
+        unknown = {**body, "serial": "E4", "operations": [{"name": "nope", "measurements": {}}]}
+        r = _post_part(c, plan_id, unknown, f"e-{plan_id}-unknown")
+        assert r.status_code == 422 and "nope" in r.json()["field"]
+        future = {**body, "serial": "E5", "setpoint_version": 99}
+        r = _post_part(c, plan_id, future, f"e-{plan_id}-future")
+        assert r.status_code == 422 and r.json()["field"] == "setpoint_version"
+        r = c.post(
+            f"/plans/{plan_id}/parts",
+            content=b"{not json",
+            headers={"Idempotency-Key": "x", "Content-Type": "application/json"},
+        )
+        assert r.status_code == 400 and r.headers["content-type"] == "application/problem+json"
+        assert c.get("/plans/999999/setpoints").status_code == 404
+        bad_plan = {**PLAN, "machine": {**PLAN["machine"], "max_power_kW": -1}}
+        r = c.post("/plans", json=bad_plan)
+        assert r.status_code == 422 and r.json()["field"] == "machine.max_power_kW"
+        # nothing of the refused reports was stored
+        assert c.get(f"/plans/{plan_id}").json()["parts"] == 1
+
+
+def test_writes_and_auth_failures_are_in_the_audit_log(server):
+    with server.client(None) as anon:
+        anon.get("/plans")
+    with server.client("viewer") as v:
+        v.post("/plans", json=PLAN)
+    with server.client("engineer") as c:
+        plan_id = c.post("/plans", json=PLAN).json()["id"]
+    engine = make_engine(server.url)
+    with Session(engine) as session:
+        rows = session.scalars(select(t.AuditEntry).order_by(t.AuditEntry.id)).all()
+        results = {(r.action, r.result) for r in rows}
+    engine.dispose()
+    assert ("GET /api/v1/plans", "unauthenticated") in results
+    assert ("POST /api/v1/plans", "forbidden") in results
+    assert ("create plan", "201") in results
+    assert any(r.target == "plan ivester-demo-part" and r.result == "201" for r in rows)
+    assert plan_id >= 1
+
+
+def test_openapi_is_served(server):
+    with server.client(None) as c:
+        doc = c.get("/openapi.json").json()
+    assert "/api/v1/plans/{plan_id}/parts" in doc["paths"]
+    assert doc["components"]["securitySchemes"]["HTTPBearer"]["scheme"] == "bearer"
