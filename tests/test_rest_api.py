@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import tomllib
 import uuid
 
@@ -9,6 +10,7 @@ import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from api.cli import app
 from db import tables as t
 from db.engine import make_engine
 
@@ -291,3 +293,38 @@ def test_openapi_is_served(server):
         doc = c.get("/openapi.json").json()
     assert "/api/v1/plans/{plan_id}/parts" in doc["paths"]
     assert doc["components"]["securitySchemes"]["HTTPBearer"]["scheme"] == "bearer"
+
+
+def test_keys_from_the_cli_work_until_revoked(server, runner):
+    created = runner.invoke(
+        app, ["keys", "create", "--role", "viewer", "--db", server.url, "--json"]
+    )
+    assert created.exit_code == 0, created.output
+    key = json.loads(created.stdout)
+    assert key["role"] == "viewer" and key["key"].startswith("rcb_")
+    headers = {"Authorization": f"Bearer {key['key']}"}
+    with server.client(None, headers=headers) as c:
+        assert c.get("/plans").status_code == 200
+        revoked = runner.invoke(app, ["keys", "revoke", str(key["id"]), "--db", server.url])
+        assert revoked.exit_code == 0, revoked.output
+        r = c.get("/plans")
+    assert r.status_code == 401 and r.json()["detail"] == "unknown or revoked API key"
+    engine = make_engine(server.url)
+    with Session(engine) as session:
+        stored = session.get(t.ApiKey, key["id"])
+        assert stored.key_hash != key["key"] and key["key"] not in stored.key_hash  # hashed
+    engine.dispose()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["keys", "create", "--role", "admin"], "--role = 'admin': expected one of"),
+        (["keys", "revoke", "9999"], "ID = 9999: no such API key"),
+        (["keys", "revoke", "abc"], "abc"),
+    ],
+)
+def test_key_commands_refuse_bad_input(tmp_path, runner, args, message):
+    result = runner.invoke(app, [*args, "--db", f"sqlite:///{tmp_path / 'k.db'}"])
+    assert result.exit_code == 2 and message in result.output
+    assert "Traceback" not in result.output

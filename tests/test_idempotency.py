@@ -1,0 +1,174 @@
+"""Idempotency-Key semantics at the service layer, on SQLite and PostgreSQL."""
+
+from __future__ import annotations
+
+import hashlib
+import tomllib
+
+import pytest
+from sqlalchemy import func, select, text
+from sqlalchemy.orm import Session
+
+from api import queries, service
+from db import keylock
+from db import tables as t
+from db.access import Actor
+from db.engine import make_engine, upgrade
+
+from conftest import DEMO_PLAN
+
+PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+
+
+@pytest.fixture
+def engine(backend_url):
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    yield engine
+    engine.dispose()
+
+
+def _body(serial, setpoints):
+    return {
+        "serial": serial,
+        "setpoint_version": setpoints["setpoint_version"],
+        "operations": [
+            {
+                "name": op["name"],
+                "measurements": {
+                    "force_N": {"value": op["predicted"]["force_N"]["value"], "uncertainty": 3.0}
+                },
+            }
+            for op in setpoints["operations"]
+        ],
+    }
+
+
+def _setup(engine):
+    key_id = service.create_key(engine=engine, role="mes")["id"]
+    actor = Actor(key_id, "mes", f"key:{key_id}")
+    plan_id = service.create_plan(engine=engine, body=PLAN).body["id"]
+    setpoints = queries.current_setpoints(engine=engine, plan_id=plan_id)
+    return actor, plan_id, setpoints
+
+
+def _idem(key, plan_id, body):
+    return service.Idempotency(key, service.fingerprint("POST", f"/plans/{plan_id}/parts", body))
+
+
+def _count(engine, table):
+    with Session(engine) as session:
+        return session.scalar(select(func.count()).select_from(table))
+
+
+def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
+    actor, plan_id, setpoints = _setup(engine)
+    body = _body("I1", setpoints)
+    first = service.report_part(
+        engine=engine,
+        plan_id=plan_id,
+        body=body,
+        actor=actor,
+        idempotency=_idem("k", plan_id, body),
+    )
+    assert first.status == 201 and not first.replayed
+    counts = [_count(engine, x) for x in (t.Part, t.RcbDecision, t.SetpointVersion)]
+    again = service.report_part(
+        engine=engine,
+        plan_id=plan_id,
+        body=body,
+        actor=actor,
+        idempotency=_idem("k", plan_id, body),
+    )
+    assert again.replayed and again.status == 201 and again.body == first.body
+    assert [_count(engine, x) for x in (t.Part, t.RcbDecision, t.SetpointVersion)] == counts
+    other = {**body, "serial": "I2"}
+    with pytest.raises(service.KeyReuseError):
+        service.report_part(
+            engine=engine,
+            plan_id=plan_id,
+            body=other,
+            actor=actor,
+            idempotency=_idem("k", plan_id, other),
+        )
+    # another client's key of the same name is its own
+    other_actor = Actor(None, "engineer", "cli")
+    fresh = service.report_part(
+        engine=engine,
+        plan_id=plan_id,
+        body=other,
+        actor=other_actor,
+        idempotency=_idem("k", plan_id, other),
+    )
+    assert fresh.status == 201 and not fresh.replayed
+
+
+def test_a_key_in_flight_is_refused_and_free_again_after(engine):
+    actor, plan_id, setpoints = _setup(engine)
+    body = _body("F1", setpoints)
+    scope = f"{actor.id}:busy"
+    if engine.dialect.name == "sqlite":
+        holder = keylock.in_flight(engine, scope)
+        assert holder.__enter__() is True  # as a running request would hold it
+        release = holder.__exit__
+    else:
+        lock_id = int.from_bytes(hashlib.sha256(scope.encode()).digest()[:8], "big", signed=True)
+        connection = engine.connect()
+        transaction = connection.begin()
+        connection.execute(text("SELECT pg_advisory_xact_lock(:id)"), {"id": lock_id})
+
+        def release(*_):
+            transaction.rollback()
+            connection.close()
+
+    try:
+        with pytest.raises(service.InFlightError):
+            service.report_part(
+                engine=engine,
+                plan_id=plan_id,
+                body=body,
+                actor=actor,
+                idempotency=_idem("busy", plan_id, body),
+            )
+    finally:
+        release(None, None, None)
+    assert _count(engine, t.Part) == 0
+    done = service.report_part(
+        engine=engine,
+        plan_id=plan_id,
+        body=body,
+        actor=actor,
+        idempotency=_idem("busy", plan_id, body),
+    )
+    assert done.status == 201
+
+
+def test_a_refused_report_stores_no_key_and_is_audited(engine):
+    actor, plan_id, setpoints = _setup(engine)
+    bad = _body("B1", setpoints)
+    bad["operations"][0]["measurements"]["force_N"]["value"] = -1.0
+    with pytest.raises(ValueError, match="force_N.value"):
+        service.report_part(
+            engine=engine,
+            plan_id=plan_id,
+            body=bad,
+            actor=actor,
+            idempotency=_idem("b", plan_id, bad),
+        )
+    assert _count(engine, t.IdempotencyRecord) == 0
+    good = _body("B1", setpoints)  # the corrected report may reuse the key
+    fixed = service.report_part(
+        engine=engine,
+        plan_id=plan_id,
+        body=good,
+        actor=actor,
+        idempotency=_idem("b", plan_id, good),
+    )
+    assert fixed.status == 201
+    with Session(engine) as session:
+        results = [
+            (a.action, a.result, a.actor)
+            for a in session.scalars(select(t.AuditEntry).order_by(t.AuditEntry.id))
+        ]
+    assert ("report part", "refused", actor.name) in results
+    assert ("report part", "201", actor.name) in results
