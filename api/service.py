@@ -25,13 +25,15 @@ from api import render
 from db import access, keylock, library
 from db import repository as repo
 from db.access import Actor
+from db.engine import reader
 from db.errors import ConflictError
+from db.state_cache import CACHE
 from models.catalogue import catalogue
 from models.errors import InputError
 from models.tool import tool_from_mapping
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import plan_from_mapping
-from supervisor.rcb import RcbSettings, update
+from supervisor.rcb import RcbSettings, RcbState, update
 from supervisor.report import report_from_mapping
 
 
@@ -261,6 +263,7 @@ def _report_part(
             before=state,
             after=new_state,
         )
+        written_state.append((repo.database_key(session), row.state_token, new_state))
         updates = [render.decision_json(d) for d in decisions]
         return 201, {
             "part_id": part_id,
@@ -270,7 +273,8 @@ def _report_part(
             **_ops(new_state.setpoints),
         }
 
-    return _write(
+    written_state: list[tuple[str, str, RcbState]] = []
+    written = _write(
         engine,
         actor=actor,
         action="report part",
@@ -278,6 +282,9 @@ def _report_part(
         idempotency=idempotency,
         work=work,
     )
+    for database, token, new_state in written_state:  # committed: the next part starts here
+        CACHE.put(database, plan_id, token, new_state)
+    return written
 
 
 def add_tool(
@@ -333,9 +340,12 @@ def revoke_key(*, engine: Engine, key_id: int) -> dict[str, Any]:
 
 def authenticate(*, engine: Engine, key: str | None, action: str) -> Actor | None:
     """The actor of a Bearer key, or None (the failure is audited)."""
-    with Session(engine) as session, session.begin():
-        actor = access.authenticate(session=session, key=key) if key else None
-        if actor is None:
+    actor = None
+    if key:
+        with Session(reader(engine)) as session, session.begin():  # no write lock for a read
+            actor = access.authenticate(session=session, key=key)
+    if actor is None:
+        with Session(engine) as session, session.begin():
             access.audit(
                 session=session,
                 actor="anonymous",

@@ -5,16 +5,18 @@ The caller owns the transaction (one use case, one transaction: :mod:`api.servic
 
 from __future__ import annotations
 
+import uuid
 from collections.abc import Mapping
 from dataclasses import asdict
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import func, insert, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.errors import ConflictError
 from db.library import ensure_tool, load_tools
+from db.state_cache import CACHE
 from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
 from supervisor.optimizer import OperationResult, PlanResult
@@ -40,6 +42,7 @@ def add_plan(
         strategy=settings.strategy,
         alpha=settings.alpha,
         current_setpoint_version=1,
+        state_token=new_token(),
     )
     session.add(plan_row)
     session.flush()
@@ -60,11 +63,22 @@ def add_plan(
         session.add(row)
         ops[op.name] = row
     session.flush()
-    for op in plan.operations:
-        for model in plan.tools[op.tool].models.values():
-            session.add(_model_version(ops[op.name].id, model, 1, "initial", None))
-    _add_setpoints(session, plan_row.id, ops, result, 1, "initial", None)
+    ids = {name: row.id for name, row in ops.items()}
+    session.execute(
+        insert(t.OperationModelVersion),
+        [
+            _model_version_row(ids[op.name], model, 1, "initial", None)
+            for op in plan.operations
+            for model in plan.tools[op.tool].models.values()
+        ],
+    )
+    _add_setpoints(session, plan_row.id, ids, result, 1, "initial", None)
     return plan_row.id
+
+
+def new_token() -> str:
+    """A fresh ``plans.state_token``."""
+    return uuid.uuid4().hex
 
 
 def get_plan_row(*, session: Session, plan_id: int, lock: bool = False) -> t.Plan | None:
@@ -76,22 +90,43 @@ def get_plan_row(*, session: Session, plan_id: int, lock: bool = False) -> t.Pla
 
 
 def load_state(*, session: Session, plan_row: t.Plan) -> RcbState:
-    """The RCB state of a plan as stored: models, band states and setpoints in force."""
+    """The RCB state of a plan as stored: models, band states and setpoints in force.
+
+    Call it with the plan row locked (``get_plan_row(lock=True)``): the state is then the
+    committed one of ``plan_row.state_token`` and is cached under it (:mod:`db.state_cache`).
+    """
+    database = database_key(session)
+    cached = CACHE.get(database, plan_row.id, plan_row.state_token)
+    if cached is not None:
+        return cached
+    state = _load_state(session, plan_row)
+    CACHE.put(database, plan_row.id, plan_row.state_token, state)
+    return state
+
+
+def database_key(session: Session) -> str:
+    """Which database a session talks to (the state cache's first key)."""
+    return session.get_bind().engine.url.render_as_string(hide_password=True)
+
+
+def _load_state(session: Session, plan_row: t.Plan) -> RcbState:
     ops = _operations(session, plan_row.id)
     plan = plan_from_mapping(plan_row.body, plan_tools(session=session, plan_id=plan_row.id))
     tools: dict[str, Tool] = {}
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}
     settings = RcbSettings(strategy=plan_row.strategy, alpha=plan_row.alpha)  # type: ignore[arg-type]
+    latest_models = _latest_models(session, plan_row.id)
+    band_states = _latest_band_states(session, plan_row.id)
     for op in plan.operations:
         base = plan.tools[op.tool]
         models = {}
         for quantity, baseline in base.models.items():
-            row = _latest_model(session, ops[op.name].id, quantity)
+            row = latest_models[(ops[op.name].id, quantity)]
             models[quantity] = PowerLawModel(
                 quantity, row.K, row.dK, dict(row.exponents), baseline.source, baseline.reference
             )
-            state = _latest_band_state(session, ops[op.name].id, quantity)
+            state = band_states.get((ops[op.name].id, quantity))
             if state is None:
                 sigma[(op.name, quantity)] = prior_sigma(baseline, settings)
             else:
@@ -163,73 +198,88 @@ def add_part(
     after: RcbState,
 ) -> int:
     """Store a part, its measurements and decisions, changed models, band states, setpoints."""
-    ops = _operations(session, plan_row.id)
+    ops = {name: row.id for name, row in _operations(session, plan_row.id).items()}
     part = t.Part(
         plan_id=plan_row.id, serial=report.serial, setpoint_version=report.setpoint_version
     )
     session.add(part)
     session.flush()
-    for name, measured in report.measurements.items():
-        for quantity, m in measured.items():
-            session.add(
-                t.Measurement(
-                    part_id=part.id,
-                    operation_id=ops[name].id,
-                    quantity=quantity,
-                    value=m.value,
-                    uncertainty=m.uncertainty,
-                    raw=None,
-                )
-            )
-    for name, wear in report.tool_wear.items():
-        session.add(
-            t.Measurement(
-                part_id=part.id,
-                operation_id=ops[name].id,
-                quantity="flank_wear_mm",
-                value=wear.flank_wear_mm.value,
-                uncertainty=wear.flank_wear_mm.uncertainty,
-                raw={"volume_mm3": wear.volume_mm3},
-            )
+    measurements: list[dict[str, Any]] = [
+        {
+            "part_id": part.id,
+            "operation_id": ops[name],
+            "quantity": quantity,
+            "value": m.value,
+            "uncertainty": m.uncertainty,
+            "raw": None,
+        }
+        for name, measured in report.measurements.items()
+        for quantity, m in measured.items()
+    ]
+    measurements += [
+        {
+            "part_id": part.id,
+            "operation_id": ops[name],
+            "quantity": "flank_wear_mm",
+            "value": wear.flank_wear_mm.value,
+            "uncertainty": wear.flank_wear_mm.uncertainty,
+            "raw": {"volume_mm3": wear.volume_mm3},
+        }
+        for name, wear in report.tool_wear.items()
+    ]
+    decision_rows = [
+        {
+            "part_id": part.id,
+            "operation_id": ops[d.operation],
+            "quantity": d.quantity,
+            "action": d.action,
+            "margin": d.margin,
+            "band_before": d.band_before,
+            "band_after": d.band_after,
+            "dK_before": d.dK_before,
+            "dK_after": d.dK_after,
+            "K_before": d.K_before,
+            "K_after": d.K_after,
+            "flagged": d.flagged,
+            "reason": d.reason,
+        }
+        for d in decisions
+    ]
+    band_states = [
+        {
+            "operation_id": ops[d.operation],
+            "quantity": d.quantity,
+            "part_id": part.id,
+            "seen": after.seen[(d.operation, d.quantity)],
+            "sigma": after.sigma[(d.operation, d.quantity)],
+        }
+        for d in decisions
+    ]
+    changed = [
+        (name, model)
+        for name, tool in after.tools.items()
+        for model in tool.models.values()
+        if before.tools[name].models[model.quantity] != model
+    ]
+    versions = _model_version_numbers(session, plan_row.id) if changed else {}
+    model_rows = [
+        _model_version_row(
+            ops[name], model, versions[(ops[name], model.quantity)] + 1, "part", part.id
         )
-    for d in decisions:
-        session.add(
-            t.RcbDecision(
-                part_id=part.id,
-                operation_id=ops[d.operation].id,
-                quantity=d.quantity,
-                action=d.action,
-                margin=d.margin,
-                band_before=d.band_before,
-                band_after=d.band_after,
-                dK_before=d.dK_before,
-                dK_after=d.dK_after,
-                K_before=d.K_before,
-                K_after=d.K_after,
-                flagged=d.flagged,
-                reason=d.reason,
-            )
-        )
-        key = (d.operation, d.quantity)
-        session.add(
-            t.BandState(
-                operation_id=ops[d.operation].id,
-                quantity=d.quantity,
-                part_id=part.id,
-                seen=after.seen[key],
-                sigma=after.sigma[key],
-            )
-        )
-    for name, tool in after.tools.items():
-        for quantity, model in tool.models.items():
-            if before.tools[name].models[quantity] != model:
-                latest = _latest_model(session, ops[name].id, quantity)
-                session.add(
-                    _model_version(ops[name].id, model, latest.version + 1, "part", part.id)
-                )
+        for name, model in changed
+    ]
+    for table, rows in (
+        (t.Measurement, measurements),
+        (t.RcbDecision, decision_rows),
+        (t.BandState, band_states),
+        (t.OperationModelVersion, model_rows),
+    ):
+        if rows:
+            session.execute(insert(table), rows)
     if after.version != before.version:
         _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "part", part.id)
         plan_row.current_setpoint_version = after.version
+    plan_row.state_token = new_token()
     session.flush()
     return part.id
 
@@ -252,46 +302,81 @@ def _operations(session: Session, plan_id: int) -> dict[str, t.Operation]:
     return {row.name: row for row in rows}
 
 
-def _model_version(
+def _model_version_row(
     operation_id: int, model: PowerLawModel, version: int, cause: str, part_id: int | None
-) -> t.OperationModelVersion:
-    return t.OperationModelVersion(
-        operation_id=operation_id,
-        quantity=model.quantity,
-        version=version,
-        K=model.K,
-        dK=model.dK,
-        exponents=dict(model.exponents),
-        cause=cause,
-        part_id=part_id,
+) -> dict[str, Any]:
+    return {
+        "operation_id": operation_id,
+        "quantity": model.quantity,
+        "version": version,
+        "K": model.K,
+        "dK": model.dK,
+        "exponents": dict(model.exponents),
+        "cause": cause,
+        "part_id": part_id,
+        "created_at": t.utcnow(),
+    }
+
+
+def _newest_versions(plan_id: int) -> Any:
+    """Subquery: the newest model version number per (operation id, quantity) of a plan."""
+    v = t.OperationModelVersion
+    return (
+        select(v.operation_id, v.quantity, func.max(v.version).label("version"))
+        .join(t.Operation, v.operation_id == t.Operation.id)
+        .where(t.Operation.plan_id == plan_id)
+        .group_by(v.operation_id, v.quantity)
+        .subquery()
     )
 
 
-def _latest_model(session: Session, operation_id: int, quantity: str) -> t.OperationModelVersion:
-    return session.scalars(
-        select(t.OperationModelVersion)
-        .where(
-            t.OperationModelVersion.operation_id == operation_id,
-            t.OperationModelVersion.quantity == quantity,
+def _latest_models(session: Session, plan_id: int) -> dict[tuple[int, str], Any]:
+    """The newest model version per (operation id, quantity) of a plan: K, dK, exponents."""
+    v = t.OperationModelVersion
+    newest = _newest_versions(plan_id)
+    rows = session.execute(
+        select(v.operation_id, v.quantity, v.K, v.dK, v.exponents).join(
+            newest,
+            (v.operation_id == newest.c.operation_id)
+            & (v.quantity == newest.c.quantity)
+            & (v.version == newest.c.version),
         )
-        .order_by(t.OperationModelVersion.version.desc())
-        .limit(1)
-    ).one()
+    )
+    return {(row.operation_id, row.quantity): row for row in rows}
 
 
-def _latest_band_state(session: Session, operation_id: int, quantity: str) -> t.BandState | None:
-    return session.scalars(
-        select(t.BandState)
-        .where(t.BandState.operation_id == operation_id, t.BandState.quantity == quantity)
-        .order_by(t.BandState.part_id.desc())
-        .limit(1)
-    ).one_or_none()
+def _model_version_numbers(session: Session, plan_id: int) -> dict[tuple[int, str], int]:
+    """The newest model version number per (operation id, quantity) of a plan."""
+    newest = _newest_versions(plan_id)
+    rows = session.execute(select(newest.c.operation_id, newest.c.quantity, newest.c.version))
+    return {(row.operation_id, row.quantity): row.version for row in rows}
+
+
+def _latest_band_states(session: Session, plan_id: int) -> dict[tuple[int, str], t.BandState]:
+    """The newest band state per (operation id, quantity) of a plan, in one query."""
+    b = t.BandState
+    newest = (
+        select(b.operation_id, b.quantity, func.max(b.part_id).label("part_id"))
+        .join(t.Operation, b.operation_id == t.Operation.id)
+        .where(t.Operation.plan_id == plan_id)
+        .group_by(b.operation_id, b.quantity)
+        .subquery()
+    )
+    rows = session.scalars(
+        select(b).join(
+            newest,
+            (b.operation_id == newest.c.operation_id)
+            & (b.quantity == newest.c.quantity)
+            & (b.part_id == newest.c.part_id),
+        )
+    )
+    return {(row.operation_id, row.quantity): row for row in rows}
 
 
 def _add_setpoints(
     session: Session,
     plan_id: int,
-    ops: Mapping[str, t.Operation],
+    ops: Mapping[str, int],
     result: PlanResult,
     version: int,
     cause: str,
@@ -300,18 +385,23 @@ def _add_setpoints(
     version_row = t.SetpointVersion(plan_id=plan_id, version=version, cause=cause, part_id=part_id)
     session.add(version_row)
     session.flush()
-    for op in result.operations:
-        session.add(
-            t.Setpoint(
-                setpoint_version_id=version_row.id,
-                operation_id=ops[op.name].id,
-                parameters=dict(op.setpoint),
-                predicted={q: {"value": p.value, "band": p.band} for q, p in op.predicted.items()},
-                binding=list(op.binding),
-                mrr_cm3_min=op.mrr_cm3_min,
-                time_min=op.time_min,
-            )
-        )
+    session.execute(
+        insert(t.Setpoint),
+        [
+            {
+                "setpoint_version_id": version_row.id,
+                "operation_id": ops[op.name],
+                "parameters": dict(op.setpoint),
+                "predicted": {
+                    q: {"value": p.value, "band": p.band} for q, p in op.predicted.items()
+                },
+                "binding": list(op.binding),
+                "mrr_cm3_min": op.mrr_cm3_min,
+                "time_min": op.time_min,
+            }
+            for op in result.operations
+        ],
+    )
 
 
 def count_parts(*, session: Session, plan_id: int) -> int:

@@ -2,7 +2,7 @@
 
 History is append-only: a band change is a new row in ``operation_model_versions``, a new
 optimum a new ``setpoint_versions`` row with its ``setpoints``; nothing is updated in place
-except ``plans.current_setpoint_version`` (a pointer) and an idempotency record's state.
+except the pointers ``plans.current_setpoint_version`` and ``plans.state_token``.
 Units live in column names, as in the domain objects.
 """
 
@@ -92,6 +92,9 @@ class Plan(Base):
     strategy: Mapped[str] = mapped_column(String(20), default="ivester")
     alpha: Mapped[float] = mapped_column(default=0.25)
     current_setpoint_version: Mapped[int] = mapped_column(default=1)
+    #: A new random value with every write to the plan's RCB state (a part, a replan): what
+    #: an in-process cache of the loaded state is keyed on (db.state_cache).
+    state_token: Mapped[str] = mapped_column(String(32), default="", server_default="")
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
 
 

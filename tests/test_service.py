@@ -13,6 +13,7 @@ from api import queries, service
 from db import repository as repo
 from db.engine import make_engine, upgrade
 from db.errors import ConflictError
+from db.state_cache import CACHE
 from models.errors import InputError
 from supervisor.plan import plan_from_mapping
 from supervisor.rcb import start, update
@@ -133,3 +134,27 @@ def test_a_part_made_with_an_older_version_is_judged_at_that_version(engine):
         assert u["predicted"] == pytest.approx(at_v1, rel=1e-9)
     changed = [u for u in answer["updates"] if v1[u["operation"]] != v2[u["operation"]]]
     assert changed  # some operation moved, so judging at version 2 would differ
+
+
+def test_the_cached_state_is_the_stored_state(engine):
+    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    bodies, replayed = _reports(6, seed=5)
+    for body in bodies:
+        service.report_part(engine=engine, plan_id=plan_id, body=body)
+
+    def load():
+        with Session(engine) as session, session.begin():
+            row = repo.get_plan_row(session=session, plan_id=plan_id, lock=True)
+            return repo.load_state(session=session, plan_row=row)
+
+    cached = load()
+    assert cached is load()  # served from the cache: the same object
+    CACHE.clear()
+    stored = load()
+    assert stored is not cached
+    assert stored.tools == cached.tools and stored.version == cached.version
+    assert stored.sigma == cached.sigma and stored.seen == cached.seen
+    for a, b in zip(stored.setpoints.operations, cached.setpoints.operations, strict=True):
+        assert (a.setpoint, a.predicted, a.binding) == (b.setpoint, b.predicted, b.binding)
+        assert a.mrr_cm3_min == b.mrr_cm3_min
+    assert stored.tools == replayed.tools
