@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import time
 import tomllib
 import uuid
 
+import httpx
 import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -15,6 +20,7 @@ from db import tables as t
 from db.engine import make_engine
 
 from conftest import DEMO_PLAN
+from live import RCB, free_port
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 LIMITS = {op["name"]: op["limits"] for op in PLAN["operations"]}
@@ -328,3 +334,34 @@ def test_key_commands_refuse_bad_input(tmp_path, runner, args, message):
     result = runner.invoke(app, [*args, "--db", f"sqlite:///{tmp_path / 'k.db'}"])
     assert result.exit_code == 2 and message in result.output
     assert "Traceback" not in result.output
+
+
+def test_serve_migrates_a_fresh_database_on_first_start(tmp_path):
+    url = f"sqlite:///{tmp_path / 'fresh.db'}"
+    port = free_port()
+    log = (tmp_path / "serve.log").open("wb")
+    process = subprocess.Popen(
+        [str(RCB), "serve", "--db", url, "--port", str(port)],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
+    try:
+        for _ in range(300):  # at most 30 s
+            try:
+                r = httpx.get(f"http://127.0.0.1:{port}/api/v1/health", timeout=1.0)
+                break
+            except httpx.HTTPError:
+                assert process.poll() is None, (tmp_path / "serve.log").read_text()
+                time.sleep(0.1)
+        assert r.status_code == 200
+        r = httpx.get(f"http://127.0.0.1:{port}/api/v1/plans", timeout=5.0)
+        assert r.status_code == 401  # the tables exist: the failure was audited, not a 500
+    finally:
+        os.killpg(process.pid, signal.SIGTERM)
+        process.wait(timeout=15)
+        log.close()
+    engine = make_engine(url)
+    with Session(engine) as session:
+        assert session.scalars(select(t.AuditEntry.result)).all() == ["unauthenticated"]
+    engine.dispose()
