@@ -398,4 +398,7 @@ def serve(
         workers=workers,
         access_log=access_log,
         log_level="info",
+        # a worker imports cvxpy (about 2 s) before it answers; two starting at once on a busy
+        # 2-core machine can miss uvicorn's default 5 s and be restarted
+        timeout_worker_healthcheck=30,
     )
