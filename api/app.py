@@ -9,7 +9,6 @@ of :mod:`api.service` (writes) or :mod:`api.queries` (reads).
 # names local to create_app
 
 import os
-import re
 from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
@@ -23,7 +22,13 @@ from db.access import Actor
 from db.engine import DEFAULT_URL, make_engine
 
 PREFIX = "/api/v1"
-_KEY_PATTERN = re.compile(r"^[\x21-\x7e]{1,255}$")  # visible ASCII, as an sf-string allows
+#: Largest id (the tables' integer keys are 32-bit on PostgreSQL).
+MAX_ID = 2**31 - 1
+#: Idempotency-Key: 1 to 255 visible ASCII characters (an sf-string; the column's width).
+KEY_PATTERN = r"^[\x21-\x7e]{1,255}$"
+_KEY_DOC = (
+    "a client-chosen unique key per request (IETF Idempotency-Key draft); 1-255 visible ASCII"
+)
 
 _bearer = HTTPBearer(auto_error=False, description="An API key from `rcb keys create`.")
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
@@ -52,7 +57,8 @@ def create_app(url: str) -> FastAPI:
             request: Request,
             credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
         ) -> Actor:
-            action = f"{request.method} {request.url.path}"
+            route = request.scope.get("route")
+            action = f"{request.method} {getattr(route, 'path', '?')}"  # the template: bounded
             key = credentials.credentials if credentials else None
             actor = service.authenticate(engine=engine, key=key, action=action)
             if actor is None:
@@ -79,7 +85,7 @@ def create_app(url: str) -> FastAPI:
     anyone = Depends(role("mes", "engineer", "viewer"))
     reporter = Depends(role("mes", "engineer"))
     engineer = Depends(role("engineer"))
-    PlanId = Annotated[int, Path(ge=1, le=2**62)]
+    PlanId = Annotated[int, Path(ge=1, le=MAX_ID)]
 
     @app.get(f"{PREFIX}/health", response_model=schemas.Health, tags=["service"])
     def health() -> dict[str, str]:
@@ -95,20 +101,23 @@ def create_app(url: str) -> FastAPI:
     )
     def create_plan(
         request: Request,
-        body: Annotated[dict[str, Any], Body(openapi_examples=_PLAN_EXAMPLE)],
+        plan: Annotated[schemas.PlanIn, Body(openapi_examples=_PLAN_EXAMPLE)],
         actor: Annotated[Actor, engineer],
         strategy: Literal["ivester", "bayes"] = "ivester",
         alpha: Annotated[float, Query(gt=0, le=1, allow_inf_nan=False)] = 0.25,
-        idempotency_key: Annotated[str | None, Header()] = None,
+        idempotency_key: Annotated[
+            str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
+        ] = None,
     ) -> JSONResponse:
         """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
+        body = plan.model_dump(mode="json", exclude_none=True)
         written = service.create_plan(
             engine=engine,
             body=body,
             strategy=strategy,
             alpha=alpha,
             actor=actor,
-            idempotency=_idempotency(request, idempotency_key, body, required=False),
+            idempotency=_idempotency(request, idempotency_key, body),
         )
         return _written(written)
 
@@ -141,7 +150,7 @@ def create_app(url: str) -> FastAPI:
         plan_id: PlanId,
         report: schemas.PartReportIn,
         actor: Annotated[Actor, reporter],
-        idempotency_key: Annotated[str | None, Header()] = None,
+        idempotency_key: Annotated[str, Header(pattern=KEY_PATTERN, description=_KEY_DOC)],
     ) -> JSONResponse:
         """Report a made part; RCB applies at the setpoint version it was made with."""
         body = report.model_dump(mode="json", exclude_none=True)
@@ -150,7 +159,7 @@ def create_app(url: str) -> FastAPI:
             plan_id=plan_id,
             body=body,
             actor=actor,
-            idempotency=_idempotency(request, idempotency_key, body, required=True),
+            idempotency=_idempotency(request, idempotency_key, body),
         )
         return _written(written)
 
@@ -158,7 +167,10 @@ def create_app(url: str) -> FastAPI:
     def parts(
         plan_id: PlanId,
         actor: Annotated[Actor, anyone],
-        cursor: Annotated[str | None, Query(max_length=40)] = None,
+        cursor: Annotated[
+            str | None,
+            Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
+        ] = None,
         limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = 50,
     ) -> dict[str, Any]:
         """The plan's parts, oldest first, a page at a time."""
@@ -184,8 +196,8 @@ def create_app(url: str) -> FastAPI:
     def model_versions(
         plan_id: PlanId,
         actor: Annotated[Actor, anyone],
-        operation: Annotated[str | None, Query(max_length=200)] = None,
-        quantity: Annotated[str | None, Query(max_length=50)] = None,
+        operation: Annotated[str | None, Query(max_length=200, pattern=schemas.NO_NUL)] = None,
+        quantity: Annotated[str | None, Query(max_length=50, pattern=schemas.NO_NUL)] = None,
     ) -> dict[str, Any]:
         """Every model version with its cause, optionally of one operation and quantity."""
         return queries.model_versions(
@@ -199,7 +211,8 @@ def create_app(url: str) -> FastAPI:
 
     @app.get(f"{PREFIX}/tools/{{name}}", response_model=schemas.ToolOut, tags=["tools"])
     def get_tool(
-        name: Annotated[str, Path(max_length=200)], actor: Annotated[Actor, anyone]
+        name: Annotated[str, Path(max_length=200, pattern=schemas.NO_NUL)],
+        actor: Annotated[Actor, anyone],
     ) -> dict[str, Any]:
         """One tool with its baseline models and their provenance."""
         return queries.get_tool(engine=engine, name=name)
@@ -215,7 +228,9 @@ def create_app(url: str) -> FastAPI:
         request: Request,
         tool: schemas.ToolIn,
         actor: Annotated[Actor, engineer],
-        idempotency_key: Annotated[str | None, Header()] = None,
+        idempotency_key: Annotated[
+            str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
+        ] = None,
     ) -> JSONResponse:
         """Add a tool with its baseline models (a new name; stored tools never change)."""
         body = tool.model_dump(mode="json", exclude_none=True)
@@ -224,7 +239,7 @@ def create_app(url: str) -> FastAPI:
             engine=engine,
             body=body,
             actor=actor,
-            idempotency=_idempotency(request, idempotency_key, body, required=False),
+            idempotency=_idempotency(request, idempotency_key, body),
         )
         return _written(written)
 
@@ -268,26 +283,10 @@ _PLAN_EXAMPLE = {
 }
 
 
-def _idempotency(
-    request: Request, key: str | None, body: object, *, required: bool
-) -> service.Idempotency | None:
+def _idempotency(request: Request, key: str | None, body: object) -> service.Idempotency | None:
+    # presence (where required) and form were checked by FastAPI: a 400 (api.problems)
     if key is None:
-        if required:
-            raise ProblemError(
-                400,
-                "idempotency_key_missing",
-                "this POST needs an Idempotency-Key header",
-                "Idempotency-Key",
-            )
         return None
-    if not _KEY_PATTERN.match(key):
-        raise ProblemError(
-            400,
-            "idempotency_key_invalid",
-            "Idempotency-Key must be 1 to 255 visible ASCII characters",
-            "Idempotency-Key",
-            key,
-        )
     return service.Idempotency(key, service.fingerprint("POST", request.url.path, body))
 
 

@@ -16,6 +16,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from api.service import InFlightError, KeyReuseError, NotFoundError
 from db.errors import ConflictError
@@ -23,6 +24,7 @@ from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
 
 MEDIA_TYPE = "application/problem+json"
+KEY_HEADER = "Idempotency-Key"
 _TYPE_BASE = "urn:rcb-supervisor:problem:"
 _log = logging.getLogger("rcb.api")
 
@@ -105,7 +107,8 @@ def field_path(loc: Sequence[str | int]) -> str:
 
 
 def install(app: FastAPI) -> None:
-    """Register the handlers that turn every error into problem+json."""
+    """Register the handlers that turn every error into problem+json, and document them so."""
+    _document(app)
 
     @app.exception_handler(ProblemError)
     async def _problem(request: Request, err: ProblemError) -> JSONResponse:
@@ -156,6 +159,15 @@ def install(app: FastAPI) -> None:
         first = errors[0] if errors else {"field": "body", "message": "invalid", "value": None}
         if any(e.get("type") == "json_invalid" for e in err.errors()):
             return problem(request, 400, "malformed_json", "the body is not valid JSON", "body")
+        for e in err.errors():  # the Idempotency-Key header: 400, as the IETF draft asks
+            loc = [str(part).lower() for part in e.get("loc", ())]
+            if loc[:2] == ["header", "idempotency-key"]:
+                if e.get("type") == "missing":
+                    detail = "this POST needs an Idempotency-Key header"
+                    return problem(request, 400, "idempotency_key_missing", detail, KEY_HEADER)
+                detail = "Idempotency-Key must be 1 to 255 visible ASCII characters"
+                value = e.get("input")
+                return problem(request, 400, "idempotency_key_invalid", detail, KEY_HEADER, value)
         detail = f"{first['field']} = {first['value']!r}: {first['message']}"
         return problem(
             request, 422, "invalid", detail, first["field"], first["value"], errors=errors
@@ -164,11 +176,51 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def _http(request: Request, err: StarletteHTTPException) -> JSONResponse:
         code = {404: "not_found", 405: "method_not_allowed"}.get(err.status_code, "http_error")
-        return problem(
-            request, err.status_code, code, str(err.detail), headers=getattr(err, "headers", None)
-        )
+        headers = getattr(err, "headers", None)
+        if err.status_code == 405:
+            headers = {**(headers or {}), "Allow": _allowed(request)}
+        return problem(request, err.status_code, code, str(err.detail), headers=headers)
 
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, err: Exception) -> JSONResponse:
         _log.exception("unexpected error on %s %s", request.method, request.url.path)
         return problem(request, 500, "internal", "internal error; nothing was stored")
+
+
+def _allowed(request: Request) -> str:
+    """Every method of the resource at the request's path (RFC 9110 ``Allow``).
+
+    Starlette answers 405 from the first route whose path matched, naming only that route's
+    methods; a path can have several routes (``GET`` and ``POST /plans``).
+    """
+    methods: set[str] = set()
+    for route in request.app.router.routes:
+        match, _ = route.matches(request.scope)
+        if match is not Match.NONE:
+            methods |= getattr(route, "methods", None) or set()
+    return ", ".join(sorted(methods))
+
+
+def _document(app: FastAPI) -> None:
+    """Document error responses as what the handlers send: ``application/problem+json``.
+
+    A ``responses`` entry with a ``model`` puts the model's schema under ``application/json``,
+    which no error is sent as, and leaves the ``application/problem+json`` entry without a
+    schema; this moves the schema to the problem media type.
+    """
+    generate = app.openapi
+
+    def openapi() -> dict[str, Any]:
+        document = generate()
+        for item in document.get("paths", {}).values():
+            for operation in item.values():
+                if not isinstance(operation, dict):
+                    continue
+                for response in operation.get("responses", {}).values():
+                    content = response.get("content", {})
+                    if MEDIA_TYPE in content and "schema" not in content[MEDIA_TYPE]:
+                        if "schema" in content.get("application/json", {}):
+                            content[MEDIA_TYPE] = content.pop("application/json")
+        return document
+
+    app.openapi = openapi  # type: ignore[method-assign]

@@ -5,6 +5,7 @@ Each runs in one read transaction (on SQLite a deferred one, so it never waits f
 
 from __future__ import annotations
 
+import re
 from datetime import UTC, datetime
 from typing import Any
 
@@ -261,7 +262,7 @@ def _utc(moment: datetime) -> datetime:
 def _cursor(cursor: str | None) -> int:
     if cursor is None:
         return 0
-    if not cursor.isdigit():
+    if re.fullmatch(r"[0-9]{1,10}", cursor) is None or int(cursor) > 2**31 - 1:
         raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
     return int(cursor)
 

@@ -9,10 +9,41 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-#: A string with something in it (the domain readers refuse blank text).
-Text = Annotated[str, Field(pattern=r"\S")]
+from models.kinematics import CONTEXT, PARAMETERS, PROCESSES
+from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
+from supervisor.plan import PARTS_PER_EDGE
+
+
+def _storable(value: str) -> str:
+    """Refuse what no database column can hold: NUL, unpaired surrogates (JSON allows both)."""
+    if "\x00" in value:
+        raise ValueError("must not contain NUL characters")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ValueError("must be valid Unicode (an unpaired surrogate)") from None
+    return value
+
+
+#: A string with something in it (the domain readers refuse blank text) that can be stored.
+Text = Annotated[str, Field(pattern=r"\S"), AfterValidator(_storable)]
+#: A path or query value without NUL (PostgreSQL refuses it in a query).
+NO_NUL = r"^[^\x00]*$"
+
+#: Quantities a part report may measure: every model quantity but tool life, which follows from
+#: ``tool_wear`` (:func:`supervisor.rcb.update`; the operation's tool must model it).
+MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"]
+
+
+def _keys(names: list[str]) -> dict[str, Any]:
+    """JSON Schema of a table whose keys the domain reader checks.
+
+    Documented, not validated here: the reader's error, naming the field and the known keys, is
+    what the client sees.
+    """
+    return {"propertyNames": {"enum": names}}
 
 
 class _Out(BaseModel):
@@ -79,7 +110,7 @@ class Setpoints(_Out):
 class MeasurementIn(BaseModel):
     """A measured value and its (expanded) uncertainty, in the quantity's unit."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     value: float = Field(ge=0)
     uncertainty: float = Field(ge=0)
 
@@ -87,7 +118,7 @@ class MeasurementIn(BaseModel):
 class ToolWearIn(BaseModel):
     """Flank wear of the operation's edge and the volume the edge has cut so far."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     flank_wear_mm: MeasurementIn
     volume_mm3: float = Field(gt=0)
 
@@ -95,17 +126,21 @@ class ToolWearIn(BaseModel):
 class OperationReport(BaseModel):
     """What was measured on one operation of a part."""
 
-    model_config = ConfigDict(extra="forbid")
-    name: str = Field(min_length=1)
-    measurements: dict[str, MeasurementIn] = Field(default_factory=dict)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text
+    measurements: dict[str, MeasurementIn] = Field(
+        default_factory=dict,
+        description="per quantity the operation's tool models (tool life: ``tool_wear``)",
+        json_schema_extra=_keys(MEASURABLE),
+    )
     tool_wear: ToolWearIn | None = None
 
 
 class PartReportIn(BaseModel):
     """A part report from the MES."""
 
-    model_config = ConfigDict(extra="forbid")
-    serial: str = Field(min_length=1, max_length=200)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    serial: Text = Field(max_length=200)
     setpoint_version: int = Field(ge=1)
     operations: list[OperationReport]
 
@@ -298,24 +333,51 @@ class ModelVersions(_Out):
 class ModelIn(BaseModel):
     """A power-law model ``Y = K·Π x_i^e_i`` with band ±ΔK."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     K: float = Field(gt=0)
     dK: float = Field(0.0, ge=0)
-    exponents: dict[str, float] = Field(default_factory=dict)
+    exponents: dict[str, float] = Field(
+        default_factory=dict,
+        description="per variable of the tool's process: its parameters and context",
+        json_schema_extra=_keys(sorted({v for p in PROCESSES for v in PARAMETERS[p] + CONTEXT[p]})),
+    )
     source: Text | None = Field(None, description="default: the tool's source")
     reference: Text | None = Field(None, description="where in the source (table, equation)")
+
+
+def _exponents_of_process(schema: dict[str, Any]) -> None:
+    """A model's exponents may only name the variables of the tool's own process."""
+    schema["allOf"] = [
+        {
+            "if": {"properties": {"process": {"const": p}}},
+            "then": {
+                "properties": {
+                    "models": {
+                        "additionalProperties": {
+                            "properties": {"exponents": _keys(list(PARAMETERS[p] + CONTEXT[p]))}
+                        }
+                    }
+                }
+            },
+        }
+        for p in PROCESSES
+    ]
 
 
 class ToolIn(BaseModel):
     """A tool with its models, as in a plan file's ``[[tools]]``."""
 
-    model_config = ConfigDict(extra="forbid")
-    name: Annotated[str, Field(max_length=200)] = Field(pattern=r"\S")
+    model_config = ConfigDict(
+        extra="forbid", allow_inf_nan=False, json_schema_extra=_exponents_of_process
+    )
+    name: Text = Field(max_length=200)
     process: Literal["turning", "milling"]
     description: Text | None = None
     material: Text | None = None
     source: Text | None = Field(None, description="where the models come from (default: REST API)")
-    models: dict[str, ModelIn] = Field(min_length=1)
+    models: dict[str, ModelIn] = Field(
+        min_length=1, json_schema_extra=_keys(list(MODEL_QUANTITIES))
+    )
 
 
 class ModelOut(_Out):
@@ -343,3 +405,64 @@ class ToolList(_Out):
     """The catalogue and the stored tools."""
 
     tools: list[ToolOut]
+
+
+#: What an operation's ``limits`` may name: maxima of the models, the machine quantities, and
+#: the tool-life minimum ``parts_per_edge`` (supervisor.plan).
+LIMITS = [q for q, info in MODEL_QUANTITIES.items() if info.sense == "max"]
+LIMITS += [*DERIVED_QUANTITIES, PARTS_PER_EDGE]
+_ALL_PARAMETERS = sorted({v for p in PROCESSES for v in PARAMETERS[p]})
+
+
+class MachineIn(BaseModel):
+    """The machine and its limits (omitted: no limit)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text = Field(max_length=200)
+    max_power_kW: float | None = Field(None, gt=0)
+    max_spindle_rpm: float | None = Field(None, gt=0)
+    max_torque_Nm: float | None = Field(None, gt=0)
+    max_feed_rate_mm_min: float | None = Field(None, gt=0)
+
+
+class OperationIn(BaseModel):
+    """One operation of a plan, as in a plan file's ``[[operations]]``."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text = Field(max_length=200)
+    process: Literal["turning", "milling"] | None = Field(None, description="default: the tool's")
+    tool: Text = Field(max_length=200, description="a catalogue, stored or inline tool")
+    description: Text | None = None
+    volume_mm3: float = Field(gt=0, description="material the operation removes")
+    limits: dict[str, float] = Field(
+        default_factory=dict,
+        description="maxima of predicted quantities, and parts_per_edge (a minimum)",
+        json_schema_extra=_keys(LIMITS),
+    )
+    bounds: dict[str, tuple[float, float]] = Field(
+        description="[low, high] of every cutting parameter of the process",
+        json_schema_extra=_keys(_ALL_PARAMETERS),
+    )
+    workpiece_diameter_mm: float | None = Field(None, gt=0, description="turning")
+    tool_diameter_mm: float | None = Field(None, gt=0, description="milling")
+    flute_count: int | None = Field(None, ge=1, description="milling")
+    allowable_flank_wear_mm: float | None = Field(None, gt=0, description="default 0.3 (ISO 3685)")
+    setpoint_rel_uncertainty: dict[str, float] | None = Field(
+        None,
+        description="relative setpoint uncertainties Δx/x",
+        json_schema_extra=_keys(_ALL_PARAMETERS),
+    )
+    catalog_setpoint: dict[str, float] | None = Field(
+        None, description="the shop's current parameters", json_schema_extra=_keys(_ALL_PARAMETERS)
+    )
+
+
+class PlanIn(BaseModel):
+    """A plan: the structure of a plan file, as JSON."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text = Field(max_length=200)
+    description: Text | None = None
+    machine: MachineIn
+    tools: list[ToolIn] | None = Field(None, description="inline tools (else catalogue or stored)")
+    operations: list[OperationIn] = Field(min_length=1)

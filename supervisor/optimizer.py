@@ -324,9 +324,11 @@ def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
     against: list[str] = []
     for row, slack, lhs, bad in zip(lp.rows, slacks, A @ x.value, violated, strict=True):
         if bad:
-            factor = math.exp(slack) if row.sense == "max" else math.exp(-slack)
             given = row.limit / row.scale
-            conflicts.append(Conflict(row.given_as, given, given * factor, row.sense))
+            # in logarithms: a limit as tiny as 5e-324 needs a slack whose exp overflows
+            log_required = math.log(given) + (slack if row.sense == "max" else -slack)
+            required = math.exp(min(log_required, 709.0))
+            conflicts.append(Conflict(row.given_as, given, required, row.sense))
         elif row.rhs - lhs <= BINDING_TOL:
             against.append(row.given_as)
     for p, v, lo, hi in zip(lp.parameters, x.value, lp.lower, lp.upper, strict=True):

@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 
 from api.cli import app
 from models.catalogue import get_tool
+from supervisor.errors import InfeasibleError
 from supervisor.formulation import formulate
 from supervisor.optimizer import _program, is_dpp, optimize_operation, optimize_plan
 from supervisor.plan import load_plan, plan_from_mapping
@@ -240,3 +241,29 @@ def test_table_output_shows_the_json_numbers(runner):
         assert f"{value:.4g}" in row  # 2.944, 0.3248 (Table 5 step 1 row R: 3.0, 0.32)
     assert f"{rough['mrr_cm3_min']:.4g}" in row  # 191.2
     assert f"cycle time {data['cycle_time_min']:.4g} min" in table.stdout
+
+
+def test_absurdly_small_machine_limits_are_diagnosed_not_overflowed():
+    # found by schemathesis: max_spindle_rpm = 5e-324 made the diagnosis's exp(slack) overflow
+    body = {
+        "name": "tiny",
+        "machine": {"name": "m", "max_spindle_rpm": 5e-324, "max_torque_Nm": 5e-324},
+        "operations": [
+            {
+                "name": "rough-od",
+                "tool": "CNMG432RN",
+                "workpiece_diameter_mm": 60,
+                "volume_mm3": 86400,
+                "bounds": {
+                    "depth_mm": [0.5, 3],
+                    "feed_mm_rev": [0.1, 0.6],
+                    "speed_m_min": [100, 200],
+                },
+            }
+        ],
+    }
+    with pytest.raises(InfeasibleError) as err:
+        optimize_plan(plan_from_mapping(body))
+    needed = {c.name: c.required for c in err.value.conflicts}
+    # at the lower bounds (v = 100 m/min on Ø60): n = 1000·v/(π·D) = 530.5 rpm
+    assert needed["machine.max_spindle_rpm"] == pytest.approx(1000 * 100 / (math.pi * 60), rel=1e-6)
