@@ -29,6 +29,7 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api import render, service
+from api.cli_fit import fit
 from db.engine import DEFAULT_URL, make_engine, upgrade
 from models import fields
 from models.catalogue import get_tool
@@ -293,6 +294,8 @@ def demo(
     for table in render.demo_tables(result):
         _out.print(table)
 
+
+app.command()(fit)  # rcb fit: api/cli_fit.py
 
 db_app = typer.Typer(help="The database: migrations.", no_args_is_help=True)
 app.add_typer(db_app, name="db")
