@@ -102,6 +102,7 @@ def parts(
                     entry["measurements"][m.quantity] = {
                         "value": m.value,
                         "uncertainty": m.uncertainty,
+                        **({"raw": m.raw} if m.raw else {}),
                     }
             items.append(
                 {

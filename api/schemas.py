@@ -34,7 +34,7 @@ NO_NUL = r"^[^\x00]*$"
 
 #: Quantities a part report may measure: every model quantity but tool life, which follows from
 #: ``tool_wear`` (:func:`supervisor.rcb.update`; the operation's tool must model it).
-MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"]
+MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
 
 
 def _keys(names: list[str]) -> dict[str, Any]:
@@ -115,6 +115,23 @@ class MeasurementIn(BaseModel):
     uncertainty: float = Field(ge=0)
 
 
+class ReadingIn(MeasurementIn):
+    """A measurement, or a raw spindle reading the machine's calibration converts to force_N.
+
+    The optional fields are for ``spindle_load_V`` and ``spindle_current_A`` readings only:
+    what the conversion needs and the setpoint does not say (the idle load, a measured speed).
+    """
+
+    calibration: Text | None = Field(None, max_length=200, description="machine calibration")
+    spindle_speed_rpm: float | None = Field(None, gt=0)
+    workpiece_diameter_mm: float | None = Field(None, gt=0)
+    u_workpiece_diameter_mm: float | None = Field(None, ge=0)
+    idle_load_V: float | None = Field(None, ge=0)
+    u_idle_load_V: float | None = Field(None, ge=0)
+    feed_rate_mm_min: float | None = Field(None, gt=0)
+    u_feed_rate_mm_min: float | None = Field(None, ge=0)
+
+
 class ToolWearIn(BaseModel):
     """Flank wear of the operation's edge and the volume the edge has cut so far."""
 
@@ -128,9 +145,10 @@ class OperationReport(BaseModel):
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     name: Text
-    measurements: dict[str, MeasurementIn] = Field(
+    measurements: dict[str, ReadingIn] = Field(
         default_factory=dict,
-        description="per quantity the operation's tool models (tool life: ``tool_wear``)",
+        description="per quantity the operation's tool models (tool life: ``tool_wear``), "
+        "or a spindle reading converted to force_N by the machine's calibration",
         json_schema_extra=_keys(MEASURABLE),
     )
     tool_wear: ToolWearIn | None = None
@@ -171,10 +189,11 @@ class PartCreated(_Out):
 
 
 class MeasurementOut(_Out):
-    """A stored measurement."""
+    """A stored measurement; ``raw``: the spindle reading it was converted from, if any."""
 
     value: float
     uncertainty: float
+    raw: dict[str, Any] | None = None
 
 
 class ToolWearOut(_Out):
@@ -423,6 +442,12 @@ class MachineIn(BaseModel):
     max_spindle_rpm: float | None = Field(None, gt=0)
     max_torque_Nm: float | None = Field(None, gt=0)
     max_feed_rate_mm_min: float | None = Field(None, gt=0)
+    calibrations: dict[str, dict[str, Any]] | None = Field(
+        None,
+        description="named sensor calibrations, each a table with a `kind` "
+        "(ivester_spindle_load, linear_current, linear_current_by_feed, tai_current_feed) "
+        "and its constants and provenance, as in a plan file (models.sensors)",
+    )
 
 
 class OperationIn(BaseModel):

@@ -35,6 +35,7 @@ from supervisor.optimizer import optimize_plan
 from supervisor.plan import plan_from_mapping
 from supervisor.rcb import RcbSettings, RcbState, update
 from supervisor.report import report_from_mapping
+from supervisor.signals import resolve
 
 
 class NotFoundError(LookupError):
@@ -254,14 +255,17 @@ def _report_part(
             made_with = repo.setpoints_of(
                 session=session, plan_row=row, version=report.setpoint_version
             )
-        new_state, decisions = update(state, report, made_with)
+        # raw spindle readings become force measurements at the setpoint the part was made with
+        measured, raw = resolve(report, state.plan, made_with or state.setpoints)
+        new_state, decisions = update(state, measured, made_with)
         part_id = repo.add_part(
             session=session,
             plan_row=row,
-            report=report,
+            report=measured,
             decisions=decisions,
             before=state,
             after=new_state,
+            raw=raw,
         )
         written_state.append((repo.database_key(session), row.state_token, new_state))
         updates = [render.decision_json(d) for d in decisions]

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Mapping
-from dataclasses import asdict
 from typing import Any
 
 from sqlalchemy import func, insert, select
@@ -196,8 +195,13 @@ def add_part(
     decisions: tuple[Decision, ...],
     before: RcbState,
     after: RcbState,
+    raw: Mapping[tuple[str, str], dict[str, Any]] | None = None,
 ) -> int:
-    """Store a part, its measurements and decisions, changed models, band states, setpoints."""
+    """Store a part, its measurements and decisions, changed models, band states, setpoints.
+
+    ``raw``: per (operation, quantity) what a measurement was converted from (a spindle
+    reading, :mod:`supervisor.signals`), kept beside the converted value.
+    """
     ops = {name: row.id for name, row in _operations(session, plan_row.id).items()}
     part = t.Part(
         plan_id=plan_row.id, serial=report.serial, setpoint_version=report.setpoint_version
@@ -211,7 +215,7 @@ def add_part(
             "quantity": quantity,
             "value": m.value,
             "uncertainty": m.uncertainty,
-            "raw": None,
+            "raw": (raw or {}).get((name, quantity)),
         }
         for name, measured in report.measurements.items()
         for quantity, m in measured.items()
@@ -286,7 +290,12 @@ def add_part(
 
 def _machine(session: Session, plan: Plan) -> t.Machine:
     m = plan.machine
-    limits = {k: v for k, v in asdict(m).items() if k != "name"}
+    limits = {
+        "max_power_kW": m.max_power_kW,
+        "max_spindle_rpm": m.max_spindle_rpm,
+        "max_torque_Nm": m.max_torque_Nm,
+        "max_feed_rate_mm_min": m.max_feed_rate_mm_min,
+    }
     row = session.scalars(select(t.Machine).where(t.Machine.name == m.name)).one_or_none()
     if row is None:
         row = t.Machine(name=m.name, **limits)

@@ -17,6 +17,7 @@ from models.catalogue import catalogue
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, Process
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
+from models.sensors import Calibration, calibrations_from_mapping
 from models.tool import Tool, process_of, tool_from_mapping
 from supervisor.errors import PlanError
 
@@ -59,6 +60,9 @@ class Machine:
     max_spindle_rpm: float | None = None
     max_torque_Nm: float | None = None
     max_feed_rate_mm_min: float | None = None
+    #: Named sensor calibrations (``[machine.calibrations.NAME]``, :mod:`models.sensors`):
+    #: how a part report's spindle load or current becomes a force.
+    calibrations: Mapping[str, Calibration] = field(default_factory=dict)
 
     def limits(self) -> dict[str, float]:
         """The machine limits keyed by quantity name (``power_kW`` ...)."""
@@ -168,11 +172,12 @@ def _machine(data: object) -> Machine:
     if data is None:
         raise InputError("machine", None, "required table missing")
     table = fields.mapping(data, "machine")
-    fields.only_keys(table, ("name", *_MACHINE_LIMITS), "machine")
+    fields.only_keys(table, ("name", *_MACHINE_LIMITS, "calibrations"), "machine")
     limits = {
         k: fields.optional_number(table, k, "machine", positive=True) for k in _MACHINE_LIMITS
     }
-    return Machine(name=fields.text(table, "name", "machine"), **limits)
+    calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
+    return Machine(name=fields.text(table, "name", "machine"), calibrations=calibrations, **limits)
 
 
 def _inline_tools(data: object) -> dict[str, Tool]:

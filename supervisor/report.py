@@ -46,6 +46,41 @@ class ToolWear:
 
 
 @dataclass(frozen=True)
+class Signal:
+    """A raw spindle reading to be converted to ``force_N`` by a machine calibration.
+
+    Parameters
+    ----------
+    quantity : str
+        ``spindle_load_V`` or ``spindle_current_A`` (:data:`models.sensors.RAW_QUANTITIES`).
+    reading : Measurement
+        The reading and its expanded uncertainty [V] or [A].
+    context : Mapping[str, float]
+        What the conversion needs and the report knows better than the setpoint
+        (``spindle_speed_rpm``, ``idle_load_V`` ..., :data:`SIGNAL_CONTEXT`).
+    calibration : str or None
+        Name of the machine calibration to use; None: the machine's only one for the quantity.
+    """
+
+    quantity: str
+    reading: Measurement
+    context: Mapping[str, float] = field(default_factory=dict)
+    calibration: str | None = None
+
+
+#: What a raw reading may carry besides value and uncertainty (:func:`models.sensors.to_force`).
+SIGNAL_CONTEXT = (
+    "spindle_speed_rpm",
+    "workpiece_diameter_mm",
+    "u_workpiece_diameter_mm",
+    "idle_load_V",
+    "u_idle_load_V",
+    "feed_rate_mm_min",
+    "u_feed_rate_mm_min",
+)
+
+
+@dataclass(frozen=True)
 class PartReport:
     """What the MES reports after one part.
 
@@ -59,12 +94,17 @@ class PartReport:
         Per operation name, the measured quantities (``force_N``, ``roughness_um`` ...).
     tool_wear : Mapping[str, ToolWear]
         Per operation name, a flank-wear measurement of its edge, when one was taken.
+    signals : Mapping[str, Mapping[str, Signal]]
+        Per operation name, raw spindle readings (``spindle_load_V``; ``spindle_current_A``
+        with context or a named calibration) that :mod:`supervisor.signals` converts to
+        ``force_N`` before RCB.
     """
 
     serial: str
     setpoint_version: int
     measurements: Mapping[str, Mapping[str, Measurement]] = field(default_factory=dict)
     tool_wear: Mapping[str, ToolWear] = field(default_factory=dict)
+    signals: Mapping[str, Mapping[str, Signal]] = field(default_factory=dict)
 
 
 _REPORT_KEYS = ("serial", "setpoint_version", "operations")
@@ -88,6 +128,7 @@ def report_from_mapping(data: object) -> PartReport:
     if not isinstance(operations, list):
         raise InputError("operations", operations, "must be a list of operations")
     measurements: dict[str, dict[str, Measurement]] = {}
+    signals: dict[str, dict[str, Signal]] = {}
     wear: dict[str, ToolWear] = {}
     for i, entry in enumerate(operations):
         path = f"operations[{i}]"
@@ -97,9 +138,13 @@ def report_from_mapping(data: object) -> PartReport:
         if name in measurements:
             raise InputError(f"{path}.name", name, "operation reported twice")
         measured = fields.mapping(op.get("measurements", {}), f"{path}.measurements")
-        measurements[name] = {
-            q: _measurement(m, f"{path}.measurements.{q}") for q, m in measured.items()
-        }
+        measurements[name], signals[name] = {}, {}
+        for q, m in measured.items():
+            where = f"{path}.measurements.{q}"
+            if _is_signal(q, m):
+                signals[name][q] = _signal(q, m, where)
+            else:
+                measurements[name][q] = _measurement(m, where)
         if "tool_wear" in op:
             where = f"{path}.tool_wear"
             w = fields.mapping(op["tool_wear"], where)
@@ -110,7 +155,33 @@ def report_from_mapping(data: object) -> PartReport:
                 _measurement(w.get("flank_wear_mm"), f"{where}.flank_wear_mm"),
                 fields.number(w["volume_mm3"], f"{where}.volume_mm3", positive=True),
             )
-    return PartReport(fields.text(table, "serial", ""), version, measurements, wear)
+    signals = {name: raw for name, raw in signals.items() if raw}
+    return PartReport(fields.text(table, "serial", ""), version, measurements, wear, signals)
+
+
+def _is_signal(quantity: str, data: object) -> bool:
+    """A spindle load always; a spindle current when it carries context or a calibration.
+
+    ``spindle_current_A`` is also a model quantity (Tai et al. Eq. 14): given as a bare
+    ``{value, uncertainty}`` it may be a measurement of that model; :mod:`supervisor.signals`
+    decides by the operation's tool.
+    """
+    if quantity == "spindle_load_V":
+        return True
+    if quantity != "spindle_current_A" or not isinstance(data, Mapping):
+        return False
+    return any(k not in ("value", "uncertainty") for k in data)
+
+
+def _signal(quantity: str, data: object, path: str) -> Signal:
+    table = fields.mapping(data, path)
+    fields.only_keys(table, ("value", "uncertainty", "calibration", *SIGNAL_CONTEXT), path)
+    reading = _measurement({k: table[k] for k in ("value", "uncertainty") if k in table}, path)
+    context = {
+        k: fields.number(table[k], f"{path}.{k}", minimum=0.0) for k in SIGNAL_CONTEXT if k in table
+    }
+    calibration = fields.text(table, "calibration", path) if "calibration" in table else None
+    return Signal(quantity, reading, context, calibration)
 
 
 def _measurement(data: object, path: str) -> Measurement:

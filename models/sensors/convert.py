@@ -43,6 +43,11 @@ _CONVERTS: dict[str, RawQuantity] = {
 }
 
 
+def converts(calibration: Calibration) -> RawQuantity | None:
+    """The raw quantity a calibration converts to force (None: it does not give a force)."""
+    return _CONVERTS.get(calibration.kind)
+
+
 def _context_required(context: Mapping[str, object], key: str) -> float:
     """A positive number the conversion needs from ``context``."""
     if key not in context:
