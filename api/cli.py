@@ -28,7 +28,7 @@ except ImportError:  # pragma: no cover - typer that uses click itself
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
-from api import render, service
+from api import render, service, serving
 from api.cli_fit import fit
 from db.engine import DEFAULT_URL, make_engine, upgrade
 from models import fields
@@ -386,22 +386,8 @@ def serve(
     access_log: Annotated[bool, typer.Option(help="Log every request.")] = True,
 ) -> None:
     """Serve the REST API (under /api/v1) with uvicorn; migrates the database first."""
-    import uvicorn
-
     url = _database_url(db)
     with _errors():
         _migrate(url)
-    os.environ["RCB_DATABASE_URL"] = url  # the workers' factory reads it
-    _say(f"rcb: serving {_shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
-    uvicorn.run(
-        "api.app:app_from_env",
-        factory=True,
-        host=host,
-        port=port,
-        workers=workers,
-        access_log=access_log,
-        log_level="info",
-        # a worker imports cvxpy (about 2 s) before it answers; two starting at once on a busy
-        # 2-core machine can miss uvicorn's default 5 s and be restarted
-        timeout_worker_healthcheck=30,
-    )
+        _say(f"rcb: serving {_shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
+        serving.run(url, host=host, port=port, workers=workers, access_log=access_log)

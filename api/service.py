@@ -98,6 +98,37 @@ def _write(
     target: str,
     idempotency: Idempotency | None,
     work: Work,
+    attempts: int = 1,
+) -> Written:
+    """Run ``work`` in one transaction, idempotently; ``attempts`` > 1 retries unique-key races.
+
+    Creating a plan inserts its machine and tools if they are new: two plans for the same new
+    machine at once race to insert it, and the loser's retry finds it stored.
+    """
+    for attempt in range(1, attempts + 1):
+        try:
+            return _write_once(
+                engine,
+                actor=actor,
+                action=action,
+                target=target,
+                idempotency=idempotency,
+                work=work,
+            )
+        except ConflictError as err:
+            if attempt == attempts or not isinstance(err.__cause__, IntegrityError):
+                raise
+    raise AssertionError("unreachable")
+
+
+def _write_once(
+    engine: Engine,
+    *,
+    actor: Actor,
+    action: str,
+    target: str,
+    idempotency: Idempotency | None,
+    work: Work,
 ) -> Written:
     scope = f"{actor.id}:{idempotency.key}" if idempotency else ""
     guard = keylock.in_flight(engine, scope) if idempotency else _free()
@@ -214,6 +245,7 @@ def create_plan(
             target=f"plan {plan.name}",
             idempotency=idempotency,
             work=work,
+            attempts=3,
         )
 
 

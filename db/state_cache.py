@@ -17,7 +17,7 @@ from collections import OrderedDict
 from supervisor.rcb import RcbState
 
 #: Plans whose state one process keeps.
-CAPACITY = 256
+CAPACITY = 2048
 
 
 class StateCache:

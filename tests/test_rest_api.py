@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import time
 import tomllib
@@ -15,9 +16,11 @@ import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from api import serving
 from api.cli import app
 from db import tables as t
 from db.engine import make_engine
+from models.errors import InputError
 
 from conftest import DEMO_PLAN
 from live import RCB, free_port
@@ -365,3 +368,17 @@ def test_serve_migrates_a_fresh_database_on_first_start(tmp_path):
     with Session(engine) as session:
         assert session.scalars(select(t.AuditEntry.result)).all() == ["unauthenticated"]
     engine.dispose()
+
+
+def test_the_listener_of_several_workers_is_a_tcp_socket():
+    # asyncio sets TCP_NODELAY on accepted connections only for IPPROTO_TCP listeners
+    # (uvicorn's own has protocol 0: every answer then waits ~40 ms for a delayed ACK)
+    listener = serving.tcp_listener("127.0.0.1", 0)
+    try:
+        assert listener.proto == socket.IPPROTO_TCP and listener.get_inheritable()
+        port = listener.getsockname()[1]
+        with pytest.raises(InputError) as err:
+            serving.tcp_listener("127.0.0.1", port)  # taken: a clear error, not a traceback
+        assert err.value.field == "--port"
+    finally:
+        listener.close()

@@ -361,3 +361,28 @@ def test_kill_9_mid_stream_then_replay_keeps_every_acknowledged_part_once(
         _check_log(live)
     finally:
         live.stop()
+
+
+def test_plans_for_a_new_machine_created_at_once_all_succeed(backend_url, tmp_path):
+    # found by benchmarks/api_load.py: 7 of 8 simultaneous plans for a machine and tools not
+    # yet stored got 409 (the race to insert them); the loser now retries and finds them
+    server = LiveServer(backend_url, tmp_path / "serve.log", workers=2)
+    server.start()
+    try:
+        barrier = threading.Barrier(8)
+
+        def create(i: int) -> httpx.Response:
+            with server.client("engineer") as c:
+                barrier.wait(timeout=TIMEOUT_S)
+                return c.post("/plans", json={**PLAN, "name": f"race-{i}"})
+
+        with ThreadPoolExecutor(8) as pool:
+            answers = list(pool.map(create, range(8)))
+        assert [r.status_code for r in answers] == [201] * 8, [r.text for r in answers]
+        engine = make_engine(backend_url)
+        with Session(engine) as session:
+            assert session.scalar(select(func.count()).select_from(t.Machine)) == 1
+            assert session.scalar(select(func.count()).select_from(t.Plan)) == 8
+        engine.dispose()
+    finally:
+        server.stop()
