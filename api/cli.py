@@ -28,7 +28,7 @@ except ImportError:  # pragma: no cover - typer that uses click itself
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
-from api import render, service, serving
+from api import cli_review, render, service, serving
 from api.cli_fit import fit
 from db.engine import DEFAULT_URL, make_engine, upgrade
 from models import fields
@@ -296,6 +296,8 @@ def demo(
 
 
 app.command()(fit)  # rcb fit: api/cli_fit.py
+for _review in (cli_review.plans, cli_review.history, cli_review.parts, cli_review.export):
+    app.command()(_review)  # api/cli_review.py
 
 db_app = typer.Typer(help="The database: migrations.", no_args_is_help=True)
 app.add_typer(db_app, name="db")

@@ -1,0 +1,256 @@
+"""Engineers' review at the command line: ``rcb plans``, ``history``, ``parts``, ``export``.
+
+Thin commands over :mod:`api.queries` (the REST routes call the same), rich tables or
+``--json``; every command takes ``--db URL``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+from sqlalchemy.exc import ArgumentError, OperationalError
+
+from api import export as tidy
+from api import queries
+from api.service import NotFoundError
+from db.engine import DEFAULT_URL, make_engine
+from models.errors import InputError
+
+_out = Console()
+_err = Console(stderr=True)
+
+DbOption = Annotated[
+    str | None,
+    typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
+]
+JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
+PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")]
+
+
+@contextmanager
+def _errors() -> Iterator[None]:
+    try:
+        yield
+    except (InputError, NotFoundError) as err:
+        _err.print(f"rcb: error: {err}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(2) from None
+    except (ArgumentError, OperationalError) as err:
+        first = str(err).splitlines()[0]
+        _err.print(f"rcb: error: --db: cannot use this database ({first})", markup=False)
+        raise typer.Exit(2) from None
+
+
+def _engine(db: str | None) -> Any:
+    return make_engine(db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL)
+
+
+def _emit(data: object) -> None:
+    typer.echo(json.dumps(data, indent=2, default=_jsonable))
+
+
+def _jsonable(value: object) -> str:
+    if isinstance(value, datetime):
+        return value.isoformat()
+    raise TypeError(type(value).__name__)
+
+
+def _fmt(value: float | None) -> str:
+    if value is None:
+        return "-"
+    return f"{value:.4g}" if abs(value) < 1e5 else f"{value:.3e}"
+
+
+def plans(db: DbOption = None, as_json: JsonOption = False) -> None:
+    """List the plans: machine, RCB law, setpoint version in force, parts reported."""
+    with _errors():
+        data = queries.list_plans(engine=_engine(db))
+    if as_json:
+        _emit(data)
+        return
+    table = Table(title="plans")
+    for column in ("id", "name", "machine", "strategy", "α", "version", "parts", "created"):
+        table.add_column(column)
+    for p in data["plans"]:
+        table.add_row(
+            str(p["id"]),
+            p["name"],
+            p["machine"],
+            p["strategy"],
+            f"{p['alpha']:g}",
+            str(p["setpoint_version"]),
+            str(p["parts"]),
+            p["created_at"].strftime("%Y-%m-%d %H:%M"),
+        )
+    _out.print(table)
+
+
+def history(
+    plan: PlanArg,
+    operation: Annotated[
+        str | None, typer.Option(help="One operation in detail: setpoints, predictions, bands.")
+    ] = None,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
+    with _errors():
+        engine = _engine(db)
+        data = queries.plan_history(engine=engine, plan_id=plan)
+        decisions = _decisions_by_part(engine, plan)
+        names = [op["name"] for op in data["versions"][0]["operations"]]
+        if operation is not None and operation not in names:
+            raise InputError(
+                "--operation", operation, f"not in the plan; known: {', '.join(names)}"
+            )
+    for version in data["versions"]:
+        version["decisions"] = decisions.get(version["part_id"], [])
+        if operation is not None:
+            version["operations"] = [o for o in version["operations"] if o["name"] == operation]
+    if as_json:
+        _emit(data)
+        return
+    _out.print(_history_table(data, operation))
+
+
+def _history_table(data: dict[str, Any], operation: str | None) -> Table:
+    title = f"plan {data['plan_id']}: setpoint versions" + (f", {operation}" if operation else "")
+    table = Table(title=title)
+    for column in ("ver", "cause", "when"):
+        table.add_column(column)
+    if operation is None:
+        table.add_column("cycle min", justify="right")
+        table.add_column("MRR cm³/min per operation", justify="left")
+    else:
+        for column in ("setpoint", "force_N ± band", "roughness_um ± band", "MRR", "binding"):
+            table.add_column(column)
+    table.add_column("decisions")
+    for v in data["versions"]:
+        cause = v["cause"] + (f" {v['serial']}" if v["serial"] else "")
+        when = v["created_at"].strftime("%m-%d %H:%M:%S")
+        moved = ", ".join(
+            f"{d['operation']}.{d['quantity']} {d['action']}"
+            for d in v["decisions"]
+            if d["action"] != "hold" and (operation is None or d["operation"] == operation)
+        )
+        if operation is None:
+            mrr = " ".join(_fmt(o["mrr_cm3_min"]) for o in v["operations"])
+            table.add_row(str(v["version"]), cause, when, _fmt(v["cycle_time_min"]), mrr, moved)
+            continue
+        op = v["operations"][0]
+        setpoint = " ".join(f"{k.split('_')[0]}={_fmt(x)}" for k, x in op["setpoint"].items())
+        bands = [
+            f"{_fmt(op['predicted'][q]['value'])} ± {_fmt(op['predicted'][q]['band'])}"
+            if q in op["predicted"]
+            else "-"
+            for q in ("force_N", "roughness_um")
+        ]
+        table.add_row(
+            str(v["version"]),
+            cause,
+            when,
+            setpoint,
+            *bands,
+            _fmt(op["mrr_cm3_min"]),
+            ", ".join(op["binding"]),
+            moved,
+        )
+    return table
+
+
+def _decisions_by_part(engine: Any, plan_id: int) -> dict[int, list[dict[str, Any]]]:
+    out: dict[int, list[dict[str, Any]]] = {}
+    for part in _all_parts(engine, plan_id):
+        out[part["part_id"]] = part["updates"]
+    return out
+
+
+def _all_parts(engine: Any, plan_id: int, since: datetime | None = None) -> list[dict[str, Any]]:
+    items: list[dict[str, Any]] = []
+    cursor = None
+    while True:
+        page = queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=queries.MAX_PAGE)
+        items += [p for p in page["items"] if since is None or p["received_at"] >= since]
+        cursor = page["next_cursor"]
+        if cursor is None:
+            return items
+
+
+def parts(
+    plan: PlanArg,
+    since: Annotated[
+        str | None, typer.Option(help="Only parts received at or after this ISO 8601 time (UTC).")
+    ] = None,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Parts with their measurements, the margins to each limit, and flagged violations."""
+    with _errors():
+        after = _since(since)
+        items = _all_parts(_engine(db), plan, after)
+    if as_json:
+        _emit({"plan_id": plan, "parts": items})
+        return
+    table = Table(title=f"plan {plan}: parts" + (f" since {since}" if since else ""))
+    for column in ("serial", "ver", "received", "operation", "quantity", "measured ± u"):
+        table.add_column(column)
+    for column in ("margin", "action", "flag"):
+        table.add_column(column, justify="right" if column == "margin" else "left")
+    for part in items:
+        decided = {(d["operation"], d["quantity"]): d for d in part["updates"]}
+        first = True
+        for op in part["operations"]:
+            for q, m in op["measurements"].items():
+                d = decided.get((op["name"], q), {})
+                table.add_row(
+                    part["serial"] if first else "",
+                    str(part["setpoint_version"]) if first else "",
+                    part["received_at"].strftime("%m-%d %H:%M:%S") if first else "",
+                    op["name"],
+                    q + (" (raw)" if m.get("raw") else ""),
+                    f"{_fmt(m['value'])} ± {_fmt(m['uncertainty'])}",
+                    _fmt(d.get("margin")),
+                    d.get("action", "-"),
+                    "FLAG" if d.get("flagged") else "",
+                )
+                first = False
+    _out.print(table)
+
+
+def _since(text: str | None) -> datetime | None:
+    if text is None:
+        return None
+    try:
+        moment = datetime.fromisoformat(text)
+    except ValueError:
+        raise InputError("--since", text, "must be an ISO 8601 date or time") from None
+    return moment if moment.tzinfo else moment.replace(tzinfo=UTC)
+
+
+def export(
+    plan: PlanArg,
+    out: Annotated[Path, typer.Option("--out", help="Directory to write the tables into.")],
+    fmt: Annotated[str, typer.Option("--format", help="csv or parquet.")] = "csv",
+    db: DbOption = None,
+) -> None:
+    """Parts, measurements, decisions and setpoint history as tidy tables (one row each)."""
+    with _errors():
+        if fmt not in ("csv", "parquet"):
+            raise InputError("--format", fmt, "expected csv or parquet")
+        engine = _engine(db)
+        tables = tidy.tables(
+            queries.plan_history(engine=engine, plan_id=plan), _all_parts(engine, plan)
+        )
+        written = tidy.write(tables, out, fmt)
+    for path in written:
+        _err.print(f"rcb: wrote {path}", markup=False, highlight=False, soft_wrap=True)
+    sys.stdout.flush()

@@ -1,0 +1,94 @@
+"""rcb plans / history / parts / export over a stored plan (SQLite)."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+from test_service import BODY, _reports
+
+from api import service
+from api.cli import app
+from db.engine import make_engine, upgrade
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory):
+    url = f"sqlite:///{tmp_path_factory.mktemp('review') / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    bodies, state = _reports(4)
+    answers = [service.report_part(engine=engine, plan_id=plan_id, body=b).body for b in bodies]
+    engine.dispose()
+    return url, plan_id, bodies, answers, state
+
+
+def _json(runner, *args):
+    result = runner.invoke(app, [*args, "--json"])
+    assert result.exit_code == 0, result.output
+    return json.loads(result.stdout)
+
+
+def test_plans_and_history_show_what_is_stored(runner, stored):
+    url, plan_id, bodies, answers, state = stored
+    plans = _json(runner, "plans", "--db", url)["plans"]
+    assert [(p["id"], p["parts"], p["setpoint_version"]) for p in plans] == [
+        (plan_id, 4, state.version)
+    ]
+    history = _json(runner, "history", str(plan_id), "--db", url)
+    versions = history["versions"]
+    assert versions[0]["cause"] == "initial"
+    # Ivester & Heigel Table 5 step 1 R: 191.2 cm³/min at the robust start
+    assert versions[0]["operations"][0]["mrr_cm3_min"] == pytest.approx(191.2, rel=0.005)
+    keys = ("name", "tool", "setpoint", "predicted", "mrr_cm3_min", "time_min", "binding")
+    last = [{k: op[k] for k in keys} for op in versions[-1]["operations"]]
+    assert last == [{k: op[k] for k in keys} for op in answers[-1]["operations"]]
+    moved = [v for v in versions if v["cause"] == "part"]
+    assert all(v["decisions"] for v in moved)  # each version shows the decisions behind it
+    one = _json(runner, "history", str(plan_id), "--operation", "rough-od", "--db", url)
+    assert {len(v["operations"]) for v in one["versions"]} == {1}
+
+
+def test_parts_and_export_round_trip(runner, stored, tmp_path):
+    url, plan_id, bodies, answers, _ = stored
+    parts = _json(runner, "parts", str(plan_id), "--db", url)["parts"]
+    assert [p["serial"] for p in parts] == [b["serial"] for b in bodies]
+    sent = bodies[0]["operations"][0]["measurements"]["force_N"]
+    got = parts[0]["operations"][0]["measurements"]["force_N"]
+    assert (got["value"], got["uncertainty"]) == (sent["value"], sent["uncertainty"])
+    future = _json(runner, "parts", str(plan_id), "--since", "2999-01-01", "--db", url)
+    assert future["parts"] == []
+    for fmt in ("csv", "parquet"):
+        out = tmp_path / fmt
+        result = runner.invoke(
+            app, ["export", str(plan_id), "--format", fmt, "--out", str(out), "--db", url]
+        )
+        assert result.exit_code == 0, result.output
+        read = pd.read_csv if fmt == "csv" else pd.read_parquet
+        m = read(out / f"measurements.{fmt}")
+        assert len(m) == sum(len(op["measurements"]) for b in bodies for op in b["operations"])
+        row = m[(m.serial == bodies[0]["serial"]) & (m.operation == "rough-od")]
+        assert row[row.quantity == "force_N"].value.iloc[0] == pytest.approx(sent["value"])
+        s = read(out / f"setpoints.{fmt}")
+        assert set(s.version) == set(range(1, len(answers) + 2))
+        assert {"depth_mm", "feed_mm_rev", "speed_m_min", "force_N", "force_N_band"} <= set(s)
+        d = read(out / f"decisions.{fmt}")
+        assert len(d) == sum(len(a["updates"]) for a in answers)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["history", "99"], "plan_id = 99: not found"),
+        (["parts", "1", "--since", "yesterday"], "--since = 'yesterday'"),
+        (["history", "1", "--operation", "nope"], "--operation = 'nope'"),
+        (["export", "1", "--format", "xlsx", "--out", "x"], "--format = 'xlsx'"),
+    ],
+)
+def test_review_commands_refuse_bad_input(runner, stored, args, message):
+    url = stored[0]
+    result = runner.invoke(app, [*args, "--db", url])
+    assert result.exit_code == 2 and message in result.stderr
+    assert "Traceback" not in result.output
