@@ -31,6 +31,7 @@ from sqlalchemy.exc import ArgumentError, OperationalError
 from api import cli_review, render, service, serving
 from api.cli_fit import fit
 from api.cli_gcode import gcode
+from api.cli_report import report
 from db.engine import DEFAULT_URL, make_engine, upgrade
 from models import fields
 from models.catalogue import get_tool
@@ -298,6 +299,7 @@ def demo(
 
 app.command()(fit)  # rcb fit: api/cli_fit.py
 app.command()(gcode)  # rcb gcode: api/cli_gcode.py
+app.command()(report)  # rcb report: api/cli_report.py
 for _review in (cli_review.plans, cli_review.history, cli_review.parts, cli_review.export):
     app.command()(_review)  # api/cli_review.py
 
