@@ -121,6 +121,35 @@ def create_app(url: str) -> FastAPI:
         )
         return _written(written)
 
+    @app.post(
+        f"{PREFIX}/plans/{{plan_id}}/replan",
+        status_code=201,
+        response_model=schemas.Replanned,
+        tags=["plans"],
+        responses={200: {"model": schemas.Replanned, "description": "dry run: nothing stored"}},
+    )
+    def replan(
+        request: Request,
+        plan_id: PlanId,
+        changes: schemas.ReplanIn,
+        actor: Annotated[Actor, engineer],
+        dry_run: Annotated[bool, Query(description="show the result, store nothing")] = False,
+        idempotency_key: Annotated[
+            str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
+        ] = None,
+    ) -> JSONResponse:
+        """Change limits, bounds or models (or reset the bands) and re-optimise."""
+        body = changes.model_dump(mode="json", exclude_none=True)
+        written = service.replan(
+            engine=engine,
+            plan_id=plan_id,
+            changes=body,
+            dry_run=dry_run,
+            actor=actor,
+            idempotency=None if dry_run else _idempotency(request, idempotency_key, body),
+        )
+        return _written(written)
+
     @app.get(f"{PREFIX}/plans", response_model=schemas.PlanList, tags=["plans"])
     def list_plans(actor: Annotated[Actor, anyone]) -> dict[str, Any]:
         """Every plan."""

@@ -300,7 +300,13 @@ def demo(
 app.command()(fit)  # rcb fit: api/cli_fit.py
 app.command()(gcode)  # rcb gcode: api/cli_gcode.py
 app.command()(report)  # rcb report: api/cli_report.py
-for _review in (cli_review.plans, cli_review.history, cli_review.parts, cli_review.export):
+for _review in (
+    cli_review.plans,
+    cli_review.history,
+    cli_review.parts,
+    cli_review.export,
+    cli_review.replan,
+):
     app.command()(_review)  # api/cli_review.py
 
 db_app = typer.Typer(help="The database: migrations.", no_args_is_help=True)

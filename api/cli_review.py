@@ -24,7 +24,9 @@ from api import export as tidy
 from api import queries
 from api.service import NotFoundError
 from db.engine import DEFAULT_URL, make_engine
+from db.errors import ConflictError
 from models.errors import InputError
+from supervisor.errors import InfeasibleError
 
 _out = Console()
 _err = Console(stderr=True)
@@ -41,12 +43,18 @@ PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb
 def _errors() -> Iterator[None]:
     try:
         yield
-    except (InputError, NotFoundError) as err:
+    except (InputError, NotFoundError, ConflictError) as err:
         _err.print(f"rcb: error: {err}", markup=False, highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
+    except InfeasibleError as err:
+        _err.print(f"rcb: infeasible: {err}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(3) from None
     except (ArgumentError, OperationalError) as err:
         first = str(err).splitlines()[0]
-        _err.print(f"rcb: error: --db: cannot use this database ({first})", markup=False)
+        _err.print(
+            f"rcb: error: --db: cannot use this database ({first}); is it migrated? rcb db upgrade",
+            markup=False,
+        )
         raise typer.Exit(2) from None
 
 
@@ -254,3 +262,98 @@ def export(
     for path in written:
         _err.print(f"rcb: wrote {path}", markup=False, highlight=False, soft_wrap=True)
     sys.stdout.flush()
+
+
+def replan(
+    plan: PlanArg,
+    limit: Annotated[
+        list[str] | None, typer.Option("--limit", help="OP.QUANTITY=VALUE (VALUE 'none' removes).")
+    ] = None,
+    bound: Annotated[list[str] | None, typer.Option("--bound", help="OP.PARAM=LO:HI")] = None,
+    model: Annotated[
+        list[str] | None, typer.Option("--model", help="TOOL.QUANTITY:K=..,dK=.. (either or both).")
+    ] = None,
+    reset_bands: Annotated[
+        bool, typer.Option("--reset-bands", help="Back to the tools' baseline bands.")
+    ] = False,
+    dry_run: Annotated[
+        bool, typer.Option("--dry-run", help="Show the result; store nothing.")
+    ] = False,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
+    from api import service
+
+    with _errors():
+        changes: dict[str, Any] = {
+            "limits": {k: _limit_value(k, v) for k, v in _pairs(limit or [], "--limit").items()},
+            "bounds": {k: _bounds(k, v) for k, v in _pairs(bound or [], "--bound").items()},
+            "models": dict(_model(m) for m in model or []),
+        }
+        if reset_bands:
+            changes["reset_bands"] = True
+        changes = {k: v for k, v in changes.items() if v}
+        written = service.replan(engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run)
+    answer = written.body
+    if as_json:
+        _emit(answer)
+        return
+    table = Table(title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else ""))
+    for column in ("operation", "parameter", "now", "new"):
+        table.add_column(
+            column, justify="left" if column in ("operation", "parameter") else "right"
+        )
+    for d in answer["diff"]:
+        rows = [(k, old, new) for k, (old, new) in d["setpoint"].items()]
+        rows.append(("MRR cm³/min", *d["mrr_cm3_min"]))
+        for i, (name, old, new) in enumerate(rows):
+            table.add_row(d["operation"] if i == 0 else "", name, _fmt(old), _fmt(new))
+        table.add_row("", "binding", ", ".join(d["binding"][0]), ", ".join(d["binding"][1]))
+    _out.print(table)
+    before, after = answer["cycle_time_min"]
+    stored = "not stored" if dry_run else f"stored as setpoint version {answer['setpoint_version']}"
+    _err.print(
+        f"rcb: cycle time {before:.4g} -> {after:.4g} min; {stored}", markup=False, highlight=False
+    )
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError(option, item, "must be NAME=VALUE")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _limit_value(key: str, text: str) -> float | None:
+    if text.lower() == "none":
+        return None
+    return _number(text, f"--limit {key}")
+
+
+def _bounds(key: str, text: str) -> list[float]:
+    low, sep, high = text.partition(":")
+    if not sep:
+        raise InputError(f"--bound {key}", text, "must be LO:HI")
+    return [_number(low, f"--bound {key}"), _number(high, f"--bound {key}")]
+
+
+def _model(text: str) -> tuple[str, dict[str, float]]:
+    name, sep, rest = text.partition(":")
+    if not sep or not name:
+        raise InputError("--model", text, "must be TOOL.QUANTITY:K=..,dK=..")
+    values = _pairs([p for p in rest.split(",") if p], f"--model {name}")
+    unknown = set(values) - {"K", "dK"}
+    if unknown or not values:
+        raise InputError(f"--model {name}", rest, "give K=.. and/or dK=..")
+    return name, {k: _number(v, f"--model {name} {k}") for k, v in values.items()}
+
+
+def _number(text: str, field: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(field, text, "must be a number") from None

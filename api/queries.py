@@ -38,6 +38,8 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
         machine = session.get(t.Machine, row.machine_id)
         ops = history.operations(session=session, plan_id=plan_id)
         parts = repo.count_parts(session=session, plan_id=plan_id)
+        body = repo.current_body(session=session, plan_row=row)
+        in_force = {o.get("name"): o for o in body.get("operations", [])}
         return {
             **history.summary(row, machine.name if machine else "", parts),
             "machine_limits": {
@@ -52,13 +54,14 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
                     "tool": tool.name,
                     "process": op.process,
                     "volume_mm3": op.volume_mm3,
-                    "limits": dict(op.limits),
-                    "bounds": dict(op.bounds),
+                    # as in force: a replan may have changed them (plan_revisions)
+                    "limits": dict(in_force.get(op.name, {}).get("limits", op.limits)),
+                    "bounds": dict(in_force.get(op.name, {}).get("bounds", op.bounds)),
                     "context": dict(op.context),
                 }
                 for op, tool in ops
             ],
-            "body": dict(row.body),
+            "body": body,
         }
 
 

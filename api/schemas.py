@@ -491,3 +491,48 @@ class PlanIn(BaseModel):
     machine: MachineIn
     tools: list[ToolIn] | None = Field(None, description="inline tools (else catalogue or stored)")
     operations: list[OperationIn] = Field(min_length=1)
+
+
+class ModelChangeIn(BaseModel):
+    """New K and/or ΔK of a model in force (exponents stay)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    K: float | None = Field(None, gt=0)
+    dK: float | None = Field(None, ge=0)
+
+
+class ReplanIn(BaseModel):
+    """An engineer's change (supervisor.replan)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    limits: dict[str, float | None] | None = Field(
+        None, description="OPERATION.QUANTITY -> new limit (null: remove it)"
+    )
+    bounds: dict[str, tuple[float, float]] | None = Field(
+        None, description="OPERATION.PARAMETER -> [low, high]"
+    )
+    models: dict[str, ModelChangeIn] | None = Field(
+        None, description="TOOL.QUANTITY -> {K, dK} in every operation using the tool"
+    )
+    reset_bands: bool | None = Field(None, description="back to the tools' baseline bands")
+
+
+class SetpointChange(_Out):
+    """One operation's setpoint before and after."""
+
+    operation: str
+    setpoint: dict[str, list[float | None]]
+    mrr_cm3_min: list[float]
+    binding: list[list[str]]
+
+
+class Replanned(_Out):
+    """The replan: the difference to the setpoints in force, and the new setpoints."""
+
+    plan_id: int
+    dry_run: bool
+    setpoint_version: int
+    reset_bands: bool
+    cycle_time_min: list[float]
+    diff: list[SetpointChange]
+    operations: list[OperationSetpoint]

@@ -34,6 +34,7 @@ from models.tool import tool_from_mapping
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import plan_from_mapping
 from supervisor.rcb import RcbSettings, RcbState, update
+from supervisor.replan import replan as supervisor_replan
 from supervisor.report import report_from_mapping
 from supervisor.signals import resolve
 
@@ -410,3 +411,87 @@ def _plan(session: Session, plan_id: int, lock: bool = False) -> Any:
 
 def _ops(result: Any) -> dict[str, Any]:
     return {"operations": render.plan_json(result)["operations"]}
+
+
+def replan(
+    *,
+    engine: Engine,
+    plan_id: int,
+    changes: Mapping[str, Any],
+    dry_run: bool = False,
+    actor: Actor = access.CLI_ACTOR,
+    idempotency: Idempotency | None = None,
+) -> Written:
+    """Apply an engineer's change and re-optimise; unless ``dry_run``, store it.
+
+    The new setpoint version has cause ``replan``; the answer shows the difference to the
+    setpoints in force (:mod:`supervisor.replan`).
+    """
+    with _audited(engine, actor, "replan", f"plan {plan_id}"):
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            row = _plan(session, plan_id, lock=True)
+            before = repo.load_state(session=session, plan_row=row)
+            body = repo.current_body(session=session, plan_row=row)
+            library = repo.plan_tools(session=session, plan_id=plan_id)
+            library.update(library_tools(session))
+            done = supervisor_replan(before, body, changes, library)
+            if not dry_run:
+                repo.add_replan(
+                    session=session,
+                    plan_row=row,
+                    body=done.body,
+                    changes=dict(changes),
+                    reset_bands=done.reset_bands,
+                    before=before,
+                    after=done.state,
+                    actor=actor.name,
+                )
+            answer = _replan_answer(plan_id, before, done, dry_run)
+            return (200 if dry_run else 201), answer
+
+        if dry_run:
+            with Session(engine) as session:
+                session.begin()
+                try:
+                    status, body = work(session)
+                finally:
+                    session.rollback()  # a dry run stores nothing
+            return Written(status, body)
+        return _write(
+            engine,
+            actor=actor,
+            action="replan",
+            target=f"plan {plan_id}",
+            idempotency=idempotency,
+            work=work,
+        )
+
+
+def library_tools(session: Session) -> dict[str, Any]:
+    """Every stored tool (a replan may name a tool added over REST)."""
+    return library.load_tools(session=session)
+
+
+def _replan_answer(plan_id: int, before: RcbState, done: Any, dry_run: bool) -> dict[str, Any]:
+    old = {op.name: op for op in before.setpoints.operations}
+    diff = []
+    for op in done.state.setpoints.operations:
+        was = old[op.name]
+        diff.append(
+            {
+                "operation": op.name,
+                "setpoint": {k: [was.setpoint.get(k), v] for k, v in op.setpoint.items()},
+                "mrr_cm3_min": [was.mrr_cm3_min, op.mrr_cm3_min],
+                "binding": [list(was.binding), list(op.binding)],
+            }
+        )
+    return {
+        "plan_id": plan_id,
+        "dry_run": dry_run,
+        "setpoint_version": before.version if dry_run else done.state.version,
+        "reset_bands": done.reset_bands,
+        "cycle_time_min": [before.setpoints.cycle_time_min, done.state.setpoints.cycle_time_min],
+        "diff": diff,
+        **_ops(done.state.setpoints),
+    }

@@ -110,13 +110,16 @@ def database_key(session: Session) -> str:
 
 def _load_state(session: Session, plan_row: t.Plan) -> RcbState:
     ops = _operations(session, plan_row.id)
-    plan = plan_from_mapping(plan_row.body, plan_tools(session=session, plan_id=plan_row.id))
+    body = current_body(session=session, plan_row=plan_row)
+    plan = plan_from_mapping(body, plan_tools(session=session, plan_id=plan_row.id))
     tools: dict[str, Tool] = {}
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}
     settings = RcbSettings(strategy=plan_row.strategy, alpha=plan_row.alpha)  # type: ignore[arg-type]
     latest_models = _latest_models(session, plan_row.id)
-    band_states = _latest_band_states(session, plan_row.id)
+    band_states = _latest_band_states(
+        session, plan_row.id, _bands_reset_after(session, plan_row.id)
+    )
     for op in plan.operations:
         base = plan.tools[op.tool]
         models = {}
@@ -140,6 +143,70 @@ def _load_state(session: Session, plan_row: t.Plan) -> RcbState:
     return RcbState(
         plan, tools, setpoints, plan_row.current_setpoint_version, settings, sigma, seen
     )
+
+
+def current_body(*, session: Session, plan_row: t.Plan) -> dict[str, Any]:
+    """The plan structure in force: the newest replan's, else the one the plan was created with."""
+    revision = _latest_revision(session, plan_row.id)
+    return dict(revision.body) if revision is not None else dict(plan_row.body)
+
+
+def _latest_revision(session: Session, plan_id: int) -> t.PlanRevision | None:
+    return session.scalars(
+        select(t.PlanRevision)
+        .where(t.PlanRevision.plan_id == plan_id)
+        .order_by(t.PlanRevision.setpoint_version.desc())
+        .limit(1)
+    ).one_or_none()
+
+
+def _bands_reset_after(session: Session, plan_id: int) -> int:
+    last = session.scalar(
+        select(func.max(t.PlanRevision.bands_reset_after_part)).where(
+            t.PlanRevision.plan_id == plan_id, t.PlanRevision.reset_bands.is_(True)
+        )
+    )
+    return int(last or 0)
+
+
+def add_replan(
+    *,
+    session: Session,
+    plan_row: t.Plan,
+    body: Mapping[str, Any],
+    changes: Mapping[str, Any],
+    reset_bands: bool,
+    before: RcbState,
+    after: RcbState,
+    actor: str,
+) -> None:
+    """Store a replan: the revision, the changed models (cause ``replan``), new setpoints."""
+    ops = {name: row.id for name, row in _operations(session, plan_row.id).items()}
+    last_part = session.scalar(select(func.max(t.Part.id)).where(t.Part.plan_id == plan_row.id))
+    session.add(
+        t.PlanRevision(
+            plan_id=plan_row.id,
+            setpoint_version=after.version,
+            body=dict(body),
+            changes=dict(changes),
+            reset_bands=reset_bands,
+            bands_reset_after_part=int(last_part or 0) if reset_bands else None,
+            actor=actor,
+        )
+    )
+    versions = _model_version_numbers(session, plan_row.id)
+    rows = [
+        _model_version_row(ops[name], model, versions[(ops[name], q)] + 1, "replan", None)
+        for name, tool in after.tools.items()
+        for q, model in tool.models.items()
+        if before.tools[name].models.get(q) != model
+    ]
+    if rows:
+        session.execute(insert(t.OperationModelVersion), rows)
+    _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "replan", None)
+    plan_row.current_setpoint_version = after.version
+    plan_row.state_token = new_token()
+    session.flush()
 
 
 def plan_tools(*, session: Session, plan_id: int) -> dict[str, Tool]:
@@ -361,13 +428,18 @@ def _model_version_numbers(session: Session, plan_id: int) -> dict[tuple[int, st
     return {(row.operation_id, row.quantity): row.version for row in rows}
 
 
-def _latest_band_states(session: Session, plan_id: int) -> dict[tuple[int, str], t.BandState]:
-    """The newest band state per (operation id, quantity) of a plan, in one query."""
+def _latest_band_states(
+    session: Session, plan_id: int, after_part: int = 0
+) -> dict[tuple[int, str], t.BandState]:
+    """The newest band state per (operation id, quantity) of a plan, in one query.
+
+    States of parts up to ``after_part`` are forgotten (a replan reset the bands).
+    """
     b = t.BandState
     newest = (
         select(b.operation_id, b.quantity, func.max(b.part_id).label("part_id"))
         .join(t.Operation, b.operation_id == t.Operation.id)
-        .where(t.Operation.plan_id == plan_id)
+        .where(t.Operation.plan_id == plan_id, b.part_id > after_part)
         .group_by(b.operation_id, b.quantity)
         .subquery()
     )

@@ -265,3 +265,23 @@ class BandState(Base):
     part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"))
     seen: Mapped[float]
     sigma: Mapped[float]
+
+
+class PlanRevision(Base):
+    """An engineer's replan: the plan structure from then on, the changes, who made them.
+
+    ``bands_reset_after_part``: with ``reset_bands``, band states of parts up to this id are
+    forgotten (RCB starts again from the baseline bands).
+    """
+
+    __tablename__ = "plan_revisions"
+    __table_args__ = (UniqueConstraint("plan_id", "setpoint_version"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))
+    setpoint_version: Mapped[int]
+    body: Mapped[dict[str, Any]]
+    changes: Mapped[dict[str, Any]]
+    reset_bands: Mapped[bool]
+    bands_reset_after_part: Mapped[int | None]
+    actor: Mapped[str] = mapped_column(String(200))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)

@@ -1,0 +1,156 @@
+"""Replanning by an engineer: service (SQLite, PostgreSQL), REST and CLI."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+from test_service import BODY, _reports
+
+from api import queries, service
+from api.cli import app
+from db import repository as repo
+from db import tables as t
+from db.engine import make_engine, upgrade
+from supervisor.errors import InfeasibleError
+
+
+@pytest.fixture
+def engine(backend_url):
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    yield engine
+    engine.dispose()
+
+
+def _count(engine, table):
+    with Session(engine) as session:
+        return session.scalar(select(func.count()).select_from(table))
+
+
+def _state(engine, plan_id):
+    with Session(engine) as session, session.begin():
+        row = repo.get_plan_row(session=session, plan_id=plan_id, lock=True)
+        return repo.load_state(session=session, plan_row=row)
+
+
+def test_a_relaxed_limit_is_stored_as_a_replan_version_and_a_dry_run_stores_nothing(engine):
+    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    change = {"limits": {"rough-od.force_N": 2200}}
+    dry = service.replan(engine=engine, plan_id=plan_id, changes=change, dry_run=True)
+    assert dry.status == 200 and dry.body["dry_run"] and dry.body["setpoint_version"] == 1
+    assert _count(engine, t.PlanRevision) == 0 and _count(engine, t.SetpointVersion) == 1
+    done = service.replan(engine=engine, plan_id=plan_id, changes=change)
+    assert done.status == 201 and done.body["setpoint_version"] == 2
+    assert done.body["operations"] == dry.body["operations"]
+    rough = done.body["diff"][0]
+    assert rough["operation"] == "rough-od"
+    # Table 5 step 1 R (191.2 cm³/min, force and roughness binding) → force no longer binds:
+    # depth rises to its 3.0 mm bound
+    assert rough["mrr_cm3_min"][0] == pytest.approx(191.2, rel=0.005)
+    assert rough["mrr_cm3_min"][1] > rough["mrr_cm3_min"][0]
+    assert "force_N" not in rough["binding"][1] and "depth_mm" in rough["binding"][1]
+    history = queries.plan_history(engine=engine, plan_id=plan_id)["versions"]
+    assert [(v["version"], v["cause"]) for v in history] == [(1, "initial"), (2, "replan")]
+    plan = queries.get_plan(engine=engine, plan_id=plan_id)
+    assert plan["body"]["operations"][0]["limits"]["force_N"] == 2200
+    with Session(engine) as session:
+        audit = session.scalars(select(t.AuditEntry).where(t.AuditEntry.action == "replan")).all()
+    assert [(a.actor, a.result) for a in audit] == [("cli", "201")]
+
+
+def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
+    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    bodies, _ = _reports(4)
+    for body in bodies:
+        service.report_part(engine=engine, plan_id=plan_id, body=body)
+    shrunk = _state(engine, plan_id)
+    baseline = shrunk.plan.tools["CNMG432RN"].models["force_N"]
+    assert shrunk.tools["rough-od"].models["force_N"].dK < baseline.dK  # RCB narrowed it
+    changed = {"models": {"CNMG432RN.force_N": {"dK": 100.0}}}
+    service.replan(engine=engine, plan_id=plan_id, changes=changed)
+    after = _state(engine, plan_id)
+    assert after.tools["rough-od"].models["force_N"].dK == 100.0
+    assert (
+        after.tools["rough-od"].models["force_N"].K == shrunk.tools["rough-od"].models["force_N"].K
+    )
+    assert after.tools["rough-grooves"] == shrunk.tools["rough-grooves"]  # another insert
+    service.replan(engine=engine, plan_id=plan_id, changes={"reset_bands": True})
+    reset = _state(engine, plan_id)
+    for name, tool in reset.tools.items():
+        assert tool == reset.plan.tools[tool.name], name  # back to the baseline models
+    assert reset.seen == {}
+    versions = queries.model_versions(
+        engine=engine, plan_id=plan_id, operation="rough-od", quantity="force_N"
+    )["versions"]
+    assert [v["cause"] for v in versions][-2:] == ["replan", "replan"]
+    assert versions[-2]["dK"] == 100.0 and versions[-1]["dK"] == baseline.dK
+    # RCB goes on from the reset state
+    more, _ = _reports(6)
+    late = {**more[5], "serial": "AFTER-RESET", "setpoint_version": reset.version}
+    answer = service.report_part(engine=engine, plan_id=plan_id, body=late).body
+    assert answer["setpoint_version"] >= reset.version
+
+
+def test_bad_changes_are_refused_and_nothing_is_stored(engine):
+    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    with pytest.raises(ValueError, match="limits.rough-odd.force_N"):
+        service.replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-odd.force_N": 1}})
+    with pytest.raises(ValueError, match="models.NOPE.force_N"):
+        service.replan(
+            engine=engine, plan_id=plan_id, changes={"models": {"NOPE.force_N": {"K": 1}}}
+        )
+    with pytest.raises(ValueError, match="operations\\[0\\].bounds.depth_mm"):
+        service.replan(
+            engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depth_mm": [3, 1]}}
+        )
+    with pytest.raises(InfeasibleError):
+        service.replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.force_N": 10}})
+    with pytest.raises(ValueError, match="nothing to change"):
+        service.replan(engine=engine, plan_id=plan_id, changes={})
+    assert _count(engine, t.PlanRevision) == 0 and _count(engine, t.SetpointVersion) == 1
+
+
+def test_replan_over_rest(server):
+    with server.client("engineer") as c, server.client("viewer") as v:
+        plan_id = c.post("/plans", json=BODY).json()["id"]
+        change = {"limits": {"rough-od.force_N": 2200}}
+        dry = c.post(f"/plans/{plan_id}/replan", params={"dry_run": True}, json=change)
+        assert dry.status_code == 200 and dry.json()["dry_run"]
+        done = c.post(f"/plans/{plan_id}/replan", json=change, headers={"Idempotency-Key": "r1"})
+        assert done.status_code == 201 and done.json()["setpoint_version"] == 2
+        again = c.post(f"/plans/{plan_id}/replan", json=change, headers={"Idempotency-Key": "r1"})
+        assert again.json() == done.json() and again.headers["Idempotent-Replayed"] == "true"
+        assert c.get(f"/plans/{plan_id}/setpoints").json()["setpoint_version"] == 2
+        bad = c.post(f"/plans/{plan_id}/replan", json={"limits": {"rough-od.force_N": 10}})
+        assert bad.status_code == 422 and bad.json()["code"] == "infeasible"
+        assert v.post(f"/plans/{plan_id}/replan", json=change).status_code == 403
+
+
+def test_rcb_replan(runner, tmp_path):
+    url = f"sqlite:///{tmp_path / 'r.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    engine.dispose()
+    args = ["replan", str(plan_id), "--db", url]
+    dry = runner.invoke(app, [*args, "--limit", "rough-od.force_N=2200", "--dry-run", "--json"])
+    assert dry.exit_code == 0, dry.output
+    assert json.loads(dry.stdout)["setpoint_version"] == 1
+    done = runner.invoke(
+        app,
+        [*args, "--bound", "rough-od.depth_mm=0.5:2.5", "--model", "CNMG432RN.force_N:dK=120"],
+    )
+    assert done.exit_code == 0, done.output
+    assert "stored as setpoint version 2" in done.stderr
+    for bad, message in [
+        (["--bound", "rough-od.depth_mm=1-2"], "--bound rough-od.depth_mm = '1-2'"),
+        (["--model", "CNMG432RN.force_N"], "--model = 'CNMG432RN.force_N'"),
+        (["--limit", "rough-od.force_N=lots"], "--limit rough-od.force_N = 'lots'"),
+        (["--limit", "rough-od.force_N=10"], "infeasible"),
+    ]:
+        result = runner.invoke(app, [*args, *bad])
+        assert result.exit_code in (2, 3) and message in result.stderr, result.output
+        assert "Traceback" not in result.output
