@@ -16,7 +16,7 @@ from fastapi import Body, Depends, FastAPI, Header, Path, Query, Request
 from fastapi.responses import JSONResponse
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from api import problems, queries, schemas, service
+from api import problems, queries, schemas, service, ui
 from api.problems import ProblemError
 from db.access import Actor
 from db.engine import DEFAULT_URL, make_engine
@@ -51,6 +51,7 @@ def create_app(url: str) -> FastAPI:
     )
     app.state.engine = engine
     problems.install(app)
+    ui.install(app, engine)  # the read-only web view at /ui/ (api/ui.py)
 
     def role(*allowed: str) -> Callable[..., Actor]:
         def check(
