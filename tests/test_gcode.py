@@ -658,3 +658,20 @@ def test_cli_keeps_bytes_that_are_not_utf8(stored_plan, tmp_path):
     assert result.exit_code == 0, result.stderr
     written = out.read_bytes()
     assert b"(\xe9\xff G94 / G97" in written and written.count(b"\r\n") == data.count(b"\n")
+
+
+@pytest.mark.parametrize(
+    ("name", "maps"),
+    [
+        ("demo_g95_g96", ("rough-od=N100:N180", "finish-od=N300:N350")),
+        ("g94_g97", ("rough-od=N10:N60",)),
+    ],
+)
+def test_golden_files(name, maps):
+    """The rewrite of each sample program, as reviewed and kept in ``<name>.golden.nc``.
+
+    Setpoints: rough-od f 0.325 mm/rev, v 200 m/min on Ø60 (n 1061.03 rpm, f·n 344.84 mm/min);
+    finish-od f 0.12 mm/rev, v 190 m/min on Ø50.
+    """
+    result = rewrite((DATA / f"{name}.nc").read_text(), *maps)
+    assert result.text == (DATA / f"{name}.golden.nc").read_text()

@@ -106,6 +106,12 @@ def test_bad_changes_are_refused_and_nothing_is_stored(engine):
         service.replan(
             engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depth_mm": [3, 1]}}
         )
+    with pytest.raises(ValueError, match="operations\\[0\\].limits.forse_N"):  # unknown quantity
+        service.replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.forse_N": 1}})
+    with pytest.raises(ValueError, match="operations\\[0\\].bounds.depht_mm"):  # unknown parameter
+        service.replan(
+            engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depht_mm": [1, 2]}}
+        )
     with pytest.raises(InfeasibleError):
         service.replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.force_N": 10}})
     with pytest.raises(ValueError, match="nothing to change"):

@@ -92,3 +92,63 @@ def test_review_commands_refuse_bad_input(runner, stored, args, message):
     result = runner.invoke(app, [*args, "--db", url])
     assert result.exit_code == 2 and message in result.stderr
     assert "Traceback" not in result.output
+
+
+def test_history_parts_and_export_show_the_numbers_stored(runner, stored, tmp_path):
+    """Every measurement and every setpoint as the database holds them, through each view."""
+    from sqlalchemy import select
+    from sqlalchemy.orm import Session
+
+    from db import tables as t
+
+    url, plan_id, *_ = stored
+    engine = make_engine(url)
+    with Session(engine) as session:
+        measured = {
+            (serial, op, m.quantity): (m.value, m.uncertainty)
+            for m, serial, op in session.execute(
+                select(t.Measurement, t.Part.serial, t.Operation.name)
+                .join(t.Part, t.Measurement.part_id == t.Part.id)
+                .join(t.Operation, t.Measurement.operation_id == t.Operation.id)
+            )
+        }
+        setpoints = {
+            (version, op): (sp.parameters, sp.mrr_cm3_min)
+            for sp, version, op in session.execute(
+                select(t.Setpoint, t.SetpointVersion.version, t.Operation.name)
+                .join(t.SetpointVersion, t.Setpoint.setpoint_version_id == t.SetpointVersion.id)
+                .join(t.Operation, t.Setpoint.operation_id == t.Operation.id)
+            )
+        }
+    engine.dispose()
+    parts = _json(runner, "parts", str(plan_id), "--db", url)["parts"]
+    shown = {
+        (p["serial"], op["name"], q): (m["value"], m["uncertainty"])
+        for p in parts
+        for op in p["operations"]
+        for q, m in op["measurements"].items()
+    }
+    assert shown == measured
+    history = _json(runner, "history", str(plan_id), "--db", url)["versions"]
+    listed = {
+        (v["version"], op["name"]): (op["setpoint"], op["mrr_cm3_min"])
+        for v in history
+        for op in v["operations"]
+    }
+    assert listed == setpoints
+    out = tmp_path / "csv"
+    assert (
+        runner.invoke(app, ["export", str(plan_id), "--out", str(out), "--db", url]).exit_code == 0
+    )
+    m = pd.read_csv(out / "measurements.csv")
+    exported = {
+        (r.serial, r.operation, r.quantity): (r.value, r.uncertainty) for r in m.itertuples()
+    }
+    assert exported.keys() == measured.keys()
+    for key, (value, u) in measured.items():  # CSV keeps 15+ significant digits
+        assert exported[key] == pytest.approx((value, u), rel=1e-12)
+    s = pd.read_csv(out / "setpoints.csv")
+    for r in s.itertuples():
+        parameters, mrr = setpoints[(r.version, r.operation)]
+        assert r.mrr_cm3_min == pytest.approx(mrr, rel=1e-12)
+        assert r.depth_mm == pytest.approx(parameters["depth_mm"], rel=1e-12)
