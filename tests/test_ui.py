@@ -19,6 +19,7 @@ import httpx
 import pytest
 
 from api import service
+from api.plots import number
 from db.engine import make_engine
 
 from conftest import DEMO_PLAN
@@ -172,6 +173,12 @@ def test_plan_page_shows_setpoints_history_and_plots(server, plan_id):
     rows = setpoints.findall("tbody/tr[@data-operation='rough-od']")
     assert len(rows) >= 2  # force, roughness ...: each with its band and margin
     assert all("±" in _text(row.findall("td")[-4]) for row in rows)
+    # every MRR of every version as stored (the REST history, itself compared with the rows)
+    with server.client("viewer") as api:
+        versions = api.get(f"/plans/{plan_id}/history").json()["versions"]
+    for v in versions:
+        for op in v["operations"]:
+            assert _history_mrr(root, v["version"], op["name"]) == number(op["mrr_cm3_min"])
     svgs = [e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "svg"]
     assert len(svgs) == 1 + PLOT_KINDS * len(NAMES)
     assert root.find(".//nav") is not None
