@@ -6,11 +6,8 @@ Exit codes: 0 success, 2 bad input (the message names the field and value), 3 in
 
 from __future__ import annotations
 
-import json
-import os
 import sys
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -25,21 +22,20 @@ try:  # recent typer vendors click as typer._click; its exceptions are not click
 except ImportError:  # pragma: no cover - typer that uses click itself
     from click import exceptions as click_errors  # type: ignore[no-redef]
 
-from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api import cli_review, render, service, serving
+from api.cli_common import DbOption, database_url, emit, err_console, errors, say, shown
 from api.cli_fit import fit
 from api.cli_gcode import gcode
 from api.cli_report import report
-from db.engine import DEFAULT_URL, make_engine, upgrade
+from db.engine import make_engine, upgrade
 from models import fields
 from models.catalogue import get_tool
 from models.errors import InputError, ModelDomainError
 from models.kinematics import CONTEXT, PARAMETERS
 from models.tool import Tool, predict_all
 from supervisor.demo import run_demo
-from supervisor.errors import InfeasibleError, SolverError
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 from supervisor.rcb import RcbSettings
@@ -87,32 +83,12 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 _out = Console()
-_err = Console(stderr=True)
+_err = err_console
 
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
 
 #: The paper's demonstration part, relative to the directory rcb runs in (the repository).
 DEMO_PLAN = Path("examples/ivester_demo_part.toml")
-
-
-@contextmanager
-def _errors() -> Iterator[None]:
-    """Turn domain errors into one line on stderr and a non-zero exit code."""
-    try:
-        yield
-    except InputError as err:
-        _err.print(f"rcb: error: {err}", markup=False, highlight=False, soft_wrap=True)
-        raise typer.Exit(2) from None
-    except InfeasibleError as err:
-        _err.print(f"rcb: infeasible: {err}", markup=False, highlight=False, soft_wrap=True)
-        raise typer.Exit(3) from None
-    except SolverError as err:
-        _err.print(f"rcb: solver: {err}", markup=False, highlight=False, soft_wrap=True)
-        raise typer.Exit(4) from None
-
-
-def _emit(data: dict[str, Any]) -> None:
-    typer.echo(json.dumps(data, indent=2))
 
 
 def _pairs(items: list[str], option: str) -> dict[str, float]:
@@ -186,7 +162,7 @@ def predict(
         "flute_count": None if flute_count is None else float(flute_count),
         "flank_wear_mm": flank_wear_mm,
     }
-    with _errors():
+    with errors():
         found = _tool(tool, plan)
         allowed = PARAMETERS[found.process] + CONTEXT[found.process]
         point: dict[str, float] = {}
@@ -208,7 +184,7 @@ def predict(
         except ModelDomainError as err:
             raise InputError(_OPTIONS.get(err.field, err.field), err.value, err.reason) from None
     if as_json:
-        _emit(
+        emit(
             {
                 "tool": found.name,
                 "process": found.process,
@@ -250,10 +226,10 @@ def optimize(
     as_json: JsonOption = False,
 ) -> None:
     """Robust optimum of every operation of a plan: max MRR, every limit met at the band edge."""
-    with _errors():
+    with errors():
         result = optimize_plan(load_plan(plan_file))
     if as_json:
-        _emit(render.plan_json(result))
+        emit(render.plan_json(result))
         return
     _out.print(render.plan_table(result))
     for op in result.operations:
@@ -279,7 +255,7 @@ def demo(
 
     Writes nothing: the parts are simulated in memory.
     """
-    with _errors():
+    with errors():
         settings = RcbSettings(strategy=strategy, alpha=alpha)  # type: ignore[arg-type]
         plan = load_plan(plan_file)
         if as_json:
@@ -291,7 +267,7 @@ def demo(
                     plan, parts, seed, settings, lambda n: progress.update(task, completed=n)
                 )
     if as_json:
-        _emit(render.demo_json(result, strategy, seed))
+        emit(render.demo_json(result, strategy, seed))
         return
     for table in render.demo_tables(result):
         _out.print(table)
@@ -312,15 +288,6 @@ for _review in (
 db_app = typer.Typer(help="The database: migrations.", no_args_is_help=True)
 app.add_typer(db_app, name="db")
 
-DbOption = Annotated[
-    str | None,
-    typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
-]
-
-
-def _database_url(db: str | None) -> str:
-    return db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL
-
 
 def _migrate(url: str) -> None:
     try:
@@ -333,21 +300,13 @@ def _migrate(url: str) -> None:
         ) from None
 
 
-def _shown(url: str) -> str:
-    return make_url(url).render_as_string(hide_password=True)
-
-
 @db_app.command("upgrade")
 def db_upgrade(db: DbOption = None) -> None:
     """Create or migrate the database to the newest schema."""
-    url = _database_url(db)
-    with _errors():
+    url = database_url(db)
+    with errors():
         _migrate(url)
-    _say(f"rcb: database {_shown(url)} is up to date")
-
-
-def _say(text: str) -> None:
-    _err.print(text, markup=False, highlight=False, soft_wrap=True)
+    say(f"rcb: database {shown(url)} is up to date")
 
 
 keys_app = typer.Typer(help="API keys of the REST service.", no_args_is_help=True)
@@ -362,15 +321,15 @@ def keys_create(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Create an API key; it is printed once and stored only as a hash."""
-    url = _database_url(db)
-    with _errors():
+    url = database_url(db)
+    with errors():
         _migrate(url)
         created = service.create_key(engine=make_engine(url), role=role, label=label)
     if as_json:
-        _emit(created)
+        emit(created)
         return
     typer.echo(created["key"])
-    _say(f"rcb: key {created['id']} ({created['role']}) created; it is not shown again")
+    say(f"rcb: key {created['id']} ({created['role']}) created; it is not shown again")
 
 
 @keys_app.command("revoke")
@@ -379,14 +338,14 @@ def keys_revoke(
     db: DbOption = None,
 ) -> None:
     """Revoke an API key (kept in the audit log, refused from now on)."""
-    url = _database_url(db)
-    with _errors():
+    url = database_url(db)
+    with errors():
         _migrate(url)
         try:
             revoked = service.revoke_key(engine=make_engine(url), key_id=key_id)
         except service.NotFoundError as err:
             raise InputError("ID", key_id, "no such API key") from err
-    _say(f"rcb: key {revoked['id']} ({revoked['role']}) revoked")
+    say(f"rcb: key {revoked['id']} ({revoked['role']}) revoked")
 
 
 @app.command()
@@ -398,8 +357,8 @@ def serve(
     access_log: Annotated[bool, typer.Option(help="Log every request.")] = True,
 ) -> None:
     """Serve the REST API (under /api/v1) with uvicorn; migrates the database first."""
-    url = _database_url(db)
-    with _errors():
+    url = database_url(db)
+    with errors():
         _migrate(url)
-        _say(f"rcb: serving {_shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
+        say(f"rcb: serving {shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
         serving.run(url, host=host, port=port, workers=workers, access_log=access_log)

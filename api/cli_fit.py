@@ -6,20 +6,15 @@ every value it uses (rows are counted from 1 after the header line), and fits
 as one ``[[tools]]`` entry of a plan file (TOML) that :func:`models.tool.tool_from_mapping`
 reads back; the file is written atomically and only when everything succeeded.
 
-This module does not import :mod:`api.cli` (which registers ``fit`` and so imports this
-module); the error handling of ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE:
-reason``) is repeated here in :func:`_errors`.
+Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
+:func:`api.cli_common.errors`).
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import tempfile
 import tomllib
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager, suppress
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -29,26 +24,16 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from api.cli_common import check_target, emit, errors, say, write_atomically
 from models.errors import InputError
 from models.fit import BANDS, Band, FitResult, fit_power_law
 from models.quantities import MODEL_QUANTITIES
 from models.tool import process_of, tool_from_mapping, variables
 
 _out = Console()
-_err = Console(stderr=True)
 
 #: How many distinct values of a column an error lists at most.
 _SHOWN_VALUES = 12
-
-
-@contextmanager
-def _errors() -> Iterator[None]:
-    """Turn an :class:`InputError` into one line on stderr and exit code 2 (as ``rcb``)."""
-    try:
-        yield
-    except InputError as err:
-        _err.print(f"rcb: error: {err}", markup=False, highlight=False, soft_wrap=True)
-        raise typer.Exit(2) from None
 
 
 def fit(
@@ -105,7 +90,7 @@ def fit(
 
     Rows in error messages are counted from 1 after the header line (blank lines skipped).
     """
-    with _errors():
+    with errors():
         checked_process = process_of(process, "--process")
         band_kind = _band(band)
         coverage_factor = _coverage_factor(band_kind, k)
@@ -189,16 +174,11 @@ def fit(
             "tool": tool_name if written else None,
             "written": written,
         }
-        typer.echo(json.dumps(payload, indent=2))
+        emit(payload)
     else:
         _out.print(_table(result, response, quantity, columns, source))
     if written:
-        _err.print(
-            f"rcb: wrote tool {tool_name} ({quantity}) to {written}",
-            markup=False,
-            highlight=False,
-            soft_wrap=True,
-        )
+        say(f"rcb: wrote tool {tool_name} ({quantity}) to {written}")
 
 
 def _count(n: int, noun: str) -> str:
@@ -406,27 +386,13 @@ def _toml_string(text: str) -> str:
 
 
 def _write_atomically(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same directory."""
-    directory = path.parent
-    if not directory.is_dir():
-        raise InputError("--write-tool", str(path), "the directory does not exist")
-    if path.is_dir():
-        raise InputError("--write-tool", str(path), "is a directory")
+    """Write the tool file whole or not at all (:func:`api.cli_common.write_atomically`)."""
+    check_target(path, "--write-tool")
     try:
         data = text.encode("utf-8")
     except UnicodeEncodeError as err:
         raise InputError("--write-tool", str(path), f"cannot encode as UTF-8 ({err})") from None
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(handle, "wb") as file:
-            file.write(data)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(temporary, path)
-    except OSError as err:
-        with suppress(OSError):
-            os.unlink(temporary)
-        raise InputError("--write-tool", str(path), f"cannot be written ({err.strerror})") from None
+    write_atomically(path, data, "--write-tool")
 
 
 def _table(

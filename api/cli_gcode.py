@@ -7,18 +7,12 @@ dialect, the refusals, the warnings and the number formats), and writes ``--out`
 only when everything succeeded. The program is read as bytes and written back with the same
 bytes wherever nothing changed (UTF-8, undecodable bytes carried through unchanged).
 
-This module does not import :mod:`api.cli` (which registers ``gcode`` and so imports this
-module); the error handling of ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE:
-reason``) is repeated here in :func:`_errors`.
+Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
+:func:`api.cli_common.errors`).
 """
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -26,12 +20,19 @@ import typer
 from rich.console import Console
 from rich.table import Table
 from sqlalchemy import Engine
-from sqlalchemy.engine import make_url
-from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api import queries
+from api.cli_common import (
+    DbOption,
+    check_target,
+    database_url,
+    emit,
+    errors,
+    existing_engine,
+    say,
+    write_atomically,
+)
 from api.service import NotFoundError
-from db.engine import DEFAULT_URL, make_engine
 from models.errors import InputError
 from supervisor.gcode import (
     BlockRange,
@@ -43,28 +44,9 @@ from supervisor.gcode import (
 )
 
 _out = Console()
-_err = Console(stderr=True)
 
 #: How the program's bytes become text and back: the same bytes out for every byte in.
 _ENCODING, _BYTES = "utf-8", "surrogateescape"
-
-
-@contextmanager
-def _errors() -> Iterator[None]:
-    """Turn an :class:`InputError` into one line on stderr and exit code 2 (as ``rcb``)."""
-    try:
-        yield
-    except InputError as err:
-        _say(f"rcb: error: {err}")
-        raise typer.Exit(2) from None
-    except (ArgumentError, OperationalError) as err:
-        first = str(err).splitlines()[0] if str(err).strip() else err.__class__.__name__
-        _say(f"rcb: error: --db: cannot use this database ({first})")
-        raise typer.Exit(2) from None
-
-
-def _say(text: str) -> None:
-    _err.print(text, markup=False, highlight=False, soft_wrap=True)
 
 
 def gcode(
@@ -83,10 +65,7 @@ def gcode(
             help="An operation and its blocks, first and last included (repeatable).",
         ),
     ],
-    db: Annotated[
-        str | None,
-        typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
-    ] = None,
+    db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
 ) -> None:
     """Write the setpoints in force into the F and S words of each operation's blocks.
@@ -95,40 +74,27 @@ def gcode(
     under G97) at the operation's workpiece diameter; every other byte is kept. A program
     whose modes cannot be determined is refused and nothing is written.
     """
-    with _errors():
+    with errors():
         ranges = [_range(item) for item in mapping]
         source = _read_program(program)
         target = _target(out, program)
-        url = _database_url(db)
-        _check_database(url)
-        version, setpoints = _setpoints(make_engine(url), plan, ranges, mapping)
+        engine = existing_engine(database_url(db))
+        version, setpoints = _setpoints(engine, plan, ranges, mapping)
         try:
             result = rewrite_program(source, setpoints, ranges, program_name=program.name)
         except GcodeError as err:
             if err.field == "map":
                 raise InputError("--map", err.value, err.reason) from None
             raise
-        _write_atomically(target, result.text.encode(_ENCODING, _BYTES))
+        write_atomically(target, result.text.encode(_ENCODING, _BYTES))
     if as_json:
-        typer.echo(json.dumps(result_json(result, plan, version, program, out), indent=2))
+        emit(result_json(result, plan, version, program, out))
     else:
         _out.print(_table(result, plan, version))
     for notice in result.warnings:
         at = f"line {notice.line}: " if notice.line is not None else ""
-        _say(f"rcb: warning: {program.name} {at}{notice.operation}: {notice.message}")
-    _say(f"rcb: wrote {out} ({len(result.changes)} words changed)")
-
-
-def _database_url(db: str | None) -> str:
-    return db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL
-
-
-def _check_database(url: str) -> None:
-    """Refuse a SQLite file that does not exist (connecting would create an empty one)."""
-    parsed = make_url(url)
-    if parsed.get_backend_name() == "sqlite" and parsed.database not in (None, "", ":memory:"):
-        if not Path(parsed.database).is_file():
-            raise InputError("--db", url, "no such database file (rcb db upgrade creates it)")
+        say(f"rcb: warning: {program.name} {at}{notice.operation}: {notice.message}")
+    say(f"rcb: wrote {out} ({len(result.changes)} words changed)")
 
 
 def _range(item: str) -> BlockRange:
@@ -153,10 +119,7 @@ def _read_program(path: Path) -> str:
 
 
 def _target(out: Path, program: Path) -> Path:
-    if out.is_dir():
-        raise InputError("--out", str(out), "is a directory")
-    if not out.parent.is_dir():
-        raise InputError("--out", str(out), "the directory does not exist")
+    check_target(out)
     if out.exists() and out.resolve() == program.resolve():
         raise InputError("--out", str(out), "is the input program: write the new one elsewhere")
     return out
@@ -196,21 +159,6 @@ def _setpoints(
             workpiece_diameter_mm=diameter,
         )
     return int(current["setpoint_version"]), chosen
-
-
-def _write_atomically(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same directory."""
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(handle, "wb") as file:
-            file.write(data)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(temporary, path)
-    except OSError as err:
-        with suppress(OSError):
-            os.unlink(temporary)
-        raise InputError("--out", str(path), f"cannot be written ({err.strerror})") from None
 
 
 def result_json(

@@ -6,11 +6,7 @@ Thin commands over :mod:`api.queries` (the REST routes call the same), rich tabl
 
 from __future__ import annotations
 
-import json
-import os
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any
@@ -18,58 +14,21 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 from rich.table import Table
-from sqlalchemy.exc import ArgumentError, OperationalError
+from sqlalchemy import Engine
 
 from api import export as tidy
 from api import queries
-from api.service import NotFoundError
-from db.engine import DEFAULT_URL, make_engine
-from db.errors import ConflictError
+from api.cli_common import DbOption, database_url, emit, errors, existing_engine, say
 from models.errors import InputError
-from supervisor.errors import InfeasibleError
 
 _out = Console()
-_err = Console(stderr=True)
 
-DbOption = Annotated[
-    str | None,
-    typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
-]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
 PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")]
 
 
-@contextmanager
-def _errors() -> Iterator[None]:
-    try:
-        yield
-    except (InputError, NotFoundError, ConflictError) as err:
-        _err.print(f"rcb: error: {err}", markup=False, highlight=False, soft_wrap=True)
-        raise typer.Exit(2) from None
-    except InfeasibleError as err:
-        _err.print(f"rcb: infeasible: {err}", markup=False, highlight=False, soft_wrap=True)
-        raise typer.Exit(3) from None
-    except (ArgumentError, OperationalError) as err:
-        first = str(err).splitlines()[0]
-        _err.print(
-            f"rcb: error: --db: cannot use this database ({first}); is it migrated? rcb db upgrade",
-            markup=False,
-        )
-        raise typer.Exit(2) from None
-
-
-def _engine(db: str | None) -> Any:
-    return make_engine(db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL)
-
-
-def _emit(data: object) -> None:
-    typer.echo(json.dumps(data, indent=2, default=_jsonable))
-
-
-def _jsonable(value: object) -> str:
-    if isinstance(value, datetime):
-        return value.isoformat()
-    raise TypeError(type(value).__name__)
+def _engine(db: str | None) -> Engine:
+    return existing_engine(database_url(db))
 
 
 def _fmt(value: float | None) -> str:
@@ -80,10 +39,10 @@ def _fmt(value: float | None) -> str:
 
 def plans(db: DbOption = None, as_json: JsonOption = False) -> None:
     """List the plans: machine, RCB law, setpoint version in force, parts reported."""
-    with _errors():
+    with errors():
         data = queries.list_plans(engine=_engine(db))
     if as_json:
-        _emit(data)
+        emit(data)
         return
     table = Table(title="plans")
     for column in ("id", "name", "machine", "strategy", "α", "version", "parts", "created"):
@@ -111,7 +70,7 @@ def history(
     as_json: JsonOption = False,
 ) -> None:
     """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
-    with _errors():
+    with errors():
         engine = _engine(db)
         data = queries.plan_history(engine=engine, plan_id=plan)
         decisions = _decisions_by_part(engine, plan)
@@ -125,7 +84,7 @@ def history(
         if operation is not None:
             version["operations"] = [o for o in version["operations"] if o["name"] == operation]
     if as_json:
-        _emit(data)
+        emit(data)
         return
     _out.print(_history_table(data, operation))
 
@@ -175,22 +134,16 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
     return table
 
 
-def _decisions_by_part(engine: Any, plan_id: int) -> dict[int, list[dict[str, Any]]]:
+def _decisions_by_part(engine: Engine, plan_id: int) -> dict[int, list[dict[str, Any]]]:
     out: dict[int, list[dict[str, Any]]] = {}
     for part in _all_parts(engine, plan_id):
         out[part["part_id"]] = part["updates"]
     return out
 
 
-def _all_parts(engine: Any, plan_id: int, since: datetime | None = None) -> list[dict[str, Any]]:
-    items: list[dict[str, Any]] = []
-    cursor = None
-    while True:
-        page = queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=queries.MAX_PAGE)
-        items += [p for p in page["items"] if since is None or p["received_at"] >= since]
-        cursor = page["next_cursor"]
-        if cursor is None:
-            return items
+def _all_parts(engine: Engine, plan_id: int, since: datetime | None = None) -> list[dict[str, Any]]:
+    items = queries.all_parts(engine=engine, plan_id=plan_id)
+    return [p for p in items if since is None or p["received_at"] >= since]
 
 
 def parts(
@@ -202,11 +155,11 @@ def parts(
     as_json: JsonOption = False,
 ) -> None:
     """Parts with their measurements, the margins to each limit, and flagged violations."""
-    with _errors():
+    with errors():
         after = _since(since)
         items = _all_parts(_engine(db), plan, after)
     if as_json:
-        _emit({"plan_id": plan, "parts": items})
+        emit({"plan_id": plan, "parts": items})
         return
     table = Table(title=f"plan {plan}: parts" + (f" since {since}" if since else ""))
     for column in ("serial", "ver", "received", "operation", "quantity", "measured ± u"):
@@ -251,7 +204,7 @@ def export(
     db: DbOption = None,
 ) -> None:
     """Parts, measurements, decisions and setpoint history as tidy tables (one row each)."""
-    with _errors():
+    with errors():
         if fmt not in ("csv", "parquet"):
             raise InputError("--format", fmt, "expected csv or parquet")
         engine = _engine(db)
@@ -260,7 +213,7 @@ def export(
         )
         written = tidy.write(tables, out, fmt)
     for path in written:
-        _err.print(f"rcb: wrote {path}", markup=False, highlight=False, soft_wrap=True)
+        say(f"rcb: wrote {path}")
     sys.stdout.flush()
 
 
@@ -285,7 +238,7 @@ def replan(
     """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
     from api import service
 
-    with _errors():
+    with errors():
         changes: dict[str, Any] = {
             "limits": {k: _limit_value(k, v) for k, v in _pairs(limit or [], "--limit").items()},
             "bounds": {k: _bounds(k, v) for k, v in _pairs(bound or [], "--bound").items()},
@@ -297,7 +250,7 @@ def replan(
         written = service.replan(engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run)
     answer = written.body
     if as_json:
-        _emit(answer)
+        emit(answer)
         return
     table = Table(title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else ""))
     for column in ("operation", "parameter", "now", "new"):
@@ -313,9 +266,7 @@ def replan(
     _out.print(table)
     before, after = answer["cycle_time_min"]
     stored = "not stored" if dry_run else f"stored as setpoint version {answer['setpoint_version']}"
-    _err.print(
-        f"rcb: cycle time {before:.4g} -> {after:.4g} min; {stored}", markup=False, highlight=False
-    )
+    say(f"rcb: cycle time {before:.4g} -> {after:.4g} min; {stored}")
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:

@@ -12,13 +12,12 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from api.cli_common import write_atomically
 from models.errors import InputError
 
 
@@ -90,18 +89,7 @@ def write(frames: dict[str, pd.DataFrame], out: Path, fmt: str) -> list[Path]:
     written = []
     for name, frame in frames.items():
         target = out / f"{name}.{fmt}"
-        handle, temporary = tempfile.mkstemp(dir=out, prefix=f".{name}.", suffix=".tmp")
-        os.close(handle)
-        try:
-            if fmt == "csv":
-                frame.to_csv(temporary, index=False)
-            else:
-                frame.to_parquet(temporary, index=False)
-            os.replace(temporary, target)
-        except OSError as err:
-            raise InputError("--out", str(out), f"cannot write {target.name} ({err})") from None
-        finally:
-            if os.path.exists(temporary):
-                os.unlink(temporary)
+        data = frame.to_csv(index=False).encode("utf-8") if fmt == "csv" else frame.to_parquet()
+        write_atomically(target, data)
         written.append(target)
     return written

@@ -121,6 +121,30 @@ def parts(
     return {"items": items, "next_cursor": str(rows[-1].id) if rows and more else None}
 
 
+def all_parts(*, engine: Engine, plan_id: int) -> list[dict[str, Any]]:
+    """Every part of a plan, oldest first (:func:`parts`, page after page)."""
+    items: list[dict[str, Any]] = []
+    cursor = None
+    while True:
+        page = parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=MAX_PAGE)
+        items += page["items"]
+        cursor = page["next_cursor"]
+        if cursor is None:
+            return items
+
+
+def record(
+    *, engine: Engine, plan_id: int
+) -> tuple[dict[str, Any], dict[str, Any], list[dict[str, Any]]]:
+    """A plan, every part and the setpoint history: what a report shows.
+
+    Parts are read before the history, so every version a part names is in the history.
+    """
+    plan = get_plan(engine=engine, plan_id=plan_id)
+    items = all_parts(engine=engine, plan_id=plan_id)
+    return plan, plan_history(engine=engine, plan_id=plan_id), items
+
+
 def plan_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
     """Every setpoint version with its cause, the setpoints, and the models (bands) in force."""
     with _read(engine) as session, session.begin():

@@ -141,27 +141,15 @@ def install(app: FastAPI, engine: Engine) -> None:
         if not 1 <= number_id <= MAX_ID:
             return _not_found(plan_id, actor)
         try:
-            page = render_report(*_record(engine, number_id), last=PLOTTED_PARTS)
+            page = render_report(
+                *queries.record(engine=engine, plan_id=number_id), last=PLOTTED_PARTS
+            )
         except service.NotFoundError:
             return _not_found(plan_id, actor)
         # the report page with the view's navigation; it stays well-formed XML
         nav = _tag("style", _NAV_CSS) + _nav(actor)
         page = page.replace("</head><body>", f"</head><body>{nav}", 1)
         return HTMLResponse(page, headers=_HEADERS)
-
-
-def _record(engine: Engine, plan_id: int) -> tuple[dict[str, Any], dict[str, Any], list[Any]]:
-    """The plan, its setpoint history and all its parts (oldest first), as ``rcb report``."""
-    plan = queries.get_plan(engine=engine, plan_id=plan_id)
-    parts: list[Any] = []
-    cursor = None
-    while True:
-        page = queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=queries.MAX_PAGE)
-        parts += page["items"]
-        cursor = page["next_cursor"]
-        if cursor is None:
-            break
-    return plan, queries.plan_history(engine=engine, plan_id=plan_id), parts
 
 
 def _same_origin(request: Request) -> bool:
