@@ -35,7 +35,7 @@ from models.catalogue import get_tool
 from models.errors import InputError, ModelDomainError
 from models.kinematics import CONTEXT, PARAMETERS
 from models.tool import Tool, predict_all
-from supervisor.demo import run_demo
+from supervisor.demo import MILLING_DEMO_UNCERTAINTY, run_demo
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 from supervisor.rcb import RcbSettings
@@ -89,6 +89,8 @@ JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of 
 
 #: The paper's demonstration part, relative to the directory rcb runs in (the repository).
 DEMO_PLAN = Path("examples/ivester_demo_part.toml")
+#: The milling demonstration (slot and side finish, spindle current as the force sensor).
+MILLING_DEMO_PLAN = Path("examples/milling_demo_part.toml")
 
 
 def _pairs(items: list[str], option: str) -> dict[str, float]:
@@ -247,24 +249,43 @@ def demo(
         float, typer.Option("--alpha", help="Fraction of the margin a band shrinks by.")
     ] = 0.25,
     plan_file: Annotated[
-        Path, typer.Option("--plan", help="The plan (default: the paper's demonstration part).")
-    ] = DEMO_PLAN,
+        Path | None,
+        typer.Option("--plan", help="The plan (default: the paper's demonstration part)."),
+    ] = None,
+    milling: Annotated[
+        bool,
+        typer.Option(
+            "--milling",
+            help="The milling demonstration (slot and side finish, spindle current as the "
+            "force sensor) on a virtual mill.",
+        ),
+    ] = False,
     as_json: JsonOption = False,
 ) -> None:
     """The paper's demonstration: catalogue, robust start, then RCB part by part on a virtual lathe.
 
-    Writes nothing: the parts are simulated in memory.
+    With --milling: a slot and a side-finish pass on a virtual mill whose force is measured by
+    the spindle current (Kim & Jeon). Writes nothing: the parts are simulated in memory.
     """
     with errors():
         settings = RcbSettings(strategy=strategy, alpha=alpha)  # type: ignore[arg-type]
+        if plan_file is None:
+            plan_file = MILLING_DEMO_PLAN if milling else DEMO_PLAN
         plan = load_plan(plan_file)
+        u = MILLING_DEMO_UNCERTAINTY if milling else None
         if as_json:
-            result = run_demo(plan, parts, seed, settings)
+            result = run_demo(plan, parts, seed, settings, uncertainty=u)
         else:
+            where = "mill" if milling else "lathe"
             with Progress(console=_err, transient=True) as progress:
-                task = progress.add_task(f"RCB ({strategy}) on the virtual lathe", total=parts)
+                task = progress.add_task(f"RCB ({strategy}) on the virtual {where}", total=parts)
                 result = run_demo(
-                    plan, parts, seed, settings, lambda n: progress.update(task, completed=n)
+                    plan,
+                    parts,
+                    seed,
+                    settings,
+                    lambda n: progress.update(task, completed=n),
+                    uncertainty=u,
                 )
     if as_json:
         emit(render.demo_json(result, strategy, seed))

@@ -177,13 +177,25 @@ def _meas(m: Measurement | None) -> str:
     return "" if m is None else f"{_fmt(m.value)}\n±{m.uncertainty:.3g}"
 
 
+#: Column heads of the cutting parameters in the demonstration tables (Table 5's symbols).
+_DEMO_COLUMNS = {
+    "depth_mm": "d\nmm",
+    "feed_mm_rev": "f\nmm/rev",
+    "speed_m_min": "v\nm/min",
+    "axial_depth_mm": "ap\nmm",
+    "radial_depth_mm": "ae\nmm",
+    "feed_per_tooth_mm": "fz\nmm",
+}
+
+
 def demo_tables(result: DemoResult) -> list[Table]:
     """One Table-5-like table per operation, then the cycle times."""
     tables = []
     for op in result.operations:
         table = Table(title=f"{op.name}", title_justify="left")
-        columns: tuple[str, ...] = ("", "d\nmm", "f\nmm/rev", "v\nm/min", "MRR\ncm³/min")
-        columns += ("F N\nmodel", "Ra µm\nmodel", "F N\nmeas.", "Ra µm\nmeas.")
+        names = tuple(op.robust.setpoint)
+        columns: tuple[str, ...] = ("", *(_DEMO_COLUMNS.get(p, p) for p in names))
+        columns += ("MRR\ncm³/min", "F N\nmodel", "Ra µm\nmodel", "F N\nmeas.", "Ra µm\nmeas.")
         for column in columns:
             table.add_column(column, justify="right", no_wrap=True)
         labelled = (("C", op.catalog), ("R", op.robust), ("final", op.final))
@@ -193,7 +205,7 @@ def demo_tables(result: DemoResult) -> list[Table]:
             s = row.setpoint
             table.add_row(
                 label,
-                *(_fmt(s[p]) for p in ("depth_mm", "feed_mm_rev", "speed_m_min") if p in s),
+                *(_fmt(s[p]) if p in s else "" for p in names),
                 _fmt(row.mrr_cm3_min),
                 _pm(row.predicted.get("force_N")),
                 _pm(row.predicted.get("roughness_um")),

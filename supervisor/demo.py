@@ -4,6 +4,13 @@ Ivester & Heigel Table 5 compares the vendor's catalogue parameters (rows C), th
 optimum (rows R) and the parameters adaptive control reached (rows AC). Here the parts are
 made on a :mod:`virtual machine <supervisor.simulate>` whose true process lies inside the
 bands, and each part's measurements go through :func:`supervisor.rcb.update`.
+
+Where the plan's machine has a calibration that turns a spindle reading into force (Kim &
+Jeon's spindle current, Ivester & Heigel's spindle load), the force of every operation that
+limits it is reported as that reading, made by a :mod:`virtual sensor <supervisor.sensing>`
+from the true force, and converted back by :func:`supervisor.signals.resolve` exactly as a
+part report from the MES would be: the band then shrinks against the conversion's
+uncertainty, not the dynamometer's.
 """
 
 from __future__ import annotations
@@ -15,11 +22,27 @@ import numpy as np
 
 from models import kinematics
 from models.powerlaw import Prediction
+from models.sensors import Calibration
+from models.sensors.convert import converts
 from models.tool import predict_all
+from supervisor.optimizer import PlanResult
 from supervisor.plan import Plan
 from supervisor.rcb import Decision, RcbSettings, RcbState, start, update
-from supervisor.report import Measurement, PartReport
-from supervisor.simulate import VirtualMachine, run_part, sample_machine
+from supervisor.report import Measurement, PartReport, Signal
+from supervisor.sensing import noisy_reading
+from supervisor.signals import operating_point, resolve
+from supervisor.simulate import (
+    DEFAULT_UNCERTAINTY,
+    PartOutcome,
+    VirtualMachine,
+    run_part,
+    sample_machine,
+)
+
+#: Expanded uncertainty of the milling demonstration's spindle current readings [A]: 0.5 % of
+#: the 4 A Kim & Jeon's spindle draws near its force limit (§6.2.3), the relative accuracy
+#: :data:`supervisor.simulate.DEFAULT_UNCERTAINTY` assumes for a current transducer.
+MILLING_DEMO_UNCERTAINTY: Mapping[str, float] = {"spindle_current_A": 0.02}
 
 
 @dataclass(frozen=True)
@@ -62,6 +85,7 @@ def run_demo(
     seed: int,
     settings: RcbSettings | None = None,
     on_part: Callable[[int], None] | None = None,
+    uncertainty: Mapping[str, float] | None = None,
 ) -> DemoResult:
     """Make ``parts`` parts with RCB on a virtual machine drawn with ``seed``.
 
@@ -78,8 +102,12 @@ def run_demo(
         The RCB law (strategy, alpha, floors).
     on_part : callable, optional
         Called with the number of parts made so far, for progress display.
+    uncertainty : Mapping[str, float], optional
+        Expanded measurement uncertainty per quantity, over
+        :data:`supervisor.simulate.DEFAULT_UNCERTAINTY` (``spindle_current_A`` and
+        ``spindle_load_V`` for the virtual spindle sensor).
     """
-    machine = sample_machine(plan, seed)
+    machine = sample_machine(plan, seed, uncertainty=uncertainty)
     rng = np.random.default_rng(seed)
     state = start(plan, settings)
     catalog = _catalog_rows(plan, machine, rng)
@@ -91,9 +119,11 @@ def run_demo(
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
         outcome = run_part(machine, setpoints, rng)
         violations += len(outcome.violations)
+        report = _report(
+            plan, machine, state.setpoints, outcome, f"{seed}-{i + 1}", state.version, rng
+        )
         if i == 0:
-            first = outcome.measurements
-        report = PartReport(f"{seed}-{i + 1}", state.version, outcome.measurements)
+            first = report.measurements
         state, decisions = update(state, report)
         trail.append(decisions)
         if on_part is not None:
@@ -119,7 +149,7 @@ def run_demo(
                     final.mrr_cm3_min,
                     final.time_min,
                     final.predicted,
-                    check.measurements.get(final.name, {}),
+                    _sensed(plan, machine, state.setpoints, check, rng).get(final.name, {}),
                 ),
             )
         )
@@ -160,3 +190,57 @@ def _catalog_rows(plan: Plan, machine: VirtualMachine, rng: np.random.Generator)
             measured=outcome.measurements.get(op.name, {}),
         )
     return rows
+
+
+def _force_sensor(plan: Plan) -> tuple[str, Calibration] | None:
+    """The machine's one calibration that turns a spindle reading into force, if any."""
+    found = [(n, c) for n, c in plan.machine.calibrations.items() if converts(c) is not None]
+    return found[0] if len(found) == 1 else None
+
+
+def _report(
+    plan: Plan,
+    machine: VirtualMachine,
+    made_with: PlanResult,
+    outcome: PartOutcome,
+    serial: str,
+    version: int,
+    rng: np.random.Generator,
+) -> PartReport:
+    """The part report the MES sends: forces as spindle readings where the machine has a sensor.
+
+    Returns the report after :func:`supervisor.signals.resolve`, i.e. with every reading
+    converted to ``force_N`` with the conversion's uncertainty.
+    """
+    sensor = _force_sensor(plan)
+    if sensor is None:
+        return PartReport(serial, version, outcome.measurements)
+    name, calibration = sensor
+    raw = converts(calibration)
+    assert raw is not None  # _force_sensor keeps only force calibrations
+    u = machine.uncertainty.get(raw, DEFAULT_UNCERTAINTY.get(raw, 0.0))
+    measurements = {op: dict(m) for op, m in outcome.measurements.items()}
+    signals: dict[str, dict[str, Signal]] = {}
+    setpoints = {op.name: op.setpoint for op in made_with.operations}
+    for op in plan.operations:
+        if "force_N" not in op.limits or "force_N" not in measurements.get(op.name, {}):
+            continue
+        del measurements[op.name]["force_N"]
+        point = operating_point(op.process, {**op.context, **setpoints[op.name]})
+        force = outcome.true_values[op.name]["force_N"]
+        reading = noisy_reading(calibration, force, point, u, rng)
+        signals[op.name] = {raw: Signal(raw, Measurement(reading, u), calibration=name)}
+    report = PartReport(serial, version, measurements, signals=signals)
+    resolved, _ = resolve(report, plan, made_with)
+    return resolved
+
+
+def _sensed(
+    plan: Plan,
+    machine: VirtualMachine,
+    made_with: PlanResult,
+    outcome: PartOutcome,
+    rng: np.random.Generator,
+) -> Mapping[str, Mapping[str, Measurement]]:
+    """The measurements of a part as the supervisor sees them (see :func:`_report`)."""
+    return _report(plan, machine, made_with, outcome, "", 0, rng).measurements

@@ -71,7 +71,7 @@ def resolve(
             if "force_N" in measurements.get(name, {}):
                 raise InputError(path, signal.reading.value, "force_N is reported too; give one")
             label, calibration = _calibration(plan, signal, path)
-            context = _context(op.process, {**op.context, **setpoints[name].setpoint})
+            context = operating_point(op.process, {**op.context, **setpoints[name].setpoint})
             context.update(signal.context)
             force = to_force(
                 calibration,
@@ -118,7 +118,7 @@ def _calibration(plan: Plan, signal: Signal, path: str) -> tuple[str, Calibratio
     return fitting[0]
 
 
-def _context(process: kinematics.Process, point: Mapping[str, float]) -> dict[str, object]:
+def operating_point(process: kinematics.Process, point: Mapping[str, float]) -> dict[str, object]:
     """Workpiece diameter, spindle speed and feed rate at the setpoint, where they follow."""
     context: dict[str, object] = dict(point)
     if kinematics.DIAMETER[process] in point:
