@@ -53,6 +53,7 @@ def resolve(
         Unknown operation or calibration, no calibration for the quantity, a force reported
         twice (directly and as a reading), or what the conversion refuses; the field is named.
     """
+    report = _bare_currents_as_readings(report, plan)
     if not report.signals:
         return report, {}
     operations = {op.name: op for op in plan.operations}
@@ -93,6 +94,33 @@ def resolve(
                 "context": {k: v for k, v in context.items() if isinstance(v, int | float)},
             }
     return replace(report, measurements=measurements, signals={}), raw
+
+
+def _bare_currents_as_readings(report: PartReport, plan: Plan) -> PartReport:
+    """A bare ``spindle_current_A`` is a reading to convert where the tool does not model it.
+
+    Given as ``{value, uncertainty}`` it is a measurement of the tool's spindle-current model
+    (Tai et al. Eq. 14) when the operation's tool has one, and otherwise the force sensor's
+    reading (Kim & Jeon §6.2.3) for the machine's calibration to convert.
+    """
+    tools = {op.name: plan.tools[op.tool] for op in plan.operations}
+    moved: dict[str, dict[str, Measurement]] = {}
+    for name, measured in report.measurements.items():
+        tool = tools.get(name)
+        if tool is not None and "spindle_current_A" in measured:
+            if "spindle_current_A" not in tool.models:
+                moved[name] = {"spindle_current_A": measured["spindle_current_A"]}
+    if not moved:
+        return report
+    measurements = {
+        name: {q: m for q, m in measured.items() if q not in moved.get(name, {})}
+        for name, measured in report.measurements.items()
+    }
+    signals = {name: dict(s) for name, s in report.signals.items()}
+    for name, readings in moved.items():
+        for quantity, reading in readings.items():
+            signals.setdefault(name, {})[quantity] = Signal(quantity, reading)
+    return replace(report, measurements=measurements, signals=signals)
 
 
 def _calibration(plan: Plan, signal: Signal, path: str) -> tuple[str, Calibration]:
