@@ -28,6 +28,7 @@ from api import cli_review, render, service, serving
 from api.cli_common import DbOption, database_url, emit, err_console, errors, say, shown
 from api.cli_fit import fit
 from api.cli_gcode import gcode
+from api.cli_milling import milling_app
 from api.cli_report import report
 from db.engine import make_engine, upgrade
 from models import fields
@@ -367,6 +368,9 @@ def keys_revoke(
         except service.NotFoundError as err:
             raise InputError("ID", key_id, "no such API key") from err
     say(f"rcb: key {revoked['id']} ({revoked['role']}) revoked")
+
+
+app.add_typer(milling_app, name="milling")  # rcb milling setup: api/cli_milling.py
 
 
 @app.command()
