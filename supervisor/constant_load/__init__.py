@@ -44,6 +44,7 @@ from supervisor.constant_load.limits import (
     FeedLimit,
     Governor,
     constant_load_setup,
+    limits_from_calibration,
 )
 from supervisor.constant_load.strength import COVERAGE_K, ForceLimit, strength_current_A
 from supervisor.constant_load.tool_change import ToolChangeDecision, tool_change_due
@@ -58,6 +59,7 @@ __all__ = [
     "Governor",
     "ToolChangeDecision",
     "constant_load_setup",
+    "limits_from_calibration",
     "strength_current_A",
     "tool_change_due",
 ]

@@ -160,7 +160,7 @@ def constant_load_setup(
             "at constant feed (Tai Fig. 7)",
         )
     cal = fit_tai_calibration(feeds, wears, currents, source=source)
-    a, b, k1 = cal.idle_current_A, cal.slope_A_per_mm_min, cal.wear_coefficient_A_per_mm
+    k1 = cal.wear_coefficient_A_per_mm
     if k1 <= 0:
         raise ModelDomainError(
             "wear_coefficient_A_per_mm",
@@ -172,6 +172,45 @@ def constant_load_setup(
         i_max = max(float(c) for c in currents)
     else:
         i_max = number(max_current_A, "max_current_A", positive=True)
+    return limits_from_calibration(
+        cal,
+        max_current_A=i_max,
+        safety_factor=eta,
+        wear_interval_mm=(sharp_end, worn_end),
+        strength=strength,
+        coverage_k=k,
+    )
+
+
+def limits_from_calibration(
+    cal: TaiCurrentFeedCalibration,
+    *,
+    max_current_A: float,
+    safety_factor: float = PAPER_SAFETY_FACTOR,
+    wear_interval_mm: tuple[float, float] = PAPER_WEAR_INTERVAL_MM,
+    strength: ForceLimit | None = None,
+    coverage_k: float = COVERAGE_K,
+) -> ConstantLoadSetup:
+    """Reference current and feed limits from a calibration already fitted (Tai et al. §II.F).
+
+    What :func:`constant_load_setup` does after its fit, for a plane ``I = A + B·f + k1·VB``
+    kept with the machine (a plan's ``tai_current_feed`` calibration); same equations, bands
+    and refusals. ``max_current_A`` is the largest current the tool withstood [A].
+    """
+    eta = number(safety_factor, "safety_factor", positive=True)
+    if eta > 1.0:
+        raise InputError("safety_factor", safety_factor, "must be in (0, 1]")
+    k = number(coverage_k, "coverage_k", positive=True)
+    sharp_end, worn_end = _interval(wear_interval_mm)
+    i_max = number(max_current_A, "max_current_A", positive=True)
+    a, b, k1 = cal.idle_current_A, cal.slope_A_per_mm_min, cal.wear_coefficient_A_per_mm
+    if k1 <= 0:
+        raise ModelDomainError(
+            "wear_coefficient_A_per_mm",
+            k1,
+            "is not positive: the current must rise with flank wear to set a lower feed limit "
+            "(Tai Eq. 14)",
+        )
     by_factor = eta * i_max
     i_strength = None if strength is None else strength_current_A(strength, coverage_k=k)
     governed_by: Governor = "safety_factor"
