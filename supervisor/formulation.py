@@ -9,22 +9,29 @@ through a logarithmic transformation"; DESIGN.md, "The robust optimisation"):
   (Eq. 13, written as the minimum it is; ``mr`` from Eq. 8 at the allowable flank wear),
 - machine limits: spindle speed, feed rate, power ``F·v/60000`` and torque ``F·D/2000`` with
   the upper force band,
-- objective: maximise ``ln(MRR)`` (Eq. 10).
+- Borangiu's domain constraints (Eqs. 2-7) of a milling operation's ``[operations.domain]``,
+- objective: maximise ``ln(MRR)`` (Eq. 10), or, for ``objective = "productivity"``, minimise
+  Borangiu's cost ``J`` (a posynomial, :mod:`supervisor.productivity`) under the same rows.
 
 ``ΔK_eff = K · ΔY/Y`` carries the setpoint uncertainties too (GUM, :mod:`models.powerlaw`).
+:func:`formulate_domain` poses Borangiu's own (w, n) problem of one pass the same way.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from models import kinematics
+from models.errors import InputError
 from models.monomial import Monomial
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, Sense
 from models.tool import Tool
+from supervisor import domain, productivity
+from supervisor.domain import DomainProblem
 from supervisor.errors import Conflict, InfeasibleError
-from supervisor.plan import PARTS_PER_EDGE, Machine, Operation
+from supervisor.plan import PARTS_PER_EDGE, Machine, Objective, Operation
 
 
 @dataclass(frozen=True)
@@ -34,6 +41,8 @@ class Row:
     ``name`` is the quantity it limits, ``limit`` the limit in that quantity's unit and
     ``sense`` whether it is a maximum or a minimum. ``given_as`` names the limit as the
     engineer wrote it, which is ``limit / scale`` (``parts_per_edge`` is tool life / volume).
+    ``check`` is the bounded quantity of a row that no model predicts (Borangiu's domain), for
+    the re-check of an optimum.
     """
 
     name: str
@@ -43,11 +52,16 @@ class Row:
     sense: Sense
     given_as: str
     scale: float = 1.0
+    check: Monomial | None = None
 
 
 @dataclass(frozen=True)
 class LogLinearProgram:
-    """Data of one operation's log-linear program (no solver objects)."""
+    """Data of one operation's log-linear program (no solver objects).
+
+    ``objective`` is the ``ln(MRR)`` gradient; ``cost`` the terms of ``J`` in ``parameters``
+    (empty without cost data) and ``goal`` which of the two the optimum is for.
+    """
 
     operation: str
     parameters: tuple[str, ...]
@@ -55,6 +69,30 @@ class LogLinearProgram:
     rows: tuple[Row, ...]
     lower: tuple[float, ...]
     upper: tuple[float, ...]
+    cost: tuple[Monomial, ...] = ()
+    goal: Objective = "mrr"
+
+
+def _row(
+    params: tuple[str, ...],
+    context: Mapping[str, float],
+    name: str,
+    monomial: Monomial,
+    limit: float,
+    sense: Sense = "max",
+    scale: float = 1.0,
+    given_as: str = "",
+    check: bool = False,
+) -> Row:
+    """``monomial <= limit`` (or ``>=``) as a row in ``ln(params)``, ``context`` fixed."""
+    fixed = monomial.fix(context)
+    coefficients = tuple(fixed.exponents.get(p, 0.0) for p in params)
+    rhs = math.log(limit) - math.log(fixed.coefficient)
+    if sense == "min":
+        coefficients, rhs = tuple(-a for a in coefficients), -rhs
+    return Row(
+        name, coefficients, rhs, limit, sense, given_as or name, scale, monomial if check else None
+    )
 
 
 def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearProgram:
@@ -72,12 +110,7 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         scale: float = 1.0,
         given_as: str = "",
     ) -> Row:
-        fixed = monomial.fix(context)
-        coefficients = tuple(fixed.exponents.get(p, 0.0) for p in params)
-        rhs = math.log(limit) - math.log(fixed.coefficient)
-        if sense == "min":
-            coefficients, rhs = tuple(-a for a in coefficients), -rhs
-        return Row(name, coefficients, rhs, limit, sense, given_as or name, scale)
+        return _row(params, context, name, monomial, limit, sense, scale, given_as)
 
     def edge(quantity: str, sense: Sense) -> Monomial:
         model = tool.models[quantity]
@@ -119,6 +152,18 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         else:  # torque_Nm
             monomial = edge("force_N", "max") * kinematics.torque_per_newton_monomial(process)
         rows.append(row(quantity, monomial, limit, given_as=given_as))
+    if operation.domain is not None:
+        for lim in domain.milling_limits(operation.domain):
+            rows.append(
+                _row(params, context, lim.name, lim.monomial, lim.limit, lim.sense, check=True)
+            )
+    cost: tuple[Monomial, ...] = ()
+    if operation.productivity is not None:
+        power = None
+        if "force_N" in tool.models:
+            power = tool.models["force_N"].monomial * kinematics.power_per_newton_monomial()
+        terms = productivity.milling_cost_terms(operation.productivity, power)
+        cost = tuple(t.fix(context) for t in terms)
     mrr = kinematics.mrr_monomial(process).fix(context)
     bounds = [operation.bounds[p] for p in params]
     return LogLinearProgram(
@@ -128,4 +173,38 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         rows=tuple(rows),
         lower=tuple(math.log(lo) for lo, _ in bounds),
         upper=tuple(math.log(hi) for _, hi in bounds),
+        cost=cost,
+        goal=operation.objective,
+    )
+
+
+def formulate_domain(problem: DomainProblem) -> LogLinearProgram:
+    """Borangiu's (w, n) problem of one pass in ``x = ln(feed_rate_mm_min, spindle_rpm)``.
+
+    Every constraint (2)-(7) is a row (with its check); the bounds are Eqs. 5-6 again, so that
+    the program is bounded. The objective is ``ln w`` (the MRR at fixed depth and width); the
+    cost is ``J(w, n)``.
+    """
+    params = (productivity.FEED_RATE, productivity.SPINDLE)
+    rows = tuple(
+        _row(params, {}, lim.name, lim.monomial, lim.limit, lim.sense, check=True)
+        for lim in domain.wn_limits(problem.domain)
+    )
+    lower: list[float] = []
+    upper: list[float] = []
+    for name in ("feed_rate_mm_min", "spindle_rpm"):
+        for side, ends in (("min", lower), ("max", upper)):
+            value = getattr(problem.domain, f"{side}_{name}")
+            if value is None:
+                raise InputError(f"domain.{side}_{name}", None, "required: Eqs. 5-6 bound (w, n)")
+            ends.append(math.log(value))
+    return LogLinearProgram(
+        operation=problem.name,
+        parameters=params,
+        objective=(1.0, 0.0),
+        rows=rows,
+        lower=tuple(lower),
+        upper=tuple(upper),
+        cost=productivity.wn_terms(problem.coefficients),
+        goal="mrr",
     )

@@ -4,6 +4,10 @@ A plan's operations are solved together as one program of independent blocks. A 
 compiled once per shape (the number of parameters and constraint rows of each operation) and
 re-solved with new parameter values, so re-optimising a plan after every part costs one solver
 call (cvxpy "Disciplined Parametrized Programming").
+
+An operation whose objective is Borangiu's productivity cost ``J`` is solved on its own, as a
+geometric program under the same rows (:mod:`supervisor.productivity`); :func:`optimize_domain`
+solves Borangiu's (w, n) problem of one pass both ways (:mod:`supervisor.domain`).
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import math
 import threading
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache
 from typing import Any
 
@@ -24,14 +28,18 @@ from models.errors import ModelDomainError
 from models.kinematics import Process
 from models.powerlaw import Prediction
 from models.tool import Tool, predict_all
+from supervisor import productivity
+from supervisor.domain import DomainProblem, DomainResult, domain_point, domain_result
 from supervisor.errors import Conflict, InfeasibleError, PlanError, SolverError
-from supervisor.formulation import LogLinearProgram, formulate
-from supervisor.plan import Machine, Operation, Plan
+from supervisor.formulation import LogLinearProgram, Row, formulate, formulate_domain
+from supervisor.plan import Machine, Objective, Operation, Plan
 
 #: A row or bound whose slack in ln-space is below this is binding (1 ppm relative).
 BINDING_TOL = 1e-6
 #: A re-checked prediction may exceed its limit by at most this fraction (solver tolerance).
 RECHECK_RTOL = 1e-6
+#: The points of "the largest feed rate" are those within this (in ln w) of the LP's optimum.
+TIE_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -54,6 +62,11 @@ class OperationResult:
         Machining time ``volume / MRR`` [min].
     binding : tuple[str, ...]
         Quantities whose limit, and parameters whose bound, the optimum sits on.
+    objective : {"mrr", "productivity"}
+        What the optimum is for.
+    cost_per_kg : float or None
+        Borangiu's productivity cost ``J`` at the setpoint [currency/kg], when the operation
+        has cost data.
     """
 
     name: str
@@ -64,6 +77,8 @@ class OperationResult:
     mrr_cm3_min: float
     time_min: float
     binding: tuple[str, ...]
+    objective: Objective = "mrr"
+    cost_per_kg: float | None = None
 
 
 @dataclass(frozen=True)
@@ -199,8 +214,29 @@ def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
     return [np.clip(x, lp.lower, lp.upper) for x, lp in zip(xs, lps, strict=True)]
 
 
+def _minimize_cost(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
+    """Optimal ln-parameters of the least ``J`` under ``lp``'s rows (a geometric program).
+
+    Errors as :func:`_solve`.
+    """
+    status, x = productivity.minimize(lp)
+    if status in _INFEASIBLE:
+        raise _diagnose(lp)
+    if status != cp.OPTIMAL or x is None:
+        raise SolverError(f"operation {lp.operation!r}: solver status {status}, not optimal")
+    clipped: np.ndarray[Any, Any] = np.clip(x, lp.lower, lp.upper)
+    return clipped
+
+
+def _optima(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
+    """The max-MRR programs solved together, each productivity program on its own."""
+    fastest = [lp for lp in lps if lp.goal == "mrr"]
+    solved = iter(_solve(fastest) if fastest else [])
+    return [next(solved) if lp.goal == "mrr" else _minimize_cost(lp) for lp in lps]
+
+
 def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> OperationResult:
-    """Fastest robust setpoint of one operation (max MRR, every limit met at the band edge).
+    """Robust optimum of one operation (max MRR or least ``J``, every limit at the band edge).
 
     Raises
     ------
@@ -210,7 +246,7 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
         The solver gave no optimal status, or the optimum fails the re-check.
     """
     lp = formulate(operation, tool, machine)
-    (x,) = _solve([lp])
+    (x,) = _optima([lp])
     return _result(operation, tool, lp, x)
 
 
@@ -234,7 +270,7 @@ def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanRe
     for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
         with _fields_of(i):
             lps.append(formulate(op, tool, plan.machine))
-    xs = _solve(lps)
+    xs = _optima(lps)
     results = []
     for i, (op, tool, lp, x) in enumerate(zip(plan.operations, used, lps, xs, strict=True)):
         with _fields_of(i):
@@ -258,7 +294,7 @@ def _result(
     setpoint = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
     point = {**setpoint, **operation.context}
     predicted = predict_all(tool, point, operation.setpoint_rel_uncertainty)
-    _recheck(lp, predicted, setpoint)
+    _recheck(lp, predicted, point)
     mrr = kinematics.mrr_monomial(operation.process).evaluate(point)
     return OperationResult(
         name=operation.name,
@@ -269,7 +305,39 @@ def _result(
         mrr_cm3_min=mrr,
         time_min=kinematics.machining_time_min(operation.volume_mm3, mrr),
         binding=_binding(lp, x),
+        objective=lp.goal,
+        cost_per_kg=productivity.evaluate(lp.cost, setpoint) if lp.cost else None,
     )
+
+
+def optimize_domain(problem: DomainProblem) -> DomainResult:
+    """Borangiu's (w, n) problem of one pass: the largest feed rate and the least ``J``.
+
+    The largest ``w`` is an LP (the largest MRR at the pass's depth and width). Where several
+    ``n`` give it, the least ``n`` is taken (a second LP with ``w >= w_max``): ``J`` rises with
+    ``n`` at fixed ``w`` (its exponents ``(1−q)/m`` and ``1−yp`` are positive), so that is the
+    cheapest of the fastest points and ``J`` at "the max-MRR point" is defined. The least ``J``
+    is the geometric program under the same rows. Both points are re-checked.
+
+    Raises
+    ------
+    InfeasibleError
+        The constraints cannot all be met; names those that conflict.
+    SolverError
+        No optimal status, or an optimum fails the re-check.
+    """
+    lp = formulate_domain(problem)
+    (fastest,) = _solve([lp])
+    ln_w = float(fastest[0]) - TIE_TOL
+    at_fastest = Row(lp.parameters[0], (-1.0, 0.0), -ln_w, math.exp(ln_w), "min", lp.parameters[0])
+    slowest_spindle = replace(lp, objective=(0.0, -1.0), rows=(*lp.rows, at_fastest))
+    (tied,) = _solve([slowest_spindle])
+    points = []
+    for x in (tied, _minimize_cost(lp)):
+        point = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
+        _recheck(lp, {}, point)
+        points.append(domain_point(problem, point, _binding(lp, x)))
+    return domain_result(problem, points[0], points[1])
 
 
 def _binding(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> tuple[str, ...]:
@@ -281,11 +349,20 @@ def _binding(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> tuple[str, ...]:
 
 
 def _recheck(
-    lp: LogLinearProgram, predicted: Mapping[str, Prediction], setpoint: Mapping[str, float]
+    lp: LogLinearProgram, predicted: Mapping[str, Prediction], point: Mapping[str, float]
 ) -> None:
-    """Refuse an optimum that the models say breaks a limit (beyond solver tolerance)."""
+    """Refuse an optimum that the models say breaks a limit (beyond solver tolerance).
+
+    ``point`` holds the parameters and the context; a row that no model predicts is checked
+    with its own monomial.
+    """
+    setpoint = {p: point[p] for p in lp.parameters}
     for row in lp.rows:
-        p = predicted[row.name]
+        if row.check is not None:
+            value = row.check.evaluate(point)
+            p = Prediction(value, 0.0)
+        else:
+            p = predicted[row.name]
         if row.sense == "max":
             ok = p.upper <= row.limit * (1 + RECHECK_RTOL)
             edge = p.upper

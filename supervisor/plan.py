@@ -2,6 +2,12 @@
 
 A plan file holds ``name``, a ``[machine]`` table, optional inline ``[[tools]]`` (else tools come
 from the catalogue) and ``[[operations]]``. Every error names the dotted field and its value.
+
+A milling operation may say ``objective = "productivity"`` (default ``"mrr"``: the largest
+removal rate) with an ``[operations.productivity]`` table of Borangiu's cost data
+(:func:`supervisor.productivity.productivity_from_mapping`; the coefficient form ``a, b, c ...``
+holds for one fixed depth and width, so it is refused here), and ``[operations.domain]`` adds
+Borangiu's constraints (:class:`supervisor.domain.Domain`) as rows.
 """
 
 from __future__ import annotations
@@ -10,7 +16,7 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from models import fields
 from models.catalogue import catalogue
@@ -19,13 +25,19 @@ from models.kinematics import CONTEXT, PARAMETERS, Process
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from models.sensors import Calibration, calibrations_from_mapping
 from models.tool import Tool, process_of, tool_from_mapping
+from supervisor.domain import Domain, domain_from_mapping
 from supervisor.errors import PlanError
+from supervisor.productivity import CostData, productivity_from_mapping
 
 #: Flank-wear criterion when an operation gives none: VB = 0.3 mm (ISO 3685:1993, 7.2).
 DEFAULT_FLANK_WEAR_MM = 0.3
 
 #: The tool-life limit: parts one edge must make before ``allowable_flank_wear_mm``.
 PARTS_PER_EDGE = "parts_per_edge"
+
+#: What an operation's optimum is for: the largest MRR, or the least Borangiu cost ``J``.
+Objective = Literal["mrr", "productivity"]
+OBJECTIVES: tuple[Objective, ...] = ("mrr", "productivity")
 
 _PLAN_KEYS = ("name", "machine", "tools", "operations", "description")
 _MACHINE_LIMITS = {
@@ -48,6 +60,9 @@ _OPERATION_KEYS = (
     "allowable_flank_wear_mm",
     "setpoint_rel_uncertainty",
     "catalog_setpoint",
+    "objective",
+    "productivity",
+    "domain",
 )
 
 
@@ -98,6 +113,14 @@ class Operation:
         Relative uncertainty ``Δx/x`` of the cutting parameters as the machine holds them [-].
     catalog_setpoint : Mapping[str, float]
         The shop's current parameters (tool maker's catalogue), for comparison; may be empty.
+    objective : {"mrr", "productivity"}
+        Maximise the removal rate, or minimise Borangiu's cost ``J`` (milling).
+    productivity : CostData, optional
+        Cost data of ``J``; required for ``objective = "productivity"``. With the ``"mrr"``
+        objective it only prices the optimum.
+    domain : Domain, optional
+        Borangiu's constraints (Eqs. 2-7) on the pitch feed ``fz·z``, feed rate, spindle speed
+        and power (milling).
     """
 
     name: str
@@ -110,6 +133,9 @@ class Operation:
     setpoint_rel_uncertainty: Mapping[str, float] = field(default_factory=dict)
     description: str = ""
     catalog_setpoint: Mapping[str, float] = field(default_factory=dict)
+    objective: Objective = "mrr"
+    productivity: CostData | None = None
+    domain: Domain | None = None
 
 
 @dataclass(frozen=True)
@@ -216,6 +242,7 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
                 tool.name,
                 f"{quantity} is limited but the tool has no force_N model",
             )
+    objective, cost, domain = _borangiu(table, path, process, tool)
     rel = fields.number_table(
         table.get("setpoint_rel_uncertainty", {}),
         f"{path}.setpoint_rel_uncertainty",
@@ -233,7 +260,51 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         setpoint_rel_uncertainty=rel,
         description=fields.text(table, "description", path, default=""),
         catalog_setpoint=_catalog_setpoint(table.get("catalog_setpoint"), path, process),
+        objective=objective,
+        productivity=cost,
+        domain=domain,
     )
+
+
+def _borangiu(
+    table: Mapping[str, Any], path: str, process: Process, tool: Tool
+) -> tuple[Objective, CostData | None, Domain | None]:
+    """The objective, cost data and domain of an operation (Borangiu et al., milling only)."""
+    given = table.get("objective", "mrr")
+    objective = next((o for o in OBJECTIVES if o == given), None)
+    if objective is None:
+        raise InputError(f"{path}.objective", given, f"expected one of: {', '.join(OBJECTIVES)}")
+    for key in ("productivity", "domain"):
+        if key in table and process != "milling":
+            raise PlanError(f"{path}.{key}", table[key], "Borangiu's model is for milling")
+    if objective == "productivity":
+        if process != "milling":
+            raise PlanError(f"{path}.objective", given, "the productivity cost is for milling")
+        if "productivity" not in table:
+            raise InputError(f"{path}.productivity", None, "required with this objective")
+    domain = domain_from_mapping(table["domain"], f"{path}.domain") if "domain" in table else None
+    cost = None
+    if "productivity" in table:
+        where = f"{path}.productivity"
+        raw = fields.mapping(table["productivity"], where)
+        coefficient = next((k for k in ("a", "b", "c", "q", "m", "yp") if k in raw), None)
+        given_cost = None if coefficient else productivity_from_mapping(raw, where)
+        if coefficient is not None or not isinstance(given_cost, CostData):
+            key = coefficient or "a"
+            raise InputError(
+                f"{where}.{key}",
+                raw.get(key),
+                "the coefficients a, b, c, q, m, yp hold for one depth and width; an "
+                "operation's depths vary: give the cost data",
+            )
+        if given_cost.energy_cost_per_kWh > 0 and "force_N" not in tool.models:
+            raise PlanError(
+                f"{where}.energy_cost_per_kWh",
+                given_cost.energy_cost_per_kWh,
+                f"the cutting power comes from the force model; tool {tool.name!r} has none",
+            )
+        cost = given_cost
+    return objective, cost, domain
 
 
 def _catalog_setpoint(data: object, path: str, process: Process) -> dict[str, float]:
