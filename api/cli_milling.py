@@ -31,6 +31,7 @@ from rich.console import Console
 from rich.table import Table
 
 from api.cli_common import emit, errors
+from api.cli_domain import domain
 from models.errors import InputError
 from models.sensors import calibration_to_mapping, linear_current_calibration_from_mapping
 from supervisor.constant_load import (
@@ -42,7 +43,7 @@ from supervisor.constant_load import (
 )
 
 milling_app = typer.Typer(
-    help="Constant-load milling (Tai, Tsai & Li 2023): reference current, feed limits.",
+    help="Milling: constant-load setup (Tai et al.), the (feed, speed) domain (Borangiu et al.).",
     no_args_is_help=True,
 )
 _out = Console()
@@ -51,6 +52,9 @@ FEED, CURRENT = "feed_rate_mm_min", "spindle_current_A"
 #: Flank wear columns and their factor to mm.
 WEAR_COLUMNS = {"flank_wear_um": 1e-3, "flank_wear_mm": 1.0}
 _FILE = "TESTS.csv"
+
+
+milling_app.command("domain")(domain)  # rcb milling domain: api/cli_domain.py
 
 
 @milling_app.command("setup")
