@@ -10,7 +10,9 @@ from rich.table import Table
 from models.powerlaw import PowerLawModel, Prediction
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from models.tool import Tool
+from supervisor.constant_load.setpoint import ToolChange
 from supervisor.demo import DemoResult, Row
+from supervisor.extras import extras_of
 from supervisor.optimizer import OperationResult, PlanResult
 from supervisor.rcb import Decision
 from supervisor.report import Measurement
@@ -34,6 +36,7 @@ def operation_json(result: OperationResult) -> dict[str, Any]:
         "mrr_cm3_min": result.mrr_cm3_min,
         "time_min": result.time_min,
         "binding": list(result.binding),
+        **extras_of(result),
     }
 
 
@@ -44,6 +47,18 @@ def plan_json(result: PlanResult) -> dict[str, Any]:
         "machine": result.machine,
         "operations": [operation_json(op) for op in result.operations],
         "cycle_time_min": result.cycle_time_min,
+    }
+
+
+def tool_change_json(c: ToolChange) -> dict[str, Any]:
+    """One reported feed override and whether the tool is due for a change."""
+    return {
+        "operation": c.operation,
+        "feed_override_percent": c.feed_override_percent,
+        "commanded_feed_rate_mm_min": c.commanded_feed_rate_mm_min,
+        "feed_rate_lower_mm_min": c.feed_rate_lower_mm_min,
+        "due": c.due,
+        "reason": c.reason,
     }
 
 

@@ -77,6 +77,18 @@ class Band(_Out):
     band: float
 
 
+class ConstantLoadOut(_Out):
+    """Constant-load control of a milling setpoint (Tai et al.): what the inner loop holds."""
+
+    reference_current_A: float = Field(description="spindle current the feed override holds")
+    feed_rate_upper_mm_min: float = Field(description="never above the programmed feed rate")
+    feed_rate_lower_mm_min: float = Field(description="change the tool when the feed reaches it")
+    programmed_feed_rate_mm_min: float
+    upper_governed_by: Literal["current", "setpoint"]
+    tool_change_by_feed: bool
+    wear_interval_mm: tuple[float, float]
+
+
 class OperationSetpoint(_Out):
     """One operation's setpoint as in ``rcb optimize --json``."""
 
@@ -88,6 +100,11 @@ class OperationSetpoint(_Out):
     mrr_cm3_min: float
     time_min: float
     binding: list[str]
+    objective: Literal["mrr", "productivity"] = "mrr"
+    cost_per_kg: float | None = Field(
+        None, description="Borangiu's productivity cost J, when the operation has cost data"
+    )
+    constant_load: ConstantLoadOut | None = None
 
 
 class PlanCreated(_Out):
@@ -152,6 +169,12 @@ class OperationReport(BaseModel):
         json_schema_extra=_keys(MEASURABLE),
     )
     tool_wear: ToolWearIn | None = None
+    feed_override_percent: float | None = Field(
+        None,
+        gt=0,
+        description="constant-load operations: the feed override at the end of the operation, "
+        "% of the programmed feed; at the lower feed limit the tool is due for a change",
+    )
 
 
 class PartReportIn(BaseModel):
@@ -178,13 +201,25 @@ class Update(_Out):
     reason: str
 
 
+class ToolChangeOut(_Out):
+    """A reported feed override of a constant-load operation, and whether the tool is due."""
+
+    operation: str
+    feed_override_percent: float
+    commanded_feed_rate_mm_min: float
+    feed_rate_lower_mm_min: float
+    due: bool
+    reason: str
+
+
 class PartCreated(_Out):
-    """The part stored, what RCB did, and the setpoints now in force."""
+    """The part stored, what RCB did, the tool changes due, and the setpoints now in force."""
 
     part_id: int
     serial: str
     setpoint_version: int
     updates: list[Update]
+    tool_changes: list[ToolChangeOut] = Field(default_factory=list)
     operations: list[OperationSetpoint]
 
 
@@ -479,6 +514,21 @@ class OperationIn(BaseModel):
     )
     catalog_setpoint: dict[str, float] | None = Field(
         None, description="the shop's current parameters", json_schema_extra=_keys(_ALL_PARAMETERS)
+    )
+    objective: Literal["mrr", "productivity"] | None = Field(
+        None, description="max MRR (default) or Borangiu's least productivity cost J (milling)"
+    )
+    productivity: dict[str, float] | None = Field(
+        None, description="cost data of J (Borangiu Eq. 1, Taylor's law), as in a plan file"
+    )
+    domain: dict[str, float] | None = Field(
+        None, description="Borangiu's Eqs. 2-7 constraints (milling), as in a plan file"
+    )
+    constant_load: dict[str, Any] | None = Field(
+        None,
+        description="constant-load control (Tai et al., milling): calibration (a "
+        "tai_current_feed calibration of the machine), max_current_A, safety_factor, "
+        "wear_interval_um",
     )
 
 

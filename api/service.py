@@ -37,6 +37,7 @@ from supervisor.rcb import RcbSettings, RcbState, update
 from supervisor.replan import replan as supervisor_replan
 from supervisor.report import report_from_mapping
 from supervisor.signals import resolve
+from supervisor.tool_changes import tool_changes
 
 
 class NotFoundError(LookupError):
@@ -290,6 +291,7 @@ def _report_part(
             )
         # raw spindle readings become force measurements at the setpoint the part was made with
         measured, raw = resolve(report, state.plan, made_with or state.setpoints)
+        changes = tool_changes(report, made_with or state.setpoints)
         new_state, decisions = update(state, measured, made_with)
         part_id = repo.add_part(
             session=session,
@@ -299,6 +301,7 @@ def _report_part(
             before=state,
             after=new_state,
             raw=raw,
+            tool_changes=changes,
         )
         written_state.append((repo.database_key(session), row.state_token, new_state))
         updates = [render.decision_json(d) for d in decisions]
@@ -307,6 +310,7 @@ def _report_part(
             "serial": report.serial,
             "setpoint_version": new_state.version,
             "updates": updates,
+            "tool_changes": [render.tool_change_json(c) for c in changes],
             **_ops(new_state.setpoints),
         }
 

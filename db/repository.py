@@ -6,7 +6,7 @@ The caller owns the transaction (one use case, one transaction: :mod:`api.servic
 from __future__ import annotations
 
 import uuid
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from sqlalchemy import func, insert, select
@@ -18,6 +18,8 @@ from db.library import ensure_tool, load_tools
 from db.state_cache import CACHE
 from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
+from supervisor.constant_load.setpoint import ToolChange
+from supervisor.extras import extras_of, with_extras
 from supervisor.optimizer import OperationResult, PlanResult
 from supervisor.plan import Plan, plan_from_mapping
 from supervisor.rcb import Decision, RcbSettings, RcbState, prior_sigma
@@ -233,15 +235,18 @@ def setpoints_of(*, session: Session, plan_row: t.Plan, version: int) -> PlanRes
     ).all()
     machine = session.get(t.Machine, plan_row.machine_id)
     results = tuple(
-        OperationResult(
-            name=op.name,
-            tool=tool.name,
-            process=op.process,  # type: ignore[arg-type]
-            setpoint=dict(sp.parameters),
-            predicted={q: Prediction(p["value"], p["band"]) for q, p in sp.predicted.items()},
-            mrr_cm3_min=sp.mrr_cm3_min,
-            time_min=sp.time_min,
-            binding=tuple(sp.binding),
+        with_extras(
+            OperationResult(
+                name=op.name,
+                tool=tool.name,
+                process=op.process,  # type: ignore[arg-type]
+                setpoint=dict(sp.parameters),
+                predicted={q: Prediction(p["value"], p["band"]) for q, p in sp.predicted.items()},
+                mrr_cm3_min=sp.mrr_cm3_min,
+                time_min=sp.time_min,
+                binding=tuple(sp.binding),
+            ),
+            sp.extras,
         )
         for sp, op, tool in rows
     )
@@ -263,11 +268,14 @@ def add_part(
     before: RcbState,
     after: RcbState,
     raw: Mapping[tuple[str, str], dict[str, Any]] | None = None,
+    tool_changes: Sequence[ToolChange] = (),
 ) -> int:
     """Store a part, its measurements and decisions, changed models, band states, setpoints.
 
     ``raw``: per (operation, quantity) what a measurement was converted from (a spindle
-    reading, :mod:`supervisor.signals`), kept beside the converted value.
+    reading, :mod:`supervisor.signals`), kept beside the converted value. ``tool_changes``:
+    each reported feed override, stored as a ``feed_override_percent`` measurement with the
+    commanded feed, the lower limit and whether a tool change was due.
     """
     ops = {name: row.id for name, row in _operations(session, plan_row.id).items()}
     part = t.Part(
@@ -297,6 +305,22 @@ def add_part(
             "raw": {"volume_mm3": wear.volume_mm3},
         }
         for name, wear in report.tool_wear.items()
+    ]
+    measurements += [
+        {
+            "part_id": part.id,
+            "operation_id": ops[c.operation],
+            "quantity": "feed_override_percent",
+            "value": c.feed_override_percent,
+            "uncertainty": 0.0,
+            "raw": {
+                "commanded_feed_rate_mm_min": c.commanded_feed_rate_mm_min,
+                "feed_rate_lower_mm_min": c.feed_rate_lower_mm_min,
+                "tool_change_due": c.due,
+                "reason": c.reason,
+            },
+        }
+        for c in tool_changes
     ]
     decision_rows = [
         {
@@ -479,6 +503,7 @@ def _add_setpoints(
                 "binding": list(op.binding),
                 "mrr_cm3_min": op.mrr_cm3_min,
                 "time_min": op.time_min,
+                "extras": extras_of(op),
             }
             for op in result.operations
         ],

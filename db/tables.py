@@ -162,6 +162,8 @@ class Setpoint(Base):
     binding: Mapped[list[Any]]
     mrr_cm3_min: Mapped[float]
     time_min: Mapped[float]
+    #: objective, cost_per_kg, constant_load (:mod:`supervisor.extras`); NULL before 0004
+    extras: Mapped[dict[str, Any] | None]
 
 
 class Part(Base):

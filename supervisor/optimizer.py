@@ -27,8 +27,14 @@ from models import kinematics
 from models.errors import ModelDomainError
 from models.kinematics import Process
 from models.powerlaw import Prediction
+from models.sensors import TaiCurrentFeedCalibration
 from models.tool import Tool, predict_all
 from supervisor import productivity
+from supervisor.constant_load.setpoint import (
+    ConstantLoadSetpoint,
+    constant_load_setpoint,
+    setup_of,
+)
 from supervisor.domain import DomainProblem, DomainResult, domain_point, domain_result
 from supervisor.errors import Conflict, InfeasibleError, PlanError, SolverError
 from supervisor.formulation import LogLinearProgram, Row, formulate, formulate_domain
@@ -67,6 +73,9 @@ class OperationResult:
     cost_per_kg : float or None
         Borangiu's productivity cost ``J`` at the setpoint [currency/kg], when the operation
         has cost data.
+    constant_load : ConstantLoadSetpoint or None
+        Reference current and feed limits, for a milling operation under constant-load
+        control (Tai et al.; :mod:`supervisor.constant_load.setpoint`).
     """
 
     name: str
@@ -79,6 +88,7 @@ class OperationResult:
     binding: tuple[str, ...]
     objective: Objective = "mrr"
     cost_per_kg: float | None = None
+    constant_load: ConstantLoadSetpoint | None = None
 
 
 @dataclass(frozen=True)
@@ -247,7 +257,7 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
     """
     lp = formulate(operation, tool, machine)
     (x,) = _optima([lp])
-    return _result(operation, tool, lp, x)
+    return _result(operation, tool, lp, x, machine)
 
 
 def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanResult:
@@ -274,7 +284,7 @@ def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanRe
     results = []
     for i, (op, tool, lp, x) in enumerate(zip(plan.operations, used, lps, xs, strict=True)):
         with _fields_of(i):
-            results.append(_result(op, tool, lp, x))
+            results.append(_result(op, tool, lp, x, plan.machine))
     return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
 
 
@@ -288,7 +298,11 @@ def _fields_of(index: int) -> Iterator[None]:
 
 
 def _result(
-    operation: Operation, tool: Tool, lp: LogLinearProgram, x: np.ndarray[Any, Any]
+    operation: Operation,
+    tool: Tool,
+    lp: LogLinearProgram,
+    x: np.ndarray[Any, Any],
+    machine: Machine,
 ) -> OperationResult:
     """Predictions, re-check and timing at the optimum ``x`` (ln-parameters) of ``lp``."""
     setpoint = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
@@ -307,7 +321,22 @@ def _result(
         binding=_binding(lp, x),
         objective=lp.goal,
         cost_per_kg=productivity.evaluate(lp.cost, setpoint) if lp.cost else None,
+        constant_load=constant_load_of(operation, machine, setpoint),
     )
+
+
+def constant_load_of(
+    operation: Operation, machine: Machine, setpoint: Mapping[str, float]
+) -> ConstantLoadSetpoint | None:
+    """Reference current and feed limits of a constant-load milling setpoint (else None)."""
+    config = operation.constant_load
+    if config is None:
+        return None
+    calibration = machine.calibrations[config.calibration]
+    assert isinstance(calibration, TaiCurrentFeedCalibration)  # the plan reader checks
+    point = {**setpoint, **operation.context}
+    programmed = kinematics.feed_rate_monomial(operation.process).evaluate(point)
+    return constant_load_setpoint(setup_of(config, calibration), programmed)
 
 
 def optimize_domain(problem: DomainProblem) -> DomainResult:

@@ -23,8 +23,9 @@ from models.catalogue import catalogue
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, Process
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
-from models.sensors import Calibration, calibrations_from_mapping
+from models.sensors import Calibration, TaiCurrentFeedCalibration, calibrations_from_mapping
 from models.tool import Tool, process_of, tool_from_mapping
+from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
 from supervisor.domain import Domain, domain_from_mapping
 from supervisor.errors import PlanError
 from supervisor.productivity import CostData, productivity_from_mapping
@@ -63,6 +64,7 @@ _OPERATION_KEYS = (
     "objective",
     "productivity",
     "domain",
+    "constant_load",
 )
 
 
@@ -121,6 +123,9 @@ class Operation:
     domain : Domain, optional
         Borangiu's constraints (Eqs. 2-7) on the pitch feed ``fz·z``, feed rate, spindle speed
         and power (milling).
+    constant_load : ConstantLoadConfig, optional
+        Constant-load control of the spindle current (Tai et al., milling): its setpoints carry
+        the reference current and feed limits (:mod:`supervisor.constant_load.setpoint`).
     """
 
     name: str
@@ -136,6 +141,7 @@ class Operation:
     objective: Objective = "mrr"
     productivity: CostData | None = None
     domain: Domain | None = None
+    constant_load: ConstantLoadConfig | None = None
 
 
 @dataclass(frozen=True)
@@ -263,7 +269,27 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         objective=objective,
         productivity=cost,
         domain=domain,
+        constant_load=_constant_load(table, path, process, machine),
     )
+
+
+def _constant_load(
+    table: Mapping[str, Any], path: str, process: Process, machine: Machine
+) -> ConstantLoadConfig | None:
+    """``[operations.constant_load]``, checked against the machine's Tai calibration."""
+    if "constant_load" not in table:
+        return None
+    where = f"{path}.constant_load"
+    if process != "milling":
+        raise PlanError(where, table["constant_load"], "constant-load control is for milling")
+    config = config_from_mapping(table["constant_load"], where, machine.calibrations)
+    calibration = machine.calibrations[config.calibration]
+    assert isinstance(calibration, TaiCurrentFeedCalibration)  # config_from_mapping checks
+    try:
+        setup_of(config, calibration)  # refused now rather than at the first setpoint
+    except InputError as err:
+        raise PlanError(f"{where}.{err.field}", err.value, err.reason) from None
+    return config
 
 
 def _borangiu(

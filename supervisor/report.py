@@ -98,6 +98,10 @@ class PartReport:
         Per operation name, raw spindle readings (``spindle_load_V``; ``spindle_current_A``
         with context or a named calibration) that :mod:`supervisor.signals` converts to
         ``force_N`` before RCB.
+    feed_overrides : Mapping[str, float]
+        Per operation name under constant-load control, the feed override at the end of the
+        operation [% of the programmed feed rate] (Tai et al.: the tool is changed when the
+        feed it commands falls to the lower feed limit).
     """
 
     serial: str
@@ -105,10 +109,11 @@ class PartReport:
     measurements: Mapping[str, Mapping[str, Measurement]] = field(default_factory=dict)
     tool_wear: Mapping[str, ToolWear] = field(default_factory=dict)
     signals: Mapping[str, Mapping[str, Signal]] = field(default_factory=dict)
+    feed_overrides: Mapping[str, float] = field(default_factory=dict)
 
 
 _REPORT_KEYS = ("serial", "setpoint_version", "operations")
-_OPERATION_KEYS = ("name", "measurements", "tool_wear")
+_OPERATION_KEYS = ("name", "measurements", "tool_wear", "feed_override_percent")
 
 
 def report_from_mapping(data: object) -> PartReport:
@@ -130,6 +135,7 @@ def report_from_mapping(data: object) -> PartReport:
     measurements: dict[str, dict[str, Measurement]] = {}
     signals: dict[str, dict[str, Signal]] = {}
     wear: dict[str, ToolWear] = {}
+    overrides: dict[str, float] = {}
     for i, entry in enumerate(operations):
         path = f"operations[{i}]"
         op = fields.mapping(entry, path)
@@ -145,6 +151,9 @@ def report_from_mapping(data: object) -> PartReport:
                 signals[name][q] = _signal(q, m, where)
             else:
                 measurements[name][q] = _measurement(m, where)
+        if "feed_override_percent" in op:
+            where = f"{path}.feed_override_percent"
+            overrides[name] = fields.number(op["feed_override_percent"], where, positive=True)
         if "tool_wear" in op:
             where = f"{path}.tool_wear"
             w = fields.mapping(op["tool_wear"], where)
@@ -156,7 +165,9 @@ def report_from_mapping(data: object) -> PartReport:
                 fields.number(w["volume_mm3"], f"{where}.volume_mm3", positive=True),
             )
     signals = {name: raw for name, raw in signals.items() if raw}
-    return PartReport(fields.text(table, "serial", ""), version, measurements, wear, signals)
+    return PartReport(
+        fields.text(table, "serial", ""), version, measurements, wear, signals, overrides
+    )
 
 
 def _is_signal(quantity: str, data: object) -> bool:

@@ -1,0 +1,60 @@
+"""What a setpoint carries beyond its parameters and predictions, as a JSON-ready mapping.
+
+``objective`` (max MRR or Borangiu's productivity cost), ``cost_per_kg`` (J at the setpoint,
+where the operation has cost data) and ``constant_load`` (Tai et al.'s reference current and
+feed limits, where the operation runs under constant-load control). The REST answers, the
+CLI's JSON and the database (``setpoints.extras``) all use this one form.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+from supervisor.constant_load.setpoint import ConstantLoadSetpoint
+from supervisor.optimizer import OperationResult
+
+
+def extras_of(result: OperationResult) -> dict[str, Any]:
+    """``objective`` always; ``cost_per_kg`` and ``constant_load`` where the operation has them."""
+    extras: dict[str, Any] = {"objective": result.objective}
+    if result.cost_per_kg is not None:
+        extras["cost_per_kg"] = result.cost_per_kg
+    c = result.constant_load
+    if c is not None:
+        extras["constant_load"] = {
+            "reference_current_A": c.reference_current_A,
+            "feed_rate_upper_mm_min": c.feed_rate_upper_mm_min,
+            "feed_rate_lower_mm_min": c.feed_rate_lower_mm_min,
+            "programmed_feed_rate_mm_min": c.programmed_feed_rate_mm_min,
+            "upper_governed_by": c.upper_governed_by,
+            "tool_change_by_feed": c.tool_change_by_feed,
+            "wear_interval_mm": list(c.wear_interval_mm),
+        }
+    return extras
+
+
+def with_extras(result: OperationResult, extras: Mapping[str, Any] | None) -> OperationResult:
+    """``result`` with the extras :func:`extras_of` wrote (None: a setpoint stored before them)."""
+    if not extras:
+        return result
+    c = extras.get("constant_load")
+    constant_load = None
+    if c is not None:
+        lo, hi = c["wear_interval_mm"]
+        constant_load = ConstantLoadSetpoint(
+            reference_current_A=c["reference_current_A"],
+            feed_rate_upper_mm_min=c["feed_rate_upper_mm_min"],
+            feed_rate_lower_mm_min=c["feed_rate_lower_mm_min"],
+            programmed_feed_rate_mm_min=c["programmed_feed_rate_mm_min"],
+            upper_governed_by=c["upper_governed_by"],
+            tool_change_by_feed=c["tool_change_by_feed"],
+            wear_interval_mm=(lo, hi),
+        )
+    return replace(
+        result,
+        objective=extras.get("objective", "mrr"),
+        cost_per_kg=extras.get("cost_per_kg"),
+        constant_load=constant_load,
+    )
