@@ -17,10 +17,12 @@ from supervisor.optimizer import OperationResult
 
 
 def extras_of(result: OperationResult) -> dict[str, Any]:
-    """``objective`` always; ``cost_per_kg`` and ``constant_load`` where the operation has them."""
-    extras: dict[str, Any] = {"objective": result.objective}
-    if result.cost_per_kg is not None:
-        extras["cost_per_kg"] = result.cost_per_kg
+    """``objective``, ``cost_per_kg`` and ``constant_load`` (null where the operation has none)."""
+    extras: dict[str, Any] = {
+        "objective": result.objective,
+        "cost_per_kg": result.cost_per_kg,
+        "constant_load": None,
+    }
     c = result.constant_load
     if c is not None:
         extras["constant_load"] = {
