@@ -1,9 +1,11 @@
 """The robust optimiser: parametrised (DPP) cvxpy programs, solved by HiGHS.
 
 A plan's operations are solved together as one program of independent blocks. A program is
-compiled once per shape (the number of parameters and constraint rows of each operation) and
-re-solved with new parameter values, so re-optimising a plan after every part costs one solver
-call (cvxpy "Disciplined Parametrized Programming").
+compiled once per plan structure (the objective and the constraint rows' coefficients of each
+operation, i.e. the exponents, which RCB and replans leave alone) and re-solved with new
+right-hand sides and bounds as parameters, so re-optimising a plan after every part costs one
+solver call (cvxpy "Disciplined Parametrized Programming"); with the coefficients constant a
+re-solve restuffs only those vectors.
 
 An operation whose objective is Borangiu's productivity cost ``J`` is solved on its own, as a
 geometric program under the same rows (:mod:`supervisor.productivity`); :func:`optimize_domain`
@@ -17,7 +19,7 @@ import threading
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from functools import cache
+from functools import lru_cache
 from typing import Any
 
 import cvxpy as cp
@@ -107,31 +109,33 @@ class PlanResult:
 
 _INFEASIBLE = (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE)
 
-#: (number of parameters, number of constraint rows) of each operation in a program
-_Shape = tuple[tuple[int, int], ...]
+#: The constant data of each operation's program: objective and constraint-row coefficients
+#: (the exponents in ln-space; RCB and replans move only right-hand sides and bounds).
+_Structure = tuple[tuple[tuple[float, ...], tuple[tuple[float, ...], ...]], ...]
 
 
 class _Block:
-    """One operation's ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` with parameters."""
+    """One operation's ``max c·x  s.t.  A x <= b,  lo <= x <= hi``; ``b, lo, hi`` parameters.
 
-    def __init__(self, n: int, m: int) -> None:
+    ``c`` and ``A`` are constants: they hold the models' and the kinematics' exponents, which
+    neither RCB nor a replan changes, so a re-solve only restuffs ``b``, ``lo`` and ``hi``.
+    """
+
+    def __init__(self, objective: tuple[float, ...], rows: tuple[tuple[float, ...], ...]) -> None:
+        n, m = len(objective), len(rows)
         self.x = cp.Variable(n)
-        self.c = cp.Parameter(n)
         self.lo = cp.Parameter(n)
         self.hi = cp.Parameter(n)
         self.constraints = [self.x >= self.lo, self.x <= self.hi]
-        self.A = cp.Parameter((m, n)) if m else None
         self.b = cp.Parameter(m) if m else None
-        if self.A is not None:
-            self.constraints.append(self.A @ self.x <= self.b)
-        self.objective = self.c @ self.x
+        if self.b is not None:
+            self.constraints.append(np.array(rows, dtype=float) @ self.x <= self.b)
+        self.objective = np.array(objective, dtype=float) @ self.x
 
     def load(self, lp: LogLinearProgram) -> None:
-        _assign(self.c, lp.objective)
         _assign(self.lo, lp.lower)
         _assign(self.hi, lp.upper)
-        if self.A is not None and self.b is not None:
-            _assign(self.A, [r.coefficients for r in lp.rows])
+        if self.b is not None:
             _assign(self.b, [r.rhs for r in lp.rows])
 
 
@@ -152,9 +156,9 @@ class _Program:
     block's own optimum; one call amortises cvxpy's per-solve overhead over the plan.
     """
 
-    def __init__(self, shape: _Shape) -> None:
+    def __init__(self, structure: _Structure) -> None:
         self.lock = threading.Lock()
-        self.blocks = [_Block(n, m) for n, m in shape]
+        self.blocks = [_Block(c, rows) for c, rows in structure]
         objective = self.blocks[0].objective
         for block in self.blocks[1:]:
             objective = objective + block.objective
@@ -188,18 +192,22 @@ class _Program:
         return str(self.problem.status)
 
 
-def _shape(lps: Sequence[LogLinearProgram]) -> _Shape:
-    return tuple((len(lp.parameters), len(lp.rows)) for lp in lps)
+def _structure(lps: Sequence[LogLinearProgram]) -> _Structure:
+    return tuple((lp.objective, tuple(r.coefficients for r in lp.rows)) for lp in lps)
 
 
-@cache
-def _program(shape: _Shape) -> _Program:
-    return _Program(shape)
+#: Compiled programs kept; each plan (its operations' exponents) needs one.
+PROGRAM_CACHE_SIZE = 256
+
+
+@lru_cache(maxsize=PROGRAM_CACHE_SIZE)
+def _program(structure: _Structure) -> _Program:
+    return _Program(structure)
 
 
 def is_dpp(lps: Sequence[LogLinearProgram]) -> bool:
     """Whether the program for these operations is DPP (re-solvable without re-compiling)."""
-    return bool(_program(_shape(lps)).problem.is_dpp())
+    return bool(_program(_structure(lps)).problem.is_dpp())
 
 
 def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
@@ -212,7 +220,7 @@ def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
     SolverError
         A status other than optimal or infeasible.
     """
-    status, xs = _program(_shape(lps)).solve(lps)
+    status, xs = _program(_structure(lps)).solve(lps)
     if status in _INFEASIBLE:
         if len(lps) == 1:
             raise _diagnose(lps[0])
