@@ -60,7 +60,11 @@ class _OneLineErrors(TyperGroup):
         try:
             code = super().main(args, prog_name, complete_var, False, windows_expand_args, **extra)
         except click_errors.NoArgsIsHelpError as err:
-            typer.echo(err.ctx.get_help() if err.ctx else err.format_message())
+            # the error's constructor rendered the help already (typer's rich help prints
+            # itself and returns ""); plain click returns it as the message
+            text = err.format_message()
+            if text.strip():
+                typer.echo(text)
             sys.exit(err.exit_code)
         except click_errors.ClickException as err:
             message = " ".join(err.format_message().split())

@@ -735,3 +735,11 @@ def test_script_long_message_not_wrapped_on_narrow_terminal(tmp_path: Path) -> N
         "parts_per_edge",
     )
     assert len(line) > 120
+
+
+@pytest.mark.parametrize("group", [[], ["keys"], ["milling"], ["db"]])
+def test_a_group_without_a_command_prints_its_help_once(group):
+    proc = subprocess.run([_rcb(), *group], capture_output=True, text=True, timeout=60, check=False)
+    assert proc.returncode == 2
+    assert (proc.stdout + proc.stderr).count("Usage:") == 1
+    assert "Traceback" not in proc.stderr
