@@ -1,11 +1,9 @@
 """The robust optimiser: parametrised (DPP) cvxpy programs, solved by HiGHS.
 
 A plan's operations are solved together as one program of independent blocks. A program is
-compiled once per plan structure (the objective and the constraint rows' coefficients of each
-operation, i.e. the exponents, which RCB and replans leave alone) and re-solved with new
-right-hand sides and bounds as parameters, so re-optimising a plan after every part costs one
-solver call (cvxpy "Disciplined Parametrized Programming"); with the coefficients constant a
-re-solve restuffs only those vectors.
+compiled once per shape (the number of parameters and constraint rows of each operation) and
+re-solved with new parameter values, so re-optimising a plan after every part costs one solver
+call (cvxpy "Disciplined Parametrized Programming").
 
 An operation whose objective is Borangiu's productivity cost ``J`` is solved on its own, as a
 geometric program under the same rows (:mod:`supervisor.productivity`); :func:`optimize_domain`
@@ -19,7 +17,7 @@ import threading
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from functools import lru_cache
+from functools import cache
 from typing import Any
 
 import cvxpy as cp
@@ -109,33 +107,31 @@ class PlanResult:
 
 _INFEASIBLE = (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE)
 
-#: The constant data of each operation's program: objective and constraint-row coefficients
-#: (the exponents in ln-space; RCB and replans move only right-hand sides and bounds).
-_Structure = tuple[tuple[tuple[float, ...], tuple[tuple[float, ...], ...]], ...]
+#: (number of parameters, number of constraint rows) of each operation in a program
+_Shape = tuple[tuple[int, int], ...]
 
 
 class _Block:
-    """One operation's ``max c·x  s.t.  A x <= b,  lo <= x <= hi``; ``b, lo, hi`` parameters.
+    """One operation's ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` with parameters."""
 
-    ``c`` and ``A`` are constants: they hold the models' and the kinematics' exponents, which
-    neither RCB nor a replan changes, so a re-solve only restuffs ``b``, ``lo`` and ``hi``.
-    """
-
-    def __init__(self, objective: tuple[float, ...], rows: tuple[tuple[float, ...], ...]) -> None:
-        n, m = len(objective), len(rows)
+    def __init__(self, n: int, m: int) -> None:
         self.x = cp.Variable(n)
+        self.c = cp.Parameter(n)
         self.lo = cp.Parameter(n)
         self.hi = cp.Parameter(n)
         self.constraints = [self.x >= self.lo, self.x <= self.hi]
+        self.A = cp.Parameter((m, n)) if m else None
         self.b = cp.Parameter(m) if m else None
-        if self.b is not None:
-            self.constraints.append(np.array(rows, dtype=float) @ self.x <= self.b)
-        self.objective = np.array(objective, dtype=float) @ self.x
+        if self.A is not None:
+            self.constraints.append(self.A @ self.x <= self.b)
+        self.objective = self.c @ self.x
 
     def load(self, lp: LogLinearProgram) -> None:
+        _assign(self.c, lp.objective)
         _assign(self.lo, lp.lower)
         _assign(self.hi, lp.upper)
-        if self.b is not None:
+        if self.A is not None and self.b is not None:
+            _assign(self.A, [r.coefficients for r in lp.rows])
             _assign(self.b, [r.rhs for r in lp.rows])
 
 
@@ -156,9 +152,9 @@ class _Program:
     block's own optimum; one call amortises cvxpy's per-solve overhead over the plan.
     """
 
-    def __init__(self, structure: _Structure) -> None:
+    def __init__(self, shape: _Shape) -> None:
         self.lock = threading.Lock()
-        self.blocks = [_Block(c, rows) for c, rows in structure]
+        self.blocks = [_Block(n, m) for n, m in shape]
         objective = self.blocks[0].objective
         for block in self.blocks[1:]:
             objective = objective + block.objective
@@ -192,22 +188,18 @@ class _Program:
         return str(self.problem.status)
 
 
-def _structure(lps: Sequence[LogLinearProgram]) -> _Structure:
-    return tuple((lp.objective, tuple(r.coefficients for r in lp.rows)) for lp in lps)
+def _shape(lps: Sequence[LogLinearProgram]) -> _Shape:
+    return tuple((len(lp.parameters), len(lp.rows)) for lp in lps)
 
 
-#: Compiled programs kept; each plan (its operations' exponents) needs one.
-PROGRAM_CACHE_SIZE = 256
-
-
-@lru_cache(maxsize=PROGRAM_CACHE_SIZE)
-def _program(structure: _Structure) -> _Program:
-    return _Program(structure)
+@cache
+def _program(shape: _Shape) -> _Program:
+    return _Program(shape)
 
 
 def is_dpp(lps: Sequence[LogLinearProgram]) -> bool:
     """Whether the program for these operations is DPP (re-solvable without re-compiling)."""
-    return bool(_program(_structure(lps)).problem.is_dpp())
+    return bool(_program(_shape(lps)).problem.is_dpp())
 
 
 def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
@@ -220,7 +212,7 @@ def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
     SolverError
         A status other than optimal or infeasible.
     """
-    status, xs = _program(_structure(lps)).solve(lps)
+    status, xs = _program(_shape(lps)).solve(lps)
     if status in _INFEASIBLE:
         if len(lps) == 1:
             raise _diagnose(lps[0])
