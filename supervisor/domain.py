@@ -32,7 +32,6 @@ References
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -43,6 +42,7 @@ from models.errors import InputError
 from models.monomial import Monomial
 from models.quantities import Sense
 from supervisor.errors import SolverError
+from supervisor.files import read_toml
 from supervisor.productivity import (
     FEED_RATE,
     SPINDLE,
@@ -246,15 +246,7 @@ _WN_BOUNDS = ("min_feed_rate_mm_min", "max_feed_rate_mm_min", "min_spindle_rpm",
 
 def load_domain_problem(path: Path) -> DomainProblem:
     """Read a domain file (TOML: ``name``, ``[cut]``, ``[domain]``, ``[productivity]``)."""
-    try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except FileNotFoundError:
-        raise InputError("domain file", str(path), "no such file") from None
-    except OSError as err:
-        raise InputError("domain file", str(path), f"cannot be read ({err.strerror})") from None
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
-        raise InputError("domain file", str(path), f"is not valid TOML ({err})") from None
-    return domain_problem_from_mapping(data)
+    return domain_problem_from_mapping(read_toml(path, "domain file"))
 
 
 def domain_problem_from_mapping(data: object) -> DomainProblem:

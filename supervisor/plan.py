@@ -12,7 +12,6 @@ Borangiu's constraints (:class:`supervisor.domain.Domain`) as rows.
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +27,7 @@ from models.tool import Tool, process_of, tool_from_mapping
 from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
 from supervisor.domain import Domain, domain_from_mapping
 from supervisor.errors import PlanError
+from supervisor.files import read_toml
 from supervisor.productivity import CostData, productivity_from_mapping
 
 #: Flank-wear criterion when an operation gives none: VB = 0.3 mm (ISO 3685:1993, 7.2).
@@ -157,17 +157,7 @@ class Plan:
 
 def load_plan(path: Path) -> Plan:
     """Read a TOML plan file; errors name the file and the field."""
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise InputError("plan file", str(path), "no such file") from None
-    except OSError as err:
-        raise InputError("plan file", str(path), f"cannot be read ({err.strerror})") from None
-    try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
-        raise InputError("plan file", str(path), f"is not valid TOML ({err})") from None
-    return plan_from_mapping(data)
+    return plan_from_mapping(read_toml(path, "plan file"))
 
 
 def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -> Plan:
