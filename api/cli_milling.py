@@ -180,21 +180,26 @@ def _strength(force_N: float | None, path: Path | None) -> ForceLimit | None:
 
 def _read_mapping(path: Path) -> object:
     field = "--force-calibration"
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(field, str(path), "no such file") from None
-    except IsADirectoryError:
-        raise InputError(field, str(path), "is a directory") from None
-    except UnicodeDecodeError as err:
-        raise InputError(field, str(path), f"is not UTF-8 text ({err.reason})") from None
-    except OSError as err:
-        raise InputError(field, str(path), f"cannot be read ({err.strerror})") from None
+    text = _text(path, field, "utf-8", "is a directory")
     try:
         return json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as err:
         first = str(err).splitlines()[0] if str(err).strip() else "unreadable"
         raise InputError(field, str(path), f"cannot be parsed ({first})") from None
+
+
+def _text(path: Path, field: str, encoding: str, directory: str) -> str:
+    """The file's text; errors name ``field`` and the path (``directory``: what a dir gets)."""
+    try:
+        return path.read_text(encoding=encoding)
+    except FileNotFoundError:
+        raise InputError(field, str(path), "no such file") from None
+    except IsADirectoryError:
+        raise InputError(field, str(path), directory) from None
+    except UnicodeDecodeError as err:
+        raise InputError(field, str(path), f"is not UTF-8 text ({err.reason})") from None
+    except OSError as err:
+        raise InputError(field, str(path), f"cannot be read ({err.strerror})") from None
 
 
 def read_tests(path: Path) -> tuple[list[float], list[float], list[float]]:
@@ -233,16 +238,7 @@ def read_tests(path: Path) -> tuple[list[float], list[float], list[float]]:
 
 
 def _rows(path: Path) -> list[list[str]]:
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(_FILE, str(path), "no such file") from None
-    except IsADirectoryError:
-        raise InputError(_FILE, str(path), "is a directory, not a CSV file") from None
-    except UnicodeDecodeError as err:
-        raise InputError(_FILE, str(path), f"is not UTF-8 text ({err.reason})") from None
-    except OSError as err:
-        raise InputError(_FILE, str(path), f"cannot be read ({err.strerror})") from None
+    text = _text(path, _FILE, "utf-8-sig", "is a directory, not a CSV file")
     try:
         rows = [row for row in csv.reader(io.StringIO(text)) if any(c.strip() for c in row)]
     except csv.Error as err:
