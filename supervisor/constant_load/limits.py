@@ -146,11 +146,7 @@ def constant_load_setup(
     .. [1] Tai, Tsai & Li, Eqs. 13-15, §II.F and §III.A.
     """
     feeds, currents, wears = list(feed_rates_mm_min), list(currents_A), list(flank_wears_mm)
-    eta = number(safety_factor, "safety_factor", positive=True)
-    if eta > 1.0:
-        raise InputError("safety_factor", safety_factor, "must be in (0, 1]")
-    k = number(coverage_k, "coverage_k", positive=True)
-    sharp_end, worn_end = _interval(wear_interval_mm)
+    eta, k, interval = _options(safety_factor, coverage_k, wear_interval_mm)  # before the fit
     checked = [number(w, f"flank_wears_mm[{i}]", minimum=0.0) for i, w in enumerate(wears)]
     if len(feeds) >= 4 and not any(checked):
         raise InputError(
@@ -176,7 +172,7 @@ def constant_load_setup(
         cal,
         max_current_A=i_max,
         safety_factor=eta,
-        wear_interval_mm=(sharp_end, worn_end),
+        wear_interval_mm=interval,
         strength=strength,
         coverage_k=k,
     )
@@ -197,11 +193,7 @@ def limits_from_calibration(
     kept with the machine (a plan's ``tai_current_feed`` calibration); same equations, bands
     and refusals. ``max_current_A`` is the largest current the tool withstood [A].
     """
-    eta = number(safety_factor, "safety_factor", positive=True)
-    if eta > 1.0:
-        raise InputError("safety_factor", safety_factor, "must be in (0, 1]")
-    k = number(coverage_k, "coverage_k", positive=True)
-    sharp_end, worn_end = _interval(wear_interval_mm)
+    eta, k, (sharp_end, worn_end) = _options(safety_factor, coverage_k, wear_interval_mm)
     i_max = number(max_current_A, "max_current_A", positive=True)
     a, b, k1 = cal.idle_current_A, cal.slope_A_per_mm_min, cal.wear_coefficient_A_per_mm
     if k1 <= 0:
@@ -266,6 +258,17 @@ def limits_from_calibration(
         wear_interval_mm=(sharp_end, worn_end),
         coverage_k=k,
     )
+
+
+def _options(
+    safety_factor: float, coverage_k: float, wear_interval_mm: object
+) -> tuple[float, float, tuple[float, float]]:
+    """Safety factor in (0, 1], coverage factor > 0 and the interval, checked."""
+    eta = number(safety_factor, "safety_factor", positive=True)
+    if eta > 1.0:
+        raise InputError("safety_factor", safety_factor, "must be in (0, 1]")
+    k = number(coverage_k, "coverage_k", positive=True)
+    return eta, k, _interval(wear_interval_mm)
 
 
 def _interval(value: object) -> tuple[float, float]:
