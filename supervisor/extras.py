@@ -9,7 +9,7 @@ CLI's JSON and the database (``setpoints.extras``) all use this one form.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Any
 
 from supervisor.constant_load.setpoint import ConstantLoadSetpoint
@@ -25,15 +25,7 @@ def extras_of(result: OperationResult) -> dict[str, Any]:
     }
     c = result.constant_load
     if c is not None:
-        extras["constant_load"] = {
-            "reference_current_A": c.reference_current_A,
-            "feed_rate_upper_mm_min": c.feed_rate_upper_mm_min,
-            "feed_rate_lower_mm_min": c.feed_rate_lower_mm_min,
-            "programmed_feed_rate_mm_min": c.programmed_feed_rate_mm_min,
-            "upper_governed_by": c.upper_governed_by,
-            "tool_change_by_feed": c.tool_change_by_feed,
-            "wear_interval_mm": list(c.wear_interval_mm),
-        }
+        extras["constant_load"] = {**asdict(c), "wear_interval_mm": list(c.wear_interval_mm)}
     return extras
 
 
@@ -44,16 +36,8 @@ def with_extras(result: OperationResult, extras: Mapping[str, Any] | None) -> Op
     c = extras.get("constant_load")
     constant_load = None
     if c is not None:
-        lo, hi = c["wear_interval_mm"]
-        constant_load = ConstantLoadSetpoint(
-            reference_current_A=c["reference_current_A"],
-            feed_rate_upper_mm_min=c["feed_rate_upper_mm_min"],
-            feed_rate_lower_mm_min=c["feed_rate_lower_mm_min"],
-            programmed_feed_rate_mm_min=c["programmed_feed_rate_mm_min"],
-            upper_governed_by=c["upper_governed_by"],
-            tool_change_by_feed=c["tool_change_by_feed"],
-            wear_interval_mm=(lo, hi),
-        )
+        interval = tuple(c["wear_interval_mm"])
+        constant_load = ConstantLoadSetpoint(**{**c, "wear_interval_mm": interval})
     return replace(
         result,
         objective=extras.get("objective", "mrr"),
