@@ -9,6 +9,7 @@ import from here, never from each other.
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator
@@ -135,3 +136,17 @@ def _umask() -> int:
     current = os.umask(0o022)
     os.umask(current)
     return current
+
+
+def number_cell(text: str, where: str) -> float:
+    """A table cell as a finite number; ``where`` (``column[row]``) names it in errors."""
+    cell = text.strip()
+    if not cell:
+        raise InputError(where, cell, "missing value")
+    try:
+        value = float(cell)
+    except ValueError:
+        raise InputError(where, cell, "must be a number") from None
+    if not math.isfinite(value):
+        raise InputError(where, cell, "must be a finite number")
+    return value

@@ -24,7 +24,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from api.cli_common import check_target, emit, errors, say, write_atomically
+from api.cli_common import check_target, emit, errors, number_cell, say, write_atomically
 from models.errors import InputError
 from models.fit import BANDS, Band, FitResult, fit_power_law
 from models.quantities import MODEL_QUANTITIES
@@ -310,14 +310,7 @@ def _numbers(table: pd.DataFrame, column: str, rows: list[str]) -> np.ndarray:
     values = np.empty(len(cells))
     for i, cell in enumerate(cells):
         where = f"{column}[{rows[i]}]"
-        if not cell:
-            raise InputError(where, cell, "missing value")
-        try:
-            value = float(cell)
-        except ValueError:
-            raise InputError(where, cell, "must be a number") from None
-        if not math.isfinite(value):
-            raise InputError(where, cell, "must be a finite number")
+        value = number_cell(cell, where)
         if value <= 0:
             raise InputError(
                 where, cell, "must be greater than 0 (the power law is fitted on logarithms)"

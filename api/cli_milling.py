@@ -30,7 +30,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from api.cli_common import emit, errors
+from api.cli_common import emit, errors, number_cell
 from api.cli_domain import domain
 from models.errors import InputError
 from models.sensors import calibration_to_mapping, linear_current_calibration_from_mapping
@@ -251,19 +251,11 @@ def _rows(path: Path) -> list[list[str]]:
 
 
 def _cell(text: str, where: str, positive: bool) -> float:
-    cell = text.strip()
-    if not cell:
-        raise InputError(where, cell, "missing value")
-    try:
-        value = float(cell)
-    except ValueError:
-        raise InputError(where, cell, "must be a number") from None
-    if not math.isfinite(value):
-        raise InputError(where, cell, "must be a finite number")
+    value = number_cell(text, where)
     if positive and value <= 0:
-        raise InputError(where, cell, "must be greater than 0")
+        raise InputError(where, text.strip(), "must be greater than 0")
     if value < 0:
-        raise InputError(where, cell, "must be at least 0")
+        raise InputError(where, text.strip(), "must be at least 0")
     return value
 
 
