@@ -240,7 +240,9 @@ def optimize(
         return
     _out.print(render.plan_table(result))
     for op in result.operations:
-        _out.print(render.predictions_table(f"{op.name} ({op.tool})", op.predicted))
+        table = render.predictions_table(f"{op.name} ({op.tool})", op.predicted)
+        table.caption = render.setpoint_caption(op)
+        _out.print(table)
 
 
 @app.command()

@@ -150,6 +150,22 @@ def plan_table(result: PlanResult) -> Table:
     return table
 
 
+def setpoint_caption(op: OperationResult) -> str | None:
+    """Productivity cost and constant-load limits of a setpoint, where it has them."""
+    lines = []
+    if op.objective != "mrr" or op.cost_per_kg is not None:
+        lines.append(f"objective {op.objective}; J = {_fmt(op.cost_per_kg or 0.0)} /kg")
+    c = op.constant_load
+    if c is not None:
+        lines.append(
+            f"constant load: {_fmt(c.reference_current_A)} A, feed "
+            f"{_fmt(c.feed_rate_lower_mm_min)}-{_fmt(c.feed_rate_upper_mm_min)} mm/min "
+            f"(upper set by the {c.upper_governed_by}); change tool at the lower limit"
+            + ("" if c.tool_change_by_feed else ": not by feed here, by count")
+        )
+    return "\n".join(lines) or None
+
+
 def _row_json(row: Row) -> dict[str, Any]:
     return {
         "setpoint": dict(row.setpoint),
@@ -192,24 +208,13 @@ def _meas(m: Measurement | None) -> str:
     return "" if m is None else f"{_fmt(m.value)}\n±{m.uncertainty:.3g}"
 
 
-#: Column heads of the cutting parameters in the demonstration tables (Table 5's symbols).
-_DEMO_COLUMNS = {
-    "depth_mm": "d\nmm",
-    "feed_mm_rev": "f\nmm/rev",
-    "speed_m_min": "v\nm/min",
-    "axial_depth_mm": "ap\nmm",
-    "radial_depth_mm": "ae\nmm",
-    "feed_per_tooth_mm": "fz\nmm",
-}
-
-
 def demo_tables(result: DemoResult) -> list[Table]:
     """One Table-5-like table per operation, then the cycle times."""
     tables = []
     for op in result.operations:
         table = Table(title=f"{op.name}", title_justify="left")
         names = tuple(op.robust.setpoint)
-        columns: tuple[str, ...] = ("", *(_DEMO_COLUMNS.get(p, p) for p in names))
+        columns: tuple[str, ...] = ("", *(_PARAMETER_HEADINGS.get(p, p) for p in names))
         columns += ("MRR\ncm³/min", "F N\nmodel", "Ra µm\nmodel", "F N\nmeas.", "Ra µm\nmeas.")
         for column in columns:
             table.add_column(column, justify="right", no_wrap=True)

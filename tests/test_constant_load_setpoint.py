@@ -99,3 +99,16 @@ def test_example_plan_limits():
     # (0.238 − 0.11584 − 0.11186·0.22)/2.0693e-4 + 2·0.002/2.0693e-4 = 471.43 + 19.33
     assert slot.feed_rate_lower_mm_min == pytest.approx(490.75, abs=0.01)
     assert slot.feed_rate_upper_mm_min < (0.238 - 0.11584) / 2.0693e-4  # 590.34: the setpoint
+
+
+def test_rcb_optimize_shows_the_constant_load_limits():
+    from typer.testing import CliRunner
+
+    from api.cli import app
+
+    plan = str(ROOT / "examples" / "tai_constant_load_part.toml")
+    result = CliRunner().invoke(app, ["optimize", plan], env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.output
+    text = " ".join(result.stdout.split())
+    # end-mill: I_ref 0.85 × 0.28 A; lower limit 621.63 mm/min (tests/test_rest_constant_load.py)
+    assert "constant load: 0.238 A, feed 621.6-869.4 mm/min (upper set by the setpoint)" in text
