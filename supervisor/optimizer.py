@@ -1,9 +1,8 @@
-"""The robust optimiser: parametrised (DPP) cvxpy programs, solved by HiGHS.
+"""The robust optimiser: each operation's log-linear program solved by HiGHS.
 
-A plan's operations are solved together as one program of independent blocks. A program is
-compiled once per shape (the number of parameters and constraint rows of each operation) and
-re-solved with new parameter values, so re-optimising a plan after every part costs one solver
-call (cvxpy "Disciplined Parametrized Programming").
+The max-MRR program of an operation (:mod:`supervisor.formulation`) goes to HiGHS directly
+(:mod:`supervisor.highs_lp`, which says why not through cvxpy); re-optimising a plan after a
+part is one small LP per operation.
 
 An operation whose objective is Borangiu's productivity cost ``J`` is solved on its own, as a
 geometric program under the same rows (:mod:`supervisor.productivity`); :func:`optimize_domain`
@@ -13,11 +12,9 @@ solves Borangiu's (w, n) problem of one pass both ways (:mod:`supervisor.domain`
 from __future__ import annotations
 
 import math
-import threading
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from functools import cache
 from typing import Any
 
 import cvxpy as cp
@@ -29,7 +26,7 @@ from models.kinematics import Process
 from models.powerlaw import Prediction
 from models.sensors import TaiCurrentFeedCalibration
 from models.tool import Tool, predict_all
-from supervisor import productivity
+from supervisor import highs_lp, productivity
 from supervisor.constant_load.setpoint import (
     ConstantLoadSetpoint,
     constant_load_setpoint,
@@ -107,121 +104,26 @@ class PlanResult:
 
 _INFEASIBLE = (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE)
 
-#: (number of parameters, number of constraint rows) of each operation in a program
-_Shape = tuple[tuple[int, int], ...]
 
-
-class _Block:
-    """One operation's ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` with parameters."""
-
-    def __init__(self, n: int, m: int) -> None:
-        self.x = cp.Variable(n)
-        self.c = cp.Parameter(n)
-        self.lo = cp.Parameter(n)
-        self.hi = cp.Parameter(n)
-        self.constraints = [self.x >= self.lo, self.x <= self.hi]
-        self.A = cp.Parameter((m, n)) if m else None
-        self.b = cp.Parameter(m) if m else None
-        if self.A is not None:
-            self.constraints.append(self.A @ self.x <= self.b)
-        self.objective = self.c @ self.x
-
-    def load(self, lp: LogLinearProgram) -> None:
-        _assign(self.c, lp.objective)
-        _assign(self.lo, lp.lower)
-        _assign(self.hi, lp.upper)
-        if self.A is not None and self.b is not None:
-            _assign(self.A, [r.coefficients for r in lp.rows])
-            _assign(self.b, [r.rhs for r in lp.rows])
-
-
-def _assign(parameter: Any, values: Sequence[Any]) -> None:
-    """Set a parameter only when its value changed.
-
-    cvxpy validates every assignment, and between parts RCB moves only the right-hand sides.
-    """
-    array = np.asarray(values, dtype=float)
-    if parameter.value is None or not np.array_equal(parameter.value, array):
-        parameter.value = array
-
-
-class _Program:
-    """A DPP cvxpy LP of independent blocks, one per operation, solved in one call.
-
-    The blocks share no variable, so the optimum of the sum of their objectives is each
-    block's own optimum; one call amortises cvxpy's per-solve overhead over the plan.
-    """
-
-    def __init__(self, shape: _Shape) -> None:
-        self.lock = threading.Lock()
-        self.blocks = [_Block(n, m) for n, m in shape]
-        objective = self.blocks[0].objective
-        for block in self.blocks[1:]:
-            objective = objective + block.objective
-        constraints = [c for b in self.blocks for c in b.constraints]
-        self.problem = cp.Problem(cp.Maximize(objective), constraints)
-
-    def solve(self, lps: Sequence[LogLinearProgram]) -> tuple[str, list[np.ndarray[Any, Any]]]:
-        with self.lock:
-            for block, lp in zip(self.blocks, lps, strict=True):
-                block.load(lp)
-            status = self._run(lps)
-            if status in _INFEASIBLE:
-                # HiGHS presolve can call a program infeasible whose limit clears the least
-                # reachable value by a few ppm; a solve without presolve settles it. Without
-                # presolve an infeasible program can end "unknown", so only an optimum counts.
-                retried = self._run(lps, presolve="off")
-                status = retried if retried == cp.OPTIMAL else status
-            if status != cp.OPTIMAL:
-                return status, []
-            return status, [np.array(b.x.value) for b in self.blocks]
-
-    def _run(self, lps: Sequence[LogLinearProgram], **options: str) -> str:
-        try:
-            # no warm start: a solve must not depend on what was solved before
-            self.problem.solve(solver=cp.HIGHS, warm_start=False, **options)
-        except cp.error.SolverError as err:
-            names = [lp.operation for lp in lps]
-            raise SolverError(f"operations {names}: solver failed ({err})") from err
-        except ValueError:  # cvxpy cannot unpack a result HiGHS left "unknown"
-            return "unknown"
-        return str(self.problem.status)
-
-
-def _shape(lps: Sequence[LogLinearProgram]) -> _Shape:
-    return tuple((len(lp.parameters), len(lp.rows)) for lp in lps)
-
-
-@cache
-def _program(shape: _Shape) -> _Program:
-    return _Program(shape)
-
-
-def is_dpp(lps: Sequence[LogLinearProgram]) -> bool:
-    """Whether the program for these operations is DPP (re-solvable without re-compiling)."""
-    return bool(_program(_shape(lps)).problem.is_dpp())
-
-
-def _solve(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
-    """Optimal ln-parameters of every program, solved together.
+def _solve(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
+    """Optimal ln-parameters of the max-MRR program ``lp`` (HiGHS, :mod:`.highs_lp`).
 
     Raises
     ------
     InfeasibleError
-        For the first operation that has no feasible point, with its conflicts.
+        No point meets every row within the bounds; names the conflicting limits.
     SolverError
-        A status other than optimal or infeasible.
+        HiGHS gave neither an optimum nor a proof of infeasibility.
     """
-    status, xs = _program(_shape(lps)).solve(lps)
-    if status in _INFEASIBLE:
-        if len(lps) == 1:
-            raise _diagnose(lps[0])
-        for lp in lps:  # which one? rare, so solve them one by one
-            _solve([lp])
-    if status != cp.OPTIMAL:
-        names = [lp.operation for lp in lps]
-        raise SolverError(f"operations {names}: solver status {status}, not optimal")
-    return [np.clip(x, lp.lower, lp.upper) for x, lp in zip(xs, lps, strict=True)]
+    status, x = highs_lp.maximize(lp)
+    if status == "failed":  # a second opinion, with presolve
+        status, x = highs_lp.maximize(lp, presolve=True)
+    if status == "infeasible":
+        raise _diagnose(lp)
+    if status != "optimal" or x is None:
+        raise SolverError(f"operation {lp.operation!r}: solver status {status}, not optimal")
+    clipped: np.ndarray[Any, Any] = np.clip(x, lp.lower, lp.upper)
+    return clipped
 
 
 def _minimize_cost(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
@@ -238,11 +140,9 @@ def _minimize_cost(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
     return clipped
 
 
-def _optima(lps: Sequence[LogLinearProgram]) -> list[np.ndarray[Any, Any]]:
-    """The max-MRR programs solved together, each productivity program on its own."""
-    fastest = [lp for lp in lps if lp.goal == "mrr"]
-    solved = iter(_solve(fastest) if fastest else [])
-    return [next(solved) if lp.goal == "mrr" else _minimize_cost(lp) for lp in lps]
+def _optimum(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
+    """The max-MRR optimum, or the least-``J`` one for a productivity program."""
+    return _solve(lp) if lp.goal == "mrr" else _minimize_cost(lp)
 
 
 def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> OperationResult:
@@ -256,8 +156,7 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
         The solver gave no optimal status, or the optimum fails the re-check.
     """
     lp = formulate(operation, tool, machine)
-    (x,) = _optima([lp])
-    return _result(operation, tool, lp, x, machine)
+    return _result(operation, tool, lp, _optimum(lp), machine)
 
 
 def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanResult:
@@ -280,7 +179,7 @@ def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanRe
     for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
         with _fields_of(i):
             lps.append(formulate(op, tool, plan.machine))
-    xs = _optima(lps)
+    xs = [_optimum(lp) for lp in lps]
     results = []
     for i, (op, tool, lp, x) in enumerate(zip(plan.operations, used, lps, xs, strict=True)):
         with _fields_of(i):
@@ -356,11 +255,11 @@ def optimize_domain(problem: DomainProblem) -> DomainResult:
         No optimal status, or an optimum fails the re-check.
     """
     lp = formulate_domain(problem)
-    (fastest,) = _solve([lp])
+    fastest = _solve(lp)
     ln_w = float(fastest[0]) - TIE_TOL
     at_fastest = Row(lp.parameters[0], (-1.0, 0.0), -ln_w, math.exp(ln_w), "min", lp.parameters[0])
     slowest_spindle = replace(lp, objective=(0.0, -1.0), rows=(*lp.rows, at_fastest))
-    (tied,) = _solve([slowest_spindle])
+    tied = _solve(slowest_spindle)
     points = []
     for x in (tied, _minimize_cost(lp)):
         point = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
