@@ -2,37 +2,33 @@
 
 What it measures, on the six-operation plan ``examples/ivester_demo_part.toml``:
 
-1. **One operation, fresh** — the first solve of a problem shape, when cvxpy compiles the DPP
-   program. Measured two ways, both printed:
-
-   - *subprocess*: one new Python process per sample; the child imports the project, loads
-     the plan and times its first ``optimize_operation`` (rough-od). This is what a freshly
-     started service pays: DPP compilation plus cvxpy's and highspy's lazy first-use costs.
-     The child's import time is printed too (it is not part of the solve figure).
-   - *cache cleared*: in this process, ``supervisor.optimizer._program.cache_clear()`` before
-     each sample, then ``optimize_operation``. Isolates the DPP compilation in a warm
-     interpreter.
-
+1. **One operation, fresh** — one new Python process per sample; the child imports the
+   project, loads the plan and times its first ``optimize_operation`` (rough-od): what a freshly
+   started service pays (highspy's and numpy's lazy first-use costs). The child's import time
+   is printed too (it is not part of the solve figure).
 2. **One operation, re-solved** — rough-od re-optimised with ``optimize_operation`` after its
    tool's force model changed, as RCB would: tool variants with the ``force_N`` band ``dK``
    scaled (``dataclasses.replace`` on the ``Tool`` and its ``PowerLawModel``) are built before
-   the timed loop and cycled through, so every call is a real re-solve with new parameter
-   values (the force limit is binding, so the optimum moves; the script checks that).
-3. **The plan** — ``optimize_plan`` fresh (program cache cleared before each sample: both
-   shapes are compiled) and re-solved (``optimize_plan`` on the loaded plan; the optimiser has
-   no result memo, only the compiled-program cache, so every call solves six LPs).
+   the timed loop and cycled through, so every call is a real re-solve with new numbers (the
+   force limit is binding, so the optimum moves; the script checks that).
+3. **The plan, re-solved** — ``optimize_plan`` on the loaded plan (the optimiser keeps no
+   result memo, so every call solves six LPs).
 4. **Breakdown of one re-solve** — the real ``optimize_operation`` with ``formulate`` and
-   ``_Program.solve`` wrapped by timers: time in ``formulate()``, in the cvxpy solve (split into
-   parameter assignment, cvxpy's per-solve canonicalisation, the HiGHS interface and the
-   HiGHS run as cvxpy reports them) and in the rest (clip, predictions, re-check, result).
+   ``highs_lp.maximize`` wrapped by timers (and HiGHS's own ``run`` inside it): time in
+   ``formulate()``, in building the HiGHS model, in HiGHS's run, and in the rest (clip,
+   predictions, re-check, result).
+5. **Reference: the same LP through cvxpy** — rough-od's program posed as a parametrised (DPP)
+   cvxpy problem (parameters ``c, A, b, lo, hi``, as the optimiser did before it called HiGHS
+   directly) and re-solved with HiGHS through cvxpy for the same tool variants; it shows what
+   cvxpy's per-call work costs on this machine (the reason :mod:`supervisor.highs_lp` exists).
 
 Figures are medians and 90th percentiles over a bounded number of repetitions (``--repeat``,
 default 200 for one operation; half that for the plan; 10 fresh samples), with a wall-clock
 cap per section so the whole run stays near 20 s (``--time-cap``). Timing uses
 ``time.perf_counter``. Re-solves are warmed up first and their timed loops run with the
-garbage collector disabled (pass ``--keep-gc`` to leave it on); fresh samples always run with
-it on, as compilation allocates heavily. Targets from the issue: one operation <= 1 ms and the
-plan <= 10 ms, re-solved; the script says whether they are met and exits 0 either way.
+garbage collector disabled (pass ``--keep-gc`` to leave it on). Targets from the issue: one
+operation <= 1 ms and the plan <= 10 ms, re-solved; the script says whether they are met and
+exits 0 either way.
 
 Usage (from the repository root)::
 
@@ -70,11 +66,10 @@ TARGET_PLAN_MS = 10.0
 #: Share of --time-cap each section may use (the rest is imports, warm-up and printing).
 SHARES = {
     "fresh_subprocess": 0.60,
-    "fresh_op": 0.04,
     "resolve_op": 0.08,
-    "fresh_plan": 0.05,
     "resolve_plan": 0.10,
     "breakdown": 0.06,
+    "cvxpy": 0.10,
 }
 
 perf = time.perf_counter
@@ -274,9 +269,10 @@ def main(argv: list[str] | None = None) -> int:
 
     t_import = perf()
     import cvxpy as cp
+    import numpy as np
 
     from models.tool import Tool
-    from supervisor import optimizer
+    from supervisor import highs_lp, optimizer
     from supervisor.formulation import formulate
     from supervisor.optimizer import optimize_operation, optimize_plan
     from supervisor.plan import load_plan
@@ -287,42 +283,22 @@ def main(argv: list[str] | None = None) -> int:
     tool = plan.tools[op.tool]
     machine = plan.machine
     lp = formulate(op, tool, machine)
-    shapes = sorted(
-        {
-            (len(f.parameters), len(f.rows))
-            for f in (formulate(o, plan.tools[o.tool], machine) for o in plan.operations)
-        }
-    )
     print(
         f"Problem: {OPERATION} has {len(lp.parameters)} variables x {len(lp.rows)} rows; "
-        f"the plan has {len(plan.operations)} operations in {len(shapes)} program shapes "
-        f"{shapes}"
+        f"the plan has {len(plan.operations)} operations, one LP each"
     )
     print(f"(imports in this process took {import_s * 1e3:.0f} ms, not counted below)")
 
     # 1. One operation, fresh.
     print()
-    print("1. One operation, fresh (first solve of its shape: DPP compile + solve)")
+    print("1. One operation, fresh (first solve in a new process)")
     if sub is not None:
-        print(f"   mode: subprocess, one new Python process per sample ({sys.executable})")
+        print(f"   one new Python process per sample ({sys.executable})")
         print(Stats.of(sub["first"]).line("first optimize_operation in a new process"))
         print(Stats.of(sub["second"]).line("  its second call (same process, for scale)"))
         print(Stats.of(sub["import"]).line("  child's import of the project (excluded)"))
     else:
-        print("   mode: subprocess skipped (--no-subprocess)")
-
-    def clear_cache() -> None:
-        optimizer._program.cache_clear()
-
-    optimize_operation(op, tool, machine)  # warm the interpreter-wide lazy imports
-    fresh_op, cut = timed_loop(
-        lambda _i: optimize_operation(op, tool, machine),
-        fresh_samples,
-        cap["fresh_op"],
-        setup=clear_cache,
-    )
-    print("   mode: cache cleared, _program.cache_clear() before each sample, this process")
-    print(Stats.of(fresh_op).line("optimize_operation after cache_clear()") + capped(cut))
+        print("   skipped (--no-subprocess)")
 
     # 2. One operation, re-solved with a changed force model.
     force = tool.models["force_N"]
@@ -357,10 +333,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(op_stats.line("optimize_operation, re-solve") + capped(cut))
 
-    # 3. The plan, fresh and re-solved.
-    fresh_plan, cut_fresh = timed_loop(
-        lambda _i: optimize_plan(plan), fresh_samples, cap["fresh_plan"], setup=clear_cache
-    )
+    # 3. The plan, re-solved.
     for _ in range(10):  # warm-up
         optimize_plan(plan)
     with gc_off(disable_gc):
@@ -370,59 +343,31 @@ def main(argv: list[str] | None = None) -> int:
     plan_stats = Stats.of(resolve_plan)
     print()
     print(f"3. The {len(plan.operations)}-operation plan")
-    print(Stats.of(fresh_plan).line("optimize_plan, fresh (cache cleared)") + capped(cut_fresh))
     print(plan_stats.line("optimize_plan, re-solve") + capped(cut))
     per_op = plan_stats.median / len(plan.operations)
     print(f"  {'(per operation in the plan)':<44} {per_op:9.3f} ms")
 
-    # 4. Breakdown of one re-solve: wrap formulate() and _Program.solve with timers.
-    parts: dict[str, list[float]] = {
-        k: []
-        for k in (
-            "total",
-            "formulate",
-            "solve",
-            "params",
-            "compile",
-            "via_data",
-            "highs_run",
-        )
-    }
-    mark: dict[str, float] = {}
+    # 4. Breakdown of one re-solve: wrap formulate(), highs_lp.maximize and Highs.run.
+    parts: dict[str, list[float]] = {k: [] for k in ("formulate", "maximize", "run")}
+    highs = highs_lp._highs()
     real_formulate = formulate
-    real_solve = optimizer._Program.solve
-    real_problem_solve = cp.Problem.solve
+    real_maximize = highs_lp.maximize
+    real_run = highs.run
 
-    def timed_formulate(*a: Any) -> Any:
-        t0 = perf()
-        try:
-            return real_formulate(*a)
-        finally:
-            parts["formulate"].append(perf() - t0)
+    def timer(key: str, fn: Callable[..., Any]) -> Callable[..., Any]:
+        def timed(*a: Any, **kw: Any) -> Any:
+            t0 = perf()
+            try:
+                return fn(*a, **kw)
+            finally:
+                parts[key].append(perf() - t0)
 
-    def timed_problem_solve(self: Any, *a: Any, **kw: Any) -> Any:
-        t0 = perf()
-        try:
-            return real_problem_solve(self, *a, **kw)
-        finally:
-            mark["problem_solve_start"] = t0
-
-    def timed_solve(self: Any, lp_: Any) -> Any:
-        t0 = perf()
-        try:
-            return real_solve(self, lp_)
-        finally:
-            t1 = perf()
-            parts["solve"].append(t1 - t0)
-            parts["params"].append(mark["problem_solve_start"] - t0)  # lock + param. values
-            parts["compile"].append(self.problem.compilation_time or 0.0)
-            parts["via_data"].append(getattr(self.problem, "_solve_time", None) or 0.0)
-            parts["highs_run"].append(self.problem.solver_stats.solve_time or 0.0)
+        return timed
 
     with (
-        patch.object(optimizer, "formulate", timed_formulate),
-        patch.object(optimizer._Program, "solve", timed_solve),
-        patch.object(cp.Problem, "solve", timed_problem_solve),
+        patch.object(optimizer, "formulate", timer("formulate", real_formulate)),
+        patch.object(highs_lp, "maximize", timer("maximize", real_maximize)),
+        patch.object(highs, "run", timer("run", real_run)),
     ):
         for i in range(20):  # warm-up
             optimize_operation(op, variants[i % len(variants)], machine)
@@ -434,27 +379,12 @@ def main(argv: list[str] | None = None) -> int:
                 repeat,
                 cap["breakdown"],
             )
-    parts["total"] = total
-    rest = [t - f - s for t, f, s in zip(total, parts["formulate"], parts["solve"], strict=True)]
-    cvx_other = [
-        s - p - c - d
-        for s, p, c, d in zip(
-            parts["solve"], parts["params"], parts["compile"], parts["via_data"], strict=True
-        )
-    ]
-    interface = [d - h for d, h in zip(parts["via_data"], parts["highs_run"], strict=True)]
     med = {k: Stats.of(v).median for k, v in parts.items()}
-    med_rest = Stats.of(rest).median
+    med["total"] = Stats.of(total).median
+    model = [m - r for m, r in zip(parts["maximize"], parts["run"], strict=True)]
+    rest = [t - f - m for t, f, m in zip(total, parts["formulate"], parts["maximize"], strict=True)]
     print()
     print(f"4. Breakdown of one re-solve of {OPERATION} (medians; shares of the total median)")
-    print(
-        "   real optimize_operation with formulate, _Program.solve and cvxpy Problem.solve "
-        "wrapped by timers;"
-    )
-    print(
-        "   inner cvxpy figures are cvxpy's own (compilation_time, _solve_time: time.time; "
-        "solver_stats.solve_time: HiGHS)"
-    )
 
     def share(label: str, ms: float, indent: int = 2) -> None:
         pct = 100.0 * ms / med["total"] if med["total"] else float("nan")
@@ -462,15 +392,42 @@ def main(argv: list[str] | None = None) -> int:
 
     share("total optimize_operation", med["total"])
     share("formulate()", med["formulate"])
-    share("_program(...).solve (cvxpy + HiGHS)", med["solve"])
-    share("lock + Parameter.value assignment", med["params"], 6)
-    share("get_problem_data (DPP param. stuffing)", med["compile"], 6)
-    share("HiGHS interface (model setup, copy)", Stats.of(interface).median, 6)
-    share("HiGHS run", med["highs_run"], 6)
-    share("cvxpy other (checks, unpack results)", Stats.of(cvx_other).median, 6)
-    share("rest (clip, predictions, re-check, result)", med_rest)
+    share("highs_lp.maximize", med["maximize"])
+    share("model to HiGHS (build, pass, read back)", Stats.of(model).median, 6)
+    share("HiGHS run", med["run"], 6)
+    share("rest (clip, predictions, re-check, result)", Stats.of(rest).median)
     if cut:
         print("  (breakdown stopped early by the time cap)")
+
+    # 5. Reference: the same program as a DPP cvxpy problem, re-solved through cvxpy.
+    lps = [formulate(op, t, machine) for t in variants]
+    n, m = len(lp.parameters), len(lp.rows)
+    x = cp.Variable(n)
+    c, lo, hi = cp.Parameter(n), cp.Parameter(n), cp.Parameter(n)
+    a, b = cp.Parameter((m, n)), cp.Parameter(m)
+    problem = cp.Problem(cp.Maximize(c @ x), [x >= lo, x <= hi, a @ x <= b])
+
+    def cvxpy_solve(i: int) -> None:
+        p = lps[i % len(lps)]
+        c.value, lo.value, hi.value = np.array(p.objective), np.array(p.lower), np.array(p.upper)
+        a.value = np.array([r.coefficients for r in p.rows])
+        b.value = np.array([r.rhs for r in p.rows])
+        problem.solve(solver=cp.HIGHS)
+
+    def direct_solve(i: int) -> None:
+        highs_lp.maximize(lps[i % len(lps)])
+
+    for i in range(20):  # warm-up; also checks that both give the same optimum
+        cvxpy_solve(i)
+        direct = highs_lp.maximize(lps[i % len(lps)])[1]
+        assert np.allclose(x.value, direct, atol=1e-7), (x.value, direct)
+    with gc_off(disable_gc):
+        via_cvxpy, cut = timed_loop(cvxpy_solve, repeat, cap["cvxpy"] / 2)
+        via_highs, cut2 = timed_loop(direct_solve, repeat, cap["cvxpy"] / 2)
+    print()
+    print(f"5. Reference: {OPERATION}'s LP alone (no formulate, predictions or re-check)")
+    print(Stats.of(via_cvxpy).line("DPP cvxpy problem re-solved (HiGHS via cvxpy)") + capped(cut))
+    print(Stats.of(via_highs).line("highs_lp.maximize (HiGHS direct)") + capped(cut2))
 
     # Targets.
     print()
