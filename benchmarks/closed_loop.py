@@ -34,8 +34,8 @@ use); each worker loads the plan and computes the robust start once (``start`` i
 deterministic and ``RcbState`` immutable, so every scenario starts from the same state). A
 scenario depends only on its seed and results are aggregated in seed order, so the output,
 including the printed digest of all per-scenario results, is the same for any ``--jobs``.
-The wall time covers the whole simulation: starting the workers (each compiles its cvxpy
-programs), the oracle solves and every part; "parts" counts the parts actually made.
+The wall time covers the whole simulation: starting the workers (each loads the project
+and the plan), the oracle solves and every part; "parts" counts the parts actually made.
 
 Usage (from the repository root)::
 

@@ -159,8 +159,12 @@ def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> Op
     return _result(operation, tool, lp, _optimum(lp), machine)
 
 
-def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanResult:
-    """Robust optimum of every operation of ``plan``, solved as one program.
+def optimize_plan(
+    plan: Plan,
+    tools: Mapping[str, Tool] | None = None,
+    previous: tuple[PlanResult, Mapping[str, Tool]] | None = None,
+) -> PlanResult:
+    """Robust optimum of every operation of ``plan``.
 
     Parameters
     ----------
@@ -169,21 +173,39 @@ def optimize_plan(plan: Plan, tools: Mapping[str, Tool] | None = None) -> PlanRe
     tools : Mapping[str, Tool], optional
         The tool of an operation, by operation name, where its models differ from the plan's
         (RCB keeps a band per operation and quantity; a simulation uses the true models).
+    previous : (PlanResult, Mapping[str, Tool]), optional
+        An earlier result of ``plan`` and the tools it was solved with: an operation whose
+        tool is the same (equal models) keeps its result there, since an optimum depends
+        only on the operation, its tool and the machine (DESIGN.md, RCB step 4: re-optimise
+        the operations whose bands changed).
 
     Errors as :func:`optimize_operation`; a model that cannot be evaluated for an operation's
     inputs is a :class:`PlanError` naming ``operations[i].<field>``.
     """
     overrides = tools or {}
     used = [overrides.get(op.name) or plan.tools[op.tool] for op in plan.operations]
-    lps = []
+    kept: dict[str, OperationResult] = {}
+    if previous is not None:
+        result, solved_with = previous
+        earlier = {r.name: r for r in result.operations}
+        kept = {
+            op.name: earlier[op.name]
+            for op, tool in zip(plan.operations, used, strict=True)
+            if op.name in earlier and solved_with.get(op.name) == tool
+        }
+    lps: dict[int, LogLinearProgram] = {}
     for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
-        with _fields_of(i):
-            lps.append(formulate(op, tool, plan.machine))
-    xs = [_optimum(lp) for lp in lps]
+        if op.name not in kept:
+            with _fields_of(i):
+                lps[i] = formulate(op, tool, plan.machine)
+    xs = {i: _optimum(lp) for i, lp in lps.items()}
     results = []
-    for i, (op, tool, lp, x) in enumerate(zip(plan.operations, used, lps, xs, strict=True)):
+    for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
+        if op.name in kept:
+            results.append(kept[op.name])
+            continue
         with _fields_of(i):
-            results.append(_result(op, tool, lp, x, plan.machine))
+            results.append(_result(op, tool, lps[i], xs[i], plan.machine))
     return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
 
 

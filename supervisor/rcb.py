@@ -244,7 +244,7 @@ def update(
     new = replace(
         state,
         tools=tools,
-        setpoints=optimize_plan(state.plan, tools),
+        setpoints=optimize_plan(state.plan, tools, previous=(state.setpoints, state.tools)),
         version=state.version + 1,
         sigma=sigma,
         seen=seen,
