@@ -25,7 +25,7 @@ from api import render
 from db import access, keylock, library
 from db import repository as repo
 from db.access import Actor
-from db.engine import reader
+from db.engine import one_statement_reader
 from db.errors import ConflictError
 from db.state_cache import CACHE
 from models.catalogue import catalogue
@@ -275,17 +275,32 @@ def _report_part(
 
     def work(session: Session) -> tuple[int, dict[str, Any]]:
         row = _plan(session, plan_id, lock=True)
-        if repo.serial_exists(session=session, plan_id=plan_id, serial=report.serial):
-            raise ConflictError("serial", report.serial, "already reported for this plan")
         state = repo.load_state(session=session, plan_row=row)
+        known = 1 <= report.setpoint_version <= state.version
+        # one statement stores the part's row unless the serial is reported (409 before 422)
+        part_id = (
+            repo.insert_part(
+                session=session,
+                plan_id=plan_id,
+                serial=report.serial,
+                setpoint_version=report.setpoint_version,
+            )
+            if known
+            else None
+        )
+        if part_id is None and (
+            known or repo.serial_exists(session=session, plan_id=plan_id, serial=report.serial)
+        ):
+            raise ConflictError("serial", report.serial, "already reported for this plan")
+        if part_id is None:
+            raise InputError(
+                "setpoint_version",
+                report.setpoint_version,
+                f"unknown: the plan's versions are 1..{state.version}",
+            )
+        operations = repo.operation_ids(session=session, plan_row=row)
         made_with = None
         if report.setpoint_version != state.version:
-            if not 1 <= report.setpoint_version < state.version:
-                raise InputError(
-                    "setpoint_version",
-                    report.setpoint_version,
-                    f"unknown: the plan's versions are 1..{state.version}",
-                )
             made_with = repo.setpoints_of(
                 session=session, plan_row=row, version=report.setpoint_version
             )
@@ -293,9 +308,11 @@ def _report_part(
         measured, raw = resolve(report, state.plan, made_with or state.setpoints)
         changes = tool_changes(report, made_with or state.setpoints)
         new_state, decisions = update(state, measured, made_with)
-        part_id = repo.add_part(
+        repo.add_part(
             session=session,
             plan_row=row,
+            part_id=part_id,
+            operations=operations,
             report=measured,
             decisions=decisions,
             before=state,
@@ -303,7 +320,7 @@ def _report_part(
             raw=raw,
             tool_changes=changes,
         )
-        written_state.append((repo.database_key(session), row.state_token, new_state))
+        written_state.append((repo.database_key(session), row.state_token, new_state, operations))
         updates = [render.decision_json(d) for d in decisions]
         return 201, {
             "part_id": part_id,
@@ -314,7 +331,7 @@ def _report_part(
             **_ops(new_state.setpoints),
         }
 
-    written_state: list[tuple[str, str, RcbState]] = []
+    written_state: list[tuple[str, str, RcbState, dict[str, int]]] = []
     written = _write(
         engine,
         actor=actor,
@@ -323,8 +340,8 @@ def _report_part(
         idempotency=idempotency,
         work=work,
     )
-    for database, token, new_state in written_state:  # committed: the next part starts here
-        CACHE.put(database, plan_id, token, new_state)
+    for database, token, new_state, operations in written_state:  # committed: the next part
+        CACHE.put(database, plan_id, token, new_state, operations)  # starts here
     return written
 
 
@@ -383,7 +400,7 @@ def authenticate(*, engine: Engine, key: str | None, action: str) -> Actor | Non
     """The actor of a Bearer key, or None (the failure is audited)."""
     actor = None
     if key:
-        with Session(reader(engine)) as session, session.begin():  # no write lock for a read
+        with Session(one_statement_reader(engine)) as session:  # no write lock for a read
             actor = access.authenticate(session=session, key=key)
     if actor is None:
         with Session(engine) as session, session.begin():

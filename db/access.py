@@ -12,9 +12,9 @@ import hashlib
 import hmac
 import secrets
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
-from sqlalchemy import select, text
+from sqlalchemy import Table, insert, select, text
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -33,6 +33,10 @@ class Actor:
     role: str
     name: str
 
+
+#: Core tables of the append-only rows written here (inserted without the ORM's unit of work).
+_AUDIT = cast(Table, t.AuditEntry.__table__)
+_IDEMPOTENCY = cast(Table, t.IdempotencyRecord.__table__)
 
 #: The engineer at the local command line (not a REST client).
 CLI_ACTOR = Actor(None, "engineer", "cli")
@@ -63,7 +67,9 @@ def revoke_key(*, session: Session, key_id: int) -> t.ApiKey | None:
 def authenticate(*, session: Session, key: str) -> Actor | None:
     """The actor holding ``key``, or None for an unknown or revoked key."""
     digest = hash_key(key)
-    row = session.scalars(select(t.ApiKey).where(t.ApiKey.key_hash == digest)).one_or_none()
+    k = t.ApiKey
+    query = select(k.id, k.key_hash, k.role, k.revoked_at).where(k.key_hash == digest)
+    row = session.execute(query).one_or_none()
     if row is None or not hmac.compare_digest(row.key_hash, digest) or row.revoked_at:
         return None
     return Actor(row.id, row.role, f"key:{row.id}")
@@ -78,9 +84,10 @@ def audit(
     result: str,
     detail: dict[str, Any] | None = None,
 ) -> None:
-    """Append one entry to the audit log."""
-    session.add(
-        t.AuditEntry(actor=actor, action=action, target=target, result=result, detail=detail)
+    """Append one entry to the audit log (an insert now, in the session's transaction)."""
+    session.execute(
+        insert(_AUDIT),
+        {"actor": actor, "action": action, "target": target, "result": result, "detail": detail},
     )
 
 
@@ -119,13 +126,14 @@ def add_idempotency(
     body: dict[str, Any],
 ) -> None:
     """Store a completed request's response under its key (same transaction as the write)."""
-    session.add(
-        t.IdempotencyRecord(
-            api_key_id=api_key_id,
-            key=key,
-            request_hash=request_hash,
-            state="done",
-            response_status=status,
-            response_body=body,
-        )
+    session.execute(
+        insert(_IDEMPOTENCY),
+        {
+            "api_key_id": api_key_id,
+            "key": key,
+            "request_hash": request_hash,
+            "state": "done",
+            "response_status": status,
+            "response_body": body,
+        },
     )

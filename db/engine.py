@@ -60,6 +60,18 @@ def reader(engine: Engine) -> Engine:
     return engine.execution_options(**{_READ_ONLY: True})
 
 
+def one_statement_reader(engine: Engine) -> Engine:
+    """The same engine for a read that is one statement (an API key's lookup).
+
+    On PostgreSQL it runs without ``BEGIN``/``COMMIT`` (autocommit: one statement is its own
+    transaction and sees what was committed before it, as in a READ COMMITTED transaction),
+    two round trips fewer; on SQLite it is :func:`reader`.
+    """
+    if engine.dialect.name == "postgresql":
+        return engine.execution_options(isolation_level="AUTOCOMMIT")
+    return reader(engine)
+
+
 def upgrade(url: str, revision: str = "head") -> None:
     """Apply the Alembic migrations to ``url`` up to ``revision``."""
     from alembic.config import Config

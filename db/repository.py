@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
-from sqlalchemy import func, insert, select
+from sqlalchemy import Table, func, insert, select, update
+from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
+from sqlalchemy.orm.attributes import set_committed_value
 
 from db import tables as t
 from db.errors import ConflictError
@@ -259,33 +261,57 @@ def serial_exists(*, session: Session, plan_id: int, serial: str) -> bool:
     return session.scalars(query).first() is not None
 
 
+def insert_part(
+    *, session: Session, plan_id: int, serial: str, setpoint_version: int
+) -> int | None:
+    """Store a part's row and return its id; None, storing nothing, if the serial is reported.
+
+    One statement (``INSERT ... ON CONFLICT (plan_id, serial) DO NOTHING RETURNING id``) does
+    the check and the insert: a serial reported before, or by a concurrent transaction that
+    commits first, returns no row.
+    """
+    dialect = postgresql if session.get_bind().dialect.name == "postgresql" else sqlite
+    statement = (
+        dialect.insert(_table(t.Part))
+        .values(
+            plan_id=plan_id,
+            serial=serial,
+            setpoint_version=setpoint_version,
+            received_at=t.utcnow(),
+        )
+        .on_conflict_do_nothing(index_elements=["plan_id", "serial"])
+        .returning(_table(t.Part).c.id)
+    )
+    part_id = session.connection().execute(statement).scalar()
+    return None if part_id is None else int(part_id)
+
+
 def add_part(
     *,
     session: Session,
     plan_row: t.Plan,
+    part_id: int,
+    operations: Mapping[str, int],
     report: PartReport,
     decisions: tuple[Decision, ...],
     before: RcbState,
     after: RcbState,
     raw: Mapping[tuple[str, str], dict[str, Any]] | None = None,
     tool_changes: Sequence[ToolChange] = (),
-) -> int:
-    """Store a part, its measurements and decisions, changed models, band states, setpoints.
+) -> None:
+    """Store a part's measurements and decisions, changed models, band states, setpoints.
 
-    ``raw``: per (operation, quantity) what a measurement was converted from (a spindle
-    reading, :mod:`supervisor.signals`), kept beside the converted value. ``tool_changes``:
-    each reported feed override, stored as a ``feed_override_percent`` measurement with the
+    ``part_id``: the part's row, stored by :func:`insert_part` in the same transaction;
+    ``operations``: the plan's operation ids (:func:`operation_ids`). ``raw``: per
+    (operation, quantity) what a measurement was converted from (a spindle reading,
+    :mod:`supervisor.signals`), kept beside the converted value. ``tool_changes``: each
+    reported feed override, stored as a ``feed_override_percent`` measurement with the
     commanded feed, the lower limit and whether a tool change was due.
     """
-    ops = {name: row.id for name, row in _operations(session, plan_row.id).items()}
-    part = t.Part(
-        plan_id=plan_row.id, serial=report.serial, setpoint_version=report.setpoint_version
-    )
-    session.add(part)
-    session.flush()
+    ops = operations
     measurements: list[dict[str, Any]] = [
         {
-            "part_id": part.id,
+            "part_id": part_id,
             "operation_id": ops[name],
             "quantity": quantity,
             "value": m.value,
@@ -297,7 +323,7 @@ def add_part(
     ]
     measurements += [
         {
-            "part_id": part.id,
+            "part_id": part_id,
             "operation_id": ops[name],
             "quantity": "flank_wear_mm",
             "value": wear.flank_wear_mm.value,
@@ -308,7 +334,7 @@ def add_part(
     ]
     measurements += [
         {
-            "part_id": part.id,
+            "part_id": part_id,
             "operation_id": ops[c.operation],
             "quantity": "feed_override_percent",
             "value": c.feed_override_percent,
@@ -324,7 +350,7 @@ def add_part(
     ]
     decision_rows = [
         {
-            "part_id": part.id,
+            "part_id": part_id,
             "operation_id": ops[d.operation],
             "quantity": d.quantity,
             "action": d.action,
@@ -344,7 +370,7 @@ def add_part(
         {
             "operation_id": ops[d.operation],
             "quantity": d.quantity,
-            "part_id": part.id,
+            "part_id": part_id,
             "seen": after.seen[(d.operation, d.quantity)],
             "sigma": after.sigma[(d.operation, d.quantity)],
         }
@@ -359,10 +385,11 @@ def add_part(
     versions = _model_version_numbers(session, plan_row.id) if changed else {}
     model_rows = [
         _model_version_row(
-            ops[name], model, versions[(ops[name], model.quantity)] + 1, "part", part.id
+            ops[name], model, versions[(ops[name], model.quantity)] + 1, "part", part_id
         )
         for name, model in changed
     ]
+    connection = session.connection()  # Core inserts: no ORM bookkeeping for append-only rows
     for table, rows in (
         (t.Measurement, measurements),
         (t.RcbDecision, decision_rows),
@@ -370,13 +397,22 @@ def add_part(
         (t.OperationModelVersion, model_rows),
     ):
         if rows:
-            session.execute(insert(table), rows)
+            connection.execute(insert(_table(table)), rows)
     if after.version != before.version:
-        _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "part", part.id)
-        plan_row.current_setpoint_version = after.version
-    plan_row.state_token = new_token()
-    session.flush()
-    return part.id
+        _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "part", part_id)
+    token = new_token()
+    connection.execute(
+        update(_table(t.Plan))
+        .where(_table(t.Plan).c.id == plan_row.id)
+        .values(current_setpoint_version=after.version, state_token=token)
+    )
+    set_committed_value(plan_row, "current_setpoint_version", after.version)
+    set_committed_value(plan_row, "state_token", token)
+
+
+def _table(entity: type[t.Base]) -> Table:
+    """The Core table of a mapped class (for inserts without the ORM's unit of work)."""
+    return cast(Table, entity.__table__)
 
 
 def _machine(session: Session, plan: Plan) -> t.Machine:
@@ -395,6 +431,17 @@ def _machine(session: Session, plan: Plan) -> t.Machine:
     elif {k: getattr(row, k) for k in limits} != limits:
         raise ConflictError("machine.name", m.name, "a machine of this name has other limits")
     return row
+
+
+def operation_ids(*, session: Session, plan_row: t.Plan) -> dict[str, int]:
+    """A plan's operation ids by name (cached with its state, under ``plan_row.state_token``)."""
+    database = database_key(session)
+    cached = CACHE.get_operations(database, plan_row.id, plan_row.state_token)
+    if cached is not None:
+        return cached
+    ops = {name: row.id for name, row in _operations(session, plan_row.id).items()}
+    CACHE.put_operations(database, plan_row.id, plan_row.state_token, ops)
+    return ops
 
 
 def _operations(session: Session, plan_id: int) -> dict[str, t.Operation]:

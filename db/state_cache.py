@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 from supervisor.rcb import RcbState
 
@@ -21,38 +23,90 @@ CAPACITY = 2048
 
 
 class StateCache:
-    """A bounded LRU map ``(database, plan id) → (token, state)``; thread-safe."""
+    """A bounded LRU map ``(database, plan id) → (token, state, operation ids)``; thread-safe.
+
+    The operation ids (name → ``operations.id``) of a plan never change; they are kept beside
+    the state under the same token only so that a plan id reused by a restored database can
+    never be answered with another plan's operations.
+    """
 
     def __init__(self, capacity: int = CAPACITY) -> None:
-        self._items: OrderedDict[tuple[str, int], tuple[str, RcbState]] = OrderedDict()
+        self._items: OrderedDict[tuple[str, int], _Entry] = OrderedDict()
         self._capacity = capacity
         self._lock = threading.Lock()
 
     def get(self, database: str, plan_id: int, token: str) -> RcbState | None:
         """The cached state if its token is ``token``."""
-        if not token:
-            return None
-        with self._lock:
-            item = self._items.get((database, plan_id))
-            if item is None or item[0] != token:
-                return None
-            self._items.move_to_end((database, plan_id))
-            return item[1]
+        entry = self._get(database, plan_id, token)
+        return None if entry is None else entry.state
 
-    def put(self, database: str, plan_id: int, token: str, state: RcbState) -> None:
-        """Remember ``state`` as the plan's state at ``token``."""
-        if not token:
-            return
-        with self._lock:
-            self._items[(database, plan_id)] = (token, state)
-            self._items.move_to_end((database, plan_id))
-            while len(self._items) > self._capacity:
-                self._items.popitem(last=False)
+    def get_operations(self, database: str, plan_id: int, token: str) -> dict[str, int] | None:
+        """The cached operation ids if the entry's token is ``token``."""
+        entry = self._get(database, plan_id, token)
+        return None if entry is None or entry.operations is None else dict(entry.operations)
+
+    def put(
+        self,
+        database: str,
+        plan_id: int,
+        token: str,
+        state: RcbState,
+        operations: Mapping[str, int] | None = None,
+    ) -> None:
+        """Remember ``state`` (and the operation ids, if given) as the plan's at ``token``."""
+        self._put(database, plan_id, token, state=state, operations=operations)
+
+    def put_operations(
+        self, database: str, plan_id: int, token: str, operations: Mapping[str, int]
+    ) -> None:
+        """Remember the plan's operation ids at ``token`` (its committed token)."""
+        self._put(database, plan_id, token, operations=operations)
 
     def clear(self) -> None:
         """Forget everything."""
         with self._lock:
             self._items.clear()
+
+    def _get(self, database: str, plan_id: int, token: str) -> _Entry | None:
+        if not token:
+            return None
+        with self._lock:
+            entry = self._items.get((database, plan_id))
+            if entry is None or entry.token != token:
+                return None
+            self._items.move_to_end((database, plan_id))
+            return entry
+
+    def _put(
+        self,
+        database: str,
+        plan_id: int,
+        token: str,
+        *,
+        state: RcbState | None = None,
+        operations: Mapping[str, int] | None = None,
+    ) -> None:
+        if not token:
+            return
+        with self._lock:
+            entry = self._items.get((database, plan_id))
+            if entry is None or entry.token != token:
+                entry = _Entry(token)
+            if state is not None:
+                entry.state = state
+            if operations is not None:
+                entry.operations = dict(operations)
+            self._items[(database, plan_id)] = entry
+            self._items.move_to_end((database, plan_id))
+            while len(self._items) > self._capacity:
+                self._items.popitem(last=False)
+
+
+@dataclass
+class _Entry:
+    token: str
+    state: RcbState | None = None
+    operations: dict[str, int] | None = None
 
 
 CACHE = StateCache()
