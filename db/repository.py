@@ -15,6 +15,7 @@ from sqlalchemy.orm import Session
 from sqlalchemy.orm.attributes import set_committed_value
 
 from db import tables as t
+from db.bulk import insert_rows
 from db.errors import ConflictError
 from db.library import ensure_tool, load_tools
 from db.state_cache import CACHE
@@ -390,14 +391,15 @@ def add_part(
         for name, model in changed
     ]
     connection = session.connection()  # Core inserts: no ORM bookkeeping for append-only rows
-    for table, rows in (
-        (t.Measurement, measurements),
-        (t.RcbDecision, decision_rows),
-        (t.BandState, band_states),
-        (t.OperationModelVersion, model_rows),
-    ):
-        if rows:
-            connection.execute(insert(_table(table)), rows)
+    insert_rows(
+        connection,
+        [
+            (_table(t.Measurement), measurements),
+            (_table(t.RcbDecision), decision_rows),
+            (_table(t.BandState), band_states),
+            (_table(t.OperationModelVersion), model_rows),
+        ],
+    )
     if after.version != before.version:
         _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "part", part_id)
     token = new_token()

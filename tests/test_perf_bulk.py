@@ -1,0 +1,113 @@
+"""db.bulk.insert_rows stores exactly what executemany stores, on PostgreSQL and SQLite."""
+
+from __future__ import annotations
+
+import math
+from datetime import UTC, datetime
+
+import pytest
+from sqlalchemy import (
+    JSON,
+    Boolean,
+    Column,
+    DateTime,
+    Float,
+    Integer,
+    MetaData,
+    String,
+    Table,
+    Text,
+    event,
+    insert,
+    select,
+    text,
+)
+
+from db.bulk import insert_rows
+from db.engine import make_engine
+
+
+def _tables() -> tuple[MetaData, Table, Table, Table]:
+    metadata = MetaData()
+    columns = lambda: [  # noqa: E731
+        Column("id", Integer, primary_key=True),
+        Column("part_id", Integer),
+        Column("quantity", String(50)),
+        Column("value", Float),
+        Column("margin", Float, nullable=True),
+        Column("flagged", Boolean),
+        Column("reason", Text),
+        Column("raw", JSON, nullable=True),
+        Column("created_at", DateTime(timezone=True)),
+    ]
+    return (
+        metadata,
+        Table("bulk_reference", metadata, *columns()),
+        Table("bulk_a", metadata, *columns()),
+        Table("bulk_b", metadata, Column("id", Integer, primary_key=True), Column("dK", Float)),
+    )
+
+
+ROWS = [
+    {
+        "part_id": i,
+        "quantity": "force_N" if i % 2 else "roughness_um",
+        "value": v,
+        "margin": None if i == 1 else -v / 3,
+        "flagged": bool(i % 2),
+        "reason": 'it\'s "quoted" and ünïcode',
+        "raw": None if i % 3 == 0 else {"volume_mm3": 1.5e-300 * i, "note": "x", "list": [1, 2]},
+        "created_at": datetime(2026, 11, 22, 7, 49, 37, 123456, tzinfo=UTC),
+    }
+    for i, v in enumerate([0.1, 1 / 3, 1867.0000000000002, 5e-324, 1.7976931348623157e308])
+]
+
+
+@pytest.fixture(params=["sqlite", "postgres"])
+def engine(request, tmp_path):
+    if request.param == "sqlite":
+        url = f"sqlite:///{tmp_path / 'bulk.db'}"
+    else:
+        url = request.getfixturevalue("empty_postgres")
+    engine = make_engine(url)
+    yield engine
+    engine.dispose()
+
+
+def _stored(connection, table):
+    raw = "CAST(raw AS TEXT)" if connection.dialect.name == "postgresql" else "raw"
+    rows = connection.execute(select(table).order_by(table.c.id)).mappings().all()
+    texts = connection.execute(text(f"SELECT {raw} FROM {table.name} ORDER BY id")).scalars()
+    return [{k: v for k, v in row.items() if k != "id"} for row in rows], list(texts)
+
+
+def test_rows_of_several_tables_are_stored_as_executemany_stores_them(engine):
+    metadata, reference, a, b = _tables()
+    metadata.create_all(engine)
+    with engine.begin() as connection:
+        connection.execute(insert(reference), ROWS)
+        sent: list[str] = []
+        event.listen(connection, "before_cursor_execute", lambda *args: sent.append(args[2]))
+        insert_rows(connection, [(a, ROWS), (b, [{"dK": 0.25}, {"dK": 7.0}]), (reference, [])])
+        if engine.dialect.name == "postgresql":  # both tables in one statement
+            assert len(sent) == 1 and sent[0].count("json_to_recordset") == 2
+        expected, expected_text = _stored(connection, reference)
+        got, got_text = _stored(connection, a)
+        assert got == expected  # floats bit for bit, NULL margin, booleans, the time
+        assert got_text == expected_text  # a None in a JSON column is JSON null, as SQLAlchemy
+        assert [r.dK for r in connection.execute(select(b).order_by(b.c.id))] == [0.25, 7.0]
+
+
+def test_rows_json_cannot_carry_exactly_fall_back_to_executemany(engine):
+    metadata, reference, a, _ = _tables()
+    metadata.create_all(engine)
+    odd = [dict(ROWS[0], value=math.inf), dict(ROWS[1], margin=math.nan)]
+    partial = [{k: v for k, v in ROWS[2].items() if k != "reason"}]  # reason left to its default
+    with engine.begin() as connection:
+        connection.execute(insert(reference), odd)
+        connection.execute(insert(reference), partial)
+        insert_rows(connection, [(a, odd)])
+        insert_rows(connection, [(a, partial)])
+        expected, got = _stored(connection, reference)[0], _stored(connection, a)[0]
+        assert repr(got) == repr(expected)  # nan (None on SQLite) and inf as executemany's
+        assert got[0]["value"] == math.inf and got[2]["reason"] is None
