@@ -15,8 +15,8 @@ What it measures. For every configuration (backend x ``--workers``), on a fresh 
    predicted value of every quantity at the setpoints the client last received for that plan
    (the creation answer, then each report's answer) with Table 5's uncertainties;
 4. first ``--warmup`` seconds on separate warm-up plans (one per client, not counted): every
-   worker that holds a connection compiles its cvxpy programs there, so the measured plans
-   start their learning in the window;
+   worker that holds a connection loads its first plans and warms its caches there, so the
+   measured plans start their learning in the window;
 5. then the measured window of ``--duration`` seconds (the issue: 30 s), bounded too by
    ``--max-requests``. Counted: the reports *started* in the window; throughput = successful
    reports / (end of the last counted report - start of the window); latency = the client's
