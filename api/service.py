@@ -22,7 +22,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from api import render
-from db import access, keylock, library
+from db import access, bulk, keylock, library
 from db import repository as repo
 from db.access import Actor
 from db.engine import one_statement_reader
@@ -151,22 +151,15 @@ def _write_once(
                         )
                         return stored
                 status, body = work(session)
+                # the key's record and the audit entry go out with the rows the work deferred
+                # (a part report's: one statement on PostgreSQL, db.bulk)
+                rows = [(access.AUDIT, [access.audit_row(actor.name, action, target, str(status))])]
                 if idempotency is not None:
-                    access.add_idempotency(
-                        session=session,
-                        api_key_id=actor.id,
-                        key=idempotency.key,
-                        request_hash=idempotency.request_hash,
-                        status=status,
-                        body=body,
+                    record = access.idempotency_row(
+                        actor.id, idempotency.key, idempotency.request_hash, status, body
                     )
-                access.audit(
-                    session=session,
-                    actor=actor.name,
-                    action=action,
-                    target=target,
-                    result=str(status),
-                )
+                    rows.insert(0, (access.IDEMPOTENCY, [record]))
+                bulk.write_deferred(session, rows)
                 return Written(status, body)
     except IntegrityError as err:
         # a concurrent write won a unique constraint (same serial, same key): nothing was stored

@@ -35,8 +35,8 @@ class Actor:
 
 
 #: Core tables of the append-only rows written here (inserted without the ORM's unit of work).
-_AUDIT = cast(Table, t.AuditEntry.__table__)
-_IDEMPOTENCY = cast(Table, t.IdempotencyRecord.__table__)
+AUDIT = cast(Table, t.AuditEntry.__table__)
+IDEMPOTENCY = cast(Table, t.IdempotencyRecord.__table__)
 
 #: The engineer at the local command line (not a REST client).
 CLI_ACTOR = Actor(None, "engineer", "cli")
@@ -85,10 +85,21 @@ def audit(
     detail: dict[str, Any] | None = None,
 ) -> None:
     """Append one entry to the audit log (an insert now, in the session's transaction)."""
-    session.execute(
-        insert(_AUDIT),
-        {"actor": actor, "action": action, "target": target, "result": result, "detail": detail},
-    )
+    session.execute(insert(AUDIT), audit_row(actor, action, target, result, detail))
+
+
+def audit_row(
+    actor: str, action: str, target: str, result: str, detail: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """The row of an audit entry, every column given (for :func:`db.bulk.insert_rows`)."""
+    return {
+        "at": t.utcnow(),
+        "actor": actor,
+        "action": action,
+        "target": target,
+        "result": result,
+        "detail": detail,
+    }
 
 
 def claim_key(*, session: Session, scope: str) -> bool:
@@ -127,13 +138,20 @@ def add_idempotency(
 ) -> None:
     """Store a completed request's response under its key (same transaction as the write)."""
     session.execute(
-        insert(_IDEMPOTENCY),
-        {
-            "api_key_id": api_key_id,
-            "key": key,
-            "request_hash": request_hash,
-            "state": "done",
-            "response_status": status,
-            "response_body": body,
-        },
+        insert(IDEMPOTENCY), idempotency_row(api_key_id, key, request_hash, status, body)
     )
+
+
+def idempotency_row(
+    api_key_id: int | None, key: str, request_hash: str, status: int, body: dict[str, Any]
+) -> dict[str, Any]:
+    """The row of a completed request's key, every column given (see :func:`audit_row`)."""
+    return {
+        "api_key_id": api_key_id,
+        "key": key,
+        "request_hash": request_hash,
+        "state": "done",
+        "response_status": status,
+        "response_body": body,
+        "created_at": t.utcnow(),
+    }

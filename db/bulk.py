@@ -1,4 +1,4 @@
-"""Append-only rows of several tables in one statement on PostgreSQL.
+"""Append-only rows of several tables, and updates by primary key, in one statement on PostgreSQL.
 
 A part report appends a dozen rows to each of three or four tables. ``executemany`` sends
 them row by row (psycopg's pipeline: one Bind/Execute per row, each row's parameters adapted
@@ -14,7 +14,17 @@ PostgreSQL's ``float8`` input reads back exactly; ``json`` columns keep the text
 ``json.dumps`` gives them (SQLAlchemy's serialiser), and a Python ``None`` in one is stored as
 JSON ``null``, as SQLAlchemy's ``JSON`` type does. Rows that this cannot carry exactly (not
 every column given, different keys per row, non-finite floats, values ``json`` cannot
-encode) and other databases go through ``executemany``.
+encode) and other databases go through ``executemany``. An update is the same: each
+row gives the primary key and the columns to set, and ``UPDATE ... FROM json_to_recordset``
+sets them (``WITH tN AS (UPDATE plans AS u SET ... FROM json_to_recordset(...) AS x(...)
+WHERE u.id = x.id)``).
+
+A use case can :func:`defer` rows to its session and send them with the rows it adds last
+(:func:`write_deferred`): a part report's rows, its plan's new pointers, its idempotency
+record and its audit entry then travel in one statement. Nothing read in the transaction
+may depend on deferred rows; rows still deferred when the session commits are written
+before it does (:func:`_write_left_over`), so a forgotten :func:`write_deferred` cannot
+lose them.
 """
 
 from __future__ import annotations
@@ -25,40 +35,102 @@ from collections.abc import Mapping, Sequence
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import JSON, Connection, Table, TextClause, insert, text
+from sqlalchemy import JSON, Connection, Table, TextClause, bindparam, event, insert, text, update
+from sqlalchemy.orm import Session
 
 Batch = tuple[Table, Sequence[Mapping[str, Any]]]
 
-_statements: dict[tuple[tuple[str, tuple[str, ...]], ...], TextClause] = {}
+_statements: dict[tuple[tuple[bool, str, tuple[str, ...]], ...], TextClause] = {}
 _statements_lock = threading.Lock()
+#: The key of a session's deferred inserts and updates in ``Session.info``.
+_DEFERRED = "rcb_deferred_rows"
 
 
-def insert_rows(connection: Connection, batches: Sequence[Batch]) -> None:
-    """Insert each batch's rows into its table, in the connection's transaction."""
-    batches = [(table, rows) for table, rows in batches if rows]
-    if not batches:
+def insert_rows(
+    connection: Connection, batches: Sequence[Batch], updates: Sequence[Batch] = ()
+) -> None:
+    """Insert each batch's rows into its table, in the connection's transaction.
+
+    ``updates``: batches of rows that each give a table's primary key and the columns to set
+    in that row (the same columns in every row of a batch); applied in the same statement.
+    """
+    work = [(False, table, rows) for table, rows in batches if rows]
+    work += [(True, table, rows) for table, rows in updates if rows]
+    if not work:
         return
     if connection.dialect.name == "postgresql":
-        shapes = [_shape(table, rows) for table, rows in batches]
+        shapes = [_shape(table, rows, is_update) for is_update, table, rows in work]
         if all(shape is not None for shape in shapes):
-            params = {f"rows{i}": _json(rows) for i, (_, rows) in enumerate(batches)}
+            params = {f"rows{i}": _json(rows) for i, (_, _, rows) in enumerate(work)}
             if all(value is not None for value in params.values()):
                 columns = [shape for shape in shapes if shape is not None]
-                connection.execute(_statement(connection, batches, columns), params)
+                connection.execute(_statement(connection, work, columns), params)
                 return
-    for table, rows in batches:
-        connection.execute(insert(table), list(rows))
+    for is_update, table, rows in work:
+        if is_update:
+            _update_each(connection, table, rows)
+        else:
+            connection.execute(insert(table), list(rows))
 
 
-def _shape(table: Table, rows: Sequence[Mapping[str, Any]]) -> tuple[str, ...] | None:
-    """The columns of ``rows`` if every row gives every column but an autoincrement key."""
+def defer(session: Session, batches: Sequence[Batch] = (), updates: Sequence[Batch] = ()) -> None:
+    """Keep rows to insert and rows to update for :func:`write_deferred` (same transaction)."""
+    inserts, later = session.info.setdefault(_DEFERRED, ([], []))
+    inserts.extend(batches)
+    later.extend(updates)
+
+
+def write_deferred(session: Session, batches: Sequence[Batch] = ()) -> None:
+    """Write the session's deferred rows and ``batches``, on PostgreSQL in one statement."""
+    inserts, updates = session.info.pop(_DEFERRED, ([], []))
+    insert_rows(session.connection(), [*inserts, *batches], updates)
+
+
+@event.listens_for(Session, "before_commit")
+def _write_left_over(session: Session) -> None:
+    if session.info.get(_DEFERRED):
+        write_deferred(session)
+
+
+@event.listens_for(Session, "after_rollback")
+def _forget(session: Session) -> None:
+    session.info.pop(_DEFERRED, None)
+
+
+def _shape(
+    table: Table, rows: Sequence[Mapping[str, Any]], is_update: bool = False
+) -> tuple[str, ...] | None:
+    """The columns of ``rows`` if every row gives every column but an autoincrement key.
+
+    For an update: if every row gives the primary key and the same other columns.
+    """
     columns = tuple(rows[0])
-    wanted = {c.key for c in table.columns if not (c.primary_key and c.autoincrement)}
-    if set(columns) != wanted or any(len(row) != len(columns) for row in rows):
+    if is_update:
+        keys = {c.key for c in table.primary_key.columns}
+        if not keys <= set(columns) or not set(columns) - keys:
+            return None
+    else:
+        wanted = {c.key for c in table.columns if not (c.primary_key and c.autoincrement)}
+        if set(columns) != wanted:
+            return None
+    if any(len(row) != len(columns) for row in rows):
         return None
     if any(row.keys() != rows[0].keys() for row in rows):
         return None
     return columns
+
+
+def _update_each(connection: Connection, table: Table, rows: Sequence[Mapping[str, Any]]) -> None:
+    """``executemany`` of an update by primary key (the fallback of :func:`insert_rows`)."""
+    keys = [c.key for c in table.primary_key.columns]
+    if not rows or any(set(keys) - set(row) for row in rows):
+        raise ValueError(f"{table.name}: an update row must give the primary key {keys}")
+    statement = update(table).where(*(table.c[k] == bindparam(f"key_{k}") for k in keys))
+    statement = statement.values({c: bindparam(f"set_{c}") for c in rows[0] if c not in keys})
+    connection.execute(
+        statement,
+        [{(f"key_{c}" if c in keys else f"set_{c}"): v for c, v in row.items()} for row in rows],
+    )
 
 
 def _json(rows: Sequence[Mapping[str, Any]]) -> str | None:
@@ -75,9 +147,14 @@ def _encode(value: object) -> str:
 
 
 def _statement(
-    connection: Connection, batches: Sequence[Batch], shapes: Sequence[tuple[str, ...]]
+    connection: Connection,
+    work: Sequence[tuple[bool, Table, Sequence[Mapping[str, Any]]]],
+    shapes: Sequence[tuple[str, ...]],
 ) -> TextClause:
-    key = tuple((table.name, shape) for (table, _), shape in zip(batches, shapes, strict=True))
+    key = tuple(
+        (is_update, table.name, shape)
+        for (is_update, table, _), shape in zip(work, shapes, strict=True)
+    )
     with _statements_lock:
         statement = _statements.get(key)
     if statement is not None:
@@ -85,19 +162,24 @@ def _statement(
     dialect = connection.dialect
     quote = dialect.identifier_preparer.quote
     parts = []
-    for i, ((table, _), shape) in enumerate(zip(batches, shapes, strict=True)):
-        names = ", ".join(quote(c) for c in shape)
-        values = ", ".join(
-            f"COALESCE(x.{quote(c)}, CAST('null' AS json))"
+    for i, ((is_update, table, _), shape) in enumerate(zip(work, shapes, strict=True)):
+        value = {
+            c: f"COALESCE(x.{quote(c)}, CAST('null' AS json))"
             if isinstance(table.c[c].type, JSON)
             else f"x.{quote(c)}"
             for c in shape
-        )
+        }
         types = ", ".join(f"{quote(c)} {table.c[c].type.compile(dialect=dialect)}" for c in shape)
-        parts.append(
-            f"INSERT INTO {quote(table.name)} ({names}) SELECT {values} "
-            f"FROM json_to_recordset(CAST(:rows{i} AS json)) AS x({types})"
-        )
+        source = f"json_to_recordset(CAST(:rows{i} AS json)) AS x({types})"
+        if is_update:
+            keys = [c.key for c in table.primary_key.columns]
+            sets = ", ".join(f"{quote(c)} = {value[c]}" for c in shape if c not in keys)
+            match = " AND ".join(f"u.{quote(k)} = x.{quote(k)}" for k in keys)
+            parts.append(f"UPDATE {quote(table.name)} AS u SET {sets} FROM {source} WHERE {match}")
+        else:
+            names = ", ".join(quote(c) for c in shape)
+            values = ", ".join(value[c] for c in shape)
+            parts.append(f"INSERT INTO {quote(table.name)} ({names}) SELECT {values} FROM {source}")
     ctes = [f"t{i} AS ({sql})" for i, sql in enumerate(parts[:-1])]
     sql = (f"WITH {', '.join(ctes)} " if ctes else "") + parts[-1]
     statement = text(sql)

@@ -9,13 +9,13 @@ import uuid
 from collections.abc import Mapping, Sequence
 from typing import Any, cast
 
-from sqlalchemy import Table, func, insert, select, update
+from sqlalchemy import Table, func, insert, select
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 from sqlalchemy.orm.attributes import set_committed_value
 
 from db import tables as t
-from db.bulk import insert_rows
+from db.bulk import defer
 from db.errors import ConflictError
 from db.library import ensure_tool, load_tools
 from db.state_cache import CACHE
@@ -302,6 +302,10 @@ def add_part(
 ) -> None:
     """Store a part's measurements and decisions, changed models, band states, setpoints.
 
+    The setpoints are inserted now; the other rows and the plan's new pointers are deferred
+    (:func:`db.bulk.defer`): they are written by :func:`db.bulk.write_deferred`, or at the
+    latest when the transaction commits.
+
     ``part_id``: the part's row, stored by :func:`insert_part` in the same transaction;
     ``operations``: the plan's operation ids (:func:`operation_ids`). ``raw``: per
     (operation, quantity) what a measurement was converted from (a spindle reading,
@@ -390,23 +394,30 @@ def add_part(
         )
         for name, model in changed
     ]
-    connection = session.connection()  # Core inserts: no ORM bookkeeping for append-only rows
-    insert_rows(
-        connection,
+    if after.version != before.version:
+        _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "part", part_id)
+    token = new_token()
+    # Core rows, no ORM bookkeeping; deferred, so they go out with the transaction's last rows
+    defer(
+        session,
         [
             (_table(t.Measurement), measurements),
             (_table(t.RcbDecision), decision_rows),
             (_table(t.BandState), band_states),
             (_table(t.OperationModelVersion), model_rows),
         ],
-    )
-    if after.version != before.version:
-        _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "part", part_id)
-    token = new_token()
-    connection.execute(
-        update(_table(t.Plan))
-        .where(_table(t.Plan).c.id == plan_row.id)
-        .values(current_setpoint_version=after.version, state_token=token)
+        updates=[
+            (
+                _table(t.Plan),
+                [
+                    {
+                        "id": plan_row.id,
+                        "current_setpoint_version": after.version,
+                        "state_token": token,
+                    }
+                ],
+            )
+        ],
     )
     set_committed_value(plan_row, "current_setpoint_version", after.version)
     set_committed_value(plan_row, "state_token", token)

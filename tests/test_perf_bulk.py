@@ -1,8 +1,9 @@
-"""db.bulk.insert_rows stores exactly what executemany stores, on PostgreSQL and SQLite."""
+"""db.bulk stores exactly what executemany stores, on PostgreSQL and SQLite, in one statement."""
 
 from __future__ import annotations
 
 import math
+import tomllib
 from datetime import UTC, datetime
 
 import pytest
@@ -22,9 +23,15 @@ from sqlalchemy import (
     select,
     text,
 )
+from sqlalchemy.orm import Session
 
-from db.bulk import insert_rows
-from db.engine import make_engine
+from api import service
+from db import tables as t
+from db.access import Actor
+from db.bulk import defer, insert_rows
+from db.engine import make_engine, upgrade
+
+from conftest import DEMO_PLAN
 
 
 def _tables() -> tuple[MetaData, Table, Table, Table]:
@@ -111,3 +118,88 @@ def test_rows_json_cannot_carry_exactly_fall_back_to_executemany(engine):
         expected, got = _stored(connection, reference)[0], _stored(connection, a)[0]
         assert repr(got) == repr(expected)  # nan (None on SQLite) and inf as executemany's
         assert got[0]["value"] == math.inf and got[2]["reason"] is None
+
+
+def test_updates_by_primary_key_are_applied_as_executemany_applies_them(engine):
+    metadata, reference, a, _ = _tables()
+    metadata.create_all(engine)
+    changes = [
+        {"id": 2, "value": 1 / 7, "raw": None, "reason": "ünï"},
+        {"id": 4, "value": 5e-324, "raw": {"n": [1.5e-300]}, "reason": "x"},
+    ]
+    with engine.begin() as connection:
+        connection.execute(insert(reference), ROWS)
+        connection.execute(insert(a), ROWS)
+        sent: list[str] = []
+        event.listen(connection, "before_cursor_execute", lambda *args: sent.append(args[2]))
+        insert_rows(connection, [], updates=[(a, changes)])
+        if engine.dialect.name == "postgresql":  # one statement for both rows
+            assert len(sent) == 1 and sent[0].startswith("UPDATE")
+        for change in changes:  # the reference: one UPDATE per row
+            values = {k: v for k, v in change.items() if k != "id"}
+            connection.execute(
+                reference.update().where(reference.c.id == change["id"]).values(values)
+            )
+        expected, expected_text = _stored(connection, reference)
+        got, got_text = _stored(connection, a)
+        assert got == expected and got_text == expected_text
+
+
+def test_deferred_rows_are_written_by_the_commit_or_forgotten_by_a_rollback(engine):
+    metadata, _, a, b = _tables()
+    metadata.create_all(engine)
+    with Session(engine) as session, session.begin():
+        defer(session, [(a, ROWS[:2])], updates=[])
+    with pytest.raises(RuntimeError), Session(engine) as session, session.begin():
+        defer(session, [(b, [{"dK": 1.0}])])
+        raise RuntimeError("refused")
+    with engine.connect() as connection:
+        assert len(connection.execute(select(a)).all()) == 2
+        assert connection.execute(select(b)).all() == []
+
+
+def test_a_part_report_writes_its_rows_key_audit_and_plan_in_one_statement(engine):
+    upgrade(engine.url.render_as_string(hide_password=False))
+    body = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+    plan = service.create_plan(engine=engine, body=body).body
+    key = service.create_key(engine=engine, role="mes")
+    actor = Actor(key["id"], "mes", f"key:{key['id']}")
+    report = {
+        "serial": "SN-1",
+        "setpoint_version": 1,
+        "operations": [
+            {
+                "name": op["name"],
+                "measurements": {
+                    "force_N": {
+                        "value": 0.5 * op["predicted"]["force_N"]["value"],
+                        "uncertainty": 3.0,
+                    }
+                },
+            }
+            for op in plan["operations"]
+        ],
+    }
+    sent: list[str] = []
+    event.listen(engine, "before_cursor_execute", lambda *args: sent.append(args[2]))
+    written = service.report_part(
+        engine=engine,
+        plan_id=plan["id"],
+        body=report,
+        actor=actor,
+        idempotency=service.Idempotency("k-1", "f" * 64),
+    )
+    assert written.status == 201
+    if engine.dialect.name == "postgresql":
+        last = [s for s in sent if "json_to_recordset" in s]
+        assert len(last) == 1
+        for table in ("measurements", "rcb_decisions", "idempotency_records", "audit_log"):
+            assert f"INSERT INTO {table} " in last[0]
+        assert "UPDATE plans " in last[0]
+    with Session(engine) as session:
+        record = session.scalars(select(t.IdempotencyRecord)).one()
+        assert record.response_body == written.body and record.response_status == 201
+        audit = session.scalars(select(t.AuditEntry).where(t.AuditEntry.actor == actor.name)).one()
+        assert (audit.action, audit.result, audit.detail) == ("report part", "201", None)
+        row = session.get(t.Plan, plan["id"])
+        assert row is not None and row.current_setpoint_version == written.body["setpoint_version"]
