@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from supervisor.mill.common import FeedLimits
+from supervisor.mill.common import FeedLimits, positive
 
 
 class FeedController(Protocol):
@@ -41,3 +41,30 @@ class FeedController(Protocol):
             Time since the previous sample [s].
         """
         ...
+
+
+class ClampedFeed:
+    """What the controllers here share: the feed limits, the last command and the spindle speed.
+
+    A controller adds its own state and ``step``; its ``reset`` starts with :meth:`_start`.
+    """
+
+    def __init__(self, limits: FeedLimits, command_mm_min: float) -> None:
+        self._limits = limits
+        self._command = command_mm_min
+        self._spindle_rpm = 0.0
+
+    @property
+    def limits(self) -> FeedLimits:
+        """Feed-rate limits [mm/min]."""
+        return self._limits
+
+    @property
+    def spindle_rpm(self) -> float:
+        """Spindle-speed command [rpm]: as set by ``reset``, unless the controller changes it."""
+        return self._spindle_rpm
+
+    def _start(self, feed_rate_mm_min: float, spindle_rpm: float) -> None:
+        """Start from a feed command [mm/min] (clamped) and a spindle speed [rpm] (> 0)."""
+        self._command = self._limits.clamp(feed_rate_mm_min)
+        self._spindle_rpm = positive(spindle_rpm, "spindle_rpm")

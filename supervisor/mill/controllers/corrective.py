@@ -47,6 +47,7 @@ from dataclasses import dataclass
 from models.errors import InputError
 from models.kinematics import cutting_power_kW
 from supervisor.mill.common import FeedLimits, check_fields, positive
+from supervisor.mill.controllers.base import ClampedFeed
 
 #: Table 1: the sign of the change of ``w`` and of ``n`` each violated class asks for.
 TABLE_1: dict[str, tuple[int, int]] = {
@@ -182,7 +183,7 @@ def borangiu_increments(violations: tuple[str, ...]) -> tuple[int, int]:
     return feed, ninc - ndec
 
 
-class BorangiuCorrectiveController:
+class BorangiuCorrectiveController(ClampedFeed):
     """Borangiu et al.'s corrective feed (and speed) control on a force, clamped to limits.
 
     Parameters
@@ -194,26 +195,14 @@ class BorangiuCorrectiveController:
     """
 
     def __init__(self, limits: FeedLimits, config: CorrectiveConfig | None = None) -> None:
-        self._limits = limits
+        super().__init__(limits, limits.lower_feed_rate_mm_min)
         self.config = config or CorrectiveConfig()
-        self._command = limits.lower_feed_rate_mm_min
-        self._spindle_rpm = 0.0
         self.last_violations: tuple[str, ...] = ()
-
-    @property
-    def limits(self) -> FeedLimits:
-        """Feed-rate limits [mm/min]."""
-        return self._limits
-
-    @property
-    def spindle_rpm(self) -> float:
-        """Spindle-speed command [rpm]."""
-        return self._spindle_rpm
 
     def reset(self, feed_rate_mm_min: float, spindle_rpm: float) -> None:
         """Start from a feed command [mm/min] and spindle speed [rpm] (the program's F, S)."""
-        self._command = self._limits.clamp(feed_rate_mm_min)
-        self._spindle_rpm = self._clamp_speed(positive(spindle_rpm, "spindle_rpm"))
+        self._start(feed_rate_mm_min, spindle_rpm)
+        self._spindle_rpm = self._clamp_speed(self._spindle_rpm)
         self.last_violations = ()
 
     def _clamp_speed(self, spindle_rpm: float) -> float:

@@ -34,6 +34,7 @@ import math
 from dataclasses import dataclass
 
 from supervisor.mill.common import FeedLimits, check_fields, positive
+from supervisor.mill.controllers.base import ClampedFeed
 from supervisor.mill.controllers.fuzzy_rules import RULES, rank
 
 
@@ -135,7 +136,7 @@ def fuzzy_output(error_norm: float, change_norm: float, scaling: FuzzyScaling) -
     return out
 
 
-class KimJeonFuzzyController:
+class KimJeonFuzzyController(ClampedFeed):
     """Kim & Jeon's fuzzy feed controller on a force, clamped to the feed limits.
 
     Parameters
@@ -147,26 +148,13 @@ class KimJeonFuzzyController:
     """
 
     def __init__(self, limits: FeedLimits, scaling: FuzzyScaling | None = None) -> None:
-        self._limits = limits
+        super().__init__(limits, limits.lower_feed_rate_mm_min)
         self.scaling = scaling or FuzzyScaling()
-        self._command = limits.lower_feed_rate_mm_min
-        self._spindle_rpm = 0.0
         self._previous_error: float | None = None
-
-    @property
-    def limits(self) -> FeedLimits:
-        """Feed-rate limits [mm/min]."""
-        return self._limits
-
-    @property
-    def spindle_rpm(self) -> float:
-        """Spindle speed [rpm], as set by :meth:`reset` (not changed by the controller)."""
-        return self._spindle_rpm
 
     def reset(self, feed_rate_mm_min: float, spindle_rpm: float) -> None:
         """Start from a feed command [mm/min]; the first change of error is taken as 0."""
-        self._command = self._limits.clamp(feed_rate_mm_min)
-        self._spindle_rpm = positive(spindle_rpm, "spindle_rpm")
+        self._start(feed_rate_mm_min, spindle_rpm)
         self._previous_error = None
 
     def step(self, measured: float, reference: float, dt_s: float) -> float:

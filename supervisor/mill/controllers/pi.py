@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from supervisor.mill.common import FeedLimits, check_fields, positive
+from supervisor.mill.controllers.base import ClampedFeed
 from supervisor.mill.tai_end_milling import TAI_END_MILLING, TAI_SAMPLE_PERIOD_S
 
 
@@ -91,7 +92,7 @@ def tai_pi_gains_for(
     )
 
 
-class TaiPIController:
+class TaiPIController(ClampedFeed):
     """Tai et al. Eq. 16 on the spindle current, clamped to the feed limits.
 
     Parameters
@@ -103,26 +104,13 @@ class TaiPIController:
     """
 
     def __init__(self, limits: FeedLimits, gains: TaiPIGains = TAI_PI_GAINS) -> None:
-        self._limits = limits
+        super().__init__(limits, limits.upper_feed_rate_mm_min)
         self.gains = gains
-        self._command = limits.upper_feed_rate_mm_min
-        self._spindle_rpm = 0.0
         self._integral_A_s = 0.0
-
-    @property
-    def limits(self) -> FeedLimits:
-        """Feed-rate limits [mm/min]."""
-        return self._limits
-
-    @property
-    def spindle_rpm(self) -> float:
-        """Spindle speed [rpm], as set by :meth:`reset` (the PI does not change it)."""
-        return self._spindle_rpm
 
     def reset(self, feed_rate_mm_min: float, spindle_rpm: float) -> None:
         """Start from a feed command [mm/min] (clamped) with no accumulated error."""
-        self._command = self._limits.clamp(feed_rate_mm_min)
-        self._spindle_rpm = positive(spindle_rpm, "spindle_rpm")
+        self._start(feed_rate_mm_min, spindle_rpm)
         self._integral_A_s = 0.0
 
     def step(self, measured: float, reference: float, dt_s: float) -> float:
