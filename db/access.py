@@ -12,9 +12,9 @@ import hashlib
 import hmac
 import secrets
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any
 
-from sqlalchemy import Table, insert, select, text
+from sqlalchemy import insert, select, text
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -35,8 +35,8 @@ class Actor:
 
 
 #: Core tables of the append-only rows written here (inserted without the ORM's unit of work).
-AUDIT = cast(Table, t.AuditEntry.__table__)
-IDEMPOTENCY = cast(Table, t.IdempotencyRecord.__table__)
+AUDIT = t.core_table(t.AuditEntry)
+IDEMPOTENCY = t.core_table(t.IdempotencyRecord)
 
 #: The engineer at the local command line (not a REST client).
 CLI_ACTOR = Actor(None, "engineer", "cli")
@@ -125,21 +125,6 @@ def find_idempotency(
             t.IdempotencyRecord.api_key_id == api_key_id, t.IdempotencyRecord.key == key
         )
     ).one_or_none()
-
-
-def add_idempotency(
-    *,
-    session: Session,
-    api_key_id: int | None,
-    key: str,
-    request_hash: str,
-    status: int,
-    body: dict[str, Any],
-) -> None:
-    """Store a completed request's response under its key (same transaction as the write)."""
-    session.execute(
-        insert(IDEMPOTENCY), idempotency_row(api_key_id, key, request_hash, status, body)
-    )
 
 
 def idempotency_row(

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Mapping, Sequence
-from typing import Any, cast
+from typing import Any
 
-from sqlalchemy import Table, func, insert, select
+from sqlalchemy import func, insert, select
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 from sqlalchemy.orm.attributes import set_committed_value
@@ -273,7 +273,7 @@ def insert_part(
     """
     dialect = postgresql if session.get_bind().dialect.name == "postgresql" else sqlite
     statement = (
-        dialect.insert(_table(t.Part))
+        dialect.insert(t.core_table(t.Part))
         .values(
             plan_id=plan_id,
             serial=serial,
@@ -281,7 +281,7 @@ def insert_part(
             received_at=t.utcnow(),
         )
         .on_conflict_do_nothing(index_elements=["plan_id", "serial"])
-        .returning(_table(t.Part).c.id)
+        .returning(t.core_table(t.Part).c.id)
     )
     part_id = session.connection().execute(statement).scalar()
     return None if part_id is None else int(part_id)
@@ -401,14 +401,14 @@ def add_part(
     defer(
         session,
         [
-            (_table(t.Measurement), measurements),
-            (_table(t.RcbDecision), decision_rows),
-            (_table(t.BandState), band_states),
-            (_table(t.OperationModelVersion), model_rows),
+            (t.core_table(t.Measurement), measurements),
+            (t.core_table(t.RcbDecision), decision_rows),
+            (t.core_table(t.BandState), band_states),
+            (t.core_table(t.OperationModelVersion), model_rows),
         ],
         updates=[
             (
-                _table(t.Plan),
+                t.core_table(t.Plan),
                 [
                     {
                         "id": plan_row.id,
@@ -421,11 +421,6 @@ def add_part(
     )
     set_committed_value(plan_row, "current_setpoint_version", after.version)
     set_committed_value(plan_row, "state_token", token)
-
-
-def _table(entity: type[t.Base]) -> Table:
-    """The Core table of a mapped class (for inserts without the ORM's unit of work)."""
-    return cast(Table, entity.__table__)
 
 
 def _machine(session: Session, plan: Plan) -> t.Machine:

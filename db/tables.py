@@ -9,9 +9,18 @@ Units live in column names, as in the domain objects.
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, cast
 
-from sqlalchemy import JSON, DateTime, ForeignKey, MetaData, String, Text, UniqueConstraint
+from sqlalchemy import (
+    JSON,
+    DateTime,
+    ForeignKey,
+    MetaData,
+    String,
+    Table,
+    Text,
+    UniqueConstraint,
+)
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 #: Stable constraint names, so Alembic migrations name them the same on every database.
@@ -38,6 +47,11 @@ class Base(DeclarativeBase):
         list[Any]: JSON,
         datetime: DateTime(timezone=True),
     }
+
+
+def core_table(entity: type[Base]) -> Table:
+    """The Core table of a mapped class (for inserts without the ORM's unit of work)."""
+    return cast(Table, entity.__table__)
 
 
 class Machine(Base):
