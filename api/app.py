@@ -9,7 +9,7 @@ of :mod:`api.service` (writes) or :mod:`api.queries` (reads).
 # names local to create_app
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Annotated, Any, Literal
 
 from fastapi import Body, Depends, FastAPI, Header, Path, Query, Request
@@ -53,38 +53,66 @@ def create_app(url: str) -> FastAPI:
     problems.install(app)
     ui.install(app, engine)  # the read-only web view at /ui/ (api/ui.py)
 
+    def action_of(request: Request) -> str:
+        route = request.scope.get("route")
+        return f"{request.method} {getattr(route, 'path', '?')}"  # the template: bounded
+
+    def allowed_actor(
+        actor: Actor | None, key: str | None, action: str, allowed: tuple[str, ...]
+    ) -> Actor:
+        if actor is None:
+            raise ProblemError(
+                401,
+                "unauthorized",
+                "missing API key" if key is None else "unknown or revoked API key",
+                "Authorization",
+                headers={"WWW-Authenticate": "Bearer"},
+            )
+        if actor.role not in allowed:
+            service.audit_forbidden(engine=engine, actor=actor, action=action)
+            raise ProblemError(
+                403,
+                "forbidden",
+                f"role {actor.role!r} may not do this; allowed: {', '.join(allowed)}",
+                "Authorization",
+                actor.role,
+            )
+        return actor
+
     def role(*allowed: str) -> Callable[..., Actor]:
         def check(
             request: Request,
             credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
         ) -> Actor:
-            route = request.scope.get("route")
-            action = f"{request.method} {getattr(route, 'path', '?')}"  # the template: bounded
+            action = action_of(request)
             key = credentials.credentials if credentials else None
             actor = service.authenticate(engine=engine, key=key, action=action)
-            if actor is None:
-                raise ProblemError(
-                    401,
-                    "unauthorized",
-                    "missing API key" if key is None else "unknown or revoked API key",
-                    "Authorization",
-                    headers={"WWW-Authenticate": "Bearer"},
-                )
-            if actor.role not in allowed:
-                service.audit_forbidden(engine=engine, actor=actor, action=action)
-                raise ProblemError(
-                    403,
-                    "forbidden",
-                    f"role {actor.role!r} may not do this; allowed: {', '.join(allowed)}",
-                    "Authorization",
-                    actor.role,
-                )
-            return actor
+            return allowed_actor(actor, key, action, allowed)
+
+        return check
+
+    def holding(*allowed: str) -> Callable[..., Iterator[service.Authenticated]]:
+        """As :func:`role`, keeping the key's transaction for the write (service.authenticated)."""
+
+        def check(
+            request: Request,
+            credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
+        ) -> Iterator[service.Authenticated]:
+            action = action_of(request)
+            key = credentials.credentials if credentials else None
+            with service.authenticated(
+                engine=engine,
+                key=key,
+                action=action,
+                idempotency_key=request.headers.get("Idempotency-Key"),
+            ) as held:
+                allowed_actor(held.actor if held else None, key, action, allowed)
+                assert held is not None
+                yield held
 
         return check
 
     anyone = Depends(role("mes", "engineer", "viewer"))
-    reporter = Depends(role("mes", "engineer"))
     engineer = Depends(role("engineer"))
     PlanId = Annotated[int, Path(ge=1, le=MAX_ID)]
 
@@ -179,7 +207,7 @@ def create_app(url: str) -> FastAPI:
         request: Request,
         plan_id: PlanId,
         report: schemas.PartReportIn,
-        actor: Annotated[Actor, reporter],
+        held: Annotated[service.Authenticated, Depends(holding("mes", "engineer"))],
         idempotency_key: Annotated[str, Header(pattern=KEY_PATTERN, description=_KEY_DOC)],
     ) -> JSONResponse:
         """Report a made part; RCB applies at the setpoint version it was made with."""
@@ -188,8 +216,9 @@ def create_app(url: str) -> FastAPI:
             engine=engine,
             plan_id=plan_id,
             body=body,
-            actor=actor,
+            actor=held.actor,
             idempotency=_idempotency(request, idempotency_key, body),
+            held=held,
         )
         return _written(written)
 

@@ -27,6 +27,7 @@ from db import repository as repo
 from db.access import Actor
 from db.engine import one_statement_reader
 from db.errors import ConflictError
+from db.intake import StoredAnswer, open_report, serial_exists, stored_answer
 from db.state_cache import CACHE
 from models.catalogue import catalogue
 from models.errors import InputError
@@ -89,7 +90,23 @@ class Written:
     replayed: bool = False
 
 
-Work = Callable[[Session], tuple[int, dict[str, Any]]]
+@dataclass
+class Authenticated:
+    """A request's actor and, on PostgreSQL, the transaction its API key was checked in.
+
+    ``session`` is that transaction (one connection); the request's write goes on in it
+    (:func:`_write`), so a part report takes one connection from the pool, not two, and its
+    idempotency key's in-flight lock (``claimed``) was taken by the key's own lookup. On
+    SQLite the key is read outside a transaction and both are None.
+    """
+
+    actor: Actor
+    session: Session | None = None
+    claimed: bool | None = None
+
+
+#: A write's work in its transaction: (status, body), or a replay found by the work itself.
+Work = Callable[[Session], "tuple[int, dict[str, Any]] | Written"]
 
 
 def _write(
@@ -101,11 +118,16 @@ def _write(
     idempotency: Idempotency | None,
     work: Work,
     attempts: int = 1,
+    held: Authenticated | None = None,
+    finds_replay: bool = False,
 ) -> Written:
     """Run ``work`` in one transaction, idempotently; ``attempts`` > 1 retries unique-key races.
 
     Creating a plan inserts its machine and tools if they are new: two plans for the same new
-    machine at once race to insert it, and the loser's retry finds it stored.
+    machine at once race to insert it, and the loser's retry finds it stored. ``held``: the
+    request's authentication, whose open transaction (if any) the first attempt goes on in.
+    ``finds_replay``: ``work`` looks the key's stored answer up itself (after the key's lock,
+    in its first statement) and returns it as a :class:`Written`.
     """
     for attempt in range(1, attempts + 1):
         try:
@@ -116,6 +138,8 @@ def _write(
                 target=target,
                 idempotency=idempotency,
                 work=work,
+                held=held if attempt == 1 else None,
+                finds_replay=finds_replay,
             )
         except ConflictError as err:
             if attempt == attempts or not isinstance(err.__cause__, IntegrityError):
@@ -131,6 +155,8 @@ def _write_once(
     target: str,
     idempotency: Idempotency | None,
     work: Work,
+    held: Authenticated | None,
+    finds_replay: bool,
 ) -> Written:
     scope = f"{actor.id}:{idempotency.key}" if idempotency else ""
     guard = keylock.in_flight(engine, scope) if idempotency else _free()
@@ -138,19 +164,30 @@ def _write_once(
         with guard as free:
             if not free:
                 raise InFlightError(idempotency.key if idempotency else "")
-            with Session(engine) as session, session.begin():
+            with _transaction(engine, held) as (session, claimed):
+                stored = None
                 if idempotency is not None:
-                    stored = _stored(session, actor, idempotency)
-                    if stored is not None:
-                        access.audit(
-                            session=session,
-                            actor=actor.name,
-                            action=action,
-                            target=target,
-                            result=f"replayed {stored.status}",
+                    if claimed is None:
+                        claimed = access.claim_key(
+                            session=session, api_key_id=actor.id, key=idempotency.key
                         )
-                        return stored
-                status, body = work(session)
+                    if not claimed:
+                        raise InFlightError(idempotency.key)
+                    if not finds_replay:
+                        stored = replay_of(
+                            stored_answer(session, actor.id, idempotency.key), idempotency
+                        )
+                done = stored or work(session)
+                if isinstance(done, Written):
+                    access.audit(
+                        session=session,
+                        actor=actor.name,
+                        action=action,
+                        target=target,
+                        result=f"replayed {done.status}",
+                    )
+                    return done
+                status, body = done
                 # the key's record and the audit entry go out with the rows the work deferred
                 # (a part report's: one statement on PostgreSQL, db.bulk)
                 rows = [(access.AUDIT, [access.audit_row(actor.name, action, target, str(status))])]
@@ -168,6 +205,29 @@ def _write_once(
         ) from err
 
 
+@contextmanager
+def _transaction(
+    engine: Engine, held: Authenticated | None
+) -> Iterator[tuple[Session, bool | None]]:
+    """A session in a transaction, committed if the block ends without an exception.
+
+    With ``held`` that has a session: that session's transaction (used once) and whether the
+    key's lock was taken in it; else a new session, and None.
+    """
+    if held is not None and held.session is not None:
+        session, claimed = held.session, held.claimed
+        held.session = held.claimed = None
+        try:
+            yield session, claimed
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+        return
+    with Session(engine) as session, session.begin():
+        yield session, None
+
+
 class _free:
     def __enter__(self) -> bool:
         return True
@@ -176,15 +236,13 @@ class _free:
         return None
 
 
-def _stored(session: Session, actor: Actor, idempotency: Idempotency) -> Written | None:
-    if not access.claim_key(session=session, scope=f"{actor.id}:{idempotency.key}"):
-        raise InFlightError(idempotency.key)
-    record = access.find_idempotency(session=session, api_key_id=actor.id, key=idempotency.key)
-    if record is None:
+def replay_of(stored: StoredAnswer | None, idempotency: Idempotency) -> Written | None:
+    """The answer stored under the key, as a replay (None if none); another request's: 422."""
+    if stored is None:
         return None
-    if record.request_hash != idempotency.request_hash:
+    if stored.request_hash != idempotency.request_hash:
         raise KeyReuseError(idempotency.key)
-    return Written(record.response_status or 200, dict(record.response_body or {}), True)
+    return Written(stored.status, dict(stored.body or {}), True)
 
 
 @contextmanager
@@ -251,10 +309,15 @@ def report_part(
     body: Mapping[str, Any],
     actor: Actor = access.CLI_ACTOR,
     idempotency: Idempotency | None = None,
+    held: Authenticated | None = None,
 ) -> Written:
-    """Apply one part report: RCB at the version the part was made with, all or nothing."""
+    """Apply one part report: RCB at the version the part was made with, all or nothing.
+
+    ``held``: the request's authentication (its actor is ``actor``), whose transaction the
+    report goes on in (:class:`Authenticated`).
+    """
     with _audited(engine, actor, "report part", f"plan {plan_id} part {body.get('serial', '')}"):
-        return _report_part(engine, plan_id, body, actor, idempotency)
+        return _report_part(engine, plan_id, body, actor, idempotency, held)
 
 
 def _report_part(
@@ -263,27 +326,31 @@ def _report_part(
     body: Mapping[str, Any],
     actor: Actor,
     idempotency: Idempotency | None,
+    held: Authenticated | None,
 ) -> Written:
     report = report_from_mapping(body)
 
-    def work(session: Session) -> tuple[int, dict[str, Any]]:
-        row = _plan(session, plan_id, lock=True)
+    def work(session: Session) -> tuple[int, dict[str, Any]] | Written:
+        # one statement on PostgreSQL: the plan's row lock, the answer stored under the key,
+        # and the part's row unless the serial is reported (db.intake)
+        opening = open_report(
+            session=session,
+            plan_id=plan_id,
+            serial=report.serial,
+            setpoint_version=report.setpoint_version,
+            idempotency=(actor.id, idempotency.key) if idempotency else None,
+        )
+        replay = replay_of(opening.stored, idempotency) if idempotency else None
+        if replay is not None:
+            return replay
+        row, part_id = opening.plan, opening.part_id
+        if row is None:
+            raise NotFoundError("plan_id", plan_id)
         state = repo.load_state(session=session, plan_row=row)
         known = 1 <= report.setpoint_version <= state.version
-        # one statement stores the part's row unless the serial is reported (409 before 422)
-        part_id = (
-            repo.insert_part(
-                session=session,
-                plan_id=plan_id,
-                serial=report.serial,
-                setpoint_version=report.setpoint_version,
-            )
-            if known
-            else None
-        )
         if part_id is None and (
-            known or repo.serial_exists(session=session, plan_id=plan_id, serial=report.serial)
-        ):
+            known or serial_exists(session=session, plan_id=plan_id, serial=report.serial)
+        ):  # 409 before 422
             raise ConflictError("serial", report.serial, "already reported for this plan")
         if part_id is None:
             raise InputError(
@@ -332,6 +399,8 @@ def _report_part(
         target=f"plan {plan_id} part {report.serial}",
         idempotency=idempotency,
         work=work,
+        held=held,
+        finds_replay=True,
     )
     for database, token, new_state, operations in written_state:  # committed: the next part
         CACHE.put(database, plan_id, token, new_state, operations)  # starts here
@@ -396,16 +465,47 @@ def authenticate(*, engine: Engine, key: str | None, action: str) -> Actor | Non
         with Session(one_statement_reader(engine)) as session:  # no write lock for a read
             actor = access.authenticate(session=session, key=key)
     if actor is None:
-        with Session(engine) as session, session.begin():
-            access.audit(
-                session=session,
-                actor="anonymous",
-                action=action,
-                target="",
-                result="unauthenticated",
-                detail={"reason": "no key" if not key else "unknown or revoked key"},
-            )
+        _audit_unauthenticated(engine, key, action)
     return actor
+
+
+@contextmanager
+def authenticated(
+    *, engine: Engine, key: str | None, action: str, idempotency_key: str | None = None
+) -> Iterator[Authenticated | None]:
+    """The authentication of a write request, for as long as the request runs (None: audited).
+
+    On PostgreSQL the key is looked up in a new transaction, and with ``idempotency_key`` its
+    in-flight lock is taken by the same statement; the write goes on in that transaction
+    (:class:`Authenticated`), which is rolled back if it is still open when the block ends.
+    On SQLite, as :func:`authenticate`.
+    """
+    if not key or engine.dialect.name != "postgresql":
+        actor = authenticate(engine=engine, key=key, action=action)
+        yield None if actor is None else Authenticated(actor)
+        return
+    with Session(engine) as session:
+        actor, claimed = access.authenticate_claiming(
+            session=session, key=key, idempotency_key=idempotency_key
+        )
+        if actor is None:
+            session.rollback()
+            _audit_unauthenticated(engine, key, action)
+            yield None
+            return
+        yield Authenticated(actor, session, claimed)
+
+
+def _audit_unauthenticated(engine: Engine, key: str | None, action: str) -> None:
+    with Session(engine) as session, session.begin():
+        access.audit(
+            session=session,
+            actor="anonymous",
+            action=action,
+            target="",
+            result="unauthenticated",
+            detail={"reason": "no key" if not key else "unknown or revoked key"},
+        )
 
 
 def audit_forbidden(*, engine: Engine, actor: Actor, action: str) -> None:

@@ -14,7 +14,7 @@ import secrets
 from dataclasses import dataclass
 from typing import Any
 
-from sqlalchemy import insert, select, text
+from sqlalchemy import insert, text
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -66,13 +66,31 @@ def revoke_key(*, session: Session, key_id: int) -> t.ApiKey | None:
 
 def authenticate(*, session: Session, key: str) -> Actor | None:
     """The actor holding ``key``, or None for an unknown or revoked key."""
+    return authenticate_claiming(session=session, key=key, idempotency_key=None)[0]
+
+
+def authenticate_claiming(
+    *, session: Session, key: str, idempotency_key: str | None
+) -> tuple[Actor | None, bool | None]:
+    """The actor holding ``key`` and, on PostgreSQL, the in-flight lock of its idempotency key.
+
+    One statement: the key's row and, if it is valid and ``idempotency_key`` is given,
+    ``pg_try_advisory_xact_lock`` on that key (:func:`claim_key`), in the session's
+    transaction. Returns (actor or None, whether the lock was taken; None if not asked, on
+    SQLite, or for an invalid API key).
+    """
     digest = hash_key(key)
-    k = t.ApiKey
-    query = select(k.id, k.key_hash, k.role, k.revoked_at).where(k.key_hash == digest)
-    row = session.execute(query).one_or_none()
+    claim = idempotency_key is not None and session.get_bind().dialect.name == "postgresql"
+    columns = "id, key_hash, role, revoked_at"
+    if claim:
+        lock = KEY_LOCK.format(api_key_id="id")
+        columns += f", CASE WHEN revoked_at IS NULL THEN pg_try_advisory_xact_lock({lock}) END"
+    query = text(f"SELECT {columns} FROM api_keys WHERE key_hash = :digest")
+    params = {"digest": digest, "idempotency_key": idempotency_key}
+    row = session.execute(query, params).one_or_none()
     if row is None or not hmac.compare_digest(row.key_hash, digest) or row.revoked_at:
-        return None
-    return Actor(row.id, row.role, f"key:{row.id}")
+        return None, None
+    return Actor(row.id, row.role, f"key:{row.id}"), bool(row[4]) if claim else None
 
 
 def audit(
@@ -102,7 +120,12 @@ def audit_row(
     }
 
 
-def claim_key(*, session: Session, scope: str) -> bool:
+#: The advisory lock of an idempotency key on PostgreSQL: 64 bits of a hash of the key
+#: (``:idempotency_key``), seeded with the API key's id (0 for the local CLI).
+KEY_LOCK = "hashtextextended(:idempotency_key, {api_key_id})"
+
+
+def claim_key(*, session: Session, api_key_id: int | None, key: str) -> bool:
     """Take the in-flight lock of an idempotency key for this transaction (PostgreSQL).
 
     ``pg_try_advisory_xact_lock`` is held until commit or rollback and released by the server
@@ -112,19 +135,8 @@ def claim_key(*, session: Session, scope: str) -> bool:
     """
     if session.get_bind().dialect.name != "postgresql":
         return True
-    lock_id = int.from_bytes(hashlib.sha256(scope.encode()).digest()[:8], "big", signed=True)
-    return bool(session.scalar(text("SELECT pg_try_advisory_xact_lock(:id)"), {"id": lock_id}))
-
-
-def find_idempotency(
-    *, session: Session, api_key_id: int | None, key: str
-) -> t.IdempotencyRecord | None:
-    """The completed request stored under ``key`` for this API key, if any."""
-    return session.scalars(
-        select(t.IdempotencyRecord).where(
-            t.IdempotencyRecord.api_key_id == api_key_id, t.IdempotencyRecord.key == key
-        )
-    ).one_or_none()
+    query = text(f"SELECT pg_try_advisory_xact_lock({KEY_LOCK.format(api_key_id=':api_key_id')})")
+    return bool(session.scalar(query, {"idempotency_key": key, "api_key_id": api_key_id or 0}))
 
 
 def idempotency_row(

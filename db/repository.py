@@ -10,13 +10,12 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from sqlalchemy import func, insert, select
-from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
-from sqlalchemy.orm.attributes import set_committed_value
 
 from db import tables as t
 from db.bulk import defer
 from db.errors import ConflictError
+from db.intake import PlanHead
 from db.library import ensure_tool, load_tools
 from db.state_cache import CACHE
 from models.powerlaw import PowerLawModel, Prediction
@@ -27,6 +26,9 @@ from supervisor.optimizer import OperationResult, PlanResult
 from supervisor.plan import Plan, plan_from_mapping
 from supervisor.rcb import Decision, RcbSettings, RcbState, prior_sigma
 from supervisor.report import PartReport
+
+#: A plan's row as the ORM loads it, or the head of it a part report locks (db.intake).
+PlanRow = t.Plan | PlanHead
 
 
 def add_plan(
@@ -93,7 +95,7 @@ def get_plan_row(*, session: Session, plan_id: int, lock: bool = False) -> t.Pla
     return session.scalars(query).one_or_none()
 
 
-def load_state(*, session: Session, plan_row: t.Plan) -> RcbState:
+def load_state(*, session: Session, plan_row: PlanRow) -> RcbState:
     """The RCB state of a plan as stored: models, band states and setpoints in force.
 
     Call it with the plan row locked (``get_plan_row(lock=True)``): the state is then the
@@ -113,7 +115,7 @@ def database_key(session: Session) -> str:
     return session.get_bind().engine.url.render_as_string(hide_password=True)
 
 
-def _load_state(session: Session, plan_row: t.Plan) -> RcbState:
+def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     ops = _operations(session, plan_row.id)
     body = current_body(session=session, plan_row=plan_row)
     plan = plan_from_mapping(body, plan_tools(session=session, plan_id=plan_row.id))
@@ -150,10 +152,14 @@ def _load_state(session: Session, plan_row: t.Plan) -> RcbState:
     )
 
 
-def current_body(*, session: Session, plan_row: t.Plan) -> dict[str, Any]:
+def current_body(*, session: Session, plan_row: PlanRow) -> dict[str, Any]:
     """The plan structure in force: the newest replan's, else the one the plan was created with."""
     revision = _latest_revision(session, plan_row.id)
-    return dict(revision.body) if revision is not None else dict(plan_row.body)
+    if revision is not None:
+        return dict(revision.body)
+    if isinstance(plan_row, t.Plan):
+        return dict(plan_row.body)
+    return dict(session.scalars(select(t.Plan.body).where(t.Plan.id == plan_row.id)).one())
 
 
 def _latest_revision(session: Session, plan_id: int) -> t.PlanRevision | None:
@@ -222,7 +228,7 @@ def plan_tools(*, session: Session, plan_id: int) -> dict[str, Tool]:
     )
 
 
-def setpoints_of(*, session: Session, plan_row: t.Plan, version: int) -> PlanResult:
+def setpoints_of(*, session: Session, plan_row: PlanRow, version: int) -> PlanResult:
     """The stored setpoints of one version of a plan."""
     version_row = session.scalars(
         select(t.SetpointVersion).where(
@@ -256,41 +262,10 @@ def setpoints_of(*, session: Session, plan_row: t.Plan, version: int) -> PlanRes
     return PlanResult(plan_row.name, machine.name if machine else "", results)
 
 
-def serial_exists(*, session: Session, plan_id: int, serial: str) -> bool:
-    """Whether a part with this serial was already reported for the plan."""
-    query = select(t.Part.id).where(t.Part.plan_id == plan_id, t.Part.serial == serial)
-    return session.scalars(query).first() is not None
-
-
-def insert_part(
-    *, session: Session, plan_id: int, serial: str, setpoint_version: int
-) -> int | None:
-    """Store a part's row and return its id; None, storing nothing, if the serial is reported.
-
-    One statement (``INSERT ... ON CONFLICT (plan_id, serial) DO NOTHING RETURNING id``) does
-    the check and the insert: a serial reported before, or by a concurrent transaction that
-    commits first, returns no row.
-    """
-    dialect = postgresql if session.get_bind().dialect.name == "postgresql" else sqlite
-    statement = (
-        dialect.insert(t.core_table(t.Part))
-        .values(
-            plan_id=plan_id,
-            serial=serial,
-            setpoint_version=setpoint_version,
-            received_at=t.utcnow(),
-        )
-        .on_conflict_do_nothing(index_elements=["plan_id", "serial"])
-        .returning(t.core_table(t.Part).c.id)
-    )
-    part_id = session.connection().execute(statement).scalar()
-    return None if part_id is None else int(part_id)
-
-
 def add_part(
     *,
     session: Session,
-    plan_row: t.Plan,
+    plan_row: PlanHead,
     part_id: int,
     operations: Mapping[str, int],
     report: PartReport,
@@ -306,7 +281,7 @@ def add_part(
     (:func:`db.bulk.defer`): they are written by :func:`db.bulk.write_deferred`, or at the
     latest when the transaction commits.
 
-    ``part_id``: the part's row, stored by :func:`insert_part` in the same transaction;
+    ``part_id``: the part's row, stored by :func:`db.intake.open_report` in the same transaction;
     ``operations``: the plan's operation ids (:func:`operation_ids`). ``raw``: per
     (operation, quantity) what a measurement was converted from (a spindle reading,
     :mod:`supervisor.signals`), kept beside the converted value. ``tool_changes``: each
@@ -419,8 +394,8 @@ def add_part(
             )
         ],
     )
-    set_committed_value(plan_row, "current_setpoint_version", after.version)
-    set_committed_value(plan_row, "state_token", token)
+    plan_row.current_setpoint_version = after.version
+    plan_row.state_token = token
 
 
 def _machine(session: Session, plan: Plan) -> t.Machine:
@@ -441,7 +416,7 @@ def _machine(session: Session, plan: Plan) -> t.Machine:
     return row
 
 
-def operation_ids(*, session: Session, plan_row: t.Plan) -> dict[str, int]:
+def operation_ids(*, session: Session, plan_row: PlanRow) -> dict[str, int]:
     """A plan's operation ids by name (cached with its state, under ``plan_row.state_token``)."""
     database = database_key(session)
     cached = CACHE.get_operations(database, plan_row.id, plan_row.state_token)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import tomllib
 
 import pytest
@@ -10,7 +9,7 @@ from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
 from api import queries, service
-from db import keylock
+from db import access, keylock
 from db import tables as t
 from db.access import Actor
 from db.engine import make_engine, upgrade
@@ -112,10 +111,13 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
         assert holder.__enter__() is True  # as a running request would hold it
         release = holder.__exit__
     else:
-        lock_id = int.from_bytes(hashlib.sha256(scope.encode()).digest()[:8], "big", signed=True)
+        lock = access.KEY_LOCK.format(api_key_id=":api_key_id")
         connection = engine.connect()
         transaction = connection.begin()
-        connection.execute(text("SELECT pg_advisory_xact_lock(:id)"), {"id": lock_id})
+        connection.execute(
+            text(f"SELECT pg_advisory_xact_lock({lock})"),
+            {"idempotency_key": "busy", "api_key_id": actor.id or 0},
+        )
 
         def release(*_):
             transaction.rollback()
