@@ -58,7 +58,11 @@ def create_app(url: str) -> FastAPI:
         return f"{request.method} {getattr(route, 'path', '?')}"  # the template: bounded
 
     def allowed_actor(
-        actor: Actor | None, key: str | None, action: str, allowed: tuple[str, ...]
+        actor: Actor | None,
+        key: str | None,
+        action: str,
+        allowed: tuple[str, ...],
+        held: service.Authenticated | None = None,
     ) -> Actor:
         if actor is None:
             raise ProblemError(
@@ -69,7 +73,7 @@ def create_app(url: str) -> FastAPI:
                 headers={"WWW-Authenticate": "Bearer"},
             )
         if actor.role not in allowed:
-            service.audit_forbidden(engine=engine, actor=actor, action=action)
+            service.audit_forbidden(engine=engine, actor=actor, action=action, held=held)
             raise ProblemError(
                 403,
                 "forbidden",
@@ -106,7 +110,7 @@ def create_app(url: str) -> FastAPI:
                 action=action,
                 idempotency_key=request.headers.get("Idempotency-Key"),
             ) as held:
-                allowed_actor(held.actor if held else None, key, action, allowed)
+                allowed_actor(held.actor if held else None, key, action, allowed, held)
                 assert held is not None
                 yield held
 

@@ -211,21 +211,41 @@ def _transaction(
 ) -> Iterator[tuple[Session, bool | None]]:
     """A session in a transaction, committed if the block ends without an exception.
 
-    With ``held`` that has a session: that session's transaction (used once) and whether the
-    key's lock was taken in it; else a new session, and None.
+    With ``held`` that has a session: that session, in the transaction its key was checked in
+    (the first time; then whether the key's lock was taken in it) or in a new one; else a new
+    session, and None.
     """
-    if held is not None and held.session is not None:
-        session, claimed = held.session, held.claimed
-        held.session = held.claimed = None
-        try:
-            yield session, claimed
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
+    if held is None or held.session is None:
+        with Session(engine) as session, session.begin():
+            yield session, None
         return
-    with Session(engine) as session, session.begin():
-        yield session, None
+    session, claimed = held.session, held.claimed
+    held.claimed = None  # the lock lasts as long as the transaction it was taken in
+    if not session.in_transaction():
+        session.begin()
+    try:
+        yield session, claimed
+        session.commit()
+    except BaseException:
+        session.rollback()
+        raise
+
+
+@contextmanager
+def _aside(engine: Engine, held: Session | None) -> Iterator[Session]:
+    """A transaction for an audit entry of a refused request.
+
+    In ``held``, the request's session (its open transaction rolled back first), so a request
+    never takes a second connection from the pool; else in a new session.
+    """
+    if held is None:
+        with Session(engine) as session, session.begin():
+            yield session
+        return
+    if held.in_transaction():
+        held.rollback()
+    with held.begin():
+        yield held
 
 
 class _free:
@@ -246,7 +266,9 @@ def replay_of(stored: StoredAnswer | None, idempotency: Idempotency) -> Written 
 
 
 @contextmanager
-def _audited(engine: Engine, actor: Actor, action: str, target: str) -> Iterator[None]:
+def _audited(
+    engine: Engine, actor: Actor, action: str, target: str, held: Authenticated | None = None
+) -> Iterator[None]:
     """Append a refused write (any exception) to the audit log, then let it propagate."""
     try:
         yield
@@ -256,7 +278,7 @@ def _audited(engine: Engine, actor: Actor, action: str, target: str) -> Iterator
             "field": str(getattr(err, "field", "")),
             "message": str(err)[:500],
         }
-        with Session(engine) as session, session.begin():
+        with _aside(engine, held.session if held else None) as session:
             access.audit(
                 session=session,
                 actor=actor.name,
@@ -316,7 +338,8 @@ def report_part(
     ``held``: the request's authentication (its actor is ``actor``), whose transaction the
     report goes on in (:class:`Authenticated`).
     """
-    with _audited(engine, actor, "report part", f"plan {plan_id} part {body.get('serial', '')}"):
+    target = f"plan {plan_id} part {body.get('serial', '')}"
+    with _audited(engine, actor, "report part", target, held):
         return _report_part(engine, plan_id, body, actor, idempotency, held)
 
 
@@ -489,15 +512,16 @@ def authenticated(
             session=session, key=key, idempotency_key=idempotency_key
         )
         if actor is None:
-            session.rollback()
-            _audit_unauthenticated(engine, key, action)
+            _audit_unauthenticated(engine, key, action, session)
             yield None
             return
         yield Authenticated(actor, session, claimed)
 
 
-def _audit_unauthenticated(engine: Engine, key: str | None, action: str) -> None:
-    with Session(engine) as session, session.begin():
+def _audit_unauthenticated(
+    engine: Engine, key: str | None, action: str, session: Session | None = None
+) -> None:
+    with _aside(engine, session) as session:
         access.audit(
             session=session,
             actor="anonymous",
@@ -508,9 +532,11 @@ def _audit_unauthenticated(engine: Engine, key: str | None, action: str) -> None
         )
 
 
-def audit_forbidden(*, engine: Engine, actor: Actor, action: str) -> None:
-    """Record a request refused for the actor's role."""
-    with Session(engine) as session, session.begin():
+def audit_forbidden(
+    *, engine: Engine, actor: Actor, action: str, held: Authenticated | None = None
+) -> None:
+    """Record a request refused for the actor's role (``held``: see :func:`authenticated`)."""
+    with _aside(engine, held.session if held else None) as session:
         access.audit(
             session=session, actor=actor.name, action=action, target="", result="forbidden"
         )
