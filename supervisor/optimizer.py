@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import cvxpy as cp
+import highspy
 import numpy as np
 
 from models import kinematics
@@ -327,29 +328,34 @@ def _recheck(
 
 
 def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
-    """Elastic LP: the least total ln-violation of the rows within the bounds."""
+    """Elastic LP: the least total ln-violation of the rows within the bounds.
+
+    ``min sum(s)  s.t.  A x - s <= b,  lower <= x <= upper,  s >= 0``, solved by HiGHS
+    directly (:func:`.highs_lp.solve_lp`, a simplex vertex).
+    """
     n, m = len(lp.parameters), len(lp.rows)
     if m == 0:  # only bounds, and those were checked low <= high
         return InfeasibleError(lp.operation, (), ("the parameter bounds",))
-    x, s = cp.Variable(n), cp.Variable(m, nonneg=True)
     A = np.array([r.coefficients for r in lp.rows])
-    b = np.array([r.rhs for r in lp.rows])
-    problem = cp.Problem(
-        cp.Minimize(cp.sum(s)),
-        [A @ x <= b + s, x >= np.asarray(lp.lower), x <= np.asarray(lp.upper)],
+    status, xs = highs_lp.solve_lp(
+        np.concatenate([np.zeros(n), np.ones(m)]),
+        np.hstack([A, -np.eye(m)]),
+        [r.rhs for r in lp.rows],
+        np.concatenate([lp.lower, np.zeros(m)]),
+        np.concatenate([lp.upper, np.full(m, highspy.kHighsInf)]),
+        maximize=False,
     )
-    problem.solve(solver=cp.HIGHS, warm_start=False)
-    if problem.status != cp.OPTIMAL or s.value is None or x.value is None:
+    if status != "optimal" or xs is None:
         return InfeasibleError(lp.operation, (), ("the parameter bounds",))
+    x, slacks = xs[:n], xs[n:]
     # Every row the elastic optimum must relax conflicts, however little: the main solve
     # already found the program infeasible. If round-off hides them all, name the largest.
-    slacks = np.asarray(s.value)
     violated = slacks > 1e-12
     if not violated.any():
         violated = slacks == slacks.max()
     conflicts: list[Conflict] = []
     against: list[str] = []
-    for row, slack, lhs, bad in zip(lp.rows, slacks, A @ x.value, violated, strict=True):
+    for row, slack, lhs, bad in zip(lp.rows, slacks, A @ x, violated, strict=True):
         if bad:
             given = row.limit / row.scale
             # in logarithms: a limit as tiny as 5e-324 needs a slack whose exp overflows
@@ -358,7 +364,7 @@ def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
             conflicts.append(Conflict(row.given_as, given, required, row.sense))
         elif row.rhs - lhs <= BINDING_TOL:
             against.append(row.given_as)
-    for p, v, lo, hi in zip(lp.parameters, x.value, lp.lower, lp.upper, strict=True):
+    for p, v, lo, hi in zip(lp.parameters, x, lp.lower, lp.upper, strict=True):
         if v - lo <= BINDING_TOL:
             against.append(f"{p} >= {math.exp(lo):.4g}")
         elif hi - v <= BINDING_TOL:

@@ -3,21 +3,29 @@
 :mod:`supervisor.highs_lp` hands the program to HiGHS without cvxpy (for speed); these tests
 pose the same ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` in cvxpy and require the same
 answer: the same feasibility verdict and, where feasible, the same optimal objective value.
+The elastic LP of the infeasibility diagnosis goes through the same solver, and nothing of it
+may reach stdout (``rcb ... --json``).
 """
 
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+import textwrap
 
 import cvxpy as cp
+import highspy
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from supervisor import highs_lp
+from supervisor import highs_lp, optimizer
 from supervisor.formulation import LogLinearProgram, Row
+
+from conftest import ROOT
 
 PARAMS = ("depth_mm", "feed_mm_rev", "speed_m_min")
 
@@ -103,3 +111,92 @@ def test_only_bounds(rows):
     status, x = highs_lp.maximize(lp)
     assert status == "optimal"
     assert x[0] == pytest.approx(1.0) and x[2] == pytest.approx(3.0)
+
+
+# The elastic LP of two impossible rows and a loose one, bounds 0 <= x <= 1:
+#   q0: x0 + 2 x1 <= -0.5    needs s0 = x0 + 2 x1 + 0.5
+#   q1:     -  x1 <= -2      needs s1 = 2 - x1
+#   q2:           x2 <= 5    met by every x
+# sum(s) = x0 + x1 + 2.5 is least at x0 = x1 = 0: s = (0.5, 2, 0), total 2.5.
+ELASTIC_ROWS = [((1.0, 2.0, 0.0), -0.5), ((0.0, -1.0, 0.0), -2.0), ((0.0, 0.0, 1.0), 5.0)]
+
+
+def test_the_elastic_lp_of_a_hand_solved_infeasible_program():
+    a = np.array([coefficients for coefficients, _ in ELASTIC_ROWS])
+    status, xs = highs_lp.solve_lp(
+        [0, 0, 0, 1, 1, 1],
+        np.hstack([a, -np.eye(3)]),
+        [rhs for _, rhs in ELASTIC_ROWS],
+        [0.0] * 6,
+        [1.0] * 3 + [highspy.kHighsInf] * 3,
+        maximize=False,
+    )
+    assert status == "optimal"
+    assert_allclose(xs[:2], [0.0, 0.0], atol=1e-12)
+    assert_allclose(xs[3:], [0.5, 2.0, 0.0], atol=1e-12)
+    # without the slacks the program is infeasible
+    lp = _program(ELASTIC_ROWS, [0.0] * 3, [1.0] * 3, (1, 1, 1))
+    assert highs_lp.maximize(lp) == ("infeasible", None)
+
+
+def test_the_diagnosis_names_the_rows_with_slack_and_what_they_need():
+    lp = _program(ELASTIC_ROWS, [0.0] * 3, [1.0] * 3, (1, 1, 1))
+    error = optimizer._diagnose(lp)
+    # q0 needs ln(limit) raised by its slack 0.5, q1 by 2; q2 is not in conflict
+    assert [c.name for c in error.conflicts] == ["q0", "q1"]
+    assert_allclose([c.required for c in error.conflicts], [math.exp(0.0), math.exp(0.0)])
+    assert_allclose([c.limit for c in error.conflicts], [math.exp(-0.5), math.exp(-2.0)])
+    # the closest point sits on x0 >= 1 and x1 >= 1 (ln-bounds 0)
+    assert {"depth_mm >= 1", "feed_mm_rev >= 1"} <= set(error.against)
+
+
+def test_solving_and_diagnosing_print_nothing_to_stdout():
+    # HiGHS prints its banner once per process, from C, when a highspy.Highs is built: run a
+    # fresh process and require its stdout to be only what the script prints.
+    script = textwrap.dedent(
+        """
+        import math
+        from supervisor import highs_lp
+        from supervisor.errors import InfeasibleError
+        from supervisor.formulation import LogLinearProgram, Row
+        from supervisor.optimizer import optimize_plan
+        from supervisor.plan import plan_from_mapping
+
+        lp = LogLinearProgram(
+            operation="op",
+            parameters=("depth_mm", "feed_mm_rev", "speed_m_min"),
+            objective=(1.0, 1.0, 1.0),
+            rows=(Row("q0", (1.0, 1.0, 0.0), 0.5, math.exp(0.5), "max", "q0"),),
+            lower=(0.0, 0.0, 0.0),
+            upper=(1.0, 1.0, 1.0),
+        )
+        print("solve", highs_lp.maximize(lp)[0])
+        plan = {
+            "name": "p",
+            "machine": {"name": "m", "max_power_kW": 22, "max_spindle_rpm": 4000},
+            "operations": [
+                {
+                    "name": "rough-od",
+                    "tool": "CNMG432RN",
+                    "workpiece_diameter_mm": 60,
+                    "volume_mm3": 86400,
+                    "limits": {"force_N": 50},
+                    "bounds": {
+                        "depth_mm": [0.5, 3.0],
+                        "feed_mm_rev": [0.1, 0.6],
+                        "speed_m_min": [100, 200],
+                    },
+                }
+            ],
+        }
+        try:
+            optimize_plan(plan_from_mapping(plan))
+        except InfeasibleError as error:
+            print("diagnosed", [c.name for c in error.conflicts])
+        """
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, timeout=120
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == "solve optimal\ndiagnosed ['force_N']\n"
