@@ -8,8 +8,9 @@ What it measures. For every configuration (backend x ``--workers``), on a fresh 
 2. it creates ``--plans K`` plans over the API (``POST /api/v1/plans``, engineer key) from
    ``examples/ivester_demo_part.toml``: all six operations, or only the first (``--ops 1``, one
    operation, i.e. a sixth of the measurements, band updates and LPs of a report);
-3. ``--clients N`` client threads, each with its own keep-alive ``httpx.Client`` (one TCP
-   connection) and the ``mes`` key, post part reports (``POST /api/v1/plans/{id}/parts`` with
+3. ``--clients N`` client threads, each with its own keep-alive connection (the standard
+   library's ``http.client``, lighter than httpx: the load generator shares the CPUs with the
+   server) and the ``mes`` key, post part reports (``POST /api/v1/plans/{id}/parts`` with
    a unique ``Idempotency-Key`` and serial) back to back: a closed loop, each client sends its
    next report when the previous answer arrives. A report carries, as in the REST tests, the
    predicted value of every quantity at the setpoints the client last received for that plan
@@ -83,6 +84,7 @@ about three and a half minutes.
 from __future__ import annotations
 
 import argparse
+import http.client
 import json
 import os
 import platform
@@ -103,6 +105,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 import httpx
 
@@ -438,12 +441,46 @@ class Sample:
     older_version: bool = False
 
 
+class MesConnection:
+    """One kept-alive HTTP/1.1 connection with the ``mes`` key (reopened after an error).
+
+    ``http.client`` sends a request's headers and body in one write, so Nagle's algorithm and
+    delayed ACKs cannot stall it; ``TCP_NODELAY`` is set all the same.
+    """
+
+    def __init__(self, base: str, key: str) -> None:
+        parts = urlsplit(base)
+        self.host, self.port, self.prefix = parts.hostname or "127.0.0.1", parts.port, parts.path
+        self.headers = {"Authorization": f"Bearer {key}", "Content-Type": "application/json"}
+        self.connection: http.client.HTTPConnection | None = None
+
+    def post(self, path: str, body: dict[str, Any], key: str) -> tuple[int, bytes]:
+        """POST ``body`` as JSON with an Idempotency-Key; (status, answer bytes)."""
+        if self.connection is None:
+            self.connection = http.client.HTTPConnection(self.host, self.port, timeout=120.0)
+            self.connection.connect()
+            self.connection.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        headers = {**self.headers, "Idempotency-Key": key}
+        try:
+            self.connection.request("POST", self.prefix + path, json.dumps(body), headers)
+            answer = self.connection.getresponse()
+            return answer.status, answer.read()
+        except (OSError, http.client.HTTPException):
+            self.close()
+            raise
+
+    def close(self) -> None:
+        if self.connection is not None:
+            self.connection.close()
+            self.connection = None
+
+
 @dataclass
 class Client:
     """One MES client: a keep-alive connection and its plans, cycled through in turn."""
 
     index: int
-    http: httpx.Client
+    http: MesConnection
     warmup: View | None
     views: list[View]
     samples: list[Sample] = field(default_factory=list)
@@ -470,12 +507,10 @@ def post_report(client: Client, view: View, serial: str) -> tuple[int | str, dic
     """Post one report; (status or exception name, answer JSON if 201)."""
     body = view.report(serial)
     try:
-        r = client.http.post(
-            f"/plans/{view.plan_id}/parts", json=body, headers={"Idempotency-Key": serial}
-        )
-    except httpx.HTTPError as err:
+        status, answer = client.http.post(f"/plans/{view.plan_id}/parts", body, serial)
+    except (OSError, http.client.HTTPException) as err:
         return err.__class__.__name__, {}
-    return r.status_code, r.json() if r.status_code == 201 else {}
+    return status, json.loads(answer) if status == 201 else {}
 
 
 def run_client(
@@ -609,7 +644,7 @@ def run_configuration(
     token = secrets.token_hex(4)
     pg: Postgres | None = None
     server: Server | None = None
-    https: list[httpx.Client] = []
+    https: list[MesConnection] = []
     try:
         if backend == "postgres":
             pg = Postgres(args.postgres_url)
@@ -627,12 +662,7 @@ def run_configuration(
         plans = [View.of(int(p["id"]), p) for p in made]
         clients = []
         for c in range(args.clients):
-            http = httpx.Client(
-                base_url=server.base,
-                headers={"Authorization": f"Bearer {mes}"},
-                timeout=120.0,
-                limits=httpx.Limits(max_connections=1, max_keepalive_connections=1),
-            )
+            http = MesConnection(server.base, mes)
             https.append(http)
             if args.plans >= args.clients:
                 owned = [View(v.plan_id, v.version, v.predicted) for v in plans[c :: args.clients]]
@@ -1000,7 +1030,7 @@ def main(argv: list[str] | None = None) -> int:
     machine_info()
     print()
     print(
-        f"Load: {args.clients} client threads (one keep-alive httpx connection each, closed "
+        f"Load: {args.clients} client threads (one keep-alive http.client connection each, closed "
         f"loop), {args.plans} plan(s) of {args.ops} operation(s) of {PLAN_FILE.name}; "
         f"{args.warmup:g} s warm-up on separate plans, then {args.duration:g} s measured "
         f"(at most {args.max_requests} reports)."
