@@ -72,6 +72,8 @@ class Opening:
 
 _HEAD = ("id", "name", "machine_id", "strategy", "alpha", "current_setpoint_version", "state_token")
 _PLANS = t.core_table(t.Plan)
+#: The largest value of PostgreSQL's ``integer``.
+_MAX_INT = 2**31 - 1
 _PARTS = t.core_table(t.Part)
 
 _OPEN = """
@@ -166,7 +168,9 @@ def _open_in_one(
     params = {
         "plan_id": plan_id,
         "serial": serial,
-        "setpoint_version": setpoint_version,
+        # the column is a 32-bit integer: a version beyond it is unknown, and the statement
+        # would fail converting it; 0 is unknown too (the caller tells which answer applies)
+        "setpoint_version": setpoint_version if 1 <= setpoint_version <= _MAX_INT else 0,
         "received_at": t.utcnow(),
         "api_key_id": api_key_id,
         "key": key,

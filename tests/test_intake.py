@@ -85,7 +85,7 @@ def test_a_reported_serial_and_an_unknown_version_store_nothing(stored):
     assert _open(engine, plan_id, "S-1", 1, None).part_id is not None
     again = _open(engine, plan_id, "S-1", 1, (key_id, "other"))
     assert again.plan is not None and again.part_id is None
-    for version in (0, 2, -5):
+    for version in (0, 2, -5, 2**31, 11371909618236154445824):  # the last two: past int32
         unknown = _open(engine, plan_id, f"S-v{version}", version, None)
         assert unknown.plan is not None and unknown.part_id is None
     assert _parts(engine, plan_id) == [("S-1", 1)]
