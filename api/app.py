@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterator
 from typing import Annotated, Any, Literal
 
 from fastapi import Body, Depends, FastAPI, Header, Path, Query, Request
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from api import problems, queries, schemas, service, ui
@@ -141,7 +141,7 @@ def create_app(url: str) -> FastAPI:
         idempotency_key: Annotated[
             str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
         ] = None,
-    ) -> JSONResponse:
+    ) -> Response:
         """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
         body = plan.model_dump(mode="json", exclude_none=True)
         written = service.create_plan(
@@ -170,7 +170,7 @@ def create_app(url: str) -> FastAPI:
         idempotency_key: Annotated[
             str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
         ] = None,
-    ) -> JSONResponse:
+    ) -> Response:
         """Change limits, bounds or models (or reset the bands) and re-optimise."""
         body = changes.model_dump(mode="json", exclude_none=True)
         written = service.replan(
@@ -213,7 +213,7 @@ def create_app(url: str) -> FastAPI:
         report: schemas.PartReportIn,
         held: Annotated[service.Authenticated, Depends(holding("mes", "engineer"))],
         idempotency_key: Annotated[str, Header(pattern=KEY_PATTERN, description=_KEY_DOC)],
-    ) -> JSONResponse:
+    ) -> Response:
         """Report a made part; RCB applies at the setpoint version it was made with."""
         body = report.model_dump(mode="json", exclude_none=True)
         written = service.report_part(
@@ -294,7 +294,7 @@ def create_app(url: str) -> FastAPI:
         idempotency_key: Annotated[
             str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
         ] = None,
-    ) -> JSONResponse:
+    ) -> Response:
         """Add a tool with its baseline models (a new name; stored tools never change)."""
         body = tool.model_dump(mode="json", exclude_none=True)
         body.setdefault("source", "REST API")  # the reader's default would say "plan file"
@@ -353,6 +353,10 @@ def _idempotency(request: Request, key: str | None, body: object) -> service.Ide
     return service.Idempotency(key, service.fingerprint("POST", request.url.path, body))
 
 
-def _written(written: service.Written) -> JSONResponse:
+def _written(written: service.Written) -> Response:
     headers = {"Idempotent-Replayed": "true"} if written.replayed else None
+    if written.text is not None:  # encoded once, for the database and for this answer
+        return Response(
+            written.text, written.status, headers=headers, media_type="application/json"
+        )
     return JSONResponse(written.body, status_code=written.status, headers=headers)

@@ -83,11 +83,16 @@ def fingerprint(method: str, path: str, body: object) -> str:
 
 @dataclass(frozen=True)
 class Written:
-    """The response of a write: status, body, and whether it is a stored replay."""
+    """The response of a write: status, body, and whether it is a stored replay.
+
+    ``text``: the body's JSON as stored with the idempotency key (a new answer's, encoded
+    once for the database and the HTTP answer); None for a replay.
+    """
 
     status: int
     body: dict[str, Any]
     replayed: bool = False
+    text: str | None = None
 
 
 @dataclass
@@ -188,16 +193,17 @@ def _write_once(
                     )
                     return done
                 status, body = done
+                answer = bulk.Encoded.of(body)
                 # the key's record and the audit entry go out with the rows the work deferred
                 # (a part report's: one statement on PostgreSQL, db.bulk)
                 rows = [(access.AUDIT, [access.audit_row(actor.name, action, target, str(status))])]
                 if idempotency is not None:
                     record = access.idempotency_row(
-                        actor.id, idempotency.key, idempotency.request_hash, status, body
+                        actor.id, idempotency.key, idempotency.request_hash, status, answer
                     )
                     rows.insert(0, (access.IDEMPOTENCY, [record]))
                 bulk.write_deferred(session, rows)
-                return Written(status, body)
+                return Written(status, body, text=answer.text)
     except IntegrityError as err:
         # a concurrent write won a unique constraint (same serial, same key): nothing was stored
         raise ConflictError(

@@ -140,9 +140,12 @@ def claim_key(*, session: Session, api_key_id: int | None, key: str) -> bool:
 
 
 def idempotency_row(
-    api_key_id: int | None, key: str, request_hash: str, status: int, body: dict[str, Any]
+    api_key_id: int | None, key: str, request_hash: str, status: int, body: Any
 ) -> dict[str, Any]:
-    """The row of a completed request's key, every column given (see :func:`audit_row`)."""
+    """The row of a completed request's key, every column given (see :func:`audit_row`).
+
+    ``body``: the response body, or it with its JSON text (:class:`db.bulk.Encoded`).
+    """
     return {
         "api_key_id": api_key_id,
         "key": key,

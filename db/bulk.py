@@ -19,6 +19,10 @@ row gives the primary key and the columns to set, and ``UPDATE ... FROM json_to_
 sets them (``WITH tN AS (UPDATE plans AS u SET ... FROM json_to_recordset(...) AS x(...)
 WHERE u.id = x.id)``).
 
+A JSON column's value that is already encoded (:class:`Encoded`: a part report's answer, which
+the service also sends over HTTP) is placed in the statement's JSON as its text, not encoded
+again; elsewhere its value is stored as usual.
+
 A use case can :func:`defer` rows to its session and send them with the rows it adds last
 (:func:`write_deferred`): a part report's rows, its plan's new pointers, its idempotency
 record and its audit entry then travel in one statement. Nothing read in the transaction
@@ -30,6 +34,7 @@ lose them.
 from __future__ import annotations
 
 import json
+import secrets
 import threading
 from collections.abc import Mapping, Sequence
 from datetime import datetime
@@ -39,6 +44,21 @@ from sqlalchemy import JSON, Connection, Table, TextClause, bindparam, event, in
 from sqlalchemy.orm import Session
 
 Batch = tuple[Table, Sequence[Mapping[str, Any]]]
+
+
+class Encoded:
+    """A JSON column's value with its JSON text (``json.dumps(value)``, what SQLAlchemy stores)."""
+
+    __slots__ = ("value", "text")
+
+    def __init__(self, value: Any, text: str) -> None:
+        self.value, self.text = value, text
+
+    @classmethod
+    def of(cls, value: Any) -> Encoded:
+        """``value`` with its text (non-finite floats refused, as in a JSON column)."""
+        return cls(value, json.dumps(value, allow_nan=False))
+
 
 _statements: dict[tuple[tuple[bool, str, tuple[str, ...]], ...], TextClause] = {}
 _statements_lock = threading.Lock()
@@ -67,10 +87,18 @@ def insert_rows(
                 connection.execute(_statement(connection, work, columns), params)
                 return
     for is_update, table, rows in work:
+        rows = [_decoded(row) for row in rows]
         if is_update:
             _update_each(connection, table, rows)
         else:
-            connection.execute(insert(table), list(rows))
+            connection.execute(insert(table), rows)
+
+
+def _decoded(row: Mapping[str, Any]) -> Mapping[str, Any]:
+    """The row with each :class:`Encoded` value replaced by the value itself."""
+    if not any(isinstance(v, Encoded) for v in row.values()):
+        return row
+    return {k: v.value if isinstance(v, Encoded) else v for k, v in row.items()}
 
 
 def defer(session: Session, batches: Sequence[Batch] = (), updates: Sequence[Batch] = ()) -> None:
@@ -113,9 +141,8 @@ def _shape(
         wanted = {c.key for c in table.columns if not (c.primary_key and c.autoincrement)}
         if set(columns) != wanted:
             return None
-    if any(len(row) != len(columns) for row in rows):
-        return None
-    if any(row.keys() != rows[0].keys() for row in rows):
+    first = rows[0].keys()
+    if any(row.keys() != first for row in rows):
         return None
     return columns
 
@@ -134,16 +161,29 @@ def _update_each(connection: Connection, table: Table, rows: Sequence[Mapping[st
 
 
 def _json(rows: Sequence[Mapping[str, Any]]) -> str | None:
+    """The rows as one JSON array; None if a value has no JSON form (NaN, infinity, other).
+
+    An :class:`Encoded` value goes in as a placeholder string that is then replaced by its
+    text: a random nonce makes the placeholder unlike any string in the rows.
+    """
+    nonce = secrets.token_hex(8)
+    encoded: list[Encoded] = []
+
+    def encode(value: object) -> str:
+        if isinstance(value, datetime):
+            return value.isoformat()
+        if isinstance(value, Encoded):
+            encoded.append(value)
+            return f"{nonce}:{len(encoded) - 1}"
+        raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
     try:
-        return json.dumps(list(rows), allow_nan=False, default=_encode)
-    except (TypeError, ValueError):  # NaN or infinity, or a value JSON has no form for
+        text = json.dumps(list(rows), allow_nan=False, default=encode)
+    except (TypeError, ValueError):
         return None
-
-
-def _encode(value: object) -> str:
-    if isinstance(value, datetime):
-        return value.isoformat()
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+    for i, value in enumerate(encoded):
+        text = text.replace(f'"{nonce}:{i}"', value.text, 1)
+    return text
 
 
 def _statement(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from datetime import UTC, datetime
@@ -28,7 +29,7 @@ from sqlalchemy.orm import Session
 from api import service
 from db import tables as t
 from db.access import Actor
-from db.bulk import defer, insert_rows
+from db.bulk import Encoded, defer, insert_rows
 from db.engine import make_engine, upgrade
 
 from conftest import DEMO_PLAN
@@ -103,6 +104,32 @@ def test_rows_of_several_tables_are_stored_as_executemany_stores_them(engine):
         assert got == expected  # floats bit for bit, NULL margin, booleans, the time
         assert got_text == expected_text  # a None in a JSON column is JSON null, as SQLAlchemy
         assert [r.dK for r in connection.execute(select(b).order_by(b.c.id))] == [0.25, 7.0]
+
+
+def test_an_encoded_json_value_is_stored_as_its_value_is(engine):
+    """A value given with its JSON text (db.bulk.Encoded) is stored as the plain value is,
+    in the one statement (PostgreSQL) and through executemany (SQLite, or a NaN elsewhere)."""
+    metadata, reference, a, _ = _tables()
+    metadata.create_all(engine)
+    tricky = {"answer": [1 / 3, 5e-324, None, 'ünï "quoted" x:0'], "nested": {"k": True}}
+    rows = [dict(row, raw=Encoded.of(row["raw"])) for row in ROWS]
+    rows[1] = dict(rows[1], raw=Encoded.of(tricky))
+    plain = [dict(row, raw=tricky if i == 1 else row["raw"]) for i, row in enumerate(ROWS)]
+    with engine.begin() as connection:
+        connection.execute(insert(reference), plain)
+        sent: list[str] = []
+        event.listen(connection, "before_cursor_execute", lambda *args: sent.append(args[2]))
+        insert_rows(connection, [(a, rows)])
+        if engine.dialect.name == "postgresql":
+            assert len(sent) == 1 and "json_to_recordset" in sent[0]
+        insert_rows(connection, [(a, [dict(rows[1], value=math.nan)])])  # executemany
+        expected, expected_text = _stored(connection, reference)
+        got, got_text = _stored(connection, a)
+        assert got[:-1] == expected and got_text[:-1] == expected_text
+        assert got[-1]["raw"] == tricky and got_text[-1] == expected_text[1]
+    assert Encoded.of(tricky).text == json.dumps(tricky)  # what SQLAlchemy's JSON type stores
+    with pytest.raises(ValueError):
+        Encoded.of({"x": math.inf})
 
 
 def test_rows_json_cannot_carry_exactly_fall_back_to_executemany(engine):
