@@ -6,6 +6,11 @@ a kept-alive connection then waits for the client's delayed ACK, about 40 ms on 
 (Kludex/uvicorn issue #3149; measured here: ``GET /health`` 44 ms with 2 workers against
 0.8 ms with one). So the listener for several workers is bound here, as a TCP socket, and
 handed to uvicorn's own worker supervisor; one worker runs uvicorn as it is.
+
+uvicorn uses uvloop and httptools (project dependencies) when they are installed: with 4 MES
+clients on 2 workers most of a worker's CPU went to asyncio's loop, h11 and FastAPI rather
+than to the report itself, and these two took about 6 % off the server's CPU per report
+(README, REST load).
 """
 
 from __future__ import annotations
