@@ -9,10 +9,12 @@ of :mod:`api.service` (writes) or :mod:`api.queries` (reads).
 # names local to create_app
 
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any, Literal
 
+from anyio import CancelScope
 from fastapi import Body, Depends, FastAPI, Header, Path, Query, Request
+from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse, Response
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
@@ -95,24 +97,42 @@ def create_app(url: str) -> FastAPI:
 
         return check
 
-    def holding(*allowed: str) -> Callable[..., Iterator[service.Authenticated]]:
-        """As :func:`role`, keeping the key's transaction for the write (service.authenticated)."""
+    def holding(*allowed: str) -> Callable[..., AsyncIterator[service.Authenticated]]:
+        """As :func:`role`, keeping the key's transaction for the write (service.authenticated).
 
-        def check(
+        The key is checked in a worker thread; the route gives the connection back itself
+        (in its own thread), so the usual case needs no third hop to a thread to end the
+        request; a request that never reached the route is released here.
+        """
+
+        def open_checked(
+            key: str | None, action: str, idempotency_key: str | None
+        ) -> service.Authenticated:
+            held = service.authenticate_write(
+                engine=engine, key=key, action=action, idempotency_key=idempotency_key
+            )
+            try:
+                actor = allowed_actor(held.actor if held else None, key, action, allowed, held)
+            except BaseException:
+                if held is not None:
+                    held.close()
+                raise
+            return held or service.Authenticated(actor)  # held: allowed_actor refused None
+
+        async def check(
             request: Request,
             credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
-        ) -> Iterator[service.Authenticated]:
-            action = action_of(request)
+        ) -> AsyncIterator[service.Authenticated]:
             key = credentials.credentials if credentials else None
-            with service.authenticated(
-                engine=engine,
-                key=key,
-                action=action,
-                idempotency_key=request.headers.get("Idempotency-Key"),
-            ) as held:
-                allowed_actor(held.actor if held else None, key, action, allowed, held)
-                assert held is not None
+            held = await run_in_threadpool(
+                open_checked, key, action_of(request), request.headers.get("Idempotency-Key")
+            )
+            try:
                 yield held
+            finally:
+                if held.session is not None:  # the route did not run (a refused body)
+                    with CancelScope(shield=True):
+                        await run_in_threadpool(held.close)
 
         return check
 
@@ -216,14 +236,17 @@ def create_app(url: str) -> FastAPI:
     ) -> Response:
         """Report a made part; RCB applies at the setpoint version it was made with."""
         body = report.model_dump(mode="json", exclude_none=True)
-        written = service.report_part(
-            engine=engine,
-            plan_id=plan_id,
-            body=body,
-            actor=held.actor,
-            idempotency=_idempotency(request, idempotency_key, body),
-            held=held,
-        )
+        try:
+            written = service.report_part(
+                engine=engine,
+                plan_id=plan_id,
+                body=body,
+                actor=held.actor,
+                idempotency=_idempotency(request, idempotency_key, body),
+                held=held,
+            )
+        finally:
+            held.close()  # here, in the route's thread (see holding)
         return _written(written)
 
     @app.get(f"{PREFIX}/plans/{{plan_id}}/parts", response_model=schemas.PartsPage, tags=["mes"])

@@ -109,6 +109,12 @@ class Authenticated:
     session: Session | None = None
     claimed: bool | None = None
 
+    def close(self) -> None:
+        """Give the connection back (an open transaction is rolled back); idempotent."""
+        if self.session is not None:
+            session, self.session, self.claimed = self.session, None, None
+            session.close()
+
 
 #: A write's work in its transaction: (status, body), or a replay found by the work itself.
 Work = Callable[[Session], "tuple[int, dict[str, Any]] | Written"]
@@ -498,30 +504,47 @@ def authenticate(*, engine: Engine, key: str | None, action: str) -> Actor | Non
     return actor
 
 
-@contextmanager
-def authenticated(
+def authenticate_write(
     *, engine: Engine, key: str | None, action: str, idempotency_key: str | None = None
-) -> Iterator[Authenticated | None]:
-    """The authentication of a write request, for as long as the request runs (None: audited).
+) -> Authenticated | None:
+    """The authentication of a write request (None: unknown or revoked key, audited).
 
     On PostgreSQL the key is looked up in a new transaction, and with ``idempotency_key`` its
     in-flight lock is taken by the same statement; the write goes on in that transaction
-    (:class:`Authenticated`), which is rolled back if it is still open when the block ends.
-    On SQLite, as :func:`authenticate`.
+    (:class:`Authenticated`); the caller closes it when the request ends
+    (:meth:`Authenticated.close`). On SQLite, as :func:`authenticate`.
     """
     if not key or engine.dialect.name != "postgresql":
         actor = authenticate(engine=engine, key=key, action=action)
-        yield None if actor is None else Authenticated(actor)
-        return
-    with Session(engine) as session:
+        return None if actor is None else Authenticated(actor)
+    session = Session(engine)
+    try:
         actor, claimed = access.authenticate_claiming(
             session=session, key=key, idempotency_key=idempotency_key
         )
         if actor is None:
             _audit_unauthenticated(engine, key, action, session)
-            yield None
-            return
-        yield Authenticated(actor, session, claimed)
+            session.close()
+            return None
+    except BaseException:
+        session.close()
+        raise
+    return Authenticated(actor, session, claimed)
+
+
+@contextmanager
+def authenticated(
+    *, engine: Engine, key: str | None, action: str, idempotency_key: str | None = None
+) -> Iterator[Authenticated | None]:
+    """:func:`authenticate_write` for the duration of the block, closed at its end."""
+    held = authenticate_write(
+        engine=engine, key=key, action=action, idempotency_key=idempotency_key
+    )
+    try:
+        yield held
+    finally:
+        if held is not None:
+            held.close()
 
 
 def _audit_unauthenticated(

@@ -179,3 +179,34 @@ def test_the_key_lock_is_taken_with_the_key_check_on_postgresql(pg_setup):
                 )
     # released with the first request's transaction: the key is free again
     assert _report(engine, key, plan_id, _body(engine, plan_id, "H-3"), "busy").status == 201
+
+
+def test_every_answer_gives_the_connection_back(pg_setup):
+    """Through the app: a report, a replay, a refused body (the route never runs), a 404, a
+    403 and a 401 each leave no connection checked out of the pool."""
+    from fastapi.testclient import TestClient
+
+    from api.app import create_app
+
+    engine, key, viewer, plan_id = pg_setup
+    app = create_app(engine.url.render_as_string(hide_password=False))
+    pool = app.state.engine.pool
+    body = _body(engine, plan_id, "H-app")
+    calls = [
+        (key, f"/plans/{plan_id}/parts", body, 201),
+        (key, f"/plans/{plan_id}/parts", body, 201),  # the replay
+        (key, f"/plans/{plan_id}/parts", {"serial": "x"}, 422),
+        (key, f"/plans/{plan_id + 1}/parts", dict(body, serial="H-404"), 404),
+        (viewer, f"/plans/{plan_id}/parts", body, 403),
+        ("rcb_wrong", f"/plans/{plan_id}/parts", body, 401),
+    ]
+    with TestClient(app) as client:
+        for i, (bearer, path, payload, status) in enumerate(calls):
+            r = client.post(
+                f"/api/v1{path}",
+                json=payload,
+                headers={"Authorization": f"Bearer {bearer}", "Idempotency-Key": f"a-{i // 2}"},
+            )
+            assert r.status_code == status, r.text
+            assert pool.checkedout() == 0, (path, status)
+    app.state.engine.dispose()
