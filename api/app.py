@@ -18,7 +18,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse, Response
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from api import problems, queries, schemas, service, ui
+from api import auth, problems, queries, schemas, service, ui
 from api.problems import ProblemError
 from db.access import Actor
 from db.engine import DEFAULT_URL, make_engine
@@ -59,23 +59,26 @@ def create_app(url: str) -> FastAPI:
         route = request.scope.get("route")
         return f"{request.method} {getattr(route, 'path', '?')}"  # the template: bounded
 
+    def unauthorized(key: str | None) -> ProblemError:
+        return ProblemError(
+            401,
+            "unauthorized",
+            "missing API key" if key is None else "unknown or revoked API key",
+            "Authorization",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+
     def allowed_actor(
         actor: Actor | None,
         key: str | None,
         action: str,
         allowed: tuple[str, ...],
-        held: service.Authenticated | None = None,
+        held: auth.Authenticated | None = None,
     ) -> Actor:
         if actor is None:
-            raise ProblemError(
-                401,
-                "unauthorized",
-                "missing API key" if key is None else "unknown or revoked API key",
-                "Authorization",
-                headers={"WWW-Authenticate": "Bearer"},
-            )
+            raise unauthorized(key)
         if actor.role not in allowed:
-            service.audit_forbidden(engine=engine, actor=actor, action=action, held=held)
+            auth.audit_forbidden(engine=engine, actor=actor, action=action, held=held)
             raise ProblemError(
                 403,
                 "forbidden",
@@ -92,13 +95,13 @@ def create_app(url: str) -> FastAPI:
         ) -> Actor:
             action = action_of(request)
             key = credentials.credentials if credentials else None
-            actor = service.authenticate(engine=engine, key=key, action=action)
+            actor = auth.authenticate(engine=engine, key=key, action=action)
             return allowed_actor(actor, key, action, allowed)
 
         return check
 
-    def holding(*allowed: str) -> Callable[..., AsyncIterator[service.Authenticated]]:
-        """As :func:`role`, keeping the key's transaction for the write (service.authenticated).
+    def holding(*allowed: str) -> Callable[..., AsyncIterator[auth.Authenticated]]:
+        """As :func:`role`, keeping the key's transaction for the write (auth.authenticated).
 
         The key is checked in a worker thread; the route gives the connection back itself
         (in its own thread), so the usual case needs no third hop to a thread to end the
@@ -107,22 +110,23 @@ def create_app(url: str) -> FastAPI:
 
         def open_checked(
             key: str | None, action: str, idempotency_key: str | None
-        ) -> service.Authenticated:
-            held = service.authenticate_write(
+        ) -> auth.Authenticated:
+            held = auth.authenticate_write(
                 engine=engine, key=key, action=action, idempotency_key=idempotency_key
             )
+            if held is None:
+                raise unauthorized(key)
             try:
-                actor = allowed_actor(held.actor if held else None, key, action, allowed, held)
+                allowed_actor(held.actor, key, action, allowed, held)
             except BaseException:
-                if held is not None:
-                    held.close()
+                held.close()
                 raise
-            return held or service.Authenticated(actor)  # held: allowed_actor refused None
+            return held
 
         async def check(
             request: Request,
             credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
-        ) -> AsyncIterator[service.Authenticated]:
+        ) -> AsyncIterator[auth.Authenticated]:
             key = credentials.credentials if credentials else None
             held = await run_in_threadpool(
                 open_checked, key, action_of(request), request.headers.get("Idempotency-Key")
@@ -231,7 +235,7 @@ def create_app(url: str) -> FastAPI:
         request: Request,
         plan_id: PlanId,
         report: schemas.PartReportIn,
-        held: Annotated[service.Authenticated, Depends(holding("mes", "engineer"))],
+        held: Annotated[auth.Authenticated, Depends(holding("mes", "engineer"))],
         idempotency_key: Annotated[str, Header(pattern=KEY_PATTERN, description=_KEY_DOC)],
     ) -> Response:
         """Report a made part; RCB applies at the setpoint version it was made with."""

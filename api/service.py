@@ -22,10 +22,10 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from api import render
+from api.auth import Authenticated, aside
 from db import access, bulk, keylock, library
 from db import repository as repo
 from db.access import Actor
-from db.engine import one_statement_reader
 from db.errors import ConflictError
 from db.intake import StoredAnswer, open_report, serial_exists, stored_answer
 from db.state_cache import CACHE
@@ -93,27 +93,6 @@ class Written:
     body: dict[str, Any]
     replayed: bool = False
     text: str | None = None
-
-
-@dataclass
-class Authenticated:
-    """A request's actor and, on PostgreSQL, the transaction its API key was checked in.
-
-    ``session`` is that transaction (one connection); the request's write goes on in it
-    (:func:`_write`), so a part report takes one connection from the pool, not two, and its
-    idempotency key's in-flight lock (``claimed``) was taken by the key's own lookup. On
-    SQLite the key is read outside a transaction and both are None.
-    """
-
-    actor: Actor
-    session: Session | None = None
-    claimed: bool | None = None
-
-    def close(self) -> None:
-        """Give the connection back (an open transaction is rolled back); idempotent."""
-        if self.session is not None:
-            session, self.session, self.claimed = self.session, None, None
-            session.close()
 
 
 #: A write's work in its transaction: (status, body), or a replay found by the work itself.
@@ -243,23 +222,6 @@ def _transaction(
         raise
 
 
-@contextmanager
-def _aside(engine: Engine, held: Session | None) -> Iterator[Session]:
-    """A transaction for an audit entry of a refused request.
-
-    In ``held``, the request's session (its open transaction rolled back first), so a request
-    never takes a second connection from the pool; else in a new session.
-    """
-    if held is None:
-        with Session(engine) as session, session.begin():
-            yield session
-        return
-    if held.in_transaction():
-        held.rollback()
-    with held.begin():
-        yield held
-
-
 class _free:
     def __enter__(self) -> bool:
         return True
@@ -290,7 +252,7 @@ def _audited(
             "field": str(getattr(err, "field", "")),
             "message": str(err)[:500],
         }
-        with _aside(engine, held.session if held else None) as session:
+        with aside(engine, held.session if held else None) as session:
             access.audit(
                 session=session,
                 actor=actor.name,
@@ -491,84 +453,6 @@ def revoke_key(*, engine: Engine, key_id: int) -> dict[str, Any]:
             session=session, actor="cli", action="revoke key", target=f"key {key_id}", result="ok"
         )
         return {"id": key_id, "role": row.role, "revoked_at": row.revoked_at}
-
-
-def authenticate(*, engine: Engine, key: str | None, action: str) -> Actor | None:
-    """The actor of a Bearer key, or None (the failure is audited)."""
-    actor = None
-    if key:
-        with Session(one_statement_reader(engine)) as session:  # no write lock for a read
-            actor = access.authenticate(session=session, key=key)
-    if actor is None:
-        _audit_unauthenticated(engine, key, action)
-    return actor
-
-
-def authenticate_write(
-    *, engine: Engine, key: str | None, action: str, idempotency_key: str | None = None
-) -> Authenticated | None:
-    """The authentication of a write request (None: unknown or revoked key, audited).
-
-    On PostgreSQL the key is looked up in a new transaction, and with ``idempotency_key`` its
-    in-flight lock is taken by the same statement; the write goes on in that transaction
-    (:class:`Authenticated`); the caller closes it when the request ends
-    (:meth:`Authenticated.close`). On SQLite, as :func:`authenticate`.
-    """
-    if not key or engine.dialect.name != "postgresql":
-        actor = authenticate(engine=engine, key=key, action=action)
-        return None if actor is None else Authenticated(actor)
-    session = Session(engine)
-    try:
-        actor, claimed = access.authenticate_claiming(
-            session=session, key=key, idempotency_key=idempotency_key
-        )
-        if actor is None:
-            _audit_unauthenticated(engine, key, action, session)
-            session.close()
-            return None
-    except BaseException:
-        session.close()
-        raise
-    return Authenticated(actor, session, claimed)
-
-
-@contextmanager
-def authenticated(
-    *, engine: Engine, key: str | None, action: str, idempotency_key: str | None = None
-) -> Iterator[Authenticated | None]:
-    """:func:`authenticate_write` for the duration of the block, closed at its end."""
-    held = authenticate_write(
-        engine=engine, key=key, action=action, idempotency_key=idempotency_key
-    )
-    try:
-        yield held
-    finally:
-        if held is not None:
-            held.close()
-
-
-def _audit_unauthenticated(
-    engine: Engine, key: str | None, action: str, session: Session | None = None
-) -> None:
-    with _aside(engine, session) as session:
-        access.audit(
-            session=session,
-            actor="anonymous",
-            action=action,
-            target="",
-            result="unauthenticated",
-            detail={"reason": "no key" if not key else "unknown or revoked key"},
-        )
-
-
-def audit_forbidden(
-    *, engine: Engine, actor: Actor, action: str, held: Authenticated | None = None
-) -> None:
-    """Record a request refused for the actor's role (``held``: see :func:`authenticated`)."""
-    with _aside(engine, held.session if held else None) as session:
-        access.audit(
-            session=session, actor=actor.name, action=action, target="", result="forbidden"
-        )
 
 
 def _plan(session: Session, plan_id: int, lock: bool = False) -> Any:

@@ -4,7 +4,7 @@ Browsers send no ``Authorization`` header when they navigate, so the API key is 
 a form (``/ui/login``) and kept in a cookie: HttpOnly (no script can read it), SameSite=Strict
 (no other site's page can make the browser send it), ``Path=/ui`` (never sent to ``/api/v1``),
 Secure when the request came over HTTPS. Every request authenticates the key again with
-:func:`api.service.authenticate`, so a revoked key stops working at once. Any role may look:
+:func:`api.auth.authenticate`, so a revoked key stops working at once. Any role may look:
 mes, engineer and viewer are all viewer or above.
 
 The pages are self-contained (inline CSS and SVG, no script, nothing loaded from elsewhere); a
@@ -24,7 +24,7 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from sqlalchemy import Engine
 from starlette.concurrency import run_in_threadpool
 
-from api import queries, service
+from api import auth, queries, service
 from api.report_html import render_report
 from db.access import Actor
 
@@ -74,9 +74,9 @@ def install(app: FastAPI, engine: Engine) -> None:
             return None  # nothing to check (a first visit): not audited
         route = request.scope.get("route")
         action = f"{request.method} {getattr(route, 'path', '?')}"
-        actor = service.authenticate(engine=engine, key=key, action=action)
+        actor = auth.authenticate(engine=engine, key=key, action=action)
         if actor is not None and actor.role not in ROLES:
-            service.audit_forbidden(engine=engine, actor=actor, action=action)
+            auth.audit_forbidden(engine=engine, actor=actor, action=action)
             return None
         return actor
 
@@ -96,7 +96,7 @@ def install(app: FastAPI, engine: Engine) -> None:
         if not key:
             return _login_page("Enter an API key.", 401)
         action = f"POST {PREFIX}/login"
-        actor = await run_in_threadpool(service.authenticate, engine=engine, key=key, action=action)
+        actor = await run_in_threadpool(auth.authenticate, engine=engine, key=key, action=action)
         if actor is None or actor.role not in ROLES:
             return _login_page("Unknown or revoked API key.", 401)
         response = RedirectResponse(f"{PREFIX}/", status_code=303, headers=_HEADERS)

@@ -1,4 +1,4 @@
-"""service.authenticated: a part report written in the transaction its API key was checked in.
+"""api.auth: a part report written in the transaction its API key was checked in.
 
 On PostgreSQL the key's lookup opens the write's transaction and takes the idempotency key's
 in-flight lock in the same statement; a request then uses one pooled connection for its key
@@ -14,7 +14,7 @@ import pytest
 from sqlalchemy import event, func, select
 from sqlalchemy.orm import Session
 
-from api import queries, service
+from api import auth, queries, service
 from db import tables as t
 from db.engine import make_engine, upgrade
 
@@ -86,7 +86,7 @@ def _body(engine, plan_id, serial, value_scale=1.0):
 
 
 def _report(engine, key, plan_id, body, idempotency_key):
-    with service.authenticated(
+    with auth.authenticated(
         engine=engine, key=key, action="POST parts", idempotency_key=idempotency_key
     ) as held:
         assert held is not None
@@ -138,7 +138,7 @@ def test_a_refused_report_is_audited_on_the_same_connection(setup):
 
 def test_an_unknown_key_is_none_and_audited(setup):
     engine, _, _, _ = setup
-    with service.authenticated(
+    with auth.authenticated(
         engine=engine, key="rcb_wrong", action="POST parts", idempotency_key="k"
     ) as held:
         assert held is None
@@ -148,9 +148,9 @@ def test_an_unknown_key_is_none_and_audited(setup):
 def test_a_forbidden_role_is_audited_in_the_held_session(setup):
     engine, _, viewer, _ = setup
     checkouts = Checkouts(engine)
-    with service.authenticated(engine=engine, key=viewer, action="POST parts") as held:
+    with auth.authenticated(engine=engine, key=viewer, action="POST parts") as held:
         assert held is not None and held.actor.role == "viewer"
-        service.audit_forbidden(engine=engine, actor=held.actor, action="POST parts", held=held)
+        auth.audit_forbidden(engine=engine, actor=held.actor, action="POST parts", held=held)
     assert checkouts.most == 1
     assert _audit(engine)[-1] == ("POST parts", "forbidden")
 
@@ -158,11 +158,11 @@ def test_a_forbidden_role_is_audited_in_the_held_session(setup):
 def test_the_key_lock_is_taken_with_the_key_check_on_postgresql(pg_setup):
     # (SQLite guards keys in flight with a file lock: db.keylock, tests/test_idempotency.py)
     engine, key, _, plan_id = pg_setup
-    with service.authenticated(
+    with auth.authenticated(
         engine=engine, key=key, action="POST parts", idempotency_key="busy"
     ) as first:
         assert first is not None and first.claimed is True
-        with service.authenticated(
+        with auth.authenticated(
             engine=engine, key=key, action="POST parts", idempotency_key="busy"
         ) as second:
             assert second is not None and second.claimed is False
