@@ -6,6 +6,7 @@ import os
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from sqlalchemy import text
@@ -19,6 +20,29 @@ from live import LiveServer
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
 POSTGRES = os.environ.get("RCB_TEST_POSTGRES_URL")
+#: Ivester & Heigel Table 5's measured ± columns (force_N, roughness_um).
+TABLE5_UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
+
+
+def report_at(
+    serial: str, setpoints: dict[str, Any], uncertainty: dict[str, float] = TABLE5_UNCERTAINTY
+) -> dict[str, Any]:
+    """A part report made with ``setpoints`` (an answer's ``setpoint_version`` and
+    ``operations``): each quantity of ``uncertainty`` measured at its prediction."""
+    return {
+        "serial": serial,
+        "setpoint_version": setpoints["setpoint_version"],
+        "operations": [
+            {
+                "name": op["name"],
+                "measurements": {
+                    q: {"value": op["predicted"][q]["value"], "uncertainty": u}
+                    for q, u in uncertainty.items()
+                },
+            }
+            for op in setpoints["operations"]
+        ],
+    }
 
 
 @pytest.fixture

@@ -18,7 +18,7 @@ from api import auth, queries, service
 from db import tables as t
 from db.engine import make_engine, upgrade
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, report_at
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
@@ -65,24 +65,9 @@ class Checkouts:
             self.now -= 1
 
 
-def _body(engine, plan_id, serial, value_scale=1.0):
+def _body(engine, plan_id, serial):
     setpoints = queries.current_setpoints(engine=engine, plan_id=plan_id)
-    return {
-        "serial": serial,
-        "setpoint_version": setpoints["setpoint_version"],
-        "operations": [
-            {
-                "name": op["name"],
-                "measurements": {
-                    "force_N": {
-                        "value": value_scale * op["predicted"]["force_N"]["value"],
-                        "uncertainty": 3.0,
-                    }
-                },
-            }
-            for op in setpoints["operations"]
-        ],
-    }
+    return report_at(serial, setpoints, {"force_N": 3.0})
 
 
 def _report(engine, key, plan_id, body, idempotency_key):

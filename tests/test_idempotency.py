@@ -14,7 +14,7 @@ from db import tables as t
 from db.access import Actor
 from db.engine import make_engine, upgrade
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, report_at
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
@@ -25,22 +25,6 @@ def engine(backend_url):
     engine = make_engine(backend_url)
     yield engine
     engine.dispose()
-
-
-def _body(serial, setpoints):
-    return {
-        "serial": serial,
-        "setpoint_version": setpoints["setpoint_version"],
-        "operations": [
-            {
-                "name": op["name"],
-                "measurements": {
-                    "force_N": {"value": op["predicted"]["force_N"]["value"], "uncertainty": 3.0}
-                },
-            }
-            for op in setpoints["operations"]
-        ],
-    }
 
 
 def _setup(engine):
@@ -62,7 +46,7 @@ def _count(engine, table):
 
 def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
     actor, plan_id, setpoints = _setup(engine)
-    body = _body("I1", setpoints)
+    body = report_at("I1", setpoints, {"force_N": 3.0})
     first = service.report_part(
         engine=engine,
         plan_id=plan_id,
@@ -104,7 +88,7 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
 
 def test_a_key_in_flight_is_refused_and_free_again_after(engine):
     actor, plan_id, setpoints = _setup(engine)
-    body = _body("F1", setpoints)
+    body = report_at("F1", setpoints, {"force_N": 3.0})
     scope = f"{actor.id}:busy"
     if engine.dialect.name == "sqlite":
         holder = keylock.in_flight(engine, scope)
@@ -147,7 +131,7 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
 
 def test_a_refused_report_stores_no_key_and_is_audited(engine):
     actor, plan_id, setpoints = _setup(engine)
-    bad = _body("B1", setpoints)
+    bad = report_at("B1", setpoints, {"force_N": 3.0})
     bad["operations"][0]["measurements"]["force_N"]["value"] = -1.0
     with pytest.raises(ValueError, match="force_N.value"):
         service.report_part(
@@ -158,7 +142,7 @@ def test_a_refused_report_stores_no_key_and_is_audited(engine):
             idempotency=_idem("b", plan_id, bad),
         )
     assert _count(engine, t.IdempotencyRecord) == 0
-    good = _body("B1", setpoints)  # the corrected report may reuse the key
+    good = report_at("B1", setpoints, {"force_N": 3.0})  # the corrected report may reuse the key
     fixed = service.report_part(
         engine=engine,
         plan_id=plan_id,

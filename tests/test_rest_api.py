@@ -22,31 +22,11 @@ from db import tables as t
 from db.engine import make_engine
 from models.errors import InputError
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, TABLE5_UNCERTAINTY, report_at
 from live import RCB, free_port
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 LIMITS = {op["name"]: op["limits"] for op in PLAN["operations"]}
-UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}  # Table 5's measured ± columns, order of
-
-
-def _report(serial, setpoints):
-    """Measurements equal to the predictions at the setpoints in force: inside the band, with
-    the margin the band edge leaves below the limit."""
-    return {
-        "serial": serial,
-        "setpoint_version": setpoints["setpoint_version"],
-        "operations": [
-            {
-                "name": op["name"],
-                "measurements": {
-                    q: {"value": op["predicted"][q]["value"], "uncertainty": u}
-                    for q, u in UNCERTAINTY.items()
-                },
-            }
-            for op in setpoints["operations"]
-        ],
-    }
 
 
 def _post_part(client, plan_id, body, key):
@@ -73,7 +53,7 @@ def test_mes_loop_shrinks_bands_by_a_quarter_of_the_margin_and_replays_change_no
         first_mrr = {op["name"]: op["mrr_cm3_min"] for op in setpoints["operations"]}
         answers, sent, exact = [], [], 0
         for i in range(10):
-            body, key = _report(f"SN-{i:03d}", setpoints), f"part-{plan_id}-{i}"
+            body, key = report_at(f"SN-{i:03d}", setpoints), f"part-{plan_id}-{i}"
             r = _post_part(mes, plan_id, body, key)
             assert r.status_code == 201, r.text
             answer = r.json()
@@ -83,12 +63,12 @@ def test_mes_loop_shrinks_bands_by_a_quarter_of_the_margin_and_replays_change_no
             for u in answer["updates"]:
                 limit = LIMITS[u["operation"]][u["quantity"]]
                 made = by_op[u["operation"]]["predicted"][u["quantity"]]
-                margin = limit - (made["value"] + UNCERTAINTY[u["quantity"]])
+                margin = limit - (made["value"] + TABLE5_UNCERTAINTY[u["quantity"]])
                 assert u["margin"] == pytest.approx(margin, rel=1e-9)
                 assert not u["flagged"] and margin > 0
                 assert u["band_before"] == pytest.approx(made["band"], rel=1e-9)
                 law = made["band"] - 0.25 * margin  # Ivester & Heigel, RCB: α = 0.25
-                floor = UNCERTAINTY[u["quantity"]]  # the band never narrows below it
+                floor = TABLE5_UNCERTAINTY[u["quantity"]]  # the band never narrows below it
                 if u["action"] == "hold":  # already at the floor (or the coverage below)
                     assert u["band_after"] == u["band_before"] and law < u["band_before"]
                 elif "keeps covering" in u["reason"]:  # never narrower than a measurement seen
@@ -123,7 +103,7 @@ def test_parts_pages_cover_every_part_once_in_order(server):
         plan_id = c.post("/plans", json=PLAN).json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
         for i in range(7):
-            r = _post_part(c, plan_id, _report(f"P{i}", setpoints), f"pg-{plan_id}-{i}")
+            r = _post_part(c, plan_id, report_at(f"P{i}", setpoints), f"pg-{plan_id}-{i}")
             setpoints = r.json()
         serials, cursor = [], None
         while True:
@@ -148,7 +128,7 @@ def test_history_and_model_versions_record_every_change_with_its_cause(server):
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
         for i in range(2):
             setpoints = _post_part(
-                c, plan_id, _report(f"H{i}", setpoints), f"h-{plan_id}-{i}"
+                c, plan_id, report_at(f"H{i}", setpoints), f"h-{plan_id}-{i}"
             ).json()
         history = c.get(f"/plans/{plan_id}/history").json()["versions"]
         assert [(v["version"], v["cause"], v["serial"]) for v in history] == [
@@ -242,7 +222,7 @@ def test_errors_are_problems_naming_the_field(server):
     with server.client("engineer") as c:
         plan_id = c.post("/plans", json=PLAN).json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
-        body = _report("E1", setpoints)
+        body = report_at("E1", setpoints)
         missing = c.post(f"/plans/{plan_id}/parts", json=body)
         assert missing.status_code == 400 and missing.json()["field"] == "Idempotency-Key"
         assert _post_part(c, plan_id, body, f"e-{plan_id}").status_code == 201

@@ -26,35 +26,16 @@ from api import queries, service
 from db import tables as t
 from db.engine import make_engine, upgrade
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, report_at
 from live import LiveServer
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
 DECISIONS_PER_PART = 2 * len(PLAN["operations"])  # force_N and roughness_um on 6 operations
 CLIENTS = 50  # concurrent reporters of distinct parts
 SAME_KEY_CLIENTS, SAME_KEY_ROUNDS = 10, 3
 STREAM, LANES, KILL_AFTER = 200, 8, 40  # crash test: reports, client threads, acks before kill
 TIMEOUT_S = 60.0
 IN_FLIGHT_RETRIES = 50  # a replay may meet the key of a dying request of the killed server
-
-
-def _report(serial: str, setpoints: dict[str, Any]) -> dict[str, Any]:
-    """Measurements equal to the predictions of ``setpoints``, made at their version."""
-    return {
-        "serial": serial,
-        "setpoint_version": setpoints["setpoint_version"],
-        "operations": [
-            {
-                "name": op["name"],
-                "measurements": {
-                    q: {"value": op["predicted"][q]["value"], "uncertainty": u}
-                    for q, u in UNCERTAINTY.items()
-                },
-            }
-            for op in setpoints["operations"]
-        ],
-    }
 
 
 def _post(client: httpx.Client, plan_id: int, body: dict, key: str) -> httpx.Response:
@@ -191,13 +172,13 @@ def reference(tmp_path_factory) -> Reference:
         setpoints = queries.current_setpoints(engine=engine, plan_id=plan_id)
         answers = [
             service.report_part(
-                engine=engine, plan_id=plan_id, body=_report(f"REF-{i}", setpoints)
+                engine=engine, plan_id=plan_id, body=report_at(f"REF-{i}", setpoints)
             ).body
             for i in range(STREAM)
         ]
     finally:
         engine.dispose()
-    return Reference(_report("", setpoints), [_outcome(a) for a in answers])
+    return Reference(report_at("", setpoints), [_outcome(a) for a in answers])
 
 
 def test_reference_moves_bands_then_holds(reference):
@@ -214,11 +195,11 @@ def test_fifty_clients_report_distinct_parts_at_once(backend_url, tmp_path, refe
     _start(live)
     try:
         plan_id, setpoints = _new_plan(live)
-        assert _report("", setpoints) == reference.report
+        assert report_at("", setpoints) == reference.report
         barrier = threading.Barrier(CLIENTS, timeout=TIMEOUT_S)
 
         def send(i: int) -> httpx.Response:
-            body = _report(f"C{i:02d}", setpoints)  # all made with version 1: allowed
+            body = report_at(f"C{i:02d}", setpoints)  # all made with version 1: allowed
             with live.client("mes") as client:
                 barrier.wait()
                 return _post(client, plan_id, body, f"c-{plan_id}-{i}")
@@ -246,7 +227,7 @@ def test_same_key_at_once_stores_one_part(backend_url, tmp_path):
     try:
         plan_id, setpoints = _new_plan(live)
         for round_ in range(SAME_KEY_ROUNDS):
-            body, key = _report(f"K{round_}", setpoints), f"k-{plan_id}-{round_}"
+            body, key = report_at(f"K{round_}", setpoints), f"k-{plan_id}-{round_}"
             barrier = threading.Barrier(SAME_KEY_CLIENTS, timeout=TIMEOUT_S)
 
             def send(_: int, body=body, key=key, barrier=barrier) -> httpx.Response:
@@ -291,7 +272,7 @@ def test_kill_9_mid_stream_then_replay_keeps_every_acknowledged_part_once(
     live.start()
     try:
         plan_id, setpoints = _new_plan(live)
-        reports = [(_report(f"S{i:03d}", setpoints), f"s-{plan_id}-{i}") for i in range(STREAM)]
+        reports = [(report_at(f"S{i:03d}", setpoints), f"s-{plan_id}-{i}") for i in range(STREAM)]
         answered: dict[int, httpx.Response] = {}
         mutex, enough = threading.Lock(), threading.Event()
 

@@ -34,11 +34,10 @@ from schemathesis.specs.openapi.checks import (
     unsupported_method,
 )
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, report_at
 from live import LiveServer
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
 TOOL = {
     "name": "SCHEMA-TEST-1",
     "process": "turning",
@@ -98,23 +97,6 @@ def _call(
     return response
 
 
-def _report(serial: str, setpoints: dict[str, Any]) -> dict[str, Any]:
-    return {
-        "serial": serial,
-        "setpoint_version": setpoints["setpoint_version"],
-        "operations": [
-            {
-                "name": op["name"],
-                "measurements": {
-                    q: {"value": op["predicted"][q]["value"], "uncertainty": u}
-                    for q, u in UNCERTAINTY.items()
-                },
-            }
-            for op in setpoints["operations"]
-        ],
-    }
-
-
 def _seed(schema, server: LiveServer, session) -> None:
     """Plan 1 with a few parts (one report replayed) and a tool; every response checked."""
     created = _call(schema, server, session, "POST", "/api/v1/plans", body=PLAN)
@@ -122,7 +104,7 @@ def _seed(schema, server: LiveServer, session) -> None:
     setpoints = created.json()
     for i in range(SEED_PARTS):
         headers = {"Idempotency-Key": f"seed-{i}"}
-        body = _report(f"SEED-{i}", setpoints)
+        body = report_at(f"SEED-{i}", setpoints)
         r = _call(schema, server, session, "POST", PARTS, path_parameters={"plan_id": 1},
                   body=body, headers=headers)  # fmt: skip
         assert r.status_code == 201, r.text
