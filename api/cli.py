@@ -275,7 +275,7 @@ def demo(
     the spindle current (Kim & Jeon). Writes nothing: the parts are simulated in memory.
     """
     with errors():
-        settings = RcbSettings(strategy=strategy, alpha=alpha)  # type: ignore[arg-type]
+        settings = RcbSettings(strategy=strategy, alpha=alpha)
         if plan_file is None:
             plan_file = MILLING_DEMO_PLAN if milling else DEMO_PLAN
         plan = load_plan(plan_file)

@@ -275,7 +275,7 @@ def create_plan(
 ) -> Written:
     """Check and optimise a plan, store it with setpoint version 1 (status 201)."""
     with _audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
-        settings = RcbSettings(strategy=strategy, alpha=alpha)  # type: ignore[arg-type]
+        settings = RcbSettings(strategy=strategy, alpha=alpha)
         with Session(engine) as session:
             stored_tools = library.load_tools(session=session)
         plan = plan_from_mapping(body, stored_tools)

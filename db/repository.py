@@ -122,7 +122,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     tools: dict[str, Tool] = {}
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}
-    settings = RcbSettings(strategy=plan_row.strategy, alpha=plan_row.alpha)  # type: ignore[arg-type]
+    settings = RcbSettings(strategy=plan_row.strategy, alpha=plan_row.alpha)
     latest_models = _latest_models(session, plan_row.id)
     band_states = _latest_band_states(
         session, plan_row.id, _bands_reset_after(session, plan_row.id)

@@ -32,6 +32,16 @@ from supervisor import domain, productivity
 from supervisor.domain import DomainProblem
 from supervisor.errors import Conflict, InfeasibleError
 from supervisor.plan import PARTS_PER_EDGE, Machine, Objective, Operation
+from supervisor.posterior import Cone
+
+
+@dataclass(frozen=True)
+class ConeTerm:
+    """``z ‖G x + h‖``, the spread a learned row adds to its linear part (:mod:`.posterior`)."""
+
+    G: tuple[tuple[float, ...], ...]
+    h: tuple[float, ...]
+    z: float
 
 
 @dataclass(frozen=True)
@@ -42,7 +52,8 @@ class Row:
     ``sense`` whether it is a maximum or a minimum. ``given_as`` names the limit as the
     engineer wrote it, which is ``limit / scale`` (``parts_per_edge`` is tool life / volume).
     ``check`` is the bounded quantity of a row that no model predicts (Borangiu's domain), for
-    the re-check of an optimum.
+    the re-check of an optimum. ``cone``: a learned row is ``coefficients · x + z ‖G x + h‖
+    <= rhs``, a second-order cone (:mod:`supervisor.posterior`).
     """
 
     name: str
@@ -53,6 +64,7 @@ class Row:
     given_as: str
     scale: float = 1.0
     check: Monomial | None = None
+    cone: ConeTerm | None = None
 
 
 @dataclass(frozen=True)
@@ -83,20 +95,42 @@ def _row(
     scale: float = 1.0,
     given_as: str = "",
     check: bool = False,
+    cone: ConeTerm | None = None,
 ) -> Row:
-    """``monomial <= limit`` (or ``>=``) as a row in ``ln(params)``, ``context`` fixed."""
+    """``monomial <= limit`` (or ``>=``) as a row in ``ln(params)``, ``context`` fixed.
+
+    With ``cone`` the monomial is the nominal of a learned model and the row a cone.
+    """
     fixed = monomial.fix(context)
     coefficients = tuple(fixed.exponents.get(p, 0.0) for p in params)
     rhs = math.log(limit) - math.log(fixed.coefficient)
     if sense == "min":
         coefficients, rhs = tuple(-a for a in coefficients), -rhs
     return Row(
-        name, coefficients, rhs, limit, sense, given_as or name, scale, monomial if check else None
+        name,
+        coefficients,
+        rhs,
+        limit,
+        sense,
+        given_as or name,
+        scale,
+        monomial if check else None,
+        cone,
     )
 
 
-def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearProgram:
-    """Build the robust log-linear program of ``operation`` with ``tool`` on ``machine``."""
+def formulate(
+    operation: Operation,
+    tool: Tool,
+    machine: Machine,
+    cones: Mapping[str, Cone] | None = None,
+) -> LogLinearProgram:
+    """Build the robust log-linear program of ``operation`` with ``tool`` on ``machine``.
+
+    ``cones``: per quantity, a learned model's cone (``learn`` strategy) that replaces the
+    band row of that quantity (and of power and torque, for ``force_N``).
+    """
+    learned = cones or {}
     process = operation.process
     params = kinematics.PARAMETERS[process]
     context = operation.context
@@ -109,10 +143,18 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         sense: Sense = "max",
         scale: float = 1.0,
         given_as: str = "",
+        of: str = "",
     ) -> Row:
-        return _row(params, context, name, monomial, limit, sense, scale, given_as)
+        cone = learned.get(of)
+        term = None
+        if cone is not None:
+            G, h = cone.factor(params, rel)
+            term = ConeTerm(tuple(map(tuple, G.tolist())), tuple(h.tolist()), cone.z)
+        return _row(params, context, name, monomial, limit, sense, scale, given_as, cone=term)
 
     def edge(quantity: str, sense: Sense) -> Monomial:
+        if quantity in learned:  # the nominal: the cone row adds the spread
+            return learned[quantity].posterior.model().monomial
         model = tool.models[quantity]
         rel_band = model.relative_band(rel)
         factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band
@@ -130,12 +172,20 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
     rows: list[Row] = []
     for quantity, limit in operation.limits.items():
         if quantity in MODEL_QUANTITIES:
-            rows.append(row(quantity, edge(quantity, "max"), limit))
+            rows.append(row(quantity, edge(quantity, "max"), limit, of=quantity))
         elif quantity == PARTS_PER_EDGE:
             volume = operation.volume_mm3
             lower_edge = edge("tool_life_mm3", "min")
             rows.append(
-                row("tool_life_mm3", lower_edge, limit * volume, "min", volume, PARTS_PER_EDGE)
+                row(
+                    "tool_life_mm3",
+                    lower_edge,
+                    limit * volume,
+                    "min",
+                    volume,
+                    PARTS_PER_EDGE,
+                    of="tool_life_mm3",
+                )
             )
     # the tighter of the machine's limit and the operation's own, named as it was given
     machine_limits = {q: (v, f"machine.max_{q}") for q, v in machine.limits().items()}
@@ -143,15 +193,18 @@ def formulate(operation: Operation, tool: Tool, machine: Machine) -> LogLinearPr
         if quantity in DERIVED_QUANTITIES and limit < machine_limits.get(quantity, (math.inf,))[0]:
             machine_limits[quantity] = (limit, quantity)
     for quantity, (limit, given_as) in machine_limits.items():
+        of = ""
         if quantity == "spindle_rpm":
             monomial = kinematics.spindle_rpm_monomial(process)
         elif quantity == "feed_rate_mm_min":
             monomial = kinematics.feed_rate_monomial(process)
         elif quantity == "power_kW":
             monomial = edge("force_N", "max") * kinematics.power_per_newton_monomial()
+            of = "force_N"
         else:  # torque_Nm
             monomial = edge("force_N", "max") * kinematics.torque_per_newton_monomial(process)
-        rows.append(row(quantity, monomial, limit, given_as=given_as))
+            of = "force_N"
+        rows.append(row(quantity, monomial, limit, given_as=given_as, of=of))
     if operation.domain is not None:
         for lim in domain.milling_limits(operation.domain):
             rows.append(

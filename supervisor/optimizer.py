@@ -37,6 +37,10 @@ from supervisor.domain import DomainProblem, DomainResult, domain_point, domain_
 from supervisor.errors import Conflict, InfeasibleError, PlanError, SolverError
 from supervisor.formulation import LogLinearProgram, Row, formulate, formulate_domain
 from supervisor.plan import Machine, Objective, Operation, Plan
+from supervisor.posterior import Cone, display_model
+
+#: Per operation name, per quantity: the cones of a ``learn`` state (:mod:`.posterior`).
+Cones = Mapping[str, Mapping[str, Cone]]
 
 #: A row or bound whose slack in ln-space is below this is binding (1 ppm relative).
 BINDING_TOL = 1e-6
@@ -74,6 +78,9 @@ class OperationResult:
     constant_load : ConstantLoadSetpoint or None
         Reference current and feed limits, for a milling operation under constant-load
         control (Tai et al.; :mod:`supervisor.constant_load.setpoint`).
+    robust_by : {"band", "cone"}
+        What keeps the setpoint safe: the bands, or the learned models' cones (``learn``);
+        with ``cone``, ``predicted`` holds the learned value and the cone's half-width.
     """
 
     name: str
@@ -87,6 +94,7 @@ class OperationResult:
     objective: Objective = "mrr"
     cost_per_kg: float | None = None
     constant_load: ConstantLoadSetpoint | None = None
+    robust_by: str = "band"
 
 
 @dataclass(frozen=True)
@@ -146,24 +154,68 @@ def _optimum(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
     return _solve(lp) if lp.goal == "mrr" else _minimize_cost(lp)
 
 
-def optimize_operation(operation: Operation, tool: Tool, machine: Machine) -> OperationResult:
+def optimize_operation(
+    operation: Operation,
+    tool: Tool,
+    machine: Machine,
+    cones: Mapping[str, Cone] | None = None,
+) -> OperationResult:
     """Robust optimum of one operation (max MRR or least ``J``, every limit at the band edge).
+
+    With ``cones`` (a ``learn`` state's learned models) the cone program is solved too and
+    the faster of the two optima is taken: the band program is the proven-safe fallback, so
+    a setpoint is never worse than the band optimum, and the plan runs while either holds.
 
     Raises
     ------
     InfeasibleError
-        No parameters within the bounds meet every limit; says which limits conflict.
+        No parameters within the bounds meet every limit; says which limits conflict (those
+        of the band program).
     SolverError
         The solver gave no optimal status, or the optimum fails the re-check.
     """
     lp = formulate(operation, tool, machine)
-    return _result(operation, tool, lp, _optimum(lp), machine)
+    try:
+        band: OperationResult | None = _result(operation, tool, lp, _optimum(lp), machine)
+        infeasible = None
+    except InfeasibleError as err:
+        band, infeasible = None, err
+    learned = _learned(operation, tool, machine, cones or {})
+    if learned is not None and (band is None or learned.mrr_cm3_min > band.mrr_cm3_min):
+        return learned
+    if band is None:
+        assert infeasible is not None
+        raise infeasible
+    return band
+
+
+def _learned(
+    operation: Operation, tool: Tool, machine: Machine, cones: Mapping[str, Cone]
+) -> OperationResult | None:
+    """The optimum under the learned models' cones, or None (no cone, or infeasible)."""
+    usable = {q: c for q, c in cones.items() if q in tool.models}
+    if not usable or operation.objective != "mrr":
+        return None
+    lp = formulate(operation, tool, machine, usable)
+    try:
+        x = _solve(lp)
+    except InfeasibleError:
+        return None
+    point = {**{p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}}
+    point.update(operation.context)
+    rel = operation.setpoint_rel_uncertainty
+    shown = replace(
+        tool,
+        models={**tool.models, **{q: display_model(c, point, rel) for q, c in usable.items()}},
+    )
+    return replace(_result(operation, shown, lp, x, machine), robust_by="cone")
 
 
 def optimize_plan(
     plan: Plan,
     tools: Mapping[str, Tool] | None = None,
-    previous: tuple[PlanResult, Mapping[str, Tool]] | None = None,
+    previous: tuple[PlanResult, Mapping[str, Tool], Cones] | None = None,
+    cones: Cones | None = None,
 ) -> PlanResult:
     """Robust optimum of every operation of ``plan``.
 
@@ -174,39 +226,48 @@ def optimize_plan(
     tools : Mapping[str, Tool], optional
         The tool of an operation, by operation name, where its models differ from the plan's
         (RCB keeps a band per operation and quantity; a simulation uses the true models).
-    previous : (PlanResult, Mapping[str, Tool]), optional
-        An earlier result of ``plan`` and the tools it was solved with: an operation whose
-        tool is the same (equal models) keeps its result there, since an optimum depends
-        only on the operation, its tool and the machine (DESIGN.md, RCB step 4: re-optimise
-        the operations whose bands changed).
+    previous : (PlanResult, Mapping[str, Tool], Cones), optional
+        An earlier result of ``plan`` and the tools and cones it was solved with: an
+        operation whose tool and cones are the same keeps its result there, since an optimum
+        depends only on the operation, its tool, its cones and the machine (DESIGN.md, RCB
+        step 4: re-optimise the operations whose bands changed).
+    cones : Cones, optional
+        Per operation, the learned models' cones (``learn``; :func:`optimize_operation`).
 
     Errors as :func:`optimize_operation`; a model that cannot be evaluated for an operation's
     inputs is a :class:`PlanError` naming ``operations[i].<field>``.
     """
     overrides = tools or {}
+    learned = cones or {}
     used = [overrides.get(op.name) or plan.tools[op.tool] for op in plan.operations]
     kept: dict[str, OperationResult] = {}
     if previous is not None:
-        result, solved_with = previous
+        result, solved_with, cones_with = previous
         earlier = {r.name: r for r in result.operations}
         kept = {
             op.name: earlier[op.name]
             for op, tool in zip(plan.operations, used, strict=True)
-            if op.name in earlier and solved_with.get(op.name) == tool
+            if op.name in earlier
+            and solved_with.get(op.name) == tool
+            and cones_with.get(op.name) == learned.get(op.name)
         }
-    lps: dict[int, LogLinearProgram] = {}
-    for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
-        if op.name not in kept:
-            with _fields_of(i):
-                lps[i] = formulate(op, tool, plan.machine)
-    xs = {i: _optimum(lp) for i, lp in lps.items()}
+    if not learned:  # the band programs alone: formulate all, then solve (errors name fields)
+        lps: dict[int, LogLinearProgram] = {}
+        for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
+            if op.name not in kept:
+                with _fields_of(i):
+                    lps[i] = formulate(op, tool, plan.machine)
+        xs = {i: _optimum(lp) for i, lp in lps.items()}
     results = []
     for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
         if op.name in kept:
             results.append(kept[op.name])
             continue
         with _fields_of(i):
-            results.append(_result(op, tool, lps[i], xs[i], plan.machine))
+            if learned:
+                results.append(optimize_operation(op, tool, plan.machine, learned.get(op.name)))
+            else:
+                results.append(_result(op, tool, lps[i], xs[i], plan.machine))
     return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
 
 

@@ -9,14 +9,26 @@ with (Ivester & Heigel, "Adaptive Control Optimization"; DESIGN.md, "RCB"):
     \Delta Y' = \max(\Delta Y - \alpha M, \; \Delta Y_{floor}) \quad (M > 0)
 
 with ``α = 0.25`` ("one or more of the uncertainty parameters is reduced by a fraction (0.25) of
-the difference"). A measurement outside the predicted band ``Y ± ΔY`` or over the limit never
-shrinks the band: it grows to ``|y − Y| + u`` so it covers the measurement, and the decision is
-flagged. ``ΔY'`` is stored as a new ``ΔK`` through the first-order law of
-:func:`models.powerlaw.relative_band`:
-``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``. For a minimum (tool life) the sides swap:
-``M = (y − u) − Y_lim``.
+the difference"). The law is one-sided, as the paper's: only the side of the band that guards
+the limit matters. For a maximum:
 
-Two strategies:
+- ``y + u`` above the limit: ``breach``; above the band's upper edge ``Y + ΔY``:
+  ``above_band``. Either is flagged and the band grows to ``y + u − Y`` so it covers the
+  measurement (action ``expand``); it never shrinks then.
+- otherwise the margin law above; a reading whose ``y + u`` lies under the band's lower edge
+  carries the note ``below_band`` (the model is pessimistic there), never a flag: a part that
+  came out better than predicted is no reason to widen a band.
+
+Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` or ``below_band``
+(``y − u`` under the limit or the lower edge), the note ``above_band``. ``ΔY'`` is stored as a
+new ``ΔK`` through the first-order law of :func:`models.powerlaw.relative_band`:
+``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
+
+When the grown bands leave no safe setpoint the plan *halts* (:class:`Halt`): the report is
+still applied (a part is never refused because of what it measured), the setpoints stay those
+the part was made with, and only an engineer's replan resumes (DESIGN.md, RCB step 4).
+
+Strategies (:mod:`supervisor.strategies`):
 
 ``ivester``
     The law above, on ΔK only: K keeps its catalogue value.
@@ -37,6 +49,10 @@ Two strategies:
     one downward, and the band becomes the larger of ``k·sqrt(σ'² + τ²)`` (the predicted
     spread at the next setpoint, which is not the one measured) and the Ivester law's result
     (never narrower than the law would allow, and never below the floor).
+``learn`` (beyond the paper)
+    The law above as ``ivester`` (the proven-safe fallback), and a Bayesian regression of
+    ``ln y`` on ``(1, ln x)`` per operation and quantity (:mod:`supervisor.posterior`), whose
+    second-order-cone constraint the optimiser uses where it allows more than the band.
 
 References
 ----------
@@ -54,16 +70,40 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 from models.errors import InputError
-from models.powerlaw import PowerLawModel
+from models.powerlaw import PowerLawModel, Prediction
 from models.quantities import MODEL_QUANTITIES
 from models.tool import Tool
-from supervisor.optimizer import OperationResult, PlanResult, optimize_plan
+from supervisor import posterior as post
+from supervisor.errors import Conflict, InfeasibleError
+from supervisor.optimizer import (
+    RECHECK_RTOL,
+    OperationResult,
+    PlanResult,
+    optimize_operation,
+    optimize_plan,
+)
 from supervisor.plan import PARTS_PER_EDGE, Operation, Plan
+from supervisor.posterior import Posterior
 from supervisor.report import Measurement, PartReport, ToolWear
+from supervisor.strategies import (
+    DEFAULT_ALPHA,
+    DEFAULT_STRATEGY,
+    REGISTRY,
+    STRATEGY_NAMES,
+    Strategy,
+)
 
-Strategy = Literal["ivester", "bayes"]
 Action = Literal["shrink", "hold", "expand"]
-STRATEGIES: tuple[Strategy, ...] = ("ivester", "bayes")
+#: What made a decision flagged: the limit crossed, or the measurement beyond the band's
+#: guarding edge (``above_band`` for a maximum, ``below_band`` for a minimum).
+Flag = Literal["breach", "above_band", "below_band"]
+#: Information, never a flag: the measurement beyond the band's other edge.
+Note = Literal["below_band", "above_band"]
+#: A measurement is past a band's edge only beyond this fraction of it: an optimum sits on
+#: its limit within the optimiser's re-check tolerance.
+EDGE_RTOL = RECHECK_RTOL
+#: Names of the registered strategies (:mod:`supervisor.strategies`).
+STRATEGIES: tuple[str, ...] = STRATEGY_NAMES
 
 
 @dataclass(frozen=True)
@@ -72,27 +112,36 @@ class RcbSettings:
 
     Parameters
     ----------
-    strategy : {"ivester", "bayes"}
-        ``ivester``: the paper's law on ΔK; ``bayes``: also learn K (module docstring).
+    strategy : str
+        A name of :data:`supervisor.strategies.REGISTRY` (module docstring).
     alpha : float
         Fraction of the margin by which a band shrinks, ``0 < alpha <= 1`` (paper: 0.25).
     floors : Mapping[str, float]
         Least band ``ΔY`` per quantity, in its unit; default: the measurement's uncertainty.
     coverage_k : float
-        ``bayes``: the band is ``k σ`` of ``ln K`` (2: the paper's ±2σ).
-    discrepancy : float
-        ``bayes``: ``τ``, the model discrepancy added to ``σ`` before each observation [-].
+        ``bayes`` and ``learn``: the band is ``k σ`` of ``ln K`` (2: the paper's ±2σ).
+    discrepancy : float, optional
+        ``τ``, the model discrepancy [-]: ``bayes`` adds it to ``σ`` before each observation,
+        ``learn`` takes it as the intercept's random walk per part; default: the strategy's
+        (:attr:`supervisor.strategies.Strategy.default_discrepancy`).
+    z : float
+        ``learn``: the cone's multiple of the posterior standard deviation of ``ln y``.
+    exponent_sd : float
+        ``learn``: prior standard deviation of each exponent relative to its value [-], for a
+        model without a fitted covariance.
     """
 
-    strategy: Strategy = "ivester"
-    alpha: float = 0.25
+    strategy: str = DEFAULT_STRATEGY
+    alpha: float = DEFAULT_ALPHA
     floors: Mapping[str, float] = field(default_factory=dict)
     coverage_k: float = 2.0
-    discrepancy: float = 0.02
+    discrepancy: float | None = None
+    z: float = post.DEFAULT_Z
+    exponent_sd: float = post.DEFAULT_EXPONENT_SD
 
     def __post_init__(self) -> None:
-        if self.strategy not in STRATEGIES:
-            raise InputError("strategy", self.strategy, f"expected one of: {', '.join(STRATEGIES)}")
+        if self.strategy not in REGISTRY:
+            raise InputError("strategy", self.strategy, f"expected one of: {', '.join(REGISTRY)}")
         if not (0 < self.alpha <= 1):
             raise InputError("alpha", self.alpha, "must be in (0, 1]")
         for quantity, floor in self.floors.items():
@@ -100,8 +149,26 @@ class RcbSettings:
                 raise InputError(f"floors.{quantity}", floor, "unknown quantity")
             if not (math.isfinite(floor) and floor >= 0):
                 raise InputError(f"floors.{quantity}", floor, "must be a number >= 0")
-        if not (self.coverage_k > 0 and self.discrepancy >= 0):
-            raise InputError("coverage_k", self.coverage_k, "must be > 0 (discrepancy >= 0)")
+        for name in ("coverage_k", "z"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0 < value <= 100):
+                raise InputError(name, value, "must be a number in (0, 100]")
+        if self.discrepancy is None:
+            object.__setattr__(self, "discrepancy", self.rule.default_discrepancy)
+        for name in ("discrepancy", "exponent_sd"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0 <= value <= 10):
+                raise InputError(name, value, "must be a number in [0, 10]")
+
+    @property
+    def rule(self) -> Strategy:
+        """The strategy object of :attr:`strategy`."""
+        return REGISTRY[self.strategy]
+
+    @property
+    def tau(self) -> float:
+        """The discrepancy in force (the strategy's default when none was given)."""
+        return self.rule.default_discrepancy if self.discrepancy is None else self.discrepancy
 
 
 @dataclass(frozen=True)
@@ -110,8 +177,10 @@ class Decision:
 
     ``margin`` is ``limit − (measured + u)`` for a maximum and ``(measured − u) − limit`` for
     a minimum (``margin`` and ``limit`` are ``None`` for a quantity without a limit);
-    ``band_*`` are ``ΔY`` at the setpoint the part was made with; ``flagged`` marks a
-    measurement outside the band or past the limit.
+    ``band_*`` are ``ΔY`` at the setpoint the part was made with. ``flag`` says why a
+    decision is flagged (``breach``: the limit crossed; ``above_band``/``below_band``: past
+    the band's guarding edge), ``note`` is information only (``below_band`` for a maximum:
+    the model is pessimistic there); ``flagged`` is ``flag is not None``.
     """
 
     operation: str
@@ -130,6 +199,30 @@ class Decision:
     limit: float | None
     flagged: bool
     reason: str
+    flag: Flag | None = None
+    note: Note | None = None
+
+
+@dataclass(frozen=True)
+class HaltedOperation:
+    """An operation that no setpoint can run under the bands in force."""
+
+    operation: str
+    conflicts: tuple[Conflict, ...]
+    against: tuple[str, ...]
+    message: str
+
+
+@dataclass(frozen=True)
+class Halt:
+    """Why a plan halted: the operations whose limits cannot all be met, and by how much."""
+
+    operations: tuple[HaltedOperation, ...]
+
+    @property
+    def message(self) -> str:
+        """One line per halted operation."""
+        return "; ".join(o.message for o in self.operations)
 
 
 @dataclass(frozen=True)
@@ -144,7 +237,7 @@ class RcbState:
         Per operation name, the tool with the models in force: bands are kept per operation
         and quantity, as Table 5 treats steps 2 and 3 (both VCMR331).
     setpoints : PlanResult
-        The current robust optimum under those models.
+        The current robust optimum under those models (while halted: the last setpoints).
     version : int
         Setpoint version, 1 for the initial robust optimum.
     settings : RcbSettings
@@ -156,6 +249,10 @@ class RcbState:
         the largest ``(y + u)/Π x_i^e_i`` for a maximum, the smallest ``(y − u)/Π x_i^e_i``
         for a minimum. A band never shrinks so far that it stops covering it, as Ivester &
         Heigel's bands are "the range of K that encompasses all of the points".
+    posterior : Mapping[tuple[str, str], Posterior]
+        ``learn``: the posterior of ``(ln K, exponents)`` per (operation, quantity) measured.
+    halt : Halt or None
+        Set when the bands leave no safe setpoint; only a replan clears it.
     """
 
     plan: Plan
@@ -165,6 +262,8 @@ class RcbState:
     settings: RcbSettings
     sigma: Mapping[tuple[str, str], float] = field(default_factory=dict)
     seen: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    posterior: Mapping[tuple[str, str], Posterior] = field(default_factory=dict)
+    halt: Halt | None = None
 
 
 def prior_sigma(model: PowerLawModel, settings: RcbSettings) -> float:
@@ -184,6 +283,31 @@ def start(plan: Plan, settings: RcbSettings | None = None) -> RcbState:
     return RcbState(plan, tools, optimize_plan(plan, tools), 1, settings, sigma)
 
 
+def learned_cones(state: RcbState) -> dict[str, dict[str, post.Cone]]:
+    """The cone constraints of a ``learn`` state, per operation and quantity."""
+    if not state.settings.rule.learns_model:
+        return {}
+    cones: dict[str, dict[str, post.Cone]] = {}
+    for (name, quantity), belief in state.posterior.items():
+        cones.setdefault(name, {})[quantity] = post.Cone(
+            belief, state.settings.z, state.settings.tau
+        )
+    return cones
+
+
+def optimize_state(
+    state: RcbState, tools: Mapping[str, Tool], posterior: Mapping[tuple[str, str], Posterior]
+) -> PlanResult:
+    """The setpoints of ``state``'s plan under ``tools`` (and the cones of ``posterior``)."""
+    trial = replace(state, tools=tools, posterior=posterior)
+    return optimize_plan(
+        state.plan,
+        tools,
+        previous=(state.setpoints, state.tools, learned_cones(state)),
+        cones=learned_cones(trial),
+    )
+
+
 def update(
     state: RcbState, report: PartReport, made_with: PlanResult | None = None
 ) -> tuple[RcbState, tuple[Decision, ...]]:
@@ -201,15 +325,15 @@ def update(
     Returns
     -------
     tuple[RcbState, tuple[Decision, ...]]
-        The new state and one decision per measurement.
+        The new state and one decision per measurement. When the new bands leave no safe
+        setpoint, the new state is *halted* (:attr:`RcbState.halt`) with the setpoints and
+        version unchanged; a halted state stays halted (its bands still learn).
 
     Raises
     ------
     InputError
         Unknown operation or quantity, or a setpoint version the state does not hold; nothing
         is applied.
-    InfeasibleError
-        The grown bands leave no safe setpoint (the operation must stop).
     """
     setpoints = _setpoints_of(state, report, made_with)
     operations = {op.name: op for op in state.plan.operations}
@@ -220,6 +344,7 @@ def update(
     tools = dict(state.tools)
     sigma = dict(state.sigma)
     seen = dict(state.seen)
+    posterior = dict(state.posterior)
     measured_items = [
         (name, quantity, measurement)
         for name, measured in report.measurements.items()
@@ -232,6 +357,7 @@ def update(
     for name, quantity, _ in measured_items:  # check the whole report before applying any
         _check_quantity(tools[name], name, quantity)
     decisions: list[Decision] = []
+    learns = state.settings.rule.learns_model
     for name, quantity, measurement in measured_items:
         key = (name, quantity)
         decision, model, sigma[key], seen[key] = _apply(
@@ -239,17 +365,53 @@ def update(
         )
         decisions.append(decision)
         tools[name] = _with_model(tools[name], model)
-    if tools == dict(state.tools):
-        return replace(state, sigma=sigma, seen=seen), tuple(decisions)
+        if learns and measurement.value > 0 and measurement.uncertainty > 0:
+            op = operations[name]
+            before = posterior.get(key) or post.prior(
+                state.plan.tools[op.tool].models[quantity],
+                op,
+                state.settings.coverage_k,
+                state.settings.exponent_sd,
+            )
+            point = {**results[name].setpoint, **op.context}
+            posterior[key] = post.observe(
+                before, point, measurement, state.settings.coverage_k, state.settings.tau
+            )
+    unchanged = tools == dict(state.tools) and posterior == dict(state.posterior)
+    if unchanged or state.halt is not None:
+        return replace(state, tools=tools, sigma=sigma, seen=seen, posterior=posterior), tuple(
+            decisions
+        )
+    try:
+        new_setpoints = optimize_state(state, tools, posterior)
+    except InfeasibleError:
+        halt = _halt_of(state, tools, posterior)
+        halted = replace(state, tools=tools, sigma=sigma, seen=seen, posterior=posterior, halt=halt)
+        return halted, tuple(decisions)
     new = replace(
         state,
         tools=tools,
-        setpoints=optimize_plan(state.plan, tools, previous=(state.setpoints, state.tools)),
+        setpoints=new_setpoints,
         version=state.version + 1,
         sigma=sigma,
         seen=seen,
+        posterior=posterior,
     )
     return new, tuple(decisions)
+
+
+def _halt_of(
+    state: RcbState, tools: Mapping[str, Tool], posterior: Mapping[tuple[str, str], Posterior]
+) -> Halt:
+    """Every operation that cannot run under ``tools``, with its conflicts."""
+    halted = []
+    cones = learned_cones(replace(state, posterior=posterior))
+    for op in state.plan.operations:
+        try:
+            optimize_operation(op, tools[op.name], state.plan.machine, cones.get(op.name))
+        except InfeasibleError as err:
+            halted.append(HaltedOperation(op.name, err.conflicts, err.against, str(err)))
+    return Halt(tuple(halted))
 
 
 def _setpoints_of(state: RcbState, report: PartReport, made_with: PlanResult | None) -> PlanResult:
@@ -314,20 +476,28 @@ def _apply(
     quantity: str,
     measurement: Measurement,
 ) -> tuple[Decision, PowerLawModel, float, float]:
-    """The law for one measured quantity: decision, new model, new σ of ln K, new ``seen``."""
+    """The one-sided law for one measured quantity: decision, model, σ of ln K, ``seen``."""
     settings = state.settings
     model = state.tools[operation.name].models[quantity]
     sigma = state.sigma.get((operation.name, quantity), prior_sigma(model, settings))
     point = {**result.setpoint, **operation.context}
     rel = operation.setpoint_rel_uncertainty
     predicted = model.predict(point, rel)
+    # flags and notes are against the prediction the part was made with: the band's, or for
+    # a ``learn`` setpoint held by a cone, the learned value and the cone's half-width
+    shown = result.predicted.get(quantity, predicted)
     y, u = measurement.value, measurement.uncertainty
     limit = _limit(operation, quantity)
-    sense = MODEL_QUANTITIES[quantity].sense
+    is_max = MODEL_QUANTITIES[quantity].sense == "max"
     floor = settings.floors.get(quantity, u)
 
     def decision(
-        action: Action, new: PowerLawModel, margin: float | None, flag: bool, why: str
+        action: Action,
+        new: PowerLawModel,
+        margin: float | None,
+        why: str,
+        flag: Flag | None = None,
+        note: Note | None = None,
     ) -> Decision:
         return Decision(
             operation=operation.name,
@@ -340,57 +510,83 @@ def _apply(
             dK_after=new.dK,
             K_before=model.K,
             K_after=new.K,
-            predicted=predicted.value,
+            predicted=shown.value,
             measured=y,
             uncertainty=u,
             limit=limit,
-            flagged=flag,
+            flagged=flag is not None,
             reason=why,
+            flag=flag,
+            note=note,
         )
 
+    # the side of the measurement that guards the limit, and the band's edges in that sense
+    guard = y + u if is_max else max(y - u, 0.0)
     # the most demanding measurement so far, as a K-equivalent (RcbState.seen)
     shape = predicted.value / model.K  # Π x_i^e_i at the part's setpoint
-    edge_now = (y + u) / shape if sense == "max" else max(y - u, 0.0) / shape
+    edge_now = guard / shape
     before = state.seen.get((operation.name, quantity), edge_now)
-    worst = max(before, edge_now) if sense == "max" else min(before, edge_now)
+    worst = max(before, edge_now) if is_max else min(before, edge_now)
     if limit is None:
-        hold = decision("hold", model, None, False, "no limit on this quantity")
+        hold = decision("hold", model, None, "no limit on this quantity")
         return hold, model, sigma, worst
-    margin = limit - (y + u) if sense == "max" else (y - u) - limit
-    past_limit = y > limit if sense == "max" else y < limit
-    outside = abs(y - predicted.value) > predicted.band
+    margin = limit - guard if is_max else guard - limit
+    if result.robust_by == "cone":  # a cone bounds the true value: the far side of y ± u
+        far = max(y - u, 0.0) if is_max else y + u
+        beyond_guard = _past(far, shown, is_max)
+    else:  # a band covers measured ± u (Ivester & Heigel: "encompasses all of the points")
+        beyond_guard = _past(guard, shown, is_max)
+    beyond_other = guard < shown.lower if is_max else guard > shown.upper
+    # the fallback band of a cone setpoint: past its edge it grows, but is not flagged
+    fallback_only = result.robust_by == "cone" and _past(guard, predicted, is_max)
+    flag: Flag | None = None
+    if y > limit if is_max else y < limit:
+        flag = "breach"
+    elif beyond_guard:
+        flag = "above_band" if is_max else "below_band"
+    note: Note | None = None
+    if beyond_other and flag is None:
+        note = "below_band" if is_max else "above_band"
 
-    # bayes: conjugate update of ln K first; the band law then acts around the new K
-    if settings.strategy == "bayes" and y > 0:
-        model, sigma = _bayes(model, point, measurement, sigma, settings)
+    rule = settings.rule
+    model, sigma = rule.adjust(model, point, measurement, sigma, settings.coverage_k, settings.tau)
     y_new = model.predict(point, rel)
     # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
-    cover = (worst / model.K - 1.0 if sense == "max" else 1.0 - worst / model.K) * y_new.value
-    if past_limit or outside:
-        band = max(predicted.band, abs(y - y_new.value) + u, cover)
-        new = _with_band(model, band, y_new.value, point, rel)
-        why = "measurement past the limit" if past_limit else "measurement outside the band"
+    cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new.value
+    if flag is not None or fallback_only:
+        reach = guard - y_new.value if is_max else y_new.value - guard
+        new = _with_band(model, max(predicted.band, reach, cover), y_new.value, point, rel)
         action: Action = "expand" if new.predict(point, rel).band > predicted.band else "hold"
-        flagged = decision(action, new, margin, True, f"{why}: never shrink; band covers it")
+        if flag is None:
+            why = "inside the learned cone; the fallback band grows to cover it"
+            return decision(action, new, margin, why, note=note), new, sigma, worst
+        where = "measured past the limit" if flag == "breach" else f"measured {flag}"
+        flagged = decision(action, new, margin, f"{where}: never shrink; band covers it", flag)
         return flagged, new, sigma, worst
+    below = " (note: below the band: the model is pessimistic here)" if note else ""
     if margin <= 0:
         new = _with_band(model, max(predicted.band, cover), y_new.value, point, rel)
-        no_margin = decision("hold", new, margin, False, "no margin: measured + u at the limit")
+        no_margin = decision("hold", new, margin, "no margin: measured + u at the limit", note=note)
         return no_margin, new, sigma, worst
     band = max(predicted.band - settings.alpha * margin, floor)
-    if settings.strategy == "bayes":
-        # the band used at the next (different) setpoint is the predicted one: σ'² + τ²
-        predicted_sigma = math.hypot(sigma, settings.discrepancy)
-        band = max(band, settings.coverage_k * predicted_sigma * y_new.value)
+    band = rule.least_band(band, sigma, y_new.value, settings.coverage_k, settings.tau)
     why = f"margin {margin:.4g} > 0: band shrinks by {settings.alpha:g} of it (floor {floor:.4g})"
     if cover > band:
         band = cover
         why = "margin > 0, but the band keeps covering the most demanding measurement so far"
     if band >= predicted.band or math.isclose(band, predicted.band, rel_tol=1e-12):
         new = _with_band(model, predicted.band, y_new.value, point, rel)
-        return decision("hold", new, margin, False, "band at its floor"), new, sigma, worst
+        held = decision("hold", new, margin, "band at its floor" + below, note=note)
+        return held, new, sigma, worst
     new = _with_band(model, band, y_new.value, point, rel)
-    return decision("shrink", new, margin, False, why), new, sigma, worst
+    return decision("shrink", new, margin, why + below, note=note), new, sigma, worst
+
+
+def _past(value: float, prediction: Prediction, is_max: bool) -> bool:
+    """``value`` beyond the guarding edge of ``prediction``, past the solver's tolerance."""
+    if is_max:
+        return value > prediction.upper * (1 + EDGE_RTOL)
+    return value < prediction.lower * (1 - EDGE_RTOL)
 
 
 def _with_band(
@@ -406,22 +602,3 @@ def _with_band(
     setpoint_part = model.relative_band(rel) ** 2 - (model.dK / model.K) ** 2
     dK_over_K = math.sqrt(max((band / value) ** 2 - setpoint_part, 0.0))
     return replace(model, dK=model.K * dK_over_K)
-
-
-def _bayes(
-    model: PowerLawModel,
-    point: Mapping[str, float],
-    measurement: Measurement,
-    sigma: float,
-    settings: RcbSettings,
-) -> tuple[PowerLawModel, float]:
-    """Conjugate normal update of ``ln K`` (module docstring); returns model and new σ."""
-    k = settings.coverage_k
-    shape = model.predict(point).value / model.K  # Π x_i^e_i
-    z = math.log(measurement.value) - math.log(shape)
-    prior_var = sigma**2 + settings.discrepancy**2
-    obs_var = max((measurement.uncertainty / k) / measurement.value, 1e-9) ** 2
-    post_var = 1.0 / (1.0 / prior_var + 1.0 / obs_var)
-    mu = post_var * (math.log(model.K) / prior_var + z / obs_var)
-    K = math.exp(mu)
-    return replace(model, K=K, dK=model.dK * K / model.K), math.sqrt(post_var)

@@ -76,20 +76,78 @@ def test_the_floor_holds(state):
 
 
 def test_a_violation_expands_and_never_shrinks(state):
-    # Ra 4.3 ± 0.05 µm is over the 4.0 µm limit: the band grows to cover it and is flagged.
+    # Ra 4.3 ± 0.05 µm is over the 4.0 µm limit: a breach; the band grows to cover it.
     ra = _rough_od(state).predicted["roughness_um"]
     new, (d,) = update(
         state, _report(state, {"rough-od": {"roughness_um": Measurement(4.3, 0.05)}})
     )
-    assert d.action == "expand" and d.flagged
-    assert_allclose(d.band_after, 4.3 - ra.value + 0.05)  # |y − Y| + u
+    assert d.action == "expand" and d.flagged and d.flag == "breach" and d.note is None
+    assert_allclose(d.band_after, 4.3 + 0.05 - ra.value)  # y + u − Y
     assert d.band_after > d.band_before and d.margin < 0
     assert new.setpoints.operations[0].mrr_cm3_min < _rough_od(state).mrr_cm3_min  # backs off
-    # outside the band below, too: flagged, never a shrink
-    _, (low,) = update(
-        state, _report(state, {"rough-od": {"roughness_um": Measurement(1.0, 0.05)}})
-    )
-    assert low.flagged and low.action == "expand" and low.band_after >= low.band_before
+
+
+def test_one_sided_law_hand_computed(state):
+    # rough-grooves robust start (Ivester & Heigel Table 4 models, VCMR331): force Y = 578.53 N,
+    # ΔY = 177.10 N, so the band is [401.43, 755.63] N under the 1000 N limit.
+    f = state.setpoints.operations[1].predicted["force_N"]
+    assert_allclose((f.value, f.band), (578.53, 177.10), atol=0.01)
+
+    def one(y, u):
+        measured = {"rough-grooves": {"force_N": Measurement(y, u)}}
+        return update(state, _report(state, measured))[1][0]
+
+    # under the lower edge: 380 ± 5 → margin M = 1000 − 385 = 615 N; the band shrinks by
+    # exactly 0.25 M = 153.75 N to 23.35 N (above the 5 N floor); a note, never a flag
+    low = one(380.0, 5.0)
+    assert low.action == "shrink" and not low.flagged and low.flag is None
+    assert low.note == "below_band"
+    assert_allclose(low.margin, 615.0)
+    assert_allclose(low.band_after, f.band - 153.75)
+    # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.63: expand to cover
+    # it (765 − 578.53 = 186.47 N), flagged above_band, margin 235 N
+    above = one(760.0, 5.0)
+    assert above.action == "expand" and above.flagged and above.flag == "above_band"
+    assert above.note is None
+    assert_allclose(above.band_after, 765.0 - f.value)
+    assert_allclose(above.margin, 235.0)
+    # measured over the limit: 1010 ± 5 → breach, the band covers 1015 N
+    over = one(1010.0, 5.0)
+    assert over.action == "expand" and over.flag == "breach"
+    assert_allclose(over.band_after, 1015.0 - f.value)
+    assert_allclose(over.margin, -15.0)
+    # inside the band: an ordinary shrink, neither flag nor note
+    inside = one(600.0, 5.0)
+    assert inside.action == "shrink" and inside.flag is None and inside.note is None
+
+
+def test_one_sided_law_mirrored_for_tool_life(state):
+    # Tool life is a minimum: rough-od needs 10 parts x 86400 mm³ = 864000 mm³ per edge.
+    op = state.plan.operations[0]
+    point = {**_rough_od(state).setpoint, **op.context}
+    life = state.tools["rough-od"].models["tool_life_mm3"].predict(point)
+    limit = 10 * 86400
+
+    def wear_for(volume_at_allowable):
+        # Eq. 8, mr ∝ w^1.241: an edge at VB after V reaches 0.3 mm after V (0.3/VB)^1.241
+        vb = 0.15
+        return ToolWear(Measurement(vb, 0.001), volume_at_allowable / (0.3 / vb) ** 1.241)
+
+    # far above the band's upper edge: the note above_band, a shrink by 0.25 of the margin
+    high = life.upper * 1.2
+    _, (d,) = update(state, _report(state, {}, {"rough-od": wear_for(high)}))
+    assert d.note == "above_band" and not d.flagged and d.action == "shrink"
+    assert_allclose(d.margin, (d.measured - d.uncertainty) - limit)
+    assert_allclose(d.band_after, d.band_before - 0.25 * d.margin)
+    # under the lower edge, over the limit: flagged below_band, the band grows
+    between = 0.5 * (limit + life.lower)
+    assert limit < between < life.lower
+    _, (d,) = update(state, _report(state, {}, {"rough-od": wear_for(between)}))
+    assert d.flag == "below_band" and d.action == "expand"
+    assert_allclose(d.band_after, life.value - (d.measured - d.uncertainty))
+    # under the limit: breach
+    _, (d,) = update(state, _report(state, {}, {"rough-od": wear_for(0.5 * limit)}))
+    assert d.flag == "breach" and d.action == "expand" and d.margin < 0
 
 
 def test_no_margin_holds(state):
@@ -108,7 +166,9 @@ def test_quantities_and_operations_update_independently(state):
     new, ds = update(state, _report(state, both))
     by = {(d.operation, d.quantity): d for d in ds}
     assert by[("rough-od", "roughness_um")].action == "shrink"
-    assert by[("rough-od", "force_N")].action == "hold"  # 1990 + 12 > 2000: no margin
+    # 1990 + 12 = 2002 is above the band's upper edge (the 2000 N limit): above_band
+    assert by[("rough-od", "force_N")].action == "expand"
+    assert by[("rough-od", "force_N")].flag == "above_band"
     assert by[("rough-grooves", "roughness_um")].action == "shrink"
     # steps 2 and 3 use the same insert (VCMR331) but keep separate bands
     assert new.tools["rough-contour"] == state.tools["rough-contour"]

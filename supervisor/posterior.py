@@ -1,0 +1,280 @@
+r"""The ``learn`` strategy's model: a Bayesian regression of the whole power law, and its cone.
+
+Per operation and constrained quantity the power law ``y = K Π x_i^{e_i}`` is linear in
+logarithms, ``ln y = β · φ(x)`` with ``φ(x) = (1, ln x_1 − c_1, …, ln x_n − c_n)`` over the
+operation's cutting parameters that the model uses (the context, e.g. a fixed diameter, is
+folded into the intercept) and ``c`` the log-centre of the operation's bounds box, so that the
+intercept is ``ln Y`` at the centre of the box, where the catalogue data lie.
+
+Prior (the catalogue model): ``β ~ N(μ₀, Σ₀)`` with ``μ₀ = (ln Y_model(c), e_1, …, e_n)`` and a
+diagonal ``Σ₀``: the band read as ``k σ`` of the intercept, ``σ₀ = (ΔK/K)/k`` (as ``bayes``),
+and for each exponent ``s_e |e_i|`` (:data:`DEFAULT_EXPONENT_SD`: a relative standard error of
+15 %, three times the spread of the virtual machine's true exponents and the order of the
+standard errors ``rcb fit`` reports for the paper's data sets).
+
+Observation: a measurement ``y ± u`` (expanded, ``k = 2``) at setpoint ``x`` observes
+``ln y = β · φ(x) + ε``, ``ε ~ N(0, ((u/k)/y)²)``. Before each observation the intercept takes a
+random-walk step ``τ²`` (the discrepancy: tool wear drifts, a model is never exact); the update
+is the Kalman / recursive-least-squares step of Bayesian linear regression [1]_:
+
+.. math::
+
+    Σ_- = Σ + τ² e_0 e_0^T, \quad s² = φ^T Σ_- φ + σ_ε², \quad
+    g = Σ_- φ / s², \quad μ' = μ + g (\ln y − φ^T μ), \quad Σ' = Σ_- − g φ^T Σ_-
+
+The robust constraint handed to the optimiser at ``x`` is the ellipsoidal robust counterpart
+of ``β · φ(x) <= ln(limit)`` over the credible ellipsoid ``{β : (β − μ)^T Σ^{-1} (β − μ) <= z²}``
+(Ben-Tal & Nemirovski [2]_), with the next part's random-walk step included:
+
+.. math:: μ · φ(x) + z \sqrt{φ(x)^T (Σ + τ² e_0 e_0^T) φ(x) + v_x} <= \ln(\mathrm{limit})
+
+``v_x = Σ (e_i Δx_i/x_i)² / k²`` carries the plan's setpoint uncertainties as the band does
+(GUM, :mod:`models.powerlaw`). Minima mirror it (``μ · φ − z √… >= ln(limit)``). ``φ`` is affine
+in ``x``, so the constraint is a second-order cone in ``ln x``: :mod:`supervisor.highs_lp`
+solves it by outer-approximation cuts. ``z`` (:data:`DEFAULT_Z`) is chosen by the closed-loop
+benchmark over 1000 scenarios (README); it is larger than a normal quantile would be because
+the true process need not be a power law over the whole box and the prior is only as good as
+the catalogue.
+
+Assumptions: the exponents are constant over the box (the power law holds), noise is Gaussian
+in logarithms with the reported uncertainty as ``2σ``, and drift is a random walk of the
+intercept. What the strategy promises is that of the band: the limit holds at the edge of
+what is still uncertain.
+
+References
+----------
+.. [1] Bishop, Pattern Recognition and Machine Learning (2006), §3.3 (Bayesian linear
+   regression, sequential update); Gelman et al., Bayesian Data Analysis, 3rd ed., §14.2.
+.. [2] Ben-Tal & Nemirovski, "Robust solutions of uncertain linear programs", Operations
+   Research Letters 25 (1999): the robust counterpart of a linear constraint over an
+   ellipsoid is a second-order cone.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from models import kinematics
+from models.powerlaw import PowerLawModel
+from models.quantities import MODEL_QUANTITIES
+from supervisor.plan import Operation
+from supervisor.report import Measurement
+
+#: The cone's multiple of the posterior standard deviation (README, closed-loop benchmark).
+DEFAULT_Z = 4.0
+#: Prior standard deviation of an exponent relative to its value, without a fitted covariance.
+DEFAULT_EXPONENT_SD = 0.15
+#: The ``learn`` strategy's random walk of the intercept per part [-] (README).
+DEFAULT_DRIFT = 0.002
+#: Relative jitter of the covariance's Cholesky factor (numerical safety only).
+_JITTER = 1e-12
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """Posterior ``N(mean, cov)`` of ``β = (ln Y(c), e_1, …, e_n)`` for one operation and quantity.
+
+    Parameters
+    ----------
+    quantity : str
+        The model quantity (``force_N`` …).
+    names : tuple[str, ...]
+        The cutting parameters ``x_1 … x_n`` of ``φ``.
+    center : tuple[float, ...]
+        ``c_i``, the log-centre of the operation's bounds for each name.
+    context_exponents : Mapping[str, float]
+        Exponents of the context inputs, folded into the intercept (kept for the model view).
+    mean : tuple[float, ...]
+        ``μ``, length ``n + 1``.
+    cov : tuple[tuple[float, ...], ...]
+        ``Σ``, ``(n + 1) × (n + 1)``.
+    observations : int
+        Measurements applied so far.
+    """
+
+    quantity: str
+    names: tuple[str, ...]
+    center: tuple[float, ...]
+    context_exponents: Mapping[str, float]
+    mean: tuple[float, ...]
+    cov: tuple[tuple[float, ...], ...]
+    observations: int = 0
+
+    def features(self, point: Mapping[str, float]) -> np.ndarray:
+        """``φ(x) = (1, ln x_i − c_i)`` at ``point``."""
+        return np.array(
+            [1.0, *(math.log(point[n]) - c for n, c in zip(self.names, self.center, strict=True))]
+        )
+
+    def model(self, dK: float = 0.0) -> PowerLawModel:
+        """The posterior mean as a power law ``K Π x_i^{μ_i}`` (context folded into ``K``)."""
+        mu = self.mean
+        ln_K = mu[0] - sum(m * c for m, c in zip(mu[1:], self.center, strict=True))
+        exponents = {n: float(m) for n, m in zip(self.names, mu[1:], strict=True)}
+        return PowerLawModel(
+            self.quantity,
+            math.exp(ln_K),
+            dK,
+            exponents,
+            "posterior (learn)",
+            f"{self.observations} measurements",
+        )
+
+    def to_json(self) -> dict[str, object]:
+        """A JSON-able mapping (:func:`from_json` reads it back exactly)."""
+        return {
+            "quantity": self.quantity,
+            "names": list(self.names),
+            "center": list(self.center),
+            "context_exponents": dict(self.context_exponents),
+            "mean": list(self.mean),
+            "cov": [list(r) for r in self.cov],
+            "observations": self.observations,
+        }
+
+
+def from_json(data: Mapping[str, object]) -> Posterior:
+    """The :class:`Posterior` of :meth:`Posterior.to_json`."""
+    cov = data["cov"]
+    assert isinstance(cov, list)
+    return Posterior(
+        quantity=str(data["quantity"]),
+        names=tuple(str(n) for n in data["names"]),  # type: ignore[attr-defined]
+        center=tuple(float(c) for c in data["center"]),  # type: ignore[attr-defined]
+        context_exponents={
+            str(k): float(v)
+            for k, v in data["context_exponents"].items()  # type: ignore[attr-defined]
+        },
+        mean=tuple(float(m) for m in data["mean"]),  # type: ignore[attr-defined]
+        cov=tuple(tuple(float(v) for v in row) for row in cov),
+        observations=int(data.get("observations", 0)),  # type: ignore[call-overload]
+    )
+
+
+def prior(
+    model: PowerLawModel, operation: Operation, coverage_k: float, exponent_sd: float
+) -> Posterior:
+    """The catalogue model as a prior over the operation's bounds box (module docstring)."""
+    params = kinematics.PARAMETERS[operation.process]
+    names = tuple(p for p in params if p in model.exponents)
+    center = tuple(
+        0.5 * (math.log(operation.bounds[n][0]) + math.log(operation.bounds[n][1])) for n in names
+    )
+    point = {**operation.context, **{n: math.exp(c) for n, c in zip(names, center, strict=True)}}
+    context = {n: e for n, e in model.exponents.items() if n not in names}
+    mean = (math.log(model.predict(point).value), *(model.exponents[n] for n in names))
+    variances = [((model.dK / model.K) / coverage_k) ** 2]
+    variances += [(exponent_sd * abs(model.exponents[n])) ** 2 for n in names]
+    cov = tuple(
+        tuple(v if i == j else 0.0 for j in range(len(variances))) for i, v in enumerate(variances)
+    )
+    return Posterior(model.quantity, names, center, context, mean, cov)
+
+
+def observe(
+    belief: Posterior,
+    point: Mapping[str, float],
+    measurement: Measurement,
+    coverage_k: float,
+    drift: float,
+) -> Posterior:
+    """The posterior after ``measurement`` at ``point`` (module docstring, the update)."""
+    phi = belief.features(point)
+    mu = np.array(belief.mean)
+    cov = np.array(belief.cov)
+    cov[0, 0] += drift**2
+    noise = max((measurement.uncertainty / coverage_k) / measurement.value, 1e-9)
+    cov_phi = cov @ phi
+    s2 = float(phi @ cov_phi) + noise**2
+    gain = cov_phi / s2
+    mu = mu + gain * (math.log(measurement.value) - float(phi @ mu))
+    cov = cov - np.outer(gain, cov_phi)
+    cov = 0.5 * (cov + cov.T)
+    return Posterior(
+        belief.quantity,
+        belief.names,
+        belief.center,
+        belief.context_exponents,
+        tuple(float(m) for m in mu),
+        tuple(tuple(float(v) for v in row) for row in cov),
+        belief.observations + 1,
+    )
+
+
+@dataclass(frozen=True)
+class Cone:
+    """The robust constraint of a posterior: ``μ·φ(x) ± z √(φᵀ Σ₊ φ + v_x)`` (module docstring).
+
+    ``drift`` is the random-walk step of the part to come, added to ``Σ``'s intercept.
+    """
+
+    posterior: Posterior
+    z: float
+    drift: float = DEFAULT_DRIFT
+
+    def spread(self, point: Mapping[str, float], rel: Mapping[str, float]) -> float:
+        """``√(φᵀ Σ₊ φ + v_x)`` at ``point``: the standard deviation of ``ln y`` there."""
+        phi = self.posterior.features(point)
+        cov = np.array(self.posterior.cov)
+        cov[0, 0] += self.drift**2
+        return math.sqrt(max(float(phi @ cov @ phi), 0.0) + self.setpoint_variance(rel))
+
+    def setpoint_variance(self, rel: Mapping[str, float]) -> float:
+        """``v_x``: the plan's setpoint uncertainties through the mean exponents, as ``σ²``."""
+        exps = dict(zip(self.posterior.names, self.posterior.mean[1:], strict=True))
+        return sum((exps.get(n, 0.0) * r / 2.0) ** 2 for n, r in rel.items())
+
+    def edge_log(self, point: Mapping[str, float], rel: Mapping[str, float]) -> float:
+        """``ln`` of the guarding edge at ``point`` (upper for a maximum, lower for a minimum)."""
+        value = float(self.posterior.features(point) @ np.array(self.posterior.mean))
+        sign = 1.0 if MODEL_QUANTITIES[self.posterior.quantity].sense == "max" else -1.0
+        return value + sign * self.z * self.spread(point, rel)
+
+    def factor(
+        self, params: tuple[str, ...], rel: Mapping[str, float]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(G, h)`` with ``φᵀ Σ₊ φ + v_x = ‖G ln x + h‖²`` over ``params`` (all of them)."""
+        cov = np.array(self.posterior.cov)
+        cov[0, 0] += self.drift**2
+        scale = max(float(np.max(np.abs(np.diag(cov)))), 1e-300)
+        chol = np.linalg.cholesky(cov + np.eye(len(cov)) * scale * _JITTER)
+        selector = np.zeros((len(cov), len(params)))
+        offset = np.zeros(len(cov))
+        offset[0] = 1.0
+        for i, (name, c) in enumerate(
+            zip(self.posterior.names, self.posterior.center, strict=True)
+        ):
+            selector[i + 1, params.index(name)] = 1.0
+            offset[i + 1] = -c
+        G = chol.T @ selector
+        h = chol.T @ offset
+        extra = self.setpoint_variance(rel)
+        if extra > 0:
+            G = np.vstack([G, np.zeros(len(params))])
+            h = np.append(h, math.sqrt(extra))
+        return G, h
+
+
+def display_model(
+    cone: Cone, point: Mapping[str, float], rel: Mapping[str, float]
+) -> PowerLawModel:
+    """The learned model whose band at ``point`` is the cone's half-width there.
+
+    The value is ``exp(μ·φ)``; ``ΔK`` is chosen so that the first-order band at ``point``
+    (with the plan's setpoint uncertainties, :func:`models.powerlaw.relative_band`) reaches
+    the cone's guarding edge, so predictions, re-checks and every surface show ``ΔY`` at the
+    setpoint as for a band.
+    """
+    model = cone.posterior.model()
+    value = model.predict(point).value
+    edge = math.exp(cone.edge_log(point, rel))
+    band = abs(edge - value)
+    setpoint_part = model.relative_band(rel) ** 2
+    dK_over_K = math.sqrt(max((band / value) ** 2 - setpoint_part, 0.0))
+    return PowerLawModel(
+        model.quantity, model.K, model.K * dK_over_K, model.exponents, model.source, model.reference
+    )
