@@ -72,7 +72,8 @@ class LogLinearProgram:
     """Data of one operation's log-linear program (no solver objects).
 
     ``objective`` is the ``ln(MRR)`` gradient; ``cost`` the terms of ``J`` in ``parameters``
-    (empty without cost data) and ``goal`` which of the two the optimum is for.
+    (empty without cost data) and ``goal`` which of the two the optimum is for. ``start``: a
+    point near the optimum (the last one), where cone rows get their first cuts.
     """
 
     operation: str
@@ -83,6 +84,7 @@ class LogLinearProgram:
     upper: tuple[float, ...]
     cost: tuple[Monomial, ...] = ()
     goal: Objective = "mrr"
+    start: tuple[float, ...] | None = None
 
 
 def _row(
@@ -131,6 +133,10 @@ def formulate(
     band row of that quantity (and of power and torque, for ``force_N``).
     """
     learned = cones or {}
+    factors = {
+        q: c.factor(kinematics.PARAMETERS[operation.process], operation.setpoint_rel_uncertainty)
+        for q, c in learned.items()
+    }
     process = operation.process
     params = kinematics.PARAMETERS[process]
     context = operation.context
@@ -148,7 +154,7 @@ def formulate(
         cone = learned.get(of)
         term = None
         if cone is not None:
-            G, h = cone.factor(params, rel)
+            G, h = factors[of]
             term = ConeTerm(tuple(map(tuple, G.tolist())), tuple(h.tolist()), cone.z)
         return _row(params, context, name, monomial, limit, sense, scale, given_as, cone=term)
 

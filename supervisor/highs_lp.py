@@ -147,61 +147,23 @@ def solve_lp(
     return "failed", None
 
 
-#: A cone row holds when ``a·x + z‖Gx + h‖ <= rhs`` (in ln of the quantity) within this.
-CONE_TOL = 0.0
-#: Cuts are made against ``rhs − CONE_MARGIN``, so that the cut program's optimum converges
-#: to a point that meets the true cone, not one just outside it: 1 ppm of the quantity, ten
-#: times HiGHS's primal feasibility tolerance (1e-7), which a vertex may use up.
-CONE_MARGIN = 1e-6
-#: Most outer-approximation rounds before the solve is called failed.
-MAX_CUT_ROUNDS = 60
-
-
 def maximize(lp: LogLinearProgram, *, presolve: bool = False) -> tuple[Status, Any]:
     """Solve ``max objective·x`` under ``lp``'s rows and bounds.
 
     Returns ``("optimal", x)`` with ``x`` the ln-parameters (a float array in
     ``lp.parameters`` order), ``("infeasible", None)`` when no point meets every row within
     the bounds, and ``("failed", None)`` for any other outcome (HiGHS's status is not an
-    answer to trust). ``presolve`` runs HiGHS's presolve first (a second opinion).
-
-    A cone row (``row.cone``: ``a·x + z‖Gx + h‖ <= b``, :mod:`supervisor.posterior`) is met
-    by outer approximation (Kelley's cutting planes): the LP holds tangent cuts
-    ``(a + z Gᵀw)·x <= b − z w·h`` with ``w = (Gx₀ + h)/‖Gx₀ + h‖``, valid everywhere since
-    ``w·(Gx + h) <= ‖Gx + h‖``. The first round cuts at the bounds box's centre, each later
-    round at the LP's optimum for every cone it violates, until all hold. An infeasible cut
-    program proves the cone program infeasible.
+    answer to trust). ``presolve`` runs HiGHS's presolve first (a second opinion). A program
+    with cone rows goes to :func:`supervisor.socp.maximize` instead.
     """
-    linear = [r for r in lp.rows if r.cone is None]
-    a = [r.coefficients for r in linear]
-    b = [r.rhs for r in linear]
-    terms = [
-        (np.array(r.coefficients), np.array(r.cone.G), np.array(r.cone.h), r.cone.z, r.rhs)
-        for r in lp.rows
-        if r.cone is not None
-    ]
-    if not terms:
-        return solve_lp(lp.objective, a, b, lp.lower, lp.upper, maximize=True, presolve=presolve)
-    x = 0.5 * (np.array(lp.lower) + np.array(lp.upper))
-    first = True
-    for _ in range(MAX_CUT_ROUNDS):
-        for coef, G, h, z, rhs in terms:
-            v = G @ x + h
-            norm = float(np.linalg.norm(v))
-            if first or float(coef @ x) + z * norm - rhs > CONE_TOL:
-                w = v / norm if norm > 0 else np.zeros_like(v)
-                a.append(tuple(coef + z * (G.T @ w)))
-                b.append(rhs - CONE_MARGIN - z * float(w @ h))
-        first = False
-        status, solution = solve_lp(
-            lp.objective, a, b, lp.lower, lp.upper, maximize=True, presolve=presolve
-        )
-        if status != "optimal":
-            return status, None
-        x = solution
-        if all(
-            float(coef @ x) + z * float(np.linalg.norm(G @ x + h)) - rhs <= CONE_TOL
-            for coef, G, h, z, rhs in terms
-        ):
-            return "optimal", x
-    return "failed", None
+    if any(r.cone is not None for r in lp.rows):
+        raise ValueError(f"operation {lp.operation!r}: cone rows need supervisor.socp")
+    return solve_lp(
+        lp.objective,
+        [r.coefficients for r in lp.rows],
+        [r.rhs for r in lp.rows],
+        lp.lower,
+        lp.upper,
+        maximize=True,
+        presolve=presolve,
+    )

@@ -27,7 +27,7 @@ from models.kinematics import Process
 from models.powerlaw import Prediction
 from models.sensors import TaiCurrentFeedCalibration
 from models.tool import Tool, predict_all
-from supervisor import highs_lp, productivity
+from supervisor import highs_lp, productivity, socp
 from supervisor.constant_load.setpoint import (
     ConstantLoadSetpoint,
     constant_load_setpoint,
@@ -197,10 +197,10 @@ def _learned(
     if not usable or operation.objective != "mrr":
         return None
     lp = formulate(operation, tool, machine, usable)
-    try:
-        x = _solve(lp)
-    except InfeasibleError:
+    status, x = socp.maximize(lp)
+    if status != "optimal" or x is None:  # no learned optimum: the band program's holds
         return None
+    x = np.clip(x, lp.lower, lp.upper)
     point = {**{p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}}
     point.update(operation.context)
     rel = operation.setpoint_rel_uncertainty
