@@ -40,6 +40,7 @@ from supervisor.demo import MILLING_DEMO_UNCERTAINTY, run_demo
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 from supervisor.rcb import RcbSettings
+from supervisor.strategies import DEFAULT_STRATEGY
 
 
 class _OneLineErrors(TyperGroup):
@@ -250,8 +251,8 @@ def demo(
     parts: Annotated[int, typer.Option("--parts", help="Parts made with RCB.", min=1)] = 20,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the virtual lathe.")] = 1,
     strategy: Annotated[
-        str, typer.Option("--strategy", help="RCB strategy: ivester (paper) or bayes.")
-    ] = "ivester",
+        str, typer.Option("--strategy", help="RCB strategy: learn (default), ivester, bayes.")
+    ] = DEFAULT_STRATEGY,
     alpha: Annotated[
         float, typer.Option("--alpha", help="Fraction of the margin a band shrinks by.")
     ] = 0.25,

@@ -197,7 +197,16 @@ def demo_json(result: DemoResult, strategy: str, seed: int) -> dict[str, Any]:
             for op in result.operations
         ],
         "cycle_time_min": dict(result.cycle_time_min),
+        "gain_captured": gain_captured(result.cycle_time_min),
     }
+
+
+def gain_captured(cycle: Mapping[str, float | None]) -> float | None:
+    """``(robust − final) / (robust − oracle)``: the share of the oracle's gain RCB earned."""
+    robust, final, oracle = cycle.get("robust"), cycle.get("final"), cycle.get("oracle")
+    if robust is None or final is None or oracle is None or robust - oracle <= 0:
+        return None
+    return (robust - final) / (robust - oracle)
 
 
 def _pm(p: Prediction | None) -> str:
@@ -237,15 +246,17 @@ def demo_tables(result: DemoResult) -> list[Table]:
     summary = Table(title="cycle time", title_justify="left")
     for column in ("", "min", "vs catalogue", "vs robust"):
         summary.add_column(column, justify="right")
-    for label in ("catalog", "robust", "final"):
-        value = cycle[label]
+    for label in ("catalog", "robust", "final", "oracle"):
+        value = cycle.get(label)
         if value is None:
             continue
         summary.add_row(
             label, _fmt(value), _change(value, cycle["catalog"]), _change(value, cycle["robust"])
         )
+    captured = gain_captured(cycle)
+    share = "" if captured is None else f"{100 * captured:.0f} % of the oracle's gain, "
     summary.caption = (
-        f"{result.parts} parts, {result.violations} true-limit violations, "
+        f"{result.parts} parts, {share}{result.violations} true-limit violations, "
         f"{result.flagged} flagged measurements, setpoint version {result.final_state.version}"
     )
     tables.append(summary)

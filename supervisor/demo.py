@@ -25,7 +25,7 @@ from models.powerlaw import Prediction
 from models.sensors import Calibration
 from models.sensors.convert import converts
 from models.tool import predict_all
-from supervisor.optimizer import PlanResult
+from supervisor.optimizer import PlanResult, optimize_plan
 from supervisor.plan import Plan
 from supervisor.rcb import Decision, RcbSettings, RcbState, start, update
 from supervisor.report import Measurement, PartReport, Signal
@@ -35,6 +35,7 @@ from supervisor.simulate import (
     DEFAULT_UNCERTAINTY,
     PartOutcome,
     VirtualMachine,
+    oracle_tools,
     run_part,
     sample_machine,
 )
@@ -154,10 +155,14 @@ def run_demo(
             )
         )
     has_catalog = len(catalog) == len(plan.operations)
+    # the oracle: the same plan optimised with the true models and no band, the fastest any
+    # controller could run on this machine without crossing a true limit
+    oracle = optimize_plan(plan, tools=oracle_tools(machine))
     cycle = {
         "catalog": sum(r.time_min for r in catalog.values()) if has_catalog else None,
         "robust": robust_setpoints.cycle_time_min,
         "final": state.setpoints.cycle_time_min,
+        "oracle": oracle.cycle_time_min,
     }
     return DemoResult(
         operations=tuple(rows),

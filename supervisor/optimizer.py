@@ -46,6 +46,9 @@ Cones = Mapping[str, Mapping[str, Cone]]
 BINDING_TOL = 1e-6
 #: A re-checked prediction may exceed its limit by at most this fraction (solver tolerance).
 RECHECK_RTOL = 1e-6
+#: A ``learn`` setpoint in force is kept while it meets its cones at ``z`` less this: the
+#: hysteresis that stops a posterior mean's noise from backing a setpoint off and on.
+KEEP_SLACK_Z = 0.5
 #: The points of "the largest feed rate" are those within this (in ln w) of the LP's optimum.
 TIE_TOL = 1e-9
 
@@ -159,12 +162,16 @@ def optimize_operation(
     tool: Tool,
     machine: Machine,
     cones: Mapping[str, Cone] | None = None,
+    last: OperationResult | None = None,
 ) -> OperationResult:
     """Robust optimum of one operation (max MRR or least ``J``, every limit at the band edge).
 
     With ``cones`` (a ``learn`` state's learned models) the cone program is solved too and
     the faster of the two optima is taken: the band program is the proven-safe fallback, so
     a setpoint is never worse than the band optimum, and the plan runs while either holds.
+    ``last``: the setpoint in force; where it still meets every learned row at ``z −``
+    :data:`KEEP_SLACK_Z` and is faster than the new cone optimum (a posterior mean moves with
+    noise), it is kept, so a setpoint backs off only when what was learned says it must.
 
     Raises
     ------
@@ -180,7 +187,7 @@ def optimize_operation(
         infeasible = None
     except InfeasibleError as err:
         band, infeasible = None, err
-    learned = _learned(operation, tool, machine, cones or {})
+    learned = _learned(operation, tool, machine, cones or {}, last)
     if learned is not None and (band is None or learned.mrr_cm3_min > band.mrr_cm3_min):
         return learned
     if band is None:
@@ -190,7 +197,11 @@ def optimize_operation(
 
 
 def _learned(
-    operation: Operation, tool: Tool, machine: Machine, cones: Mapping[str, Cone]
+    operation: Operation,
+    tool: Tool,
+    machine: Machine,
+    cones: Mapping[str, Cone],
+    last: OperationResult | None = None,
 ) -> OperationResult | None:
     """The optimum under the learned models' cones, or None (no cone, or infeasible)."""
     usable = {q: c for q, c in cones.items() if q in tool.models}
@@ -201,6 +212,13 @@ def _learned(
     if status != "optimal" or x is None:  # no learned optimum: the band program's holds
         return None
     x = np.clip(x, lp.lower, lp.upper)
+    if last is not None and last.robust_by == "cone":
+        kept = np.array([math.log(last.setpoint[p]) for p in lp.parameters])
+        faster = float(np.dot(lp.objective, kept)) > float(np.dot(lp.objective, x))
+        if faster and socp.meets(lp, kept, KEEP_SLACK_Z):
+            x = kept  # shown, and re-checked, at the confidence that keeps it
+            usable = {q: replace(c, z=c.z - KEEP_SLACK_Z) for q, c in usable.items()}
+            lp = formulate(operation, tool, machine, usable)
     point = {**{p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}}
     point.update(operation.context)
     rel = operation.setpoint_rel_uncertainty
@@ -241,9 +259,10 @@ def optimize_plan(
     learned = cones or {}
     used = [overrides.get(op.name) or plan.tools[op.tool] for op in plan.operations]
     kept: dict[str, OperationResult] = {}
+    earlier_results: dict[str, OperationResult] = {}
     if previous is not None:
         result, solved_with, cones_with = previous
-        earlier = {r.name: r for r in result.operations}
+        earlier = earlier_results = {r.name: r for r in result.operations}
         kept = {
             op.name: earlier[op.name]
             for op, tool in zip(plan.operations, used, strict=True)
@@ -265,7 +284,10 @@ def optimize_plan(
             continue
         with _fields_of(i):
             if learned:
-                results.append(optimize_operation(op, tool, plan.machine, learned.get(op.name)))
+                last = earlier_results.get(op.name)
+                results.append(
+                    optimize_operation(op, tool, plan.machine, learned.get(op.name), last)
+                )
             else:
                 results.append(_result(op, tool, lps[i], xs[i], plan.machine))
     return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))

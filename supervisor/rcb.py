@@ -12,15 +12,21 @@ with ``α = 0.25`` ("one or more of the uncertainty parameters is reduced by a f
 the difference"). The law is one-sided, as the paper's: only the side of the band that guards
 the limit matters. For a maximum:
 
-- ``y + u`` above the limit: ``breach``; above the band's upper edge ``Y + ΔY``:
-  ``above_band``. Either is flagged and the band grows to ``y + u − Y`` so it covers the
-  measurement (action ``expand``); it never shrinks then.
+- ``y − u`` above the limit: ``breach`` (the measurement proves the limit crossed, the
+  decision rule of ISO 14253-1 for nonconformance); else ``y + u`` above the band's upper
+  edge ``Y + ΔY``: ``above_band`` (the band must cover measured + u, as the paper's bands
+  "encompass all of the points"). Either is flagged and the band grows to ``y + u − Y`` so it
+  covers the measurement (action ``expand``); it never shrinks then. ``y + u`` over the limit
+  with ``y − u`` under it is not a breach: at the physical limit the noise alone does that.
 - otherwise the margin law above; a reading whose ``y + u`` lies under the band's lower edge
   carries the note ``below_band`` (the model is pessimistic there), never a flag: a part that
   came out better than predicted is no reason to widen a band.
+- a ``learn`` setpoint held by a cone (which bounds the true value, not a measurement) is
+  ``above_band`` only when ``y − u`` is past the cone's edge; its fallback band still grows
+  to cover ``y + u``, unflagged.
 
-Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` or ``below_band``
-(``y − u`` under the limit or the lower edge), the note ``above_band``. ``ΔY'`` is stored as a
+Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + u`` under
+the limit) or ``below_band`` (``y − u`` under the lower edge), the note ``above_band``. ``ΔY'`` is stored as a
 new ``ΔK`` through the first-order law of :func:`models.powerlaw.relative_band`:
 ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
 
@@ -531,16 +537,17 @@ def _apply(
         hold = decision("hold", model, None, "no limit on this quantity")
         return hold, model, sigma, worst
     margin = limit - guard if is_max else guard - limit
+    # the far side of y ± u: past the limit, the measurement proves the limit crossed
+    far_side = max(y - u, 0.0) if is_max else y + u
     if result.robust_by == "cone":  # a cone bounds the true value: the far side of y ± u
-        far = max(y - u, 0.0) if is_max else y + u
-        beyond_guard = _past(far, shown, is_max)
+        beyond_guard = _past(far_side, shown, is_max)
     else:  # a band covers measured ± u (Ivester & Heigel: "encompasses all of the points")
         beyond_guard = _past(guard, shown, is_max)
     beyond_other = guard < shown.lower if is_max else guard > shown.upper
     # the fallback band of a cone setpoint: past its edge it grows, but is not flagged
     fallback_only = result.robust_by == "cone" and _past(guard, predicted, is_max)
     flag: Flag | None = None
-    if y > limit if is_max else y < limit:
+    if far_side > limit if is_max else far_side < limit:  # nonconformance proven
         flag = "breach"
     elif beyond_guard:
         flag = "above_band" if is_max else "below_band"
@@ -560,7 +567,7 @@ def _apply(
         if flag is None:
             why = "inside the learned cone; the fallback band grows to cover it"
             return decision(action, new, margin, why, note=note), new, sigma, worst
-        where = "measured past the limit" if flag == "breach" else f"measured {flag}"
+        where = "measured − u past the limit" if flag == "breach" else f"measured + u {flag}"
         flagged = decision(action, new, margin, f"{where}: never shrink; band covers it", flag)
         return flagged, new, sigma, worst
     below = " (note: below the band: the model is pessimistic here)" if note else ""

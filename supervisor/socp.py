@@ -22,6 +22,7 @@ it as every optimum.
 
 from __future__ import annotations
 
+import functools
 from typing import Any, Literal
 
 import clarabel
@@ -44,6 +45,12 @@ def _settings() -> Any:
         _SETTINGS = clarabel.DefaultSettings()
         _SETTINGS.verbose = False
     return _SETTINGS
+
+
+@functools.cache
+def _zeros(n: int) -> Any:
+    """The (empty) quadratic term of an ``n``-variable linear objective, made once."""
+    return sparse.csc_matrix((n, n))
 
 
 def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
@@ -71,7 +78,7 @@ def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
         rhs.append(np.concatenate([[(row.rhs - CONE_MARGIN) / z], h]))
         cones.append(clarabel.SecondOrderConeT(1 + len(h)))
     A = sparse.csc_matrix(np.vstack(blocks))
-    P = sparse.csc_matrix((n, n))
+    P = _zeros(n)
     q = -np.array(lp.objective, dtype=float)
     solver = clarabel.DefaultSolver(P, q, A, np.concatenate(rhs), cones, _settings())
     solution = solver.solve()
@@ -81,3 +88,23 @@ def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
     if status in ("PrimalInfeasible", "AlmostPrimalInfeasible"):
         return "infeasible", None
     return "failed", None
+
+
+def meets(lp: LogLinearProgram, x: Any, slack_z: float = 0.0) -> bool:
+    """Whether ``x`` meets every row of ``lp`` (cone rows against ``b − CONE_MARGIN``).
+
+    ``slack_z``: cone rows are checked with ``z − slack_z`` instead of ``z``.
+    """
+    lower, upper = np.array(lp.lower), np.array(lp.upper)
+    if np.any(x < lower - 1e-12) or np.any(x > upper + 1e-12):
+        return False
+    for row in lp.rows:
+        value = float(np.dot(row.coefficients, x))
+        if row.cone is None:
+            if value > row.rhs + 1e-12:
+                return False
+            continue
+        spread = float(np.linalg.norm(np.array(row.cone.G) @ x + np.array(row.cone.h)))
+        if value + (row.cone.z - slack_z) * spread > row.rhs - CONE_MARGIN:
+            return False
+    return True

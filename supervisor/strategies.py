@@ -102,6 +102,6 @@ REGISTRY: Mapping[str, Strategy] = {s.name: s for s in (Learn(), Strategy(), Bay
 #: Names of :data:`REGISTRY`.
 STRATEGY_NAMES: tuple[str, ...] = tuple(REGISTRY)
 #: The strategy a plan gets when none is named.
-DEFAULT_STRATEGY = "ivester"
+DEFAULT_STRATEGY = "learn"
 #: The paper's fraction of the margin a band shrinks by (Ivester & Heigel, "0.25").
 DEFAULT_ALPHA = 0.25

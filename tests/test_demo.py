@@ -10,6 +10,7 @@ from api.cli import app
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import load_plan
 from supervisor.simulate import oracle_tools, sample_machine
+from supervisor.strategies import DEFAULT_STRATEGY
 
 from conftest import DEMO_PLAN
 
@@ -24,7 +25,7 @@ def demo_json():
 
 
 def test_demo_json_contract(demo_json):
-    assert demo_json["parts"] == 20 and demo_json["strategy"] == "ivester"
+    assert demo_json["parts"] == 20 and demo_json["strategy"] == DEFAULT_STRATEGY == "learn"
     names = [op["name"] for op in demo_json["operations"]]
     assert names[0] == "rough-od" and len(names) == 6
     for op in demo_json["operations"]:
@@ -32,7 +33,19 @@ def test_demo_json_contract(demo_json):
             assert set(op[row]) >= {"setpoint", "mrr_cm3_min", "predicted", "measured"}
     # Table 5 step 1 row C: 1.3 mm, 0.25 mm/rev, 187 m/min = 60.8 cm³/min (d·f·v)
     assert op_row(demo_json, "rough-od", "catalog")["mrr_cm3_min"] == pytest.approx(60.775)
-    assert set(demo_json["cycle_time_min"]) == {"catalog", "robust", "final"}
+    assert set(demo_json["cycle_time_min"]) == {"catalog", "robust", "final", "oracle"}
+
+
+def test_demo_captures_most_of_the_oracles_gain(demo_json):
+    # issue 15, decision 2: (robust − final) / (robust − oracle) >= 0.75 with 0 violations,
+    # the oracle being the plan optimised with the virtual lathe's true models and no band
+    plan = load_plan(DEMO_PLAN)
+    oracle = optimize_plan(plan, oracle_tools(sample_machine(plan, demo_json["seed"])))
+    cycle = demo_json["cycle_time_min"]
+    assert cycle["oracle"] == pytest.approx(oracle.cycle_time_min, rel=1e-12)
+    captured = (cycle["robust"] - cycle["final"]) / (cycle["robust"] - cycle["oracle"])
+    assert demo_json["gain_captured"] == pytest.approx(captured)
+    assert captured >= 0.75 and demo_json["violations"] == 0
 
 
 def op_row(data, name, row):

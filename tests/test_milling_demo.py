@@ -113,3 +113,12 @@ def test_virtual_sensor_round_trip(force, feed, linear):
     reading = reading_for_force(calibration, force, context)
     back = to_force(calibration, "spindle_current_A", reading, 0.0, context).value
     assert back == pytest.approx(force, rel=1e-9, abs=1e-9)
+
+
+def test_milling_demo_captures_most_of_the_oracles_gain(milling_json):
+    # issue 15, decision 2, for --milling: (robust − final) / (robust − oracle) >= 0.75 and
+    # no true-limit violation with the default strategy
+    cycle = milling_json["cycle_time_min"]
+    captured = (cycle["robust"] - cycle["final"]) / (cycle["robust"] - cycle["oracle"])
+    assert milling_json["gain_captured"] == captured
+    assert captured >= 0.75 and milling_json["violations"] == 0

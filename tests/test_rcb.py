@@ -20,7 +20,7 @@ from conftest import DEMO_PLAN
 
 @pytest.fixture(scope="module")
 def state():
-    return start(load_plan(DEMO_PLAN))
+    return start(load_plan(DEMO_PLAN), RcbSettings(strategy="ivester"))  # the paper's law
 
 
 def _report(state, measurements, tool_wear=None, version=None):
