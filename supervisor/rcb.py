@@ -26,8 +26,8 @@ the limit matters. For a maximum:
   to cover ``y + u``, unflagged.
 
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + u`` under
-the limit) or ``below_band`` (``y − u`` under the lower edge), the note ``above_band``. ``ΔY'`` is stored as a
-new ``ΔK`` through the first-order law of :func:`models.powerlaw.relative_band`:
+the limit) or ``below_band`` (``y − u`` under the lower edge), the note ``above_band``.
+``ΔY'`` is stored as a new ``ΔK`` through the first-order law of :func:`models.powerlaw.relative_band`:
 ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
 
 When the grown bands leave no safe setpoint the plan *halts* (:class:`Halt`): the report is
