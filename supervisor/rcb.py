@@ -27,8 +27,8 @@ the limit matters. For a maximum:
 
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + u`` under
 the limit) or ``below_band`` (``y − u`` under the lower edge), the note ``above_band``.
-``ΔY'`` is stored as a new ``ΔK`` through the first-order law of :func:`models.powerlaw.relative_band`:
-``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
+``ΔY'`` is stored as a new ``ΔK`` through the first-order law of
+:func:`models.powerlaw.relative_band`: ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
 
 When the grown bands leave no safe setpoint the plan *halts* (:class:`Halt`): the report is
 still applied (a part is never refused because of what it measured), the setpoints stay those
