@@ -133,9 +133,11 @@ def formulate(
     band row of that quantity (and of power and torque, for ``force_N``).
     """
     learned = cones or {}
+    params_ = kinematics.PARAMETERS[operation.process]
     factors = {
-        q: c.factor(kinematics.PARAMETERS[operation.process], operation.setpoint_rel_uncertainty)
+        (q, n): c.factor(params_, operation.setpoint_rel_uncertainty, n)
         for q, c in learned.items()
+        for n in c.posterior.edges
     }
     process = operation.process
     params = kinematics.PARAMETERS[process]
@@ -150,17 +152,22 @@ def formulate(
         scale: float = 1.0,
         given_as: str = "",
         of: str = "",
+        edge_age: int = 0,
     ) -> Row:
         cone = learned.get(of)
         term = None
         if cone is not None:
-            G, h = factors[of]
+            G, h = factors[(of, edge_age)]
             term = ConeTerm(tuple(map(tuple, G.tolist())), tuple(h.tolist()), cone.z)
         return _row(params, context, name, monomial, limit, sense, scale, given_as, cone=term)
 
-    def edge(quantity: str, sense: Sense) -> Monomial:
+    def ages(quantity: str) -> tuple[int, ...]:
+        """Edge ages a learned quantity's rows hold at (:attr:`Posterior.edges`); else (0,)."""
+        return learned[quantity].posterior.edges if quantity in learned else (0,)
+
+    def edge(quantity: str, sense: Sense, edge_age: int = 0) -> Monomial:
         if quantity in learned:  # the nominal: the cone row adds the spread
-            return learned[quantity].posterior.model().monomial
+            return learned[quantity].posterior.model(edge_parts=edge_age).monomial
         model = tool.models[quantity]
         rel_band = model.relative_band(rel)
         factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band
@@ -178,7 +185,10 @@ def formulate(
     rows: list[Row] = []
     for quantity, limit in operation.limits.items():
         if quantity in MODEL_QUANTITIES:
-            rows.append(row(quantity, edge(quantity, "max"), limit, of=quantity))
+            for age in ages(quantity):
+                rows.append(
+                    row(quantity, edge(quantity, "max", age), limit, of=quantity, edge_age=age)
+                )
         elif quantity == PARTS_PER_EDGE:
             volume = operation.volume_mm3
             lower_edge = edge("tool_life_mm3", "min")
@@ -199,18 +209,23 @@ def formulate(
         if quantity in DERIVED_QUANTITIES and limit < machine_limits.get(quantity, (math.inf,))[0]:
             machine_limits[quantity] = (limit, quantity)
     for quantity, (limit, given_as) in machine_limits.items():
-        of = ""
         if quantity == "spindle_rpm":
             monomial = kinematics.spindle_rpm_monomial(process)
         elif quantity == "feed_rate_mm_min":
             monomial = kinematics.feed_rate_monomial(process)
-        elif quantity == "power_kW":
-            monomial = edge("force_N", "max") * kinematics.power_per_newton_monomial()
-            of = "force_N"
-        else:  # torque_Nm
-            monomial = edge("force_N", "max") * kinematics.torque_per_newton_monomial(process)
-            of = "force_N"
-        rows.append(row(quantity, monomial, limit, given_as=given_as, of=of))
+        else:  # power_kW, torque_Nm: from the upper force edge, at every edge age
+            per_newton = (
+                kinematics.power_per_newton_monomial()
+                if quantity == "power_kW"
+                else kinematics.torque_per_newton_monomial(process)
+            )
+            for age in ages("force_N"):
+                monomial = edge("force_N", "max", age) * per_newton
+                rows.append(
+                    row(quantity, monomial, limit, given_as=given_as, of="force_N", edge_age=age)
+                )
+            continue
+        rows.append(row(quantity, monomial, limit, given_as=given_as))
     if operation.domain is not None:
         for lim in domain.milling_limits(operation.domain):
             rows.append(

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import cvxpy as cp
@@ -84,6 +84,10 @@ class OperationResult:
     robust_by : {"band", "cone"}
         What keeps the setpoint safe: the bands, or the learned models' cones (``learn``);
         with ``cone``, ``predicted`` holds the learned value and the cone's half-width.
+    fallback : OperationResult or None
+        With ``cone``: the band program's optimum beside it (not compared; a cache).
+    tool_models : Tool or None
+        The tool a band optimum was solved with (not compared; what the cache is keyed on).
     """
 
     name: str
@@ -98,6 +102,8 @@ class OperationResult:
     cost_per_kg: float | None = None
     constant_load: ConstantLoadSetpoint | None = None
     robust_by: str = "band"
+    fallback: OperationResult | None = field(default=None, compare=False, repr=False)
+    tool_models: Tool | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -181,18 +187,22 @@ def optimize_operation(
     SolverError
         The solver gave no optimal status, or the optimum fails the re-check.
     """
-    lp = formulate(operation, tool, machine)
-    try:
-        band: OperationResult | None = _result(operation, tool, lp, _optimum(lp), machine)
-        infeasible = None
-    except InfeasibleError as err:
-        band, infeasible = None, err
+    band: OperationResult | None = None
+    cached = None if last is None else (last.fallback if last.robust_by == "cone" else last)
+    if cached is not None and cached.tool_models == tool and cones:
+        band = cached  # the same band program: its optimum is the same
+    else:
+        lp = formulate(operation, tool, machine)
+        try:
+            band = _result(operation, tool, lp, _optimum(lp), machine)
+        except InfeasibleError:
+            band = None  # unless the learned program holds, the diagnosis is raised below
     learned = _learned(operation, tool, machine, cones or {}, last)
     if learned is not None and (band is None or learned.mrr_cm3_min > band.mrr_cm3_min):
-        return learned
+        return replace(learned, fallback=band)
     if band is None:
-        assert infeasible is not None
-        raise infeasible
+        lp = formulate(operation, tool, machine)
+        band = _result(operation, tool, lp, _optimum(lp), machine)  # raises the diagnosis
     return band
 
 
@@ -327,6 +337,7 @@ def _result(
         objective=lp.goal,
         cost_per_kg=productivity.evaluate(lp.cost, setpoint) if lp.cost else None,
         constant_load=constant_load_of(operation, machine, setpoint),
+        tool_models=tool,
     )
 
 
@@ -379,7 +390,7 @@ def _binding(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> tuple[str, ...]:
     for p, v, lo, hi in zip(lp.parameters, x, lp.lower, lp.upper, strict=True):
         if v - lo <= BINDING_TOL or hi - v <= BINDING_TOL:
             names.append(p)
-    return tuple(names)
+    return tuple(dict.fromkeys(names))  # a learned quantity has a row per edge age
 
 
 def _recheck(

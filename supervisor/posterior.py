@@ -36,6 +36,16 @@ benchmark over 1000 scenarios (README); it is larger than a normal quantile woul
 the true process need not be a power law over the whole box and the prior is only as good as
 the catalogue.
 
+Tool wear: force, roughness and spindle current rise as an edge wears (Ivester & Heigel's tool
+life model, Eq. 8, ends each edge at the allowable flank wear). For an operation with a
+``parts_per_edge`` limit the regression has one more feature, the parts the edge made before
+this one, ``n`` (the MES reports it per operation as ``edge_parts``), with a prior
+``N(0, (s_w / n_max)²)`` on its coefficient (:data:`DEFAULT_EDGE_SD`: a rise of ``s_w`` over an
+edge's life as one standard deviation) and ``n_max = parts_per_edge − 1``. The cone must hold
+for every part the edge makes, and is convex in ``n``, so it is imposed at ``n = 0`` and at
+``n = n_max``. A report without ``edge_parts`` is read at ``n_max / 2`` with the coefficient's
+spread over half a life added to its noise.
+
 Assumptions: the exponents are constant over the box (the power law holds), noise is Gaussian
 in logarithms with the reported uncertainty as ``2σ``, and drift is a random walk of the
 intercept. What the strategy promises is that of the band: the limit holds at the edge of
@@ -61,7 +71,7 @@ import numpy as np
 from models import kinematics
 from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES
-from supervisor.plan import Operation
+from supervisor.plan import PARTS_PER_EDGE, Operation
 from supervisor.report import Measurement
 
 #: The cone's multiple of the posterior standard deviation (README, closed-loop benchmark).
@@ -70,13 +80,17 @@ DEFAULT_Z = 4.0
 DEFAULT_EXPONENT_SD = 0.15
 #: The ``learn`` strategy's random walk of the intercept per part [-] (README).
 DEFAULT_DRIFT = 0.002
+#: Prior standard deviation of the rise over one edge's life, in ln of the quantity [-].
+DEFAULT_EDGE_SD = 0.15
+#: Quantities that rise as an edge wears, and so get the edge-age feature.
+WEARING = ("force_N", "roughness_um", "spindle_current_A")
 #: Relative jitter of the covariance's Cholesky factor (numerical safety only).
 _JITTER = 1e-12
 
 
 @dataclass(frozen=True)
 class Posterior:
-    """Posterior ``N(mean, cov)`` of ``β = (ln Y(c), e_1, …, e_n)`` for one operation and quantity.
+    """Posterior ``N(mean, cov)`` of ``β = (ln Y(c), e_1, …, e_n[, w])`` of one quantity.
 
     Parameters
     ----------
@@ -89,11 +103,13 @@ class Posterior:
     context_exponents : Mapping[str, float]
         Exponents of the context inputs, folded into the intercept (kept for the model view).
     mean : tuple[float, ...]
-        ``μ``, length ``n + 1``.
+        ``μ``, length ``n + 1`` (``n + 2`` with the edge feature, its coefficient ``w`` last).
     cov : tuple[tuple[float, ...], ...]
-        ``Σ``, ``(n + 1) × (n + 1)``.
+        ``Σ``, square, of the same size.
     observations : int
         Measurements applied so far.
+    edge_max : int
+        ``n_max``, the most parts an edge makes before this one; 0: no edge feature.
     """
 
     quantity: str
@@ -103,18 +119,30 @@ class Posterior:
     mean: tuple[float, ...]
     cov: tuple[tuple[float, ...], ...]
     observations: int = 0
+    edge_max: int = 0
 
-    def features(self, point: Mapping[str, float]) -> np.ndarray:
-        """``φ(x) = (1, ln x_i − c_i)`` at ``point``."""
-        return np.array(
-            [1.0, *(math.log(point[n]) - c for n, c in zip(self.names, self.center, strict=True))]
-        )
+    @property
+    def edges(self) -> tuple[int, ...]:
+        """The edge ages a cone is imposed at: 0 and ``n_max`` (only 0 without the feature)."""
+        return (0, self.edge_max) if self.edge_max else (0,)
 
-    def model(self, dK: float = 0.0) -> PowerLawModel:
-        """The posterior mean as a power law ``K Π x_i^{μ_i}`` (context folded into ``K``)."""
-        mu = self.mean
-        ln_K = mu[0] - sum(m * c for m, c in zip(mu[1:], self.center, strict=True))
-        exponents = {n: float(m) for n, m in zip(self.names, mu[1:], strict=True)}
+    def features(self, point: Mapping[str, float], edge_parts: float = 0.0) -> np.ndarray:
+        """``φ(x[, n]) = (1, ln x_i − c_i[, n])`` at ``point``."""
+        logs = [math.log(point[n]) - c for n, c in zip(self.names, self.center, strict=True)]
+        return np.array([1.0, *logs, *((edge_parts,) if self.edge_max else ())])
+
+    @property
+    def exponent_means(self) -> tuple[float, ...]:
+        """The posterior means of the exponents, in :attr:`names` order."""
+        return self.mean[1 : 1 + len(self.names)]
+
+    def model(self, dK: float = 0.0, edge_parts: float = 0.0) -> PowerLawModel:
+        """The posterior mean as a power law ``K Π x_i^{μ_i}`` (context and edge in ``K``)."""
+        mu = self.exponent_means
+        ln_K = self.mean[0] - sum(m * c for m, c in zip(mu, self.center, strict=True))
+        if self.edge_max:
+            ln_K += self.mean[-1] * edge_parts
+        exponents = {n: float(m) for n, m in zip(self.names, mu, strict=True)}
         return PowerLawModel(
             self.quantity,
             math.exp(ln_K),
@@ -134,6 +162,7 @@ class Posterior:
             "mean": list(self.mean),
             "cov": [list(r) for r in self.cov],
             "observations": self.observations,
+            "edge_max": self.edge_max,
         }
 
 
@@ -152,11 +181,24 @@ def from_json(data: Mapping[str, object]) -> Posterior:
         mean=tuple(float(m) for m in data["mean"]),  # type: ignore[attr-defined]
         cov=tuple(tuple(float(v) for v in row) for row in cov),
         observations=int(data.get("observations", 0)),  # type: ignore[call-overload]
+        edge_max=int(data.get("edge_max", 0)),  # type: ignore[call-overload]
     )
 
 
+def edge_max_of(operation: Operation, quantity: str) -> int:
+    """``n_max`` of ``operation`` for ``quantity``: ``parts_per_edge − 1`` for a wearing one."""
+    parts = operation.limits.get(PARTS_PER_EDGE)
+    if parts is None or quantity not in WEARING:
+        return 0
+    return max(math.ceil(parts) - 1, 0)
+
+
 def prior(
-    model: PowerLawModel, operation: Operation, coverage_k: float, exponent_sd: float
+    model: PowerLawModel,
+    operation: Operation,
+    coverage_k: float,
+    exponent_sd: float,
+    edge_sd: float = DEFAULT_EDGE_SD,
 ) -> Posterior:
     """The catalogue model as a prior over the operation's bounds box (module docstring)."""
     params = kinematics.PARAMETERS[operation.process]
@@ -166,13 +208,17 @@ def prior(
     )
     point = {**operation.context, **{n: math.exp(c) for n, c in zip(names, center, strict=True)}}
     context = {n: e for n, e in model.exponents.items() if n not in names}
-    mean = (math.log(model.predict(point).value), *(model.exponents[n] for n in names))
+    mean = [math.log(model.predict(point).value), *(model.exponents[n] for n in names)]
     variances = [((model.dK / model.K) / coverage_k) ** 2]
     variances += [(exponent_sd * abs(model.exponents[n])) ** 2 for n in names]
+    edge_max = edge_max_of(operation, model.quantity)
+    if edge_max:
+        mean.append(0.0)
+        variances.append((edge_sd / edge_max) ** 2)
     cov = tuple(
         tuple(v if i == j else 0.0 for j in range(len(variances))) for i, v in enumerate(variances)
     )
-    return Posterior(model.quantity, names, center, context, mean, cov)
+    return Posterior(model.quantity, names, center, context, tuple(mean), cov, 0, edge_max)
 
 
 def observe(
@@ -181,13 +227,21 @@ def observe(
     measurement: Measurement,
     coverage_k: float,
     drift: float,
+    edge_parts: int | None = None,
 ) -> Posterior:
-    """The posterior after ``measurement`` at ``point`` (module docstring, the update)."""
-    phi = belief.features(point)
+    """The posterior after ``measurement`` at ``point`` (module docstring, the update).
+
+    ``edge_parts``: the parts the edge made before this one (None: not reported).
+    """
+    noise = max((measurement.uncertainty / coverage_k) / measurement.value, 1e-9)
+    n = float(edge_parts) if edge_parts is not None else belief.edge_max / 2.0
+    if belief.edge_max and edge_parts is None:  # unknown age: its spread is noise too
+        w_sd = math.sqrt(belief.cov[-1][-1]) + abs(belief.mean[-1])
+        noise = math.hypot(noise, w_sd * belief.edge_max / 2.0)
+    phi = belief.features(point, min(n, float(belief.edge_max)))
     mu = np.array(belief.mean)
     cov = np.array(belief.cov)
     cov[0, 0] += drift**2
-    noise = max((measurement.uncertainty / coverage_k) / measurement.value, 1e-9)
     cov_phi = cov @ phi
     s2 = float(phi @ cov_phi) + noise**2
     gain = cov_phi / s2
@@ -202,6 +256,7 @@ def observe(
         tuple(float(m) for m in mu),
         tuple(tuple(float(v) for v in row) for row in cov),
         belief.observations + 1,
+        belief.edge_max,
     )
 
 
@@ -216,40 +271,49 @@ class Cone:
     z: float
     drift: float = DEFAULT_DRIFT
 
-    def spread(self, point: Mapping[str, float], rel: Mapping[str, float]) -> float:
-        """``√(φᵀ Σ₊ φ + v_x)`` at ``point``: the standard deviation of ``ln y`` there."""
-        phi = self.posterior.features(point)
+    def _cov(self) -> np.ndarray:
         cov = np.array(self.posterior.cov)
         cov[0, 0] += self.drift**2
-        return math.sqrt(max(float(phi @ cov @ phi), 0.0) + self.setpoint_variance(rel))
+        return cov
+
+    def spread(self, point: Mapping[str, float], rel: Mapping[str, float], edge: int = 0) -> float:
+        """``√(φᵀ Σ₊ φ + v_x)`` at ``point`` and edge age ``edge``: the sd of ``ln y`` there."""
+        phi = self.posterior.features(point, edge)
+        variance = max(float(phi @ self._cov() @ phi), 0.0)
+        return math.sqrt(variance + self.setpoint_variance(rel))
 
     def setpoint_variance(self, rel: Mapping[str, float]) -> float:
         """``v_x``: the plan's setpoint uncertainties through the mean exponents, as ``σ²``."""
-        exps = dict(zip(self.posterior.names, self.posterior.mean[1:], strict=True))
+        exps = dict(zip(self.posterior.names, self.posterior.exponent_means, strict=True))
         return sum((exps.get(n, 0.0) * r / 2.0) ** 2 for n, r in rel.items())
 
     def edge_log(self, point: Mapping[str, float], rel: Mapping[str, float]) -> float:
-        """``ln`` of the guarding edge at ``point`` (upper for a maximum, lower for a minimum)."""
-        value = float(self.posterior.features(point) @ np.array(self.posterior.mean))
+        """``ln`` of the guarding edge at ``point``, the worst over the edge's life."""
+        mean = np.array(self.posterior.mean)
         sign = 1.0 if MODEL_QUANTITIES[self.posterior.quantity].sense == "max" else -1.0
-        return value + sign * self.z * self.spread(point, rel)
+        values = [
+            float(self.posterior.features(point, n) @ mean)
+            + sign * self.z * self.spread(point, rel, n)
+            for n in self.posterior.edges
+        ]
+        return max(values) if sign > 0 else min(values)
 
     def factor(
-        self, params: tuple[str, ...], rel: Mapping[str, float]
+        self, params: tuple[str, ...], rel: Mapping[str, float], edge: int = 0
     ) -> tuple[np.ndarray, np.ndarray]:
-        """``(G, h)`` with ``φᵀ Σ₊ φ + v_x = ‖G ln x + h‖²`` over ``params`` (all of them)."""
-        cov = np.array(self.posterior.cov)
-        cov[0, 0] += self.drift**2
+        """``(G, h)``: ``φᵀ Σ₊ φ + v_x = ‖G ln x + h‖²`` over ``params``, at edge age ``edge``."""
+        cov = self._cov()
         scale = max(float(np.max(np.abs(np.diag(cov)))), 1e-300)
         chol = np.linalg.cholesky(cov + np.eye(len(cov)) * scale * _JITTER)
         selector = np.zeros((len(cov), len(params)))
         offset = np.zeros(len(cov))
         offset[0] = 1.0
-        for i, (name, c) in enumerate(
-            zip(self.posterior.names, self.posterior.center, strict=True)
-        ):
+        names = self.posterior.names
+        for i, (name, c) in enumerate(zip(names, self.posterior.center, strict=True)):
             selector[i + 1, params.index(name)] = 1.0
             offset[i + 1] = -c
+        if self.posterior.edge_max:
+            offset[-1] = float(edge)
         G = chol.T @ selector
         h = chol.T @ offset
         extra = self.setpoint_variance(rel)
@@ -264,10 +328,10 @@ def display_model(
 ) -> PowerLawModel:
     """The learned model whose band at ``point`` is the cone's half-width there.
 
-    The value is ``exp(μ·φ)``; ``ΔK`` is chosen so that the first-order band at ``point``
-    (with the plan's setpoint uncertainties, :func:`models.powerlaw.relative_band`) reaches
-    the cone's guarding edge, so predictions, re-checks and every surface show ``ΔY`` at the
-    setpoint as for a band.
+    The value is ``exp(μ·φ)`` of a new edge; ``ΔK`` is chosen so that the first-order band at
+    ``point`` (with the plan's setpoint uncertainties, :func:`models.powerlaw.relative_band`)
+    reaches the cone's guarding edge over the edge's life, so predictions, re-checks and every
+    surface show ``ΔY`` at the setpoint as for a band.
     """
     model = cone.posterior.model()
     value = model.predict(point).value

@@ -381,7 +381,12 @@ def update(
             )
             point = {**results[name].setpoint, **op.context}
             posterior[key] = post.observe(
-                before, point, measurement, state.settings.coverage_k, state.settings.tau
+                before,
+                point,
+                measurement,
+                state.settings.coverage_k,
+                state.settings.tau,
+                report.edge_parts.get(name),
             )
     unchanged = tools == dict(state.tools) and posterior == dict(state.posterior)
     if unchanged or state.halt is not None:

@@ -102,6 +102,9 @@ class PartReport:
         Per operation name under constant-load control, the feed override at the end of the
         operation [% of the programmed feed rate] (Tai et al.: the tool is changed when the
         feed it commands falls to the lower feed limit).
+    edge_parts : Mapping[str, int]
+        Per operation name, the parts its cutting edge made before this one (0: a new edge),
+        as a control's tool-life counter gives it; the ``learn`` strategy learns wear from it.
     """
 
     serial: str
@@ -110,10 +113,14 @@ class PartReport:
     tool_wear: Mapping[str, ToolWear] = field(default_factory=dict)
     signals: Mapping[str, Mapping[str, Signal]] = field(default_factory=dict)
     feed_overrides: Mapping[str, float] = field(default_factory=dict)
+    edge_parts: Mapping[str, int] = field(default_factory=dict)
 
+
+#: The most parts an edge may be reported to have made (a bound on the input, not physics).
+MAX_EDGE_PARTS = 1_000_000
 
 _REPORT_KEYS = ("serial", "setpoint_version", "operations")
-_OPERATION_KEYS = ("name", "measurements", "tool_wear", "feed_override_percent")
+_OPERATION_KEYS = ("name", "measurements", "tool_wear", "feed_override_percent", "edge_parts")
 
 
 def report_from_mapping(data: object) -> PartReport:
@@ -121,8 +128,9 @@ def report_from_mapping(data: object) -> PartReport:
 
     ``{"serial", "setpoint_version", "operations": [{"name", "measurements": {quantity:
     {"value", "uncertainty"}}, "tool_wear"?: {"flank_wear_mm": {"value", "uncertainty"},
-    "volume_mm3"}}]}``. Whether the operations and quantities exist in the plan is checked by
-    :func:`supervisor.rcb.update`, which refuses the whole report before applying any of it.
+    "volume_mm3"}, "edge_parts"?: n}]}``. Whether the operations and quantities exist in the
+    plan is checked by :func:`supervisor.rcb.update`, which refuses the whole report before
+    applying any of it.
     """
     table = fields.mapping(data, "report")
     fields.only_keys(table, _REPORT_KEYS, "")
@@ -136,6 +144,7 @@ def report_from_mapping(data: object) -> PartReport:
     signals: dict[str, dict[str, Signal]] = {}
     wear: dict[str, ToolWear] = {}
     overrides: dict[str, float] = {}
+    edges: dict[str, int] = {}
     for i, entry in enumerate(operations):
         path = f"operations[{i}]"
         op = fields.mapping(entry, path)
@@ -154,6 +163,11 @@ def report_from_mapping(data: object) -> PartReport:
         if "feed_override_percent" in op:
             where = f"{path}.feed_override_percent"
             overrides[name] = fields.number(op["feed_override_percent"], where, positive=True)
+        if "edge_parts" in op:
+            where, n = f"{path}.edge_parts", op["edge_parts"]
+            if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_EDGE_PARTS:
+                raise InputError(where, n, f"must be a whole number in 0..{MAX_EDGE_PARTS}")
+            edges[name] = n
         if "tool_wear" in op:
             where = f"{path}.tool_wear"
             w = fields.mapping(op["tool_wear"], where)
@@ -166,7 +180,7 @@ def report_from_mapping(data: object) -> PartReport:
             )
     signals = {name: raw for name, raw in signals.items() if raw}
     return PartReport(
-        fields.text(table, "serial", ""), version, measurements, wear, signals, overrides
+        fields.text(table, "serial", ""), version, measurements, wear, signals, overrides, edges
     )
 
 

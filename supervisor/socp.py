@@ -77,7 +77,10 @@ def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
         blocks.append(np.vstack([np.array(row.coefficients) / z, -G]))
         rhs.append(np.concatenate([[(row.rhs - CONE_MARGIN) / z], h]))
         cones.append(clarabel.SecondOrderConeT(1 + len(h)))
-    A = sparse.csc_matrix(np.vstack(blocks))
+    dense = np.vstack(blocks)
+    cols, rows = np.nonzero(dense.T)  # column-major: the CSC order
+    indptr = np.searchsorted(cols, np.arange(n + 1))
+    A = sparse.csc_matrix((dense[rows, cols], rows, indptr), shape=dense.shape)
     P = _zeros(n)
     q = -np.array(lp.objective, dtype=float)
     solver = clarabel.DefaultSolver(P, q, A, np.concatenate(rhs), cones, _settings())
