@@ -369,18 +369,25 @@ def update(
         decision, model, sigma[key], seen[key] = _apply(
             state, operations[name], results[name], quantity, measurement
         )
-        decisions.append(decision)
-        tools[name] = _with_model(tools[name], model)
-        if learns and measurement.value > 0 and measurement.uncertainty > 0:
-            op = operations[name]
-            before = posterior.get(key) or post.prior(
-                state.plan.tools[op.tool].models[quantity],
-                op,
-                state.settings.coverage_k,
-                state.settings.exponent_sd,
-            )
+        if not learns:
+            decisions.append(decision)
+            tools[name] = _with_model(tools[name], model)
+            continue
+        # learn: the fallback band only ever grows (when a measurement contradicts it); what
+        # a part teaches goes to the posterior, and the decision reports the cone
+        if decision.action == "expand":
+            tools[name] = _with_model(tools[name], model)
+        op = operations[name]
+        before = posterior.get(key) or post.prior(
+            state.plan.tools[op.tool].models[quantity],
+            op,
+            state.settings.coverage_k,
+            state.settings.exponent_sd,
+        )
+        after = before
+        if measurement.value > 0 and measurement.uncertainty > 0:
             point = {**results[name].setpoint, **op.context}
-            posterior[key] = post.observe(
+            after = post.observe(
                 before,
                 point,
                 measurement,
@@ -388,6 +395,8 @@ def update(
                 state.settings.tau,
                 report.edge_parts.get(name),
             )
+        posterior[key] = after
+        decisions.append(_learned_decision(state, op, results[name], decision, before, after))
     unchanged = tools == dict(state.tools) and posterior == dict(state.posterior)
     if unchanged or state.halt is not None:
         return replace(state, tools=tools, sigma=sigma, seen=seen, posterior=posterior), tuple(
@@ -409,6 +418,49 @@ def update(
         posterior=posterior,
     )
     return new, tuple(decisions)
+
+
+def _learned_decision(
+    state: RcbState,
+    operation: Operation,
+    result: OperationResult,
+    law: Decision,
+    before: Posterior,
+    after: Posterior,
+) -> Decision:
+    """A ``learn`` decision: the flags and margin of the law, the band and K of the cone.
+
+    ``band_before`` is the band the part was made with (the cone's half-width at a cone
+    setpoint, the band's at a band setpoint), ``band_after`` the new cone's half-width at the
+    same setpoint; ``K_*``/``dK_*`` those of the learned model shown there.
+    """
+    point = {**result.setpoint, **operation.context}
+    rel = operation.setpoint_rel_uncertainty
+    settings = state.settings
+    old = post.display_model(post.Cone(before, settings.z, settings.tau), point, rel)
+    new = post.display_model(post.Cone(after, settings.z, settings.tau), point, rel)
+    band_after = new.predict(point, rel).band
+    shown = result.predicted.get(law.quantity)
+    band_before = law.band_before if shown is None else shown.band
+    action: Action = "hold"
+    if law.flagged and band_after > band_before:
+        action = "expand"
+    elif band_after < band_before and not law.flagged:
+        action = "shrink"
+    why = law.reason if law.flagged else f"learned from {after.observations} measurements"
+    if law.note:
+        why += " (note: below the band: the model is pessimistic here)"
+    return replace(
+        law,
+        action=action,
+        band_before=band_before,
+        band_after=band_after,
+        dK_before=old.dK,
+        dK_after=new.dK,
+        K_before=old.K,
+        K_after=new.K,
+        reason=why,
+    )
 
 
 def _halt_of(

@@ -361,7 +361,10 @@ def sample_machine(
         come from :data:`DEFAULT_UNCERTAINTY`.
     wear_drift_per_edge_life : float
         Relative rise of force, roughness and spindle current over an edge's life [-], 0 for
-        none (see :func:`run_part`).
+        none (see :func:`run_part`). The catalogue band is read as covering the process over
+        an edge's whole life (the paper's data were taken with edges at various wear): the
+        new edge's truth of a drifting quantity is drawn so that the worn edge's, ``1 + D``
+        times it, still lies under the band's upper edge.
 
     Returns
     -------
@@ -375,8 +378,16 @@ def sample_machine(
     processes: dict[str, TrueProcess] = {}
     for op, rng in zip(plan.operations, streams, strict=True):
         nominal = plan.tools[op.tool]
+        wears = wear_drift_per_edge_life > 0 and "tool_life_mm3" in nominal.models
         true_models = {
-            q: _true_model(nominal.models[q], op, rng, spread, exponent_spread)
+            q: _true_model(
+                nominal.models[q],
+                op,
+                rng,
+                spread,
+                exponent_spread,
+                wear_drift_per_edge_life if wears and q in WEAR_DRIFT_QUANTITIES else 0.0,
+            )
             for q in sorted(nominal.models)
         }
         tool = Tool(
@@ -402,8 +413,13 @@ def _true_model(
     rng: np.random.Generator,
     spread: float,
     exponent_spread: float,
+    drift: float = 0.0,
 ) -> PowerLawModel:
-    """One true model inside ``model``'s band over ``op``'s bounds (see :func:`sample_machine`)."""
+    """One true model inside ``model``'s band over ``op``'s bounds (see :func:`sample_machine`).
+
+    ``drift``: the rise over an edge's life the model will see; the new edge's truth is drawn
+    that much under the band's upper edge, so the worn edge's stays inside it too.
+    """
     source = f"true model of {op.name!r}, sampled inside the band of K = {model.K:g} ± {model.dK:g}"
     if model.dK == 0:
         return PowerLawModel(model.quantity, model.K, 0.0, dict(model.exponents), source)
@@ -414,13 +430,14 @@ def _true_model(
     u = float(rng.random())
     low, high = _log_range(names, op)
     # ln(true/nominal) = ln(1 + δ) + Σ ε_i ln x_i must lie in [ln(1 − b), ln(1 + b)]
-    ln_hi = math.log1p(band) - _BAND_MARGIN
     ln_lo = math.log1p(-band) + _BAND_MARGIN if band < 1 else -math.inf
+    # a drift beyond the band's width cannot fit inside it: the truth at the band's low edge
+    ln_hi = max(math.log1p(band) - math.log1p(drift) - _BAND_MARGIN, min(ln_lo, 0.0))
     s_hi = float(np.maximum(eps * low, eps * high).sum())
     s_lo = float(np.minimum(eps * low, eps * high).sum())
     shrink = 1.0
     if s_hi > ln_hi:
-        shrink = min(shrink, ln_hi / s_hi)
+        shrink = min(shrink, max(ln_hi, 0.0) / s_hi)
     if s_lo < ln_lo:
         shrink = min(shrink, ln_lo / s_lo)
     eps, s_hi, s_lo = eps * shrink, s_hi * shrink, s_lo * shrink

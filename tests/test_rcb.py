@@ -67,7 +67,7 @@ def test_the_floor_holds(state):
         assert d.band_after / d.predicted >= 0.09 / first - 1e-12
     assert_allclose(d.band_after / d.predicted, 0.09 / first, rtol=0.02)
     # A floor set for the quantity: 0.8235 − 0.25·(0.8235 − 0.09) = 0.640 stops at 0.7 µm.
-    custom = replace(state, settings=RcbSettings(floors={"roughness_um": 0.7}))
+    custom = replace(state, settings=RcbSettings(strategy="ivester", floors={"roughness_um": 0.7}))
     ra = _rough_od(custom).predicted["roughness_um"]
     measured = {"rough-od": {"roughness_um": Measurement(ra.value, 0.09)}}
     _, (d2,) = update(custom, _report(custom, measured))

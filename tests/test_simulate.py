@@ -343,9 +343,26 @@ def test_oracle_is_at_least_the_robust_optimum(robust, seed):
 
 
 def test_wear_drift_raises_force_and_roughness_over_the_edge_life(robust):
-    plain = sample_machine(PLAN, 6)
     worn = sample_machine(PLAN, 6, wear_drift_per_edge_life=0.2)
-    assert worn.processes == plain.processes
+    plain = VirtualMachine(PLAN, worn.processes, worn.uncertainty)  # the same truth, no drift
+    # the catalogue band covers the worn edge too: a drifting quantity's new-edge truth is
+    # drawn under the band's upper edge by the factor 1.05 (the force band is ±7 %), the rest
+    # as without drift
+    unworn = sample_machine(PLAN, 6)
+    assert worn.processes["finish-od"] == unworn.processes["finish-od"]  # no tool-life model
+    drifting = sample_machine(PLAN, 6, wear_drift_per_edge_life=0.05)
+    op = OPS["rough-od"]
+    for quantity in ("force_N", "roughness_um"):
+        nominal = PLAN.tools[op.tool].models[quantity]
+        true = drifting.processes["rough-od"].tool.models[quantity]
+        for corner in itertools.product(
+            *(op.bounds[p] for p in ("depth_mm", "feed_mm_rev", "speed_m_min"))
+        ):
+            point = {
+                **op.context,
+                **dict(zip(("depth_mm", "feed_mm_rev", "speed_m_min"), corner, strict=True)),
+            }
+            assert true.predict(point).value * 1.05 <= nominal.predict(point).upper * (1 + 1e-9)
     sp = _setpoints(robust)
     new = run_part(worn, sp, np.random.default_rng(0), {"rough-od": 0})
     used = run_part(worn, sp, np.random.default_rng(0), {"rough-od": 5, "finish-od": 5})
