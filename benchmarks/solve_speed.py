@@ -56,6 +56,8 @@ from pathlib import Path
 from typing import Any
 from unittest.mock import patch
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 PLAN_FILE = ROOT / "examples" / "ivester_demo_part.toml"
 OPERATION = "rough-od"
@@ -431,14 +433,90 @@ def main(argv: list[str] | None = None) -> int:
     print(Stats.of(via_cvxpy).line("DPP cvxpy problem re-solved (HiGHS via cvxpy)") + capped(cut))
     print(Stats.of(via_highs).line("highs_lp.maximize (HiGHS direct)") + capped(cut2))
 
+    # 6. A learn operation: the cone program, three ways.
+    learn_stats, cones_stats, kelley_stats = learned_section(plan, op, repeat, cap["cvxpy"])
+
     # Targets.
     print()
     print("Targets (re-solved, from the issue)")
     print(verdict("one operation re-solved", op_stats.median, TARGET_OP_MS))
+    print(verdict("one learn operation re-solved", learn_stats.median, TARGET_OP_MS))
     print(verdict("six-operation plan re-solved", plan_stats.median, TARGET_PLAN_MS))
     print()
     print(f"Total benchmark wall time {perf() - started:.1f} s")
     return 0
+
+
+def learned_section(plan: Any, op: Any, repeat: int, cap_s: float) -> tuple[Any, Any, Any]:
+    """Section 6: a learn operation re-solved, its cone program by Clarabel and by cuts.
+
+    The learn states come from parts made on the virtual lathe (seed 0); the cone program of
+    each is solved by ``supervisor.socp`` (Clarabel, what the optimiser uses) and by Kelley's
+    outer-approximation cuts with HiGHS (the alternative, written here only to measure it).
+    """
+    from supervisor import socp
+    from supervisor.formulation import formulate
+    from supervisor.optimizer import optimize_operation
+    from supervisor.rcb import RcbSettings, learned_cones, start, update
+    from supervisor.report import PartReport
+    from supervisor.simulate import run_part, sample_machine
+
+    machine = sample_machine(plan, 0)
+    rng = np.random.default_rng(0)
+    state = start(plan, RcbSettings(strategy="learn"))
+    cases = []
+    for k in range(12):
+        setpoints = {o.name: o.setpoint for o in state.setpoints.operations}
+        outcome = run_part(machine, setpoints, rng)
+        state, _ = update(state, PartReport(f"S-{k}", state.version, outcome.measurements))
+        last = next(r for r in state.setpoints.operations if r.name == op.name)
+        cases.append((state.tools[op.name], learned_cones(state)[op.name], last))
+    lps = [formulate(op, tool, plan.machine, cones) for tool, cones, _ in cases]
+    for tool, cones, last in cases:  # warm-up
+        optimize_operation(op, tool, plan.machine, cones, last)
+
+    def resolve(i: int) -> object:
+        tool, cones, last = cases[i % len(cases)]
+        return optimize_operation(op, tool, plan.machine, cones, last)
+
+    whole, cut1 = timed_loop(resolve, repeat, cap_s / 3)
+    clarabel, cut2 = timed_loop(lambda i: socp.maximize(lps[i % len(lps)]), repeat, cap_s / 3)
+    kelley, cut3 = timed_loop(lambda i: kelley_cuts(lps[i % len(lps)]), repeat, cap_s / 3)
+    stats = Stats.of(whole), Stats.of(clarabel), Stats.of(kelley)
+    print()
+    print(f"6. {op.name} under the learn strategy (cone rows; 12 posteriors, cycled)")
+    print(stats[0].line("optimize_operation with cones, re-solve") + capped(cut1))
+    print(stats[1].line("cone program: socp.maximize (Clarabel)") + capped(cut2))
+    print(stats[2].line("cone program: HiGHS + Kelley cuts") + capped(cut3))
+    return stats
+
+
+def kelley_cuts(lp: Any, rounds: int = 60) -> Any:
+    """Kelley's cutting planes for ``lp``'s cone rows, each round a HiGHS LP (measured only)."""
+    from supervisor import highs_lp
+
+    a = [r.coefficients for r in lp.rows if r.cone is None]
+    b = [r.rhs for r in lp.rows if r.cone is None]
+    terms = [
+        (np.array(r.coefficients), np.array(r.cone.G), np.array(r.cone.h), r.cone.z, r.rhs)
+        for r in lp.rows
+        if r.cone is not None
+    ]
+    x = 0.5 * (np.array(lp.lower) + np.array(lp.upper))
+    for k in range(rounds):
+        for coef, G, h, z, rhs in terms:
+            v = G @ x + h
+            norm = float(np.linalg.norm(v))
+            if k == 0 or float(coef @ x) + z * norm > rhs:
+                w = v / norm
+                a.append(tuple(coef + z * (G.T @ w)))
+                b.append(rhs - 1e-6 - z * float(w @ h))
+        status, x = highs_lp.solve_lp(lp.objective, a, b, lp.lower, lp.upper, maximize=True)
+        if status != "optimal":
+            return None
+        if all(float(c @ x) + z * float(np.linalg.norm(G @ x + h)) <= r for c, G, h, z, r in terms):
+            return x
+    return None
 
 
 if __name__ == "__main__":
