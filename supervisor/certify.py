@@ -69,7 +69,7 @@ import numpy.typing as npt
 from scipy.stats import beta
 
 from models.errors import InputError
-from supervisor.errors import InfeasibleError
+from supervisor.errors import InfeasibleError, SupervisorError
 from supervisor.optimizer import PlanResult, optimize_plan
 from supervisor.plan import PARTS_PER_EDGE, Plan
 from supervisor.rcb import STRATEGIES, RcbSettings, RcbState, start, update
@@ -492,11 +492,17 @@ def _init_worker(starts: Mapping[str, RcbState], wear_drift_per_edge_life: float
     _WORKER["drift"] = wear_drift_per_edge_life
 
 
-def _worker_scenario(task: tuple[str, int, int]) -> ScenarioTrace:
+def _worker_scenario(task: tuple[str, int, int]) -> ScenarioTrace | None:
+    """One scenario in a worker; None where it raised a domain error (see :func:`simulate`)."""
     strategy, seed, parts = task
     initial: RcbState = _WORKER["starts"][strategy]
     drift: float = _WORKER["drift"]
-    return run_scenario(initial, seed, parts, wear_drift_per_edge_life=drift)
+    try:
+        return run_scenario(initial, seed, parts, wear_drift_per_edge_life=drift)
+    except (InputError, SupervisorError):
+        # these carry structured arguments and do not survive pickling back to the parent;
+        # the parent runs the (deterministic) scenario again and raises the error itself
+        return None
 
 
 def _chunk(scenarios: int, jobs: int) -> int:
@@ -590,7 +596,11 @@ def simulate(
                 yield run_scenario(starts[strategy], s, parts, wear_drift_per_edge_life=drift)
             return
         tasks = [(strategy, s, parts) for s in seeds]
-        yield from pool.map(_worker_scenario, tasks, chunksize=_chunk(scenarios, jobs))
+        done = pool.map(_worker_scenario, tasks, chunksize=_chunk(scenarios, jobs))
+        for s, trace in zip(seeds, done, strict=True):
+            if trace is None:
+                trace = run_scenario(starts[strategy], s, parts, wear_drift_per_edge_life=drift)
+            yield trace
 
     pool = (
         ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(starts, drift))

@@ -203,6 +203,21 @@ def test_engine_refuses_bad_counts(kwargs, field):
     assert err.value.field == field
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_domain_error_in_a_scenario_reaches_the_caller_as_itself(monkeypatch, jobs):
+    """InputError and InfeasibleError do not pickle back from a worker; the parent re-runs."""
+    real = certify.sample_machine
+
+    def sample_machine(plan, seed, **kwargs):
+        if seed == 2:
+            raise InfeasibleError("rough-od", (), ())
+        return real(plan, seed, **kwargs)
+
+    monkeypatch.setattr(certify, "sample_machine", sample_machine)  # forked workers see it
+    with pytest.raises(InfeasibleError, match="rough-od"):
+        simulate(PLAN, ["ivester"], scenarios=4, parts=1, jobs=jobs)
+
+
 def test_engine_refuses_an_unknown_strategy():
     with pytest.raises(InputError, match="strategy"):
         simulate(PLAN, ["nope"], scenarios=1, parts=1)
