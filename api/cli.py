@@ -25,6 +25,7 @@ except ImportError:  # pragma: no cover - typer that uses click itself
 from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api import cli_review, render, service, serving
+from api.cli_certify import certify
 from api.cli_common import DbOption, database_url, emit, err_console, errors, say, shown
 from api.cli_fit import fit
 from api.cli_gcode import gcode
@@ -302,6 +303,7 @@ def demo(
         _out.print(table)
 
 
+app.command()(certify)  # rcb certify: api/cli_certify.py
 app.command()(fit)  # rcb fit: api/cli_fit.py
 app.command()(gcode)  # rcb gcode: api/cli_gcode.py
 app.command()(report)  # rcb report: api/cli_report.py

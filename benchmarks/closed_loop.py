@@ -1,10 +1,13 @@
 """Closed-loop Monte Carlo benchmark of RCB against the oracle (a script run on demand, not a test).
 
-What it measures. For every scenario ``s`` (seed ``seed_offset + s``) and every strategy
-(``ivester``, ``bayes``; :mod:`supervisor.rcb`):
+What it measures (the engine is :mod:`supervisor.certify`, which ``rcb certify`` also runs).
+For every scenario ``s`` (seed ``seed_offset + s``) and every strategy (``ivester``,
+``bayes``; :mod:`supervisor.rcb`):
 
 1. a true process is drawn inside the plan's model bands,
-   ``machine = sample_machine(plan, seed)`` (:mod:`supervisor.simulate`);
+   ``machine = sample_machine(plan, seed, wear_drift_per_edge_life=--wear-drift)``
+   (:mod:`supervisor.simulate`; with drift, an edge is changed after ``parts_per_edge``
+   parts);
 2. the *oracle* is the same optimisation with the true models and no band,
    ``optimize_plan(plan, tools=oracle_tools(machine))``: the fastest any controller could run
    without crossing a true limit;
@@ -12,9 +15,10 @@ What it measures. For every scenario ``s`` (seed ``seed_offset + s``) and every 
    ``--parts`` parts: each part is made with the current setpoints by ``run_part`` (measurement
    noise from ``numpy.random.default_rng(seed)``, the seed of the machine, as
    :func:`supervisor.demo.run_demo` does), its true-limit violations are counted, and its
-   measurements go back through ``update`` as a ``PartReport``. An ``InfeasibleError`` from
-   ``update`` (grown bands leave no safe setpoint) stops the machine: the scenario is counted
-   as *stopped*, makes no more parts and removes no material (MRR 0) from then on.
+   measurements go back through ``update`` as a ``PartReport``. When grown bands leave no
+   safe setpoint (``update`` raises ``InfeasibleError`` or returns a halted state) the
+   machine stops: the scenario is counted as *stopped*, makes no more parts and removes no
+   material (MRR 0) from then on.
 
 Row ``k`` of the tables is "after k parts": the setpoints in force after ``k`` part reports,
 i.e. those part ``k + 1`` is made with (``k = 0``: the robust start, which made part 1; ``k =
@@ -30,47 +34,54 @@ parts on; speed: 10 000 simulated parts in <= 30 s, i.e. >= 333 parts/s). The sc
 whether each is met and exits 0 either way.
 
 Scenarios run in a ``ProcessPoolExecutor`` (``--jobs``, default: the CPUs this process may
-use); each worker loads the plan and computes the robust start once (``start`` is
-deterministic and ``RcbState`` immutable, so every scenario starts from the same state). A
-scenario depends only on its seed and results are aggregated in seed order, so the output,
-including the printed digest of all per-scenario results, is the same for any ``--jobs``.
-The wall time covers the whole simulation: starting the workers (each loads the project
-and the plan), the oracle solves and every part; "parts" counts the parts actually made.
+use); the robust start of each strategy is computed once and handed to the workers
+(``start`` is deterministic and ``RcbState`` immutable, so every scenario starts from the
+same state). A scenario depends only on its seed and results are aggregated in seed order, so
+the output, including the printed digest of all per-scenario results, is the same for any
+``--jobs``. The wall time covers the whole simulation: starting the workers, the oracle
+solves and every part; "parts" counts the parts actually made.
+
+``--baseline gp`` adds a column for a Gaussian-process controller when
+``benchmarks/gp_baseline.py`` exists and scikit-learn imports: its
+``run_gp_scenario(plan, seed, parts, wear_drift_per_edge_life)`` on the first
+``--gp-scenarios`` seeds (default 50: it is slow), in its own worker pool. The digest covers
+the RCB strategies only; the GP column has its own.
 
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/closed_loop.py [--scenarios 200] [--parts 30]
         [--strategy ivester|bayes|both] [--plan examples/ivester_demo_part.toml]
-        [--jobs N] [--seed-offset 0] [--markdown]
+        [--jobs N] [--seed-offset 0] [--wear-drift 0] [--baseline gp [--gp-scenarios 50]]
+        [--markdown]
 
 How long it takes: every part costs one plan re-optimisation (about 3 ms of one core in all),
 so the default run (200 scenarios x 30 parts x 2 strategies = 12 000 parts) takes about 20 s
 on this 2-core machine when the host is quiet, and up to twice that when other work shares the
-cores; the time scales with scenarios x parts x strategies / jobs.
+cores; the time scales with scenarios x parts x strategies / jobs (1000 scenarios: about
+five times as long).
 """
 
 from __future__ import annotations
 
 import argparse
 import hashlib
-import os
+import importlib.util
 import sys
 import time
 from collections import Counter
-from collections.abc import Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from models import kinematics
-from supervisor.errors import InfeasibleError
-from supervisor.optimizer import PlanResult, optimize_plan
+from supervisor.certify import MAX_PARTS, MAX_SCENARIOS, Certificate, available_cpus, digest
+from supervisor.certify import simulate as simulate_certificates
 from supervisor.plan import Plan, load_plan
-from supervisor.rcb import STRATEGIES, RcbSettings, RcbState, start, update
-from supervisor.report import PartReport
-from supervisor.simulate import oracle_tools, run_part, sample_machine
+from supervisor.rcb import STRATEGIES
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -82,141 +93,108 @@ TARGET_MEAN_RATIO = 0.95
 TARGET_PARTS = 10_000
 TARGET_SECONDS = 30.0
 PERCENTILE = 5.0
+#: Scenarios of the GP baseline by default (a GP fit per part is slow).
+GP_SCENARIOS = 50
 
 perf = time.perf_counter
 
-
-# --------------------------------------------------------------------------- one scenario
+# --------------------------------------------------------------------------- GP baseline
 
 
 @dataclass(frozen=True)
-class Scenario:
-    """The record of one scenario of one strategy (rows 0..parts, parts 1..parts)."""
+class Column:
+    """One column group of the main table: MRR/oracle per scenario and row, violations."""
 
-    seed: int
-    oracle_cycle_min: float
-    plan_ratio: np.ndarray  # (parts + 1,) oracle cycle / cycle; 0 once stopped
-    op_ratio: np.ndarray  # (parts + 1, operations) MRR / oracle MRR; 0 once stopped
-    cycle_min: np.ndarray  # (parts + 1,) cycle time; nan once stopped
-    violations: np.ndarray  # (parts,) true-limit violations of part 1..parts
-    where: tuple[tuple[int, str, str], ...]  # (part, operation, limit) of every violation
-    stopped_at: int  # the part whose report left no safe setpoint; 0 if never stopped
-    stopped_op: str
-    parts_made: int
+    name: str
+    ratio: np.ndarray  # (scenarios, parts + 1)
+    cumulative_violations: np.ndarray  # (parts + 1,)
 
 
-#: Per worker process: the plan and the robust start of each strategy (see _init_worker).
-_PLAN: Plan | None = None
-_START: dict[str, RcbState] = {}
+def rcb_column(summary: Certificate) -> Column:
+    return Column(summary.strategy, summary.plan_ratio, summary.cumulative_violations)
 
 
-def _init_worker(plan_path: str, strategies: Sequence[str]) -> None:
-    """Load the plan and compute the (deterministic) robust start once per worker."""
-    global _PLAN
-    _PLAN = load_plan(Path(plan_path))
-    for strategy in strategies:
-        _START[strategy] = start(_PLAN, RcbSettings(strategy=strategy))  # type: ignore[arg-type]
+@dataclass(frozen=True)
+class GpRun:
+    """The GP baseline over its scenarios (benchmarks/gp_baseline.py's GpTrace, stacked)."""
+
+    seeds: range
+    ratio: np.ndarray  # (scenarios, parts + 1)
+    violations: np.ndarray  # (scenarios, parts)
+    seconds: np.ndarray  # (scenarios,) as each trace reports it
+    wall: float
+
+    def column(self) -> Column:
+        per_part = self.violations.sum(axis=0)
+        cumulative = np.concatenate([[0], np.cumsum(per_part)])
+        return Column(f"gp ({len(self.seeds)} sc.)", self.ratio, cumulative)
+
+    def digest(self) -> str:
+        h = hashlib.sha256()
+        for array in (self.ratio, self.violations):
+            h.update(np.ascontiguousarray(array, dtype=np.float64).tobytes())
+        return h.hexdigest()[:12]
 
 
-def _record(result: PlanResult, oracle: PlanResult) -> tuple[float, np.ndarray, float]:
-    """Plan MRR/oracle ratio, per-operation MRR/oracle ratios, cycle time."""
-    pairs = zip(result.operations, oracle.operations, strict=True)
-    ops = np.array([r.mrr_cm3_min / o.mrr_cm3_min for r, o in pairs])
-    cycle = result.cycle_time_min
-    return oracle.cycle_time_min / cycle, ops, cycle
+def gp_baseline() -> Callable[..., Any] | str:
+    """``run_gp_scenario`` of benchmarks/gp_baseline.py, or why it cannot be used."""
+    if not (Path(__file__).parent / "gp_baseline.py").is_file():
+        return "benchmarks/gp_baseline.py does not exist"
+    if importlib.util.find_spec("sklearn") is None:
+        return "scikit-learn does not import"
+    sys.path.insert(0, str(Path(__file__).parent))
+    try:
+        import gp_baseline as module  # type: ignore[import-not-found]
+    except ImportError as err:
+        return f"benchmarks/gp_baseline.py does not import ({err})"
+    finally:
+        sys.path.pop(0)
+    run = getattr(module, "run_gp_scenario", None)
+    if run is None:
+        return "benchmarks/gp_baseline.py has no run_gp_scenario"
+    return run
 
 
-def run_scenario(task: tuple[str, int, int]) -> Scenario:
-    """Make ``parts`` parts with RCB on the machine of ``seed`` (module docstring)."""
-    strategy, seed, parts = task
-    assert _PLAN is not None, "worker not initialised"
-    plan = _PLAN
-    machine = sample_machine(plan, seed=seed)
-    oracle = optimize_plan(plan, tools=oracle_tools(machine))
-    state = _START[strategy]
-    rng = np.random.default_rng(seed)
-    n_ops = len(plan.operations)
-    plan_ratio = np.zeros(parts + 1)
-    op_ratio = np.zeros((parts + 1, n_ops))
-    cycle = np.full(parts + 1, np.nan)
-    violations = np.zeros(parts, dtype=np.int64)
-    where: list[tuple[int, str, str]] = []
-    stopped_at, stopped_op, made = 0, "", 0
-    for k in range(1, parts + 1):
-        plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(state.setpoints, oracle)
-        setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
-        outcome = run_part(machine, setpoints, rng)
-        made = k
-        violations[k - 1] = len(outcome.violations)
-        where += [(k, v.operation, v.quantity) for v in outcome.violations]
-        report = PartReport(f"{seed}-{k}", state.version, outcome.measurements)
-        try:
-            state, _ = update(state, report)
-        except InfeasibleError as err:
-            stopped_at, stopped_op = k, err.operation
-            break
-    if not stopped_at:
-        plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(state.setpoints, oracle)
-    return Scenario(
-        seed=seed,
-        oracle_cycle_min=oracle.cycle_time_min,
-        plan_ratio=plan_ratio,
-        op_ratio=op_ratio,
-        cycle_min=cycle,
-        violations=violations,
-        where=tuple(where),
-        stopped_at=stopped_at,
-        stopped_op=stopped_op,
-        parts_made=made,
+_GP: dict[str, Any] = {}
+
+
+def _gp_init(run: Callable[..., Any], plan: Plan, parts: int, drift: float) -> None:
+    _GP.update(run=run, plan=plan, parts=parts, drift=drift)
+
+
+def _gp_scenario(seed: int) -> tuple[tuple[float, ...], tuple[int, ...], float]:
+    trace = _GP["run"](_GP["plan"], seed, _GP["parts"], wear_drift_per_edge_life=_GP["drift"])
+    return tuple(trace.mrr_over_oracle), tuple(trace.violations), float(trace.seconds)
+
+
+def run_gp(
+    run: Callable[..., Any], plan: Plan, seeds: range, parts: int, drift: float, jobs: int
+) -> GpRun:
+    t0 = perf()
+    args = (run, plan, parts, drift)
+    if jobs == 1:
+        _gp_init(*args)
+        traces = list(map(_gp_scenario, seeds))
+    else:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_gp_init, initargs=args) as pool:
+            traces = list(pool.map(_gp_scenario, seeds))
+    wall = perf() - t0
+    for seed, (ratio, violations, _) in zip(seeds, traces, strict=True):
+        if len(ratio) != parts + 1 or len(violations) != parts:
+            raise SystemExit(
+                f"gp_baseline seed {seed}: mrr_over_oracle has {len(ratio)} values (needs "
+                f"{parts + 1}), violations {len(violations)} (needs {parts})"
+            )
+    return GpRun(
+        seeds=seeds,
+        ratio=np.array([t[0] for t in traces], dtype=np.float64),
+        violations=np.array([t[1] for t in traces], dtype=np.int64),
+        seconds=np.array([t[2] for t in traces], dtype=np.float64),
+        wall=wall,
     )
 
 
 # --------------------------------------------------------------------------- aggregation
-
-
-@dataclass(frozen=True)
-class Summary:
-    """One strategy over all scenarios, in seed order."""
-
-    strategy: str
-    scenarios: tuple[Scenario, ...]
-    seconds: float
-
-    @property
-    def plan_ratio(self) -> np.ndarray:
-        return np.array([s.plan_ratio for s in self.scenarios])
-
-    @property
-    def op_ratio(self) -> np.ndarray:
-        return np.array([s.op_ratio for s in self.scenarios])
-
-    @property
-    def cumulative_violations(self) -> np.ndarray:
-        """Row k: violations of parts 1..k over all scenarios (row 0: 0)."""
-        per_part = np.array([s.violations for s in self.scenarios]).sum(axis=0)
-        return np.concatenate([[0], np.cumsum(per_part)])
-
-    @property
-    def parts_made(self) -> int:
-        return sum(s.parts_made for s in self.scenarios)
-
-    def mean_cycle(self, row: int) -> tuple[float, int]:
-        """Mean cycle time at a row over the scenarios still running, and how many run."""
-        values = np.array([s.cycle_min[row] for s in self.scenarios])
-        running = values[np.isfinite(values)]
-        return (float(running.mean()) if running.size else float("nan")), int(running.size)
-
-
-def digest(summaries: Sequence[Summary]) -> str:
-    """SHA-256 (first 12 hex digits) of every per-scenario array, in order."""
-    h = hashlib.sha256()
-    for summary in summaries:
-        h.update(summary.strategy.encode())
-        for s in summary.scenarios:
-            for array in (s.plan_ratio, s.op_ratio, s.cycle_min, s.violations):
-                h.update(np.ascontiguousarray(array).tobytes())
-            h.update(repr((s.oracle_cycle_min, s.where, s.stopped_at, s.stopped_op)).encode())
-    return h.hexdigest()[:12]
 
 
 def catalogue_cycle(plan: Plan) -> float | None:
@@ -243,22 +221,22 @@ def met(flag: bool) -> str:
     return "MET" if flag else "NOT MET"
 
 
-def main_table(summaries: Sequence[Summary], rows: Sequence[int], markdown: bool) -> list[str]:
+def main_table(columns: Sequence[Column], rows: Sequence[int], markdown: bool) -> list[str]:
     stats = []
-    for summary in summaries:
-        ratio = summary.plan_ratio
+    for column in columns:
+        ratio = column.ratio
         stats.append(
             (
                 ratio.mean(axis=0),
                 np.percentile(ratio, PERCENTILE, axis=0),
-                summary.cumulative_violations,
+                column.cumulative_violations,
             )
         )
     if markdown:
         head = "| after k parts |"
         rule = "| ---: |"
-        for summary in summaries:
-            name = summary.strategy
+        for column in columns:
+            name = column.name
             head += f" {name} mean MRR/oracle | {name} p5 | {name} violations |"
             rule += " ---: | ---: | ---: |"
         lines = [head, rule]
@@ -270,8 +248,8 @@ def main_table(summaries: Sequence[Summary], rows: Sequence[int], markdown: bool
         return lines
     head1 = "  after |"
     head2 = "  parts |"
-    for summary in summaries:
-        head1 += f" {summary.strategy + ' MRR/oracle':^26} |"
+    for column in columns:
+        head1 += f" {column.name + ' MRR/oracle':^26} |"
         head2 += f" {'mean':>7} {'p5':>7} {'viol':>10} |"
     lines = [head1, head2, "  " + "-" * (len(head2) - 2)]
     for k in rows:
@@ -282,7 +260,7 @@ def main_table(summaries: Sequence[Summary], rows: Sequence[int], markdown: bool
     return lines
 
 
-def op_table(summaries: Sequence[Summary], plan: Plan, parts: int) -> list[str]:
+def op_table(summaries: Sequence[Certificate], plan: Plan, parts: int) -> list[str]:
     marks = sorted({min(TARGET_FROM_PART, parts), parts})
     head = f"  {'operation':<16}"
     cols = []
@@ -301,14 +279,14 @@ def op_table(summaries: Sequence[Summary], plan: Plan, parts: int) -> list[str]:
     return lines
 
 
-def violation_lines(summary: Summary) -> list[str]:
+def violation_lines(summary: Certificate) -> list[str]:
     scenarios = summary.scenarios
     total = sum(len(s.where) for s in scenarios)
     hit = sum(1 for s in scenarios if s.where)
     stopped = [s for s in scenarios if s.stopped_at]
     line = (
         f"  {summary.strategy}: {total} true-limit violations in {hit} of {len(scenarios)} "
-        f"scenarios; stopped (InfeasibleError) {len(stopped)}"
+        f"scenarios; stopped (no safe setpoint) {len(stopped)}"
     )
     lines = [line]
     if stopped:
@@ -337,25 +315,6 @@ def violation_lines(summary: Summary) -> list[str]:
 # --------------------------------------------------------------------------- main
 
 
-def default_jobs() -> int:
-    if hasattr(os, "sched_getaffinity"):
-        return max(1, len(os.sched_getaffinity(0)))
-    return os.cpu_count() or 1
-
-
-def simulate(
-    executor: Executor | None, strategy: str, seeds: Sequence[int], parts: int, jobs: int
-) -> Summary:
-    tasks = [(strategy, seed, parts) for seed in seeds]
-    t0 = perf()
-    if executor is None:
-        results = tuple(map(run_scenario, tasks))
-    else:
-        chunk = max(1, len(tasks) // (8 * jobs))
-        results = tuple(executor.map(run_scenario, tasks, chunksize=chunk))
-    return Summary(strategy, results, perf() - t0)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenarios", type=int, default=200, help="seeded true processes")
@@ -363,35 +322,67 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--strategy", choices=[*STRATEGIES, "both"], default="both")
     parser.add_argument("--plan", type=Path, default=DEFAULT_PLAN, help="plan file (TOML)")
     parser.add_argument(
-        "--jobs", type=int, default=default_jobs(), help="worker processes (1: no pool)"
+        "--jobs", type=int, default=available_cpus(), help="worker processes (1: no pool)"
     )
     parser.add_argument("--seed-offset", type=int, default=0, help="scenario s uses seed s + N")
+    parser.add_argument(
+        "--wear-drift",
+        type=float,
+        default=0.0,
+        help="rise of force, roughness and current over an edge's life (0: none)",
+    )
+    parser.add_argument(
+        "--baseline", choices=["gp"], help="add a baseline column (benchmarks/gp_baseline.py)"
+    )
+    parser.add_argument(
+        "--gp-scenarios",
+        type=int,
+        default=GP_SCENARIOS,
+        help=f"scenarios of the GP baseline, the first seeds (default {GP_SCENARIOS}: slow)",
+    )
     parser.add_argument(
         "--markdown", action="store_true", help="also print the main table as Markdown"
     )
     args = parser.parse_args(argv)
-    if args.scenarios < 1 or args.parts < 1 or args.jobs < 1:
-        parser.error("--scenarios, --parts and --jobs must be >= 1")
+    if args.scenarios < 1 or args.parts < 1 or args.jobs < 1 or args.gp_scenarios < 1:
+        parser.error("--scenarios, --parts, --jobs and --gp-scenarios must be >= 1")
+    if args.scenarios > MAX_SCENARIOS or args.parts > MAX_PARTS:
+        parser.error(f"--scenarios must be <= {MAX_SCENARIOS} and --parts <= {MAX_PARTS}")
+    if args.seed_offset < 0:
+        parser.error("--seed-offset must be >= 0")
+    if not (np.isfinite(args.wear_drift) and args.wear_drift >= 0):
+        parser.error("--wear-drift must be a number >= 0")
+    gp_run: Callable[..., Any] | None = None
+    if args.baseline == "gp":
+        found = gp_baseline()
+        if isinstance(found, str):
+            parser.error(f"--baseline gp: {found}")
+        gp_run = found
     strategies = list(STRATEGIES) if args.strategy == "both" else [args.strategy]
     plan = load_plan(args.plan)
     parts = args.parts
     seeds = range(args.seed_offset, args.seed_offset + args.scenarios)
     jobs = min(args.jobs, args.scenarios)
-    plan_path = str(args.plan.resolve())
 
     t0 = perf()
-    summaries: list[Summary] = []
-    if jobs == 1:
-        _init_worker(plan_path, strategies)
-        summaries = [simulate(None, s, seeds, parts, jobs) for s in strategies]
-    else:
-        with ProcessPoolExecutor(
-            max_workers=jobs, initializer=_init_worker, initargs=(plan_path, strategies)
-        ) as pool:
-            summaries = [simulate(pool, s, seeds, parts, jobs) for s in strategies]
+    summaries = simulate_certificates(
+        plan,
+        strategies,
+        scenarios=args.scenarios,
+        parts=parts,
+        seed=args.seed_offset,
+        wear_drift_per_edge_life=args.wear_drift,
+        jobs=jobs,
+    )
     wall = perf() - t0
     made = sum(s.parts_made for s in summaries)
     rate = made / wall
+    gp: GpRun | None = None
+    if gp_run is not None:
+        gp_seeds = range(args.seed_offset, args.seed_offset + args.gp_scenarios)
+        gp_jobs = min(args.jobs, args.gp_scenarios)
+        gp = run_gp(gp_run, plan, gp_seeds, parts, args.wear_drift, gp_jobs)
+    columns = [rcb_column(s) for s in summaries] + ([gp.column()] if gp is not None else [])
 
     rows = [k for k in ROWS if k <= parts]
     if parts not in rows:
@@ -401,12 +392,13 @@ def main(argv: list[str] | None = None) -> int:
     out.append(
         f"Closed-loop RCB vs oracle: {plan.name!r} ({len(plan.operations)} operations), "
         f"{args.scenarios} scenarios (seeds {seeds[0]}..{seeds[-1]}) x {parts} parts"
+        + (f", wear drift {args.wear_drift:g} per edge life" if args.wear_drift else "")
     )
     out.append("MRR/oracle: oracle cycle / cycle of the setpoints in force after k parts (k=0:")
     out.append("robust start); p5: 5th percentile over scenarios; viol: true-limit violations of")
     out.append("parts 1..k, summed over scenarios.")
     out.append("")
-    out += main_table(summaries, rows, markdown=False)
+    out += main_table(columns, rows, markdown=False)
     out.append("")
 
     catalogue = catalogue_cycle(plan)
@@ -446,6 +438,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     out.append(f"  ({per_strategy}; the wall time includes the workers' start-up)")
     out.append(f"Digest of all per-scenario results: {digest(summaries)} (same for any --jobs)")
+    if gp is not None:
+        gp_parts = int(gp.violations.size)
+        out.append(
+            f"GP baseline: {len(gp.seeds)} scenarios (seeds {gp.seeds[0]}..{gp.seeds[-1]}), "
+            f"{gp_parts} parts in {gp.wall:.1f} s wall ({gp_parts / gp.wall:.1f} parts/s), "
+            f"{gp.seconds.mean():.2f} s per scenario as it reports; "
+            f"{int(gp.violations.sum())} true-limit violations; digest {gp.digest()}"
+        )
     out.append("")
     out.append("Targets (from the issue)")
     by_name = {s.strategy: s for s in summaries}
@@ -477,7 +477,7 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(out))
     if args.markdown:
         print()
-        print("\n".join(main_table(summaries, rows, markdown=True)))
+        print("\n".join(main_table(columns, rows, markdown=True)))
     return 0
 
 
