@@ -11,10 +11,11 @@ For every scenario seed ``s`` in ``seed .. seed + N − 1``:
 3. RCB starts from the robust optimum, ``start(plan, RcbSettings(strategy=...))``, and makes
    ``K`` parts: each with the setpoints in force (:func:`supervisor.simulate.run_part`,
    measurement noise from ``numpy.random.default_rng(s)``), its true-limit violations are
-   counted, and its measurements go back through :func:`supervisor.rcb.update`. When
-   ``update`` leaves no safe setpoint (it raises :class:`~supervisor.errors.InfeasibleError`,
-   or returns a state whose ``halt`` is not None) the scenario *stops*: it makes no more parts
-   and removes no material (MRR 0) from then on.
+   counted, and its measurements go back through :func:`supervisor.rcb.update` with each
+   edge's age (``edge_parts``, for the operations with a ``parts_per_edge`` limit, whose edges
+   are changed after that many parts). When ``update`` leaves no safe setpoint (it returns a
+   halted state) the scenario *stops*: it makes no more parts and removes no material (MRR 0)
+   from then on.
 
 Row ``k`` of a scenario is "after k parts": the setpoints in force after ``k`` part reports,
 those part ``k + 1`` is made with (``k = 0``: the robust start, ``k = K``: the final
@@ -69,10 +70,10 @@ import numpy.typing as npt
 from scipy.stats import beta
 
 from models.errors import InputError
-from supervisor.errors import InfeasibleError, SupervisorError
+from supervisor.errors import SupervisorError
 from supervisor.optimizer import PlanResult, optimize_plan
 from supervisor.plan import PARTS_PER_EDGE, Plan
-from supervisor.rcb import STRATEGIES, RcbSettings, RcbState, start, update
+from supervisor.rcb import STRATEGIES, Halt, RcbSettings, RcbState, start, update
 from supervisor.report import PartReport
 from supervisor.simulate import oracle_tools, run_part, sample_machine
 
@@ -397,10 +398,9 @@ def _edge_life_parts(plan: Plan) -> dict[str, int | None]:
     return out
 
 
-def _halted_operation(halt: object) -> str:
-    """The operation a halt names (its ``operation``), else the halt as text."""
-    operation = getattr(halt, "operation", None)
-    return operation if isinstance(operation, str) else str(halt)
+def _halted_operation(halt: Halt) -> str:
+    """The operations a halt names, comma-separated."""
+    return ",".join(o.operation for o in halt.operations)
 
 
 def run_scenario(
@@ -429,7 +429,10 @@ def run_scenario(
     plan = initial.plan
     machine = sample_machine(plan, seed=seed, wear_drift_per_edge_life=wear_drift_per_edge_life)
     oracle = optimize_plan(plan, tools=oracle_tools(machine))
-    edge_life = _edge_life_parts(plan) if wear_drift_per_edge_life else None
+    # the edges of operations with a parts_per_edge limit are changed after that many parts,
+    # and the MES reports each one's age (edge_parts), as a control's tool-life counter does
+    edge_life = _edge_life_parts(plan)
+    counted = {name: n for name, n in edge_life.items() if n is not None}
     state = initial
     rng = np.random.default_rng(seed)
     n_ops = len(plan.operations)
@@ -442,24 +445,18 @@ def run_scenario(
     for k in range(1, parts + 1):
         plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(state.setpoints, oracle)
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
-        edge_parts = None
-        if edge_life is not None:
-            edge_parts = {
-                name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()
-            }
+        edge_parts = {
+            name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()
+        }
         outcome = run_part(machine, setpoints, rng, edge_parts)
         made = k
         violations[k - 1] = len(outcome.violations)
         where += [(k, v.operation, v.quantity) for v in outcome.violations]
-        report = PartReport(f"{seed}-{k}", state.version, outcome.measurements)
-        try:
-            state, _ = update(state, report)
-        except InfeasibleError as err:
-            stopped_at, stopped_op = k, err.operation
-            break
-        halt = getattr(state, "halt", None)
-        if halt is not None:
-            stopped_at, stopped_op = k, _halted_operation(halt)
+        ages = {name: edge_parts[name] for name in counted}
+        report = PartReport(f"{seed}-{k}", state.version, outcome.measurements, edge_parts=ages)
+        state, _ = update(state, report)
+        if state.halt is not None:
+            stopped_at, stopped_op = k, _halted_operation(state.halt)
             break
     if not stopped_at:
         plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(state.setpoints, oracle)

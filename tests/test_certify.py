@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +26,7 @@ from supervisor.certify import (
 )
 from supervisor.errors import InfeasibleError
 from supervisor.plan import load_plan
-from supervisor.rcb import RcbSettings, start
+from supervisor.rcb import Halt, HaltedOperation, RcbSettings, start
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -133,15 +133,8 @@ def test_summary_of_a_small_certificate():
         assert 0.5 < row.mrr_over_oracle_p5 <= row.mrr_over_oracle_mean <= 1.0 + 1e-9
 
 
-@dataclass(frozen=True)
-class _Halt:
-    operation: str
-    reason: str
-
-
-@pytest.mark.parametrize("how", ["raises", "halted-state"])
-def test_a_scenario_stops_when_update_leaves_no_safe_setpoint(monkeypatch, how):
-    """Both contracts of rcb.update: InfeasibleError, or a returned state with ``halt``."""
+def test_a_scenario_stops_when_update_halts(monkeypatch):
+    """rcb.update halts a plan whose bands leave no safe setpoint: the scenario stops there."""
     real_update = certify.update
     calls = 0
 
@@ -151,9 +144,8 @@ def test_a_scenario_stops_when_update_leaves_no_safe_setpoint(monkeypatch, how):
         new, decisions = real_update(state, report)
         if calls < 2:
             return new, decisions
-        if how == "raises":
-            raise InfeasibleError("finish-od", (), ())
-        return _HaltedState(new, _Halt("finish-od", "no safe setpoint")), decisions
+        halted = HaltedOperation("finish-od", (), (), "no safe setpoint")
+        return replace(new, halt=Halt((halted,))), decisions
 
     monkeypatch.setattr(certify, "update", update)
     initial = start(PLAN, RcbSettings(strategy="ivester"))
@@ -163,17 +155,6 @@ def test_a_scenario_stops_when_update_leaves_no_safe_setpoint(monkeypatch, how):
     assert np.all(trace.plan_ratio[:2] > 0) and np.all(trace.plan_ratio[2:] == 0)
     assert np.all(np.isnan(trace.cycle_min[2:]))
     assert trace.violations.shape == (5,)
-
-
-class _HaltedState:
-    """A state as the coming ``rcb.update`` returns it when the plan halts."""
-
-    def __init__(self, state, halt):
-        self._state = state
-        self.halt = halt
-
-    def __getattr__(self, name):
-        return getattr(self._state, name)
 
 
 def test_wear_drift_changes_the_edges_and_is_deterministic():
