@@ -62,6 +62,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -276,10 +277,17 @@ class Cone:
         cov[0, 0] += self.drift**2
         return cov
 
+    @functools.cached_property
+    def _chol(self) -> np.ndarray:
+        """The Cholesky factor of ``Σ₊`` (computed once per cone)."""
+        cov = self._cov()
+        scale = max(float(np.max(np.abs(np.diag(cov)))), 1e-300)
+        return np.linalg.cholesky(cov + np.eye(len(cov)) * scale * _JITTER)
+
     def spread(self, point: Mapping[str, float], rel: Mapping[str, float], edge: int = 0) -> float:
         """``√(φᵀ Σ₊ φ + v_x)`` at ``point`` and edge age ``edge``: the sd of ``ln y`` there."""
-        phi = self.posterior.features(point, edge)
-        variance = max(float(phi @ self._cov() @ phi), 0.0)
+        root = self._chol.T @ self.posterior.features(point, edge)
+        variance = float(root @ root)
         return math.sqrt(variance + self.setpoint_variance(rel))
 
     def setpoint_variance(self, rel: Mapping[str, float]) -> float:
@@ -302,11 +310,9 @@ class Cone:
         self, params: tuple[str, ...], rel: Mapping[str, float], edge: int = 0
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(G, h)``: ``φᵀ Σ₊ φ + v_x = ‖G ln x + h‖²`` over ``params``, at edge age ``edge``."""
-        cov = self._cov()
-        scale = max(float(np.max(np.abs(np.diag(cov)))), 1e-300)
-        chol = np.linalg.cholesky(cov + np.eye(len(cov)) * scale * _JITTER)
-        selector = np.zeros((len(cov), len(params)))
-        offset = np.zeros(len(cov))
+        chol = self._chol
+        selector = np.zeros((len(chol), len(params)))
+        offset = np.zeros(len(chol))
         offset[0] = 1.0
         names = self.posterior.names
         for i, (name, c) in enumerate(zip(names, self.posterior.center, strict=True)):

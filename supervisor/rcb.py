@@ -135,6 +135,8 @@ class RcbSettings:
     exponent_sd : float
         ``learn``: prior standard deviation of each exponent relative to its value [-], for a
         model without a fitted covariance.
+    edge_sd : float
+        ``learn``: prior standard deviation of the rise over one edge's life, in ``ln`` [-].
     """
 
     strategy: str = DEFAULT_STRATEGY
@@ -144,6 +146,7 @@ class RcbSettings:
     discrepancy: float | None = None
     z: float = post.DEFAULT_Z
     exponent_sd: float = post.DEFAULT_EXPONENT_SD
+    edge_sd: float = post.DEFAULT_EDGE_SD
 
     def __post_init__(self) -> None:
         if self.strategy not in REGISTRY:
@@ -161,7 +164,7 @@ class RcbSettings:
                 raise InputError(name, value, "must be a number in (0, 100]")
         if self.discrepancy is None:
             object.__setattr__(self, "discrepancy", self.rule.default_discrepancy)
-        for name in ("discrepancy", "exponent_sd"):
+        for name in ("discrepancy", "exponent_sd", "edge_sd"):
             value = getattr(self, name)
             if not (math.isfinite(value) and 0 <= value <= 10):
                 raise InputError(name, value, "must be a number in [0, 10]")
@@ -383,6 +386,7 @@ def update(
             op,
             state.settings.coverage_k,
             state.settings.exponent_sd,
+            state.settings.edge_sd,
         )
         after = before
         if measurement.value > 0 and measurement.uncertainty > 0:

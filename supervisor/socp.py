@@ -62,20 +62,20 @@ def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
     """
     n = len(lp.parameters)
     linear = [r for r in lp.rows if r.cone is None]
-    a_rows = [list(r.coefficients) for r in linear]
-    b_rows = [r.rhs for r in linear]
     eye = np.eye(n)
-    a_rows += [*eye.tolist(), *(-eye).tolist()]
-    b_rows += [*lp.upper, *(-v for v in lp.lower)]
-    blocks = [np.array(a_rows)]
-    rhs = [np.array(b_rows)]
-    cones: list[Any] = [clarabel.NonnegativeConeT(len(b_rows))]
+    blocks = [np.array([r.coefficients for r in linear]).reshape(-1, n), eye, -eye]
+    rhs = [
+        np.array([r.rhs for r in linear], dtype=float),
+        np.array(lp.upper, dtype=float),
+        -np.array(lp.lower, dtype=float),
+    ]
+    cones: list[Any] = [clarabel.NonnegativeConeT(len(linear) + 2 * n)]
     for row in lp.rows:
         if row.cone is None:
             continue
         G, h, z = np.array(row.cone.G), np.array(row.cone.h), row.cone.z
-        blocks.append(np.vstack([np.array(row.coefficients) / z, -G]))
-        rhs.append(np.concatenate([[(row.rhs - CONE_MARGIN) / z], h]))
+        blocks += [np.array(row.coefficients)[None, :] / z, -G]
+        rhs += [np.array([(row.rhs - CONE_MARGIN) / z]), h]
         cones.append(clarabel.SecondOrderConeT(1 + len(h)))
     dense = np.vstack(blocks)
     cols, rows = np.nonzero(dense.T)  # column-major: the CSC order
