@@ -10,6 +10,7 @@ from api.cli import app
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import load_plan
 from supervisor.simulate import oracle_tools, sample_machine
+from supervisor.strategies import DEFAULT_STRATEGY
 
 from conftest import DEMO_PLAN
 
@@ -24,7 +25,7 @@ def demo_json():
 
 
 def test_demo_json_contract(demo_json):
-    assert demo_json["parts"] == 20 and demo_json["strategy"] == "ivester"
+    assert demo_json["parts"] == 20 and demo_json["strategy"] == DEFAULT_STRATEGY
     names = [op["name"] for op in demo_json["operations"]]
     assert names[0] == "rough-od" and len(names) == 6
     for op in demo_json["operations"]:
