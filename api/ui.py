@@ -232,7 +232,7 @@ def _plans_table(plans: list[dict[str, Any]]) -> str:
         return _tag("p", _e("No plans yet (rcb plan create, or POST /api/v1/plans)."))
     head = "".join(
         _tag("th", _e(h))
-        for h in ("ID", "Name", "Machine", "Status", "Setpoint version", "Parts", "Created", "")
+        for h in ("ID", "Name", "Machine", "Setpoint version", "Parts", "Created", "Status", "")
     )
     rows = []
     for p in plans:
@@ -241,10 +241,10 @@ def _plans_table(plans: list[dict[str, Any]]) -> str:
             _tag("td", _e(p["id"]), class_="num"),
             _tag("td", _e(p["name"])),
             _tag("td", _e(p["machine"])),
-            _status_cell(p),
             _tag("td", _e(p["setpoint_version"]), class_="num"),
             _tag("td", _e(p["parts"]), class_="num"),
             _tag("td", _e(p["created_at"].strftime("%Y-%m-%d %H:%M:%S %Z").strip())),
+            _status_cell(p),
             _tag("td", link),
         ]
         rows.append(_tag("tr", "".join(cells), data_plan=p["id"]))
