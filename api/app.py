@@ -10,7 +10,7 @@ of :mod:`api.service` (writes) or :mod:`api.queries` (reads).
 
 import os
 from collections.abc import AsyncIterator, Callable
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from anyio import CancelScope
 from fastapi import Body, Depends, FastAPI, Header, Path, Query, Request
@@ -22,6 +22,8 @@ from api import auth, problems, queries, schemas, service, ui
 from api.problems import ProblemError
 from db.access import Actor
 from db.engine import DEFAULT_URL, make_engine
+from supervisor.rcb import RcbSettings
+from supervisor.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 
 PREFIX = "/api/v1"
 #: Largest id (the tables' integer keys are 32-bit on PostgreSQL).
@@ -32,6 +34,8 @@ _KEY_DOC = (
     "a client-chosen unique key per request (IETF Idempotency-Key draft); 1-255 visible ASCII"
 )
 
+#: The defaults of the plan settings the create route takes.
+_DEFAULTS = RcbSettings()
 _bearer = HTTPBearer(auto_error=False, description="An API key from `rcb keys create`.")
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
     status: {"model": schemas.Problem, "content": {problems.MEDIA_TYPE: {}}}
@@ -160,19 +164,50 @@ def create_app(url: str) -> FastAPI:
         request: Request,
         plan: Annotated[schemas.PlanIn, Body(openapi_examples=_PLAN_EXAMPLE)],
         actor: Annotated[Actor, engineer],
-        strategy: Literal["ivester", "bayes"] = "ivester",
-        alpha: Annotated[float, Query(gt=0, le=1, allow_inf_nan=False)] = 0.25,
+        strategy: Annotated[schemas.Strategy, Query(description=schemas.STRATEGY_DOC)] = (
+            DEFAULT_STRATEGY
+        ),
+        alpha: Annotated[
+            float,
+            Query(gt=0, le=1, allow_inf_nan=False, description="fraction of the margin"),
+        ] = DEFAULT_ALPHA,
+        floor: Annotated[
+            list[str] | None,
+            Query(description="least band QUANTITY=VALUE (repeatable); default: the u"),
+        ] = None,
+        coverage_k: Annotated[
+            float, Query(gt=0, le=100, allow_inf_nan=False, description="the band as k σ")
+        ] = _DEFAULTS.coverage_k,
+        discrepancy: Annotated[
+            float | None,
+            Query(ge=0, le=10, allow_inf_nan=False, description="τ; default: the strategy's"),
+        ] = None,
+        z: Annotated[
+            float, Query(gt=0, le=100, allow_inf_nan=False, description="learn: the cone's z")
+        ] = _DEFAULTS.z,
+        exponent_sd: Annotated[
+            float,
+            Query(ge=0, le=10, allow_inf_nan=False, description="learn: exponent prior sd"),
+        ] = _DEFAULTS.exponent_sd,
         idempotency_key: Annotated[
             str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
         ] = None,
     ) -> Response:
         """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
         body = plan.model_dump(mode="json", exclude_none=True)
+        settings = RcbSettings(
+            strategy=strategy,
+            alpha=alpha,
+            floors=service.floors_from(floor or [], "floor"),
+            coverage_k=coverage_k,
+            discrepancy=discrepancy,
+            z=z,
+            exponent_sd=exponent_sd,
+        )
         written = service.create_plan(
             engine=engine,
             body=body,
-            strategy=strategy,
-            alpha=alpha,
+            settings=settings,
             actor=actor,
             idempotency=_idempotency(request, idempotency_key, body),
         )

@@ -26,7 +26,16 @@ from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api import cli_review, render, service, serving
 from api.cli_certify import certify
-from api.cli_common import DbOption, database_url, emit, err_console, errors, say, shown
+from api.cli_common import (
+    DbOption,
+    StrategyOption,
+    database_url,
+    emit,
+    err_console,
+    errors,
+    say,
+    shown,
+)
 from api.cli_fit import fit
 from api.cli_gcode import gcode
 from api.cli_milling import milling_app
@@ -41,7 +50,7 @@ from supervisor.demo import MILLING_DEMO_UNCERTAINTY, run_demo
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 from supervisor.rcb import RcbSettings
-from supervisor.strategies import DEFAULT_STRATEGY
+from supervisor.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 
 
 class _OneLineErrors(TyperGroup):
@@ -251,12 +260,10 @@ def optimize(
 def demo(
     parts: Annotated[int, typer.Option("--parts", help="Parts made with RCB.", min=1)] = 20,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the virtual lathe.")] = 1,
-    strategy: Annotated[
-        str, typer.Option("--strategy", help="RCB strategy: learn (default), ivester, bayes.")
-    ] = DEFAULT_STRATEGY,
+    strategy: StrategyOption = DEFAULT_STRATEGY,
     alpha: Annotated[
         float, typer.Option("--alpha", help="Fraction of the margin a band shrinks by.")
-    ] = 0.25,
+    ] = DEFAULT_ALPHA,
     plan_file: Annotated[
         Path | None,
         typer.Option("--plan", help="The plan (default: the paper's demonstration part)."),

@@ -1,9 +1,9 @@
 """What every ``rcb`` command shares: the error contract, the database option, output, files.
 
 Exit codes: 0 success, 2 bad input (one line naming the field and the value), 3 infeasible
-(the limits that cannot be met), 4 solver failure. The command modules (:mod:`api.cli`,
-:mod:`api.cli_fit`, :mod:`api.cli_review`, :mod:`api.cli_gcode`, :mod:`api.cli_report`)
-import from here, never from each other.
+(the limits that cannot be met) or a halted plan (its conflicts), 4 solver failure. The
+command modules (:mod:`api.cli`, :mod:`api.cli_fit`, :mod:`api.cli_review`,
+:mod:`api.cli_gcode`, :mod:`api.cli_report`) import from here, never from each other.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from datetime import datetime
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import typer
 from rich.console import Console
@@ -24,13 +24,29 @@ from sqlalchemy import Engine
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
-from api.service import NotFoundError
+from api.service import NotFoundError, PlanHaltedError
 from db.engine import DEFAULT_URL, make_engine
 from db.errors import ConflictError
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
+from supervisor.strategies import REGISTRY, STRATEGY_NAMES
 
 err_console = Console(stderr=True)
+
+if TYPE_CHECKING:
+    StrategyName = str
+else:  # the choices typer offers and checks, from the registry (never restated)
+    StrategyName = Literal[STRATEGY_NAMES]
+#: ``--strategy``: a name of :data:`supervisor.strategies.REGISTRY`, its summary in the help.
+StrategyOption = Annotated[
+    StrategyName,
+    typer.Option(
+        "--strategy",
+        help="RCB strategy: "
+        + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values())
+        + ".",
+    ),
+]
 
 DbOption = Annotated[
     str | None,
@@ -53,6 +69,9 @@ def errors() -> Iterator[None]:
         raise typer.Exit(2) from None
     except InfeasibleError as err:
         say(f"rcb: infeasible: {err}")
+        raise typer.Exit(3) from None
+    except PlanHaltedError as err:
+        say(f"rcb: halted: {err}")
         raise typer.Exit(3) from None
     except SolverError as err:
         say(f"rcb: solver: {err}")

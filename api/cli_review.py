@@ -17,7 +17,7 @@ from rich.table import Table
 from sqlalchemy import Engine
 
 from api import export as tidy
-from api import queries
+from api import queries, render
 from api.cli_common import DbOption, database_url, emit, errors, existing_engine, say
 from models.errors import InputError
 
@@ -45,9 +45,11 @@ def plans(db: DbOption = None, as_json: JsonOption = False) -> None:
         emit(data)
         return
     table = Table(title="plans")
-    for column in ("id", "name", "machine", "strategy", "α", "version", "parts", "created"):
+    columns = ("id", "name", "machine", "strategy", "α", "ver", "parts", "status", "created")
+    for column in columns:
         table.add_column(column)
     for p in data["plans"]:
+        halted = p["status"] == "halted"
         table.add_row(
             str(p["id"]),
             p["name"],
@@ -56,9 +58,21 @@ def plans(db: DbOption = None, as_json: JsonOption = False) -> None:
             f"{p['alpha']:g}",
             str(p["setpoint_version"]),
             str(p["parts"]),
+            "[bold red]HALTED[/]" if halted else "running",
             p["created_at"].strftime("%Y-%m-%d %H:%M"),
         )
     _out.print(table)
+    for p in data["plans"]:
+        if p["status"] == "halted":
+            _print_halt(p["id"], p["halt"])
+
+
+def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
+    """A halted plan's conflicts, and how to resume it."""
+    _out.print(f"[bold red]plan {plan_id} HALTED[/]: no setpoint meets the bands in force")
+    for line in render.halt_lines(halt):
+        _out.print(f"  {line}", markup=False, highlight=False)
+    _out.print(f"  resume: rcb replan {plan_id} (--limit, --model or --reset-bands)", markup=False)
 
 
 def history(
@@ -87,6 +101,8 @@ def history(
         emit(data)
         return
     _out.print(_history_table(data, operation))
+    if data["status"] == "halted":
+        _print_halt(plan, data["halt"])
 
 
 def _history_table(data: dict[str, Any], operation: str | None) -> Table:
@@ -105,9 +121,10 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
         cause = v["cause"] + (f" {v['serial']}" if v["serial"] else "")
         when = v["created_at"].strftime("%m-%d %H:%M:%S")
         moved = ", ".join(
-            f"{d['operation']}.{d['quantity']} {d['action']}"
+            f"{d['operation']}.{d['quantity']} {d['action']}" + _marked(d)
             for d in v["decisions"]
-            if d["action"] != "hold" and (operation is None or d["operation"] == operation)
+            if (d["action"] != "hold" or render.decision_mark(d)[0])
+            and (operation is None or d["operation"] == operation)
         )
         if operation is None:
             mrr = " ".join(_fmt(o["mrr_cm3_min"]) for o in v["operations"])
@@ -132,6 +149,22 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
             moved,
         )
     return table
+
+
+def _mark(d: dict[str, Any]) -> str:
+    """``BREACH``, ``ABOVE`` (rich markup: red) or ``note: below band`` (dim); else ``""``."""
+    label, kind = render.decision_mark(d)
+    if not label:
+        return ""
+    return f"[dim]{label}[/]" if kind == "note" else f"[bold red]{label}[/]"
+
+
+def _marked(d: dict[str, Any]) -> str:
+    """`` BREACH``, `` ABOVE`` or `` (note: below band)`` after a decision; else nothing."""
+    label, kind = render.decision_mark(d)
+    if not label:
+        return ""
+    return f" [dim]({label})[/]" if kind == "note" else f" {_mark(d)}"
 
 
 def _decisions_by_part(engine: Engine, plan_id: int) -> dict[int, list[dict[str, Any]]]:
@@ -164,7 +197,7 @@ def parts(
     table = Table(title=f"plan {plan}: parts" + (f" since {since}" if since else ""))
     for column in ("serial", "ver", "received", "operation", "quantity", "measured ± u"):
         table.add_column(column)
-    for column in ("margin", "action", "flag"):
+    for column in ("margin", "action", "flag / note"):
         table.add_column(column, justify="right" if column == "margin" else "left")
     for part in items:
         decided = {(d["operation"], d["quantity"]): d for d in part["updates"]}
@@ -181,7 +214,7 @@ def parts(
                     f"{_fmt(m['value'])} ± {_fmt(m['uncertainty'])}",
                     _fmt(d.get("margin")),
                     d.get("action", "-"),
-                    "FLAG" if d.get("flagged") else "",
+                    _mark(d),
                 )
                 first = False
     _out.print(table)

@@ -18,7 +18,7 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
-from api.service import InFlightError, KeyReuseError, NotFoundError
+from api.service import InFlightError, KeyReuseError, NotFoundError, PlanHaltedError
 from db.errors import ConflictError
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
@@ -68,8 +68,9 @@ def problem(
     value: object = None,
     errors: list[dict[str, Any]] | None = None,
     headers: dict[str, str] | None = None,
+    conflicts: list[dict[str, Any]] | None = None,
 ) -> JSONResponse:
-    """A problem+json response."""
+    """A problem+json response (``conflicts``: a halted plan's, an RFC 9457 extension member)."""
     body: dict[str, Any] = {
         "type": _TYPE_BASE + code,
         "title": _TITLES.get(status, "Error"),
@@ -82,6 +83,8 @@ def problem(
     }
     if errors is not None:
         body["errors"] = errors
+    if conflicts is not None:
+        body["conflicts"] = conflicts
     return JSONResponse(body, status_code=status, media_type=MEDIA_TYPE, headers=headers)
 
 
@@ -137,6 +140,12 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(ConflictError)
     async def _conflict(request: Request, err: ConflictError) -> JSONResponse:
         return problem(request, 409, "conflict", str(err), err.field, err.value)
+
+    @app.exception_handler(PlanHaltedError)
+    async def _halted(request: Request, err: PlanHaltedError) -> JSONResponse:
+        return problem(
+            request, 409, "plan_halted", str(err), err.field, err.value, conflicts=err.conflicts
+        )
 
     @app.exception_handler(InFlightError)
     async def _in_flight(request: Request, err: InFlightError) -> JSONResponse:

@@ -13,7 +13,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from api import render
-from api.service import NotFoundError
+from api.service import NotFoundError, PlanHaltedError
 from db import history, library
 from db import repository as repo
 from db import tables as t
@@ -66,9 +66,11 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
 
 
 def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """The setpoints in force."""
+    """The setpoints in force; a halted plan has none (:class:`PlanHaltedError`)."""
     with _read(engine) as session, session.begin():
         row = _plan(session, plan_id)
+        if row.halt is not None:
+            raise PlanHaltedError(plan_id, row.halt)
         version = row.current_setpoint_version
         result = repo.setpoints_of(session=session, plan_row=row, version=version)
     return {
@@ -148,7 +150,7 @@ def record(
 def plan_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
     """Every setpoint version with its cause, the setpoints, and the models (bands) in force."""
     with _read(engine) as session, session.begin():
-        _plan(session, plan_id)
+        halt = _plan(session, plan_id).halt
         ops = history.operations(session=session, plan_id=plan_id)
         versions = history.setpoint_versions(session=session, plan_id=plan_id)
         model_rows = history.model_versions(session=session, plan_id=plan_id)
@@ -192,7 +194,8 @@ def plan_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
                 "operations": operations,
             }
         )
-    return {"plan_id": plan_id, "versions": out}
+    status = "halted" if halt is not None else "running"
+    return {"plan_id": plan_id, "status": status, "halt": halt, "versions": out}
 
 
 def models_in_force(*, engine: Engine, plan_id: int) -> dict[str, Any]:
@@ -273,6 +276,8 @@ def _decision(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
         "band_before": d.band_before,
         "band_after": d.band_after,
         "flagged": d.flagged,
+        "flag": d.flag,
+        "note": d.note,
         "reason": d.reason,
     }
 

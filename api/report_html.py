@@ -19,7 +19,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from datetime import datetime
 from typing import Any
 
-from api import plots
+from api import plots, render
 from api.plots import OperationSeries, Output, number
 
 #: A margin at the band edge smaller than this fraction of the limit is 0 (a binding limit).
@@ -35,6 +35,10 @@ th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; vertical-align: top; }
 th { background: #f3f3f3; text-align: left; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr.flagged td { color: #b00; }
+.breach { color: #b00; font-weight: bold; } .above-band { color: #c50; font-weight: bold; }
+.below-band { color: #c50; font-weight: bold; } .note { color: #555; font-style: italic; }
+section.halt { border: 2px solid #b00; padding: 0 1em; margin: 1em 0; }
+section.halt h2 { color: #b00; border: none; }
 figure { margin: 1em 0; } figure svg { max-width: 100%; height: auto; }
 figcaption { font-size: 0.9em; color: #555; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 0.1em 1em; }
@@ -103,19 +107,43 @@ def _overview(
     first, last = versions[0]["cycle_time_min"], versions[-1]["cycle_time_min"]
     change = f" ({(last - first) / first:+.1%})" if first else ""
     flagged = sum(bool(d["flagged"]) for p in parts for d in p["updates"])
+    breaches = sum(d.get("flag") == "breach" for p in parts for d in p["updates"])
+    notes = sum(bool(d.get("note")) for p in parts for d in p["updates"])
     items = [
+        ("Status", "HALTED" if plan.get("status") == "halted" else "running"),
         ("Machine", plan["machine"]),
         ("RCB", f"{plan['strategy']}, α = {plan['alpha']:g}"),
         ("Plan created", _when(plan["created_at"])),
         ("Parts reported", f"{len(parts)}, last {_when(parts[-1]['received_at'])}" if parts else 0),
         ("Setpoint version in force", versions[-1]["version"]),
         ("Cycle time", f"{number(first)} min at version 1 → {number(last)} min now{change}"),
-        ("Flagged RCB decisions", flagged),
+        ("Flagged RCB decisions", f"{flagged} ({breaches} past a limit)"),
+        ("Below-band notes (model pessimistic)", notes),
     ]
     if len(plotted) < len(parts):
         shown = f"the last {len(plotted)} parts, from {plotted[0]['serial']}" if plotted else "none"
         items.append(("Plotted", shown))
     return _tag("dl", "".join(_tag("dt", _e(k)) + _tag("dd", _e(v)) for k, v in items))
+
+
+def _halt_section(plan: Mapping[str, Any]) -> str:
+    """A halted plan: which limits cannot be met, and how to resume."""
+    halt = plan.get("halt")
+    if plan.get("status") != "halted" or not halt:
+        return ""
+    lines = "".join(_tag("li", _e(line)) for line in render.halt_lines(halt))
+    text = (
+        "No setpoint meets the bands in force: setpoints are refused (409 plan_halted) until "
+        f"an engineer replans (rcb replan {plan['id']}, or POST .../replan)."
+    )
+    heading = _tag("h2", _e("HALTED"))
+    return _tag("section", heading + _tag("p", _e(text)) + _tag("ul", lines), class_="halt")
+
+
+def _mark(d: Mapping[str, Any]) -> str:
+    """A decision's flag or note as a ``span`` of its kind's class (empty if neither)."""
+    label, kind = render.decision_mark(d)
+    return _tag("span", _e(label), class_=kind) if label else ""
 
 
 def _margin(output: Output) -> float | None:
@@ -150,18 +178,20 @@ def _output_cells(series: OperationSeries, output: Output, parts: Sequence[Any])
     value, band = float(output.predicted[-1]), float(output.band[-1])
     relative = f" ({band / value:.1%})" if value else ""
     last = _last_decision(parts, series.name, output.quantity)
-    measured = "–"
+    measured = _e("–")
     if last is not None:
         serial, d = last
-        flag = ", flagged" if d["flagged"] else ""
-        measured = f"{number(d['margin'])} ({serial}, {d['action']}{flag})"
+        mark = _mark(d)
+        measured = _e(f"{number(d['margin'])} ({serial}, {d['action']}") + (
+            f", {mark})" if mark else ")"
+        )
     word = "max" if output.sense == "max" else "min"
     return [
         _td(plots.quantity_label(output.quantity)),
         _td(f"{number(value)} ± {number(band)}{relative}", class_="num"),
         _td(f"{number(output.limit)} ({word})" if output.limit is not None else "–", class_="num"),
         _num(_margin(output)),
-        _td(measured, class_="num"),
+        _tag("td", measured, class_="num"),
     ]
 
 
@@ -212,18 +242,17 @@ def _history_table(history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]
         [
             *(_th(h, rowspan=2) for h in fixed),
             _th("MRR [cm³/min]", colspan=len(names)),
-            _th("Flagged by the part", rowspan=2),
+            _th("Flags and notes of the part", rowspan=2),
         ]
     ) + _row(_th(n) for n in names)
     updates = {p["part_id"]: p["updates"] for p in parts}
     rows = []
     for v in history["versions"]:
         mrr = {o["name"]: o["mrr_cm3_min"] for o in v["operations"]}
-        flagged = [
-            f"{d['operation']} {d['quantity']}"
-            for d in updates.get(v["part_id"], [])
-            if d["flagged"]
-        ]
+        marked = [d for d in updates.get(v["part_id"], []) if render.decision_mark(d)[0]]
+        flagged = [d for d in marked if d["flagged"]]
+        marks = ", ".join(_e(f"{d['operation']} {d['quantity']} ") + _mark(d) for d in marked)
+        kinds = sorted({render.decision_mark(d)[1] for d in flagged})
         cells = [
             _td(v["version"], class_="num"),
             _td(v["cause"]),
@@ -231,9 +260,9 @@ def _history_table(history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]
             _td(_when(v["created_at"])),
             _num(v["cycle_time_min"]),
             *(_num(mrr.get(n)) for n in names),
-            _td(", ".join(flagged)),
+            _tag("td", marks),
         ]
-        rows.append(_row(cells, class_="flagged" if flagged else None))
+        rows.append(_row(cells, class_=" ".join(["flagged", *kinds]) if flagged else None))
     caption = _tag("caption", _e("Setpoint versions: what caused each, and the MRR it gave"))
     body = _tag("thead", head) + _tag("tbody", "".join(rows))
     return _tag("table", caption + body, id="history")
@@ -303,6 +332,7 @@ def render_report(
         [
             _tag("h1", _e(title)),
             _overview(plan, history, parts, plotted),
+            _halt_section(plan),
             _tag("h2", _e("Setpoints in force")),
             _setpoints_table(history, series, parts),
             _tag("h2", _e("Setpoint history")),

@@ -9,11 +9,30 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
 
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from supervisor.plan import PARTS_PER_EDGE
+from supervisor.strategies import REGISTRY, STRATEGY_NAMES
+
+#: What the docs say of each strategy: its name and summary from the registry.
+STRATEGY_DOC = "RCB strategy: " + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values())
+
+
+def _registered(name: str) -> str:
+    if name not in REGISTRY:
+        raise ValueError(f"unknown strategy; expected one of: {', '.join(STRATEGY_NAMES)}")
+    return name
+
+
+#: A name of :data:`supervisor.strategies.REGISTRY`: the OpenAPI enum and the check both come
+#: from the registry (never restated here).
+Strategy = Annotated[
+    str,
+    AfterValidator(_registered),
+    WithJsonSchema({"type": "string", "enum": list(STRATEGY_NAMES), "description": STRATEGY_DOC}),
+]
 
 
 def _storable(value: str) -> str:
@@ -62,6 +81,9 @@ class Problem(BaseModel):
     field: str | None = Field(None, description="the offending field, as a dotted path")
     value: Any = Field(None, description="the offending value")
     errors: list[dict[str, Any]] | None = None
+    conflicts: list[dict[str, Any]] | None = Field(
+        None, description="plan_halted: per operation, the limits that cannot be met"
+    )
 
 
 class Health(_Out):
@@ -105,6 +127,11 @@ class OperationSetpoint(_Out):
         None, description="Borangiu's productivity cost J, when the operation has cost data"
     )
     constant_load: ConstantLoadOut | None = None
+    robust_by: Literal["band", "cone"] = Field(
+        "band",
+        description="what keeps the setpoint safe: the bands, or (strategy learn) the learned "
+        "model's cone; with cone, predicted shows the learned value and the cone's half-width",
+    )
 
 
 class PlanCreated(_Out):
@@ -197,7 +224,17 @@ class Update(_Out):
     band_after: float
     predicted: float | None = None
     measured: float | None = None
-    flagged: bool
+    flagged: bool = Field(description="flag is not null (kept for compatibility)")
+    flag: Literal["breach", "above_band", "below_band"] | None = Field(
+        None,
+        description="why the decision is flagged: breach (past the limit), or past the band's "
+        "guarding edge (above_band for a maximum, below_band for a minimum); the band grew",
+    )
+    note: Literal["below_band", "above_band"] | None = Field(
+        None,
+        description="information only, never a flag: past the band's other edge (below_band "
+        "for a maximum: the model is pessimistic there)",
+    )
     reason: str
 
 
@@ -212,12 +249,44 @@ class ToolChangeOut(_Out):
     reason: str
 
 
+class ConflictOut(_Out):
+    """A limit that cannot be met, and what it would have to be."""
+
+    name: str
+    limit: float
+    required: float = Field(description="the least demanding limit the rest allows")
+    sense: Literal["max", "min"]
+
+
+class HaltedOperationOut(_Out):
+    """An operation no setpoint can run under the bands in force."""
+
+    operation: str
+    message: str
+    conflicts: list[ConflictOut]
+    held_by: list[str] = Field(description="the other limits and bounds tight at the closest point")
+
+
+class HaltOut(_Out):
+    """Why a plan halted."""
+
+    message: str
+    conflicts: list[HaltedOperationOut]
+
+
 class PartCreated(_Out):
-    """The part stored, what RCB did, the tool changes due, and the setpoints now in force."""
+    """The part stored, what RCB did, the tool changes due, and the setpoints now in force.
+
+    ``halted``: the bands leave no safe setpoint; the part is stored, the setpoints shown are
+    those it was made with, and ``GET .../setpoints`` answers 409 ``plan_halted`` until a
+    replan.
+    """
 
     part_id: int
     serial: str
     setpoint_version: int
+    halted: bool = False
+    conflicts: list[HaltedOperationOut] = Field(default_factory=list)
     updates: list[Update]
     tool_changes: list[ToolChangeOut] = Field(default_factory=list)
     operations: list[OperationSetpoint]
@@ -264,14 +333,27 @@ class PartsPage(_Out):
     next_cursor: str | None
 
 
+class RcbSettingsOut(_Out):
+    """The plan's RCB settings beyond strategy and alpha."""
+
+    floors: dict[str, float] = Field(description="least band per quantity; default: the u")
+    coverage_k: float
+    discrepancy: float
+    z: float
+    exponent_sd: float
+
+
 class PlanSummary(_Out):
     """A plan in a list."""
 
     id: int
     name: str
     machine: str
-    strategy: str
+    strategy: Strategy
     alpha: float
+    settings: RcbSettingsOut
+    status: Literal["running", "halted"]
+    halt: HaltOut | None = None
     setpoint_version: int
     parts: int
     created_at: datetime
@@ -337,9 +419,11 @@ class HistoryVersion(_Out):
 
 
 class History(_Out):
-    """Every setpoint version of a plan, oldest first."""
+    """Every setpoint version of a plan, oldest first; whether it is halted now, and why."""
 
     plan_id: int
+    status: Literal["running", "halted"] = "running"
+    halt: HaltOut | None = None
     versions: list[HistoryVersion]
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +28,7 @@ from db import repository as repo
 from db.access import Actor
 from db.errors import ConflictError
 from db.intake import StoredAnswer, open_report, serial_exists, stored_answer
+from db.plan_state import halt_json
 from db.state_cache import CACHE
 from models.catalogue import catalogue
 from models.errors import InputError
@@ -47,6 +48,18 @@ class NotFoundError(LookupError):
     def __init__(self, field: str, value: object) -> None:
         self.field, self.value = field, value
         super().__init__(f"{field} = {value!r}: not found")
+
+
+class PlanHaltedError(Exception):
+    """The plan is halted: no setpoint meets its bands until an engineer replans."""
+
+    def __init__(self, plan_id: int, halt: Mapping[str, Any]) -> None:
+        self.field, self.value = "plan_id", plan_id
+        self.conflicts: list[dict[str, Any]] = list(halt.get("conflicts", []))
+        super().__init__(
+            f"plan {plan_id} is halted: {halt.get('message', '')}; "
+            "replan it (rcb replan or POST .../replan) to resume"
+        )
 
 
 class InFlightError(Exception):
@@ -264,18 +277,35 @@ def _audited(
         raise
 
 
+def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
+    """Floors given as ``QUANTITY=VALUE`` (CLI options, query parameters), checked."""
+    floors: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise InputError(field, item, "must be QUANTITY=VALUE")
+        try:
+            number = float(value)
+        except ValueError:
+            raise InputError(f"{field} {name}", value, "must be a number") from None
+        floors[name.strip()] = number
+    return floors
+
+
 def create_plan(
     *,
     engine: Engine,
     body: Mapping[str, Any],
-    strategy: str = "ivester",
-    alpha: float = 0.25,
+    settings: RcbSettings | None = None,
     actor: Actor = access.CLI_ACTOR,
     idempotency: Idempotency | None = None,
 ) -> Written:
-    """Check and optimise a plan, store it with setpoint version 1 (status 201)."""
+    """Check and optimise a plan, store it with setpoint version 1 (status 201).
+
+    ``settings``: the plan's RCB law, every setting stored (default: :class:`RcbSettings`).
+    """
     with _audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
-        settings = RcbSettings(strategy=strategy, alpha=alpha)
+        settings = settings or RcbSettings()
         with Session(engine) as session:
             stored_tools = library.load_tools(session=session)
         plan = plan_from_mapping(body, stored_tools)
@@ -379,10 +409,14 @@ def _report_part(
         )
         written_state.append((repo.database_key(session), row.state_token, new_state, operations))
         updates = [render.decision_json(d) for d in decisions]
+        # a halted plan: the part is stored all the same, and the MES is told (DESIGN.md, RCB)
+        halt = halt_json(new_state.halt) if new_state.halt is not None else None
         return 201, {
             "part_id": part_id,
             "serial": report.serial,
             "setpoint_version": new_state.version,
+            "halted": halt is not None,
+            "conflicts": halt["conflicts"] if halt is not None else [],
             "updates": updates,
             "tool_changes": [render.tool_change_json(c) for c in changes],
             **_ops(new_state.setpoints),

@@ -58,7 +58,7 @@ body { font: 14px/1.4 system-ui, -apple-system, "Segoe UI", Roboto, Arial, sans-
 table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; }
 th { background: #f3f3f3; text-align: left; } td.num { text-align: right; }
-p.error { color: #b00; } nav form { display: inline; }
+p.error, td.halted { color: #b00; } nav form { display: inline; }
 """
 
 _NAV_CSS = "nav.ui { font-size: 0.9em; margin-bottom: 1em; } nav.ui form { display: inline; }"
@@ -232,7 +232,7 @@ def _plans_table(plans: list[dict[str, Any]]) -> str:
         return _tag("p", _e("No plans yet (rcb plan create, or POST /api/v1/plans)."))
     head = "".join(
         _tag("th", _e(h))
-        for h in ("ID", "Name", "Machine", "Setpoint version", "Parts", "Created", "")
+        for h in ("ID", "Name", "Machine", "Setpoint version", "Parts", "Created", "Status", "")
     )
     rows = []
     for p in plans:
@@ -244,8 +244,15 @@ def _plans_table(plans: list[dict[str, Any]]) -> str:
             _tag("td", _e(p["setpoint_version"]), class_="num"),
             _tag("td", _e(p["parts"]), class_="num"),
             _tag("td", _e(p["created_at"].strftime("%Y-%m-%d %H:%M:%S %Z").strip())),
+            _status_cell(p),
             _tag("td", link),
         ]
         rows.append(_tag("tr", "".join(cells), data_plan=p["id"]))
     body = _tag("thead", _tag("tr", head)) + _tag("tbody", "".join(rows))
     return _tag("table", body, id="plans")
+
+
+def _status_cell(plan: dict[str, Any]) -> str:
+    if plan["status"] == "halted":
+        return _tag("td", _tag("strong", _e("HALTED")), class_="halted")
+    return _tag("td", _e("running"))

@@ -13,6 +13,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.plan_state import settings_json, settings_of
 
 
 def plans(*, session: Session) -> list[dict[str, Any]]:
@@ -35,6 +36,9 @@ def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
         "machine": machine,
         "strategy": plan.strategy,
         "alpha": plan.alpha,
+        "settings": settings_json(settings_of(plan.strategy, plan.alpha, plan.settings)),
+        "status": "halted" if plan.halt is not None else "running",
+        "halt": plan.halt,
         "setpoint_version": plan.current_setpoint_version,
         "parts": parts,
         "created_at": plan.created_at

@@ -50,6 +50,8 @@ class PlanHead:
     alpha: float
     current_setpoint_version: int
     state_token: str
+    settings: dict[str, Any] | None
+    halt: dict[str, Any] | None
 
 
 @dataclass(frozen=True)
@@ -70,7 +72,17 @@ class Opening:
     stored: StoredAnswer | None
 
 
-_HEAD = ("id", "name", "machine_id", "strategy", "alpha", "current_setpoint_version", "state_token")
+_HEAD = (
+    "id",
+    "name",
+    "machine_id",
+    "strategy",
+    "alpha",
+    "current_setpoint_version",
+    "state_token",
+    "settings",
+    "halt",
+)
 _PLANS = t.core_table(t.Plan)
 #: The largest value of PostgreSQL's ``integer``.
 _MAX_INT = 2**31 - 1
@@ -114,6 +126,8 @@ _STATEMENTS = {
         alpha=Float,
         current_setpoint_version=Integer,
         state_token=String,
+        settings=JSON,
+        halt=JSON,
         part_id=Integer,
         request_hash=String,
         response_status=Integer,

@@ -17,6 +17,7 @@ from db.bulk import defer
 from db.errors import ConflictError
 from db.intake import PlanHead
 from db.library import ensure_tool, load_tools
+from db.plan_state import halt_json, halt_of, settings_json, settings_of
 from db.state_cache import CACHE
 from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
@@ -24,6 +25,8 @@ from supervisor.constant_load.setpoint import ToolChange
 from supervisor.extras import extras_of, with_extras
 from supervisor.optimizer import OperationResult, PlanResult
 from supervisor.plan import Plan, plan_from_mapping
+from supervisor.posterior import Posterior
+from supervisor.posterior import from_json as posterior_from_json
 from supervisor.rcb import Decision, RcbSettings, RcbState, prior_sigma
 from supervisor.report import PartReport
 
@@ -47,6 +50,7 @@ def add_plan(
         body=dict(body),
         strategy=settings.strategy,
         alpha=settings.alpha,
+        settings=settings_json(settings),
         current_setpoint_version=1,
         state_token=new_token(),
     )
@@ -122,7 +126,8 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     tools: dict[str, Tool] = {}
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}
-    settings = RcbSettings(strategy=plan_row.strategy, alpha=plan_row.alpha)
+    beliefs: dict[tuple[str, str], Posterior] = {}
+    settings = settings_of(plan_row.strategy, plan_row.alpha, plan_row.settings)
     latest_models = _latest_models(session, plan_row.id)
     band_states = _latest_band_states(
         session, plan_row.id, _bands_reset_after(session, plan_row.id)
@@ -141,6 +146,8 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
             else:
                 sigma[(op.name, quantity)] = state.sigma
                 seen[(op.name, quantity)] = state.seen
+                if state.posterior is not None:
+                    beliefs[(op.name, quantity)] = posterior_from_json(state.posterior)
         tools[op.name] = Tool(
             base.name, base.process, models, base.description, base.material, base.source
         )
@@ -148,7 +155,15 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
         session=session, plan_row=plan_row, version=plan_row.current_setpoint_version
     )
     return RcbState(
-        plan, tools, setpoints, plan_row.current_setpoint_version, settings, sigma, seen
+        plan,
+        tools,
+        setpoints,
+        plan_row.current_setpoint_version,
+        settings,
+        sigma,
+        seen,
+        beliefs,
+        halt_of(plan_row.halt),
     )
 
 
@@ -216,6 +231,7 @@ def add_replan(
         session.execute(insert(t.OperationModelVersion), rows)
     _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "replan", None)
     plan_row.current_setpoint_version = after.version
+    plan_row.halt = None  # a replan resumes a halted plan
     plan_row.state_token = new_token()
     session.flush()
 
@@ -343,6 +359,8 @@ def add_part(
             "K_after": d.K_after,
             "flagged": d.flagged,
             "reason": d.reason,
+            "flag": d.flag,
+            "note": d.note,
         }
         for d in decisions
     ]
@@ -353,6 +371,7 @@ def add_part(
             "part_id": part_id,
             "seen": after.seen[(d.operation, d.quantity)],
             "sigma": after.sigma[(d.operation, d.quantity)],
+            "posterior": _posterior_json(after.posterior.get((d.operation, d.quantity))),
         }
         for d in decisions
     ]
@@ -372,6 +391,14 @@ def add_part(
     if after.version != before.version:
         _add_setpoints(session, plan_row.id, ops, after.setpoints, after.version, "part", part_id)
     token = new_token()
+    pointers: dict[str, Any] = {
+        "id": plan_row.id,
+        "current_setpoint_version": after.version,
+        "state_token": token,
+    }
+    halt = None
+    if after.halt is not None and before.halt is None:  # halted now: until a replan
+        halt = pointers["halt"] = halt_json(after.halt)
     # Core rows, no ORM bookkeeping; deferred, so they go out with the transaction's last rows
     defer(
         session,
@@ -381,21 +408,16 @@ def add_part(
             (t.core_table(t.BandState), band_states),
             (t.core_table(t.OperationModelVersion), model_rows),
         ],
-        updates=[
-            (
-                t.core_table(t.Plan),
-                [
-                    {
-                        "id": plan_row.id,
-                        "current_setpoint_version": after.version,
-                        "state_token": token,
-                    }
-                ],
-            )
-        ],
+        updates=[(t.core_table(t.Plan), [pointers])],
     )
     plan_row.current_setpoint_version = after.version
     plan_row.state_token = token
+    if halt is not None:
+        plan_row.halt = halt
+
+
+def _posterior_json(belief: Posterior | None) -> dict[str, Any] | None:
+    return None if belief is None else belief.to_json()
 
 
 def _machine(session: Session, plan: Plan) -> t.Machine:

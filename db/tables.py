@@ -23,6 +23,8 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
+from supervisor.strategies import DEFAULT_STRATEGY
+
 #: Stable constraint names, so Alembic migrations name them the same on every database.
 NAMING_CONVENTION = {
     "ix": "ix_%(column_0_label)s",
@@ -103,8 +105,13 @@ class Plan(Base):
     name: Mapped[str] = mapped_column(String(200))
     machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"))
     body: Mapped[dict[str, Any]]
-    strategy: Mapped[str] = mapped_column(String(20), default="ivester")
+    strategy: Mapped[str] = mapped_column(String(20), default=DEFAULT_STRATEGY)
     alpha: Mapped[float] = mapped_column(default=0.25)
+    #: Every other setting of the strategy (floors, coverage_k, discrepancy, z, exponent_sd;
+    #: db.plan_state); NULL for a plan stored before 0005: the defaults.
+    settings: Mapped[dict[str, Any] | None]
+    #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
+    halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     current_setpoint_version: Mapped[int] = mapped_column(default=1)
     #: A new random value with every write to the plan's RCB state (a part, a replan): what
     #: an in-process cache of the loaded state is keyed on (db.state_cache).
@@ -224,6 +231,10 @@ class RcbDecision(Base):
     K_after: Mapped[float]
     flagged: Mapped[bool]
     reason: Mapped[str] = mapped_column(Text)
+    #: ``breach``, ``above_band`` or ``below_band`` when flagged (NULL before 0005)
+    flag: Mapped[str | None] = mapped_column(String(20))
+    #: information only: ``below_band`` (a maximum) or ``above_band`` (a minimum)
+    note: Mapped[str | None] = mapped_column(String(20))
 
 
 class ApiKey(Base):
@@ -270,7 +281,9 @@ class BandState(Base):
     """RCB state of one operation and quantity after a part, beyond its model version.
 
     ``seen``: the most demanding measurement so far as a K-equivalent (supervisor.rcb);
-    ``sigma``: the posterior σ of ln K (bayes). Appended per part; the newest row is in force.
+    ``sigma``: the posterior σ of ln K (bayes); ``posterior``: the ``learn`` strategy's belief
+    (:meth:`supervisor.posterior.Posterior.to_json`), NULL for other strategies. Appended per
+    part; the newest row is in force.
     """
 
     __tablename__ = "band_states"
@@ -281,6 +294,7 @@ class BandState(Base):
     part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"))
     seen: Mapped[float]
     sigma: Mapped[float]
+    posterior: Mapped[dict[str, Any] | None]
 
 
 class PlanRevision(Base):

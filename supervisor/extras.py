@@ -1,9 +1,10 @@
 """What a setpoint carries beyond its parameters and predictions, as a JSON-ready mapping.
 
 ``objective`` (max MRR or Borangiu's productivity cost), ``cost_per_kg`` (J at the setpoint,
-where the operation has cost data) and ``constant_load`` (Tai et al.'s reference current and
-feed limits, where the operation runs under constant-load control). The REST answers, the
-CLI's JSON and the database (``setpoints.extras``) all use this one form.
+where the operation has cost data), ``constant_load`` (Tai et al.'s reference current and
+feed limits, where the operation runs under constant-load control) and ``robust_by``
+(``band``, or ``cone`` where the ``learn`` strategy's learned model held the setpoint). The
+REST answers, the CLI's JSON and the database (``setpoints.extras``) all use this one form.
 """
 
 from __future__ import annotations
@@ -17,11 +18,12 @@ from supervisor.optimizer import OperationResult
 
 
 def extras_of(result: OperationResult) -> dict[str, Any]:
-    """``objective``, ``cost_per_kg`` and ``constant_load`` (null where the operation has none)."""
+    """``objective``, ``cost_per_kg``, ``constant_load`` (null where none) and ``robust_by``."""
     extras: dict[str, Any] = {
         "objective": result.objective,
         "cost_per_kg": result.cost_per_kg,
         "constant_load": None,
+        "robust_by": result.robust_by,
     }
     c = result.constant_load
     if c is not None:
@@ -43,4 +45,5 @@ def with_extras(result: OperationResult, extras: Mapping[str, Any] | None) -> Op
         objective=extras.get("objective", "mrr"),
         cost_per_kg=extras.get("cost_per_kg"),
         constant_load=constant_load,
+        robust_by=extras.get("robust_by", "band"),
     )

@@ -101,6 +101,7 @@ def replan(
         version=state.version + 1,
         sigma=sigma,
         seen=seen,
+        halt=None,  # an engineer's replan resumes a halted plan
     )
     return Replanned(new_state, new_body, reset)
 

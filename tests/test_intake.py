@@ -72,6 +72,8 @@ def test_a_new_serial_stores_the_part_and_returns_the_plan_head(stored):
             row.alpha,
             row.current_setpoint_version,
             row.state_token,
+            row.settings,
+            row.halt,
         )
         part_id = session.scalar(select(t.Part.id).where(t.Part.serial == "S-1"))
     assert opening.plan == expected

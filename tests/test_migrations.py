@@ -1,14 +1,17 @@
-"""Migrations: `upgrade head` on an empty database, then autogenerate finds nothing to change."""
+"""Migrations: `upgrade head` on an empty database, then autogenerate finds nothing to change;
+0004 -> 0005 keeps an older plan, which reads back running with the default settings."""
 
 from __future__ import annotations
 
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
-from sqlalchemy import inspect
+from sqlalchemy import inspect, text
 
 from api.cli import app
 from db.engine import make_engine, upgrade
-from db.tables import Base
+from db.plan_state import settings_of
+from db.tables import Base, utcnow
+from supervisor.rcb import RcbSettings
 
 
 def _no_difference(url: str) -> None:
@@ -48,3 +51,56 @@ def test_rcb_db_upgrade_command(runner, tmp_path):
     _no_difference(url)
     bad = runner.invoke(app, ["db", "upgrade", "--db", "nonsense://x"])
     assert bad.exit_code == 2 and "--db" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def _columns(url: str, table: str) -> dict[str, bool]:
+    engine = make_engine(url)
+    try:
+        with engine.connect() as connection:
+            return {c["name"]: c["nullable"] for c in inspect(connection).get_columns(table)}
+    finally:
+        engine.dispose()
+
+
+def _upgrade_0004_to_0005(url: str) -> None:
+    """0005 adds nullable columns: a plan stored at 0004 reads back running, with defaults."""
+    upgrade(url, "0004")
+    assert "settings" not in _columns(url, "plans")
+    engine = make_engine(url)
+    with engine.begin() as connection:
+        connection.execute(
+            text("INSERT INTO machines (name, created_at) VALUES ('m', :now)"), {"now": utcnow()}
+        )
+        connection.execute(
+            text(
+                "INSERT INTO plans (name, machine_id, body, strategy, alpha,"
+                " current_setpoint_version, state_token, created_at)"
+                " VALUES ('old', (SELECT id FROM machines), '{}', 'ivester', 0.25, 1, '', :now)"
+            ),
+            {"now": utcnow()},
+        )
+    engine.dispose()
+    upgrade(url)
+    new = {
+        "rcb_decisions": ("flag", "note"),
+        "plans": ("settings", "halt"),
+        "band_states": ("posterior",),
+    }
+    for table, names in new.items():
+        columns = _columns(url, table)
+        assert all(columns[name] for name in names), (table, columns)  # present, nullable
+    engine = make_engine(url)
+    with engine.connect() as connection:
+        row = connection.execute(text("SELECT settings, halt FROM plans")).one()
+    engine.dispose()
+    assert tuple(row) == (None, None)
+    assert settings_of("ivester", 0.25, row.settings) == RcbSettings()
+    _no_difference(url)
+
+
+def test_sqlite_0005_adds_flags_settings_halt_and_posterior(tmp_path):
+    _upgrade_0004_to_0005(f"sqlite:///{tmp_path / 'old.db'}")
+
+
+def test_postgres_0005_adds_flags_settings_halt_and_posterior(empty_postgres):
+    _upgrade_0004_to_0005(empty_postgres)

@@ -266,7 +266,10 @@ def test_over_limit_part_is_flagged_and_marked(stored, page):
     # the history row of the version SN-0004 caused
     rows = _table(_xml(page), "history").findall("tbody/tr")
     row = next(r for r in rows if _text(r.findall("td")[2]) == f"SN-{OVER_LIMIT + 1:04d}")
-    assert row.get("class") == "flagged" and "rough-od force_N" in _text(row.findall("td")[-1])
+    marks = _text(row.findall("td")[-1])
+    classes = row.get("class").split()
+    assert classes[0] == "flagged" and "breach" in classes and "rough-od force_N" in marks
+    assert "rough-od force_N BREACH" in marks  # a breach, told apart at a glance
 
 
 def test_series_follow_the_setpoint_each_part_was_made_with(stored):

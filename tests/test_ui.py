@@ -155,6 +155,7 @@ def test_login_sets_a_strict_httponly_cookie_and_lists_plans(server, plan_id):
     assert row is not None
     cells = [_text(td) for td in row.findall("td")]
     assert cells[:5] == [str(plan_id), PLAN["name"], PLAN["machine"]["name"], "3", "2"]
+    assert cells[6] == "running"  # a halted plan: HALTED
     link = row.find(".//a")
     assert link is not None and link.get("href") == f"/ui/plans/{plan_id}"
 

@@ -1,0 +1,86 @@
+"""Every RCB setting of a plan, and the learn posterior, survive a reload from the database."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from api import service
+from db import repository as repo
+from db import tables as t
+from db.engine import make_engine, upgrade
+from db.plan_state import settings_json, settings_of
+from db.state_cache import CACHE
+from supervisor.rcb import RcbSettings
+
+from conftest import DEMO_PLAN, report_at
+
+PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+
+
+@pytest.fixture
+def engine(backend_url):
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    yield engine
+    engine.dispose()
+
+
+def _loaded(engine, plan_id):
+    """The state as the database holds it (the in-process cache forgotten first)."""
+    CACHE.clear()
+    with Session(engine) as session, session.begin():
+        row = repo.get_plan_row(session=session, plan_id=plan_id, lock=True)
+        return repo.load_state(session=session, plan_row=row)
+
+
+def test_non_default_settings_survive_a_reload(engine):
+    settings = RcbSettings(
+        strategy="bayes",
+        alpha=0.4,
+        floors={"force_N": 25.0, "roughness_um": 0.1},
+        coverage_k=3.0,
+        discrepancy=0.05,
+        z=3.5,
+        exponent_sd=0.2,
+    )
+    assert settings != RcbSettings(strategy="bayes", alpha=0.4)
+    plan_id = service.create_plan(engine=engine, body=PLAN, settings=settings).body["id"]
+    assert _loaded(engine, plan_id).settings == settings
+    with Session(engine) as session:
+        stored = session.scalars(select(t.Plan.settings).where(t.Plan.id == plan_id)).one()
+    assert stored == settings_json(settings)
+
+
+def test_a_plan_stored_before_0005_gets_the_defaults():
+    assert settings_of("learn", 0.25, None) == RcbSettings(strategy="learn")
+    assert settings_of("ivester", 0.3, {"z": 5.0}) == RcbSettings(alpha=0.3, z=5.0)
+
+
+def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):
+    settings = RcbSettings(strategy="learn")
+    created = service.create_plan(engine=engine, body=PLAN, settings=settings).body
+    plan_id, setpoints = created["id"], created
+    for i in range(3):
+        body = report_at(f"L-{i}", setpoints)
+        answer = service.report_part(engine=engine, plan_id=plan_id, body=body).body
+        setpoints = answer
+    in_memory = _in_memory(engine, plan_id)
+    assert len(in_memory.posterior) == 2 * len(PLAN["operations"])
+    assert all(p.observations == 3 for p in in_memory.posterior.values())
+    loaded = _loaded(engine, plan_id)
+    assert loaded.posterior == in_memory.posterior
+    assert loaded.settings == in_memory.settings == settings
+    assert loaded.halt is None and loaded.version == in_memory.version
+
+
+def _in_memory(engine, plan_id):
+    """The state the last report left in the process (db.state_cache), not read back."""
+    with Session(engine) as session:
+        row = repo.get_plan_row(session=session, plan_id=plan_id)
+        state = CACHE.get(repo.database_key(session), plan_id, row.state_token)
+    assert state is not None
+    return state
