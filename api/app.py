@@ -189,6 +189,10 @@ def create_app(url: str) -> FastAPI:
             float,
             Query(ge=0, le=10, allow_inf_nan=False, description="learn: exponent prior sd"),
         ] = _DEFAULTS.exponent_sd,
+        edge_sd: Annotated[
+            float,
+            Query(ge=0, le=10, allow_inf_nan=False, description="learn: wear prior sd per edge"),
+        ] = _DEFAULTS.edge_sd,
         idempotency_key: Annotated[
             str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)
         ] = None,
@@ -203,6 +207,7 @@ def create_app(url: str) -> FastAPI:
             discrepancy=discrepancy,
             z=z,
             exponent_sd=exponent_sd,
+            edge_sd=edge_sd,
         )
         written = service.create_plan(
             engine=engine,

@@ -14,6 +14,7 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchem
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from supervisor.plan import PARTS_PER_EDGE
+from supervisor.report import MAX_EDGE_PARTS
 from supervisor.strategies import REGISTRY, STRATEGY_NAMES
 
 #: What the docs say of each strategy: its name and summary from the registry.
@@ -202,6 +203,13 @@ class OperationReport(BaseModel):
         description="constant-load operations: the feed override at the end of the operation, "
         "% of the programmed feed; at the lower feed limit the tool is due for a change",
     )
+    edge_parts: int | None = Field(
+        None,
+        ge=0,
+        le=MAX_EDGE_PARTS,
+        description="parts the operation's cutting edge made before this one (0: a new edge), "
+        "as the control's tool-life counter gives it; the learn strategy learns wear from it",
+    )
 
 
 class PartReportIn(BaseModel):
@@ -341,6 +349,7 @@ class RcbSettingsOut(_Out):
     discrepancy: float
     z: float
     exponent_sd: float
+    edge_sd: float
 
 
 class PlanSummary(_Out):

@@ -16,17 +16,18 @@ from supervisor.errors import Conflict
 from supervisor.rcb import Halt, HaltedOperation, RcbSettings
 
 #: The settings kept in ``plans.settings`` (strategy and alpha have columns of their own).
-SETTING_KEYS = ("floors", "coverage_k", "discrepancy", "z", "exponent_sd")
+SETTING_KEYS = ("floors", "coverage_k", "discrepancy", "z", "exponent_sd", "edge_sd")
 
 
 def settings_json(settings: RcbSettings) -> dict[str, Any]:
-    """``plans.settings`` of ``settings``: floors, coverage_k, discrepancy, z, exponent_sd."""
+    """``plans.settings`` of ``settings``: every setting but strategy and alpha."""
     return {
         "floors": dict(settings.floors),
         "coverage_k": settings.coverage_k,
         "discrepancy": settings.discrepancy,
         "z": settings.z,
         "exponent_sd": settings.exponent_sd,
+        "edge_sd": settings.edge_sd,
     }
 
 

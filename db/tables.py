@@ -107,8 +107,8 @@ class Plan(Base):
     body: Mapped[dict[str, Any]]
     strategy: Mapped[str] = mapped_column(String(20), default=DEFAULT_STRATEGY)
     alpha: Mapped[float] = mapped_column(default=0.25)
-    #: Every other setting of the strategy (floors, coverage_k, discrepancy, z, exponent_sd;
-    #: db.plan_state); NULL for a plan stored before 0005: the defaults.
+    #: Every other setting of the strategy (floors, coverage_k, discrepancy, z, exponent_sd,
+    #: edge_sd; db.plan_state); NULL for a plan stored before 0005: the defaults.
     settings: Mapped[dict[str, Any] | None]
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))

@@ -445,9 +445,7 @@ def run_scenario(
     for k in range(1, parts + 1):
         plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(state.setpoints, oracle)
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
-        edge_parts = {
-            name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()
-        }
+        edge_parts = {name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()}
         outcome = run_part(machine, setpoints, rng, edge_parts)
         made = k
         violations[k - 1] = len(outcome.violations)

@@ -7,7 +7,8 @@ Changes, each keyed by a dotted name and checked like the plan file:
 - ``models``: ``{"TOOL.QUANTITY": {"K"?, "dK"?}}`` sets K and/or ΔK of that model in every
   operation using the tool (exponents stay; the band is the engineer's, not RCB's);
 - ``reset_bands``: every operation's models go back to the tool's baseline (K and ΔK) and RCB
-  forgets what it has seen (Ivester & Heigel: the uncertainty is earned again, part by part).
+  forgets what it has seen, the ``learn`` strategy its posterior too (Ivester & Heigel: the
+  uncertainty is earned again, part by part).
 
 The result is a new state (plan, models in force, setpoints); :mod:`api.service` stores it as
 a setpoint version with cause ``replan``.
@@ -25,7 +26,7 @@ from models.errors import InputError
 from models.tool import Tool
 from supervisor.optimizer import optimize_plan
 from supervisor.plan import plan_from_mapping
-from supervisor.rcb import RcbState, prior_sigma
+from supervisor.rcb import RcbState, learned_cones, prior_sigma
 
 _CHANGE_KEYS = ("limits", "bounds", "models", "reset_bands")
 
@@ -85,6 +86,7 @@ def replan(
         tools = _set_model(tools, plan.operations, key, value)
     sigma = dict(state.sigma)
     seen = dict(state.seen)
+    posterior = dict(state.posterior)
     if reset:
         sigma = {
             (op, q): prior_sigma(m, state.settings)
@@ -92,7 +94,10 @@ def replan(
             for q, m in tool.models.items()
         }
         seen = {}
-    result = optimize_plan(plan, tools)
+        posterior = {}
+    # learn: what the posterior learned carries over (its cones), unless the bands are reset
+    cones = learned_cones(replace(state, plan=plan, posterior=posterior))
+    result = optimize_plan(plan, tools, cones=cones)
     new_state = replace(
         state,
         plan=plan,
@@ -101,6 +106,7 @@ def replan(
         version=state.version + 1,
         sigma=sigma,
         seen=seen,
+        posterior=posterior,
         halt=None,  # an engineer's replan resumes a halted plan
     )
     return Replanned(new_state, new_body, reset)

@@ -57,7 +57,7 @@ def test_non_default_settings_survive_a_reload(engine):
 
 def test_a_plan_stored_before_0005_gets_the_defaults():
     assert settings_of("learn", 0.25, None) == RcbSettings(strategy="learn")
-    assert settings_of("ivester", 0.3, {"z": 5.0}) == RcbSettings(alpha=0.3, z=5.0)
+    assert settings_of("ivester", 0.3, {"z": 5.0}) == RcbSettings("ivester", alpha=0.3, z=5.0)
 
 
 def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):

@@ -15,6 +15,7 @@ from db import repository as repo
 from db import tables as t
 from db.engine import make_engine, upgrade
 from supervisor.errors import InfeasibleError
+from supervisor.rcb import RcbSettings
 
 
 @pytest.fixture
@@ -62,7 +63,8 @@ def test_a_relaxed_limit_is_stored_as_a_replan_version_and_a_dry_run_stores_noth
 
 
 def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    ivester = RcbSettings(strategy="ivester")  # the paper's law narrows the band in force
+    plan_id = service.create_plan(engine=engine, body=BODY, settings=ivester).body["id"]
     bodies, _ = _reports(4)
     for body in bodies:
         service.report_part(engine=engine, plan_id=plan_id, body=body)
