@@ -122,31 +122,34 @@ def test_cone_program_matches_cvxpy(plan):
     assert point  # the part's setpoint was inside the box
 
 
-#: How far a setpoint's MRR may fall from one part to the next against a pessimistic truth:
-#: the band law never backs off (solver tolerance); the learn strategy's posterior mean moves
-#: with measurement noise, and its hysteresis (optimizer.KEEP_SLACK_Z) does not stop every
-#: back-off: measured here at most 0.3 % (issue 15 asks for none: not met, see its notes).
-BACK_OFF = {"ivester": RELATIVE_MRR_TOL, "learn": 0.005}
-
-
+@pytest.mark.parametrize("seed", [7, 8])
 @pytest.mark.parametrize("strategy", ["ivester", "learn"])
-def test_pessimistic_truth_never_backs_off_and_never_flags(plan, strategy):
+def test_pessimistic_truth_never_backs_off_and_never_flags(plan, strategy, seed):
     # The true process is 0.95 x the model everywhere: every part comes out better than
     # predicted. The one-sided law never widens a band for that, so the setpoints' MRR does
-    # not decrease from one part to the next and no decision is flagged (issue 15).
+    # not decrease from one part to the next and no decision is flagged (issue 15). The one
+    # exception is a reading whose own error exceeds its stated ±u (2σ: about 1 in 44): at
+    # the physical limit, where learn runs, such a reading is over the limit by more than u
+    # and is flagged as the breach it proves (ISO 14253-1); ivester stays under its band.
     machine = _scaled_machine(plan, 0.95)
-    rng = np.random.default_rng(7)
+    rng = np.random.default_rng(seed)
     state = start(plan, RcbSettings(strategy=strategy))
     previous = {op.name: op.mrr_cm3_min for op in state.setpoints.operations}
-    for k in range(12):
+    for k in range(20):
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
         outcome = run_part(machine, setpoints, rng)
         assert outcome.violations == ()
         state, decisions = update(state, PartReport(f"P-{k}", state.version, outcome.measurements))
         assert state.halt is None
-        assert [d for d in decisions if d.flagged] == []
+        for d in decisions:
+            if d.flagged:
+                true = outcome.true_values[d.operation][d.quantity]
+                assert strategy == "learn" and d.flag == "breach", d
+                assert abs(d.measured - true) > d.uncertainty, d  # the reading's own error
+        breached = {d.operation for d in decisions if d.flagged}
         for op in state.setpoints.operations:
-            assert op.mrr_cm3_min >= previous[op.name] * (1 - BACK_OFF[strategy]), (k, op.name)
+            if op.name not in breached:  # a proven breach backs its operation off, rightly
+                assert op.mrr_cm3_min >= previous[op.name] * (1 - RELATIVE_MRR_TOL), (k, op.name)
             previous[op.name] = op.mrr_cm3_min
 
 
