@@ -94,7 +94,7 @@ def _upgrade_0004_to_0005(url: str) -> None:
         row = connection.execute(text("SELECT settings, halt FROM plans")).one()
     engine.dispose()
     assert tuple(row) == (None, None)
-    assert settings_of("ivester", 0.25, row.settings) == RcbSettings()
+    assert settings_of("ivester", 0.25, row.settings) == RcbSettings("ivester")
     _no_difference(url)
 
 

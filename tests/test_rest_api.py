@@ -41,7 +41,7 @@ def test_health_needs_no_key(server):
 
 def test_mes_loop_shrinks_bands_by_a_quarter_of_the_margin_and_replays_change_nothing(server):
     with server.client("engineer") as eng, server.client("mes") as mes:
-        created = eng.post("/plans", json=PLAN)
+        created = eng.post("/plans", json=PLAN, params={"strategy": "ivester"})
         assert created.status_code == 201, created.text
         plan = created.json()
         assert plan["setpoint_version"] == 1
@@ -100,7 +100,7 @@ def test_mes_loop_shrinks_bands_by_a_quarter_of_the_margin_and_replays_change_no
 
 def test_parts_pages_cover_every_part_once_in_order(server):
     with server.client("engineer") as c:
-        plan_id = c.post("/plans", json=PLAN).json()["id"]
+        plan_id = c.post("/plans", json=PLAN, params={"strategy": "ivester"}).json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
         for i in range(7):
             r = _post_part(c, plan_id, report_at(f"P{i}", setpoints), f"pg-{plan_id}-{i}")
@@ -124,7 +124,7 @@ def test_parts_pages_cover_every_part_once_in_order(server):
 
 def test_history_and_model_versions_record_every_change_with_its_cause(server):
     with server.client("engineer") as c:
-        plan_id = c.post("/plans", json=PLAN).json()["id"]
+        plan_id = c.post("/plans", json=PLAN, params={"strategy": "ivester"}).json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
         for i in range(2):
             setpoints = _post_part(

@@ -25,6 +25,7 @@ from sqlalchemy.orm import Session
 from api import queries, service
 from db import tables as t
 from db.engine import make_engine, upgrade
+from supervisor.rcb import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
 from live import LiveServer
@@ -51,7 +52,7 @@ def _outcome(answer: dict[str, Any]) -> dict[str, Any]:
 def _new_plan(live: LiveServer) -> tuple[int, dict[str, Any]]:
     """A demo plan on the server and its setpoints (version 1)."""
     with live.client("engineer") as c:
-        created = c.post("/plans", json=PLAN)
+        created = c.post("/plans", json=PLAN, params={"strategy": "ivester"})
         assert created.status_code == 201, created.text
         plan_id = created.json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints")
@@ -168,7 +169,9 @@ def reference(tmp_path_factory) -> Reference:
     upgrade(url)
     engine = make_engine(url)
     try:
-        plan_id = service.create_plan(engine=engine, body=PLAN).body["id"]
+        plan_id = service.create_plan(
+            engine=engine, body=PLAN, settings=RcbSettings("ivester")
+        ).body["id"]
         setpoints = queries.current_setpoints(engine=engine, plan_id=plan_id)
         answers = [
             service.report_part(

@@ -34,7 +34,7 @@ def _feed_rate(op):
 
 def test_milling_plan_and_current_report(server):
     with server.client("engineer") as c:
-        r = c.post("/plans", json=PLAN)
+        r = c.post("/plans", json=PLAN, params={"strategy": "ivester"})
         assert r.status_code == 201, r.text
         created = r.json()
         slot = _op(created, "slot")
@@ -103,7 +103,7 @@ def _current_plan():
 
 def test_spindle_current_is_a_limit_rcb_shrinks(server):
     with server.client("engineer") as c:
-        r = c.post("/plans", json=_current_plan())
+        r = c.post("/plans", json=_current_plan(), params={"strategy": "ivester"})
         assert r.status_code == 201, r.text
         created = r.json()
         side = _op(created, "side-finish")
