@@ -15,6 +15,7 @@ uncertainty, not the dynamometer's.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -26,7 +27,7 @@ from models.sensors import Calibration
 from models.sensors.convert import converts
 from models.tool import predict_all
 from supervisor.optimizer import PlanResult, optimize_plan
-from supervisor.plan import Plan
+from supervisor.plan import PARTS_PER_EDGE, Plan
 from supervisor.rcb import Decision, RcbSettings, RcbState, start, update
 from supervisor.report import Measurement, PartReport, Signal
 from supervisor.sensing import noisy_reading
@@ -113,6 +114,11 @@ def run_demo(
     state = start(plan, settings)
     catalog = _catalog_rows(plan, machine, rng)
     robust_setpoints = state.setpoints
+    edge_life = {
+        op.name: max(1, math.floor(op.limits[PARTS_PER_EDGE]))
+        for op in plan.operations
+        if PARTS_PER_EDGE in op.limits
+    }
     first: Mapping[str, Mapping[str, Measurement]] = {}
     violations = 0
     trail: list[tuple[Decision, ...]] = []
@@ -120,8 +126,9 @@ def run_demo(
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
         outcome = run_part(machine, setpoints, rng)
         violations += len(outcome.violations)
+        ages = {name: i % n for name, n in edge_life.items()}  # edges changed after n parts
         report = _report(
-            plan, machine, state.setpoints, outcome, f"{seed}-{i + 1}", state.version, rng
+            plan, machine, state.setpoints, outcome, f"{seed}-{i + 1}", state.version, rng, ages
         )
         if i == 0:
             first = report.measurements
@@ -211,15 +218,19 @@ def _report(
     serial: str,
     version: int,
     rng: np.random.Generator,
+    edge_parts: Mapping[str, int] | None = None,
 ) -> PartReport:
     """The part report the MES sends: forces as spindle readings where the machine has a sensor.
+
+    ``edge_parts``: each counted edge's age, as the control's tool-life counter gives it.
 
     Returns the report after :func:`supervisor.signals.resolve`, i.e. with every reading
     converted to ``force_N`` with the conversion's uncertainty.
     """
     sensor = _force_sensor(plan)
+    ages = dict(edge_parts or {})
     if sensor is None:
-        return PartReport(serial, version, outcome.measurements)
+        return PartReport(serial, version, outcome.measurements, edge_parts=ages)
     name, calibration = sensor
     raw = converts(calibration)
     assert raw is not None  # _force_sensor keeps only force calibrations
@@ -235,7 +246,7 @@ def _report(
         force = outcome.true_values[op.name]["force_N"]
         reading = noisy_reading(calibration, force, point, u, rng)
         signals[op.name] = {raw: Signal(raw, Measurement(reading, u), calibration=name)}
-    report = PartReport(serial, version, measurements, signals=signals)
+    report = PartReport(serial, version, measurements, signals=signals, edge_parts=ages)
     resolved, _ = resolve(report, plan, made_with)
     return resolved
 
