@@ -62,7 +62,6 @@ References
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -125,6 +124,16 @@ class Posterior:
     cov: tuple[tuple[float, ...], ...]
     observations: int = 0
     edge_max: int = 0
+
+    def cholesky(self, drift: float) -> np.ndarray:
+        """The Cholesky factor of ``Σ + drift² e₀e₀ᵀ`` (kept on the object: it is immutable)."""
+        cache: dict[float, np.ndarray] = self.__dict__.setdefault("_cholesky", {})
+        if drift not in cache:
+            cov = np.array(self.cov)
+            cov[0, 0] += drift**2
+            scale = max(float(np.max(np.abs(np.diag(cov)))), 1e-300)
+            cache[drift] = np.linalg.cholesky(cov + np.eye(len(cov)) * scale * _JITTER)
+        return cache[drift]
 
     @property
     def edges(self) -> tuple[int, ...]:
@@ -281,12 +290,10 @@ class Cone:
         cov[0, 0] += self.drift**2
         return cov
 
-    @functools.cached_property
+    @property
     def _chol(self) -> np.ndarray:
-        """The Cholesky factor of ``Σ₊`` (computed once per cone)."""
-        cov = self._cov()
-        scale = max(float(np.max(np.abs(np.diag(cov)))), 1e-300)
-        return np.linalg.cholesky(cov + np.eye(len(cov)) * scale * _JITTER)
+        """The Cholesky factor of ``Σ₊``, computed once per posterior and drift."""
+        return self.posterior.cholesky(self.drift)
 
     def spread(self, point: Mapping[str, float], rel: Mapping[str, float], edge: int = 0) -> float:
         """``√(φᵀ Σ₊ φ + v_x)`` at ``point`` and edge age ``edge``: the sd of ``ln y`` there."""
