@@ -32,6 +32,7 @@ from supervisor.certify import (
 )
 from supervisor.plan import load_plan
 from supervisor.rcb import STRATEGIES
+from supervisor.strategies import DEFAULT_STRATEGY, REGISTRY
 
 #: Exit code when the certificate ran and some part crossed a true limit.
 VIOLATIONS_FOUND = 1
@@ -42,8 +43,14 @@ _out = Console()
 def certify(
     plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
     strategy: Annotated[
-        str, typer.Option("--strategy", help=f"RCB strategy: {', '.join(STRATEGIES)}.")
-    ] = "ivester",
+        str,
+        typer.Option(
+            "--strategy",
+            help="RCB strategy: "
+            + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values())
+            + ".",
+        ),
+    ] = DEFAULT_STRATEGY,
     scenarios: Annotated[
         int,
         typer.Option(

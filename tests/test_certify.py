@@ -27,6 +27,7 @@ from supervisor.certify import (
 from supervisor.errors import InfeasibleError
 from supervisor.plan import load_plan
 from supervisor.rcb import Halt, HaltedOperation, RcbSettings, start
+from supervisor.strategies import DEFAULT_STRATEGY
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -222,7 +223,7 @@ def test_cli_json():
     assert set(data) == JSON_KEYS
     assert data["plan"] == "ivester-demo-part"
     assert (data["strategy"], data["scenarios"], data["parts"], data["seed"]) == (
-        "ivester",
+        DEFAULT_STRATEGY,
         4,
         3,
         0,
@@ -243,8 +244,10 @@ def test_cli_table_and_exit_code_1_on_violations():
     assert result.exit_code == 0, result.stderr
     assert "after k" in result.stdout and "Clopper-Pearson" in result.stdout
     assert max(map(len, result.stdout.splitlines())) <= 80
-    # a worn edge the bands never saw: some parts cross a true limit; JSON still printed
-    worn = [DEMO_PLAN, "--scenarios", 2, "--parts", 10, "--wear-drift", 0.5, "--jobs", 1]
+    # the paper's law on a wearing edge: its band shrinks against a new edge's readings and
+    # some worn-edge parts cross a true limit; the JSON is still printed, then exit 1
+    worn = [DEMO_PLAN, "--strategy", "ivester", "--scenarios", 2, "--parts", 10]
+    worn += ["--wear-drift", 0.5, "--jobs", 1]
     result = _invoke([*worn, "--json"])
     assert result.exit_code == 1, result.stderr
     assert json.loads(result.stdout)["violations"] > 0
