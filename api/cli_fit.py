@@ -334,6 +334,7 @@ def tool_table(
                 "K": model.K,
                 "dK": model.dK,
                 "exponents": dict(model.exponents),
+                "exponent_stderr": dict(model.exponent_stderr),
                 "source": model.source,
                 "reference": model.reference,
             }

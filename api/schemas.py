@@ -490,6 +490,10 @@ class ModelIn(BaseModel):
     )
     source: Text | None = Field(None, description="default: the tool's source")
     reference: Text | None = Field(None, description="where in the source (table, equation)")
+    exponent_stderr: dict[str, float] | None = Field(
+        None,
+        description="standard errors of fitted exponents (rcb fit); learn's prior spread",
+    )
 
 
 def _exponents_of_process(schema: dict[str, Any]) -> None:

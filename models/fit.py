@@ -207,6 +207,7 @@ class FitResult:
             exponents=exponents,
             source=source,
             reference=reference or self.describe(),
+            exponent_stderr={n: self.stderr[n] for n in exponents if n in self.stderr},
         )
 
     def describe(self) -> str:

@@ -62,6 +62,9 @@ class PowerLawModel:
         Where the model comes from (paper, test series, fit).
     reference : str
         Table or equation in the source.
+    exponent_stderr : Mapping[str, float]
+        Standard errors of fitted exponents (``rcb fit`` prints them), for those it has;
+        the ``learn`` strategy takes them as its prior's spread.
     """
 
     quantity: str
@@ -70,6 +73,7 @@ class PowerLawModel:
     exponents: Mapping[str, float] = field(default_factory=dict)
     source: str = ""
     reference: str = ""
+    exponent_stderr: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.quantity not in MODEL_QUANTITIES:
@@ -84,6 +88,12 @@ class PowerLawModel:
                 raise ModelDomainError(
                     f"{self.quantity}.exponents.{name}", exponent, "must be a finite number"
                 )
+        for name, error in self.exponent_stderr.items():
+            where = f"{self.quantity}.exponent_stderr.{name}"
+            if name not in self.exponents:
+                raise ModelDomainError(where, error, "names no exponent of the model")
+            if not (math.isfinite(error) and error >= 0):
+                raise ModelDomainError(where, error, "must be a number >= 0")
 
     @property
     def info(self) -> Quantity:

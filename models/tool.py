@@ -13,7 +13,7 @@ from models.powerlaw import PowerLawModel, Prediction
 from models.quantities import MODEL_QUANTITIES
 
 _TOOL_KEYS = ("name", "process", "description", "material", "source", "models")
-_MODEL_KEYS = ("K", "dK", "exponents", "source", "reference")
+_MODEL_KEYS = ("K", "dK", "exponents", "source", "reference", "exponent_stderr")
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,13 @@ def model_from_mapping(
         exponents=exponents,
         source=fields.text(table, "source", path, default=default_source),
         reference=fields.text(table, "reference", path, default=""),
+        exponent_stderr=_stderr(table.get("exponent_stderr", {}), exponents, path),
     )
+
+
+def _stderr(data: object, exponents: Mapping[str, float], path: str) -> dict[str, float]:
+    """A model's ``exponent_stderr``: a standard error >= 0 per exponent it names."""
+    return fields.number_table(data, _at(path, "exponent_stderr"), tuple(exponents), minimum=0.0)
 
 
 def tool_from_mapping(data: object, path: str) -> Tool:

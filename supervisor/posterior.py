@@ -8,9 +8,11 @@ intercept is ``ln Y`` at the centre of the box, where the catalogue data lie.
 
 Prior (the catalogue model): ``β ~ N(μ₀, Σ₀)`` with ``μ₀ = (ln Y_model(c), e_1, …, e_n)`` and a
 diagonal ``Σ₀``: the band read as ``k σ`` of the intercept, ``σ₀ = (ΔK/K)/k`` (as ``bayes``),
-and for each exponent ``s_e |e_i|`` (:data:`DEFAULT_EXPONENT_SD`: a relative standard error of
-15 %, three times the spread of the virtual machine's true exponents and the order of the
-standard errors ``rcb fit`` reports for the paper's data sets).
+and for each exponent its fit's standard error where the model carries one
+(``exponent_stderr``, which ``rcb fit --write-tool`` writes), else ``s_e |e_i|``
+(:data:`DEFAULT_EXPONENT_SD`: a relative standard error of 15 %, three times the spread of the
+virtual machine's true exponents and the order of the standard errors ``rcb fit`` reports for
+the paper's data sets). Only the errors, not the covariance of the fit, are carried.
 
 Observation: a measurement ``y ± u`` (expanded, ``k = 2``) at setpoint ``x`` observes
 ``ln y = β · φ(x) + ε``, ``ε ~ N(0, ((u/k)/y)²)``. Before each observation the intercept takes a
@@ -224,7 +226,10 @@ def prior(
     context = {n: e for n, e in model.exponents.items() if n not in names}
     mean = [math.log(model.predict(point).value), *(model.exponents[n] for n in names)]
     variances = [((model.dK / model.K) / coverage_k) ** 2]
-    variances += [(exponent_sd * abs(model.exponents[n])) ** 2 for n in names]
+    variances += [
+        (model.exponent_stderr[n] if n in model.exponent_stderr else exponent_sd * abs(e)) ** 2
+        for n, e in ((n, model.exponents[n]) for n in names)
+    ]
     edge_max = edge_max_of(operation, model.quantity)
     if edge_max:
         mean.append(0.0)

@@ -624,6 +624,8 @@ def test_write_tool_round_trip(tmp_path: Path) -> None:
     assert (tool.name, tool.process) == ("P35-12L14-NEW", "turning")
     assert (model.K, model.dK) == (fitted["K"], fitted["dK"])  # exact: floats written by repr
     assert dict(model.exponents) == fitted["exponents"]
+    # the exponents' standard errors go with the model (the learn strategy's prior spread)
+    assert dict(model.exponent_stderr) == {n: fitted["stderr"][n] for n in model.exponents}
     assert "n = 1224" in model.reference and "band = 2·s" in model.reference
 
     plan = plan_from_mapping(

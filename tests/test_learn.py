@@ -188,3 +188,37 @@ def test_a_grown_band_with_no_setpoint_halts_instead_of_raising(plan):
     again, _ = update(state, report)
     assert again.halt is not None and again.version == state.version
     assert replace(again, halt=None).halt is None
+
+
+def test_a_models_exponent_stderr_is_the_priors_spread(plan):
+    # A fitted model carries its exponents' standard errors (rcb fit prints and writes them);
+    # the learn prior takes them instead of the default 15 % of each exponent.
+    op = plan.operations[0]
+    model = plan.tools[op.tool].models["force_N"]
+    fitted = replace(model, exponent_stderr={"feed_mm_rev": 0.021})
+    belief = post.prior(fitted, op, coverage_k=2.0, exponent_sd=0.15)
+    i = 1 + belief.names.index("feed_mm_rev")
+    assert_allclose(math.sqrt(belief.cov[i][i]), 0.021)
+    j = 1 + belief.names.index("depth_mm")
+    assert_allclose(math.sqrt(belief.cov[j][j]), 0.15 * abs(model.exponents["depth_mm"]))
+
+
+@pytest.mark.parametrize(
+    ("stderr", "field"),
+    [
+        ({"feed_mm_rev": -0.1}, "tools.models.force_N.exponent_stderr.feed_mm_rev"),
+        ({"diameter": 0.1}, "tools.models.force_N.exponent_stderr.diameter"),
+    ],
+)
+def test_bad_exponent_stderr_is_refused_naming_the_field(stderr, field):
+    from models.errors import InputError
+    from models.tool import model_from_mapping
+
+    data = {"K": 2130, "dK": 150, "exponents": {"feed_mm_rev": 0.78}, "exponent_stderr": stderr}
+    with pytest.raises(InputError) as err:
+        model_from_mapping("force_N", data, "turning", "tools.models.force_N")
+    assert err.value.field == field
+    good = {**data, "exponent_stderr": {"feed_mm_rev": 0.02}}
+    assert model_from_mapping("force_N", good, "turning", "").exponent_stderr == {
+        "feed_mm_rev": 0.02
+    }
