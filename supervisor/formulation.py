@@ -23,6 +23,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numpy as np
+
 from models import kinematics
 from models.errors import InputError
 from models.monomial import Monomial
@@ -35,12 +37,15 @@ from supervisor.plan import PARTS_PER_EDGE, Machine, Objective, Operation
 from supervisor.posterior import Cone
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ConeTerm:
-    """``z ‖G x + h‖``, the spread a learned row adds to its linear part (:mod:`.posterior`)."""
+    """``z ‖G x + h‖``, the spread a learned row adds to its linear part (:mod:`.posterior`).
 
-    G: tuple[tuple[float, ...], ...]
-    h: tuple[float, ...]
+    ``G`` and ``h`` are arrays (not to be written to); a term is equal only to itself.
+    """
+
+    G: np.ndarray
+    h: np.ndarray
     z: float
 
 
@@ -158,7 +163,7 @@ def formulate(
         term = None
         if cone is not None:
             G, h = factors[(of, edge_age)]
-            term = ConeTerm(tuple(map(tuple, G.tolist())), tuple(h.tolist()), cone.z)
+            term = ConeTerm(G, h, cone.z)
         return _row(params, context, name, monomial, limit, sense, scale, given_as, cone=term)
 
     def ages(quantity: str) -> tuple[int, ...]:

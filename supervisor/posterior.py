@@ -153,7 +153,17 @@ class Posterior:
         return self.mean[1 : 1 + len(self.names)]
 
     def model(self, dK: float = 0.0, edge_parts: float = 0.0) -> PowerLawModel:
-        """The posterior mean as a power law ``K Π x_i^{μ_i}`` (context and edge in ``K``)."""
+        """The posterior mean as a power law ``K Π x_i^{μ_i}`` (context and edge in ``K``).
+
+        Kept on the object once made (it is immutable), per ``dK`` and edge age.
+        """
+        cache: dict[tuple[float, float], PowerLawModel] = self.__dict__.setdefault("_models", {})
+        key = (dK, edge_parts)
+        if key not in cache:
+            cache[key] = self._model(dK, edge_parts)
+        return cache[key]
+
+    def _model(self, dK: float, edge_parts: float) -> PowerLawModel:
         mu = self.exponent_means
         ln_K = self.mean[0] - sum(m * c for m, c in zip(mu, self.center, strict=True))
         if self.edge_max:
@@ -322,22 +332,28 @@ class Cone:
         ]
         return max(values) if sign > 0 else min(values)
 
+    def _linear(self, params: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``Lᵀ`` times the map ``ln x ↦ φ``: ``(G, h₀, Lᵀe_n)``, made once per cone."""
+        cache: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, np.ndarray]]
+        cache = self.__dict__.setdefault("_linear_parts", {})
+        if params not in cache:
+            chol_t = self._chol.T
+            selector = np.zeros((len(chol_t), len(params)))
+            offset = np.zeros(len(chol_t))
+            offset[0] = 1.0
+            names = self.posterior.names
+            for i, (name, c) in enumerate(zip(names, self.posterior.center, strict=True)):
+                selector[i + 1, params.index(name)] = 1.0
+                offset[i + 1] = -c
+            cache[params] = (chol_t @ selector, chol_t @ offset, chol_t[:, -1].copy())
+        return cache[params]
+
     def factor(
         self, params: tuple[str, ...], rel: Mapping[str, float], edge: int = 0
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(G, h)``: ``φᵀ Σ₊ φ + v_x = ‖G ln x + h‖²`` over ``params``, at edge age ``edge``."""
-        chol = self._chol
-        selector = np.zeros((len(chol), len(params)))
-        offset = np.zeros(len(chol))
-        offset[0] = 1.0
-        names = self.posterior.names
-        for i, (name, c) in enumerate(zip(names, self.posterior.center, strict=True)):
-            selector[i + 1, params.index(name)] = 1.0
-            offset[i + 1] = -c
-        if self.posterior.edge_max:
-            offset[-1] = float(edge)
-        G = chol.T @ selector
-        h = chol.T @ offset
+        G, h0, per_part = self._linear(params)
+        h = h0 + float(edge) * per_part if self.posterior.edge_max else h0
         extra = self.setpoint_variance(rel)
         if extra > 0:
             G = np.vstack([G, np.zeros(len(params))])

@@ -73,7 +73,7 @@ def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
     for row in lp.rows:
         if row.cone is None:
             continue
-        G, h, z = np.array(row.cone.G), np.array(row.cone.h), row.cone.z
+        G, h, z = row.cone.G, row.cone.h, row.cone.z
         blocks += [np.array(row.coefficients)[None, :] / z, -G]
         rhs += [np.array([(row.rhs - CONE_MARGIN) / z]), h]
         cones.append(clarabel.SecondOrderConeT(1 + len(h)))
@@ -107,7 +107,7 @@ def meets(lp: LogLinearProgram, x: Any, slack_z: float = 0.0) -> bool:
             if value > row.rhs + 1e-12:
                 return False
             continue
-        spread = float(np.linalg.norm(np.array(row.cone.G) @ x + np.array(row.cone.h)))
+        spread = float(np.linalg.norm(row.cone.G @ x + row.cone.h))
         if value + (row.cone.z - slack_z) * spread > row.rhs - CONE_MARGIN:
             return False
     return True
