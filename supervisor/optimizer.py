@@ -222,13 +222,14 @@ def _learned(
     if status != "optimal" or x is None:  # no learned optimum: the band program's holds
         return None
     x = np.clip(x, lp.lower, lp.upper)
+    slack_z = 0.0
     if last is not None and last.robust_by == "cone":
         kept = np.array([math.log(last.setpoint[p]) for p in lp.parameters])
         faster = float(np.dot(lp.objective, kept)) > float(np.dot(lp.objective, x))
         if faster and socp.meets(lp, kept, KEEP_SLACK_Z):
             x = kept  # shown, and re-checked, at the confidence that keeps it
             usable = {q: replace(c, z=c.z - KEEP_SLACK_Z) for q, c in usable.items()}
-            lp = formulate(operation, tool, machine, usable)
+            slack_z = KEEP_SLACK_Z
     point = {**{p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}}
     point.update(operation.context)
     rel = operation.setpoint_rel_uncertainty
@@ -236,7 +237,7 @@ def _learned(
         tool,
         models={**tool.models, **{q: display_model(c, point, rel) for q, c in usable.items()}},
     )
-    return replace(_result(operation, shown, lp, x, machine), robust_by="cone")
+    return replace(_result(operation, shown, lp, x, machine, slack_z), robust_by="cone")
 
 
 def optimize_plan(
@@ -318,8 +319,12 @@ def _result(
     lp: LogLinearProgram,
     x: np.ndarray[Any, Any],
     machine: Machine,
+    slack_z: float = 0.0,
 ) -> OperationResult:
-    """Predictions, re-check and timing at the optimum ``x`` (ln-parameters) of ``lp``."""
+    """Predictions, re-check and timing at the optimum ``x`` (ln-parameters) of ``lp``.
+
+    ``slack_z``: cone rows hold at ``z − slack_z`` (a learn setpoint kept in force).
+    """
     setpoint = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
     point = {**setpoint, **operation.context}
     predicted = predict_all(tool, point, operation.setpoint_rel_uncertainty)
@@ -333,7 +338,7 @@ def _result(
         predicted=predicted,
         mrr_cm3_min=mrr,
         time_min=kinematics.machining_time_min(operation.volume_mm3, mrr),
-        binding=_binding(lp, x),
+        binding=_binding(lp, x, slack_z),
         objective=lp.goal,
         cost_per_kg=productivity.evaluate(lp.cost, setpoint) if lp.cost else None,
         constant_load=constant_load_of(operation, machine, setpoint),
@@ -385,8 +390,19 @@ def optimize_domain(problem: DomainProblem) -> DomainResult:
     return domain_result(problem, points[0], points[1])
 
 
-def _binding(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> tuple[str, ...]:
-    names = [r.name for r in lp.rows if r.rhs - float(np.dot(r.coefficients, x)) <= BINDING_TOL]
+def _binding(
+    lp: LogLinearProgram, x: np.ndarray[Any, Any], slack_z: float = 0.0
+) -> tuple[str, ...]:
+    """Rows and bounds ``x`` sits on; a cone row with its spread at ``z − slack_z``."""
+    names = []
+    for r in lp.rows:
+        lhs = float(np.dot(r.coefficients, x))
+        tol = BINDING_TOL
+        if r.cone is not None:  # solved against rhs − CONE_MARGIN
+            lhs += (r.cone.z - slack_z) * float(np.linalg.norm(r.cone.G @ x + r.cone.h))
+            tol += socp.CONE_MARGIN
+        if r.rhs - lhs <= tol:
+            names.append(r.name)
     for p, v, lo, hi in zip(lp.parameters, x, lp.lower, lp.upper, strict=True):
         if v - lo <= BINDING_TOL or hi - v <= BINDING_TOL:
             names.append(p)
