@@ -10,10 +10,11 @@ for such programs) takes them in its standard form ``min q·x  s.t.  A x + s = b
   with ``m`` = :data:`CONE_MARGIN`.
 
 Why Clarabel directly and not HiGHS with outer-approximation cuts: measured on the demo plan's
-learned programs (``benchmarks/solve_speed.py``), Kelley's cutting planes converge linearly
-where the optimum lies on a curved cone face (3-20 HiGHS runs, about 4 ms), while one Clarabel
-solve of the same 3-variable program takes about 0.9 ms with its set-up; cvxpy adds its own
-per-call work on top (:mod:`supervisor.highs_lp` says how much).
+learned programs (``benchmarks/solve_speed.py``, section 6), Kelley's cutting planes converge
+linearly where the optimum lies on a curved cone face (1.5-2.2 ms median, up to 60 HiGHS runs)
+while Clarabel solves the same 3-variable program in 0.3 ms, its solver kept per program
+structure and thread and updated with the new data; cvxpy adds its own per-call work on top
+(:mod:`supervisor.highs_lp` says how much).
 
 The interior-point answer meets the rows to Clarabel's tolerance (about 1e-8); the margin
 ``m`` (1 ppm of the quantity) keeps the point inside the true cone, and the optimiser re-checks
@@ -23,6 +24,7 @@ it as every optimum.
 from __future__ import annotations
 
 import functools
+import threading
 from typing import Any, Literal
 
 import clarabel
@@ -44,6 +46,9 @@ def _settings() -> Any:
     if _SETTINGS is None:
         _SETTINGS = clarabel.DefaultSettings()
         _SETTINGS.verbose = False
+        # data updates of a kept solver need both off; the programs are tiny and dense
+        _SETTINGS.presolve_enable = False
+        _SETTINGS.chordal_decomposition_enable = False
     return _SETTINGS
 
 
@@ -51,6 +56,38 @@ def _settings() -> Any:
 def _zeros(n: int) -> Any:
     """The (empty) quadratic term of an ``n``-variable linear objective, made once."""
     return sparse.csc_matrix((n, n))
+
+
+_local = threading.local()
+#: Most program structures a thread keeps a solver for (a plan has a few).
+MAX_SOLVERS = 64
+
+
+def _solver(n: int, dense: Any, b: Any, cones: list[Any], q: Any) -> Any:
+    """A Clarabel solver holding this program: the thread's one for its structure, updated.
+
+    ``A`` goes in with every entry of ``dense`` stored, zeros included, so that programs of
+    one structure (rows, cone sizes) share a sparsity pattern and a solver: the next one is
+    a data update (``solver.update``), which skips building the solver and its symbolic
+    factorisation (about a third of a solve here, ``benchmarks/solve_speed.py``).
+    """
+    solvers: dict[tuple[Any, ...], Any] = getattr(_local, "solvers", None) or {}
+    _local.solvers = solvers
+    rows = dense.shape[0]
+    key = (n, rows, tuple(repr(c) for c in cones))
+    values = dense.T.ravel()  # column-major: the CSC order of a full pattern
+    solver = solvers.get(key)
+    if solver is not None:
+        solver.update(q=q, A=values, b=b)
+        return solver
+    indices = np.tile(np.arange(rows, dtype=np.int32), n)
+    indptr = np.arange(0, rows * n + 1, rows, dtype=np.int32)
+    A = sparse.csc_matrix((values, indices, indptr), shape=dense.shape)
+    solver = clarabel.DefaultSolver(_zeros(n), q, A, b, cones, _settings())
+    if len(solvers) >= MAX_SOLVERS:
+        solvers.clear()
+    solvers[key] = solver
+    return solver
 
 
 def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
@@ -78,12 +115,7 @@ def maximize(lp: LogLinearProgram) -> tuple[Status, Any]:
         rhs += [np.array([(row.rhs - CONE_MARGIN) / z]), h]
         cones.append(clarabel.SecondOrderConeT(1 + len(h)))
     dense = np.vstack(blocks)
-    cols, rows = np.nonzero(dense.T)  # column-major: the CSC order
-    indptr = np.searchsorted(cols, np.arange(n + 1))
-    A = sparse.csc_matrix((dense[rows, cols], rows, indptr), shape=dense.shape)
-    P = _zeros(n)
-    q = -np.array(lp.objective, dtype=float)
-    solver = clarabel.DefaultSolver(P, q, A, np.concatenate(rhs), cones, _settings())
+    solver = _solver(n, dense, np.concatenate(rhs), cones, -np.array(lp.objective, dtype=float))
     solution = solver.solve()
     status = str(solution.status)
     if status == "Solved":

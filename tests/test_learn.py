@@ -225,3 +225,31 @@ def test_bad_exponent_stderr_is_refused_naming_the_field(stderr, field):
     assert model_from_mapping("force_N", good, "turning", "").exponent_stderr == {
         "feed_mm_rev": 0.02
     }
+
+
+def test_a_kept_clarabel_solver_answers_as_a_new_one(plan):
+    # supervisor.socp keeps one solver per program structure and thread and updates its
+    # data: the optimum must be what a solver built for the program alone gives.
+    import threading
+
+    machine = _scaled_machine(plan, 1.0)
+    rng = np.random.default_rng(5)
+    state = start(plan, RcbSettings(strategy="learn"))
+    lps = []
+    for k in range(4):
+        setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
+        outcome = run_part(machine, setpoints, rng)
+        state, _ = update(state, PartReport(f"K-{k}", state.version, outcome.measurements))
+        cones = learned_cones(state)
+        for op in plan.operations:
+            if op.name in cones:
+                lps.append(formulate(op, state.tools[op.name], plan.machine, cones[op.name]))
+    updated = [socp.maximize(lp) for lp in lps]  # one thread: later ones are data updates
+    for lp, (status, x) in zip(lps, updated, strict=True):
+        fresh: list[object] = []
+        worker = threading.Thread(target=lambda lp=lp, out=fresh: out.append(socp.maximize(lp)))
+        worker.start()
+        worker.join()  # a new thread: a new solver, built for this program
+        (status_new, x_new) = fresh[0]
+        assert status == status_new == "optimal"
+        assert np.dot(lp.objective, x) == pytest.approx(np.dot(lp.objective, x_new), abs=1e-7)
