@@ -46,9 +46,13 @@ def _settings() -> Any:
     if _SETTINGS is None:
         _SETTINGS = clarabel.DefaultSettings()
         _SETTINGS.verbose = False
-        # data updates of a kept solver need both off; the programs are tiny and dense
+        # data updates of a kept solver need presolve and chordal decomposition off; and
+        # equilibration, whose scaling is made from the data a solver is built with, would
+        # make an answer depend on which program built it (the results of `rcb certify` must
+        # be the same for any --jobs); the programs are small and scaled (logarithms)
         _SETTINGS.presolve_enable = False
         _SETTINGS.chordal_decomposition_enable = False
+        _SETTINGS.equilibrate_enable = False
     return _SETTINGS
 
 
