@@ -19,7 +19,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from api.cli_common import emit, err_console, errors
+from api.cli_common import STRATEGY_HELP, emit, err_console, errors
 from models import fields
 from models.errors import InputError
 from supervisor.certify import (
@@ -32,7 +32,7 @@ from supervisor.certify import (
 )
 from supervisor.plan import load_plan
 from supervisor.rcb import STRATEGIES
-from supervisor.strategies import DEFAULT_STRATEGY, REGISTRY
+from supervisor.strategies import DEFAULT_STRATEGY
 
 #: Exit code when the certificate ran and some part crossed a true limit.
 VIOLATIONS_FOUND = 1
@@ -42,15 +42,7 @@ _out = Console()
 
 def certify(
     plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
-    strategy: Annotated[
-        str,
-        typer.Option(
-            "--strategy",
-            help="RCB strategy: "
-            + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values())
-            + ".",
-        ),
-    ] = DEFAULT_STRATEGY,
+    strategy: Annotated[str, typer.Option("--strategy", help=STRATEGY_HELP)] = DEFAULT_STRATEGY,
     scenarios: Annotated[
         int,
         typer.Option(

@@ -37,16 +37,12 @@ if TYPE_CHECKING:
     StrategyName = str
 else:  # the choices typer offers and checks, from the registry (never restated)
     StrategyName = Literal[STRATEGY_NAMES]
+#: The help of every ``--strategy``: each registered strategy with its summary.
+STRATEGY_HELP = (
+    "RCB strategy: " + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values()) + "."
+)
 #: ``--strategy``: a name of :data:`supervisor.strategies.REGISTRY`, its summary in the help.
-StrategyOption = Annotated[
-    StrategyName,
-    typer.Option(
-        "--strategy",
-        help="RCB strategy: "
-        + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values())
-        + ".",
-    ),
-]
+StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEGY_HELP)]
 
 DbOption = Annotated[
     str | None,

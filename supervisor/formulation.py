@@ -138,16 +138,13 @@ def formulate(
     band row of that quantity (and of power and torque, for ``force_N``).
     """
     learned = cones or {}
-    params_ = kinematics.PARAMETERS[operation.process]
-    factors = {
-        (q, n): c.factor(params_, operation.setpoint_rel_uncertainty, n)
-        for q, c in learned.items()
-        for n in c.posterior.edges
-    }
     process = operation.process
     params = kinematics.PARAMETERS[process]
     context = operation.context
     rel = operation.setpoint_rel_uncertainty
+    factors = {
+        (q, n): c.factor(params, rel, n) for q, c in learned.items() for n in c.posterior.edges
+    }
 
     def row(
         name: str,

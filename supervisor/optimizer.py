@@ -188,6 +188,7 @@ def optimize_operation(
         The solver gave no optimal status, or the optimum fails the re-check.
     """
     band: OperationResult | None = None
+    infeasible: InfeasibleError | None = None
     cached = None if last is None else (last.fallback if last.robust_by == "cone" else last)
     if cached is not None and cached.tool_models == tool and cones:
         band = cached  # the same band program: its optimum is the same
@@ -195,14 +196,14 @@ def optimize_operation(
         lp = formulate(operation, tool, machine)
         try:
             band = _result(operation, tool, lp, _optimum(lp), machine)
-        except InfeasibleError:
-            band = None  # unless the learned program holds, the diagnosis is raised below
+        except InfeasibleError as err:
+            infeasible = err  # raised below unless the learned program holds
     learned = _learned(operation, tool, machine, cones or {}, last)
     if learned is not None and (band is None or learned.mrr_cm3_min > band.mrr_cm3_min):
         return replace(learned, fallback=band)
     if band is None:
-        lp = formulate(operation, tool, machine)
-        band = _result(operation, tool, lp, _optimum(lp), machine)  # raises the diagnosis
+        assert infeasible is not None  # a cached band is never None
+        raise infeasible
     return band
 
 

@@ -300,11 +300,6 @@ class Cone:
     z: float
     drift: float = DEFAULT_DRIFT
 
-    def _cov(self) -> np.ndarray:
-        cov = np.array(self.posterior.cov)
-        cov[0, 0] += self.drift**2
-        return cov
-
     @property
     def _chol(self) -> np.ndarray:
         """The Cholesky factor of ``Σ₊``, computed once per posterior and drift."""

@@ -13,7 +13,7 @@ from sqlalchemy import text
 from sqlalchemy.engine import make_url
 from typer.testing import CliRunner
 
-from db.engine import make_engine
+from db.engine import make_engine, upgrade
 
 from live import LiveServer
 
@@ -82,6 +82,15 @@ def backend_url(request, tmp_path) -> str:
     if request.param == "sqlite":
         return f"sqlite:///{tmp_path / 'rcb.db'}"
     return request.getfixturevalue("empty_postgres")
+
+
+@pytest.fixture
+def engine(backend_url):
+    """A migrated database on each backend, as an engine."""
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    yield engine
+    engine.dispose()
 
 
 @pytest.fixture(scope="module", params=["sqlite", "postgres"])

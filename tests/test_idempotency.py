@@ -12,19 +12,10 @@ from api import queries, service
 from db import access, keylock
 from db import tables as t
 from db.access import Actor
-from db.engine import make_engine, upgrade
 
 from conftest import DEMO_PLAN, report_at
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-
-
-@pytest.fixture
-def engine(backend_url):
-    upgrade(backend_url)
-    engine = make_engine(backend_url)
-    yield engine
-    engine.dispose()
 
 
 def _setup(engine):

@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import tomllib
 
-import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from api import service
 from db import repository as repo
 from db import tables as t
-from db.engine import make_engine, upgrade
 from db.plan_state import settings_json, settings_of
 from db.state_cache import CACHE
 from supervisor.rcb import RcbSettings
@@ -19,14 +17,6 @@ from supervisor.rcb import RcbSettings
 from conftest import DEMO_PLAN, report_at
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-
-
-@pytest.fixture
-def engine(backend_url):
-    upgrade(backend_url)
-    engine = make_engine(backend_url)
-    yield engine
-    engine.dispose()
 
 
 def _loaded(engine, plan_id):

@@ -18,14 +18,6 @@ from supervisor.errors import InfeasibleError
 from supervisor.rcb import RcbSettings
 
 
-@pytest.fixture
-def engine(backend_url):
-    upgrade(backend_url)
-    engine = make_engine(backend_url)
-    yield engine
-    engine.dispose()
-
-
 def _count(engine, table):
     with Session(engine) as session:
         return session.scalar(select(func.count()).select_from(table))
