@@ -11,11 +11,11 @@ from models.powerlaw import PowerLawModel, Prediction
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from models.tool import Tool
 from supervisor.constant_load.setpoint import ToolChange
-from supervisor.demo import DemoResult, Row
-from supervisor.extras import extras_of
-from supervisor.optimizer import OperationResult, PlanResult
-from supervisor.rcb import Decision
-from supervisor.report import Measurement
+from supervisor.inputs.part_report import Measurement
+from supervisor.optimize.extras import extras_of
+from supervisor.optimize.optimizer import OperationResult, PlanResult
+from supervisor.rcb.update import Decision
+from supervisor.virtual.demo import DemoResult, Row
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
 

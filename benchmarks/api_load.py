@@ -980,7 +980,7 @@ def launch_rcb_with_nodelay_listener(rcb_args: list[str]) -> None:
         return sock
 
     uvicorn.config.Config.bind_socket = bind_socket  # type: ignore[method-assign]
-    from api.cli import app
+    from api.cli.main import app
 
     sys.argv = ["rcb", *rcb_args]
     app()

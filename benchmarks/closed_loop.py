@@ -1,12 +1,12 @@
 """Closed-loop Monte Carlo benchmark of RCB against the oracle (a script run on demand, not a test).
 
-What it measures (the engine is :mod:`supervisor.certify`, which ``rcb certify`` also runs).
+What it measures (the engine is :mod:`supervisor.virtual.certify`, which ``rcb certify`` also runs).
 For every scenario ``s`` (seed ``seed_offset + s``) and every strategy (``ivester``,
-``bayes``; :mod:`supervisor.rcb`):
+``bayes``; :mod:`supervisor.rcb.update`):
 
 1. a true process is drawn inside the plan's model bands,
    ``machine = sample_machine(plan, seed, wear_drift_per_edge_life=--wear-drift)``
-   (:mod:`supervisor.simulate`; with drift, an edge is changed after ``parts_per_edge``
+   (:mod:`supervisor.virtual.simulate`; with drift, an edge is changed after ``parts_per_edge``
    parts);
 2. the *oracle* is the same optimisation with the true models and no band,
    ``optimize_plan(plan, tools=oracle_tools(machine))``: the fastest any controller could run
@@ -14,7 +14,7 @@ For every scenario ``s`` (seed ``seed_offset + s``) and every strategy (``iveste
 3. RCB starts from the robust optimum, ``start(plan, RcbSettings(strategy=...))``, and makes
    ``--parts`` parts: each part is made with the current setpoints by ``run_part`` (measurement
    noise from ``numpy.random.default_rng(seed)``, the seed of the machine, as
-   :func:`supervisor.demo.run_demo` does), its true-limit violations are counted, and its
+   :func:`supervisor.virtual.demo.run_demo` does), its true-limit violations are counted, and its
    measurements go back through ``update`` as a ``PartReport``. When grown bands leave no
    safe setpoint (``update`` raises ``InfeasibleError`` or returns a halted state) the
    machine stops: the scenario is counted as *stopped*, makes no more parts and removes no
@@ -78,11 +78,11 @@ from typing import Any
 import numpy as np
 
 from models import kinematics
-from supervisor.certify import MAX_PARTS, MAX_SCENARIOS, Certificate, available_cpus, digest
-from supervisor.certify import simulate as simulate_certificates
-from supervisor.plan import Plan, load_plan
-from supervisor.rcb import STRATEGIES
-from supervisor.strategies import DEFAULT_STRATEGY
+from supervisor.inputs.plan import Plan, load_plan
+from supervisor.rcb.strategies import DEFAULT_STRATEGY
+from supervisor.rcb.update import STRATEGIES
+from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, Certificate, available_cpus, digest
+from supervisor.virtual.certify import simulate as simulate_certificates
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

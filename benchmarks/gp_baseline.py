@@ -53,7 +53,7 @@ The method, per operation (operations are independent), one part per iteration:
   :data:`LOCAL_SCALES` clipped to the box (clipping puts some on the bounds, where optima often
   are), then a second round around the best of those at a tenth of the scales; those breaking a
   hard constraint are dropped; the incumbent and the current setpoint are always candidates.
-- **Start.** The robust start of :func:`supervisor.rcb.start` makes part 1, as for RCB.
+- **Start.** The robust start of :func:`supervisor.rcb.update.start` makes part 1, as for RCB.
 
 The settings (the constants below) were fixed before the reported runs and not changed after
 them; development used seeds 1000-1002 only, not the benchmark's 0, 1, 2 ...
@@ -136,12 +136,18 @@ except ImportError as err:  # pragma: no cover - depends on the environment
 from models import kinematics
 from models.monomial import Monomial
 from models.quantities import MODEL_QUANTITIES
-from supervisor.formulation import formulate
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import PARTS_PER_EDGE, Operation, Plan, load_plan
-from supervisor.rcb import start
-from supervisor.report import Measurement
-from supervisor.simulate import PartOutcome, Violation, oracle_tools, run_part, sample_machine
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import PARTS_PER_EDGE, Operation, Plan, load_plan
+from supervisor.optimize.formulation import formulate
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.update import start
+from supervisor.virtual.simulate import (
+    PartOutcome,
+    Violation,
+    oracle_tools,
+    run_part,
+    sample_machine,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

@@ -20,7 +20,8 @@ What it measures, on the six-operation plan ``examples/ivester_demo_part.toml``:
 5. **Reference: the same LP through cvxpy** — rough-od's program posed as a parametrised (DPP)
    cvxpy problem (parameters ``c, A, b, lo, hi``, as the optimiser did before it called HiGHS
    directly) and re-solved with HiGHS through cvxpy for the same tool variants; it shows what
-   cvxpy's per-call work costs on this machine (the reason :mod:`supervisor.highs_lp` exists).
+   cvxpy's per-call work costs on this machine (the reason :mod:`supervisor.optimize.highs_lp`
+   exists).
 
 Figures are medians and 90th percentiles over a bounded number of repetitions (``--repeat``,
 default 200 for one operation; half that for the plan; 10 fresh samples), with a wall-clock
@@ -149,8 +150,8 @@ def timed_loop(
 def child() -> None:
     """Run in a fresh process: import, load the plan, time the first solve; print JSON."""
     t0 = perf()
-    from supervisor.optimizer import optimize_operation
-    from supervisor.plan import load_plan
+    from supervisor.inputs.plan import load_plan
+    from supervisor.optimize.optimizer import optimize_operation
 
     t1 = perf()
     plan = load_plan(PLAN_FILE)
@@ -274,10 +275,10 @@ def main(argv: list[str] | None = None) -> int:
     import numpy as np
 
     from models.tool import Tool
-    from supervisor import highs_lp, optimizer
-    from supervisor.formulation import formulate
-    from supervisor.optimizer import optimize_operation, optimize_plan
-    from supervisor.plan import load_plan
+    from supervisor.inputs.plan import load_plan
+    from supervisor.optimize import highs_lp, optimizer
+    from supervisor.optimize.formulation import formulate
+    from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 
     import_s = perf() - t_import
     plan = load_plan(PLAN_FILE)
@@ -450,16 +451,17 @@ def main(argv: list[str] | None = None) -> int:
 def learned_section(plan: Any, op: Any, repeat: int, cap_s: float) -> tuple[Any, Any, Any]:
     """Section 6: a learn operation re-solved, its cone program by Clarabel and by cuts.
 
-    The learn states come from parts made on the virtual lathe (seed 0); the cone program of
-    each is solved by ``supervisor.socp`` (Clarabel, what the optimiser uses) and by Kelley's
-    outer-approximation cuts with HiGHS (the alternative, written here only to measure it).
+    The learn states come from parts made on the virtual lathe (seed 0); the cone program
+    of each is solved by ``supervisor.optimize.socp`` (Clarabel, what the optimiser uses)
+    and by Kelley's outer-approximation cuts with HiGHS (the alternative, written here only
+    to measure it).
     """
-    from supervisor import socp
-    from supervisor.formulation import formulate
-    from supervisor.optimizer import optimize_operation
-    from supervisor.rcb import RcbSettings, learned_cones, start, update
-    from supervisor.report import PartReport
-    from supervisor.simulate import run_part, sample_machine
+    from supervisor.inputs.part_report import PartReport
+    from supervisor.optimize import socp
+    from supervisor.optimize.formulation import formulate
+    from supervisor.optimize.optimizer import optimize_operation
+    from supervisor.rcb.update import RcbSettings, learned_cones, start, update
+    from supervisor.virtual.simulate import run_part, sample_machine
 
     machine = sample_machine(plan, 0)
     rng = np.random.default_rng(0)
@@ -506,7 +508,7 @@ def learned_section(plan: Any, op: Any, repeat: int, cap_s: float) -> tuple[Any,
 
 def kelley_cuts(lp: Any, rounds: int = 60) -> Any:
     """Kelley's cutting planes for ``lp``'s cone rows, each round a HiGHS LP (measured only)."""
-    from supervisor import highs_lp
+    from supervisor.optimize import highs_lp
 
     a = [r.coefficients for r in lp.rows if r.cone is None]
     b = [r.rhs for r in lp.rows if r.cone is None]

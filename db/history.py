@@ -1,6 +1,6 @@
 """Read-only queries for review: plans, parts page by page, setpoint history, model versions.
 
-Each returns plain rows or dicts; :mod:`api.queries` shapes them for JSON.
+Each returns plain rows or dicts; :mod:`api.services.queries` shapes them for JSON.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Repository functions: domain objects in and out of the tables. Keyword-only, given a session.
 
-The caller owns the transaction (one use case, one transaction: :mod:`api.service`).
+The caller owns the transaction (one use case, one transaction: :mod:`api.services.commands`).
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ from db.state_cache import CACHE
 from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
 from supervisor.constant_load.setpoint import ToolChange
-from supervisor.extras import extras_of, with_extras
-from supervisor.optimizer import OperationResult, PlanResult
-from supervisor.plan import Plan, plan_from_mapping
-from supervisor.posterior import Posterior
-from supervisor.posterior import from_json as posterior_from_json
-from supervisor.rcb import Decision, RcbSettings, RcbState, prior_sigma
-from supervisor.report import PartReport
+from supervisor.inputs.part_report import PartReport
+from supervisor.inputs.plan import Plan, plan_from_mapping
+from supervisor.optimize.extras import extras_of, with_extras
+from supervisor.optimize.optimizer import OperationResult, PlanResult
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.posterior import from_json as posterior_from_json
+from supervisor.rcb.update import Decision, RcbSettings, RcbState, prior_sigma
 
 #: A plan's row as the ORM loads it, or the head of it a part report locks (db.intake).
 PlanRow = t.Plan | PlanHead
@@ -300,7 +300,7 @@ def add_part(
     ``part_id``: the part's row, stored by :func:`db.intake.open_report` in the same transaction;
     ``operations``: the plan's operation ids (:func:`operation_ids`). ``raw``: per
     (operation, quantity) what a measurement was converted from (a spindle reading,
-    :mod:`supervisor.signals`), kept beside the converted value. ``tool_changes``: each
+    :mod:`supervisor.inputs.signals`), kept beside the converted value. ``tool_changes``: each
     reported feed override, stored as a ``feed_override_percent`` measurement with the
     commanded feed, the lower limit and whether a tool change was due.
     """

@@ -16,7 +16,7 @@ from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from supervisor.rcb import RcbState
+from supervisor.rcb.update import RcbState
 
 #: Plans whose state one process keeps.
 CAPACITY = 2048

@@ -23,7 +23,7 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-from supervisor.strategies import DEFAULT_STRATEGY
+from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
 #: Stable constraint names, so Alembic migrations name them the same on every database.
 NAMING_CONVENTION = {
@@ -183,7 +183,7 @@ class Setpoint(Base):
     binding: Mapped[list[Any]]
     mrr_cm3_min: Mapped[float]
     time_min: Mapped[float]
-    #: objective, cost_per_kg, constant_load (:mod:`supervisor.extras`); NULL before 0004
+    #: objective, cost_per_kg, constant_load (:mod:`supervisor.optimize.extras`); NULL before 0004
     extras: Mapped[dict[str, Any] | None]
 
 
@@ -214,7 +214,7 @@ class Measurement(Base):
 
 
 class RcbDecision(Base):
-    """What one measurement did to one band (supervisor.rcb.Decision)."""
+    """What one measurement did to one band (supervisor.rcb.update.Decision)."""
 
     __tablename__ = "rcb_decisions"
     id: Mapped[int] = mapped_column(primary_key=True)
@@ -280,9 +280,9 @@ class AuditEntry(Base):
 class BandState(Base):
     """RCB state of one operation and quantity after a part, beyond its model version.
 
-    ``seen``: the most demanding measurement so far as a K-equivalent (supervisor.rcb);
+    ``seen``: the most demanding measurement so far as a K-equivalent (supervisor.rcb.update);
     ``sigma``: the posterior σ of ln K (bayes); ``posterior``: the ``learn`` strategy's belief
-    (:meth:`supervisor.posterior.Posterior.to_json`), NULL for other strategies. Appended per
+    (:meth:`supervisor.rcb.posterior.Posterior.to_json`), NULL for other strategies. Appended per
     part; the newest row is in force.
     """
 

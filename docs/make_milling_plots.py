@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from supervisor.mill import (  # noqa: E402
+from supervisor.virtual.mill import (  # noqa: E402
     EdgeLifeConfig,
     MillRun,
     run_case1,

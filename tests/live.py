@@ -12,7 +12,7 @@ from pathlib import Path
 
 import httpx
 
-from api import service
+from api.services import commands as service
 from db.engine import make_engine, upgrade
 
 RCB = Path(sys.executable).with_name("rcb")

@@ -12,10 +12,14 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from typer.testing import CliRunner
 
-from api.cli import app
+from api.cli.main import app
 from models.errors import InputError
-from supervisor import certify
-from supervisor.certify import (
+from supervisor.errors import InfeasibleError
+from supervisor.inputs.plan import load_plan
+from supervisor.rcb.strategies import DEFAULT_STRATEGY
+from supervisor.rcb.update import Halt, HaltedOperation, RcbSettings, start
+from supervisor.virtual import certify
+from supervisor.virtual.certify import (
     Certificate,
     clopper_pearson_upper,
     digest,
@@ -24,10 +28,6 @@ from supervisor.certify import (
     summarize,
     summary_rows,
 )
-from supervisor.errors import InfeasibleError
-from supervisor.plan import load_plan
-from supervisor.rcb import Halt, HaltedOperation, RcbSettings, start
-from supervisor.strategies import DEFAULT_STRATEGY
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

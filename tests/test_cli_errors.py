@@ -3,7 +3,7 @@
 Requirement: limits no parameters can meet, inverted bounds, negative or zero limits, unknown
 tools or quantities, malformed or missing files give exit code != 0 and a one-line message
 naming the offending field/quantity and value, with no traceback; infeasibility says which
-limits conflict. Exit codes (``api/cli.py``): 2 bad input, 3 infeasible, 4 solver failure.
+limits conflict. Exit codes (``api/cli/main.py``): 2 bad input, 3 infeasible, 4 solver failure.
 
 Most cases run in-process with ``typer.testing.CliRunner`` (click >= 8.2 always keeps stderr
 apart in ``result.stderr``); a few run the installed ``rcb`` console script as a subprocess.
@@ -28,7 +28,7 @@ from typing import Any
 import pytest
 from typer.testing import CliRunner
 
-from api.cli import app
+from api.cli.main import app
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

@@ -1,6 +1,6 @@
 """Constant-load milling setup and the tool-change rule (Tai, Tsai & Li 2023, §II.F, §III.A).
 
-supervisor/constant_load.py and ``rcb milling setup`` (api/cli_milling.py); the test data are
+supervisor/constant_load.py and ``rcb milling setup`` (api/cli/milling.py); the test data are
 tests/data/tai_end_milling_tests.csv, written by tests/data/make_tai_end_milling_tests.py.
 """
 
@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
-from api.cli import app
-from api.cli_milling import read_tests
+from api.cli.main import app
+from api.cli.milling import read_tests
 from models.errors import InputError, ModelDomainError
 from models.sensors import LinearCurrentCalibration, linear_current_force_N
 from supervisor.constant_load import (

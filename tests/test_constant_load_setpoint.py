@@ -18,8 +18,8 @@ from supervisor.constant_load.setpoint import (
     setup_of,
     tool_change,
 )
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import plan_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.optimize.optimizer import optimize_plan
 
 ROOT = Path(__file__).resolve().parents[1]
 PLAN = tomllib.loads((ROOT / "examples" / "tai_constant_load_part.toml").read_text())
@@ -104,7 +104,7 @@ def test_example_plan_limits():
 def test_rcb_optimize_shows_the_constant_load_limits():
     from typer.testing import CliRunner
 
-    from api.cli import app
+    from api.cli.main import app
 
     plan = str(ROOT / "examples" / "tai_constant_load_part.toml")
     result = CliRunner().invoke(app, ["optimize", plan], env={"COLUMNS": "200"})

@@ -6,11 +6,11 @@ import json
 
 import pytest
 
-from api.cli import app
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import load_plan
-from supervisor.simulate import oracle_tools, sample_machine
-from supervisor.strategies import DEFAULT_STRATEGY
+from api.cli.main import app
+from supervisor.inputs.plan import load_plan
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.strategies import DEFAULT_STRATEGY
+from supervisor.virtual.simulate import oracle_tools, sample_machine
 
 from conftest import DEMO_PLAN
 

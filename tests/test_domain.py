@@ -23,20 +23,21 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
-from api.cli_domain import domain as domain_command
+from api.cli.domain import domain as domain_command
 from models.errors import InputError
-from supervisor import productivity
-from supervisor.domain import domain_problem_from_mapping, load_domain_problem
+from supervisor.borangiu import productivity
+from supervisor.borangiu.domain import domain_problem_from_mapping, load_domain_problem
 from supervisor.errors import InfeasibleError
-from supervisor.formulation import formulate_domain
-from supervisor.optimizer import optimize_domain
+from supervisor.optimize.formulation import formulate_domain
+from supervisor.optimize.optimizer import optimize_domain
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "borangiu_domain.toml"
 with EXAMPLE.open("rb") as _f:
     _DATA: dict[str, Any] = tomllib.load(_f)
 
-# J's coefficients by hand (supervisor/productivity.py module doc), per kg of steel removed:
+# J's coefficients by hand (supervisor/borangiu/productivity.py module doc), per kg of steel
+# removed:
 # mass per mm of feed = 1e-6 kg/(mm³·t/m³) · 7.85 t/m³ · 2 mm · 5 mm = 7.85e-5 kg/mm.
 MASS = 1e-6 * 7.85 * 2 * 5
 PER_LIFE = 40 + 0.15 * 0.3 * 3 / 60 + 1.0 * 5  # tool + change energy + regrinding = 45.00225

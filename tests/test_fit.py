@@ -32,11 +32,11 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
-from api.cli_fit import fit, tool_table, tool_toml
+from api.cli.fit import fit, tool_table, tool_toml
 from models.errors import InputError
 from models.fit import FitResult, coverage, fit_power_law
 from models.tool import tool_from_mapping
-from supervisor.plan import plan_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
 
 DATA = Path(__file__).resolve().parent / "data"
 ROUGHNESS_CSV = DATA / "aisi12l14_turning_roughness.csv"
@@ -537,7 +537,7 @@ def _app() -> typer.Typer:
 
     @app.callback()
     def root() -> None:
-        """rcb with only the fit command (api/cli.py registers fit in the real one)."""
+        """rcb with only the fit command (api/cli/main.py registers fit in the real one)."""
 
     app.command()(fit)
     return app
@@ -809,7 +809,7 @@ def test_not_utf8(tmp_path: Path) -> None:
 
 def test_registered_in_rcb() -> None:
     """The real ``rcb fit`` gives the same one-line errors."""
-    from api.cli import app
+    from api.cli.main import app
 
     result = CliRunner().invoke(app, ["fit", str(ROUGHNESS_CSV), "--response=Rx"])
     _one_line(result.exit_code, result.stdout, result.stderr, "--response = 'Rx'")

@@ -20,7 +20,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from api import queries, service
+from api.services import commands as service
+from api.services import queries
 from db.engine import make_engine, upgrade
 from supervisor.gcode import (
     BlockRange,
@@ -511,7 +512,7 @@ def test_only_f_and_s_words_change_and_carry_the_setpoint(case, feed, speed):
 
 def _app() -> typer.Typer:
     """``rcb`` itself."""
-    from api.cli import app as rcb
+    from api.cli.main import app as rcb
 
     return rcb
 

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import load_plan
-from supervisor.rcb import start
-from supervisor.simulate import oracle_tools, sample_machine
+from supervisor.inputs.plan import load_plan
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.update import start
+from supervisor.virtual.simulate import oracle_tools, sample_machine
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

@@ -1,4 +1,4 @@
-"""api.auth: a part report written in the transaction its API key was checked in.
+"""api.rest.auth: a part report written in the transaction its API key was checked in.
 
 On PostgreSQL the key's lookup opens the write's transaction and takes the idempotency key's
 in-flight lock in the same statement; a request then uses one pooled connection for its key
@@ -14,7 +14,9 @@ import pytest
 from sqlalchemy import event, func, select
 from sqlalchemy.orm import Session
 
-from api import auth, queries, service
+from api.rest import auth
+from api.services import commands as service
+from api.services import queries
 from db import tables as t
 from db.engine import make_engine, upgrade
 
@@ -171,7 +173,7 @@ def test_every_answer_gives_the_connection_back(pg_setup):
     403 and a 401 each leave no connection checked out of the pool."""
     from fastapi.testclient import TestClient
 
-    from api.app import create_app
+    from api.rest.app import create_app
 
     engine, key, viewer, plan_id = pg_setup
     app = create_app(engine.url.render_as_string(hide_password=False))

@@ -1,10 +1,10 @@
 """The direct HiGHS solve of a log-linear program against cvxpy's solve of the same program.
 
-:mod:`supervisor.highs_lp` hands the program to HiGHS without cvxpy (for speed); these tests
-pose the same ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` in cvxpy and require the same
-answer: the same feasibility verdict and, where feasible, the same optimal objective value.
-The elastic LP of the infeasibility diagnosis goes through the same solver, and nothing of it
-may reach stdout (``rcb ... --json``).
+:mod:`supervisor.optimize.highs_lp` hands the program to HiGHS without cvxpy (for speed); these
+tests pose the same ``max c·x  s.t.  A x <= b,  lo <= x <= hi`` in cvxpy and require the same
+answer: the same feasibility verdict and, where feasible, the same optimal objective value. The
+elastic LP of the infeasibility diagnosis goes through the same solver, and nothing of it may reach
+stdout (``rcb ... --json``).
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from supervisor import highs_lp, optimizer
-from supervisor.formulation import LogLinearProgram, Row
+from supervisor.optimize import highs_lp, optimizer
+from supervisor.optimize.formulation import LogLinearProgram, Row
 
 from conftest import ROOT
 
@@ -156,11 +156,11 @@ def test_solving_and_diagnosing_print_nothing_to_stdout():
     script = textwrap.dedent(
         """
         import math
-        from supervisor import highs_lp
+        from supervisor.optimize import highs_lp
         from supervisor.errors import InfeasibleError
-        from supervisor.formulation import LogLinearProgram, Row
-        from supervisor.optimizer import optimize_plan
-        from supervisor.plan import plan_from_mapping
+        from supervisor.optimize.formulation import LogLinearProgram, Row
+        from supervisor.optimize.optimizer import optimize_plan
+        from supervisor.inputs.plan import plan_from_mapping
 
         lp = LogLinearProgram(
             operation="op",

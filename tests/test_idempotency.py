@@ -8,7 +8,8 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
-from api import queries, service
+from api.services import commands as service
+from api.services import queries
 from db import access, keylock
 from db import tables as t
 from db.access import Actor

@@ -12,7 +12,7 @@ import pytest
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from api import service
+from api.services import commands as service
 from db import access
 from db import tables as t
 from db.engine import make_engine, upgrade

@@ -12,15 +12,15 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
-from supervisor import posterior as post
-from supervisor import socp
-from supervisor.formulation import formulate
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import load_plan
-from supervisor.rcb import RcbSettings, learned_cones, start, update
-from supervisor.report import Measurement, PartReport
-from supervisor.simulate import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine, run_part
-from supervisor.strategies import REGISTRY
+from supervisor.inputs.part_report import Measurement, PartReport
+from supervisor.inputs.plan import load_plan
+from supervisor.optimize import socp
+from supervisor.optimize.formulation import formulate
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb import posterior as post
+from supervisor.rcb.strategies import REGISTRY
+from supervisor.rcb.update import RcbSettings, learned_cones, start, update
+from supervisor.virtual.simulate import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine, run_part
 
 from conftest import DEMO_PLAN
 
@@ -90,7 +90,7 @@ def test_exact_measurements_teach_the_true_exponents(plan):
 
 
 def test_cone_program_matches_cvxpy(plan):
-    # A learned program solved by supervisor.socp equals cvxpy's (Clarabel) solution of the
+    # A learned program solved by supervisor.optimize.socp equals cvxpy's (Clarabel) solution of the
     # same second-order-cone program written out independently.
     state = start(plan, RcbSettings(strategy="learn"))
     op = plan.operations[0]
@@ -115,7 +115,7 @@ def test_cone_program_matches_cvxpy(plan):
     problem = cp.Problem(cp.Maximize(np.array(lp.objective) @ v), constraints)
     problem.solve(solver=cp.CLARABEL)
     # the same optimal ln(MRR) (the optimum may be a face: compare values, not points), and
-    # supervisor.socp's point meets every row of cvxpy's program
+    # supervisor.optimize.socp's point meets every row of cvxpy's program
     assert_allclose(np.dot(lp.objective, x), problem.value, atol=1e-7)
     v.value = x
     assert max(float(np.max(c.violation())) for c in constraints) <= 1e-8
@@ -228,7 +228,7 @@ def test_bad_exponent_stderr_is_refused_naming_the_field(stderr, field):
 
 
 def test_a_kept_clarabel_solver_answers_as_a_new_one(plan):
-    # supervisor.socp keeps one solver per program structure and thread and updates its
+    # supervisor.optimize.socp keeps one solver per program structure and thread and updates its
     # data: the optimum must be the one a solver built for the program alone gives.
     import threading
 

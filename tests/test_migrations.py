@@ -7,11 +7,11 @@ from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 from sqlalchemy import inspect, text
 
-from api.cli import app
+from api.cli.main import app
 from db.engine import make_engine, upgrade
 from db.plan_state import settings_of
 from db.tables import Base, utcnow
-from supervisor.rcb import RcbSettings
+from supervisor.rcb.update import RcbSettings
 
 
 def _no_difference(url: str) -> None:

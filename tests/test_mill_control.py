@@ -16,7 +16,7 @@ from numpy.testing import assert_allclose
 
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
-from supervisor.mill import (
+from supervisor.virtual.mill import (
     CONTROLLERS,
     KIM_JEON_FEED_LIMITS,
     EdgeLifeConfig,
@@ -36,7 +36,7 @@ from supervisor.mill import (
     simulate_edge_life,
     tai_wear_at_feed_mm,
 )
-from supervisor.mill.controllers import (
+from supervisor.virtual.mill.controllers import (
     LEVELS,
     RULES,
     BorangiuCorrectiveController,
@@ -52,9 +52,9 @@ from supervisor.mill.controllers import (
     rule,
     tai_pi_gains_for,
 )
-from supervisor.mill.controllers.fuzzy_rules import ASYMMETRIC_CELLS, rank_table
-from supervisor.mill.force import kim_jeon_coefficients
-from supervisor.mill.tai_end_milling import (
+from supervisor.virtual.mill.controllers.fuzzy_rules import ASYMMETRIC_CELLS, rank_table
+from supervisor.virtual.mill.force import kim_jeon_coefficients
+from supervisor.virtual.mill.tai_end_milling import (
     TAI_END_MILLING,
     TAI_LOWER_FEED_RATE_MM_MIN,
     TAI_PRINTED_LOWER_FEED_RATE_MM_MIN,

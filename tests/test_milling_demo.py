@@ -12,11 +12,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from api.cli import app
+from api.cli.main import app
 from models.sensors import to_force
 from models.sensors.kim_jeon import KIM_JEON_SPINDLE_FMAX_4500RPM, LinearCurrentCalibration
-from supervisor.plan import load_plan
-from supervisor.sensing import reading_for_force
+from supervisor.inputs.plan import load_plan
+from supervisor.virtual.sensing import reading_for_force
 
 ROOT = Path(__file__).resolve().parents[1]
 PLAN = ROOT / "examples" / "milling_demo_part.toml"

@@ -11,11 +11,11 @@ from dataclasses import replace
 import pytest
 from numpy.testing import assert_allclose
 
-from api.cli import app
+from api.cli.main import app
 from models.catalogue import get_tool
 from supervisor.errors import InfeasibleError
-from supervisor.optimizer import optimize_operation, optimize_plan
-from supervisor.plan import load_plan, plan_from_mapping
+from supervisor.inputs.plan import load_plan, plan_from_mapping
+from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 
 from conftest import DEMO_PLAN
 

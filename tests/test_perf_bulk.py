@@ -26,7 +26,7 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import Session
 
-from api import service
+from api.services import commands as service
 from db import tables as t
 from db.access import Actor
 from db.bulk import Encoded, defer, insert_rows

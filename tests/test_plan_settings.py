@@ -7,12 +7,12 @@ import tomllib
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from api import service
+from api.services import commands as service
 from db import repository as repo
 from db import tables as t
 from db.plan_state import settings_json, settings_of
 from db.state_cache import CACHE
-from supervisor.rcb import RcbSettings
+from supervisor.rcb.update import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
 

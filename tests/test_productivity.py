@@ -19,14 +19,14 @@ from typing import Any
 import pytest
 from numpy.testing import assert_allclose
 
-from api.cli import app
+from api.cli.main import app
 from models import kinematics
 from models.errors import InputError
-from supervisor import productivity
+from supervisor.borangiu import productivity
 from supervisor.errors import InfeasibleError
-from supervisor.formulation import formulate
-from supervisor.optimizer import optimize_operation, optimize_plan
-from supervisor.plan import plan_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.optimize.formulation import formulate
+from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,8 +1,8 @@
 """Property tests (Hypothesis) of the power-law models and the robust optimiser.
 
 Random turning operations are built the way a plan file would give them
-(:func:`supervisor.plan.plan_from_mapping` with an inline tool) and solved; the optimum is then
-checked against band edges recomputed here from :class:`models.powerlaw.PowerLawModel` and the
+(:func:`supervisor.inputs.plan.plan_from_mapping` with an inline tool) and solved; the optimum is
+then checked against band edges recomputed here from :class:`models.powerlaw.PowerLawModel` and the
 :mod:`models.kinematics` functions, not against the optimiser's own ``predicted`` table.
 
 Limits are drawn as a random factor times the robust value at a random reference point inside
@@ -31,8 +31,8 @@ from models import kinematics
 from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES
 from supervisor.errors import InfeasibleError
-from supervisor.optimizer import OperationResult, optimize_operation, optimize_plan
-from supervisor.plan import plan_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.optimize.optimizer import OperationResult, optimize_operation, optimize_plan
 
 PARAMS = kinematics.PARAMETERS["turning"]
 TOOL = "PROPERTY-INSERT"

@@ -10,10 +10,10 @@ import pytest
 from numpy.testing import assert_allclose
 
 from models.errors import InputError
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import load_plan
-from supervisor.rcb import RcbSettings, start, update
-from supervisor.report import Measurement, PartReport, ToolWear, report_from_mapping
+from supervisor.inputs.part_report import Measurement, PartReport, ToolWear, report_from_mapping
+from supervisor.inputs.plan import load_plan
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.update import RcbSettings, start, update
 
 from conftest import DEMO_PLAN
 

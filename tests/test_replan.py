@@ -9,13 +9,14 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
-from api import queries, service
-from api.cli import app
+from api.cli.main import app
+from api.services import commands as service
+from api.services import queries
 from db import repository as repo
 from db import tables as t
 from db.engine import make_engine, upgrade
 from supervisor.errors import InfeasibleError
-from supervisor.rcb import RcbSettings
+from supervisor.rcb.update import RcbSettings
 
 
 def _count(engine, table):

@@ -1,4 +1,5 @@
-"""rcb report: the HTML record of a plan (api/report_html.py, api/plots.py, api/cli_report.py).
+"""rcb report: the HTML record of a plan (api/report/html.py, api/report/plots.py,
+api/cli/report.py).
 
 A plan of the demonstration part (Ivester & Heigel) with 10 parts from the virtual lathe in a
 temporary SQLite database; part SN-0004 reports a rough-OD force over the 2000 N limit, which
@@ -20,13 +21,15 @@ import pytest
 from matplotlib.lines import Line2D
 from numpy.testing import assert_allclose
 
-from api import plots, queries, service
-from api.report_html import render_report
+from api.report import plots
+from api.report.html import render_report
+from api.services import commands as service
+from api.services import queries
 from db.engine import make_engine, upgrade
-from supervisor.plan import plan_from_mapping
-from supervisor.rcb import start, update
-from supervisor.report import report_from_mapping
-from supervisor.simulate import run_part, sample_machine
+from supervisor.inputs.part_report import report_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.rcb.update import start, update
+from supervisor.virtual.simulate import run_part, sample_machine
 
 from conftest import DEMO_PLAN
 
@@ -357,7 +360,7 @@ def test_svg_ids_are_prefixed_and_checked(stored):
 
 @pytest.fixture
 def cli():
-    from api.cli import app
+    from api.cli.main import app
 
     return app
 
@@ -425,7 +428,7 @@ def test_cli_reports_a_failed_write_in_one_line(runner, cli, stored, tmp_path, m
     def refuse(*args, **kwargs):
         raise PermissionError(13, "Permission denied")
 
-    monkeypatch.setattr("api.cli_common.os.replace", refuse)
+    monkeypatch.setattr("api.cli.common.os.replace", refuse)
     result = runner.invoke(cli, ["report", str(plan_id), "--out", str(out), "--db", url])
     assert result.exit_code == INPUT_ERROR
     assert result.stderr == f"rcb: error: --out = '{out}': cannot be written (Permission denied)\n"
@@ -450,7 +453,7 @@ def test_cli_refuses_an_unwritable_directory(runner, cli, stored, tmp_path):
 
 
 def test_other_commands_do_not_pay_for_matplotlib():
-    code = "import sys, api.cli_report; assert 'matplotlib' not in sys.modules"
+    code = "import sys, api.cli.report; assert 'matplotlib' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

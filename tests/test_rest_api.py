@@ -16,8 +16,8 @@ import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from api import serving
-from api.cli import app
+from api.cli.main import app
+from api.rest import serving
 from db import tables as t
 from db.engine import make_engine
 from models.errors import InputError

@@ -22,10 +22,11 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
-from api import queries, service
+from api.services import commands as service
+from api.services import queries
 from db import tables as t
 from db.engine import make_engine, upgrade
-from supervisor.rcb import RcbSettings
+from supervisor.rcb.update import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
 from live import LiveServer

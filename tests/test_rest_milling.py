@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from models.sensors import to_force
-from supervisor.plan import plan_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
 
 PLAN_FILE = Path(__file__).resolve().parents[1] / "examples" / "milling_demo_part.toml"
 PLAN = tomllib.loads(PLAN_FILE.read_text())

@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 from test_service import BODY, _reports
 
-from api import service
-from api.cli import app
+from api.cli.main import app
+from api.services import commands as service
 from db.engine import make_engine, upgrade
 
 

@@ -9,16 +9,17 @@ import pytest
 from numpy.testing import assert_allclose
 from sqlalchemy.orm import Session
 
-from api import queries, service
+from api.services import commands as service
+from api.services import queries
 from db import repository as repo
 from db.engine import make_engine, upgrade
 from db.errors import ConflictError
 from db.state_cache import CACHE
 from models.errors import InputError
-from supervisor.plan import plan_from_mapping
-from supervisor.rcb import RcbSettings, start, update
-from supervisor.report import report_from_mapping
-from supervisor.simulate import run_part, sample_machine
+from supervisor.inputs.part_report import report_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.rcb.update import RcbSettings, start, update
+from supervisor.virtual.simulate import run_part, sample_machine
 
 from conftest import DEMO_PLAN
 

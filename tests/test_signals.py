@@ -14,10 +14,10 @@ from db import tables as t
 from db.engine import make_engine
 from models.errors import InputError
 from models.sensors import ivester_load_V, to_force
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import plan_from_mapping
-from supervisor.report import report_from_mapping
-from supervisor.signals import resolve
+from supervisor.inputs.part_report import report_from_mapping
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.inputs.signals import resolve
+from supervisor.optimize.optimizer import optimize_plan
 
 from conftest import DEMO_PLAN
 

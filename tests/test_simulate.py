@@ -14,9 +14,9 @@ from numpy.testing import assert_allclose
 
 from models.errors import InputError
 from models.tool import predict_all
-from supervisor.optimizer import optimize_plan
-from supervisor.plan import load_plan, plan_from_mapping
-from supervisor.simulate import (
+from supervisor.inputs.plan import load_plan, plan_from_mapping
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.virtual.simulate import (
     DEFAULT_UNCERTAINTY,
     TABLE5_MEASURED_FINISH_PM_UM,
     TABLE5_MEASURED_FORCE_PM_N,
@@ -32,7 +32,7 @@ from conftest import DEMO_PLAN
 
 PLAN = load_plan(DEMO_PLAN)
 OPS = {op.name: op for op in PLAN.operations}
-#: Solver tolerance of an optimum's removal rate (supervisor.optimizer.RECHECK_RTOL).
+#: Solver tolerance of an optimum's removal rate (supervisor.optimize.optimizer.RECHECK_RTOL).
 SOLVER_RTOL = 1e-6
 
 ROUGH_OD = {

@@ -13,7 +13,7 @@ import json
 import pytest
 from numpy.testing import assert_allclose
 
-from api.cli import app
+from api.cli.main import app
 
 # step, row, insert, d [mm], f [mm/rev], v [m/min], force N ± band, finish µm ± band
 TABLE5 = [

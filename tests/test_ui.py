@@ -18,8 +18,8 @@ from urllib.parse import urlsplit
 import httpx
 import pytest
 
-from api import service
-from api.plots import number
+from api.report.plots import number
+from api.services import commands as service
 from db.engine import make_engine
 
 from conftest import DEMO_PLAN

@@ -1,0 +1,183 @@
+"""``rcb certify PLAN``: a Monte Carlo certificate of a plan under an RCB strategy.
+
+Thin over :mod:`supervisor.virtual.certify`: seeded true processes inside the plan's bands, RCB part
+by part, the true-limit violations counted, a one-sided 95 % Clopper-Pearson bound on the
+per-part violation probability, and MRR/oracle after 1, 5, 10 and ``--parts`` parts.
+
+Exit codes: 0 it ran and no part crossed a true limit; 1 it ran and some part did (the output
+is printed in full first), so a CI job fails on a regression of the safety promise; 2 bad
+input, 3 the plan has no robust start, 4 solver failure (:func:`api.cli.common.errors`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from api.cli.common import STRATEGY_HELP, emit, err_console, errors
+from models import fields
+from models.errors import InputError
+from supervisor.inputs.plan import load_plan
+from supervisor.rcb.strategies import DEFAULT_STRATEGY
+from supervisor.rcb.update import STRATEGIES
+from supervisor.virtual.certify import (
+    MAX_PARTS,
+    MAX_SCENARIOS,
+    CertificateSummary,
+    available_cpus,
+    certify_plan,
+    summarize,
+)
+
+#: Exit code when the certificate ran and some part crossed a true limit.
+VIOLATIONS_FOUND = 1
+
+_out = Console()
+
+
+def certify(
+    plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
+    strategy: Annotated[str, typer.Option("--strategy", help=STRATEGY_HELP)] = DEFAULT_STRATEGY,
+    scenarios: Annotated[
+        int,
+        typer.Option(
+            "--scenarios",
+            min=1,
+            max=MAX_SCENARIOS,
+            help="True processes drawn inside the bands (seeds SEED..SEED+N-1).",
+        ),
+    ] = 200,
+    parts: Annotated[
+        int, typer.Option("--parts", min=1, max=MAX_PARTS, help="Parts made per scenario.")
+    ] = 30,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the first scenario.")] = 0,
+    wear_drift: Annotated[
+        float,
+        typer.Option(
+            "--wear-drift",
+            help="Rise of force, roughness and spindle current over an edge's life "
+            "(0.2: +20 %); edges change after parts_per_edge parts.",
+        ),
+    ] = 0.0,
+    jobs: Annotated[
+        int | None,
+        typer.Option(
+            "--jobs", min=1, help="Worker processes (default: the CPUs available; 1: no pool)."
+        ),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+) -> None:
+    """Monte Carlo certificate of a plan under an RCB strategy (violations, MRR).
+
+    Per scenario a true process is drawn inside the plan's bands; RCB starts
+    from the robust optimum and makes --parts parts, each measured with noise
+    and reported back; a scenario whose bands leave no safe setpoint stops.
+    Per row k = 1, 5, 10, --parts: the true-limit violations of parts 1..k,
+    the parts made, a one-sided 95 % Clopper-Pearson upper bound on the
+    probability that a part crosses a true limit, and MRR/oracle (mean, p5).
+
+    Exit code 0 when no part crossed a true limit, 1 when some did (after
+    printing everything, JSON included), so a CI job fails on it; 2 bad input,
+    3 no robust start, 4 solver failure.
+    """
+    with errors():
+        if strategy not in STRATEGIES:
+            raise InputError("--strategy", strategy, f"expected one of: {', '.join(STRATEGIES)}")
+        drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
+        plan = load_plan(plan_file)
+        workers = jobs if jobs is not None else available_cpus()
+        with Progress(
+            TextColumn(f"certify {plan.name} ({strategy})"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("scenarios"),
+            TimeElapsedColumn(),
+            console=err_console,
+            transient=True,
+            disable=as_json or not err_console.is_terminal,
+        ) as progress:
+            task = progress.add_task("scenarios", total=scenarios)
+            certificate = certify_plan(
+                plan,
+                strategy,
+                scenarios=scenarios,
+                parts=parts,
+                seed=seed,
+                wear_drift_per_edge_life=drift,
+                jobs=workers,
+                progress=lambda done: progress.update(task, completed=done),
+            )
+        summary = summarize(certificate)
+    if as_json:
+        emit(summary_json(summary))
+    else:
+        title, table, notes = summary_lines(summary)
+        _out.print(title, markup=False, highlight=False)
+        _out.print(table)
+        _out.print(notes, markup=False, highlight=False)
+    if summary.violations:
+        raise typer.Exit(VIOLATIONS_FOUND)
+
+
+def summary_json(summary: CertificateSummary) -> dict[str, Any]:
+    """The ``--json`` document: totals over every part, MRR/oracle keyed by row (``"k"``)."""
+    return {
+        "plan": summary.plan,
+        "strategy": summary.strategy,
+        "scenarios": summary.scenarios,
+        "parts": summary.parts,
+        "seed": summary.seed,
+        "violations": summary.violations,
+        "stopped": summary.stopped,
+        "violation_probability_upper_95": summary.violation_probability_upper_95,
+        "mrr_over_oracle": {
+            str(r.after_parts): {"mean": r.mrr_over_oracle_mean, "p5": r.mrr_over_oracle_p5}
+            for r in summary.rows
+        },
+    }
+
+
+def summary_lines(summary: CertificateSummary) -> tuple[str, Table, str]:
+    """Title, one row per ``k`` (parts 1..k of every scenario, MRR/oracle after them), notes.
+
+    The table is 62 columns wide; the title and notes are plain text wrapped at the console.
+    """
+    last = summary.seed + summary.scenarios - 1
+    title = (
+        f"{summary.plan}: {summary.strategy}, {summary.scenarios} scenarios "
+        f"(seeds {summary.seed}..{last}) x {summary.parts} parts"
+    )
+    if summary.wear_drift_per_edge_life:
+        title += f", wear drift {summary.wear_drift_per_edge_life:g}"
+    table = Table()
+    headings = (
+        "after k\nparts",
+        "true-limit\nviolations",
+        "parts\nmade",
+        "P <=\n(95 %)",
+        "MRR/oracle\nmean",
+        "MRR/oracle\np5",
+    )
+    for heading in headings:
+        table.add_column(heading, justify="right")
+    for r in summary.rows:
+        table.add_row(
+            str(r.after_parts),
+            str(r.violations),
+            str(r.parts_made),
+            f"{r.violation_probability_upper_95:.3g}",
+            f"{r.mrr_over_oracle_mean:.3f}",
+            f"{r.mrr_over_oracle_p5:.3f}",
+        )
+    notes = (
+        f"Scenarios stopped (no safe setpoint): {summary.stopped}. P <=: one-sided 95 % "
+        "Clopper-Pearson upper bound on the probability that a part crosses a true limit, "
+        "from parts 1..k. MRR/oracle: oracle cycle / cycle of the setpoints in force after k "
+        "parts; p5: 5th percentile over scenarios."
+    )
+    return title, table, notes

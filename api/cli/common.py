@@ -1,0 +1,167 @@
+"""What every ``rcb`` command shares: the error contract, the database option, output, files.
+
+Exit codes: 0 success, 2 bad input (one line naming the field and the value), 3 infeasible
+(the limits that cannot be met) or a halted plan (its conflicts), 4 solver failure. The
+command modules (:mod:`api.cli.main`, :mod:`api.cli.fit`, :mod:`api.cli.review`,
+:mod:`api.cli.gcode`, :mod:`api.cli.report`) import from here, never from each other.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager, suppress
+from datetime import datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Literal
+
+import typer
+from rich.console import Console
+from sqlalchemy import Engine
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import ArgumentError, OperationalError
+
+from api.services.commands import NotFoundError, PlanHaltedError
+from db.engine import DEFAULT_URL, make_engine
+from db.errors import ConflictError
+from models.errors import InputError
+from supervisor.errors import InfeasibleError, SolverError
+from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
+
+err_console = Console(stderr=True)
+
+if TYPE_CHECKING:
+    StrategyName = str
+else:  # the choices typer offers and checks, from the registry (never restated)
+    StrategyName = Literal[STRATEGY_NAMES]
+#: The help of every ``--strategy``: each registered strategy with its summary.
+STRATEGY_HELP = (
+    "RCB strategy: " + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values()) + "."
+)
+#: ``--strategy``: a name of :data:`supervisor.rcb.strategies.REGISTRY`, its summary in the help.
+StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEGY_HELP)]
+
+DbOption = Annotated[
+    str | None,
+    typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
+]
+
+
+def say(text: str) -> None:
+    """One message on stderr, as written (no markup, no wrapping)."""
+    err_console.print(text, markup=False, highlight=False, soft_wrap=True)
+
+
+@contextmanager
+def errors() -> Iterator[None]:
+    """Turn the domain's errors into one line on stderr and the exit code above."""
+    try:
+        yield
+    except (InputError, NotFoundError, ConflictError) as err:
+        say(f"rcb: error: {err}")
+        raise typer.Exit(2) from None
+    except InfeasibleError as err:
+        say(f"rcb: infeasible: {err}")
+        raise typer.Exit(3) from None
+    except PlanHaltedError as err:
+        say(f"rcb: halted: {err}")
+        raise typer.Exit(3) from None
+    except SolverError as err:
+        say(f"rcb: solver: {err}")
+        raise typer.Exit(4) from None
+    except (ArgumentError, OperationalError) as err:
+        first = str(err).splitlines()[0] if str(err).strip() else err.__class__.__name__
+        say(f"rcb: error: --db: cannot use this database ({first}); is it migrated? rcb db upgrade")
+        raise typer.Exit(2) from None
+
+
+def emit(data: object) -> None:
+    """JSON on stdout (times in ISO 8601)."""
+    typer.echo(json.dumps(data, indent=2, default=_jsonable))
+
+
+def _jsonable(value: object) -> str:
+    if isinstance(value, datetime):
+        return value.isoformat()
+    raise TypeError(type(value).__name__)
+
+
+def database_url(db: str | None) -> str:
+    """``--db``, else ``$RCB_DATABASE_URL``, else the embedded default ``./rcb.db``."""
+    return db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL
+
+
+def shown(url: str) -> str:
+    """A database URL without its password."""
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except ArgumentError:
+        return url
+
+
+def existing_engine(url: str) -> Engine:
+    """An engine for an existing database (a missing SQLite file is refused, not created)."""
+    try:
+        parsed = make_url(url)
+    except ArgumentError as err:
+        raise InputError("--db", url, f"not a database URL ({err})") from None
+    database = parsed.database
+    if parsed.get_backend_name() == "sqlite" and database not in (None, "", ":memory:"):
+        if not Path(database).is_file():
+            raise InputError("--db", shown(url), "no such database file (rcb db upgrade)")
+    try:
+        return make_engine(url)
+    except ArgumentError as err:  # also an unknown dialect or driver
+        raise InputError("--db", shown(url), f"cannot use this database ({err})") from None
+
+
+def check_target(path: Path, field: str = "--out") -> None:
+    """Refuse an output path that cannot be a file, before doing any work."""
+    if path.is_dir():
+        raise InputError(field, str(path), "is a directory")
+    if not path.parent.is_dir():
+        raise InputError(field, str(path), "the directory does not exist")
+
+
+def write_atomically(path: Path, data: bytes, field: str = "--out") -> None:
+    """Write ``data`` to ``path`` whole or not at all: a synced temporary file, renamed."""
+    temporary: str | None = None
+    try:
+        handle, temporary = tempfile.mkstemp(
+            prefix=f".{path.name}.", suffix=".tmp", dir=path.parent
+        )
+        with os.fdopen(handle, "wb") as file:
+            file.write(data)
+            file.flush()
+            os.fsync(file.fileno())
+        os.chmod(temporary, 0o666 & ~_umask())  # as a new file would be, not mkstemp's 0600
+        os.replace(temporary, path)
+    except OSError as err:
+        if temporary is not None:
+            with suppress(OSError):
+                os.unlink(temporary)
+        reason = err.strerror or err.__class__.__name__
+        raise InputError(field, str(path), f"cannot be written ({reason})") from None
+
+
+def _umask() -> int:
+    current = os.umask(0o022)
+    os.umask(current)
+    return current
+
+
+def number_cell(text: str, where: str) -> float:
+    """A table cell as a finite number; ``where`` (``column[row]``) names it in errors."""
+    cell = text.strip()
+    if not cell:
+        raise InputError(where, cell, "missing value")
+    try:
+        value = float(cell)
+    except ValueError:
+        raise InputError(where, cell, "must be a number") from None
+    if not math.isfinite(value):
+        raise InputError(where, cell, "must be a finite number")
+    return value

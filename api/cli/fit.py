@@ -1,0 +1,417 @@
+"""``rcb fit``: fit a power-law model with its band to test data in a CSV file.
+
+The command reads the CSV with pandas, keeps the rows that match every ``--where``, checks
+every value it uses (rows are counted from 1 after the header line), and fits
+``Y = K · Π x_i^e_i`` with :func:`models.fit.fit_power_law`. ``--write-tool`` writes the model
+as one ``[[tools]]`` entry of a plan file (TOML) that :func:`models.tool.tool_from_mapping`
+reads back; the file is written atomically and only when everything succeeded.
+
+Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
+:func:`api.cli.common.errors`).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import pandas as pd
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from api.cli.common import check_target, emit, errors, number_cell, say, write_atomically
+from models.errors import InputError
+from models.fit import BANDS, Band, FitResult, fit_power_law
+from models.quantities import MODEL_QUANTITIES
+from models.tool import process_of, tool_from_mapping, variables
+
+_out = Console()
+
+#: How many distinct values of a column an error lists at most.
+_SHOWN_VALUES = 12
+
+
+def fit(
+    data: Annotated[
+        Path, typer.Argument(metavar="DATA.csv", help="Test data: a CSV file with a header line.")
+    ],
+    response: Annotated[str, typer.Option("--response", help="Column of the measured quantity Y.")],
+    var: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--var",
+            help="NAME=COLUMN: a model variable (a parameter or context of --process) and its "
+            "column (repeatable).",
+        ),
+    ] = None,
+    fix: Annotated[
+        list[str] | None,
+        typer.Option("--fix", help="NAME=EXPONENT: an exponent not to fit (repeatable)."),
+    ] = None,
+    band: Annotated[
+        str,
+        typer.Option(
+            "--band", help="range: ΔK holds every point (Ivester & Heigel); 2s: ΔK = K(e^(k·s)−1)."
+        ),
+    ] = "range",
+    k: Annotated[
+        float | None,
+        typer.Option("--k", help="Coverage factor of --band 2s (default 2, NIST TN 1297)."),
+    ] = None,
+    where: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--where",
+            help="COLUMN=TEXT: keep the rows whose cell is this text (repeatable; all must hold).",
+        ),
+    ] = None,
+    quantity: Annotated[
+        str | None,
+        typer.Option("--quantity", help="What Y is: force_N, roughness_um, tool_life_mm3 ..."),
+    ] = None,
+    process: Annotated[
+        str, typer.Option("--process", help="turning or milling: which variable names exist.")
+    ] = "turning",
+    tool_name: Annotated[
+        str | None, typer.Option("--tool-name", help="Name of the tool --write-tool writes.")
+    ] = None,
+    write_tool: Annotated[
+        Path | None,
+        typer.Option("--write-tool", help="Write the model here as a plan-file tool (TOML)."),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+) -> None:
+    """Fit Y = K·Π x^e by least squares on logarithms, with a band ±ΔK, from a CSV file.
+
+    Rows in error messages are counted from 1 after the header line (blank lines skipped).
+    """
+    with errors():
+        checked_process = process_of(process, "--process")
+        band_kind = _band(band)
+        coverage_factor = _coverage_factor(band_kind, k)
+        if quantity is not None and quantity not in MODEL_QUANTITIES:
+            known = ", ".join(MODEL_QUANTITIES)
+            raise InputError("--quantity", quantity, f"unknown model quantity; known: {known}")
+        if write_tool is not None:
+            if quantity is None:
+                raise InputError("--quantity", None, "required with --write-tool")
+            if tool_name is None or not tool_name.strip():
+                raise InputError("--tool-name", tool_name, "a non-empty name is required")
+        allowed = variables(checked_process)
+        columns = _assignments(var or [], "--var", allowed, checked_process)
+        fixed = {
+            name: _exponent(text, name)
+            for name, text in _assignments(fix or [], "--fix", allowed, checked_process).items()
+        }
+        for name, exponent in fixed.items():
+            if name not in columns and exponent != 0.0:
+                raise InputError(
+                    f"--fix {name}", exponent, f"needs the values: add --var {name}=COLUMN"
+                )
+
+        table = _read_csv(data)
+        _column(table, response, "--response", data)
+        used = {response: "--response"}
+        for name, column in columns.items():
+            _column(table, column, f"--var {name}", data)
+            if column in used:
+                raise InputError(f"--var {name}", column, f"column already used by {used[column]}")
+            used[column] = f"--var {name}"
+        filters = [_filter(item, table, data) for item in where or []]
+        kept = _select(table, filters)
+        filter_text = ", ".join(f"{c}={t}" for c, t in filters)
+        p = 1 + sum(1 for name in columns if name not in fixed)
+        if len(kept) <= p:
+            field, value = ("--where", filter_text) if filters else ("data file", str(data))
+            raise InputError(
+                field,
+                value,
+                f"leaves {_count(len(kept), 'row')} for {_count(p, 'parameter')} "
+                f"(ln_K and {_count(p - 1, 'exponent')}); need at least {p + 1} to estimate s",
+            )
+        rows = [f"row {i + 1}" for i in kept.index]
+        y = _numbers(kept, response, rows)
+        values = {name: _numbers(kept, column, rows) for name, column in columns.items()}
+        result = fit_power_law(
+            y,
+            values,
+            fixed=fixed,
+            band=band_kind,
+            k=coverage_factor if coverage_factor is not None else 2.0,
+            response_name=response,
+            labels=columns,
+            rows=rows,
+        )
+        source = f"fit of {data.name} ({result.n} points, {filter_text or 'all rows'})"
+        mapping = ", ".join(f"{c} → {n}" for n, c in columns.items())
+        reference = (
+            f"rcb fit: ln {response} = ln K + Σ e·ln x"
+            f"{f' ({mapping})' if mapping else ''}; {result.describe()}"
+        )
+        written = None
+        if write_tool is not None and quantity is not None and tool_name is not None:
+            text = tool_toml(
+                tool_table(result, tool_name, checked_process, quantity, source, reference)
+            )
+            _write_atomically(write_tool, text)
+            written = str(write_tool)
+
+    if as_json:
+        payload: dict[str, Any] = {
+            **result.to_json(),
+            "response": response,
+            "quantity": quantity,
+            "process": checked_process,
+            "columns": dict(columns),
+            "where": [f"{c}={t}" for c, t in filters],
+            "source": source,
+            "reference": reference,
+            "tool": tool_name if written else None,
+            "written": written,
+        }
+        emit(payload)
+    else:
+        _out.print(_table(result, response, quantity, columns, source))
+    if written:
+        say(f"rcb: wrote tool {tool_name} ({quantity}) to {written}")
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _band(text: str) -> Band:
+    for band in BANDS:
+        if text == band:
+            return band
+    raise InputError("--band", text, f"unknown band; expected one of: {', '.join(BANDS)}")
+
+
+def _coverage_factor(band: Band, k: float | None) -> float | None:
+    if band == "range":
+        if k is not None:
+            raise InputError("--k", k, "applies to --band 2s only")
+        return None
+    if k is None:
+        return 2.0
+    if not (math.isfinite(k) and k > 0):
+        raise InputError("--k", k, "the coverage factor must be a positive finite number")
+    return k
+
+
+def _assignments(
+    items: list[str], option: str, allowed: tuple[str, ...], process: str
+) -> dict[str, str]:
+    """``NAME=TEXT`` items with NAME among the variables of ``process``."""
+    result: dict[str, str] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        name, text = name.strip(), text.strip()
+        if not sep or not name or not text:
+            raise InputError(option, item, "must be NAME=VALUE")
+        if name not in allowed:
+            raise InputError(
+                option,
+                item,
+                f"{name} is not a {process} variable; expected one of: {', '.join(allowed)}",
+            )
+        if name in result:
+            raise InputError(option, item, f"{name} is given twice")
+        result[name] = text
+    return result
+
+
+def _exponent(text: str, name: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"--fix {name}", text, "must be a number") from None
+    if not math.isfinite(value):
+        raise InputError(f"--fix {name}", text, "must be a finite number")
+    return value
+
+
+def _read_csv(path: Path) -> pd.DataFrame:
+    """Every cell as text (so ``--where`` compares text); empty cells are ``""``."""
+    try:
+        table = pd.read_csv(path, dtype=str, keep_default_na=False, encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError("data file", str(path), "no such file") from None
+    except IsADirectoryError:
+        raise InputError("data file", str(path), "is a directory, not a CSV file") from None
+    except UnicodeDecodeError as err:
+        raise InputError("data file", str(path), f"is not UTF-8 text ({err.reason})") from None
+    except pd.errors.EmptyDataError:
+        raise InputError("data file", str(path), "is empty: no header line") from None
+    except pd.errors.ParserError as err:
+        first = str(err).strip().splitlines()[-1] if str(err).strip() else "unreadable"
+        raise InputError("data file", str(path), f"is not a CSV table ({first})") from None
+    except OSError as err:
+        raise InputError("data file", str(path), f"cannot be read ({err.strerror})") from None
+    table.columns = [str(c).strip() for c in table.columns]
+    if table.empty:
+        raise InputError("data file", str(path), "has a header line but no rows")
+    return table
+
+
+def _column(table: pd.DataFrame, column: str, option: str, path: Path) -> None:
+    if column not in table.columns:
+        raise InputError(
+            option,
+            column,
+            f"no such column in {path.name}; columns: {', '.join(map(str, table.columns))}",
+        )
+
+
+def _filter(item: str, table: pd.DataFrame, path: Path) -> tuple[str, str]:
+    column, sep, text = item.partition("=")
+    column, text = column.strip(), text.strip()
+    if not sep or not column:
+        raise InputError("--where", item, "must be COLUMN=TEXT")
+    if column not in table.columns:
+        raise InputError(
+            "--where",
+            item,
+            f"no column {column} in {path.name}; columns: {', '.join(map(str, table.columns))}",
+        )
+    return column, text
+
+
+def _select(table: pd.DataFrame, filters: list[tuple[str, str]]) -> pd.DataFrame:
+    """The rows whose cells match every ``(column, text)`` (cell text stripped of spaces)."""
+    kept = table
+    for i, (column, text) in enumerate(filters):
+        matching = kept[kept[column].str.strip() == text]
+        if matching.empty:
+            after = " left by the --where before it" if i else ""
+            raise InputError(
+                "--where",
+                f"{column}={text}",
+                f"matches no row{after}; {column} holds: {_values(kept[column])}",
+            )
+        kept = matching
+    return kept
+
+
+def _values(cells: pd.Series) -> str:
+    distinct = sorted({str(c).strip() for c in cells})
+    shown = ", ".join(repr(v) for v in distinct[:_SHOWN_VALUES])
+    return shown + (f" … ({len(distinct)} values)" if len(distinct) > _SHOWN_VALUES else "")
+
+
+def _numbers(table: pd.DataFrame, column: str, rows: list[str]) -> np.ndarray:
+    """The column as floats; a cell that is empty, not a number, not finite or ≤ 0 is refused."""
+    cells = [str(c).strip() for c in table[column]]
+    values = np.empty(len(cells))
+    for i, cell in enumerate(cells):
+        where = f"{column}[{rows[i]}]"
+        value = number_cell(cell, where)
+        if value <= 0:
+            raise InputError(
+                where, cell, "must be greater than 0 (the power law is fitted on logarithms)"
+            )
+        values[i] = value
+    return values
+
+
+def tool_table(
+    result: FitResult, name: str, process: str, quantity: str, source: str, reference: str
+) -> dict[str, Any]:
+    """The fitted model as a plan-file tool ``{name, process, description, source, models}``."""
+    model = result.to_model(quantity, source, reference)
+    return {
+        "name": name,
+        "process": process,
+        "description": f"{quantity} model fitted by rcb fit",
+        "source": source,
+        "models": {
+            quantity: {
+                "K": model.K,
+                "dK": model.dK,
+                "exponents": dict(model.exponents),
+                "exponent_stderr": dict(model.exponent_stderr),
+                "source": model.source,
+                "reference": model.reference,
+            }
+        },
+    }
+
+
+def tool_toml(tool: Mapping[str, Any]) -> str:
+    """TOML text of one ``[[tools]]`` entry; checked by reading it back as a plan-file tool."""
+    lines = ["# Written by rcb fit.", "", "[[tools]]"]
+    models: Mapping[str, Mapping[str, Any]] = tool["models"]
+    lines += [f"{key} = {_toml(value)}" for key, value in tool.items() if key != "models"]
+    for quantity, model in models.items():
+        lines += ["", f"[tools.models.{quantity}]"]
+        lines += [f"{key} = {_toml(value)}" for key, value in model.items()]
+    text = "\n".join(lines) + "\n"
+    tool_from_mapping(tomllib.loads(text)["tools"][0], "--write-tool")
+    return text
+
+
+def _toml(value: Any) -> str:
+    """A TOML value: string, finite float or inline table of numbers with bare keys."""
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, float):
+        return repr(value)  # shortest repr, exact round trip; finite (checked by the model)
+    if isinstance(value, Mapping):
+        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
+    raise TypeError(f"cannot write {value!r} as TOML")
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string: quote, backslash and control characters escaped."""
+    out = []
+    for char in text:
+        if char in '"\\':
+            out.append("\\" + char)
+        elif ord(char) < 0x20 or ord(char) == 0x7F:
+            out.append(f"\\u{ord(char):04X}")
+        else:
+            out.append(char)
+    return '"' + "".join(out) + '"'
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    """Write the tool file whole or not at all (:func:`api.cli.common.write_atomically`)."""
+    check_target(path, "--write-tool")
+    try:
+        data = text.encode("utf-8")
+    except UnicodeEncodeError as err:
+        raise InputError("--write-tool", str(path), f"cannot encode as UTF-8 ({err})") from None
+    write_atomically(path, data, "--write-tool")
+
+
+def _table(
+    result: FitResult,
+    response: str,
+    quantity: str | None,
+    columns: Mapping[str, str],
+    source: str,
+) -> Table:
+    title = f"{quantity or response} = (K ± ΔK) · Π x^e"
+    table = Table(title=title, title_justify="left", caption=source, caption_justify="left")
+    table.add_column("parameter")
+    table.add_column("column")
+    table.add_column("value", justify="right")
+    table.add_column("std. error", justify="right")
+    table.add_row("K", response, f"{result.K:.6g}", f"ln K ± {result.stderr['ln_K']:.4g}")
+    band = "range" if result.band == "range" else f"{result.k:g}·s"
+    table.add_row(f"ΔK ({band})", "", f"{result.dK:.6g}", f"ΔK/K = {result.dK / result.K:.4g}")
+    for name, exponent in result.exponents.items():
+        error = "fixed" if name in result.fixed else f"{result.stderr[name]:.4g}"
+        table.add_row(name, columns.get(name, ""), f"{exponent:.6g}", error)
+    table.add_section()
+    table.add_row("n", "", f"{result.n}", "")
+    table.add_row("s (ln)", "", f"{result.s:.4g}", "")
+    table.add_row("R² (ln)", "", f"{result.r2:.4g}", "")
+    table.add_row("coverage", "", f"{result.coverage:.4g}", "")
+    table.add_row("max |r|/s", "", f"{result.max_abs_residual_s:.3g}", "")
+    return table

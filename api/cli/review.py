@@ -1,0 +1,344 @@
+"""Engineers' review at the command line: ``rcb plans``, ``history``, ``parts``, ``export``.
+
+Thin commands over :mod:`api.services.queries` (the REST routes call the same), rich tables or
+``--json``; every command takes ``--db URL``.
+"""
+
+from __future__ import annotations
+
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+from sqlalchemy import Engine
+
+from api import render
+from api.cli.common import DbOption, database_url, emit, errors, existing_engine, say
+from api.report import export as tidy
+from api.services import queries
+from models.errors import InputError
+
+_out = Console()
+
+JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
+PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")]
+
+
+def _engine(db: str | None) -> Engine:
+    return existing_engine(database_url(db))
+
+
+def _fmt(value: float | None) -> str:
+    if value is None:
+        return "-"
+    return f"{value:.4g}" if abs(value) < 1e5 else f"{value:.3e}"
+
+
+def plans(db: DbOption = None, as_json: JsonOption = False) -> None:
+    """List the plans: machine, RCB law, setpoint version in force, parts reported."""
+    with errors():
+        data = queries.list_plans(engine=_engine(db))
+    if as_json:
+        emit(data)
+        return
+    table = Table(title="plans")
+    columns = ("id", "name", "machine", "strategy", "α", "ver", "parts", "status", "created")
+    for column in columns:
+        table.add_column(column)
+    for p in data["plans"]:
+        halted = p["status"] == "halted"
+        table.add_row(
+            str(p["id"]),
+            p["name"],
+            p["machine"],
+            p["strategy"],
+            f"{p['alpha']:g}",
+            str(p["setpoint_version"]),
+            str(p["parts"]),
+            "[bold red]HALTED[/]" if halted else "running",
+            p["created_at"].strftime("%Y-%m-%d %H:%M"),
+        )
+    _out.print(table)
+    for p in data["plans"]:
+        if p["status"] == "halted":
+            _print_halt(p["id"], p["halt"])
+
+
+def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
+    """A halted plan's conflicts, and how to resume it."""
+    _out.print(f"[bold red]plan {plan_id} HALTED[/]: no setpoint meets the bands in force")
+    for line in render.halt_lines(halt):
+        _out.print(f"  {line}", markup=False, highlight=False)
+    _out.print(f"  resume: rcb replan {plan_id} (--limit, --model or --reset-bands)", markup=False)
+
+
+def history(
+    plan: PlanArg,
+    operation: Annotated[
+        str | None, typer.Option(help="One operation in detail: setpoints, predictions, bands.")
+    ] = None,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
+    with errors():
+        engine = _engine(db)
+        data = queries.plan_history(engine=engine, plan_id=plan)
+        decisions = _decisions_by_part(engine, plan)
+        names = [op["name"] for op in data["versions"][0]["operations"]]
+        if operation is not None and operation not in names:
+            raise InputError(
+                "--operation", operation, f"not in the plan; known: {', '.join(names)}"
+            )
+    for version in data["versions"]:
+        version["decisions"] = decisions.get(version["part_id"], [])
+        if operation is not None:
+            version["operations"] = [o for o in version["operations"] if o["name"] == operation]
+    if as_json:
+        emit(data)
+        return
+    _out.print(_history_table(data, operation))
+    if data["status"] == "halted":
+        _print_halt(plan, data["halt"])
+
+
+def _history_table(data: dict[str, Any], operation: str | None) -> Table:
+    title = f"plan {data['plan_id']}: setpoint versions" + (f", {operation}" if operation else "")
+    table = Table(title=title)
+    for column in ("ver", "cause", "when"):
+        table.add_column(column)
+    if operation is None:
+        table.add_column("cycle min", justify="right")
+        table.add_column("MRR cm³/min per operation", justify="left")
+    else:
+        for column in ("setpoint", "force_N ± band", "roughness_um ± band", "MRR", "binding"):
+            table.add_column(column)
+    table.add_column("decisions")
+    for v in data["versions"]:
+        cause = v["cause"] + (f" {v['serial']}" if v["serial"] else "")
+        when = v["created_at"].strftime("%m-%d %H:%M:%S")
+        moved = ", ".join(
+            f"{d['operation']}.{d['quantity']} {d['action']}" + _marked(d)
+            for d in v["decisions"]
+            if (d["action"] != "hold" or render.decision_mark(d)[0])
+            and (operation is None or d["operation"] == operation)
+        )
+        if operation is None:
+            mrr = " ".join(_fmt(o["mrr_cm3_min"]) for o in v["operations"])
+            table.add_row(str(v["version"]), cause, when, _fmt(v["cycle_time_min"]), mrr, moved)
+            continue
+        op = v["operations"][0]
+        setpoint = " ".join(f"{k.split('_')[0]}={_fmt(x)}" for k, x in op["setpoint"].items())
+        bands = [
+            f"{_fmt(op['predicted'][q]['value'])} ± {_fmt(op['predicted'][q]['band'])}"
+            if q in op["predicted"]
+            else "-"
+            for q in ("force_N", "roughness_um")
+        ]
+        table.add_row(
+            str(v["version"]),
+            cause,
+            when,
+            setpoint,
+            *bands,
+            _fmt(op["mrr_cm3_min"]),
+            ", ".join(op["binding"]),
+            moved,
+        )
+    return table
+
+
+def _mark(d: dict[str, Any]) -> str:
+    """``BREACH``, ``ABOVE`` (rich markup: red) or ``note: below band`` (dim); else ``""``."""
+    label, kind = render.decision_mark(d)
+    if not label:
+        return ""
+    return f"[dim]{label}[/]" if kind == "note" else f"[bold red]{label}[/]"
+
+
+def _marked(d: dict[str, Any]) -> str:
+    """`` BREACH``, `` ABOVE`` or `` (note: below band)`` after a decision; else nothing."""
+    label, kind = render.decision_mark(d)
+    if not label:
+        return ""
+    return f" [dim]({label})[/]" if kind == "note" else f" {_mark(d)}"
+
+
+def _decisions_by_part(engine: Engine, plan_id: int) -> dict[int, list[dict[str, Any]]]:
+    out: dict[int, list[dict[str, Any]]] = {}
+    for part in _all_parts(engine, plan_id):
+        out[part["part_id"]] = part["updates"]
+    return out
+
+
+def _all_parts(engine: Engine, plan_id: int, since: datetime | None = None) -> list[dict[str, Any]]:
+    items = queries.all_parts(engine=engine, plan_id=plan_id)
+    return [p for p in items if since is None or p["received_at"] >= since]
+
+
+def parts(
+    plan: PlanArg,
+    since: Annotated[
+        str | None, typer.Option(help="Only parts received at or after this ISO 8601 time (UTC).")
+    ] = None,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Parts with their measurements, the margins to each limit, and flagged violations."""
+    with errors():
+        after = _since(since)
+        items = _all_parts(_engine(db), plan, after)
+    if as_json:
+        emit({"plan_id": plan, "parts": items})
+        return
+    table = Table(title=f"plan {plan}: parts" + (f" since {since}" if since else ""))
+    for column in ("serial", "ver", "received", "operation", "quantity", "measured ± u"):
+        table.add_column(column)
+    for column in ("margin", "action", "flag / note"):
+        table.add_column(column, justify="right" if column == "margin" else "left")
+    for part in items:
+        decided = {(d["operation"], d["quantity"]): d for d in part["updates"]}
+        first = True
+        for op in part["operations"]:
+            for q, m in op["measurements"].items():
+                d = decided.get((op["name"], q), {})
+                table.add_row(
+                    part["serial"] if first else "",
+                    str(part["setpoint_version"]) if first else "",
+                    part["received_at"].strftime("%m-%d %H:%M:%S") if first else "",
+                    op["name"],
+                    q + (" (raw)" if m.get("raw") else ""),
+                    f"{_fmt(m['value'])} ± {_fmt(m['uncertainty'])}",
+                    _fmt(d.get("margin")),
+                    d.get("action", "-"),
+                    _mark(d),
+                )
+                first = False
+    _out.print(table)
+
+
+def _since(text: str | None) -> datetime | None:
+    if text is None:
+        return None
+    try:
+        moment = datetime.fromisoformat(text)
+    except ValueError:
+        raise InputError("--since", text, "must be an ISO 8601 date or time") from None
+    return moment if moment.tzinfo else moment.replace(tzinfo=UTC)
+
+
+def export(
+    plan: PlanArg,
+    out: Annotated[Path, typer.Option("--out", help="Directory to write the tables into.")],
+    fmt: Annotated[str, typer.Option("--format", help="csv or parquet.")] = "csv",
+    db: DbOption = None,
+) -> None:
+    """Parts, measurements, decisions and setpoint history as tidy tables (one row each)."""
+    with errors():
+        if fmt not in ("csv", "parquet"):
+            raise InputError("--format", fmt, "expected csv or parquet")
+        engine = _engine(db)
+        tables = tidy.tables(
+            queries.plan_history(engine=engine, plan_id=plan), _all_parts(engine, plan)
+        )
+        written = tidy.write(tables, out, fmt)
+    for path in written:
+        say(f"rcb: wrote {path}")
+    sys.stdout.flush()
+
+
+def replan(
+    plan: PlanArg,
+    limit: Annotated[
+        list[str] | None, typer.Option("--limit", help="OP.QUANTITY=VALUE (VALUE 'none' removes).")
+    ] = None,
+    bound: Annotated[list[str] | None, typer.Option("--bound", help="OP.PARAM=LO:HI")] = None,
+    model: Annotated[
+        list[str] | None, typer.Option("--model", help="TOOL.QUANTITY:K=..,dK=.. (either or both).")
+    ] = None,
+    reset_bands: Annotated[
+        bool, typer.Option("--reset-bands", help="Back to the tools' baseline bands.")
+    ] = False,
+    dry_run: Annotated[
+        bool, typer.Option("--dry-run", help="Show the result; store nothing.")
+    ] = False,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
+    from api.services import commands as service
+
+    with errors():
+        changes: dict[str, Any] = {
+            "limits": {k: _limit_value(k, v) for k, v in _pairs(limit or [], "--limit").items()},
+            "bounds": {k: _bounds(k, v) for k, v in _pairs(bound or [], "--bound").items()},
+            "models": dict(_model(m) for m in model or []),
+        }
+        if reset_bands:
+            changes["reset_bands"] = True
+        changes = {k: v for k, v in changes.items() if v}
+        written = service.replan(engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run)
+    answer = written.body
+    if as_json:
+        emit(answer)
+        return
+    table = Table(title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else ""))
+    for column in ("operation", "parameter", "now", "new"):
+        table.add_column(
+            column, justify="left" if column in ("operation", "parameter") else "right"
+        )
+    for d in answer["diff"]:
+        rows = [(k, old, new) for k, (old, new) in d["setpoint"].items()]
+        rows.append(("MRR cm³/min", *d["mrr_cm3_min"]))
+        for i, (name, old, new) in enumerate(rows):
+            table.add_row(d["operation"] if i == 0 else "", name, _fmt(old), _fmt(new))
+        table.add_row("", "binding", ", ".join(d["binding"][0]), ", ".join(d["binding"][1]))
+    _out.print(table)
+    before, after = answer["cycle_time_min"]
+    stored = "not stored" if dry_run else f"stored as setpoint version {answer['setpoint_version']}"
+    say(f"rcb: cycle time {before:.4g} -> {after:.4g} min; {stored}")
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError(option, item, "must be NAME=VALUE")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _limit_value(key: str, text: str) -> float | None:
+    if text.lower() == "none":
+        return None
+    return _number(text, f"--limit {key}")
+
+
+def _bounds(key: str, text: str) -> list[float]:
+    low, sep, high = text.partition(":")
+    if not sep:
+        raise InputError(f"--bound {key}", text, "must be LO:HI")
+    return [_number(low, f"--bound {key}"), _number(high, f"--bound {key}")]
+
+
+def _model(text: str) -> tuple[str, dict[str, float]]:
+    name, sep, rest = text.partition(":")
+    if not sep or not name:
+        raise InputError("--model", text, "must be TOOL.QUANTITY:K=..,dK=..")
+    values = _pairs([p for p in rest.split(",") if p], f"--model {name}")
+    unknown = set(values) - {"K", "dK"}
+    if unknown or not values:
+        raise InputError(f"--model {name}", rest, "give K=.. and/or dK=..")
+    return name, {k: _number(v, f"--model {name} {k}") for k, v in values.items()}
+
+
+def _number(text: str, field: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(field, text, "must be a number") from None

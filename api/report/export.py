@@ -1,0 +1,95 @@
+"""A plan's record as tidy tables (pandas): one row per observation, units in column names.
+
+- ``parts``: one row per part (serial, the setpoint version it was made with, when received).
+- ``measurements``: one row per part, operation and measured quantity; ``value`` and
+  ``uncertainty`` are in the unit the quantity's name carries (``force_N``: N), and a
+  converted spindle reading keeps ``raw_quantity`` and ``raw_value``.
+- ``decisions``: one row per RCB decision (band before and after, margin; the quantity's unit).
+- ``setpoints``: one row per setpoint version and operation: parameters (``depth_mm`` ...),
+  ``mrr_cm3_min``, ``time_min``, binding limits, and each prediction with its band as
+  ``<quantity>`` and ``<quantity>_band`` columns.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from api.cli.common import write_atomically
+from models.errors import InputError
+
+
+def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd.DataFrame]:
+    """The four tables from :func:`api.services.queries.plan_history` and the plan's parts."""
+    plan_id = history["plan_id"]
+    part_rows = [
+        {
+            "plan_id": plan_id,
+            "part_id": p["part_id"],
+            "serial": p["serial"],
+            "setpoint_version": p["setpoint_version"],
+            "received_at": p["received_at"],
+        }
+        for p in parts
+    ]
+    measurement_rows = [
+        {
+            "part_id": p["part_id"],
+            "serial": p["serial"],
+            "operation": op["name"],
+            "quantity": q,
+            "value": m["value"],
+            "uncertainty": m["uncertainty"],
+            "raw_quantity": (m.get("raw") or {}).get("quantity"),
+            "raw_value": (m.get("raw") or {}).get("value"),
+        }
+        for p in parts
+        for op in p["operations"]
+        for q, m in op["measurements"].items()
+    ]
+    decision_rows = [
+        {"part_id": p["part_id"], "serial": p["serial"], **d} for p in parts for d in p["updates"]
+    ]
+    setpoint_rows = []
+    for v in history["versions"]:
+        for op in v["operations"]:
+            row: dict[str, Any] = {
+                "version": v["version"],
+                "cause": v["cause"],
+                "serial": v["serial"],
+                "created_at": v["created_at"],
+                "operation": op["name"],
+                "tool": op["tool"],
+                **op["setpoint"],
+                "mrr_cm3_min": op["mrr_cm3_min"],
+                "time_min": op["time_min"],
+                "binding": " ".join(op["binding"]),
+            }
+            for q, p in op["predicted"].items():
+                row[q], row[f"{q}_band"] = p["value"], p["band"]
+            setpoint_rows.append(row)
+    return {
+        "parts": pd.DataFrame(part_rows),
+        "measurements": pd.DataFrame(measurement_rows),
+        "decisions": pd.DataFrame(decision_rows),
+        "setpoints": pd.DataFrame(setpoint_rows),
+    }
+
+
+def write(frames: dict[str, pd.DataFrame], out: Path, fmt: str) -> list[Path]:
+    """Write each table as ``OUT/<name>.<fmt>``; each file appears whole or not at all."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(
+            "--out", str(out), f"cannot create the directory ({err.strerror})"
+        ) from None
+    written = []
+    for name, frame in frames.items():
+        target = out / f"{name}.{fmt}"
+        data = frame.to_csv(index=False).encode("utf-8") if fmt == "csv" else frame.to_parquet()
+        write_atomically(target, data)
+        written.append(target)
+    return written

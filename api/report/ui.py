@@ -1,0 +1,260 @@
+"""A read-only web view under ``/ui/``: the plans, and per plan the page of ``rcb report``.
+
+Browsers send no ``Authorization`` header when they navigate, so the API key is entered once in
+a form (``/ui/login``) and kept in a cookie: HttpOnly (no script can read it), SameSite=Strict
+(no other site's page can make the browser send it), ``Path=/ui`` (never sent to ``/api/v1``),
+Secure when the request came over HTTPS. Every request authenticates the key again with
+:func:`api.rest.auth.authenticate`, so a revoked key stops working at once. Any role may look:
+mes, engineer and viewer are all viewer or above.
+
+The pages are self-contained (inline CSS and SVG, no script, nothing loaded from elsewhere); a
+Content-Security-Policy says so to the browser as well. Every text from the database is escaped.
+The routes are left out of the OpenAPI document.
+"""
+
+from __future__ import annotations
+
+import html
+import re
+from typing import Any
+from urllib.parse import parse_qs, urlsplit
+
+from fastapi import FastAPI, Request
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
+from sqlalchemy import Engine
+from starlette.concurrency import run_in_threadpool
+
+from api.report.html import render_report
+from api.rest import auth
+from api.services import commands as service
+from api.services import queries
+from db.access import Actor
+
+PREFIX = "/ui"
+COOKIE = "rcb_ui_key"
+#: Roles that may look: every role is viewer or above.
+ROLES = ("mes", "engineer", "viewer")
+#: How long the login cookie lives [s] (a working shift).
+COOKIE_MAX_AGE_S = 8 * 3600
+#: Largest login form body [bytes]; a key is 47 characters.
+MAX_FORM_BYTES = 4096
+#: The last parts plotted on a plan page (the tables still show every part and version).
+PLOTTED_PARTS = 200
+#: Largest plan id (32-bit keys).
+MAX_ID = 2**31 - 1
+
+_HEADERS = {
+    "Cache-Control": "no-store",
+    "Content-Security-Policy": (
+        "default-src 'none'; style-src 'unsafe-inline'; img-src data:; "
+        "form-action 'self'; frame-ancestors 'none'; base-uri 'none'"
+    ),
+    "X-Content-Type-Options": "nosniff",
+    # not no-referrer: Chromium would then send "Origin: null" with the login form
+    "Referrer-Policy": "same-origin",
+}
+
+_CSS = """
+body { font: 14px/1.4 system-ui, -apple-system, "Segoe UI", Roboto, Arial, sans-serif;
+       color: #222; margin: 2em auto; max-width: 60em; padding: 0 1em; }
+table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; }
+th { background: #f3f3f3; text-align: left; } td.num { text-align: right; }
+p.error, td.halted { color: #b00; } nav form { display: inline; }
+"""
+
+_NAV_CSS = "nav.ui { font-size: 0.9em; margin-bottom: 1em; } nav.ui form { display: inline; }"
+
+
+def install(app: FastAPI, engine: Engine) -> None:
+    """Add the web view's routes to ``app``, reading the database of ``engine``."""
+
+    def actor_of(request: Request) -> Actor | None:
+        """The actor of the cookie's key, authenticated again; None without a valid one."""
+        key = request.cookies.get(COOKIE)
+        if not key:
+            return None  # nothing to check (a first visit): not audited
+        route = request.scope.get("route")
+        action = f"{request.method} {getattr(route, 'path', '?')}"
+        actor = auth.authenticate(engine=engine, key=key, action=action)
+        if actor is not None and actor.role not in ROLES:
+            auth.audit_forbidden(engine=engine, actor=actor, action=action)
+            return None
+        return actor
+
+    @app.get(f"{PREFIX}/login", include_in_schema=False)
+    def login_form() -> HTMLResponse:
+        return _login_page(None, 200)
+
+    @app.post(f"{PREFIX}/login", include_in_schema=False)
+    async def login(request: Request) -> Response:
+        if not _same_origin(request):
+            return _login_page("This form must be sent from this site.", 403)
+        body = await request.body()
+        if len(body) > MAX_FORM_BYTES:
+            return _login_page("The form is too large.", 413)
+        fields = parse_qs(body.decode("utf-8", errors="replace"), max_num_fields=10)
+        key = (fields.get("key") or [""])[0].strip()
+        if not key:
+            return _login_page("Enter an API key.", 401)
+        action = f"POST {PREFIX}/login"
+        actor = await run_in_threadpool(auth.authenticate, engine=engine, key=key, action=action)
+        if actor is None or actor.role not in ROLES:
+            return _login_page("Unknown or revoked API key.", 401)
+        response = RedirectResponse(f"{PREFIX}/", status_code=303, headers=_HEADERS)
+        response.set_cookie(
+            COOKIE,
+            key,
+            max_age=COOKIE_MAX_AGE_S,
+            path=PREFIX,
+            secure=request.url.scheme == "https",
+            httponly=True,
+            samesite="strict",
+        )
+        return response
+
+    @app.post(f"{PREFIX}/logout", include_in_schema=False)
+    def logout(request: Request) -> Response:
+        if not _same_origin(request):
+            return _login_page("This form must be sent from this site.", 403)
+        response = RedirectResponse(f"{PREFIX}/login", status_code=303, headers=_HEADERS)
+        response.delete_cookie(
+            COOKIE,
+            path=PREFIX,
+            secure=request.url.scheme == "https",
+            httponly=True,
+            samesite="strict",
+        )
+        return response
+
+    @app.get(f"{PREFIX}/", include_in_schema=False)
+    def plans(request: Request) -> Response:
+        actor = actor_of(request)
+        if actor is None:
+            return _to_login()
+        return _page("Plans", _plans_table(queries.list_plans(engine=engine)["plans"]), actor)
+
+    @app.get(f"{PREFIX}/plans/{{plan_id}}", include_in_schema=False)
+    def plan(request: Request, plan_id: str) -> Response:
+        actor = actor_of(request)
+        if actor is None:
+            return _to_login()
+        number_id = int(plan_id) if re.fullmatch(r"[0-9]{1,10}", plan_id) else 0
+        if not 1 <= number_id <= MAX_ID:
+            return _not_found(plan_id, actor)
+        try:
+            page = render_report(
+                *queries.record(engine=engine, plan_id=number_id), last=PLOTTED_PARTS
+            )
+        except service.NotFoundError:
+            return _not_found(plan_id, actor)
+        # the report page with the view's navigation; it stays well-formed XML
+        nav = _tag("style", _NAV_CSS) + _nav(actor)
+        page = page.replace("</head><body>", f"</head><body>{nav}", 1)
+        return HTMLResponse(page, headers=_HEADERS)
+
+
+def _same_origin(request: Request) -> bool:
+    """Whether a form post came from this site (an absent Origin header, as curl sends, is)."""
+    origin = request.headers.get("origin")
+    if origin is None:
+        return True
+    return urlsplit(origin).netloc == request.headers.get("host", "")
+
+
+# --------------------------------------------------------------------------------------------
+# HTML
+
+
+def _e(value: object) -> str:
+    return html.escape(str(value), quote=True)
+
+
+def _tag(name: str, content: str, **attributes: object) -> str:
+    """``<name attributes>content</name>``; ``content`` must already be HTML."""
+    attrs = "".join(
+        f' {key.rstrip("_").replace("_", "-")}="{_e(v)}"'
+        for key, v in attributes.items()
+        if v is not None
+    )
+    return f"<{name}{attrs}>{content}</{name}>"
+
+
+def _document(title: str, body: str, status: int) -> HTMLResponse:
+    head = '<meta charset="utf-8"/>' + _tag("title", _e(title)) + _tag("style", _CSS)
+    text = f'<!DOCTYPE html>\n<html lang="en">{_tag("head", head)}{_tag("body", body)}</html>\n'
+    return HTMLResponse(text, status_code=status, headers=_HEADERS)
+
+
+def _nav(actor: Actor) -> str:
+    logout = _tag(
+        "form",
+        _tag("button", "Log out", type="submit"),
+        method="post",
+        action=f"{PREFIX}/logout",
+    )
+    links = _tag("a", "Plans", href=f"{PREFIX}/")
+    return _tag(
+        "nav", f"{links} · {_e(f'signed in as {actor.name} ({actor.role})')} {logout}", class_="ui"
+    )
+
+
+def _page(title: str, content: str, actor: Actor, status: int = 200) -> HTMLResponse:
+    return _document(f"rcb: {title}", _nav(actor) + _tag("h1", _e(title)) + content, status)
+
+
+def _login_page(message: str | None, status: int) -> HTMLResponse:
+    error = _tag("p", _e(message), class_="error", role="alert") if message else ""
+    field = _tag("label", "API key ", for_="key") + (
+        '<input id="key" name="key" type="password" autocomplete="current-password" '
+        'required="required" size="50"/>'
+    )
+    form = _tag(
+        "form",
+        _tag("p", field) + _tag("p", _tag("button", "Log in", type="submit")),
+        method="post",
+        action=f"{PREFIX}/login",
+    )
+    hint = _tag("p", _e("A key of any role (from rcb keys create) shows the plans; read only."))
+    title = "rcb: log in"
+    return _document(title, _tag("h1", _e(title)) + error + form + hint, status)
+
+
+def _to_login() -> RedirectResponse:
+    return RedirectResponse(f"{PREFIX}/login", status_code=303, headers=_HEADERS)
+
+
+def _not_found(plan_id: str, actor: Actor) -> HTMLResponse:
+    text = _tag("p", _e(f"There is no plan with id {plan_id}."))
+    return _page("Plan not found", text, actor, status=404)
+
+
+def _plans_table(plans: list[dict[str, Any]]) -> str:
+    if not plans:
+        return _tag("p", _e("No plans yet (rcb plan create, or POST /api/v1/plans)."))
+    head = "".join(
+        _tag("th", _e(h))
+        for h in ("ID", "Name", "Machine", "Setpoint version", "Parts", "Created", "Status", "")
+    )
+    rows = []
+    for p in plans:
+        link = _tag("a", "record, plots", href=f"{PREFIX}/plans/{int(p['id'])}")
+        cells = [
+            _tag("td", _e(p["id"]), class_="num"),
+            _tag("td", _e(p["name"])),
+            _tag("td", _e(p["machine"])),
+            _tag("td", _e(p["setpoint_version"]), class_="num"),
+            _tag("td", _e(p["parts"]), class_="num"),
+            _tag("td", _e(p["created_at"].strftime("%Y-%m-%d %H:%M:%S %Z").strip())),
+            _status_cell(p),
+            _tag("td", link),
+        ]
+        rows.append(_tag("tr", "".join(cells), data_plan=p["id"]))
+    body = _tag("thead", _tag("tr", head)) + _tag("tbody", "".join(rows))
+    return _tag("table", body, id="plans")
+
+
+def _status_cell(plan: dict[str, Any]) -> str:
+    if plan["status"] == "halted":
+        return _tag("td", _tag("strong", _e("HALTED")), class_="halted")
+    return _tag("td", _e("running"))

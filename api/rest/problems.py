@@ -1,0 +1,235 @@
+"""RFC 9457 problem details: every error the REST service returns, as ``application/problem+json``.
+
+Each problem carries a machine-readable ``code`` and, where one is to blame, the offending
+``field`` (a dotted path like ``operations[0].measurements.force_N.value``) and its ``value``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
+
+from api.services.commands import InFlightError, KeyReuseError, NotFoundError, PlanHaltedError
+from db.errors import ConflictError
+from models.errors import InputError
+from supervisor.errors import InfeasibleError, SolverError
+
+MEDIA_TYPE = "application/problem+json"
+KEY_HEADER = "Idempotency-Key"
+_TYPE_BASE = "urn:rcb-supervisor:problem:"
+_log = logging.getLogger("rcb.api")
+
+
+class ProblemError(Exception):
+    """An error the REST layer itself raises (authentication, a missing header)."""
+
+    def __init__(
+        self,
+        status: int,
+        code: str,
+        detail: str,
+        field: str | None = None,
+        value: object = None,
+        headers: dict[str, str] | None = None,
+    ) -> None:
+        self.status, self.code, self.detail = status, code, detail
+        self.field, self.value, self.headers = field, value, headers
+        super().__init__(detail)
+
+
+_TITLES = {
+    400: "Bad request",
+    401: "Unauthorized",
+    403: "Forbidden",
+    404: "Not found",
+    405: "Method not allowed",
+    409: "Conflict",
+    415: "Unsupported media type",
+    422: "Unprocessable content",
+    500: "Internal server error",
+}
+
+
+def problem(
+    request: Request,
+    status: int,
+    code: str,
+    detail: str,
+    field: str | None = None,
+    value: object = None,
+    errors: list[dict[str, Any]] | None = None,
+    headers: dict[str, str] | None = None,
+    conflicts: list[dict[str, Any]] | None = None,
+) -> JSONResponse:
+    """A problem+json response (``conflicts``: a halted plan's, an RFC 9457 extension member)."""
+    body: dict[str, Any] = {
+        "type": _TYPE_BASE + code,
+        "title": _TITLES.get(status, "Error"),
+        "status": status,
+        "detail": detail,
+        "instance": request.url.path,
+        "code": code,
+        "field": field,
+        "value": _jsonable(value),
+    }
+    if errors is not None:
+        body["errors"] = errors
+    if conflicts is not None:
+        body["conflicts"] = conflicts
+    return JSONResponse(body, status_code=status, media_type=MEDIA_TYPE, headers=headers)
+
+
+def _jsonable(value: object) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    try:
+        json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError):
+        return repr(value)
+    return value
+
+
+def field_path(loc: Sequence[str | int]) -> str:
+    """``("body", "operations", 0, "name")`` → ``operations[0].name``."""
+    parts = list(loc)
+    if parts and parts[0] in ("body", "query", "path", "header"):
+        parts = parts[1:]
+    out = ""
+    for part in parts:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "body"
+
+
+def install(app: FastAPI) -> None:
+    """Register the handlers that turn every error into problem+json, and document them so."""
+    _document(app)
+
+    @app.exception_handler(ProblemError)
+    async def _problem(request: Request, err: ProblemError) -> JSONResponse:
+        return problem(
+            request, err.status, err.code, err.detail, err.field, err.value, headers=err.headers
+        )
+
+    @app.exception_handler(InputError)
+    async def _input(request: Request, err: InputError) -> JSONResponse:
+        return problem(request, 422, "invalid", str(err), err.field, err.value)
+
+    @app.exception_handler(InfeasibleError)
+    async def _infeasible(request: Request, err: InfeasibleError) -> JSONResponse:
+        field = f"operations.{err.operation}.limits"
+        return problem(request, 422, "infeasible", str(err), field, err.operation)
+
+    @app.exception_handler(SolverError)
+    async def _solver(request: Request, err: SolverError) -> JSONResponse:
+        _log.error("solver failure: %s", err)
+        return problem(request, 500, "solver", str(err))
+
+    @app.exception_handler(NotFoundError)
+    async def _not_found(request: Request, err: NotFoundError) -> JSONResponse:
+        return problem(request, 404, "not_found", str(err), err.field, err.value)
+
+    @app.exception_handler(ConflictError)
+    async def _conflict(request: Request, err: ConflictError) -> JSONResponse:
+        return problem(request, 409, "conflict", str(err), err.field, err.value)
+
+    @app.exception_handler(PlanHaltedError)
+    async def _halted(request: Request, err: PlanHaltedError) -> JSONResponse:
+        return problem(
+            request, 409, "plan_halted", str(err), err.field, err.value, conflicts=err.conflicts
+        )
+
+    @app.exception_handler(InFlightError)
+    async def _in_flight(request: Request, err: InFlightError) -> JSONResponse:
+        return problem(request, 409, "in_flight", str(err), err.field, err.value)
+
+    @app.exception_handler(KeyReuseError)
+    async def _reuse(request: Request, err: KeyReuseError) -> JSONResponse:
+        return problem(request, 422, "idempotency_key_reused", str(err), err.field, err.value)
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation(request: Request, err: RequestValidationError) -> JSONResponse:
+        errors = [
+            {
+                "field": field_path(e.get("loc", ())),
+                "message": e.get("msg", ""),
+                "value": _jsonable(e.get("input")),
+            }
+            for e in err.errors()
+        ]
+        first = errors[0] if errors else {"field": "body", "message": "invalid", "value": None}
+        if any(e.get("type") == "json_invalid" for e in err.errors()):
+            return problem(request, 400, "malformed_json", "the body is not valid JSON", "body")
+        for e in err.errors():  # the Idempotency-Key header: 400, as the IETF draft asks
+            loc = [str(part).lower() for part in e.get("loc", ())]
+            if loc[:2] == ["header", "idempotency-key"]:
+                if e.get("type") == "missing":
+                    detail = "this POST needs an Idempotency-Key header"
+                    return problem(request, 400, "idempotency_key_missing", detail, KEY_HEADER)
+                detail = "Idempotency-Key must be 1 to 255 visible ASCII characters"
+                value = e.get("input")
+                return problem(request, 400, "idempotency_key_invalid", detail, KEY_HEADER, value)
+        detail = f"{first['field']} = {first['value']!r}: {first['message']}"
+        return problem(
+            request, 422, "invalid", detail, first["field"], first["value"], errors=errors
+        )
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, err: StarletteHTTPException) -> JSONResponse:
+        code = {404: "not_found", 405: "method_not_allowed"}.get(err.status_code, "http_error")
+        headers = getattr(err, "headers", None)
+        if err.status_code == 405:
+            headers = {**(headers or {}), "Allow": _allowed(request)}
+        return problem(request, err.status_code, code, str(err.detail), headers=headers)
+
+    @app.exception_handler(Exception)
+    async def _unexpected(request: Request, err: Exception) -> JSONResponse:
+        _log.exception("unexpected error on %s %s", request.method, request.url.path)
+        return problem(request, 500, "internal", "internal error; nothing was stored")
+
+
+def _allowed(request: Request) -> str:
+    """Every method of the resource at the request's path (RFC 9110 ``Allow``).
+
+    Starlette answers 405 from the first route whose path matched, naming only that route's
+    methods; a path can have several routes (``GET`` and ``POST /plans``).
+    """
+    methods: set[str] = set()
+    for route in request.app.router.routes:
+        match, _ = route.matches(request.scope)
+        if match is not Match.NONE:
+            methods |= getattr(route, "methods", None) or set()
+    return ", ".join(sorted(methods))
+
+
+def _document(app: FastAPI) -> None:
+    """Document error responses as what the handlers send: ``application/problem+json``.
+
+    A ``responses`` entry with a ``model`` puts the model's schema under ``application/json``,
+    which no error is sent as, and leaves the ``application/problem+json`` entry without a
+    schema; this moves the schema to the problem media type.
+    """
+    generate = app.openapi
+
+    def openapi() -> dict[str, Any]:
+        document = generate()
+        for item in document.get("paths", {}).values():
+            for operation in item.values():
+                if not isinstance(operation, dict):
+                    continue
+                for response in operation.get("responses", {}).values():
+                    content = response.get("content", {})
+                    if MEDIA_TYPE in content and "schema" not in content[MEDIA_TYPE]:
+                        if "schema" in content.get("application/json", {}):
+                            content[MEDIA_TYPE] = content.pop("application/json")
+        return document
+
+    app.openapi = openapi  # type: ignore[method-assign]

@@ -1,0 +1,1 @@
+"""Use cases behind the REST service and the CLI: reads (queries) and writes (commands)."""

@@ -1,0 +1,307 @@
+"""Use cases that only read: plans, setpoints, parts, history, models and tools, as JSON dicts.
+
+Each runs in one read transaction (on SQLite a deferred one, so it never waits for writers).
+"""
+
+from __future__ import annotations
+
+import re
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session
+
+from api import render
+from api.services.commands import NotFoundError, PlanHaltedError
+from db import history, library
+from db import repository as repo
+from db import tables as t
+from db.engine import reader
+from models.catalogue import catalogue
+from models.errors import InputError
+
+#: Most parts one page may hold.
+MAX_PAGE = 500
+
+
+def list_plans(*, engine: Engine) -> dict[str, Any]:
+    """Every plan with its machine, current setpoint version and part count."""
+    with _read(engine) as session, session.begin():
+        return {"plans": history.plans(session=session)}
+
+
+def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
+    """One plan: summary, machine limits, operations (limits, bounds, volume), the plan body."""
+    with _read(engine) as session, session.begin():
+        row = _plan(session, plan_id)
+        machine = session.get(t.Machine, row.machine_id)
+        ops = history.operations(session=session, plan_id=plan_id)
+        parts = repo.count_parts(session=session, plan_id=plan_id)
+        body = repo.current_body(session=session, plan_row=row)
+        in_force = {o.get("name"): o for o in body.get("operations", [])}
+        return {
+            **history.summary(row, machine.name if machine else "", parts),
+            "machine_limits": {
+                "max_power_kW": machine.max_power_kW if machine else None,
+                "max_spindle_rpm": machine.max_spindle_rpm if machine else None,
+                "max_torque_Nm": machine.max_torque_Nm if machine else None,
+                "max_feed_rate_mm_min": machine.max_feed_rate_mm_min if machine else None,
+            },
+            "operations": [
+                {
+                    "name": op.name,
+                    "tool": tool.name,
+                    "process": op.process,
+                    "volume_mm3": op.volume_mm3,
+                    # as in force: a replan may have changed them (plan_revisions)
+                    "limits": dict(in_force.get(op.name, {}).get("limits", op.limits)),
+                    "bounds": dict(in_force.get(op.name, {}).get("bounds", op.bounds)),
+                    "context": dict(op.context),
+                }
+                for op, tool in ops
+            ],
+            "body": body,
+        }
+
+
+def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
+    """The setpoints in force; a halted plan has none (:class:`PlanHaltedError`)."""
+    with _read(engine) as session, session.begin():
+        row = _plan(session, plan_id)
+        if row.halt is not None:
+            raise PlanHaltedError(plan_id, row.halt)
+        version = row.current_setpoint_version
+        result = repo.setpoints_of(session=session, plan_row=row, version=version)
+    return {
+        "plan_id": plan_id,
+        "setpoint_version": version,
+        "operations": render.plan_json(result)["operations"],
+    }
+
+
+def parts(
+    *, engine: Engine, plan_id: int, cursor: str | None = None, limit: int = 50
+) -> dict[str, Any]:
+    """A page of a plan's parts, oldest first; ``next_cursor`` continues after the last."""
+    if not 1 <= limit <= MAX_PAGE:
+        raise InputError("limit", limit, f"must be between 1 and {MAX_PAGE}")
+    after = _cursor(cursor)
+    with _read(engine) as session, session.begin():
+        _plan(session, plan_id)
+        names = {op.id: op.name for op, _ in history.operations(session=session, plan_id=plan_id)}
+        rows, measurements, decisions = history.parts_page(
+            session=session, plan_id=plan_id, after_id=after, limit=limit
+        )
+        items = []
+        for part in rows:
+            per_op: dict[str, dict[str, Any]] = {}
+            for m in measurements[part.id]:
+                entry = per_op.setdefault(names[m.operation_id], {"measurements": {}})
+                if m.quantity == "flank_wear_mm":
+                    entry["tool_wear"] = {
+                        "flank_wear_mm": {"value": m.value, "uncertainty": m.uncertainty},
+                        "volume_mm3": (m.raw or {}).get("volume_mm3"),
+                    }
+                else:
+                    entry["measurements"][m.quantity] = {
+                        "value": m.value,
+                        "uncertainty": m.uncertainty,
+                        **({"raw": m.raw} if m.raw else {}),
+                    }
+            items.append(
+                {
+                    "part_id": part.id,
+                    "serial": part.serial,
+                    "setpoint_version": part.setpoint_version,
+                    "received_at": _utc(part.received_at),
+                    "operations": [{"name": name, **entry} for name, entry in per_op.items()],
+                    "updates": [_decision(d, names) for d in decisions[part.id]],
+                }
+            )
+    more = len(rows) == limit
+    return {"items": items, "next_cursor": str(rows[-1].id) if rows and more else None}
+
+
+def all_parts(*, engine: Engine, plan_id: int) -> list[dict[str, Any]]:
+    """Every part of a plan, oldest first (:func:`parts`, page after page)."""
+    items: list[dict[str, Any]] = []
+    cursor = None
+    while True:
+        page = parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=MAX_PAGE)
+        items += page["items"]
+        cursor = page["next_cursor"]
+        if cursor is None:
+            return items
+
+
+def record(
+    *, engine: Engine, plan_id: int
+) -> tuple[dict[str, Any], dict[str, Any], list[dict[str, Any]]]:
+    """A plan, every part and the setpoint history: what a report shows.
+
+    Parts are read before the history, so every version a part names is in the history.
+    """
+    plan = get_plan(engine=engine, plan_id=plan_id)
+    items = all_parts(engine=engine, plan_id=plan_id)
+    return plan, plan_history(engine=engine, plan_id=plan_id), items
+
+
+def plan_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
+    """Every setpoint version with its cause, the setpoints, and the models (bands) in force."""
+    with _read(engine) as session, session.begin():
+        halt = _plan(session, plan_id).halt
+        ops = history.operations(session=session, plan_id=plan_id)
+        versions = history.setpoint_versions(session=session, plan_id=plan_id)
+        model_rows = history.model_versions(session=session, plan_id=plan_id)
+    op_names = {op.id: op.name for op, _ in ops}
+    tools = {op.id: tool.name for op, tool in ops}
+    out = []
+    for version, serial, setpoints in versions:
+        in_force: dict[str, dict[str, Any]] = {}
+        for model, op_name, _ in model_rows:  # oldest first: later versions overwrite
+            if model.part_id is None or (
+                version.part_id is not None and model.part_id <= version.part_id
+            ):
+                in_force.setdefault(op_name, {})[model.quantity] = {
+                    "K": model.K,
+                    "dK": model.dK,
+                    "version": model.version,
+                }
+        operations = []
+        for sp in sorted(setpoints, key=lambda s: list(op_names).index(s.operation_id)):
+            name = op_names[sp.operation_id]
+            operations.append(
+                {
+                    "name": name,
+                    "tool": tools[sp.operation_id],
+                    "setpoint": dict(sp.parameters),
+                    "predicted": dict(sp.predicted),
+                    "mrr_cm3_min": sp.mrr_cm3_min,
+                    "time_min": sp.time_min,
+                    "binding": list(sp.binding),
+                    "models": in_force.get(name, {}),
+                }
+            )
+        out.append(
+            {
+                "version": version.version,
+                "cause": version.cause,
+                "part_id": version.part_id,
+                "serial": serial,
+                "created_at": _utc(version.created_at),
+                "cycle_time_min": sum(sp.time_min for sp in setpoints),
+                "operations": operations,
+            }
+        )
+    status = "halted" if halt is not None else "running"
+    return {"plan_id": plan_id, "status": status, "halt": halt, "versions": out}
+
+
+def models_in_force(*, engine: Engine, plan_id: int) -> dict[str, Any]:
+    """Per operation and quantity the newest model version: K, ΔK, exponents, version, cause."""
+    with _read(engine) as session, session.begin():
+        _plan(session, plan_id)
+        ops = history.operations(session=session, plan_id=plan_id)
+        rows = history.model_versions(session=session, plan_id=plan_id)
+    latest: dict[str, dict[str, Any]] = {}
+    for model, op_name, serial in rows:
+        latest.setdefault(op_name, {})[model.quantity] = _model_version(model, serial)
+    return {
+        "plan_id": plan_id,
+        "operations": [
+            {"name": op.name, "tool": tool.name, "models": latest.get(op.name, {})}
+            for op, tool in ops
+        ],
+    }
+
+
+def model_versions(
+    *, engine: Engine, plan_id: int, operation: str | None = None, quantity: str | None = None
+) -> dict[str, Any]:
+    """Every model version of the plan, optionally of one operation and/or quantity."""
+    with _read(engine) as session, session.begin():
+        _plan(session, plan_id)
+        ops = history.operations(session=session, plan_id=plan_id)
+        if operation is not None and operation not in {op.name for op, _ in ops}:
+            raise NotFoundError("operation", operation)
+        rows = history.model_versions(
+            session=session, plan_id=plan_id, operation=operation, quantity=quantity
+        )
+    return {
+        "plan_id": plan_id,
+        "versions": [
+            {"operation": name, "quantity": m.quantity, **_model_version(m, serial)}
+            for m, name, serial in rows
+        ],
+    }
+
+
+def list_tools(*, engine: Engine) -> dict[str, Any]:
+    """The packaged catalogue and the tools stored in the database, by name."""
+    with _read(engine) as session, session.begin():
+        stored = library.load_tools(session=session)
+    tools = {**catalogue(), **stored}
+    return {"tools": [render.tool_json(tools[name]) for name in sorted(tools)]}
+
+
+def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
+    """One tool with its baseline models and provenance."""
+    with _read(engine) as session, session.begin():
+        stored = library.load_tools(session=session, names=[name])
+    tool = stored.get(name) or catalogue().get(name)
+    if tool is None:
+        raise NotFoundError("name", name)
+    return render.tool_json(tool)
+
+
+def _model_version(model: t.OperationModelVersion, serial: str | None) -> dict[str, Any]:
+    return {
+        "version": model.version,
+        "K": model.K,
+        "dK": model.dK,
+        "exponents": dict(model.exponents),
+        "cause": model.cause,
+        "serial": serial,
+        "created_at": _utc(model.created_at),
+    }
+
+
+def _decision(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
+    return {
+        "operation": names[d.operation_id],
+        "quantity": d.quantity,
+        "action": d.action,
+        "margin": d.margin,
+        "band_before": d.band_before,
+        "band_after": d.band_after,
+        "flagged": d.flagged,
+        "flag": d.flag,
+        "note": d.note,
+        "reason": d.reason,
+    }
+
+
+def _read(engine: Engine) -> Session:
+    # rows are read after the transaction ends: keep their loaded attributes
+    return Session(reader(engine), expire_on_commit=False)
+
+
+def _utc(moment: datetime) -> datetime:
+    # SQLite returns naive datetimes; they were stored as UTC (db.tables.utcnow)
+    return moment if moment.tzinfo else moment.replace(tzinfo=UTC)
+
+
+def _cursor(cursor: str | None) -> int:
+    if cursor is None:
+        return 0
+    if re.fullmatch(r"[0-9]{1,10}", cursor) is None or int(cursor) > 2**31 - 1:
+        raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
+    return int(cursor)
+
+
+def _plan(session: Session, plan_id: int) -> t.Plan:
+    row = repo.get_plan_row(session=session, plan_id=plan_id)
+    if row is None:
+        raise NotFoundError("plan_id", plan_id)
+    return row

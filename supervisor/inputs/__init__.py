@@ -1,0 +1,1 @@
+"""Inputs: process plans, part reports and the TOML files they come in."""

@@ -1,0 +1,388 @@
+"""Process plans: the machine, the tools and the operations of one part, read from TOML or JSON.
+
+A plan file holds ``name``, a ``[machine]`` table, optional inline ``[[tools]]`` (else tools come
+from the catalogue) and ``[[operations]]``. Every error names the dotted field and its value.
+
+A milling operation may say ``objective = "productivity"`` (default ``"mrr"``: the largest removal
+rate) with an ``[operations.productivity]`` table of Borangiu's cost data
+(:func:`supervisor.borangiu.productivity.productivity_from_mapping`; the coefficient form ``a, b, c
+...`` holds for one fixed depth and width, so it is refused here), and ``[operations.domain]`` adds
+Borangiu's constraints (:class:`supervisor.borangiu.domain.Domain`) as rows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from models import fields
+from models.catalogue import catalogue
+from models.errors import InputError
+from models.kinematics import CONTEXT, PARAMETERS, Process
+from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
+from models.sensors import Calibration, TaiCurrentFeedCalibration, calibrations_from_mapping
+from models.tool import Tool, process_of, tool_from_mapping
+from supervisor.borangiu.domain import Domain, domain_from_mapping
+from supervisor.borangiu.productivity import CostData, productivity_from_mapping
+from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
+from supervisor.errors import PlanError
+from supervisor.inputs.files import read_toml
+
+#: Flank-wear criterion when an operation gives none: VB = 0.3 mm (ISO 3685:1993, 7.2).
+DEFAULT_FLANK_WEAR_MM = 0.3
+
+#: The tool-life limit: parts one edge must make before ``allowable_flank_wear_mm``.
+PARTS_PER_EDGE = "parts_per_edge"
+
+#: What an operation's optimum is for: the largest MRR, or the least Borangiu cost ``J``.
+Objective = Literal["mrr", "productivity"]
+OBJECTIVES: tuple[Objective, ...] = ("mrr", "productivity")
+
+_PLAN_KEYS = ("name", "machine", "tools", "operations", "description")
+_MACHINE_LIMITS = {
+    "max_power_kW": "power_kW",
+    "max_spindle_rpm": "spindle_rpm",
+    "max_torque_Nm": "torque_Nm",
+    "max_feed_rate_mm_min": "feed_rate_mm_min",
+}
+_OPERATION_KEYS = (
+    "name",
+    "process",
+    "tool",
+    "description",
+    "volume_mm3",
+    "limits",
+    "bounds",
+    "workpiece_diameter_mm",
+    "tool_diameter_mm",
+    "flute_count",
+    "allowable_flank_wear_mm",
+    "setpoint_rel_uncertainty",
+    "catalog_setpoint",
+    "objective",
+    "productivity",
+    "domain",
+    "constant_load",
+)
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A machine tool and its limits (``None``: no limit)."""
+
+    name: str
+    max_power_kW: float | None = None
+    max_spindle_rpm: float | None = None
+    max_torque_Nm: float | None = None
+    max_feed_rate_mm_min: float | None = None
+    #: Named sensor calibrations (``[machine.calibrations.NAME]``, :mod:`models.sensors`):
+    #: how a part report's spindle load or current becomes a force.
+    calibrations: Mapping[str, Calibration] = field(default_factory=dict)
+
+    def limits(self) -> dict[str, float]:
+        """The machine limits keyed by quantity name (``power_kW`` ...)."""
+        result: dict[str, float] = {}
+        for key, quantity in _MACHINE_LIMITS.items():
+            value = getattr(self, key)
+            if value is not None:
+                result[quantity] = value
+        return result
+
+
+@dataclass(frozen=True)
+class Operation:
+    """One step of a process plan.
+
+    Parameters
+    ----------
+    name : str
+        Unique within the plan.
+    process : {"turning", "milling"}
+        The process; decides the cutting parameters.
+    tool : str
+        Name of the tool (inline or catalogue).
+    volume_mm3 : float
+        Material the operation removes per part [mm³].
+    limits : Mapping[str, float]
+        Allowable maxima keyed by quantity (``force_N`` ...) and ``parts_per_edge``.
+    bounds : Mapping[str, tuple[float, float]]
+        ``(low, high)`` of every cutting parameter, in its unit.
+    context : Mapping[str, float]
+        Fixed inputs: diameter, flute count, ``flank_wear_mm`` (the allowable flank wear).
+    setpoint_rel_uncertainty : Mapping[str, float]
+        Relative uncertainty ``Δx/x`` of the cutting parameters as the machine holds them [-].
+    catalog_setpoint : Mapping[str, float]
+        The shop's current parameters (tool maker's catalogue), for comparison; may be empty.
+    objective : {"mrr", "productivity"}
+        Maximise the removal rate, or minimise Borangiu's cost ``J`` (milling).
+    productivity : CostData, optional
+        Cost data of ``J``; required for ``objective = "productivity"``. With the ``"mrr"``
+        objective it only prices the optimum.
+    domain : Domain, optional
+        Borangiu's constraints (Eqs. 2-7) on the pitch feed ``fz·z``, feed rate, spindle speed
+        and power (milling).
+    constant_load : ConstantLoadConfig, optional
+        Constant-load control of the spindle current (Tai et al., milling): its setpoints carry
+        the reference current and feed limits (:mod:`supervisor.constant_load.setpoint`).
+    """
+
+    name: str
+    process: Process
+    tool: str
+    volume_mm3: float
+    limits: Mapping[str, float]
+    bounds: Mapping[str, tuple[float, float]]
+    context: Mapping[str, float]
+    setpoint_rel_uncertainty: Mapping[str, float] = field(default_factory=dict)
+    description: str = ""
+    catalog_setpoint: Mapping[str, float] = field(default_factory=dict)
+    objective: Objective = "mrr"
+    productivity: CostData | None = None
+    domain: Domain | None = None
+    constant_load: ConstantLoadConfig | None = None
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The ordered operations of one part on one machine, with the tools they use."""
+
+    name: str
+    machine: Machine
+    tools: Mapping[str, Tool]
+    operations: tuple[Operation, ...]
+    description: str = ""
+
+
+def load_plan(path: Path) -> Plan:
+    """Read a TOML plan file; errors name the file and the field."""
+    return plan_from_mapping(read_toml(path, "plan file"))
+
+
+def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -> Plan:
+    """Build and check a plan from its TOML/JSON structure.
+
+    Tools are looked up inline first, then in ``library`` (e.g. the tools stored in the
+    database), then in the packaged catalogue.
+    """
+    table = fields.mapping(data, "plan")
+    fields.only_keys(table, _PLAN_KEYS, "")
+    machine = _machine(table.get("machine"))
+    inline = {**(library or {}), **_inline_tools(table.get("tools", []))}
+    ops_data = table.get("operations")
+    if not isinstance(ops_data, list) or not ops_data:
+        raise InputError("operations", ops_data, "a plan needs a list of at least one operation")
+    operations: list[Operation] = []
+    tools: dict[str, Tool] = {}
+    for i, op_data in enumerate(ops_data):
+        op = _operation(op_data, f"operations[{i}]", inline, machine)
+        if any(o.name == op.name for o in operations):
+            raise PlanError(f"operations[{i}].name", op.name, "duplicate operation name")
+        operations.append(op)
+        tools[op.tool] = inline.get(op.tool) or catalogue()[op.tool]
+    return Plan(
+        name=fields.text(table, "name", ""),
+        machine=machine,
+        tools=tools,
+        operations=tuple(operations),
+        description=fields.text(table, "description", "", default=""),
+    )
+
+
+def _machine(data: object) -> Machine:
+    if data is None:
+        raise InputError("machine", None, "required table missing")
+    table = fields.mapping(data, "machine")
+    fields.only_keys(table, ("name", *_MACHINE_LIMITS, "calibrations"), "machine")
+    limits = {
+        k: fields.optional_number(table, k, "machine", positive=True) for k in _MACHINE_LIMITS
+    }
+    calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
+    return Machine(name=fields.text(table, "name", "machine"), calibrations=calibrations, **limits)
+
+
+def _inline_tools(data: object) -> dict[str, Tool]:
+    if not isinstance(data, list):
+        raise InputError("tools", data, "must be a list of tool tables")
+    tools: dict[str, Tool] = {}
+    for i, entry in enumerate(data):
+        tool = tool_from_mapping(entry, f"tools[{i}]")
+        if tool.name in tools:
+            raise PlanError(f"tools[{i}].name", tool.name, "duplicate tool name")
+        tools[tool.name] = tool
+    return tools
+
+
+def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Machine) -> Operation:
+    table = fields.mapping(data, path)
+    fields.only_keys(table, _OPERATION_KEYS, path)
+    name = fields.text(table, "name", path)
+    tool_name = fields.text(table, "tool", path)
+    tool = inline.get(tool_name) or catalogue().get(tool_name)
+    if tool is None:
+        known = ", ".join(sorted({*inline, *catalogue()}))
+        raise PlanError(f"{path}.tool", tool_name, f"unknown tool; known tools: {known}")
+    process = process_of(table.get("process", tool.process), f"{path}.process")
+    if process != tool.process:
+        raise PlanError(f"{path}.process", process, f"tool {tool.name!r} is a {tool.process} tool")
+    if "volume_mm3" not in table:
+        raise InputError(f"{path}.volume_mm3", None, "required field missing")
+    volume = fields.number(table["volume_mm3"], f"{path}.volume_mm3", positive=True)
+    context = _context(table, path, process)
+    limits = _limits(table.get("limits", {}), f"{path}.limits", tool)
+    for quantity in ("power_kW", "torque_Nm"):
+        if quantity in {*limits, *machine.limits()} and "force_N" not in tool.models:
+            raise PlanError(
+                f"{path}.tool",
+                tool.name,
+                f"{quantity} is limited but the tool has no force_N model",
+            )
+    objective, cost, domain = _borangiu(table, path, process, tool)
+    rel = fields.number_table(
+        table.get("setpoint_rel_uncertainty", {}),
+        f"{path}.setpoint_rel_uncertainty",
+        PARAMETERS[process],
+        minimum=0.0,
+    )
+    return Operation(
+        name=name,
+        process=process,
+        tool=tool.name,
+        volume_mm3=volume,
+        limits=limits,
+        bounds=_bounds(table.get("bounds"), f"{path}.bounds", process),
+        context=context,
+        setpoint_rel_uncertainty=rel,
+        description=fields.text(table, "description", path, default=""),
+        catalog_setpoint=_catalog_setpoint(table.get("catalog_setpoint"), path, process),
+        objective=objective,
+        productivity=cost,
+        domain=domain,
+        constant_load=_constant_load(table, path, process, machine),
+    )
+
+
+def _constant_load(
+    table: Mapping[str, Any], path: str, process: Process, machine: Machine
+) -> ConstantLoadConfig | None:
+    """``[operations.constant_load]``, checked against the machine's Tai calibration."""
+    if "constant_load" not in table:
+        return None
+    where = f"{path}.constant_load"
+    if process != "milling":
+        raise PlanError(where, table["constant_load"], "constant-load control is for milling")
+    config = config_from_mapping(table["constant_load"], where, machine.calibrations)
+    calibration = machine.calibrations[config.calibration]
+    assert isinstance(calibration, TaiCurrentFeedCalibration)  # config_from_mapping checks
+    try:
+        setup_of(config, calibration)  # refused now rather than at the first setpoint
+    except InputError as err:
+        raise PlanError(f"{where}.{err.field}", err.value, err.reason) from None
+    return config
+
+
+def _borangiu(
+    table: Mapping[str, Any], path: str, process: Process, tool: Tool
+) -> tuple[Objective, CostData | None, Domain | None]:
+    """The objective, cost data and domain of an operation (Borangiu et al., milling only)."""
+    given = table.get("objective", "mrr")
+    objective = next((o for o in OBJECTIVES if o == given), None)
+    if objective is None:
+        raise InputError(f"{path}.objective", given, f"expected one of: {', '.join(OBJECTIVES)}")
+    for key in ("productivity", "domain"):
+        if key in table and process != "milling":
+            raise PlanError(f"{path}.{key}", table[key], "Borangiu's model is for milling")
+    if objective == "productivity":
+        if process != "milling":
+            raise PlanError(f"{path}.objective", given, "the productivity cost is for milling")
+        if "productivity" not in table:
+            raise InputError(f"{path}.productivity", None, "required with this objective")
+    domain = domain_from_mapping(table["domain"], f"{path}.domain") if "domain" in table else None
+    cost = None
+    if "productivity" in table:
+        where = f"{path}.productivity"
+        raw = fields.mapping(table["productivity"], where)
+        coefficient = next((k for k in ("a", "b", "c", "q", "m", "yp") if k in raw), None)
+        given_cost = None if coefficient else productivity_from_mapping(raw, where)
+        if coefficient is not None or not isinstance(given_cost, CostData):
+            key = coefficient or "a"
+            raise InputError(
+                f"{where}.{key}",
+                raw.get(key),
+                "the coefficients a, b, c, q, m, yp hold for one depth and width; an "
+                "operation's depths vary: give the cost data",
+            )
+        if given_cost.energy_cost_per_kWh > 0 and "force_N" not in tool.models:
+            raise PlanError(
+                f"{where}.energy_cost_per_kWh",
+                given_cost.energy_cost_per_kWh,
+                f"the cutting power comes from the force model; tool {tool.name!r} has none",
+            )
+        cost = given_cost
+    return objective, cost, domain
+
+
+def _catalog_setpoint(data: object, path: str, process: Process) -> dict[str, float]:
+    if data is None:
+        return {}
+    where = f"{path}.catalog_setpoint"
+    setpoint = fields.number_table(data, where, PARAMETERS[process], positive=True)
+    for param in PARAMETERS[process]:
+        if param not in setpoint:
+            raise InputError(f"{where}.{param}", None, "required when catalog_setpoint is given")
+    return setpoint
+
+
+def _context(table: Mapping[str, Any], path: str, process: Process) -> dict[str, float]:
+    context: dict[str, float] = {}
+    for key in CONTEXT[process]:
+        if key == "flank_wear_mm":
+            continue
+        if key not in table:
+            raise InputError(f"{path}.{key}", None, f"required for a {process} operation")
+        context[key] = fields.number(table[key], f"{path}.{key}", positive=True)
+        if key == "flute_count" and not context[key].is_integer():
+            raise InputError(f"{path}.{key}", table[key], "must be a whole number of flutes")
+    for other in sorted({k for keys in CONTEXT.values() for k in keys} - set(CONTEXT[process])):
+        if other in table:
+            raise InputError(f"{path}.{other}", table[other], f"not used by a {process} operation")
+    wear = fields.optional_number(table, "allowable_flank_wear_mm", path, positive=True)
+    context["flank_wear_mm"] = DEFAULT_FLANK_WEAR_MM if wear is None else wear
+    return context
+
+
+def _limits(data: object, path: str, tool: Tool) -> dict[str, float]:
+    table = fields.mapping(data, path)
+    allowed = [q for q, info in MODEL_QUANTITIES.items() if info.sense == "max"]
+    allowed += [*DERIVED_QUANTITIES, PARTS_PER_EDGE]
+    fields.only_keys(table, allowed, path)
+    limits = {k: fields.number(v, f"{path}.{k}", positive=True) for k, v in table.items()}
+    for key in limits:
+        needed = "tool_life_mm3" if key == PARTS_PER_EDGE else key
+        if needed in MODEL_QUANTITIES and needed not in tool.models:
+            raise PlanError(
+                f"{path}.{key}", limits[key], f"tool {tool.name!r} has no {needed} model"
+            )
+    return limits
+
+
+def _bounds(data: object, path: str, process: Process) -> dict[str, tuple[float, float]]:
+    if data is None:
+        raise InputError(path, None, "required table missing")
+    table = fields.mapping(data, path)
+    fields.only_keys(table, PARAMETERS[process], path)
+    bounds: dict[str, tuple[float, float]] = {}
+    for param in PARAMETERS[process]:
+        where = f"{path}.{param}"
+        if param not in table:
+            raise InputError(where, None, "required: [low, high]")
+        pair = table[param]
+        if not isinstance(pair, list | tuple) or len(pair) != 2:
+            raise InputError(where, pair, "must be [low, high]")
+        low = fields.number(pair[0], f"{where}[0]", positive=True)
+        high = fields.number(pair[1], f"{where}[1]", positive=True)
+        if low > high:
+            raise InputError(where, list(pair), f"low {low:g} is above high {high:g}")
+        bounds[param] = (low, high)
+    return bounds

@@ -1,0 +1,1 @@
+"""Recursive Constraint Bounding: the state, the update law, its strategies and the replan."""

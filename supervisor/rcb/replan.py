@@ -1,0 +1,153 @@
+"""An engineer's replan: changed limits, bounds or models, optionally fresh bands; re-optimised.
+
+Changes, each keyed by a dotted name and checked like the plan file:
+
+- ``limits``: ``{"OP.QUANTITY": value}`` sets an operation's limit (``null`` removes it);
+- ``bounds``: ``{"OP.PARAM": [low, high]}`` sets a parameter's bounds;
+- ``models``: ``{"TOOL.QUANTITY": {"K"?, "dK"?}}`` sets K and/or ΔK of that model in every
+  operation using the tool (exponents stay; the band is the engineer's, not RCB's);
+- ``reset_bands``: every operation's models go back to the tool's baseline (K and ΔK) and RCB
+  forgets what it has seen, the ``learn`` strategy its posterior too (Ivester & Heigel: the
+  uncertainty is earned again, part by part).
+
+The result is a new state (plan, models in force, setpoints); :mod:`api.services.commands` stores it
+as a setpoint version with cause ``replan``.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+from models import fields
+from models.errors import InputError
+from models.tool import Tool
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.update import RcbState, learned_cones, prior_sigma
+
+_CHANGE_KEYS = ("limits", "bounds", "models", "reset_bands")
+
+
+@dataclass(frozen=True)
+class Replanned:
+    """The state after a replan and the plan structure it rests on."""
+
+    state: RcbState
+    body: dict[str, Any]
+    reset_bands: bool
+
+
+def replan(
+    state: RcbState,
+    body: Mapping[str, Any],
+    changes: Mapping[str, Any],
+    library: Mapping[str, Tool] | None = None,
+) -> Replanned:
+    """Apply ``changes`` to the plan ``body`` and the models in force of ``state``; re-optimise.
+
+    Raises
+    ------
+    InputError
+        A change naming an unknown operation, quantity, parameter or tool, or a value the plan
+        file would refuse (the field is named, e.g. ``limits.rough-od.force_N``).
+    InfeasibleError
+        No setpoint meets the changed limits.
+    """
+    table = fields.mapping(changes, "changes")
+    fields.only_keys(table, _CHANGE_KEYS, "")
+    if not any(table.get(k) for k in _CHANGE_KEYS):
+        raise InputError("changes", dict(table), "nothing to change")
+    new_body = copy.deepcopy(dict(body))
+    ops = {op["name"]: op for op in new_body["operations"]}
+    for key, value in fields.mapping(table.get("limits", {}), "limits").items():
+        op, quantity = _split(key, "limits", ops)
+        limits = ops[op].setdefault("limits", {})
+        if value is None:
+            limits.pop(quantity, None)
+        else:
+            limits[quantity] = value
+    for key, value in fields.mapping(table.get("bounds", {}), "bounds").items():
+        op, param = _split(key, "bounds", ops)
+        ops[op].setdefault("bounds", {})[param] = value
+    plan = plan_from_mapping(new_body, library)  # names the field of a bad limit or bound
+    reset = table.get("reset_bands", False)
+    if not isinstance(reset, bool):
+        raise InputError("reset_bands", reset, "must be true or false")
+    tools = {
+        op.name: (
+            plan.tools[op.tool] if reset else _carried(state.tools[op.name], plan.tools[op.tool])
+        )
+        for op in plan.operations
+    }
+    for key, value in fields.mapping(table.get("models", {}), "models").items():
+        tools = _set_model(tools, plan.operations, key, value)
+    sigma = dict(state.sigma)
+    seen = dict(state.seen)
+    posterior = dict(state.posterior)
+    if reset:
+        sigma = {
+            (op, q): prior_sigma(m, state.settings)
+            for op, tool in tools.items()
+            for q, m in tool.models.items()
+        }
+        seen = {}
+        posterior = {}
+    # learn: what the posterior learned carries over (its cones), unless the bands are reset
+    cones = learned_cones(replace(state, plan=plan, posterior=posterior))
+    result = optimize_plan(plan, tools, cones=cones)
+    new_state = replace(
+        state,
+        plan=plan,
+        tools=tools,
+        setpoints=result,
+        version=state.version + 1,
+        sigma=sigma,
+        seen=seen,
+        posterior=posterior,
+        halt=None,  # an engineer's replan resumes a halted plan
+    )
+    return Replanned(new_state, new_body, reset)
+
+
+def _split(key: str, where: str, ops: Mapping[str, Any]) -> tuple[str, str]:
+    op, sep, name = key.rpartition(".")
+    if not sep or not op or not name:
+        raise InputError(f"{where}.{key}", key, "must be OPERATION.NAME")
+    if op not in ops:
+        raise InputError(f"{where}.{key}", op, f"unknown operation; known: {', '.join(ops)}")
+    return op, name
+
+
+def _carried(in_force: Tool, baseline: Tool) -> Tool:
+    """The models in force, for the quantities the (possibly changed) tool still models."""
+    return replace(
+        baseline,
+        models={q: in_force.models.get(q, m) for q, m in baseline.models.items()},
+    )
+
+
+def _set_model(
+    tools: Mapping[str, Tool], operations: Any, key: str, value: object
+) -> dict[str, Tool]:
+    tool_name, sep, quantity = key.rpartition(".")
+    where = f"models.{key}"
+    users = [op.name for op in operations if op.tool == tool_name]
+    if not sep or not users:
+        raise InputError(where, tool_name, "not a tool of the plan's operations (TOOL.QUANTITY)")
+    change = fields.mapping(value, where)
+    fields.only_keys(change, ("K", "dK"), where)
+    if not change:
+        raise InputError(where, {}, "give K and/or dK")
+    out = dict(tools)
+    for name in users:
+        model = tools[name].models.get(quantity)
+        if model is None:
+            raise InputError(where, quantity, f"tool {tool_name!r} has no such model")
+        K = fields.number(change.get("K", model.K), f"{where}.K", positive=True)
+        dK = fields.number(change.get("dK", model.dK), f"{where}.dK", minimum=0.0)
+        models = {**tools[name].models, quantity: replace(model, K=K, dK=dK)}
+        out[name] = replace(out[name], models=models)
+    return out

@@ -1,0 +1,1 @@
+"""Virtual machines: simulated processes, sensors, the demo, the certificate, the virtual mill."""

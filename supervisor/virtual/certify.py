@@ -1,0 +1,676 @@
+r"""A Monte Carlo certificate of a plan under an RCB strategy: closed loop on virtual machines.
+
+For every scenario seed ``s`` in ``seed .. seed + N − 1``:
+
+1. a true process is drawn inside the plan's model bands over the bounds box,
+   ``machine = sample_machine(plan, s, wear_drift_per_edge_life=D)``
+   (:mod:`supervisor.virtual.simulate`);
+2. the *oracle* is the same optimisation with the true models and no band,
+   ``optimize_plan(plan, tools=oracle_tools(machine))``: the fastest any controller could run
+   without crossing a true limit;
+3. RCB starts from the robust optimum, ``start(plan, RcbSettings(strategy=...))``, and makes
+   ``K`` parts: each with the setpoints in force (:func:`supervisor.virtual.simulate.run_part`,
+   measurement noise from ``numpy.random.default_rng(s)``), its true-limit violations are
+   counted, and its measurements go back through :func:`supervisor.rcb.update.update` with each
+   edge's age (``edge_parts``, for the operations with a ``parts_per_edge`` limit, whose edges
+   are changed after that many parts). When ``update`` leaves no safe setpoint (it returns a
+   halted state) the scenario *stops*: it makes no more parts and removes no material (MRR 0)
+   from then on.
+
+Row ``k`` of a scenario is "after k parts": the setpoints in force after ``k`` part reports,
+those part ``k + 1`` is made with (``k = 0``: the robust start, ``k = K``: the final
+setpoints). MRR/oracle of the plan is ``oracle cycle time / cycle time`` (the time-weighted
+MRR ratio); per operation it is ``MRR / oracle MRR``.
+
+The certificate bounds the probability ``p`` that a part crosses at least one true limit by
+the one-sided Clopper-Pearson upper limit [1]_ for ``x`` violating parts in ``n`` parts made,
+
+.. math::
+
+    p_\mathrm{up} = B^{-1}(1 - \alpha;\ x + 1,\ n - x), \qquad
+    p_\mathrm{up} = 1 - \alpha^{1/n} \text{ for } x = 0,
+
+with ``1 − α = 0.95`` and ``B⁻¹`` the quantile of the beta distribution. It treats parts as
+independent trials; the parts of one scenario share a true process, so read it as the bound
+for a shop whose machines are drawn as the scenarios are.
+
+A scenario depends only on its seed and results are kept in seed order, so a certificate
+(and its :func:`digest`) is the same for any ``jobs``. With ``jobs > 1`` the scenarios run in
+a :class:`~concurrent.futures.ProcessPoolExecutor`; the robust start of each strategy is
+computed once, here, and handed to the workers (``start`` is deterministic, ``RcbState``
+immutable).
+
+With wear drift (``D > 0``) each operation's edge is changed after ``floor(parts_per_edge)``
+parts, the count its tool-life limit promises, and never within the run for an operation
+without that limit; drift applies only where the tool has a tool-life model
+(:func:`supervisor.virtual.simulate.run_part`).
+
+References
+----------
+.. [1] Clopper & Pearson (1934), "The use of confidence or fiducial limits illustrated in the
+   case of the binomial", Biometrika 26(4), 404-413.
+.. [2] Ivester & Heigel (NIST), "Adaptive Control Optimization"; Ivester, Danai & Malkin
+   (1997), "Cycle-Time Reduction in Machining by Recursive Constraint Bounding".
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import signal
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any, cast
+
+import numpy as np
+import numpy.typing as npt
+from scipy.stats import beta
+
+from models.errors import InputError
+from supervisor.errors import SupervisorError
+from supervisor.inputs.part_report import PartReport
+from supervisor.inputs.plan import PARTS_PER_EDGE, Plan
+from supervisor.optimize.optimizer import PlanResult, optimize_plan
+from supervisor.rcb.update import STRATEGIES, Halt, RcbSettings, RcbState, start, update
+from supervisor.virtual.simulate import oracle_tools, run_part, sample_machine
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+#: Rows of a :class:`CertificateSummary`, "after k parts"; those above ``parts`` are left out
+#: and ``parts`` itself is always a row.
+SUMMARY_ROWS: tuple[int, ...] = (1, 5, 10)
+#: Confidence of the one-sided upper bound on the per-part violation probability.
+CONFIDENCE = 0.95
+#: The low percentile of MRR/oracle over scenarios [%].
+PERCENTILE = 5.0
+#: The most scenarios and parts per scenario a certificate runs.
+MAX_SCENARIOS = 100_000
+MAX_PARTS = 1000
+
+#: ``progress(done)``: called with the number of scenarios finished so far.
+Progress = Callable[[int], None]
+
+
+@dataclass(frozen=True, eq=False)
+class ScenarioTrace:
+    """One scenario of one strategy: rows ``0..parts``, parts ``1..parts``.
+
+    Parameters
+    ----------
+    seed : int
+        The scenario's seed (true process and measurement noise).
+    oracle_cycle_min : float
+        Cycle time of the oracle's setpoints [min].
+    plan_ratio : numpy.ndarray
+        ``(parts + 1,)``: oracle cycle time / cycle time of the setpoints in force after ``k``
+        parts; 0 from the part that stopped the scenario on [-].
+    op_ratio : numpy.ndarray
+        ``(parts + 1, operations)``: per operation MRR / oracle MRR; 0 once stopped [-].
+    cycle_min : numpy.ndarray
+        ``(parts + 1,)``: cycle time of the setpoints in force after ``k`` parts; NaN once
+        stopped [min].
+    violations : numpy.ndarray
+        ``(parts,)``: true limits crossed by part ``1..parts`` (0 for parts not made).
+    where : tuple[tuple[int, str, str], ...]
+        ``(part, operation, limit)`` of every violation, in order.
+    stopped_at : int
+        The part whose report left no safe setpoint; 0 if the scenario never stopped.
+    stopped_op : str
+        The operation that had no safe setpoint ("" if none).
+    parts_made : int
+        Parts made (``stopped_at`` if stopped, else ``parts``).
+    """
+
+    seed: int
+    oracle_cycle_min: float
+    plan_ratio: FloatArray
+    op_ratio: FloatArray
+    cycle_min: FloatArray
+    violations: IntArray
+    where: tuple[tuple[int, str, str], ...]
+    stopped_at: int
+    stopped_op: str
+    parts_made: int
+
+    @property
+    def stopped(self) -> bool:
+        """Whether the scenario stopped for want of a safe setpoint."""
+        return self.stopped_at > 0
+
+
+@dataclass(frozen=True, eq=False)
+class Certificate:
+    """Every scenario of one strategy on one plan, in seed order.
+
+    Parameters
+    ----------
+    plan : str
+        The plan's name.
+    strategy : str
+        The RCB strategy (a name of :data:`supervisor.rcb.update.STRATEGIES`).
+    seed : int
+        The first scenario's seed.
+    parts : int
+        Parts per scenario, ``K``.
+    wear_drift_per_edge_life : float
+        Relative rise of force, roughness and spindle current over an edge's life [-].
+    scenarios : tuple[ScenarioTrace, ...]
+        One per seed ``seed .. seed + N − 1``, in that order.
+    seconds : float
+        Wall time of the scenarios (without starting worker processes) [s].
+    """
+
+    plan: str
+    strategy: str
+    seed: int
+    parts: int
+    wear_drift_per_edge_life: float
+    scenarios: tuple[ScenarioTrace, ...]
+    seconds: float
+
+    @property
+    def plan_ratio(self) -> FloatArray:
+        """``(scenarios, parts + 1)``: plan MRR/oracle after ``k`` parts [-]."""
+        return np.array([s.plan_ratio for s in self.scenarios])
+
+    @property
+    def op_ratio(self) -> FloatArray:
+        """``(scenarios, parts + 1, operations)``: MRR/oracle per operation [-]."""
+        return np.array([s.op_ratio for s in self.scenarios])
+
+    @property
+    def cumulative_violations(self) -> IntArray:
+        """``(parts + 1,)``: row ``k``, the violations of parts ``1..k`` over all scenarios."""
+        per_part = np.array([s.violations for s in self.scenarios]).sum(axis=0)
+        return np.concatenate([np.zeros(1, dtype=np.int64), np.cumsum(per_part)])
+
+    @property
+    def violations(self) -> int:
+        """True-limit violations over all scenarios and parts (a part may cross several)."""
+        return int(sum(int(s.violations.sum()) for s in self.scenarios))
+
+    @property
+    def violating_parts(self) -> int:
+        """Parts that crossed at least one true limit."""
+        return int(sum(int(np.count_nonzero(s.violations)) for s in self.scenarios))
+
+    @property
+    def parts_made(self) -> int:
+        """Parts made over all scenarios (a stopped scenario makes no more)."""
+        return sum(s.parts_made for s in self.scenarios)
+
+    @property
+    def stopped(self) -> int:
+        """Scenarios that stopped for want of a safe setpoint."""
+        return sum(1 for s in self.scenarios if s.stopped)
+
+    def mean_cycle(self, row: int) -> tuple[float, int]:
+        """Mean cycle time after ``row`` parts over the running scenarios [min], and how many."""
+        values = np.array([s.cycle_min[row] for s in self.scenarios])
+        running = values[np.isfinite(values)]
+        return (float(running.mean()) if running.size else float("nan")), int(running.size)
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    """Parts ``1..k`` of every scenario, and MRR/oracle after them.
+
+    Parameters
+    ----------
+    after_parts : int
+        ``k``.
+    parts_made : int
+        Parts made among parts ``1..k`` of every scenario (a stopped scenario makes no more).
+    violations : int
+        True-limit violations of those parts (a part may cross several limits).
+    violating_parts : int
+        Those parts that crossed at least one true limit.
+    violation_probability_upper_95 : float
+        One-sided 95 % Clopper-Pearson upper bound on the probability that a part crosses a
+        true limit, from ``violating_parts`` in ``parts_made`` [-].
+    mrr_over_oracle_mean, mrr_over_oracle_p5 : float
+        Mean and 5th percentile (numpy's linear interpolation) over scenarios of the plan's
+        MRR/oracle with the setpoints in force after ``k`` parts (0 for a stopped one) [-].
+    """
+
+    after_parts: int
+    parts_made: int
+    violations: int
+    violating_parts: int
+    violation_probability_upper_95: float
+    mrr_over_oracle_mean: float
+    mrr_over_oracle_p5: float
+
+
+@dataclass(frozen=True)
+class CertificateSummary:
+    """What a certificate says, in numbers.
+
+    Parameters
+    ----------
+    plan, strategy : str
+        The plan's name and the RCB strategy.
+    scenarios, parts, seed : int
+        Scenarios, parts per scenario and the first seed.
+    wear_drift_per_edge_life : float
+        Wear drift of the virtual machines [-].
+    stopped : int
+        Scenarios that stopped for want of a safe setpoint.
+    rows : tuple[SummaryRow, ...]
+        After ``k`` parts for ``k`` in :func:`summary_rows`; the last (``k = parts``) covers
+        every part, and the totals below are its.
+    """
+
+    plan: str
+    strategy: str
+    scenarios: int
+    parts: int
+    seed: int
+    wear_drift_per_edge_life: float
+    stopped: int
+    rows: tuple[SummaryRow, ...]
+
+    @property
+    def total(self) -> SummaryRow:
+        """The row of every part (``k = parts``)."""
+        return self.rows[-1]
+
+    @property
+    def violations(self) -> int:
+        """True-limit violations over all parts."""
+        return self.total.violations
+
+    @property
+    def violation_probability_upper_95(self) -> float:
+        """The bound over all parts [-]."""
+        return self.total.violation_probability_upper_95
+
+
+def clopper_pearson_upper(failures: int, trials: int, confidence: float = CONFIDENCE) -> float:
+    r"""One-sided Clopper-Pearson upper confidence limit of a binomial probability.
+
+    .. math::
+
+        p_\mathrm{up} = B^{-1}(c;\ x + 1,\ n - x) \quad (x < n), \qquad
+        p_\mathrm{up} = 1 \quad (x = n)
+
+    which for ``x = 0`` is ``1 − (1 − c)^{1/n}``.
+
+    Parameters
+    ----------
+    failures : int
+        Trials that failed, ``x`` (``0 <= x <= n``).
+    trials : int
+        Trials, ``n`` (0 gives 1: nothing is known).
+    confidence : float
+        One-sided confidence ``c``, ``0 < c < 1`` [-].
+
+    Returns
+    -------
+    float
+        The upper limit of the failure probability [-].
+
+    References
+    ----------
+    .. [1] Clopper & Pearson (1934), Biometrika 26(4), 404-413.
+    """
+    if not 0 < confidence < 1:
+        raise InputError("confidence", confidence, "must be in (0, 1)")
+    if trials < 0 or not 0 <= failures <= max(trials, 0):
+        raise InputError("failures", failures, f"must be in 0..trials ({trials})")
+    if failures >= trials:
+        return 1.0
+    if failures == 0:
+        return float(-math.expm1(math.log1p(-confidence) / trials))
+    return float(beta.ppf(confidence, failures + 1, trials - failures))
+
+
+def summary_rows(parts: int) -> tuple[int, ...]:
+    """The rows of a summary: :data:`SUMMARY_ROWS` up to ``parts``, and ``parts``."""
+    return tuple(sorted({k for k in SUMMARY_ROWS if k <= parts} | {parts}))
+
+
+def summarize(certificate: Certificate) -> CertificateSummary:
+    """Violations, the bound on their probability and MRR/oracle of a certificate.
+
+    Parameters
+    ----------
+    certificate : Certificate
+        The scenarios.
+
+    Returns
+    -------
+    CertificateSummary
+        Per row of :func:`summary_rows`: violations of the parts so far, the one-sided 95 %
+        Clopper-Pearson bound on them, and MRR/oracle (mean and 5th percentile).
+    """
+    ratio = certificate.plan_ratio
+    violations = np.array([s.violations for s in certificate.scenarios])
+    made = np.array([s.parts_made for s in certificate.scenarios])
+    rows = []
+    for k in summary_rows(certificate.parts):
+        bad = int(np.count_nonzero(violations[:, :k]))
+        n = int(np.minimum(made, k).sum())
+        rows.append(
+            SummaryRow(
+                after_parts=k,
+                parts_made=n,
+                violations=int(violations[:, :k].sum()),
+                violating_parts=bad,
+                violation_probability_upper_95=clopper_pearson_upper(bad, n, CONFIDENCE),
+                mrr_over_oracle_mean=float(ratio[:, k].mean()),
+                mrr_over_oracle_p5=float(np.percentile(ratio[:, k], PERCENTILE)),
+            )
+        )
+    return CertificateSummary(
+        plan=certificate.plan,
+        strategy=certificate.strategy,
+        scenarios=len(certificate.scenarios),
+        parts=certificate.parts,
+        seed=certificate.seed,
+        wear_drift_per_edge_life=certificate.wear_drift_per_edge_life,
+        stopped=certificate.stopped,
+        rows=tuple(rows),
+    )
+
+
+# --------------------------------------------------------------------------- one scenario
+
+
+def _record(result: PlanResult, oracle: PlanResult) -> tuple[float, FloatArray, float]:
+    """Plan MRR/oracle ratio, per-operation MRR/oracle ratios, cycle time."""
+    pairs = zip(result.operations, oracle.operations, strict=True)
+    ops = np.array([r.mrr_cm3_min / o.mrr_cm3_min for r, o in pairs])
+    cycle = result.cycle_time_min
+    return oracle.cycle_time_min / cycle, ops, cycle
+
+
+def _edge_life_parts(plan: Plan) -> dict[str, int | None]:
+    """Parts an edge makes before it is changed, per operation (None: never in a run)."""
+    out: dict[str, int | None] = {}
+    for op in plan.operations:
+        limit = op.limits.get(PARTS_PER_EDGE)
+        out[op.name] = None if limit is None else max(1, math.floor(limit))
+    return out
+
+
+def _halted_operation(halt: Halt) -> str:
+    """The operations a halt names, comma-separated."""
+    return ",".join(o.operation for o in halt.operations)
+
+
+def run_scenario(
+    initial: RcbState, seed: int, parts: int, *, wear_drift_per_edge_life: float = 0.0
+) -> ScenarioTrace:
+    """Make ``parts`` parts with RCB from ``initial`` on the virtual machine of ``seed``.
+
+    Parameters
+    ----------
+    initial : RcbState
+        The robust start, ``start(plan, RcbSettings(strategy=...))``; its plan is the plan.
+    seed : int
+        Seed of the true process and of the measurement noise (``>= 0``).
+    parts : int
+        Parts to make, ``K >= 1``.
+    wear_drift_per_edge_life : float
+        Relative rise of force, roughness and spindle current over an edge's life [-]
+        (module docstring for the edge changes).
+
+    Returns
+    -------
+    ScenarioTrace
+        MRR/oracle and cycle time after ``k = 0..parts`` parts, violations per part and where
+        the scenario stopped.
+    """
+    plan = initial.plan
+    machine = sample_machine(plan, seed=seed, wear_drift_per_edge_life=wear_drift_per_edge_life)
+    oracle = optimize_plan(plan, tools=oracle_tools(machine))
+    # the edges of operations with a parts_per_edge limit are changed after that many parts,
+    # and the MES reports each one's age (edge_parts), as a control's tool-life counter does
+    edge_life = _edge_life_parts(plan)
+    counted = {name: n for name, n in edge_life.items() if n is not None}
+    state = initial
+    rng = np.random.default_rng(seed)
+    n_ops = len(plan.operations)
+    plan_ratio = np.zeros(parts + 1)
+    op_ratio = np.zeros((parts + 1, n_ops))
+    cycle = np.full(parts + 1, np.nan)
+    violations = np.zeros(parts, dtype=np.int64)
+    where: list[tuple[int, str, str]] = []
+    stopped_at, stopped_op, made = 0, "", 0
+    for k in range(1, parts + 1):
+        plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(state.setpoints, oracle)
+        setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
+        edge_parts = {name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()}
+        outcome = run_part(machine, setpoints, rng, edge_parts)
+        made = k
+        violations[k - 1] = len(outcome.violations)
+        where += [(k, v.operation, v.quantity) for v in outcome.violations]
+        ages = {name: edge_parts[name] for name in counted}
+        report = PartReport(f"{seed}-{k}", state.version, outcome.measurements, edge_parts=ages)
+        state, _ = update(state, report)
+        if state.halt is not None:
+            stopped_at, stopped_op = k, _halted_operation(state.halt)
+            break
+    if not stopped_at:
+        plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(state.setpoints, oracle)
+    return ScenarioTrace(
+        seed=seed,
+        oracle_cycle_min=oracle.cycle_time_min,
+        plan_ratio=plan_ratio,
+        op_ratio=op_ratio,
+        cycle_min=cycle,
+        violations=violations,
+        where=tuple(where),
+        stopped_at=stopped_at,
+        stopped_op=stopped_op,
+        parts_made=made,
+    )
+
+
+# --------------------------------------------------------------------------- many scenarios
+
+#: At most this many scenarios per task: the progress moves, and Ctrl-C waits for little.
+_MAX_CHUNK = 8
+#: Per worker process: the robust start of each strategy and the wear drift (_init_worker).
+_WORKER: dict[str, Any] = {}
+
+
+def _init_worker(starts: Mapping[str, RcbState], wear_drift_per_edge_life: float) -> None:
+    # Ctrl-C is the parent's to handle: it cancels what is queued, the workers finish theirs
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _WORKER["starts"] = dict(starts)
+    _WORKER["drift"] = wear_drift_per_edge_life
+
+
+def _worker_scenario(task: tuple[str, int, int]) -> ScenarioTrace | None:
+    """One scenario in a worker; None where it raised a domain error (see :func:`simulate`)."""
+    strategy, seed, parts = task
+    initial: RcbState = _WORKER["starts"][strategy]
+    drift: float = _WORKER["drift"]
+    try:
+        return run_scenario(initial, seed, parts, wear_drift_per_edge_life=drift)
+    except (InputError, SupervisorError):
+        # these carry structured arguments and do not survive pickling back to the parent;
+        # the parent runs the (deterministic) scenario again and raises the error itself
+        return None
+
+
+def _chunk(scenarios: int, jobs: int) -> int:
+    """Scenarios per task: about 8 tasks per worker, at most :data:`_MAX_CHUNK` each."""
+    return min(_MAX_CHUNK, max(1, scenarios // (8 * jobs)))
+
+
+def available_cpus() -> int:
+    """The CPUs this process may run on (the default number of worker processes)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
+def _check(
+    strategies: Sequence[str], seed: int, scenarios: int, parts: int, drift: float, jobs: int
+) -> None:
+    for strategy in strategies:
+        if strategy not in STRATEGIES:
+            known = ", ".join(STRATEGIES)
+            raise InputError("strategy", strategy, f"expected one of: {known}")
+    checks = (
+        ("scenarios", scenarios, 1, MAX_SCENARIOS),
+        ("parts", parts, 1, MAX_PARTS),
+        ("jobs", jobs, 1, None),
+        ("seed", seed, 0, None),
+    )
+    for name, value, low, high in checks:
+        if value < low or (high is not None and value > high):
+            span = f"{low}..{high}" if high is not None else f">= {low}"
+            raise InputError(name, value, f"must be an integer in {span}")
+    if not (math.isfinite(drift) and drift >= 0):
+        raise InputError("wear_drift_per_edge_life", drift, "must be a number >= 0")
+
+
+def simulate(
+    plan: Plan,
+    strategies: Sequence[str],
+    *,
+    scenarios: int,
+    parts: int,
+    seed: int = 0,
+    wear_drift_per_edge_life: float = 0.0,
+    jobs: int = 1,
+    progress: Progress | None = None,
+) -> tuple[Certificate, ...]:
+    """Run the same scenarios under each strategy (one worker pool for all of them).
+
+    Parameters
+    ----------
+    plan : Plan
+        The plan.
+    strategies : Sequence[str]
+        Names of :data:`supervisor.rcb.update.STRATEGIES`, run in this order.
+    scenarios : int
+        Scenarios per strategy, ``1..MAX_SCENARIOS``; seeds ``seed .. seed + scenarios − 1``.
+    parts : int
+        Parts per scenario, ``1..MAX_PARTS``.
+    seed : int
+        The first seed (``>= 0``).
+    wear_drift_per_edge_life : float
+        Relative rise of force, roughness and spindle current over an edge's life [-].
+    jobs : int
+        Worker processes; 1 runs every scenario in this process. More than ``scenarios`` are
+        not started.
+    progress : callable, optional
+        Called with the number of scenarios finished so far (over all strategies).
+
+    Returns
+    -------
+    tuple[Certificate, ...]
+        One per strategy, in the order given; the same for any ``jobs``.
+
+    Raises
+    ------
+    InputError
+        An unknown strategy or a count out of range, naming the parameter.
+    InfeasibleError
+        The plan has no robust start.
+    """
+    _check(strategies, seed, scenarios, parts, wear_drift_per_edge_life, jobs)
+    # checked above and by RcbSettings; Any: the strategy's type is the registry's business
+    starts = {s: start(plan, RcbSettings(strategy=cast(Any, s))) for s in strategies}
+    seeds = range(seed, seed + scenarios)
+    jobs = min(jobs, scenarios)
+    drift = wear_drift_per_edge_life
+
+    def traces(strategy: str, pool: Executor | None) -> Iterator[ScenarioTrace]:
+        if pool is None:
+            for s in seeds:
+                yield run_scenario(starts[strategy], s, parts, wear_drift_per_edge_life=drift)
+            return
+        tasks = [(strategy, s, parts) for s in seeds]
+        done = pool.map(_worker_scenario, tasks, chunksize=_chunk(scenarios, jobs))
+        for s, trace in zip(seeds, done, strict=True):
+            if trace is None:
+                trace = run_scenario(starts[strategy], s, parts, wear_drift_per_edge_life=drift)
+            yield trace
+
+    pool = (
+        ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(starts, drift))
+        if jobs > 1
+        else None
+    )
+    results: list[Certificate] = []
+    done = 0
+    try:
+        for strategy in strategies:
+            t0 = time.perf_counter()
+            made: list[ScenarioTrace] = []
+            for trace in traces(strategy, pool):
+                made.append(trace)
+                done += 1
+                if progress is not None:
+                    progress(done)
+            results.append(
+                Certificate(
+                    plan=plan.name,
+                    strategy=strategy,
+                    seed=seed,
+                    parts=parts,
+                    wear_drift_per_edge_life=drift,
+                    scenarios=tuple(made),
+                    seconds=time.perf_counter() - t0,
+                )
+            )
+    finally:  # on an error or Ctrl-C, drop the scenarios not started instead of running them
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+    return tuple(results)
+
+
+def certify_plan(
+    plan: Plan,
+    strategy: str,
+    *,
+    scenarios: int = 200,
+    parts: int = 30,
+    seed: int = 0,
+    wear_drift_per_edge_life: float = 0.0,
+    jobs: int = 1,
+    progress: Progress | None = None,
+) -> Certificate:
+    """The Monte Carlo certificate of ``plan`` under one RCB strategy (module docstring).
+
+    Parameters are those of :func:`simulate` with one strategy; pass the result to
+    :func:`summarize` for the bound and the MRR/oracle rows.
+    """
+    (certificate,) = simulate(
+        plan,
+        (strategy,),
+        scenarios=scenarios,
+        parts=parts,
+        seed=seed,
+        wear_drift_per_edge_life=wear_drift_per_edge_life,
+        jobs=jobs,
+        progress=progress,
+    )
+    return certificate
+
+
+def digest(certificates: Sequence[Certificate]) -> str:
+    """SHA-256 (first 12 hex digits) of every per-scenario result, in order.
+
+    The same scenarios give the same digest whatever ``jobs`` ran them; it covers the arrays
+    of every :class:`ScenarioTrace`, the oracle's cycle time, where violations happened and
+    where the scenario stopped.
+    """
+    h = hashlib.sha256()
+    for certificate in certificates:
+        h.update(certificate.strategy.encode())
+        for s in certificate.scenarios:
+            for array in (s.plan_ratio, s.op_ratio, s.cycle_min, s.violations):
+                h.update(np.ascontiguousarray(array).tobytes())
+            h.update(repr((s.oracle_cycle_min, s.where, s.stopped_at, s.stopped_op)).encode())
+    return h.hexdigest()[:12]

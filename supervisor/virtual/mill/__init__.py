@@ -1,0 +1,77 @@
+"""The virtual mill: inner feed-control loops on a step-depth workpiece, and an edge's life.
+
+- :mod:`~supervisor.virtual.mill.force`: Kim & Jeon Eq. 1 (maximum resultant force per revolution
+  with ``K_s``, ``K_rt`` power laws of the mean chip thickness), or a power-law force model.
+- :mod:`~supervisor.virtual.mill.process`: the plant (force → spindle current with idle offset,
+  slope and wear term), the current sensor (lag, noise), wear growth, the workpiece.
+- :mod:`~supervisor.virtual.mill.controllers`: Tai et al.'s PI (Eq. 16), Kim & Jeon's fuzzy
+  controller (Table 2), Borangiu et al.'s corrective actions (Table 1).
+- :mod:`~supervisor.virtual.mill.run`: the time-stepping loop and its frozen results.
+- :mod:`~supervisor.virtual.mill.case1`: Kim & Jeon's Case 1 (depth 1.5 → 3.0 → 1.5 mm).
+- :mod:`~supervisor.virtual.mill.edge_life`: constant-load milling to the tool change (Tai et al.).
+
+Everything is deterministic given the ``numpy.random.Generator`` passed in.
+"""
+
+from supervisor.virtual.mill.case1 import (
+    CONTROLLERS,
+    KIM_JEON_FEED_LIMITS,
+    KIM_JEON_REFERENCE_FORCE_N,
+    case1_controller,
+    case1_setup,
+    run_case1,
+)
+from supervisor.virtual.mill.common import FeedLimits
+from supervisor.virtual.mill.edge_life import (
+    EdgeLifeConfig,
+    EdgeLifeResult,
+    PassSummary,
+    simulate_edge_life,
+    tai_wear_at_feed_mm,
+)
+from supervisor.virtual.mill.force import (
+    KimJeonForceModel,
+    PowerLawForce,
+    feed_for_force_mm_min,
+    kim_jeon_forces_N,
+    kim_jeon_max_force_N,
+)
+from supervisor.virtual.mill.process import (
+    CurrentSensor,
+    ForceCurrentMill,
+    StepWorkpiece,
+    TaiMill,
+    WearLaw,
+    kim_jeon_case1_workpiece,
+)
+from supervisor.virtual.mill.run import MillRun, MillSetup, SegmentMetrics, simulate
+
+__all__ = [
+    "CONTROLLERS",
+    "KIM_JEON_FEED_LIMITS",
+    "KIM_JEON_REFERENCE_FORCE_N",
+    "CurrentSensor",
+    "EdgeLifeConfig",
+    "EdgeLifeResult",
+    "FeedLimits",
+    "ForceCurrentMill",
+    "KimJeonForceModel",
+    "MillRun",
+    "MillSetup",
+    "PassSummary",
+    "PowerLawForce",
+    "SegmentMetrics",
+    "StepWorkpiece",
+    "TaiMill",
+    "WearLaw",
+    "case1_controller",
+    "case1_setup",
+    "feed_for_force_mm_min",
+    "kim_jeon_case1_workpiece",
+    "kim_jeon_forces_N",
+    "kim_jeon_max_force_N",
+    "run_case1",
+    "simulate",
+    "simulate_edge_life",
+    "tai_wear_at_feed_mm",
+]

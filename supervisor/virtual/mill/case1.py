@@ -1,0 +1,141 @@
+"""Kim & Jeon's Case 1 on the virtual mill, under each of the three feed controllers.
+
+The numbers of Kim & Jeon's §5.1 simulation: Al6061-T6, a two-flute 10 mm end mill in full
+immersion, 1500 rpm, reference force 160 N (maximum resultant per revolution), initial feed
+60 mpm (mm/min), depth 1.5 → 3.0 → 1.5 mm
+(:func:`~supervisor.virtual.mill.process.kim_jeon_case1_workpiece`); the upper feed limit 240 mpm
+of their experiment (§5.2). Chosen where the paper is silent:
+
+- lower feed limit 20 mm/min (a quarter of the feed that holds 160 N at 3 mm);
+- spindle current ``I = 3.206 + 5.762e-3 F`` A (§6.2.3, 150 mpm), read with 5 Hz bandwidth
+  (§6.2: "< 5 Hz") and noise 0.005 A (0.87 N, 0.5 % of 160 N);
+- feed drive: first-order lag of 50 ms (§4.2 designs the servo for a fast rise without
+  overshoot; its Eqs. 2-3 as printed do not fix a time constant);
+- no tool wear (an aluminium cut of 55 mm).
+
+Each controller reads its paper's signal at its paper's rate: Tai et al.'s PI the spindle
+current every 20 ms, with the gains rescaled to this plant (:func:`tai_pi_gains_for` at
+1.5 mm and 160 N); Kim & Jeon's fuzzy controller and Borangiu et al.'s corrective actions
+the force converted from the current, once per revolution (40 ms).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from models.errors import InputError
+from supervisor.virtual.mill.common import FeedLimits
+from supervisor.virtual.mill.controllers.base import FeedController
+from supervisor.virtual.mill.controllers.corrective import BorangiuCorrectiveController
+from supervisor.virtual.mill.controllers.fuzzy import KimJeonFuzzyController
+from supervisor.virtual.mill.controllers.pi import TaiPIController, tai_pi_gains_for
+from supervisor.virtual.mill.force import KimJeonForceModel, feed_for_force_mm_min
+from supervisor.virtual.mill.process import (
+    CurrentSensor,
+    ForceCurrentMill,
+    kim_jeon_case1_workpiece,
+)
+from supervisor.virtual.mill.run import MillRun, MillSetup, simulate
+
+#: Kim & Jeon §5.1: spindle speed [rpm], reference force [N], initial feed [mm/min].
+KIM_JEON_SPINDLE_RPM = 1500.0
+KIM_JEON_REFERENCE_FORCE_N = 160.0
+KIM_JEON_INITIAL_FEED_MM_MIN = 60.0
+
+#: Feed limits [mm/min]: 240 from Kim & Jeon §5.2; 20 chosen (see the module).
+KIM_JEON_FEED_LIMITS = FeedLimits(20.0, 240.0)
+
+#: The three controllers, by name.
+CONTROLLERS = ("pi", "fuzzy", "corrective")
+
+#: Tai et al.'s sample period [s] (50 Hz, §II.D), used by the PI here too.
+PI_SAMPLE_PERIOD_S = 0.02
+
+
+def case1_setup(*, sample_period_s: float | None = None) -> MillSetup:
+    """The virtual mill of Case 1 (see the module for the numbers and their sources).
+
+    Parameters
+    ----------
+    sample_period_s : float, optional
+        Controller period [s]; None for one revolution (40 ms at 1500 rpm).
+    """
+    return MillSetup(
+        process=ForceCurrentMill(KimJeonForceModel()),
+        spindle_rpm=KIM_JEON_SPINDLE_RPM,
+        radial_depth_mm=10.0,
+        sensor=CurrentSensor(noise_sd_A=0.005, bandwidth_Hz=5.0),
+        feed_drive_time_constant_s=0.05,
+        sample_period_s=sample_period_s,
+    )
+
+
+def case1_current_per_feed_A_per_mm_min(depth_mm: float = 1.5) -> float:
+    """``∂I/∂f`` of the Case-1 mill where it holds 160 N at ``depth_mm`` [A/(mm/min)].
+
+    Central difference of ``s·F_max(f)`` at ±0.1 % of the feed.
+    """
+    mill = ForceCurrentMill(KimJeonForceModel())
+    model = mill.force_model
+    feed = feed_for_force_mm_min(model, KIM_JEON_REFERENCE_FORCE_N, depth_mm, KIM_JEON_SPINDLE_RPM)
+    h = 1e-3 * feed
+    up = model.force_N(feed + h, depth_mm, KIM_JEON_SPINDLE_RPM)
+    down = model.force_N(feed - h, depth_mm, KIM_JEON_SPINDLE_RPM)
+    return mill.slope_A_per_N * (up - down) / (2.0 * h)
+
+
+def case1_reference_current_A() -> float:
+    """Spindle current that stands for 160 N on the Case-1 sensor [A] (3.206 + 0.922)."""
+    mill = ForceCurrentMill(KimJeonForceModel())
+    return mill.idle_current_A + mill.slope_A_per_N * KIM_JEON_REFERENCE_FORCE_N
+
+
+def case1_controller(name: str, limits: FeedLimits = KIM_JEON_FEED_LIMITS) -> FeedController:
+    """A fresh controller for Case 1: ``"pi"``, ``"fuzzy"`` or ``"corrective"``."""
+    if name == "pi":
+        gains = tai_pi_gains_for(case1_current_per_feed_A_per_mm_min(), PI_SAMPLE_PERIOD_S)
+        return TaiPIController(limits, gains)
+    if name == "fuzzy":
+        return KimJeonFuzzyController(limits)
+    if name == "corrective":
+        return BorangiuCorrectiveController(limits)
+    raise InputError("controller", name, f"must be one of {', '.join(CONTROLLERS)}")
+
+
+def run_case1(name: str, seed: int = 0, controller: FeedController | None = None) -> MillRun:
+    """Kim & Jeon Case 1 under one controller.
+
+    Parameters
+    ----------
+    name : str
+        ``"pi"`` (spindle current, 20 ms), ``"fuzzy"`` or ``"corrective"`` (force from the
+        current, one revolution).
+    seed : int
+        Seed of the sensor noise; the same seed gives the same run.
+    controller : FeedController, optional
+        A controller to use instead of the default one of that name (same signal and rate).
+
+    Returns
+    -------
+    MillRun
+        The run, with per-segment metrics on the true force.
+    """
+    if name not in CONTROLLERS:
+        raise InputError("controller", name, f"must be one of {', '.join(CONTROLLERS)}")
+    chosen = controller or case1_controller(name)
+    rng = np.random.default_rng(seed)
+    if name == "pi":
+        setup = case1_setup(sample_period_s=PI_SAMPLE_PERIOD_S)
+        signal, reference = "spindle_current_A", case1_reference_current_A()
+    else:
+        setup = case1_setup()
+        signal, reference = "force_N", KIM_JEON_REFERENCE_FORCE_N
+    return simulate(
+        setup,
+        kim_jeon_case1_workpiece(),
+        chosen,
+        reference=reference,
+        signal=signal,
+        initial_feed_rate_mm_min=KIM_JEON_INITIAL_FEED_MM_MIN,
+        rng=rng,
+    )

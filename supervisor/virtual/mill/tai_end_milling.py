@@ -1,0 +1,86 @@
+r"""Tai, Tsai & Li (IEEE Access 2023): the numbers of their constant-load end milling.
+
+S45C steel, a 2.0 mm two-flute uncoated carbide end mill, 10000 rpm, axial depth 0.2 mm,
+radial depth 1.4 mm, down milling, passes of 150 mm (§II.E). The controller's parameters:
+reference current 0.24 A (0.85 × 0.28 A), feed limits 1000 and 600 mm/min (§III.A), PI gains
+``K_p = 160``, ``K_i = 0.006`` (§III.B), feed override updated at 50 Hz (§II.D), tool change
+interval 180-220 µm of flank wear (§II.G).
+
+The paper prints no ``A, B, k1``; three of its own points fix the plane of Eq. 14
+(``I = A + B f + k1 VB``):
+
+=====================================  ============  ========  =======
+point                                  f [mm/min]    VB [mm]   I [A]
+=====================================  ============  ========  =======
+sharp tool at the reference (Fig. 4)   1000          0         0.240
+700 mm/min "close to" 0.24 A (Fig. 7)  700           0.1673    0.240
+600 mm/min reached 0.236 A (Fig. 7)    600           0.2051    0.236
+=====================================  ============  ========  =======
+
+Subtracting the first row: ``0.1673 k1 = 300 B`` and ``0.2051 k1 − 400 B = −0.004``, so
+``B = 0.004/(400 − 300·0.2051/0.1673) = 1.2416e-4 A/(mm/min)``, ``k1 = 0.22263 A/mm``,
+``A = 0.24 − 1000 B = 0.11584 A`` (the same derivation as ``tests/test_sensors.py``).
+
+An inconsistency of the paper's numbers: on this plane the reference current 0.24 A at the
+lower limit 600 mm/min means ``VB = (0.24 − A − 600 B)/k1 = 223 µm``, outside the
+180-220 µm interval the limit was chosen for; the paper picked 600 mm/min from a reading of
+0.236 A, not 0.24 A. :data:`TAI_LOWER_FEED_RATE_MM_MIN` is therefore computed the way the
+paper prescribes (Eq. 15 at the reference current and the chosen tool-change wear), with
+205.1 µm, the wear the paper's 600 mm/min test ended at ("in the middle of the wear range"):
+632.2 mm/min.
+"""
+
+from __future__ import annotations
+
+from models.sensors import TaiCurrentFeedCalibration, tai_feed_rate_mm_min
+from supervisor.virtual.mill.common import FeedLimits
+
+
+def _plane() -> TaiCurrentFeedCalibration:
+    """``A, B, k1`` through the three points of the module docstring."""
+    slope = 0.004 / (400.0 - 300.0 * 0.2051 / 0.1673)
+    wear = 300.0 * slope / 0.1673
+    return TaiCurrentFeedCalibration(
+        idle_current_A=0.240 - 1000.0 * slope,
+        slope_A_per_mm_min=slope,
+        wear_coefficient_A_per_mm=wear,
+        source="Tai, Tsai & Li (IEEE Access 2023), end milling S45C, 2 mm end mill, 10000 rpm",
+        reference="§III.A, Figs. 4 and 7: (1000, 0, 0.240), (700, 0.1673, 0.240), "
+        "(600, 0.2051, 0.236) in (mm/min, mm, A)",
+    )
+
+
+#: ``I = A + B f + k1 VB`` of Tai et al.'s end milling, from three of the paper's points.
+TAI_END_MILLING = _plane()
+
+#: Reference spindle current [A] (Tai et al. §III.A: 0.85 × 0.28 A, printed as 0.24 A).
+TAI_REFERENCE_CURRENT_A = 0.24
+
+#: Tool-change interval of flank wear [mm] (Tai et al. §II.G: 180-220 µm).
+TAI_TOOL_CHANGE_INTERVAL_MM = (0.180, 0.220)
+
+#: Flank wear at which the lower feed limit is set [mm] (Tai et al. §III.A, Fig. 7: 205.1 µm).
+TAI_TOOL_CHANGE_WEAR_MM = 0.2051
+
+#: Upper feed limit [mm/min] (Tai et al. §III.A: a sharp tool draws 0.24 A at about 1000).
+TAI_UPPER_FEED_RATE_MM_MIN = 1000.0
+
+#: Lower feed limit [mm/min]: Eq. 15 at 0.24 A and 205.1 µm on :data:`TAI_END_MILLING`.
+TAI_LOWER_FEED_RATE_MM_MIN = tai_feed_rate_mm_min(
+    TAI_END_MILLING, TAI_REFERENCE_CURRENT_A, TAI_TOOL_CHANGE_WEAR_MM
+).value
+
+#: The paper's printed lower limit [mm/min] (§III.A), kept to show the inconsistency above.
+TAI_PRINTED_LOWER_FEED_RATE_MM_MIN = 600.0
+
+#: Feed limits of the end-milling edge-life simulation.
+TAI_FEED_LIMITS = FeedLimits(TAI_LOWER_FEED_RATE_MM_MIN, TAI_UPPER_FEED_RATE_MM_MIN)
+
+#: Feed-override update period [s] (Tai et al. §II.D: 50 Hz).
+TAI_SAMPLE_PERIOD_S = 0.02
+
+#: Spindle speed [rpm], radial depth [mm], axial depth [mm], pass length [mm] (§II.E).
+TAI_SPINDLE_RPM = 10000.0
+TAI_RADIAL_DEPTH_MM = 1.4
+TAI_AXIAL_DEPTH_MM = 0.2
+TAI_PASS_LENGTH_MM = 150.0
