@@ -24,7 +24,7 @@ except ImportError:  # pragma: no cover - typer that uses click itself
 
 from sqlalchemy.exc import ArgumentError, OperationalError
 
-from api import render
+from api.cli import demo_view, tables
 from api.cli import review as cli_review
 from api.cli.certify import certify
 from api.cli.common import (
@@ -43,6 +43,7 @@ from api.cli.milling import milling_app
 from api.cli.report import report
 from api.rest import serving
 from api.services import commands as service
+from api.services import to_json
 from db.engine import make_engine, upgrade
 from models import fields
 from models.catalogue import get_tool
@@ -210,12 +211,12 @@ def predict(
                 "tool": found.name,
                 "process": found.process,
                 "point": point,
-                "predicted": render.predictions_json(predicted),
+                "predicted": to_json.predictions_json(predicted),
             }
         )
     else:
         at = ", ".join(f"{k}={v:g}" for k, v in point.items())
-        _out.print(render.predictions_table(f"{found.name} ({found.process}) at {at}", predicted))
+        _out.print(tables.predictions_table(f"{found.name} ({found.process}) at {at}", predicted))
 
 
 _OPTIONS = {
@@ -250,12 +251,12 @@ def optimize(
     with errors():
         result = optimize_plan(load_plan(plan_file))
     if as_json:
-        emit(render.plan_json(result))
+        emit(to_json.plan_json(result))
         return
-    _out.print(render.plan_table(result))
+    _out.print(tables.plan_table(result))
     for op in result.operations:
-        table = render.predictions_table(f"{op.name} ({op.tool})", op.predicted)
-        table.caption = render.setpoint_caption(op)
+        table = tables.predictions_table(f"{op.name} ({op.tool})", op.predicted)
+        table.caption = tables.setpoint_caption(op)
         _out.print(table)
 
 
@@ -307,9 +308,9 @@ def demo(
                     uncertainty=u,
                 )
     if as_json:
-        emit(render.demo_json(result, strategy, seed))
+        emit(demo_view.demo_json(result, strategy, seed))
         return
-    for table in render.demo_tables(result):
+    for table in demo_view.demo_tables(result):
         _out.print(table)
 
 

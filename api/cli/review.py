@@ -16,9 +16,9 @@ from rich.console import Console
 from rich.table import Table
 from sqlalchemy import Engine
 
-from api import render
 from api.cli.common import DbOption, database_url, emit, errors, existing_engine, say
 from api.report import export as tidy
+from api.report import marks
 from api.services import queries
 from models.errors import InputError
 
@@ -71,7 +71,7 @@ def plans(db: DbOption = None, as_json: JsonOption = False) -> None:
 def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
     """A halted plan's conflicts, and how to resume it."""
     _out.print(f"[bold red]plan {plan_id} HALTED[/]: no setpoint meets the bands in force")
-    for line in render.halt_lines(halt):
+    for line in marks.halt_lines(halt):
         _out.print(f"  {line}", markup=False, highlight=False)
     _out.print(f"  resume: rcb replan {plan_id} (--limit, --model or --reset-bands)", markup=False)
 
@@ -124,7 +124,7 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
         moved = ", ".join(
             f"{d['operation']}.{d['quantity']} {d['action']}" + _marked(d)
             for d in v["decisions"]
-            if (d["action"] != "hold" or render.decision_mark(d)[0])
+            if (d["action"] != "hold" or marks.decision_mark(d)[0])
             and (operation is None or d["operation"] == operation)
         )
         if operation is None:
@@ -154,7 +154,7 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
 
 def _mark(d: dict[str, Any]) -> str:
     """``BREACH``, ``ABOVE`` (rich markup: red) or ``note: below band`` (dim); else ``""``."""
-    label, kind = render.decision_mark(d)
+    label, kind = marks.decision_mark(d)
     if not label:
         return ""
     return f"[dim]{label}[/]" if kind == "note" else f"[bold red]{label}[/]"
@@ -162,7 +162,7 @@ def _mark(d: dict[str, Any]) -> str:
 
 def _marked(d: dict[str, Any]) -> str:
     """`` BREACH``, `` ABOVE`` or `` (note: below band)`` after a decision; else nothing."""
-    label, kind = render.decision_mark(d)
+    label, kind = marks.decision_mark(d)
     if not label:
         return ""
     return f" [dim]({label})[/]" if kind == "note" else f" {_mark(d)}"

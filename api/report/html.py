@@ -19,8 +19,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from datetime import datetime
 from typing import Any
 
-from api import render
 from api.report import plots
+from api.report.marks import decision_mark, halt_lines
 from api.report.plots import OperationSeries, Output, number
 
 #: A margin at the band edge smaller than this fraction of the limit is 0 (a binding limit).
@@ -132,7 +132,7 @@ def _halt_section(plan: Mapping[str, Any]) -> str:
     halt = plan.get("halt")
     if plan.get("status") != "halted" or not halt:
         return ""
-    lines = "".join(_tag("li", _e(line)) for line in render.halt_lines(halt))
+    lines = "".join(_tag("li", _e(line)) for line in halt_lines(halt))
     text = (
         "No setpoint meets the bands in force: setpoints are refused (409 plan_halted) until "
         f"an engineer replans (rcb replan {plan['id']}, or POST .../replan)."
@@ -143,7 +143,7 @@ def _halt_section(plan: Mapping[str, Any]) -> str:
 
 def _mark(d: Mapping[str, Any]) -> str:
     """A decision's flag or note as a ``span`` of its kind's class (empty if neither)."""
-    label, kind = render.decision_mark(d)
+    label, kind = decision_mark(d)
     return _tag("span", _e(label), class_=kind) if label else ""
 
 
@@ -250,10 +250,10 @@ def _history_table(history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]
     rows = []
     for v in history["versions"]:
         mrr = {o["name"]: o["mrr_cm3_min"] for o in v["operations"]}
-        marked = [d for d in updates.get(v["part_id"], []) if render.decision_mark(d)[0]]
+        marked = [d for d in updates.get(v["part_id"], []) if decision_mark(d)[0]]
         flagged = [d for d in marked if d["flagged"]]
         marks = ", ".join(_e(f"{d['operation']} {d['quantity']} ") + _mark(d) for d in marked)
-        kinds = sorted({render.decision_mark(d)[1] for d in flagged})
+        kinds = sorted({decision_mark(d)[1] for d in flagged})
         cells = [
             _td(v["version"], class_="num"),
             _td(v["cause"]),

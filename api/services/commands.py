@@ -21,8 +21,8 @@ from sqlalchemy import Engine
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from api import render
 from api.rest.auth import Authenticated, aside
+from api.services import to_json
 from db import access, bulk, keylock, library
 from db import repository as repo
 from db.access import Actor
@@ -408,7 +408,7 @@ def _report_part(
             tool_changes=changes,
         )
         written_state.append((repo.database_key(session), row.state_token, new_state, operations))
-        updates = [render.decision_json(d) for d in decisions]
+        updates = [to_json.decision_json(d) for d in decisions]
         # a halted plan: the part is stored all the same, and the MES is told (DESIGN.md, RCB)
         halt = halt_json(new_state.halt) if new_state.halt is not None else None
         return 201, {
@@ -418,7 +418,7 @@ def _report_part(
             "halted": halt is not None,
             "conflicts": halt["conflicts"] if halt is not None else [],
             "updates": updates,
-            "tool_changes": [render.tool_change_json(c) for c in changes],
+            "tool_changes": [to_json.tool_change_json(c) for c in changes],
             **_ops(new_state.setpoints),
         }
 
@@ -453,7 +453,7 @@ def add_tool(
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             library.add_tool(session=session, tool=tool)
-            return 201, render.tool_json(tool)
+            return 201, to_json.tool_json(tool)
 
         return _write(
             engine,
@@ -497,7 +497,7 @@ def _plan(session: Session, plan_id: int, lock: bool = False) -> Any:
 
 
 def _ops(result: Any) -> dict[str, Any]:
-    return {"operations": render.plan_json(result)["operations"]}
+    return {"operations": to_json.plan_json(result)["operations"]}
 
 
 def replan(

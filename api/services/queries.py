@@ -12,7 +12,7 @@ from typing import Any
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from api import render
+from api.services import to_json
 from api.services.commands import NotFoundError, PlanHaltedError
 from db import history, library
 from db import repository as repo
@@ -76,7 +76,7 @@ def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
     return {
         "plan_id": plan_id,
         "setpoint_version": version,
-        "operations": render.plan_json(result)["operations"],
+        "operations": to_json.plan_json(result)["operations"],
     }
 
 
@@ -242,7 +242,7 @@ def list_tools(*, engine: Engine) -> dict[str, Any]:
     with _read(engine) as session, session.begin():
         stored = library.load_tools(session=session)
     tools = {**catalogue(), **stored}
-    return {"tools": [render.tool_json(tools[name]) for name in sorted(tools)]}
+    return {"tools": [to_json.tool_json(tools[name]) for name in sorted(tools)]}
 
 
 def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
@@ -252,7 +252,7 @@ def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
     tool = stored.get(name) or catalogue().get(name)
     if tool is None:
         raise NotFoundError("name", name)
-    return render.tool_json(tool)
+    return to_json.tool_json(tool)
 
 
 def _model_version(model: t.OperationModelVersion, serial: str | None) -> dict[str, Any]:
