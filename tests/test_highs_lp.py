@@ -18,7 +18,7 @@ import cvxpy as cp
 import highspy
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
@@ -70,15 +70,24 @@ def test_highs_agrees_with_cvxpy(rows, lower, width, objective):
     upper = [lo + w for lo, w in zip(lower, width, strict=True)]
     lp = _program(rows, lower, upper, objective)
     status, x = highs_lp.maximize(lp)
-    reference, value = _cvxpy(lp)
+    try:
+        reference, value = _cvxpy(lp)
+    except cp.error.SolverError:  # the reference cannot answer (Clarabel on a degenerate box)
+        assume(False)
     if reference == cp.OPTIMAL:
         assert status == "optimal"
         assert_allclose(np.dot(lp.objective, x), value, atol=1e-6)
         a = np.array([r.coefficients for r in lp.rows]).reshape(-1, 3)
         assert np.all(a @ x <= np.array([r.rhs for r in lp.rows]) + 1e-7)
         assert np.all(x >= np.array(lower) - 1e-7) and np.all(x <= np.array(upper) + 1e-7)
-    elif reference == cp.INFEASIBLE:
-        assert status == "infeasible"
+    elif reference == cp.INFEASIBLE and status != "infeasible":
+        # Infeasible by less than the solvers' tolerances (a fixed parameter 1e-6 over a row's
+        # bound): HiGHS may call it optimal, but only with a point inside its primal feasibility
+        # tolerance (1e-7); a program infeasible by more must be called infeasible.
+        assert status == "optimal"
+        a = np.array([r.coefficients for r in lp.rows]).reshape(-1, 3)
+        assert np.all(a @ x <= np.array([r.rhs for r in lp.rows]) + 1e-7)
+        assert np.all(x >= np.array(lower) - 1e-7) and np.all(x <= np.array(upper) + 1e-7)
 
 
 def test_a_hand_solved_program():
