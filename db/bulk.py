@@ -3,7 +3,7 @@
 A part report appends a dozen rows to each of three or four tables. ``executemany`` sends
 them row by row (psycopg's pipeline: one Bind/Execute per row, each row's parameters adapted
 in Python), which costs the server's process about 1 ms of CPU per table here. On PostgreSQL
-:func:`insert_rows` sends every table's rows as one JSON array parameter and inserts them
+:func:`write_rows` sends every table's rows as one JSON array parameter and inserts them
 all in one statement, with data-modifying CTEs::
 
     WITH t0 AS (INSERT INTO measurements (...) SELECT ... FROM json_to_recordset(CAST(:rows0
@@ -28,7 +28,8 @@ A use case can :func:`defer` rows to its session and send them with the rows it 
 record and its audit entry then travel in one statement. Nothing read in the transaction
 may depend on deferred rows; rows still deferred when the session commits are written
 before it does (:func:`_write_left_over`), so a forgotten :func:`write_deferred` cannot
-lose them.
+lose them. That hook is registered on a session when it is first given rows to defer
+(:func:`defer`), not on every SQLAlchemy session of the process.
 """
 
 from __future__ import annotations
@@ -64,17 +65,20 @@ _statements: dict[tuple[tuple[bool, str, tuple[str, ...]], ...], TextClause] = {
 _statements_lock = threading.Lock()
 #: The key of a session's deferred inserts and updates in ``Session.info``.
 _DEFERRED = "rcb_deferred_rows"
+#: The key in ``Session.info`` that says the session's commit and rollback are hooked.
+_HOOKED = "rcb_deferred_hooked"
 
 
-def insert_rows(
-    connection: Connection, batches: Sequence[Batch], updates: Sequence[Batch] = ()
+def write_rows(
+    connection: Connection, inserts: Sequence[Batch] = (), updates: Sequence[Batch] = ()
 ) -> None:
-    """Insert each batch's rows into its table, in the connection's transaction.
+    """Insert rows and update rows by primary key, in the connection's transaction.
 
-    ``updates``: batches of rows that each give a table's primary key and the columns to set
-    in that row (the same columns in every row of a batch); applied in the same statement.
+    ``inserts``: batches of rows to append to each batch's table. ``updates``: batches of rows
+    that each give a table's primary key and the columns to set in that row (the same columns
+    in every row of a batch). On PostgreSQL all of them go in one statement.
     """
-    work = [(False, table, rows) for table, rows in batches if rows]
+    work = [(False, table, rows) for table, rows in inserts if rows]
     work += [(True, table, rows) for table, rows in updates if rows]
     if not work:
         return
@@ -102,7 +106,15 @@ def _decoded(row: Mapping[str, Any]) -> Mapping[str, Any]:
 
 
 def defer(session: Session, batches: Sequence[Batch] = (), updates: Sequence[Batch] = ()) -> None:
-    """Keep rows to insert and rows to update for :func:`write_deferred` (same transaction)."""
+    """Keep rows to insert and rows to update for :func:`write_deferred` (same transaction).
+
+    The first time a session is given rows, its commit is hooked to write rows still
+    deferred then, and its rollback to forget them (on this session only).
+    """
+    if not session.info.get(_HOOKED):
+        event.listen(session, "before_commit", _write_left_over)
+        event.listen(session, "after_rollback", _forget)
+        session.info[_HOOKED] = True
     inserts, later = session.info.setdefault(_DEFERRED, ([], []))
     inserts.extend(batches)
     later.extend(updates)
@@ -111,16 +123,14 @@ def defer(session: Session, batches: Sequence[Batch] = (), updates: Sequence[Bat
 def write_deferred(session: Session, batches: Sequence[Batch] = ()) -> None:
     """Write the session's deferred rows and ``batches``, on PostgreSQL in one statement."""
     inserts, updates = session.info.pop(_DEFERRED, ([], []))
-    insert_rows(session.connection(), [*inserts, *batches], updates)
+    write_rows(session.connection(), [*inserts, *batches], updates)
 
 
-@event.listens_for(Session, "before_commit")
 def _write_left_over(session: Session) -> None:
     if session.info.get(_DEFERRED):
         write_deferred(session)
 
 
-@event.listens_for(Session, "after_rollback")
 def _forget(session: Session) -> None:
     session.info.pop(_DEFERRED, None)
 
@@ -148,7 +158,7 @@ def _shape(
 
 
 def _update_each(connection: Connection, table: Table, rows: Sequence[Mapping[str, Any]]) -> None:
-    """``executemany`` of an update by primary key (the fallback of :func:`insert_rows`)."""
+    """``executemany`` of an update by primary key (the fallback of :func:`write_rows`)."""
     keys = [c.key for c in table.primary_key.columns]
     if not rows or any(set(keys) - set(row) for row in rows):
         raise ValueError(f"{table.name}: an update row must give the primary key {keys}")
