@@ -26,10 +26,12 @@ again; elsewhere its value is stored as usual.
 A use case can :func:`defer` rows to its session and send them with the rows it adds last
 (:func:`write_deferred`): a part report's rows, its plan's new pointers, its idempotency
 record and its audit entry then travel in one statement. Nothing read in the transaction
-may depend on deferred rows; rows still deferred when the session commits are written
-before it does (:func:`_write_left_over`), so a forgotten :func:`write_deferred` cannot
-lose them. That hook is registered on a session when it is first given rows to defer
-(:func:`defer`), not on every SQLAlchemy session of the process.
+may depend on deferred rows. The rows wait on the session's connection (``Connection.info``);
+rows still deferred when that connection commits are written before it does, and a rollback
+or the connection's return to the pool forgets them, so a forgotten :func:`write_deferred`
+cannot lose them. These hooks are registered on the project's engines where they are made
+(:func:`hook_engine`, called by :func:`db.engine.make_engine`), not on every SQLAlchemy
+session of the process; :func:`defer` refuses a session of any other engine.
 """
 
 from __future__ import annotations
@@ -37,12 +39,25 @@ from __future__ import annotations
 import json
 import secrets
 import threading
+import weakref
 from collections.abc import Mapping, Sequence
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import JSON, Connection, Table, TextClause, bindparam, event, insert, text, update
+from sqlalchemy import (
+    JSON,
+    Connection,
+    Engine,
+    Table,
+    TextClause,
+    bindparam,
+    event,
+    insert,
+    text,
+    update,
+)
 from sqlalchemy.orm import Session
+from sqlalchemy.pool import Pool
 
 Batch = tuple[Table, Sequence[Mapping[str, Any]]]
 
@@ -63,10 +78,10 @@ class Encoded:
 
 _statements: dict[tuple[tuple[bool, str, tuple[str, ...]], ...], TextClause] = {}
 _statements_lock = threading.Lock()
-#: The key of a session's deferred inserts and updates in ``Session.info``.
+#: The key of a connection's deferred inserts and updates in ``Connection.info``.
 _DEFERRED = "rcb_deferred_rows"
-#: The key in ``Session.info`` that says the session's commit and rollback are hooked.
-_HOOKED = "rcb_deferred_hooked"
+#: The pools of the engines :func:`hook_engine` was given.
+_HOOKED: weakref.WeakSet[Pool] = weakref.WeakSet()
 
 
 def write_rows(
@@ -105,34 +120,44 @@ def _decoded(row: Mapping[str, Any]) -> Mapping[str, Any]:
     return {k: v.value if isinstance(v, Encoded) else v for k, v in row.items()}
 
 
-def defer(session: Session, batches: Sequence[Batch] = (), updates: Sequence[Batch] = ()) -> None:
-    """Keep rows to insert and rows to update for :func:`write_deferred` (same transaction).
+def hook_engine(engine: Engine) -> None:
+    """Let sessions of ``engine`` defer rows: each commit writes them, a rollback forgets them."""
+    event.listen(engine, "commit", _write_left_over)
+    event.listen(engine, "rollback", _forget)
+    event.listen(engine.pool, "checkin", _forget_on_checkin)
+    _HOOKED.add(engine.pool)
 
-    The first time a session is given rows, its commit is hooked to write rows still
-    deferred then, and its rollback to forget them (on this session only).
-    """
-    if not session.info.get(_HOOKED):
-        event.listen(session, "before_commit", _write_left_over)
-        event.listen(session, "after_rollback", _forget)
-        session.info[_HOOKED] = True
-    inserts, later = session.info.setdefault(_DEFERRED, ([], []))
+
+def defer(session: Session, batches: Sequence[Batch] = (), updates: Sequence[Batch] = ()) -> None:
+    """Keep rows to insert and rows to update for :func:`write_deferred` (same transaction)."""
+    connection = session.connection()
+    if connection.engine.pool not in _HOOKED:
+        raise RuntimeError("db.bulk.defer: the session's engine was not made by db.engine")
+    inserts, later = connection.info.setdefault(_DEFERRED, ([], []))
     inserts.extend(batches)
     later.extend(updates)
 
 
 def write_deferred(session: Session, batches: Sequence[Batch] = ()) -> None:
     """Write the session's deferred rows and ``batches``, on PostgreSQL in one statement."""
-    inserts, updates = session.info.pop(_DEFERRED, ([], []))
-    write_rows(session.connection(), [*inserts, *batches], updates)
+    connection = session.connection()
+    inserts, updates = connection.info.pop(_DEFERRED, ([], []))
+    write_rows(connection, [*inserts, *batches], updates)
 
 
-def _write_left_over(session: Session) -> None:
-    if session.info.get(_DEFERRED):
-        write_deferred(session)
+def _write_left_over(connection: Connection) -> None:
+    """Before a connection commits: write the rows still deferred on it."""
+    left = connection.info.pop(_DEFERRED, None)
+    if left is not None:
+        write_rows(connection, *left)
 
 
-def _forget(session: Session) -> None:
-    session.info.pop(_DEFERRED, None)
+def _forget(connection: Connection) -> None:
+    connection.info.pop(_DEFERRED, None)
+
+
+def _forget_on_checkin(_dbapi_connection: Any, record: Any) -> None:
+    record.info.pop(_DEFERRED, None)
 
 
 def _shape(
