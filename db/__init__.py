@@ -1,1 +1,21 @@
-"""Persistence (SQLAlchemy 2.0): tables, engine and repositories arrive with the database issue."""
+"""Persistence (SQLAlchemy 2.0): the tables and the functions that read and write them.
+
+Every function takes a session (keyword-only) and leaves the transaction to its caller
+(:mod:`api.services`).
+
+- :mod:`db.tables`: the typed tables (append-only history; migrations in ``alembic/``).
+- :mod:`db.engine`: engines for SQLite and PostgreSQL, read-only variants, migrations.
+- :mod:`db.plans`: plans, their replans, operations and setpoint versions.
+- :mod:`db.model_versions`: the versions of each operation's models.
+- :mod:`db.state`: a plan's RCB state loaded from the tables; the band states a part adds.
+- :mod:`db.state_cache`: loaded states kept in process, keyed on ``plans.state_token``.
+- :mod:`db.plan_state`: a plan's RCB settings and halt as the JSON of their columns.
+- :mod:`db.parts`: what a part report stores (measurements, decisions, changes).
+- :mod:`db.intake`: a part report's first step: the plan locked, the part's row, a stored answer.
+- :mod:`db.library`: tools and their baseline models.
+- :mod:`db.history`: read-only queries for review (plans, parts page by page, versions).
+- :mod:`db.access`: API keys, idempotency records, the audit log.
+- :mod:`db.keylock`: which idempotency keys are in flight, on SQLite (file locks).
+- :mod:`db.bulk`: many rows inserted and updated in one statement (PostgreSQL).
+- :mod:`db.errors`: the errors db raises.
+"""

@@ -109,7 +109,7 @@ def audit(
 def audit_row(
     actor: str, action: str, target: str, result: str, detail: dict[str, Any] | None = None
 ) -> dict[str, Any]:
-    """The row of an audit entry, every column given (for :func:`db.bulk.insert_rows`)."""
+    """The row of an audit entry, every column given (for :func:`db.bulk.write_rows`)."""
     return {
         "at": t.utcnow(),
         "actor": actor,

@@ -3,7 +3,7 @@
 A part report appends a dozen rows to each of three or four tables. ``executemany`` sends
 them row by row (psycopg's pipeline: one Bind/Execute per row, each row's parameters adapted
 in Python), which costs the server's process about 1 ms of CPU per table here. On PostgreSQL
-:func:`insert_rows` sends every table's rows as one JSON array parameter and inserts them
+:func:`write_rows` sends every table's rows as one JSON array parameter and inserts them
 all in one statement, with data-modifying CTEs::
 
     WITH t0 AS (INSERT INTO measurements (...) SELECT ... FROM json_to_recordset(CAST(:rows0
@@ -26,9 +26,12 @@ again; elsewhere its value is stored as usual.
 A use case can :func:`defer` rows to its session and send them with the rows it adds last
 (:func:`write_deferred`): a part report's rows, its plan's new pointers, its idempotency
 record and its audit entry then travel in one statement. Nothing read in the transaction
-may depend on deferred rows; rows still deferred when the session commits are written
-before it does (:func:`_write_left_over`), so a forgotten :func:`write_deferred` cannot
-lose them.
+may depend on deferred rows. The rows wait on the session's connection (``Connection.info``);
+rows still deferred when that connection commits are written before it does, and a rollback
+or the connection's return to the pool forgets them, so a forgotten :func:`write_deferred`
+cannot lose them. These hooks are registered on the project's engines where they are made
+(:func:`hook_engine`, called by :func:`db.engine.make_engine`), not on every SQLAlchemy
+session of the process; :func:`defer` refuses a session of any other engine.
 """
 
 from __future__ import annotations
@@ -36,12 +39,25 @@ from __future__ import annotations
 import json
 import secrets
 import threading
+import weakref
 from collections.abc import Mapping, Sequence
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import JSON, Connection, Table, TextClause, bindparam, event, insert, text, update
+from sqlalchemy import (
+    JSON,
+    Connection,
+    Engine,
+    Table,
+    TextClause,
+    bindparam,
+    event,
+    insert,
+    text,
+    update,
+)
 from sqlalchemy.orm import Session
+from sqlalchemy.pool import Pool
 
 Batch = tuple[Table, Sequence[Mapping[str, Any]]]
 
@@ -62,19 +78,22 @@ class Encoded:
 
 _statements: dict[tuple[tuple[bool, str, tuple[str, ...]], ...], TextClause] = {}
 _statements_lock = threading.Lock()
-#: The key of a session's deferred inserts and updates in ``Session.info``.
+#: The key of a connection's deferred inserts and updates in ``Connection.info``.
 _DEFERRED = "rcb_deferred_rows"
+#: The pools of the engines :func:`hook_engine` was given.
+_HOOKED: weakref.WeakSet[Pool] = weakref.WeakSet()
 
 
-def insert_rows(
-    connection: Connection, batches: Sequence[Batch], updates: Sequence[Batch] = ()
+def write_rows(
+    connection: Connection, inserts: Sequence[Batch] = (), updates: Sequence[Batch] = ()
 ) -> None:
-    """Insert each batch's rows into its table, in the connection's transaction.
+    """Insert rows and update rows by primary key, in the connection's transaction.
 
-    ``updates``: batches of rows that each give a table's primary key and the columns to set
-    in that row (the same columns in every row of a batch); applied in the same statement.
+    ``inserts``: batches of rows to append to each batch's table. ``updates``: batches of rows
+    that each give a table's primary key and the columns to set in that row (the same columns
+    in every row of a batch). On PostgreSQL all of them go in one statement.
     """
-    work = [(False, table, rows) for table, rows in batches if rows]
+    work = [(False, table, rows) for table, rows in inserts if rows]
     work += [(True, table, rows) for table, rows in updates if rows]
     if not work:
         return
@@ -101,28 +120,44 @@ def _decoded(row: Mapping[str, Any]) -> Mapping[str, Any]:
     return {k: v.value if isinstance(v, Encoded) else v for k, v in row.items()}
 
 
+def hook_engine(engine: Engine) -> None:
+    """Let sessions of ``engine`` defer rows: each commit writes them, a rollback forgets them."""
+    event.listen(engine, "commit", _write_left_over)
+    event.listen(engine, "rollback", _forget)
+    event.listen(engine.pool, "checkin", _forget_on_checkin)
+    _HOOKED.add(engine.pool)
+
+
 def defer(session: Session, batches: Sequence[Batch] = (), updates: Sequence[Batch] = ()) -> None:
     """Keep rows to insert and rows to update for :func:`write_deferred` (same transaction)."""
-    inserts, later = session.info.setdefault(_DEFERRED, ([], []))
+    connection = session.connection()
+    if connection.engine.pool not in _HOOKED:
+        raise RuntimeError("db.bulk.defer: the session's engine was not made by db.engine")
+    inserts, later = connection.info.setdefault(_DEFERRED, ([], []))
     inserts.extend(batches)
     later.extend(updates)
 
 
 def write_deferred(session: Session, batches: Sequence[Batch] = ()) -> None:
     """Write the session's deferred rows and ``batches``, on PostgreSQL in one statement."""
-    inserts, updates = session.info.pop(_DEFERRED, ([], []))
-    insert_rows(session.connection(), [*inserts, *batches], updates)
+    connection = session.connection()
+    inserts, updates = connection.info.pop(_DEFERRED, ([], []))
+    write_rows(connection, [*inserts, *batches], updates)
 
 
-@event.listens_for(Session, "before_commit")
-def _write_left_over(session: Session) -> None:
-    if session.info.get(_DEFERRED):
-        write_deferred(session)
+def _write_left_over(connection: Connection) -> None:
+    """Before a connection commits: write the rows still deferred on it."""
+    left = connection.info.pop(_DEFERRED, None)
+    if left is not None:
+        write_rows(connection, *left)
 
 
-@event.listens_for(Session, "after_rollback")
-def _forget(session: Session) -> None:
-    session.info.pop(_DEFERRED, None)
+def _forget(connection: Connection) -> None:
+    connection.info.pop(_DEFERRED, None)
+
+
+def _forget_on_checkin(_dbapi_connection: Any, record: Any) -> None:
+    record.info.pop(_DEFERRED, None)
 
 
 def _shape(
@@ -148,7 +183,7 @@ def _shape(
 
 
 def _update_each(connection: Connection, table: Table, rows: Sequence[Mapping[str, Any]]) -> None:
-    """``executemany`` of an update by primary key (the fallback of :func:`insert_rows`)."""
+    """``executemany`` of an update by primary key (the fallback of :func:`write_rows`)."""
     keys = [c.key for c in table.primary_key.columns]
     if not rows or any(set(keys) - set(row) for row in rows):
         raise ValueError(f"{table.name}: an update row must give the primary key {keys}")

@@ -15,6 +15,8 @@ from typing import Any
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import make_url
 
+from db.bulk import hook_engine
+
 #: The embedded default database, in the directory rcb runs in.
 DEFAULT_URL = "sqlite:///./rcb.db"
 #: Milliseconds a SQLite writer waits for the lock before giving up.
@@ -25,13 +27,19 @@ MIGRATIONS = Path(__file__).resolve().parent.parent / "alembic"
 
 
 def make_engine(url: str) -> Engine:
-    """An engine for ``url`` with the settings above for SQLite."""
+    """An engine for ``url`` with the settings above for SQLite.
+
+    Its sessions may defer rows to the end of their transaction (:func:`db.bulk.defer`).
+    """
     parsed = make_url(url)
     if parsed.get_backend_name() != "sqlite":
         # a pool as large as a worker's concurrency, so connections are reused rather than
         # opened and closed under load (4 workers x 24 stays under PostgreSQL's default 100)
-        return create_engine(url, pool_pre_ping=True, pool_size=16, max_overflow=8)
+        engine = create_engine(url, pool_pre_ping=True, pool_size=16, max_overflow=8)
+        hook_engine(engine)
+        return engine
     engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000})
+    hook_engine(engine)
 
     @event.listens_for(engine, "connect")
     def _connect(dbapi_connection: Any, _record: Any) -> None:

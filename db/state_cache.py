@@ -16,10 +16,17 @@ from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from sqlalchemy.orm import Session
+
 from supervisor.rcb.update import RcbState
 
 #: Plans whose state one process keeps.
 CAPACITY = 2048
+
+
+def database_key(session: Session) -> str:
+    """Which database a session talks to (the cache's first key)."""
+    return session.get_bind().engine.url.render_as_string(hide_password=True)
 
 
 class StateCache:

@@ -23,7 +23,7 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-from supervisor.rcb.strategies import DEFAULT_STRATEGY
+from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 
 #: Stable constraint names, so Alembic migrations name them the same on every database.
 NAMING_CONVENTION = {
@@ -106,7 +106,7 @@ class Plan(Base):
     machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"))
     body: Mapped[dict[str, Any]]
     strategy: Mapped[str] = mapped_column(String(20), default=DEFAULT_STRATEGY)
-    alpha: Mapped[float] = mapped_column(default=0.25)
+    alpha: Mapped[float] = mapped_column(default=DEFAULT_ALPHA)
     #: Every other setting of the strategy (floors, coverage_k, discrepancy, z, exponent_sd,
     #: edge_sd; db.plan_state); NULL for a plan stored before 0005: the defaults.
     settings: Mapped[dict[str, Any] | None]
@@ -214,7 +214,13 @@ class Measurement(Base):
 
 
 class RcbDecision(Base):
-    """What one measurement did to one band (supervisor.rcb.update.Decision)."""
+    """What one measurement did to one band (supervisor.rcb.update.Decision).
+
+    Every field of the Decision but its operation (stored as ``operation_id``) and the
+    measured, predicted, uncertainty and limit it was made from (the part's measurement, the
+    setpoint version and the operation hold those) has a column of its own name;
+    tests/test_decision_columns.py pins this.
+    """
 
     __tablename__ = "rcb_decisions"
     id: Mapped[int] = mapped_column(primary_key=True)

@@ -29,7 +29,7 @@ from sqlalchemy.orm import Session
 from api.services import commands as service
 from db import tables as t
 from db.access import Actor
-from db.bulk import Encoded, defer, insert_rows
+from db.bulk import Encoded, defer, write_rows
 from db.engine import make_engine, upgrade
 
 from conftest import DEMO_PLAN
@@ -96,7 +96,7 @@ def test_rows_of_several_tables_are_stored_as_executemany_stores_them(engine):
         connection.execute(insert(reference), ROWS)
         sent: list[str] = []
         event.listen(connection, "before_cursor_execute", lambda *args: sent.append(args[2]))
-        insert_rows(connection, [(a, ROWS), (b, [{"dK": 0.25}, {"dK": 7.0}]), (reference, [])])
+        write_rows(connection, [(a, ROWS), (b, [{"dK": 0.25}, {"dK": 7.0}]), (reference, [])])
         if engine.dialect.name == "postgresql":  # both tables in one statement
             assert len(sent) == 1 and sent[0].count("json_to_recordset") == 2
         expected, expected_text = _stored(connection, reference)
@@ -119,10 +119,10 @@ def test_an_encoded_json_value_is_stored_as_its_value_is(engine):
         connection.execute(insert(reference), plain)
         sent: list[str] = []
         event.listen(connection, "before_cursor_execute", lambda *args: sent.append(args[2]))
-        insert_rows(connection, [(a, rows)])
+        write_rows(connection, [(a, rows)])
         if engine.dialect.name == "postgresql":
             assert len(sent) == 1 and "json_to_recordset" in sent[0]
-        insert_rows(connection, [(a, [dict(rows[1], value=math.nan)])])  # executemany
+        write_rows(connection, [(a, [dict(rows[1], value=math.nan)])])  # executemany
         expected, expected_text = _stored(connection, reference)
         got, got_text = _stored(connection, a)
         assert got[:-1] == expected and got_text[:-1] == expected_text
@@ -140,8 +140,8 @@ def test_rows_json_cannot_carry_exactly_fall_back_to_executemany(engine):
     with engine.begin() as connection:
         connection.execute(insert(reference), odd)
         connection.execute(insert(reference), partial)
-        insert_rows(connection, [(a, odd)])
-        insert_rows(connection, [(a, partial)])
+        write_rows(connection, [(a, odd)])
+        write_rows(connection, [(a, partial)])
         expected, got = _stored(connection, reference)[0], _stored(connection, a)[0]
         assert repr(got) == repr(expected)  # nan (None on SQLite) and inf as executemany's
         assert got[0]["value"] == math.inf and got[2]["reason"] is None
@@ -159,7 +159,7 @@ def test_updates_by_primary_key_are_applied_as_executemany_applies_them(engine):
         connection.execute(insert(a), ROWS)
         sent: list[str] = []
         event.listen(connection, "before_cursor_execute", lambda *args: sent.append(args[2]))
-        insert_rows(connection, [], updates=[(a, changes)])
+        write_rows(connection, [], updates=[(a, changes)])
         if engine.dialect.name == "postgresql":  # one statement for both rows
             assert len(sent) == 1 and sent[0].startswith("UPDATE")
         for change in changes:  # the reference: one UPDATE per row

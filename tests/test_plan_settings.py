@@ -8,10 +8,11 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from api.services import commands as service
-from db import repository as repo
 from db import tables as t
 from db.plan_state import settings_json, settings_of
-from db.state_cache import CACHE
+from db.plans import get_plan_row
+from db.state import load_state
+from db.state_cache import CACHE, database_key
 from supervisor.rcb.update import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
@@ -23,8 +24,8 @@ def _loaded(engine, plan_id):
     """The state as the database holds it (the in-process cache forgotten first)."""
     CACHE.clear()
     with Session(engine) as session, session.begin():
-        row = repo.get_plan_row(session=session, plan_id=plan_id, lock=True)
-        return repo.load_state(session=session, plan_row=row)
+        row = get_plan_row(session=session, plan_id=plan_id, lock=True)
+        return load_state(session=session, plan_row=row)
 
 
 def test_non_default_settings_survive_a_reload(engine):
@@ -70,7 +71,7 @@ def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):
 def _in_memory(engine, plan_id):
     """The state the last report left in the process (db.state_cache), not read back."""
     with Session(engine) as session:
-        row = repo.get_plan_row(session=session, plan_id=plan_id)
-        state = CACHE.get(repo.database_key(session), plan_id, row.state_token)
+        row = get_plan_row(session=session, plan_id=plan_id)
+        state = CACHE.get(database_key(session), plan_id, row.state_token)
     assert state is not None
     return state

@@ -12,9 +12,10 @@ from test_service import BODY, _reports
 from api.cli.main import app
 from api.services import commands as service
 from api.services import queries
-from db import repository as repo
 from db import tables as t
 from db.engine import make_engine, upgrade
+from db.plans import get_plan_row
+from db.state import load_state
 from supervisor.errors import InfeasibleError
 from supervisor.rcb.update import RcbSettings
 
@@ -26,8 +27,8 @@ def _count(engine, table):
 
 def _state(engine, plan_id):
     with Session(engine) as session, session.begin():
-        row = repo.get_plan_row(session=session, plan_id=plan_id, lock=True)
-        return repo.load_state(session=session, plan_row=row)
+        row = get_plan_row(session=session, plan_id=plan_id, lock=True)
+        return load_state(session=session, plan_row=row)
 
 
 def test_a_relaxed_limit_is_stored_as_a_replan_version_and_a_dry_run_stores_nothing(engine):

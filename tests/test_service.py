@@ -11,9 +11,11 @@ from sqlalchemy.orm import Session
 
 from api.services import commands as service
 from api.services import queries
-from db import repository as repo
 from db.engine import make_engine, upgrade
 from db.errors import ConflictError
+from db.parts import count_parts
+from db.plans import get_plan_row
+from db.state import load_state
 from db.state_cache import CACHE
 from models.errors import InputError
 from supervisor.inputs.part_report import report_from_mapping
@@ -91,10 +93,10 @@ def test_mes_loop_round_trips_through_the_database(engine):
     assert current["setpoint_version"] == replayed.version
     # the state stored and reloaded equals the state replayed in memory
     with Session(engine) as session:
-        stored = repo.load_state(
-            session=session, plan_row=repo.get_plan_row(session=session, plan_id=plan_id)
+        stored = load_state(
+            session=session, plan_row=get_plan_row(session=session, plan_id=plan_id)
         )
-        assert repo.count_parts(session=session, plan_id=plan_id) == 10
+        assert count_parts(session=session, plan_id=plan_id) == 10
     assert stored.tools == replayed.tools
     assert stored.seen == pytest.approx(replayed.seen)
     for a, b in zip(stored.setpoints.operations, replayed.setpoints.operations, strict=True):
@@ -117,7 +119,7 @@ def test_duplicate_serial_and_bad_reports_store_nothing(engine):
     with pytest.raises(service.NotFoundError):
         queries.current_setpoints(engine=engine, plan_id=plan_id + 100)
     with Session(engine) as session:
-        assert repo.count_parts(session=session, plan_id=plan_id) == 1
+        assert count_parts(session=session, plan_id=plan_id) == 1
     assert queries.current_setpoints(engine=engine, plan_id=plan_id)["setpoint_version"] == 2
 
 
@@ -147,8 +149,8 @@ def test_the_cached_state_is_the_stored_state(engine):
 
     def load():
         with Session(engine) as session, session.begin():
-            row = repo.get_plan_row(session=session, plan_id=plan_id, lock=True)
-            return repo.load_state(session=session, plan_row=row)
+            row = get_plan_row(session=session, plan_id=plan_id, lock=True)
+            return load_state(session=session, plan_row=row)
 
     cached = load()
     assert cached is load()  # served from the cache: the same object

@@ -24,12 +24,22 @@ from sqlalchemy.orm import Session
 from api.rest.auth import Authenticated, aside
 from api.services import to_json
 from db import access, bulk, keylock, library
-from db import repository as repo
 from db.access import Actor
 from db.errors import ConflictError
 from db.intake import StoredAnswer, open_report, serial_exists, stored_answer
+from db.parts import add_part
 from db.plan_state import halt_json
-from db.state_cache import CACHE
+from db.plans import (
+    add_plan,
+    add_replan,
+    current_body,
+    get_plan_row,
+    operation_ids,
+    plan_tools,
+    setpoints_of,
+)
+from db.state import load_state
+from db.state_cache import CACHE, database_key
 from models.catalogue import catalogue
 from models.errors import InputError
 from models.tool import tool_from_mapping
@@ -312,7 +322,7 @@ def create_plan(
         result = optimize_plan(plan)  # outside the write transaction: it needs no lock
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
-            plan_id = repo.add_plan(
+            plan_id = add_plan(
                 session=session, body=body, plan=plan, result=result, settings=settings
             )
             return 201, {"id": plan_id, "name": plan.name, "setpoint_version": 1, **_ops(result)}
@@ -373,7 +383,7 @@ def _report_part(
         row, part_id = opening.plan, opening.part_id
         if row is None:
             raise NotFoundError("plan_id", plan_id)
-        state = repo.load_state(session=session, plan_row=row)
+        state = load_state(session=session, plan_row=row)
         known = 1 <= report.setpoint_version <= state.version
         if part_id is None and (
             known or serial_exists(session=session, plan_id=plan_id, serial=report.serial)
@@ -385,17 +395,15 @@ def _report_part(
                 report.setpoint_version,
                 f"unknown: the plan's versions are 1..{state.version}",
             )
-        operations = repo.operation_ids(session=session, plan_row=row)
+        operations = operation_ids(session=session, plan_row=row)
         made_with = None
         if report.setpoint_version != state.version:
-            made_with = repo.setpoints_of(
-                session=session, plan_row=row, version=report.setpoint_version
-            )
+            made_with = setpoints_of(session=session, plan_row=row, version=report.setpoint_version)
         # raw spindle readings become force measurements at the setpoint the part was made with
         measured, raw = resolve(report, state.plan, made_with or state.setpoints)
         changes = tool_changes(report, made_with or state.setpoints)
         new_state, decisions = update(state, measured, made_with)
-        repo.add_part(
+        add_part(
             session=session,
             plan_row=row,
             part_id=part_id,
@@ -407,7 +415,7 @@ def _report_part(
             raw=raw,
             tool_changes=changes,
         )
-        written_state.append((repo.database_key(session), row.state_token, new_state, operations))
+        written_state.append((database_key(session), row.state_token, new_state, operations))
         updates = [to_json.decision_json(d) for d in decisions]
         # a halted plan: the part is stored all the same, and the MES is told (DESIGN.md, RCB)
         halt = halt_json(new_state.halt) if new_state.halt is not None else None
@@ -490,7 +498,7 @@ def revoke_key(*, engine: Engine, key_id: int) -> dict[str, Any]:
 
 
 def _plan(session: Session, plan_id: int, lock: bool = False) -> Any:
-    row = repo.get_plan_row(session=session, plan_id=plan_id, lock=lock)
+    row = get_plan_row(session=session, plan_id=plan_id, lock=lock)
     if row is None:
         raise NotFoundError("plan_id", plan_id)
     return row
@@ -518,13 +526,13 @@ def replan(
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             row = _plan(session, plan_id, lock=True)
-            before = repo.load_state(session=session, plan_row=row)
-            body = repo.current_body(session=session, plan_row=row)
-            library = repo.plan_tools(session=session, plan_id=plan_id)
+            before = load_state(session=session, plan_row=row)
+            body = current_body(session=session, plan_row=row)
+            library = plan_tools(session=session, plan_id=plan_id)
             library.update(library_tools(session))
             done = supervisor_replan(before, body, changes, library)
             if not dry_run:
-                repo.add_replan(
+                add_replan(
                     session=session,
                     plan_row=row,
                     body=done.body,

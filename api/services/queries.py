@@ -15,9 +15,10 @@ from sqlalchemy.orm import Session
 from api.services import to_json
 from api.services.commands import NotFoundError, PlanHaltedError
 from db import history, library
-from db import repository as repo
 from db import tables as t
 from db.engine import reader
+from db.parts import count_parts
+from db.plans import current_body, get_plan_row, setpoints_of
 from models.catalogue import catalogue
 from models.errors import InputError
 
@@ -37,8 +38,8 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
         row = _plan(session, plan_id)
         machine = session.get(t.Machine, row.machine_id)
         ops = history.operations(session=session, plan_id=plan_id)
-        parts = repo.count_parts(session=session, plan_id=plan_id)
-        body = repo.current_body(session=session, plan_row=row)
+        parts = count_parts(session=session, plan_id=plan_id)
+        body = current_body(session=session, plan_row=row)
         in_force = {o.get("name"): o for o in body.get("operations", [])}
         return {
             **history.summary(row, machine.name if machine else "", parts),
@@ -72,7 +73,7 @@ def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
         if row.halt is not None:
             raise PlanHaltedError(plan_id, row.halt)
         version = row.current_setpoint_version
-        result = repo.setpoints_of(session=session, plan_row=row, version=version)
+        result = setpoints_of(session=session, plan_row=row, version=version)
     return {
         "plan_id": plan_id,
         "setpoint_version": version,
@@ -301,7 +302,7 @@ def _cursor(cursor: str | None) -> int:
 
 
 def _plan(session: Session, plan_id: int) -> t.Plan:
-    row = repo.get_plan_row(session=session, plan_id=plan_id)
+    row = get_plan_row(session=session, plan_id=plan_id)
     if row is None:
         raise NotFoundError("plan_id", plan_id)
     return row

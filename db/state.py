@@ -1,0 +1,151 @@
+"""A plan's RCB state in the tables: loading it, and the band-state rows a part adds.
+
+The state is the models, band states and setpoints in force. Keyword-only functions given a
+session; the caller owns the transaction. Loaded states are cached under
+``plans.state_token`` (:mod:`db.state_cache`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from db import tables as t
+from db.model_versions import latest_models
+from db.plan_state import halt_of, settings_of
+from db.plans import PlanRow, current_body, operation_rows, plan_tools, setpoints_of
+from db.state_cache import CACHE, database_key
+from models.powerlaw import PowerLawModel
+from models.tool import Tool
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.posterior import from_json as posterior_from_json
+from supervisor.rcb.update import Decision, RcbState, prior_sigma
+
+
+def load_state(*, session: Session, plan_row: PlanRow) -> RcbState:
+    """The RCB state of a plan as stored: models, band states and setpoints in force.
+
+    Call it with the plan row locked (``get_plan_row(lock=True)``, :mod:`db.plans`): the state
+    is then the committed one of ``plan_row.state_token`` and is cached under it
+    (:mod:`db.state_cache`).
+    """
+    database = database_key(session)
+    cached = CACHE.get(database, plan_row.id, plan_row.state_token)
+    if cached is not None:
+        return cached
+    state = _load_state(session, plan_row)
+    CACHE.put(database, plan_row.id, plan_row.state_token, state)
+    return state
+
+
+def band_state_rows(
+    *,
+    operations: Mapping[str, int],
+    part_id: int,
+    decisions: tuple[Decision, ...],
+    after: RcbState,
+) -> list[dict[str, Any]]:
+    """The ``band_states`` rows of the bands a part's ``decisions`` touched, as in ``after``."""
+    return [
+        {
+            "operation_id": operations[d.operation],
+            "quantity": d.quantity,
+            "part_id": part_id,
+            "seen": after.seen[(d.operation, d.quantity)],
+            "sigma": after.sigma[(d.operation, d.quantity)],
+            "posterior": _posterior_json(after.posterior.get((d.operation, d.quantity))),
+        }
+        for d in decisions
+    ]
+
+
+def _posterior_json(belief: Posterior | None) -> dict[str, Any] | None:
+    return None if belief is None else belief.to_json()
+
+
+def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
+    ops = operation_rows(session=session, plan_id=plan_row.id)
+    body = current_body(session=session, plan_row=plan_row)
+    plan = plan_from_mapping(body, plan_tools(session=session, plan_id=plan_row.id))
+    tools: dict[str, Tool] = {}
+    sigma: dict[tuple[str, str], float] = {}
+    seen: dict[tuple[str, str], float] = {}
+    beliefs: dict[tuple[str, str], Posterior] = {}
+    settings = settings_of(plan_row.strategy, plan_row.alpha, plan_row.settings)
+    models_in_force = latest_models(session=session, plan_id=plan_row.id)
+    band_states = _latest_band_states(
+        session, plan_row.id, _bands_reset_after(session, plan_row.id)
+    )
+    for op in plan.operations:
+        base = plan.tools[op.tool]
+        models = {}
+        for quantity, baseline in base.models.items():
+            row = models_in_force[(ops[op.name].id, quantity)]
+            models[quantity] = PowerLawModel(
+                quantity, row.K, row.dK, dict(row.exponents), baseline.source, baseline.reference
+            )
+            state = band_states.get((ops[op.name].id, quantity))
+            if state is None:
+                sigma[(op.name, quantity)] = prior_sigma(baseline, settings)
+            else:
+                sigma[(op.name, quantity)] = state.sigma
+                seen[(op.name, quantity)] = state.seen
+                if state.posterior is not None:
+                    beliefs[(op.name, quantity)] = posterior_from_json(state.posterior)
+        tools[op.name] = Tool(
+            base.name, base.process, models, base.description, base.material, base.source
+        )
+    setpoints = setpoints_of(
+        session=session, plan_row=plan_row, version=plan_row.current_setpoint_version
+    )
+    return RcbState(
+        plan,
+        tools,
+        setpoints,
+        plan_row.current_setpoint_version,
+        settings,
+        sigma,
+        seen,
+        beliefs,
+        halt_of(plan_row.halt),
+    )
+
+
+def _bands_reset_after(session: Session, plan_id: int) -> int:
+    """The last part whose band states a replan forgot (0: none)."""
+    last = session.scalar(
+        select(func.max(t.PlanRevision.bands_reset_after_part)).where(
+            t.PlanRevision.plan_id == plan_id, t.PlanRevision.reset_bands.is_(True)
+        )
+    )
+    return int(last or 0)
+
+
+def _latest_band_states(
+    session: Session, plan_id: int, after_part: int = 0
+) -> dict[tuple[int, str], t.BandState]:
+    """The newest band state per (operation id, quantity) of a plan, in one query.
+
+    States of parts up to ``after_part`` are forgotten (a replan reset the bands).
+    """
+    b = t.BandState
+    newest = (
+        select(b.operation_id, b.quantity, func.max(b.part_id).label("part_id"))
+        .join(t.Operation, b.operation_id == t.Operation.id)
+        .where(t.Operation.plan_id == plan_id, b.part_id > after_part)
+        .group_by(b.operation_id, b.quantity)
+        .subquery()
+    )
+    rows = session.scalars(
+        select(b).join(
+            newest,
+            (b.operation_id == newest.c.operation_id)
+            & (b.quantity == newest.c.quantity)
+            & (b.part_id == newest.c.part_id),
+        )
+    )
+    return {(row.operation_id, row.quantity): row for row in rows}
