@@ -14,17 +14,10 @@ from typing import ClassVar
 
 import numpy as np
 
+from models import fields
 from models.errors import InputError, ModelDomainError
-from models.sensors.common import (
-    Converted,
-    _check_count,
-    _check_field,
-    _least_squares,
-    _number,
-    _numbers,
-    _uncertainties_from_covariance,
-    _uncertainty,
-)
+from models.sensors.converted import Converted
+from models.sensors.least_squares import least_squares, uncertainties_from_covariance
 
 
 def kim_jeon_rms_current_A(
@@ -58,12 +51,12 @@ def kim_jeon_rms_current_A(
     ----------
     .. [1] Kim & Jeon, Precision Engineering 2011, §6 (first paragraph).
     """
-    currents = _numbers(phase_currents_A, "phase_currents_A")
+    currents = fields.number_list(phase_currents_A, "phase_currents_A")
     if len(currents) != 3:
         raise InputError("phase_currents_A", phase_currents_A, "needs the 3 phase currents")
     u: tuple[float, ...] = (0.0, 0.0, 0.0)
     if u_phase_currents_A is not None:
-        u = _numbers(u_phase_currents_A, "u_phase_currents_A", minimum=0.0)
+        u = fields.number_list(u_phase_currents_A, "u_phase_currents_A", minimum=0.0)
         if len(u) != 3:
             raise InputError("u_phase_currents_A", u_phase_currents_A, "needs 3 uncertainties")
     rms = math.sqrt(sum(i * i for i in currents) / 3.0)
@@ -123,14 +116,14 @@ class LinearCurrentCalibration:
     notes: str = ""
 
     def __post_init__(self) -> None:
-        _check_field(self, "offset_N")
-        _check_field(self, "slope_N_per_A", positive=True)
+        fields.check_field(self, "offset_N")
+        fields.check_field(self, "slope_N_per_A", positive=True)
         for name in ("u_offset_N", "u_slope_N_per_A", "residual_sd_N", "speed_tolerance_rel"):
-            _check_field(self, name, minimum=0.0)
-        _check_field(self, "corr_offset_slope", correlation=True)
-        _check_count(self.n)
-        _check_field(self, "feed_rate_mm_min", positive=True)
-        _check_field(self, "spindle_speed_rpm", positive=True)
+            fields.check_field(self, name, minimum=0.0)
+        fields.check_field(self, "corr_offset_slope", correlation=True)
+        fields.count(self.n, "n")
+        fields.check_field(self, "feed_rate_mm_min", positive=True, optional=True)
+        fields.check_field(self, "spindle_speed_rpm", positive=True, optional=True)
 
     @property
     def covariance(self) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -182,18 +175,18 @@ def fit_linear_calibration(
     .. [1] Kim & Jeon, §6.1.3 (Fig. 9) and §6.2.3.
     .. [2] GUM (JCGM 100:2008) Annex H.3 (calibration of a linear relation).
     """
-    currents = np.asarray(_numbers(currents_A, "currents_A", minimum=0.0))
-    forces = np.asarray(_numbers(forces_N, "forces_N", minimum=0.0))
+    currents = np.asarray(fields.number_list(currents_A, "currents_A", minimum=0.0))
+    forces = np.asarray(fields.number_list(forces_N, "forces_N", minimum=0.0))
     if currents.size != forces.size:
         raise InputError("forces_N", forces_N, f"needs one force per current ({currents.size})")
     if currents.size < 3:
         raise InputError("currents_A", currents_A, "needs at least 3 points")
     if float(np.ptp(currents)) == 0.0:
         raise InputError("currents_A", currents_A, "must not all be equal")
-    beta, cov, s = _least_squares(np.column_stack([np.ones_like(currents), currents]), forces)
+    beta, cov, s = least_squares(np.column_stack([np.ones_like(currents), currents]), forces)
     if beta[1] <= 0:
         raise ModelDomainError("forces_N", forces_N, "force must rise with current")
-    u, corr = _uncertainties_from_covariance(cov)
+    u, corr = uncertainties_from_covariance(cov)
     return LinearCurrentCalibration(
         offset_N=float(beta[0]),
         slope_N_per_A=float(beta[1]),
@@ -245,8 +238,8 @@ def calibration_from_current_relation(
     ----------
     .. [1] Kim & Jeon, §6.2.3.
     """
-    s = _number(slope_A_per_N, "slope_A_per_N", positive=True)
-    c = _number(offset_A, "offset_A")
+    s = fields.number(slope_A_per_N, "slope_A_per_N", positive=True)
+    c = fields.number(offset_A, "offset_A")
     return LinearCurrentCalibration(
         offset_N=-c / s,
         slope_N_per_A=1.0 / s,
@@ -304,8 +297,8 @@ def linear_current_force_N(
     ----------
     .. [1] Kim & Jeon, §6.2.3; GUM (JCGM 100:2008) Eq. 13.
     """
-    current = _number(current_A, "current_A", minimum=0.0)
-    u_current = _uncertainty(u_current_A, "u_current_A")
+    current = fields.number(current_A, "current_A", minimum=0.0)
+    u_current = fields.uncertainty(u_current_A, "u_current_A")
     force, var_current, var_cal = _linear_force(calibration, current, u_current, include_residual)
     return Converted(force, math.sqrt(var_current + var_cal))
 
@@ -355,8 +348,8 @@ class FeedDependentCurrentCalibration:
             feeds.append(point.feed_rate_mm_min)
         if any(b <= a for a, b in zip(feeds, feeds[1:], strict=False)):
             raise InputError("points", feeds, "feed rates must be increasing")
-        _check_field(self, "spindle_speed_rpm", positive=True)
-        _check_field(self, "speed_tolerance_rel", minimum=0.0)
+        fields.check_field(self, "spindle_speed_rpm", positive=True, optional=True)
+        fields.check_field(self, "speed_tolerance_rel", minimum=0.0)
         object.__setattr__(self, "points", points)
 
     @property
@@ -437,10 +430,10 @@ def feed_dependent_force_N(
     """
     return _feed_dependent_force(
         calibration,
-        _number(current_A, "current_A", minimum=0.0),
-        _uncertainty(u_current_A, "u_current_A"),
-        _number(feed_rate_mm_min, "feed_rate_mm_min", positive=True),
-        _uncertainty(u_feed_rate_mm_min, "u_feed_rate_mm_min"),
+        fields.number(current_A, "current_A", minimum=0.0),
+        fields.uncertainty(u_current_A, "u_current_A"),
+        fields.number(feed_rate_mm_min, "feed_rate_mm_min", positive=True),
+        fields.uncertainty(u_feed_rate_mm_min, "u_feed_rate_mm_min"),
         include_residual,
         "feed_rate_mm_min",
     )

@@ -21,7 +21,6 @@ from supervisor.virtual.mill.case1 import (
     case1_setup,
     run_case1,
 )
-from supervisor.virtual.mill.common import FeedLimits
 from supervisor.virtual.mill.edge_life import (
     EdgeLifeConfig,
     EdgeLifeResult,
@@ -29,6 +28,7 @@ from supervisor.virtual.mill.edge_life import (
     simulate_edge_life,
     tai_wear_at_feed_mm,
 )
+from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.force import (
     KimJeonForceModel,
     PowerLawForce,

@@ -24,11 +24,11 @@ from __future__ import annotations
 import numpy as np
 
 from models.errors import InputError
-from supervisor.virtual.mill.common import FeedLimits
 from supervisor.virtual.mill.controllers.base import FeedController
 from supervisor.virtual.mill.controllers.corrective import BorangiuCorrectiveController
 from supervisor.virtual.mill.controllers.fuzzy import KimJeonFuzzyController
 from supervisor.virtual.mill.controllers.pi import TaiPIController, tai_pi_gains_for
+from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.force import KimJeonForceModel, feed_for_force_mm_min
 from supervisor.virtual.mill.process import (
     CurrentSensor,

@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from models import fields
 from models.errors import InputError
 from models.sensors import (
     LinearCurrentCalibration,
@@ -26,7 +27,6 @@ from models.sensors import (
     calibration_from_current_relation,
     tai_spindle_current_A,
 )
-from supervisor.virtual.mill.common import at_least, check_fields, positive
 from supervisor.virtual.mill.force import ForceModel
 
 
@@ -82,7 +82,7 @@ class ForceCurrentMill:
     wear_current_A_per_mm: float = 0.0
 
     def __post_init__(self) -> None:
-        check_fields(
+        fields.check_fields(
             self,
             positives=("slope_A_per_N",),
             non_negatives=("idle_current_A", "wear_force_N_per_mm", "wear_current_A_per_mm"),
@@ -138,7 +138,7 @@ class TaiMill:
     nominal_depth_mm: float = 0.2
 
     def __post_init__(self) -> None:
-        check_fields(self, positives=("nominal_depth_mm",))
+        fields.check_fields(self, positives=("nominal_depth_mm",))
 
     def force_N(
         self, feed_rate_mm_min: float, depth_mm: float, spindle_rpm: float, flank_wear_mm: float
@@ -178,9 +178,11 @@ class CurrentSensor:
     bandwidth_Hz: float = math.inf
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "noise_sd_A", at_least(self.noise_sd_A, "noise_sd_A"))
+        object.__setattr__(self, "noise_sd_A", fields.at_least(self.noise_sd_A, "noise_sd_A"))
         if self.bandwidth_Hz != math.inf:
-            object.__setattr__(self, "bandwidth_Hz", positive(self.bandwidth_Hz, "bandwidth_Hz"))
+            object.__setattr__(
+                self, "bandwidth_Hz", fields.positive(self.bandwidth_Hz, "bandwidth_Hz")
+            )
 
     def smoothing(self, dt_s: float) -> float:
         """Weight of the new value in the discrete lag, ``1 − exp(−2π B dt)`` [-]."""
@@ -208,7 +210,7 @@ class WearLaw:
     rate_mm_per_mm3: float = 0.0
 
     def __post_init__(self) -> None:
-        check_fields(self, non_negatives=("rate_mm_per_mm3",))
+        fields.check_fields(self, non_negatives=("rate_mm_per_mm3",))
 
 
 #: Tai et al. §III.D and Table 1: 197.26 µm on average after 2250 mm at 0.2 × 1.4 mm².
@@ -238,8 +240,8 @@ class StepWorkpiece:
                 raise InputError(f"segments[{i}]", segment, "must be (length_mm, depth_mm)")
             checked.append(
                 (
-                    positive(segment[0], f"segments[{i}].length_mm"),
-                    at_least(segment[1], f"segments[{i}].depth_mm"),
+                    fields.positive(segment[0], f"segments[{i}].length_mm"),
+                    fields.at_least(segment[1], f"segments[{i}].depth_mm"),
                 )
             )
         object.__setattr__(self, "segments", tuple(checked))

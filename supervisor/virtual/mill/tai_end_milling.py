@@ -33,7 +33,7 @@ paper prescribes (Eq. 15 at the reference current and the chosen tool-change wea
 from __future__ import annotations
 
 from models.sensors import TaiCurrentFeedCalibration, tai_feed_rate_mm_min
-from supervisor.virtual.mill.common import FeedLimits
+from supervisor.virtual.mill.feed_limits import FeedLimits
 
 
 def _plane() -> TaiCurrentFeedCalibration:
