@@ -23,13 +23,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from models import fields
+from models.data import read_toml
 from models.errors import InputError
+from models.milling_force import KimJeonForceModel, feed_for_force_mm_min
 from supervisor.virtual.mill.controllers.base import FeedController
 from supervisor.virtual.mill.controllers.corrective import BorangiuCorrectiveController
 from supervisor.virtual.mill.controllers.fuzzy import KimJeonFuzzyController
 from supervisor.virtual.mill.controllers.pi import TaiPIController, tai_pi_gains_for
 from supervisor.virtual.mill.feed_limits import FeedLimits
-from supervisor.virtual.mill.force import KimJeonForceModel, feed_for_force_mm_min
 from supervisor.virtual.mill.process import (
     CurrentSensor,
     ForceCurrentMill,
@@ -37,19 +39,30 @@ from supervisor.virtual.mill.process import (
 )
 from supervisor.virtual.mill.run import MillRun, MillSetup, simulate
 
+_FILE = "kim_jeon_case1.toml"
+_DATA = read_toml(_FILE)
+
+
+def _value(key: str) -> float:
+    """A number of the data file; errors name the file and the field."""
+    return fields.number(_DATA[key], f"{_FILE}:{key}")
+
+
 #: Kim & Jeon §5.1: spindle speed [rpm], reference force [N], initial feed [mm/min].
-KIM_JEON_SPINDLE_RPM = 1500.0
-KIM_JEON_REFERENCE_FORCE_N = 160.0
-KIM_JEON_INITIAL_FEED_MM_MIN = 60.0
+KIM_JEON_SPINDLE_RPM = _value("spindle_rpm")
+KIM_JEON_REFERENCE_FORCE_N = _value("reference_force_N")
+KIM_JEON_INITIAL_FEED_MM_MIN = _value("initial_feed_rate_mm_min")
 
 #: Feed limits [mm/min]: 240 from Kim & Jeon §5.2; 20 chosen (see the module).
-KIM_JEON_FEED_LIMITS = FeedLimits(20.0, 240.0)
+KIM_JEON_FEED_LIMITS = FeedLimits(
+    _value("lower_feed_rate_mm_min"), _value("upper_feed_rate_mm_min")
+)
 
 #: The three controllers, by name.
 CONTROLLERS = ("pi", "fuzzy", "corrective")
 
 #: Tai et al.'s sample period [s] (50 Hz, §II.D), used by the PI here too.
-PI_SAMPLE_PERIOD_S = 0.02
+PI_SAMPLE_PERIOD_S = _value("pi_sample_period_s")
 
 
 def case1_setup(*, sample_period_s: float | None = None) -> MillSetup:
@@ -63,9 +76,11 @@ def case1_setup(*, sample_period_s: float | None = None) -> MillSetup:
     return MillSetup(
         process=ForceCurrentMill(KimJeonForceModel()),
         spindle_rpm=KIM_JEON_SPINDLE_RPM,
-        radial_depth_mm=10.0,
-        sensor=CurrentSensor(noise_sd_A=0.005, bandwidth_Hz=5.0),
-        feed_drive_time_constant_s=0.05,
+        radial_depth_mm=_value("radial_depth_mm"),
+        sensor=CurrentSensor(
+            noise_sd_A=_value("sensor_noise_sd_A"), bandwidth_Hz=_value("sensor_bandwidth_Hz")
+        ),
+        feed_drive_time_constant_s=_value("feed_drive_time_constant_s"),
         sample_period_s=sample_period_s,
     )
 

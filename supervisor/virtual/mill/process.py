@@ -21,13 +21,13 @@ from typing import Protocol
 
 from models import fields
 from models.errors import InputError
+from models.milling_force import ForceModel
 from models.sensors import (
     LinearCurrentCalibration,
     TaiCurrentFeedCalibration,
     calibration_from_current_relation,
     tai_spindle_current_A,
 )
-from supervisor.virtual.mill.force import ForceModel
 
 
 class CutProcess(Protocol):
@@ -62,7 +62,7 @@ class ForceCurrentMill:
     Parameters
     ----------
     force_model : ForceModel
-        E.g. :class:`~supervisor.virtual.mill.force.KimJeonForceModel`.
+        E.g. :class:`~models.milling_force.KimJeonForceModel`.
     idle_current_A : float
         Current at zero force [A]. Default 3.206 A: Kim & Jeon §6.2.3, the ACE-V30 spindle,
         ``I = 5.762e-3 F_max + 3.206`` at 150 mpm (the relation nearest the feeds of Case 1;
