@@ -15,12 +15,8 @@ from models import fields
 from models.errors import InputError, ModelDomainError
 from models.sensors.converted import Converted
 from models.sensors.ivester import IvesterSpindleLoadCalibration, _ivester_force, _ivester_idle
-from models.sensors.kim_jeon import (
-    FeedDependentCurrentCalibration,
-    LinearCurrentCalibration,
-    _feed_dependent_force,
-    _linear_force,
-)
+from models.sensors.kim_jeon import LinearCurrentCalibration, _linear_force
+from models.sensors.kim_jeon_feed import FeedDependentCurrentCalibration, _feed_dependent_force
 from models.sensors.tai import TaiCurrentFeedCalibration
 
 RawQuantity = Literal["spindle_load_V", "spindle_current_A"]

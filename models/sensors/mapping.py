@@ -16,7 +16,8 @@ from models import fields
 from models.errors import InputError
 from models.sensors.convert import Calibration
 from models.sensors.ivester import IvesterSpindleLoadCalibration
-from models.sensors.kim_jeon import FeedDependentCurrentCalibration, LinearCurrentCalibration
+from models.sensors.kim_jeon import LinearCurrentCalibration
+from models.sensors.kim_jeon_feed import FeedDependentCurrentCalibration
 from models.sensors.tai import _TAI_CORR, _TAI_PARAMS, TaiCurrentFeedCalibration
 
 _PROVENANCE = ("source", "reference", "date", "notes")
