@@ -21,7 +21,7 @@ from db.plan_state import halt_json, halt_of, settings_json, settings_of
 from db.state_cache import CACHE
 from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
-from supervisor.constant_load.setpoint import ToolChange
+from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import Plan, plan_from_mapping
 from supervisor.optimize.extras import extras_of, with_extras
