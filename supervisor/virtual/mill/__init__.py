@@ -24,6 +24,7 @@ from supervisor.virtual.mill.case1 import (
     KIM_JEON_REFERENCE_FORCE_N,
     case1_controller,
     case1_setup,
+    kim_jeon_case1_workpiece,
     run_case1,
 )
 from supervisor.virtual.mill.edge_life import (
@@ -40,7 +41,6 @@ from supervisor.virtual.mill.process import (
     StepWorkpiece,
     TaiMill,
     WearLaw,
-    kim_jeon_case1_workpiece,
 )
 from supervisor.virtual.mill.run import MillRun, MillSetup, SegmentMetrics, simulate
 

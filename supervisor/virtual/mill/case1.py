@@ -3,7 +3,7 @@
 The numbers of Kim & Jeon's §5.1 simulation: Al6061-T6, a two-flute 10 mm end mill in full
 immersion, 1500 rpm, reference force 160 N (maximum resultant per revolution), initial feed
 60 mpm (mm/min), depth 1.5 → 3.0 → 1.5 mm
-(:func:`~supervisor.virtual.mill.process.kim_jeon_case1_workpiece`); the upper feed limit 240 mpm
+(:func:`kim_jeon_case1_workpiece`); the upper feed limit 240 mpm
 of their experiment (§5.2). Chosen where the paper is silent:
 
 - lower feed limit 20 mm/min (a quarter of the feed that holds 160 N at 3 mm);
@@ -35,7 +35,7 @@ from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.process import (
     CurrentSensor,
     ForceCurrentMill,
-    kim_jeon_case1_workpiece,
+    StepWorkpiece,
 )
 from supervisor.virtual.mill.run import MillRun, MillSetup, simulate
 
@@ -63,6 +63,20 @@ CONTROLLERS = ("pi", "fuzzy", "corrective")
 
 #: Tai et al.'s sample period [s] (50 Hz, §II.D), used by the PI here too.
 PI_SAMPLE_PERIOD_S = _value("pi_sample_period_s")
+
+
+def kim_jeon_case1_workpiece() -> StepWorkpiece:
+    """Kim & Jeon Case 1: depth 1.5 → 3.0 → 1.5 mm (§5.1, Fig. 5a).
+
+    The paper gives the depths and the times of the steps in its simulation (2.7 s and
+    5.3 s), not the lengths. The lengths chosen, 20, 15 and 20 mm, give each segment several
+    seconds at the feeds that hold 160 N (about 190 and 80 mm/min), so that each controller
+    settles and the last third of each segment is a steady state.
+    """
+    segments = fields.mapping(_DATA["workpiece"], f"{_FILE}:workpiece")
+    lengths = fields.number_list(segments["lengths_mm"], f"{_FILE}:workpiece.lengths_mm")
+    depths = fields.number_list(segments["depths_mm"], f"{_FILE}:workpiece.depths_mm")
+    return StepWorkpiece(tuple(zip(lengths, depths, strict=True)))
 
 
 def case1_setup(*, sample_period_s: float | None = None) -> MillSetup:

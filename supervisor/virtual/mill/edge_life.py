@@ -36,7 +36,6 @@ from models.sensors import TaiCurrentFeedCalibration
 from supervisor.virtual.mill.controllers.pi import TAI_PI_GAINS, TaiPIController, TaiPIGains
 from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.process import (
-    TAI_WEAR_RATE_MM_PER_MM3,
     CurrentSensor,
     StepWorkpiece,
     TaiMill,
@@ -53,6 +52,7 @@ from supervisor.virtual.mill.tai_end_milling import (
     TAI_SAMPLE_PERIOD_S,
     TAI_SPINDLE_RPM,
     TAI_TOOL_CHANGE_INTERVAL_MM,
+    TAI_WEAR_RATE_MM_PER_MM3,
 )
 
 

@@ -213,10 +213,6 @@ class WearLaw:
         fields.check_fields(self, non_negatives=("rate_mm_per_mm3",))
 
 
-#: Tai et al. §III.D and Table 1: 197.26 µm on average after 2250 mm at 0.2 × 1.4 mm².
-TAI_WEAR_RATE_MM_PER_MM3 = 0.19726 / (2250.0 * 0.2 * 1.4)
-
-
 @dataclass(frozen=True)
 class StepWorkpiece:
     """A workpiece whose axial depth of cut steps along the path.
@@ -272,14 +268,3 @@ class StepWorkpiece:
         if position_mm < 0.0 or position_mm >= self.length_mm:
             return 0.0
         return self.segments[self.segment_index(position_mm)][1]
-
-
-def kim_jeon_case1_workpiece() -> StepWorkpiece:
-    """Kim & Jeon Case 1: depth 1.5 → 3.0 → 1.5 mm (§5.1, Fig. 5a).
-
-    The paper gives the depths and the times of the steps in its simulation (2.7 s and
-    5.3 s), not the lengths. The lengths chosen, 20, 15 and 20 mm, give each segment several
-    seconds at the feeds that hold 160 N (about 190 and 80 mm/min), so that each controller
-    settles and the last third of each segment is a steady state.
-    """
-    return StepWorkpiece(((20.0, 1.5), (15.0, 3.0), (20.0, 1.5)))
