@@ -1,10 +1,10 @@
 """Kim & Jeon's Case 1 on the virtual mill, under each of the three feed controllers.
 
-The numbers of Kim & Jeon's §5.1 simulation: Al6061-T6, a two-flute 10 mm end mill in full
-immersion, 1500 rpm, reference force 160 N (maximum resultant per revolution), initial feed
-60 mpm (mm/min), depth 1.5 → 3.0 → 1.5 mm
-(:func:`kim_jeon_case1_workpiece`); the upper feed limit 240 mpm
-of their experiment (§5.2). Chosen where the paper is silent:
+The numbers live in ``models/data/kim_jeon_case1.toml``, each with its section. Those of Kim &
+Jeon's §5.1 simulation: Al6061-T6, a two-flute 10 mm end mill in full immersion, 1500 rpm,
+reference force 160 N (maximum resultant per revolution), initial feed 60 mpm (mm/min), depth
+1.5 → 3.0 → 1.5 mm (:func:`kim_jeon_case1_workpiece`); the upper feed limit 240 mpm of their
+experiment (§5.2). Chosen where the paper is silent:
 
 - lower feed limit 20 mm/min (a quarter of the feed that holds 160 N at 3 mm);
 - spindle current ``I = 3.206 + 5.762e-3 F`` A (§6.2.3, 150 mpm), read with 5 Hz bandwidth
