@@ -13,7 +13,7 @@ import pytest
 from supervisor.virtual.mill import case1, tai_end_milling
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER_FILES = ("tai_end_milling.toml", "kim_jeon_case1.toml")
+PAPER_FILES = ("tai_end_milling.toml", "kim_jeon_case1.toml", "kim_jeon_current_force.toml")
 NUMBER = re.compile(r"^\s*\w+\s*=\s*[-+\d\[]")
 
 

@@ -6,6 +6,8 @@
   :mod:`supervisor.virtual.mill.tai_end_milling`.
 - ``kim_jeon_case1.toml``: Kim & Jeon's Case 1 simulation (§5.1), read by
   :mod:`supervisor.virtual.mill.case1`.
+- ``kim_jeon_current_force.toml``: Kim & Jeon's current → force relations at 4500 rpm
+  (§6.2.3), read by :mod:`models.sensors.kim_jeon_feed`.
 
 Each number carries its source (paper, section, table or figure) in a comment of its file.
 """

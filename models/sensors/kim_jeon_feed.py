@@ -2,7 +2,7 @@ r"""Kim & Jeon (Precision Engineering 2011), §6.2.3 and §7: current → force 
 
 The spindle current-force relation "changes as the feed rate changes": linear calibrations at
 several feed rates (:mod:`models.sensors.kim_jeon`) interpolated in between, with Kim & Jeon's
-own at 4500 rpm.
+own at 4500 rpm (read from ``models/data/kim_jeon_current_force.toml``).
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from typing import ClassVar
 import numpy as np
 
 from models import fields
+from models.data import read_toml
 from models.errors import InputError, ModelDomainError
 from models.sensors.converted import Converted
 from models.sensors.kim_jeon import (
@@ -78,26 +79,39 @@ class FeedDependentCurrentCalibration:
         return tuple(float(p.feed_rate_mm_min or 0.0) for p in self.points)
 
 
-def _kim_jeon_points() -> tuple[LinearCurrentCalibration, ...]:
-    return tuple(
-        calibration_from_current_relation(s, c, feed_rate_mm_min=f)
-        for f, s, c in (
-            (150.0, 5.762e-3, 3.206),
-            (300.0, 5.981e-3, 3.537),
-            (450.0, 3.867e-3, 3.542),
+_FILE = "kim_jeon_current_force.toml"
+
+
+def _kim_jeon_calibration() -> FeedDependentCurrentCalibration:
+    """Kim & Jeon's relations at 4500 rpm, read from ``models/data/kim_jeon_current_force.toml``."""
+    data = read_toml(_FILE)
+    relations = data["relations"]
+    if isinstance(relations, str | bytes) or not isinstance(relations, list):
+        raise InputError(f"{_FILE}:relations", relations, "must be a list of tables")
+    points = []
+    for i, entry in enumerate(relations):
+        where = f"{_FILE}:relations[{i}]"
+        table = fields.mapping(entry, where)
+        points.append(
+            calibration_from_current_relation(
+                fields.number(table["slope_A_per_N"], f"{where}.slope_A_per_N"),
+                fields.number(table["offset_A"], f"{where}.offset_A"),
+                feed_rate_mm_min=fields.number(
+                    table["feed_rate_mm_min"], f"{where}.feed_rate_mm_min"
+                ),
+            )
         )
+    return FeedDependentCurrentCalibration(
+        points=tuple(points),
+        spindle_speed_rpm=fields.number(data["spindle_speed_rpm"], f"{_FILE}:spindle_speed_rpm"),
+        source=fields.text(data, "source", _FILE),
+        reference=fields.text(data, "reference", _FILE),
     )
 
 
 #: Kim & Jeon's maximum force per revolution vs spindle RMS current on the ACE-V30 at
 #: 4500 rpm, three feed rates (§6.2.3); the paper gives no uncertainties.
-KIM_JEON_SPINDLE_FMAX_4500RPM = FeedDependentCurrentCalibration(
-    points=_kim_jeon_points(),
-    spindle_speed_rpm=4500.0,
-    source="Kim & Jeon (Precision Engineering 2011), ACE-V30, Al6061-T6, 2-flute end mill",
-    reference="§6.2.3: I = 5.762e-3 F + 3.206 (150 mpm), 5.981e-3 F + 3.537 (300), "
-    "3.867e-3 F + 3.542 A (450)",
-)
+KIM_JEON_SPINDLE_FMAX_4500RPM = _kim_jeon_calibration()
 
 
 def feed_dependent_force_N(
