@@ -81,7 +81,8 @@ from models import kinematics
 from supervisor.inputs.plan import Plan, load_plan
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 from supervisor.rcb.update import STRATEGIES
-from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, Certificate, available_cpus, digest
+from supervisor.virtual.certificate import Certificate, digest
+from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, available_cpus
 from supervisor.virtual.certify import simulate as simulate_certificates
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import tomllib
 from functools import cache
-from importlib import resources
 
 from models import fields
+from models.data import read_toml
 from models.errors import InputError
 from models.tool import Tool, tool_from_mapping
 
@@ -18,8 +17,7 @@ def catalogue() -> dict[str, Tool]:
     """Every packaged tool by name (Ivester & Heigel Tables 2-3 and Eq. 8)."""
     tools: dict[str, Tool] = {}
     for filename in _FILES:
-        text = resources.files("models.data").joinpath(filename).read_text(encoding="utf-8")
-        data = tomllib.loads(text)
+        data = read_toml(filename)
         for i, entry in enumerate(data.get("tools", [])):
             where = f"{filename}:tools[{i}]"
             tool = tool_from_mapping(fields.mapping(entry, where), where)

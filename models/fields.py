@@ -1,13 +1,18 @@
-"""Checked reading of nested mappings (TOML or JSON) into numbers and names.
+"""Checked numbers and names: the one home of input checking for every package.
 
+Reads nested mappings (TOML or JSON) into numbers and names, checks the numeric fields of frozen
+dataclasses (calibrations, the virtual mill's parts) and stores them back as plain floats.
 Every error names the dotted path of the offending field and its value.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable, Mapping
 from typing import Any
+
+import numpy as np
 
 from models.errors import InputError
 
@@ -46,9 +51,15 @@ def text(data: Mapping[str, Any], key: str, path: str, default: str | None = Non
 def number(
     value: object, path: str, *, positive: bool = False, minimum: float | None = None
 ) -> float:
-    """A finite real number (not a bool), optionally positive or at least ``minimum``."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    """A finite real number (not a bool), optionally positive or at least ``minimum``.
+
+    Python ``int`` and ``float`` and numpy real scalars are numbers; bools (Python's or numpy's)
+    are not.
+    """
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
         raise InputError(path, value, "must be a number")
+    if not isinstance(value, int | float):
+        value = float(value)  # a numpy scalar: errors show it as a plain float
     result = float(value)
     if not math.isfinite(result):
         raise InputError(path, value, "must be a finite number")
@@ -82,3 +93,81 @@ def number_table(
     return {
         k: number(v, f"{path}.{k}", positive=positive, minimum=minimum) for k, v in table.items()
     }
+
+
+def positive(value: object, path: str) -> float:
+    """A finite number ``> 0``; the error names ``path`` and the value."""
+    return number(value, path, positive=True)
+
+
+def at_least(value: object, path: str, minimum: float = 0.0) -> float:
+    """A finite number ``>= minimum``; the error names ``path`` and the value."""
+    return number(value, path, minimum=minimum)
+
+
+def uncertainty(value: object, path: str) -> float:
+    """A finite uncertainty ``>= 0``."""
+    return number(value, path, minimum=0.0)
+
+
+def number_list(
+    value: object, path: str, *, minimum: float | None = None, positive: bool = False
+) -> tuple[float, ...]:
+    """A list of finite numbers; errors name ``path[i]``."""
+    if isinstance(value, str | bytes | Mapping) or not isinstance(value, Iterable):
+        raise InputError(path, value, "must be a list of numbers")
+    return tuple(
+        number(v, f"{path}[{i}]", minimum=minimum, positive=positive) for i, v in enumerate(value)
+    )
+
+
+def count(value: object, path: str) -> int:
+    """A whole number ``>= 0`` (not a bool)."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise InputError(path, value, "must be a whole number >= 0")
+    return value
+
+
+def check_field(
+    obj: object,
+    name: str,
+    *,
+    positive: bool = False,
+    minimum: float | None = None,
+    correlation: bool = False,
+    optional: bool = False,
+) -> None:
+    """Check a numeric field of a frozen dataclass and store it back as a plain float.
+
+    Parameters
+    ----------
+    obj : object
+        The frozen dataclass, from its ``__post_init__``.
+    name : str
+        The field's name; errors name it.
+    positive : bool
+        Whether the value must be ``> 0``.
+    minimum : float, optional
+        Smallest allowed value.
+    correlation : bool
+        Whether the value is a correlation coefficient, in ``[-1, 1]``.
+    optional : bool
+        Whether ``None`` is allowed (and kept).
+    """
+    value = getattr(obj, name)
+    if value is None and optional:
+        return
+    checked = number(value, name, positive=positive, minimum=minimum)
+    if correlation and not -1.0 <= checked <= 1.0:
+        raise InputError(name, value, "must be a correlation coefficient in [-1, 1]")
+    object.__setattr__(obj, name, checked)
+
+
+def check_fields(
+    obj: object, *, positives: tuple[str, ...] = (), non_negatives: tuple[str, ...] = ()
+) -> None:
+    """Check numeric fields of a frozen dataclass (``> 0``, ``>= 0``) and store them as floats."""
+    for name in positives:
+        check_field(obj, name, positive=True)
+    for name in non_negatives:
+        check_field(obj, name, minimum=0.0)

@@ -23,38 +23,8 @@ where :math:`y` is the left-hand side. ``s`` and ``R²`` are on the log scale. `
 is the back-transformed coefficient: the median of ``Y`` at a point if the log residuals are
 symmetric, not its mean (no log-normal bias correction, as in the source models).
 
-Every point :math:`j` implies its own coefficient :math:`K_j = Y_j / \prod_i x_{ij}^{e_i}`
-(fitted and fixed exponents), and :math:`K_j / K = \exp(r_j)`. The band ``ΔK`` is one of:
-
-``"range"`` (Ivester & Heigel)
-    The smallest ``ΔK`` for which every point lies inside ``(K ± ΔK) · Π x_i^e_i``:
-
-    .. math::
-
-        \Delta K = \max_j |K_j - K| = \max_j \frac{|Y_j - \hat Y_j|}{\prod_i x_{ij}^{e_i}}
-                 = K \max_j |e^{r_j} - 1|
-
-``"2s"`` (expanded uncertainty, NIST TN 1297)
-    ``k`` times the standard deviation of the log residuals, taken back to ``K``:
-
-    .. math:: \Delta K = K \left(e^{k s} - 1\right), \qquad k = 2 \text{ by default}
-
-    so that the upper band edge is exactly the log-scale expanded uncertainty,
-    :math:`\ln(K + \Delta K) = \ln K + k s`. That is the edge the robust optimiser constrains for
-    every maximum (force, roughness, power: ``ln(K + ΔK) + e·x ≤ ln(limit)``, DESIGN.md), and it
-    is where ``s`` is estimated (residuals of a log fit are roughly symmetric in ``ln Y``, not in
-    ``Y``). The first-order form ``K·k·s`` would put the upper edge at
-    :math:`\ln K + \ln(1 + ks)`, below ``ln K + ks`` by about :math:`(ks)^2/2`, which is not
-    negligible for scattered data (``ks = 1`` for ``s = 0.5``). The band ``±ΔK`` is symmetric, as
-    :class:`~models.powerlaw.PowerLawModel` holds it, so its lower edge ``K(2 − e^{ks})`` lies
-    below the log-scale lower edge :math:`K e^{-ks}`: conservative for a minimum (tool life);
-    it reaches 0 when ``ks ≥ ln 2``, i.e. when the data guarantee no positive lower value.
-
-``coverage`` is the fraction of points inside the band by the same measure,
-:math:`|Y_j - \hat Y_j| \le \Delta K \prod_i x_{ij}^{e_i}`, i.e. :math:`K |e^{r_j} - 1| \le
-\Delta K`. The range band covers every point by construction (coverage 1.0); a ``2s`` band covers
-the points with :math:`\ln(2 - e^{ks}) \le r_j \le ks`, at least the fraction within ``±ks`` on
-the log scale (about 95 % for ``k = 2`` if the log residuals are normal).
+The band ``ΔK`` and its coverage are :mod:`models.fit_band`'s; the checks of the data and
+the log design, :mod:`models.fit_design`'s.
 
 References
 ----------
@@ -73,31 +43,17 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from models.errors import InputError
+from models.fit_band import Band, band_dK, check_band, coverage
+from models.fit_design import check_design, check_positive, vector
 from models.powerlaw import PowerLawModel
-
-Band = Literal["range", "2s"]
-#: The band kinds, as ``band`` takes them.
-BANDS: tuple[Band, ...] = ("range", "2s")
 
 #: Name of the intercept in ``stderr`` and ``parameters``.
 LN_K = "ln_K"
-
-#: Smallest ratio of the least to the largest singular value of the centred, column-scaled log
-#: design; below it the free columns are taken as collinear (about ``sqrt(machine epsilon)``:
-#: half the significant digits of the estimates would be lost).
-MIN_SINGULAR_RATIO = 1e-8
-
-#: A log column whose spread is below this (times its magnitude, at least 1) is constant.
-CONSTANT_RTOL = 1e-12
-
-#: Relative rounding allowance when testing whether a point lies inside the band.
-COVERAGE_RTOL = 1e-12
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -111,7 +67,7 @@ class FitResult:
     K : float
         Coefficient ``exp(ln K)`` [unit of the response].
     dK : float
-        Half-width of the band on K [unit of the response] (see :func:`band_dK`).
+        Half-width of the band on K [unit of the response] (see :func:`~models.fit_band.band_dK`).
     exponents : Mapping[str, float]
         Every exponent, fitted and fixed, in the order the variables were given [-].
     fixed : Mapping[str, float]
@@ -136,7 +92,8 @@ class FitResult:
     k : float or None
         Coverage factor of a ``"2s"`` band; None for ``"range"``.
     coverage : float
-        Fraction of the points inside ``(K ± dK) · Π x_i^e_i`` [-] (see :func:`coverage`).
+        Fraction of the points inside ``(K ± dK) · Π x_i^e_i`` [-]
+        (see :func:`~models.fit_band.coverage`).
     """
 
     K: float
@@ -169,7 +126,7 @@ class FitResult:
 
     def with_band(self, band: Band, k: float = 2.0) -> FitResult:
         """The same fit with another band (``k`` is used by ``"2s"`` only)."""
-        checked_k = _check_band(band, k)
+        checked_k = check_band(band, k)
         dK = band_dK(self.K, self.s, self.log_residuals, band, k)
         return replace(
             self,
@@ -252,65 +209,6 @@ class FitResult:
         }
 
 
-def band_dK(
-    K: float, s: float, log_residuals: Sequence[float] | FloatArray, band: Band, k: float = 2.0
-) -> float:
-    r"""Half-width ``ΔK`` of the band on ``K``.
-
-    Parameters
-    ----------
-    K : float
-        Fitted coefficient [unit of the response].
-    s : float
-        Standard deviation of the log residuals [-].
-    log_residuals : sequence of float
-        ``ln Y_j − ln Ŷ_j`` [-].
-    band : {"range", "2s"}
-        ``"range"``: :math:`K \max_j |e^{r_j} - 1|`, the smallest band holding every point
-        (Ivester & Heigel, "Cutting Force Models"). ``"2s"``: :math:`K (e^{k s} - 1)`, the
-        log-scale expanded uncertainty ``k·s`` (NIST TN 1297) at the upper edge.
-    k : float
-        Coverage factor of the ``"2s"`` band [-].
-
-    Returns
-    -------
-    float
-        ``ΔK`` [unit of the response].
-    """
-    if band == "range":
-        relative = np.abs(np.expm1(np.asarray(log_residuals, dtype=np.float64)))
-        return K * float(np.max(relative, initial=0.0))
-    return K * math.expm1(k * s)
-
-
-def coverage(K: float, dK: float, log_residuals: Sequence[float] | FloatArray) -> float:
-    r"""Fraction of the points inside the band ``(K ± ΔK) · Π x_i^e_i``.
-
-    A point is inside when :math:`|Y_j - \hat Y_j| \le \Delta K \prod_i x_{ij}^{e_i}`, that is
-    :math:`K |e^{r_j} - 1| \le \Delta K` (with a relative rounding allowance of
-    :data:`COVERAGE_RTOL`), the same measure :func:`band_dK` uses for the range band.
-
-    Parameters
-    ----------
-    K : float
-        Fitted coefficient [unit of the response].
-    dK : float
-        Half-width of the band [unit of the response].
-    log_residuals : sequence of float
-        ``ln Y_j − ln Ŷ_j`` [-].
-
-    Returns
-    -------
-    float
-        Covered fraction in [0, 1].
-    """
-    r = np.asarray(log_residuals, dtype=np.float64)
-    if r.size == 0:
-        return 1.0
-    inside = K * np.abs(np.expm1(r)) <= dK * (1.0 + COVERAGE_RTOL)
-    return float(np.mean(inside))
-
-
 def fit_power_law(
     response: Sequence[float] | FloatArray,
     variables: Mapping[str, Sequence[float] | FloatArray],
@@ -369,11 +267,11 @@ def fit_power_law(
     """
     fixed = dict(fixed or {})
     labels = dict(labels or {})
-    checked_k = _check_band(band, k)
+    checked_k = check_band(band, k)
     names = list(variables)
-    y_raw = _vector(response, response_name)
+    y_raw = vector(response, response_name)
     n = y_raw.size
-    columns = {name: _vector(variables[name], labels.get(name, name)) for name in names}
+    columns = {name: vector(variables[name], labels.get(name, name)) for name in names}
     for name, column in columns.items():
         if column.size != n:
             raise InputError(
@@ -384,9 +282,9 @@ def fit_power_law(
     row_names = list(rows) if rows is not None else list(range(n))
     if len(row_names) != n:
         raise InputError("rows", f"{len(row_names)} labels", f"expected one per point ({n})")
-    _check_positive(y_raw, response_name, row_names)
+    check_positive(y_raw, response_name, row_names)
     for name, column in columns.items():
-        _check_positive(column, labels.get(name, name), row_names)
+        check_positive(column, labels.get(name, name), row_names)
     for name, exponent in fixed.items():
         if not math.isfinite(exponent):
             raise InputError(f"fixed.{name}", exponent, "must be a finite number")
@@ -411,7 +309,7 @@ def fit_power_law(
         if name in logs:
             y = y - exponent * logs[name]
     free_logs = [logs[name] for name in free]
-    _check_design(free, [columns[name] for name in free], free_logs, labels)
+    check_design(free, [columns[name] for name in free], free_logs, labels)
 
     X = np.column_stack([np.ones(n), *free_logs])
     q, r_factor = np.linalg.qr(X)
@@ -449,95 +347,6 @@ def fit_power_law(
         k=checked_k,
         coverage=coverage(K, dK, residuals),
     )
-
-
-def _check_band(band: str, k: float) -> float | None:
-    """Check the band kind and ``k``; the ``k`` to report (None for the range band)."""
-    if band not in BANDS:
-        raise InputError("band", band, f"unknown band; expected one of: {', '.join(BANDS)}")
-    if band == "range":
-        return None
-    if isinstance(k, bool) or not (math.isfinite(k) and k > 0):
-        raise InputError("k", k, "the coverage factor must be a positive finite number")
-    return float(k)
-
-
-def _vector(values: Sequence[float] | FloatArray, label: str) -> FloatArray:
-    """A 1-D float array, or an InputError naming ``label``."""
-    try:
-        array = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise InputError(label, values, f"must be a list of numbers ({err})") from None
-    if array.ndim != 1:
-        raise InputError(label, f"shape {array.shape}", "must be a one-dimensional column")
-    return array
-
-
-def _check_positive(values: FloatArray, label: str, rows: Sequence[object]) -> None:
-    """Refuse the first value that has no logarithm (not finite, zero or negative)."""
-    bad = np.flatnonzero(~(np.isfinite(values) & (values > 0)))
-    if bad.size:
-        i = int(bad[0])
-        value = float(values[i])
-        reason = (
-            "must be a finite number"
-            if not math.isfinite(value)
-            else "must be greater than 0 (the power law is fitted on logarithms)"
-        )
-        raise InputError(f"{label}[{rows[i]}]", value, reason)
-
-
-def _check_design(
-    free: list[str], values: list[FloatArray], logs: list[FloatArray], labels: Mapping[str, str]
-) -> None:
-    """Refuse constant and collinear free log columns, naming the column."""
-    for name, raw, column in zip(free, values, logs, strict=True):
-        spread = float(np.ptp(column))
-        if spread <= CONSTANT_RTOL * max(1.0, float(np.max(np.abs(column)))):
-            raise InputError(
-                labels.get(name, name),
-                float(raw[0]),
-                f"constant column: every point has this {name}, so its exponent cannot be "
-                "fitted; fix the exponent or leave the variable out",
-            )
-    if len(free) < 2:
-        return
-    centred = np.column_stack([c - float(np.mean(c)) for c in logs])
-    scaled = centred / np.linalg.norm(centred, axis=0)
-    _, singular, vt = np.linalg.svd(scaled, full_matrices=False)
-    ratio = float(singular[-1] / singular[0])
-    if ratio >= MIN_SINGULAR_RATIO:
-        return
-    null = np.abs(vt[-1])
-    involved = [i for i in range(len(free)) if null[i] > 0.01 * float(np.max(null))]
-    last = involved[-1]
-    others = involved[:-1]
-    name = free[last]
-    basis = np.column_stack([np.ones(logs[last].size), *(logs[i] for i in others)])
-    coef, *_ = np.linalg.lstsq(basis, logs[last], rcond=None)
-    relation = f"ln {name} = {_tidy(float(coef[0])):.4g}"
-    for c, i in zip(coef[1:], others, strict=True):
-        c = _tidy(float(c))
-        relation += f" {'-' if c < 0 else '+'} {abs(c):.4g}·ln {free[i]}"
-    with_names = ", ".join(_named(free[i], labels) for i in others)
-    raise InputError(
-        labels.get(name, name),
-        relation,
-        f"collinear with {with_names} (least/largest singular value of the scaled log design "
-        f"{ratio:.2g} < {MIN_SINGULAR_RATIO:g}): their exponents cannot be told apart; fix one "
-        "exponent or leave a variable out",
-    )
-
-
-def _named(name: str, labels: Mapping[str, str]) -> str:
-    """``label (name)``, or ``name`` when it has no other label."""
-    label = labels.get(name, name)
-    return name if label == name else f"{label} ({name})"
-
-
-def _tidy(value: float) -> float:
-    """``value`` with rounding noise below 1e-9 shown as 0."""
-    return 0.0 if abs(value) < 1e-9 else value
 
 
 def _r_squared(ssr: float, sst: float, y: FloatArray) -> float:

@@ -19,15 +19,14 @@ from supervisor.inputs.plan import load_plan
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 from supervisor.rcb.update import Halt, HaltedOperation, RcbSettings, start
 from supervisor.virtual import certify
-from supervisor.virtual.certify import (
+from supervisor.virtual.certificate import (
     Certificate,
     clopper_pearson_upper,
     digest,
-    run_scenario,
-    simulate,
     summarize,
     summary_rows,
 )
+from supervisor.virtual.certify import run_scenario, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

@@ -12,11 +12,11 @@ from hypothesis import strategies as st
 
 from models.errors import InputError
 from models.sensors import TaiCurrentFeedCalibration
+from supervisor.constant_load.reported_tool_changes import tool_change
 from supervisor.constant_load.setpoint import (
     ConstantLoadConfig,
     constant_load_setpoint,
     setup_of,
-    tool_change,
 )
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan

@@ -24,9 +24,10 @@ from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
 from api.cli.domain import domain as domain_command
+from models import borangiu_cost
 from models.errors import InputError
 from supervisor.borangiu import productivity
-from supervisor.borangiu.domain import domain_problem_from_mapping, load_domain_problem
+from supervisor.borangiu.problem import domain_problem_from_mapping, load_domain_problem
 from supervisor.errors import InfeasibleError
 from supervisor.optimize.formulation import formulate_domain
 from supervisor.optimize.optimizer import optimize_domain
@@ -36,7 +37,7 @@ EXAMPLE = ROOT / "examples" / "borangiu_domain.toml"
 with EXAMPLE.open("rb") as _f:
     _DATA: dict[str, Any] = tomllib.load(_f)
 
-# J's coefficients by hand (supervisor/borangiu/productivity.py module doc), per kg of steel
+# J's coefficients by hand (models/borangiu_cost.py module doc), per kg of steel
 # removed:
 # mass per mm of feed = 1e-6 kg/(mm³·t/m³) · 7.85 t/m³ · 2 mm · 5 mm = 7.85e-5 kg/mm.
 MASS = 1e-6 * 7.85 * 2 * 5
@@ -198,12 +199,12 @@ def test_eq10_whenever_it_lies_inside_and_never_above_a_feasible_point(k_d, tool
     problem = domain_problem_from_mapping(d)
     result = optimize_domain(problem)
     best = result.min_cost
-    terms = productivity.wn_terms(problem.coefficients)
+    terms = borangiu_cost.wn_terms(problem.coefficients)
     dom = problem.domain
     feasible = 0.04 <= w / n <= min(k_d, 0.48, 0.6) and dom.power_kW(w, n) <= 2.2
     if feasible:
         point = {"feed_rate_mm_min": w, "spindle_rpm": n}
-        assert best.cost_per_kg <= productivity.evaluate(terms, point) * (1 + 1e-7)
+        assert best.cost_per_kg <= borangiu_cost.evaluate(terms, point) * (1 + 1e-7)
     w0, n0 = result.stationary
     limit = min(k_d, 0.48)
     inside = 20 < w0 < 3000 and 500 < n0 < 6000 and dom.power_kW(w0, n0) < 2.2

@@ -34,7 +34,8 @@ from typer.testing import CliRunner
 
 from api.cli.fit import fit, tool_table, tool_toml
 from models.errors import InputError
-from models.fit import FitResult, coverage, fit_power_law
+from models.fit import FitResult, fit_power_law
+from models.fit_band import coverage
 from models.tool import tool_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 

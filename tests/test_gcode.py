@@ -28,12 +28,11 @@ from supervisor.gcode import (
     GcodeError,
     OperationSetpoint,
     RewriteResult,
-    _floor,
-    _styled,
     parse_program,
     parse_range,
     rewrite_program,
 )
+from supervisor.gcode.numbers import _floor, _styled
 
 from conftest import DEMO_PLAN, ROOT
 

@@ -15,6 +15,14 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from models.errors import InputError
+from models.milling_force import (
+    KimJeonForceModel,
+    PowerLawForce,
+    feed_for_force_mm_min,
+    kim_jeon_coefficients,
+    kim_jeon_forces_N,
+    kim_jeon_max_force_N,
+)
 from models.powerlaw import PowerLawModel
 from supervisor.virtual.mill import (
     CONTROLLERS,
@@ -22,15 +30,10 @@ from supervisor.virtual.mill import (
     EdgeLifeConfig,
     FeedLimits,
     ForceCurrentMill,
-    KimJeonForceModel,
     MillSetup,
-    PowerLawForce,
     StepWorkpiece,
     TaiMill,
     case1_controller,
-    feed_for_force_mm_min,
-    kim_jeon_forces_N,
-    kim_jeon_max_force_N,
     run_case1,
     simulate,
     simulate_edge_life,
@@ -53,7 +56,6 @@ from supervisor.virtual.mill.controllers import (
     tai_pi_gains_for,
 )
 from supervisor.virtual.mill.controllers.fuzzy_rules import ASYMMETRIC_CELLS, rank_table
-from supervisor.virtual.mill.force import kim_jeon_coefficients
 from supervisor.virtual.mill.tai_end_milling import (
     TAI_END_MILLING,
     TAI_LOWER_FEED_RATE_MM_MIN,

@@ -14,7 +14,8 @@ from typer.testing import CliRunner
 
 from api.cli.main import app
 from models.sensors import to_force
-from models.sensors.kim_jeon import KIM_JEON_SPINDLE_FMAX_4500RPM, LinearCurrentCalibration
+from models.sensors.kim_jeon import LinearCurrentCalibration
+from models.sensors.kim_jeon_feed import KIM_JEON_SPINDLE_FMAX_4500RPM
 from supervisor.inputs.plan import load_plan
 from supervisor.virtual.sensing import reading_for_force
 

@@ -20,7 +20,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from api.cli.main import app
-from models import kinematics
+from models import borangiu_cost, kinematics
 from models.errors import InputError
 from supervisor.borangiu import productivity
 from supervisor.errors import InfeasibleError
@@ -326,12 +326,12 @@ def test_rcb_optimize_runs_a_productivity_plan_and_refuses_bad_fields(runner, tm
 
 def test_cost_terms_are_eq1_over_tool_life():
     # J = (cost of a life/T + C_t + C_e·P_c/60) / (1e-6·ρ·ap·ae·w) at an arbitrary point
-    cost = productivity.productivity_from_mapping(COST, "p")
-    assert isinstance(cost, productivity.CostData)
+    cost = borangiu_cost.productivity_from_mapping(COST, "p")
+    assert isinstance(cost, borangiu_cost.CostData)
     assert_allclose(cost.cost_per_tool_life, 45.00225)
     assert_allclose(cost.min_cost_tool_life_min(), 135.00675)
     force = plan_from_mapping(plan()).tools["EM10"].models["force_N"].monomial
-    terms = productivity.milling_cost_terms(cost, force * kinematics.power_per_newton_monomial())
+    terms = borangiu_cost.milling_cost_terms(cost, force * kinematics.power_per_newton_monomial())
     point = {
         "axial_depth_mm": 1.5,
         "radial_depth_mm": 3.0,
@@ -340,4 +340,4 @@ def test_cost_terms_are_eq1_over_tool_life():
         "tool_diameter_mm": 10,
         "flute_count": 4,
     }
-    assert_allclose(productivity.evaluate(terms, point), J_by_hand(1.5, 3.0, 0.05, 180.0))
+    assert_allclose(borangiu_cost.evaluate(terms, point), J_by_hand(1.5, 3.0, 0.05, 180.0))

@@ -25,14 +25,8 @@ from models.errors import InputError
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 from supervisor.rcb.update import STRATEGIES
-from supervisor.virtual.certify import (
-    MAX_PARTS,
-    MAX_SCENARIOS,
-    CertificateSummary,
-    available_cpus,
-    certify_plan,
-    summarize,
-)
+from supervisor.virtual.certificate import CertificateSummary, summarize
+from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, available_cpus, certify_plan
 
 #: Exit code when the certificate ran and some part crossed a true limit.
 VIOLATIONS_FOUND = 1

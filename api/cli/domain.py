@@ -17,7 +17,9 @@ from rich.console import Console
 from rich.table import Table
 
 from api.cli.common import emit, errors
-from supervisor.borangiu.domain import EQUATIONS, DomainPoint, DomainResult, load_domain_problem
+from supervisor.borangiu.domain import EQUATIONS
+from supervisor.borangiu.problem import load_domain_problem
+from supervisor.borangiu.result import DomainPoint, DomainResult
 from supervisor.optimize.optimizer import optimize_domain
 
 _out = Console()

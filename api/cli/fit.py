@@ -26,7 +26,8 @@ from rich.table import Table
 
 from api.cli.common import check_target, emit, errors, number_cell, say, write_atomically
 from models.errors import InputError
-from models.fit import BANDS, Band, FitResult, fit_power_law
+from models.fit import FitResult, fit_power_law
+from models.fit_band import BANDS, Band
 from models.quantities import MODEL_QUANTITIES
 from models.tool import process_of, tool_from_mapping, variables
 

@@ -43,7 +43,7 @@ from db.state_cache import CACHE, database_key
 from models.catalogue import catalogue
 from models.errors import InputError
 from models.tool import tool_from_mapping
-from supervisor.constant_load.due_changes import tool_changes
+from supervisor.constant_load.reported_tool_changes import tool_changes
 from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.inputs.signals import resolve

@@ -10,7 +10,7 @@ from typing import Any
 
 from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
-from supervisor.constant_load.setpoint import ToolChange
+from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.optimize.extras import extras_of
 from supervisor.optimize.optimizer import OperationResult, PlanResult
 from supervisor.rcb.update import Decision

@@ -20,10 +20,12 @@ uncertainty)``; each calibration is a frozen dataclass with its provenance.
 ``spindle_current_A`` with its expanded uncertainty → ``force_N`` with its expanded
 uncertainty.
 
-One module per concern: :mod:`~models.sensors.common` (:class:`Converted`, checked numbers),
-one per paper (:mod:`~models.sensors.ivester`, :mod:`~models.sensors.kim_jeon`,
-:mod:`~models.sensors.tai`), :mod:`~models.sensors.convert` (:func:`to_force`) and
-:mod:`~models.sensors.mapping` (plan-file readers and writers); every public name is
+One module per concern: :mod:`~models.sensors.converted` (:class:`Converted`),
+:mod:`~models.sensors.least_squares` (the fits' least squares and covariances), one per paper
+(:mod:`~models.sensors.ivester`, :mod:`~models.sensors.kim_jeon` and
+:mod:`~models.sensors.kim_jeon_feed`, :mod:`~models.sensors.tai`),
+:mod:`~models.sensors.convert` (:func:`to_force`) and :mod:`~models.sensors.mapping` (plan-file
+readers and writers); checked numbers come from :mod:`models.fields`. Every public name is
 re-exported here.
 
 Uncertainty conventions
@@ -104,8 +106,8 @@ References
 
 from __future__ import annotations
 
-from models.sensors.common import Converted
 from models.sensors.convert import RAW_QUANTITIES, Calibration, RawQuantity, to_force
+from models.sensors.converted import Converted
 from models.sensors.ivester import (
     IVESTER_SPINDLE_LOAD,
     IvesterSpindleLoadCalibration,
@@ -117,14 +119,16 @@ from models.sensors.ivester import (
     rpm_to_rad_s,
 )
 from models.sensors.kim_jeon import (
-    KIM_JEON_SPINDLE_FMAX_4500RPM,
-    FeedDependentCurrentCalibration,
     LinearCurrentCalibration,
     calibration_from_current_relation,
-    feed_dependent_force_N,
     fit_linear_calibration,
     kim_jeon_rms_current_A,
     linear_current_force_N,
+)
+from models.sensors.kim_jeon_feed import (
+    KIM_JEON_SPINDLE_FMAX_4500RPM,
+    FeedDependentCurrentCalibration,
+    feed_dependent_force_N,
 )
 from models.sensors.mapping import (
     CALIBRATION_KINDS,

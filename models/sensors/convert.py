@@ -13,14 +13,10 @@ from typing import Literal
 
 from models import fields
 from models.errors import InputError, ModelDomainError
-from models.sensors.common import Converted, _number, _uncertainty
+from models.sensors.converted import Converted
 from models.sensors.ivester import IvesterSpindleLoadCalibration, _ivester_force, _ivester_idle
-from models.sensors.kim_jeon import (
-    FeedDependentCurrentCalibration,
-    LinearCurrentCalibration,
-    _feed_dependent_force,
-    _linear_force,
-)
+from models.sensors.kim_jeon import LinearCurrentCalibration, _linear_force
+from models.sensors.kim_jeon_feed import FeedDependentCurrentCalibration, _feed_dependent_force
 from models.sensors.tai import TaiCurrentFeedCalibration
 
 RawQuantity = Literal["spindle_load_V", "spindle_current_A"]
@@ -52,7 +48,7 @@ def _context_required(context: Mapping[str, object], key: str) -> float:
     """A positive number the conversion needs from ``context``."""
     if key not in context:
         raise InputError(f"context.{key}", None, "required for this conversion")
-    return _number(context[key], f"context.{key}", positive=True)
+    return fields.number(context[key], f"context.{key}", positive=True)
 
 
 def _context_optional(
@@ -61,7 +57,7 @@ def _context_optional(
     """A number ``>= 0`` the conversion may take from ``context``."""
     if key not in context:
         return default
-    return _number(context[key], f"context.{key}", minimum=0.0)
+    return fields.number(context[key], f"context.{key}", minimum=0.0)
 
 
 def _check_speed(
@@ -161,9 +157,9 @@ def to_force(
         raise InputError(
             "raw_quantity", raw_quantity, f"a {kind} calibration converts {_CONVERTS[kind]}"
         )
-    k = _number(coverage_k, "coverage_k", positive=True)
-    reading = _number(value, f"{name}.value", minimum=0.0)
-    u_reading = _uncertainty(uncertainty, f"{name}.uncertainty") / k
+    k = fields.number(coverage_k, "coverage_k", positive=True)
+    reading = fields.number(value, f"{name}.value", minimum=0.0)
+    u_reading = fields.uncertainty(uncertainty, f"{name}.uncertainty") / k
     context = fields.mapping(context, "context")
 
     result: Converted

@@ -13,14 +13,9 @@ from typing import ClassVar
 
 import numpy as np
 
+from models import fields
 from models.errors import InputError, ModelDomainError
-from models.sensors.common import (
-    Converted,
-    _check_field,
-    _number,
-    _numbers,
-    _uncertainty,
-)
+from models.sensors.converted import Converted
 
 _RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 
@@ -82,14 +77,14 @@ class IvesterSpindleLoadCalibration:
     notes: str = ""
 
     def __post_init__(self) -> None:
-        _check_field(self, "m_low_N_mm_per_V", positive=True)
-        _check_field(self, "m_coefficient", positive=True)
-        _check_field(self, "m_exponent")
-        _check_field(self, "corner_speed_rad_s", minimum=0.0)
-        _check_field(self, "u_m_N_mm_per_V", minimum=0.0)
-        _check_field(self, "u_idle_load_V", minimum=0.0)
-        speeds = _numbers(self.idle_speeds_rpm, "idle_speeds_rpm", positive=True)
-        loads = _numbers(self.idle_loads_V, "idle_loads_V", minimum=0.0)
+        fields.check_field(self, "m_low_N_mm_per_V", positive=True)
+        fields.check_field(self, "m_coefficient", positive=True)
+        fields.check_field(self, "m_exponent")
+        fields.check_field(self, "corner_speed_rad_s", minimum=0.0)
+        fields.check_field(self, "u_m_N_mm_per_V", minimum=0.0)
+        fields.check_field(self, "u_idle_load_V", minimum=0.0)
+        speeds = fields.number_list(self.idle_speeds_rpm, "idle_speeds_rpm", positive=True)
+        loads = fields.number_list(self.idle_loads_V, "idle_loads_V", minimum=0.0)
         if len(speeds) != len(loads):
             raise InputError(
                 "idle_loads_V", self.idle_loads_V, f"needs one load per speed ({len(speeds)})"
@@ -131,7 +126,7 @@ def ivester_ratio_N_mm_per_V(
     ----------
     .. [1] Ivester & Heigel, Eqs. 1-2 and Figure 2.
     """
-    speed = _number(speed_rad_s, "speed_rad_s", minimum=0.0)
+    speed = fields.number(speed_rad_s, "speed_rad_s", minimum=0.0)
     if speed <= calibration.corner_speed_rad_s:
         return calibration.m_low_N_mm_per_V
     return float(calibration.m_coefficient * speed**calibration.m_exponent)
@@ -169,7 +164,7 @@ def ivester_idle_load_V(
     Converted
         Idle load [V], linearly interpolated, and its standard uncertainty [V].
     """
-    speed = _number(spindle_speed_rpm, "spindle_speed_rpm", positive=True)
+    speed = fields.number(spindle_speed_rpm, "spindle_speed_rpm", positive=True)
     return _ivester_idle(calibration, speed, "spindle_speed_rpm")
 
 
@@ -261,13 +256,13 @@ def ivester_force_N(
     """
     return _ivester_force(
         calibration,
-        _number(load_V, "load_V", minimum=0.0),
-        _uncertainty(u_load_V, "u_load_V"),
-        _number(idle_load_V, "idle_load_V", minimum=0.0),
-        _uncertainty(u_idle_load_V, "u_idle_load_V"),
-        _number(spindle_speed_rpm, "spindle_speed_rpm", positive=True),
-        _number(workpiece_diameter_mm, "workpiece_diameter_mm", positive=True),
-        _uncertainty(u_workpiece_diameter_mm, "u_workpiece_diameter_mm"),
+        fields.number(load_V, "load_V", minimum=0.0),
+        fields.uncertainty(u_load_V, "u_load_V"),
+        fields.number(idle_load_V, "idle_load_V", minimum=0.0),
+        fields.uncertainty(u_idle_load_V, "u_idle_load_V"),
+        fields.number(spindle_speed_rpm, "spindle_speed_rpm", positive=True),
+        fields.number(workpiece_diameter_mm, "workpiece_diameter_mm", positive=True),
+        fields.uncertainty(u_workpiece_diameter_mm, "u_workpiece_diameter_mm"),
     )
 
 
@@ -310,14 +305,14 @@ def ivester_spindle_torque_Nm(
        radius"), Eqs. 1-2 and 4.
     """
     m = ivester_ratio_N_mm_per_V(
-        rpm_to_rad_s(_number(spindle_speed_rpm, "spindle_speed_rpm", positive=True)),
+        rpm_to_rad_s(fields.number(spindle_speed_rpm, "spindle_speed_rpm", positive=True)),
         calibration,
     )
-    net_V = _number(load_V, "load_V", minimum=0.0) - _number(
+    net_V = fields.number(load_V, "load_V", minimum=0.0) - fields.number(
         idle_load_V, "idle_load_V", minimum=0.0
     )
     u_net_V = math.hypot(
-        _uncertainty(u_load_V, "u_load_V"), _uncertainty(u_idle_load_V, "u_idle_load_V")
+        fields.uncertainty(u_load_V, "u_load_V"), fields.uncertainty(u_idle_load_V, "u_idle_load_V")
     )
     torque = m * net_V / 2000.0
     u_torque = math.hypot(m * u_net_V / 2000.0, torque * calibration.u_m_N_mm_per_V / m)
@@ -356,8 +351,8 @@ def ivester_load_V(
     ----------
     .. [1] Ivester & Heigel, Eqs. 1-3.
     """
-    force = _number(force_N, "force_N", minimum=0.0)
-    speed = _number(spindle_speed_rpm, "spindle_speed_rpm", positive=True)
-    diameter = _number(workpiece_diameter_mm, "workpiece_diameter_mm", positive=True)
-    idle = _number(idle_load_V, "idle_load_V", minimum=0.0)
+    force = fields.number(force_N, "force_N", minimum=0.0)
+    speed = fields.number(spindle_speed_rpm, "spindle_speed_rpm", positive=True)
+    diameter = fields.number(workpiece_diameter_mm, "workpiece_diameter_mm", positive=True)
+    idle = fields.number(idle_load_V, "idle_load_V", minimum=0.0)
     return force * diameter / ivester_ratio_N_mm_per_V(rpm_to_rad_s(speed), calibration) + idle

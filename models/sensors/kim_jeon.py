@@ -1,8 +1,8 @@
 """Kim & Jeon (Precision Engineering 2011), §6: spindle current → cutting force.
 
-The RMS of the three phase currents (§6), a linear current → force calibration fitted or
-taken from a published relation (§6.1.3, §6.2.3), and calibrations at several feed rates
-interpolated in between (§6.2.3, §7), with Kim & Jeon's own at 4500 rpm.
+The RMS of the three phase currents (§6) and a linear current → force calibration fitted or
+taken from a published relation (§6.1.3, §6.2.3). Calibrations at several feed rates,
+interpolated in between (§6.2.3, §7), are in :mod:`models.sensors.kim_jeon_feed`.
 """
 
 from __future__ import annotations
@@ -14,17 +14,10 @@ from typing import ClassVar
 
 import numpy as np
 
+from models import fields
 from models.errors import InputError, ModelDomainError
-from models.sensors.common import (
-    Converted,
-    _check_count,
-    _check_field,
-    _least_squares,
-    _number,
-    _numbers,
-    _uncertainties_from_covariance,
-    _uncertainty,
-)
+from models.sensors.converted import Converted
+from models.sensors.least_squares import least_squares, uncertainties_from_covariance
 
 
 def kim_jeon_rms_current_A(
@@ -58,12 +51,12 @@ def kim_jeon_rms_current_A(
     ----------
     .. [1] Kim & Jeon, Precision Engineering 2011, §6 (first paragraph).
     """
-    currents = _numbers(phase_currents_A, "phase_currents_A")
+    currents = fields.number_list(phase_currents_A, "phase_currents_A")
     if len(currents) != 3:
         raise InputError("phase_currents_A", phase_currents_A, "needs the 3 phase currents")
     u: tuple[float, ...] = (0.0, 0.0, 0.0)
     if u_phase_currents_A is not None:
-        u = _numbers(u_phase_currents_A, "u_phase_currents_A", minimum=0.0)
+        u = fields.number_list(u_phase_currents_A, "u_phase_currents_A", minimum=0.0)
         if len(u) != 3:
             raise InputError("u_phase_currents_A", u_phase_currents_A, "needs 3 uncertainties")
     rms = math.sqrt(sum(i * i for i in currents) / 3.0)
@@ -123,14 +116,14 @@ class LinearCurrentCalibration:
     notes: str = ""
 
     def __post_init__(self) -> None:
-        _check_field(self, "offset_N")
-        _check_field(self, "slope_N_per_A", positive=True)
+        fields.check_field(self, "offset_N")
+        fields.check_field(self, "slope_N_per_A", positive=True)
         for name in ("u_offset_N", "u_slope_N_per_A", "residual_sd_N", "speed_tolerance_rel"):
-            _check_field(self, name, minimum=0.0)
-        _check_field(self, "corr_offset_slope", correlation=True)
-        _check_count(self.n)
-        _check_field(self, "feed_rate_mm_min", positive=True)
-        _check_field(self, "spindle_speed_rpm", positive=True)
+            fields.check_field(self, name, minimum=0.0)
+        fields.check_field(self, "corr_offset_slope", correlation=True)
+        fields.count(self.n, "n")
+        fields.check_field(self, "feed_rate_mm_min", positive=True, optional=True)
+        fields.check_field(self, "spindle_speed_rpm", positive=True, optional=True)
 
     @property
     def covariance(self) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -182,18 +175,18 @@ def fit_linear_calibration(
     .. [1] Kim & Jeon, §6.1.3 (Fig. 9) and §6.2.3.
     .. [2] GUM (JCGM 100:2008) Annex H.3 (calibration of a linear relation).
     """
-    currents = np.asarray(_numbers(currents_A, "currents_A", minimum=0.0))
-    forces = np.asarray(_numbers(forces_N, "forces_N", minimum=0.0))
+    currents = np.asarray(fields.number_list(currents_A, "currents_A", minimum=0.0))
+    forces = np.asarray(fields.number_list(forces_N, "forces_N", minimum=0.0))
     if currents.size != forces.size:
         raise InputError("forces_N", forces_N, f"needs one force per current ({currents.size})")
     if currents.size < 3:
         raise InputError("currents_A", currents_A, "needs at least 3 points")
     if float(np.ptp(currents)) == 0.0:
         raise InputError("currents_A", currents_A, "must not all be equal")
-    beta, cov, s = _least_squares(np.column_stack([np.ones_like(currents), currents]), forces)
+    beta, cov, s = least_squares(np.column_stack([np.ones_like(currents), currents]), forces)
     if beta[1] <= 0:
         raise ModelDomainError("forces_N", forces_N, "force must rise with current")
-    u, corr = _uncertainties_from_covariance(cov)
+    u, corr = uncertainties_from_covariance(cov)
     return LinearCurrentCalibration(
         offset_N=float(beta[0]),
         slope_N_per_A=float(beta[1]),
@@ -245,8 +238,8 @@ def calibration_from_current_relation(
     ----------
     .. [1] Kim & Jeon, §6.2.3.
     """
-    s = _number(slope_A_per_N, "slope_A_per_N", positive=True)
-    c = _number(offset_A, "offset_A")
+    s = fields.number(slope_A_per_N, "slope_A_per_N", positive=True)
+    c = fields.number(offset_A, "offset_A")
     return LinearCurrentCalibration(
         offset_N=-c / s,
         slope_N_per_A=1.0 / s,
@@ -304,176 +297,7 @@ def linear_current_force_N(
     ----------
     .. [1] Kim & Jeon, §6.2.3; GUM (JCGM 100:2008) Eq. 13.
     """
-    current = _number(current_A, "current_A", minimum=0.0)
-    u_current = _uncertainty(u_current_A, "u_current_A")
+    current = fields.number(current_A, "current_A", minimum=0.0)
+    u_current = fields.uncertainty(u_current_A, "u_current_A")
     force, var_current, var_cal = _linear_force(calibration, current, u_current, include_residual)
     return Converted(force, math.sqrt(var_current + var_cal))
-
-
-@dataclass(frozen=True)
-class FeedDependentCurrentCalibration:
-    """Linear current → force calibrations at several feed rates, interpolated in between.
-
-    Kim & Jeon (§6.2.3, §7) find that the spindle current-force relation "changes as the feed
-    rate changes" and must be "predetermined at different feed rates"; the paper gives it at
-    three feed rates, not as a law in the feed, and the slopes are not monotonic in it. So
-    offset and slope are interpolated linearly between the calibrated feed rates, and a feed
-    rate outside them is refused.
-
-    Parameters
-    ----------
-    points : tuple of LinearCurrentCalibration
-        At least 2, each with ``feed_rate_mm_min``, in increasing feed rate.
-    spindle_speed_rpm : float or None
-        Spindle speed of the calibration [rpm] (see :class:`LinearCurrentCalibration`).
-    speed_tolerance_rel : float
-        Relative tolerance on the spindle speed [-].
-    source, reference, date, notes : str
-        Provenance.
-    """
-
-    kind: ClassVar[str] = "linear_current_by_feed"
-
-    points: tuple[LinearCurrentCalibration, ...]
-    spindle_speed_rpm: float | None = None
-    speed_tolerance_rel: float = 0.05
-    source: str = ""
-    reference: str = ""
-    date: str = ""
-    notes: str = ""
-
-    def __post_init__(self) -> None:
-        points = tuple(self.points)
-        if len(points) < 2:
-            raise InputError("points", self.points, "needs at least 2 calibrated feed rates")
-        feeds = []
-        for i, point in enumerate(points):
-            if not isinstance(point, LinearCurrentCalibration):
-                raise InputError(f"points[{i}]", point, "must be a linear current calibration")
-            if point.feed_rate_mm_min is None:
-                raise InputError(f"points[{i}].feed_rate_mm_min", None, "required field missing")
-            feeds.append(point.feed_rate_mm_min)
-        if any(b <= a for a, b in zip(feeds, feeds[1:], strict=False)):
-            raise InputError("points", feeds, "feed rates must be increasing")
-        _check_field(self, "spindle_speed_rpm", positive=True)
-        _check_field(self, "speed_tolerance_rel", minimum=0.0)
-        object.__setattr__(self, "points", points)
-
-    @property
-    def feed_rates_mm_min(self) -> tuple[float, ...]:
-        """The calibrated feed rates [mm/min]."""
-        return tuple(float(p.feed_rate_mm_min or 0.0) for p in self.points)
-
-
-def _kim_jeon_points() -> tuple[LinearCurrentCalibration, ...]:
-    return tuple(
-        calibration_from_current_relation(s, c, feed_rate_mm_min=f)
-        for f, s, c in (
-            (150.0, 5.762e-3, 3.206),
-            (300.0, 5.981e-3, 3.537),
-            (450.0, 3.867e-3, 3.542),
-        )
-    )
-
-
-#: Kim & Jeon's maximum force per revolution vs spindle RMS current on the ACE-V30 at
-#: 4500 rpm, three feed rates (§6.2.3); the paper gives no uncertainties.
-KIM_JEON_SPINDLE_FMAX_4500RPM = FeedDependentCurrentCalibration(
-    points=_kim_jeon_points(),
-    spindle_speed_rpm=4500.0,
-    source="Kim & Jeon (Precision Engineering 2011), ACE-V30, Al6061-T6, 2-flute end mill",
-    reference="§6.2.3: I = 5.762e-3 F + 3.206 (150 mpm), 5.981e-3 F + 3.537 (300), "
-    "3.867e-3 F + 3.542 A (450)",
-)
-
-
-def feed_dependent_force_N(
-    calibration: FeedDependentCurrentCalibration,
-    current_A: float,
-    u_current_A: float,
-    feed_rate_mm_min: float,
-    *,
-    u_feed_rate_mm_min: float = 0.0,
-    include_residual: bool = True,
-) -> Converted:
-    r"""Cutting force from the spindle current at a feed rate (Kim & Jeon §6.2.3 and §7).
-
-    .. math::
-
-        F = (1-w) F_j(I) + w F_{j+1}(I), \quad w = \frac{f - f_j}{f_{j+1} - f_j}, \quad
-        F_j(I) = a_j + b_j I
-
-    .. math::
-
-        u_F^2 = \big(b(f)\,u_I\big)^2 + (1-w)^2 u_{F_j,\text{cal}}^2
-            + w^2 u_{F_{j+1},\text{cal}}^2 + \Big(\frac{F_{j+1} - F_j}{f_{j+1} - f_j} u_f\Big)^2
-            + (1-w) s_j^2 + w s_{j+1}^2
-
-    with the calibrations at different feed rates independent. The interpolation's own model
-    error between calibrated feeds is not included.
-
-    Parameters
-    ----------
-    calibration : FeedDependentCurrentCalibration
-        Lines at two or more feed rates.
-    current_A, u_current_A : float
-        RMS spindle current and its standard uncertainty [A].
-    feed_rate_mm_min : float
-        Feed rate [mm/min], within the calibrated feed rates.
-    u_feed_rate_mm_min : float
-        Its standard uncertainty [mm/min].
-    include_residual : bool
-        Add the residual scatter ``s`` (see :func:`linear_current_force_N`).
-
-    Returns
-    -------
-    Converted
-        Force [N] and its standard uncertainty [N].
-
-    References
-    ----------
-    .. [1] Kim & Jeon, §6.2.3 and §7 ("the current-force relation at different feed rates
-       needs to be predetermined").
-    """
-    return _feed_dependent_force(
-        calibration,
-        _number(current_A, "current_A", minimum=0.0),
-        _uncertainty(u_current_A, "u_current_A"),
-        _number(feed_rate_mm_min, "feed_rate_mm_min", positive=True),
-        _uncertainty(u_feed_rate_mm_min, "u_feed_rate_mm_min"),
-        include_residual,
-        "feed_rate_mm_min",
-    )
-
-
-def _feed_dependent_force(
-    calibration: FeedDependentCurrentCalibration,
-    current: float,
-    u_current: float,
-    feed: float,
-    u_feed: float,
-    include_residual: bool,
-    feed_field: str,
-) -> Converted:
-    feeds = calibration.feed_rates_mm_min
-    if not feeds[0] <= feed <= feeds[-1]:
-        raise ModelDomainError(
-            feed_field, feed, f"outside the calibrated feed rates ({feeds[0]:g} to {feeds[-1]:g})"
-        )
-    j = min(int(np.searchsorted(feeds, feed, side="right")) - 1, len(feeds) - 2)
-    w = (feed - feeds[j]) / (feeds[j + 1] - feeds[j])
-    lo, hi = calibration.points[j], calibration.points[j + 1]
-    f_lo, _, var_lo = _linear_force(lo, current, 0.0, False)
-    f_hi, _, var_hi = _linear_force(hi, current, 0.0, False)
-    force = (1.0 - w) * f_lo + w * f_hi
-    slope = (1.0 - w) * lo.slope_N_per_A + w * hi.slope_N_per_A
-    dF_dfeed = (f_hi - f_lo) / (feeds[j + 1] - feeds[j])
-    var = (
-        (slope * u_current) ** 2
-        + (1.0 - w) ** 2 * var_lo
-        + w**2 * var_hi
-        + (dF_dfeed * u_feed) ** 2
-    )
-    if include_residual:
-        var += (1.0 - w) * lo.residual_sd_N**2 + w * hi.residual_sd_N**2
-    return Converted(force, math.sqrt(var))

@@ -14,10 +14,10 @@ from typing import Any
 
 from models import fields
 from models.errors import InputError
-from models.sensors.common import _number, _numbers
 from models.sensors.convert import Calibration
 from models.sensors.ivester import IvesterSpindleLoadCalibration
-from models.sensors.kim_jeon import FeedDependentCurrentCalibration, LinearCurrentCalibration
+from models.sensors.kim_jeon import LinearCurrentCalibration
+from models.sensors.kim_jeon_feed import FeedDependentCurrentCalibration
 from models.sensors.tai import _TAI_CORR, _TAI_PARAMS, TaiCurrentFeedCalibration
 
 _PROVENANCE = ("source", "reference", "date", "notes")
@@ -67,7 +67,7 @@ def _read(
     kwargs: dict[str, object] = dict(extra)
     for key in keys:
         if key in data:
-            kwargs[key] = _number(data[key], f"{path}.{key}")
+            kwargs[key] = fields.number(data[key], f"{path}.{key}")
     if "n" in data:
         n = data["n"]
         if isinstance(n, bool) or not isinstance(n, int) or n < 0:
@@ -107,7 +107,7 @@ def ivester_calibration_from_mapping(data: object, path: str) -> IvesterSpindleL
     extra: dict[str, object] = dict(_provenance(table, path, source_required=True))
     for key in ("idle_speeds_rpm", "idle_loads_V"):
         if key in table:
-            extra[key] = _numbers(table[key], f"{path}.{key}")
+            extra[key] = fields.number_list(table[key], f"{path}.{key}")
     if ("idle_speeds_rpm" in table) != ("idle_loads_V" in table):
         missing = "idle_loads_V" if "idle_speeds_rpm" in table else "idle_speeds_rpm"
         raise InputError(f"{path}.{missing}", None, "required with the other idle-load list")
@@ -121,7 +121,7 @@ def _linear_fields(table: Mapping[str, Any], path: str) -> dict[str, object]:
     extra: dict[str, object] = {}
     for key in ("feed_rate_mm_min", *_SPEED_FIELDS):
         if key in table:
-            extra[key] = _number(table[key], f"{path}.{key}")
+            extra[key] = fields.number(table[key], f"{path}.{key}")
     for key in ("offset_N", "slope_N_per_A"):
         if key not in table:
             raise InputError(f"{path}.{key}", None, "required field missing")

@@ -13,17 +13,13 @@ from typing import ClassVar
 
 import numpy as np
 
+from models import fields
 from models.errors import InputError, ModelDomainError
-from models.sensors.common import (
-    Converted,
-    _check_count,
-    _check_field,
-    _covariance,
-    _least_squares,
-    _number,
-    _numbers,
-    _uncertainties_from_covariance,
-    _uncertainty,
+from models.sensors.converted import Converted
+from models.sensors.least_squares import (
+    covariance_matrix,
+    least_squares,
+    uncertainties_from_covariance,
 )
 
 _TAI_PARAMS = ("idle_current_A", "slope_A_per_mm_min", "wear_coefficient_A_per_mm")
@@ -73,14 +69,14 @@ class TaiCurrentFeedCalibration:
     notes: str = ""
 
     def __post_init__(self) -> None:
-        _check_field(self, "idle_current_A")
-        _check_field(self, "slope_A_per_mm_min", positive=True)
-        _check_field(self, "wear_coefficient_A_per_mm")
+        fields.check_field(self, "idle_current_A")
+        fields.check_field(self, "slope_A_per_mm_min", positive=True)
+        fields.check_field(self, "wear_coefficient_A_per_mm")
         for name in (*(f"u_{p}" for p in _TAI_PARAMS), "residual_sd_A"):
-            _check_field(self, name, minimum=0.0)
+            fields.check_field(self, name, minimum=0.0)
         for name in _TAI_CORR.values():
-            _check_field(self, name, correlation=True)
-        _check_count(self.n)
+            fields.check_field(self, name, correlation=True)
+        fields.count(self.n, "n")
         corr = np.eye(3)
         for (i, j), name in _TAI_CORR.items():
             corr[i, j] = corr[j, i] = getattr(self, name)
@@ -96,7 +92,7 @@ class TaiCurrentFeedCalibration:
     def covariance(self) -> tuple[tuple[float, ...], ...]:
         """Covariance matrix of ``(A, B, k1)`` (units: A, A/(mm/min), A/mm)."""
         u = [getattr(self, f"u_{name}") for name in _TAI_PARAMS]
-        return _covariance(u, {ij: getattr(self, name) for ij, name in _TAI_CORR.items()})
+        return covariance_matrix(u, {ij: getattr(self, name) for ij, name in _TAI_CORR.items()})
 
 
 def fit_tai_calibration(
@@ -136,9 +132,9 @@ def fit_tai_calibration(
     ----------
     .. [1] Tai, Tsai & Li, Eqs. 13-14 and §III.A.
     """
-    feeds = np.asarray(_numbers(feed_rates_mm_min, "feed_rates_mm_min", positive=True))
-    wears = np.asarray(_numbers(flank_wears_mm, "flank_wears_mm", minimum=0.0))
-    currents = np.asarray(_numbers(currents_A, "currents_A", minimum=0.0))
+    feeds = np.asarray(fields.number_list(feed_rates_mm_min, "feed_rates_mm_min", positive=True))
+    wears = np.asarray(fields.number_list(flank_wears_mm, "flank_wears_mm", minimum=0.0))
+    currents = np.asarray(fields.number_list(currents_A, "currents_A", minimum=0.0))
     if wears.size != feeds.size:
         raise InputError("flank_wears_mm", flank_wears_mm, f"needs {feeds.size} values")
     if currents.size != feeds.size:
@@ -152,10 +148,10 @@ def fit_tai_calibration(
             flank_wears_mm,
             "feed rates and flank wears must vary independently to identify B and k1",
         )
-    beta, cov, s = _least_squares(design, currents)
+    beta, cov, s = least_squares(design, currents)
     if beta[1] <= 0:
         raise ModelDomainError("currents_A", currents_A, "current must rise with feed rate")
-    u, corr = _uncertainties_from_covariance(cov)
+    u, corr = uncertainties_from_covariance(cov)
     return TaiCurrentFeedCalibration(
         idle_current_A=float(beta[0]),
         slope_A_per_mm_min=float(beta[1]),
@@ -209,10 +205,10 @@ def tai_spindle_current_A(
     ----------
     .. [1] Tai, Tsai & Li, Eqs. 13 and 14.
     """
-    feed = _number(feed_rate_mm_min, "feed_rate_mm_min", minimum=0.0)
-    wear = _number(flank_wear_mm, "flank_wear_mm", minimum=0.0)
-    u_feed = _uncertainty(u_feed_rate_mm_min, "u_feed_rate_mm_min")
-    u_wear = _uncertainty(u_flank_wear_mm, "u_flank_wear_mm")
+    feed = fields.number(feed_rate_mm_min, "feed_rate_mm_min", minimum=0.0)
+    wear = fields.number(flank_wear_mm, "flank_wear_mm", minimum=0.0)
+    u_feed = fields.uncertainty(u_feed_rate_mm_min, "u_feed_rate_mm_min")
+    u_wear = fields.uncertainty(u_flank_wear_mm, "u_flank_wear_mm")
     cal = calibration
     current = (
         cal.idle_current_A + cal.slope_A_per_mm_min * feed + cal.wear_coefficient_A_per_mm * wear
@@ -264,10 +260,10 @@ def tai_feed_rate_mm_min(
     ----------
     .. [1] Tai, Tsai & Li, Eq. 15.
     """
-    current = _number(current_A, "current_A", minimum=0.0)
-    wear = _number(flank_wear_mm, "flank_wear_mm", minimum=0.0)
-    u_current = _uncertainty(u_current_A, "u_current_A")
-    u_wear = _uncertainty(u_flank_wear_mm, "u_flank_wear_mm")
+    current = fields.number(current_A, "current_A", minimum=0.0)
+    wear = fields.number(flank_wear_mm, "flank_wear_mm", minimum=0.0)
+    u_current = fields.uncertainty(u_current_A, "u_current_A")
+    u_wear = fields.uncertainty(u_flank_wear_mm, "u_flank_wear_mm")
     cal = calibration
     b = cal.slope_A_per_mm_min
     feed = (current - cal.idle_current_A - cal.wear_coefficient_A_per_mm * wear) / b
@@ -302,8 +298,8 @@ def tai_reference_current_A(max_current_A: float, factor: float = 0.85) -> float
     float
         Reference current [A].
     """
-    current = _number(max_current_A, "max_current_A", positive=True)
-    k = _number(factor, "factor", positive=True)
+    current = fields.number(max_current_A, "max_current_A", positive=True)
+    k = fields.number(factor, "factor", positive=True)
     if k > 1:
         raise InputError("factor", factor, "must be at most 1")
     return current * k

@@ -1,1 +1,12 @@
-"""Borangiu et al.'s milling domain (Eqs. 2-7) and productivity cost as a geometric program."""
+"""Borangiu et al.'s milling domain (Eqs. 2-7), its (w, n) problem, and ``J`` as a GP.
+
+- :mod:`~supervisor.borangiu.domain`: the constraints of Eqs. 2-7 as monomial limits, in the
+  milling parameters or in Borangiu's own ``(w, n)``.
+- :mod:`~supervisor.borangiu.problem`: the ``(w, n)`` problem of one pass, from a domain file.
+- :mod:`~supervisor.borangiu.result`: its two optima (largest feed rate, least ``J``) and
+  Eq. 10's stationary point.
+- :mod:`~supervisor.borangiu.productivity`: the cvxpy DGP that minimises ``J``.
+
+The cost ``J`` itself (Eq. 1 with Taylor's tool life and Eq. 7's power) is pure physics, in
+:mod:`models.borangiu_cost`.
+"""

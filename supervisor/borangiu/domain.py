@@ -1,4 +1,4 @@
-"""Borangiu's allowable (feed rate, spindle speed) domain, Eqs. 2-7, and the (w, n) problem.
+"""Borangiu's allowable (feed rate, spindle speed) domain, Eqs. 2-7, as monomial limits.
 
 The six constraints of Borangiu et al. on the feed rate ``w`` [mm/min] and the spindle speed
 ``n`` [rpm] are monomial inequalities, so each is one row of the log-linear program:
@@ -8,20 +8,12 @@ The six constraints of Borangiu et al. on the feed rate ``w`` [mm/min] and the s
 - (5) feed drive ``w_min <= w <= w_max``, (6) spindle ``n_min <= n <= n_max``,
 - (7) main-drive power ``w^yp n^(1−yp) <= K_p``. The paper gives only ``K_p``; here the power
   law is ``P = k_P w^yp n^(1−yp)`` [kW] with a maximum ``P_max``, so ``K_p = P_max / k_P``, and
-  the same ``k_P, yp`` give the energy term of ``J`` (:mod:`supervisor.borangiu.productivity`).
+  the same ``k_P, yp`` give the energy term of ``J`` (:mod:`models.borangiu_cost`).
 
 Each constant is a field of :class:`Domain` named with its unit; a plan operation's
-``[operations.domain]`` adds them as rows in ``ln(ap, ae, fz, vc)``, and a domain file
-(:func:`load_domain_problem`) poses Borangiu's own problem in ``ln(w, n)`` for one pass of fixed
-depth and width: the largest feed rate (an LP: the largest MRR) and the least ``J`` (a GP).
-
-Eqs. 8-12: with a single mechanical-load constraint ``g = C_1 w − n <= 0`` (``C_1 = 1/K``
-with ``K`` the tightest of ``K_t, K_d, K_fM``) the minimum of ``J`` is the stationary point of
-Eq. 10, ``w_0 = C_1^(q−1) S^m``, ``n_0 = C_1^q S^m``, ``S = m c / ((1 − m) a)``: the
-intersection of the line ``n = C_1 w`` with the curve (12) ``w^q n^(1−q) = S^m``. On that line
-the energy term of ``J`` is constant and the rest is ``a C_1^((1−q)/m) w^(1/m−1) + c/w``.
-Readings: the paper numbers two equations (9) (the matrix G and ``g(w, n)``) and calls Fig. 6
-"Fig. x"; Eq. 10 is used as printed, which this derivation confirms.
+``[operations.domain]`` adds them as rows in ``ln(ap, ae, fz, vc)``
+(:func:`milling_limits`), and Borangiu's own problem in ``ln(w, n)``
+(:mod:`supervisor.borangiu.problem`) uses them as :func:`wn_limits`.
 
 References
 ----------
@@ -31,29 +23,14 @@ References
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from pathlib import Path
 
 from models import fields as checked
 from models import kinematics
+from models.borangiu_cost import FEED_RATE, SPINDLE, monomial_power
 from models.errors import InputError
 from models.monomial import Monomial
 from models.quantities import Sense
-from supervisor.borangiu.productivity import (
-    FEED_RATE,
-    SPINDLE,
-    Coefficients,
-    CostData,
-    coefficients_from_cost,
-    evaluate,
-    monomial_power,
-    productivity_from_mapping,
-    wn_terms,
-)
-from supervisor.errors import SolverError
-from supervisor.inputs.files import read_toml
 
 
 @dataclass(frozen=True)
@@ -209,206 +186,3 @@ def wn_limits(domain: Domain) -> tuple[DomainLimit, ...]:
     """The constraints in Borangiu's own variables ``feed_rate_mm_min`` and ``spindle_rpm``."""
     w, n = Monomial(1.0, {FEED_RATE: 1.0}), Monomial(1.0, {SPINDLE: 1.0})
     return domain_limits(domain, w * monomial_power(n, -1.0), w, n)
-
-
-# --- Borangiu's (w, n) problem for one pass ---------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Cut:
-    """The fixed geometry of one roughing pass: tool and engagement [mm], flutes [-]."""
-
-    tool_diameter_mm: float
-    flute_count: float
-    axial_depth_mm: float
-    radial_depth_mm: float
-
-
-@dataclass(frozen=True)
-class DomainProblem:
-    """Borangiu's problem for one pass: the domain, ``J``'s coefficients, the geometry.
-
-    ``cut`` gives the MRR and speed of a point and is required with ``cost``; ``cost`` is the
-    cost data ``coefficients`` were derived from, if they were.
-    """
-
-    name: str
-    domain: Domain
-    coefficients: Coefficients
-    cut: Cut | None = None
-    cost: CostData | None = None
-    description: str = ""
-
-
-#: Eqs. 5-6 bound the (w, n) program.
-_WN_BOUNDS = ("min_feed_rate_mm_min", "max_feed_rate_mm_min", "min_spindle_rpm", "max_spindle_rpm")
-
-
-def load_domain_problem(path: Path) -> DomainProblem:
-    """Read a domain file (TOML: ``name``, ``[cut]``, ``[domain]``, ``[productivity]``)."""
-    return domain_problem_from_mapping(read_toml(path, "domain file"))
-
-
-def domain_problem_from_mapping(data: object) -> DomainProblem:
-    """Build and check a :class:`DomainProblem` from its TOML/JSON structure."""
-    table = checked.mapping(data, "domain file")
-    checked.only_keys(table, ("name", "description", "cut", "domain", "productivity"), "")
-    for key in ("domain", "productivity"):
-        if key not in table:
-            raise InputError(key, None, "required table missing")
-    domain = domain_from_mapping(table["domain"], "domain")
-    for key in _WN_BOUNDS:
-        if getattr(domain, key) is None:
-            raise InputError(f"domain.{key}", None, "required: Eqs. 5-6 bound the (w, n) domain")
-    yp, k_p = domain.power_exponent, domain.power_coefficient_kW
-    if yp is None or k_p is None:  # all three or none (domain_from_mapping)
-        raise InputError("domain.power_exponent", None, "required: Eq. 7, the power law")
-    cut = _cut(table["cut"]) if "cut" in table else None
-    given = productivity_from_mapping(table["productivity"], "productivity", power_exponent=yp)
-    cost = given if isinstance(given, CostData) else None
-    if isinstance(given, Coefficients):
-        coefficients = given
-    elif cut is None:
-        raise InputError("cut", None, "required with the cost data: J depends on the pass")
-    else:
-        coefficients = coefficients_from_cost(
-            given,
-            tool_diameter_mm=cut.tool_diameter_mm,
-            flute_count=cut.flute_count,
-            axial_depth_mm=cut.axial_depth_mm,
-            radial_depth_mm=cut.radial_depth_mm,
-            power_exponent=yp,
-            power_coefficient_kW=k_p,
-        )
-    return DomainProblem(
-        name=checked.text(table, "name", ""),
-        domain=domain,
-        coefficients=coefficients,
-        cut=cut,
-        cost=cost,
-        description=checked.text(table, "description", "", default=""),
-    )
-
-
-def _cut(data: object) -> Cut:
-    table = checked.mapping(data, "cut")
-    keys = [f.name for f in fields(Cut)]
-    checked.only_keys(table, keys, "cut")
-    for key in keys:
-        if key not in table:
-            raise InputError(f"cut.{key}", None, "required field missing")
-    values = {k: checked.number(v, f"cut.{k}", positive=True) for k, v in table.items()}
-    if not values["flute_count"].is_integer():
-        raise InputError("cut.flute_count", table["flute_count"], "must be a whole number")
-    return Cut(**values)
-
-
-# --- results -----------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class DomainPoint:
-    """One point of the (w, n) domain with what follows from it.
-
-    ``active`` names the constraints (``domain.<field>``) the point lies on; ``power_kW``
-    needs the power law, ``mrr_cm3_min`` and ``speed_m_min`` the pass geometry,
-    ``tool_life_min`` the cost data.
-    """
-
-    feed_rate_mm_min: float
-    spindle_rpm: float
-    pitch_feed_mm_rev: float
-    cost_per_kg: float
-    power_kW: float | None
-    active: tuple[str, ...]
-    mrr_cm3_min: float | None = None
-    speed_m_min: float | None = None
-    tool_life_min: float | None = None
-
-
-@dataclass(frozen=True)
-class DomainResult:
-    """Both optima of a :class:`DomainProblem` and the Eq. 10 stationary point.
-
-    ``max_feed_rate``: the largest ``w`` (an LP; the largest MRR at the pass's depth and
-    width), and among such points the one of least ``J``. ``min_cost``: the least ``J`` (a GP).
-    ``stationary``: Eq. 10's ``(w_0, n_0)`` on the tightest mechanical-load line
-    ``mechanical_limit``, inside the domain or not; ``None`` without such a limit.
-    """
-
-    name: str
-    coefficients: Coefficients
-    max_feed_rate: DomainPoint
-    min_cost: DomainPoint
-    mechanical_limit: str | None
-    stationary: tuple[float, float] | None
-
-    @property
-    def cost_increase_percent(self) -> float:
-        """How much more ``J`` is at the max-feed point than at the ``J`` optimum [%]."""
-        least = self.min_cost.cost_per_kg
-        return 100.0 * (self.max_feed_rate.cost_per_kg - least) / least
-
-    @property
-    def feed_rate_decrease_percent(self) -> float:
-        """How much lower ``w`` (and the MRR) is at the ``J`` optimum [%]."""
-        most = self.max_feed_rate.feed_rate_mm_min
-        return 100.0 * (most - self.min_cost.feed_rate_mm_min) / most
-
-
-def stationary_point(
-    coefficients: Coefficients, max_pitch_feed_mm_rev: float
-) -> tuple[float, float]:
-    r"""Borangiu Eq. 10 on the line ``w = K n`` (``C_1 = 1/K``): ``(w_0, n_0)`` [mm/min, rpm].
-
-    .. math:: w_0 = C_1^{q-1} S^m, \quad n_0 = C_1^q S^m, \quad S = \frac{m c}{(1-m) a}
-    """
-    a, c, q, m = coefficients.a, coefficients.c, coefficients.q, coefficients.m
-    scale = (m * c / ((1.0 - m) * a)) ** m
-    c1 = 1.0 / max_pitch_feed_mm_rev
-    return c1 ** (q - 1.0) * scale, c1**q * scale
-
-
-def domain_point(
-    problem: DomainProblem, point: Mapping[str, float], binding: tuple[str, ...]
-) -> DomainPoint:
-    """Evaluate a point ``{feed_rate_mm_min, spindle_rpm}`` of ``problem``."""
-    w, n = point[FEED_RATE], point[SPINDLE]
-    power = problem.domain.power_kW(w, n)
-    cut, cost = problem.cut, problem.cost
-    speed = math.pi * cut.tool_diameter_mm * n / 1000.0 if cut else None
-    life = None
-    if cut is not None and cost is not None and speed is not None:
-        fz = w / (n * cut.flute_count)
-        life = (cost.taylor_speed_m_min / (speed * fz**cost.taylor_q)) ** (1.0 / cost.taylor_m)
-    return DomainPoint(
-        feed_rate_mm_min=w,
-        spindle_rpm=n,
-        pitch_feed_mm_rev=w / n,
-        cost_per_kg=evaluate(wn_terms(problem.coefficients), point),
-        power_kW=power,
-        active=tuple(name for name in binding if name.startswith("domain.")),
-        mrr_cm3_min=w * cut.axial_depth_mm * cut.radial_depth_mm / 1000.0 if cut else None,
-        speed_m_min=speed,
-        tool_life_min=life,
-    )
-
-
-def domain_result(
-    problem: DomainProblem, max_feed_rate: DomainPoint, min_cost: DomainPoint
-) -> DomainResult:
-    """Both optima; refuses a ``J`` optimum costlier than the max-feed point (solver check)."""
-    if min_cost.cost_per_kg > max_feed_rate.cost_per_kg * (1.0 + 1e-6):
-        raise SolverError(
-            f"domain {problem.name!r}: the J optimum {min_cost.cost_per_kg:.6g} is above J at "
-            f"the max-feed point {max_feed_rate.cost_per_kg:.6g}"
-        )
-    load = problem.domain.max_load_feed()
-    return DomainResult(
-        name=problem.name,
-        coefficients=problem.coefficients,
-        max_feed_rate=max_feed_rate,
-        min_cost=min_cost,
-        mechanical_limit=load[0] if load else None,
-        stationary=stationary_point(problem.coefficients, load[1]) if load else None,
-    )

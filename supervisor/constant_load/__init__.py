@@ -1,5 +1,13 @@
 r"""Constant-load milling: reference current, feed-rate limits and the tool-change rule.
 
+Modules: :mod:`~supervisor.constant_load.limits` (reference current and feed limits from a
+fitted current plane), :mod:`~supervisor.constant_load.strength` (the reference current from a
+tool's force limit), :mod:`~supervisor.constant_load.tool_change_rule` (change the tool when the
+commanded feed reaches the lower limit), :mod:`~supervisor.constant_load.setpoint` (the
+constant-load part of a milling setpoint, from ``[operations.constant_load]``) and
+:mod:`~supervisor.constant_load.reported_tool_changes` (the tool changes a part report's feed
+overrides call for).
+
 Tai, Tsai & Li (IEEE Access 2023) hold the spindle current at a reference current by a feed
 override (§II.A, Eq. 16) and set three numbers from constant-feed tests (§II.F, §III.A):
 
@@ -47,7 +55,7 @@ from supervisor.constant_load.limits import (
     limits_from_calibration,
 )
 from supervisor.constant_load.strength import COVERAGE_K, ForceLimit, strength_current_A
-from supervisor.constant_load.tool_change import ToolChangeDecision, tool_change_due
+from supervisor.constant_load.tool_change_rule import ToolChangeDecision, tool_change_due
 
 __all__ = [
     "COVERAGE_K",

@@ -1,5 +1,13 @@
 """Rewrite the feed (F) and spindle speed (S) words of a lathe program with the setpoints.
 
+Modules: :mod:`~supervisor.gcode.lexer` (reading lines, words and comments),
+:mod:`~supervisor.gcode.modes` (the modal state along a program),
+:mod:`~supervisor.gcode.ranges` (each operation's setpoint and block range),
+:mod:`~supervisor.gcode.numbers` (the new F and S numbers and their style),
+:mod:`~supervisor.gcode.rewrite` (the rewrite), :mod:`~supervisor.gcode.result` (its result)
+and :mod:`~supervisor.gcode.errors` (:class:`GcodeError`). The public names are re-exported
+here.
+
 A program is read line by line in the ISO 6983 / Fanuc style: an optional block number
 ``N``, words (a letter and a number, several G codes per block allowed), comments in
 parentheses and after ``;``, ``%`` tape-marker lines, blank lines, an optional-skip ``/`` at
@@ -69,8 +77,6 @@ from supervisor.gcode.numbers import (
     SPEED_PLACES,
     Quantity,
 )
-from supervisor.gcode.numbers import _floor as _floor
-from supervisor.gcode.numbers import _styled as _styled
 from supervisor.gcode.ranges import (
     BlockRange,
     OperationSetpoint,

@@ -5,7 +5,7 @@ from the catalogue) and ``[[operations]]``. Every error names the dotted field a
 
 A milling operation may say ``objective = "productivity"`` (default ``"mrr"``: the largest removal
 rate) with an ``[operations.productivity]`` table of Borangiu's cost data
-(:func:`supervisor.borangiu.productivity.productivity_from_mapping`; the coefficient form ``a, b, c
+(:func:`models.borangiu_cost.productivity_from_mapping`; the coefficient form ``a, b, c
 ...`` holds for one fixed depth and width, so it is refused here), and ``[operations.domain]`` adds
 Borangiu's constraints (:class:`supervisor.borangiu.domain.Domain`) as rows.
 """
@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from models import fields
+from models.borangiu_cost import CostData, productivity_from_mapping
 from models.catalogue import catalogue
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, Process
@@ -25,7 +26,6 @@ from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from models.sensors import Calibration, TaiCurrentFeedCalibration, calibrations_from_mapping
 from models.tool import Tool, process_of, tool_from_mapping
 from supervisor.borangiu.domain import Domain, domain_from_mapping
-from supervisor.borangiu.productivity import CostData, productivity_from_mapping
 from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
 from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml

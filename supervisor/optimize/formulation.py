@@ -25,13 +25,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models import kinematics
+from models import borangiu_cost, kinematics
 from models.errors import InputError
 from models.monomial import Monomial
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, Sense
 from models.tool import Tool
-from supervisor.borangiu import domain, productivity
-from supervisor.borangiu.domain import DomainProblem
+from supervisor.borangiu import domain
+from supervisor.borangiu.problem import DomainProblem
 from supervisor.errors import Conflict, InfeasibleError
 from supervisor.inputs.plan import PARTS_PER_EDGE, Machine, Objective, Operation
 from supervisor.rcb.posterior import Cone
@@ -238,7 +238,7 @@ def formulate(
         power = None
         if "force_N" in tool.models:
             power = tool.models["force_N"].monomial * kinematics.power_per_newton_monomial()
-        terms = productivity.milling_cost_terms(operation.productivity, power)
+        terms = borangiu_cost.milling_cost_terms(operation.productivity, power)
         cost = tuple(t.fix(context) for t in terms)
     mrr = kinematics.mrr_monomial(process).fix(context)
     bounds = [operation.bounds[p] for p in params]
@@ -261,7 +261,7 @@ def formulate_domain(problem: DomainProblem) -> LogLinearProgram:
     the program is bounded. The objective is ``ln w`` (the MRR at fixed depth and width); the
     cost is ``J(w, n)``.
     """
-    params = (productivity.FEED_RATE, productivity.SPINDLE)
+    params = (borangiu_cost.FEED_RATE, borangiu_cost.SPINDLE)
     rows = tuple(
         _row(params, {}, lim.name, lim.monomial, lim.limit, lim.sense, check=True)
         for lim in domain.wn_limits(problem.domain)
@@ -281,6 +281,6 @@ def formulate_domain(problem: DomainProblem) -> LogLinearProgram:
         rows=rows,
         lower=tuple(lower),
         upper=tuple(upper),
-        cost=productivity.wn_terms(problem.coefficients),
+        cost=borangiu_cost.wn_terms(problem.coefficients),
         goal="mrr",
     )

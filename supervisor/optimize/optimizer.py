@@ -22,14 +22,15 @@ import cvxpy as cp
 import highspy
 import numpy as np
 
-from models import kinematics
+from models import borangiu_cost, kinematics
 from models.errors import ModelDomainError
 from models.kinematics import Process
 from models.powerlaw import Prediction
 from models.sensors import TaiCurrentFeedCalibration
 from models.tool import Tool, predict_all
 from supervisor.borangiu import productivity
-from supervisor.borangiu.domain import DomainProblem, DomainResult, domain_point, domain_result
+from supervisor.borangiu.problem import DomainProblem
+from supervisor.borangiu.result import DomainResult, domain_point, domain_result
 from supervisor.constant_load.setpoint import (
     ConstantLoadSetpoint,
     constant_load_setpoint,
@@ -343,7 +344,7 @@ def _result(
         time_min=kinematics.machining_time_min(operation.volume_mm3, mrr),
         binding=_binding(lp, x, slack_z),
         objective=lp.goal,
-        cost_per_kg=productivity.evaluate(lp.cost, setpoint) if lp.cost else None,
+        cost_per_kg=borangiu_cost.evaluate(lp.cost, setpoint) if lp.cost else None,
         constant_load=constant_load_of(operation, machine, setpoint),
         tool_models=tool,
     )

@@ -22,23 +22,14 @@ those part ``k + 1`` is made with (``k = 0``: the robust start, ``k = K``: the f
 setpoints). MRR/oracle of the plan is ``oracle cycle time / cycle time`` (the time-weighted
 MRR ratio); per operation it is ``MRR / oracle MRR``.
 
-The certificate bounds the probability ``p`` that a part crosses at least one true limit by
-the one-sided Clopper-Pearson upper limit [1]_ for ``x`` violating parts in ``n`` parts made,
+The certificate itself, its summary (the Clopper-Pearson bound [1]_) and its digest are in
+:mod:`supervisor.virtual.certificate`.
 
-.. math::
-
-    p_\mathrm{up} = B^{-1}(1 - \alpha;\ x + 1,\ n - x), \qquad
-    p_\mathrm{up} = 1 - \alpha^{1/n} \text{ for } x = 0,
-
-with ``1 − α = 0.95`` and ``B⁻¹`` the quantile of the beta distribution. It treats parts as
-independent trials; the parts of one scenario share a true process, so read it as the bound
-for a shop whose machines are drawn as the scenarios are.
-
-A scenario depends only on its seed and results are kept in seed order, so a certificate
-(and its :func:`digest`) is the same for any ``jobs``. With ``jobs > 1`` the scenarios run in
-a :class:`~concurrent.futures.ProcessPoolExecutor`; the robust start of each strategy is
-computed once, here, and handed to the workers (``start`` is deterministic, ``RcbState``
-immutable).
+A scenario depends only on its seed and results are kept in seed order, so a certificate (and
+its :func:`~supervisor.virtual.certificate.digest`) is the same for any ``jobs``. With
+``jobs > 1`` the scenarios run in a :class:`~concurrent.futures.ProcessPoolExecutor`; the
+robust start of each strategy is computed once, here, and handed to the workers (``start`` is
+deterministic, ``RcbState`` immutable).
 
 With wear drift (``D > 0``) each operation's edge is changed after ``floor(parts_per_edge)``
 parts, the count its tool-life limit promises, and never within the run for an operation
@@ -55,19 +46,15 @@ References
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import signal
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
-from dataclasses import dataclass
 from typing import Any, cast
 
 import numpy as np
-import numpy.typing as npt
-from scipy.stats import beta
 
 from models.errors import InputError
 from supervisor.errors import SupervisorError
@@ -75,307 +62,19 @@ from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import PARTS_PER_EDGE, Plan
 from supervisor.optimize.optimizer import PlanResult, optimize_plan
 from supervisor.rcb.update import STRATEGIES, Halt, RcbSettings, RcbState, start, update
+from supervisor.virtual.certificate import (
+    Certificate,
+    FloatArray,
+    ScenarioTrace,
+)
 from supervisor.virtual.simulate import oracle_tools, run_part, sample_machine
 
-FloatArray = npt.NDArray[np.float64]
-IntArray = npt.NDArray[np.int64]
-
-#: Rows of a :class:`CertificateSummary`, "after k parts"; those above ``parts`` are left out
-#: and ``parts`` itself is always a row.
-SUMMARY_ROWS: tuple[int, ...] = (1, 5, 10)
-#: Confidence of the one-sided upper bound on the per-part violation probability.
-CONFIDENCE = 0.95
-#: The low percentile of MRR/oracle over scenarios [%].
-PERCENTILE = 5.0
 #: The most scenarios and parts per scenario a certificate runs.
 MAX_SCENARIOS = 100_000
 MAX_PARTS = 1000
 
 #: ``progress(done)``: called with the number of scenarios finished so far.
 Progress = Callable[[int], None]
-
-
-@dataclass(frozen=True, eq=False)
-class ScenarioTrace:
-    """One scenario of one strategy: rows ``0..parts``, parts ``1..parts``.
-
-    Parameters
-    ----------
-    seed : int
-        The scenario's seed (true process and measurement noise).
-    oracle_cycle_min : float
-        Cycle time of the oracle's setpoints [min].
-    plan_ratio : numpy.ndarray
-        ``(parts + 1,)``: oracle cycle time / cycle time of the setpoints in force after ``k``
-        parts; 0 from the part that stopped the scenario on [-].
-    op_ratio : numpy.ndarray
-        ``(parts + 1, operations)``: per operation MRR / oracle MRR; 0 once stopped [-].
-    cycle_min : numpy.ndarray
-        ``(parts + 1,)``: cycle time of the setpoints in force after ``k`` parts; NaN once
-        stopped [min].
-    violations : numpy.ndarray
-        ``(parts,)``: true limits crossed by part ``1..parts`` (0 for parts not made).
-    where : tuple[tuple[int, str, str], ...]
-        ``(part, operation, limit)`` of every violation, in order.
-    stopped_at : int
-        The part whose report left no safe setpoint; 0 if the scenario never stopped.
-    stopped_op : str
-        The operation that had no safe setpoint ("" if none).
-    parts_made : int
-        Parts made (``stopped_at`` if stopped, else ``parts``).
-    """
-
-    seed: int
-    oracle_cycle_min: float
-    plan_ratio: FloatArray
-    op_ratio: FloatArray
-    cycle_min: FloatArray
-    violations: IntArray
-    where: tuple[tuple[int, str, str], ...]
-    stopped_at: int
-    stopped_op: str
-    parts_made: int
-
-    @property
-    def stopped(self) -> bool:
-        """Whether the scenario stopped for want of a safe setpoint."""
-        return self.stopped_at > 0
-
-
-@dataclass(frozen=True, eq=False)
-class Certificate:
-    """Every scenario of one strategy on one plan, in seed order.
-
-    Parameters
-    ----------
-    plan : str
-        The plan's name.
-    strategy : str
-        The RCB strategy (a name of :data:`supervisor.rcb.update.STRATEGIES`).
-    seed : int
-        The first scenario's seed.
-    parts : int
-        Parts per scenario, ``K``.
-    wear_drift_per_edge_life : float
-        Relative rise of force, roughness and spindle current over an edge's life [-].
-    scenarios : tuple[ScenarioTrace, ...]
-        One per seed ``seed .. seed + N − 1``, in that order.
-    seconds : float
-        Wall time of the scenarios (without starting worker processes) [s].
-    """
-
-    plan: str
-    strategy: str
-    seed: int
-    parts: int
-    wear_drift_per_edge_life: float
-    scenarios: tuple[ScenarioTrace, ...]
-    seconds: float
-
-    @property
-    def plan_ratio(self) -> FloatArray:
-        """``(scenarios, parts + 1)``: plan MRR/oracle after ``k`` parts [-]."""
-        return np.array([s.plan_ratio for s in self.scenarios])
-
-    @property
-    def op_ratio(self) -> FloatArray:
-        """``(scenarios, parts + 1, operations)``: MRR/oracle per operation [-]."""
-        return np.array([s.op_ratio for s in self.scenarios])
-
-    @property
-    def cumulative_violations(self) -> IntArray:
-        """``(parts + 1,)``: row ``k``, the violations of parts ``1..k`` over all scenarios."""
-        per_part = np.array([s.violations for s in self.scenarios]).sum(axis=0)
-        return np.concatenate([np.zeros(1, dtype=np.int64), np.cumsum(per_part)])
-
-    @property
-    def violations(self) -> int:
-        """True-limit violations over all scenarios and parts (a part may cross several)."""
-        return int(sum(int(s.violations.sum()) for s in self.scenarios))
-
-    @property
-    def violating_parts(self) -> int:
-        """Parts that crossed at least one true limit."""
-        return int(sum(int(np.count_nonzero(s.violations)) for s in self.scenarios))
-
-    @property
-    def parts_made(self) -> int:
-        """Parts made over all scenarios (a stopped scenario makes no more)."""
-        return sum(s.parts_made for s in self.scenarios)
-
-    @property
-    def stopped(self) -> int:
-        """Scenarios that stopped for want of a safe setpoint."""
-        return sum(1 for s in self.scenarios if s.stopped)
-
-    def mean_cycle(self, row: int) -> tuple[float, int]:
-        """Mean cycle time after ``row`` parts over the running scenarios [min], and how many."""
-        values = np.array([s.cycle_min[row] for s in self.scenarios])
-        running = values[np.isfinite(values)]
-        return (float(running.mean()) if running.size else float("nan")), int(running.size)
-
-
-@dataclass(frozen=True)
-class SummaryRow:
-    """Parts ``1..k`` of every scenario, and MRR/oracle after them.
-
-    Parameters
-    ----------
-    after_parts : int
-        ``k``.
-    parts_made : int
-        Parts made among parts ``1..k`` of every scenario (a stopped scenario makes no more).
-    violations : int
-        True-limit violations of those parts (a part may cross several limits).
-    violating_parts : int
-        Those parts that crossed at least one true limit.
-    violation_probability_upper_95 : float
-        One-sided 95 % Clopper-Pearson upper bound on the probability that a part crosses a
-        true limit, from ``violating_parts`` in ``parts_made`` [-].
-    mrr_over_oracle_mean, mrr_over_oracle_p5 : float
-        Mean and 5th percentile (numpy's linear interpolation) over scenarios of the plan's
-        MRR/oracle with the setpoints in force after ``k`` parts (0 for a stopped one) [-].
-    """
-
-    after_parts: int
-    parts_made: int
-    violations: int
-    violating_parts: int
-    violation_probability_upper_95: float
-    mrr_over_oracle_mean: float
-    mrr_over_oracle_p5: float
-
-
-@dataclass(frozen=True)
-class CertificateSummary:
-    """What a certificate says, in numbers.
-
-    Parameters
-    ----------
-    plan, strategy : str
-        The plan's name and the RCB strategy.
-    scenarios, parts, seed : int
-        Scenarios, parts per scenario and the first seed.
-    wear_drift_per_edge_life : float
-        Wear drift of the virtual machines [-].
-    stopped : int
-        Scenarios that stopped for want of a safe setpoint.
-    rows : tuple[SummaryRow, ...]
-        After ``k`` parts for ``k`` in :func:`summary_rows`; the last (``k = parts``) covers
-        every part, and the totals below are its.
-    """
-
-    plan: str
-    strategy: str
-    scenarios: int
-    parts: int
-    seed: int
-    wear_drift_per_edge_life: float
-    stopped: int
-    rows: tuple[SummaryRow, ...]
-
-    @property
-    def total(self) -> SummaryRow:
-        """The row of every part (``k = parts``)."""
-        return self.rows[-1]
-
-    @property
-    def violations(self) -> int:
-        """True-limit violations over all parts."""
-        return self.total.violations
-
-    @property
-    def violation_probability_upper_95(self) -> float:
-        """The bound over all parts [-]."""
-        return self.total.violation_probability_upper_95
-
-
-def clopper_pearson_upper(failures: int, trials: int, confidence: float = CONFIDENCE) -> float:
-    r"""One-sided Clopper-Pearson upper confidence limit of a binomial probability.
-
-    .. math::
-
-        p_\mathrm{up} = B^{-1}(c;\ x + 1,\ n - x) \quad (x < n), \qquad
-        p_\mathrm{up} = 1 \quad (x = n)
-
-    which for ``x = 0`` is ``1 − (1 − c)^{1/n}``.
-
-    Parameters
-    ----------
-    failures : int
-        Trials that failed, ``x`` (``0 <= x <= n``).
-    trials : int
-        Trials, ``n`` (0 gives 1: nothing is known).
-    confidence : float
-        One-sided confidence ``c``, ``0 < c < 1`` [-].
-
-    Returns
-    -------
-    float
-        The upper limit of the failure probability [-].
-
-    References
-    ----------
-    .. [1] Clopper & Pearson (1934), Biometrika 26(4), 404-413.
-    """
-    if not 0 < confidence < 1:
-        raise InputError("confidence", confidence, "must be in (0, 1)")
-    if trials < 0 or not 0 <= failures <= max(trials, 0):
-        raise InputError("failures", failures, f"must be in 0..trials ({trials})")
-    if failures >= trials:
-        return 1.0
-    if failures == 0:
-        return float(-math.expm1(math.log1p(-confidence) / trials))
-    return float(beta.ppf(confidence, failures + 1, trials - failures))
-
-
-def summary_rows(parts: int) -> tuple[int, ...]:
-    """The rows of a summary: :data:`SUMMARY_ROWS` up to ``parts``, and ``parts``."""
-    return tuple(sorted({k for k in SUMMARY_ROWS if k <= parts} | {parts}))
-
-
-def summarize(certificate: Certificate) -> CertificateSummary:
-    """Violations, the bound on their probability and MRR/oracle of a certificate.
-
-    Parameters
-    ----------
-    certificate : Certificate
-        The scenarios.
-
-    Returns
-    -------
-    CertificateSummary
-        Per row of :func:`summary_rows`: violations of the parts so far, the one-sided 95 %
-        Clopper-Pearson bound on them, and MRR/oracle (mean and 5th percentile).
-    """
-    ratio = certificate.plan_ratio
-    violations = np.array([s.violations for s in certificate.scenarios])
-    made = np.array([s.parts_made for s in certificate.scenarios])
-    rows = []
-    for k in summary_rows(certificate.parts):
-        bad = int(np.count_nonzero(violations[:, :k]))
-        n = int(np.minimum(made, k).sum())
-        rows.append(
-            SummaryRow(
-                after_parts=k,
-                parts_made=n,
-                violations=int(violations[:, :k].sum()),
-                violating_parts=bad,
-                violation_probability_upper_95=clopper_pearson_upper(bad, n, CONFIDENCE),
-                mrr_over_oracle_mean=float(ratio[:, k].mean()),
-                mrr_over_oracle_p5=float(np.percentile(ratio[:, k], PERCENTILE)),
-            )
-        )
-    return CertificateSummary(
-        plan=certificate.plan,
-        strategy=certificate.strategy,
-        scenarios=len(certificate.scenarios),
-        parts=certificate.parts,
-        seed=certificate.seed,
-        wear_drift_per_edge_life=certificate.wear_drift_per_edge_life,
-        stopped=certificate.stopped,
-        rows=tuple(rows),
-    )
 
 
 # --------------------------------------------------------------------------- one scenario
@@ -644,7 +343,7 @@ def certify_plan(
     """The Monte Carlo certificate of ``plan`` under one RCB strategy (module docstring).
 
     Parameters are those of :func:`simulate` with one strategy; pass the result to
-    :func:`summarize` for the bound and the MRR/oracle rows.
+    :func:`~supervisor.virtual.certificate.summarize` for the bound and the MRR/oracle rows.
     """
     (certificate,) = simulate(
         plan,
@@ -657,20 +356,3 @@ def certify_plan(
         progress=progress,
     )
     return certificate
-
-
-def digest(certificates: Sequence[Certificate]) -> str:
-    """SHA-256 (first 12 hex digits) of every per-scenario result, in order.
-
-    The same scenarios give the same digest whatever ``jobs`` ran them; it covers the arrays
-    of every :class:`ScenarioTrace`, the oracle's cycle time, where violations happened and
-    where the scenario stopped.
-    """
-    h = hashlib.sha256()
-    for certificate in certificates:
-        h.update(certificate.strategy.encode())
-        for s in certificate.scenarios:
-            for array in (s.plan_ratio, s.op_ratio, s.cycle_min, s.violations):
-                h.update(np.ascontiguousarray(array).tobytes())
-            h.update(repr((s.oracle_cycle_min, s.where, s.stopped_at, s.stopped_op)).encode())
-    return h.hexdigest()[:12]

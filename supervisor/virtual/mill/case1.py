@@ -1,10 +1,10 @@
 """Kim & Jeon's Case 1 on the virtual mill, under each of the three feed controllers.
 
-The numbers of Kim & Jeon's §5.1 simulation: Al6061-T6, a two-flute 10 mm end mill in full
-immersion, 1500 rpm, reference force 160 N (maximum resultant per revolution), initial feed
-60 mpm (mm/min), depth 1.5 → 3.0 → 1.5 mm
-(:func:`~supervisor.virtual.mill.process.kim_jeon_case1_workpiece`); the upper feed limit 240 mpm
-of their experiment (§5.2). Chosen where the paper is silent:
+The numbers live in ``models/data/kim_jeon_case1.toml``, each with its section. Those of Kim &
+Jeon's §5.1 simulation: Al6061-T6, a two-flute 10 mm end mill in full immersion, 1500 rpm,
+reference force 160 N (maximum resultant per revolution), initial feed 60 mpm (mm/min), depth
+1.5 → 3.0 → 1.5 mm (:func:`kim_jeon_case1_workpiece`); the upper feed limit 240 mpm of their
+experiment (§5.2). Chosen where the paper is silent:
 
 - lower feed limit 20 mm/min (a quarter of the feed that holds 160 N at 3 mm);
 - spindle current ``I = 3.206 + 5.762e-3 F`` A (§6.2.3, 150 mpm), read with 5 Hz bandwidth
@@ -23,33 +23,60 @@ from __future__ import annotations
 
 import numpy as np
 
+from models import fields
+from models.data import read_toml
 from models.errors import InputError
-from supervisor.virtual.mill.common import FeedLimits
+from models.milling_force import KimJeonForceModel, feed_for_force_mm_min
 from supervisor.virtual.mill.controllers.base import FeedController
 from supervisor.virtual.mill.controllers.corrective import BorangiuCorrectiveController
 from supervisor.virtual.mill.controllers.fuzzy import KimJeonFuzzyController
 from supervisor.virtual.mill.controllers.pi import TaiPIController, tai_pi_gains_for
-from supervisor.virtual.mill.force import KimJeonForceModel, feed_for_force_mm_min
+from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.process import (
     CurrentSensor,
     ForceCurrentMill,
-    kim_jeon_case1_workpiece,
+    StepWorkpiece,
 )
 from supervisor.virtual.mill.run import MillRun, MillSetup, simulate
 
+_FILE = "kim_jeon_case1.toml"
+_DATA = read_toml(_FILE)
+
+
+def _value(key: str) -> float:
+    """A number of the data file; errors name the file and the field."""
+    return fields.number(_DATA[key], f"{_FILE}:{key}")
+
+
 #: Kim & Jeon §5.1: spindle speed [rpm], reference force [N], initial feed [mm/min].
-KIM_JEON_SPINDLE_RPM = 1500.0
-KIM_JEON_REFERENCE_FORCE_N = 160.0
-KIM_JEON_INITIAL_FEED_MM_MIN = 60.0
+KIM_JEON_SPINDLE_RPM = _value("spindle_rpm")
+KIM_JEON_REFERENCE_FORCE_N = _value("reference_force_N")
+KIM_JEON_INITIAL_FEED_MM_MIN = _value("initial_feed_rate_mm_min")
 
 #: Feed limits [mm/min]: 240 from Kim & Jeon §5.2; 20 chosen (see the module).
-KIM_JEON_FEED_LIMITS = FeedLimits(20.0, 240.0)
+KIM_JEON_FEED_LIMITS = FeedLimits(
+    _value("lower_feed_rate_mm_min"), _value("upper_feed_rate_mm_min")
+)
 
 #: The three controllers, by name.
 CONTROLLERS = ("pi", "fuzzy", "corrective")
 
 #: Tai et al.'s sample period [s] (50 Hz, §II.D), used by the PI here too.
-PI_SAMPLE_PERIOD_S = 0.02
+PI_SAMPLE_PERIOD_S = _value("pi_sample_period_s")
+
+
+def kim_jeon_case1_workpiece() -> StepWorkpiece:
+    """Kim & Jeon Case 1: depth 1.5 → 3.0 → 1.5 mm (§5.1, Fig. 5a).
+
+    The paper gives the depths and the times of the steps in its simulation (2.7 s and
+    5.3 s), not the lengths. The lengths chosen, 20, 15 and 20 mm, give each segment several
+    seconds at the feeds that hold 160 N (about 190 and 80 mm/min), so that each controller
+    settles and the last third of each segment is a steady state.
+    """
+    segments = fields.mapping(_DATA["workpiece"], f"{_FILE}:workpiece")
+    lengths = fields.number_list(segments["lengths_mm"], f"{_FILE}:workpiece.lengths_mm")
+    depths = fields.number_list(segments["depths_mm"], f"{_FILE}:workpiece.depths_mm")
+    return StepWorkpiece(tuple(zip(lengths, depths, strict=True)))
 
 
 def case1_setup(*, sample_period_s: float | None = None) -> MillSetup:
@@ -63,9 +90,11 @@ def case1_setup(*, sample_period_s: float | None = None) -> MillSetup:
     return MillSetup(
         process=ForceCurrentMill(KimJeonForceModel()),
         spindle_rpm=KIM_JEON_SPINDLE_RPM,
-        radial_depth_mm=10.0,
-        sensor=CurrentSensor(noise_sd_A=0.005, bandwidth_Hz=5.0),
-        feed_drive_time_constant_s=0.05,
+        radial_depth_mm=_value("radial_depth_mm"),
+        sensor=CurrentSensor(
+            noise_sd_A=_value("sensor_noise_sd_A"), bandwidth_Hz=_value("sensor_bandwidth_Hz")
+        ),
+        feed_drive_time_constant_s=_value("feed_drive_time_constant_s"),
         sample_period_s=sample_period_s,
     )
 

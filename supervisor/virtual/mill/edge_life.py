@@ -30,12 +30,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from models import fields
 from models.errors import InputError
 from models.sensors import TaiCurrentFeedCalibration
-from supervisor.virtual.mill.common import FeedLimits, at_least, check_fields, positive
 from supervisor.virtual.mill.controllers.pi import TAI_PI_GAINS, TaiPIController, TaiPIGains
+from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.process import (
-    TAI_WEAR_RATE_MM_PER_MM3,
     CurrentSensor,
     StepWorkpiece,
     TaiMill,
@@ -52,6 +52,7 @@ from supervisor.virtual.mill.tai_end_milling import (
     TAI_SAMPLE_PERIOD_S,
     TAI_SPINDLE_RPM,
     TAI_TOOL_CHANGE_INTERVAL_MM,
+    TAI_WEAR_RATE_MM_PER_MM3,
 )
 
 
@@ -101,7 +102,7 @@ class EdgeLifeConfig:
     max_passes: int = 40
 
     def __post_init__(self) -> None:
-        check_fields(
+        fields.check_fields(
             self,
             positives=("reference_current_A", "wear_rate_mm_per_mm3", "pass_length_mm"),
             non_negatives=(
@@ -112,14 +113,14 @@ class EdgeLifeConfig:
             ),
         )
         low, high = self.tool_change_interval_mm
-        at_least(low, "tool_change_interval_mm[0]")
+        fields.at_least(low, "tool_change_interval_mm[0]")
         if not high > low:
             raise InputError(
                 "tool_change_interval_mm", self.tool_change_interval_mm, "upper end must be above"
             )
         if isinstance(self.max_passes, bool) or not isinstance(self.max_passes, int):
             raise InputError("max_passes", self.max_passes, "must be a whole number")
-        positive(self.max_passes, "max_passes")
+        fields.positive(self.max_passes, "max_passes")
 
 
 @dataclass(frozen=True)
@@ -208,7 +209,9 @@ def tai_wear_at_feed_mm(
     float
         ``V_B`` [mm] (negative if the sharp tool already draws more).
     """
-    k1 = positive(calibration.wear_coefficient_A_per_mm, "calibration.wear_coefficient_A_per_mm")
+    k1 = fields.positive(
+        calibration.wear_coefficient_A_per_mm, "calibration.wear_coefficient_A_per_mm"
+    )
     cutting = calibration.idle_current_A + calibration.slope_A_per_mm_min * feed_rate_mm_min
     return (current_A - cutting) / k1
 

@@ -19,15 +19,15 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from models import fields
 from models.errors import InputError
+from models.milling_force import ForceModel
 from models.sensors import (
     LinearCurrentCalibration,
     TaiCurrentFeedCalibration,
     calibration_from_current_relation,
     tai_spindle_current_A,
 )
-from supervisor.virtual.mill.common import at_least, check_fields, positive
-from supervisor.virtual.mill.force import ForceModel
 
 
 class CutProcess(Protocol):
@@ -62,7 +62,7 @@ class ForceCurrentMill:
     Parameters
     ----------
     force_model : ForceModel
-        E.g. :class:`~supervisor.virtual.mill.force.KimJeonForceModel`.
+        E.g. :class:`~models.milling_force.KimJeonForceModel`.
     idle_current_A : float
         Current at zero force [A]. Default 3.206 A: Kim & Jeon §6.2.3, the ACE-V30 spindle,
         ``I = 5.762e-3 F_max + 3.206`` at 150 mpm (the relation nearest the feeds of Case 1;
@@ -82,7 +82,7 @@ class ForceCurrentMill:
     wear_current_A_per_mm: float = 0.0
 
     def __post_init__(self) -> None:
-        check_fields(
+        fields.check_fields(
             self,
             positives=("slope_A_per_N",),
             non_negatives=("idle_current_A", "wear_force_N_per_mm", "wear_current_A_per_mm"),
@@ -138,7 +138,7 @@ class TaiMill:
     nominal_depth_mm: float = 0.2
 
     def __post_init__(self) -> None:
-        check_fields(self, positives=("nominal_depth_mm",))
+        fields.check_fields(self, positives=("nominal_depth_mm",))
 
     def force_N(
         self, feed_rate_mm_min: float, depth_mm: float, spindle_rpm: float, flank_wear_mm: float
@@ -178,9 +178,11 @@ class CurrentSensor:
     bandwidth_Hz: float = math.inf
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "noise_sd_A", at_least(self.noise_sd_A, "noise_sd_A"))
+        object.__setattr__(self, "noise_sd_A", fields.at_least(self.noise_sd_A, "noise_sd_A"))
         if self.bandwidth_Hz != math.inf:
-            object.__setattr__(self, "bandwidth_Hz", positive(self.bandwidth_Hz, "bandwidth_Hz"))
+            object.__setattr__(
+                self, "bandwidth_Hz", fields.positive(self.bandwidth_Hz, "bandwidth_Hz")
+            )
 
     def smoothing(self, dt_s: float) -> float:
         """Weight of the new value in the discrete lag, ``1 − exp(−2π B dt)`` [-]."""
@@ -208,11 +210,7 @@ class WearLaw:
     rate_mm_per_mm3: float = 0.0
 
     def __post_init__(self) -> None:
-        check_fields(self, non_negatives=("rate_mm_per_mm3",))
-
-
-#: Tai et al. §III.D and Table 1: 197.26 µm on average after 2250 mm at 0.2 × 1.4 mm².
-TAI_WEAR_RATE_MM_PER_MM3 = 0.19726 / (2250.0 * 0.2 * 1.4)
+        fields.check_fields(self, non_negatives=("rate_mm_per_mm3",))
 
 
 @dataclass(frozen=True)
@@ -238,8 +236,8 @@ class StepWorkpiece:
                 raise InputError(f"segments[{i}]", segment, "must be (length_mm, depth_mm)")
             checked.append(
                 (
-                    positive(segment[0], f"segments[{i}].length_mm"),
-                    at_least(segment[1], f"segments[{i}].depth_mm"),
+                    fields.positive(segment[0], f"segments[{i}].length_mm"),
+                    fields.at_least(segment[1], f"segments[{i}].depth_mm"),
                 )
             )
         object.__setattr__(self, "segments", tuple(checked))
@@ -270,14 +268,3 @@ class StepWorkpiece:
         if position_mm < 0.0 or position_mm >= self.length_mm:
             return 0.0
         return self.segments[self.segment_index(position_mm)][1]
-
-
-def kim_jeon_case1_workpiece() -> StepWorkpiece:
-    """Kim & Jeon Case 1: depth 1.5 → 3.0 → 1.5 mm (§5.1, Fig. 5a).
-
-    The paper gives the depths and the times of the steps in its simulation (2.7 s and
-    5.3 s), not the lengths. The lengths chosen, 20, 15 and 20 mm, give each segment several
-    seconds at the feeds that hold 160 N (about 190 and 80 mm/min), so that each controller
-    settles and the last third of each segment is a steady state.
-    """
-    return StepWorkpiece(((20.0, 1.5), (15.0, 3.0), (20.0, 1.5)))

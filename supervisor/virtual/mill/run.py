@@ -28,10 +28,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from models import fields
 from models.errors import InputError
 from models.sensors import linear_current_force_N
-from supervisor.virtual.mill.common import FeedLimits, at_least, check_fields, positive
 from supervisor.virtual.mill.controllers.base import FeedController
+from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.process import CurrentSensor, CutProcess, StepWorkpiece, WearLaw
 
 #: Signals a controller can be closed on.
@@ -71,14 +72,14 @@ class MillSetup:
     sample_period_s: float | None = None
 
     def __post_init__(self) -> None:
-        check_fields(
+        fields.check_fields(
             self,
             positives=("spindle_rpm", "radial_depth_mm"),
             non_negatives=("feed_drive_time_constant_s",),
         )
         if self.sample_period_s is not None:
             object.__setattr__(
-                self, "sample_period_s", positive(self.sample_period_s, "sample_period_s")
+                self, "sample_period_s", fields.positive(self.sample_period_s, "sample_period_s")
             )
 
 
@@ -221,7 +222,7 @@ def simulate(
     """
     if signal not in SIGNALS:
         raise InputError("signal", signal, f"must be one of {', '.join(SIGNALS)}")
-    ref = positive(reference, "reference")
+    ref = fields.positive(reference, "reference")
     if not 0.0 < steady_fraction <= 1.0:
         raise InputError("steady_fraction", steady_fraction, "must lie in (0, 1]")
     calibration = setup.process.force_calibration()
@@ -230,9 +231,9 @@ def simulate(
     limits = controller.limits
     if max_time_s is None:
         max_time_s = 1.5 * workpiece.length_mm / limits.lower_feed_rate_mm_min * 60.0 + 10.0
-    horizon = positive(max_time_s, "max_time_s")
-    wear = at_least(initial_flank_wear_mm, "initial_flank_wear_mm")
-    feed = positive(initial_feed_rate_mm_min, "initial_feed_rate_mm_min")
+    horizon = fields.positive(max_time_s, "max_time_s")
+    wear = fields.at_least(initial_flank_wear_mm, "initial_flank_wear_mm")
+    feed = fields.positive(initial_feed_rate_mm_min, "initial_feed_rate_mm_min")
     controller.reset(feed, setup.spindle_rpm)
     command = limits.clamp(feed)
     process, sensor = setup.process, setup.sensor

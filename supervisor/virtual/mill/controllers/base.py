@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from supervisor.virtual.mill.common import FeedLimits, positive
+from models import fields
+from supervisor.virtual.mill.feed_limits import FeedLimits
 
 
 class FeedController(Protocol):
@@ -67,4 +68,4 @@ class ClampedFeed:
     def _start(self, feed_rate_mm_min: float, spindle_rpm: float) -> None:
         """Start from a feed command [mm/min] (clamped) and a spindle speed [rpm] (> 0)."""
         self._command = self._limits.clamp(feed_rate_mm_min)
-        self._spindle_rpm = positive(spindle_rpm, "spindle_rpm")
+        self._spindle_rpm = fields.positive(spindle_rpm, "spindle_rpm")

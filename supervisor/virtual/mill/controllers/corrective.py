@@ -44,10 +44,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from models import fields
 from models.errors import InputError
 from models.kinematics import cutting_power_kW
-from supervisor.virtual.mill.common import FeedLimits, check_fields, positive
 from supervisor.virtual.mill.controllers.base import ClampedFeed
+from supervisor.virtual.mill.feed_limits import FeedLimits
 
 #: Table 1: the sign of the change of ``w`` and of ``n`` each violated class asks for.
 TABLE_1: dict[str, tuple[int, int]] = {
@@ -92,7 +93,7 @@ class CorrectiveConfig:
     tool_diameter_mm: float = 10.0
 
     def __post_init__(self) -> None:
-        check_fields(
+        fields.check_fields(
             self,
             positives=("feed_step_mm_min", "tool_diameter_mm"),
             non_negatives=("spindle_step_rpm", "min_spindle_rpm", "min_feed_per_rev_mm"),
@@ -138,7 +139,7 @@ def borangiu_violations(
     tuple of str
         Keys of :data:`TABLE_1`; empty inside the allowable area.
     """
-    n = positive(spindle_rpm, "spindle_rpm")
+    n = fields.positive(spindle_rpm, "spindle_rpm")
     pitch = feed_rate_mm_min / n
     speed_m_min = math.pi * config.tool_diameter_mm * n / 1000.0
     power = cutting_power_kW(max(force_N, 0.0), speed_m_min)

@@ -33,9 +33,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from supervisor.virtual.mill.common import FeedLimits, check_fields, positive
+from models import fields
 from supervisor.virtual.mill.controllers.base import ClampedFeed
 from supervisor.virtual.mill.controllers.fuzzy_rules import RULES, rank
+from supervisor.virtual.mill.feed_limits import FeedLimits
 
 
 @dataclass(frozen=True)
@@ -69,7 +70,7 @@ class FuzzyScaling:
     kv_mm_min: float = 4.0
 
     def __post_init__(self) -> None:
-        check_fields(
+        fields.check_fields(
             self,
             positives=("error_step", "change_step", "output_step", "kv_mm_min"),
             non_negatives=("deadband",),
@@ -159,7 +160,7 @@ class KimJeonFuzzyController(ClampedFeed):
 
     def step(self, measured: float, reference: float, dt_s: float) -> float:
         """Next feed command [mm/min] from the measured and reference forces [N]."""
-        ref = positive(reference, "reference")
+        ref = fields.positive(reference, "reference")
         error = ref - measured
         previous = error if self._previous_error is None else self._previous_error
         self._previous_error = error

@@ -27,8 +27,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from supervisor.virtual.mill.common import FeedLimits, check_fields, positive
+from models import fields
 from supervisor.virtual.mill.controllers.base import ClampedFeed
+from supervisor.virtual.mill.feed_limits import FeedLimits
 from supervisor.virtual.mill.tai_end_milling import TAI_END_MILLING, TAI_SAMPLE_PERIOD_S
 
 
@@ -49,7 +50,7 @@ class TaiPIGains:
     ki_mm_min_per_A_s: float = 0.006
 
     def __post_init__(self) -> None:
-        check_fields(self, non_negatives=("kp_mm_min_per_A", "ki_mm_min_per_A_s"))
+        fields.check_fields(self, non_negatives=("kp_mm_min_per_A", "ki_mm_min_per_A_s"))
 
 
 #: Tai et al. §III.B: ``K_p = 160``, ``K_i = 0.006`` (end and slot milling).
@@ -82,8 +83,8 @@ def tai_pi_gains_for(
     TaiPIGains
         Scaled gains.
     """
-    g = positive(current_per_feed_A_per_mm_min, "current_per_feed_A_per_mm_min")
-    dt = positive(sample_period_s, "sample_period_s")
+    g = fields.positive(current_per_feed_A_per_mm_min, "current_per_feed_A_per_mm_min")
+    dt = fields.positive(sample_period_s, "sample_period_s")
     factor = TAI_END_MILLING.slope_A_per_mm_min / g * dt / TAI_SAMPLE_PERIOD_S
     return replace(
         gains,

@@ -1,4 +1,4 @@
-"""Shared pieces of the virtual mill: checked numbers and the feed-rate limits."""
+"""The feed-rate limits every controller of the virtual mill clamps its command to."""
 
 from __future__ import annotations
 
@@ -7,26 +7,6 @@ from dataclasses import dataclass
 
 from models import fields
 from models.errors import InputError
-
-
-def positive(value: object, field: str) -> float:
-    """A finite number ``> 0``; the error names ``field`` and the value."""
-    return fields.number(value, field, positive=True)
-
-
-def at_least(value: object, field: str, minimum: float = 0.0) -> float:
-    """A finite number ``>= minimum``; the error names ``field`` and the value."""
-    return fields.number(value, field, minimum=minimum)
-
-
-def check_fields(
-    obj: object, *, positives: tuple[str, ...] = (), non_negatives: tuple[str, ...] = ()
-) -> None:
-    """Check numeric fields of a frozen dataclass and store them back as plain floats."""
-    for name in positives:
-        object.__setattr__(obj, name, positive(getattr(obj, name), name))
-    for name in non_negatives:
-        object.__setattr__(obj, name, at_least(getattr(obj, name), name))
 
 
 @dataclass(frozen=True)
@@ -47,7 +27,7 @@ class FeedLimits:
     upper_feed_rate_mm_min: float
 
     def __post_init__(self) -> None:
-        check_fields(self, positives=("lower_feed_rate_mm_min", "upper_feed_rate_mm_min"))
+        fields.check_fields(self, positives=("lower_feed_rate_mm_min", "upper_feed_rate_mm_min"))
         if self.upper_feed_rate_mm_min <= self.lower_feed_rate_mm_min:
             raise InputError(
                 "upper_feed_rate_mm_min",

@@ -39,9 +39,9 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from models import fields
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
-from supervisor.virtual.mill.common import check_fields, positive
 
 
 class ForceModel(Protocol):
@@ -79,7 +79,7 @@ class KimJeonForceModel:
     helix_angle_deg: float = 30.0
 
     def __post_init__(self) -> None:
-        check_fields(
+        fields.check_fields(
             self,
             positives=(
                 "ks_coefficient_N_mm2",
@@ -270,7 +270,7 @@ class PowerLawForce:
     def __post_init__(self) -> None:
         if self.model.quantity != "force_N":
             raise InputError("model.quantity", self.model.quantity, "must be force_N")
-        check_fields(self, positives=("radial_depth_mm", "tool_diameter_mm"))
+        fields.check_fields(self, positives=("radial_depth_mm", "tool_diameter_mm"))
         if isinstance(self.flute_count, bool) or not isinstance(self.flute_count, int):
             raise InputError("flute_count", self.flute_count, "must be a whole number")
         if self.flute_count < 1:
@@ -318,9 +318,9 @@ def feed_for_force_mm_min(
     float
         Feed rate [mm/min], to 1e-9 relative.
     """
-    target = positive(force_N, "force_N")
-    positive(depth_mm, "depth_mm")
-    low, high = 0.0, positive(upper_mm_min, "upper_mm_min")
+    target = fields.positive(force_N, "force_N")
+    fields.positive(depth_mm, "depth_mm")
+    low, high = 0.0, fields.positive(upper_mm_min, "upper_mm_min")
     if model.force_N(high, depth_mm, spindle_rpm) < target:
         raise InputError("force_N", force_N, f"not reached below {high:g} mm/min")
     while high - low > 1e-9 * high:

@@ -1,0 +1,94 @@
+"""The tool changes a part report's feed overrides call for, at the setpoints it was made with.
+
+Each reported override gives the feed the inner loop commanded; read on the setpoint the part
+was made with, Tai et al.'s rule (§III.C: change the tool when the commanded feed reaches the
+lower limit, :mod:`supervisor.constant_load.tool_change_rule`) says whether the edge is due,
+here to within 1 ppm of the lower limit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from models.errors import InputError
+from supervisor.constant_load.setpoint import ConstantLoadSetpoint
+from supervisor.inputs.part_report import PartReport
+from supervisor.optimize.optimizer import PlanResult
+
+
+@dataclass(frozen=True)
+class ToolChange:
+    """What a reported feed override says about an operation's edge (Tai et al. §III.C).
+
+    Parameters
+    ----------
+    operation : str
+        The operation.
+    feed_override_percent : float
+        The reported override [% of the programmed feed rate].
+    commanded_feed_rate_mm_min : float
+        ``programmed × override / 100`` [mm/min].
+    feed_rate_lower_mm_min : float
+        The lower feed limit of the setpoint the part was made with [mm/min].
+    due : bool
+        Change the tool: the commanded feed has fallen to the lower limit.
+    reason : str
+        One sentence for the operator.
+    """
+
+    operation: str
+    feed_override_percent: float
+    commanded_feed_rate_mm_min: float
+    feed_rate_lower_mm_min: float
+    due: bool
+    reason: str
+
+
+def tool_change(
+    operation: str, setpoint: ConstantLoadSetpoint, feed_override_percent: float
+) -> ToolChange:
+    """Whether the feed the inner loop commands has fallen to the lower feed limit.
+
+    Under constant load the feed falls as the edge wears (Eq. 15); at the lower limit the wear
+    is in the tool-change interval and the tool is changed (Tai et al. §II.F, Tables 1-2). The
+    commanded feed is the programmed feed times the override; it is due at or below the lower
+    limit (within 1 ppm). Where the programmed feed is already at the lower limit
+    (``tool_change_by_feed`` false) the feed says nothing about wear and no change is due.
+    """
+    commanded = setpoint.programmed_feed_rate_mm_min * feed_override_percent / 100.0
+    lower = setpoint.feed_rate_lower_mm_min
+    if not setpoint.tool_change_by_feed:
+        due, reason = False, "the programmed feed is at the lower limit: change edges by count"
+    elif commanded <= lower * (1.0 + 1e-6):
+        due = True
+        reason = (
+            f"commanded feed {commanded:.1f} mm/min is at the lower limit {lower:.1f} mm/min: "
+            f"flank wear is in the tool-change interval "
+            f"{setpoint.wear_interval_mm[0] * 1000:g}-{setpoint.wear_interval_mm[1] * 1000:g} µm"
+        )
+    else:
+        due = False
+        reason = f"commanded feed {commanded:.1f} mm/min is above the lower limit {lower:.1f}"
+    return ToolChange(operation, feed_override_percent, commanded, lower, due, reason)
+
+
+def tool_changes(report: PartReport, made_with: PlanResult) -> tuple[ToolChange, ...]:
+    """One :class:`ToolChange` per reported feed override, in the report's order.
+
+    Raises
+    ------
+    InputError
+        An override for an operation the plan does not have, or one without constant-load
+        control; the field is named.
+    """
+    setpoints = {op.name: op for op in made_with.operations}
+    changes = []
+    for name, percent in report.feed_overrides.items():
+        where = f"operations.{name}.feed_override_percent"
+        if name not in setpoints:
+            raise InputError(where, percent, f"{name!r} is not an operation of the plan")
+        constant_load = setpoints[name].constant_load
+        if constant_load is None:
+            raise InputError(where, percent, f"operation {name!r} has no constant-load control")
+        changes.append(tool_change(name, constant_load, percent))
+    return tuple(changes)
