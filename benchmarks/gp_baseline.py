@@ -135,9 +135,9 @@ except ImportError as err:  # pragma: no cover - depends on the environment
 
 from models import kinematics
 from models.monomial import Monomial
-from models.quantities import MODEL_QUANTITIES
+from models.quantities import MODEL_QUANTITIES, PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
-from supervisor.inputs.plan import PARTS_PER_EDGE, Operation, Plan, load_plan
+from supervisor.inputs.plan import Operation, Plan, load_plan
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.update import start

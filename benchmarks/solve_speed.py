@@ -460,7 +460,8 @@ def learned_section(plan: Any, op: Any, repeat: int, cap_s: float) -> tuple[Any,
     from supervisor.optimize import socp
     from supervisor.optimize.formulation import formulate
     from supervisor.optimize.optimizer import optimize_operation
-    from supervisor.rcb.update import RcbSettings, learned_cones, start, update
+    from supervisor.rcb.state import RcbSettings
+    from supervisor.rcb.update import learned_cones, start, update
     from supervisor.virtual.simulate import run_part, sample_machine
 
     machine = sample_machine(plan, 0)

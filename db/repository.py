@@ -28,7 +28,7 @@ from supervisor.optimize.extras import extras_of, with_extras
 from supervisor.optimize.optimizer import OperationResult, PlanResult
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
-from supervisor.rcb.update import Decision, RcbSettings, RcbState, prior_sigma
+from supervisor.rcb.state import Decision, RcbSettings, RcbState, prior_sigma
 
 #: A plan's row as the ORM loads it, or the head of it a part report locks (db.intake).
 PlanRow = t.Plan | PlanHead

@@ -16,7 +16,7 @@ from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from supervisor.rcb.update import RcbState
+from supervisor.rcb.state import RcbState
 
 #: Plans whose state one process keeps.
 CAPACITY = 2048

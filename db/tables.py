@@ -214,7 +214,7 @@ class Measurement(Base):
 
 
 class RcbDecision(Base):
-    """What one measurement did to one band (supervisor.rcb.update.Decision)."""
+    """What one measurement did to one band (supervisor.rcb.state.Decision)."""
 
     __tablename__ = "rcb_decisions"
     id: Mapped[int] = mapped_column(primary_key=True)

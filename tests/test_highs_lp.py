@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from supervisor.optimize import highs_lp, optimizer
-from supervisor.optimize.formulation import LogLinearProgram, Row
+from supervisor.optimize.program import LogLinearProgram, Row
 
 from conftest import ROOT
 
@@ -158,7 +158,7 @@ def test_solving_and_diagnosing_print_nothing_to_stdout():
         import math
         from supervisor.optimize import highs_lp
         from supervisor.errors import InfeasibleError
-        from supervisor.optimize.formulation import LogLinearProgram, Row
+        from supervisor.optimize.program import LogLinearProgram, Row
         from supervisor.optimize.optimizer import optimize_plan
         from supervisor.inputs.plan import plan_from_mapping
 

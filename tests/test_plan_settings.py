@@ -12,7 +12,7 @@ from db import repository as repo
 from db import tables as t
 from db.plan_state import settings_json, settings_of
 from db.state_cache import CACHE
-from supervisor.rcb.update import RcbSettings
+from supervisor.rcb.state import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
 

@@ -16,7 +16,7 @@ from db import repository as repo
 from db import tables as t
 from db.engine import make_engine, upgrade
 from supervisor.errors import InfeasibleError
-from supervisor.rcb.update import RcbSettings
+from supervisor.rcb.state import RcbSettings
 
 
 def _count(engine, table):

@@ -13,7 +13,7 @@ from models.tool import Tool
 from supervisor.constant_load.setpoint import ToolChange
 from supervisor.optimize.extras import extras_of
 from supervisor.optimize.optimizer import OperationResult, PlanResult
-from supervisor.rcb.update import Decision
+from supervisor.rcb.state import Decision
 
 
 def predictions_json(predicted: Mapping[str, Prediction]) -> dict[str, dict[str, float]]:

@@ -60,7 +60,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache, reduce
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
@@ -69,9 +69,7 @@ from models import fields, kinematics
 from models.errors import InputError
 from models.monomial import Monomial
 from supervisor.errors import SolverError
-
-if TYPE_CHECKING:
-    from supervisor.optimize.formulation import LogLinearProgram
+from supervisor.optimize.program import LogLinearProgram
 
 #: Eq. (1)'s ``K``: kg per (mm³ · t/m³).
 KG_PER_MM3_T_M3 = 1e-6

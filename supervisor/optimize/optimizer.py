@@ -36,9 +36,10 @@ from supervisor.constant_load.setpoint import (
     setup_of,
 )
 from supervisor.errors import Conflict, InfeasibleError, PlanError, SolverError
-from supervisor.inputs.plan import Machine, Objective, Operation, Plan
+from supervisor.inputs.plan import Machine, Operation, Plan
 from supervisor.optimize import highs_lp, socp
-from supervisor.optimize.formulation import LogLinearProgram, Row, formulate, formulate_domain
+from supervisor.optimize.formulation import formulate, formulate_domain
+from supervisor.optimize.program import LogLinearProgram, Objective, Row
 from supervisor.rcb.posterior import Cone, display_model
 
 #: Per operation name, per quantity: the cones of a ``learn`` state (:mod:`.posterior`).

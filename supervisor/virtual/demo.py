@@ -23,14 +23,16 @@ import numpy as np
 
 from models import kinematics
 from models.powerlaw import Prediction
+from models.quantities import PARTS_PER_EDGE
 from models.sensors import Calibration
 from models.sensors.convert import converts
 from models.tool import predict_all
 from supervisor.inputs.part_report import Measurement, PartReport, Signal
-from supervisor.inputs.plan import PARTS_PER_EDGE, Plan
+from supervisor.inputs.plan import Plan
 from supervisor.inputs.signals import operating_point, resolve
 from supervisor.optimize.optimizer import PlanResult, optimize_plan
-from supervisor.rcb.update import Decision, RcbSettings, RcbState, start, update
+from supervisor.rcb.state import Decision, RcbSettings, RcbState
+from supervisor.rcb.update import start, update
 from supervisor.virtual.sensing import noisy_reading
 from supervisor.virtual.simulate import (
     DEFAULT_UNCERTAINTY,

@@ -34,14 +34,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from models import kinematics
+from models import kinematics, quantities
 from models.errors import InputError
 from models.monomial import Monomial
 from models.powerlaw import PowerLawModel
-from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, Sense
+from models.quantities import DERIVED_QUANTITIES, Sense
 from models.tool import Tool
 from supervisor.inputs.part_report import Measurement, ToolWear
-from supervisor.inputs.plan import PARTS_PER_EDGE, Operation, Plan
+from supervisor.inputs.plan import Operation, Plan
 
 #: Force ± of Ivester & Heigel Table 5, "Measured" column, rows in order [N]; step 4 row AC1
 #: (118 ± 80 N, ±68 % of its reading) is left out as an outlier.
@@ -70,10 +70,6 @@ DEFAULT_UNCERTAINTY: dict[str, float] = {
     "spindle_current_A": 0.1,
     "flank_wear_mm": 0.01,
 }
-
-#: Quantities that rise as the edge wears (with ``wear_drift_per_edge_life``); power and torque
-#: follow from the force. The spindle current drives the force, so it rises with it.
-WEAR_DRIFT_QUANTITIES = ("force_N", "roughness_um", "spindle_current_A")
 
 #: A true value may pass its limit by this fraction before it counts as a violation.
 VIOLATION_RTOL = 1e-9
@@ -175,10 +171,7 @@ class _Compiled(NamedTuple):
     measured: tuple[tuple[str, float, float], ...]  # quantity, expanded uncertainty, σ
     drifting: tuple[str, ...]
     volume_mm3: float
-    power_per_newton: _Mono | None
-    torque_per_newton: _Mono | None
-    rpm: _Mono
-    feed_rate: _Mono | None
+    derived: tuple[tuple[str, str | None, _Mono], ...]  # quantity, based on, factor
     limits: tuple[_Limit, ...]
     wear: tuple[_Mono, float] | None  # true tool life without VB, and its VB exponent
 
@@ -263,23 +256,21 @@ def _compile(op: Operation, process: TrueProcess, machine: VirtualMachine) -> _C
         u = machine.uncertainty[quantity]
         measured.append((quantity, u, u / COVERAGE_FACTOR))
     where = f"operations.{op.name}"
-    power = torque = feed_rate = None
-    if "force_N" in tool.models:
-        power = fold(kinematics.power_per_newton_monomial(), where)
-        torque = fold(kinematics.torque_per_newton_monomial(op.process), where)
-    if op.process == "turning" or "flute_count" in context:
-        feed_rate = fold(kinematics.feed_rate_monomial(op.process), where)
+    derived = []
+    for entry in DERIVED_QUANTITIES.values():
+        base = entry.based_on
+        per = entry.factor_of(op.process)
+        inputs = set(per.exponents) - set(params)
+        if (base is None or base in tool.models) and inputs <= set(context):
+            derived.append((entry.name, base, fold(per, where)))
     return _Compiled(
         name=op.name,
         parameters=params,
         models=models,
         measured=tuple(measured),
-        drifting=tuple(q for q in WEAR_DRIFT_QUANTITIES if q in tool.models),
+        drifting=tuple(q for q in tool.models if quantities.quantity(q).drifts_with_wear),
         volume_mm3=op.volume_mm3,
-        power_per_newton=power,
-        torque_per_newton=torque,
-        rpm=fold(kinematics.spindle_rpm_monomial(op.process), where),
-        feed_rate=feed_rate,
+        derived=tuple(derived),
         limits=_limits(op, machine.plan),
         wear=_wear_model(op, tool.models.get("tool_life_mm3"), params),
     )
@@ -290,12 +281,12 @@ def _limits(op: Operation, plan: Plan) -> tuple[_Limit, ...]:
     limits: list[_Limit] = []
     derived = dict(plan.machine.limits())
     for key, value in op.limits.items():
-        if key == PARTS_PER_EDGE:
-            limits.append(_Limit(key, "tool_life_mm3", op.volume_mm3, value, "min"))
-        elif key in MODEL_QUANTITIES:
-            limits.append(_Limit(key, key, 1.0, value, MODEL_QUANTITIES[key].sense))
-        elif key in DERIVED_QUANTITIES:
-            derived[key] = min(value, derived.get(key, math.inf))
+        quantity = quantities.limited_by(key)
+        if quantity.kind == "derived":
+            derived[quantity.name] = min(value, derived.get(quantity.name, math.inf))
+            continue
+        scale = op.volume_mm3 if quantity.limit_per_volume else 1.0
+        limits.append(_Limit(key, quantity.name, scale, value, quantity.sense))
     limits += [_Limit(q, q, 1.0, v, DERIVED_QUANTITIES[q].sense) for q, v in derived.items()]
     return tuple(limits)
 
@@ -386,7 +377,9 @@ def sample_machine(
                 rng,
                 spread,
                 exponent_spread,
-                wear_drift_per_edge_life if wears and q in WEAR_DRIFT_QUANTITIES else 0.0,
+                wear_drift_per_edge_life
+                if wears and quantities.quantity(q).drifts_with_wear
+                else 0.0,
             )
             for q in sorted(nominal.models)
         }
@@ -540,13 +533,8 @@ def run_part(
             factor = 1.0 + drift * used * op.volume_mm3 / values["tool_life_mm3"]
             for quantity in op.drifting:
                 values[quantity] *= factor
-        if op.power_per_newton is not None and op.torque_per_newton is not None:
-            force = values["force_N"]
-            values["power_kW"] = force * op.power_per_newton.at(ln_x)
-            values["torque_Nm"] = force * op.torque_per_newton.at(ln_x)
-        values["spindle_rpm"] = op.rpm.at(ln_x)
-        if op.feed_rate is not None:
-            values["feed_rate_mm_min"] = op.feed_rate.at(ln_x)
+        for name, base, per in op.derived:  # the registry's derived quantities
+            values[name] = per.at(ln_x) if base is None else values[base] * per.at(ln_x)
         measured: dict[str, Measurement] = {}
         for quantity, u, sigma in op.measured:
             measured[quantity] = Measurement(max(values[quantity] + sigma * noise[k], 0.0), u)
