@@ -25,7 +25,7 @@ from supervisor.constant_load.setpoint import ToolChange
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import Plan, plan_from_mapping
 from supervisor.optimize.extras import extras_of, with_extras
-from supervisor.optimize.optimizer import OperationResult, PlanResult
+from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 from supervisor.rcb.state import Decision, RcbSettings, RcbState, prior_sigma

@@ -22,7 +22,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from supervisor.optimize import highs_lp, optimizer
+from supervisor.optimize import highs_lp, solve
 from supervisor.optimize.program import LogLinearProgram, Row
 
 from conftest import ROOT
@@ -141,7 +141,7 @@ def test_the_elastic_lp_of_a_hand_solved_infeasible_program():
 
 def test_the_diagnosis_names_the_rows_with_slack_and_what_they_need():
     lp = _program(ELASTIC_ROWS, [0.0] * 3, [1.0] * 3, (1, 1, 1))
-    error = optimizer._diagnose(lp)
+    error = solve.diagnose(lp)
     # q0 needs ln(limit) raised by its slack 0.5, q1 by 2; q2 is not in conflict
     assert [c.name for c in error.conflicts] == ["q0", "q1"]
     assert_allclose([c.required for c in error.conflicts], [math.exp(0.0), math.exp(0.0)])

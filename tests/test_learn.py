@@ -21,7 +21,8 @@ from supervisor.rcb import posterior as post
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.strategies import REGISTRY
 from supervisor.rcb.update import learned_cones, start, update
-from supervisor.virtual.simulate import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine, run_part
+from supervisor.virtual.machine import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine
+from supervisor.virtual.simulate import run_part
 
 from conftest import DEMO_PLAN
 

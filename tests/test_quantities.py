@@ -24,7 +24,8 @@ from models.quantities import (
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_plan
-from supervisor.virtual.simulate import run_part, sample_machine
+from supervisor.virtual.sampling import sample_machine
+from supervisor.virtual.simulate import run_part
 
 STEP1 = {
     "name": "step1",

@@ -12,7 +12,7 @@ from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
 from supervisor.constant_load.setpoint import ToolChange
 from supervisor.optimize.extras import extras_of
-from supervisor.optimize.optimizer import OperationResult, PlanResult
+from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb.state import Decision
 
 

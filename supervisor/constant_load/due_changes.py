@@ -5,7 +5,7 @@ from __future__ import annotations
 from models.errors import InputError
 from supervisor.constant_load.setpoint import ToolChange, tool_change
 from supervisor.inputs.part_report import PartReport
-from supervisor.optimize.optimizer import PlanResult
+from supervisor.optimize.result import PlanResult
 
 
 def tool_changes(report: PartReport, made_with: PlanResult) -> tuple[ToolChange, ...]:

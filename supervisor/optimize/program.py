@@ -22,7 +22,9 @@ OBJECTIVES: tuple[Objective, ...] = ("mrr", "productivity")
 
 @dataclass(frozen=True, eq=False)
 class ConeTerm:
-    """``z ‖G x + h‖``, the spread a learned row adds to its linear part (:mod:`.posterior`).
+    """``z ‖G x + h‖``, the spread a learned row adds to its linear part.
+
+    The cone of a learned model (:mod:`supervisor.rcb.posterior`).
 
     ``G`` and ``h`` are arrays (not to be written to); a term is equal only to itself.
     """

@@ -50,7 +50,8 @@ from models.powerlaw import PowerLawModel, Prediction
 from models.quantities import MODEL_QUANTITIES
 from supervisor.inputs.part_report import Measurement, ToolWear
 from supervisor.inputs.plan import Operation
-from supervisor.optimize.optimizer import RECHECK_RTOL, OperationResult
+from supervisor.optimize.result import OperationResult
+from supervisor.optimize.solve import RECHECK_RTOL
 from supervisor.rcb.state import Action, Decision, Flag, Note, RcbState, prior_sigma
 
 #: A measurement is past a band's edge only beyond this fraction of it: an optimum sits on

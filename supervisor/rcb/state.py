@@ -17,7 +17,7 @@ from models.quantities import MODEL_QUANTITIES
 from models.tool import Tool
 from supervisor.errors import Conflict
 from supervisor.inputs.plan import Plan
-from supervisor.optimize.optimizer import PlanResult
+from supervisor.optimize.result import PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY, Strategy

@@ -5,16 +5,18 @@ with, the band law of :mod:`supervisor.rcb.law` shrinks the model's band where t
 room to spare and grows it where a measurement contradicts it (Ivester & Heigel, "Adaptive
 Control Optimization"; DESIGN.md, "RCB"); the operations whose bands moved are re-optimised.
 The state and its settings are :mod:`supervisor.rcb.state`.
-When the grown bands leave no safe setpoint the plan *halts* (:class:`Halt`): the report is
-still applied (a part is never refused because of what it measured), the setpoints stay those
-the part was made with, and only an engineer's replan resumes (DESIGN.md, RCB step 4).
+
+When the grown bands leave no safe setpoint the plan *halts*
+(:class:`supervisor.rcb.state.Halt`): the report is still applied (a part is never refused
+because of what it measured), the setpoints stay those the part was made with, and only an
+engineer's replan resumes (DESIGN.md, RCB step 4).
 
 Strategies (:mod:`supervisor.rcb.strategies`):
 
 ``ivester``
-    The law above, on ΔK only: K keeps its catalogue value.
+    The law, on ΔK only: K keeps its catalogue value.
 ``bayes`` (beyond the paper)
-    The law above, and also a conjugate normal update of ``ln K``. The band is read as a
+    The law, and also a conjugate normal update of ``ln K``. The band is read as a
     prior, ``ln K ~ N(ln K₀, σ₀²)`` with ``σ₀ = (ΔK/K)/k`` (``k = 2``, the band as ±2σ). A
     measurement ``y ± u`` at setpoint ``x`` observes ``z = ln y − Σ e_i ln x_i`` with
     ``σ_z = (u/k)/y``. Before each observation the prior widens by the model discrepancy
@@ -31,7 +33,7 @@ Strategies (:mod:`supervisor.rcb.strategies`):
     spread at the next setpoint, which is not the one measured) and the Ivester law's result
     (never narrower than the law would allow, and never below the floor).
 ``learn`` (beyond the paper)
-    The law above as ``ivester`` (the proven-safe fallback), and a Bayesian regression of
+    The law as ``ivester`` (the proven-safe fallback), and a Bayesian regression of
     ``ln y`` on ``(1, ln x)`` per operation and quantity (:mod:`supervisor.rcb.posterior`), whose
     second-order-cone constraint the optimiser uses where it allows more than the band.
 
@@ -54,12 +56,8 @@ from models.tool import Tool
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import Operation, Plan
-from supervisor.optimize.optimizer import (
-    OperationResult,
-    PlanResult,
-    optimize_operation,
-    optimize_plan,
-)
+from supervisor.optimize.optimizer import optimize_operation, optimize_plan
+from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.law import apply_law, tool_life_measured
 from supervisor.rcb.posterior import Posterior

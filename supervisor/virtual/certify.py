@@ -74,11 +74,13 @@ from models.quantities import PARTS_PER_EDGE
 from supervisor.errors import SupervisorError
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import Plan
-from supervisor.optimize.optimizer import PlanResult, optimize_plan
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.optimize.result import PlanResult
 from supervisor.rcb.state import Halt, RcbSettings, RcbState
 from supervisor.rcb.strategies import STRATEGY_NAMES
 from supervisor.rcb.update import start, update
-from supervisor.virtual.simulate import oracle_tools, run_part, sample_machine
+from supervisor.virtual.sampling import oracle_tools, sample_machine
+from supervisor.virtual.simulate import run_part
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
