@@ -10,7 +10,7 @@ from models import fields, kinematics
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.powerlaw import PowerLawModel, Prediction
-from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
+from models.quantities import MODEL_QUANTITIES, QUANTITIES
 
 _TOOL_KEYS = ("name", "process", "description", "material", "source", "models")
 _MODEL_KEYS = ("K", "dK", "exponents", "source", "reference", "exponent_stderr")
@@ -140,15 +140,19 @@ def predict_all(
     """
     process = tool.process
     predicted = {q: m.predict(point, rel_uncertainty) for q, m in tool.models.items()}
-    parameters = kinematics.PARAMETERS[process]
-    for derived in DERIVED_QUANTITIES.values():
+    parameters = set(kinematics.PARAMETERS[process])
+    for derived in QUANTITIES.values():
+        if derived.kind != "derived":
+            continue
         base = None if derived.based_on is None else predicted.get(derived.based_on)
         if derived.based_on is not None and base is None:
             continue  # no model of what it scales
         factor = derived.factor_of(process)
-        if any(n not in point for n in factor.exponents if n not in parameters):
+        if not (factor.exponents.keys() - point.keys()) <= parameters:
             continue  # a context input (diameter, flute count) not known here
         value = factor.evaluate(point)
-        scaled = Prediction(value, 0.0) if base is None else base.scaled(value)
-        predicted[derived.name] = scaled
+        if base is None:
+            predicted[derived.name] = Prediction(value, 0.0)
+        else:
+            predicted[derived.name] = Prediction(base.value * value, base.band * value)
     return predicted
