@@ -77,11 +77,15 @@ class Machine:
         """
         bounds = quantities.machine_fields()
         result: dict[str, float] = {}
-        for f in fields_of(self):
-            value = getattr(self, f.name)
-            if f.name in bounds and value is not None:
-                result[bounds[f.name]] = value
+        for name in _FIELD_ORDER:
+            value = getattr(self, name)
+            if name in bounds and value is not None:
+                result[bounds[name]] = value
         return result
+
+
+#: The fields of :class:`Machine` in their order: the order of :meth:`Machine.limits`.
+_FIELD_ORDER = tuple(f.name for f in fields_of(Machine))
 
 
 @dataclass(frozen=True)
