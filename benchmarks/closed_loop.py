@@ -79,8 +79,7 @@ import numpy as np
 
 from models import kinematics
 from supervisor.inputs.plan import Plan, load_plan
-from supervisor.rcb.strategies import DEFAULT_STRATEGY
-from supervisor.rcb.update import STRATEGIES
+from supervisor.rcb.strategies import DEFAULT_STRATEGY, STRATEGY_NAMES
 from supervisor.virtual.certificate import Certificate, digest
 from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, available_cpus
 from supervisor.virtual.certify import simulate as simulate_certificates
@@ -324,7 +323,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenarios", type=int, default=200, help="seeded true processes")
     parser.add_argument("--parts", type=int, default=30, help="parts per scenario")
-    parser.add_argument("--strategy", choices=[*STRATEGIES, "all"], default="all")
+    parser.add_argument("--strategy", choices=[*STRATEGY_NAMES, "all"], default="all")
     parser.add_argument("--plan", type=Path, default=DEFAULT_PLAN, help="plan file (TOML)")
     parser.add_argument(
         "--jobs", type=int, default=available_cpus(), help="worker processes (1: no pool)"
@@ -363,7 +362,7 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(found, str):
             parser.error(f"--baseline gp: {found}")
         gp_run = found
-    strategies = list(STRATEGIES) if args.strategy == "all" else [args.strategy]
+    strategies = list(STRATEGY_NAMES) if args.strategy == "all" else [args.strategy]
     plan = load_plan(args.plan)
     parts = args.parts
     seeds = range(args.seed_offset, args.seed_offset + args.scenarios)

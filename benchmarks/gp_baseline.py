@@ -135,19 +135,15 @@ except ImportError as err:  # pragma: no cover - depends on the environment
 
 from models import kinematics
 from models.monomial import Monomial
-from models.quantities import MODEL_QUANTITIES
+from models.quantities import MODEL_QUANTITIES, PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
-from supervisor.inputs.plan import PARTS_PER_EDGE, Operation, Plan, load_plan
+from supervisor.inputs.plan import Operation, Plan, load_plan
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.update import start
-from supervisor.virtual.simulate import (
-    PartOutcome,
-    Violation,
-    oracle_tools,
-    run_part,
-    sample_machine,
-)
+from supervisor.virtual.machine import PartOutcome, Violation
+from supervisor.virtual.sampling import oracle_tools, sample_machine
+from supervisor.virtual.simulate import run_part
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

@@ -460,8 +460,10 @@ def learned_section(plan: Any, op: Any, repeat: int, cap_s: float) -> tuple[Any,
     from supervisor.optimize import socp
     from supervisor.optimize.formulation import formulate
     from supervisor.optimize.optimizer import optimize_operation
-    from supervisor.rcb.update import RcbSettings, learned_cones, start, update
-    from supervisor.virtual.simulate import run_part, sample_machine
+    from supervisor.rcb.state import RcbSettings
+    from supervisor.rcb.update import learned_cones, start, update
+    from supervisor.virtual.sampling import sample_machine
+    from supervisor.virtual.simulate import run_part
 
     machine = sample_machine(plan, 0)
     rng = np.random.default_rng(0)

@@ -20,9 +20,9 @@ from db.model_versions import model_version_row, version_numbers
 from db.plan_state import halt_json
 from db.plans import add_setpoints, new_token
 from db.state import band_state_rows
-from supervisor.constant_load.setpoint import ToolChange
+from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.inputs.part_report import PartReport
-from supervisor.rcb.update import Decision, RcbState
+from supervisor.rcb.state import Decision, RcbState
 
 #: The fields of a :class:`supervisor.rcb.update.Decision` that ``rcb_decisions`` stores
 #: under their own names (its operation is stored as ``operation_id``); the table is their

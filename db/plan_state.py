@@ -1,7 +1,7 @@
 """A plan's RCB settings and its halt, as the JSON of ``plans.settings`` and ``plans.halt``.
 
 ``plans.strategy`` and ``plans.alpha`` keep their columns; every other setting of
-:class:`supervisor.rcb.update.RcbSettings` is one key of ``plans.settings`` (NULL, or a key missing:
+:class:`supervisor.rcb.state.RcbSettings` is one key of ``plans.settings`` (NULL, or a key missing:
 the default). ``plans.halt`` holds the conflicts of a halted plan in the form the REST
 answers show them (``message`` and, per operation, ``operation``, ``message``,
 ``conflicts`` and ``held_by``).
@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from supervisor.errors import Conflict
-from supervisor.rcb.update import Halt, HaltedOperation, RcbSettings
+from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings
 
 #: The settings kept in ``plans.settings`` (strategy and alpha have columns of their own).
 SETTING_KEYS = ("floors", "coverage_k", "discrepancy", "z", "exponent_sd", "edge_sd")

@@ -25,8 +25,8 @@ from models.powerlaw import Prediction
 from models.tool import Tool
 from supervisor.inputs.plan import Plan
 from supervisor.optimize.extras import extras_of, with_extras
-from supervisor.optimize.optimizer import OperationResult, PlanResult
-from supervisor.rcb.update import RcbSettings, RcbState
+from supervisor.optimize.result import OperationResult, PlanResult
+from supervisor.rcb.state import RcbSettings, RcbState
 
 #: A plan's row as the ORM loads it, or the head of it a part report locks (db.intake).
 PlanRow = t.Plan | PlanHead

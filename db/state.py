@@ -23,7 +23,7 @@ from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
-from supervisor.rcb.update import Decision, RcbState, prior_sigma
+from supervisor.rcb.state import Decision, RcbState, prior_sigma
 
 
 def load_state(*, session: Session, plan_row: PlanRow) -> RcbState:

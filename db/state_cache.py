@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from sqlalchemy.orm import Session
 
-from supervisor.rcb.update import RcbState
+from supervisor.rcb.state import RcbState
 
 #: Plans whose state one process keeps.
 CAPACITY = 2048

@@ -214,7 +214,7 @@ class Measurement(Base):
 
 
 class RcbDecision(Base):
-    """What one measurement did to one band (supervisor.rcb.update.Decision).
+    """What one measurement did to one band (supervisor.rcb.state.Decision).
 
     Every field of the Decision but its operation (stored as ``operation_id``) and the
     measured, predicted, uncertainty and limit it was made from (the part's measurement, the

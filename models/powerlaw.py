@@ -43,6 +43,10 @@ class Prediction:
         """Lower edge of the band, ``value − band``."""
         return self.value - self.band
 
+    def scaled(self, factor: float) -> Prediction:
+        """Value and band times ``factor`` (> 0): a quantity proportional to this one."""
+        return Prediction(self.value * factor, self.band * factor)
+
 
 @dataclass(frozen=True)
 class PowerLawModel:

@@ -10,7 +10,7 @@ from models import fields, kinematics
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.powerlaw import PowerLawModel, Prediction
-from models.quantities import MODEL_QUANTITIES
+from models.quantities import MODEL_QUANTITIES, QUANTITIES
 
 _TOOL_KEYS = ("name", "process", "description", "material", "source", "models")
 _MODEL_KEYS = ("K", "dK", "exponents", "source", "reference", "exponent_stderr")
@@ -132,23 +132,27 @@ def predict_all(
     Returns
     -------
     dict[str, Prediction]
-        Model quantities; ``power_kW`` (``F·v/60000``, band from the force band) when the tool
-        has a force model; ``torque_Nm`` (``F·D/2000``), ``spindle_rpm`` and
-        ``feed_rate_mm_min`` when the diameter is known (kinematics are exact: band 0).
+        Model quantities, then every derived quantity of :data:`models.quantities.QUANTITIES`
+        whose inputs are known: its factor times the prediction it is based on (band scaled
+        alike), or the factor alone (exact kinematics: band 0). Today ``power_kW``
+        (``F·v/60000``) when the tool has a force model; ``torque_Nm`` (``F·D/2000``),
+        ``spindle_rpm`` and ``feed_rate_mm_min`` when the diameter (and flute count) is known.
     """
     process = tool.process
     predicted = {q: m.predict(point, rel_uncertainty) for q, m in tool.models.items()}
-    force = predicted.get("force_N")
-    if force is not None:
-        per_newton = kinematics.power_per_newton_monomial().evaluate(point)
-        predicted["power_kW"] = Prediction(force.value * per_newton, force.band * per_newton)
-    if kinematics.DIAMETER[process] in point:
-        if force is not None:
-            per_newton = kinematics.torque_per_newton_monomial(process).evaluate(point)
-            predicted["torque_Nm"] = Prediction(force.value * per_newton, force.band * per_newton)
-        rpm = kinematics.spindle_rpm_monomial(process).evaluate(point)
-        predicted["spindle_rpm"] = Prediction(rpm, 0.0)
-        if process == "turning" or "flute_count" in point:
-            rate = kinematics.feed_rate_monomial(process).evaluate(point)
-            predicted["feed_rate_mm_min"] = Prediction(rate, 0.0)
+    parameters = set(kinematics.PARAMETERS[process])
+    for derived in QUANTITIES.values():
+        if derived.kind != "derived":
+            continue
+        base = None if derived.based_on is None else predicted.get(derived.based_on)
+        if derived.based_on is not None and base is None:
+            continue  # no model of what it scales
+        factor = derived.factor_of(process)
+        if not (factor.exponents.keys() - point.keys()) <= parameters:
+            continue  # a context input (diameter, flute count) not known here
+        value = factor.evaluate(point)
+        if base is None:
+            predicted[derived.name] = Prediction(value, 0.0)
+        else:
+            predicted[derived.name] = Prediction(base.value * value, base.band * value)
     return predicted

@@ -16,8 +16,9 @@ from api.cli.main import app
 from models.errors import InputError
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import load_plan
+from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
-from supervisor.rcb.update import Halt, HaltedOperation, RcbSettings, start
+from supervisor.rcb.update import start
 from supervisor.virtual import certify
 from supervisor.virtual.certificate import (
     Certificate,

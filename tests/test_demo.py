@@ -10,7 +10,7 @@ from api.cli.main import app
 from supervisor.inputs.plan import load_plan
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
-from supervisor.virtual.simulate import oracle_tools, sample_machine
+from supervisor.virtual.sampling import oracle_tools, sample_machine
 
 from conftest import DEMO_PLAN
 

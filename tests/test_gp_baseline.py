@@ -13,7 +13,7 @@ import pytest
 from supervisor.inputs.plan import load_plan
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.update import start
-from supervisor.virtual.simulate import oracle_tools, sample_machine
+from supervisor.virtual.sampling import oracle_tools, sample_machine
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"

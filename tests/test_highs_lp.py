@@ -22,8 +22,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from supervisor.optimize import highs_lp, optimizer
-from supervisor.optimize.formulation import LogLinearProgram, Row
+from supervisor.optimize import highs_lp, solve
+from supervisor.optimize.program import LogLinearProgram, Row
 
 from conftest import ROOT
 
@@ -150,7 +150,7 @@ def test_the_elastic_lp_of_a_hand_solved_infeasible_program():
 
 def test_the_diagnosis_names_the_rows_with_slack_and_what_they_need():
     lp = _program(ELASTIC_ROWS, [0.0] * 3, [1.0] * 3, (1, 1, 1))
-    error = optimizer._diagnose(lp)
+    error = solve.diagnose(lp)
     # q0 needs ln(limit) raised by its slack 0.5, q1 by 2; q2 is not in conflict
     assert [c.name for c in error.conflicts] == ["q0", "q1"]
     assert_allclose([c.required for c in error.conflicts], [math.exp(0.0), math.exp(0.0)])
@@ -167,7 +167,7 @@ def test_solving_and_diagnosing_print_nothing_to_stdout():
         import math
         from supervisor.optimize import highs_lp
         from supervisor.errors import InfeasibleError
-        from supervisor.optimize.formulation import LogLinearProgram, Row
+        from supervisor.optimize.program import LogLinearProgram, Row
         from supervisor.optimize.optimizer import optimize_plan
         from supervisor.inputs.plan import plan_from_mapping
 

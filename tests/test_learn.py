@@ -18,9 +18,11 @@ from supervisor.optimize import socp
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb import posterior as post
+from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.strategies import REGISTRY
-from supervisor.rcb.update import RcbSettings, learned_cones, start, update
-from supervisor.virtual.simulate import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine, run_part
+from supervisor.rcb.update import learned_cones, start, update
+from supervisor.virtual.machine import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine
+from supervisor.virtual.simulate import run_part
 
 from conftest import DEMO_PLAN
 

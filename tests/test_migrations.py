@@ -11,7 +11,7 @@ from api.cli.main import app
 from db.engine import make_engine, upgrade
 from db.plan_state import settings_of
 from db.tables import Base, utcnow
-from supervisor.rcb.update import RcbSettings
+from supervisor.rcb.state import RcbSettings
 
 
 def _no_difference(url: str) -> None:

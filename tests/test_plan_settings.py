@@ -13,7 +13,7 @@ from db.plan_state import settings_json, settings_of
 from db.plans import get_plan_row
 from db.state import load_state
 from db.state_cache import CACHE, database_key
-from supervisor.rcb.update import RcbSettings
+from supervisor.rcb.state import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
 

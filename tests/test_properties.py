@@ -32,7 +32,8 @@ from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import plan_from_mapping
-from supervisor.optimize.optimizer import OperationResult, optimize_operation, optimize_plan
+from supervisor.optimize.optimizer import optimize_operation, optimize_plan
+from supervisor.optimize.result import OperationResult
 
 PARAMS = kinematics.PARAMETERS["turning"]
 TOOL = "PROPERTY-INSERT"

@@ -13,7 +13,8 @@ from models.errors import InputError
 from supervisor.inputs.part_report import Measurement, PartReport, ToolWear, report_from_mapping
 from supervisor.inputs.plan import load_plan
 from supervisor.optimize.optimizer import optimize_plan
-from supervisor.rcb.update import RcbSettings, start, update
+from supervisor.rcb.state import RcbSettings
+from supervisor.rcb.update import start, update
 
 from conftest import DEMO_PLAN
 

@@ -17,7 +17,7 @@ from db.engine import make_engine, upgrade
 from db.plans import get_plan_row
 from db.state import load_state
 from supervisor.errors import InfeasibleError
-from supervisor.rcb.update import RcbSettings
+from supervisor.rcb.state import RcbSettings
 
 
 def _count(engine, table):

@@ -29,7 +29,8 @@ from db.engine import make_engine, upgrade
 from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.update import start, update
-from supervisor.virtual.simulate import run_part, sample_machine
+from supervisor.virtual.sampling import sample_machine
+from supervisor.virtual.simulate import run_part
 
 from conftest import DEMO_PLAN
 

@@ -26,7 +26,7 @@ from api.services import commands as service
 from api.services import queries
 from db import tables as t
 from db.engine import make_engine, upgrade
-from supervisor.rcb.update import RcbSettings
+from supervisor.rcb.state import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
 from live import LiveServer

@@ -20,8 +20,10 @@ from db.state_cache import CACHE
 from models.errors import InputError
 from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
-from supervisor.rcb.update import RcbSettings, start, update
-from supervisor.virtual.simulate import run_part, sample_machine
+from supervisor.rcb.state import RcbSettings
+from supervisor.rcb.update import start, update
+from supervisor.virtual.sampling import sample_machine
+from supervisor.virtual.simulate import run_part
 
 from conftest import DEMO_PLAN
 

@@ -16,23 +16,21 @@ from models.errors import InputError
 from models.tool import predict_all
 from supervisor.inputs.plan import load_plan, plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan
-from supervisor.virtual.simulate import (
+from supervisor.virtual.machine import (
     DEFAULT_UNCERTAINTY,
     TABLE5_MEASURED_FINISH_PM_UM,
     TABLE5_MEASURED_FORCE_PM_N,
     Violation,
     VirtualMachine,
-    measure_tool_wear,
-    oracle_tools,
-    run_part,
-    sample_machine,
 )
+from supervisor.virtual.sampling import oracle_tools, sample_machine
+from supervisor.virtual.simulate import measure_tool_wear, run_part
 
 from conftest import DEMO_PLAN
 
 PLAN = load_plan(DEMO_PLAN)
 OPS = {op.name: op for op in PLAN.operations}
-#: Solver tolerance of an optimum's removal rate (supervisor.optimize.optimizer.RECHECK_RTOL).
+#: Solver tolerance of an optimum's removal rate (supervisor.optimize.solve.RECHECK_RTOL).
 SOLVER_RTOL = 1e-6
 
 ROUGH_OD = {

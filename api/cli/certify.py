@@ -23,8 +23,7 @@ from api.cli.common import STRATEGY_HELP, emit, err_console, errors
 from models import fields
 from models.errors import InputError
 from supervisor.inputs.plan import load_plan
-from supervisor.rcb.strategies import DEFAULT_STRATEGY
-from supervisor.rcb.update import STRATEGIES
+from supervisor.rcb.strategies import DEFAULT_STRATEGY, STRATEGY_NAMES
 from supervisor.virtual.certificate import CertificateSummary, summarize
 from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, available_cpus, certify_plan
 
@@ -80,8 +79,10 @@ def certify(
     3 no robust start, 4 solver failure.
     """
     with errors():
-        if strategy not in STRATEGIES:
-            raise InputError("--strategy", strategy, f"expected one of: {', '.join(STRATEGIES)}")
+        if strategy not in STRATEGY_NAMES:
+            raise InputError(
+                "--strategy", strategy, f"expected one of: {', '.join(STRATEGY_NAMES)}"
+            )
         drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
         plan = load_plan(plan_file)
         workers = jobs if jobs is not None else available_cpus()

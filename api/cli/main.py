@@ -52,8 +52,8 @@ from models.kinematics import CONTEXT, PARAMETERS
 from models.tool import Tool, predict_all
 from supervisor.inputs.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
-from supervisor.rcb.update import RcbSettings
 from supervisor.virtual.demo import MILLING_DEMO_UNCERTAINTY, run_demo
 
 

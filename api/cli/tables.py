@@ -8,7 +8,7 @@ from rich.table import Table
 
 from models.powerlaw import Prediction
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
-from supervisor.optimize.optimizer import OperationResult, PlanResult
+from supervisor.optimize.result import OperationResult, PlanResult
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
 

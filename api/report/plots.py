@@ -48,8 +48,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from models.kinematics import PARAMETERS  # noqa: E402
-from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES  # noqa: E402
-from supervisor.inputs.plan import PARTS_PER_EDGE  # noqa: E402
+from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, PARTS_PER_EDGE  # noqa: E402
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType  # matplotlib >= 3.10; only for the checker

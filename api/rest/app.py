@@ -25,8 +25,8 @@ from api.services import commands as service
 from api.services import queries
 from db.access import Actor
 from db.engine import DEFAULT_URL, make_engine
+from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
-from supervisor.rcb.update import RcbSettings
 
 PREFIX = "/api/v1"
 #: Largest id (the tables' integer keys are 32-bit on PostgreSQL).

@@ -12,9 +12,8 @@ from typing import Annotated, Any, Literal
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
 
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES
-from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
+from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, PARTS_PER_EDGE
 from supervisor.inputs.part_report import MAX_EDGE_PARTS
-from supervisor.inputs.plan import PARTS_PER_EDGE
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
 #: What the docs say of each strategy: its name and summary from the registry.

@@ -49,7 +49,8 @@ from supervisor.inputs.plan import plan_from_mapping
 from supervisor.inputs.signals import resolve
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.replan import replan as supervisor_replan
-from supervisor.rcb.update import RcbSettings, RcbState, update
+from supervisor.rcb.state import RcbSettings, RcbState
+from supervisor.rcb.update import update
 
 
 class NotFoundError(LookupError):

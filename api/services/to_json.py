@@ -12,8 +12,8 @@ from models.powerlaw import PowerLawModel, Prediction
 from models.tool import Tool
 from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.optimize.extras import extras_of
-from supervisor.optimize.optimizer import OperationResult, PlanResult
-from supervisor.rcb.update import Decision
+from supervisor.optimize.result import OperationResult, PlanResult
+from supervisor.rcb.state import Decision
 
 
 def predictions_json(predicted: Mapping[str, Prediction]) -> dict[str, dict[str, float]]:

@@ -22,15 +22,13 @@ import threading
 import warnings
 from collections.abc import Mapping, Sequence
 from functools import lru_cache, reduce
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
 
 from supervisor.errors import SolverError
-
-if TYPE_CHECKING:
-    from supervisor.optimize.formulation import LogLinearProgram
+from supervisor.optimize.program import LogLinearProgram
 
 # --- the geometric program -------------------------------------------------------------------
 

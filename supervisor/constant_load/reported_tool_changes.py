@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from models.errors import InputError
 from supervisor.constant_load.setpoint import ConstantLoadSetpoint
 from supervisor.inputs.part_report import PartReport
-from supervisor.optimize.optimizer import PlanResult
+from supervisor.optimize.result import PlanResult
 
 
 @dataclass(frozen=True)

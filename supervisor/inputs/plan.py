@@ -14,10 +14,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from dataclasses import fields as fields_of
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
-from models import fields
+from models import fields, quantities
 from models.borangiu_cost import CostData, productivity_from_mapping
 from models.catalogue import catalogue
 from models.errors import InputError
@@ -29,24 +30,12 @@ from supervisor.borangiu.domain import Domain, domain_from_mapping
 from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
 from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml
+from supervisor.optimize.program import OBJECTIVES, Objective
 
 #: Flank-wear criterion when an operation gives none: VB = 0.3 mm (ISO 3685:1993, 7.2).
 DEFAULT_FLANK_WEAR_MM = 0.3
 
-#: The tool-life limit: parts one edge must make before ``allowable_flank_wear_mm``.
-PARTS_PER_EDGE = "parts_per_edge"
-
-#: What an operation's optimum is for: the largest MRR, or the least Borangiu cost ``J``.
-Objective = Literal["mrr", "productivity"]
-OBJECTIVES: tuple[Objective, ...] = ("mrr", "productivity")
-
 _PLAN_KEYS = ("name", "machine", "tools", "operations", "description")
-_MACHINE_LIMITS = {
-    "max_power_kW": "power_kW",
-    "max_spindle_rpm": "spindle_rpm",
-    "max_torque_Nm": "torque_Nm",
-    "max_feed_rate_mm_min": "feed_rate_mm_min",
-}
 _OPERATION_KEYS = (
     "name",
     "process",
@@ -82,13 +71,21 @@ class Machine:
     calibrations: Mapping[str, Calibration] = field(default_factory=dict)
 
     def limits(self) -> dict[str, float]:
-        """The machine limits keyed by quantity name (``power_kW`` ...)."""
+        """The machine limits keyed by quantity name (``power_kW`` ...), in field order.
+
+        Which field bounds which quantity is :attr:`models.quantities.Quantity.machine_field`.
+        """
+        bounds = quantities.machine_fields()
         result: dict[str, float] = {}
-        for key, quantity in _MACHINE_LIMITS.items():
-            value = getattr(self, key)
-            if value is not None:
-                result[quantity] = value
+        for name in _FIELD_ORDER:
+            value = getattr(self, name)
+            if name in bounds and value is not None:
+                result[bounds[name]] = value
         return result
+
+
+#: The fields of :class:`Machine` in their order: the order of :meth:`Machine.limits`.
+_FIELD_ORDER = tuple(f.name for f in fields_of(Machine))
 
 
 @dataclass(frozen=True)
@@ -194,10 +191,9 @@ def _machine(data: object) -> Machine:
     if data is None:
         raise InputError("machine", None, "required table missing")
     table = fields.mapping(data, "machine")
-    fields.only_keys(table, ("name", *_MACHINE_LIMITS, "calibrations"), "machine")
-    limits = {
-        k: fields.optional_number(table, k, "machine", positive=True) for k in _MACHINE_LIMITS
-    }
+    machine_fields = quantities.machine_fields()
+    fields.only_keys(table, ("name", *machine_fields, "calibrations"), "machine")
+    limits = {k: fields.optional_number(table, k, "machine", positive=True) for k in machine_fields}
     calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
     return Machine(name=fields.text(table, "name", "machine"), calibrations=calibrations, **limits)
 
@@ -231,12 +227,14 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
     volume = fields.number(table["volume_mm3"], f"{path}.volume_mm3", positive=True)
     context = _context(table, path, process)
     limits = _limits(table.get("limits", {}), f"{path}.limits", tool)
-    for quantity in ("power_kW", "torque_Nm"):
-        if quantity in {*limits, *machine.limits()} and "force_N" not in tool.models:
+    for quantity in DERIVED_QUANTITIES.values():
+        base = quantity.based_on
+        limited = quantity.name in {*limits, *machine.limits()}
+        if base is not None and limited and base not in tool.models:
             raise PlanError(
                 f"{path}.tool",
                 tool.name,
-                f"{quantity} is limited but the tool has no force_N model",
+                f"{quantity.name} is limited but the tool has no {base} model",
             )
     objective, cost, domain = _borangiu(table, path, process, tool)
     rel = fields.number_table(
@@ -354,12 +352,10 @@ def _context(table: Mapping[str, Any], path: str, process: Process) -> dict[str,
 
 def _limits(data: object, path: str, tool: Tool) -> dict[str, float]:
     table = fields.mapping(data, path)
-    allowed = [q for q, info in MODEL_QUANTITIES.items() if info.sense == "max"]
-    allowed += [*DERIVED_QUANTITIES, PARTS_PER_EDGE]
-    fields.only_keys(table, allowed, path)
+    fields.only_keys(table, quantities.limit_keys(), path)
     limits = {k: fields.number(v, f"{path}.{k}", positive=True) for k, v in table.items()}
     for key in limits:
-        needed = "tool_life_mm3" if key == PARTS_PER_EDGE else key
+        needed = quantities.limited_by(key).name
         if needed in MODEL_QUANTITIES and needed not in tool.models:
             raise PlanError(
                 f"{path}.{key}", limits[key], f"tool {tool.name!r} has no {needed} model"

@@ -21,7 +21,7 @@ from models.sensors import Calibration, calibration_to_mapping, to_force
 from models.sensors.convert import converts
 from supervisor.inputs.part_report import Measurement, PartReport, Signal
 from supervisor.inputs.plan import Plan
-from supervisor.optimize.optimizer import PlanResult
+from supervisor.optimize.result import PlanResult
 
 #: Stored beside a converted measurement: the reading, the calibration and the context used.
 RawRecord = dict[str, Any]

@@ -1,1 +1,8 @@
-"""The robust optimiser: log-linear programs per operation, solved by HiGHS or Clarabel."""
+"""The robust optimiser: one log-linear program per operation, solved by HiGHS or Clarabel.
+
+``program`` (the program's data: rows, cone terms, bounds), ``formulation`` (building it over
+the registry :data:`models.quantities.QUANTITIES`), ``highs_lp`` and ``socp`` (the solvers),
+``solve`` (an optimum, its re-check, binding rows, the infeasibility diagnosis), ``optimizer``
+(operations and plans, the ``learn`` cones, Borangiu's (w, n) problem), ``result`` (frozen
+results), ``extras`` (what a setpoint carries beyond its parameters).
+"""

@@ -14,7 +14,7 @@ from dataclasses import asdict, replace
 from typing import Any
 
 from supervisor.constant_load.setpoint import ConstantLoadSetpoint
-from supervisor.optimize.optimizer import OperationResult
+from supervisor.optimize.result import OperationResult
 
 
 def extras_of(result: OperationResult) -> dict[str, Any]:

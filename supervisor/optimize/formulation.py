@@ -7,8 +7,10 @@ through a logarithmic transformation"; DESIGN.md, "The robust optimisation"):
 - model maxima at the upper band edge: ``ln(K + ΔK_eff) + e·x <= ln(limit)`` (Eqs. 11-12),
 - tool life at the lower band edge: ``ln(K − ΔK_eff) + e·x >= ln(parts_per_edge · volume)``
   (Eq. 13, written as the minimum it is; ``mr`` from Eq. 8 at the allowable flank wear),
-- machine limits: spindle speed, feed rate, power ``F·v/60000`` and torque ``F·D/2000`` with
-  the upper force band,
+- derived quantities (:data:`models.quantities.QUANTITIES`), each the tighter of the machine's
+  limit and the operation's: spindle speed, feed rate, power ``F·v/60000`` and torque
+  ``F·D/2000`` with the upper force band (a derived quantity inherits the band of the model it
+  scales); each limit key is looked up in the registry, an unknown one is an error,
 - Borangiu's domain constraints (Eqs. 2-7) of a milling operation's ``[operations.domain]``,
 - objective: maximise ``ln(MRR)`` (Eq. 10), or, for ``objective = "productivity"``, minimise
   Borangiu's cost ``J`` (a posynomial, :mod:`supervisor.borangiu.productivity`) under the same rows.
@@ -21,75 +23,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 
-import numpy as np
-
-from models import borangiu_cost, kinematics
+from models import borangiu_cost, kinematics, quantities
 from models.errors import InputError
 from models.monomial import Monomial
-from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, Sense
+from models.quantities import Quantity, Sense
 from models.tool import Tool
 from supervisor.borangiu import domain
 from supervisor.borangiu.problem import DomainProblem
 from supervisor.errors import Conflict, InfeasibleError
-from supervisor.inputs.plan import PARTS_PER_EDGE, Machine, Objective, Operation
+from supervisor.inputs.plan import Machine, Operation
+from supervisor.optimize.program import ConeTerm, LogLinearProgram, Row
 from supervisor.rcb.posterior import Cone
-
-
-@dataclass(frozen=True, eq=False)
-class ConeTerm:
-    """``z ‖G x + h‖``, the spread a learned row adds to its linear part (:mod:`.posterior`).
-
-    ``G`` and ``h`` are arrays (not to be written to); a term is equal only to itself.
-    """
-
-    G: np.ndarray
-    h: np.ndarray
-    z: float
-
-
-@dataclass(frozen=True)
-class Row:
-    """One linear constraint ``coefficients · x <= rhs`` on ``x = ln(parameters)``.
-
-    ``name`` is the quantity it limits, ``limit`` the limit in that quantity's unit and
-    ``sense`` whether it is a maximum or a minimum. ``given_as`` names the limit as the
-    engineer wrote it, which is ``limit / scale`` (``parts_per_edge`` is tool life / volume).
-    ``check`` is the bounded quantity of a row that no model predicts (Borangiu's domain), for
-    the re-check of an optimum. ``cone``: a learned row is ``coefficients · x + z ‖G x + h‖
-    <= rhs``, a second-order cone (:mod:`supervisor.rcb.posterior`).
-    """
-
-    name: str
-    coefficients: tuple[float, ...]
-    rhs: float
-    limit: float
-    sense: Sense
-    given_as: str
-    scale: float = 1.0
-    check: Monomial | None = None
-    cone: ConeTerm | None = None
-
-
-@dataclass(frozen=True)
-class LogLinearProgram:
-    """Data of one operation's log-linear program (no solver objects).
-
-    ``objective`` is the ``ln(MRR)`` gradient; ``cost`` the terms of ``J`` in ``parameters``
-    (empty without cost data) and ``goal`` which of the two the optimum is for. ``start``: a
-    point near the optimum (the last one), where cone rows get their first cuts.
-    """
-
-    operation: str
-    parameters: tuple[str, ...]
-    objective: tuple[float, ...]
-    rows: tuple[Row, ...]
-    lower: tuple[float, ...]
-    upper: tuple[float, ...]
-    cost: tuple[Monomial, ...] = ()
-    goal: Objective = "mrr"
-    start: tuple[float, ...] | None = None
 
 
 def _row(
@@ -167,67 +112,56 @@ def formulate(
         """Edge ages a learned quantity's rows hold at (:attr:`Posterior.edges`); else (0,)."""
         return learned[quantity].posterior.edges if quantity in learned else (0,)
 
-    def edge(quantity: str, sense: Sense, edge_age: int = 0) -> Monomial:
-        if quantity in learned:  # the nominal: the cone row adds the spread
-            return learned[quantity].posterior.model(edge_parts=edge_age).monomial
-        model = tool.models[quantity]
+    def edge(quantity: Quantity, sense: Sense, edge_age: int = 0) -> Monomial:
+        """The model of ``quantity`` at the band edge that guards a limit of ``sense``."""
+        if quantity.name in learned:  # the nominal: the cone row adds the spread
+            return learned[quantity.name].posterior.model(edge_parts=edge_age).monomial
+        model = tool.models[quantity.name]
         rel_band = model.relative_band(rel)
         factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band
         if factor <= 0:
-            conflict = Conflict(PARTS_PER_EDGE, operation.limits[PARTS_PER_EDGE], 0.0, sense)
+            key = quantity.limit_name
+            conflict = Conflict(key, operation.limits[key], 0.0, sense)
             causes = ", ".join(f"setpoint_rel_uncertainty.{k}={v:g}" for k, v in rel.items())
             held = (
-                f"{quantity} band {rel_band:.3g}·K >= K from dK={model.dK:g}"
+                f"{quantity.name} band {rel_band:.3g}·K >= K from dK={model.dK:g}"
                 + (f" and {causes}" if causes else "")
-                + ": no tool life is guaranteed",
+                + f": no {quantity.label} is guaranteed",
             )
             raise InfeasibleError(operation.name, (conflict,), held)
         return model.monomial.scaled(factor)
 
     rows: list[Row] = []
-    for quantity, limit in operation.limits.items():
-        if quantity in MODEL_QUANTITIES:
-            for age in ages(quantity):
-                rows.append(
-                    row(quantity, edge(quantity, "max", age), limit, of=quantity, edge_age=age)
-                )
-        elif quantity == PARTS_PER_EDGE:
-            volume = operation.volume_mm3
-            lower_edge = edge("tool_life_mm3", "min")
-            rows.append(
-                row(
-                    "tool_life_mm3",
-                    lower_edge,
-                    limit * volume,
-                    "min",
-                    volume,
-                    PARTS_PER_EDGE,
-                    of="tool_life_mm3",
-                )
-            )
     # the tighter of the machine's limit and the operation's own, named as it was given
-    machine_limits = {q: (v, f"machine.max_{q}") for q, v in machine.limits().items()}
-    for quantity, limit in operation.limits.items():
-        if quantity in DERIVED_QUANTITIES and limit < machine_limits.get(quantity, (math.inf,))[0]:
-            machine_limits[quantity] = (limit, quantity)
-    for quantity, (limit, given_as) in machine_limits.items():
-        if quantity == "spindle_rpm":
-            monomial = kinematics.spindle_rpm_monomial(process)
-        elif quantity == "feed_rate_mm_min":
-            monomial = kinematics.feed_rate_monomial(process)
-        else:  # power_kW, torque_Nm: from the upper force edge, at every edge age
-            per_newton = (
-                kinematics.power_per_newton_monomial()
-                if quantity == "power_kW"
-                else kinematics.torque_per_newton_monomial(process)
-            )
-            for age in ages("force_N"):
-                monomial = edge("force_N", "max", age) * per_newton
-                rows.append(
-                    row(quantity, monomial, limit, given_as=given_as, of="force_N", edge_age=age)
-                )
+    derived = {
+        q: (v, f"machine.{quantities.quantity(q).machine_field}")
+        for q, v in machine.limits().items()
+    }
+    for key, limit in operation.limits.items():
+        quantity = quantities.limited_by(key)
+        if quantity.kind == "derived":
+            if limit < derived.get(quantity.name, (math.inf,))[0]:
+                derived[quantity.name] = (limit, key)
             continue
-        rows.append(row(quantity, monomial, limit, given_as=given_as))
+        # a model quantity, at its guarding band edge; a maximum at every edge age, a minimum
+        # (tool life) for the new edge
+        scale = operation.volume_mm3 if quantity.limit_per_volume else 1.0
+        name = quantity.name
+        for age in ages(name) if quantity.sense == "max" else (0,):
+            monomial = edge(quantity, quantity.sense, age)
+            rows.append(row(name, monomial, limit * scale, quantity.sense, scale, key, name, age))
+    for name, (limit, given_as) in derived.items():
+        quantity = quantities.quantity(name)
+        base = quantity.based_on
+        if base is None:  # exact kinematics
+            monomial = quantity.monomial(process)
+            rows.append(row(name, monomial, limit, quantity.sense, 1.0, given_as))
+            continue
+        # from the guarding edge of the model it scales, at every edge age
+        for age in ages(base):
+            base_edge = edge(quantities.quantity(base), quantity.sense, age)
+            monomial = quantity.monomial(process, base_edge)
+            rows.append(row(name, monomial, limit, quantity.sense, 1.0, given_as, base, age))
     if operation.domain is not None:
         for lim in domain.milling_limits(operation.domain):
             rows.append(
@@ -236,8 +170,10 @@ def formulate(
     cost: tuple[Monomial, ...] = ()
     if operation.productivity is not None:
         power = None
-        if "force_N" in tool.models:
-            power = tool.models["force_N"].monomial * kinematics.power_per_newton_monomial()
+        cutting_power = quantities.quantity("power_kW")
+        force = tool.models.get(cutting_power.based_on or "")
+        if force is not None:
+            power = cutting_power.monomial(process, force.monomial)
         terms = borangiu_cost.milling_cost_terms(operation.productivity, power)
         cost = tuple(t.fix(context) for t in terms)
     mrr = kinematics.mrr_monomial(process).fix(context)

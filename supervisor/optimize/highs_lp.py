@@ -28,7 +28,7 @@ import numpy as np
 from highspy._core import _Highs  # the binding itself, typed; see _highs()
 from numpy.typing import ArrayLike
 
-from supervisor.optimize.formulation import LogLinearProgram
+from supervisor.optimize.program import LogLinearProgram
 
 Status = Literal["optimal", "infeasible", "failed"]
 

@@ -15,20 +15,15 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
-import cvxpy as cp
-import highspy
 import numpy as np
 
 from models import borangiu_cost, kinematics
 from models.errors import ModelDomainError
-from models.kinematics import Process
-from models.powerlaw import Prediction
 from models.sensors import TaiCurrentFeedCalibration
 from models.tool import Tool, predict_all
-from supervisor.borangiu import productivity
 from supervisor.borangiu.problem import DomainProblem
 from supervisor.borangiu.result import DomainResult, domain_point, domain_result
 from supervisor.constant_load.setpoint import (
@@ -36,134 +31,24 @@ from supervisor.constant_load.setpoint import (
     constant_load_setpoint,
     setup_of,
 )
-from supervisor.errors import Conflict, InfeasibleError, PlanError, SolverError
-from supervisor.inputs.plan import Machine, Objective, Operation, Plan
-from supervisor.optimize import highs_lp, socp
-from supervisor.optimize.formulation import LogLinearProgram, Row, formulate, formulate_domain
+from supervisor.errors import InfeasibleError, PlanError
+from supervisor.inputs.plan import Machine, Operation, Plan
+from supervisor.optimize import socp
+from supervisor.optimize.formulation import formulate, formulate_domain
+from supervisor.optimize.program import LogLinearProgram, Row
+from supervisor.optimize.result import OperationResult, PlanResult
+from supervisor.optimize.solve import binding, minimize_cost, optimum, recheck, solve
 from supervisor.rcb.posterior import Cone, display_model
 
-#: Per operation name, per quantity: the cones of a ``learn`` state (:mod:`.posterior`).
+#: Per operation name, per quantity: the cones of a ``learn`` state
+#: (:mod:`supervisor.rcb.posterior`).
 Cones = Mapping[str, Mapping[str, Cone]]
 
-#: A row or bound whose slack in ln-space is below this is binding (1 ppm relative).
-BINDING_TOL = 1e-6
-#: A re-checked prediction may exceed its limit by at most this fraction (solver tolerance).
-RECHECK_RTOL = 1e-6
 #: A ``learn`` setpoint in force is kept while it meets its cones at ``z`` less this: the
 #: hysteresis that stops a posterior mean's noise from backing a setpoint off and on.
 KEEP_SLACK_Z = 0.5
 #: The points of "the largest feed rate" are those within this (in ln w) of the LP's optimum.
 TIE_TOL = 1e-9
-
-
-@dataclass(frozen=True)
-class OperationResult:
-    """The robust optimum of one operation.
-
-    Parameters
-    ----------
-    name, tool : str
-        Operation and tool.
-    process : {"turning", "milling"}
-        Which cutting parameters ``setpoint`` holds.
-    setpoint : Mapping[str, float]
-        The cutting parameters, in the units their names carry.
-    predicted : Mapping[str, Prediction]
-        Every model and machine quantity at the setpoint with its band.
-    mrr_cm3_min : float
-        Removal rate [cm³/min].
-    time_min : float
-        Machining time ``volume / MRR`` [min].
-    binding : tuple[str, ...]
-        Quantities whose limit, and parameters whose bound, the optimum sits on.
-    objective : {"mrr", "productivity"}
-        What the optimum is for.
-    cost_per_kg : float or None
-        Borangiu's productivity cost ``J`` at the setpoint [currency/kg], when the operation
-        has cost data.
-    constant_load : ConstantLoadSetpoint or None
-        Reference current and feed limits, for a milling operation under constant-load
-        control (Tai et al.; :mod:`supervisor.constant_load.setpoint`).
-    robust_by : {"band", "cone"}
-        What keeps the setpoint safe: the bands, or the learned models' cones (``learn``);
-        with ``cone``, ``predicted`` holds the learned value and the cone's half-width.
-    fallback : OperationResult or None
-        With ``cone``: the band program's optimum beside it (not compared; a cache).
-    tool_models : Tool or None
-        The tool a band optimum was solved with (not compared; what the cache is keyed on).
-    """
-
-    name: str
-    tool: str
-    process: Process
-    setpoint: Mapping[str, float]
-    predicted: Mapping[str, Prediction]
-    mrr_cm3_min: float
-    time_min: float
-    binding: tuple[str, ...]
-    objective: Objective = "mrr"
-    cost_per_kg: float | None = None
-    constant_load: ConstantLoadSetpoint | None = None
-    robust_by: str = "band"
-    fallback: OperationResult | None = field(default=None, compare=False, repr=False)
-    tool_models: Tool | None = field(default=None, compare=False, repr=False)
-
-
-@dataclass(frozen=True)
-class PlanResult:
-    """The robust optimum of every operation of a plan."""
-
-    plan: str
-    machine: str
-    operations: tuple[OperationResult, ...]
-
-    @property
-    def cycle_time_min(self) -> float:
-        """Sum of the operations' machining times [min]."""
-        return sum(op.time_min for op in self.operations)
-
-
-_INFEASIBLE = (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE)
-
-
-def _solve(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
-    """Optimal ln-parameters of the max-MRR program ``lp`` (HiGHS, :mod:`.highs_lp`).
-
-    Raises
-    ------
-    InfeasibleError
-        No point meets every row within the bounds; names the conflicting limits.
-    SolverError
-        HiGHS gave neither an optimum nor a proof of infeasibility.
-    """
-    status, x = highs_lp.maximize(lp)
-    if status == "failed":  # a second opinion, with presolve
-        status, x = highs_lp.maximize(lp, presolve=True)
-    if status == "infeasible":
-        raise _diagnose(lp)
-    if status != "optimal" or x is None:
-        raise SolverError(f"operation {lp.operation!r}: solver status {status}, not optimal")
-    clipped: np.ndarray[Any, Any] = np.clip(x, lp.lower, lp.upper)
-    return clipped
-
-
-def _minimize_cost(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
-    """Optimal ln-parameters of the least ``J`` under ``lp``'s rows (a geometric program).
-
-    Errors as :func:`_solve`.
-    """
-    status, x = productivity.minimize(lp)
-    if status in _INFEASIBLE:
-        raise _diagnose(lp)
-    if status != cp.OPTIMAL or x is None:
-        raise SolverError(f"operation {lp.operation!r}: solver status {status}, not optimal")
-    clipped: np.ndarray[Any, Any] = np.clip(x, lp.lower, lp.upper)
-    return clipped
-
-
-def _optimum(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
-    """The max-MRR optimum, or the least-``J`` one for a productivity program."""
-    return _solve(lp) if lp.goal == "mrr" else _minimize_cost(lp)
 
 
 def optimize_operation(
@@ -198,7 +83,7 @@ def optimize_operation(
     else:
         lp = formulate(operation, tool, machine)
         try:
-            band = _result(operation, tool, lp, _optimum(lp), machine)
+            band = _result(operation, tool, lp, optimum(lp), machine)
         except InfeasibleError as err:
             infeasible = err  # raised below unless the learned program holds
     learned = _learned(operation, tool, machine, cones or {}, last)
@@ -291,7 +176,7 @@ def optimize_plan(
             if op.name not in kept:
                 with _fields_of(i):
                     lps[i] = formulate(op, tool, plan.machine)
-        xs = {i: _optimum(lp) for i, lp in lps.items()}
+        xs = {i: optimum(lp) for i, lp in lps.items()}
     results = []
     for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
         if op.name in kept:
@@ -332,7 +217,7 @@ def _result(
     setpoint = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
     point = {**setpoint, **operation.context}
     predicted = predict_all(tool, point, operation.setpoint_rel_uncertainty)
-    _recheck(lp, predicted, point)
+    recheck(lp, predicted, point)
     mrr = kinematics.mrr_monomial(operation.process).evaluate(point)
     return OperationResult(
         name=operation.name,
@@ -342,7 +227,7 @@ def _result(
         predicted=predicted,
         mrr_cm3_min=mrr,
         time_min=kinematics.machining_time_min(operation.volume_mm3, mrr),
-        binding=_binding(lp, x, slack_z),
+        binding=binding(lp, x, slack_z),
         objective=lp.goal,
         cost_per_kg=borangiu_cost.evaluate(lp.cost, setpoint) if lp.cost else None,
         constant_load=constant_load_of(operation, machine, setpoint),
@@ -381,106 +266,14 @@ def optimize_domain(problem: DomainProblem) -> DomainResult:
         No optimal status, or an optimum fails the re-check.
     """
     lp = formulate_domain(problem)
-    fastest = _solve(lp)
+    fastest = solve(lp)
     ln_w = float(fastest[0]) - TIE_TOL
     at_fastest = Row(lp.parameters[0], (-1.0, 0.0), -ln_w, math.exp(ln_w), "min", lp.parameters[0])
     slowest_spindle = replace(lp, objective=(0.0, -1.0), rows=(*lp.rows, at_fastest))
-    tied = _solve(slowest_spindle)
+    tied = solve(slowest_spindle)
     points = []
-    for x in (tied, _minimize_cost(lp)):
+    for x in (tied, minimize_cost(lp)):
         point = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
-        _recheck(lp, {}, point)
-        points.append(domain_point(problem, point, _binding(lp, x)))
+        recheck(lp, {}, point)
+        points.append(domain_point(problem, point, binding(lp, x)))
     return domain_result(problem, points[0], points[1])
-
-
-def _binding(
-    lp: LogLinearProgram, x: np.ndarray[Any, Any], slack_z: float = 0.0
-) -> tuple[str, ...]:
-    """Rows and bounds ``x`` sits on; a cone row with its spread at ``z − slack_z``."""
-    names = []
-    for r in lp.rows:
-        lhs = float(np.dot(r.coefficients, x))
-        tol = BINDING_TOL
-        if r.cone is not None:  # solved against rhs − CONE_MARGIN
-            lhs += (r.cone.z - slack_z) * float(np.linalg.norm(r.cone.G @ x + r.cone.h))
-            tol += socp.CONE_MARGIN
-        if r.rhs - lhs <= tol:
-            names.append(r.name)
-    for p, v, lo, hi in zip(lp.parameters, x, lp.lower, lp.upper, strict=True):
-        if v - lo <= BINDING_TOL or hi - v <= BINDING_TOL:
-            names.append(p)
-    return tuple(dict.fromkeys(names))  # a learned quantity has a row per edge age
-
-
-def _recheck(
-    lp: LogLinearProgram, predicted: Mapping[str, Prediction], point: Mapping[str, float]
-) -> None:
-    """Refuse an optimum that the models say breaks a limit (beyond solver tolerance).
-
-    ``point`` holds the parameters and the context; a row that no model predicts is checked
-    with its own monomial.
-    """
-    setpoint = {p: point[p] for p in lp.parameters}
-    for row in lp.rows:
-        if row.check is not None:
-            value = row.check.evaluate(point)
-            p = Prediction(value, 0.0)
-        else:
-            p = predicted[row.name]
-        if row.sense == "max":
-            ok = p.upper <= row.limit * (1 + RECHECK_RTOL)
-            edge = p.upper
-        else:
-            ok = p.lower >= row.limit * (1 - RECHECK_RTOL)
-            edge = p.lower
-        if not ok:
-            raise SolverError(
-                f"operation {lp.operation!r}: optimum {dict(setpoint)} fails the re-check: "
-                f"{row.name} at the band edge is {edge:.6g}, limit {row.limit:.6g}"
-            )
-
-
-def _diagnose(lp: LogLinearProgram) -> InfeasibleError:
-    """Elastic LP: the least total ln-violation of the rows within the bounds.
-
-    ``min sum(s)  s.t.  A x - s <= b,  lower <= x <= upper,  s >= 0``, solved by HiGHS
-    directly (:func:`.highs_lp.solve_lp`, a simplex vertex).
-    """
-    n, m = len(lp.parameters), len(lp.rows)
-    if m == 0:  # only bounds, and those were checked low <= high
-        return InfeasibleError(lp.operation, (), ("the parameter bounds",))
-    A = np.array([r.coefficients for r in lp.rows])
-    status, xs = highs_lp.solve_lp(
-        np.concatenate([np.zeros(n), np.ones(m)]),
-        np.hstack([A, -np.eye(m)]),
-        [r.rhs for r in lp.rows],
-        np.concatenate([lp.lower, np.zeros(m)]),
-        np.concatenate([lp.upper, np.full(m, highspy.kHighsInf)]),
-        maximize=False,
-    )
-    if status != "optimal" or xs is None:
-        return InfeasibleError(lp.operation, (), ("the parameter bounds",))
-    x, slacks = xs[:n], xs[n:]
-    # Every row the elastic optimum must relax conflicts, however little: the main solve
-    # already found the program infeasible. If round-off hides them all, name the largest.
-    violated = slacks > 1e-12
-    if not violated.any():
-        violated = slacks == slacks.max()
-    conflicts: list[Conflict] = []
-    against: list[str] = []
-    for row, slack, lhs, bad in zip(lp.rows, slacks, A @ x, violated, strict=True):
-        if bad:
-            given = row.limit / row.scale
-            # in logarithms: a limit as tiny as 5e-324 needs a slack whose exp overflows
-            log_required = math.log(given) + (slack if row.sense == "max" else -slack)
-            required = math.exp(min(log_required, 709.0))
-            conflicts.append(Conflict(row.given_as, given, required, row.sense))
-        elif row.rhs - lhs <= BINDING_TOL:
-            against.append(row.given_as)
-    for p, v, lo, hi in zip(lp.parameters, x, lp.lower, lp.upper, strict=True):
-        if v - lo <= BINDING_TOL:
-            against.append(f"{p} >= {math.exp(lo):.4g}")
-        elif hi - v <= BINDING_TOL:
-            against.append(f"{p} <= {math.exp(hi):.4g}")
-    return InfeasibleError(lp.operation, tuple(conflicts), tuple(against))

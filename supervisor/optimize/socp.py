@@ -31,7 +31,7 @@ import clarabel
 import numpy as np
 from scipy import sparse
 
-from supervisor.optimize.formulation import LogLinearProgram
+from supervisor.optimize.program import LogLinearProgram
 
 Status = Literal["optimal", "infeasible", "failed"]
 

@@ -72,9 +72,9 @@ import numpy as np
 
 from models import kinematics
 from models.powerlaw import PowerLawModel
-from models.quantities import MODEL_QUANTITIES
+from models.quantities import MODEL_QUANTITIES, PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
-from supervisor.inputs.plan import PARTS_PER_EDGE, Operation
+from supervisor.inputs.plan import Operation
 
 #: The cone's multiple of the posterior standard deviation (README, closed-loop benchmark).
 DEFAULT_Z = 4.0

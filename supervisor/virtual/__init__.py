@@ -1,1 +1,8 @@
-"""Virtual machines: simulated processes, sensors, the demo, the certificate, the virtual mill."""
+"""Virtual machines for demos, benchmarks and tests.
+
+``machine`` (true processes compiled per operation, instrument uncertainties), ``sampling``
+(drawing the truth inside the model bands; the oracle), ``simulate`` (making a part: true
+values, measurements, wear, violations), ``sensing`` (a virtual spindle sensor), ``demo`` (the
+paper's demonstration end to end), ``certify`` (a Monte Carlo certificate of a plan), ``mill/``
+(the virtual milling machine and its inner-loop controllers).
+"""

@@ -104,7 +104,7 @@ class Certificate:
     plan : str
         The plan's name.
     strategy : str
-        The RCB strategy (a name of :data:`supervisor.rcb.update.STRATEGIES`).
+        The RCB strategy (a name of :data:`supervisor.rcb.strategies.STRATEGY_NAMES`).
     seed : int
         The first scenario's seed.
     parts : int

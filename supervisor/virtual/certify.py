@@ -57,17 +57,18 @@ from typing import Any, cast
 import numpy as np
 
 from models.errors import InputError
+from models.quantities import PARTS_PER_EDGE
 from supervisor.errors import SupervisorError
 from supervisor.inputs.part_report import PartReport
-from supervisor.inputs.plan import PARTS_PER_EDGE, Plan
-from supervisor.optimize.optimizer import PlanResult, optimize_plan
-from supervisor.rcb.update import STRATEGIES, Halt, RcbSettings, RcbState, start, update
-from supervisor.virtual.certificate import (
-    Certificate,
-    FloatArray,
-    ScenarioTrace,
-)
-from supervisor.virtual.simulate import oracle_tools, run_part, sample_machine
+from supervisor.inputs.plan import Plan
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.optimize.result import PlanResult
+from supervisor.rcb.state import Halt, RcbSettings, RcbState
+from supervisor.rcb.strategies import STRATEGY_NAMES
+from supervisor.rcb.update import start, update
+from supervisor.virtual.certificate import Certificate, FloatArray, ScenarioTrace
+from supervisor.virtual.sampling import oracle_tools, sample_machine
+from supervisor.virtual.simulate import run_part
 
 #: The most scenarios and parts per scenario a certificate runs.
 MAX_SCENARIOS = 100_000
@@ -215,8 +216,8 @@ def _check(
     strategies: Sequence[str], seed: int, scenarios: int, parts: int, drift: float, jobs: int
 ) -> None:
     for strategy in strategies:
-        if strategy not in STRATEGIES:
-            known = ", ".join(STRATEGIES)
+        if strategy not in STRATEGY_NAMES:
+            known = ", ".join(STRATEGY_NAMES)
             raise InputError("strategy", strategy, f"expected one of: {known}")
     checks = (
         ("scenarios", scenarios, 1, MAX_SCENARIOS),
@@ -250,7 +251,7 @@ def simulate(
     plan : Plan
         The plan.
     strategies : Sequence[str]
-        Names of :data:`supervisor.rcb.update.STRATEGIES`, run in this order.
+        Names of :data:`supervisor.rcb.strategies.STRATEGY_NAMES`, run in this order.
     scenarios : int
         Scenarios per strategy, ``1..MAX_SCENARIOS``; seeds ``seed .. seed + scenarios − 1``.
     parts : int

@@ -23,27 +23,25 @@ import numpy as np
 
 from models import kinematics
 from models.powerlaw import Prediction
+from models.quantities import PARTS_PER_EDGE
 from models.sensors import Calibration
 from models.sensors.convert import converts
 from models.tool import predict_all
 from supervisor.inputs.part_report import Measurement, PartReport, Signal
-from supervisor.inputs.plan import PARTS_PER_EDGE, Plan
+from supervisor.inputs.plan import Plan
 from supervisor.inputs.signals import operating_point, resolve
-from supervisor.optimize.optimizer import PlanResult, optimize_plan
-from supervisor.rcb.update import Decision, RcbSettings, RcbState, start, update
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.optimize.result import PlanResult
+from supervisor.rcb.state import Decision, RcbSettings, RcbState
+from supervisor.rcb.update import start, update
+from supervisor.virtual.machine import DEFAULT_UNCERTAINTY, PartOutcome, VirtualMachine
+from supervisor.virtual.sampling import oracle_tools, sample_machine
 from supervisor.virtual.sensing import noisy_reading
-from supervisor.virtual.simulate import (
-    DEFAULT_UNCERTAINTY,
-    PartOutcome,
-    VirtualMachine,
-    oracle_tools,
-    run_part,
-    sample_machine,
-)
+from supervisor.virtual.simulate import run_part
 
 #: Expanded uncertainty of the milling demonstration's spindle current readings [A]: 0.5 % of
 #: the 4 A Kim & Jeon's spindle draws near its force limit (§6.2.3), the relative accuracy
-#: :data:`supervisor.virtual.simulate.DEFAULT_UNCERTAINTY` assumes for a current transducer.
+#: :data:`supervisor.virtual.machine.DEFAULT_UNCERTAINTY` assumes for a current transducer.
 MILLING_DEMO_UNCERTAINTY: Mapping[str, float] = {"spindle_current_A": 0.02}
 
 
@@ -106,7 +104,7 @@ def run_demo(
         Called with the number of parts made so far, for progress display.
     uncertainty : Mapping[str, float], optional
         Expanded measurement uncertainty per quantity, over
-        :data:`supervisor.virtual.simulate.DEFAULT_UNCERTAINTY` (``spindle_current_A`` and
+        :data:`supervisor.virtual.machine.DEFAULT_UNCERTAINTY` (``spindle_current_A`` and
         ``spindle_load_V`` for the virtual spindle sensor).
     """
     machine = sample_machine(plan, seed, uncertainty=uncertainty)

@@ -1,0 +1,79 @@
+"""The robust optimum of an operation and of a plan, as frozen results."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from models.kinematics import Process
+from models.powerlaw import Prediction
+from models.tool import Tool
+from supervisor.constant_load.setpoint import ConstantLoadSetpoint
+from supervisor.optimize.program import Objective
+
+
+@dataclass(frozen=True)
+class OperationResult:
+    """The robust optimum of one operation.
+
+    Parameters
+    ----------
+    name, tool : str
+        Operation and tool.
+    process : {"turning", "milling"}
+        Which cutting parameters ``setpoint`` holds.
+    setpoint : Mapping[str, float]
+        The cutting parameters, in the units their names carry.
+    predicted : Mapping[str, Prediction]
+        Every model and machine quantity at the setpoint with its band.
+    mrr_cm3_min : float
+        Removal rate [cm³/min].
+    time_min : float
+        Machining time ``volume / MRR`` [min].
+    binding : tuple[str, ...]
+        Quantities whose limit, and parameters whose bound, the optimum sits on.
+    objective : {"mrr", "productivity"}
+        What the optimum is for.
+    cost_per_kg : float or None
+        Borangiu's productivity cost ``J`` at the setpoint [currency/kg], when the operation
+        has cost data.
+    constant_load : ConstantLoadSetpoint or None
+        Reference current and feed limits, for a milling operation under constant-load
+        control (Tai et al.; :mod:`supervisor.constant_load.setpoint`).
+    robust_by : {"band", "cone"}
+        What keeps the setpoint safe: the bands, or the learned models' cones (``learn``);
+        with ``cone``, ``predicted`` holds the learned value and the cone's half-width.
+    fallback : OperationResult or None
+        With ``cone``: the band program's optimum beside it (not compared; a cache).
+    tool_models : Tool or None
+        The tool a band optimum was solved with (not compared; what the cache is keyed on).
+    """
+
+    name: str
+    tool: str
+    process: Process
+    setpoint: Mapping[str, float]
+    predicted: Mapping[str, Prediction]
+    mrr_cm3_min: float
+    time_min: float
+    binding: tuple[str, ...]
+    objective: Objective = "mrr"
+    cost_per_kg: float | None = None
+    constant_load: ConstantLoadSetpoint | None = None
+    robust_by: str = "band"
+    fallback: OperationResult | None = field(default=None, compare=False, repr=False)
+    tool_models: Tool | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """The robust optimum of every operation of a plan."""
+
+    plan: str
+    machine: str
+    operations: tuple[OperationResult, ...]
+
+    @property
+    def cycle_time_min(self) -> float:
+        """Sum of the operations' machining times [min]."""
+        return sum(op.time_min for op in self.operations)

@@ -1,0 +1,224 @@
+r"""The band law of Recursive Constraint Bounding, for one measured quantity of one part.
+
+For each operation and each measured constrained quantity, at the setpoint the part was made
+with (Ivester & Heigel, "Adaptive Control Optimization"; DESIGN.md, "RCB"):
+
+.. math::
+
+    M = Y_{lim} - (y + u), \qquad
+    \Delta Y' = \max(\Delta Y - \alpha M, \; \Delta Y_{floor}) \quad (M > 0)
+
+with ``α = 0.25`` ("one or more of the uncertainty parameters is reduced by a fraction (0.25) of
+the difference"). The law is one-sided, as the paper's: only the side of the band that guards
+the limit matters. For a maximum:
+
+- ``y − u`` above the limit: ``breach`` (the measurement proves the limit crossed, the
+  decision rule of ISO 14253-1 for nonconformance); else ``y + u`` above the band's upper
+  edge ``Y + ΔY``: ``above_band`` (the band must cover measured + u, as the paper's bands
+  "encompass all of the points"). Either is flagged and the band grows to ``y + u − Y`` so it
+  covers the measurement (action ``expand``); it never shrinks then. ``y + u`` over the limit
+  with ``y − u`` under it is not a breach: at the physical limit the noise alone does that.
+- otherwise the margin law above; a reading whose ``y + u`` lies under the band's lower edge
+  carries the note ``below_band`` (the model is pessimistic there), never a flag: a part that
+  came out better than predicted is no reason to widen a band.
+- a ``learn`` setpoint held by a cone (which bounds the true value, not a measurement) is
+  ``above_band`` only when ``y − u`` is past the cone's edge; its fallback band still grows
+  to cover ``y + u``, unflagged.
+
+Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + u`` under
+the limit) or ``below_band`` (``y − u`` under the lower edge), the note ``above_band``.
+``ΔY'`` is stored as a new ``ΔK`` through the first-order law of
+:func:`models.powerlaw.relative_band`: ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
+
+References
+----------
+.. [1] Ivester & Heigel (NIST), "Adaptive Control Optimization" and Table 5.
+.. [2] Ivester, Danai & Malkin (1997), "Cycle-Time Reduction in Machining by Recursive
+   Constraint Bounding", ASME J. Manuf. Sci. Eng. 119(2).
+.. [3] ISO 14253-1:2017, decision rules for conformity (the ``breach`` test).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+
+from models import quantities
+from models.errors import InputError
+from models.powerlaw import PowerLawModel, Prediction
+from models.quantities import MODEL_QUANTITIES
+from supervisor.inputs.part_report import Measurement, ToolWear
+from supervisor.inputs.plan import Operation
+from supervisor.optimize.result import OperationResult
+from supervisor.optimize.solve import RECHECK_RTOL
+from supervisor.rcb.state import Action, Decision, Flag, Note, RcbState, prior_sigma
+
+#: A measurement is past a band's edge only beyond this fraction of it: an optimum sits on
+#: its limit within the optimiser's re-check tolerance.
+EDGE_RTOL = RECHECK_RTOL
+
+
+def _limit(operation: Operation, quantity: str) -> float | None:
+    """The limit on ``quantity`` in its unit (a per-part limit times the volume), or None."""
+    entry = quantities.quantity(quantity)
+    given = operation.limits.get(entry.limit_name)
+    if given is None or not entry.limit_per_volume:
+        return given
+    return given * operation.volume_mm3
+
+
+def tool_life_measured(
+    state: RcbState, operation: Operation, result: OperationResult, wear: ToolWear
+) -> Measurement:
+    """Volume the edge would remove to the allowable wear, from wear measured after ``V``.
+
+    Eq. 8 gives ``mr ∝ w^e_w``, so an edge that reached ``VB`` after ``V`` reaches the
+    allowable ``w`` after ``V (w/VB)^e_w``; first-order uncertainty ``e_w·u_VB/VB``.
+    """
+    model = state.tools[operation.name].models["tool_life_mm3"]
+    e_w = model.exponents.get("flank_wear_mm", 0.0)
+    vb = wear.flank_wear_mm.value
+    if not (vb > 0 and wear.volume_mm3 > 0):
+        raise InputError(
+            f"operations.{operation.name}.tool_wear", vb, "wear and volume must be > 0"
+        )
+    allowable = operation.context["flank_wear_mm"]
+    volume = wear.volume_mm3 * (allowable / vb) ** e_w
+    return Measurement(volume, volume * abs(e_w) * wear.flank_wear_mm.uncertainty / vb)
+
+
+def apply_law(
+    state: RcbState,
+    operation: Operation,
+    result: OperationResult,
+    quantity: str,
+    measurement: Measurement,
+) -> tuple[Decision, PowerLawModel, float, float]:
+    """The one-sided law for one measured quantity: decision, model, σ of ln K, ``seen``."""
+    settings = state.settings
+    model = state.tools[operation.name].models[quantity]
+    sigma = state.sigma.get((operation.name, quantity), prior_sigma(model, settings))
+    point = {**result.setpoint, **operation.context}
+    rel = operation.setpoint_rel_uncertainty
+    predicted = model.predict(point, rel)
+    # flags and notes are against the prediction the part was made with: the band's, or for
+    # a ``learn`` setpoint held by a cone, the learned value and the cone's half-width
+    shown = result.predicted.get(quantity, predicted)
+    y, u = measurement.value, measurement.uncertainty
+    limit = _limit(operation, quantity)
+    is_max = MODEL_QUANTITIES[quantity].sense == "max"
+    floor = settings.floors.get(quantity, u)
+
+    def decision(
+        action: Action,
+        new: PowerLawModel,
+        margin: float | None,
+        why: str,
+        flag: Flag | None = None,
+        note: Note | None = None,
+    ) -> Decision:
+        return Decision(
+            operation=operation.name,
+            quantity=quantity,
+            action=action,
+            margin=margin,
+            band_before=predicted.band,
+            band_after=new.predict(point, rel).band,
+            dK_before=model.dK,
+            dK_after=new.dK,
+            K_before=model.K,
+            K_after=new.K,
+            predicted=shown.value,
+            measured=y,
+            uncertainty=u,
+            limit=limit,
+            flagged=flag is not None,
+            reason=why,
+            flag=flag,
+            note=note,
+        )
+
+    # the side of the measurement that guards the limit, and the band's edges in that sense
+    guard = y + u if is_max else max(y - u, 0.0)
+    # the most demanding measurement so far, as a K-equivalent (RcbState.seen)
+    shape = predicted.value / model.K  # Π x_i^e_i at the part's setpoint
+    edge_now = guard / shape
+    before = state.seen.get((operation.name, quantity), edge_now)
+    worst = max(before, edge_now) if is_max else min(before, edge_now)
+    if limit is None:
+        hold = decision("hold", model, None, "no limit on this quantity")
+        return hold, model, sigma, worst
+    margin = limit - guard if is_max else guard - limit
+    # the far side of y ± u: past the limit, the measurement proves the limit crossed
+    far_side = max(y - u, 0.0) if is_max else y + u
+    if result.robust_by == "cone":  # a cone bounds the true value: the far side of y ± u
+        beyond_guard = _past(far_side, shown, is_max)
+    else:  # a band covers measured ± u (Ivester & Heigel: "encompasses all of the points")
+        beyond_guard = _past(guard, shown, is_max)
+    beyond_other = guard < shown.lower if is_max else guard > shown.upper
+    # the fallback band of a cone setpoint: past its edge it grows, but is not flagged
+    fallback_only = result.robust_by == "cone" and _past(guard, predicted, is_max)
+    flag: Flag | None = None
+    if far_side > limit if is_max else far_side < limit:  # nonconformance proven
+        flag = "breach"
+    elif beyond_guard:
+        flag = "above_band" if is_max else "below_band"
+    note: Note | None = None
+    if beyond_other and flag is None:
+        note = "below_band" if is_max else "above_band"
+
+    rule = settings.rule
+    model, sigma = rule.adjust(model, point, measurement, sigma, settings.coverage_k, settings.tau)
+    y_new = model.predict(point, rel)
+    # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
+    cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new.value
+    if flag is not None or fallback_only:
+        reach = guard - y_new.value if is_max else y_new.value - guard
+        new = _with_band(model, max(predicted.band, reach, cover), y_new.value, point, rel)
+        action: Action = "expand" if new.predict(point, rel).band > predicted.band else "hold"
+        if flag is None:
+            why = "inside the learned cone; the fallback band grows to cover it"
+            return decision(action, new, margin, why, note=note), new, sigma, worst
+        where = "measured − u past the limit" if flag == "breach" else f"measured + u {flag}"
+        flagged = decision(action, new, margin, f"{where}: never shrink; band covers it", flag)
+        return flagged, new, sigma, worst
+    below = " (note: below the band: the model is pessimistic here)" if note else ""
+    if margin <= 0:
+        new = _with_band(model, max(predicted.band, cover), y_new.value, point, rel)
+        no_margin = decision("hold", new, margin, "no margin: measured + u at the limit", note=note)
+        return no_margin, new, sigma, worst
+    band = max(predicted.band - settings.alpha * margin, floor)
+    band = rule.least_band(band, sigma, y_new.value, settings.coverage_k, settings.tau)
+    why = f"margin {margin:.4g} > 0: band shrinks by {settings.alpha:g} of it (floor {floor:.4g})"
+    if cover > band:
+        band = cover
+        why = "margin > 0, but the band keeps covering the most demanding measurement so far"
+    if band >= predicted.band or math.isclose(band, predicted.band, rel_tol=1e-12):
+        new = _with_band(model, predicted.band, y_new.value, point, rel)
+        held = decision("hold", new, margin, "band at its floor" + below, note=note)
+        return held, new, sigma, worst
+    new = _with_band(model, band, y_new.value, point, rel)
+    return decision("shrink", new, margin, why + below, note=note), new, sigma, worst
+
+
+def _past(value: float, prediction: Prediction, is_max: bool) -> bool:
+    """``value`` beyond the guarding edge of ``prediction``, past the solver's tolerance."""
+    if is_max:
+        return value > prediction.upper * (1 + EDGE_RTOL)
+    return value < prediction.lower * (1 - EDGE_RTOL)
+
+
+def _with_band(
+    model: PowerLawModel,
+    band: float,
+    value: float,
+    point: Mapping[str, float],
+    rel: Mapping[str, float],
+) -> PowerLawModel:
+    """The model whose band at ``point`` is ``band`` (ΔK from the first-order law)."""
+    if math.isclose(band, model.predict(point, rel).band, rel_tol=1e-12, abs_tol=0.0):
+        return model  # unchanged: no round trip through floats, no new setpoint version
+    setpoint_part = model.relative_band(rel) ** 2 - (model.dK / model.K) ** 2
+    dK_over_K = math.sqrt(max((band / value) ** 2 - setpoint_part, 0.0))
+    return replace(model, dK=model.K * dK_over_K)

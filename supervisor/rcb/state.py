@@ -1,0 +1,198 @@
+"""RCB's state between parts: the update law's settings, its decisions, and the halt.
+
+Frozen objects, so that a whole production history can be replayed offline
+(:func:`supervisor.rcb.update.update` maps a state and a part report to the next state).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+from models.errors import InputError
+from models.powerlaw import PowerLawModel
+from models.quantities import MODEL_QUANTITIES
+from models.tool import Tool
+from supervisor.errors import Conflict
+from supervisor.inputs.plan import Plan
+from supervisor.optimize.result import PlanResult
+from supervisor.rcb import posterior as post
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY, Strategy
+
+Action = Literal["shrink", "hold", "expand"]
+#: What made a decision flagged: the limit crossed, or the measurement beyond the band's
+#: guarding edge (``above_band`` for a maximum, ``below_band`` for a minimum).
+Flag = Literal["breach", "above_band", "below_band"]
+#: Information, never a flag: the measurement beyond the band's other edge.
+Note = Literal["below_band", "above_band"]
+
+
+@dataclass(frozen=True)
+class RcbSettings:
+    """How bands are updated.
+
+    Parameters
+    ----------
+    strategy : str
+        A name of :data:`supervisor.rcb.strategies.REGISTRY` (module docstring).
+    alpha : float
+        Fraction of the margin by which a band shrinks, ``0 < alpha <= 1`` (paper: 0.25).
+    floors : Mapping[str, float]
+        Least band ``ΔY`` per quantity, in its unit; default: the measurement's uncertainty.
+    coverage_k : float
+        ``bayes`` and ``learn``: the band is ``k σ`` of ``ln K`` (2: the paper's ±2σ).
+    discrepancy : float, optional
+        ``τ``, the model discrepancy [-]: ``bayes`` adds it to ``σ`` before each observation,
+        ``learn`` takes it as the intercept's random walk per part; default: the strategy's
+        (:attr:`supervisor.rcb.strategies.Strategy.default_discrepancy`).
+    z : float
+        ``learn``: the cone's multiple of the posterior standard deviation of ``ln y``.
+    exponent_sd : float
+        ``learn``: prior standard deviation of each exponent relative to its value [-], for a
+        model without a fitted covariance.
+    edge_sd : float
+        ``learn``: prior standard deviation of the rise over one edge's life, in ``ln`` [-].
+    """
+
+    strategy: str = DEFAULT_STRATEGY
+    alpha: float = DEFAULT_ALPHA
+    floors: Mapping[str, float] = field(default_factory=dict)
+    coverage_k: float = 2.0
+    discrepancy: float | None = None
+    z: float = post.DEFAULT_Z
+    exponent_sd: float = post.DEFAULT_EXPONENT_SD
+    edge_sd: float = post.DEFAULT_EDGE_SD
+
+    def __post_init__(self) -> None:
+        if self.strategy not in REGISTRY:
+            raise InputError("strategy", self.strategy, f"expected one of: {', '.join(REGISTRY)}")
+        if not (0 < self.alpha <= 1):
+            raise InputError("alpha", self.alpha, "must be in (0, 1]")
+        for quantity, floor in self.floors.items():
+            if quantity not in MODEL_QUANTITIES:
+                raise InputError(f"floors.{quantity}", floor, "unknown quantity")
+            if not (math.isfinite(floor) and floor >= 0):
+                raise InputError(f"floors.{quantity}", floor, "must be a number >= 0")
+        for name in ("coverage_k", "z"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0 < value <= 100):
+                raise InputError(name, value, "must be a number in (0, 100]")
+        if self.discrepancy is None:
+            object.__setattr__(self, "discrepancy", self.rule.default_discrepancy)
+        for name in ("discrepancy", "exponent_sd", "edge_sd"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0 <= value <= 10):
+                raise InputError(name, value, "must be a number in [0, 10]")
+
+    @property
+    def rule(self) -> Strategy:
+        """The strategy object of :attr:`strategy`."""
+        return REGISTRY[self.strategy]
+
+    @property
+    def tau(self) -> float:
+        """The discrepancy in force (the strategy's default when none was given)."""
+        return self.rule.default_discrepancy if self.discrepancy is None else self.discrepancy
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What one measurement did to one band.
+
+    ``margin`` is ``limit − (measured + u)`` for a maximum and ``(measured − u) − limit`` for
+    a minimum (``margin`` and ``limit`` are ``None`` for a quantity without a limit);
+    ``band_*`` are ``ΔY`` at the setpoint the part was made with. ``flag`` says why a
+    decision is flagged (``breach``: the limit crossed; ``above_band``/``below_band``: past
+    the band's guarding edge), ``note`` is information only (``below_band`` for a maximum:
+    the model is pessimistic there); ``flagged`` is ``flag is not None``.
+    """
+
+    operation: str
+    quantity: str
+    action: Action
+    margin: float | None
+    band_before: float
+    band_after: float
+    dK_before: float
+    dK_after: float
+    K_before: float
+    K_after: float
+    predicted: float
+    measured: float
+    uncertainty: float
+    limit: float | None
+    flagged: bool
+    reason: str
+    flag: Flag | None = None
+    note: Note | None = None
+
+
+@dataclass(frozen=True)
+class HaltedOperation:
+    """An operation that no setpoint can run under the bands in force."""
+
+    operation: str
+    conflicts: tuple[Conflict, ...]
+    against: tuple[str, ...]
+    message: str
+
+
+@dataclass(frozen=True)
+class Halt:
+    """Why a plan halted: the operations whose limits cannot all be met, and by how much."""
+
+    operations: tuple[HaltedOperation, ...]
+
+    @property
+    def message(self) -> str:
+        """One line per halted operation."""
+        return "; ".join(o.message for o in self.operations)
+
+
+@dataclass(frozen=True)
+class RcbState:
+    """Everything RCB needs between parts.
+
+    Parameters
+    ----------
+    plan : Plan
+        The plan (limits, bounds, catalogue models).
+    tools : Mapping[str, Tool]
+        Per operation name, the tool with the models in force: bands are kept per operation
+        and quantity, as Table 5 treats steps 2 and 3 (both VCMR331).
+    setpoints : PlanResult
+        The current robust optimum under those models (while halted: the last setpoints).
+    version : int
+        Setpoint version, 1 for the initial robust optimum.
+    settings : RcbSettings
+        The update law.
+    sigma : Mapping[tuple[str, str], float]
+        ``bayes``: posterior standard deviation of ``ln K`` per (operation, quantity).
+    seen : Mapping[tuple[str, str], float]
+        Per (operation, quantity), the most demanding measurement so far as a K-equivalent:
+        the largest ``(y + u)/Π x_i^e_i`` for a maximum, the smallest ``(y − u)/Π x_i^e_i``
+        for a minimum. A band never shrinks so far that it stops covering it, as Ivester &
+        Heigel's bands are "the range of K that encompasses all of the points".
+    posterior : Mapping[tuple[str, str], Posterior]
+        ``learn``: the posterior of ``(ln K, exponents)`` per (operation, quantity) measured.
+    halt : Halt or None
+        Set when the bands leave no safe setpoint; only a replan clears it.
+    """
+
+    plan: Plan
+    tools: Mapping[str, Tool]
+    setpoints: PlanResult
+    version: int
+    settings: RcbSettings
+    sigma: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    seen: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    posterior: Mapping[tuple[str, str], Posterior] = field(default_factory=dict)
+    halt: Halt | None = None
+
+
+def prior_sigma(model: PowerLawModel, settings: RcbSettings) -> float:
+    """σ of ln K before any measurement: the band read as ±k σ, ``(ΔK/K)/k``."""
+    return (model.dK / model.K) / settings.coverage_k
