@@ -32,7 +32,7 @@ from api.cli.common import (
     write_atomically,
 )
 from api.services import queries
-from api.services.commands import NotFoundError
+from api.services.errors import NotFoundError
 from models.errors import InputError
 from supervisor.gcode import (
     BlockRange,

@@ -31,7 +31,7 @@ from api.cli.common import (
     write_atomically,
 )
 from api.services import queries
-from api.services.commands import NotFoundError
+from api.services.errors import NotFoundError
 from models.errors import InputError
 
 

@@ -2,7 +2,7 @@
 
 ``create_app(url)`` builds the app on a database; ``app_from_env`` is the factory uvicorn
 workers import (``RCB_DATABASE_URL``). Routes are thin: authentication and roles, then one call
-of :mod:`api.services.commands` (writes) or :mod:`api.services.queries` (reads).
+of a use case of :mod:`api.services` (writes) or :mod:`api.services.queries` (reads).
 """
 
 # no "from __future__ import annotations": FastAPI must see the route annotations, which use
@@ -21,8 +21,8 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from api.report import ui
 from api.rest import auth, problems, schemas
 from api.rest.problems import ProblemError
-from api.services import commands as service
-from api.services import queries
+from api.services import idempotency, plans, queries, tools
+from api.services import parts as part_use_cases
 from db.access import Actor
 from db.engine import DEFAULT_URL, make_engine
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
@@ -205,14 +205,14 @@ def create_app(url: str) -> FastAPI:
         settings = RcbSettings(
             strategy=strategy,
             alpha=alpha,
-            floors=service.floors_from(floor or [], "floor"),
+            floors=plans.floors_from(floor or [], "floor"),
             coverage_k=coverage_k,
             discrepancy=discrepancy,
             z=z,
             exponent_sd=exponent_sd,
             edge_sd=edge_sd,
         )
-        written = service.create_plan(
+        written = plans.create_plan(
             engine=engine,
             body=body,
             settings=settings,
@@ -240,7 +240,7 @@ def create_app(url: str) -> FastAPI:
     ) -> Response:
         """Change limits, bounds or models (or reset the bands) and re-optimise."""
         body = changes.model_dump(mode="json", exclude_none=True)
-        written = service.replan(
+        written = plans.replan(
             engine=engine,
             plan_id=plan_id,
             changes=body,
@@ -284,7 +284,7 @@ def create_app(url: str) -> FastAPI:
         """Report a made part; RCB applies at the setpoint version it was made with."""
         body = report.model_dump(mode="json", exclude_none=True)
         try:
-            written = service.report_part(
+            written = part_use_cases.report_part(
                 engine=engine,
                 plan_id=plan_id,
                 body=body,
@@ -307,7 +307,7 @@ def create_app(url: str) -> FastAPI:
         limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = 50,
     ) -> dict[str, Any]:
         """The plan's parts, oldest first, a page at a time."""
-        return queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=limit)
+        return queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit)
 
     @app.get(f"{PREFIX}/plans/{{plan_id}}/history", response_model=schemas.History, tags=["review"])
     def plan_history(plan_id: PlanId, actor: Annotated[Actor, anyone]) -> dict[str, Any]:
@@ -368,7 +368,7 @@ def create_app(url: str) -> FastAPI:
         """Add a tool with its baseline models (a new name; stored tools never change)."""
         body = tool.model_dump(mode="json", exclude_none=True)
         body.setdefault("source", "REST API")  # the reader's default would say "plan file"
-        written = service.add_tool(
+        written = tools.add_tool(
             engine=engine,
             body=body,
             actor=actor,
@@ -416,14 +416,14 @@ _PLAN_EXAMPLE = {
 }
 
 
-def _idempotency(request: Request, key: str | None, body: object) -> service.Idempotency | None:
+def _idempotency(request: Request, key: str | None, body: object) -> idempotency.Idempotency | None:
     # presence (where required) and form were checked by FastAPI: a 400 (api.rest.problems)
     if key is None:
         return None
-    return service.Idempotency(key, service.fingerprint("POST", request.url.path, body))
+    return idempotency.Idempotency(key, idempotency.fingerprint("POST", request.url.path, body))
 
 
-def _written(written: service.Written) -> Response:
+def _written(written: idempotency.Written) -> Response:
     headers = {"Idempotent-Replayed": "true"} if written.replayed else None
     if written.text is not None:  # encoded once, for the database and for this answer
         return Response(
