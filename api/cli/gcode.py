@@ -24,7 +24,6 @@ from sqlalchemy import Engine
 from api.cli.common import (
     DbOption,
     check_target,
-    database_url,
     emit,
     errors,
     existing_engine,
@@ -33,6 +32,7 @@ from api.cli.common import (
 )
 from api.services import queries
 from api.services.errors import NotFoundError
+from api.settings import database_url
 from models.errors import InputError
 from supervisor.gcode import (
     BlockRange,

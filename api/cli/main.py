@@ -30,7 +30,6 @@ from api.cli.certify import certify
 from api.cli.common import (
     DbOption,
     StrategyOption,
-    database_url,
     emit,
     err_console,
     errors,
@@ -45,6 +44,7 @@ from api.rest import serving
 from api.services import to_json
 from api.services.errors import NotFoundError
 from api.services.keys import create_key, revoke_key
+from api.settings import database_url
 from db.engine import make_engine, upgrade
 from models import fields
 from models.catalogue import get_tool

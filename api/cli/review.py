@@ -16,10 +16,11 @@ from rich.console import Console
 from rich.table import Table
 from sqlalchemy import Engine
 
-from api.cli.common import DbOption, database_url, emit, errors, existing_engine, say
+from api.cli.common import DbOption, emit, errors, existing_engine, say
 from api.report import export as tidy
 from api.report import marks
 from api.services import queries
+from api.settings import database_url
 from models.errors import InputError
 
 _out = Console()
