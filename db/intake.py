@@ -1,7 +1,7 @@
 """A part report's first step: lock the plan, store the part's row, find a stored answer.
 
 What :func:`open_report` returns decides how the report goes on
-(:func:`api.services.commands.report_part`):
+(:func:`api.services.parts.report_part`):
 a stored answer under the request's Idempotency-Key (a replay, or a key reused with another
 body), no plan (404), no part row (the serial was reported: 409; or the setpoint version is
 unknown: 422), or the plan's head and the new part's id.

@@ -1,7 +1,7 @@
 """Plans, their replans and their setpoint versions: domain objects in and out of the tables.
 
 Keyword-only functions given a session; the caller owns the transaction (one use case, one
-transaction: :mod:`api.services.commands`). A plan's RCB state is :mod:`db.state`, a part's
+transaction: :mod:`api.services.transactions`). A plan's RCB state is :mod:`db.state`, a part's
 record :mod:`db.parts`.
 """
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import httpx
 
-from api.services import commands as service
+from api.services.keys import create_key
 from db.engine import make_engine, upgrade
 
 RCB = Path(sys.executable).with_name("rcb")
@@ -35,7 +35,7 @@ class LiveServer:
         self.process: subprocess.Popen[bytes] | None = None
         upgrade(url)
         engine = make_engine(url)
-        self.keys = {r: service.create_key(engine=engine, role=r)["key"] for r in ROLES}
+        self.keys = {r: create_key(engine=engine, role=r)["key"] for r in ROLES}
         engine.dispose()
 
     def start(self, timeout_s: float = 60.0) -> None:

@@ -6,7 +6,7 @@ import dataclasses
 
 from db import tables as t
 from db.parts import DECISION_COLUMNS
-from supervisor.rcb.update import Decision
+from supervisor.rcb.state import Decision
 
 #: Decision fields that rcb_decisions does not store under their own name, and why.
 NOT_STORED = {

@@ -20,8 +20,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from api.services import commands as service
 from api.services import queries
+from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 from supervisor.gcode import (
     BlockRange,
@@ -523,7 +523,7 @@ def stored_plan(tmp_path_factory) -> tuple[str, int, dict]:
     upgrade(url)
     engine = make_engine(url)
     body = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-    plan_id = service.create_plan(engine=engine, body=body).body["id"]
+    plan_id = create_plan(engine=engine, body=body).body["id"]
     current = queries.current_setpoints(engine=engine, plan_id=plan_id)
     engine.dispose()
     return url, plan_id, {op["name"]: op["setpoint"] for op in current["operations"]}

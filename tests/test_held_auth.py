@@ -15,8 +15,12 @@ from sqlalchemy import event, func, select
 from sqlalchemy.orm import Session
 
 from api.rest import auth
-from api.services import commands as service
 from api.services import queries
+from api.services.errors import NotFoundError
+from api.services.idempotency import Idempotency, InFlightError, fingerprint
+from api.services.keys import create_key
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db import tables as t
 from db.engine import make_engine, upgrade
 
@@ -28,9 +32,9 @@ PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 def _setup(url):
     upgrade(url)
     engine = make_engine(url)
-    key = service.create_key(engine=engine, role="mes")["key"]
-    viewer = service.create_key(engine=engine, role="viewer")["key"]
-    plan_id = service.create_plan(engine=engine, body=PLAN).body["id"]
+    key = create_key(engine=engine, role="mes")["key"]
+    viewer = create_key(engine=engine, role="viewer")["key"]
+    plan_id = create_plan(engine=engine, body=PLAN).body["id"]
     return engine, key, viewer, plan_id
 
 
@@ -77,10 +81,8 @@ def _report(engine, key, plan_id, body, idempotency_key):
         engine=engine, key=key, action="POST parts", idempotency_key=idempotency_key
     ) as held:
         assert held is not None
-        idem = service.Idempotency(
-            idempotency_key, service.fingerprint("POST", f"/plans/{plan_id}/parts", body)
-        )
-        return service.report_part(
+        idem = Idempotency(idempotency_key, fingerprint("POST", f"/plans/{plan_id}/parts", body))
+        return report_part(
             engine=engine,
             plan_id=plan_id,
             body=body,
@@ -114,7 +116,7 @@ def test_a_report_and_its_replay_use_one_connection(setup):
 def test_a_refused_report_is_audited_on_the_same_connection(setup):
     engine, key, _, plan_id = setup
     checkouts = Checkouts(engine)
-    with pytest.raises(service.NotFoundError):
+    with pytest.raises(NotFoundError):
         _report(engine, key, plan_id + 1, _body(engine, plan_id, "H-2"), "k-2")
     assert checkouts.most == 1
     assert ("report part", "refused") in _audit(engine)
@@ -154,9 +156,9 @@ def test_the_key_lock_is_taken_with_the_key_check_on_postgresql(pg_setup):
         ) as second:
             assert second is not None and second.claimed is False
             body = _body(engine, plan_id, "H-3")
-            idem = service.Idempotency("busy", "x" * 64)
-            with pytest.raises(service.InFlightError):
-                service.report_part(
+            idem = Idempotency("busy", "x" * 64)
+            with pytest.raises(InFlightError):
+                report_part(
                     engine=engine,
                     plan_id=plan_id,
                     body=body,

@@ -8,8 +8,11 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
-from api.services import commands as service
 from api.services import queries
+from api.services.idempotency import Idempotency, InFlightError, KeyReuseError, fingerprint
+from api.services.keys import create_key
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db import access, keylock
 from db import tables as t
 from db.access import Actor
@@ -20,15 +23,15 @@ PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
 
 def _setup(engine):
-    key_id = service.create_key(engine=engine, role="mes")["id"]
+    key_id = create_key(engine=engine, role="mes")["id"]
     actor = Actor(key_id, "mes", f"key:{key_id}")
-    plan_id = service.create_plan(engine=engine, body=PLAN).body["id"]
+    plan_id = create_plan(engine=engine, body=PLAN).body["id"]
     setpoints = queries.current_setpoints(engine=engine, plan_id=plan_id)
     return actor, plan_id, setpoints
 
 
 def _idem(key, plan_id, body):
-    return service.Idempotency(key, service.fingerprint("POST", f"/plans/{plan_id}/parts", body))
+    return Idempotency(key, fingerprint("POST", f"/plans/{plan_id}/parts", body))
 
 
 def _count(engine, table):
@@ -39,7 +42,7 @@ def _count(engine, table):
 def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
     actor, plan_id, setpoints = _setup(engine)
     body = report_at("I1", setpoints, {"force_N": 3.0})
-    first = service.report_part(
+    first = report_part(
         engine=engine,
         plan_id=plan_id,
         body=body,
@@ -48,7 +51,7 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
     )
     assert first.status == 201 and not first.replayed
     counts = [_count(engine, x) for x in (t.Part, t.RcbDecision, t.SetpointVersion)]
-    again = service.report_part(
+    again = report_part(
         engine=engine,
         plan_id=plan_id,
         body=body,
@@ -58,8 +61,8 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
     assert again.replayed and again.status == 201 and again.body == first.body
     assert [_count(engine, x) for x in (t.Part, t.RcbDecision, t.SetpointVersion)] == counts
     other = {**body, "serial": "I2"}
-    with pytest.raises(service.KeyReuseError):
-        service.report_part(
+    with pytest.raises(KeyReuseError):
+        report_part(
             engine=engine,
             plan_id=plan_id,
             body=other,
@@ -68,7 +71,7 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
         )
     # another client's key of the same name is its own
     other_actor = Actor(None, "engineer", "cli")
-    fresh = service.report_part(
+    fresh = report_part(
         engine=engine,
         plan_id=plan_id,
         body=other,
@@ -100,8 +103,8 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
             connection.close()
 
     try:
-        with pytest.raises(service.InFlightError):
-            service.report_part(
+        with pytest.raises(InFlightError):
+            report_part(
                 engine=engine,
                 plan_id=plan_id,
                 body=body,
@@ -111,7 +114,7 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
     finally:
         release(None, None, None)
     assert _count(engine, t.Part) == 0
-    done = service.report_part(
+    done = report_part(
         engine=engine,
         plan_id=plan_id,
         body=body,
@@ -126,7 +129,7 @@ def test_a_refused_report_stores_no_key_and_is_audited(engine):
     bad = report_at("B1", setpoints, {"force_N": 3.0})
     bad["operations"][0]["measurements"]["force_N"]["value"] = -1.0
     with pytest.raises(ValueError, match="force_N.value"):
-        service.report_part(
+        report_part(
             engine=engine,
             plan_id=plan_id,
             body=bad,
@@ -135,7 +138,7 @@ def test_a_refused_report_stores_no_key_and_is_audited(engine):
         )
     assert _count(engine, t.IdempotencyRecord) == 0
     good = report_at("B1", setpoints, {"force_N": 3.0})  # the corrected report may reuse the key
-    fixed = service.report_part(
+    fixed = report_part(
         engine=engine,
         plan_id=plan_id,
         body=good,

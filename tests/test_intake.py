@@ -12,7 +12,8 @@ import pytest
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from api.services import commands as service
+from api.services.keys import create_key
+from api.services.plans import create_plan
 from db import access
 from db import tables as t
 from db.engine import make_engine, upgrade
@@ -28,8 +29,8 @@ def stored(backend_url):
     """A plan at setpoint version 1, an API key, and one answer stored under key "done"."""
     upgrade(backend_url)
     engine = make_engine(backend_url)
-    plan_id = service.create_plan(engine=engine, body=PLAN).body["id"]
-    key_id = service.create_key(engine=engine, role="mes")["id"]
+    plan_id = create_plan(engine=engine, body=PLAN).body["id"]
+    key_id = create_key(engine=engine, role="mes")["id"]
     with Session(engine) as session, session.begin():
         session.execute(
             t.core_table(t.IdempotencyRecord).insert(),

@@ -26,7 +26,10 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import Session
 
-from api.services import commands as service
+from api.services.idempotency import Idempotency
+from api.services.keys import create_key
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db import tables as t
 from db.access import Actor
 from db.bulk import Encoded, defer, write_rows
@@ -188,8 +191,8 @@ def test_deferred_rows_are_written_by_the_commit_or_forgotten_by_a_rollback(engi
 def test_a_part_report_writes_its_rows_key_audit_and_plan_in_one_statement(engine):
     upgrade(engine.url.render_as_string(hide_password=False))
     body = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-    plan = service.create_plan(engine=engine, body=body).body
-    key = service.create_key(engine=engine, role="mes")
+    plan = create_plan(engine=engine, body=body).body
+    key = create_key(engine=engine, role="mes")
     actor = Actor(key["id"], "mes", f"key:{key['id']}")
     report = {
         "serial": "SN-1",
@@ -209,12 +212,12 @@ def test_a_part_report_writes_its_rows_key_audit_and_plan_in_one_statement(engin
     }
     sent: list[str] = []
     event.listen(engine, "before_cursor_execute", lambda *args: sent.append(args[2]))
-    written = service.report_part(
+    written = report_part(
         engine=engine,
         plan_id=plan["id"],
         body=report,
         actor=actor,
-        idempotency=service.Idempotency("k-1", "f" * 64),
+        idempotency=Idempotency("k-1", "f" * 64),
     )
     assert written.status == 201
     if engine.dialect.name == "postgresql":

@@ -7,7 +7,8 @@ import tomllib
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from api.services import commands as service
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db import tables as t
 from db.plan_state import settings_json, settings_of
 from db.plans import get_plan_row
@@ -39,7 +40,7 @@ def test_non_default_settings_survive_a_reload(engine):
         exponent_sd=0.2,
     )
     assert settings != RcbSettings(strategy="bayes", alpha=0.4)
-    plan_id = service.create_plan(engine=engine, body=PLAN, settings=settings).body["id"]
+    plan_id = create_plan(engine=engine, body=PLAN, settings=settings).body["id"]
     assert _loaded(engine, plan_id).settings == settings
     with Session(engine) as session:
         stored = session.scalars(select(t.Plan.settings).where(t.Plan.id == plan_id)).one()
@@ -53,11 +54,11 @@ def test_a_plan_stored_before_0005_gets_the_defaults():
 
 def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):
     settings = RcbSettings(strategy="learn")
-    created = service.create_plan(engine=engine, body=PLAN, settings=settings).body
+    created = create_plan(engine=engine, body=PLAN, settings=settings).body
     plan_id, setpoints = created["id"], created
     for i in range(3):
         body = report_at(f"L-{i}", setpoints)
-        answer = service.report_part(engine=engine, plan_id=plan_id, body=body).body
+        answer = report_part(engine=engine, plan_id=plan_id, body=body).body
         setpoints = answer
     in_memory = _in_memory(engine, plan_id)
     assert len(in_memory.posterior) == 2 * len(PLAN["operations"])

@@ -10,8 +10,9 @@ from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
 from api.cli.main import app
-from api.services import commands as service
 from api.services import queries
+from api.services.parts import report_part
+from api.services.plans import create_plan, replan
 from db import tables as t
 from db.engine import make_engine, upgrade
 from db.plans import get_plan_row
@@ -32,12 +33,12 @@ def _state(engine, plan_id):
 
 
 def test_a_relaxed_limit_is_stored_as_a_replan_version_and_a_dry_run_stores_nothing(engine):
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
     change = {"limits": {"rough-od.force_N": 2200}}
-    dry = service.replan(engine=engine, plan_id=plan_id, changes=change, dry_run=True)
+    dry = replan(engine=engine, plan_id=plan_id, changes=change, dry_run=True)
     assert dry.status == 200 and dry.body["dry_run"] and dry.body["setpoint_version"] == 1
     assert _count(engine, t.PlanRevision) == 0 and _count(engine, t.SetpointVersion) == 1
-    done = service.replan(engine=engine, plan_id=plan_id, changes=change)
+    done = replan(engine=engine, plan_id=plan_id, changes=change)
     assert done.status == 201 and done.body["setpoint_version"] == 2
     assert done.body["operations"] == dry.body["operations"]
     rough = done.body["diff"][0]
@@ -58,22 +59,22 @@ def test_a_relaxed_limit_is_stored_as_a_replan_version_and_a_dry_run_stores_noth
 
 def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
     ivester = RcbSettings(strategy="ivester")  # the paper's law narrows the band in force
-    plan_id = service.create_plan(engine=engine, body=BODY, settings=ivester).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY, settings=ivester).body["id"]
     bodies, _ = _reports(4)
     for body in bodies:
-        service.report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, body=body)
     shrunk = _state(engine, plan_id)
     baseline = shrunk.plan.tools["CNMG432RN"].models["force_N"]
     assert shrunk.tools["rough-od"].models["force_N"].dK < baseline.dK  # RCB narrowed it
     changed = {"models": {"CNMG432RN.force_N": {"dK": 100.0}}}
-    service.replan(engine=engine, plan_id=plan_id, changes=changed)
+    replan(engine=engine, plan_id=plan_id, changes=changed)
     after = _state(engine, plan_id)
     assert after.tools["rough-od"].models["force_N"].dK == 100.0
     assert (
         after.tools["rough-od"].models["force_N"].K == shrunk.tools["rough-od"].models["force_N"].K
     )
     assert after.tools["rough-grooves"] == shrunk.tools["rough-grooves"]  # another insert
-    service.replan(engine=engine, plan_id=plan_id, changes={"reset_bands": True})
+    replan(engine=engine, plan_id=plan_id, changes={"reset_bands": True})
     reset = _state(engine, plan_id)
     for name, tool in reset.tools.items():
         assert tool == reset.plan.tools[tool.name], name  # back to the baseline models
@@ -86,32 +87,26 @@ def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
     # RCB goes on from the reset state
     more, _ = _reports(6)
     late = {**more[5], "serial": "AFTER-RESET", "setpoint_version": reset.version}
-    answer = service.report_part(engine=engine, plan_id=plan_id, body=late).body
+    answer = report_part(engine=engine, plan_id=plan_id, body=late).body
     assert answer["setpoint_version"] >= reset.version
 
 
 def test_bad_changes_are_refused_and_nothing_is_stored(engine):
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
     with pytest.raises(ValueError, match="limits.rough-odd.force_N"):
-        service.replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-odd.force_N": 1}})
+        replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-odd.force_N": 1}})
     with pytest.raises(ValueError, match="models.NOPE.force_N"):
-        service.replan(
-            engine=engine, plan_id=plan_id, changes={"models": {"NOPE.force_N": {"K": 1}}}
-        )
+        replan(engine=engine, plan_id=plan_id, changes={"models": {"NOPE.force_N": {"K": 1}}})
     with pytest.raises(ValueError, match="operations\\[0\\].bounds.depth_mm"):
-        service.replan(
-            engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depth_mm": [3, 1]}}
-        )
+        replan(engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depth_mm": [3, 1]}})
     with pytest.raises(ValueError, match="operations\\[0\\].limits.forse_N"):  # unknown quantity
-        service.replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.forse_N": 1}})
+        replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.forse_N": 1}})
     with pytest.raises(ValueError, match="operations\\[0\\].bounds.depht_mm"):  # unknown parameter
-        service.replan(
-            engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depht_mm": [1, 2]}}
-        )
+        replan(engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depht_mm": [1, 2]}})
     with pytest.raises(InfeasibleError):
-        service.replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.force_N": 10}})
+        replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.force_N": 10}})
     with pytest.raises(ValueError, match="nothing to change"):
-        service.replan(engine=engine, plan_id=plan_id, changes={})
+        replan(engine=engine, plan_id=plan_id, changes={})
     assert _count(engine, t.PlanRevision) == 0 and _count(engine, t.SetpointVersion) == 1
 
 
@@ -135,7 +130,7 @@ def test_rcb_replan(runner, tmp_path):
     url = f"sqlite:///{tmp_path / 'r.db'}"
     upgrade(url)
     engine = make_engine(url)
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
     engine.dispose()
     args = ["replan", str(plan_id), "--db", url]
     dry = runner.invoke(app, [*args, "--limit", "rough-od.force_N=2200", "--dry-run", "--json"])

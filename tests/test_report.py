@@ -23,8 +23,9 @@ from numpy.testing import assert_allclose
 
 from api.report import plots
 from api.report.html import render_report
-from api.services import commands as service
 from api.services import queries
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
@@ -75,11 +76,11 @@ def stored(tmp_path_factory):
     url = f"sqlite:///{tmp_path_factory.mktemp('report') / 'rcb.db'}"
     upgrade(url)
     engine = make_engine(url)
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
     for body in _reports(PARTS):
-        service.report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, body=body)
     plan = queries.get_plan(engine=engine, plan_id=plan_id)
-    parts = queries.parts(engine=engine, plan_id=plan_id, limit=queries.MAX_PAGE)["items"]
+    parts = queries.parts(engine=engine, plan_id=plan_id, page_size=queries.MAX_PAGE)["items"]
     history = queries.plan_history(engine=engine, plan_id=plan_id)
     engine.dispose()
     return url, plan_id, plan, history, parts

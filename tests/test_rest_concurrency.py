@@ -22,8 +22,9 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
-from api.services import commands as service
 from api.services import queries
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db import tables as t
 from db.engine import make_engine, upgrade
 from supervisor.rcb.state import RcbSettings
@@ -170,14 +171,10 @@ def reference(tmp_path_factory) -> Reference:
     upgrade(url)
     engine = make_engine(url)
     try:
-        plan_id = service.create_plan(
-            engine=engine, body=PLAN, settings=RcbSettings("ivester")
-        ).body["id"]
+        plan_id = create_plan(engine=engine, body=PLAN, settings=RcbSettings("ivester")).body["id"]
         setpoints = queries.current_setpoints(engine=engine, plan_id=plan_id)
         answers = [
-            service.report_part(
-                engine=engine, plan_id=plan_id, body=report_at(f"REF-{i}", setpoints)
-            ).body
+            report_part(engine=engine, plan_id=plan_id, body=report_at(f"REF-{i}", setpoints)).body
             for i in range(STREAM)
         ]
     finally:

@@ -9,7 +9,8 @@ import pytest
 from test_service import BODY, _reports
 
 from api.cli.main import app
-from api.services import commands as service
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 
 
@@ -18,9 +19,9 @@ def stored(tmp_path_factory):
     url = f"sqlite:///{tmp_path_factory.mktemp('review') / 'rcb.db'}"
     upgrade(url)
     engine = make_engine(url)
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, state = _reports(4)
-    answers = [service.report_part(engine=engine, plan_id=plan_id, body=b).body for b in bodies]
+    answers = [report_part(engine=engine, plan_id=plan_id, body=b).body for b in bodies]
     engine.dispose()
     return url, plan_id, bodies, answers, state
 

@@ -9,8 +9,10 @@ import pytest
 from numpy.testing import assert_allclose
 from sqlalchemy.orm import Session
 
-from api.services import commands as service
 from api.services import queries
+from api.services.errors import NotFoundError
+from api.services.parts import report_part
+from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 from db.errors import ConflictError
 from db.parts import count_parts
@@ -73,7 +75,7 @@ def _reports(n, seed=3, settings=None):
 
 def test_mes_loop_round_trips_through_the_database(engine):
     ivester = RcbSettings("ivester")  # the paper's law: the numbers below are its
-    created = service.create_plan(engine=engine, body=BODY, settings=ivester).body
+    created = create_plan(engine=engine, body=BODY, settings=ivester).body
     plan_id = created["id"]
     assert created["setpoint_version"] == 1
     assert_allclose(created["operations"][0]["mrr_cm3_min"], 191.2, rtol=0.005)  # Table 5 step 1 R
@@ -81,7 +83,7 @@ def test_mes_loop_round_trips_through_the_database(engine):
     mrr = [created["operations"][0]["mrr_cm3_min"]]
     exact = 0
     for body in bodies:
-        answer = service.report_part(engine=engine, plan_id=plan_id, body=body).body
+        answer = report_part(engine=engine, plan_id=plan_id, body=body).body
         for u in answer["updates"]:
             if u["action"] == "shrink":
                 # the law: 0.25 of the margin, or less where the floor or coverage stops it
@@ -106,19 +108,19 @@ def test_mes_loop_round_trips_through_the_database(engine):
 
 
 def test_duplicate_serial_and_bad_reports_store_nothing(engine):
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, _ = _reports(1)
-    service.report_part(engine=engine, plan_id=plan_id, body=bodies[0])
+    report_part(engine=engine, plan_id=plan_id, body=bodies[0])
     with pytest.raises(ConflictError) as err:
-        service.report_part(engine=engine, plan_id=plan_id, body=bodies[0])
+        report_part(engine=engine, plan_id=plan_id, body=bodies[0])
     assert err.value.field == "serial"
     bad = {**bodies[0], "serial": "SN-9999"}
     bad["operations"] = [
         {"name": "rough-od", "measurements": {"forse_N": {"value": 1, "uncertainty": 1}}}
     ]
     with pytest.raises(InputError):
-        service.report_part(engine=engine, plan_id=plan_id, body=bad)
-    with pytest.raises(service.NotFoundError):
+        report_part(engine=engine, plan_id=plan_id, body=bad)
+    with pytest.raises(NotFoundError):
         queries.current_setpoints(engine=engine, plan_id=plan_id + 100)
     with Session(engine) as session:
         assert count_parts(session=session, plan_id=plan_id) == 1
@@ -126,13 +128,13 @@ def test_duplicate_serial_and_bad_reports_store_nothing(engine):
 
 
 def test_a_part_made_with_an_older_version_is_judged_at_that_version(engine):
-    created = service.create_plan(engine=engine, body=BODY).body
+    created = create_plan(engine=engine, body=BODY).body
     plan_id = created["id"]
     bodies, _ = _reports(1)
-    moved = service.report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
+    moved = report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
     assert moved["setpoint_version"] == 2
     late = {**bodies[0], "serial": "SN-LATE"}  # made with version 1, reported after the move
-    answer = service.report_part(engine=engine, plan_id=plan_id, body=late).body
+    answer = report_part(engine=engine, plan_id=plan_id, body=late).body
     v1 = {op["name"]: op["predicted"] for op in created["operations"]}
     v2 = {op["name"]: op["predicted"] for op in moved["operations"]}
     for u in answer["updates"]:
@@ -144,10 +146,10 @@ def test_a_part_made_with_an_older_version_is_judged_at_that_version(engine):
 
 
 def test_the_cached_state_is_the_stored_state(engine):
-    plan_id = service.create_plan(engine=engine, body=BODY).body["id"]
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, replayed = _reports(6, seed=5)
     for body in bodies:
-        service.report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, body=body)
 
     def load():
         with Session(engine) as session, session.begin():

@@ -19,7 +19,7 @@ import httpx
 import pytest
 
 from api.report.plots import number
-from api.services import commands as service
+from api.services.keys import create_key, revoke_key
 from db.engine import make_engine
 
 from conftest import DEMO_PLAN
@@ -200,11 +200,11 @@ def test_unknown_plan_is_an_html_404(server, plan_id):
 
 def test_revoked_key_stops_working_and_logout_clears_the_cookie(server, plan_id):
     engine = make_engine(server.url)
-    key = service.create_key(engine=engine, role="viewer", label="ui test")
+    key = create_key(engine=engine, role="viewer", label="ui test")
     with _browser(server) as c:
         assert _login(c, key["key"]).status_code == 303
         assert c.get("/").status_code == 200
-        service.revoke_key(engine=engine, key_id=key["id"])
+        revoke_key(engine=engine, key_id=key["id"])
         r = c.get(f"/plans/{plan_id}")
         assert (r.status_code, r.headers["location"]) == (303, "/ui/login")
         _login(c, server.keys["viewer"])

@@ -24,7 +24,7 @@ from sqlalchemy import Engine
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
-from api.services.commands import NotFoundError, PlanHaltedError
+from api.services.errors import NotFoundError, PlanHaltedError
 from db.engine import DEFAULT_URL, make_engine
 from db.errors import ConflictError
 from models.errors import InputError

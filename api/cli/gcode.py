@@ -24,7 +24,6 @@ from sqlalchemy import Engine
 from api.cli.common import (
     DbOption,
     check_target,
-    database_url,
     emit,
     errors,
     existing_engine,
@@ -32,7 +31,8 @@ from api.cli.common import (
     write_atomically,
 )
 from api.services import queries
-from api.services.commands import NotFoundError
+from api.services.errors import NotFoundError
+from api.settings import database_url
 from models.errors import InputError
 from supervisor.gcode import (
     BlockRange,

@@ -30,7 +30,6 @@ from api.cli.certify import certify
 from api.cli.common import (
     DbOption,
     StrategyOption,
-    database_url,
     emit,
     err_console,
     errors,
@@ -42,8 +41,10 @@ from api.cli.gcode import gcode
 from api.cli.milling import milling_app
 from api.cli.report import report
 from api.rest import serving
-from api.services import commands as service
 from api.services import to_json
+from api.services.errors import NotFoundError
+from api.services.keys import create_key, revoke_key
+from api.settings import database_url
 from db.engine import make_engine, upgrade
 from models import fields
 from models.catalogue import get_tool
@@ -366,7 +367,7 @@ def keys_create(
     url = database_url(db)
     with errors():
         _migrate(url)
-        created = service.create_key(engine=make_engine(url), role=role, label=label)
+        created = create_key(engine=make_engine(url), role=role, label=label)
     if as_json:
         emit(created)
         return
@@ -384,8 +385,8 @@ def keys_revoke(
     with errors():
         _migrate(url)
         try:
-            revoked = service.revoke_key(engine=make_engine(url), key_id=key_id)
-        except service.NotFoundError as err:
+            revoked = revoke_key(engine=make_engine(url), key_id=key_id)
+        except NotFoundError as err:
             raise InputError("ID", key_id, "no such API key") from err
     say(f"rcb: key {revoked['id']} ({revoked['role']}) revoked")
 

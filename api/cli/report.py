@@ -23,7 +23,6 @@ from sqlalchemy.exc import DBAPIError
 from api.cli.common import (
     DbOption,
     check_target,
-    database_url,
     errors,
     existing_engine,
     say,
@@ -31,7 +30,8 @@ from api.cli.common import (
     write_atomically,
 )
 from api.services import queries
-from api.services.commands import NotFoundError
+from api.services.errors import NotFoundError
+from api.settings import database_url
 from models.errors import InputError
 
 

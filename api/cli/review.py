@@ -16,10 +16,11 @@ from rich.console import Console
 from rich.table import Table
 from sqlalchemy import Engine
 
-from api.cli.common import DbOption, database_url, emit, errors, existing_engine, say
+from api.cli.common import DbOption, emit, errors, existing_engine, say
 from api.report import export as tidy
 from api.report import marks
 from api.services import queries
+from api.settings import database_url
 from models.errors import InputError
 
 _out = Console()
@@ -270,7 +271,7 @@ def replan(
     as_json: JsonOption = False,
 ) -> None:
     """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
-    from api.services import commands as service
+    from api.services.plans import replan
 
     with errors():
         changes: dict[str, Any] = {
@@ -281,7 +282,7 @@ def replan(
         if reset_bands:
             changes["reset_bands"] = True
         changes = {k: v for k, v in changes.items() if v}
-        written = service.replan(engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run)
+        written = replan(engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run)
     answer = written.body
     if as_json:
         emit(answer)

@@ -26,8 +26,8 @@ from starlette.concurrency import run_in_threadpool
 
 from api.report.html import render_report
 from api.rest import auth
-from api.services import commands as service
 from api.services import queries
+from api.services.errors import NotFoundError
 from db.access import Actor
 
 PREFIX = "/ui"
@@ -146,7 +146,7 @@ def install(app: FastAPI, engine: Engine) -> None:
             page = render_report(
                 *queries.record(engine=engine, plan_id=number_id), last=PLOTTED_PARTS
             )
-        except service.NotFoundError:
+        except NotFoundError:
             return _not_found(plan_id, actor)
         # the report page with the view's navigation; it stays well-formed XML
         nav = _tag("style", _NAV_CSS) + _nav(actor)

@@ -4,7 +4,7 @@
 checks the key of a write in the transaction the write goes on in: on PostgreSQL the key's
 lookup opens that transaction on one pooled connection and, given the request's
 Idempotency-Key, takes that key's in-flight lock in the same statement
-(:func:`db.access.authenticate_claiming`); :func:`api.services.commands.report_part` continues it.
+(:func:`db.access.authenticate_claiming`); :func:`api.services.parts.report_part` continues it.
 Every failure (unknown or revoked key, a role that may not) is appended to the audit log,
 on the request's own connection when it holds one (:func:`aside`).
 """
@@ -28,9 +28,9 @@ class Authenticated:
     """A request's actor and, on PostgreSQL, the transaction its API key was checked in.
 
     ``session`` is that transaction (one connection); the request's write goes on in it
-    (:func:`_write`), so a part report takes one connection from the pool, not two, and its
-    idempotency key's in-flight lock (``claimed``) was taken by the key's own lookup. On
-    SQLite the key is read outside a transaction and both are None.
+    (:func:`api.services.transactions.write`), so a part report takes one connection from the
+    pool, not two, and its idempotency key's in-flight lock (``claimed``) was taken by the key's
+    own lookup. On SQLite the key is read outside a transaction and both are None.
     """
 
     actor: Actor

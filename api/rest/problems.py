@@ -18,7 +18,8 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
-from api.services.commands import InFlightError, KeyReuseError, NotFoundError, PlanHaltedError
+from api.services.errors import NotFoundError, PlanHaltedError
+from api.services.idempotency import InFlightError, KeyReuseError
 from db.errors import ConflictError
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError

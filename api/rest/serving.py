@@ -15,22 +15,23 @@ than to the report itself, and these two took about 6 % off the server's CPU per
 
 from __future__ import annotations
 
-import os
 import socket
 from typing import Any
 
 import uvicorn
 from uvicorn.supervisors import Multiprocess
 
+from api.settings import hand_to_workers
 from models.errors import InputError
 
-#: The uvicorn factory the workers import; it reads the database URL from the environment.
+#: The uvicorn factory the workers import; it reads the database URL from the environment
+#: (:mod:`api.settings`).
 APP = "api.rest.app:app_from_env"
 
 
 def run(url: str, *, host: str, port: int, workers: int, access_log: bool) -> None:
     """Serve the app on ``url`` until interrupted."""
-    os.environ["RCB_DATABASE_URL"] = url  # the workers' factory reads it
+    hand_to_workers(url)  # the workers' factory reads it
     options: dict[str, Any] = {
         "factory": True,
         "host": host,

@@ -13,7 +13,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from api.services import to_json
-from api.services.commands import NotFoundError, PlanHaltedError
+from api.services.errors import NotFoundError, PlanHaltedError
 from db import history, library
 from db import tables as t
 from db.engine import reader
@@ -82,17 +82,20 @@ def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
 
 
 def parts(
-    *, engine: Engine, plan_id: int, cursor: str | None = None, limit: int = 50
+    *, engine: Engine, plan_id: int, cursor: str | None = None, page_size: int = 50
 ) -> dict[str, Any]:
-    """A page of a plan's parts, oldest first; ``next_cursor`` continues after the last."""
-    if not 1 <= limit <= MAX_PAGE:
-        raise InputError("limit", limit, f"must be between 1 and {MAX_PAGE}")
+    """A page of a plan's parts, oldest first; ``next_cursor`` continues after the last.
+
+    ``page_size``: most parts on the page (the REST query parameter ``limit``).
+    """
+    if not 1 <= page_size <= MAX_PAGE:
+        raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
     after = _cursor(cursor)
     with _read(engine) as session, session.begin():
         _plan(session, plan_id)
         names = {op.id: op.name for op, _ in history.operations(session=session, plan_id=plan_id)}
         rows, measurements, decisions = history.parts_page(
-            session=session, plan_id=plan_id, after_id=after, limit=limit
+            session=session, plan_id=plan_id, after_id=after, limit=page_size
         )
         items = []
         for part in rows:
@@ -120,7 +123,7 @@ def parts(
                     "updates": [_decision(d, names) for d in decisions[part.id]],
                 }
             )
-    more = len(rows) == limit
+    more = len(rows) == page_size
     return {"items": items, "next_cursor": str(rows[-1].id) if rows and more else None}
 
 
@@ -129,7 +132,7 @@ def all_parts(*, engine: Engine, plan_id: int) -> list[dict[str, Any]]:
     items: list[dict[str, Any]] = []
     cursor = None
     while True:
-        page = parts(engine=engine, plan_id=plan_id, cursor=cursor, limit=MAX_PAGE)
+        page = parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=MAX_PAGE)
         items += page["items"]
         cursor = page["next_cursor"]
         if cursor is None:

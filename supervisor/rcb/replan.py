@@ -10,7 +10,7 @@ Changes, each keyed by a dotted name and checked like the plan file:
   forgets what it has seen, the ``learn`` strategy its posterior too (Ivester & Heigel: the
   uncertainty is earned again, part by part).
 
-The result is a new state (plan, models in force, setpoints); :mod:`api.services.commands` stores it
+The result is a new state (plan, models in force, setpoints); :mod:`api.services.plans` stores it
 as a setpoint version with cause ``replan``.
 """
 

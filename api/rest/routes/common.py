@@ -1,0 +1,65 @@
+"""What the routers share: prefix and problems, path and header parameters, a write's answer."""
+
+# no "from __future__ import annotations": FastAPI reads these annotations at run time
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Header, Path, Request
+from fastapi.responses import JSONResponse, Response
+
+from api.rest import problems
+from api.rest.schemas.service import Problem
+from api.services.idempotency import Idempotency, Written, fingerprint
+
+#: Where the service lives (the web view is at /ui, api.report.ui).
+PREFIX = "/api/v1"
+#: The errors every route may answer, as problem+json (api.rest.problems).
+PROBLEMS: dict[int | str, dict[str, Any]] = {
+    status: {"model": Problem, "content": {problems.MEDIA_TYPE: {}}}
+    for status in (400, 401, 403, 404, 409, 422)
+}
+
+#: Largest id (the tables' integer keys are 32-bit on PostgreSQL).
+MAX_ID = 2**31 - 1
+#: Idempotency-Key: 1 to 255 visible ASCII characters (an sf-string; the column's width).
+KEY_PATTERN = r"^[\x21-\x7e]{1,255}$"
+_KEY_DOC = (
+    "a client-chosen unique key per request (IETF Idempotency-Key draft); 1-255 visible ASCII"
+)
+
+PlanId = Annotated[int, Path(ge=1, le=MAX_ID)]
+#: The Idempotency-Key header of a write that may go without one.
+OptionalKey = Annotated[str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)]
+#: The Idempotency-Key header of a write that needs one (a part report).
+RequiredKey = Annotated[str, Header(pattern=KEY_PATTERN, description=_KEY_DOC)]
+
+#: The header a replayed answer carries (documented on the 201 of a write).
+REPLAYED: dict[str, Any] = {
+    "Idempotent-Replayed": {
+        "description": "`true` when this is the stored response of an earlier request",
+        "schema": {"type": "string"},
+    }
+}
+
+
+def resource_router(tag: str) -> APIRouter:
+    """A resource's router: its routes under :data:`PREFIX`, tagged, answering problems."""
+    return APIRouter(prefix=PREFIX, tags=[tag], responses=PROBLEMS)
+
+
+def idempotency_of(request: Request, key: str | None, body: object) -> Idempotency | None:
+    """The request's key and fingerprint, or None without a key."""
+    # presence (where required) and form were checked by FastAPI: a 400 (api.rest.problems)
+    if key is None:
+        return None
+    return Idempotency(key, fingerprint("POST", request.url.path, body))
+
+
+def answer(written: Written) -> Response:
+    """The HTTP answer of a write, marked ``Idempotent-Replayed`` when it is a stored one."""
+    headers = {"Idempotent-Replayed": "true"} if written.replayed else None
+    if written.text is not None:  # encoded once, for the database and for this answer
+        return Response(
+            written.text, written.status, headers=headers, media_type="application/json"
+        )
+    return JSONResponse(written.body, status_code=written.status, headers=headers)

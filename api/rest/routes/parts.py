@@ -1,0 +1,75 @@
+"""What the MES calls: the setpoints in force, a part report, the parts a page at a time."""
+
+# no "from __future__ import annotations": FastAPI reads these annotations at run time
+
+from typing import Annotated, Any
+
+from fastapi import Query, Request
+from fastapi.responses import Response
+
+from api.rest.deps import Anyone, EngineDep, Reporter
+from api.rest.routes.common import (
+    REPLAYED,
+    PlanId,
+    RequiredKey,
+    answer,
+    idempotency_of,
+    resource_router,
+)
+from api.rest.schemas.parts import PartCreated, PartReportIn, PartsPage
+from api.rest.schemas.setpoints import Setpoints
+from api.services import parts as use_cases
+from api.services import queries
+
+router = resource_router("mes")
+
+
+@router.get("/plans/{plan_id}/setpoints", response_model=Setpoints)
+def setpoints(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
+    """The setpoints in force: what the next part is made with."""
+    return queries.current_setpoints(engine=engine, plan_id=plan_id)
+
+
+@router.post(
+    "/plans/{plan_id}/parts",
+    status_code=201,
+    response_model=PartCreated,
+    responses={201: {"headers": REPLAYED}},
+)
+def report_part(
+    request: Request,
+    engine: EngineDep,
+    plan_id: PlanId,
+    report: PartReportIn,
+    held: Reporter,
+    idempotency_key: RequiredKey,
+) -> Response:
+    """Report a made part; RCB applies at the setpoint version it was made with."""
+    body = report.model_dump(mode="json", exclude_none=True)
+    try:
+        written = use_cases.report_part(
+            engine=engine,
+            plan_id=plan_id,
+            body=body,
+            actor=held.actor,
+            idempotency=idempotency_of(request, idempotency_key, body),
+            held=held,
+        )
+    finally:
+        held.close()  # here, in the route's thread (api.rest.deps.holding)
+    return answer(written)
+
+
+@router.get("/plans/{plan_id}/parts", response_model=PartsPage)
+def parts(
+    engine: EngineDep,
+    plan_id: PlanId,
+    actor: Anyone,
+    cursor: Annotated[
+        str | None,
+        Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
+    ] = None,
+    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = 50,
+) -> dict[str, Any]:
+    """The plan's parts, oldest first, a page at a time."""
+    return queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit)

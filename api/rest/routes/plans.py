@@ -1,0 +1,132 @@
+"""Plans: create (check and optimise), replan, list, read one."""
+
+# no "from __future__ import annotations": FastAPI reads these annotations at run time
+
+from typing import Annotated, Any
+
+from fastapi import Body, Query, Request
+from fastapi.responses import Response
+
+from api.rest.deps import Anyone, EngineDep, Engineer
+from api.rest.routes.common import (
+    REPLAYED,
+    OptionalKey,
+    PlanId,
+    answer,
+    idempotency_of,
+    resource_router,
+)
+from api.rest.schemas.common import STRATEGY_DOC, Strategy
+from api.rest.schemas.plans import PLAN_EXAMPLE, PlanCreated, PlanDetail, PlanIn, PlanList
+from api.rest.schemas.replan import ReplanIn, Replanned
+from api.services import plans as use_cases
+from api.services import queries
+from supervisor.rcb.state import RcbSettings
+from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
+
+router = resource_router("plans")
+
+#: The defaults of the plan settings the create route takes.
+_DEFAULTS = RcbSettings()
+
+
+@router.post(
+    "/plans",
+    status_code=201,
+    response_model=PlanCreated,
+    responses={201: {"headers": REPLAYED}},
+)
+def create_plan(
+    request: Request,
+    engine: EngineDep,
+    plan: Annotated[PlanIn, Body(openapi_examples=PLAN_EXAMPLE)],
+    actor: Engineer,
+    strategy: Annotated[Strategy, Query(description=STRATEGY_DOC)] = (DEFAULT_STRATEGY),
+    alpha: Annotated[
+        float,
+        Query(gt=0, le=1, allow_inf_nan=False, description="fraction of the margin"),
+    ] = DEFAULT_ALPHA,
+    floor: Annotated[
+        list[str] | None,
+        Query(description="least band QUANTITY=VALUE (repeatable); default: the u"),
+    ] = None,
+    coverage_k: Annotated[
+        float, Query(gt=0, le=100, allow_inf_nan=False, description="the band as k σ")
+    ] = _DEFAULTS.coverage_k,
+    discrepancy: Annotated[
+        float | None,
+        Query(ge=0, le=10, allow_inf_nan=False, description="τ; default: the strategy's"),
+    ] = None,
+    z: Annotated[
+        float, Query(gt=0, le=100, allow_inf_nan=False, description="learn: the cone's z")
+    ] = _DEFAULTS.z,
+    exponent_sd: Annotated[
+        float,
+        Query(ge=0, le=10, allow_inf_nan=False, description="learn: exponent prior sd"),
+    ] = _DEFAULTS.exponent_sd,
+    edge_sd: Annotated[
+        float,
+        Query(ge=0, le=10, allow_inf_nan=False, description="learn: wear prior sd per edge"),
+    ] = _DEFAULTS.edge_sd,
+    idempotency_key: OptionalKey = None,
+) -> Response:
+    """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
+    body = plan.model_dump(mode="json", exclude_none=True)
+    settings = RcbSettings(
+        strategy=strategy,
+        alpha=alpha,
+        floors=use_cases.floors_from(floor or [], "floor"),
+        coverage_k=coverage_k,
+        discrepancy=discrepancy,
+        z=z,
+        exponent_sd=exponent_sd,
+        edge_sd=edge_sd,
+    )
+    written = use_cases.create_plan(
+        engine=engine,
+        body=body,
+        settings=settings,
+        actor=actor,
+        idempotency=idempotency_of(request, idempotency_key, body),
+    )
+    return answer(written)
+
+
+@router.post(
+    "/plans/{plan_id}/replan",
+    status_code=201,
+    response_model=Replanned,
+    responses={200: {"model": Replanned, "description": "dry run: nothing stored"}},
+)
+def replan(
+    request: Request,
+    engine: EngineDep,
+    plan_id: PlanId,
+    changes: ReplanIn,
+    actor: Engineer,
+    dry_run: Annotated[bool, Query(description="show the result, store nothing")] = False,
+    idempotency_key: OptionalKey = None,
+) -> Response:
+    """Change limits, bounds or models (or reset the bands) and re-optimise."""
+    body = changes.model_dump(mode="json", exclude_none=True)
+    written = use_cases.replan(
+        engine=engine,
+        plan_id=plan_id,
+        changes=body,
+        dry_run=dry_run,
+        actor=actor,
+        idempotency=None if dry_run else idempotency_of(request, idempotency_key, body),
+    )
+    return answer(written)
+
+
+@router.get("/plans", response_model=PlanList)
+def list_plans(engine: EngineDep, actor: Anyone) -> dict[str, Any]:
+    """Every plan."""
+    return queries.list_plans(engine=engine)
+
+
+@router.get("/plans/{plan_id}", response_model=PlanDetail)
+def get_plan(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
+    """One plan: machine limits, operations, and the structure it was created from."""
+    return queries.get_plan(engine=engine, plan_id=plan_id)

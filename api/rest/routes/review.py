@@ -1,0 +1,41 @@
+"""What engineers review: every setpoint version, the models in force and their versions."""
+
+# no "from __future__ import annotations": FastAPI reads these annotations at run time
+
+from typing import Annotated, Any
+
+from fastapi import Query
+
+from api.rest.deps import Anyone, EngineDep
+from api.rest.routes.common import PlanId, resource_router
+from api.rest.schemas.common import NO_NUL
+from api.rest.schemas.review import History, ModelVersions, PlanModels
+from api.services import queries
+
+router = resource_router("review")
+
+
+@router.get("/plans/{plan_id}/history", response_model=History)
+def plan_history(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
+    """Every setpoint version with its cause and the bands in force."""
+    return queries.plan_history(engine=engine, plan_id=plan_id)
+
+
+@router.get("/plans/{plan_id}/models", response_model=PlanModels)
+def plan_models(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
+    """Per operation and quantity the model in force."""
+    return queries.models_in_force(engine=engine, plan_id=plan_id)
+
+
+@router.get("/plans/{plan_id}/models/versions", response_model=ModelVersions)
+def model_versions(
+    engine: EngineDep,
+    plan_id: PlanId,
+    actor: Anyone,
+    operation: Annotated[str | None, Query(max_length=200, pattern=NO_NUL)] = None,
+    quantity: Annotated[str | None, Query(max_length=50, pattern=NO_NUL)] = None,
+) -> dict[str, Any]:
+    """Every model version with its cause, optionally of one operation and quantity."""
+    return queries.model_versions(
+        engine=engine, plan_id=plan_id, operation=operation, quantity=quantity
+    )

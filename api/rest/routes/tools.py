@@ -1,0 +1,58 @@
+"""Tools: the packaged catalogue and the stored tools; engineers add new ones."""
+
+# no "from __future__ import annotations": FastAPI reads these annotations at run time
+
+from typing import Annotated, Any
+
+from fastapi import Path, Request
+from fastapi.responses import Response
+
+from api.rest.deps import Anyone, EngineDep, Engineer
+from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
+from api.rest.schemas.common import NO_NUL
+from api.rest.schemas.tools import ToolIn, ToolList, ToolOut
+from api.services import queries
+from api.services import tools as use_cases
+
+router = resource_router("tools")
+
+
+@router.get("/tools", response_model=ToolList)
+def list_tools(engine: EngineDep, actor: Anyone) -> dict[str, Any]:
+    """The packaged catalogue and the tools added by engineers."""
+    return queries.list_tools(engine=engine)
+
+
+@router.get("/tools/{name}", response_model=ToolOut)
+def get_tool(
+    engine: EngineDep,
+    name: Annotated[str, Path(max_length=200, pattern=NO_NUL)],
+    actor: Anyone,
+) -> dict[str, Any]:
+    """One tool with its baseline models and their provenance."""
+    return queries.get_tool(engine=engine, name=name)
+
+
+@router.post(
+    "/tools",
+    status_code=201,
+    response_model=ToolOut,
+    responses={201: {"headers": REPLAYED}},
+)
+def add_tool(
+    request: Request,
+    engine: EngineDep,
+    tool: ToolIn,
+    actor: Engineer,
+    idempotency_key: OptionalKey = None,
+) -> Response:
+    """Add a tool with its baseline models (a new name; stored tools never change)."""
+    body = tool.model_dump(mode="json", exclude_none=True)
+    body.setdefault("source", "REST API")  # the reader's default would say "plan file"
+    written = use_cases.add_tool(
+        engine=engine,
+        body=body,
+        actor=actor,
+        idempotency=idempotency_of(request, idempotency_key, body),
+    )
+    return answer(written)

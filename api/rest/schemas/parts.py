@@ -1,0 +1,183 @@
+"""Part reports: what the MES sends after a part, what RCB did, and the stored parts."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from api.rest.schemas.common import Out, Text, keys_schema
+from api.rest.schemas.halts import HaltedOperationOut
+from api.rest.schemas.setpoints import OperationSetpoint
+from models.quantities import MODEL_QUANTITIES
+from supervisor.inputs.part_report import MAX_EDGE_PARTS
+from supervisor.rcb.state import Action, Flag, Note
+
+#: Quantities a part report may measure: every model quantity but tool life, which follows from
+#: ``tool_wear`` (:func:`supervisor.rcb.update.update`; the operation's tool must model it).
+MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
+
+
+class MeasurementIn(BaseModel):
+    """A measured value and its (expanded) uncertainty, in the quantity's unit."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    value: float = Field(ge=0)
+    uncertainty: float = Field(ge=0)
+
+
+class ReadingIn(MeasurementIn):
+    """A measurement, or a raw spindle reading the machine's calibration converts to force_N.
+
+    The optional fields are for ``spindle_load_V`` and ``spindle_current_A`` readings only:
+    what the conversion needs and the setpoint does not say (the idle load, a measured speed).
+    """
+
+    calibration: Text | None = Field(None, max_length=200, description="machine calibration")
+    spindle_speed_rpm: float | None = Field(None, gt=0)
+    workpiece_diameter_mm: float | None = Field(None, gt=0)
+    u_workpiece_diameter_mm: float | None = Field(None, ge=0)
+    idle_load_V: float | None = Field(None, ge=0)
+    u_idle_load_V: float | None = Field(None, ge=0)
+    feed_rate_mm_min: float | None = Field(None, gt=0)
+    u_feed_rate_mm_min: float | None = Field(None, ge=0)
+
+
+class ToolWearIn(BaseModel):
+    """Flank wear of the operation's edge and the volume the edge has cut so far."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    flank_wear_mm: MeasurementIn
+    volume_mm3: float = Field(gt=0)
+
+
+class OperationReport(BaseModel):
+    """What was measured on one operation of a part."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text
+    measurements: dict[str, ReadingIn] = Field(
+        default_factory=dict,
+        description="per quantity the operation's tool models (tool life: ``tool_wear``), "
+        "or a spindle reading converted to force_N by the machine's calibration",
+        json_schema_extra=keys_schema(MEASURABLE),
+    )
+    tool_wear: ToolWearIn | None = None
+    feed_override_percent: float | None = Field(
+        None,
+        gt=0,
+        description="constant-load operations: the feed override at the end of the operation, "
+        "% of the programmed feed; at the lower feed limit the tool is due for a change",
+    )
+    edge_parts: int | None = Field(
+        None,
+        ge=0,
+        le=MAX_EDGE_PARTS,
+        description="parts the operation's cutting edge made before this one (0: a new edge), "
+        "as the control's tool-life counter gives it; the learn strategy learns wear from it",
+    )
+
+
+class PartReportIn(BaseModel):
+    """A part report from the MES."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    serial: Text = Field(max_length=200)
+    setpoint_version: int = Field(ge=1)
+    operations: list[OperationReport]
+
+
+class Update(Out):
+    """What one measurement did to one band."""
+
+    operation: str
+    quantity: str
+    action: Action
+    margin: float | None
+    band_before: float
+    band_after: float
+    predicted: float | None = None
+    measured: float | None = None
+    flagged: bool = Field(description="flag is not null (kept for compatibility)")
+    flag: Flag | None = Field(
+        None,
+        description="why the decision is flagged: breach (past the limit), or past the band's "
+        "guarding edge (above_band for a maximum, below_band for a minimum); the band grew",
+    )
+    note: Note | None = Field(
+        None,
+        description="information only, never a flag: past the band's other edge (below_band "
+        "for a maximum: the model is pessimistic there)",
+    )
+    reason: str
+
+
+class ToolChangeOut(Out):
+    """A reported feed override of a constant-load operation, and whether the tool is due."""
+
+    operation: str
+    feed_override_percent: float
+    commanded_feed_rate_mm_min: float
+    feed_rate_lower_mm_min: float
+    due: bool
+    reason: str
+
+
+class PartCreated(Out):
+    """The part stored, what RCB did, the tool changes due, and the setpoints now in force.
+
+    ``halted``: the bands leave no safe setpoint; the part is stored, the setpoints shown are
+    those it was made with, and ``GET .../setpoints`` answers 409 ``plan_halted`` until a
+    replan.
+    """
+
+    part_id: int
+    serial: str
+    setpoint_version: int
+    halted: bool = False
+    conflicts: list[HaltedOperationOut] = Field(default_factory=list)
+    updates: list[Update]
+    tool_changes: list[ToolChangeOut] = Field(default_factory=list)
+    operations: list[OperationSetpoint]
+
+
+class MeasurementOut(Out):
+    """A stored measurement; ``raw``: the spindle reading it was converted from, if any."""
+
+    value: float
+    uncertainty: float
+    raw: dict[str, Any] | None = None
+
+
+class ToolWearOut(Out):
+    """A stored flank-wear measurement."""
+
+    flank_wear_mm: MeasurementOut
+    volume_mm3: float | None
+
+
+class PartOperation(Out):
+    """One operation of a stored part."""
+
+    name: str
+    measurements: dict[str, MeasurementOut]
+    tool_wear: ToolWearOut | None = None
+
+
+class PartOut(Out):
+    """A stored part."""
+
+    part_id: int
+    serial: str
+    setpoint_version: int
+    received_at: datetime
+    operations: list[PartOperation]
+    updates: list[Update]
+
+
+class PartsPage(Out):
+    """A page of parts; pass ``next_cursor`` as ``cursor`` for the next (null: no more)."""
+
+    items: list[PartOut]
+    next_cursor: str | None

@@ -1,0 +1,188 @@
+"""Plans: the plan-file structure as JSON, a new plan's answer, a plan as listed and read."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from api.rest.schemas.common import Out, Strategy, Text, keys_schema
+from api.rest.schemas.halts import HaltOut
+from api.rest.schemas.setpoints import OperationSetpoint
+from api.rest.schemas.tools import ToolIn
+from models.kinematics import PARAMETERS, PROCESSES, Process
+from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, PARTS_PER_EDGE
+from supervisor.optimize.program import Objective
+
+
+class PlanCreated(Out):
+    """A new plan and its first setpoints."""
+
+    id: int
+    name: str
+    setpoint_version: int
+    operations: list[OperationSetpoint]
+
+
+class RcbSettingsOut(Out):
+    """The plan's RCB settings beyond strategy and alpha."""
+
+    floors: dict[str, float] = Field(description="least band per quantity; default: the u")
+    coverage_k: float
+    discrepancy: float
+    z: float
+    exponent_sd: float
+    edge_sd: float
+
+
+class PlanSummary(Out):
+    """A plan in a list."""
+
+    id: int
+    name: str
+    machine: str
+    strategy: Strategy
+    alpha: float
+    settings: RcbSettingsOut
+    status: Literal["running", "halted"]
+    halt: HaltOut | None = None
+    setpoint_version: int
+    parts: int
+    created_at: datetime
+
+
+class PlanList(Out):
+    """Every plan."""
+
+    plans: list[PlanSummary]
+
+
+class PlanOperation(Out):
+    """An operation's definition."""
+
+    name: str
+    tool: str
+    process: str
+    volume_mm3: float
+    limits: dict[str, float]
+    bounds: dict[str, list[float]]
+    context: dict[str, float]
+
+
+class PlanDetail(PlanSummary):
+    """A plan with its machine limits, operations and the structure it was created from."""
+
+    machine_limits: dict[str, float | None]
+    operations: list[PlanOperation]
+    body: dict[str, Any]
+
+
+#: What an operation's ``limits`` may name: maxima of the models, the machine quantities, and
+#: the tool-life minimum ``parts_per_edge`` (supervisor.inputs.plan).
+LIMITS = [q for q, info in MODEL_QUANTITIES.items() if info.sense == "max"]
+LIMITS += [*DERIVED_QUANTITIES, PARTS_PER_EDGE]
+_ALL_PARAMETERS = sorted({v for p in PROCESSES for v in PARAMETERS[p]})
+
+
+class MachineIn(BaseModel):
+    """The machine and its limits (omitted: no limit)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text = Field(max_length=200)
+    max_power_kW: float | None = Field(None, gt=0)
+    max_spindle_rpm: float | None = Field(None, gt=0)
+    max_torque_Nm: float | None = Field(None, gt=0)
+    max_feed_rate_mm_min: float | None = Field(None, gt=0)
+    calibrations: dict[str, dict[str, Any]] | None = Field(
+        None,
+        description="named sensor calibrations, each a table with a `kind` "
+        "(ivester_spindle_load, linear_current, linear_current_by_feed, tai_current_feed) "
+        "and its constants and provenance, as in a plan file (models.sensors)",
+    )
+
+
+class OperationIn(BaseModel):
+    """One operation of a plan, as in a plan file's ``[[operations]]``."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text = Field(max_length=200)
+    process: Process | None = Field(None, description="default: the tool's")
+    tool: Text = Field(max_length=200, description="a catalogue, stored or inline tool")
+    description: Text | None = None
+    volume_mm3: float = Field(gt=0, description="material the operation removes")
+    limits: dict[str, float] = Field(
+        default_factory=dict,
+        description="maxima of predicted quantities, and parts_per_edge (a minimum)",
+        json_schema_extra=keys_schema(LIMITS),
+    )
+    bounds: dict[str, tuple[float, float]] = Field(
+        description="[low, high] of every cutting parameter of the process",
+        json_schema_extra=keys_schema(_ALL_PARAMETERS),
+    )
+    workpiece_diameter_mm: float | None = Field(None, gt=0, description="turning")
+    tool_diameter_mm: float | None = Field(None, gt=0, description="milling")
+    flute_count: int | None = Field(None, ge=1, description="milling")
+    allowable_flank_wear_mm: float | None = Field(None, gt=0, description="default 0.3 (ISO 3685)")
+    setpoint_rel_uncertainty: dict[str, float] | None = Field(
+        None,
+        description="relative setpoint uncertainties Δx/x",
+        json_schema_extra=keys_schema(_ALL_PARAMETERS),
+    )
+    catalog_setpoint: dict[str, float] | None = Field(
+        None,
+        description="the shop's current parameters",
+        json_schema_extra=keys_schema(_ALL_PARAMETERS),
+    )
+    objective: Objective | None = Field(
+        None, description="max MRR (default) or Borangiu's least productivity cost J (milling)"
+    )
+    productivity: dict[str, float] | None = Field(
+        None, description="cost data of J (Borangiu Eq. 1, Taylor's law), as in a plan file"
+    )
+    domain: dict[str, float] | None = Field(
+        None, description="Borangiu's Eqs. 2-7 constraints (milling), as in a plan file"
+    )
+    constant_load: dict[str, Any] | None = Field(
+        None,
+        description="constant-load control (Tai et al., milling): calibration (a "
+        "tai_current_feed calibration of the machine), max_current_A, safety_factor, "
+        "wear_interval_um",
+    )
+
+
+class PlanIn(BaseModel):
+    """A plan: the structure of a plan file, as JSON."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: Text = Field(max_length=200)
+    description: Text | None = None
+    machine: MachineIn
+    tools: list[ToolIn] | None = Field(None, description="inline tools (else catalogue or stored)")
+    operations: list[OperationIn] = Field(min_length=1)
+
+
+#: The create route's example: the rough OD of Ivester & Heigel's demonstration part.
+PLAN_EXAMPLE = {
+    "one operation": {
+        "summary": "Rough OD of Ivester & Heigel's demonstration part (Table 4 step 1)",
+        "value": {
+            "name": "demo-rough-od",
+            "machine": {"name": "lathe-22kW", "max_power_kW": 22},
+            "operations": [
+                {
+                    "name": "rough-od",
+                    "tool": "CNMG432RN",
+                    "workpiece_diameter_mm": 60,
+                    "volume_mm3": 86400,
+                    "limits": {"force_N": 2000, "roughness_um": 4.0},
+                    "bounds": {
+                        "depth_mm": [0.5, 3.0],
+                        "feed_mm_rev": [0.1, 0.6],
+                        "speed_m_min": [100, 200],
+                    },
+                }
+            ],
+        },
+    }
+}

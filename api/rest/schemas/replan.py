@@ -1,0 +1,53 @@
+"""An engineer's replan: the change, and the setpoints before and after."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from api.rest.schemas.common import Out
+from api.rest.schemas.setpoints import OperationSetpoint
+
+
+class ModelChangeIn(BaseModel):
+    """New K and/or ΔK of a model in force (exponents stay)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    K: float | None = Field(None, gt=0)
+    dK: float | None = Field(None, ge=0)
+
+
+class ReplanIn(BaseModel):
+    """An engineer's change (supervisor.rcb.replan)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    limits: dict[str, float | None] | None = Field(
+        None, description="OPERATION.QUANTITY -> new limit (null: remove it)"
+    )
+    bounds: dict[str, tuple[float, float]] | None = Field(
+        None, description="OPERATION.PARAMETER -> [low, high]"
+    )
+    models: dict[str, ModelChangeIn] | None = Field(
+        None, description="TOOL.QUANTITY -> {K, dK} in every operation using the tool"
+    )
+    reset_bands: bool | None = Field(None, description="back to the tools' baseline bands")
+
+
+class SetpointChange(Out):
+    """One operation's setpoint before and after."""
+
+    operation: str
+    setpoint: dict[str, list[float | None]]
+    mrr_cm3_min: list[float]
+    binding: list[list[str]]
+
+
+class Replanned(Out):
+    """The replan: the difference to the setpoints in force, and the new setpoints."""
+
+    plan_id: int
+    dry_run: bool
+    setpoint_version: int
+    reset_bands: bool
+    cycle_time_min: list[float]
+    diff: list[SetpointChange]
+    operations: list[OperationSetpoint]

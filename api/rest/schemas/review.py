@@ -1,0 +1,92 @@
+"""What engineers review: setpoint versions with the models in force, model versions."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Literal
+
+from api.rest.schemas.common import Band, Out
+from api.rest.schemas.halts import HaltOut
+
+
+class ModelInForce(Out):
+    """A model version of one operation and quantity."""
+
+    K: float
+    dK: float
+    version: int
+
+
+class HistoryOperation(Out):
+    """One operation in a setpoint version, with the models in force."""
+
+    name: str
+    tool: str
+    setpoint: dict[str, float]
+    predicted: dict[str, Band]
+    mrr_cm3_min: float
+    time_min: float
+    binding: list[str]
+    models: dict[str, ModelInForce]
+
+
+class HistoryVersion(Out):
+    """One setpoint version and its cause (``initial``, ``part`` with the serial, ``replan``)."""
+
+    version: int
+    cause: str
+    part_id: int | None
+    serial: str | None
+    created_at: datetime
+    cycle_time_min: float
+    operations: list[HistoryOperation]
+
+
+class History(Out):
+    """Every setpoint version of a plan, oldest first; whether it is halted now, and why."""
+
+    plan_id: int
+    status: Literal["running", "halted"] = "running"
+    halt: HaltOut | None = None
+    versions: list[HistoryVersion]
+
+
+class ModelVersion(Out):
+    """A stored model version."""
+
+    version: int
+    K: float
+    dK: float
+    exponents: dict[str, float]
+    cause: str
+    serial: str | None
+    created_at: datetime
+
+
+class OperationModels(Out):
+    """The models in force for one operation."""
+
+    name: str
+    tool: str
+    models: dict[str, ModelVersion]
+
+
+class PlanModels(Out):
+    """The models in force, per operation and quantity."""
+
+    plan_id: int
+    operations: list[OperationModels]
+
+
+class ModelVersionRow(ModelVersion):
+    """A model version with its operation and quantity."""
+
+    operation: str
+    quantity: str
+
+
+class ModelVersions(Out):
+    """Model versions, oldest first."""
+
+    plan_id: int
+    versions: list[ModelVersionRow]

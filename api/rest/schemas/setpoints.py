@@ -1,0 +1,53 @@
+"""Setpoints as the MES reads them: per operation the cutting parameters and predictions."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from api.rest.schemas.common import Band, Out
+from supervisor.optimize.program import Objective
+
+
+class ConstantLoadOut(Out):
+    """Constant-load control of a milling setpoint (Tai et al.): what the inner loop holds."""
+
+    reference_current_A: float = Field(description="spindle current the feed override holds")
+    feed_rate_upper_mm_min: float = Field(description="never above the programmed feed rate")
+    feed_rate_lower_mm_min: float = Field(description="change the tool when the feed reaches it")
+    programmed_feed_rate_mm_min: float
+    upper_governed_by: Literal["current", "setpoint"]
+    tool_change_by_feed: bool
+    wear_interval_mm: tuple[float, float]
+
+
+class OperationSetpoint(Out):
+    """One operation's setpoint as in ``rcb optimize --json``."""
+
+    name: str
+    tool: str
+    process: str
+    setpoint: dict[str, float]
+    predicted: dict[str, Band]
+    mrr_cm3_min: float
+    time_min: float
+    binding: list[str]
+    objective: Objective = "mrr"
+    cost_per_kg: float | None = Field(
+        None, description="Borangiu's productivity cost J, when the operation has cost data"
+    )
+    constant_load: ConstantLoadOut | None = None
+    robust_by: Literal["band", "cone"] = Field(
+        "band",
+        description="what keeps the setpoint safe: the bands, or (strategy learn) the learned "
+        "model's cone; with cone, predicted shows the learned value and the cone's half-width",
+    )
+
+
+class Setpoints(Out):
+    """The setpoints in force."""
+
+    plan_id: int
+    setpoint_version: int
+    operations: list[OperationSetpoint]

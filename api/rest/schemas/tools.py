@@ -1,0 +1,96 @@
+"""Tools and their baseline power-law models, as added and as read."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from api.rest.schemas.common import Out, Text, keys_schema
+from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
+from models.quantities import MODEL_QUANTITIES
+
+
+class ModelIn(BaseModel):
+    """A power-law model ``Y = K·Π x_i^e_i`` with band ±ΔK."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    K: float = Field(gt=0)
+    dK: float = Field(0.0, ge=0)
+    exponents: dict[str, float] = Field(
+        default_factory=dict,
+        description="per variable of the tool's process: its parameters and context",
+        json_schema_extra=keys_schema(
+            sorted({v for p in PROCESSES for v in PARAMETERS[p] + CONTEXT[p]})
+        ),
+    )
+    source: Text | None = Field(None, description="default: the tool's source")
+    reference: Text | None = Field(None, description="where in the source (table, equation)")
+    exponent_stderr: dict[str, float] | None = Field(
+        None,
+        description="standard errors of fitted exponents (rcb fit); learn's prior spread",
+    )
+
+
+def _exponents_of_process(schema: dict[str, Any]) -> None:
+    """A model's exponents may only name the variables of the tool's own process."""
+    schema["allOf"] = [
+        {
+            "if": {"properties": {"process": {"const": p}}},
+            "then": {
+                "properties": {
+                    "models": {
+                        "additionalProperties": {
+                            "properties": {
+                                "exponents": keys_schema(list(PARAMETERS[p] + CONTEXT[p]))
+                            }
+                        }
+                    }
+                }
+            },
+        }
+        for p in PROCESSES
+    ]
+
+
+class ToolIn(BaseModel):
+    """A tool with its models, as in a plan file's ``[[tools]]``."""
+
+    model_config = ConfigDict(
+        extra="forbid", allow_inf_nan=False, json_schema_extra=_exponents_of_process
+    )
+    name: Text = Field(max_length=200)
+    process: Process
+    description: Text | None = None
+    material: Text | None = None
+    source: Text | None = Field(None, description="where the models come from (default: REST API)")
+    models: dict[str, ModelIn] = Field(
+        min_length=1, json_schema_extra=keys_schema(list(MODEL_QUANTITIES))
+    )
+
+
+class ModelOut(Out):
+    """A baseline model with provenance."""
+
+    K: float
+    dK: float
+    exponents: dict[str, float]
+    source: str
+    reference: str
+
+
+class ToolOut(Out):
+    """A tool with its baseline models and provenance."""
+
+    name: str
+    process: str
+    description: str
+    material: str
+    source: str
+    models: dict[str, ModelOut]
+
+
+class ToolList(Out):
+    """The catalogue and the stored tools."""
+
+    tools: list[ToolOut]

@@ -1,0 +1,179 @@
+"""Use cases that write a plan: create (check, optimise, store version 1) and replan.
+
+Each is one transaction (:func:`api.services.transactions.write`), idempotent when given an
+Idempotency-Key, and audited, refused or not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session
+
+from api.services import to_json
+from api.services.errors import NotFoundError
+from api.services.idempotency import Idempotency, Written
+from api.services.transactions import audited, write
+from db import access, library
+from db.access import Actor
+from db.plans import add_plan, add_replan, current_body, get_plan_row, plan_tools
+from db.state import load_state
+from models.errors import InputError
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.replan import replan as supervisor_replan
+from supervisor.rcb.state import RcbSettings, RcbState
+
+
+def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
+    """Floors given as ``QUANTITY=VALUE`` (CLI options, query parameters), checked."""
+    floors: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise InputError(field, item, "must be QUANTITY=VALUE")
+        try:
+            number = float(value)
+        except ValueError:
+            raise InputError(f"{field} {name}", value, "must be a number") from None
+        floors[name.strip()] = number
+    return floors
+
+
+def create_plan(
+    *,
+    engine: Engine,
+    body: Mapping[str, Any],
+    settings: RcbSettings | None = None,
+    actor: Actor = access.CLI_ACTOR,
+    idempotency: Idempotency | None = None,
+) -> Written:
+    """Check and optimise a plan, store it with setpoint version 1 (status 201).
+
+    ``settings``: the plan's RCB law, every setting stored (default: :class:`RcbSettings`).
+    """
+    with audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
+        settings = settings or RcbSettings()
+        with Session(engine) as session:
+            stored_tools = library.load_tools(session=session)
+        plan = plan_from_mapping(body, stored_tools)
+        result = optimize_plan(plan)  # outside the write transaction: it needs no lock
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            plan_id = add_plan(
+                session=session, body=body, plan=plan, result=result, settings=settings
+            )
+            return 201, {
+                "id": plan_id,
+                "name": plan.name,
+                "setpoint_version": 1,
+                **operations_json(result),
+            }
+
+        return write(
+            engine,
+            actor=actor,
+            action="create plan",
+            target=f"plan {plan.name}",
+            idempotency=idempotency,
+            work=work,
+            attempts=3,
+        )
+
+
+def replan(
+    *,
+    engine: Engine,
+    plan_id: int,
+    changes: Mapping[str, Any],
+    dry_run: bool = False,
+    actor: Actor = access.CLI_ACTOR,
+    idempotency: Idempotency | None = None,
+) -> Written:
+    """Apply an engineer's change and re-optimise; unless ``dry_run``, store it.
+
+    The new setpoint version has cause ``replan``; the answer shows the difference to the
+    setpoints in force (:mod:`supervisor.rcb.replan`).
+    """
+    with audited(engine, actor, "replan", f"plan {plan_id}"):
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            row = _plan(session, plan_id, lock=True)
+            before = load_state(session=session, plan_row=row)
+            body = current_body(session=session, plan_row=row)
+            library = plan_tools(session=session, plan_id=plan_id)
+            library.update(library_tools(session))
+            done = supervisor_replan(before, body, changes, library)
+            if not dry_run:
+                add_replan(
+                    session=session,
+                    plan_row=row,
+                    body=done.body,
+                    changes=dict(changes),
+                    reset_bands=done.reset_bands,
+                    before=before,
+                    after=done.state,
+                    actor=actor.name,
+                )
+            answer = _replan_answer(plan_id, before, done, dry_run)
+            return (200 if dry_run else 201), answer
+
+        if dry_run:
+            with Session(engine) as session:
+                session.begin()
+                try:
+                    status, body = work(session)
+                finally:
+                    session.rollback()  # a dry run stores nothing
+            return Written(status, body)
+        return write(
+            engine,
+            actor=actor,
+            action="replan",
+            target=f"plan {plan_id}",
+            idempotency=idempotency,
+            work=work,
+        )
+
+
+def library_tools(session: Session) -> dict[str, Any]:
+    """Every stored tool (a replan may name a tool added over REST)."""
+    return library.load_tools(session=session)
+
+
+def _replan_answer(plan_id: int, before: RcbState, done: Any, dry_run: bool) -> dict[str, Any]:
+    old = {op.name: op for op in before.setpoints.operations}
+    diff = []
+    for op in done.state.setpoints.operations:
+        was = old[op.name]
+        diff.append(
+            {
+                "operation": op.name,
+                "setpoint": {k: [was.setpoint.get(k), v] for k, v in op.setpoint.items()},
+                "mrr_cm3_min": [was.mrr_cm3_min, op.mrr_cm3_min],
+                "binding": [list(was.binding), list(op.binding)],
+            }
+        )
+    return {
+        "plan_id": plan_id,
+        "dry_run": dry_run,
+        "setpoint_version": before.version if dry_run else done.state.version,
+        "reset_bands": done.reset_bands,
+        "cycle_time_min": [before.setpoints.cycle_time_min, done.state.setpoints.cycle_time_min],
+        "diff": diff,
+        **operations_json(done.state.setpoints),
+    }
+
+
+def _plan(session: Session, plan_id: int, lock: bool = False) -> Any:
+    row = get_plan_row(session=session, plan_id=plan_id, lock=lock)
+    if row is None:
+        raise NotFoundError("plan_id", plan_id)
+    return row
+
+
+def operations_json(result: Any) -> dict[str, Any]:
+    """The ``operations`` of an answer: each operation's setpoint as JSON."""
+    return {"operations": to_json.plan_json(result)["operations"]}
