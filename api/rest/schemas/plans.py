@@ -12,7 +12,7 @@ from api.rest.schemas.halts import HaltOut
 from api.rest.schemas.setpoints import OperationSetpoint
 from api.rest.schemas.tools import ToolIn
 from models.kinematics import PARAMETERS, PROCESSES, Process
-from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, PARTS_PER_EDGE
+from models.quantities import limit_keys
 from supervisor.optimize.program import Objective
 
 
@@ -78,10 +78,9 @@ class PlanDetail(PlanSummary):
     body: dict[str, Any]
 
 
-#: What an operation's ``limits`` may name: maxima of the models, the machine quantities, and
-#: the tool-life minimum ``parts_per_edge`` (supervisor.inputs.plan).
-LIMITS = [q for q, info in MODEL_QUANTITIES.items() if info.sense == "max"]
-LIMITS += [*DERIVED_QUANTITIES, PARTS_PER_EDGE]
+#: What an operation's ``limits`` may name (the quantity registry, models.quantities): maxima
+#: of the models, the machine quantities, and the tool-life minimum ``parts_per_edge``.
+LIMITS = list(limit_keys())
 _ALL_PARAMETERS = sorted({v for p in PROCESSES for v in PARAMETERS[p]})
 
 
