@@ -126,3 +126,24 @@ def test_no_import_cycle(package):
 def test_the_cycle_finder_finds_a_cycle():
     graph = {"a": ["b"], "b": ["c"], "c": ["a"], "d": ["a"]}
     assert _cycles(graph) == [["a", "b", "c"]]
+
+
+#: The largest module outside tests/ (issue 16: files small and single-purpose).
+MAX_LINES = 400
+
+
+def test_no_module_is_over_400_lines():
+    files = [*MODULES.values(), *sorted((ROOT / "benchmarks" / "api_load").rglob("*.py"))]
+    long = {
+        str(path.relative_to(ROOT)): n
+        for path in files
+        if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_LINES
+    }
+    assert not long
+
+
+@pytest.mark.parametrize("package", SUBPACKAGES)
+def test_every_package_says_what_it_holds(package):
+    init = ROOT / package.replace(".", "/") / "__init__.py"
+    doc = ast.get_docstring(ast.parse(init.read_text(encoding="utf-8")))
+    assert doc and "arrive" not in doc, f"{init.relative_to(ROOT)}: docstring {doc!r}"
