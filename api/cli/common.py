@@ -2,8 +2,9 @@
 
 Exit codes: 0 success, 2 bad input (one line naming the field and the value), 3 infeasible
 (the limits that cannot be met) or a halted plan (its conflicts), 4 solver failure. The
-command modules (:mod:`api.cli.main`, :mod:`api.cli.fit`, :mod:`api.cli.review`,
-:mod:`api.cli.gcode`, :mod:`api.cli.report`) import from here, never from each other.
+command modules (:mod:`api.cli.optimize`, :mod:`api.cli.fit`, :mod:`api.cli.review` ...)
+import from here and from their own output modules (:mod:`api.cli.tables`,
+:mod:`api.cli.demo_view`), never from each other; :mod:`api.cli.main` registers them.
 """
 
 from __future__ import annotations
@@ -43,6 +44,9 @@ STRATEGY_HELP = (
 )
 #: ``--strategy``: a name of :data:`supervisor.rcb.strategies.REGISTRY`, its summary in the help.
 StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEGY_HELP)]
+
+#: ``--json`` of the commands that print tables otherwise.
+JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
 
 DbOption = Annotated[
     str | None,
