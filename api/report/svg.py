@@ -32,7 +32,7 @@ STYLE: dict[RcKeyType, Any] = {
     "grid.alpha": 0.3,
     "lines.markersize": 4.0,
 }
-#: Beyond this many parts the setpoint lines have no marker per part (smaller SVG).
+#: What matplotlib would write about itself and the date: nothing (the SVG stays the same).
 _SVG_METADATA: dict[str, Any] = {"Creator": None, "Date": None, "Format": None, "Type": None}
 
 _ID = re.compile(r'(\bid="|href="#|url\(#)')
