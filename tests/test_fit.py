@@ -32,7 +32,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
-from api.cli.fit import fit, tool_table, tool_toml
+from api.cli.fit import fit
+from api.cli.fit_tool import tool_table, tool_toml
 from models.errors import InputError
 from models.fit import FitResult, fit_power_law
 from models.fit_band import coverage

@@ -1,5 +1,5 @@
 """rcb report: the HTML record of a plan (api/report/html.py, api/report/plots.py,
-api/cli/report.py).
+api/cli/html_report.py).
 
 A plan of the demonstration part (Ivester & Heigel) with 10 parts from the virtual lathe in a
 temporary SQLite database; part SN-0004 reports a rough-OD force over the 2000 N limit, which
@@ -22,7 +22,9 @@ from matplotlib.lines import Line2D
 from numpy.testing import assert_allclose
 
 from api.report import plots
-from api.report.html import render_report
+from api.report.html import render_html_report as render_report
+from api.report.series import operation_series
+from api.report.svg import render
 from api.services import queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
@@ -231,7 +233,7 @@ def test_page_is_deterministic(stored, page):
 def test_limit_lines_are_at_the_plan_limits(stored, page):
     _, _, plan, history, parts = stored
     for index, op in enumerate(plan["operations"], start=1):
-        series = plots.operation_series(plan, history, parts, op["name"])
+        series = operation_series(plan, history, parts, op["name"])
         expected = {q: v for q, v in op["limits"].items() if q != "parts_per_edge"}
         if "parts_per_edge" in op["limits"]:  # a minimum tool life: parts x volume [mm³]
             expected["tool_life_mm3"] = op["limits"]["parts_per_edge"] * op["volume_mm3"]
@@ -257,7 +259,7 @@ def test_limit_lines_are_at_the_plan_limits(stored, page):
 def test_over_limit_part_is_flagged_and_marked(stored, page):
     _, _, plan, history, parts = stored
     assert parts[OVER_LIMIT]["operations"][0]["measurements"]["force_N"]["value"] == 2100.0
-    series = plots.operation_series(plan, history, parts, "rough-od")
+    series = operation_series(plan, history, parts, "rough-od")
     force = next(o for o in series.outputs if o.quantity == "force_N")
     assert force.flagged[OVER_LIMIT] and force.measured[OVER_LIMIT] == 2100.0
     assert len(force.flagged) == PARTS + 1 and not force.flagged[-1]  # the next part: no data
@@ -279,7 +281,7 @@ def test_over_limit_part_is_flagged_and_marked(stored, page):
 
 def test_series_follow_the_setpoint_each_part_was_made_with(stored):
     _, _, plan, history, parts = stored
-    series = plots.operation_series(plan, history, parts, "rough-od")
+    series = operation_series(plan, history, parts, "rough-od")
     versions = {v["version"]: v["operations"][0] for v in history["versions"]}
     made_with = [versions[p["setpoint_version"]] for p in parts] + [versions[max(versions)]]
     assert series.versions == (*(p["setpoint_version"] for p in parts), max(versions))
@@ -331,7 +333,7 @@ def test_a_plan_without_parts_shows_its_start(stored):
 
 def test_last_parts_keep_their_numbers(stored):
     _, _, plan, history, parts = stored
-    series = plots.operation_series(plan, history, parts[-3:], "rough-od", first_part=PARTS - 2)
+    series = operation_series(plan, history, parts[-3:], "rough-od", first_part=PARTS - 2)
     line = plots.parameters_figure(series).axes[0].get_lines()[0]
     assert_allclose(line.get_xdata(), [PARTS - 2, PARTS - 1, PARTS, PARTS + 1])
     text = render_report(plan, history, parts, last=3)
@@ -348,12 +350,12 @@ def test_last_parts_keep_their_numbers(stored):
 
 def test_svg_ids_are_prefixed_and_checked(stored):
     _, _, plan, history, parts = stored
-    series = plots.operation_series(plan, history, parts, "rough-od")
-    svg = plots.render(plots.parameters_figure, series, "p1")
+    series = operation_series(plan, history, parts, "rough-od")
+    svg = render(plots.parameters_figure, series, "p1")
     assert svg.startswith("<svg") and "<!DOCTYPE" not in svg
     assert all(i.startswith("p1-") for i in re.findall(r'\bid="([^"]*)"', svg))
     with pytest.raises(ValueError, match="id_prefix"):
-        plots.render(plots.parameters_figure, series, 'x" onload="')
+        render(plots.parameters_figure, series, 'x" onload="')
 
 
 # --------------------------------------------------------------------------------------------
@@ -455,7 +457,7 @@ def test_cli_refuses_an_unwritable_directory(runner, cli, stored, tmp_path):
 
 
 def test_other_commands_do_not_pay_for_matplotlib():
-    code = "import sys, api.cli.report; assert 'matplotlib' not in sys.modules"
+    code = "import sys, api.cli.html_report; assert 'matplotlib' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

@@ -19,7 +19,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from api.cli.common import STRATEGY_HELP, emit, err_console, errors
+from api.cli.common import STRATEGY_HELP, JsonOption, emit, err_console, errors
 from models import fields
 from models.errors import InputError
 from supervisor.inputs.plan import load_plan
@@ -63,7 +63,7 @@ def certify(
             "--jobs", min=1, help="Worker processes (default: the CPUs available; 1: no pool)."
         ),
     ] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Monte Carlo certificate of a plan under an RCB strategy (violations, MRR).
 
@@ -80,9 +80,8 @@ def certify(
     """
     with errors():
         if strategy not in STRATEGY_NAMES:
-            raise InputError(
-                "--strategy", strategy, f"expected one of: {', '.join(STRATEGY_NAMES)}"
-            )
+            known = ", ".join(STRATEGY_NAMES)
+            raise InputError("--strategy", strategy, f"expected one of: {known}")
         drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
         plan = load_plan(plan_file)
         workers = jobs if jobs is not None else available_cpus()

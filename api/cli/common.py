@@ -2,8 +2,9 @@
 
 Exit codes: 0 success, 2 bad input (one line naming the field and the value), 3 infeasible
 (the limits that cannot be met) or a halted plan (its conflicts), 4 solver failure. The
-command modules (:mod:`api.cli.main`, :mod:`api.cli.fit`, :mod:`api.cli.review`,
-:mod:`api.cli.gcode`, :mod:`api.cli.report`) import from here, never from each other.
+command modules (:mod:`api.cli.optimize`, :mod:`api.cli.fit`, :mod:`api.cli.review` ...)
+import from here and from their own output modules (:mod:`api.cli.tables`,
+:mod:`api.cli.demo_view`), never from each other; :mod:`api.cli.main` registers them.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api.services.errors import NotFoundError, PlanHaltedError
-from db.engine import DEFAULT_URL, make_engine
+from db.engine import make_engine
 from db.errors import ConflictError
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
@@ -43,6 +44,9 @@ STRATEGY_HELP = (
 )
 #: ``--strategy``: a name of :data:`supervisor.rcb.strategies.REGISTRY`, its summary in the help.
 StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEGY_HELP)]
+
+#: ``--json`` of the commands that print tables otherwise.
+JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
 
 DbOption = Annotated[
     str | None,
@@ -87,11 +91,6 @@ def _jsonable(value: object) -> str:
     if isinstance(value, datetime):
         return value.isoformat()
     raise TypeError(type(value).__name__)
-
-
-def database_url(db: str | None) -> str:
-    """``--db``, else ``$RCB_DATABASE_URL``, else the embedded default ``./rcb.db``."""
-    return db or os.environ.get("RCB_DATABASE_URL") or DEFAULT_URL
 
 
 def shown(url: str) -> str:

@@ -16,7 +16,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from api.cli.common import emit, errors
+from api.cli.common import JsonOption, emit, errors
 from supervisor.borangiu.domain import EQUATIONS
 from supervisor.borangiu.problem import load_domain_problem
 from supervisor.borangiu.result import DomainPoint, DomainResult
@@ -30,7 +30,7 @@ def domain(
         Path,
         typer.Argument(metavar="DOMAIN.toml", help="The pass: [cut], [domain], [productivity]."),
     ],
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Borangiu's (w, n) domain of one pass: max MRR (LP) against least cost J (GP)."""
     with errors():

@@ -13,28 +13,24 @@ Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
 
-import numpy as np
-import pandas as pd
 import typer
 from rich.console import Console
 from rich.table import Table
 
-from api.cli.common import check_target, emit, errors, number_cell, say, write_atomically
+from api.cli.common import JsonOption, emit, errors, say
+from api.cli.fit_data import check_column, positive_numbers, read_csv, select_rows, where_filter
+from api.cli.fit_tool import tool_table, tool_toml, write_tool_file
 from models.errors import InputError
 from models.fit import FitResult, fit_power_law
 from models.fit_band import BANDS, Band
 from models.quantities import MODEL_QUANTITIES
-from models.tool import process_of, tool_from_mapping, variables
+from models.tool import process_of, variables
 
 _out = Console()
-
-#: How many distinct values of a column an error lists at most.
-_SHOWN_VALUES = 12
 
 
 def fit(
@@ -85,7 +81,7 @@ def fit(
         Path | None,
         typer.Option("--write-tool", help="Write the model here as a plan-file tool (TOML)."),
     ] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+    as_json: JsonOption = False,
 ) -> None:
     """Fit Y = K·Π x^e by least squares on logarithms, with a band ±ΔK, from a CSV file.
 
@@ -115,16 +111,16 @@ def fit(
                     f"--fix {name}", exponent, f"needs the values: add --var {name}=COLUMN"
                 )
 
-        table = _read_csv(data)
-        _column(table, response, "--response", data)
+        table = read_csv(data)
+        check_column(table, response, "--response", data)
         used = {response: "--response"}
         for name, column in columns.items():
-            _column(table, column, f"--var {name}", data)
+            check_column(table, column, f"--var {name}", data)
             if column in used:
                 raise InputError(f"--var {name}", column, f"column already used by {used[column]}")
             used[column] = f"--var {name}"
-        filters = [_filter(item, table, data) for item in where or []]
-        kept = _select(table, filters)
+        filters = [where_filter(item, table, data) for item in where or []]
+        kept = select_rows(table, filters)
         filter_text = ", ".join(f"{c}={t}" for c, t in filters)
         p = 1 + sum(1 for name in columns if name not in fixed)
         if len(kept) <= p:
@@ -136,8 +132,8 @@ def fit(
                 f"(ln_K and {_count(p - 1, 'exponent')}); need at least {p + 1} to estimate s",
             )
         rows = [f"row {i + 1}" for i in kept.index]
-        y = _numbers(kept, response, rows)
-        values = {name: _numbers(kept, column, rows) for name, column in columns.items()}
+        y = positive_numbers(kept, response, rows)
+        values = {name: positive_numbers(kept, column, rows) for name, column in columns.items()}
         result = fit_power_law(
             y,
             values,
@@ -159,7 +155,7 @@ def fit(
             text = tool_toml(
                 tool_table(result, tool_name, checked_process, quantity, source, reference)
             )
-            _write_atomically(write_tool, text)
+            write_tool_file(write_tool, text)
             written = str(write_tool)
 
     if as_json:
@@ -235,159 +231,6 @@ def _exponent(text: str, name: str) -> float:
     if not math.isfinite(value):
         raise InputError(f"--fix {name}", text, "must be a finite number")
     return value
-
-
-def _read_csv(path: Path) -> pd.DataFrame:
-    """Every cell as text (so ``--where`` compares text); empty cells are ``""``."""
-    try:
-        table = pd.read_csv(path, dtype=str, keep_default_na=False, encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError("data file", str(path), "no such file") from None
-    except IsADirectoryError:
-        raise InputError("data file", str(path), "is a directory, not a CSV file") from None
-    except UnicodeDecodeError as err:
-        raise InputError("data file", str(path), f"is not UTF-8 text ({err.reason})") from None
-    except pd.errors.EmptyDataError:
-        raise InputError("data file", str(path), "is empty: no header line") from None
-    except pd.errors.ParserError as err:
-        first = str(err).strip().splitlines()[-1] if str(err).strip() else "unreadable"
-        raise InputError("data file", str(path), f"is not a CSV table ({first})") from None
-    except OSError as err:
-        raise InputError("data file", str(path), f"cannot be read ({err.strerror})") from None
-    table.columns = [str(c).strip() for c in table.columns]
-    if table.empty:
-        raise InputError("data file", str(path), "has a header line but no rows")
-    return table
-
-
-def _column(table: pd.DataFrame, column: str, option: str, path: Path) -> None:
-    if column not in table.columns:
-        raise InputError(
-            option,
-            column,
-            f"no such column in {path.name}; columns: {', '.join(map(str, table.columns))}",
-        )
-
-
-def _filter(item: str, table: pd.DataFrame, path: Path) -> tuple[str, str]:
-    column, sep, text = item.partition("=")
-    column, text = column.strip(), text.strip()
-    if not sep or not column:
-        raise InputError("--where", item, "must be COLUMN=TEXT")
-    if column not in table.columns:
-        raise InputError(
-            "--where",
-            item,
-            f"no column {column} in {path.name}; columns: {', '.join(map(str, table.columns))}",
-        )
-    return column, text
-
-
-def _select(table: pd.DataFrame, filters: list[tuple[str, str]]) -> pd.DataFrame:
-    """The rows whose cells match every ``(column, text)`` (cell text stripped of spaces)."""
-    kept = table
-    for i, (column, text) in enumerate(filters):
-        matching = kept[kept[column].str.strip() == text]
-        if matching.empty:
-            after = " left by the --where before it" if i else ""
-            raise InputError(
-                "--where",
-                f"{column}={text}",
-                f"matches no row{after}; {column} holds: {_values(kept[column])}",
-            )
-        kept = matching
-    return kept
-
-
-def _values(cells: pd.Series) -> str:
-    distinct = sorted({str(c).strip() for c in cells})
-    shown = ", ".join(repr(v) for v in distinct[:_SHOWN_VALUES])
-    return shown + (f" … ({len(distinct)} values)" if len(distinct) > _SHOWN_VALUES else "")
-
-
-def _numbers(table: pd.DataFrame, column: str, rows: list[str]) -> np.ndarray:
-    """The column as floats; a cell that is empty, not a number, not finite or ≤ 0 is refused."""
-    cells = [str(c).strip() for c in table[column]]
-    values = np.empty(len(cells))
-    for i, cell in enumerate(cells):
-        where = f"{column}[{rows[i]}]"
-        value = number_cell(cell, where)
-        if value <= 0:
-            raise InputError(
-                where, cell, "must be greater than 0 (the power law is fitted on logarithms)"
-            )
-        values[i] = value
-    return values
-
-
-def tool_table(
-    result: FitResult, name: str, process: str, quantity: str, source: str, reference: str
-) -> dict[str, Any]:
-    """The fitted model as a plan-file tool ``{name, process, description, source, models}``."""
-    model = result.to_model(quantity, source, reference)
-    return {
-        "name": name,
-        "process": process,
-        "description": f"{quantity} model fitted by rcb fit",
-        "source": source,
-        "models": {
-            quantity: {
-                "K": model.K,
-                "dK": model.dK,
-                "exponents": dict(model.exponents),
-                "exponent_stderr": dict(model.exponent_stderr),
-                "source": model.source,
-                "reference": model.reference,
-            }
-        },
-    }
-
-
-def tool_toml(tool: Mapping[str, Any]) -> str:
-    """TOML text of one ``[[tools]]`` entry; checked by reading it back as a plan-file tool."""
-    lines = ["# Written by rcb fit.", "", "[[tools]]"]
-    models: Mapping[str, Mapping[str, Any]] = tool["models"]
-    lines += [f"{key} = {_toml(value)}" for key, value in tool.items() if key != "models"]
-    for quantity, model in models.items():
-        lines += ["", f"[tools.models.{quantity}]"]
-        lines += [f"{key} = {_toml(value)}" for key, value in model.items()]
-    text = "\n".join(lines) + "\n"
-    tool_from_mapping(tomllib.loads(text)["tools"][0], "--write-tool")
-    return text
-
-
-def _toml(value: Any) -> str:
-    """A TOML value: string, finite float or inline table of numbers with bare keys."""
-    if isinstance(value, str):
-        return _toml_string(value)
-    if isinstance(value, float):
-        return repr(value)  # shortest repr, exact round trip; finite (checked by the model)
-    if isinstance(value, Mapping):
-        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
-    raise TypeError(f"cannot write {value!r} as TOML")
-
-
-def _toml_string(text: str) -> str:
-    """A TOML basic string: quote, backslash and control characters escaped."""
-    out = []
-    for char in text:
-        if char in '"\\':
-            out.append("\\" + char)
-        elif ord(char) < 0x20 or ord(char) == 0x7F:
-            out.append(f"\\u{ord(char):04X}")
-        else:
-            out.append(char)
-    return '"' + "".join(out) + '"'
-
-
-def _write_atomically(path: Path, text: str) -> None:
-    """Write the tool file whole or not at all (:func:`api.cli.common.write_atomically`)."""
-    check_target(path, "--write-tool")
-    try:
-        data = text.encode("utf-8")
-    except UnicodeEncodeError as err:
-        raise InputError("--write-tool", str(path), f"cannot encode as UTF-8 ({err})") from None
-    write_atomically(path, data, "--write-tool")
 
 
 def _table(

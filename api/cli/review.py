@@ -11,12 +11,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any
 
+import pandas as pd
 import typer
 from rich.console import Console
 from rich.table import Table
 from sqlalchemy import Engine
 
-from api.cli.common import DbOption, emit, errors, existing_engine, say
+from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
 from api.report import export as tidy
 from api.report import marks
 from api.services import queries
@@ -25,7 +26,8 @@ from models.errors import InputError
 
 _out = Console()
 
-JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
+#: ``--json`` of the review commands (their help says less than :data:`api.cli.common.JsonOption`).
+_JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
 PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")]
 
 
@@ -39,7 +41,7 @@ def _fmt(value: float | None) -> str:
     return f"{value:.4g}" if abs(value) < 1e5 else f"{value:.3e}"
 
 
-def plans(db: DbOption = None, as_json: JsonOption = False) -> None:
+def plans(db: DbOption = None, as_json: _JsonOption = False) -> None:
     """List the plans: machine, RCB law, setpoint version in force, parts reported."""
     with errors():
         data = queries.list_plans(engine=_engine(db))
@@ -83,7 +85,7 @@ def history(
         str | None, typer.Option(help="One operation in detail: setpoints, predictions, bands.")
     ] = None,
     db: DbOption = None,
-    as_json: JsonOption = False,
+    as_json: _JsonOption = False,
 ) -> None:
     """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
     with errors():
@@ -187,7 +189,7 @@ def parts(
         str | None, typer.Option(help="Only parts received at or after this ISO 8601 time (UTC).")
     ] = None,
     db: DbOption = None,
-    as_json: JsonOption = False,
+    as_json: _JsonOption = False,
 ) -> None:
     """Parts with their measurements, the margins to each limit, and flagged violations."""
     with errors():
@@ -246,10 +248,27 @@ def export(
         tables = tidy.tables(
             queries.plan_history(engine=engine, plan_id=plan), _all_parts(engine, plan)
         )
-        written = tidy.write(tables, out, fmt)
+        written = _write_tables(tables, out, fmt)
     for path in written:
         say(f"rcb: wrote {path}")
     sys.stdout.flush()
+
+
+def _write_tables(frames: dict[str, pd.DataFrame], out: Path, fmt: str) -> list[Path]:
+    """Write each table as ``OUT/<name>.<fmt>``; each file appears whole or not at all."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(
+            "--out", str(out), f"cannot create the directory ({err.strerror})"
+        ) from None
+    written = []
+    for name, frame in frames.items():
+        target = out / f"{name}.{fmt}"
+        data = frame.to_csv(index=False).encode("utf-8") if fmt == "csv" else frame.to_parquet()
+        write_atomically(target, data)
+        written.append(target)
+    return written
 
 
 def replan(
@@ -268,7 +287,7 @@ def replan(
         bool, typer.Option("--dry-run", help="Show the result; store nothing.")
     ] = False,
     db: DbOption = None,
-    as_json: JsonOption = False,
+    as_json: _JsonOption = False,
 ) -> None:
     """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
     from api.services.plans import replan

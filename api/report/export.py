@@ -12,13 +12,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import pandas as pd
-
-from api.cli.common import write_atomically
-from models.errors import InputError
 
 
 def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd.DataFrame]:
@@ -76,20 +72,3 @@ def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd
         "decisions": pd.DataFrame(decision_rows),
         "setpoints": pd.DataFrame(setpoint_rows),
     }
-
-
-def write(frames: dict[str, pd.DataFrame], out: Path, fmt: str) -> list[Path]:
-    """Write each table as ``OUT/<name>.<fmt>``; each file appears whole or not at all."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise InputError(
-            "--out", str(out), f"cannot create the directory ({err.strerror})"
-        ) from None
-    written = []
-    for name, frame in frames.items():
-        target = out / f"{name}.{fmt}"
-        data = frame.to_csv(index=False).encode("utf-8") if fmt == "csv" else frame.to_parquet()
-        write_atomically(target, data)
-        written.append(target)
-    return written

@@ -1,6 +1,6 @@
 """A plan's production record as one self-contained HTML page an engineer can mail.
 
-:func:`render_report` takes the JSON dicts of :mod:`api.services.queries` (``get_plan``,
+:func:`render_html_report` takes the JSON dicts of :mod:`api.services.queries` (``get_plan``,
 ``plan_history`` and all items of ``parts``) and returns the page: the setpoints in force with
 their bands and margins, every setpoint version with its cause and MRR, the cycle time, and per
 operation the plots of :mod:`api.report.plots` (after Ivester & Heigel, Fig. 4).
@@ -14,14 +14,15 @@ also well-formed XML, so XML tools can read it.
 
 from __future__ import annotations
 
-import html
-from collections.abc import Iterable, Mapping, Sequence
-from datetime import datetime
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from api.report import plots
+from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
 from api.report.marks import decision_mark, halt_lines
-from api.report.plots import OperationSeries, Output, number
+from api.report.plots import number
+from api.report.series import OperationSeries, Output, cycle_series, operation_series
+from api.report.svg import render
 
 #: A margin at the band edge smaller than this fraction of the limit is 0 (a binding limit).
 BINDING_RTOL = 1e-6
@@ -58,40 +59,9 @@ _CAPTIONS = {
 }
 
 
-def _e(value: object) -> str:
-    return html.escape(str(value), quote=True)
-
-
-def _tag(name: str, content: str, **attributes: object) -> str:
-    """``<name attributes>content</name>``; ``content`` must already be HTML."""
-    attrs = "".join(
-        f' {key.rstrip("_").replace("_", "-")}="{_e(v)}"'
-        for key, v in attributes.items()
-        if v is not None
-    )
-    return f"<{name}{attrs}>{content}</{name}>"
-
-
-def _row(cells: Iterable[str], **attributes: object) -> str:
-    return _tag("tr", "".join(cells), **attributes)
-
-
-def _th(text: object, **attributes: object) -> str:
-    return _tag("th", _e(text), **attributes)
-
-
-def _td(text: object, **attributes: object) -> str:
-    return _tag("td", _e(text), **attributes)
-
-
 def _num(value: float | None, **attributes: object) -> str:
-    return _tag("td", _e(number(value)), class_="num", **attributes)
-
-
-def _when(moment: object) -> str:
-    if isinstance(moment, datetime):
-        return moment.strftime("%Y-%m-%d %H:%M:%S %Z").strip()
-    return str(moment)
+    """A number cell, right-aligned, formatted as the plots' labels (:func:`plots.number`)."""
+    return td(number(value), class_="num", **attributes)
 
 
 # --------------------------------------------------------------------------------------------
@@ -114,8 +84,11 @@ def _overview(
         ("Status", "HALTED" if plan.get("status") == "halted" else "running"),
         ("Machine", plan["machine"]),
         ("RCB", f"{plan['strategy']}, α = {plan['alpha']:g}"),
-        ("Plan created", _when(plan["created_at"])),
-        ("Parts reported", f"{len(parts)}, last {_when(parts[-1]['received_at'])}" if parts else 0),
+        ("Plan created", timestamp(plan["created_at"])),
+        (
+            "Parts reported",
+            f"{len(parts)}, last {timestamp(parts[-1]['received_at'])}" if parts else 0,
+        ),
         ("Setpoint version in force", versions[-1]["version"]),
         ("Cycle time", f"{number(first)} min at version 1 → {number(last)} min now{change}"),
         ("Flagged RCB decisions", f"{flagged} ({breaches} past a limit)"),
@@ -124,7 +97,7 @@ def _overview(
     if len(plotted) < len(parts):
         shown = f"the last {len(plotted)} parts, from {plotted[0]['serial']}" if plotted else "none"
         items.append(("Plotted", shown))
-    return _tag("dl", "".join(_tag("dt", _e(k)) + _tag("dd", _e(v)) for k, v in items))
+    return tag("dl", "".join(tag("dt", escaped(k)) + tag("dd", escaped(v)) for k, v in items))
 
 
 def _halt_section(plan: Mapping[str, Any]) -> str:
@@ -132,19 +105,19 @@ def _halt_section(plan: Mapping[str, Any]) -> str:
     halt = plan.get("halt")
     if plan.get("status") != "halted" or not halt:
         return ""
-    lines = "".join(_tag("li", _e(line)) for line in halt_lines(halt))
+    lines = "".join(tag("li", escaped(line)) for line in halt_lines(halt))
     text = (
         "No setpoint meets the bands in force: setpoints are refused (409 plan_halted) until "
         f"an engineer replans (rcb replan {plan['id']}, or POST .../replan)."
     )
-    heading = _tag("h2", _e("HALTED"))
-    return _tag("section", heading + _tag("p", _e(text)) + _tag("ul", lines), class_="halt")
+    heading = tag("h2", escaped("HALTED"))
+    return tag("section", heading + tag("p", escaped(text)) + tag("ul", lines), class_="halt")
 
 
 def _mark(d: Mapping[str, Any]) -> str:
     """A decision's flag or note as a ``span`` of its kind's class (empty if neither)."""
     label, kind = decision_mark(d)
-    return _tag("span", _e(label), class_=kind) if label else ""
+    return tag("span", escaped(label), class_=kind) if label else ""
 
 
 def _margin(output: Output) -> float | None:
@@ -179,20 +152,20 @@ def _output_cells(series: OperationSeries, output: Output, parts: Sequence[Any])
     value, band = float(output.predicted[-1]), float(output.band[-1])
     relative = f" ({band / value:.1%})" if value else ""
     last = _last_decision(parts, series.name, output.quantity)
-    measured = _e("–")
+    measured = escaped("–")
     if last is not None:
         serial, d = last
         mark = _mark(d)
-        measured = _e(f"{number(d['margin'])} ({serial}, {d['action']}") + (
+        measured = escaped(f"{number(d['margin'])} ({serial}, {d['action']}") + (
             f", {mark})" if mark else ")"
         )
     word = "max" if output.sense == "max" else "min"
     return [
-        _td(plots.quantity_label(output.quantity)),
-        _td(f"{number(value)} ± {number(band)}{relative}", class_="num"),
-        _td(f"{number(output.limit)} ({word})" if output.limit is not None else "–", class_="num"),
+        td(plots.quantity_label(output.quantity)),
+        td(f"{number(value)} ± {number(band)}{relative}", class_="num"),
+        td(f"{number(output.limit)} ({word})" if output.limit is not None else "–", class_="num"),
         _num(_margin(output)),
-        _tag("td", measured, class_="num"),
+        tag("td", measured, class_="num"),
     ]
 
 
@@ -201,8 +174,8 @@ def _setpoints_table(
     series: Sequence[OperationSeries],
     parts: Sequence[Mapping[str, Any]],
 ) -> str:
-    head = _row(
-        _th(h)
+    head = row(
+        th(h)
         for h in (
             "Operation",
             "Setpoint",
@@ -221,59 +194,59 @@ def _setpoints_table(
     for s in series:
         span = max(len(s.outputs), 1)
         first = [
-            _td(f"{s.name} ({s.tool})", rowspan=span),
-            _td(_setpoint_text(s), rowspan=span),
+            td(f"{s.name} ({s.tool})", rowspan=span),
+            td(_setpoint_text(s), rowspan=span),
             _num(float(s.mrr_cm3_min[-1]), rowspan=span),
             _num(float(s.time_min[-1]), rowspan=span),
-            _td(", ".join(binding.get(s.name, [])), rowspan=span),
+            td(", ".join(binding.get(s.name, [])), rowspan=span),
         ]
-        outputs = [_output_cells(s, o, parts) for o in s.outputs] or [[_td("–")] * 5]
-        rows.append(_row(first + outputs[0], data_operation=s.name))
-        rows += [_row(cells, data_operation=s.name) for cells in outputs[1:]]
+        outputs = [_output_cells(s, o, parts) for o in s.outputs] or [[td("–")] * 5]
+        rows.append(row(first + outputs[0], data_operation=s.name))
+        rows += [row(cells, data_operation=s.name) for cells in outputs[1:]]
     version = history["versions"][-1]["version"]
-    caption = _tag("caption", _e(f"Setpoints in force (version {version})"))
-    body = _tag("thead", head) + _tag("tbody", "".join(rows))
-    return _tag("table", caption + body, id="setpoints")
+    caption = tag("caption", escaped(f"Setpoints in force (version {version})"))
+    body = tag("thead", head) + tag("tbody", "".join(rows))
+    return tag("table", caption + body, id="setpoints")
 
 
 def _history_table(history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]]) -> str:
     names = [o["name"] for o in history["versions"][0]["operations"]]
     fixed = ("Version", "Cause", "Part", "Created", "Cycle time [min]")
-    head = _row(
+    head = row(
         [
-            *(_th(h, rowspan=2) for h in fixed),
-            _th("MRR [cm³/min]", colspan=len(names)),
-            _th("Flags and notes of the part", rowspan=2),
+            *(th(h, rowspan=2) for h in fixed),
+            th("MRR [cm³/min]", colspan=len(names)),
+            th("Flags and notes of the part", rowspan=2),
         ]
-    ) + _row(_th(n) for n in names)
+    ) + row(th(n) for n in names)
     updates = {p["part_id"]: p["updates"] for p in parts}
     rows = []
     for v in history["versions"]:
         mrr = {o["name"]: o["mrr_cm3_min"] for o in v["operations"]}
         marked = [d for d in updates.get(v["part_id"], []) if decision_mark(d)[0]]
         flagged = [d for d in marked if d["flagged"]]
-        marks = ", ".join(_e(f"{d['operation']} {d['quantity']} ") + _mark(d) for d in marked)
+        marks = ", ".join(escaped(f"{d['operation']} {d['quantity']} ") + _mark(d) for d in marked)
         kinds = sorted({decision_mark(d)[1] for d in flagged})
         cells = [
-            _td(v["version"], class_="num"),
-            _td(v["cause"]),
-            _td(v["serial"] or "–"),
-            _td(_when(v["created_at"])),
+            td(v["version"], class_="num"),
+            td(v["cause"]),
+            td(v["serial"] or "–"),
+            td(timestamp(v["created_at"])),
             _num(v["cycle_time_min"]),
             *(_num(mrr.get(n)) for n in names),
-            _tag("td", marks),
+            tag("td", marks),
         ]
-        rows.append(_row(cells, class_=" ".join(["flagged", *kinds]) if flagged else None))
-    caption = _tag("caption", _e("Setpoint versions: what caused each, and the MRR it gave"))
-    body = _tag("thead", head) + _tag("tbody", "".join(rows))
-    return _tag("table", caption + body, id="history")
+        rows.append(row(cells, class_=" ".join(["flagged", *kinds]) if flagged else None))
+    caption = tag("caption", escaped("Setpoint versions: what caused each, and the MRR it gave"))
+    body = tag("thead", head) + tag("tbody", "".join(rows))
+    return tag("table", caption + body, id="history")
 
 
 def _figure(svg: str, caption: str, kind: str, operation: str | None) -> str:
-    """An inline SVG (from :func:`api.report.plots.render`, already markup) with its caption."""
-    return _tag(
+    """An inline SVG (from :func:`api.report.svg.render`, already markup) with its caption."""
+    return tag(
         "figure",
-        svg + _tag("figcaption", _e(caption)),
+        svg + tag("figcaption", escaped(caption)),
         class_="plot",
         data_kind=kind,
         data_operation=operation,
@@ -281,19 +254,19 @@ def _figure(svg: str, caption: str, kind: str, operation: str | None) -> str:
 
 
 def _operation_section(index: int, series: OperationSeries) -> str:
-    heading = _tag("h2", _e(f"Operation {series.name}: {series.tool}, {series.process}"))
+    heading = tag("h2", escaped(f"Operation {series.name}: {series.tool}, {series.process}"))
     figures = [
-        _figure(plots.render(draw, series, f"op{index}-{kind}"), _CAPTIONS[kind], kind, series.name)
+        _figure(render(draw, series, f"op{index}-{kind}"), _CAPTIONS[kind], kind, series.name)
         for kind, draw in plots.OPERATION_PLOTS.items()
     ]
-    return _tag("section", heading + "".join(figures), data_operation=series.name)
+    return tag("section", heading + "".join(figures), data_operation=series.name)
 
 
 # --------------------------------------------------------------------------------------------
 # the page
 
 
-def render_report(
+def render_html_report(
     plan: Mapping[str, Any],
     history: Mapping[str, Any],
     parts: Sequence[Mapping[str, Any]],
@@ -325,23 +298,21 @@ def render_report(
     plotted = parts[-last:] if last is not None else parts
     first = len(parts) - len(plotted) + 1
     series = [
-        plots.operation_series(plan, history, plotted, op["name"], first)
-        for op in plan["operations"]
+        operation_series(plan, history, plotted, op["name"], first) for op in plan["operations"]
     ]
-    cycle = plots.render(plots.cycle_figure, plots.cycle_series(history, plotted, first), "cycle")
+    cycle = render(plots.cycle_figure, cycle_series(history, plotted, first), "cycle")
     body = "".join(
         [
-            _tag("h1", _e(title)),
+            tag("h1", escaped(title)),
             _overview(plan, history, parts, plotted),
             _halt_section(plan),
-            _tag("h2", _e("Setpoints in force")),
+            tag("h2", escaped("Setpoints in force")),
             _setpoints_table(history, series, parts),
-            _tag("h2", _e("Setpoint history")),
+            tag("h2", escaped("Setpoint history")),
             _figure(cycle, "Cycle time of the plan (all operations).", "cycle", None),
             _history_table(history, parts),
             *(_operation_section(i, s) for i, s in enumerate(series, start=1)),
-            _tag("footer", _e("Written by rcb report. Plots after Ivester & Heigel, Fig. 4.")),
+            tag("footer", escaped("Written by rcb report. Plots after Ivester & Heigel, Fig. 4.")),
         ]
     )
-    head = '<meta charset="utf-8"/>' + _tag("title", _e(title)) + _tag("style", _CSS)
-    return f'<!DOCTYPE html>\n<html lang="en">{_tag("head", head)}{_tag("body", body)}</html>\n'
+    return document(title, _CSS, body)

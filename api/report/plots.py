@@ -1,4 +1,4 @@
-"""A plan's production history as plots, one set per operation, rendered as SVG text.
+"""A plan's production history as plots (matplotlib figures), one set per operation.
 
 After Ivester & Heigel [1]_, Fig. 4: (a) the input parameters and (b) the constrained outputs
 of an operation, part by part, as Recursive Constraint Bounding moves the setpoint. Here, for
@@ -16,11 +16,10 @@ every operation:
 and for the plan :func:`cycle_figure`, the cycle time. The last point of every series (open
 markers) is the setpoint in force: what the next part will be made with.
 
-The data come as the JSON dicts of :mod:`api.services.queries` (``get_plan``, ``plan_history`` and
-the items of ``parts``); :func:`operation_series` and :func:`cycle_series` turn them into arrays,
-the ``*_figure`` functions draw those, and :func:`to_svg` renders a figure as SVG text that is
-deterministic (fixed ``svg.hashsalt``, no date) and small (text kept as text, ``svg.fonttype =
-"none"``); ``id_prefix`` makes its ids unique within an HTML page.
+The ``*_figure`` functions draw the series of :mod:`api.report.series` (built from the JSON
+dicts of :mod:`api.services.queries`); :func:`api.report.svg.render` turns a figure into SVG
+text for the HTML report. The labels and numbers printed on the axes are here too, and the
+HTML report's tables print theirs with the same functions.
 
 References
 ----------
@@ -30,48 +29,23 @@ References
 
 from __future__ import annotations
 
-import io
 import math
-import re
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, TypeVar
 
 import matplotlib
 
 matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402 - after selecting the backend
-import numpy.typing as npt  # noqa: E402
 from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
-from models.kinematics import PARAMETERS  # noqa: E402
-from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES, PARTS_PER_EDGE  # noqa: E402
+from api.report.series import QUANTITIES, Array, CycleSeries, OperationSeries, Output  # noqa: E402
 
-if TYPE_CHECKING:
-    from matplotlib.typing import RcKeyType  # matplotlib >= 3.10; only for the checker
-
-Array = npt.NDArray[np.float64]
-S = TypeVar("S")
-
-#: Style of every figure: text stays text in the SVG, ids do not change from run to run.
-STYLE: dict[RcKeyType, Any] = {
-    "svg.fonttype": "none",
-    "svg.hashsalt": "rcb-report",
-    "font.size": 8.0,
-    "font.family": "sans-serif",
-    "font.sans-serif": ["DejaVu Sans", "Arial", "Helvetica"],  # named in every SVG text
-    "axes.grid": True,
-    "grid.alpha": 0.3,
-    "lines.markersize": 4.0,
-}
 #: Beyond this many parts the setpoint lines have no marker per part (smaller SVG).
 MARKERS_UP_TO = 40
 #: Width of a figure and height of one row of axes [in].
 WIDTH_IN, ROW_IN = 7.5, 1.7
-_SVG_METADATA: dict[str, Any] = {"Creator": None, "Date": None, "Format": None, "Type": None}
 
 #: Description, symbol and unit of each cutting parameter.
 PARAMETER_NAMES: dict[str, tuple[str, str, str]] = {
@@ -82,232 +56,6 @@ PARAMETER_NAMES: dict[str, tuple[str, str, str]] = {
     "radial_depth_mm": ("radial depth", "ae", "mm"),
     "feed_per_tooth_mm": ("feed per tooth", "fz", "mm"),
 }
-_SHORT_NAMES = {
-    "force_N": "force F",
-    "roughness_um": "roughness Ra",
-    "tool_life_mm3": "tool life",
-    "spindle_current_A": "spindle current",
-    "power_kW": "power",
-    "torque_Nm": "torque",
-    "spindle_rpm": "spindle speed",
-    "feed_rate_mm_min": "feed rate",
-}
-_QUANTITIES = {**MODEL_QUANTITIES, **DERIVED_QUANTITIES}
-
-
-@dataclass(frozen=True)
-class Output:
-    """One constrained output of an operation, per row (the parts, then the next setpoint).
-
-    Parameters
-    ----------
-    quantity : str
-        Quantity name with its unit (``force_N`` ...).
-    limit : float or None
-        The allowable maximum (or minimum, ``sense == "min"``) [unit of the quantity].
-    sense : {"max", "min"}
-        Whether the limit is a maximum or a minimum.
-    predicted, band : ndarray
-        Prediction and its band ΔY at the setpoint of the row (NaN if not predicted).
-    measured, uncertainty : ndarray
-        Measurement and its uncertainty u (NaN where not measured, always at the last row).
-    band_after : ndarray
-        Band after the RCB update of the row's part, at the same setpoint (NaN: no decision).
-    flagged : ndarray of bool
-        The RCB decision flagged a violation (measurement outside the band or over the limit).
-    """
-
-    quantity: str
-    limit: float | None
-    sense: str
-    predicted: Array
-    band: Array
-    measured: Array
-    uncertainty: Array
-    band_after: Array
-    flagged: npt.NDArray[np.bool_]
-
-
-@dataclass(frozen=True)
-class OperationSeries:
-    """What the plots of one operation show, per row: the parts, then the setpoint in force.
-
-    Row ``i < n`` is part ``i + 1`` at the setpoint it was made with; the last row is the
-    setpoint the next part will be made with.
-
-    Parameters
-    ----------
-    name, tool, process : str
-        The operation, its tool and its process (``turning``, ``milling``).
-    serials : tuple of str
-        The parts' serial numbers, in the order received.
-    versions : tuple of int
-        Setpoint version of each row (the one the part was made with; then the one in force).
-    parameters : dict of str to ndarray
-        Each cutting parameter per row [its unit].
-    bounds : dict of str to tuple of float
-        ``(low, high)`` of each parameter.
-    outputs : tuple of Output
-        The constrained outputs.
-    mrr_cm3_min, time_min : ndarray
-        Material removal rate [cm³/min] and machining time [min] per row.
-    first_part : int
-        Number of the first row's part (1 unless only the last parts are shown).
-    """
-
-    name: str
-    tool: str
-    process: str
-    serials: tuple[str, ...]
-    versions: tuple[int, ...]
-    parameters: dict[str, Array]
-    bounds: dict[str, tuple[float, float]]
-    outputs: tuple[Output, ...]
-    mrr_cm3_min: Array
-    time_min: Array
-    first_part: int = 1
-
-
-@dataclass(frozen=True)
-class CycleSeries:
-    """The plan's cycle time [min] per row (the parts, then the setpoint in force)."""
-
-    serials: tuple[str, ...]
-    versions: tuple[int, ...]
-    cycle_time_min: Array
-    first_part: int = 1
-
-
-# --------------------------------------------------------------------------------------------
-# from the query dicts to arrays
-
-
-def _rows(
-    history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]]
-) -> tuple[tuple[str, ...], tuple[int, ...], dict[int, Mapping[str, Any]]]:
-    """Serials, the setpoint version of every row, and the versions by number."""
-    by_number = {v["version"]: v for v in history["versions"]}
-    versions = (*(int(p["setpoint_version"]) for p in parts), max(by_number))
-    return tuple(str(p["serial"]) for p in parts), versions, by_number
-
-
-def cycle_series(
-    history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]], first_part: int = 1
-) -> CycleSeries:
-    """The plan's cycle time at the setpoint each part was made with, then the one in force."""
-    serials, versions, by_number = _rows(history, parts)
-    cycle = np.array([by_number[v]["cycle_time_min"] for v in versions], dtype=float)
-    return CycleSeries(serials, versions, cycle, first_part)
-
-
-def constrained_quantities(
-    operation: Mapping[str, Any],
-    plan: Mapping[str, Any],
-    setpoints: Sequence[Mapping[str, Any]],
-    measured: set[str],
-) -> dict[str, tuple[float | None, str]]:
-    """The outputs to plot with their limit and sense.
-
-    The operation's own limits (``parts_per_edge`` as the tool life it requires,
-    parts × volume [mm³], a minimum), the machine limits that bind at some setpoint version
-    of the operation, and every measured quantity (with its limit if it has one).
-    """
-    out: dict[str, tuple[float | None, str]] = {}
-    for key, limit in operation["limits"].items():
-        if key == PARTS_PER_EDGE:
-            out["tool_life_mm3"] = (float(limit) * float(operation["volume_mm3"]), "min")
-        else:
-            out[key] = (float(limit), "max")
-    binding = {name for sp in setpoints for name in sp["binding"]}
-    for key, limit in plan["machine_limits"].items():
-        quantity = key.removeprefix("max_")
-        if quantity in binding and quantity not in out and limit is not None:
-            out[quantity] = (float(limit), "max")
-    for quantity in sorted(measured - set(out)):
-        out[quantity] = (None, _QUANTITIES[quantity].sense if quantity in _QUANTITIES else "max")
-    return out
-
-
-def _values(rows: Sequence[Mapping[str, Any] | None], key: str) -> Array:
-    return np.array([math.nan if r is None or key not in r else r[key] for r in rows], dtype=float)
-
-
-def _output(
-    quantity: str,
-    limit: tuple[float | None, str],
-    setpoints: Sequence[Mapping[str, Any]],
-    measurements: Sequence[Mapping[str, Any]],
-    decisions: Sequence[Mapping[str, Any]],
-) -> Output:
-    predicted = [sp["predicted"].get(quantity) for sp in setpoints]
-    measured = [*(m.get(quantity) for m in measurements), None]
-    decided = [*(d.get(quantity) for d in decisions), None]
-    return Output(
-        quantity=quantity,
-        limit=limit[0],
-        sense=limit[1],
-        predicted=_values(predicted, "value"),
-        band=_values(predicted, "band"),
-        measured=_values(measured, "value"),
-        uncertainty=_values(measured, "uncertainty"),
-        band_after=_values(decided, "band_after"),
-        flagged=np.array([bool(d and d["flagged"]) for d in decided], dtype=bool),
-    )
-
-
-def operation_series(
-    plan: Mapping[str, Any],
-    history: Mapping[str, Any],
-    parts: Sequence[Mapping[str, Any]],
-    operation: str,
-    first_part: int = 1,
-) -> OperationSeries:
-    """The arrays the plots of ``operation`` show, from the :mod:`api.services.queries` dicts.
-
-    Parameters
-    ----------
-    plan : Mapping
-        :func:`api.services.queries.get_plan`: the operations with their limits and bounds.
-    history : Mapping
-        :func:`api.services.queries.plan_history`: every setpoint version.
-    parts : Sequence of Mapping
-        The items of :func:`api.services.queries.parts`, oldest first (all pages).
-    operation : str
-        The operation's name.
-    first_part : int
-        Number of the first of ``parts`` (when they are the last of more parts).
-    """
-    op = next(o for o in plan["operations"] if o["name"] == operation)
-    serials, versions, by_number = _rows(history, parts)
-    setpoints = [
-        next(o for o in by_number[v]["operations"] if o["name"] == operation) for v in versions
-    ]
-    measurements: list[Mapping[str, Any]] = [
-        next((o["measurements"] for o in p["operations"] if o["name"] == operation), {})
-        for p in parts
-    ]
-    decisions = [
-        {d["quantity"]: d for d in p["updates"] if d["operation"] == operation} for p in parts
-    ]
-    measured = {q for m in measurements for q in m}
-    limits = constrained_quantities(op, plan, setpoints, measured)
-    names = PARAMETERS.get(op["process"], tuple(setpoints[-1]["setpoint"]))
-    return OperationSeries(
-        name=operation,
-        tool=str(op["tool"]),
-        process=str(op["process"]),
-        serials=serials,
-        versions=versions,
-        parameters={n: _values([sp["setpoint"] for sp in setpoints], n) for n in names},
-        bounds={n: (float(lo), float(hi)) for n, (lo, hi) in op["bounds"].items()},
-        outputs=tuple(
-            _output(q, limit, setpoints, measurements, decisions) for q, limit in limits.items()
-        ),
-        mrr_cm3_min=_values(setpoints, "mrr_cm3_min"),
-        time_min=_values(setpoints, "time_min"),
-        first_part=first_part,
-    )
-
 
 # --------------------------------------------------------------------------------------------
 # labels
@@ -331,10 +79,10 @@ def parameter_value(name: str, value: float) -> str:
 
 def quantity_label(name: str) -> str:
     """Axis label of a predicted or measured quantity, with its unit."""
-    info = _QUANTITIES.get(name)
+    info = QUANTITIES.get(name)
     if info is None:
         return name
-    return f"{_SHORT_NAMES.get(name, info.description)} [{info.unit}]"
+    return f"{info.label} [{info.unit}]"  # the quantity registry's short label
 
 
 def number(value: float | None) -> str:
@@ -348,7 +96,7 @@ def number(value: float | None) -> str:
 
 def unit(name: str) -> str:
     """The unit of a quantity as printed (``N``, ``µm`` ...), or ``""`` if unknown."""
-    info = _QUANTITIES.get(name)
+    info = QUANTITIES.get(name)
     return info.unit if info else ""
 
 
@@ -502,44 +250,3 @@ OPERATION_PLOTS = {
     "bands": bands_figure,
     "productivity": productivity_figure,
 }
-
-
-# --------------------------------------------------------------------------------------------
-# SVG
-
-_ID = re.compile(r'(\bid="|href="#|url\(#)')
-_ID_ATTRIBUTE = re.compile(r' id="([^"]*)"')
-_REFERENCE = re.compile(r'(?:href="#|url\(#)([^")]*)')
-
-
-def to_svg(figure: Figure, id_prefix: str = "") -> str:
-    """The figure as an SVG element (no XML declaration or DOCTYPE), compact, ids prefixed.
-
-    Matplotlib's own group ids (``line2d_7`` ...) that nothing refers to are dropped, and so
-    is the indentation; ids set on artists (``set_gid``) and referenced ids (markers, clip
-    paths) stay, with ``id_prefix`` before them.
-
-    Parameters
-    ----------
-    figure : Figure
-        Drawn under :data:`STYLE` (see :func:`render`).
-    id_prefix : str
-        Put before every id and reference to one, so that several SVGs in one HTML page
-        have unique ids; letters, digits, ``-`` and ``_`` only.
-    """
-    if not re.fullmatch(r"[A-Za-z0-9_-]*", id_prefix):
-        raise ValueError(f"id_prefix = {id_prefix!r}: letters, digits, - and _ only")
-    buffer = io.StringIO()
-    with matplotlib.rc_context(STYLE):
-        figure.savefig(buffer, format="svg", metadata=_SVG_METADATA)
-    text = buffer.getvalue()
-    text = re.sub(r"\n +", "\n", text[text.index("<svg") :].strip())
-    kept = set(_REFERENCE.findall(text)) | {a.get_gid() for a in figure.findobj() if a.get_gid()}
-    text = _ID_ATTRIBUTE.sub(lambda m: m.group(0) if m.group(1) in kept else "", text)
-    return _ID.sub(lambda m: f"{m.group(1)}{id_prefix}-", text) if id_prefix else text
-
-
-def render(draw: Callable[[S], Figure], series: S, id_prefix: str = "") -> str:
-    """Draw ``series`` with ``draw`` (a ``*_figure`` function) under :data:`STYLE`, as SVG."""
-    with matplotlib.rc_context(STYLE):
-        return to_svg(draw(series), id_prefix)

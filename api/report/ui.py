@@ -14,7 +14,6 @@ The routes are left out of the OpenAPI document.
 
 from __future__ import annotations
 
-import html
 import re
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
@@ -24,7 +23,8 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from sqlalchemy import Engine
 from starlette.concurrency import run_in_threadpool
 
-from api.report.html import render_report
+from api.report.html import render_html_report
+from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
 from api.rest import auth
 from api.services import queries
 from api.services.errors import NotFoundError
@@ -143,13 +143,13 @@ def install(app: FastAPI, engine: Engine) -> None:
         if not 1 <= number_id <= MAX_ID:
             return _not_found(plan_id, actor)
         try:
-            page = render_report(
+            page = render_html_report(
                 *queries.record(engine=engine, plan_id=number_id), last=PLOTTED_PARTS
             )
         except NotFoundError:
             return _not_found(plan_id, actor)
         # the report page with the view's navigation; it stays well-formed XML
-        nav = _tag("style", _NAV_CSS) + _nav(actor)
+        nav = tag("style", _NAV_CSS) + _nav(actor)
         page = page.replace("</head><body>", f"</head><body>{nav}", 1)
         return HTMLResponse(page, headers=_HEADERS)
 
@@ -166,58 +166,44 @@ def _same_origin(request: Request) -> bool:
 # HTML
 
 
-def _e(value: object) -> str:
-    return html.escape(str(value), quote=True)
-
-
-def _tag(name: str, content: str, **attributes: object) -> str:
-    """``<name attributes>content</name>``; ``content`` must already be HTML."""
-    attrs = "".join(
-        f' {key.rstrip("_").replace("_", "-")}="{_e(v)}"'
-        for key, v in attributes.items()
-        if v is not None
-    )
-    return f"<{name}{attrs}>{content}</{name}>"
-
-
 def _document(title: str, body: str, status: int) -> HTMLResponse:
-    head = '<meta charset="utf-8"/>' + _tag("title", _e(title)) + _tag("style", _CSS)
-    text = f'<!DOCTYPE html>\n<html lang="en">{_tag("head", head)}{_tag("body", body)}</html>\n'
-    return HTMLResponse(text, status_code=status, headers=_HEADERS)
+    return HTMLResponse(document(title, _CSS, body), status_code=status, headers=_HEADERS)
 
 
 def _nav(actor: Actor) -> str:
-    logout = _tag(
+    logout = tag(
         "form",
-        _tag("button", "Log out", type="submit"),
+        tag("button", "Log out", type="submit"),
         method="post",
         action=f"{PREFIX}/logout",
     )
-    links = _tag("a", "Plans", href=f"{PREFIX}/")
-    return _tag(
-        "nav", f"{links} · {_e(f'signed in as {actor.name} ({actor.role})')} {logout}", class_="ui"
+    links = tag("a", "Plans", href=f"{PREFIX}/")
+    return tag(
+        "nav",
+        f"{links} · {escaped(f'signed in as {actor.name} ({actor.role})')} {logout}",
+        class_="ui",
     )
 
 
 def _page(title: str, content: str, actor: Actor, status: int = 200) -> HTMLResponse:
-    return _document(f"rcb: {title}", _nav(actor) + _tag("h1", _e(title)) + content, status)
+    return _document(f"rcb: {title}", _nav(actor) + tag("h1", escaped(title)) + content, status)
 
 
 def _login_page(message: str | None, status: int) -> HTMLResponse:
-    error = _tag("p", _e(message), class_="error", role="alert") if message else ""
-    field = _tag("label", "API key ", for_="key") + (
+    error = tag("p", escaped(message), class_="error", role="alert") if message else ""
+    field = tag("label", "API key ", for_="key") + (
         '<input id="key" name="key" type="password" autocomplete="current-password" '
         'required="required" size="50"/>'
     )
-    form = _tag(
+    form = tag(
         "form",
-        _tag("p", field) + _tag("p", _tag("button", "Log in", type="submit")),
+        tag("p", field) + tag("p", tag("button", "Log in", type="submit")),
         method="post",
         action=f"{PREFIX}/login",
     )
-    hint = _tag("p", _e("A key of any role (from rcb keys create) shows the plans; read only."))
+    hint = tag("p", escaped("A key of any role (from rcb keys create) shows the plans; read only."))
     title = "rcb: log in"
-    return _document(title, _tag("h1", _e(title)) + error + form + hint, status)
+    return _document(title, tag("h1", escaped(title)) + error + form + hint, status)
 
 
 def _to_login() -> RedirectResponse:
@@ -225,36 +211,36 @@ def _to_login() -> RedirectResponse:
 
 
 def _not_found(plan_id: str, actor: Actor) -> HTMLResponse:
-    text = _tag("p", _e(f"There is no plan with id {plan_id}."))
+    text = tag("p", escaped(f"There is no plan with id {plan_id}."))
     return _page("Plan not found", text, actor, status=404)
 
 
 def _plans_table(plans: list[dict[str, Any]]) -> str:
     if not plans:
-        return _tag("p", _e("No plans yet (rcb plan create, or POST /api/v1/plans)."))
+        return tag("p", escaped("No plans yet (rcb plan create, or POST /api/v1/plans)."))
     head = "".join(
-        _tag("th", _e(h))
+        th(h)
         for h in ("ID", "Name", "Machine", "Setpoint version", "Parts", "Created", "Status", "")
     )
     rows = []
     for p in plans:
-        link = _tag("a", "record, plots", href=f"{PREFIX}/plans/{int(p['id'])}")
+        link = tag("a", "record, plots", href=f"{PREFIX}/plans/{int(p['id'])}")
         cells = [
-            _tag("td", _e(p["id"]), class_="num"),
-            _tag("td", _e(p["name"])),
-            _tag("td", _e(p["machine"])),
-            _tag("td", _e(p["setpoint_version"]), class_="num"),
-            _tag("td", _e(p["parts"]), class_="num"),
-            _tag("td", _e(p["created_at"].strftime("%Y-%m-%d %H:%M:%S %Z").strip())),
+            td(p["id"], class_="num"),
+            td(p["name"]),
+            td(p["machine"]),
+            td(p["setpoint_version"], class_="num"),
+            td(p["parts"], class_="num"),
+            td(timestamp(p["created_at"])),
             _status_cell(p),
-            _tag("td", link),
+            tag("td", link),
         ]
-        rows.append(_tag("tr", "".join(cells), data_plan=p["id"]))
-    body = _tag("thead", _tag("tr", head)) + _tag("tbody", "".join(rows))
-    return _tag("table", body, id="plans")
+        rows.append(row(cells, data_plan=p["id"]))
+    body = tag("thead", tag("tr", head)) + tag("tbody", "".join(rows))
+    return tag("table", body, id="plans")
 
 
 def _status_cell(plan: dict[str, Any]) -> str:
     if plan["status"] == "halted":
-        return _tag("td", _tag("strong", _e("HALTED")), class_="halted")
-    return _tag("td", _e("running"))
+        return tag("td", tag("strong", escaped("HALTED")), class_="halted")
+    return td("running")

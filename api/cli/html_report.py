@@ -2,7 +2,7 @@
 
 The command reads the plan, its parts and its setpoint history with :mod:`api.services.queries` (the
 parts before the history, so every version a part names is in the history read after it),
-renders them with :func:`api.report.html.render_report` and writes the page atomically (a
+renders them with :func:`api.report.html.render_html_report` and writes the page atomically (a
 temporary file in the same directory, then a rename): ``OUT`` is either the old file or the
 whole new page, never half of one.
 
@@ -40,7 +40,7 @@ def _no_table(message: str) -> bool:
     return "no such table" in message or ('relation "' in message and "does not exist" in message)
 
 
-def report(
+def html_report(
     plan: Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")],
     out: Annotated[
         Path,
@@ -79,9 +79,9 @@ def report(
         finally:
             engine.dispose()
         # imported here: matplotlib costs about 0.3 s, which no other rcb command should pay
-        from api.report.html import render_report
+        from api.report.html import render_html_report
 
-        page = render_report(plan_data, history, parts, last=last)
+        page = render_html_report(plan_data, history, parts, last=last)
         write_atomically(out, page.encode("utf-8"))
     size = len(page.encode("utf-8"))
     say(

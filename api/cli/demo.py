@@ -1,0 +1,80 @@
+"""``rcb demo``: the paper's demonstration part, RCB part by part on a virtual lathe (or mill).
+
+Writes nothing: the parts are simulated in memory; :mod:`api.cli.demo_view` prints the result.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import Progress
+
+from api.cli import demo_view
+from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors
+from supervisor.inputs.plan import load_plan
+from supervisor.rcb.state import RcbSettings
+from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
+from supervisor.virtual.demo import MILLING_DEMO_UNCERTAINTY, run_demo
+
+_out = Console()
+
+#: The paper's demonstration part, relative to the directory rcb runs in (the repository).
+DEMO_PLAN = Path("examples/ivester_demo_part.toml")
+#: The milling demonstration (slot and side finish, spindle current as the force sensor).
+MILLING_DEMO_PLAN = Path("examples/milling_demo_part.toml")
+
+
+def demo(
+    parts: Annotated[int, typer.Option("--parts", help="Parts made with RCB.", min=1)] = 20,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the virtual lathe.")] = 1,
+    strategy: StrategyOption = DEFAULT_STRATEGY,
+    alpha: Annotated[
+        float, typer.Option("--alpha", help="Fraction of the margin a band shrinks by.")
+    ] = DEFAULT_ALPHA,
+    plan_file: Annotated[
+        Path | None,
+        typer.Option("--plan", help="The plan (default: the paper's demonstration part)."),
+    ] = None,
+    milling: Annotated[
+        bool,
+        typer.Option(
+            "--milling",
+            help="The milling demonstration (slot and side finish, spindle current as the "
+            "force sensor) on a virtual mill.",
+        ),
+    ] = False,
+    as_json: JsonOption = False,
+) -> None:
+    """The paper's demonstration: catalogue, robust start, then RCB part by part on a virtual lathe.
+
+    With --milling: a slot and a side-finish pass on a virtual mill whose force is measured by
+    the spindle current (Kim & Jeon). Writes nothing: the parts are simulated in memory.
+    """
+    with errors():
+        settings = RcbSettings(strategy=strategy, alpha=alpha)
+        if plan_file is None:
+            plan_file = MILLING_DEMO_PLAN if milling else DEMO_PLAN
+        plan = load_plan(plan_file)
+        u = MILLING_DEMO_UNCERTAINTY if milling else None
+        if as_json:
+            result = run_demo(plan, parts, seed, settings, uncertainty=u)
+        else:
+            where = "mill" if milling else "lathe"
+            with Progress(console=err_console, transient=True) as progress:
+                task = progress.add_task(f"RCB ({strategy}) on the virtual {where}", total=parts)
+                result = run_demo(
+                    plan,
+                    parts,
+                    seed,
+                    settings,
+                    lambda n: progress.update(task, completed=n),
+                    uncertainty=u,
+                )
+    if as_json:
+        emit(demo_view.demo_json(result, strategy, seed))
+        return
+    for table in demo_view.demo_tables(result):
+        _out.print(table)

@@ -1,0 +1,171 @@
+"""``rcb predict`` and ``rcb optimize``: a tool's models at one point, a plan's robust optimum.
+
+Both read files only (the catalogue, a plan file) and write nothing; errors follow ``rcb``
+(:func:`api.cli.common.errors`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from api.cli import tables
+from api.cli.common import JsonOption, emit, errors
+from api.services import to_json
+from models import fields
+from models.catalogue import get_tool
+from models.errors import InputError, ModelDomainError
+from models.kinematics import CONTEXT, PARAMETERS
+from models.tool import Tool, predict_all
+from supervisor.inputs.plan import DEFAULT_FLANK_WEAR_MM, load_plan
+from supervisor.optimize.optimizer import optimize_plan
+
+_out = Console()
+
+
+def _pairs(items: list[str], option: str) -> dict[str, float]:
+    result: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise InputError(option, item, "must be NAME=VALUE")
+        try:
+            number = float(value)
+        except ValueError:
+            raise InputError(f"{option} {name}", value, "must be a number") from None
+        result[name.strip()] = fields.number(number, f"{option} {name}", minimum=0.0)
+    return result
+
+
+def predict(
+    tool: Annotated[str, typer.Option("--tool", help="Tool name (catalogue or --plan).")],
+    depth_mm: Annotated[
+        float | None, typer.Option("--depth-mm", help="Turning depth [mm].")
+    ] = None,
+    feed_mm_rev: Annotated[
+        float | None, typer.Option("--feed-mm-rev", help="Turning feed [mm/rev].")
+    ] = None,
+    speed_m_min: Annotated[
+        float | None, typer.Option("--speed-m-min", help="Cutting speed [m/min].")
+    ] = None,
+    axial_depth_mm: Annotated[
+        float | None, typer.Option("--axial-depth-mm", help="Milling axial depth [mm].")
+    ] = None,
+    radial_depth_mm: Annotated[
+        float | None, typer.Option("--radial-depth-mm", help="Milling radial depth [mm].")
+    ] = None,
+    feed_per_tooth_mm: Annotated[
+        float | None, typer.Option("--feed-per-tooth-mm", help="Milling feed per tooth [mm].")
+    ] = None,
+    workpiece_diameter_mm: Annotated[
+        float | None,
+        typer.Option("--diameter-mm", help="Turning: workpiece diameter [mm] (adds torque, rpm)."),
+    ] = None,
+    tool_diameter_mm: Annotated[
+        float | None, typer.Option("--tool-diameter-mm", help="Milling: tool diameter [mm].")
+    ] = None,
+    flute_count: Annotated[
+        int | None, typer.Option("--flutes", help="Milling: number of flutes.")
+    ] = None,
+    flank_wear_mm: Annotated[
+        float,
+        typer.Option("--flank-wear-mm", help="Allowable flank wear for tool life [mm]."),
+    ] = DEFAULT_FLANK_WEAR_MM,
+    rel_uncertainty: Annotated[
+        list[str] | None,
+        typer.Option("--rel-uncertainty", help="Setpoint uncertainty NAME=Δx/x (repeatable)."),
+    ] = None,
+    plan: Annotated[
+        Path | None, typer.Option("--plan", help="Take the tool from this plan file.")
+    ] = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Predict every model of a tool, with its band, at one set of cutting parameters."""
+    given = {
+        "depth_mm": depth_mm,
+        "feed_mm_rev": feed_mm_rev,
+        "speed_m_min": speed_m_min,
+        "axial_depth_mm": axial_depth_mm,
+        "radial_depth_mm": radial_depth_mm,
+        "feed_per_tooth_mm": feed_per_tooth_mm,
+        "workpiece_diameter_mm": workpiece_diameter_mm,
+        "tool_diameter_mm": tool_diameter_mm,
+        "flute_count": None if flute_count is None else float(flute_count),
+        "flank_wear_mm": flank_wear_mm,
+    }
+    with errors():
+        found = _tool(tool, plan)
+        allowed = PARAMETERS[found.process] + CONTEXT[found.process]
+        point: dict[str, float] = {}
+        for name, value in given.items():
+            option = _OPTIONS[name]
+            if value is None:
+                if name in PARAMETERS[found.process]:
+                    raise InputError(option, None, f"required for {found.process} tool {tool!r}")
+                continue
+            if name not in allowed:
+                raise InputError(option, value, f"not used by {found.process} tool {tool!r}")
+            point[name] = fields.number(value, option, positive=True)
+        rel = _pairs(rel_uncertainty or [], "--rel-uncertainty")
+        for name in rel:
+            if name not in PARAMETERS[found.process]:
+                raise InputError("--rel-uncertainty", name, "not a cutting parameter of this tool")
+        try:
+            predicted = predict_all(found, point, rel)
+        except ModelDomainError as err:
+            raise InputError(_OPTIONS.get(err.field, err.field), err.value, err.reason) from None
+    if as_json:
+        emit(
+            {
+                "tool": found.name,
+                "process": found.process,
+                "point": point,
+                "predicted": to_json.predictions_json(predicted),
+            }
+        )
+    else:
+        at = ", ".join(f"{k}={v:g}" for k, v in point.items())
+        _out.print(tables.predictions_table(f"{found.name} ({found.process}) at {at}", predicted))
+
+
+_OPTIONS = {
+    "depth_mm": "--depth-mm",
+    "feed_mm_rev": "--feed-mm-rev",
+    "speed_m_min": "--speed-m-min",
+    "axial_depth_mm": "--axial-depth-mm",
+    "radial_depth_mm": "--radial-depth-mm",
+    "feed_per_tooth_mm": "--feed-per-tooth-mm",
+    "workpiece_diameter_mm": "--diameter-mm",
+    "tool_diameter_mm": "--tool-diameter-mm",
+    "flute_count": "--flutes",
+    "flank_wear_mm": "--flank-wear-mm",
+}
+
+
+def _tool(name: str, plan: Path | None) -> Tool:
+    if plan is None:
+        return get_tool(name, "--tool")
+    tools = load_plan(plan).tools
+    if name in tools:
+        return tools[name]
+    return get_tool(name, "--tool")
+
+
+def optimize(
+    plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
+    as_json: JsonOption = False,
+) -> None:
+    """Robust optimum of every operation of a plan: max MRR, every limit met at the band edge."""
+    with errors():
+        result = optimize_plan(load_plan(plan_file))
+    if as_json:
+        emit(to_json.plan_json(result))
+        return
+    _out.print(tables.plan_table(result))
+    for op in result.operations:
+        table = tables.predictions_table(f"{op.name} ({op.tool})", op.predicted)
+        table.caption = tables.setpoint_caption(op)
+        _out.print(table)
