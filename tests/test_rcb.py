@@ -349,3 +349,27 @@ def test_a_report_with_one_bad_quantity_changes_nothing(state):
         update(state, report_from_mapping(data))
     assert err.value.field == "operations.rough-od.forse_N"
     assert state.tools["rough-od"].models["roughness_um"].dK == 14  # untouched
+
+
+def test_a_new_strategy_is_one_class(monkeypatch, state):
+    # Issue 16: a strategy is one class in the registry; settings, the law and the state find
+    # it by name. This one keeps at least 0.7 µm of band on Ra (a hand-made cautious rule).
+    from supervisor.rcb import strategies
+
+    class Cautious(strategies.Strategy):
+        name = "cautious"
+        summary = "the law, never under 0.7 of the band's unit"
+
+        def least_band(self, band, sigma, value, coverage_k, discrepancy):
+            return max(band, 0.7)
+
+    monkeypatch.setitem(strategies.REGISTRY, "cautious", Cautious())  # type: ignore[index]
+    plan = load_plan(DEMO_PLAN)
+    mine = start(plan, RcbSettings(strategy="cautious"))
+    report = _report(mine, {"rough-od": {"roughness_um": Measurement(3.06, 0.09)}})
+    _, (d,) = update(mine, report)
+    # the paper's law gives 0.8235 − 0.25 · 0.85 = 0.611 µm (the test above); Cautious 0.7
+    assert d.action == "shrink"
+    assert_allclose(d.band_after, 0.7)
+    _, (paper,) = update(state, _report(state, report.measurements))
+    assert_allclose(paper.band_after, _rough_od(state).predicted["roughness_um"].band - 0.2125)
