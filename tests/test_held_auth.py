@@ -1,4 +1,4 @@
-"""api.rest.auth: a part report written in the transaction its API key was checked in.
+"""api.services.auth: a part report written in the transaction its API key was checked in.
 
 On PostgreSQL the key's lookup opens the write's transaction and takes the idempotency key's
 in-flight lock in the same statement; a request then uses one pooled connection for its key
@@ -14,8 +14,7 @@ import pytest
 from sqlalchemy import event, func, select
 from sqlalchemy.orm import Session
 
-from api.rest import auth
-from api.services import queries
+from api.services import auth, queries
 from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, InFlightError, fingerprint
 from api.services.keys import create_key

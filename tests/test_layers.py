@@ -147,3 +147,11 @@ def test_every_package_says_what_it_holds(package):
     init = ROOT / package.replace(".", "/") / "__init__.py"
     doc = ast.get_docstring(ast.parse(init.read_text(encoding="utf-8")))
     assert doc and "arrive" not in doc, f"{init.relative_to(ROOT)}: docstring {doc!r}"
+
+
+@pytest.mark.parametrize("module", sorted(m for m in MODULES if m.startswith("api.services")))
+def test_use_cases_do_not_import_their_interfaces(module):
+    # The REST service, the CLI and the report call the use cases, never the other way round.
+    interfaces = ("api.rest", "api.cli", "api.report")
+    bad = {m for m in _imports(module, MODULES[module]) if m.startswith(interfaces)}
+    assert not bad

@@ -4,7 +4,7 @@ Browsers send no ``Authorization`` header when they navigate, so the API key is 
 a form (``/ui/login``) and kept in a cookie: HttpOnly (no script can read it), SameSite=Strict
 (no other site's page can make the browser send it), ``Path=/ui`` (never sent to ``/api/v1``),
 Secure when the request came over HTTPS. Every request authenticates the key again with
-:func:`api.rest.auth.authenticate`, so a revoked key stops working at once. Any role may look:
+:func:`api.services.auth.authenticate`, so a revoked key stops working at once. Any role may look:
 mes, engineer and viewer are all viewer or above.
 
 The pages are self-contained (inline CSS and SVG, no script, nothing loaded from elsewhere); a
@@ -25,8 +25,7 @@ from starlette.concurrency import run_in_threadpool
 
 from api.report.html import render_html_report
 from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
-from api.rest import auth
-from api.services import queries
+from api.services import auth, queries
 from api.services.errors import NotFoundError
 from db.access import Actor
 

@@ -1,6 +1,6 @@
 """The REST service the MES calls, under ``/api/v1``.
 
 ``app`` (the app factory), ``routes/`` (one router per resource), ``deps`` (the engine and the
-roles as dependencies), ``auth`` (API keys), ``problems`` (errors as problem+json),
-``schemas/`` (the bodies, one module per resource) and ``serving`` (uvicorn).
+roles as dependencies; :mod:`api.services.auth` checks the keys), ``problems`` (errors as
+problem+json), ``schemas/`` (the bodies, one module per resource) and ``serving`` (uvicorn).
 """

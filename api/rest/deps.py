@@ -3,7 +3,7 @@
 The engine is the app's (``app.state.engine``, set by :func:`api.rest.app.create_app`).
 :data:`Anyone` and :data:`Engineer` check the Bearer key of a read or an engineer's write;
 :func:`holding` checks the key of a write in the transaction the write goes on in
-(:func:`api.rest.auth.authenticate_write`).
+(:func:`api.services.auth.authenticate_write`).
 """
 
 # no "from __future__ import annotations": FastAPI reads these annotations at run time
@@ -17,8 +17,8 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import Engine
 
-from api.rest import auth
 from api.rest.problems import ProblemError
+from api.services import auth
 from db.access import Actor
 
 _bearer = HTTPBearer(auto_error=False, description="An API key from `rcb keys create`.")

@@ -8,8 +8,8 @@ from typing import Any
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from api.rest.auth import Authenticated
 from api.services import to_json
+from api.services.auth import Authenticated
 from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, Written, replay_of
 from api.services.plans import operations_json

@@ -15,7 +15,7 @@ from sqlalchemy import Engine
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from api.rest.auth import Authenticated, aside
+from api.services.auth import Authenticated, aside
 from api.services.idempotency import Idempotency, InFlightError, Written, replay_of
 from db import access, bulk, keylock
 from db.access import Actor
