@@ -344,7 +344,7 @@ def test_bad_report_fields_are_named(path, value, field):
 def test_a_report_with_one_bad_quantity_changes_nothing(state):
     # The good measurement before the unknown quantity must not be applied either.
     data = json.loads(json.dumps(GOOD_REPORT))
-    data["operations"][0]["measurements"]["forse_N"] = {"value": 1, "uncertainty": 1}
+    data["operations"][0]["measurements"]["forse_N"] = {"value": 1, "uncertainty": 0.5}
     with pytest.raises(InputError) as err:
         update(state, report_from_mapping(data))
     assert err.value.field == "operations.rough-od.forse_N"

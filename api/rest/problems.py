@@ -2,6 +2,8 @@
 
 Each problem carries a machine-readable ``code`` and, where one is to blame, the offending
 ``field`` (a dotted path like ``operations[0].measurements.force_N.value``) and its ``value``.
+An error body never echoes more than :data:`MAX_ECHO` characters of an offending value (issue
+17), and a value that is no valid Unicode (a lone surrogate) is echoed escaped, never sent raw.
 """
 
 from __future__ import annotations
@@ -25,6 +27,10 @@ from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
 
 MEDIA_TYPE = "application/problem+json"
+#: The most characters of an offending value (or of a field path) an error body echoes.
+MAX_ECHO = 200
+#: The most entries of a validation error's ``errors`` list.
+MAX_ERRORS = 20
 KEY_HEADER = "Idempotency-Key"
 _TYPE_BASE = "urn:rcb-supervisor:problem:"
 _log = logging.getLogger("rcb.api")
@@ -54,6 +60,7 @@ _TITLES = {
     404: "Not found",
     405: "Method not allowed",
     409: "Conflict",
+    413: "Content too large",
     415: "Unsupported media type",
     422: "Unprocessable content",
     500: "Internal server error",
@@ -76,27 +83,74 @@ def problem(
         "type": _TYPE_BASE + code,
         "title": _TITLES.get(status, "Error"),
         "status": status,
-        "detail": detail,
+        "detail": _detail(detail, value),
         "instance": request.url.path,
         "code": code,
-        "field": field,
-        "value": _jsonable(value),
+        "field": None if field is None else clip(field),
+        "value": echo(value),
     }
     if errors is not None:
-        body["errors"] = errors
+        body["errors"] = errors[:MAX_ERRORS]
     if conflicts is not None:
         body["conflicts"] = conflicts
-    return JSONResponse(body, status_code=status, media_type=MEDIA_TYPE, headers=headers)
+    return JSONResponse(
+        _valid_unicode(body), status_code=status, media_type=MEDIA_TYPE, headers=headers
+    )
 
 
-def _jsonable(value: object) -> Any:
+def clip(text: str, limit: int = MAX_ECHO) -> str:
+    """``text`` cut to ``limit`` characters, the last one ``…`` when it was cut."""
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def echo(value: object) -> Any:
+    """An offending value as an error body shows it: JSON, at most :data:`MAX_ECHO` characters.
+
+    A string or number is echoed as itself (a long string cut); anything else as itself when
+    its JSON is short, else as the start of its JSON text; a NaN or infinity as its name.
+    """
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
+    if isinstance(value, str):
+        return clip(value)
+    if value is None or isinstance(value, bool | float):
+        return value
     try:
-        json.dumps(value, allow_nan=False)
-    except (TypeError, ValueError):
-        return repr(value)
-    return value
+        text = str(value) if isinstance(value, int) else json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError):  # not JSON, or an int of more digits than str() allows
+        return clip(repr(value)) if not isinstance(value, int) else "(a number too long to echo)"
+    return value if len(text) <= MAX_ECHO else clip(text)
+
+
+def _detail(detail: str, value: object) -> str:
+    """``detail`` with a long echo of ``value`` (an error message's ``{value!r}``) cut."""
+    if value is None or isinstance(value, bool):
+        return detail
+    try:
+        shown = repr(value)
+    except (ValueError, RecursionError):  # an int of more digits than repr allows
+        return clip(detail, 2 * MAX_ECHO)
+    if len(shown) > MAX_ECHO and shown in detail:
+        detail = detail.replace(shown, clip(shown))
+    return detail
+
+
+def _valid_unicode(data: Any) -> Any:
+    r"""``data`` with every string valid Unicode: a lone surrogate becomes the text ``\udXXX``.
+
+    JSON may spell one (``"\ud800"``), UTF-8 cannot encode it: sent raw, it fails the response.
+    """
+    if isinstance(data, str):
+        try:
+            data.encode("utf-8")
+        except UnicodeEncodeError:
+            return data.encode("utf-8", "backslashreplace").decode("utf-8")
+        return data
+    if isinstance(data, dict):
+        return {_valid_unicode(k): _valid_unicode(v) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return [_valid_unicode(v) for v in data]
+    return data
 
 
 def field_path(loc: Sequence[str | int]) -> str:
@@ -160,11 +214,11 @@ def install(app: FastAPI) -> None:
     async def _validation(request: Request, err: RequestValidationError) -> JSONResponse:
         errors = [
             {
-                "field": field_path(e.get("loc", ())),
+                "field": clip(field_path(e.get("loc", ()))),
                 "message": e.get("msg", ""),
-                "value": _jsonable(e.get("input")),
+                "value": echo(e.get("input")),
             }
-            for e in err.errors()
+            for e in err.errors()[:MAX_ERRORS]
         ]
         first = errors[0] if errors else {"field": "body", "message": "invalid", "value": None}
         if any(e.get("type") == "json_invalid" for e in err.errors()):

@@ -8,6 +8,7 @@ prints them ("horizontal and vertical bars are ±2σ measurement uncertainties",
 from __future__ import annotations
 
 import math
+import unicodedata
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -118,6 +119,17 @@ class PartReport:
 
 #: The most parts an edge may be reported to have made (a bound on the input, not physics).
 MAX_EDGE_PARTS = 1_000_000
+#: The most operations one report may carry (a bound on the input).
+MAX_OPERATIONS = 100
+#: The largest magnitude of a reported number in its unit (1e12 N, 1e12 mm³: no machine
+#: measures it, and the band law's squares of it stay finite).
+LARGEST = 1e12
+#: The smallest measured value and uncertainty in their unit: a reading is > 0, and this far
+#: above 0 that the band law's ratios of it stay finite.
+SMALLEST = 1e-9
+#: Characters a serial or an operation name may not hold besides the C0 and C1 controls: line
+#: and paragraph separators, bidirectional embeddings, overrides and isolates.
+_INVISIBLE = frozenset("\u2028\u2029\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
 
 _REPORT_KEYS = ("serial", "setpoint_version", "operations")
 _OPERATION_KEYS = ("name", "measurements", "tool_wear", "feed_override_percent", "edge_parts")
@@ -140,6 +152,9 @@ def report_from_mapping(data: object) -> PartReport:
     operations = table.get("operations")
     if not isinstance(operations, list):
         raise InputError("operations", operations, "must be a list of operations")
+    if not 1 <= len(operations) <= MAX_OPERATIONS:
+        why = f"must list 1 to {MAX_OPERATIONS} operations (what was measured on the part)"
+        raise InputError("operations", operations, why)
     measurements: dict[str, dict[str, Measurement]] = {}
     signals: dict[str, dict[str, Signal]] = {}
     wear: dict[str, ToolWear] = {}
@@ -149,7 +164,7 @@ def report_from_mapping(data: object) -> PartReport:
         path = f"operations[{i}]"
         op = fields.mapping(entry, path)
         fields.only_keys(op, _OPERATION_KEYS, path)
-        name = fields.text(op, "name", path)
+        name = _identifier(op, "name", path)
         if name in measurements:
             raise InputError(f"{path}.name", name, "operation reported twice")
         measured = fields.mapping(op.get("measurements", {}), f"{path}.measurements")
@@ -162,7 +177,7 @@ def report_from_mapping(data: object) -> PartReport:
                 measurements[name][q] = _measurement(m, where)
         if "feed_override_percent" in op:
             where = f"{path}.feed_override_percent"
-            overrides[name] = fields.number(op["feed_override_percent"], where, positive=True)
+            overrides[name] = _number(op["feed_override_percent"], where, smallest=SMALLEST)
         if "edge_parts" in op:
             where, n = f"{path}.edge_parts", op["edge_parts"]
             if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_EDGE_PARTS:
@@ -176,12 +191,33 @@ def report_from_mapping(data: object) -> PartReport:
                 raise InputError(f"{where}.volume_mm3", None, "required field missing")
             wear[name] = ToolWear(
                 _measurement(w.get("flank_wear_mm"), f"{where}.flank_wear_mm"),
-                fields.number(w["volume_mm3"], f"{where}.volume_mm3", positive=True),
+                _number(w["volume_mm3"], f"{where}.volume_mm3", smallest=SMALLEST),
             )
+        if not (measured or name in wear or name in overrides):
+            why = "nothing measured: give a measurement, tool_wear or feed_override_percent"
+            raise InputError(f"{path}.measurements", measured, why)
     signals = {name: raw for name, raw in signals.items() if raw}
-    return PartReport(
-        fields.text(table, "serial", ""), version, measurements, wear, signals, overrides, edges
-    )
+    serial = _identifier(table, "serial", "")
+    return PartReport(serial, version, measurements, wear, signals, overrides, edges)
+
+
+def _identifier(data: Mapping[str, object], key: str, path: str) -> str:
+    """A serial or an operation name: non-empty text without control characters."""
+    value = fields.text(data, key, path)
+    for i, char in enumerate(value):
+        if unicodedata.category(char) in ("Cc", "Cs") or char in _INVISIBLE:
+            where = f"{path}.{key}" if path else key
+            why = f"must not contain control characters (U+{ord(char):04X} at {i})"
+            raise InputError(where, value, why)
+    return value
+
+
+def _number(value: object, path: str, *, smallest: float = 0.0) -> float:
+    """A finite number in ``[smallest, LARGEST]`` (not a bool, not a string)."""
+    result = fields.number(value, path, minimum=smallest)
+    if result > LARGEST:
+        raise InputError(path, value, f"must be at most {LARGEST:g}")
+    return result
 
 
 def _is_signal(quantity: str, data: object) -> bool:
@@ -202,20 +238,25 @@ def _signal(quantity: str, data: object, path: str) -> Signal:
     table = fields.mapping(data, path)
     fields.only_keys(table, ("value", "uncertainty", "calibration", *SIGNAL_CONTEXT), path)
     reading = _measurement({k: table[k] for k in ("value", "uncertainty") if k in table}, path)
-    context = {
-        k: fields.number(table[k], f"{path}.{k}", minimum=0.0) for k in SIGNAL_CONTEXT if k in table
-    }
-    calibration = fields.text(table, "calibration", path) if "calibration" in table else None
+    context = {k: _number(table[k], f"{path}.{k}") for k in SIGNAL_CONTEXT if k in table}
+    calibration = _identifier(table, "calibration", path) if "calibration" in table else None
     return Signal(quantity, reading, context, calibration)
 
 
 def _measurement(data: object, path: str) -> Measurement:
+    """What a machine can measure: ``SMALLEST <= value <= LARGEST``, ``0 < uncertainty < value``.
+
+    Every reported quantity is a maximum (force, roughness, current, spindle load) or flank
+    wear: a reading of 0 or one without uncertainty is no measurement.
+    """
     table = fields.mapping(data, path)
     fields.only_keys(table, ("value", "uncertainty"), path)
     for key in ("value", "uncertainty"):
         if key not in table:
             raise InputError(f"{path}.{key}", None, "required field missing")
-    return Measurement(
-        fields.number(table["value"], f"{path}.value", minimum=0.0),
-        fields.number(table["uncertainty"], f"{path}.uncertainty", minimum=0.0),
-    )
+    value = _number(table["value"], f"{path}.value", smallest=SMALLEST)
+    uncertainty = _number(table["uncertainty"], f"{path}.uncertainty", smallest=SMALLEST)
+    if uncertainty >= value:
+        where = f"{path}.uncertainty"
+        raise InputError(where, table["uncertainty"], f"must be less than the value {value:g}")
+    return Measurement(value, uncertainty)

@@ -84,8 +84,16 @@ def tool_life_measured(
             f"operations.{operation.name}.tool_wear", vb, "wear and volume must be > 0"
         )
     allowable = operation.context["flank_wear_mm"]
-    volume = wear.volume_mm3 * (allowable / vb) ** e_w
-    return Measurement(volume, volume * abs(e_w) * wear.flank_wear_mm.uncertainty / vb)
+    try:
+        volume = wear.volume_mm3 * (allowable / vb) ** e_w
+        return Measurement(volume, volume * abs(e_w) * wear.flank_wear_mm.uncertainty / vb)
+    except (ArithmeticError, InputError):  # overflow: no edge wears that way
+        where = f"operations.{operation.name}.tool_wear"
+        raise InputError(where, vb, _OUT_OF_RANGE) from None
+
+
+#: Why a measurement whose band or tool life overflows a float is refused.
+_OUT_OF_RANGE = "out of the range the model can represent (a float overflows)"
 
 
 def apply_law(
@@ -95,7 +103,28 @@ def apply_law(
     quantity: str,
     measurement: Measurement,
 ) -> tuple[Decision, PowerLawModel, float, float]:
-    """The one-sided law for one measured quantity: decision, model, σ of ln K, ``seen``."""
+    """The one-sided law for one measured quantity: decision, model, σ of ln K, ``seen``.
+
+    Raises
+    ------
+    InputError
+        When the measurement drives the band past what a float holds (an overflow), naming
+        the operation's measured quantity.
+    """
+    try:
+        return _apply_law(state, operation, result, quantity, measurement)
+    except ArithmeticError:
+        where = f"operations.{operation.name}.measurements.{quantity}"
+        raise InputError(where, measurement.value, _OUT_OF_RANGE) from None
+
+
+def _apply_law(
+    state: RcbState,
+    operation: Operation,
+    result: OperationResult,
+    quantity: str,
+    measurement: Measurement,
+) -> tuple[Decision, PowerLawModel, float, float]:
     settings = state.settings
     model = state.tools[operation.name].models[quantity]
     sigma = state.sigma.get((operation.name, quantity), prior_sigma(model, settings))
@@ -220,5 +249,8 @@ def _with_band(
     if math.isclose(band, model.predict(point, rel).band, rel_tol=1e-12, abs_tol=0.0):
         return model  # unchanged: no round trip through floats, no new setpoint version
     setpoint_part = model.relative_band(rel) ** 2 - (model.dK / model.K) ** 2
-    dK_over_K = math.sqrt(max((band / value) ** 2 - setpoint_part, 0.0))
-    return replace(model, dK=model.K * dK_over_K)
+    dK_over_K = math.sqrt(max((band / value) ** 2 - setpoint_part, 0.0))  # may overflow
+    dK = model.K * dK_over_K
+    if not math.isfinite(dK):
+        raise OverflowError(f"ΔK = {dK} from a band of {band}")
+    return replace(model, dK=dK)

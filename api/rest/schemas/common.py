@@ -1,7 +1,13 @@
-"""What the schemas share: text that can be stored, the strategy names, the closed models."""
+"""What the schemas share: checked numbers and text, the strategy names, the closed models.
+
+Issue 17: every input is strict (no ``true`` or ``"5"`` taken for a number), finite and within
+:data:`LARGEST`, and every text is bounded and storable; identifiers (serials, names) carry no
+control characters.
+"""
 
 from __future__ import annotations
 
+import unicodedata
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
@@ -38,8 +44,48 @@ def _storable(value: str) -> str:
     return value
 
 
+#: The largest magnitude of a number in any input, in the field's unit: far above any machining
+#: value (1e12 N, 1e12 mm³), far below where the physics' squares and powers overflow a float.
+LARGEST = 1e12
+
+_FINITE = {"strict": True, "allow_inf_nan": False}
+#: A number: strict (JSON ``true`` or ``"5"`` is refused, an integer is taken), finite, and at
+#: most :data:`LARGEST` in magnitude.
+Number = Annotated[float, Field(ge=-LARGEST, le=LARGEST, **_FINITE)]
+#: A :data:`Number` > 0.
+Positive = Annotated[float, Field(gt=0, le=LARGEST, **_FINITE)]
+#: A :data:`Number` >= 0.
+NonNegative = Annotated[float, Field(ge=0, le=LARGEST, **_FINITE)]
+#: The largest whole number an input may hold: what a 32-bit integer column stores.
+LARGEST_WHOLE = 2**31 - 1
+#: A whole number >= 1 (strict: no ``true``, ``"5"`` or ``5.0``) that an integer column holds.
+Count = Annotated[int, Field(strict=True, ge=1, le=LARGEST_WHOLE)]
+#: The most characters of a free text (a description).
+MAX_TEXT = 2000
+
 #: A string with something in it (the domain readers refuse blank text) that can be stored.
-Text = Annotated[str, Field(pattern=r"\S"), AfterValidator(_storable)]
+Text = Annotated[str, Field(pattern=r"\S", max_length=MAX_TEXT), AfterValidator(_storable)]
+
+#: Characters an identifier may not hold besides the C0/C1 controls: line and paragraph
+#: separators and the bidirectional embeddings, overrides and isolates ("Trojan Source").
+_INVISIBLE = set("\u2028\u2029\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
+
+
+def _identifier(value: str) -> str:
+    """Refuse control characters in a name or serial: what a log, a label or a screen shows."""
+    for i, char in enumerate(value):
+        if unicodedata.category(char) == "Cc" or char in _INVISIBLE:
+            raise ValueError(f"must not contain control characters (U+{ord(char):04X} at {i})")
+    return value
+
+
+#: A serial or a name: text of at most 200 characters, no control characters.
+Name = Annotated[
+    str,
+    Field(pattern=r"\S", max_length=200),
+    AfterValidator(_storable),
+    AfterValidator(_identifier),
+]
 #: A path or query value without NUL (PostgreSQL refuses it in a query).
 NO_NUL = r"^[^\x00]*$"
 

@@ -3,15 +3,15 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
-from api.rest.schemas.common import Out, Text, keys_schema
+from api.rest.schemas.common import LARGEST, Count, Name, NonNegative, Out, Positive, keys_schema
 from api.rest.schemas.halts import HaltedOperationOut
 from api.rest.schemas.setpoints import OperationSetpoint
 from models.quantities import MODEL_QUANTITIES
-from supervisor.inputs.part_report import MAX_EDGE_PARTS
+from supervisor.inputs.part_report import MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST
 from supervisor.rcb.state import Action, Flag, Note
 
 #: Quantities a part report may measure: every model quantity but tool life, which follows from
@@ -19,12 +19,29 @@ from supervisor.rcb.state import Action, Flag, Note
 MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
 
 
+#: A measured value or its uncertainty: > 0 (SMALLEST) and finite.
+Measured = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=SMALLEST, le=LARGEST)]
+#: Parts an edge made before this one.
+EdgeParts = Annotated[int, Field(strict=True, ge=0, le=MAX_EDGE_PARTS)]
+
+
 class MeasurementIn(BaseModel):
-    """A measured value and its (expanded) uncertainty, in the quantity's unit."""
+    """A measured value and its (expanded) uncertainty, in the quantity's unit.
+
+    What a machine can measure: a value > 0 and an uncertainty > 0 and below the value.
+    """
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    value: float = Field(ge=0)
-    uncertainty: float = Field(ge=0)
+    value: Measured
+    uncertainty: Measured = Field(description="> 0 and < value")
+
+    @field_validator("uncertainty")
+    @classmethod
+    def _below_value(cls, uncertainty: float, info: ValidationInfo) -> float:
+        value = info.data.get("value")
+        if value is not None and uncertainty >= value:
+            raise ValueError(f"must be less than the value {value:g}")
+        return uncertainty
 
 
 class ReadingIn(MeasurementIn):
@@ -34,14 +51,14 @@ class ReadingIn(MeasurementIn):
     what the conversion needs and the setpoint does not say (the idle load, a measured speed).
     """
 
-    calibration: Text | None = Field(None, max_length=200, description="machine calibration")
-    spindle_speed_rpm: float | None = Field(None, gt=0)
-    workpiece_diameter_mm: float | None = Field(None, gt=0)
-    u_workpiece_diameter_mm: float | None = Field(None, ge=0)
-    idle_load_V: float | None = Field(None, ge=0)
-    u_idle_load_V: float | None = Field(None, ge=0)
-    feed_rate_mm_min: float | None = Field(None, gt=0)
-    u_feed_rate_mm_min: float | None = Field(None, ge=0)
+    calibration: Name | None = Field(None, description="machine calibration")
+    spindle_speed_rpm: Positive | None = None
+    workpiece_diameter_mm: Positive | None = None
+    u_workpiece_diameter_mm: NonNegative | None = None
+    idle_load_V: NonNegative | None = None
+    u_idle_load_V: NonNegative | None = None
+    feed_rate_mm_min: Positive | None = None
+    u_feed_rate_mm_min: NonNegative | None = None
 
 
 class ToolWearIn(BaseModel):
@@ -49,31 +66,33 @@ class ToolWearIn(BaseModel):
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     flank_wear_mm: MeasurementIn
-    volume_mm3: float = Field(gt=0)
+    volume_mm3: Positive
 
 
 class OperationReport(BaseModel):
-    """What was measured on one operation of a part."""
+    """What was measured on one operation of a part.
+
+    At least one measurement, a tool wear or a feed override (the reader refuses an operation
+    with nothing measured, naming its ``measurements``).
+    """
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    name: Text
+    name: Name
     measurements: dict[str, ReadingIn] = Field(
         default_factory=dict,
         description="per quantity the operation's tool models (tool life: ``tool_wear``), "
         "or a spindle reading converted to force_N by the machine's calibration",
+        max_length=len(MEASURABLE),
         json_schema_extra=keys_schema(MEASURABLE),
     )
     tool_wear: ToolWearIn | None = None
-    feed_override_percent: float | None = Field(
+    feed_override_percent: Positive | None = Field(
         None,
-        gt=0,
         description="constant-load operations: the feed override at the end of the operation, "
         "% of the programmed feed; at the lower feed limit the tool is due for a change",
     )
-    edge_parts: int | None = Field(
+    edge_parts: EdgeParts | None = Field(
         None,
-        ge=0,
-        le=MAX_EDGE_PARTS,
         description="parts the operation's cutting edge made before this one (0: a new edge), "
         "as the control's tool-life counter gives it; the learn strategy learns wear from it",
     )
@@ -83,9 +102,9 @@ class PartReportIn(BaseModel):
     """A part report from the MES."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    serial: Text = Field(max_length=200)
-    setpoint_version: int = Field(ge=1)
-    operations: list[OperationReport]
+    serial: Name
+    setpoint_version: Count
+    operations: list[OperationReport] = Field(min_length=1, max_length=MAX_OPERATIONS)
 
 
 class Update(Out):

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from api.rest.schemas.common import Out, Strategy, Text, keys_schema
+from api.rest.schemas.common import Name, Number, Out, Positive, Strategy, Text, keys_schema
 from api.rest.schemas.halts import HaltOut
 from api.rest.schemas.setpoints import OperationSetpoint
 from api.rest.schemas.tools import ToolIn
@@ -78,6 +78,8 @@ class PlanDetail(PlanSummary):
     body: dict[str, Any]
 
 
+#: The most entries of a list or table in a plan (operations, tools, calibrations).
+MAX_ENTRIES = 100
 #: What an operation's ``limits`` may name (the quantity registry, models.quantities): maxima
 #: of the models, the machine quantities, and the tool-life minimum ``parts_per_edge``.
 LIMITS = list(limit_keys())
@@ -88,13 +90,14 @@ class MachineIn(BaseModel):
     """The machine and its limits (omitted: no limit)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    name: Text = Field(max_length=200)
-    max_power_kW: float | None = Field(None, gt=0)
-    max_spindle_rpm: float | None = Field(None, gt=0)
-    max_torque_Nm: float | None = Field(None, gt=0)
-    max_feed_rate_mm_min: float | None = Field(None, gt=0)
-    calibrations: dict[str, dict[str, Any]] | None = Field(
+    name: Name
+    max_power_kW: Positive | None = None
+    max_spindle_rpm: Positive | None = None
+    max_torque_Nm: Positive | None = None
+    max_feed_rate_mm_min: Positive | None = None
+    calibrations: dict[Name, dict[str, Any]] | None = Field(
         None,
+        max_length=MAX_ENTRIES,
         description="named sensor calibrations, each a table with a `kind` "
         "(ivester_spindle_load, linear_current, linear_current_by_feed, tai_current_feed) "
         "and its constants and provenance, as in a plan file (models.sensors)",
@@ -105,30 +108,32 @@ class OperationIn(BaseModel):
     """One operation of a plan, as in a plan file's ``[[operations]]``."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    name: Text = Field(max_length=200)
+    name: Name
     process: Process | None = Field(None, description="default: the tool's")
-    tool: Text = Field(max_length=200, description="a catalogue, stored or inline tool")
+    tool: Name = Field(description="a catalogue, stored or inline tool")
     description: Text | None = None
-    volume_mm3: float = Field(gt=0, description="material the operation removes")
-    limits: dict[str, float] = Field(
+    volume_mm3: Positive = Field(description="material the operation removes")
+    limits: dict[str, Number] = Field(
         default_factory=dict,
         description="maxima of predicted quantities, and parts_per_edge (a minimum)",
         json_schema_extra=keys_schema(LIMITS),
     )
-    bounds: dict[str, tuple[float, float]] = Field(
+    bounds: dict[str, tuple[Number, Number]] = Field(
         description="[low, high] of every cutting parameter of the process",
         json_schema_extra=keys_schema(_ALL_PARAMETERS),
     )
-    workpiece_diameter_mm: float | None = Field(None, gt=0, description="turning")
-    tool_diameter_mm: float | None = Field(None, gt=0, description="milling")
-    flute_count: int | None = Field(None, ge=1, description="milling")
-    allowable_flank_wear_mm: float | None = Field(None, gt=0, description="default 0.3 (ISO 3685)")
-    setpoint_rel_uncertainty: dict[str, float] | None = Field(
+    workpiece_diameter_mm: Positive | None = Field(None, description="turning")
+    tool_diameter_mm: Positive | None = Field(None, description="milling")
+    flute_count: Annotated[int, Field(strict=True, ge=1, le=1000)] | None = Field(
+        None, description="milling"
+    )
+    allowable_flank_wear_mm: Positive | None = Field(None, description="default 0.3 (ISO 3685)")
+    setpoint_rel_uncertainty: dict[str, Number] | None = Field(
         None,
         description="relative setpoint uncertainties Δx/x",
         json_schema_extra=keys_schema(_ALL_PARAMETERS),
     )
-    catalog_setpoint: dict[str, float] | None = Field(
+    catalog_setpoint: dict[str, Number] | None = Field(
         None,
         description="the shop's current parameters",
         json_schema_extra=keys_schema(_ALL_PARAMETERS),
@@ -136,14 +141,15 @@ class OperationIn(BaseModel):
     objective: Objective | None = Field(
         None, description="max MRR (default) or Borangiu's least productivity cost J (milling)"
     )
-    productivity: dict[str, float] | None = Field(
+    productivity: dict[str, Number] | None = Field(
         None, description="cost data of J (Borangiu Eq. 1, Taylor's law), as in a plan file"
     )
-    domain: dict[str, float] | None = Field(
+    domain: dict[str, Number] | None = Field(
         None, description="Borangiu's Eqs. 2-7 constraints (milling), as in a plan file"
     )
     constant_load: dict[str, Any] | None = Field(
         None,
+        max_length=MAX_ENTRIES,
         description="constant-load control (Tai et al., milling): calibration (a "
         "tai_current_feed calibration of the machine), max_current_A, safety_factor, "
         "wear_interval_um",
@@ -154,11 +160,13 @@ class PlanIn(BaseModel):
     """A plan: the structure of a plan file, as JSON."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    name: Text = Field(max_length=200)
+    name: Name
     description: Text | None = None
     machine: MachineIn
-    tools: list[ToolIn] | None = Field(None, description="inline tools (else catalogue or stored)")
-    operations: list[OperationIn] = Field(min_length=1)
+    tools: list[ToolIn] | None = Field(
+        None, max_length=MAX_ENTRIES, description="inline tools (else catalogue or stored)"
+    )
+    operations: list[OperationIn] = Field(min_length=1, max_length=MAX_ENTRIES)
 
 
 #: The create route's example: the rough OD of Ivester & Heigel's demonstration part.

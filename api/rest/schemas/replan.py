@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
-from api.rest.schemas.common import Out
+from api.rest.schemas.common import NonNegative, Number, Out, Positive
 from api.rest.schemas.setpoints import OperationSetpoint
 
 
@@ -12,24 +12,24 @@ class ModelChangeIn(BaseModel):
     """New K and/or ΔK of a model in force (exponents stay)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    K: float | None = Field(None, gt=0)
-    dK: float | None = Field(None, ge=0)
+    K: Positive | None = None
+    dK: NonNegative | None = None
 
 
 class ReplanIn(BaseModel):
     """An engineer's change (supervisor.rcb.replan)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    limits: dict[str, float | None] | None = Field(
+    limits: dict[str, Number | None] | None = Field(
         None, description="OPERATION.QUANTITY -> new limit (null: remove it)"
     )
-    bounds: dict[str, tuple[float, float]] | None = Field(
+    bounds: dict[str, tuple[Number, Number]] | None = Field(
         None, description="OPERATION.PARAMETER -> [low, high]"
     )
     models: dict[str, ModelChangeIn] | None = Field(
         None, description="TOOL.QUANTITY -> {K, dK} in every operation using the tool"
     )
-    reset_bands: bool | None = Field(None, description="back to the tools' baseline bands")
+    reset_bands: StrictBool | None = Field(None, description="back to the tools' baseline bands")
 
 
 class SetpointChange(Out):

@@ -2,22 +2,26 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from api.rest.schemas.common import Out, Text, keys_schema
+from api.rest.schemas.common import Name, NonNegative, Out, Positive, Text, keys_schema
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.quantities import MODEL_QUANTITIES
+
+#: An exponent of a power law or its standard error: machining exponents lie within ±10
+#: (Taylor's 1/n of a ceramic edge near 8); beyond ±100 ``x^e`` overflows a float.
+Exponent = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-100, le=100)]
 
 
 class ModelIn(BaseModel):
     """A power-law model ``Y = K·Π x_i^e_i`` with band ±ΔK."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    K: float = Field(gt=0)
-    dK: float = Field(0.0, ge=0)
-    exponents: dict[str, float] = Field(
+    K: Positive
+    dK: NonNegative = 0.0
+    exponents: dict[str, Exponent] = Field(
         default_factory=dict,
         description="per variable of the tool's process: its parameters and context",
         json_schema_extra=keys_schema(
@@ -26,7 +30,7 @@ class ModelIn(BaseModel):
     )
     source: Text | None = Field(None, description="default: the tool's source")
     reference: Text | None = Field(None, description="where in the source (table, equation)")
-    exponent_stderr: dict[str, float] | None = Field(
+    exponent_stderr: dict[str, Exponent] | None = Field(
         None,
         description="standard errors of fitted exponents (rcb fit); learn's prior spread",
     )
@@ -59,7 +63,7 @@ class ToolIn(BaseModel):
     model_config = ConfigDict(
         extra="forbid", allow_inf_nan=False, json_schema_extra=_exponents_of_process
     )
-    name: Text = Field(max_length=200)
+    name: Name
     process: Process
     description: Text | None = None
     material: Text | None = None
