@@ -49,6 +49,8 @@ class Monomial:
     def _out_of_range(self, point: Mapping[str, float]) -> ModelDomainError:
         """Name the variable whose power moves the value furthest (in ln) out of float range."""
         terms = {n: abs(e * math.log(point[n])) for n, e in self.exponents.items()}
+        if not terms:  # the coefficient alone (a subnormal K times a scale underflows to 0)
+            return ModelDomainError("K", self.coefficient, "out of range of a float")
         name = max(terms, key=lambda n: terms[n])
         return ModelDomainError(name, point[name], "out of range: the model's value overflows")
 

@@ -52,8 +52,11 @@ _FINITE = {"strict": True, "allow_inf_nan": False}
 #: A number: strict (JSON ``true`` or ``"5"`` is refused, an integer is taken), finite, and at
 #: most :data:`LARGEST` in magnitude.
 Number = Annotated[float, Field(ge=-LARGEST, le=LARGEST, **_FINITE)]
-#: A :data:`Number` > 0.
-Positive = Annotated[float, Field(gt=0, le=LARGEST, **_FINITE)]
+#: The least value of a :data:`Positive`: no subnormal like 5e-324, whose ratios and powers in
+#: the physics overflow a float.
+SMALLEST_POSITIVE = 1e-12
+#: A :data:`Number` > 0 (at least :data:`SMALLEST_POSITIVE`).
+Positive = Annotated[float, Field(ge=SMALLEST_POSITIVE, le=LARGEST, **_FINITE)]
 #: A :data:`Number` >= 0.
 NonNegative = Annotated[float, Field(ge=0, le=LARGEST, **_FINITE)]
 #: The largest whole number an input may hold: what a 32-bit integer column stores.

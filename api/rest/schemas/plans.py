@@ -113,12 +113,12 @@ class OperationIn(BaseModel):
     tool: Name = Field(description="a catalogue, stored or inline tool")
     description: Text | None = None
     volume_mm3: Positive = Field(description="material the operation removes")
-    limits: dict[str, Number] = Field(
+    limits: dict[str, Positive] = Field(
         default_factory=dict,
         description="maxima of predicted quantities, and parts_per_edge (a minimum)",
         json_schema_extra=keys_schema(LIMITS),
     )
-    bounds: dict[str, tuple[Number, Number]] = Field(
+    bounds: dict[str, tuple[Positive, Positive]] = Field(
         description="[low, high] of every cutting parameter of the process",
         json_schema_extra=keys_schema(_ALL_PARAMETERS),
     )

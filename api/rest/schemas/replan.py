@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
-from api.rest.schemas.common import NonNegative, Number, Out, Positive
+from api.rest.schemas.common import NonNegative, Out, Positive
 from api.rest.schemas.setpoints import OperationSetpoint
 
 
@@ -20,10 +20,10 @@ class ReplanIn(BaseModel):
     """An engineer's change (supervisor.rcb.replan)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    limits: dict[str, Number | None] | None = Field(
+    limits: dict[str, Positive | None] | None = Field(
         None, description="OPERATION.QUANTITY -> new limit (null: remove it)"
     )
-    bounds: dict[str, tuple[Number, Number]] | None = Field(
+    bounds: dict[str, tuple[Positive, Positive]] | None = Field(
         None, description="OPERATION.PARAMETER -> [low, high]"
     )
     models: dict[str, ModelChangeIn] | None = Field(
