@@ -83,7 +83,7 @@ def problem(
         "type": _TYPE_BASE + code,
         "title": _TITLES.get(status, "Error"),
         "status": status,
-        "detail": _detail(detail, value),
+        "detail": _detail(detail, value, field),
         "instance": request.url.path,
         "code": code,
         "field": None if field is None else clip(field),
@@ -122,8 +122,10 @@ def echo(value: object) -> Any:
     return value if len(text) <= MAX_ECHO else clip(text)
 
 
-def _detail(detail: str, value: object) -> str:
-    """``detail`` with a long echo of ``value`` (an error message's ``{value!r}``) cut."""
+def _detail(detail: str, value: object, field: str | None) -> str:
+    """``detail`` with long echoes cut: of ``value`` (a ``{value!r}``), of ``field`` (a key)."""
+    if field is not None and len(field) > MAX_ECHO:
+        detail = detail.replace(field, clip(field))
     if value is None or isinstance(value, bool):
         return detail
     try:
