@@ -238,7 +238,8 @@ def test_errors_are_problems_naming_the_field(server):
         assert r.status_code == 422
         assert r.json()["field"] == "operations[0].measurements.force_N.value"
         assert r.json()["value"] == -5
-        unknown = {**body, "serial": "E4", "operations": [{"name": "nope", "measurements": {}}]}
+        nope = {"name": "nope", "measurements": {"force_N": {"value": 900, "uncertainty": 3}}}
+        unknown = {**body, "serial": "E4", "operations": [nope]}
         r = _post_part(c, plan_id, unknown, f"e-{plan_id}-unknown")
         assert r.status_code == 422 and "nope" in r.json()["field"]
         future = {**body, "serial": "E5", "setpoint_version": 99}

@@ -45,7 +45,13 @@ TOOL = {
     "models": {"force_N": {"K": 2000.0, "dK": 200.0, "exponents": {"depth_mm": 0.9}}},
 }
 SEED_PARTS = 3
-EMPTY_PART = {"serial": "EDGE-1", "setpoint_version": 1, "operations": []}
+EMPTY_PART = {  # a part report valid in itself (issue 17: at least one measurement)
+    "serial": "EDGE-1",
+    "setpoint_version": 1,
+    "operations": [
+        {"name": "rough-od", "measurements": {"force_N": {"value": 900, "uncertainty": 3}}}
+    ],
+}
 
 #: Every built-in check that applies to single requests but ``positive_data_acceptance`` (a
 #: schema-valid request must not get 400/422): a schema cannot say which operation names,
