@@ -133,6 +133,16 @@ def test_a_lone_surrogate_is_a_422_not_a_500(server, plan, where, token, field):
     assert "\\ud800" in r.json()["value"]  # echoed as the text of its escape, never raw
 
 
+def test_an_integer_too_long_to_parse_is_a_400_naming_the_body(server, plan):
+    text = json.dumps(_good(plan, "DIGITS")).replace(
+        '"setpoint_version": 1', '"setpoint_version": ' + "9" * 5000
+    )
+    r = _post(server, plan, content=text)
+    assert r.status_code == 400, r.text
+    assert r.headers["content-type"] == "application/problem+json"
+    assert r.json()["field"] == "body"
+
+
 def test_an_error_echoes_at_most_200_characters(server, plan):
     # issue 17: a 20 MB field came back three times in a 60 MB 422; here 1 MiB minus a little
     long = "X" * (MIB - 4096)

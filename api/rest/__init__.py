@@ -2,5 +2,6 @@
 
 ``app`` (the app factory), ``routes/`` (one router per resource), ``deps`` (the engine and the
 roles as dependencies; :mod:`api.services.auth` checks the keys), ``problems`` (errors as
-problem+json), ``schemas/`` (the bodies, one module per resource) and ``serving`` (uvicorn).
+problem+json), ``limits`` (a body over 1 MiB is 413 before it is read), ``schemas/`` (the
+bodies, one module per resource) and ``serving`` (uvicorn).
 """

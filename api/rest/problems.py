@@ -245,7 +245,8 @@ def install(app: FastAPI) -> None:
         headers = getattr(err, "headers", None)
         if err.status_code == 405:
             headers = {**(headers or {}), "Allow": _allowed(request)}
-        return problem(request, err.status_code, code, str(err.detail), headers=headers)
+        field = "body" if err.status_code == 400 else None  # a body FastAPI could not read
+        return problem(request, err.status_code, code, str(err.detail), field, headers=headers)
 
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, err: Exception) -> JSONResponse:
