@@ -1,0 +1,77 @@
+"""Issue 17, item 4, in the domain reader: a part report the physics cannot produce is refused.
+
+``supervisor.inputs.part_report.report_from_mapping`` holds the same rules as the REST schema,
+for every caller that is not the REST service; each error names the field.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+
+from models.errors import InputError
+from supervisor.inputs.part_report import report_from_mapping
+
+REPORT = {
+    "serial": "P-0001",
+    "setpoint_version": 1,
+    "operations": [
+        {
+            "name": "rough-od",
+            "measurements": {"force_N": {"value": 1565, "uncertainty": 12}},
+            "tool_wear": {"flank_wear_mm": {"value": 0.15, "uncertainty": 0.01}, "volume_mm3": 2e6},
+        }
+    ],
+}
+F = ("operations", 0, "measurements", "force_N")
+FIELD = "operations[0].measurements.force_N"
+W = ("operations", 0, "tool_wear", "flank_wear_mm")
+
+
+def _with(path, value):
+    data = copy.deepcopy(REPORT)
+    *head, last = path
+    target = data
+    for key in head:
+        target = target[key]
+    target[last] = value
+    return data
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "field"),
+    [
+        ((*F, "value"), True, f"{FIELD}.value"),
+        ((*F, "value"), "5", f"{FIELD}.value"),
+        ((*F, "value"), 0, f"{FIELD}.value"),
+        ((*F, "value"), 1e13, f"{FIELD}.value"),
+        ((*F, "value"), 1e308, f"{FIELD}.value"),
+        ((*F, "uncertainty"), 0, f"{FIELD}.uncertainty"),
+        ((*F, "uncertainty"), 1565, f"{FIELD}.uncertainty"),
+        ((*W, "uncertainty"), 0.2, "operations[0].tool_wear.flank_wear_mm.uncertainty"),
+        (("operations", 0, "tool_wear", "volume_mm3"), 1e300, "operations[0].tool_wear.volume_mm3"),
+        (("operations",), [], "operations"),
+        (("operations", 0), {"name": "rough-od", "measurements": {}}, "operations[0].measurements"),
+        (("serial",), "P\x01", "serial"),
+        (("serial",), "P\u202e1", "serial"),
+        (("serial",), "P\ud800", "serial"),
+        (("operations", 0, "name"), "rough\tod", "operations[0].name"),
+    ],
+)
+def test_a_report_the_physics_cannot_produce_is_refused_naming_the_field(path, value, field):
+    with pytest.raises(InputError) as err:
+        report_from_mapping(_with(path, value))
+    assert err.value.field == field
+
+
+def test_a_feed_override_alone_is_something_measured():
+    op = {"name": "slot", "feed_override_percent": 80.0}
+    report = report_from_mapping({**REPORT, "operations": [op]})
+    assert report.feed_overrides == {"slot": 80.0}
+
+
+def test_the_example_report_is_read():
+    report = report_from_mapping(REPORT)
+    assert report.measurements["rough-od"]["force_N"].value == 1565.0
+    assert report.tool_wear["rough-od"].flank_wear_mm.uncertainty == 0.01
