@@ -1,19 +1,31 @@
 """Engines: SQLite (embedded default) and PostgreSQL (psycopg 3), and migrations.
 
-SQLite runs in WAL mode with a busy timeout, foreign keys on, and every transaction opened
-with ``BEGIN IMMEDIATE``: a writer takes the write lock when it starts instead of upgrading a
-read lock later, which is what raises "database is locked" under concurrent writers
-(SQLite docs, "Write-Ahead Logging" and "BEGIN TRANSACTION"; SQLAlchemy docs, pysqlite
+SQLite runs in WAL mode with a busy timeout, foreign keys on, and every writing transaction
+opened with ``BEGIN IMMEDIATE``: a writer takes the write lock when it starts instead of
+upgrading a read lock later, which is what raises "database is locked" under concurrent
+writers (SQLite docs, "Write-Ahead Logging" and "BEGIN TRANSACTION"; SQLAlchemy docs, pysqlite
 "Serializable isolation / Savepoints / Transactional DDL").
+
+Reads do not starve writes (issue 17: four viewers reading history cut one MES client's
+reports a hundredfold). :func:`reader` is a second engine on the same database with its own,
+small pool (:data:`READ_POOL_SIZE` connections, no overflow): the history, parts and model
+reads of a worker share it, so they cannot take the connections the reports need and at most
+that many of them compute at once in a worker; a further read waits for a connection (up to
+:data:`READ_POOL_TIMEOUT_S`), holding no connection, no lock and no CPU. On SQLite its
+transactions open with a deferred ``BEGIN``: WAL gives each reader a snapshot outside the
+write lock. A key's lookup on every request stays on the writers' pool
+(:func:`one_statement_reader`), so a report never queues behind a viewer.
 """
 
 from __future__ import annotations
 
+import threading
+import weakref
 from pathlib import Path
 from typing import Any
 
 from sqlalchemy import Engine, create_engine, event
-from sqlalchemy.engine import make_url
+from sqlalchemy.engine import URL, make_url
 
 from db.bulk import hook_engine
 
@@ -21,9 +33,15 @@ from db.bulk import hook_engine
 DEFAULT_URL = "sqlite:///./rcb.db"
 #: Milliseconds a SQLite writer waits for the lock before giving up.
 SQLITE_BUSY_TIMEOUT_MS = 30_000
+#: Connections of a worker's read pool (:func:`reader`): reads computing at once per worker.
+READ_POOL_SIZE = 1
+#: Seconds a read waits for a connection of the read pool before it fails.
+READ_POOL_TIMEOUT_S = 120
 _READ_ONLY = "rcb_read_only"
 #: The Alembic scripts (top-level ``alembic/`` of the repository).
 MIGRATIONS = Path(__file__).resolve().parent.parent / "alembic"
+_readers: weakref.WeakKeyDictionary[Engine, Engine] = weakref.WeakKeyDictionary()
+_readers_lock = threading.Lock()
 
 
 def make_engine(url: str) -> Engine:
@@ -31,14 +49,17 @@ def make_engine(url: str) -> Engine:
 
     Its sessions may defer rows to the end of their transaction (:func:`db.bulk.defer`).
     """
-    parsed = make_url(url)
+    # PostgreSQL: a pool as large as a worker's concurrency, so connections are reused rather
+    # than opened and closed under load (4 workers x (24 + 1 read) stays under the default 100)
+    return _engine(make_url(url), pool_size=16, max_overflow=8)
+
+
+def _engine(parsed: URL, *, read_pool: bool = False, **pool: Any) -> Engine:
     if parsed.get_backend_name() != "sqlite":
-        # a pool as large as a worker's concurrency, so connections are reused rather than
-        # opened and closed under load (4 workers x 24 stays under PostgreSQL's default 100)
-        engine = create_engine(url, pool_pre_ping=True, pool_size=16, max_overflow=8)
+        engine = create_engine(parsed, pool_pre_ping=True, **pool)
         hook_engine(engine)
         return engine
-    engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000})
+    engine = create_engine(parsed, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000}, **pool)
     hook_engine(engine)
 
     @event.listens_for(engine, "connect")
@@ -53,19 +74,33 @@ def make_engine(url: str) -> Engine:
 
     @event.listens_for(engine, "begin")
     def _begin(connection: Any) -> None:
-        read_only = connection.get_execution_options().get(_READ_ONLY, False)
+        read_only = read_pool or connection.get_execution_options().get(_READ_ONLY, False)
         connection.exec_driver_sql("BEGIN" if read_only else "BEGIN IMMEDIATE")
 
     return engine
 
 
 def reader(engine: Engine) -> Engine:
-    """The same engine for read-only use.
+    """The read engine of ``engine`` (made by :func:`make_engine`): its own bounded pool.
 
     On SQLite its transactions open with a deferred ``BEGIN``, so readers do not queue for the
-    write lock (WAL gives each reader a consistent snapshot).
+    write lock (WAL gives each reader a consistent snapshot). It is made on first use and
+    disposed with ``engine``.
     """
-    return engine.execution_options(**{_READ_ONLY: True})
+    if engine.dialect.name == "sqlite" and engine.url.database in (None, "", ":memory:"):
+        return engine.execution_options(**{_READ_ONLY: True})  # one database per connection
+    with _readers_lock:
+        found = _readers.get(engine)
+        if found is None:
+            found = _readers[engine] = _engine(
+                engine.url,
+                read_pool=True,
+                pool_size=READ_POOL_SIZE,
+                max_overflow=0,
+                pool_timeout=READ_POOL_TIMEOUT_S,
+            )
+            event.listen(engine, "engine_disposed", lambda _engine: found.dispose())
+        return found
 
 
 def one_statement_reader(engine: Engine) -> Engine:
@@ -73,11 +108,12 @@ def one_statement_reader(engine: Engine) -> Engine:
 
     On PostgreSQL it runs without ``BEGIN``/``COMMIT`` (autocommit: one statement is its own
     transaction and sees what was committed before it, as in a READ COMMITTED transaction),
-    two round trips fewer; on SQLite it is :func:`reader`.
+    two round trips fewer; on SQLite its transaction opens with a deferred ``BEGIN``. Either
+    way on the writers' pool: every request checks a key, and must not wait for the readers.
     """
     if engine.dialect.name == "postgresql":
         return engine.execution_options(isolation_level="AUTOCOMMIT")
-    return reader(engine)
+    return engine.execution_options(**{_READ_ONLY: True})
 
 
 def upgrade(url: str, revision: str = "head") -> None:

@@ -88,9 +88,17 @@ def serve(
     workers: Annotated[int, typer.Option(min=1, max=64, help="Worker processes.")] = 1,
     access_log: Annotated[bool, typer.Option(help="Log every request.")] = True,
 ) -> None:
-    """Serve the REST API (under /api/v1) with uvicorn; migrates the database first."""
+    """Serve the REST API (under /api/v1) with uvicorn; migrates the database first.
+
+    A port in use exits with code 5 and one line; the workers exit when this process dies.
+    """
     url = database_url(db)
     with errors():
         _migrate(url)
+        try:
+            listener = serving.tcp_listener(host, port)
+        except serving.PortInUseError as err:
+            say(f"rcb: error: {err}")
+            raise typer.Exit(serving.EXIT_PORT_IN_USE) from None
         say(f"rcb: serving {shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
-        serving.run(url, host=host, port=port, workers=workers, access_log=access_log)
+        serving.run(listener, url, workers=workers, access_log=access_log)

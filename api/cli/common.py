@@ -1,7 +1,8 @@
 """What every ``rcb`` command shares: the error contract, the database option, output, files.
 
 Exit codes: 0 success, 2 bad input (one line naming the field and the value), 3 infeasible
-(the limits that cannot be met) or a halted plan (its conflicts), 4 solver failure. The
+(the limits that cannot be met) or a halted plan (its conflicts), 4 solver failure, 5 the
+port of ``rcb serve`` is in use (:data:`api.rest.serving.EXIT_PORT_IN_USE`). The
 command modules (:mod:`api.cli.optimize`, :mod:`api.cli.fit`, :mod:`api.cli.review` ...)
 import from here and from their own output modules (:mod:`api.cli.tables`,
 :mod:`api.cli.demo_view`), never from each other; :mod:`api.cli.main` registers them.
