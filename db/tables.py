@@ -149,7 +149,7 @@ class OperationModelVersion(Base):
         UniqueConstraint("operation_id", "quantity", "version"),
         # the model in force at a part's setpoint version, and the part-less ones (db.history)
         Index("ix_operation_model_versions_quantity_part", "operation_id", "quantity", "part_id"),
-        Index("ix_operation_model_versions_part", "operation_id", "part_id"),
+        Index("ix_operation_model_versions_part", "operation_id", "part_id", "quantity"),
     )
     id: Mapped[int] = mapped_column(primary_key=True)
     operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))

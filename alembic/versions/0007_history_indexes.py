@@ -1,7 +1,8 @@
 """Indexes that keep history reads linear in the page, not in the plan's life (issue 17)
 
-``operation_model_versions (operation_id, quantity, part_id)`` and ``(operation_id, part_id)``:
-the model in force at a setpoint version is an index seek; ``rcb_decisions (part_id)``: a page
+``operation_model_versions (operation_id, quantity, part_id)`` and
+``(operation_id, part_id, quantity)``: the model in force at a setpoint version, and the
+part-less versions, are index seeks; ``rcb_decisions (part_id)``: a page
 of parts reads its decisions without a scan; ``parts (plan_id, received_at)``: ``rcb parts
 --since``.
 
@@ -27,7 +28,9 @@ def upgrade() -> None:
         ["operation_id", "quantity", "part_id"],
     )
     op.create_index(
-        "ix_operation_model_versions_part", "operation_model_versions", ["operation_id", "part_id"]
+        "ix_operation_model_versions_part",
+        "operation_model_versions",
+        ["operation_id", "part_id", "quantity"],
     )
     op.create_index("ix_rcb_decisions_part_id", "rcb_decisions", ["part_id"])
     op.create_index("ix_parts_plan_received", "parts", ["plan_id", "received_at"])
