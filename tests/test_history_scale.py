@@ -198,3 +198,43 @@ def test_rest_history_pages_with_a_cursor_either_way(server):
         ):
             r = c.get(url, params=bad)
             assert r.status_code == 422 and r.json()["field"] == field, r.text
+
+
+def test_the_report_lists_the_newest_200_versions_and_summarises_older_ones(tmp_path):
+    """A plan's page does not grow with its setpoint history: 1000 versions read as 800
+    summarised per 100 and the newest 200 one by one (the same as 250 versions, plus 7 rows)."""
+    import xml.etree.ElementTree as ET
+
+    from api.report.html import render_html_report
+    from db.engine import make_engine, upgrade
+
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
+    plan = queries.get_plan(engine=engine, plan_id=plan_id)
+    start = queries.plan_history(engine=engine, plan_id=plan_id)
+    engine.dispose()
+    model = start["versions"][0]
+
+    def history(n):
+        versions = [
+            {**model, "version": i, "cause": "part", "serial": f"S{i}", "part_id": i}
+            for i in range(1, n + 1)
+        ]
+        return {**start, "versions": versions}
+
+    def rows(n):
+        page = render_html_report(plan, history(n), [])
+        root = ET.fromstring(page.removeprefix("<!DOCTYPE html>\n"))
+        table = root.find(".//table[@id='history']")
+        return page, ["".join(r.itertext()) for r in table.findall("tbody/tr")]
+
+    small, few = rows(150)
+    big, many = rows(1000)
+    assert len(few) == 150 and few[0].startswith("1part")
+    assert len(many) == 8 + 200
+    assert many[0].startswith("1–100100 versionsS1 … S100")
+    assert many[7].startswith("701–800100 versions")
+    assert many[8].startswith("801part") and many[-1].startswith("1000part")
+    assert len(big.encode()) - len(small.encode()) < 60_000
