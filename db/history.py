@@ -6,11 +6,11 @@ Each returns plain rows or dicts; :mod:`api.services.queries` shapes them for JS
 from __future__ import annotations
 
 from collections import defaultdict
-from datetime import UTC
+from datetime import UTC, datetime
 from typing import Any
 
 from sqlalchemy import func, select
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
 from db.plan_state import settings_json, settings_of
@@ -61,50 +61,155 @@ def operations(*, session: Session, plan_id: int) -> list[tuple[t.Operation, t.T
 
 
 def parts_page(
-    *, session: Session, plan_id: int, after_id: int, limit: int
+    *,
+    session: Session,
+    plan_id: int,
+    after_id: int,
+    limit: int,
+    newest: bool = False,
+    since: datetime | None = None,
 ) -> tuple[list[t.Part], dict[int, list[t.Measurement]], dict[int, list[t.RcbDecision]]]:
-    """Up to ``limit`` parts with id > ``after_id``, oldest first, with measurements, decisions."""
-    parts = list(
-        session.scalars(
-            select(t.Part)
-            .where(t.Part.plan_id == plan_id, t.Part.id > after_id)
-            .order_by(t.Part.id)
-            .limit(limit)
-        )
-    )
+    """Up to ``limit`` parts with id > ``after_id``, oldest first, with measurements, decisions.
+
+    ``newest``: the newest ``limit`` parts with id < ``after_id`` (0: the newest of all),
+    still returned oldest first. ``since``: only parts received at or after this time.
+    """
+    query = select(t.Part).where(t.Part.plan_id == plan_id)
+    if since is not None:
+        query = query.where(t.Part.received_at >= since.astimezone(UTC))
+    if newest:
+        if after_id:
+            query = query.where(t.Part.id < after_id)
+        parts = list(session.scalars(query.order_by(t.Part.id.desc()).limit(limit)))[::-1]
+    else:
+        query = query.where(t.Part.id > after_id)
+        parts = list(session.scalars(query.order_by(t.Part.id).limit(limit)))
     ids = [p.id for p in parts]
     measurements: dict[int, list[t.Measurement]] = defaultdict(list)
-    decisions: dict[int, list[t.RcbDecision]] = defaultdict(list)
     if ids:
         for m in session.scalars(
             select(t.Measurement).where(t.Measurement.part_id.in_(ids)).order_by(t.Measurement.id)
         ):
             measurements[m.part_id].append(m)
+    return parts, measurements, decisions_of(session=session, part_ids=ids)
+
+
+def decisions_of(*, session: Session, part_ids: list[int]) -> dict[int, list[t.RcbDecision]]:
+    """The RCB decisions of these parts, per part in the order made (an index seek each)."""
+    decisions: dict[int, list[t.RcbDecision]] = defaultdict(list)
+    if part_ids:
         for d in session.scalars(
-            select(t.RcbDecision).where(t.RcbDecision.part_id.in_(ids)).order_by(t.RcbDecision.id)
+            select(t.RcbDecision)
+            .where(t.RcbDecision.part_id.in_(part_ids))
+            .order_by(t.RcbDecision.id)
         ):
             decisions[d.part_id].append(d)
-    return parts, measurements, decisions
+    return decisions
 
 
 def setpoint_versions(
-    *, session: Session, plan_id: int
+    *,
+    session: Session,
+    plan_id: int,
+    after: int = 0,
+    before: int | None = None,
+    limit: int | None = None,
+    newest: bool = False,
 ) -> list[tuple[t.SetpointVersion, str | None, list[t.Setpoint]]]:
-    """Every setpoint version of a plan, oldest first, with the causing serial and setpoints."""
-    versions = session.execute(
+    """Setpoint versions of a plan with the causing serial and setpoints, oldest first.
+
+    Parameters
+    ----------
+    after : int
+        Only versions numbered above this one.
+    before : int or None
+        Only versions numbered below this one.
+    limit : int or None
+        Most versions returned; ``None``: all. The rows read grow with the page, not with the
+        plan's history (the ``(plan_id, version)`` unique index).
+    newest : bool
+        The newest ``limit`` versions of the range rather than the oldest (still returned
+        oldest first).
+    """
+    query = (
         select(t.SetpointVersion, t.Part.serial)
         .outerjoin(t.Part, t.SetpointVersion.part_id == t.Part.id)
-        .where(t.SetpointVersion.plan_id == plan_id)
-        .order_by(t.SetpointVersion.version)
-    ).all()
+        .where(t.SetpointVersion.plan_id == plan_id, t.SetpointVersion.version > after)
+    )
+    if before is not None:
+        query = query.where(t.SetpointVersion.version < before)
+    order = t.SetpointVersion.version.desc() if newest else t.SetpointVersion.version
+    versions = list(session.execute(query.order_by(order).limit(limit)).all())
+    if newest:
+        versions.reverse()
     setpoints: dict[int, list[t.Setpoint]] = defaultdict(list)
-    for sp in session.scalars(
-        select(t.Setpoint)
-        .join(t.SetpointVersion, t.Setpoint.setpoint_version_id == t.SetpointVersion.id)
-        .where(t.SetpointVersion.plan_id == plan_id)
-    ):
-        setpoints[sp.setpoint_version_id].append(sp)
+    ids = [v.id for v, _ in versions]
+    if ids:
+        for sp in session.scalars(
+            select(t.Setpoint).where(t.Setpoint.setpoint_version_id.in_(ids))
+        ):
+            setpoints[sp.setpoint_version_id].append(sp)
     return [(v, serial, setpoints[v.id]) for v, serial in versions]
+
+
+def models_at(
+    *, session: Session, operation_ids: list[int], versions: list[t.SetpointVersion]
+) -> dict[int, dict[tuple[int, str], t.OperationModelVersion]]:
+    """The model versions in force at each setpoint version, per (operation id, quantity).
+
+    In force at a version: the highest-numbered model version among those without a part
+    (``initial``, ``replan``) and, for a version a part caused, those of parts up to that part.
+    Per page two small queries, each an index seek per setpoint version and (operation,
+    quantity), so the cost grows with the page, not with the history.
+
+    Returns
+    -------
+    dict
+        Setpoint version id -> (operation id, quantity) -> model version row.
+    """
+    if not versions or not operation_ids:
+        return {v.id: {} for v in versions}
+    m = t.OperationModelVersion
+    partless: dict[tuple[int, str], t.OperationModelVersion] = {}
+    for row in session.scalars(
+        select(m).where(m.operation_id.in_(operation_ids), m.part_id.is_(None)).order_by(m.version)
+    ):
+        partless[(row.operation_id, row.quantity)] = row  # the highest version stays
+    pairs = sorted(partless)
+    by_part = [v for v in versions if v.part_id is not None]
+    found: dict[int, list[int | None]] = {}
+    if by_part and pairs:
+        sv = t.SetpointVersion
+        columns = []
+        for operation_id, quantity in pairs:
+            newest = aliased(m)
+            columns.append(
+                select(newest.id)
+                .where(
+                    newest.operation_id == operation_id,
+                    newest.quantity == quantity,
+                    newest.part_id <= sv.part_id,
+                )
+                .order_by(newest.part_id.desc(), newest.version.desc())
+                .limit(1)
+                .correlate(sv)
+                .scalar_subquery()
+            )
+        for hit in session.execute(
+            select(sv.id, *columns).where(sv.id.in_([v.id for v in by_part]))
+        ):
+            found[hit[0]] = list(hit[1:])
+    wanted = {i for ids in found.values() for i in ids if i is not None}
+    rows = {r.id: r for r in session.scalars(select(m).where(m.id.in_(wanted)))} if wanted else {}
+    out: dict[int, dict[tuple[int, str], t.OperationModelVersion]] = {}
+    for v in versions:
+        in_force = dict(partless)
+        for pair, row_id in zip(pairs, found.get(v.id, []), strict=False):
+            newer = rows.get(row_id) if row_id is not None else None
+            if newer is not None and newer.version > in_force[pair].version:
+                in_force[pair] = newer
+        out[v.id] = in_force
+    return out
 
 
 def model_versions(

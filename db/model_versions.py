@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import Subquery, func, select
-from sqlalchemy.orm import Session
+from sqlalchemy import ScalarSelect, select
+from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
 from models.powerlaw import PowerLawModel
@@ -36,15 +36,15 @@ def model_version_row(
 
 
 def latest_models(*, session: Session, plan_id: int) -> dict[tuple[int, str], Any]:
-    """The newest model version per (operation id, quantity) of a plan: K, dK, exponents."""
+    """The newest model version per (operation id, quantity) of a plan: K, dK, exponents.
+
+    An index seek per (operation, quantity) on ``(operation_id, quantity, version)``: the rows
+    read do not grow with the plan's history.
+    """
     v = t.OperationModelVersion
-    newest = _newest_versions(plan_id)
     rows = session.execute(
-        select(v.operation_id, v.quantity, v.K, v.dK, v.exponents).join(
-            newest,
-            (v.operation_id == newest.c.operation_id)
-            & (v.quantity == newest.c.quantity)
-            & (v.version == newest.c.version),
+        select(v.operation_id, v.quantity, v.K, v.dK, v.exponents, v.version).where(
+            v.id.in_(_newest_ids(session, plan_id))
         )
     )
     return {(row.operation_id, row.quantity): row for row in rows}
@@ -52,18 +52,33 @@ def latest_models(*, session: Session, plan_id: int) -> dict[tuple[int, str], An
 
 def version_numbers(*, session: Session, plan_id: int) -> dict[tuple[int, str], int]:
     """The newest model version number per (operation id, quantity) of a plan."""
-    newest = _newest_versions(plan_id)
-    rows = session.execute(select(newest.c.operation_id, newest.c.quantity, newest.c.version))
-    return {(row.operation_id, row.quantity): row.version for row in rows}
+    return {
+        key: row.version for key, row in latest_models(session=session, plan_id=plan_id).items()
+    }
 
 
-def _newest_versions(plan_id: int) -> Subquery:
-    """Subquery: the newest model version number per (operation id, quantity) of a plan."""
+def _newest_ids(session: Session, plan_id: int) -> list[ScalarSelect[int]]:
+    """Per (operation, quantity) of the plan, a subquery: the id of its newest model version.
+
+    The pairs come from the versions without a part (``initial``, ``replan``): few, indexed.
+    """
     v = t.OperationModelVersion
-    return (
-        select(v.operation_id, v.quantity, func.max(v.version).label("version"))
-        .join(t.Operation, v.operation_id == t.Operation.id)
-        .where(t.Operation.plan_id == plan_id)
-        .group_by(v.operation_id, v.quantity)
-        .subquery()
+    operations = select(t.Operation.id).where(t.Operation.plan_id == plan_id)
+    pairs = set(
+        session.execute(
+            select(v.operation_id, v.quantity).where(
+                v.operation_id.in_(list(session.scalars(operations))), v.part_id.is_(None)
+            )
+        ).tuples()
     )
+    newest = []
+    for operation_id, quantity in sorted(pairs):
+        n = aliased(v)
+        newest.append(
+            select(n.id)
+            .where(n.operation_id == operation_id, n.quantity == quantity)
+            .order_by(n.version.desc())
+            .limit(1)
+            .scalar_subquery()
+        )
+    return newest

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from sqlalchemy import func, select
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
 from db.model_versions import latest_models
@@ -77,9 +77,12 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     beliefs: dict[tuple[str, str], Posterior] = {}
     settings = settings_of(plan_row.strategy, plan_row.alpha, plan_row.settings)
     models_in_force = latest_models(session=session, plan_id=plan_row.id)
-    band_states = _latest_band_states(
-        session, plan_row.id, _bands_reset_after(session, plan_row.id)
+    pairs = sorted(
+        (ops[op.name].id, quantity)
+        for op in plan.operations
+        for quantity in plan.tools[op.tool].models
     )
+    band_states = _latest_band_states(session, pairs, _bands_reset_after(session, plan_row.id))
     for op in plan.operations:
         base = plan.tools[op.tool]
         models = {}
@@ -126,26 +129,26 @@ def _bands_reset_after(session: Session, plan_id: int) -> int:
 
 
 def _latest_band_states(
-    session: Session, plan_id: int, after_part: int = 0
+    session: Session, pairs: list[tuple[int, str]], after_part: int = 0
 ) -> dict[tuple[int, str], t.BandState]:
-    """The newest band state per (operation id, quantity) of a plan, in one query.
+    """The newest band state per (operation id, quantity) of ``pairs``, in one query.
 
-    States of parts up to ``after_part`` are forgotten (a replan reset the bands).
+    An index seek per pair on ``(operation_id, quantity, part_id)``, no GROUP BY over every
+    band-state row: the cost of a cache miss does not grow with the parts reported. States of
+    parts up to ``after_part`` are forgotten (a replan reset the bands).
     """
+    if not pairs:
+        return {}
     b = t.BandState
-    newest = (
-        select(b.operation_id, b.quantity, func.max(b.part_id).label("part_id"))
-        .join(t.Operation, b.operation_id == t.Operation.id)
-        .where(t.Operation.plan_id == plan_id, b.part_id > after_part)
-        .group_by(b.operation_id, b.quantity)
-        .subquery()
-    )
-    rows = session.scalars(
-        select(b).join(
-            newest,
-            (b.operation_id == newest.c.operation_id)
-            & (b.quantity == newest.c.quantity)
-            & (b.part_id == newest.c.part_id),
+    newest = []
+    for operation_id, quantity in pairs:
+        n = aliased(b)
+        newest.append(
+            select(n.id)
+            .where(n.operation_id == operation_id, n.quantity == quantity, n.part_id > after_part)
+            .order_by(n.part_id.desc())
+            .limit(1)
+            .scalar_subquery()
         )
-    )
+    rows = session.scalars(select(b).where(b.id.in_(newest)))
     return {(row.operation_id, row.quantity): row for row in rows}

@@ -15,6 +15,7 @@ from sqlalchemy import (
     JSON,
     DateTime,
     ForeignKey,
+    Index,
     MetaData,
     String,
     Table,
@@ -144,7 +145,12 @@ class OperationModelVersion(Base):
     """
 
     __tablename__ = "operation_model_versions"
-    __table_args__ = (UniqueConstraint("operation_id", "quantity", "version"),)
+    __table_args__ = (
+        UniqueConstraint("operation_id", "quantity", "version"),
+        # the model in force at a part's setpoint version, and the part-less ones (db.history)
+        Index("ix_operation_model_versions_quantity_part", "operation_id", "quantity", "part_id"),
+        Index("ix_operation_model_versions_part", "operation_id", "part_id", "quantity"),
+    )
     id: Mapped[int] = mapped_column(primary_key=True)
     operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))
     quantity: Mapped[str] = mapped_column(String(50))
@@ -191,7 +197,10 @@ class Part(Base):
     """A part reported by the MES; ``setpoint_version`` is the one it was made with."""
 
     __tablename__ = "parts"
-    __table_args__ = (UniqueConstraint("plan_id", "serial"),)
+    __table_args__ = (
+        UniqueConstraint("plan_id", "serial"),
+        Index("ix_parts_plan_received", "plan_id", "received_at"),  # rcb parts --since
+    )
     id: Mapped[int] = mapped_column(primary_key=True)
     plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))
     serial: Mapped[str] = mapped_column(String(200))
@@ -224,7 +233,7 @@ class RcbDecision(Base):
 
     __tablename__ = "rcb_decisions"
     id: Mapped[int] = mapped_column(primary_key=True)
-    part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"))
+    part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"), index=True)  # a page's parts
     operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))
     quantity: Mapped[str] = mapped_column(String(50))
     action: Mapped[str] = mapped_column(String(10))

@@ -6,5 +6,6 @@ contract and exit codes, shared options, JSON output, atomic files), the command
 CSV, and ``fit_tool``, the TOML tool it writes), ``gcode``, ``html_report`` (``rcb report``),
 ``review`` (``plans``, ``history``, ``parts``, ``export``, ``replan``), ``milling`` and
 ``domain`` (``rcb milling setup|domain``), ``admin`` (``db upgrade``, ``keys``, ``serve``); and
-the rich tables they print: ``tables``, ``demo_view``.
+the rich tables they print: ``tables``, ``demo_view``, ``parts_view`` (``rcb parts`` page by
+page).
 """

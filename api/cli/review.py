@@ -7,6 +7,7 @@ Thin commands over :mod:`api.services.queries` (the REST routes call the same), 
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterable
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any
@@ -17,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 from sqlalchemy import Engine
 
+from api.cli import parts_view
 from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
 from api.report import export as tidy
 from api.report import marks
@@ -84,14 +86,20 @@ def history(
     operation: Annotated[
         str | None, typer.Option(help="One operation in detail: setpoints, predictions, bands.")
     ] = None,
+    last: Annotated[
+        int, typer.Option(help=f"The newest N setpoint versions (1-{queries.MAX_PAGE}).")
+    ] = 50,
     db: DbOption = None,
     as_json: _JsonOption = False,
 ) -> None:
     """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
     with errors():
         engine = _engine(db)
-        data = queries.plan_history(engine=engine, plan_id=plan)
-        decisions = _decisions_by_part(engine, plan)
+        data = queries.plan_history(
+            engine=engine, plan_id=plan, page_size=_bounded("--last", last), newest=True
+        )
+        caused = [v["part_id"] for v in data["versions"] if v["part_id"] is not None]
+        decisions = queries.decisions(engine=engine, plan_id=plan, part_ids=caused)
         names = [op["name"] for op in data["versions"][0]["operations"]]
         if operation is not None and operation not in names:
             raise InputError(
@@ -107,6 +115,13 @@ def history(
     _out.print(_history_table(data, operation))
     if data["status"] == "halted":
         _print_halt(plan, data["halt"])
+
+
+def _bounded(option: str, count: int) -> int:
+    """``count`` if it is a page size the queries take; else an error naming ``option``."""
+    if not 1 <= count <= queries.MAX_PAGE:
+        raise InputError(option, count, f"must be between 1 and {queries.MAX_PAGE}")
+    return count
 
 
 def _history_table(data: dict[str, Any], operation: str | None) -> Table:
@@ -171,16 +186,8 @@ def _marked(d: dict[str, Any]) -> str:
     return f" [dim]({label})[/]" if kind == "note" else f" {_mark(d)}"
 
 
-def _decisions_by_part(engine: Engine, plan_id: int) -> dict[int, list[dict[str, Any]]]:
-    out: dict[int, list[dict[str, Any]]] = {}
-    for part in _all_parts(engine, plan_id):
-        out[part["part_id"]] = part["updates"]
-    return out
-
-
-def _all_parts(engine: Engine, plan_id: int, since: datetime | None = None) -> list[dict[str, Any]]:
-    items = queries.all_parts(engine=engine, plan_id=plan_id)
-    return [p for p in items if since is None or p["received_at"] >= since]
+def _all_parts(engine: Engine, plan_id: int) -> list[dict[str, Any]]:
+    return queries.all_parts(engine=engine, plan_id=plan_id)
 
 
 def parts(
@@ -188,40 +195,37 @@ def parts(
     since: Annotated[
         str | None, typer.Option(help="Only parts received at or after this ISO 8601 time (UTC).")
     ] = None,
+    last: Annotated[
+        int | None, typer.Option(help=f"Only the newest N parts (1-{queries.MAX_PAGE}).")
+    ] = None,
     db: DbOption = None,
     as_json: _JsonOption = False,
 ) -> None:
-    """Parts with their measurements, the margins to each limit, and flagged violations."""
+    """Parts with their measurements, the margins to each limit, and flagged violations.
+
+    Reads and prints a page at a time: ``--json`` streams, memory does not grow with the plan.
+    """
     with errors():
         after = _since(since)
-        items = _all_parts(_engine(db), plan, after)
-    if as_json:
-        emit({"plan_id": plan, "parts": items})
-        return
-    table = Table(title=f"plan {plan}: parts" + (f" since {since}" if since else ""))
-    for column in ("serial", "ver", "received", "operation", "quantity", "measured ± u"):
-        table.add_column(column)
-    for column in ("margin", "action", "flag / note"):
-        table.add_column(column, justify="right" if column == "margin" else "left")
-    for part in items:
-        decided = {(d["operation"], d["quantity"]): d for d in part["updates"]}
-        first = True
-        for op in part["operations"]:
-            for q, m in op["measurements"].items():
-                d = decided.get((op["name"], q), {})
-                table.add_row(
-                    part["serial"] if first else "",
-                    str(part["setpoint_version"]) if first else "",
-                    part["received_at"].strftime("%m-%d %H:%M:%S") if first else "",
-                    op["name"],
-                    q + (" (raw)" if m.get("raw") else ""),
-                    f"{_fmt(m['value'])} ± {_fmt(m['uncertainty'])}",
-                    _fmt(d.get("margin")),
-                    d.get("action", "-"),
-                    _mark(d),
-                )
-                first = False
-    _out.print(table)
+        engine = _engine(db)
+        if last is not None:
+            newest = queries.parts(
+                engine=engine,
+                plan_id=plan,
+                page_size=_bounded("--last", last),
+                newest=True,
+                since=after,
+            )
+            pages: Iterable[list[dict[str, Any]]] = [newest["items"]]
+        else:
+            queries.get_plan(engine=engine, plan_id=plan)  # an unknown plan: one line, exit 2
+            pages = queries.part_pages(engine=engine, plan_id=plan, since=after)
+        if as_json:
+            parts_view.stream_json(plan, pages)
+            return
+        title = f"plan {plan}: parts" + (f" since {since}" if since else "")
+        for page in pages:
+            _out.print(parts_view.parts_table(title, page, _fmt, _mark))
 
 
 def _since(text: str | None) -> datetime | None:
@@ -246,7 +250,7 @@ def export(
             raise InputError("--format", fmt, "expected csv or parquet")
         engine = _engine(db)
         tables = tidy.tables(
-            queries.plan_history(engine=engine, plan_id=plan), _all_parts(engine, plan)
+            queries.full_history(engine=engine, plan_id=plan), _all_parts(engine, plan)
         )
         written = _write_tables(tables, out, fmt)
     for path in written:

@@ -26,6 +26,10 @@ from api.report.svg import render
 
 #: A margin at the band edge smaller than this fraction of the limit is 0 (a binding limit).
 BINDING_RTOL = 1e-6
+#: Setpoint versions the history table lists one by one (the newest); older ones are summarised.
+HISTORY_ROWS = 200
+#: Older setpoint versions per summary row.
+SUMMARY_GROUP = 100
 
 _CSS = """
 body { font: 14px/1.4 system-ui, -apple-system, "Segoe UI", Roboto, Arial, sans-serif;
@@ -220,8 +224,9 @@ def _history_table(history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]
         ]
     ) + row(th(n) for n in names)
     updates = {p["part_id"]: p["updates"] for p in parts}
-    rows = []
-    for v in history["versions"]:
+    older, recent = _split_history(history["versions"])
+    rows = [_summary_row(group, names) for group in older]
+    for v in recent:
         mrr = {o["name"]: o["mrr_cm3_min"] for o in v["operations"]}
         marked = [d for d in updates.get(v["part_id"], []) if decision_mark(d)[0]]
         flagged = [d for d in marked if d["flagged"]]
@@ -240,6 +245,34 @@ def _history_table(history: Mapping[str, Any], parts: Sequence[Mapping[str, Any]
     caption = tag("caption", escaped("Setpoint versions: what caused each, and the MRR it gave"))
     body = tag("thead", head) + tag("tbody", "".join(rows))
     return tag("table", caption + body, id="history")
+
+
+def _split_history(
+    versions: Sequence[Mapping[str, Any]],
+) -> tuple[list[Sequence[Mapping[str, Any]]], Sequence[Mapping[str, Any]]]:
+    """Older versions in groups of :data:`SUMMARY_GROUP`, and the newest :data:`HISTORY_ROWS`.
+
+    The history table then stays small whatever the plan's age.
+    """
+    cut = max(0, len(versions) - HISTORY_ROWS)
+    older = [versions[i : min(i + SUMMARY_GROUP, cut)] for i in range(0, cut, SUMMARY_GROUP)]
+    return older, versions[cut:]
+
+
+def _summary_row(group: Sequence[Mapping[str, Any]], names: Sequence[str]) -> str:
+    """One row for a group of older versions: their range, first and last cycle time and MRR."""
+    first, last = group[0], group[-1]
+    mrr = {o["name"]: o["mrr_cm3_min"] for o in last["operations"]}
+    cells = [
+        td(f"{first['version']}–{last['version']}", class_="num"),
+        td(f"{len(group)} versions"),
+        td(f"{first['serial'] or '–'} … {last['serial'] or '–'}"),
+        td(f"{timestamp(first['created_at'])} … {timestamp(last['created_at'])}"),
+        td(f"{number(first['cycle_time_min'])} → {number(last['cycle_time_min'])}", class_="num"),
+        *(_num(mrr.get(n)) for n in names),
+        td("summarised (rcb history --json for every version)"),
+    ]
+    return row(cells, class_="summary")
 
 
 def _figure(svg: str, caption: str, kind: str, operation: str | None) -> str:

@@ -5,25 +5,25 @@ Each runs in one read transaction (on SQLite a deferred one, so it never waits f
 
 from __future__ import annotations
 
-import re
-from datetime import UTC, datetime
+from collections.abc import Iterator
+from datetime import datetime
 from typing import Any
 
 from sqlalchemy import Engine
-from sqlalchemy.orm import Session
 
 from api.services import to_json
 from api.services.errors import NotFoundError, PlanHaltedError
+from api.services.history import HISTORY_PAGE as HISTORY_PAGE
+from api.services.history import full_history as full_history
+from api.services.history import plan_history as plan_history
+from api.services.reading import MAX_PAGE as MAX_PAGE
+from api.services.reading import _cursor, _plan, _read, _utc
 from db import history, library
 from db import tables as t
-from db.engine import reader
 from db.parts import count_parts
-from db.plans import current_body, get_plan_row, setpoints_of
+from db.plans import current_body, setpoints_of
 from models.catalogue import catalogue
 from models.errors import InputError
-
-#: Most parts one page may hold.
-MAX_PAGE = 500
 
 
 def list_plans(*, engine: Engine) -> dict[str, Any]:
@@ -82,11 +82,19 @@ def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
 
 
 def parts(
-    *, engine: Engine, plan_id: int, cursor: str | None = None, page_size: int = 50
+    *,
+    engine: Engine,
+    plan_id: int,
+    cursor: str | None = None,
+    page_size: int = 50,
+    newest: bool = False,
+    since: datetime | None = None,
 ) -> dict[str, Any]:
     """A page of a plan's parts, oldest first; ``next_cursor`` continues after the last.
 
-    ``page_size``: most parts on the page (the REST query parameter ``limit``).
+    ``page_size``: most parts on the page (the REST query parameter ``limit``). ``newest``:
+    the newest parts before ``cursor`` (``next_cursor`` then pages back in time). ``since``:
+    only parts received at or after this time. Only the page's rows are read.
     """
     if not 1 <= page_size <= MAX_PAGE:
         raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
@@ -95,7 +103,12 @@ def parts(
         _plan(session, plan_id)
         names = {op.id: op.name for op, _ in history.operations(session=session, plan_id=plan_id)}
         rows, measurements, decisions = history.parts_page(
-            session=session, plan_id=plan_id, after_id=after, limit=page_size
+            session=session,
+            plan_id=plan_id,
+            after_id=after,
+            limit=page_size,
+            newest=newest,
+            since=since,
         )
         items = []
         for part in rows:
@@ -124,19 +137,35 @@ def parts(
                 }
             )
     more = len(rows) == page_size
-    return {"items": items, "next_cursor": str(rows[-1].id) if rows and more else None}
+    edge = rows[0] if newest else rows[-1] if rows else None
+    return {"items": items, "next_cursor": str(edge.id) if edge is not None and more else None}
+
+
+def decisions(*, engine: Engine, plan_id: int, part_ids: list[int]) -> dict[int, list[Any]]:
+    """The RCB decisions of these parts of a plan (``updates`` of :func:`parts`), per part id."""
+    with _read(engine) as session, session.begin():
+        names = {op.id: op.name for op, _ in history.operations(session=session, plan_id=plan_id)}
+        found = history.decisions_of(session=session, part_ids=part_ids)
+    return {part: [_decision(d, names) for d in rows] for part, rows in found.items()}
 
 
 def all_parts(*, engine: Engine, plan_id: int) -> list[dict[str, Any]]:
     """Every part of a plan, oldest first (:func:`parts`, page after page)."""
-    items: list[dict[str, Any]] = []
+    return [item for page in part_pages(engine=engine, plan_id=plan_id) for item in page]
+
+
+def part_pages(
+    *, engine: Engine, plan_id: int, since: datetime | None = None
+) -> Iterator[list[dict[str, Any]]]:
+    """A plan's parts page by page, oldest first: one page in memory at a time."""
     cursor = None
     while True:
-        page = parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=MAX_PAGE)
-        items += page["items"]
+        page = parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=MAX_PAGE, since=since)
+        if page["items"]:
+            yield page["items"]
         cursor = page["next_cursor"]
         if cursor is None:
-            return items
+            return
 
 
 def record(
@@ -148,58 +177,7 @@ def record(
     """
     plan = get_plan(engine=engine, plan_id=plan_id)
     items = all_parts(engine=engine, plan_id=plan_id)
-    return plan, plan_history(engine=engine, plan_id=plan_id), items
-
-
-def plan_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """Every setpoint version with its cause, the setpoints, and the models (bands) in force."""
-    with _read(engine) as session, session.begin():
-        halt = _plan(session, plan_id).halt
-        ops = history.operations(session=session, plan_id=plan_id)
-        versions = history.setpoint_versions(session=session, plan_id=plan_id)
-        model_rows = history.model_versions(session=session, plan_id=plan_id)
-    op_names = {op.id: op.name for op, _ in ops}
-    tools = {op.id: tool.name for op, tool in ops}
-    out = []
-    for version, serial, setpoints in versions:
-        in_force: dict[str, dict[str, Any]] = {}
-        for model, op_name, _ in model_rows:  # oldest first: later versions overwrite
-            if model.part_id is None or (
-                version.part_id is not None and model.part_id <= version.part_id
-            ):
-                in_force.setdefault(op_name, {})[model.quantity] = {
-                    "K": model.K,
-                    "dK": model.dK,
-                    "version": model.version,
-                }
-        operations = []
-        for sp in sorted(setpoints, key=lambda s: list(op_names).index(s.operation_id)):
-            name = op_names[sp.operation_id]
-            operations.append(
-                {
-                    "name": name,
-                    "tool": tools[sp.operation_id],
-                    "setpoint": dict(sp.parameters),
-                    "predicted": dict(sp.predicted),
-                    "mrr_cm3_min": sp.mrr_cm3_min,
-                    "time_min": sp.time_min,
-                    "binding": list(sp.binding),
-                    "models": in_force.get(name, {}),
-                }
-            )
-        out.append(
-            {
-                "version": version.version,
-                "cause": version.cause,
-                "part_id": version.part_id,
-                "serial": serial,
-                "created_at": _utc(version.created_at),
-                "cycle_time_min": sum(sp.time_min for sp in setpoints),
-                "operations": operations,
-            }
-        )
-    status = "halted" if halt is not None else "running"
-    return {"plan_id": plan_id, "status": status, "halt": halt, "versions": out}
+    return plan, full_history(engine=engine, plan_id=plan_id), items
 
 
 def models_in_force(*, engine: Engine, plan_id: int) -> dict[str, Any]:
@@ -284,28 +262,3 @@ def _decision(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
         "note": d.note,
         "reason": d.reason,
     }
-
-
-def _read(engine: Engine) -> Session:
-    # rows are read after the transaction ends: keep their loaded attributes
-    return Session(reader(engine), expire_on_commit=False)
-
-
-def _utc(moment: datetime) -> datetime:
-    # SQLite returns naive datetimes; they were stored as UTC (db.tables.utcnow)
-    return moment if moment.tzinfo else moment.replace(tzinfo=UTC)
-
-
-def _cursor(cursor: str | None) -> int:
-    if cursor is None:
-        return 0
-    if re.fullmatch(r"[0-9]{1,10}", cursor) is None or int(cursor) > 2**31 - 1:
-        raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
-    return int(cursor)
-
-
-def _plan(session: Session, plan_id: int) -> t.Plan:
-    row = get_plan_row(session=session, plan_id=plan_id)
-    if row is None:
-        raise NotFoundError("plan_id", plan_id)
-    return row

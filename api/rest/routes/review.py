@@ -2,7 +2,7 @@
 
 # no "from __future__ import annotations": FastAPI reads these annotations at run time
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import Query
 
@@ -16,9 +16,31 @@ router = resource_router("review")
 
 
 @router.get("/plans/{plan_id}/history", response_model=History)
-def plan_history(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
-    """Every setpoint version with its cause and the bands in force."""
-    return queries.plan_history(engine=engine, plan_id=plan_id)
+def plan_history(
+    engine: EngineDep,
+    plan_id: PlanId,
+    actor: Anyone,
+    cursor: Annotated[
+        str | None,
+        Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
+    ] = None,
+    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.HISTORY_PAGE,
+    order: Annotated[
+        Literal["oldest", "newest"],
+        Query(description="`oldest`: pages forward from version 1; `newest`: back from now"),
+    ] = "oldest",
+) -> dict[str, Any]:
+    """Setpoint versions with their cause and the bands in force, a page at a time.
+
+    Each page lists its versions oldest first; ``next_cursor`` continues in ``order``.
+    """
+    return queries.plan_history(
+        engine=engine,
+        plan_id=plan_id,
+        cursor=cursor,
+        page_size=limit,
+        newest=order == "newest",
+    )
 
 
 @router.get("/plans/{plan_id}/models", response_model=PlanModels)

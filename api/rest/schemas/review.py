@@ -43,12 +43,16 @@ class HistoryVersion(Out):
 
 
 class History(Out):
-    """Every setpoint version of a plan, oldest first; whether it is halted now, and why."""
+    """A page of a plan's setpoint versions, oldest first; whether it is halted now, and why.
+
+    Pass ``next_cursor`` as ``cursor`` (with the same ``order``) for the next page; null: no more.
+    """
 
     plan_id: int
     status: Literal["running", "halted"] = "running"
     halt: HaltOut | None = None
     versions: list[HistoryVersion]
+    next_cursor: str | None = None
 
 
 class ModelVersion(Out):

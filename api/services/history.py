@@ -1,0 +1,130 @@
+"""A plan's setpoint history, a page at a time, with the models in force at each version.
+
+One read transaction per page; the cost grows with the page, not with the plan's life
+(:func:`db.history.models_at`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sqlalchemy import Engine
+
+from api.services.reading import MAX_PAGE, _cursor, _plan, _read, _utc
+from db import history
+from db import tables as t
+from models.errors import InputError
+
+#: Setpoint versions on a history page unless asked otherwise.
+HISTORY_PAGE = 100
+
+
+def plan_history(
+    *,
+    engine: Engine,
+    plan_id: int,
+    cursor: str | None = None,
+    page_size: int = HISTORY_PAGE,
+    newest: bool = False,
+) -> dict[str, Any]:
+    """A page of setpoint versions with cause, setpoints and the models (bands) in force.
+
+    Versions come oldest first. ``newest``: the page is the newest ``page_size`` versions
+    before ``cursor`` (the REST ``order=newest``); ``next_cursor`` then pages back in time.
+    Otherwise the page follows ``cursor`` and ``next_cursor`` pages forward. The cost is
+    linear in the page, not in the plan's history (:func:`db.history.models_at`).
+    """
+    if not 1 <= page_size <= MAX_PAGE:
+        raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
+    mark = _cursor(cursor)
+    with _read(engine) as session, session.begin():
+        halt = _plan(session, plan_id).halt
+        ops = history.operations(session=session, plan_id=plan_id)
+        # one more than the page: whether another page follows
+        if newest:
+            versions = history.setpoint_versions(
+                session=session,
+                plan_id=plan_id,
+                before=mark or None,
+                limit=page_size + 1,
+                newest=True,
+            )
+        else:
+            versions = history.setpoint_versions(
+                session=session, plan_id=plan_id, after=mark, limit=page_size + 1
+            )
+        more = len(versions) > page_size
+        if more:
+            versions = versions[1:] if newest else versions[:-1]
+        models = history.models_at(
+            session=session,
+            operation_ids=[op.id for op, _ in ops],
+            versions=[v for v, *_ in versions],
+        )
+    out = [
+        _history_version(v, serial, setpoints, ops, models[v.id])
+        for v, serial, setpoints in versions
+    ]
+    edge = (versions[0] if newest else versions[-1])[0].version if versions else 0
+    status = "halted" if halt is not None else "running"
+    return {
+        "plan_id": plan_id,
+        "status": status,
+        "halt": halt,
+        "versions": out,
+        "next_cursor": str(edge) if more else None,
+    }
+
+
+def full_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
+    """Every setpoint version (:func:`plan_history`, page after page); for exports."""
+    page = plan_history(engine=engine, plan_id=plan_id, page_size=MAX_PAGE)
+    versions = page["versions"]
+    while page["next_cursor"] is not None:
+        page = plan_history(
+            engine=engine, plan_id=plan_id, cursor=page["next_cursor"], page_size=MAX_PAGE
+        )
+        versions += page["versions"]
+    return {**page, "versions": versions, "next_cursor": None}
+
+
+def _history_version(
+    version: t.SetpointVersion,
+    serial: str | None,
+    setpoints: list[t.Setpoint],
+    ops: list[tuple[t.Operation, t.Tool]],
+    in_force: dict[tuple[int, str], t.OperationModelVersion],
+) -> dict[str, Any]:
+    """One setpoint version as JSON, operations in plan order with their models in force."""
+    position = {op.id: i for i, (op, _) in enumerate(ops)}
+    names = {op.id: op.name for op, _ in ops}
+    tools = {op.id: tool.name for op, tool in ops}
+    models: dict[int, dict[str, Any]] = {}
+    for (operation_id, quantity), model in sorted(in_force.items()):
+        models.setdefault(operation_id, {})[quantity] = {
+            "K": model.K,
+            "dK": model.dK,
+            "version": model.version,
+        }
+    operations = [
+        {
+            "name": names[sp.operation_id],
+            "tool": tools[sp.operation_id],
+            "setpoint": dict(sp.parameters),
+            "predicted": dict(sp.predicted),
+            "mrr_cm3_min": sp.mrr_cm3_min,
+            "time_min": sp.time_min,
+            "binding": list(sp.binding),
+            "models": models.get(sp.operation_id, {}),
+        }
+        for sp in sorted(setpoints, key=lambda s: position[s.operation_id])
+    ]
+    return {
+        "version": version.version,
+        "cause": version.cause,
+        "part_id": version.part_id,
+        "serial": serial,
+        "created_at": _utc(version.created_at),
+        "cycle_time_min": sum(sp.time_min for sp in setpoints),
+        "operations": operations,
+    }

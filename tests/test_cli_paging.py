@@ -1,0 +1,134 @@
+"""rcb history --last, rcb parts --last / --since read only what they show; --json streams
+(issue 17, item 1). SQLite: every statement's query plan seeks, none reads a table whole."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from sqlalchemy import Engine, event
+from test_service import BODY, _reports
+
+from api.cli import parts_view
+from api.cli.main import app
+from api.services.parts import report_part
+from api.services.plans import create_plan
+from db.engine import make_engine, upgrade
+from supervisor.rcb.state import RcbSettings
+
+#: Tables that grow with the plan's life.
+GROWING = ("parts", "measurements", "rcb_decisions", "setpoint_versions", "setpoints")
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory):
+    url = f"sqlite:///{tmp_path_factory.mktemp('paging') / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    bayes = RcbSettings("bayes")  # a setpoint version per part
+    plan_id = create_plan(engine=engine, body=BODY, settings=bayes).body["id"]
+    bodies, _ = _reports(30, settings=bayes)
+    for body in bodies:
+        report_part(engine=engine, plan_id=plan_id, body=body)
+    engine.dispose()
+    return url, plan_id, bodies
+
+
+class Heard:
+    """Every SELECT any engine runs while listening, with its parameters."""
+
+    def __init__(self) -> None:
+        self.statements: list[tuple[str, object]] = []
+
+    def __call__(self, conn, cursor, statement, parameters, context, executemany) -> None:
+        if statement.lstrip().upper().startswith("SELECT"):
+            self.statements.append((statement, parameters))
+
+
+def _run(runner, url, *args):
+    heard = Heard()
+    event.listen(Engine, "before_cursor_execute", heard)
+    try:
+        result = runner.invoke(app, [*args, "--db", url])
+    finally:
+        event.remove(Engine, "before_cursor_execute", heard)
+    return result, heard.statements
+
+
+def _scans(url, statements):
+    """The query-plan lines that read a growing table whole."""
+    engine = make_engine(url)
+    out = []
+    with engine.connect() as connection:
+        raw = connection.connection.driver_connection
+        for statement, parameters in statements:
+            for row in raw.execute("EXPLAIN QUERY PLAN " + statement, parameters):
+                if any(row[-1].startswith(f"SCAN {name}") for name in GROWING):
+                    out.append(row[-1])
+    engine.dispose()
+    return out
+
+
+def test_history_last_shows_the_newest_versions_and_reads_only_those(runner, stored):
+    url, plan_id, bodies = stored
+    result, statements = _run(runner, url, "history", str(plan_id), "--last", "3", "--json")
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert [v["version"] for v in data["versions"]] == [29, 30, 31]
+    assert [v["serial"] for v in data["versions"]] == ["SN-0028", "SN-0029", "SN-0030"]
+    assert all(v["decisions"] for v in data["versions"])  # each version's decisions, no more
+    assert data["next_cursor"] == "29"
+    assert _scans(url, statements) == []
+    assert len(statements) <= 12
+    table, _ = _run(runner, url, "history", str(plan_id), "--last", "2")
+    assert table.exit_code == 0 and "SN-0030" in table.stdout and "SN-0028" not in table.stdout
+
+
+def test_parts_last_and_since_read_only_what_they_show(runner, stored):
+    url, plan_id, bodies = stored
+    result, statements = _run(runner, url, "parts", str(plan_id), "--last", "2", "--json")
+    assert result.exit_code == 0, result.output
+    last = json.loads(result.stdout)
+    assert [p["serial"] for p in last["parts"]] == ["SN-0029", "SN-0030"]
+    assert (
+        last["parts"][1]["operations"][0]["measurements"]["force_N"]["value"]
+        == (bodies[29]["operations"][0]["measurements"]["force_N"]["value"])
+    )
+    assert _scans(url, statements) == []
+    whole = json.loads(_run(runner, url, "parts", str(plan_id), "--json")[0].stdout)["parts"]
+    assert [p["serial"] for p in whole] == [b["serial"] for b in bodies]
+    since = whole[25]["received_at"]
+    result, statements = _run(runner, url, "parts", str(plan_id), "--since", since, "--json")
+    assert [p["serial"] for p in json.loads(result.stdout)["parts"]] == [
+        f"SN-{i:04d}" for i in range(26, 31)
+    ]
+    assert _scans(url, statements) == []
+    both, _ = _run(runner, url, "parts", str(plan_id), "--since", since, "--last", "2", "--json")
+    assert [p["serial"] for p in json.loads(both.stdout)["parts"]] == ["SN-0029", "SN-0030"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["history", "1", "--last", "0"], "--last = 0"),
+        (["parts", "1", "--last", "501"], "--last = 501"),
+        (["parts", "99"], "plan_id = 99: not found"),
+        (["parts", "99", "--json"], "plan_id = 99: not found"),
+    ],
+)
+def test_paging_options_out_of_bounds_are_one_line(runner, stored, args, message):
+    result, _ = _run(runner, stored[0], *args)
+    assert result.exit_code == 2 and message in result.stderr, result.output
+    assert "Traceback" not in result.output and result.stdout == ""
+
+
+def test_parts_json_is_written_page_by_page(capsys):
+    """The first page is on stdout before the second is read: nothing holds every part."""
+
+    def pages():
+        yield [{"serial": "A"}, {"serial": "B"}]
+        assert json.dumps({"serial": "B"}) in capsys.readouterr().out
+        yield [{"serial": "C"}]
+
+    parts_view.stream_json(7, pages())
+    assert capsys.readouterr().out.endswith('{"serial": "C"}\n]}\n')
