@@ -64,13 +64,12 @@ def _newest_ids(session: Session, plan_id: int) -> list[ScalarSelect[int]]:
     """
     v = t.OperationModelVersion
     operations = select(t.Operation.id).where(t.Operation.plan_id == plan_id)
-    pairs = set(
-        session.execute(
-            select(v.operation_id, v.quantity).where(
-                v.operation_id.in_(list(session.scalars(operations))), v.part_id.is_(None)
-            )
-        ).tuples()
+    rows = session.execute(
+        select(v.operation_id, v.quantity).where(
+            v.operation_id.in_(list(session.scalars(operations))), v.part_id.is_(None)
+        )
     )
+    pairs = {(int(operation_id), str(quantity)) for operation_id, quantity in rows}
     newest = []
     for operation_id, quantity in sorted(pairs):
         n = aliased(v)
