@@ -56,6 +56,7 @@ _TITLES = {
     409: "Conflict",
     415: "Unsupported media type",
     422: "Unprocessable content",
+    429: "Too many requests",
     500: "Internal server error",
 }
 
