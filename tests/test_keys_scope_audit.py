@@ -159,6 +159,14 @@ def test_keys_list_shows_roles_scopes_and_last_use_never_the_secret(server, runn
     unused = _key(runner, server, "mes", label="unused")
     with _client(server, used["key"]) as c:
         assert c.get(f"/plans/{a}").status_code == 200
+    engine = make_engine(server.url)  # the last use is written off the request's path
+    with Session(engine) as session:
+        for _ in range(100):
+            if session.get(t.ApiKey, used["id"]).last_used_at is not None:
+                break
+            session.expire_all()
+            time.sleep(0.1)
+    engine.dispose()
     pages, after = [], 0
     while True:  # two keys a page, cursor by id
         args = ["keys", "list", "--db", server.url, "--json", "--limit", "2", "--after", str(after)]
@@ -239,3 +247,20 @@ def test_a_flood_of_bad_keys_is_429_and_a_few_audit_rows(server):
         total = session.scalar(select(func.count()).select_from(t.AuditEntry))
     engine.dispose()
     assert total < 100  # before: more than FLOOD
+
+
+def test_the_login_form_is_429_after_the_burst_of_bad_keys(server):
+    """The web view's login counts failures per address too (no 500, no endless 401s)."""
+    transport = httpx.HTTPTransport(local_address="127.0.0.3")
+    ui = f"http://127.0.0.1:{server.port}/ui"
+    with httpx.Client(base_url=ui, transport=transport, timeout=60.0) as browser:
+        statuses = [
+            browser.post("/login", data={"key": "rcb_not-a-key"}).status_code
+            for _ in range(throttle.BURST_FAILURES + 5)
+        ]
+        last = browser.post("/login", data={"key": "rcb_not-a-key"})
+        good = browser.post("/login", data={"key": server.keys["viewer"]})
+    assert statuses[: throttle.BURST_FAILURES] == [401] * throttle.BURST_FAILURES
+    assert last.status_code == 429 and int(last.headers["Retry-After"]) >= 1
+    assert "Too many failed keys" in last.text
+    assert good.status_code == 303  # a valid key from that address still signs in

@@ -20,7 +20,7 @@ from api.rest import serving
 from api.services import retention
 from api.services.errors import NotFoundError
 from api.services.keys import MAX_PAGE, create_key, list_keys, revoke_key
-from api.settings import database_url
+from api.settings import auth_failure_burst, database_url
 from db.engine import make_engine, upgrade
 from models.errors import InputError
 
@@ -169,6 +169,7 @@ def serve(
     """Serve the REST API (under /api/v1) with uvicorn; migrates the database first."""
     url = database_url(db)
     with errors():
+        auth_failure_burst()  # a malformed RCB_AUTH_FAILURE_BURST is refused before serving
         _migrate(url)
         say(f"rcb: serving {shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
         serving.run(url, host=host, port=port, workers=workers, access_log=access_log)

@@ -22,6 +22,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import Engine
 
 from api.rest.problems import ProblemError
+from api.rest.routes.common import MAX_ID
 from api.services import auth
 from db.access import Actor
 
@@ -82,8 +83,8 @@ def in_scope(request: Request, actor: Actor) -> None:
     try:
         plan_id = int(raw)
     except ValueError:
-        return  # not an id: the route's validation answers
-    if not actor.may_see(plan_id):
+        return  # not an id: the route's validation answers, as for an unscoped key
+    if 1 <= plan_id <= MAX_ID and not actor.may_see(plan_id):
         raise ProblemError(
             404, "not_found", f"plan_id = {plan_id!r}: not found", "plan_id", plan_id
         )

@@ -7,10 +7,11 @@ Idempotency-Key, takes that key's in-flight lock in the same statement
 (:func:`db.access.authenticate_claiming`); :func:`api.services.parts.report_part` continues it.
 Every failure (unknown or revoked key, a role that may not) is appended to the audit log,
 on the request's own connection when it holds one (:func:`aside`), coalesced per client
-address, action and window, and a failure of a client address that keeps failing is
-refused with :class:`api.services.throttle.RateLimitedError` (429 over REST) instead of
+address, action and window, and a failure with a wrong key from a client address that keeps
+failing is refused with :class:`api.services.throttle.RateLimitedError` (429 over REST) instead of
 401 (:mod:`api.services.throttle`); a valid key from that address still passes.
-A key's last use is recorded at most once a minute per process.
+A key's last use is recorded at most once a minute per process (for a read, in a thread of its
+own, so the read never waits for the write lock).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session
 
 from api.services.throttle import FailureLimiter, FailureLog, RateLimitedError
+from api.settings import auth_failure_burst
 from db import access
 from db import tables as t
 from db.access import Actor
@@ -38,7 +40,7 @@ __all__ = ["RateLimitedError"]
 
 _log = logging.getLogger(__name__)
 #: This process's failure buckets (api.services.throttle), per client address.
-LIMITER = FailureLimiter()
+LIMITER = FailureLimiter(burst=auth_failure_burst())
 #: This process's coalesced failure rows, per engine (the rows' ids are its database's).
 _failures: weakref.WeakKeyDictionary[Engine, FailureLog] = weakref.WeakKeyDictionary()
 #: A key's ``last_used_at`` is written at most this often per process [s].
@@ -85,11 +87,15 @@ def aside(engine: Engine, held: Session | None) -> Iterator[Session]:
         yield held
 
 
-def authenticate(*, engine: Engine, key: str | None, action: str, client: str = "") -> Actor | None:
+def authenticate(
+    *, engine: Engine, key: str | None, action: str, client: str = "", writing: bool = False
+) -> Actor | None:
     """The actor of a Bearer key, or None (the failure is audited).
 
-    ``client``: the request's client address, whose failures are counted; raises
-    :class:`RateLimitedError` when it has failed too often.
+    ``client``: the request's client address, whose failures with a wrong key are counted;
+    raises :class:`RateLimitedError` when it has failed too often. The key's last use is
+    written in a thread of its own for a read (it never waits for the write lock), before
+    returning for a write (``writing``: one connection at a time, as the write's own).
     """
     actor = None
     if key:
@@ -98,12 +104,21 @@ def authenticate(*, engine: Engine, key: str | None, action: str, client: str = 
     if actor is None:
         _audit_unauthenticated(engine, key, action, client)
     elif _due(actor):
-        try:
-            with Session(engine) as session, session.begin():
-                access.touch_key(session=session, key_id=int(actor.id or 0), at=t.utcnow())
-        except OperationalError as err:  # a busy database: the last use waits for the next
-            _log.warning("last use of key %s not recorded: %s", actor.id, err)
+        if writing:
+            _touch(engine, int(actor.id or 0))
+        else:
+            touch = threading.Thread(target=_touch, args=(engine, int(actor.id or 0)), daemon=True)
+            touch.start()
     return actor
+
+
+def _touch(engine: Engine, key_id: int) -> None:
+    """Record a key's last use in its own short transaction (best effort: logged on failure)."""
+    try:
+        with Session(engine) as session, session.begin():
+            access.touch_key(session=session, key_id=key_id, at=t.utcnow())
+    except OperationalError as err:  # a busy database: the last use waits for the next
+        _log.warning("last use of key %s not recorded: %s", key_id, err)
 
 
 def authenticate_write(
@@ -122,7 +137,7 @@ def authenticate_write(
     (:meth:`Authenticated.close`). On SQLite, as :func:`authenticate`.
     """
     if not key or engine.dialect.name != "postgresql":
-        actor = authenticate(engine=engine, key=key, action=action, client=client)
+        actor = authenticate(engine=engine, key=key, action=action, client=client, writing=True)
         return None if actor is None else Authenticated(actor)
     session = Session(engine)
     try:
@@ -199,7 +214,7 @@ def _audit_unauthenticated(
     with _touched_lock:
         failures = _failures.setdefault(engine, FailureLog())
     failures.record(client, action, reason, insert, rewrite)
-    wait_s = LIMITER.spend(client)
+    wait_s = LIMITER.spend(client) if key else 0  # only a wrong key can guess, or costs a read
     if wait_s:
         raise RateLimitedError(client or "this client", wait_s)
 

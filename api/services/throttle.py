@@ -1,10 +1,10 @@
 """Authentication failures: a token bucket per client address, and their coalesced audit rows.
 
 Both live in the memory of one worker process (``rcb serve --workers N`` has N of each), as
-a plant's service on one machine needs: a client that keeps sending bad or missing keys gets
-429 with ``Retry-After`` once its bucket is empty, and the audit log gets one row per client
-address, action, reason and window, whose ``detail.count`` says how many failures it stands
-for, instead of one row per failure.
+a plant's service on one machine needs: a client that keeps sending wrong keys gets 429 with
+``Retry-After`` once its bucket is empty (a missing key spends nothing: it guesses nothing),
+and the audit log gets one row per client address, action, reason and window, whose
+``detail.count`` says how many failures it stands for, instead of one row per failure.
 """
 
 from __future__ import annotations
