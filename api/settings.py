@@ -3,7 +3,8 @@
 ``RCB_DATABASE_URL`` names the database when no URL is given (``rcb --db``, ``create_app``);
 without it the embedded default ``./rcb.db`` (:data:`db.engine.DEFAULT_URL`). The serving code
 hands a URL to its uvicorn workers through the same variable (:func:`hand_to_workers`), since
-a worker imports the app factory by name and takes no arguments.
+a worker imports the app factory by name and takes no arguments. ``RCB_AUTH_FAILURE_BURST``:
+the wrong API keys one client address may send at once before 429 (default 60).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from db.engine import DEFAULT_URL
+from models.errors import InputError
 
 #: The environment variable naming the database.
 DATABASE_URL_VAR = "RCB_DATABASE_URL"
@@ -45,3 +47,23 @@ def database_url(given: str | None, environ: Mapping[str, str] | None = None) ->
 def hand_to_workers(url: str) -> None:
     """Put ``url`` where the workers' app factory reads it (:meth:`Settings.from_env`)."""
     os.environ[DATABASE_URL_VAR] = url
+
+
+#: The environment variable with the wrong keys one client address may send at once.
+AUTH_FAILURE_BURST_VAR = "RCB_AUTH_FAILURE_BURST"
+#: Its default (api.services.throttle).
+AUTH_FAILURE_BURST = 60
+
+
+def auth_failure_burst(environ: Mapping[str, str] | None = None) -> int:
+    """``$RCB_AUTH_FAILURE_BURST`` (1 to 1000000), else 60.
+
+    Raises InputError naming the variable for a malformed value (``rcb serve`` checks it
+    before serving, so a worker never meets one).
+    """
+    text = (os.environ if environ is None else environ).get(AUTH_FAILURE_BURST_VAR)
+    if text is None:
+        return AUTH_FAILURE_BURST
+    if not (text.isascii() and text.isdigit() and 1 <= int(text) <= 10**6):
+        raise InputError(AUTH_FAILURE_BURST_VAR, text, "expected a whole number 1 to 1000000")
+    return int(text)

@@ -12,9 +12,10 @@ import hashlib
 import hmac
 import secrets
 from dataclasses import dataclass
+from datetime import datetime
 from typing import Any
 
-from sqlalchemy import insert, text
+from sqlalchemy import JSON, delete, insert, select, text, update
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -27,11 +28,19 @@ KEY_PREFIX = "rcb_"
 
 @dataclass(frozen=True)
 class Actor:
-    """Who is asking: an API key's id and role (``id`` None for the local CLI)."""
+    """Who is asking: an API key's id and role (``id`` None for the local CLI).
+
+    ``plans``: the plan ids a scoped key may see; None: every plan (an unscoped key, the CLI).
+    """
 
     id: int | None
     role: str
     name: str
+    plans: frozenset[int] | None = None
+
+    def may_see(self, plan_id: int) -> bool:
+        """Whether the plan is in the actor's reach (a scoped key sees only its plans)."""
+        return self.plans is None or plan_id in self.plans
 
 
 #: Core tables of the append-only rows written here (inserted without the ORM's unit of work).
@@ -47,10 +56,16 @@ def hash_key(key: str) -> str:
     return hashlib.sha256(key.encode("utf-8")).hexdigest()
 
 
-def create_key(*, session: Session, role: str, label: str = "") -> tuple[int, str]:
-    """Store a new key of ``role``; returns its id and the key, which is not stored."""
+def create_key(
+    *, session: Session, role: str, label: str = "", plans: list[int] | None = None
+) -> tuple[int, str]:
+    """Store a new key of ``role``; returns its id and the key, which is not stored.
+
+    ``plans``: the plan ids the key is scoped to (None: every plan).
+    """
     key = KEY_PREFIX + secrets.token_urlsafe(32)
-    row = t.ApiKey(key_hash=hash_key(key), role=role, label=label)
+    scope = sorted(set(plans)) if plans is not None else None
+    row = t.ApiKey(key_hash=hash_key(key), role=role, label=label, plans=scope)
     session.add(row)
     session.flush()
     return row.id, key
@@ -81,16 +96,54 @@ def authenticate_claiming(
     """
     digest = hash_key(key)
     claim = idempotency_key is not None and session.get_bind().dialect.name == "postgresql"
-    columns = "id, key_hash, role, revoked_at"
+    columns = "id, key_hash, role, revoked_at, plans"
     if claim:
         lock = KEY_LOCK.format(api_key_id="id")
         columns += f", CASE WHEN revoked_at IS NULL THEN pg_try_advisory_xact_lock({lock}) END"
-    query = text(f"SELECT {columns} FROM api_keys WHERE key_hash = :digest")
+    query = text(f"SELECT {columns} FROM api_keys WHERE key_hash = :digest").columns(plans=JSON)
     params = {"digest": digest, "idempotency_key": idempotency_key}
     row = session.execute(query, params).one_or_none()
     if row is None or not hmac.compare_digest(row.key_hash, digest) or row.revoked_at:
         return None, None
-    return Actor(row.id, row.role, f"key:{row.id}"), bool(row[4]) if claim else None
+    scope = None if row.plans is None else frozenset(int(p) for p in row.plans)
+    actor = Actor(row.id, row.role, f"key:{row.id}", scope)
+    return actor, bool(row[5]) if claim else None
+
+
+def touch_key(*, session: Session, key_id: int, at: datetime) -> None:
+    """Record the key's last use (``api_keys.last_used_at``)."""
+    session.execute(update(t.ApiKey).where(t.ApiKey.id == key_id).values(last_used_at=at))
+
+
+def list_keys(*, session: Session, after: int, limit: int) -> list[t.ApiKey]:
+    """Up to ``limit`` keys with an id above ``after``, by id (revoked ones too)."""
+    query = select(t.ApiKey).where(t.ApiKey.id > after).order_by(t.ApiKey.id).limit(limit)
+    return list(session.scalars(query))
+
+
+def plans_missing(*, session: Session, plan_ids: list[int]) -> list[int]:
+    """The ids of ``plan_ids`` that name no stored plan."""
+    found = set(session.scalars(select(t.Plan.id).where(t.Plan.id.in_(plan_ids))))
+    return [p for p in plan_ids if p not in found]
+
+
+def prune(
+    *, session: Session, audit_before: datetime, idempotency_before: datetime
+) -> dict[str, int]:
+    """Delete audit entries and idempotency records older than the given times.
+
+    Returns how many rows of each table were deleted:
+    ``{"audit_log": n, "idempotency_records": m}``.
+    """
+    counted = {
+        "audit_log": (AUDIT, AUDIT.c.at < audit_before),
+        "idempotency_records": (IDEMPOTENCY, IDEMPOTENCY.c.created_at < idempotency_before),
+    }
+    deleted = {}
+    for name, (table, older) in counted.items():
+        result = session.execute(delete(table).where(older))
+        deleted[name] = int(getattr(result, "rowcount", 0))
+    return deleted
 
 
 def audit(
@@ -104,6 +157,20 @@ def audit(
 ) -> None:
     """Append one entry to the audit log (an insert now, in the session's transaction)."""
     session.execute(insert(AUDIT), audit_row(actor, action, target, result, detail))
+
+
+def audit_returning_id(*, session: Session, row: dict[str, Any]) -> int:
+    """Append the audit entry ``row`` (see :func:`audit_row`); returns its id."""
+    return int(session.execute(insert(AUDIT).returning(AUDIT.c.id), row).scalar_one())
+
+
+def set_audit_detail(*, session: Session, entry_id: int, detail: dict[str, Any]) -> bool:
+    """Replace the ``detail`` of an audit entry (a coalesced entry's count grows).
+
+    Returns whether the entry was there (False: it was pruned meanwhile).
+    """
+    result = session.execute(update(AUDIT).where(AUDIT.c.id == entry_id).values(detail=detail))
+    return bool(getattr(result, "rowcount", 0))
 
 
 def audit_row(

@@ -262,6 +262,10 @@ class ApiKey(Base):
     label: Mapped[str] = mapped_column(Text, default="")
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
     revoked_at: Mapped[datetime | None]
+    #: the plan ids the key may see (NULL: every plan, as before 0006)
+    plans: Mapped[list[int] | None] = mapped_column(JSON(none_as_null=True))
+    #: the last request the key authenticated, to the minute (NULL: never used)
+    last_used_at: Mapped[datetime | None]
 
 
 class IdempotencyRecord(Base):
@@ -276,7 +280,7 @@ class IdempotencyRecord(Base):
     state: Mapped[str] = mapped_column(String(20))
     response_status: Mapped[int | None]
     response_body: Mapped[dict[str, Any] | None]
-    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+    created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
 
 
 class AuditEntry(Base):
@@ -284,7 +288,7 @@ class AuditEntry(Base):
 
     __tablename__ = "audit_log"
     id: Mapped[int] = mapped_column(primary_key=True)
-    at: Mapped[datetime] = mapped_column(default=utcnow)
+    at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
     actor: Mapped[str] = mapped_column(String(200))
     action: Mapped[str] = mapped_column(String(100))
     target: Mapped[str] = mapped_column(Text, default="")

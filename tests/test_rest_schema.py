@@ -10,6 +10,7 @@ headers) and conform to its schema.
 from __future__ import annotations
 
 import itertools
+import os
 import tomllib
 from collections import Counter, defaultdict
 from collections.abc import Iterator
@@ -33,6 +34,8 @@ from schemathesis.specs.openapi.checks import (
     status_code_conformance,
     unsupported_method,
 )
+
+from api.settings import AUTH_FAILURE_BURST_VAR
 
 from conftest import DEMO_PLAN, report_at
 from live import LiveServer
@@ -80,6 +83,20 @@ TOOL_ROUTE = "/api/v1/tools/{name}"
 STATUSES: dict[str, dict[str, Counter[int]]] = defaultdict(lambda: defaultdict(Counter))
 FAILED: set[str] = set()  # servers on which a generated case failed
 _count = itertools.count()
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _fuzzer_is_not_a_brute_forcer() -> Iterator[None]:
+    """The fuzzer sends a wrong key with most cases (``ignored_auth``), hundreds a minute from
+    one address: its servers take that many before 429 (tests/test_keys_scope_audit.py
+    tests the limit at its default). Autouse and module-scoped: set before the server starts."""
+    saved = os.environ.get(AUTH_FAILURE_BURST_VAR)
+    os.environ[AUTH_FAILURE_BURST_VAR] = "1000000"
+    yield
+    if saved is None:
+        del os.environ[AUTH_FAILURE_BURST_VAR]
+    else:
+        os.environ[AUTH_FAILURE_BURST_VAR] = saved
 
 
 @pytest.fixture(scope="module")

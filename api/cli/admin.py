@@ -1,6 +1,8 @@
-"""The database and the REST service: ``rcb db upgrade``, ``rcb keys create|revoke``, ``rcb serve``.
+"""The database and the REST service: ``rcb db upgrade|prune``, ``rcb keys``, ``rcb serve``.
 
 Each command migrates the database first (``rcb db upgrade`` does nothing else).
+``rcb keys create|list|revoke`` manage API keys (a key may be scoped to plans);
+``rcb db prune`` deletes old audit entries and idempotency records.
 """
 
 from __future__ import annotations
@@ -8,18 +10,23 @@ from __future__ import annotations
 from typing import Annotated
 
 import typer
+from rich.console import Console
+from rich.table import Table
+from rich.text import Text
 from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api.cli.common import DbOption, emit, errors, say, shown
 from api.rest import serving
+from api.services import retention
 from api.services.errors import NotFoundError
-from api.services.keys import create_key, revoke_key
-from api.settings import database_url
+from api.services.keys import MAX_PAGE, create_key, list_keys, revoke_key
+from api.settings import auth_failure_burst, database_url
 from db.engine import make_engine, upgrade
 from models.errors import InputError
 
 #: ``rcb db``.
-db_app = typer.Typer(help="The database: migrations.", no_args_is_help=True)
+db_app = typer.Typer(help="The database: migrations, pruning.", no_args_is_help=True)
+_out = Console()
 
 
 def _migrate(url: str) -> None:
@@ -42,6 +49,36 @@ def db_upgrade(db: DbOption = None) -> None:
     say(f"rcb: database {shown(url)} is up to date")
 
 
+@db_app.command("prune")
+def db_prune(
+    audit_older_than: Annotated[
+        str, typer.Option(help="Delete audit entries older than this (e.g. 365d, 24h, 90m).")
+    ] = retention.AUDIT_DEFAULT,
+    idempotency_older_than: Annotated[
+        str, typer.Option(help="Delete idempotency records older than this (at least 24h).")
+    ] = retention.IDEMPOTENCY_DEFAULT,
+    db: DbOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Delete old audit entries and idempotency records; prints how many."""
+    url = database_url(db)
+    with errors():
+        _migrate(url)
+        pruned = retention.prune(
+            engine=make_engine(url),
+            audit_older_than=audit_older_than,
+            idempotency_older_than=idempotency_older_than,
+        )
+    if as_json:
+        emit(pruned)
+        return
+    say(
+        f"rcb: deleted {pruned['audit_log']} audit entries older than {audit_older_than} and "
+        f"{pruned['idempotency_records']} idempotency records older than "
+        f"{idempotency_older_than}"
+    )
+
+
 #: ``rcb keys``.
 keys_app = typer.Typer(help="API keys of the REST service.", no_args_is_help=True)
 
@@ -50,6 +87,10 @@ keys_app = typer.Typer(help="API keys of the REST service.", no_args_is_help=Tru
 def keys_create(
     role: Annotated[str, typer.Option(help="mes, engineer or viewer.")],
     label: Annotated[str, typer.Option(help="Who or what the key is for.")] = "",
+    plan: Annotated[
+        list[int] | None,
+        typer.Option(help="A plan id the key may see (repeat; none: every plan)."),
+    ] = None,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
@@ -57,12 +98,49 @@ def keys_create(
     url = database_url(db)
     with errors():
         _migrate(url)
-        created = create_key(engine=make_engine(url), role=role, label=label)
+        created = create_key(engine=make_engine(url), role=role, label=label, plans=plan)
     if as_json:
         emit(created)
         return
     typer.echo(created["key"])
-    say(f"rcb: key {created['id']} ({created['role']}) created; it is not shown again")
+    scope = f"plans {', '.join(map(str, created['plans']))}" if created["plans"] else "every plan"
+    say(f"rcb: key {created['id']} ({created['role']}, {scope}) created; it is not shown again")
+
+
+@keys_app.command("list")
+def keys_list(
+    limit: Annotated[int, typer.Option(help=f"Keys per page (1 to {MAX_PAGE}).")] = 50,
+    after: Annotated[int, typer.Option(help="Show keys after this id (the next page).")] = 0,
+    db: DbOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """List API keys: id, role, label, plans, created, last use (never the key or its hash)."""
+    url = database_url(db)
+    with errors():
+        _migrate(url)
+        page = list_keys(engine=make_engine(url), after=after, limit=limit)
+    if as_json:
+        emit(page)
+        return
+    table = Table("id", "role", "label", "plans", "created", "last use", "revoked")
+    for key in page["keys"]:
+        table.add_row(
+            str(key["id"]),
+            key["role"],
+            Text(key["label"]),
+            ", ".join(map(str, key["plans"])) if key["plans"] else "every plan",
+            _minute(key["created_at"]),
+            _minute(key["last_used_at"]) or "never",
+            _minute(key["revoked_at"]),
+        )
+    _out.print(table)
+    if page["next_after"] is not None:
+        say(f"rcb: more keys: rcb keys list --after {page['next_after']} --limit {limit}")
+
+
+def _minute(at: object) -> str:
+    """A stored time to the minute (UTC), or empty for none."""
+    return at.strftime("%Y-%m-%d %H:%M") if hasattr(at, "strftime") else ""
 
 
 @keys_app.command("revoke")
@@ -94,6 +172,7 @@ def serve(
     """
     url = database_url(db)
     with errors():
+        auth_failure_burst()  # a malformed RCB_AUTH_FAILURE_BURST is refused before serving
         _migrate(url)
         try:
             listener = serving.tcp_listener(host, port)

@@ -4,7 +4,8 @@ Browsers send no ``Authorization`` header when they navigate, so the API key is 
 a form (``/ui/login``) and kept in a cookie: HttpOnly (no script can read it), SameSite=Strict
 (no other site's page can make the browser send it), ``Path=/ui`` (never sent to ``/api/v1``),
 Secure when the request came over HTTPS. Every request authenticates the key again with
-:func:`api.services.auth.authenticate`, so a revoked key stops working at once. Any role may look:
+:func:`api.services.auth.authenticate`, so a revoked key stops working at once; a key scoped
+to plans sees only those (another plan's page is "no such plan"). Any role may look:
 mes, engineer and viewer are all viewer or above.
 
 The pages are self-contained (inline CSS and SVG, no script, nothing loaded from elsewhere); a
@@ -75,7 +76,8 @@ def install(app: FastAPI, engine: Engine) -> None:
             return None  # nothing to check (a first visit): not audited
         route = request.scope.get("route")
         action = f"{request.method} {getattr(route, 'path', '?')}"
-        actor = auth.authenticate(engine=engine, key=key, action=action)
+        client = request.client.host if request.client else ""
+        actor = auth.authenticate(engine=engine, key=key, action=action, client=client)
         if actor is not None and actor.role not in ROLES:
             auth.audit_forbidden(engine=engine, actor=actor, action=action)
             return None
@@ -97,7 +99,13 @@ def install(app: FastAPI, engine: Engine) -> None:
         if not key:
             return _login_page("Enter an API key.", 401)
         action = f"POST {PREFIX}/login"
-        actor = await run_in_threadpool(auth.authenticate, engine=engine, key=key, action=action)
+        client = request.client.host if request.client else ""
+        try:
+            actor = await run_in_threadpool(
+                auth.authenticate, engine=engine, key=key, action=action, client=client
+            )
+        except auth.RateLimitedError as err:
+            return _too_many(err)
         if actor is None or actor.role not in ROLES:
             return _login_page("Unknown or revoked API key.", 401)
         response = RedirectResponse(f"{PREFIX}/", status_code=303, headers=_HEADERS)
@@ -128,18 +136,25 @@ def install(app: FastAPI, engine: Engine) -> None:
 
     @app.get(f"{PREFIX}/", include_in_schema=False)
     def plans(request: Request) -> Response:
-        actor = actor_of(request)
+        try:
+            actor = actor_of(request)
+        except auth.RateLimitedError as err:
+            return _too_many(err)
         if actor is None:
             return _to_login()
-        return _page("Plans", _plans_table(queries.list_plans(engine=engine)["plans"]), actor)
+        listed = [p for p in queries.list_plans(engine=engine)["plans"] if actor.may_see(p["id"])]
+        return _page("Plans", _plans_table(listed), actor)
 
     @app.get(f"{PREFIX}/plans/{{plan_id}}", include_in_schema=False)
     def plan(request: Request, plan_id: str) -> Response:
-        actor = actor_of(request)
+        try:
+            actor = actor_of(request)
+        except auth.RateLimitedError as err:
+            return _too_many(err)
         if actor is None:
             return _to_login()
         number_id = int(plan_id) if re.fullmatch(r"[0-9]{1,10}", plan_id) else 0
-        if not 1 <= number_id <= MAX_ID:
+        if not 1 <= number_id <= MAX_ID or not actor.may_see(number_id):
             return _not_found(plan_id, actor)
         try:
             page = render_html_report(
@@ -203,6 +218,13 @@ def _login_page(message: str | None, status: int) -> HTMLResponse:
     hint = tag("p", escaped("A key of any role (from rcb keys create) shows the plans; read only."))
     title = "rcb: log in"
     return _document(title, tag("h1", escaped(title)) + error + form + hint, status)
+
+
+def _too_many(err: auth.RateLimitedError) -> HTMLResponse:
+    """429 with Retry-After: the client address failed to log in too often."""
+    page = _login_page(f"Too many failed keys; try again in {err.retry_after_s} s.", 429)
+    page.headers["Retry-After"] = str(err.retry_after_s)
+    return page
 
 
 def _to_login() -> RedirectResponse:

@@ -4,6 +4,10 @@ The engine is the app's (``app.state.engine``, set by :func:`api.rest.app.create
 :data:`Anyone` and :data:`Engineer` check the Bearer key of a read or an engineer's write;
 :func:`holding` checks the key of a write in the transaction the write goes on in
 (:func:`api.services.auth.authenticate_write`).
+
+Authentication failures are counted per client address (:mod:`api.services.throttle`): one
+that keeps failing gets 429 with ``Retry-After``. A key scoped to plans gets 404 for any other
+plan, as if it did not exist, on every route with a ``{plan_id}`` (:func:`in_scope`).
 """
 
 # no "from __future__ import annotations": FastAPI reads these annotations at run time
@@ -18,6 +22,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import Engine
 
 from api.rest.problems import ProblemError
+from api.rest.routes.common import MAX_ID
 from api.services import auth
 from db.access import Actor
 
@@ -40,6 +45,51 @@ def action_of(request: Request) -> str:
     return f"{request.method} {getattr(route, 'path', '?')}"
 
 
+def client_of(request: Request) -> str:
+    """The client's address, whose authentication failures are counted."""
+    return request.client.host if request.client else ""
+
+
+def too_many(err: auth.RateLimitedError) -> ProblemError:
+    """429 for a client address that has failed to authenticate too often."""
+    return ProblemError(
+        429,
+        "too_many_failures",
+        str(err),
+        "Authorization",
+        headers={"Retry-After": str(err.retry_after_s)},
+    )
+
+
+def in_scope(request: Request, actor: Actor) -> None:
+    """404 for a plan outside a scoped key's plans, worded as for a plan that does not exist.
+
+    A scoped key writes only to its plans: a write to no plan (``POST /plans``,
+    ``POST /tools``) is 403, so it cannot create what it could not then see.
+    """
+    if actor.plans is None:
+        return
+    raw = request.path_params.get("plan_id")
+    if raw is None:
+        if request.method not in ("GET", "HEAD"):
+            raise ProblemError(
+                403,
+                "forbidden",
+                "a key scoped to plans writes only to its plans",
+                "Authorization",
+                sorted(actor.plans),
+            )
+        return
+    try:
+        plan_id = int(raw)
+    except ValueError:
+        return  # not an id: the route's validation answers, as for an unscoped key
+    if 1 <= plan_id <= MAX_ID and not actor.may_see(plan_id):
+        raise ProblemError(
+            404, "not_found", f"plan_id = {plan_id!r}: not found", "plan_id", plan_id
+        )
+
+
 def unauthorized(key: str | None) -> ProblemError:
     """401 for a missing, unknown or revoked key."""
     return ProblemError(
@@ -59,7 +109,10 @@ def allowed_actor(
     allowed: tuple[str, ...],
     held: auth.Authenticated | None = None,
 ) -> Actor:
-    """``actor`` if its role is ``allowed``; else 401 (no actor) or 403 (audited)."""
+    """``actor`` if its role is ``allowed``; else 401 (no actor) or 403 (audited).
+
+    The plan scope is checked by the caller (:func:`in_scope`), after the role.
+    """
     if actor is None:
         raise unauthorized(key)
     if actor.role not in allowed:
@@ -80,8 +133,15 @@ def role(*allowed: str) -> Callable[..., Actor]:
     def check(request: Request, engine: EngineDep, credentials: Credentials) -> Actor:
         action = action_of(request)
         key = credentials.credentials if credentials else None
-        actor = auth.authenticate(engine=engine, key=key, action=action)
-        return allowed_actor(engine, actor, key, action, allowed)
+        try:
+            actor = auth.authenticate(
+                engine=engine, key=key, action=action, client=client_of(request)
+            )
+        except auth.RateLimitedError as err:
+            raise too_many(err) from None
+        checked = allowed_actor(engine, actor, key, action, allowed)
+        in_scope(request, checked)
+        return checked
 
     return check
 
@@ -95,15 +155,24 @@ def holding(*allowed: str) -> Callable[..., AsyncIterator[auth.Authenticated]]:
     """
 
     def open_checked(
-        engine: Engine, key: str | None, action: str, idempotency_key: str | None
+        request: Request, engine: Engine, key: str | None, idempotency_key: str | None
     ) -> auth.Authenticated:
-        held = auth.authenticate_write(
-            engine=engine, key=key, action=action, idempotency_key=idempotency_key
-        )
+        action = action_of(request)
+        try:
+            held = auth.authenticate_write(
+                engine=engine,
+                key=key,
+                action=action,
+                idempotency_key=idempotency_key,
+                client=client_of(request),
+            )
+        except auth.RateLimitedError as err:
+            raise too_many(err) from None
         if held is None:
             raise unauthorized(key)
         try:
             allowed_actor(engine, held.actor, key, action, allowed, held)
+            in_scope(request, held.actor)
         except BaseException:
             held.close()
             raise
@@ -114,7 +183,7 @@ def holding(*allowed: str) -> Callable[..., AsyncIterator[auth.Authenticated]]:
     ) -> AsyncIterator[auth.Authenticated]:
         key = credentials.credentials if credentials else None
         held = await run_in_threadpool(
-            open_checked, engine, key, action_of(request), request.headers.get("Idempotency-Key")
+            open_checked, request, engine, key, request.headers.get("Idempotency-Key")
         )
         try:
             yield held

@@ -6,21 +6,47 @@ lookup opens that transaction on one pooled connection and, given the request's
 Idempotency-Key, takes that key's in-flight lock in the same statement
 (:func:`db.access.authenticate_claiming`); :func:`api.services.parts.report_part` continues it.
 Every failure (unknown or revoked key, a role that may not) is appended to the audit log,
-on the request's own connection when it holds one (:func:`aside`).
+on the request's own connection when it holds one (:func:`aside`), coalesced per client
+address, action and window, and a failure with a wrong key from a client address that keeps
+failing is refused with :class:`api.services.throttle.RateLimitedError` (429 over REST) instead of
+401 (:mod:`api.services.throttle`); a valid key from that address still passes.
+A key's last use is recorded at most once a minute per process (for a read, in a thread of its
+own, so the read never waits for the write lock).
 """
 
 from __future__ import annotations
 
+import logging
+import threading
+import time
+import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 from sqlalchemy import Engine
+from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session
 
+from api.services.throttle import FailureLimiter, FailureLog, RateLimitedError
+from api.settings import auth_failure_burst
 from db import access
+from db import tables as t
 from db.access import Actor
 from db.engine import one_statement_reader
+
+__all__ = ["RateLimitedError"]
+
+_log = logging.getLogger(__name__)
+#: This process's failure buckets (api.services.throttle), per client address.
+LIMITER = FailureLimiter(burst=auth_failure_burst())
+#: This process's coalesced failure rows, per engine (the rows' ids are its database's).
+_failures: weakref.WeakKeyDictionary[Engine, FailureLog] = weakref.WeakKeyDictionary()
+#: A key's ``last_used_at`` is written at most this often per process [s].
+TOUCH_S = 60.0
+_touched: dict[int, float] = {}
+_touched_lock = threading.Lock()
 
 
 @dataclass
@@ -61,19 +87,47 @@ def aside(engine: Engine, held: Session | None) -> Iterator[Session]:
         yield held
 
 
-def authenticate(*, engine: Engine, key: str | None, action: str) -> Actor | None:
-    """The actor of a Bearer key, or None (the failure is audited)."""
+def authenticate(
+    *, engine: Engine, key: str | None, action: str, client: str = "", writing: bool = False
+) -> Actor | None:
+    """The actor of a Bearer key, or None (the failure is audited).
+
+    ``client``: the request's client address, whose failures with a wrong key are counted;
+    raises :class:`RateLimitedError` when it has failed too often. The key's last use is
+    written in a thread of its own for a read (it never waits for the write lock), before
+    returning for a write (``writing``: one connection at a time, as the write's own).
+    """
     actor = None
     if key:
         with Session(one_statement_reader(engine)) as session:  # no write lock for a read
             actor = access.authenticate(session=session, key=key)
     if actor is None:
-        _audit_unauthenticated(engine, key, action)
+        _audit_unauthenticated(engine, key, action, client)
+    elif _due(actor):
+        if writing:
+            _touch(engine, int(actor.id or 0))
+        else:
+            touch = threading.Thread(target=_touch, args=(engine, int(actor.id or 0)), daemon=True)
+            touch.start()
     return actor
 
 
+def _touch(engine: Engine, key_id: int) -> None:
+    """Record a key's last use in its own short transaction (best effort: logged on failure)."""
+    try:
+        with Session(engine) as session, session.begin():
+            access.touch_key(session=session, key_id=key_id, at=t.utcnow())
+    except OperationalError as err:  # a busy database: the last use waits for the next
+        _log.warning("last use of key %s not recorded: %s", key_id, err)
+
+
 def authenticate_write(
-    *, engine: Engine, key: str | None, action: str, idempotency_key: str | None = None
+    *,
+    engine: Engine,
+    key: str | None,
+    action: str,
+    idempotency_key: str | None = None,
+    client: str = "",
 ) -> Authenticated | None:
     """The authentication of a write request (None: unknown or revoked key, audited).
 
@@ -83,7 +137,7 @@ def authenticate_write(
     (:meth:`Authenticated.close`). On SQLite, as :func:`authenticate`.
     """
     if not key or engine.dialect.name != "postgresql":
-        actor = authenticate(engine=engine, key=key, action=action)
+        actor = authenticate(engine=engine, key=key, action=action, client=client, writing=True)
         return None if actor is None else Authenticated(actor)
     session = Session(engine)
     try:
@@ -91,9 +145,13 @@ def authenticate_write(
             session=session, key=key, idempotency_key=idempotency_key
         )
         if actor is None:
-            _audit_unauthenticated(engine, key, action, session)
-            session.close()
+            try:
+                _audit_unauthenticated(engine, key, action, client, session)
+            finally:
+                session.close()
             return None
+        if _due(actor):  # in the write's own transaction: no second connection
+            access.touch_key(session=session, key_id=int(actor.id or 0), at=t.utcnow())
     except BaseException:
         session.close()
         raise
@@ -102,11 +160,16 @@ def authenticate_write(
 
 @contextmanager
 def authenticated(
-    *, engine: Engine, key: str | None, action: str, idempotency_key: str | None = None
+    *,
+    engine: Engine,
+    key: str | None,
+    action: str,
+    idempotency_key: str | None = None,
+    client: str = "",
 ) -> Iterator[Authenticated | None]:
     """:func:`authenticate_write` for the duration of the block, closed at its end."""
     held = authenticate_write(
-        engine=engine, key=key, action=action, idempotency_key=idempotency_key
+        engine=engine, key=key, action=action, idempotency_key=idempotency_key, client=client
     )
     try:
         yield held
@@ -115,18 +178,45 @@ def authenticated(
             held.close()
 
 
+def _due(actor: Actor) -> bool:
+    """Whether the key's last use is to be written now (at most every TOUCH_S per process)."""
+    if actor.id is None:
+        return False
+    now = time.monotonic()
+    with _touched_lock:
+        if now - _touched.get(actor.id, -TOUCH_S) < TOUCH_S:
+            return False
+        if len(_touched) > 100_000:
+            _touched.clear()
+        _touched[actor.id] = now
+        return True
+
+
 def _audit_unauthenticated(
-    engine: Engine, key: str | None, action: str, session: Session | None = None
+    engine: Engine,
+    key: str | None,
+    action: str,
+    client: str = "",
+    session: Session | None = None,
 ) -> None:
-    with aside(engine, session) as session:
-        access.audit(
-            session=session,
-            actor="anonymous",
-            action=action,
-            target="",
-            result="unauthenticated",
-            detail={"reason": "no key" if not key else "unknown or revoked key"},
-        )
+    """Count the failure in its window's audit row; RateLimitedError if ``client`` failed often."""
+    reason = "no key" if not key else "unknown or revoked key"
+
+    def insert(detail: dict[str, Any]) -> int:
+        with aside(engine, session) as held:
+            row = access.audit_row("anonymous", action, "", "unauthenticated", detail)
+            return access.audit_returning_id(session=held, row=row)
+
+    def rewrite(entry_id: int, detail: dict[str, Any]) -> bool:
+        with aside(engine, session) as held:
+            return access.set_audit_detail(session=held, entry_id=entry_id, detail=detail)
+
+    with _touched_lock:
+        failures = _failures.setdefault(engine, FailureLog())
+    failures.record(client, action, reason, insert, rewrite)
+    wait_s = LIMITER.spend(client) if key else 0  # only a wrong key can guess, or costs a read
+    if wait_s:
+        raise RateLimitedError(client or "this client", wait_s)
 
 
 def audit_forbidden(

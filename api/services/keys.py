@@ -1,4 +1,4 @@
-"""The use cases of API keys (CLI only): create one for a role, revoke one."""
+"""The use cases of API keys (CLI only): create one for a role and plans, list, revoke one."""
 
 from __future__ import annotations
 
@@ -11,17 +11,66 @@ from api.services.errors import NotFoundError
 from db import access
 from models.errors import InputError
 
+#: Largest page of ``rcb keys list``.
+MAX_PAGE = 1000
+#: Most plans one key may be scoped to.
+MAX_PLANS = 1000
+#: Largest plan id (32-bit keys).
+MAX_ID = 2**31 - 1
 
-def create_key(*, engine: Engine, role: str, label: str = "") -> dict[str, Any]:
-    """A new API key of ``role``, printed once: ``{"key", "role", "id"}``."""
+
+def create_key(
+    *, engine: Engine, role: str, label: str = "", plans: list[int] | None = None
+) -> dict[str, Any]:
+    """A new API key of ``role``, printed once: ``{"key", "role", "id", "plans"}``.
+
+    ``plans``: the plan ids the key may see (None or empty: every plan); each must exist.
+    """
     if role not in access.ROLES:
         raise InputError("--role", role, f"expected one of: {', '.join(access.ROLES)}")
+    scope = sorted(set(plans)) if plans else None
+    if scope is not None:
+        if len(scope) > MAX_PLANS:
+            raise InputError("--plan", len(scope), f"at most {MAX_PLANS} plans per key")
+        for plan_id in scope:
+            if not 1 <= plan_id <= MAX_ID:
+                raise InputError("--plan", plan_id, f"a plan id is 1 to {MAX_ID}")
     with Session(engine) as session, session.begin():
-        key_id, key = access.create_key(session=session, role=role, label=label)
-        access.audit(
-            session=session, actor="cli", action="create key", target=f"key {key_id}", result=role
-        )
-    return {"key": key, "role": role, "id": key_id}
+        if scope is not None:
+            missing = access.plans_missing(session=session, plan_ids=scope)
+            if missing:
+                raise InputError("--plan", missing[0], "no such plan")
+        key_id, key = access.create_key(session=session, role=role, label=label, plans=scope)
+        target = f"key {key_id}" + (f" plans {scope}" if scope else "")
+        access.audit(session=session, actor="cli", action="create key", target=target, result=role)
+    return {"key": key, "role": role, "id": key_id, "plans": scope}
+
+
+def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, Any]:
+    """A page of keys by id, never their secret or hash: ``{"keys", "next_after"}``.
+
+    ``after``: the cursor (the last id of the previous page, 0 for the first);
+    ``next_after``: the cursor of the next page, None after the last.
+    """
+    if not 1 <= limit <= MAX_PAGE:
+        raise InputError("--limit", limit, f"a page holds 1 to {MAX_PAGE} keys")
+    if not 0 <= after <= MAX_ID:
+        raise InputError("--after", after, f"a key id is 0 to {MAX_ID}")
+    with Session(engine) as session, session.begin():
+        rows = access.list_keys(session=session, after=after, limit=limit + 1)
+        page = [
+            {
+                "id": row.id,
+                "role": row.role,
+                "label": row.label,
+                "plans": row.plans,
+                "created_at": row.created_at,
+                "last_used_at": row.last_used_at,
+                "revoked_at": row.revoked_at,
+            }
+            for row in rows[:limit]
+        ]
+    return {"keys": page, "next_after": page[-1]["id"] if len(rows) > limit else None}
 
 
 def revoke_key(*, engine: Engine, key_id: int) -> dict[str, Any]:

@@ -16,7 +16,7 @@ PREFIX = "/api/v1"
 #: The errors every route may answer, as problem+json (api.rest.problems).
 PROBLEMS: dict[int | str, dict[str, Any]] = {
     status: {"model": Problem, "content": {problems.MEDIA_TYPE: {}}}
-    for status in (400, 401, 403, 404, 409, 422)
+    for status in (400, 401, 403, 404, 409, 422, 429)
 }
 
 #: Largest id (the tables' integer keys are 32-bit on PostgreSQL).

@@ -122,8 +122,9 @@ def replan(
 
 @router.get("/plans", response_model=PlanList)
 def list_plans(engine: EngineDep, actor: Anyone) -> dict[str, Any]:
-    """Every plan."""
-    return queries.list_plans(engine=engine)
+    """Every plan (a key scoped to plans: those plans)."""
+    listed = queries.list_plans(engine=engine)
+    return {**listed, "plans": [p for p in listed["plans"] if actor.may_see(p["id"])]}
 
 
 @router.get("/plans/{plan_id}", response_model=PlanDetail)

@@ -1,0 +1,78 @@
+"""How long the audit log and idempotency records are kept: ``rcb db prune``.
+
+Durations are written as a number and a unit, ``365d``, ``24h``, ``90m``. Idempotency records
+are kept at least 24 hours, as draft-ietf-httpapi-idempotency-key-header asks of a server
+that honours a key (a retry within a day must find its first answer).
+"""
+
+from __future__ import annotations
+
+import re
+from datetime import timedelta
+from typing import Any
+
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session
+
+from db import access
+from db import tables as t
+from models.errors import InputError
+
+#: The default retention of the audit log.
+AUDIT_DEFAULT = "365d"
+#: The default retention of idempotency records.
+IDEMPOTENCY_DEFAULT = "7d"
+#: The shortest retention of idempotency records.
+IDEMPOTENCY_MIN = timedelta(hours=24)
+#: The longest duration accepted (100 years).
+LONGEST = timedelta(days=36_500)
+_UNITS = {"d": "days", "h": "hours", "m": "minutes"}
+
+
+def parse_duration(option: str, text: str) -> timedelta:
+    """``365d``, ``24h`` or ``90m`` as a timedelta; InputError naming ``option`` otherwise."""
+    match = re.fullmatch(r"([0-9]{1,9})([dhm])", text.strip())
+    if match is None:
+        raise InputError(option, text, "expected a whole number and d, h or m, e.g. 365d")
+    duration = timedelta(**{_UNITS[match[2]]: int(match[1])})
+    if not timedelta(0) < duration <= LONGEST:
+        raise InputError(option, text, "more than 0 and at most 36500d")
+    return duration
+
+
+def prune(
+    *,
+    engine: Engine,
+    audit_older_than: str = AUDIT_DEFAULT,
+    idempotency_older_than: str = IDEMPOTENCY_DEFAULT,
+) -> dict[str, Any]:
+    """Delete audit entries and idempotency records older than the given ages, in one transaction.
+
+    Returns ``{"audit_log": n, "idempotency_records": m, "audit_before", "idempotency_before"}``.
+    Raises InputError (naming the option) for a malformed age, or an idempotency age under 24 h.
+    """
+    audit_age = parse_duration("--audit-older-than", audit_older_than)
+    idem_age = parse_duration("--idempotency-older-than", idempotency_older_than)
+    if idem_age < IDEMPOTENCY_MIN:
+        raise InputError(
+            "--idempotency-older-than",
+            idempotency_older_than,
+            "idempotency records are kept at least 24h (a retry within a day finds its answer)",
+        )
+    now = t.utcnow()
+    before = {"audit_before": now - audit_age, "idempotency_before": now - idem_age}
+    with Session(engine) as session, session.begin():
+        deleted = access.prune(
+            session=session,
+            audit_before=before["audit_before"],
+            idempotency_before=before["idempotency_before"],
+        )
+        access.audit(
+            session=session,
+            actor="cli",
+            action="prune",
+            target=f"older than {audit_older_than} / {idempotency_older_than}",
+            result="ok",
+            detail=dict(deleted),
+        )
+    return {**deleted, **before}

@@ -1,0 +1,161 @@
+"""Authentication failures: a token bucket per client address, and their coalesced audit rows.
+
+Both live in the memory of one worker process (``rcb serve --workers N`` has N of each), as
+a plant's service on one machine needs: a client that keeps sending wrong keys gets 429 with
+``Retry-After`` once its bucket is empty (a missing key spends nothing: it guesses nothing),
+and the audit log gets one row per client address, action, reason and window, whose
+``detail.count`` says how many failures it stands for, instead of one row per failure.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+#: Failures a client address may make at once before it is refused with 429.
+BURST_FAILURES = 60
+#: Failures per second a client address earns back.
+REFILL_PER_S = 1.0
+#: Length of an audit window [s]: one audit row per client, action and reason in each.
+WINDOW_S = 60.0
+#: A coalesced row's count is written at most this often [s] while its window lasts.
+FLUSH_S = 2.0
+#: Client addresses remembered at once (the oldest are forgotten first).
+MAX_CLIENTS = 10_000
+
+
+class RateLimitedError(Exception):
+    """Too many authentication failures from one client address; retry after ``retry_after_s``."""
+
+    def __init__(self, client: str, retry_after_s: int) -> None:
+        self.field, self.value, self.retry_after_s = "Authorization", client, retry_after_s
+        super().__init__(
+            f"too many authentication failures from {client}; retry after {retry_after_s} s"
+        )
+
+
+@dataclass
+class _Bucket:
+    tokens: float
+    at_s: float
+
+
+class FailureLimiter:
+    """A token bucket per client address, spent by authentication failures.
+
+    Parameters
+    ----------
+    burst : int
+        Failures allowed at once (the bucket's size).
+    refill_per_s : float
+        Failures per second earned back [1/s].
+    clock : callable
+        Monotonic time [s] (a test passes its own).
+    """
+
+    def __init__(
+        self,
+        burst: int = BURST_FAILURES,
+        refill_per_s: float = REFILL_PER_S,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.burst, self.refill_per_s, self.clock = burst, refill_per_s, clock
+        self._buckets: OrderedDict[str, _Bucket] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def spend(self, client: str) -> int:
+        """Spend one failure of ``client``: 0 if it had one left, else the wait [s] (>= 1)."""
+        with self._lock:
+            now = self.clock()
+            bucket = self._buckets.pop(client, None) or _Bucket(float(self.burst), now)
+            bucket.tokens = min(
+                float(self.burst), bucket.tokens + (now - bucket.at_s) * self.refill_per_s
+            )
+            bucket.at_s = now
+            self._buckets[client] = bucket  # most recent last
+            while len(self._buckets) > MAX_CLIENTS:
+                self._buckets.popitem(last=False)
+            if bucket.tokens >= 1.0:
+                bucket.tokens -= 1.0
+                return 0
+            return max(1, math.ceil((1.0 - bucket.tokens) / self.refill_per_s))
+
+
+@dataclass
+class _Window:
+    start_s: float
+    entry_id: int
+    count: int
+    written: int
+    written_at_s: float
+    detail: dict[str, Any] = field(default_factory=dict)
+
+
+#: Appends an audit row's detail and returns its id.
+Insert = Callable[[dict[str, Any]], int]
+#: Replaces the detail of the audit row with that id; False if the row is gone (pruned).
+Rewrite = Callable[[int, dict[str, Any]], bool]
+
+
+class FailureLog:
+    """One audit row per (client, action, reason) and window, its ``count`` kept up to date.
+
+    The first failure of a window inserts the row (count 1); later ones count in memory and
+    rewrite the row's detail at most every ``flush_s`` seconds, and when the next window of
+    the same client starts. A process that dies loses at most ``flush_s`` seconds of counts.
+
+    Parameters
+    ----------
+    window_s : float
+        Length of a window [s].
+    flush_s : float
+        Shortest time between two rewrites of one row [s].
+    clock : callable
+        Wall-clock time [s] (a test passes its own).
+    """
+
+    def __init__(
+        self,
+        window_s: float = WINDOW_S,
+        flush_s: float = FLUSH_S,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
+        self.window_s, self.flush_s, self.clock = window_s, flush_s, clock
+        self._windows: OrderedDict[tuple[str, str, str], _Window] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def record(
+        self, client: str, action: str, reason: str, insert: Insert, rewrite: Rewrite
+    ) -> None:
+        """Count one failure, inserting or rewriting its window's row through the callbacks."""
+        with self._lock:  # the database calls too: one failure's row at a time
+            now = self.clock()
+            start = math.floor(now / self.window_s) * self.window_s
+            key = (client, action, reason)
+            window = self._windows.pop(key, None)
+            if window is not None and window.start_s != start:
+                if window.count > window.written:
+                    rewrite(window.entry_id, self._detail(window))
+                window = None
+            if window is None:
+                detail = {"reason": reason, "client": client, "count": 1,
+                          "window_start_s": start, "window_s": self.window_s}  # fmt: skip
+                window = _Window(start, insert(detail), 1, 1, now, detail)
+            else:
+                window.count += 1
+                if now - window.written_at_s >= self.flush_s:
+                    if not rewrite(window.entry_id, self._detail(window)):
+                        window.entry_id = insert(self._detail(window))  # pruned meanwhile
+                    window.written, window.written_at_s = window.count, now
+            self._windows[key] = window
+            while len(self._windows) > MAX_CLIENTS:
+                self._windows.popitem(last=False)
+
+    @staticmethod
+    def _detail(window: _Window) -> dict[str, Any]:
+        return {**window.detail, "count": window.count}
