@@ -85,8 +85,6 @@ _HEAD = (
     "halt",
 )
 _PLANS = t.core_table(t.Plan)
-#: The largest value of PostgreSQL's ``integer``.
-_MAX_INT = 2**31 - 1
 _PARTS = t.core_table(t.Part)
 
 _OPEN = """
@@ -185,7 +183,7 @@ def _open_in_one(
         "serial": serial,
         # the column is a 32-bit integer: a version beyond it is unknown, and the statement
         # would fail converting it; 0 is unknown too (the caller tells which answer applies)
-        "setpoint_version": setpoint_version if 1 <= setpoint_version <= _MAX_INT else 0,
+        "setpoint_version": setpoint_version if 1 <= setpoint_version <= t.MAX_INT else 0,
         "received_at": t.utcnow(),
         "api_key_id": api_key_id,
         "key": key,

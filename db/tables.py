@@ -35,6 +35,10 @@ NAMING_CONVENTION = {
     "pk": "pk_%(table_name)s",
 }
 
+#: The largest value an integer column holds (PostgreSQL's ``integer``: 32 bits): every id,
+#: version and count the service takes is bounded by it.
+MAX_INT = 2**31 - 1
+
 
 def utcnow() -> datetime:
     """Timezone-aware current time (stored as UTC)."""

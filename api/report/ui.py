@@ -29,6 +29,7 @@ from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
 from api.services import auth, queries
 from api.services.errors import NotFoundError
 from db.access import Actor
+from db.tables import MAX_INT
 
 PREFIX = "/ui"
 COOKIE = "rcb_ui_key"
@@ -40,8 +41,6 @@ COOKIE_MAX_AGE_S = 8 * 3600
 MAX_FORM_BYTES = 4096
 #: The last parts plotted on a plan page (the tables still show every part and version).
 PLOTTED_PARTS = 200
-#: Largest plan id (32-bit keys).
-MAX_ID = 2**31 - 1
 
 _HEADERS = {
     "Cache-Control": "no-store",
@@ -154,7 +153,7 @@ def install(app: FastAPI, engine: Engine) -> None:
         if actor is None:
             return _to_login()
         number_id = int(plan_id) if re.fullmatch(r"[0-9]{1,10}", plan_id) else 0
-        if not 1 <= number_id <= MAX_ID or not actor.may_see(number_id):
+        if not 1 <= number_id <= MAX_INT or not actor.may_see(number_id):
             return _not_found(plan_id, actor)
         try:
             page = render_html_report(

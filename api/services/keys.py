@@ -9,14 +9,13 @@ from sqlalchemy.orm import Session
 
 from api.services.errors import NotFoundError
 from db import access
+from db.tables import MAX_INT
 from models.errors import InputError
 
 #: Largest page of ``rcb keys list``.
 MAX_PAGE = 1000
 #: Most plans one key may be scoped to.
 MAX_PLANS = 1000
-#: Largest plan id (32-bit keys).
-MAX_ID = 2**31 - 1
 
 
 def create_key(
@@ -33,8 +32,8 @@ def create_key(
         if len(scope) > MAX_PLANS:
             raise InputError("--plan", len(scope), f"at most {MAX_PLANS} plans per key")
         for plan_id in scope:
-            if not 1 <= plan_id <= MAX_ID:
-                raise InputError("--plan", plan_id, f"a plan id is 1 to {MAX_ID}")
+            if not 1 <= plan_id <= MAX_INT:
+                raise InputError("--plan", plan_id, f"a plan id is 1 to {MAX_INT}")
     with Session(engine) as session, session.begin():
         if scope is not None:
             missing = access.plans_missing(session=session, plan_ids=scope)
@@ -54,8 +53,8 @@ def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, A
     """
     if not 1 <= limit <= MAX_PAGE:
         raise InputError("--limit", limit, f"a page holds 1 to {MAX_PAGE} keys")
-    if not 0 <= after <= MAX_ID:
-        raise InputError("--after", after, f"a key id is 0 to {MAX_ID}")
+    if not 0 <= after <= MAX_INT:
+        raise InputError("--after", after, f"a key id is 0 to {MAX_INT}")
     with Session(engine) as session, session.begin():
         rows = access.list_keys(session=session, after=after, limit=limit + 1)
         page = [

@@ -31,7 +31,7 @@ def _utc(moment: datetime) -> datetime:
 def _cursor(cursor: str | None) -> int:
     if cursor is None:
         return 0
-    if re.fullmatch(r"[0-9]{1,10}", cursor) is None or int(cursor) > 2**31 - 1:
+    if re.fullmatch(r"[0-9]{1,10}", cursor) is None or int(cursor) > t.MAX_INT:
         raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
     return int(cursor)
 

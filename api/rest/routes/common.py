@@ -10,6 +10,7 @@ from fastapi.responses import JSONResponse, Response
 from api.rest import problems
 from api.rest.schemas.service import Problem
 from api.services.idempotency import Idempotency, Written, fingerprint
+from db.tables import MAX_INT
 
 #: Where the service lives (the web view is at /ui, api.report.ui).
 PREFIX = "/api/v1"
@@ -20,7 +21,7 @@ PROBLEMS: dict[int | str, dict[str, Any]] = {
 }
 
 #: Largest id (the tables' integer keys are 32-bit on PostgreSQL).
-MAX_ID = 2**31 - 1
+MAX_ID = MAX_INT
 #: Idempotency-Key: 1 to 255 visible ASCII characters (an sf-string; the column's width).
 KEY_PATTERN = r"^[\x21-\x7e]{1,255}$"
 _KEY_DOC = (

@@ -12,6 +12,7 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
 
+from db.tables import MAX_INT
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
 #: What the docs say of each strategy: its name and summary from the registry.
@@ -60,7 +61,7 @@ Positive = Annotated[float, Field(ge=SMALLEST_POSITIVE, le=LARGEST, **_FINITE)]
 #: A :data:`Number` >= 0.
 NonNegative = Annotated[float, Field(ge=0, le=LARGEST, **_FINITE)]
 #: The largest whole number an input may hold: what a 32-bit integer column stores.
-LARGEST_WHOLE = 2**31 - 1
+LARGEST_WHOLE = MAX_INT
 #: A whole number >= 1 (strict: no ``true``, ``"5"`` or ``5.0``) that an integer column holds.
 Count = Annotated[int, Field(strict=True, ge=1, le=LARGEST_WHOLE)]
 #: The most characters of a free text (a description).
