@@ -75,14 +75,6 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-app = typer.Typer(
-    cls=_OneLineErrors,
-    name="rcb",
-    help="Robust optimisation and Recursive Constraint Bounding of cutting parameters.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-)
 
 # The order of registration is the order of ``rcb --help``.
 app.command()(predict)  # rcb predict: api/cli/optimize.py
