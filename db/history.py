@@ -1,4 +1,4 @@
-"""Read-only queries for review: plans, parts page by page, setpoint history, model versions.
+"""Read-only queries for review: plans, parts and setpoint history, page by page.
 
 Each returns plain rows or dicts; :mod:`api.services.queries` shapes them for JSON.
 """
@@ -16,15 +16,30 @@ from db import tables as t
 from db.plan_state import settings_json, settings_of
 
 
-def plans(*, session: Session) -> list[dict[str, Any]]:
-    """Every plan with its machine, current setpoint version and part count."""
-    counts = select(t.Part.plan_id, func.count().label("n")).group_by(t.Part.plan_id).subquery()
-    rows = session.execute(
-        select(t.Plan, t.Machine.name, counts.c.n)
+def plans(
+    *, session: Session, after_id: int = 0, limit: int = 100, only: frozenset[int] | None = None
+) -> list[dict[str, Any]]:
+    """Up to ``limit`` plans with id > ``after_id``, by id: machine, setpoint version, parts.
+
+    ``only``: just these plan ids (a key scoped to plans), filtered in the query, so a page is
+    never short for it. One statement: the plans by primary key, each plan's part count an
+    index-only count of its own parts (``parts (plan_id, serial)``), never a whole-table read.
+    """
+    counted = (
+        select(func.count())
+        .select_from(t.Part)
+        .where(t.Part.plan_id == t.Plan.id)
+        .correlate(t.Plan)
+        .scalar_subquery()
+    )
+    query = (
+        select(t.Plan, t.Machine.name, counted)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
-        .outerjoin(counts, counts.c.plan_id == t.Plan.id)
-        .order_by(t.Plan.id)
-    ).all()
+        .where(t.Plan.id > after_id)
+    )
+    if only is not None:
+        query = query.where(t.Plan.id.in_(sorted(only)))
+    rows = session.execute(query.order_by(t.Plan.id).limit(limit)).all()
     return [summary(plan, machine, n or 0) for plan, machine, n in rows]
 
 
@@ -210,23 +225,3 @@ def models_at(
                 in_force[pair] = newer
         out[v.id] = in_force
     return out
-
-
-def model_versions(
-    *, session: Session, plan_id: int, operation: str | None = None, quantity: str | None = None
-) -> list[tuple[t.OperationModelVersion, str, str | None]]:
-    """Model versions of a plan's operations (oldest first), with operation name and serial."""
-    query = (
-        select(t.OperationModelVersion, t.Operation.name, t.Part.serial)
-        .join(t.Operation, t.OperationModelVersion.operation_id == t.Operation.id)
-        .outerjoin(t.Part, t.OperationModelVersion.part_id == t.Part.id)
-        .where(t.Operation.plan_id == plan_id)
-        .order_by(
-            t.Operation.position, t.OperationModelVersion.quantity, t.OperationModelVersion.version
-        )
-    )
-    if operation is not None:
-        query = query.where(t.Operation.name == operation)
-    if quantity is not None:
-        query = query.where(t.OperationModelVersion.quantity == quantity)
-    return [(v, name, serial) for v, name, serial in session.execute(query).all()]

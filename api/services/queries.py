@@ -16,6 +16,11 @@ from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.history import HISTORY_PAGE as HISTORY_PAGE
 from api.services.history import full_history as full_history
 from api.services.history import plan_history as plan_history
+from api.services.lists import LIST_PAGE as LIST_PAGE
+from api.services.lists import list_plans as list_plans
+from api.services.lists import list_tools as list_tools
+from api.services.lists import model_versions as model_versions
+from api.services.lists import models_in_force as models_in_force
 from api.services.reading import MAX_PAGE as MAX_PAGE
 from api.services.reading import _cursor, _plan, _read, _utc
 from db import history, library
@@ -24,12 +29,6 @@ from db.parts import count_parts
 from db.plans import current_body, setpoints_of
 from models.catalogue import catalogue
 from models.errors import InputError
-
-
-def list_plans(*, engine: Engine) -> dict[str, Any]:
-    """Every plan with its machine, current setpoint version and part count."""
-    with _read(engine) as session, session.begin():
-        return {"plans": history.plans(session=session)}
 
 
 def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
@@ -180,53 +179,6 @@ def record(
     return plan, full_history(engine=engine, plan_id=plan_id), items
 
 
-def models_in_force(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """Per operation and quantity the newest model version: K, ΔK, exponents, version, cause."""
-    with _read(engine) as session, session.begin():
-        _plan(session, plan_id)
-        ops = history.operations(session=session, plan_id=plan_id)
-        rows = history.model_versions(session=session, plan_id=plan_id)
-    latest: dict[str, dict[str, Any]] = {}
-    for model, op_name, serial in rows:
-        latest.setdefault(op_name, {})[model.quantity] = _model_version(model, serial)
-    return {
-        "plan_id": plan_id,
-        "operations": [
-            {"name": op.name, "tool": tool.name, "models": latest.get(op.name, {})}
-            for op, tool in ops
-        ],
-    }
-
-
-def model_versions(
-    *, engine: Engine, plan_id: int, operation: str | None = None, quantity: str | None = None
-) -> dict[str, Any]:
-    """Every model version of the plan, optionally of one operation and/or quantity."""
-    with _read(engine) as session, session.begin():
-        _plan(session, plan_id)
-        ops = history.operations(session=session, plan_id=plan_id)
-        if operation is not None and operation not in {op.name for op, _ in ops}:
-            raise NotFoundError("operation", operation)
-        rows = history.model_versions(
-            session=session, plan_id=plan_id, operation=operation, quantity=quantity
-        )
-    return {
-        "plan_id": plan_id,
-        "versions": [
-            {"operation": name, "quantity": m.quantity, **_model_version(m, serial)}
-            for m, name, serial in rows
-        ],
-    }
-
-
-def list_tools(*, engine: Engine) -> dict[str, Any]:
-    """The packaged catalogue and the tools stored in the database, by name."""
-    with _read(engine) as session, session.begin():
-        stored = library.load_tools(session=session)
-    tools = {**catalogue(), **stored}
-    return {"tools": [to_json.tool_json(tools[name]) for name in sorted(tools)]}
-
-
 def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
     """One tool with its baseline models and provenance."""
     with _read(engine) as session, session.begin():
@@ -235,18 +187,6 @@ def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
     if tool is None:
         raise NotFoundError("name", name)
     return to_json.tool_json(tool)
-
-
-def _model_version(model: t.OperationModelVersion, serial: str | None) -> dict[str, Any]:
-    return {
-        "version": model.version,
-        "K": model.K,
-        "dK": model.dK,
-        "exponents": dict(model.exponents),
-        "cause": model.cause,
-        "serial": serial,
-        "created_at": _utc(model.created_at),
-    }
 
 
 def _decision(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:

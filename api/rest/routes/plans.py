@@ -121,10 +121,17 @@ def replan(
 
 
 @router.get("/plans", response_model=PlanList)
-def list_plans(engine: EngineDep, actor: Anyone) -> dict[str, Any]:
-    """Every plan (a key scoped to plans: those plans)."""
-    listed = queries.list_plans(engine=engine)
-    return {**listed, "plans": [p for p in listed["plans"] if actor.may_see(p["id"])]}
+def list_plans(
+    engine: EngineDep,
+    actor: Anyone,
+    cursor: Annotated[
+        str | None,
+        Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
+    ] = None,
+    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,
+) -> dict[str, Any]:
+    """The plans by id, a page at a time (a key scoped to plans: those plans only)."""
+    return queries.list_plans(engine=engine, cursor=cursor, page_size=limit, only=actor.plans)
 
 
 @router.get("/plans/{plan_id}", response_model=PlanDetail)

@@ -10,6 +10,7 @@ from api.rest.deps import Anyone, EngineDep
 from api.rest.routes.common import PlanId, resource_router
 from api.rest.schemas.common import NO_NUL
 from api.rest.schemas.review import History, ModelVersions, PlanModels
+from api.rest.schemas.tools import TextCursor
 from api.services import queries
 
 router = resource_router("review")
@@ -56,8 +57,16 @@ def model_versions(
     actor: Anyone,
     operation: Annotated[str | None, Query(max_length=200, pattern=NO_NUL)] = None,
     quantity: Annotated[str | None, Query(max_length=50, pattern=NO_NUL)] = None,
+    cursor: TextCursor = None,
+    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,
 ) -> dict[str, Any]:
-    """Every model version with its cause, optionally of one operation and quantity."""
+    """Model versions with their cause, optionally of one operation and quantity, a page at a
+    time: by version, then operation (plan order), then quantity."""
     return queries.model_versions(
-        engine=engine, plan_id=plan_id, operation=operation, quantity=quantity
+        engine=engine,
+        plan_id=plan_id,
+        operation=operation,
+        quantity=quantity,
+        cursor=cursor,
+        page_size=limit,
     )

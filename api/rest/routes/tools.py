@@ -4,13 +4,13 @@
 
 from typing import Annotated, Any
 
-from fastapi import Path, Request
+from fastapi import Path, Query, Request
 from fastapi.responses import Response
 
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
 from api.rest.schemas.common import NO_NUL
-from api.rest.schemas.tools import ToolIn, ToolList, ToolOut
+from api.rest.schemas.tools import TextCursor, ToolIn, ToolList, ToolOut
 from api.services import queries
 from api.services import tools as use_cases
 
@@ -18,9 +18,14 @@ router = resource_router("tools")
 
 
 @router.get("/tools", response_model=ToolList)
-def list_tools(engine: EngineDep, actor: Anyone) -> dict[str, Any]:
-    """The packaged catalogue and the tools added by engineers."""
-    return queries.list_tools(engine=engine)
+def list_tools(
+    engine: EngineDep,
+    actor: Anyone,
+    cursor: TextCursor = None,
+    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,
+) -> dict[str, Any]:
+    """The packaged catalogue and the tools added by engineers, by name, a page at a time."""
+    return queries.list_tools(engine=engine, cursor=cursor, page_size=limit)
 
 
 @router.get("/tools/{name}", response_model=ToolOut)

@@ -53,9 +53,13 @@ class PlanSummary(Out):
 
 
 class PlanList(Out):
-    """Every plan."""
+    """A page of plans by id (a key scoped to plans: those only).
+
+    Pass ``next_cursor`` as ``cursor`` for the next page; null: no more.
+    """
 
     plans: list[PlanSummary]
+    next_cursor: str | None
 
 
 class PlanOperation(Out):

@@ -90,7 +90,11 @@ class ModelVersionRow(ModelVersion):
 
 
 class ModelVersions(Out):
-    """Model versions, oldest first."""
+    """A page of model versions by version, then operation (plan order), then quantity.
+
+    Pass ``next_cursor`` as ``cursor`` (with the same filters) for the next page; null: no more.
+    """
 
     plan_id: int
     versions: list[ModelVersionRow]
+    next_cursor: str | None

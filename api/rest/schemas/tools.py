@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
+from fastapi import Query
 from pydantic import BaseModel, ConfigDict, Field
 
 from api.rest.schemas.common import Name, NonNegative, Out, Positive, Text, keys_schema
@@ -95,6 +96,20 @@ class ToolOut(Out):
 
 
 class ToolList(Out):
-    """The catalogue and the stored tools."""
+    """A page of the catalogue and the stored tools, by name.
+
+    Pass ``next_cursor`` as ``cursor`` for the next page; null: no more.
+    """
 
     tools: list[ToolOut]
+    next_cursor: str | None
+
+
+#: The ``cursor`` of a list keyed by text (tools, model versions): an opaque token.
+TextCursor = Annotated[
+    str | None,
+    Query(
+        pattern=r"^[A-Za-z0-9_-]{1,1200}$",
+        description="`next_cursor` of the previous page (opaque)",
+    ),
+]
