@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from sqlalchemy import ColumnElement, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -67,14 +67,14 @@ def load_tools(
     """Stored tools by name (all, or those named), with their baseline models.
 
     ``after``, ``limit``: a page, the first ``limit`` names above ``after`` in code-point
-    order (:func:`by_name`): an index range read of ``tools (name)`` and of the page's models.
+    order (``tools.name`` is so collated, :mod:`db.tables`): an index range read of
+    ``tools (name)`` and of the page's models.
     """
-    name = by_name(session)
-    query = select(t.Tool).order_by(name)
+    query = select(t.Tool).order_by(t.Tool.name)
     if names is not None:
         query = query.where(t.Tool.name.in_(list(names)))
     if after is not None:
-        query = query.where(name > after)
+        query = query.where(t.Tool.name > after)
     rows = list(session.scalars(query.limit(limit)))
     models: dict[int, dict[str, PowerLawModel]] = {row.id: {} for row in rows}
     if rows:
@@ -93,14 +93,3 @@ def load_tools(
         )
         for row in rows
     }
-
-
-def by_name(session: Session) -> ColumnElement[str]:
-    """``tools.name`` compared in code-point order, as Python sorts the packaged catalogue.
-
-    SQLite compares text by its UTF-8 bytes (code-point order) already; PostgreSQL by the
-    database's collation unless told ``COLLATE "C"`` (indexed so by migration 0008).
-    """
-    if session.get_bind().dialect.name == "postgresql":
-        return t.Tool.name.collate("C")
-    return t.Tool.name

@@ -57,9 +57,7 @@ def version_numbers(*, session: Session, plan_id: int) -> dict[tuple[int, str], 
     }
 
 
-def in_force(
-    *, session: Session, plan_id: int
-) -> list[tuple[t.OperationModelVersion, str | None]]:
+def in_force(*, session: Session, plan_id: int) -> list[tuple[t.OperationModelVersion, str | None]]:
     """The newest model version per (operation, quantity) of a plan, with its part's serial.
 
     An index seek per (operation, quantity), as :func:`latest_models`.

@@ -79,7 +79,11 @@ class Tool(Base):
 
     __tablename__ = "tools"
     id: Mapped[int] = mapped_column(primary_key=True)
-    name: Mapped[str] = mapped_column(String(200), unique=True)
+    #: compared in code-point order, as Python sorts the catalogue: GET /tools pages by it
+    #: (SQLite's text order already; PostgreSQL's collation "C", migration 0008)
+    name: Mapped[str] = mapped_column(
+        String(200).with_variant(String(200, collation="C"), "postgresql"), unique=True
+    )
     process: Mapped[str] = mapped_column(String(20))
     description: Mapped[str] = mapped_column(Text, default="")
     material: Mapped[str] = mapped_column(Text, default="")

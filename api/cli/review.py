@@ -6,6 +6,7 @@ Thin commands over :mod:`api.services.queries` (the REST routes call the same), 
 
 from __future__ import annotations
 
+import json
 import sys
 from collections.abc import Iterable
 from datetime import UTC, datetime
@@ -43,34 +44,59 @@ def _fmt(value: float | None) -> str:
     return f"{value:.4g}" if abs(value) < 1e5 else f"{value:.3e}"
 
 
-def plans(db: DbOption = None, as_json: _JsonOption = False) -> None:
-    """List the plans: machine, RCB law, setpoint version in force, parts reported."""
+def plans(
+    limit: Annotated[
+        int | None, typer.Option(help=f"Plans on the page (1-{queries.MAX_PAGE}, default 100).")
+    ] = None,
+    cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
+    db: DbOption = None,
+    as_json: _JsonOption = False,
+) -> None:
+    """List plans by id: machine, RCB law, setpoint version in force, parts reported.
+
+    A page, and how to get the next; ``--json`` without ``--limit`` streams every plan, one
+    per line, a page at a time.
+    """
     with errors():
-        data = queries.list_plans(engine=_engine(db))
-    if as_json:
-        emit(data)
-        return
-    table = Table(title="plans")
-    columns = ("id", "name", "machine", "strategy", "α", "ver", "parts", "status", "created")
-    for column in columns:
-        table.add_column(column)
-    for p in data["plans"]:
-        halted = p["status"] == "halted"
-        table.add_row(
-            str(p["id"]),
-            p["name"],
-            p["machine"],
-            p["strategy"],
-            f"{p['alpha']:g}",
-            str(p["setpoint_version"]),
-            str(p["parts"]),
-            "[bold red]HALTED[/]" if halted else "running",
-            p["created_at"].strftime("%Y-%m-%d %H:%M"),
-        )
-    _out.print(table)
-    for p in data["plans"]:
-        if p["status"] == "halted":
-            _print_halt(p["id"], p["halt"])
+        engine = _engine(db)
+        size = _bounded("--limit", queries.LIST_PAGE if limit is None else limit)
+        page = queries.list_plans(engine=engine, cursor=cursor, page_size=size)
+        if as_json:
+            sys.stdout.write('{"plans": [')
+            for n, p in enumerate(page["plans"]):
+                sys.stdout.write((",\n" if n else "\n") + json.dumps(p, default=datetime.isoformat))
+            while limit is None and page["next_cursor"] is not None:
+                page = queries.list_plans(engine=engine, cursor=page["next_cursor"], page_size=size)
+                for p in page["plans"]:
+                    sys.stdout.write(",\n" + json.dumps(p, default=datetime.isoformat))
+            sys.stdout.write(f'\n], "next_cursor": {json.dumps(page["next_cursor"])}}}\n')
+    if not as_json:
+        table = Table(title="plans")
+        for column in (
+            "id",
+            "name",
+            "machine",
+            "strategy",
+            "α",
+            "ver",
+            "parts",
+            "status",
+            "created",
+        ):
+            table.add_column(column)
+        for p in page["plans"]:
+            halted = "[bold red]HALTED[/]" if p["status"] == "halted" else "running"
+            created = p["created_at"].strftime("%Y-%m-%d %H:%M")
+            cells = (p["id"], p["name"], p["machine"], p["strategy"], f"{p['alpha']:g}")
+            table.add_row(
+                *map(str, cells), str(p["setpoint_version"]), str(p["parts"]), halted, created
+            )
+        _out.print(table)
+        for p in page["plans"]:
+            if p["status"] == "halted":
+                _print_halt(p["id"], p["halt"])
+    if page["next_cursor"] is not None:
+        say(f"rcb: next page: rcb plans --cursor {page['next_cursor']} --limit {size}")
 
 
 def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:

@@ -30,6 +30,7 @@ from api.services import auth, queries
 from api.services.errors import NotFoundError
 from db.access import Actor
 from db.tables import MAX_INT
+from models.errors import InputError
 
 PREFIX = "/ui"
 COOKIE = "rcb_ui_key"
@@ -141,8 +142,12 @@ def install(app: FastAPI, engine: Engine) -> None:
             return _too_many(err)
         if actor is None:
             return _to_login()
-        listed = [p for p in queries.list_plans(engine=engine)["plans"] if actor.may_see(p["id"])]
-        return _page("Plans", _plans_table(listed), actor)
+        cursor = request.query_params.get("cursor")
+        try:  # a scoped key's plans are filtered in the query: its page is full
+            listed = queries.list_plans(engine=engine, cursor=cursor, only=actor.plans)
+        except InputError as err:
+            return _page("Bad page", tag("p", escaped(str(err)), class_="error"), actor, 400)
+        return _page("Plans", _plans_table(listed["plans"], listed["next_cursor"]), actor)
 
     @app.get(f"{PREFIX}/plans/{{plan_id}}", include_in_schema=False)
     def plan(request: Request, plan_id: str) -> Response:
@@ -235,7 +240,8 @@ def _not_found(plan_id: str, actor: Actor) -> HTMLResponse:
     return _page("Plan not found", text, actor, status=404)
 
 
-def _plans_table(plans: list[dict[str, Any]]) -> str:
+def _plans_table(plans: list[dict[str, Any]], next_cursor: str | None = None) -> str:
+    """A page of plans; ``next_cursor``: a "next" link to the page after it."""
     if not plans:
         return tag("p", escaped("No plans yet (rcb plan create, or POST /api/v1/plans)."))
     head = "".join(
@@ -257,7 +263,13 @@ def _plans_table(plans: list[dict[str, Any]]) -> str:
         ]
         rows.append(row(cells, data_plan=p["id"]))
     body = tag("thead", tag("tr", head)) + tag("tbody", "".join(rows))
-    return tag("table", body, id="plans")
+    more = ""
+    if next_cursor is not None:
+        link = tag(
+            "a", escaped("next page"), href=f"{PREFIX}/?cursor={int(next_cursor)}", rel="next"
+        )
+        more = tag("p", link)
+    return tag("table", body, id="plans") + more
 
 
 def _status_cell(plan: dict[str, Any]) -> str:

@@ -174,7 +174,9 @@ def _untoken(cursor: str, size: int) -> list[Any]:
     kinds = (int, int, str) if size == 3 else (str,)
     if not isinstance(values, list) or len(values) != size:
         raise refused
-    if not all(isinstance(v, k) and not isinstance(v, bool) for v, k in zip(values, kinds)):
+    if not all(
+        isinstance(v, k) and not isinstance(v, bool) for v, k in zip(values, kinds, strict=True)
+    ):
         raise refused
     if size == 3 and not (0 <= values[0] <= t.MAX_INT and 0 <= values[1] <= t.MAX_INT):
         raise refused

@@ -60,8 +60,10 @@ def model_versions(
     cursor: TextCursor = None,
     limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,
 ) -> dict[str, Any]:
-    """Model versions with their cause, optionally of one operation and quantity, a page at a
-    time: by version, then operation (plan order), then quantity."""
+    """Model versions with their cause, optionally of one operation and quantity, by page.
+
+    By version, then operation (plan order), then quantity.
+    """
     return queries.model_versions(
         engine=engine,
         plan_id=plan_id,
