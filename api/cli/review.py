@@ -60,7 +60,10 @@ def plans(
     with errors():
         engine = _engine(db)
         size = _bounded("--limit", queries.LIST_PAGE if limit is None else limit)
-        page = queries.list_plans(engine=engine, cursor=cursor, page_size=size)
+        try:
+            page = queries.list_plans(engine=engine, cursor=cursor, page_size=size)
+        except InputError as err:  # the option's name: --cursor
+            raise InputError(f"--{err.field}", err.value, err.reason) from None
         if as_json:
             sys.stdout.write('{"plans": [')
             for n, p in enumerate(page["plans"]):

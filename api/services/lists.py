@@ -58,10 +58,10 @@ def list_tools(
     A stored tool replaces a catalogue tool of its name. Only the page's stored tools are read.
     """
     _bounded(page_size)
-    after = str(_untoken(cursor, 1)[0]) if cursor is not None else None
+    after = str(_untoken(cursor, 1)[0]) if cursor is not None else ""  # names are not empty
     with _read(engine) as session, session.begin():
         stored = library.load_tools(session=session, after=after, limit=page_size + 1)
-    packaged = {n: tool for n, tool in catalogue().items() if after is None or n > after}
+    packaged = {n: tool for n, tool in catalogue().items() if n > after}
     names = sorted({*packaged, *stored})
     if len(stored) > page_size:  # stored names past the last one read might come before
         names = [n for n in names if n <= max(stored)]
