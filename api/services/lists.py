@@ -169,7 +169,7 @@ def _untoken(cursor: str, size: int) -> list[Any]:
     try:
         raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
         values = json.loads(raw.decode("utf-8"))
-    except (binascii.Error, ValueError):  # UnicodeDecodeError and JSONDecodeError are too
+    except (binascii.Error, ValueError, RecursionError):  # and the Unicode, JSON errors
         raise refused from None
     kinds = (int, int, str) if size == 3 else (str,)
     if not isinstance(values, list) or len(values) != size:
