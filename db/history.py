@@ -153,9 +153,11 @@ def setpoint_versions(
 
 
 def revision_actors(*, session: Session, plan_id: int, versions: list[int]) -> dict[int, str]:
-    """Who made each replan among ``versions``: ``{setpoint version: actor}`` (``key:ID``,
-    ``cli:NAME``); versions no replan made are absent. One index seek per version (the
-    ``(plan_id, setpoint_version)`` unique constraint)."""
+    """Who made each replan among ``versions``: ``{setpoint version: actor}``.
+
+    The actor is ``key:ID`` (REST) or ``cli:NAME`` (``rcb replan --by``); versions no replan
+    made are absent. One index seek per version (``(plan_id, setpoint_version)`` is unique).
+    """
     if not versions:
         return {}
     rows = session.execute(
@@ -163,7 +165,7 @@ def revision_actors(*, session: Session, plan_id: int, versions: list[int]) -> d
             t.PlanRevision.plan_id == plan_id, t.PlanRevision.setpoint_version.in_(versions)
         )
     )
-    return {version: actor for version, actor in rows}
+    return {int(version): str(actor) for version, actor in rows}
 
 
 def models_at(

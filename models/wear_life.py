@@ -24,11 +24,15 @@ import math
 from collections.abc import Hashable, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from models.errors import InputError
 
+#: Numbers as a sequence or an array.
+Numbers = Sequence[float] | npt.NDArray[np.float64]
 
-def life_at_wear(times: Sequence[float], wear_mm: Sequence[float], limit_mm: float) -> float | None:
+
+def life_at_wear(times: Numbers, wear_mm: Numbers, limit_mm: float) -> float | None:
     """The time at which one tool's wear first reaches ``limit_mm``; None if it never does.
 
     Parameters
@@ -61,8 +65,8 @@ def life_at_wear(times: Sequence[float], wear_mm: Sequence[float], limit_mm: flo
 
 def series_lives(
     series: Sequence[Hashable],
-    times: Sequence[float],
-    wear_mm: Sequence[float],
+    times: Numbers,
+    wear_mm: Numbers,
     limit_mm: float,
 ) -> tuple[dict[Hashable, float], list[Hashable]]:
     """Per tool (``series`` labels its rows), the life to ``limit_mm`` (:func:`life_at_wear`).

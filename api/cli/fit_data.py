@@ -1,5 +1,6 @@
-"""``rcb fit``'s data file: a CSV read as text, its columns, ``--where`` filters, numbers, and
-the tool lives of wear series (``--life-to-wear``).
+"""``rcb fit``'s data file: a CSV as text, its columns, filters, numbers, and tool lives.
+
+Tool lives come from wear series (``--life-to-wear``, :func:`wear_lives`).
 
 Every cell is read as text (so ``--where`` compares text); rows are counted from 1 after the
 header line. Errors are :class:`models.errors.InputError` naming the option or the cell
