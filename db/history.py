@@ -167,6 +167,22 @@ def setpoint_versions(
     return [(v, serial, setpoints[v.id]) for v, serial in versions]
 
 
+def revision_actors(*, session: Session, plan_id: int, versions: list[int]) -> dict[int, str]:
+    """Who made each replan among ``versions``: ``{setpoint version: actor}``.
+
+    The actor is ``key:ID`` (REST) or ``cli:NAME`` (``rcb replan --by``); versions no replan
+    made are absent. One index seek per version (``(plan_id, setpoint_version)`` is unique).
+    """
+    if not versions:
+        return {}
+    rows = session.execute(
+        select(t.PlanRevision.setpoint_version, t.PlanRevision.actor).where(
+            t.PlanRevision.plan_id == plan_id, t.PlanRevision.setpoint_version.in_(versions)
+        )
+    )
+    return {int(version): str(actor) for version, actor in rows}
+
+
 def models_at(
     *, session: Session, operation_ids: list[int], versions: list[t.SetpointVersion]
 ) -> dict[int, dict[tuple[int, str], t.OperationModelVersion]]:

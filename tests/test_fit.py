@@ -38,6 +38,7 @@ from models.errors import InputError
 from models.fit import FitResult, fit_power_law
 from models.fit_band import coverage
 from models.tool import tool_from_mapping
+from models.wear_life import series_lives
 from supervisor.inputs.plan import plan_from_mapping
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -83,36 +84,23 @@ def ra(vb: str) -> pd.DataFrame:
 
 
 def time_to_wear(labels: pd.DataFrame, limit_mm: float = VB_LIMIT_MM) -> tuple[pd.DataFrame, list]:
-    """Per case, the time at which VB first reaches ``limit_mm``.
-
-    Linear between the labelled points of the case (rows without VB are skipped), at the first
-    labelled point at or above the limit. Returns the cases that reach it (``case, DOC, feed,
-    material, time_min``) and the case numbers that never do.
+    """Per case, the time at which VB first reaches ``limit_mm`` (:func:`models.wear_life.
+    series_lives`: linear between labelled points, rows without VB skipped). Returns the cases
+    that reach it (``case, DOC, feed, material, time_min``) and the case numbers that never do.
     """
-    reached, never = [], []
-    for case, group in labels.groupby("case"):
-        group = group.dropna(subset=["VB"]).sort_values("time")
-        vb, t = group["VB"].to_numpy(), group["time"].to_numpy()
-        above = np.flatnonzero(vb >= limit_mm)
-        if above.size == 0:
-            never.append(int(case))
-            continue
-        j = int(above[0])
-        if j == 0:
-            time = float(t[0])
-        else:
-            time = t[j - 1] + (limit_mm - vb[j - 1]) * (t[j] - t[j - 1]) / (vb[j] - vb[j - 1])
-        first = group.iloc[0]
-        reached.append(
-            {
-                "case": int(case),
-                "DOC": first["DOC"],
-                "feed": first["feed"],
-                "material": int(first["material"]),
-                "time_min": float(time),
-            }
-        )
-    return pd.DataFrame(reached), never
+    lives, never = series_lives(labels["case"].tolist(), labels["time"], labels["VB"], limit_mm)
+    first = labels.groupby("case").first()
+    reached = [
+        {
+            "case": int(case),
+            "DOC": first.loc[case, "DOC"],
+            "feed": first.loc[case, "feed"],
+            "material": int(first.loc[case, "material"]),
+            "time_min": life,
+        }
+        for case, life in lives.items()
+    ]
+    return pd.DataFrame(reached), [int(case) for case in never]
 
 
 @functools.cache

@@ -16,6 +16,7 @@ from rich.text import Text
 from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api.cli.common import DbOption, emit, errors, say, shown
+from api.cli.who import ByOption, cli_actor
 from api.rest import serving
 from api.services import retention
 from api.services.errors import NotFoundError
@@ -59,15 +60,18 @@ def db_prune(
     ] = retention.IDEMPOTENCY_DEFAULT,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    by: ByOption = None,
 ) -> None:
     """Delete old audit entries and idempotency records; prints how many."""
     url = database_url(db)
     with errors():
+        actor = cli_actor(by)
         _migrate(url)
         pruned = retention.prune(
             engine=make_engine(url),
             audit_older_than=audit_older_than,
             idempotency_older_than=idempotency_older_than,
+            actor=actor,
         )
     if as_json:
         emit(pruned)
@@ -93,12 +97,16 @@ def keys_create(
     ] = None,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    by: ByOption = None,
 ) -> None:
     """Create an API key; it is printed once and stored only as a hash."""
     url = database_url(db)
     with errors():
+        actor = cli_actor(by)
         _migrate(url)
-        created = create_key(engine=make_engine(url), role=role, label=label, plans=plan)
+        created = create_key(
+            engine=make_engine(url), role=role, label=label, plans=plan, actor=actor
+        )
     if as_json:
         emit(created)
         return
@@ -147,13 +155,15 @@ def _minute(at: object) -> str:
 def keys_revoke(
     key_id: Annotated[int, typer.Argument(metavar="ID", help="The key's id.")],
     db: DbOption = None,
+    by: ByOption = None,
 ) -> None:
     """Revoke an API key (kept in the audit log, refused from now on)."""
     url = database_url(db)
     with errors():
+        actor = cli_actor(by)
         _migrate(url)
         try:
-            revoked = revoke_key(engine=make_engine(url), key_id=key_id)
+            revoked = revoke_key(engine=make_engine(url), key_id=key_id, actor=actor)
         except NotFoundError as err:
             raise InputError("ID", key_id, "no such API key") from err
     say(f"rcb: key {revoked['id']} ({revoked['role']}) revoked")

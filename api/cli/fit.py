@@ -22,7 +22,14 @@ from rich.console import Console
 from rich.table import Table
 
 from api.cli.common import JsonOption, emit, errors, say
-from api.cli.fit_data import check_column, positive_numbers, read_csv, select_rows, where_filter
+from api.cli.fit_data import (
+    check_column,
+    positive_numbers,
+    read_csv,
+    select_rows,
+    wear_lives,
+    where_filter,
+)
 from api.cli.fit_tool import tool_table, tool_toml, write_tool_file
 from models.errors import InputError
 from models.fit import FitResult, fit_power_law
@@ -37,13 +44,20 @@ def fit(
     data: Annotated[
         Path, typer.Argument(metavar="DATA.csv", help="Test data: a CSV file with a header line.")
     ],
-    response: Annotated[str, typer.Option("--response", help="Column of the measured quantity Y.")],
+    response: Annotated[
+        str,
+        typer.Option(
+            "--response",
+            help="Column of the measured quantity Y (with --life-to-wear: of the time).",
+        ),
+    ],
     var: Annotated[
         list[str] | None,
         typer.Option(
             "--var",
             help="NAME=COLUMN: a model variable (a parameter or context of --process) and its "
-            "column (repeatable).",
+            "column, or COLUMN/NUMBER for the column divided by a number, e.g. "
+            "feed_per_tooth_mm=feed/6 (repeatable).",
         ),
     ] = None,
     fix: Annotated[
@@ -81,6 +95,23 @@ def fit(
         Path | None,
         typer.Option("--write-tool", help="Write the model here as a plan-file tool (TOML)."),
     ] = None,
+    life_to_wear: Annotated[
+        float | None,
+        typer.Option(
+            "--life-to-wear",
+            metavar="VB_MM",
+            help="Fit tool life: per tool (--series) the --response time at which its flank "
+            "wear (--wear) first reaches VB_MM [mm], e.g. 0.3 (ISO 3685).",
+        ),
+    ] = None,
+    wear: Annotated[
+        str | None,
+        typer.Option("--wear", help="Column of the flank wear [mm] (default VB)."),
+    ] = None,
+    series: Annotated[
+        str | None,
+        typer.Option("--series", help="Column naming each tool's rows (default case)."),
+    ] = None,
     as_json: JsonOption = False,
 ) -> None:
     """Fit Y = K·Π x^e by least squares on logarithms, with a band ±ΔK, from a CSV file.
@@ -99,6 +130,7 @@ def fit(
                 raise InputError("--quantity", None, "required with --write-tool")
             if tool_name is None or not tool_name.strip():
                 raise InputError("--tool-name", tool_name, "a non-empty name is required")
+        life = _life_options(life_to_wear, wear, series)
         allowed = variables(checked_process)
         columns = _assignments(var or [], "--var", allowed, checked_process)
         fixed = {
@@ -114,14 +146,20 @@ def fit(
         table = read_csv(data)
         check_column(table, response, "--response", data)
         used = {response: "--response"}
-        for name, column in columns.items():
-            check_column(table, column, f"--var {name}", data)
+        divided: dict[str, tuple[str, float]] = {}
+        for name, spec in columns.items():
+            column, divisor = _divided(spec, table, name, data)
             if column in used:
                 raise InputError(f"--var {name}", column, f"column already used by {used[column]}")
             used[column] = f"--var {name}"
+            divided[name] = (column, divisor)
         filters = [where_filter(item, table, data) for item in where or []]
         kept = select_rows(table, filters)
         filter_text = ", ".join(f"{c}={t}" for c, t in filters)
+        never: list[str] = []
+        if life is not None:
+            limit_mm, wear_column, series_column = life
+            kept, never = wear_lives(kept, series_column, response, wear_column, limit_mm, data)
         p = 1 + sum(1 for name in columns if name not in fixed)
         if len(kept) <= p:
             field, value = ("--where", filter_text) if filters else ("data file", str(data))
@@ -131,9 +169,15 @@ def fit(
                 f"leaves {_count(len(kept), 'row')} for {_count(p, 'parameter')} "
                 f"(ln_K and {_count(p - 1, 'exponent')}); need at least {p + 1} to estimate s",
             )
-        rows = [f"row {i + 1}" for i in kept.index]
+        if life is None:
+            rows = [f"row {i + 1}" for i in kept.index]
+        else:
+            rows = [f"{life[2]} {label}" for label in kept[life[2]]]
         y = positive_numbers(kept, response, rows)
-        values = {name: positive_numbers(kept, column, rows) for name, column in columns.items()}
+        values = {
+            name: positive_numbers(kept, column, rows) / divisor
+            for name, (column, divisor) in divided.items()
+        }
         result = fit_power_law(
             y,
             values,
@@ -144,7 +188,8 @@ def fit(
             labels=columns,
             rows=rows,
         )
-        source = f"fit of {data.name} ({result.n} points, {filter_text or 'all rows'})"
+        lived = "" if life is None else f", life to {life[1]} = {life[0]:g} mm"
+        source = f"fit of {data.name} ({result.n} points, {filter_text or 'all rows'}{lived})"
         mapping = ", ".join(f"{c} → {n}" for n, c in columns.items())
         reference = (
             f"rcb fit: ln {response} = ln K + Σ e·ln x"
@@ -170,12 +215,46 @@ def fit(
             "reference": reference,
             "tool": tool_name if written else None,
             "written": written,
+            "life_to_wear": None
+            if life is None
+            else {"limit_mm": life[0], "wear": life[1], "series": life[2], "never": never},
         }
         emit(payload)
     else:
         _out.print(_table(result, response, quantity, columns, source))
+    if never:
+        say(f"rcb: {len(never)} tool(s) never reach the wear limit, left out: {', '.join(never)}")
     if written:
         say(f"rcb: wrote tool {tool_name} ({quantity}) to {written}")
+
+
+def _life_options(
+    limit_mm: float | None, wear: str | None, series: str | None
+) -> tuple[float, str, str] | None:
+    """``--life-to-wear`` with its columns (defaults ``VB``, ``case``: the NASA milling data)."""
+    if limit_mm is None:
+        for option, given in (("--wear", wear), ("--series", series)):
+            if given is not None:
+                raise InputError(option, given, "applies with --life-to-wear only")
+        return None
+    if not (math.isfinite(limit_mm) and limit_mm > 0):
+        raise InputError("--life-to-wear", limit_mm, "a flank wear [mm] > 0, e.g. 0.3")
+    return limit_mm, wear or "VB", series or "case"
+
+
+def _divided(spec: str, table: Any, name: str, data: Path) -> tuple[str, float]:
+    """``--var NAME=COLUMN`` or ``NAME=COLUMN/NUMBER``: the column and what to divide it by."""
+    base, slash, number = spec.rpartition("/")
+    if spec in table.columns or not slash or base.strip() not in table.columns:
+        check_column(table, spec, f"--var {name}", data)
+        return spec, 1.0
+    try:
+        divisor = float(number)
+    except ValueError:
+        raise InputError(f"--var {name}", spec, "COLUMN/NUMBER: the divisor is no number") from None
+    if not (math.isfinite(divisor) and divisor > 0):
+        raise InputError(f"--var {name}", spec, "COLUMN/NUMBER: the divisor must be > 0")
+    return base.strip(), divisor
 
 
 def _count(n: int, noun: str) -> str:

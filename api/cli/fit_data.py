@@ -1,4 +1,6 @@
-"""``rcb fit``'s data file: a CSV read as text, its columns, ``--where`` filters, numbers.
+"""``rcb fit``'s data file: a CSV as text, its columns, filters, numbers, and tool lives.
+
+Tool lives come from wear series (``--life-to-wear``, :func:`wear_lives`).
 
 Every cell is read as text (so ``--where`` compares text); rows are counted from 1 after the
 header line. Errors are :class:`models.errors.InputError` naming the option or the cell
@@ -14,6 +16,7 @@ import pandas as pd
 
 from api.cli.common import number_cell
 from models.errors import InputError
+from models.wear_life import series_lives
 
 #: How many distinct values of a column an error lists at most.
 _SHOWN_VALUES = 12
@@ -102,3 +105,38 @@ def positive_numbers(table: pd.DataFrame, column: str, rows: list[str]) -> np.nd
             )
         values[i] = value
     return values
+
+
+def wear_lives(
+    table: pd.DataFrame, series: str, time: str, wear: str, limit_mm: float, path: Path
+) -> tuple[pd.DataFrame, list[str]]:
+    """``--life-to-wear``: one row per tool, its ``time`` cell the life to ``limit_mm``.
+
+    ``series`` labels each tool's rows, ``time`` and ``wear`` [mm] are its measurements (an
+    empty wear cell: not measured then); :func:`models.wear_life.series_lives` finds the life.
+    A tool's row is its first, so the columns constant per tool (cutting conditions) are kept.
+    Returns the rows of the tools that reach the limit and the labels of those that never do.
+    """
+    for column, option in ((series, "--series"), (time, "--response"), (wear, "--wear")):
+        check_column(table, column, option, path)
+    labels = [str(c).strip() for c in table[series]]
+    times, wears = np.empty(len(table)), np.empty(len(table))
+    for i, (t, vb) in enumerate(zip(table[time], table[wear], strict=True)):
+        row = f"row {table.index[i] + 1}"
+        times[i] = number_cell(str(t), f"{time}[{row}]")
+        if not str(vb).strip():
+            wears[i] = np.nan
+            continue
+        wears[i] = number_cell(str(vb), f"{wear}[{row}]")
+        if wears[i] < 0:
+            raise InputError(f"{wear}[{row}]", str(vb).strip(), "flank wear cannot be negative")
+    lives, never = series_lives(labels, times, wears, limit_mm)
+    if not lives:
+        top = np.nanmax(wears) if not np.all(np.isnan(wears)) else None
+        raise InputError(
+            "--life-to-wear", limit_mm, f"no {series} reaches it ({wear} at most {top} mm)"
+        )
+    first = table.assign(**{series: labels}).drop_duplicates(subset=series)
+    reached = first[first[series].isin(list(lives))].copy()
+    reached[time] = [repr(lives[label]) for label in reached[series]]
+    return reached, [str(label) for label in never]

@@ -32,6 +32,7 @@ from rich.table import Table
 
 from api.cli.common import emit, errors, number_cell
 from api.cli.domain import domain
+from api.cli.milling_control import control
 from models.errors import InputError
 from models.sensors import calibration_to_mapping, linear_current_calibration_from_mapping
 from supervisor.constant_load import (
@@ -43,7 +44,8 @@ from supervisor.constant_load import (
 )
 
 milling_app = typer.Typer(
-    help="Milling: constant-load setup (Tai et al.), the (feed, speed) domain (Borangiu et al.).",
+    help="Milling: constant-load setup (Tai et al.), the (feed, speed) domain (Borangiu et al.), "
+    "inner feed-control loops on a paper's case.",
     no_args_is_help=True,
 )
 _out = Console()
@@ -55,6 +57,7 @@ _FILE = "TESTS.csv"
 
 
 milling_app.command("domain")(domain)  # rcb milling domain: api/cli/domain.py
+milling_app.command("control")(control)  # rcb milling control: api/cli/milling_control.py
 
 
 @milling_app.command("setup")

@@ -21,6 +21,7 @@ from sqlalchemy import Engine
 
 from api.cli import parts_view
 from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
+from api.cli.who import ByOption, cli_actor
 from api.report import export as tidy
 from api.report import marks
 from api.services import queries
@@ -166,7 +167,7 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
             table.add_column(column)
     table.add_column("decisions")
     for v in data["versions"]:
-        cause = v["cause"] + (f" {v['serial']}" if v["serial"] else "")
+        cause = v["cause"] + (f" {v['serial'] or v['actor'] or ''}").rstrip()
         when = v["created_at"].strftime("%m-%d %H:%M:%S")
         moved = ", ".join(
             f"{d['operation']}.{d['quantity']} {d['action']}" + _marked(d)
@@ -321,11 +322,13 @@ def replan(
     ] = False,
     db: DbOption = None,
     as_json: _JsonOption = False,
+    by: ByOption = None,
 ) -> None:
     """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
     from api.services.plans import replan
 
     with errors():
+        actor = cli_actor(by)
         changes: dict[str, Any] = {
             "limits": {k: _limit_value(k, v) for k, v in _pairs(limit or [], "--limit").items()},
             "bounds": {k: _bounds(k, v) for k, v in _pairs(bound or [], "--bound").items()},
@@ -334,7 +337,9 @@ def replan(
         if reset_bands:
             changes["reset_bands"] = True
         changes = {k: v for k, v in changes.items() if v}
-        written = replan(engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run)
+        written = replan(
+            engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run, actor=actor
+        )
     answer = written.body
     if as_json:
         emit(answer)

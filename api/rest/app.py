@@ -11,7 +11,7 @@ from __future__ import annotations
 from fastapi import FastAPI
 
 from api.report import ui
-from api.rest import problems
+from api.rest import content_type, problems
 from api.rest.limits import BodyLimit
 from api.rest.routes import health, parts, plans, review, tools
 from api.rest.routes.common import PREFIX, PROBLEMS
@@ -33,6 +33,7 @@ def create_app(url: str) -> FastAPI:
     )
     app.state.engine = engine  # the routes' engine (api.rest.deps.engine_of)
     problems.install(app)
+    content_type.install(app)  # 415 for a body not sent as JSON (api.rest.content_type)
     app.add_middleware(BodyLimit)  # 413 before a body over 1 MiB is read (api.rest.limits)
     ui.install(app, engine)  # the read-only web view at /ui/ (api/report/ui.py)
     for resource in (health, plans, parts, review, tools):

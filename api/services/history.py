@@ -61,8 +61,11 @@ def plan_history(
             operation_ids=[op.id for op, _ in ops],
             versions=[v for v, *_ in versions],
         )
+        actors = history.revision_actors(
+            session=session, plan_id=plan_id, versions=[v.version for v, *_ in versions]
+        )
     out = [
-        _history_version(v, serial, setpoints, ops, models[v.id])
+        _history_version(v, serial, setpoints, ops, models[v.id], actors.get(v.version))
         for v, serial, setpoints in versions
     ]
     edge = (versions[0] if newest else versions[-1])[0].version if versions else 0
@@ -94,8 +97,12 @@ def _history_version(
     setpoints: list[t.Setpoint],
     ops: list[tuple[t.Operation, t.Tool]],
     in_force: dict[tuple[int, str], t.OperationModelVersion],
+    actor: str | None,
 ) -> dict[str, Any]:
-    """One setpoint version as JSON, operations in plan order with their models in force."""
+    """One setpoint version as JSON, operations in plan order with their models in force.
+
+    ``actor``: who made it, for a replan (``key:ID`` or ``cli:NAME``); None otherwise.
+    """
     position = {op.id: i for i, (op, _) in enumerate(ops)}
     names = {op.id: op.name for op, _ in ops}
     tools = {op.id: tool.name for op, tool in ops}
@@ -122,6 +129,7 @@ def _history_version(
     return {
         "version": version.version,
         "cause": version.cause,
+        "actor": actor,
         "part_id": version.part_id,
         "serial": serial,
         "created_at": _utc(version.created_at),

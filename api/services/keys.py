@@ -19,11 +19,17 @@ MAX_PLANS = 1000
 
 
 def create_key(
-    *, engine: Engine, role: str, label: str = "", plans: list[int] | None = None
+    *,
+    engine: Engine,
+    role: str,
+    label: str = "",
+    plans: list[int] | None = None,
+    actor: access.Actor = access.CLI_ACTOR,
 ) -> dict[str, Any]:
     """A new API key of ``role``, printed once: ``{"key", "role", "id", "plans"}``.
 
     ``plans``: the plan ids the key may see (None or empty: every plan); each must exist.
+    ``actor``: who creates it, for the audit log (``rcb keys create --by``).
     """
     if role not in access.ROLES:
         raise InputError("--role", role, f"expected one of: {', '.join(access.ROLES)}")
@@ -41,7 +47,9 @@ def create_key(
                 raise InputError("--plan", missing[0], "no such plan")
         key_id, key = access.create_key(session=session, role=role, label=label, plans=scope)
         target = f"key {key_id}" + (f" plans {scope}" if scope else "")
-        access.audit(session=session, actor="cli", action="create key", target=target, result=role)
+        access.audit(
+            session=session, actor=actor.name, action="create key", target=target, result=role
+        )
     return {"key": key, "role": role, "id": key_id, "plans": scope}
 
 
@@ -72,13 +80,19 @@ def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, A
     return {"keys": page, "next_after": page[-1]["id"] if len(rows) > limit else None}
 
 
-def revoke_key(*, engine: Engine, key_id: int) -> dict[str, Any]:
-    """Revoke an API key; it stays stored for the audit log."""
+def revoke_key(
+    *, engine: Engine, key_id: int, actor: access.Actor = access.CLI_ACTOR
+) -> dict[str, Any]:
+    """Revoke an API key; it stays stored for the audit log (``actor``: who revokes it)."""
     with Session(engine) as session, session.begin():
         row = access.revoke_key(session=session, key_id=key_id)
         if row is None:
             raise NotFoundError("ID", key_id)
         access.audit(
-            session=session, actor="cli", action="revoke key", target=f"key {key_id}", result="ok"
+            session=session,
+            actor=actor.name,
+            action="revoke key",
+            target=f"key {key_id}",
+            result="ok",
         )
         return {"id": key_id, "role": row.role, "revoked_at": row.revoked_at}

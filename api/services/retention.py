@@ -45,11 +45,13 @@ def prune(
     engine: Engine,
     audit_older_than: str = AUDIT_DEFAULT,
     idempotency_older_than: str = IDEMPOTENCY_DEFAULT,
+    actor: access.Actor = access.CLI_ACTOR,
 ) -> dict[str, Any]:
     """Delete audit entries and idempotency records older than the given ages, in one transaction.
 
     Returns ``{"audit_log": n, "idempotency_records": m, "audit_before", "idempotency_before"}``.
     Raises InputError (naming the option) for a malformed age, or an idempotency age under 24 h.
+    ``actor``: who prunes, for the audit entry the pruning leaves (``rcb db prune --by``).
     """
     audit_age = parse_duration("--audit-older-than", audit_older_than)
     idem_age = parse_duration("--idempotency-older-than", idempotency_older_than)
@@ -69,7 +71,7 @@ def prune(
         )
         access.audit(
             session=session,
-            actor="cli",
+            actor=actor.name,
             action="prune",
             target=f"older than {audit_older_than} / {idempotency_older_than}",
             result="ok",

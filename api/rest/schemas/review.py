@@ -5,6 +5,8 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Literal
 
+from pydantic import Field
+
 from api.rest.schemas.common import Band, Out
 from api.rest.schemas.halts import HaltOut
 
@@ -35,6 +37,9 @@ class HistoryVersion(Out):
 
     version: int
     cause: str
+    actor: str | None = Field(
+        None, description="who made a replan: `key:ID` (REST) or `cli:NAME` (rcb replan --by)"
+    )
     part_id: int | None
     serial: str | None
     created_at: datetime
