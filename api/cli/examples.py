@@ -16,10 +16,10 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
-from rich.table import Table
 from rich.text import Text
 
 from api.cli.common import JsonOption, emit, errors, say, write_atomically
+from api.cli.tables import new_table
 from models.errors import InputError
 
 #: The package and folder the example files are installed in.
@@ -100,7 +100,7 @@ def examples(ctx: typer.Context, as_json: JsonOption = False) -> None:
     if as_json:
         emit({"examples": listed})
         return
-    table = Table(title="examples: rcb examples copy NAME [DEST]", title_justify="left")
+    table = new_table(title="examples: rcb examples copy NAME [DEST]", title_justify="left")
     table.add_column("name", overflow="fold")
     table.add_column("what it is; how to run it", overflow="fold")
     for entry in listed:

@@ -185,8 +185,10 @@ INFEASIBLE_TYPE = "urn:rcb-supervisor:problem:infeasible"
 
 
 def infeasible_problem(err: InfeasibleError) -> dict[str, Any]:
-    """``rcb optimize --json``'s answer to an infeasible plan: the REST 422 problem document
-    (RFC 9457), with the limits in conflict as a halted plan's ``conflicts`` are given."""
+    """``rcb optimize --json``'s answer to an infeasible plan: the REST 422 problem (RFC 9457).
+
+    The limits in conflict are given as a halted plan's ``conflicts`` are.
+    """
     return {
         "type": INFEASIBLE_TYPE,
         "title": "Unprocessable content",
