@@ -54,8 +54,8 @@ class _FoldingTable(Table):
         try:
             yield from super().__rich_console__(console, options)
         finally:
-            for column, width in zip(self.columns, saved, strict=True):
-                column.width = width
+            for column, before in zip(self.columns, saved, strict=True):
+                column.width = before
 
 
 def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> list[int] | None:
