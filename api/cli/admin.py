@@ -122,7 +122,10 @@ def keys_list(
     if as_json:
         emit(page)
         return
-    table = new_table("id", "role", "label", "plans", "created", "last use", "revoked")
+    table = new_table("id", "role", "label")
+    table.add_column("plans", min_width=len("every plan"))
+    for heading in ("created", "last use", "revoked"):
+        table.add_column(heading)
     for key in page["keys"]:
         table.add_row(
             str(key["id"]),

@@ -61,8 +61,8 @@ class _FoldingTable(Table):
 def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> list[int] | None:
     """Column widths for a table wider than the console, or None (it fits, or only folding does).
 
-    Each column gets its longest word (a number is one word), the rest of the width goes to the
-    columns in proportion to what they lack of their natural width.
+    Each column gets its longest word (a number is one word) or its ``min_width``, the rest of
+    the width goes to the columns in proportion to what they lack of their natural width.
     """
     if any(column.width is not None for column in table.columns):
         return None
@@ -70,7 +70,9 @@ def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> l
     ranges = []
     for column in table.columns:
         cells = [Measurement.get(console, wide, c) for c in (column.header, *column.cells)]
-        ranges.append((max(m.minimum for m in cells), max(m.maximum for m in cells)))
+        low, high = max(m.minimum for m in cells), max(m.maximum for m in cells)
+        low = max(low, min(column.min_width or 0, high))  # a phrase kept on one line
+        ranges.append((low, high))
     least, most = sum(r[0] for r in ranges), sum(r[1] for r in ranges)
     room = options.max_width - (Measurement.get(console, wide, table).maximum - most)
     if most <= room or least > room:
