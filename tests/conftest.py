@@ -1,13 +1,21 @@
-"""Shared fixtures: the example plan and a CLI runner."""
+"""Shared fixtures: the example plan, a CLI runner, the databases and a live server.
+
+PostgreSQL: ``RCB_TEST_POSTGRES_URL`` when set (empty: PostgreSQL tests off); otherwise a
+server answering on 127.0.0.1:5432 with a ``test`` database (user ``postgres``), probed once
+per session with a short timeout; otherwise those tests skip, saying how to enable them.
+"""
 
 from __future__ import annotations
 
+import functools
 import os
+import socket
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import psycopg
 import pytest
 from sqlalchemy import text
 from sqlalchemy.engine import make_url
@@ -19,7 +27,12 @@ from live import LiveServer
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
-POSTGRES = os.environ.get("RCB_TEST_POSTGRES_URL")
+#: The variable naming the PostgreSQL server the tests create their databases on.
+POSTGRES_VARIABLE = "RCB_TEST_POSTGRES_URL"
+#: The server the suite finds by itself when the variable is not set.
+LOCAL_POSTGRES = "postgresql+psycopg://postgres@127.0.0.1:5432/test"
+#: Seconds to wait for the local server (it is on this host: it answers at once or not at all).
+PROBE_TIMEOUT_S = 0.5
 #: Ivester & Heigel Table 5's measured ± columns (force_N, roughness_um).
 TABLE5_UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
 
@@ -60,16 +73,52 @@ def module_postgres() -> Iterator[str]:
     yield from _fresh_postgres()
 
 
+@functools.cache
+def postgres_url() -> str | None:
+    """The PostgreSQL URL the tests use, or None: the variable, else the local server if it
+    answers (probed once per session), else None."""
+    if POSTGRES_VARIABLE in os.environ:
+        return os.environ[POSTGRES_VARIABLE] or None
+    return LOCAL_POSTGRES if _local_postgres_answers() else None
+
+
+def _local_postgres_answers() -> bool:
+    """Whether :data:`LOCAL_POSTGRES` accepts a connection to its ``test`` database."""
+    url = make_url(LOCAL_POSTGRES)
+    try:
+        with socket.create_connection((url.host, url.port), timeout=PROBE_TIMEOUT_S):
+            pass
+        with psycopg.connect(
+            host=url.host, port=url.port, user=url.username, dbname=url.database, connect_timeout=2
+        ):
+            return True
+    except (OSError, psycopg.Error):
+        return False
+
+
+def postgres_skip_reason() -> str:
+    """Why the PostgreSQL tests skip, and how to enable them."""
+    if os.environ.get(POSTGRES_VARIABLE) == "":
+        return f"{POSTGRES_VARIABLE} is empty: PostgreSQL tests off"
+    return (
+        f"no PostgreSQL: none answers on 127.0.0.1:5432 with a 'test' database (user postgres), "
+        f"and {POSTGRES_VARIABLE} is not set; set it to enable these tests, e.g. "
+        f"{POSTGRES_VARIABLE}=postgresql+psycopg://USER[:PASSWORD]@HOST:PORT/DATABASE "
+        "(the user may create databases)"
+    )
+
+
 def _fresh_postgres() -> Iterator[str]:
     """A new, empty PostgreSQL database, dropped afterwards."""
-    if not POSTGRES:
-        pytest.skip("RCB_TEST_POSTGRES_URL not set: no PostgreSQL to test against")
+    server = postgres_url()
+    if server is None:
+        pytest.skip(postgres_skip_reason())
     name = f"rcb_test_{uuid.uuid4().hex[:12]}"
-    admin = make_engine(POSTGRES).execution_options(isolation_level="AUTOCOMMIT")
+    admin = make_engine(server).execution_options(isolation_level="AUTOCOMMIT")
     with admin.connect() as connection:
         connection.execute(text(f'CREATE DATABASE "{name}"'))
     try:
-        yield make_url(POSTGRES).set(database=name).render_as_string(hide_password=False)
+        yield make_url(server).set(database=name).render_as_string(hide_password=False)
     finally:
         with admin.connect() as connection:
             connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))

@@ -11,11 +11,11 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
-from rich.table import Table
 from rich.text import Text
 from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api.cli.common import DbOption, emit, errors, say, shown
+from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.rest import serving
 from api.services import retention
@@ -130,7 +130,10 @@ def keys_list(
     if as_json:
         emit(page)
         return
-    table = Table("id", "role", "label", "plans", "created", "last use", "revoked")
+    table = new_table("id", "role", "label")
+    table.add_column("plans", min_width=len("every plan"))
+    for heading in ("created", "last use", "revoked"):
+        table.add_column(heading)
     for key in page["keys"]:
         table.add_row(
             str(key["id"]),

@@ -20,6 +20,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from api.cli.common import STRATEGY_HELP, JsonOption, emit, err_console, errors
+from api.cli.tables import new_table
 from models import fields
 from models.errors import InputError
 from supervisor.inputs.plan import load_plan
@@ -148,7 +149,7 @@ def summary_lines(summary: CertificateSummary) -> tuple[str, Table, str]:
     )
     if summary.wear_drift_per_edge_life:
         title += f", wear drift {summary.wear_drift_per_edge_life:g}"
-    table = Table()
+    table = new_table()
     headings = (
         "after k\nparts",
         "true-limit\nviolations",

@@ -12,7 +12,7 @@ import typer
 from rich.console import Console
 from rich.progress import Progress
 
-from api.cli import demo_view
+from api.cli import demo_view, examples
 from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb.state import RcbSettings
@@ -21,10 +21,10 @@ from supervisor.virtual.demo import MILLING_DEMO_UNCERTAINTY, run_demo
 
 _out = Console()
 
-#: The paper's demonstration part, relative to the directory rcb runs in (the repository).
-DEMO_PLAN = Path("examples/ivester_demo_part.toml")
+#: The paper's demonstration part: an example installed with the package (rcb examples).
+DEMO_PLAN = "ivester_demo_part"
 #: The milling demonstration (slot and side finish, spindle current as the force sensor).
-MILLING_DEMO_PLAN = Path("examples/milling_demo_part.toml")
+MILLING_DEMO_PLAN = "milling_demo_part"
 
 
 def demo(
@@ -36,7 +36,11 @@ def demo(
     ] = DEFAULT_ALPHA,
     plan_file: Annotated[
         Path | None,
-        typer.Option("--plan", help="The plan (default: the paper's demonstration part)."),
+        typer.Option(
+            "--plan",
+            help="The plan (default: the installed example ivester_demo_part, or "
+            "milling_demo_part with --milling; rcb examples).",
+        ),
     ] = None,
     milling: Annotated[
         bool,
@@ -56,8 +60,10 @@ def demo(
     with errors():
         settings = RcbSettings(strategy=strategy, alpha=alpha)
         if plan_file is None:
-            plan_file = MILLING_DEMO_PLAN if milling else DEMO_PLAN
-        plan = load_plan(plan_file)
+            with examples.example_path(MILLING_DEMO_PLAN if milling else DEMO_PLAN) as path:
+                plan = load_plan(path)
+        else:
+            plan = load_plan(plan_file)
         u = MILLING_DEMO_UNCERTAINTY if milling else None
         if as_json:
             result = run_demo(plan, parts, seed, settings, uncertainty=u)

@@ -7,7 +7,7 @@ from typing import Any
 
 from rich.table import Table
 
-from api.cli.tables import PARAMETER_HEADINGS, fmt
+from api.cli.tables import PARAMETER_HEADINGS, fmt, new_table
 from api.services.to_json import predictions_json
 from models.powerlaw import Prediction
 from supervisor.inputs.part_report import Measurement
@@ -69,12 +69,12 @@ def demo_tables(result: DemoResult) -> list[Table]:
     """One Table-5-like table per operation, then the cycle times."""
     tables = []
     for op in result.operations:
-        table = Table(title=f"{op.name}", title_justify="left")
+        table = new_table(title=f"{op.name}", title_justify="left")
         names = tuple(op.robust.setpoint)
         columns: tuple[str, ...] = ("", *(PARAMETER_HEADINGS.get(p, p) for p in names))
         columns += ("MRR\ncm³/min", "F N\nmodel", "Ra µm\nmodel", "F N\nmeas.", "Ra µm\nmeas.")
         for column in columns:
-            table.add_column(column, justify="right", no_wrap=True)
+            table.add_column(column, justify="right")
         labelled = (("C", op.catalog), ("R", op.robust), ("final", op.final))
         for label, row in labelled:
             if row is None:
@@ -91,7 +91,7 @@ def demo_tables(result: DemoResult) -> list[Table]:
             )
         tables.append(table)
     cycle = result.cycle_time_min
-    summary = Table(title="cycle time", title_justify="left")
+    summary = new_table(title="cycle time", title_justify="left")
     for column in ("", "min", "vs catalogue", "vs robust"):
         summary.add_column(column, justify="right")
     for label in ("catalog", "robust", "final", "oracle"):

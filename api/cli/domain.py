@@ -17,6 +17,7 @@ from rich.console import Console
 from rich.table import Table
 
 from api.cli.common import JsonOption, emit, errors
+from api.cli.tables import new_table
 from supervisor.borangiu.domain import EQUATIONS
 from supervisor.borangiu.problem import load_domain_problem
 from supervisor.borangiu.result import DomainPoint, DomainResult
@@ -92,7 +93,7 @@ _OPTIMA = (("max MRR", "max_feed_rate"), ("min J", "min_cost"))
 
 
 def _table(result: DomainResult) -> Table:
-    table = Table(title=f"{result.name}: Borangiu's (w, n) domain")
+    table = new_table(title=f"{result.name}: Borangiu's (w, n) domain")
     headings = ("optimum", "w\nmm/min", "n\nrpm", "w/n\nmm/rev", "J\n/kg", "MRR\ncm³/min", "P\nkW")
     for heading in headings:
         table.add_column(heading, justify="left" if heading == "optimum" else "right")

@@ -31,6 +31,7 @@ from api.cli.fit_data import (
     where_filter,
 )
 from api.cli.fit_tool import tool_table, tool_toml, write_tool_file
+from api.cli.tables import new_table
 from models.errors import InputError
 from models.fit import FitResult, fit_power_law
 from models.fit_band import BANDS, Band
@@ -320,7 +321,7 @@ def _table(
     source: str,
 ) -> Table:
     title = f"{quantity or response} = (K ± ΔK) · Π x^e"
-    table = Table(title=title, title_justify="left", caption=source, caption_justify="left")
+    table = new_table(title=title, title_justify="left", caption=source, caption_justify="left")
     table.add_column("parameter")
     table.add_column("column")
     table.add_column("value", justify="right")

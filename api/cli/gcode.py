@@ -30,6 +30,7 @@ from api.cli.common import (
     say,
     write_atomically,
 )
+from api.cli.tables import new_table
 from api.services import queries
 from api.services.errors import NotFoundError
 from api.settings import database_url
@@ -202,7 +203,7 @@ def result_json(
 
 
 def _table(result: RewriteResult, plan_id: int, version: int) -> Table:
-    table = Table(
+    table = new_table(
         title=f"plan {plan_id}, setpoint version {version}: {len(result.changes)} words changed",
         title_justify="left",
     )

@@ -33,6 +33,7 @@ from rich.table import Table
 from api.cli.common import emit, errors, number_cell
 from api.cli.domain import domain
 from api.cli.milling_control import control
+from api.cli.tables import new_table
 from models.errors import InputError
 from models.sensors import calibration_to_mapping, linear_current_calibration_from_mapping
 from supervisor.constant_load import (
@@ -264,7 +265,7 @@ def _cell(text: str, where: str, positive: bool) -> float:
 
 def _table(result: ConstantLoadSetup, name: str) -> Table:
     cal, k = result.calibration, result.coverage_k
-    table = Table(
+    table = new_table(
         title="Constant-load milling setup (Tai, Tsai & Li 2023, §II.F)",
         title_justify="left",
         caption=f"fit of {name}: {cal.n} cuts; bands ±{k:g}·u (single cut)",

@@ -7,7 +7,7 @@ Both read files only (the catalogue, a plan file) and write nothing; errors foll
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -20,6 +20,7 @@ from models.catalogue import get_tool
 from models.errors import InputError, ModelDomainError
 from models.kinematics import CONTEXT, PARAMETERS
 from models.tool import Tool, predict_all
+from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 from supervisor.optimize.optimizer import optimize_plan
 
@@ -158,9 +159,17 @@ def optimize(
     plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
     as_json: JsonOption = False,
 ) -> None:
-    """Robust optimum of every operation of a plan: max MRR, every limit met at the band edge."""
+    """Robust optimum of every operation of a plan: max MRR, every limit met at the band edge.
+
+    Infeasible (exit 3): with --json a problem document on stdout as well, as the REST answers.
+    """
     with errors():
-        result = optimize_plan(load_plan(plan_file))
+        try:
+            result = optimize_plan(load_plan(plan_file))
+        except InfeasibleError as err:
+            if as_json:
+                emit(infeasible_problem(err))
+            raise
     if as_json:
         emit(to_json.plan_json(result))
         return
@@ -169,3 +178,34 @@ def optimize(
         table = tables.predictions_table(f"{op.name} ({op.tool})", op.predicted)
         table.caption = tables.setpoint_caption(op)
         _out.print(table)
+
+
+#: The ``type`` of the REST service's infeasible problem (:mod:`api.rest.problems`).
+INFEASIBLE_TYPE = "urn:rcb-supervisor:problem:infeasible"
+
+
+def infeasible_problem(err: InfeasibleError) -> dict[str, Any]:
+    """``rcb optimize --json``'s answer to an infeasible plan: the REST 422 problem (RFC 9457).
+
+    The limits in conflict are given as a halted plan's ``conflicts`` are.
+    """
+    return {
+        "type": INFEASIBLE_TYPE,
+        "title": "Unprocessable content",
+        "status": 422,
+        "detail": str(err),
+        "code": "infeasible",
+        "field": f"operations.{err.operation}.limits",
+        "value": err.operation,
+        "conflicts": [
+            {
+                "operation": err.operation,
+                "message": str(err),
+                "conflicts": [
+                    {"name": c.name, "limit": c.limit, "required": c.required, "sense": c.sense}
+                    for c in err.conflicts
+                ],
+                "held_by": list(err.against),
+            }
+        ],
+    }

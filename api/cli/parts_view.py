@@ -10,6 +10,8 @@ from typing import Any
 
 from rich.table import Table
 
+from api.cli.tables import new_table
+
 
 def stream_json(plan_id: int, pages: Iterable[list[dict[str, Any]]]) -> None:
     """Print ``{"plan_id": .., "parts": [..]}`` on stdout, a part per line, written as read."""
@@ -40,9 +42,9 @@ def parts_table(
 
     ``fmt`` formats a number, ``mark`` a decision's flag (:mod:`api.cli.review`).
     """
-    table = Table(title=title)
-    for column in ("serial", "ver", "received", "operation", "quantity", "measured ± u"):
-        table.add_column(column)
+    table = new_table(title=title)
+    for column in ("part", "operation", "quantity", "measured\n± u"):
+        table.add_column(column, justify="right" if column.startswith("measured") else "left")
     for column in ("margin", "action", "flag / note"):
         table.add_column(column, justify="right" if column == "margin" else "left")
     for part in items:
@@ -51,13 +53,14 @@ def parts_table(
         for op in part["operations"]:
             for q, m in op["measurements"].items():
                 d = decided.get((op["name"], q), {})
+                received = part["received_at"].strftime("%m-%d %H:%M:%S")
                 table.add_row(
-                    part["serial"] if first else "",
-                    str(part["setpoint_version"]) if first else "",
-                    part["received_at"].strftime("%m-%d %H:%M:%S") if first else "",
+                    f"{part['serial']}\nver {part['setpoint_version']}\n{received}"
+                    if first
+                    else "",
                     op["name"],
                     q + (" (raw)" if m.get("raw") else ""),
-                    f"{fmt(m['value'])} ± {fmt(m['uncertainty'])}",
+                    f"{fmt(m['value'])}\n±{fmt(m['uncertainty'])}",
                     fmt(d.get("margin")),
                     d.get("action", "-"),
                     mark(d),

@@ -21,6 +21,7 @@ from sqlalchemy import Engine
 
 from api.cli import parts_view
 from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
+from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.report import export as tidy
 from api.report import marks
@@ -75,25 +76,22 @@ def plans(
                     sys.stdout.write(",\n" + json.dumps(p, default=datetime.isoformat))
             sys.stdout.write(f'\n], "next_cursor": {json.dumps(page["next_cursor"])}}}\n')
     if not as_json:
-        table = Table(title="plans")
-        for column in (
-            "id",
-            "name",
-            "machine",
-            "strategy",
-            "α",
-            "ver",
-            "parts",
-            "status",
-            "created",
-        ):
-            table.add_column(column)
+        table = new_table(title="plans")
+        for column in ("id", "name", "machine", "RCB", "ver", "parts", "status", "created"):
+            table.add_column(
+                column, justify="right" if column in ("id", "ver", "parts") else "left"
+            )
         for p in page["plans"]:
-            halted = "[bold red]HALTED[/]" if p["status"] == "halted" else "running"
-            created = p["created_at"].strftime("%Y-%m-%d %H:%M")
-            cells = (p["id"], p["name"], p["machine"], p["strategy"], f"{p['alpha']:g}")
+            halted = p["status"] == "halted"
             table.add_row(
-                *map(str, cells), str(p["setpoint_version"]), str(p["parts"]), halted, created
+                str(p["id"]),
+                p["name"],
+                p["machine"],
+                f"{p['strategy']} α={p['alpha']:g}",
+                str(p["setpoint_version"]),
+                str(p["parts"]),
+                "[bold red]HALTED[/]" if halted else "running",
+                p["created_at"].strftime("%Y-%m-%d %H:%M"),
             )
         _out.print(table)
         for p in page["plans"]:
@@ -156,48 +154,63 @@ def _bounded(option: str, count: int) -> int:
 
 def _history_table(data: dict[str, Any], operation: str | None) -> Table:
     title = f"plan {data['plan_id']}: setpoint versions" + (f", {operation}" if operation else "")
-    table = Table(title=title)
-    for column in ("ver", "cause", "when"):
-        table.add_column(column)
+    table = new_table(title=title)
+    table.add_column("ver", justify="right")
+    table.add_column("cause, when")
     if operation is None:
-        table.add_column("cycle min", justify="right")
-        table.add_column("MRR cm³/min per operation", justify="left")
+        table.add_column("cycle\nmin", justify="right")
+        table.add_column("MRR cm³/min\nper operation")
     else:
-        for column in ("setpoint", "force_N ± band", "roughness_um ± band", "MRR", "binding"):
-            table.add_column(column)
+        table.add_column("setpoint")
+        table.add_column("force N\n± band", justify="right")
+        table.add_column("roughness\nµm ± band", justify="right")
+        table.add_column("MRR\ncm³/min", justify="right")
+        table.add_column("binding")
     table.add_column("decisions")
     for v in data["versions"]:
         cause = v["cause"] + (f" {v['serial'] or v['actor'] or ''}").rstrip()
-        when = v["created_at"].strftime("%m-%d %H:%M:%S")
-        moved = ", ".join(
-            f"{d['operation']}.{d['quantity']} {d['action']}" + _marked(d)
-            for d in v["decisions"]
-            if (d["action"] != "hold" or marks.decision_mark(d)[0])
-            and (operation is None or d["operation"] == operation)
-        )
+        when = f"{cause}\n{v['created_at'].strftime('%m-%d %H:%M:%S')}"
+        moved = _decisions(v["decisions"], operation)
         if operation is None:
             mrr = " ".join(_fmt(o["mrr_cm3_min"]) for o in v["operations"])
-            table.add_row(str(v["version"]), cause, when, _fmt(v["cycle_time_min"]), mrr, moved)
+            table.add_row(str(v["version"]), when, _fmt(v["cycle_time_min"]), mrr, moved)
             continue
         op = v["operations"][0]
-        setpoint = " ".join(f"{k.split('_')[0]}={_fmt(x)}" for k, x in op["setpoint"].items())
+        setpoint = "\n".join(f"{k.split('_')[0]}={_fmt(x)}" for k, x in op["setpoint"].items())
         bands = [
-            f"{_fmt(op['predicted'][q]['value'])} ± {_fmt(op['predicted'][q]['band'])}"
+            f"{_fmt(op['predicted'][q]['value'])}\n±{_fmt(op['predicted'][q]['band'])}"
             if q in op["predicted"]
             else "-"
             for q in ("force_N", "roughness_um")
         ]
         table.add_row(
             str(v["version"]),
-            cause,
             when,
             setpoint,
             *bands,
             _fmt(op["mrr_cm3_min"]),
-            ", ".join(op["binding"]),
+            "\n".join(op["binding"]),
             moved,
         )
     return table
+
+
+def _decisions(decisions: list[dict[str, Any]], operation: str | None) -> str:
+    """The decisions that moved a band or carry a mark: a line per operation (``op: q action``).
+
+    With ``operation`` only its own, without the operation's name.
+    """
+    lines: dict[str, list[str]] = {}
+    for d in decisions:
+        if (d["action"] != "hold" or marks.decision_mark(d)[0]) and (
+            operation is None or d["operation"] == operation
+        ):
+            lines.setdefault(d["operation"], []).append(
+                f"{d['quantity']} {d['action']}{_marked(d)}"
+            )
+    if operation is not None:
+        return ", ".join(lines.get(operation, []))
+    return "\n".join(f"{op}: {', '.join(moved)}" for op, moved in lines.items())
 
 
 def _mark(d: dict[str, Any]) -> str:
@@ -344,7 +357,9 @@ def replan(
     if as_json:
         emit(answer)
         return
-    table = Table(title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else ""))
+    table = new_table(
+        title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else "")
+    )
     for column in ("operation", "parameter", "now", "new"):
         table.add_column(
             column, justify="left" if column in ("operation", "parameter") else "right"

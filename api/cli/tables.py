@@ -1,9 +1,18 @@
-"""Rich tables of the CLI: predictions and a plan's setpoints."""
+"""Rich tables of the CLI: their common look and width rule, predictions, a plan's setpoints.
+
+Every table of every command is made by :func:`new_table` and fits the console (80 columns in
+a pipe, a log or a default terminal): cells wrap between words and a word wider than its
+column is folded onto the next line, never cut with an ellipsis, so no number is ever lost.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
+from rich import box
+from rich.console import Console, ConsoleOptions, RenderResult
+from rich.measure import Measurement
 from rich.table import Table
 
 from models.powerlaw import Prediction
@@ -24,6 +33,69 @@ PARAMETER_HEADINGS = {
 }
 
 
+class _FoldingTable(Table):
+    """A table whose every column wraps between words and folds a longer word: never cut.
+
+    rich cuts a cell (``0.55…``) in a column that may not wrap or whose overflow is
+    ``ellipsis`` (its default); here a narrow console costs lines, not digits.
+    """
+
+    def add_column(self, *args: Any, **kwargs: Any) -> None:
+        """As :meth:`rich.table.Table.add_column`, with ``no_wrap`` off and ``overflow="fold"``."""
+        super().add_column(*args, **{**kwargs, "no_wrap": False, "overflow": "fold"})
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        """Rendered with :func:`_shared_widths` when too wide (rich alone folds the widest)."""
+        widths = _shared_widths(self, console, options)
+        saved = [column.width for column in self.columns]
+        if widths is not None:
+            for column, width in zip(self.columns, widths, strict=True):
+                column.width = width
+        try:
+            yield from super().__rich_console__(console, options)
+        finally:
+            for column, before in zip(self.columns, saved, strict=True):
+                column.width = before
+
+
+def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> list[int] | None:
+    """Column widths for a table wider than the console, or None (it fits, or only folding does).
+
+    Each column gets its longest word (a number is one word) or its ``min_width``, the rest of
+    the width goes to the columns in proportion to what they lack of their natural width.
+    """
+    if any(column.width is not None for column in table.columns):
+        return None
+    wide = options.update(max_width=10**6)
+    ranges = []
+    for column in table.columns:
+        cells = [Measurement.get(console, wide, c) for c in (column.header, *column.cells)]
+        low, high = max(m.minimum for m in cells), max(m.maximum for m in cells)
+        low = max(low, min(column.min_width or 0, high))  # a phrase kept on one line
+        ranges.append((low, high))
+    least, most = sum(r[0] for r in ranges), sum(r[1] for r in ranges)
+    room = options.max_width - (Measurement.get(console, wide, table).maximum - most)
+    if most <= room or least > room:
+        return None
+    share = (room - least) / (most - least)
+    return [low + int(share * (high - low)) for low, high in ranges]
+
+
+def new_table(*headings: str, **options: Any) -> Table:
+    """A CLI table: a rule under the headings, no frame, two spaces between columns.
+
+    ``headings`` and ``options`` (``title``, ``caption`` ...) as :class:`rich.table.Table`'s.
+    """
+    style: dict[str, Any] = {
+        "box": box.SIMPLE_HEAD,
+        "show_edge": False,
+        "pad_edge": False,
+        "collapse_padding": True,
+        **options,
+    }
+    return _FoldingTable(*headings, **style)
+
+
 def fmt(value: float) -> str:
     """A number as the CLI tables print it."""
     return f"{value:.4g}" if abs(value) < 1e5 else f"{value:.3e}"
@@ -31,7 +103,7 @@ def fmt(value: float) -> str:
 
 def predictions_table(title: str, predicted: Mapping[str, Prediction]) -> Table:
     """Quantity, unit, value, band, and the band edges."""
-    table = Table(title=title)
+    table = new_table(title=title)
     for column in ("quantity", "unit", "value", "± band", "lower", "upper"):
         table.add_column(column, justify="left" if column in ("quantity", "unit") else "right")
     for name, p in predicted.items():
@@ -46,14 +118,14 @@ def plan_table(result: PlanResult) -> Table:
 
     Fits 80 columns for a turning plan; the tool is in each operation's own table.
     """
-    table = Table(title=f"plan {result.plan} on {result.machine}: robust optimum")
+    table = new_table(title=f"plan {result.plan} on {result.machine}: robust optimum")
     params = [p for p in PARAMETER_HEADINGS if any(p in op.setpoint for op in result.operations)]
     table.add_column("operation", overflow="fold", min_width=9)
     for p in params:
-        table.add_column(PARAMETER_HEADINGS[p], justify="right", no_wrap=True)
-    table.add_column("MRR\ncm³/min", justify="right", no_wrap=True)
-    table.add_column("time\nmin", justify="right", no_wrap=True)
-    table.add_column("binding", no_wrap=True)
+        table.add_column(PARAMETER_HEADINGS[p], justify="right")
+    table.add_column("MRR\ncm³/min", justify="right")
+    table.add_column("time\nmin", justify="right")
+    table.add_column("binding")
     for op in result.operations:
         values = [fmt(op.setpoint[p]) if p in op.setpoint else "" for p in params]
         table.add_row(

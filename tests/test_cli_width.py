@@ -1,0 +1,183 @@
+"""CLI output for a reader at 80 columns and for a program.
+
+Every table of every command, run as the real ``rcb`` in a subprocess with ``COLUMNS=80`` and
+stdout a pipe (as in a log or a default terminal): no line is wider than the console, nothing
+is cut with an ellipsis, and the numbers ``--json`` gives appear whole in the tables. At 40
+columns nothing is cut either (long words fold onto the next line). ``rcb optimize --json`` on
+an infeasible plan prints the REST service's 422 problem document.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from rich.cells import cell_len
+from test_service import BODY, _reports
+
+from api.cli.tables import fmt
+from api.rest import problems
+from api.services.parts import report_part
+from api.services.plans import create_plan
+from db.engine import make_engine, upgrade
+
+from conftest import ROOT
+
+EXAMPLES = ROOT / "examples"
+CSV = ROOT / "tests" / "data"
+#: An ellipsis of rich (``…``) or of text (``...``): a cell cut short.
+CUT = re.compile(r"…|\.\.\.")
+
+
+def _rcb() -> str:
+    script = Path(sys.executable).parent / "rcb"
+    if not script.is_file():
+        pytest.skip("the rcb console script is not installed")
+    return str(script)
+
+
+def rcb(*args: str, columns: int = 80, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "COLUMNS": str(columns)}
+    return subprocess.run(
+        [_rcb(), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300
+    )
+
+
+def fits(stdout: str, columns: int = 80) -> None:
+    """Every line within ``columns`` cells, nothing cut short."""
+    assert stdout.strip(), "no output"
+    for line in stdout.splitlines():
+        assert cell_len(line) <= columns, line
+        assert not CUT.search(line), line
+
+
+def words(stdout: str) -> set[str]:
+    """The whitespace-separated words of ``stdout``, a leading ``±`` or trailing comma off."""
+    return {w.lstrip("±").rstrip(",") for w in stdout.split()}
+
+
+@pytest.fixture(scope="module")
+def db(tmp_path_factory) -> str:
+    """A SQLite database with the demonstration plan and four parts reported."""
+    url = f"sqlite:///{tmp_path_factory.mktemp('width') / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
+    for body in _reports(4)[0]:
+        report_part(engine=engine, plan_id=plan_id, body=body)
+    engine.dispose()
+    return url
+
+
+TABLE_COMMANDS = {
+    "optimize": ["optimize", str(EXAMPLES / "ivester_demo_part.toml")],
+    "optimize-milling": ["optimize", str(EXAMPLES / "milling_demo_part.toml")],
+    "optimize-constant-load": ["optimize", str(EXAMPLES / "tai_constant_load_part.toml")],
+    "predict": ["predict", "--tool", "CNMG432RN", "--depth-mm", "3", "--feed-mm-rev", "0.32"]
+    + ["--speed-m-min", "200", "--diameter-mm", "60"],
+    "domain": ["milling", "domain", str(EXAMPLES / "borangiu_domain.toml")],
+    "setup": ["milling", "setup", str(CSV / "tai_end_milling_tests.csv")],
+    "certify": ["certify", str(EXAMPLES / "ivester_demo_part.toml")]
+    + ["--scenarios", "2", "--parts", "2", "--jobs", "1"],
+    "fit": ["fit", str(CSV / "aisi12l14_turning_roughness.csv"), "--response", "Ra"]
+    + ["--var", "depth_mm=d", "--var", "feed_mm_rev=f", "--var", "speed_m_min=Vc"],
+    "examples": ["examples"],
+}
+DB_COMMANDS = {
+    "plans": ["plans"],
+    "history": ["history", "1"],
+    "history-operation": ["history", "1", "--operation", "finish-grooves"],
+    "parts": ["parts", "1"],
+    "replan": ["replan", "1", "--limit", "rough-od.force_N=1900", "--dry-run"],
+    "keys": ["keys", "list"],
+}
+
+
+@pytest.mark.parametrize("columns", [80, 40])
+@pytest.mark.parametrize("command", sorted(TABLE_COMMANDS))
+def test_tables_fit_the_console(command, columns):
+    done = rcb(*TABLE_COMMANDS[command], columns=columns)
+    assert done.returncode == 0, done.stderr
+    fits(done.stdout, columns)
+
+
+@pytest.mark.parametrize("columns", [80, 40])
+@pytest.mark.parametrize("command", sorted(DB_COMMANDS))
+def test_review_tables_fit_the_console(db, command, columns):
+    done = rcb(*DB_COMMANDS[command], "--db", db, columns=columns)
+    assert done.returncode == 0, done.stderr
+    if command == "keys":  # no key yet: the headings alone
+        assert "role" in done.stdout
+        return
+    fits(done.stdout, columns)
+
+
+@pytest.mark.parametrize("milling", [False, True])
+def test_demo_tables_show_every_number_whole(milling):
+    args = ["demo", "--parts", "3", *(["--milling"] if milling else [])]
+    shown = rcb(*args)
+    assert shown.returncode == 0, shown.stderr
+    fits(shown.stdout)
+    result = json.loads(rcb(*args, "--json").stdout)
+    expected = set()
+    for op in result["operations"]:
+        for row in (op["catalog"], op["robust"], op["final"]):
+            expected |= {fmt(v) for v in row["setpoint"].values()}
+            expected.add(fmt(row["mrr_cm3_min"]))
+            for q in ("force_N", "roughness_um"):
+                expected.add(fmt(row["predicted"][q]["value"]))
+                expected.add(fmt(row["measured"][q]["value"]))
+                expected.add(f"{row['measured'][q]['uncertainty']:.3g}")
+    # before: Ra measured printed as 0.61…, and the MRR heading as cm³/m…
+    assert expected <= words(shown.stdout), expected - words(shown.stdout)
+    assert "cm³/min" in shown.stdout
+
+
+def test_plans_and_history_keep_names_dates_and_numbers_whole(db):
+    plans = rcb("plans", "--db", db).stdout
+    listed = json.loads(rcb("plans", "--db", db, "--json").stdout)["plans"][0]
+    assert {listed["name"], listed["machine"], listed["created_at"][:10]} <= words(plans)
+    history = rcb("history", "1", "--db", db).stdout
+    data = json.loads(rcb("history", "1", "--db", db, "--json").stdout)
+    numbers = {fmt(o["mrr_cm3_min"]) for v in data["versions"] for o in v["operations"]}
+    numbers |= {fmt(v["cycle_time_min"]) for v in data["versions"]}
+    assert numbers <= words(history), numbers - words(history)
+    # each moved band by its operation, whole (before: rough-od.for…)
+    moved = {
+        f"{d['operation']}:"
+        for v in data["versions"]
+        for d in v["decisions"]
+        if d["action"] != "hold"
+    }
+    assert moved and moved <= words(history)
+
+
+def test_optimize_json_on_an_infeasible_plan_is_a_problem_document(tmp_path):
+    text = (EXAMPLES / "ivester_demo_part.toml").read_text(encoding="utf-8")
+    assert text.count("{ force_N = 2000,") == 1
+    plan = tmp_path / "infeasible.toml"
+    plan.write_text(text.replace("{ force_N = 2000,", "{ force_N = 50,"), encoding="utf-8")
+    done = rcb("optimize", str(plan), "--json")
+    assert done.returncode == 3
+    body = json.loads(done.stdout)
+    # the REST service's infeasible answer (api/rest/problems.py): type, title, status, code
+    assert body["type"] == problems._TYPE_BASE + "infeasible"
+    assert (body["title"], body["status"], body["code"]) == (
+        problems._TITLES[422],
+        422,
+        "infeasible",
+    )
+    assert body["field"] == "operations.rough-od.limits" and body["value"] == "rough-od"
+    [entry] = body["conflicts"]
+    assert entry["operation"] == "rough-od"
+    [conflict] = entry["conflicts"]
+    assert (conflict["name"], conflict["limit"], conflict["sense"]) == ("force_N", 50.0, "max")
+    assert conflict["required"] > 50
+    # the detail and the one line on stderr say the same, with the required limit
+    assert done.stderr.strip() == f"rcb: infeasible: {body['detail']}"
+    assert f"needs a limit of at least {conflict['required']:.4g}" in body["detail"]
