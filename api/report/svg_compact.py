@@ -52,10 +52,11 @@ def _rounded(text: str, decimals: int) -> str:
 
 
 def _path_data(data: str, decimals: int) -> str:
-    """``M 0 410.400000 L 540 410.4 L 540 0 z`` (with line breaks) as ``M0 410.4H540V0z``.
+    """``M 0 410.400000 L 540 410.4 L 540 0 z`` (with line breaks) as ``M0 410.4h540v-410.4z``.
 
-    A line to the point the pen is at (after another line) is dropped; a horizontal or
-    vertical line is written ``H x`` or ``V y``.
+    Lines are relative to the pen (``l dx dy``, ``h dx``, ``v dy``: shorter numbers); a line to
+    the point the pen is at (after another line) is dropped, lines on along one horizontal or
+    vertical are one command.
     """
     tokens = _rounded(" ".join(data.split()), decimals).split(" ")
     out: list[str] = []
@@ -74,10 +75,15 @@ def _path_data(data: str, decimals: int) -> str:
             coordinate = y if axis == "V" else x
             index = 1 if axis == "V" else 0
             if axis and last == axis and _same_way(before[index], pen[index], coordinate):
-                out[-1] = axis + coordinate  # on along the same line: one command
+                # on along the same line: one command, from where the line began
+                out[-1] = axis.lower() + _delta(coordinate, before[index], decimals)
             else:
                 before = pen
-                out.append(axis + coordinate if axis else f"L{x} {y}")
+                if axis:
+                    out.append(axis.lower() + _delta(coordinate, pen[index], decimals))
+                else:
+                    dx, dy = _delta(x, pen[0], decimals), _delta(y, pen[1], decimals)
+                    out.append(f"l{dx} {dy}")
             last = axis or "L"
         else:
             before = pen
@@ -86,6 +92,11 @@ def _path_data(data: str, decimals: int) -> str:
         if size:
             pen = (numbers[-2], numbers[-1])
     return "".join(out)
+
+
+def _delta(to: str, start: str, decimals: int) -> str:
+    """``to - start`` as written (both already rounded to ``decimals``: exact, no drift)."""
+    return _rounded(f"{float(to) - float(start):.{decimals}f}", decimals)
 
 
 def _same_way(start: str, middle: str, end: str) -> bool:
@@ -165,26 +176,27 @@ def _dot_width(data: str) -> float | None:
 
 
 def _relative(data: str) -> tuple[float, float, str] | None:
-    """A marker's first point and its lines (``M L H V z`` only) relative to that point."""
-    parts = re.findall(r"([MLHVz])([^MLHVz]*)", data)
-    if not parts or parts[0][0] != "M" or any(c not in "MLHVz" for c, _ in parts):
+    """A marker's first point and its lines (``M l h v z`` only) relative to that point."""
+    parts = re.findall(r"([A-Za-z])([^A-Za-z]*)", data)
+    if not parts or parts[0][0] != "M" or any(c not in "Mlhvz" for c, _ in parts[1:]):
         return None
     x0, y0 = (float(v) for v in parts[0][1].split())
-    x, y, out = x0, y0, []
+    (x, y), start, out = (x0, y0), (x0, y0), []
     for command, args in parts[1:]:
         values = [float(v) for v in args.split()]
-        nx, ny = (
-            {"M": (*values,), "L": (*values,), "H": (values[0], y), "V": (x, values[0])}.get(
-                command, (x0, y0)
-            )
-            if command != "z"
-            else (x0, y0)
-        )
-        if command == "z":
-            out.append("z")
+        if command == "M":  # a new stroke: relative to the pen too
+            out.append(f"m{_n(values[0] - x)} {_n(values[1] - y)}")
+            (x, y) = start = (values[0], values[1])
+            continue
+        out.append(command + args)
+        if command == "l":
+            x, y = x + values[0], y + values[1]
+        elif command == "h":
+            x += values[0]
+        elif command == "v":
+            y += values[0]
         else:
-            out.append(f"{command.lower() if command in 'ML' else 'l'}{_n(nx - x)} {_n(ny - y)}")
-        x, y = nx, ny
+            x, y = start
     return x0, y0, "".join(out)
 
 
