@@ -241,7 +241,9 @@ def _marker_runs(svg: str) -> str:
 
 def _unwrap_groups(svg: str) -> str:
     """Drop every ``<g>`` without attributes and its ``</g>``, keeping what it holds."""
-    out, kept, start = [], [], 0
+    out: list[str] = []
+    kept: list[bool] = []
+    start = 0
     for match in _GROUP.finditer(svg):
         token = match.group(0)
         out.append(svg[start : match.start()])
