@@ -379,7 +379,7 @@ def test_cli_writes_the_page(runner, cli, stored, page, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["report.html"]  # no temporary file left
     assert result.stdout == "" and f"rcb: wrote {out}" in result.stderr
     size = out.stat().st_size
-    assert 200_000 < size < 1_500_000  # about 0.7 MB for 6 operations and 10 parts
+    assert 200_000 < size < 400_000  # about 290 kB for 6 operations and 10 parts (README)
 
 
 def test_cli_reads_the_database_from_the_environment(runner, cli, stored, tmp_path, monkeypatch):

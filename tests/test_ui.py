@@ -277,3 +277,121 @@ def test_plan_page_renders_in_headless_chromium(server, plan_id, tmp_path):
             browser.close()
     assert outside == [], f"requests outside 127.0.0.1: {outside}"
     assert shot.stat().st_size > 10_000, f"screenshot: {shot}"
+
+
+# --------------------------------------------------------------------------------------------
+# issue 18: every column visible at 1280x800, no "nan", the tool change shown
+
+ROOT = Path(__file__).resolve().parents[1]
+MILLING = tomllib.loads((ROOT / "examples" / "milling_demo_part.toml").read_text())
+CONSTANT_LOAD = tomllib.loads((ROOT / "examples" / "tai_constant_load_part.toml").read_text())
+
+
+def _constant_load_part(c, plan_id: int, serial: str, override: float) -> None:
+    """A part of the constant-load plan: a spindle current and a feed override per operation."""
+    sp = c.get(f"/plans/{plan_id}/setpoints").json()
+    body = {
+        "serial": serial,
+        "setpoint_version": sp["setpoint_version"],
+        "operations": [
+            {
+                "name": op["name"],
+                "measurements": {"spindle_current_A": {"value": 0.2, "uncertainty": 0.002}},
+                "feed_override_percent": override,
+            }
+            for op in sp["operations"]
+        ],
+    }
+    r = c.post(f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": serial})
+    assert r.status_code == 201, r.text
+    assert any(t["due"] for t in r.json()["tool_changes"]), r.text  # 40 % is below the limit
+
+
+@pytest.fixture(scope="module")
+def three_plans(server, plan_id):
+    """The turning plan (two parts), a milling plan and a constant-load plan (a part each)."""
+    with server.client("engineer") as c:
+        milling = c.post("/plans", json={**MILLING, "name": "ui-milling"}).json()["id"]
+        sp = c.get(f"/plans/{milling}/setpoints").json()
+        ops = [{"name": op["name"], "predicted": op["predicted"]} for op in sp["operations"]]
+        quantity = next(iter(ops[0]["predicted"]))
+        body = {
+            "serial": "SN-M-1",
+            "setpoint_version": sp["setpoint_version"],
+            "operations": [
+                {
+                    "name": op["name"],
+                    "measurements": {
+                        quantity: {"value": op["predicted"][quantity]["value"], "uncertainty": 1}
+                    },
+                }
+                for op in ops
+                if quantity in op["predicted"]
+            ],
+        }
+        r = c.post(f"/plans/{milling}/parts", json=body, headers={"Idempotency-Key": "SN-M-1"})
+        assert r.status_code == 201, r.text
+        constant = c.post("/plans", json={**CONSTANT_LOAD, "name": "ui-cl"}).json()["id"]
+        _constant_load_part(c, constant, "SN-CL-1", 40.0)
+    return {"turning": plan_id, "milling": milling, "constant-load": constant}
+
+
+def test_constant_load_page_shows_the_tool_change_and_no_nan(server, three_plans):
+    with _browser(server) as c:
+        _login(c, server.keys["viewer"])
+        r = c.get(f"/plans/{three_plans['constant-load']}")
+    assert r.status_code == 200
+    root = _xml(r.text)
+    assert re.search(r"\bnan\b", _text(root), re.I) is None
+    table = root.find(".//table[@id='tool-changes']")
+    assert table is not None, "no tool-change table"
+    rows = table.findall("tbody/tr")
+    assert {row.get("data-operation") for row in rows} == {"slot", "end-mill"}
+    for row in rows:
+        cells = [_text(td) for td in row.findall("td")]
+        assert cells[0] == "SN-CL-1" and cells[2] == "40" and cells[-1].startswith("DUE")
+        assert row.get("class") == "due"
+    # the override is no constrained output: no row of it among the setpoints in force
+    setpoints = _text(root.find(".//table[@id='setpoints']"))
+    assert "feed_override_percent" not in setpoints
+
+
+def test_plan_pages_fit_1280_wide_in_chromium(server, three_plans, tmp_path):
+    if not CHROMIUM.is_file() or shutil.which(str(CHROMIUM)) is None:
+        pytest.skip(f"{CHROMIUM} not installed (apt-get install chromium)")
+    sync_api = pytest.importorskip(
+        "playwright.sync_api", reason="the playwright Python package is not installed"
+    )
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        try:
+            context = browser.new_context(viewport={"width": 1280, "height": 800})
+            page = context.new_page()
+            page.goto(f"{_ui(server)}/login")
+            page.fill("input[name=key]", server.keys["viewer"])
+            page.click("button[type=submit]")
+            page.wait_for_url(f"{_ui(server)}/")
+            for kind, plan in three_plans.items():
+                page.goto(f"{_ui(server)}/plans/{plan}")
+                shot = tmp_path / f"ui_{kind}.png"
+                page.screenshot(path=str(shot), full_page=True)
+                shutil.copyfile(shot, Path(f"/tmp/ui_plan_{kind}.png"))
+                widths = page.evaluate(
+                    "() => ({doc: document.documentElement.scrollWidth,"
+                    " view: document.documentElement.clientWidth,"
+                    " tables: [...document.querySelectorAll('table')].map(t =>"
+                    " [t.id, t.scrollWidth, t.clientWidth, t.parentElement.clientWidth,"
+                    " t.getBoundingClientRect().right])})"
+                )
+                assert widths["doc"] <= widths["view"], f"{kind}: {widths}; {shot}"
+                for name, scroll, client, parent, right in widths["tables"]:
+                    assert scroll <= client <= parent, f"{kind} {name}: {widths}; {shot}"
+                    assert right <= widths["view"], f"{kind} {name}: {widths}; {shot}"
+                # every column of the setpoints table is on screen, the last two included
+                for header in ("Margin at band edge", "Last measured margin"):
+                    cell = page.locator("#setpoints th", has_text=header)
+                    box = cell.bounding_box()
+                    assert box is not None and box["x"] + box["width"] <= 1280, f"{kind} {shot}"
+                assert re.search(r"\bnan\b", page.inner_text("body"), re.I) is None, kind
+        finally:
+            browser.close()

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from api.services.record import TOOL_CHANGE
 from models import quantities
 from models.kinematics import PARAMETERS
 from models.quantities import PARTS_PER_EDGE
@@ -216,7 +217,8 @@ def operation_series(
     decisions = [
         {d["quantity"]: d for d in p["updates"] if d["operation"] == operation} for p in parts
     ]
-    measured = {q for m in measurements for q in m}
+    # a feed override is no constrained output: the tool-change table shows it
+    measured = {q for m in measurements for q in m if q != TOOL_CHANGE}
     limits = constrained_quantities(op, plan, setpoints, measured)
     names = PARAMETERS.get(op["process"], tuple(setpoints[-1]["setpoint"]))
     return OperationSeries(

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import matplotlib
 from matplotlib.figure import Figure
 
+from api.report.svg_compact import compact
+
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType  # matplotlib >= 3.10; only for the checker
 
@@ -64,6 +66,7 @@ def to_svg(figure: Figure, id_prefix: str = "") -> str:
     text = re.sub(r"\n +", "\n", text[text.index("<svg") :].strip())
     kept = set(_REFERENCE.findall(text)) | {a.get_gid() for a in figure.findobj() if a.get_gid()}
     text = _ID_ATTRIBUTE.sub(lambda m: m.group(0) if m.group(1) in kept else "", text)
+    text = compact(text)
     return _ID.sub(lambda m: f"{m.group(1)}{id_prefix}-", text) if id_prefix else text
 
 

@@ -24,9 +24,9 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from sqlalchemy import Engine
 from starlette.concurrency import run_in_threadpool
 
-from api.report.html import render_html_report
+from api.report.html import render_record
 from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
-from api.services import auth, queries
+from api.services import auth, queries, record
 from api.services.errors import NotFoundError
 from db.access import Actor
 from db.tables import MAX_INT
@@ -40,8 +40,8 @@ ROLES = ("mes", "engineer", "viewer")
 COOKIE_MAX_AGE_S = 8 * 3600
 #: Largest login form body [bytes]; a key is 47 characters.
 MAX_FORM_BYTES = 4096
-#: The last parts plotted on a plan page (the tables still show every part and version).
-PLOTTED_PARTS = 200
+#: The last parts plotted and listed on a plan page (the totals count every part).
+PLOTTED_PARTS = 100
 
 _HEADERS = {
     "Cache-Control": "no-store",
@@ -161,9 +161,8 @@ def install(app: FastAPI, engine: Engine) -> None:
         if not 1 <= number_id <= MAX_INT or not actor.may_see(number_id):
             return _not_found(plan_id, actor)
         try:
-            page = render_html_report(
-                *queries.record(engine=engine, plan_id=number_id), last=PLOTTED_PARTS
-            )
+            data = record.report_record(engine=engine, plan_id=number_id, last=PLOTTED_PARTS)
+            page = render_record(data)
         except NotFoundError:
             return _not_found(plan_id, actor)
         # the report page with the view's navigation; it stays well-formed XML

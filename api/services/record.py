@@ -1,0 +1,191 @@
+"""What a plan's report shows, read in a bounded number of statements and rows.
+
+``rcb report`` and the web view's plan page show the last ``last`` parts (plots and marks),
+the newest :data:`HISTORY_ROWS` setpoint versions one by one and older ones summarised per
+:data:`SUMMARY_GROUP` versions, and the plan's totals. :func:`report_record` reads exactly
+that: the totals and the summaries are SQL aggregates (:mod:`db.record`), so the statements
+are the same and the rows grow with ``last`` and the summary rows, not with the plan's life.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from sqlalchemy import Engine
+
+from api.services import queries
+from api.services.reading import _read, _utc
+from db import history
+from db import record as db_record
+from db import tables as t
+from models.errors import InputError
+
+#: The measurement that carries a reported feed override and the tool change it called for.
+TOOL_CHANGE = "feed_override_percent"
+#: Parts plotted and listed unless asked otherwise (``rcb report --last``).
+DEFAULT_LAST = 100
+#: Most parts a report may plot (``--last``).
+MAX_LAST = 1000
+#: Setpoint versions listed one by one (the newest); older ones are summarised.
+HISTORY_ROWS = 200
+#: Older setpoint versions per summary row, while there are at most :data:`SUMMARY_ROWS` rows.
+SUMMARY_GROUP = 100
+#: Most summary rows: beyond ``SUMMARY_ROWS * SUMMARY_GROUP`` older versions a row covers more.
+SUMMARY_ROWS = 50
+
+
+def group_size(older: int) -> int:
+    """Versions per summary row for ``older`` versions: 100, or a multiple of 100 beyond 5000."""
+    rows = max(1, math.ceil(older / (SUMMARY_GROUP * SUMMARY_ROWS)))
+    return SUMMARY_GROUP * rows
+
+
+def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> dict[str, Any]:
+    """The plan, its last ``last`` parts and the setpoint versions and totals the page shows.
+
+    Returns
+    -------
+    dict
+        ``plan`` (:func:`api.services.queries.get_plan`), ``history`` (``versions``: the newest
+        :data:`HISTORY_ROWS`, those the parts were made with, version 1 and the summaries'
+        first and last, oldest first), ``parts`` (the last ``last``, oldest first, as
+        :func:`api.services.queries.parts` items), ``totals`` (parts, last received, flagged,
+        breaches, notes, the first cycle time), ``summaries`` (per group of older versions),
+        ``last_decisions`` (per operation and quantity the newest decision with its part's
+        serial) and ``marks`` (part id -> flagged or noted decisions of the listed versions).
+    """
+    if not 1 <= last <= MAX_LAST:
+        raise InputError("--last", last, f"must be between 1 and {MAX_LAST}")
+    plan = queries.get_plan(engine=engine, plan_id=plan_id)  # NotFoundError if none
+    with _read(engine) as session, session.begin():
+        ops = history.operations(session=session, plan_id=plan_id)
+        names = {op.id: op.name for op, _ in ops}
+        parts, measurements, decisions = history.parts_page(
+            session=session, plan_id=plan_id, after_id=0, limit=last, newest=True
+        )
+        count, received = db_record.part_totals(session=session, plan_id=plan_id)
+        totals = db_record.decision_totals(session=session, plan_id=plan_id)
+        newest = session.get_one(t.Plan, plan_id).current_setpoint_version
+        cut = max(0, newest - HISTORY_ROWS)
+        groups = (
+            db_record.version_groups(
+                session=session, plan_id=plan_id, up_to=cut, size=group_size(cut)
+            )
+            if cut
+            else []
+        )
+        wanted = {1, *(p.setpoint_version for p in parts), *db_record.summary_of(groups)}
+        versions = db_record.versions(
+            session=session, plan_id=plan_id, newer_than=cut, numbers=wanted
+        )
+        listed = [v.part_id for v, _, _ in versions if v.version > cut and v.part_id is not None]
+        marks = db_record.marked_decisions(session=session, part_ids=listed)
+        latest = db_record.last_decisions(session=session, plan_id=plan_id)
+    by_number = {
+        v.version: _version(v, serial, setpoints, ops) for v, serial, setpoints in versions
+    }
+    return {
+        "plan": plan,
+        "history": {
+            "plan_id": plan_id,
+            "status": plan["status"],
+            "halt": plan["halt"],
+            "versions": [by_number[n] for n in sorted(by_number)],
+        },
+        "parts": [_part(p, measurements[p.id], decisions[p.id], names) for p in parts],
+        "totals": {
+            "parts": count,
+            "last_received": _utc(received) if received is not None else None,
+            **totals,
+            "first_cycle_time_min": by_number[min(by_number)]["cycle_time_min"],
+        },
+        "summaries": [_summary(by_number[first], by_number[end], n) for first, end, n in groups],
+        "last_decisions": [{**_decision(d, names), "serial": serial} for d, serial in latest],
+        "marks": {part: [_decision(d, names) for d in rows] for part, rows in marks.items()},
+    }
+
+
+def _summary(first: dict[str, Any], last: dict[str, Any], count: int) -> dict[str, Any]:
+    """A group of older versions: its first and last version (as listed) and how many."""
+    return {"first": first, "last": last, "versions": count}
+
+
+def _version(
+    version: t.SetpointVersion,
+    serial: str | None,
+    setpoints: list[t.Setpoint],
+    ops: list[tuple[t.Operation, t.Tool]],
+) -> dict[str, Any]:
+    """A setpoint version as :func:`api.services.queries.plan_history` gives it, no models."""
+    position = {op.id: i for i, (op, _) in enumerate(ops)}
+    names = {op.id: op.name for op, _ in ops}
+    tools = {op.id: tool.name for op, tool in ops}
+    return {
+        "version": version.version,
+        "cause": version.cause,
+        "part_id": version.part_id,
+        "serial": serial,
+        "created_at": _utc(version.created_at),
+        "cycle_time_min": sum(sp.time_min for sp in setpoints),
+        "operations": [
+            {
+                "name": names[sp.operation_id],
+                "tool": tools[sp.operation_id],
+                "setpoint": dict(sp.parameters),
+                "predicted": dict(sp.predicted),
+                "mrr_cm3_min": sp.mrr_cm3_min,
+                "time_min": sp.time_min,
+                "binding": list(sp.binding),
+                "extras": dict(sp.extras or {}),
+            }
+            for sp in sorted(setpoints, key=lambda s: position[s.operation_id])
+        ],
+    }
+
+
+def _part(
+    part: t.Part,
+    measurements: list[t.Measurement],
+    decisions: list[t.RcbDecision],
+    names: dict[int, str],
+) -> dict[str, Any]:
+    """A part as an item of :func:`api.services.queries.parts`."""
+    per_op: dict[str, dict[str, Any]] = {}
+    for m in measurements:
+        entry = per_op.setdefault(names[m.operation_id], {"measurements": {}})
+        if m.quantity == "flank_wear_mm":
+            entry["tool_wear"] = {
+                "flank_wear_mm": {"value": m.value, "uncertainty": m.uncertainty},
+                "volume_mm3": (m.raw or {}).get("volume_mm3"),
+            }
+        else:
+            entry["measurements"][m.quantity] = {
+                "value": m.value,
+                "uncertainty": m.uncertainty,
+                # a feed override's raw holds the tool change it called for (db.parts)
+                **({"raw": m.raw} if m.raw and m.quantity == TOOL_CHANGE else {}),
+            }
+    return {
+        "part_id": part.id,
+        "serial": part.serial,
+        "setpoint_version": part.setpoint_version,
+        "received_at": _utc(part.received_at),
+        "operations": [{"name": name, **entry} for name, entry in per_op.items()],
+        "updates": [_decision(d, names) for d in decisions],
+    }
+
+
+def _decision(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
+    return {
+        "operation": names[d.operation_id],
+        "quantity": d.quantity,
+        "action": d.action,
+        "margin": d.margin,
+        "band_before": d.band_before,
+        "band_after": d.band_after,
+        "flagged": d.flagged,
+        "flag": d.flag,
+        "note": d.note,
+        "reason": d.reason,
+    }
