@@ -19,6 +19,7 @@ try:  # recent typer vendors click as typer._click; its exceptions are not click
 except ImportError:  # pragma: no cover - typer that uses click itself
     from click import exceptions as click_errors  # type: ignore[no-redef]
 
+from api.cli import replan as cli_replan
 from api.cli import review as cli_review
 from api.cli.admin import db_app, keys_app, serve
 from api.cli.certify import certify
@@ -90,9 +91,9 @@ for _review in (
     cli_review.history,
     cli_review.parts,
     cli_review.export,
-    cli_review.replan,
+    cli_replan.replan,
 ):
-    app.command()(_review)  # api/cli/review.py
+    app.command()(_review)  # api/cli/review.py, api/cli/replan.py
 app.add_typer(db_app, name="db")  # rcb db upgrade: api/cli/admin.py
 app.add_typer(keys_app, name="keys")  # rcb keys create|revoke: api/cli/admin.py
 app.add_typer(milling_app, name="milling")  # rcb milling setup|domain: api/cli/milling.py

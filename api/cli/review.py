@@ -21,8 +21,7 @@ from sqlalchemy import Engine
 
 from api.cli import parts_view
 from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
-from api.cli.tables import new_table
-from api.cli.who import ByOption, cli_actor
+from api.cli.tables import new_table, short_number
 from api.report import export as tidy
 from api.report import marks
 from api.services import queries
@@ -38,12 +37,6 @@ PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb
 
 def _engine(db: str | None) -> Engine:
     return existing_engine(database_url(db))
-
-
-def _fmt(value: float | None) -> str:
-    if value is None:
-        return "-"
-    return f"{value:.4g}" if abs(value) < 1e5 else f"{value:.3e}"
 
 
 def plans(
@@ -172,13 +165,15 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
         when = f"{cause}\n{v['created_at'].strftime('%m-%d %H:%M:%S')}"
         moved = _decisions(v["decisions"], operation)
         if operation is None:
-            mrr = " ".join(_fmt(o["mrr_cm3_min"]) for o in v["operations"])
-            table.add_row(str(v["version"]), when, _fmt(v["cycle_time_min"]), mrr, moved)
+            mrr = " ".join(short_number(o["mrr_cm3_min"]) for o in v["operations"])
+            table.add_row(str(v["version"]), when, short_number(v["cycle_time_min"]), mrr, moved)
             continue
         op = v["operations"][0]
-        setpoint = "\n".join(f"{k.split('_')[0]}={_fmt(x)}" for k, x in op["setpoint"].items())
+        setpoint = "\n".join(
+            f"{k.split('_')[0]}={short_number(x)}" for k, x in op["setpoint"].items()
+        )
         bands = [
-            f"{_fmt(op['predicted'][q]['value'])}\n±{_fmt(op['predicted'][q]['band'])}"
+            f"{short_number(op['predicted'][q]['value'])}\n±{short_number(op['predicted'][q]['band'])}"
             if q in op["predicted"]
             else "-"
             for q in ("force_N", "roughness_um")
@@ -188,7 +183,7 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
             when,
             setpoint,
             *bands,
-            _fmt(op["mrr_cm3_min"]),
+            short_number(op["mrr_cm3_min"]),
             "\n".join(op["binding"]),
             moved,
         )
@@ -268,7 +263,7 @@ def parts(
             return
         title = f"plan {plan}: parts" + (f" since {since}" if since else "")
         for page in pages:
-            _out.print(parts_view.parts_table(title, page, _fmt, _mark))
+            _out.print(parts_view.parts_table(title, page, short_number, _mark))
 
 
 def _since(text: str | None) -> datetime | None:
@@ -316,102 +311,3 @@ def _write_tables(frames: dict[str, pd.DataFrame], out: Path, fmt: str) -> list[
         write_atomically(target, data)
         written.append(target)
     return written
-
-
-def replan(
-    plan: PlanArg,
-    limit: Annotated[
-        list[str] | None, typer.Option("--limit", help="OP.QUANTITY=VALUE (VALUE 'none' removes).")
-    ] = None,
-    bound: Annotated[list[str] | None, typer.Option("--bound", help="OP.PARAM=LO:HI")] = None,
-    model: Annotated[
-        list[str] | None, typer.Option("--model", help="TOOL.QUANTITY:K=..,dK=.. (either or both).")
-    ] = None,
-    reset_bands: Annotated[
-        bool, typer.Option("--reset-bands", help="Back to the tools' baseline bands.")
-    ] = False,
-    dry_run: Annotated[
-        bool, typer.Option("--dry-run", help="Show the result; store nothing.")
-    ] = False,
-    db: DbOption = None,
-    as_json: _JsonOption = False,
-    by: ByOption = None,
-) -> None:
-    """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
-    from api.services.plans import replan
-
-    with errors():
-        actor = cli_actor(by)
-        changes: dict[str, Any] = {
-            "limits": {k: _limit_value(k, v) for k, v in _pairs(limit or [], "--limit").items()},
-            "bounds": {k: _bounds(k, v) for k, v in _pairs(bound or [], "--bound").items()},
-            "models": dict(_model(m) for m in model or []),
-        }
-        if reset_bands:
-            changes["reset_bands"] = True
-        changes = {k: v for k, v in changes.items() if v}
-        written = replan(
-            engine=_engine(db), plan_id=plan, changes=changes, dry_run=dry_run, actor=actor
-        )
-    answer = written.body
-    if as_json:
-        emit(answer)
-        return
-    table = new_table(
-        title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else "")
-    )
-    for column in ("operation", "parameter", "now", "new"):
-        table.add_column(
-            column, justify="left" if column in ("operation", "parameter") else "right"
-        )
-    for d in answer["diff"]:
-        rows = [(k, old, new) for k, (old, new) in d["setpoint"].items()]
-        rows.append(("MRR cm³/min", *d["mrr_cm3_min"]))
-        for i, (name, old, new) in enumerate(rows):
-            table.add_row(d["operation"] if i == 0 else "", name, _fmt(old), _fmt(new))
-        table.add_row("", "binding", ", ".join(d["binding"][0]), ", ".join(d["binding"][1]))
-    _out.print(table)
-    before, after = answer["cycle_time_min"]
-    stored = "not stored" if dry_run else f"stored as setpoint version {answer['setpoint_version']}"
-    say(f"rcb: cycle time {before:.4g} -> {after:.4g} min; {stored}")
-
-
-def _pairs(items: list[str], option: str) -> dict[str, str]:
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise InputError(option, item, "must be NAME=VALUE")
-        out[key.strip()] = value.strip()
-    return out
-
-
-def _limit_value(key: str, text: str) -> float | None:
-    if text.lower() == "none":
-        return None
-    return _number(text, f"--limit {key}")
-
-
-def _bounds(key: str, text: str) -> list[float]:
-    low, sep, high = text.partition(":")
-    if not sep:
-        raise InputError(f"--bound {key}", text, "must be LO:HI")
-    return [_number(low, f"--bound {key}"), _number(high, f"--bound {key}")]
-
-
-def _model(text: str) -> tuple[str, dict[str, float]]:
-    name, sep, rest = text.partition(":")
-    if not sep or not name:
-        raise InputError("--model", text, "must be TOOL.QUANTITY:K=..,dK=..")
-    values = _pairs([p for p in rest.split(",") if p], f"--model {name}")
-    unknown = set(values) - {"K", "dK"}
-    if unknown or not values:
-        raise InputError(f"--model {name}", rest, "give K=.. and/or dK=..")
-    return name, {k: _number(v, f"--model {name} {k}") for k, v in values.items()}
-
-
-def _number(text: str, field: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise InputError(field, text, "must be a number") from None

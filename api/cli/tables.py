@@ -149,3 +149,10 @@ def setpoint_caption(op: OperationResult) -> str | None:
             + ("" if c.tool_change_by_feed else ": not by feed here, by count")
         )
     return "\n".join(lines) or None
+
+
+def short_number(value: float | None) -> str:
+    """A number for a table cell: 4 significant digits, ``-`` for none (never cut: one word)."""
+    if value is None:
+        return "-"
+    return f"{value:.4g}" if abs(value) < 1e5 else f"{value:.3e}"

@@ -167,18 +167,6 @@ def part_pages(
             return
 
 
-def record(
-    *, engine: Engine, plan_id: int
-) -> tuple[dict[str, Any], dict[str, Any], list[dict[str, Any]]]:
-    """A plan, every part and the setpoint history: what a report shows.
-
-    Parts are read before the history, so every version a part names is in the history.
-    """
-    plan = get_plan(engine=engine, plan_id=plan_id)
-    items = all_parts(engine=engine, plan_id=plan_id)
-    return plan, full_history(engine=engine, plan_id=plan_id), items
-
-
 def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
     """One tool with its baseline models and provenance."""
     with _read(engine) as session, session.begin():

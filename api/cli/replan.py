@@ -1,0 +1,127 @@
+"""``rcb replan PLAN``: change limits, bounds or models, re-optimise, store a new version.
+
+The engineer's side of :func:`api.services.plans.replan` (REST ``POST .../replan``): the
+options are parsed into the same change document, ``--dry-run`` stores nothing, and the new
+setpoint version is audited with the engineer's name (``--by``, default the OS user).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+
+from api.cli.common import DbOption, emit, errors, existing_engine, say
+from api.cli.review import PlanArg
+from api.cli.tables import new_table, short_number
+from api.cli.who import ByOption, cli_actor
+from api.settings import database_url
+from models.errors import InputError
+
+_out = Console()
+
+
+def replan(
+    plan: PlanArg,
+    limit: Annotated[
+        list[str] | None, typer.Option("--limit", help="OP.QUANTITY=VALUE (VALUE 'none' removes).")
+    ] = None,
+    bound: Annotated[list[str] | None, typer.Option("--bound", help="OP.PARAM=LO:HI")] = None,
+    model: Annotated[
+        list[str] | None, typer.Option("--model", help="TOOL.QUANTITY:K=..,dK=.. (either or both).")
+    ] = None,
+    reset_bands: Annotated[
+        bool, typer.Option("--reset-bands", help="Back to the tools' baseline bands.")
+    ] = False,
+    dry_run: Annotated[
+        bool, typer.Option("--dry-run", help="Show the result; store nothing.")
+    ] = False,
+    db: DbOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    by: ByOption = None,
+) -> None:
+    """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
+    from api.services.plans import replan
+
+    with errors():
+        actor = cli_actor(by)
+        changes: dict[str, Any] = {
+            "limits": {k: _limit_value(k, v) for k, v in _pairs(limit or [], "--limit").items()},
+            "bounds": {k: _bounds(k, v) for k, v in _pairs(bound or [], "--bound").items()},
+            "models": dict(_model(m) for m in model or []),
+        }
+        if reset_bands:
+            changes["reset_bands"] = True
+        changes = {k: v for k, v in changes.items() if v}
+        written = replan(
+            engine=existing_engine(database_url(db)),
+            plan_id=plan,
+            changes=changes,
+            dry_run=dry_run,
+            actor=actor,
+        )
+    answer = written.body
+    if as_json:
+        emit(answer)
+        return
+    table = new_table(
+        title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else "")
+    )
+    for column in ("operation", "parameter", "now", "new"):
+        table.add_column(
+            column, justify="left" if column in ("operation", "parameter") else "right"
+        )
+    for d in answer["diff"]:
+        rows = [(k, old, new) for k, (old, new) in d["setpoint"].items()]
+        rows.append(("MRR cm³/min", *d["mrr_cm3_min"]))
+        for i, (name, old, new) in enumerate(rows):
+            table.add_row(
+                d["operation"] if i == 0 else "", name, short_number(old), short_number(new)
+            )
+        table.add_row("", "binding", ", ".join(d["binding"][0]), ", ".join(d["binding"][1]))
+    _out.print(table)
+    before, after = answer["cycle_time_min"]
+    stored = "not stored" if dry_run else f"stored as setpoint version {answer['setpoint_version']}"
+    say(f"rcb: cycle time {before:.4g} -> {after:.4g} min; {stored}")
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError(option, item, "must be NAME=VALUE")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _limit_value(key: str, text: str) -> float | None:
+    if text.lower() == "none":
+        return None
+    return _number(text, f"--limit {key}")
+
+
+def _bounds(key: str, text: str) -> list[float]:
+    low, sep, high = text.partition(":")
+    if not sep:
+        raise InputError(f"--bound {key}", text, "must be LO:HI")
+    return [_number(low, f"--bound {key}"), _number(high, f"--bound {key}")]
+
+
+def _model(text: str) -> tuple[str, dict[str, float]]:
+    name, sep, rest = text.partition(":")
+    if not sep or not name:
+        raise InputError("--model", text, "must be TOOL.QUANTITY:K=..,dK=..")
+    values = _pairs([p for p in rest.split(",") if p], f"--model {name}")
+    unknown = set(values) - {"K", "dK"}
+    if unknown or not values:
+        raise InputError(f"--model {name}", rest, "give K=.. and/or dK=..")
+    return name, {k: _number(v, f"--model {name} {k}") for k, v in values.items()}
+
+
+def _number(text: str, field: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(field, text, "must be a number") from None
