@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import secrets
 import tempfile
 import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import httpx
 
@@ -73,17 +75,21 @@ def _mes(base: str, key: str, view: View, token: str, end: float, out: list[int]
     return view
 
 
-def _viewer(
-    base: str, key: str, plan_id: int, end: float, out: list[int], lock: threading.Lock
-) -> None:
+def _viewer(base: str, key: str, plan_id: int, end: float, out: Any) -> None:
+    """Read the plan's history back to back until ``end``; ``out``: (good, bad) counts.
+
+    Runs in its own process, as a viewer's browser or script runs on its own machine: the
+    MES client's thread must not share an interpreter lock with four readers.
+    """
+    good = bad = 0
     with httpx.Client(headers={"Authorization": f"Bearer {key}"}, timeout=120.0) as c:
         while perf() < end:
             try:
                 ok = c.get(f"{base}/plans/{plan_id}/history").status_code == 200
             except httpx.HTTPError:
                 ok = False
-            with lock:
-                out[0 if ok else 1] += 1
+            good, bad = good + ok, bad + (not ok)
+    out.put((good, bad))
 
 
 def window(
@@ -91,12 +97,12 @@ def window(
 ) -> Window:
     """MES clients (one per view, each on its own plan) for ``seconds``, with ``viewers``."""
     end = perf() + seconds
-    counts, reads, lock = [0, 0], [0, 0], threading.Lock()
+    counts, lock = [0, 0], threading.Lock()
     token = secrets.token_hex(4)
-    threads = [
-        threading.Thread(
-            target=_viewer, args=(base, keys["viewer"], views[0].plan_id, end, reads, lock)
-        )
+    spawn = multiprocessing.get_context("spawn")
+    queue = spawn.Queue()
+    readers = [
+        spawn.Process(target=_viewer, args=(base, keys["viewer"], views[0].plan_id, end, queue))
         for _ in range(viewers)
     ]
     results: list[View | None] = [None] * len(views)
@@ -108,12 +114,20 @@ def window(
             counts[0] += per[0]
             counts[1] += per[1]
 
-    threads += [threading.Thread(target=mes, args=(i,)) for i in range(len(views))]
+    threads = [threading.Thread(target=mes, args=(i,)) for i in range(len(views))]
     start = perf()
+    for p in readers:
+        p.start()
     for t in threads:
         t.start()
     for t in threads:
         t.join()
+    reads = [0, 0]
+    for _ in readers:
+        good, bad = queue.get(timeout=180)
+        reads = [reads[0] + good, reads[1] + bad]
+    for p in readers:
+        p.join(timeout=30)
     elapsed = max(seconds, perf() - start)
     for i, v in enumerate(results):
         if v is not None:

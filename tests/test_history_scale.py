@@ -15,6 +15,7 @@ from api.services import queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
+from db.engine import reader
 from supervisor.rcb.state import RcbSettings
 
 from conftest import report_at
@@ -30,7 +31,8 @@ class Statements:
         self.engine = engine
         self.seen: list[tuple[str, Any]] = []
         self.on = False
-        event.listen(engine, "before_cursor_execute", self._hear)
+        for each in {engine, reader(engine)}:  # reads go through the read pool's engine
+            event.listen(each, "before_cursor_execute", self._hear)
 
     def _hear(self, conn, cursor, statement, parameters, context, executemany) -> None:
         if self.on:
@@ -131,7 +133,10 @@ def test_a_history_page_costs_the_same_at_20_and_at_400_versions(engine):
         if sqlite:
             assert counter.scans(first_sql + last_sql) == []
     assert costs[20] == costs[400]  # the statements per page do not grow with the history
-    assert costs[400][0] <= 8
+    # counted (this listened to the writers' engine alone once, and counted nothing): the plan,
+    # its operations, the versions, their setpoints, the models in force, the replans' actors
+    selects = [s for s, _ in first_sql if s.lstrip().upper().startswith("SELECT")]
+    assert 3 <= len(selects) <= 8
     # the pages chain: forward from version 1 and backward from now, each version once
     forward, cursor = [], None
     while True:

@@ -10,11 +10,14 @@ from typing import Any
 
 from sqlalchemy import Engine
 
+from api.services.priority import GATE
 from api.services.reading import MAX_PAGE, _cursor, _plan, _read, _utc
 from db import history
 from db import tables as t
 from models.errors import InputError
 
+#: Versions converted between two pauses for writes in flight (api.services.priority).
+PAUSE_EVERY = 10
 #: Setpoint versions on a history page unless asked otherwise.
 HISTORY_PAGE = 100
 
@@ -37,6 +40,7 @@ def plan_history(
     if not 1 <= page_size <= MAX_PAGE:
         raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
     mark = _cursor(cursor)
+    GATE.pause()  # the read transaction starts when no part report is in flight
     with _read(engine) as session, session.begin():
         halt = _plan(session, plan_id).halt
         ops = history.operations(session=session, plan_id=plan_id)
@@ -64,10 +68,11 @@ def plan_history(
         actors = history.revision_actors(
             session=session, plan_id=plan_id, versions=[v.version for v, *_ in versions]
         )
-    out = [
-        _history_version(v, serial, setpoints, ops, models[v.id], actors.get(v.version))
-        for v, serial, setpoints in versions
-    ]
+    out = []
+    for n, (v, serial, setpoints) in enumerate(versions):
+        if n % PAUSE_EVERY == 0:
+            GATE.pause()  # a part report in flight goes first (api.services.priority)
+        out.append(_history_version(v, serial, setpoints, ops, models[v.id], actors.get(v.version)))
     edge = (versions[0] if newest else versions[-1])[0].version if versions else 0
     status = "halted" if halt is not None else "running"
     return {

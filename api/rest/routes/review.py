@@ -5,13 +5,16 @@
 from typing import Annotated, Any, Literal
 
 from fastapi import Query
+from fastapi.responses import Response
 
 from api.rest.deps import Anyone, EngineDep
+from api.rest.rendering import page_response
 from api.rest.routes.common import PlanId, resource_router
 from api.rest.schemas.common import NO_NUL
 from api.rest.schemas.review import History, ModelVersions, PlanModels
 from api.rest.schemas.tools import TextCursor
 from api.services import queries
+from api.services.priority import GATE
 
 router = resource_router("review")
 
@@ -30,18 +33,20 @@ def plan_history(
         Literal["oldest", "newest"],
         Query(description="`oldest`: pages forward from version 1; `newest`: back from now"),
     ] = "oldest",
-) -> dict[str, Any]:
+) -> Response:
     """Setpoint versions with their cause and the bands in force, a page at a time.
 
     Each page lists its versions oldest first; ``next_cursor`` continues in ``order``.
     """
-    return queries.plan_history(
-        engine=engine,
-        plan_id=plan_id,
-        cursor=cursor,
-        page_size=limit,
-        newest=order == "newest",
-    )
+    with GATE.reading():  # one long read at a time, part reports first (api.services.priority)
+        data = queries.plan_history(
+            engine=engine,
+            plan_id=plan_id,
+            cursor=cursor,
+            page_size=limit,
+            newest=order == "newest",
+        )
+        return page_response(History, data, "versions")
 
 
 @router.get("/plans/{plan_id}/models", response_model=PlanModels)
