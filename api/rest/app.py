@@ -8,13 +8,12 @@ database from :mod:`api.settings`). Routes are thin: authentication and roles
 
 from __future__ import annotations
 
-import sys
-
 from fastapi import FastAPI
 
 from api.report import ui
 from api.rest import content_type, problems
 from api.rest.limits import BodyLimit
+from api.rest.priority import WritesFirstMiddleware
 from api.rest.routes import health, parts, plans, review, tools
 from api.rest.routes.common import PREFIX, PROBLEMS
 from api.settings import Settings
@@ -36,6 +35,7 @@ def create_app(url: str) -> FastAPI:
     app.state.engine = engine  # the routes' engine (api.rest.deps.engine_of)
     problems.install(app)
     content_type.install(app)  # 415 for a body not sent as JSON (api.rest.content_type)
+    app.add_middleware(WritesFirstMiddleware)  # reads step aside (api.rest.priority)
     app.add_middleware(BodyLimit)  # 413 before a body over 1 MiB is read (api.rest.limits)
     ui.install(app, engine)  # the read-only web view at /ui/ (api/report/ui.py)
     for resource in (health, plans, parts, review, tools):
@@ -46,17 +46,6 @@ def create_app(url: str) -> FastAPI:
     return app
 
 
-#: The worker's thread switch interval [s] (Python's default: 0.005). A part report waits on
-#: the database a few dozen times; each time it wants the interpreter lock back from a
-#: reader's thread it waited up to one interval (benchmarks/mixed_load.py).
-SWITCH_INTERVAL_S = 0.0005
-
-
 def app_from_env() -> FastAPI:
-    """The app on ``$RCB_DATABASE_URL`` (default ``./rcb.db``): the uvicorn worker factory.
-
-    It is the server's own process: the thread switch interval is shortened there
-    (:data:`SWITCH_INTERVAL_S`).
-    """
-    sys.setswitchinterval(SWITCH_INTERVAL_S)
+    """The app on ``$RCB_DATABASE_URL`` (default ``./rcb.db``): the uvicorn worker factory."""
     return create_app(Settings.from_env().database_url)

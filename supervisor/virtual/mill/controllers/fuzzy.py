@@ -134,7 +134,9 @@ def fuzzy_output(error_norm: float, change_norm: float, scaling: FuzzyScaling) -
         for j, b in enumerate(mu_ce):
             if b != 0.0:
                 out += a * b * rank(RULES[i][j]) * scaling.output_step
-    return out
+    # the weights sum to 1 (the memberships are partitions of unity), so ``out`` is in the
+    # output universe [-1, 1]; the clamp takes off what rounding adds (-1.0000000000000002)
+    return min(1.0, max(-1.0, out))
 
 
 class KimJeonFuzzyController(ClampedFeed):
