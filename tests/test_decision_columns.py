@@ -93,7 +93,7 @@ def test_the_history_reads_back_the_stored_fields_under_the_json_names():
         operation_id=7,
         **{c: getattr(_decision(), c) for c in DECISION_COLUMNS},
     )
-    read = queries._decision(row, {7: "rough-od"})
+    read = queries.decision_json(row, {7: "rough-od"})
     assert read == {k: v for k, v in decision_json(_decision()).items() if k not in NOT_STORED} | {
         "operation": "rough-od"
     }

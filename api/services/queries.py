@@ -109,32 +109,7 @@ def parts(
             newest=newest,
             since=since,
         )
-        items = []
-        for part in rows:
-            per_op: dict[str, dict[str, Any]] = {}
-            for m in measurements[part.id]:
-                entry = per_op.setdefault(names[m.operation_id], {"measurements": {}})
-                if m.quantity == "flank_wear_mm":
-                    entry["tool_wear"] = {
-                        "flank_wear_mm": {"value": m.value, "uncertainty": m.uncertainty},
-                        "volume_mm3": (m.raw or {}).get("volume_mm3"),
-                    }
-                else:
-                    entry["measurements"][m.quantity] = {
-                        "value": m.value,
-                        "uncertainty": m.uncertainty,
-                        **({"raw": m.raw} if m.raw else {}),
-                    }
-            items.append(
-                {
-                    "part_id": part.id,
-                    "serial": part.serial,
-                    "setpoint_version": part.setpoint_version,
-                    "received_at": _utc(part.received_at),
-                    "operations": [{"name": name, **entry} for name, entry in per_op.items()],
-                    "updates": [_decision(d, names) for d in decisions[part.id]],
-                }
-            )
+        items = [part_json(part, measurements[part.id], decisions[part.id], names) for part in rows]
     more = len(rows) == page_size
     edge = rows[0] if newest else rows[-1] if rows else None
     return {"items": items, "next_cursor": str(edge.id) if edge is not None and more else None}
@@ -145,7 +120,7 @@ def decisions(*, engine: Engine, plan_id: int, part_ids: list[int]) -> dict[int,
     with _read(engine) as session, session.begin():
         names = {op.id: op.name for op, _ in history.operations(session=session, plan_id=plan_id)}
         found = history.decisions_of(session=session, part_ids=part_ids)
-    return {part: [_decision(d, names) for d in rows] for part, rows in found.items()}
+    return {part: [decision_json(d, names) for d in rows] for part, rows in found.items()}
 
 
 def all_parts(*, engine: Engine, plan_id: int) -> list[dict[str, Any]]:
@@ -177,7 +152,39 @@ def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
     return to_json.tool_json(tool)
 
 
-def _decision(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
+def part_json(
+    part: t.Part,
+    measurements: list[t.Measurement],
+    decisions: list[t.RcbDecision],
+    names: dict[int, str],
+) -> dict[str, Any]:
+    """A part as an item of :func:`parts`: its measurements per operation and its decisions."""
+    per_op: dict[str, dict[str, Any]] = {}
+    for m in measurements:
+        entry = per_op.setdefault(names[m.operation_id], {"measurements": {}})
+        if m.quantity == "flank_wear_mm":
+            entry["tool_wear"] = {
+                "flank_wear_mm": {"value": m.value, "uncertainty": m.uncertainty},
+                "volume_mm3": (m.raw or {}).get("volume_mm3"),
+            }
+        else:
+            entry["measurements"][m.quantity] = {
+                "value": m.value,
+                "uncertainty": m.uncertainty,
+                **({"raw": m.raw} if m.raw else {}),
+            }
+    return {
+        "part_id": part.id,
+        "serial": part.serial,
+        "setpoint_version": part.setpoint_version,
+        "received_at": _utc(part.received_at),
+        "operations": [{"name": name, **entry} for name, entry in per_op.items()],
+        "updates": [decision_json(d, names) for d in decisions],
+    }
+
+
+def decision_json(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
+    """An RCB decision as in a part's ``updates``, its operation by name."""
     return {
         "operation": names[d.operation_id],
         "quantity": d.quantity,

@@ -93,7 +93,7 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
             "halt": plan["halt"],
             "versions": [by_number[n] for n in sorted(by_number)],
         },
-        "parts": [_part(p, measurements[p.id], decisions[p.id], names) for p in parts],
+        "parts": [queries.part_json(p, measurements[p.id], decisions[p.id], names) for p in parts],
         "totals": {
             "parts": count,
             "last_received": _utc(received) if received is not None else None,
@@ -101,8 +101,12 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
             "first_cycle_time_min": by_number[min(by_number)]["cycle_time_min"],
         },
         "summaries": [_summary(by_number[first], by_number[end], n) for first, end, n in groups],
-        "last_decisions": [{**_decision(d, names), "serial": serial} for d, serial in latest],
-        "marks": {part: [_decision(d, names) for d in rows] for part, rows in marks.items()},
+        "last_decisions": [
+            {**queries.decision_json(d, names), "serial": serial} for d, serial in latest
+        ],
+        "marks": {
+            part: [queries.decision_json(d, names) for d in rows] for part, rows in marks.items()
+        },
     }
 
 
@@ -141,51 +145,4 @@ def _version(
             }
             for sp in sorted(setpoints, key=lambda s: position[s.operation_id])
         ],
-    }
-
-
-def _part(
-    part: t.Part,
-    measurements: list[t.Measurement],
-    decisions: list[t.RcbDecision],
-    names: dict[int, str],
-) -> dict[str, Any]:
-    """A part as an item of :func:`api.services.queries.parts`."""
-    per_op: dict[str, dict[str, Any]] = {}
-    for m in measurements:
-        entry = per_op.setdefault(names[m.operation_id], {"measurements": {}})
-        if m.quantity == "flank_wear_mm":
-            entry["tool_wear"] = {
-                "flank_wear_mm": {"value": m.value, "uncertainty": m.uncertainty},
-                "volume_mm3": (m.raw or {}).get("volume_mm3"),
-            }
-        else:
-            entry["measurements"][m.quantity] = {
-                "value": m.value,
-                "uncertainty": m.uncertainty,
-                # a feed override's raw holds the tool change it called for (db.parts)
-                **({"raw": m.raw} if m.raw and m.quantity == TOOL_CHANGE else {}),
-            }
-    return {
-        "part_id": part.id,
-        "serial": part.serial,
-        "setpoint_version": part.setpoint_version,
-        "received_at": _utc(part.received_at),
-        "operations": [{"name": name, **entry} for name, entry in per_op.items()],
-        "updates": [_decision(d, names) for d in decisions],
-    }
-
-
-def _decision(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
-    return {
-        "operation": names[d.operation_id],
-        "quantity": d.quantity,
-        "action": d.action,
-        "margin": d.margin,
-        "band_before": d.band_before,
-        "band_after": d.band_after,
-        "flagged": d.flagged,
-        "flag": d.flag,
-        "note": d.note,
-        "reason": d.reason,
     }
