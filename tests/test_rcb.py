@@ -117,6 +117,16 @@ def test_one_sided_law_hand_computed(state):
     assert over.action == "expand" and over.flag == "breach"
     assert_allclose(over.band_after, 1015.0 - f.value)
     assert_allclose(over.margin, -15.0)
+    # past the limit by more than u but within the reading's 3σ (σ = u/2): 1006 ± 5 → y − u
+    # = 1001 > 1000 (out of tolerance by ISO 14253-1: the note past_limit), y − 1.5u = 998.5
+    # under it (no process alarm); a band setpoint still flags it above_band and backs off
+    iso = one(1006.0, 5.0)
+    assert iso.flag == "above_band" and iso.note == "past_limit" and iso.action == "expand"
+    assert_allclose(iso.band_after, 1011.0 - f.value)
+    assert_allclose(iso.margin, -11.0)
+    # the 3σ alarm's edge: y − 1.5u = 1000.0 is not past the limit, 1000.15 is
+    assert one(1007.5, 5.0).flag == "above_band"
+    assert one(1007.65, 5.0).flag == "breach" and one(1007.65, 5.0).note is None
     # inside the band: an ordinary shrink, neither flag nor note
     inside = one(600.0, 5.0)
     assert inside.action == "shrink" and inside.flag is None and inside.note is None
@@ -146,6 +156,11 @@ def test_one_sided_law_mirrored_for_tool_life(state):
     _, (d,) = update(state, _report(state, {}, {"rough-od": wear_for(between)}))
     assert d.flag == "below_band" and d.action == "expand"
     assert_allclose(d.band_after, life.value - (d.measured - d.uncertainty))
+    # y + u under the limit, y + 1.5u not (u = V·1.241·0.001/0.15, so V = L/1.01 gives
+    # y + u = 0.99821 L and y + 1.5u = 1.00239 L): out of tolerance, no alarm
+    _, (d,) = update(state, _report(state, {}, {"rough-od": wear_for(limit / 1.01)}))
+    assert_allclose(d.uncertainty / d.measured, 1.241 * 0.001 / 0.15)
+    assert d.flag == "below_band" and d.note == "past_limit" and d.action == "expand"
     # under the limit: breach
     _, (d,) = update(state, _report(state, {}, {"rough-od": wear_for(0.5 * limit)}))
     assert d.flag == "breach" and d.action == "expand" and d.margin < 0

@@ -7,8 +7,13 @@ from typing import Any
 
 #: How a flagged decision is shown at a glance, per flag (the band grew: never a note).
 FLAG_LABELS = {"breach": "BREACH", "above_band": "ABOVE", "below_band": "BELOW"}
-#: How a note is shown: information only, the band went through the margin law.
-NOTE_LABELS = {"below_band": "note: below band", "above_band": "note: above band"}
+#: How a note is shown: information only, never an alarm (past_limit: the part is out of
+#: tolerance by more than its ±u, within the noise's 3σ: supervisor.rcb.law).
+NOTE_LABELS = {
+    "below_band": "note: below band",
+    "above_band": "note: above band",
+    "past_limit": "note: past limit",
+}
 
 
 def decision_mark(d: Mapping[str, Any]) -> tuple[str, str]:
@@ -20,7 +25,8 @@ def decision_mark(d: Mapping[str, Any]) -> tuple[str, str]:
     """
     flag, note = d.get("flag"), d.get("note")
     if flag in FLAG_LABELS:
-        return FLAG_LABELS[flag], flag.replace("_", "-")
+        past = ", past limit" if note == "past_limit" else ""
+        return FLAG_LABELS[flag] + past, flag.replace("_", "-")
     if d.get("flagged"):
         return "FLAG", "flagged"
     if note in NOTE_LABELS:

@@ -12,21 +12,27 @@ with ``α = 0.25`` ("one or more of the uncertainty parameters is reduced by a f
 the difference"). The law is one-sided, as the paper's: only the side of the band that guards
 the limit matters. For a maximum:
 
-- ``y − u`` above the limit: ``breach`` (the measurement proves the limit crossed, the
-  decision rule of ISO 14253-1 for nonconformance); else ``y + u`` above the band's upper
-  edge ``Y + ΔY``: ``above_band`` (the band must cover measured + u, as the paper's bands
-  "encompass all of the points"). Either is flagged and the band grows to ``y + u − Y`` so it
-  covers the measurement (action ``expand``); it never shrinks then. ``y + u`` over the limit
-  with ``y − u`` under it is not a breach: at the physical limit the noise alone does that.
+- ``y − 3σ`` above the limit (``σ = u/2``, ``u`` an expanded uncertainty at ``k = 2``):
+  ``breach``, the process crossed the limit beyond what the reading's noise explains (a
+  Shewhart 3σ control limit [4]_); else ``y + u`` above the band's upper edge ``Y + ΔY``:
+  ``above_band`` (the band must cover measured + u, as the paper's bands "encompass all of the
+  points"). Either is flagged and the band grows to ``y + u − Y`` so it covers the measurement
+  (action ``expand``); it never shrinks then.
+- ``y − u`` above the limit but ``y − 3σ`` under it: the note ``past_limit`` (the part is out
+  of tolerance by ISO 14253-1's decision rule [3]_, the quality department's call), not an
+  alarm. A process run at its limit gives such a reading once in 44 parts from noise alone
+  (DESIGN.md's ``y + u`` rule: once in 2), and 3σ once in 740. Under a band setpoint the
+  band's edge is at or under the limit, so such a reading is still ``above_band`` and backs off.
 - otherwise the margin law above; a reading whose ``y + u`` lies under the band's lower edge
   carries the note ``below_band`` (the model is pessimistic there), never a flag: a part that
   came out better than predicted is no reason to widen a band.
 - a ``learn`` setpoint held by a cone (which bounds the true value, not a measurement) is
-  ``above_band`` only when ``y − u`` is past the cone's edge; its fallback band still grows
+  ``above_band`` only when ``y − 3σ`` is past the cone's edge; its fallback band still grows
   to cover ``y + u``, unflagged.
 
-Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + u`` under
-the limit) or ``below_band`` (``y − u`` under the lower edge), the note ``above_band``.
+Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + 3σ`` under
+the limit) or ``below_band`` (``y − u`` under the lower edge), the notes ``past_limit`` and
+``above_band``.
 ``ΔY'`` is stored as a new ``ΔK`` through the first-order law of
 :func:`models.powerlaw.relative_band`: ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
 
@@ -35,7 +41,9 @@ References
 .. [1] Ivester & Heigel (NIST), "Adaptive Control Optimization" and Table 5.
 .. [2] Ivester, Danai & Malkin (1997), "Cycle-Time Reduction in Machining by Recursive
    Constraint Bounding", ASME J. Manuf. Sci. Eng. 119(2).
-.. [3] ISO 14253-1:2017, decision rules for conformity (the ``breach`` test).
+.. [3] ISO 14253-1:2017, decision rules for conformity (the ``past_limit`` note).
+.. [4] Montgomery, Introduction to Statistical Quality Control, 3σ control limits (the
+   ``breach`` alarm: 0.135 % false alarms on one side).
 """
 
 from __future__ import annotations
@@ -57,6 +65,13 @@ from supervisor.rcb.state import Action, Decision, Flag, Note, RcbState, prior_s
 #: A measurement is past a band's edge only beyond this fraction of it: an optimum sits on
 #: its limit within the optimiser's re-check tolerance.
 EDGE_RTOL = RECHECK_RTOL
+#: The coverage factor of a reported uncertainty ``u``: an expanded uncertainty, ``σ = u / k``
+#: (GUM 6.2-6.3; Ivester & Heigel Table 5's ± columns).
+U_COVERAGE_K = 2.0
+#: A reading raises the alarm (``breach``, or past a cone) only when it is past the limit (the
+#: cone's edge) by more than this many σ of its own noise: Shewhart's 3σ control limit, a false
+#: alarm in 740 readings of a process exactly at its limit, against 1 in 44 at ±u (2σ).
+ALARM_SIGMA = 3.0
 
 
 def _limit(operation: Operation, quantity: str) -> float | None:
@@ -179,9 +194,12 @@ def _apply_law(
         hold = decision("hold", model, None, "no limit on this quantity")
         return hold, model, sigma, worst
     margin = limit - guard if is_max else guard - limit
-    # the far side of y ± u: past the limit, the measurement proves the limit crossed
-    far_side = max(y - u, 0.0) if is_max else y + u
-    if result.robust_by == "cone":  # a cone bounds the true value: the far side of y ± u
+    # the far side of the reading at the alarm's coverage: past the limit, the process crossed
+    # it beyond what the reading's noise explains; at ±u only, the part is out of tolerance
+    reach_u = ALARM_SIGMA / U_COVERAGE_K * u
+    far_side = max(y - reach_u, 0.0) if is_max else y + reach_u
+    iso_side = max(y - u, 0.0) if is_max else y + u
+    if result.robust_by == "cone":  # a cone bounds the true value: the alarm's far side
         beyond_guard = _past(far_side, shown, is_max)
     else:  # a band covers measured ± u (Ivester & Heigel: "encompasses all of the points")
         beyond_guard = _past(guard, shown, is_max)
@@ -194,7 +212,9 @@ def _apply_law(
     elif beyond_guard:
         flag = "above_band" if is_max else "below_band"
     note: Note | None = None
-    if beyond_other and flag is None:
+    if flag != "breach" and (iso_side > limit if is_max else iso_side < limit):
+        note = "past_limit"  # ISO 14253-1 nonconformance of the part, not a process alarm
+    elif beyond_other and flag is None:
         note = "below_band" if is_max else "above_band"
 
     rule = settings.rule
@@ -209,10 +229,16 @@ def _apply_law(
         if flag is None:
             why = "inside the learned cone; the fallback band grows to cover it"
             return decision(action, new, margin, why, note=note), new, sigma, worst
-        where = "measured − u past the limit" if flag == "breach" else f"measured + u {flag}"
-        flagged = decision(action, new, margin, f"{where}: never shrink; band covers it", flag)
-        return flagged, new, sigma, worst
-    below = " (note: below the band: the model is pessimistic here)" if note else ""
+        if flag == "breach":
+            where = f"measured {'−' if is_max else '+'} {ALARM_SIGMA:g}σ past the limit"
+        elif result.robust_by == "cone":
+            where = f"measured {'−' if is_max else '+'} {ALARM_SIGMA:g}σ past the cone"
+        else:
+            where = f"measured {'+' if is_max else '−'} u {flag}"
+        why = f"{where}: never shrink; band covers it"
+        return decision(action, new, margin, why, flag, note), new, sigma, worst
+    pessimistic = note in ("below_band", "above_band")
+    below = " (note: past the band's other edge: the model is pessimistic)" if pessimistic else ""
     if margin <= 0:
         new = _with_band(model, max(predicted.band, cover), y_new.value, point, rel)
         no_margin = decision("hold", new, margin, "no margin: measured + u at the limit", note=note)

@@ -26,8 +26,10 @@ Action = Literal["shrink", "hold", "expand"]
 #: What made a decision flagged: the limit crossed, or the measurement beyond the band's
 #: guarding edge (``above_band`` for a maximum, ``below_band`` for a minimum).
 Flag = Literal["breach", "above_band", "below_band"]
-#: Information, never a flag: the measurement beyond the band's other edge.
-Note = Literal["below_band", "above_band"]
+#: Information, never a flag: the measurement beyond the band's other edge, or past the limit
+#: by more than its ±u but within its noise's alarm limit (``past_limit``: the part is out of
+#: tolerance by ISO 14253-1's rule; the process is not proven past the limit).
+Note = Literal["below_band", "above_band", "past_limit"]
 
 
 @dataclass(frozen=True)
