@@ -121,13 +121,15 @@ class Update(Out):
     flagged: bool = Field(description="flag is not null (kept for compatibility)")
     flag: Flag | None = Field(
         None,
-        description="why the decision is flagged: breach (past the limit), or past the band's "
-        "guarding edge (above_band for a maximum, below_band for a minimum); the band grew",
+        description="why the decision is flagged: breach (measured past the limit by more than "
+        "3σ of its noise, σ = u/2), or past the band's guarding edge (above_band for a maximum, "
+        "below_band for a minimum); the band grew",
     )
     note: Note | None = Field(
         None,
-        description="information only, never a flag: past the band's other edge (below_band "
-        "for a maximum: the model is pessimistic there)",
+        description="information only, never an alarm: past the band's other edge (below_band "
+        "for a maximum: the model is pessimistic there), or past_limit (measured past the limit "
+        "by more than u, within 3σ: out of tolerance by ISO 14253-1, no process alarm)",
     )
     reason: str
 
