@@ -9,7 +9,11 @@ measured quantity at the pass that made it; the passes survive the database.
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import subprocess
+import sys
 import tomllib
 from dataclasses import replace
 from pathlib import Path
@@ -20,6 +24,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from sqlalchemy.orm import Session
 
+from api.cli.tables import fmt
 from api.rest.schemas.plans import PlanIn
 from api.rest.schemas.setpoints import OperationSetpoint
 from api.services import queries
@@ -439,3 +444,20 @@ def test_extras_round_trip_keeps_every_pass():
         assert a.result.setpoint == b.result.setpoint
         assert a.result.predicted == b.result.predicted
         assert (a.result.time_min, a.result.binding) == (b.result.time_min, b.result.binding)
+
+
+def test_rcb_optimize_prints_the_passes_and_gives_them_in_json():
+    rcb = Path(sys.executable).parent / "rcb"
+    env = {**os.environ, "COLUMNS": "80"}
+    run = [str(rcb), "optimize", str(TURNING)]
+    shown = subprocess.run(run, capture_output=True, text=True, env=env, timeout=120)
+    given_ = subprocess.run([*run, "--json"], capture_output=True, text=True, timeout=120)
+    assert shown.returncode == 0 and given_.returncode == 0, shown.stderr + given_.stderr
+    od = json.loads(given_.stdout)["operations"][0]
+    assert od["passes"]["count"] == 3 and od["passes"]["stock_mm"] == 5.0
+    rough, finish = od["passes"]["groups"]
+    assert (rough["kind"], rough["count"], finish["kind"]) == ("roughing", 2, "finishing")
+    assert "od-passes: 3 passes cut stock_mm = 5" in shown.stdout
+    for group in (rough, finish):  # each pass's setpoint and time appear in the table
+        for value in (*group["setpoint"].values(), group["time_min"], group["mrr_cm3_min"]):
+            assert fmt(value) in shown.stdout
