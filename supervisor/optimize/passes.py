@@ -126,7 +126,8 @@ def optimize_passes(
             held = (*err.against, f"the finishing pass at {depth} = {spec.finish.depth_mm:g}")
             raise InfeasibleError(operation.name, err.conflicts, held) from None
         time = group_time_min(operation, 1, spec.finish.depth_mm, last.mrr_cm3_min)
-        last = replace(last, time_min=time, binding=tuple(b for b in last.binding if b != depth))
+        binding = tuple(b for b in last.binding if b != depth)  # the depth is the plan's
+        last = replace(last, time_min=time, binding=binding, fallback=None)
         groups.append(PassGroup("finishing", 1, spec.finish.depth_mm, last))
     count, rough = best_roughing(operation, tool, machine, solve_one, cones)
     d = spec.roughing_stock_mm / count
@@ -136,6 +137,7 @@ def optimize_passes(
         rough,
         binding=tuple(b for b in rough.binding if b != depth or at_bound),
         time_min=group_time_min(operation, count, d, rough.mrr_cm3_min),
+        fallback=None,
     )
     groups.insert(0, PassGroup("roughing", count, d, rough))
     total = sum(g.result.time_min for g in groups)
@@ -143,7 +145,6 @@ def optimize_passes(
         rough,
         mrr_cm3_min=operation.volume_mm3 / (1000.0 * total),
         time_min=total,
-        fallback=None,
         passes=Passes(spec.stock_mm, count + len(groups) - 1, tuple(groups)),
     )
 
