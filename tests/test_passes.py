@@ -288,8 +288,15 @@ def test_bad_passes_are_refused_naming_the_field(changes, field, words):
 def test_passes_minimise_time_so_the_productivity_objective_is_refused():
     table = {"stock_mm": 2.0, "objective": "productivity"}
     with pytest.raises(InputError) as err:
-        pass_spec(table, "operations[0]", "milling", {}, lambda d, p: {})
+        pass_spec(table, "operations[0]", "milling", {}, lambda d, p: {}, ())
     assert err.value.field == "operations[0].stock_mm" and "objective" in str(err.value)
+
+
+def test_a_finish_limit_on_power_needs_the_force_model():
+    table = {"stock_mm": 2.0, "finish": {"axial_depth_mm": 0.5, "limits": {"power_kW": 1}}}
+    with pytest.raises(InputError) as err:
+        pass_spec(table, "operations[0]", "milling", {}, lambda d, p: dict(d), ("roughness_um",))
+    assert err.value.field == "operations[0].finish.limits.power_kW"
 
 
 def test_finish_without_stock_is_refused_and_depth_bound_is_optional():

@@ -21,11 +21,11 @@ operation's bounds; with it, some whole number of passes must fit in it.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from models import fields
+from models import fields, quantities
 from models.errors import InputError
 from models.kinematics import Process
 
@@ -72,11 +72,12 @@ def pass_spec(
     process: Process,
     limits: Mapping[str, float],
     check_limits: Callable[[object, str], dict[str, float]],
+    models: Collection[str],
 ) -> PassSpec | None:
     """``stock_mm`` and ``finish`` of an operation's table (None: neither given).
 
     ``limits`` are the operation's (checked); ``check_limits(data, path)`` checks a limits
-    table as the plan reader does.
+    table as the plan reader does; ``models``: the quantities the tool has models of.
     """
     if "stock_mm" not in table:
         if "finish" in table:
@@ -101,6 +102,10 @@ def pass_spec(
             f"{where}.{depth}", finish_depth, f"must be less than stock_mm = {stock:g}"
         )
     own = check_limits(data.get("limits", {}), f"{where}.limits")
+    for key, value in own.items():  # power, torque ... scale a model the tool must have
+        base = quantities.limited_by(key).based_on
+        if base is not None and base not in models:
+            raise InputError(f"{where}.limits.{key}", value, f"the tool has no {base} model")
     return PassSpec(stock, FinishPass(finish_depth, {**limits, **own}))
 
 

@@ -249,7 +249,7 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         PARAMETERS[process],
         minimum=0.0,
     )
-    passes = pass_spec(table, path, process, limits, lambda d, p: _limits(d, p, tool))
+    passes = pass_spec(table, path, process, limits, lambda d, p: _limits(d, p, tool), tool.models)
     bounds = with_depth_bound(table.get("bounds"), f"{path}.bounds", process, passes)
     return Operation(
         name=name,
