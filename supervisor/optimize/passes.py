@@ -61,6 +61,9 @@ TIE_RTOL = 1e-9
 #: The lower bound of a count's time must pass the best time by this much to stop the
 #: search (``R_max`` is an LP optimum, exact to the solver's tolerance).
 PRUNE_RTOL = 1e-6
+#: The depths the range LPs give are widened by this fraction before they are turned into
+#: counts of passes (HiGHS's feasibility tolerance is about 1e-7 in ``ln``).
+RANGE_RTOL = 1e-6
 #: Quantities a part report measures on the finished surface: the finishing pass's.
 FINISH_QUANTITIES = ("roughness_um",)
 
@@ -226,12 +229,25 @@ def search_range(
     ln_r = max(float(np.dot(rest, p[2])) for p in points)
     mrr = kinematics.mrr_monomial(operation.process).fix(operation.context)
     r_max = mrr.coefficient * math.exp(ln_r)
-    first = max(1, math.ceil(stock / d_hi * (1 - DEPTH_RTOL)))
-    last = min(MAX_PASSES, math.floor(stock / d_lo * (1 + DEPTH_RTOL)))
+    # widened by the LPs' tolerance (a count at the edge is solved: its own LP decides),
+    # never beyond the depth bounds
+    low, high = operation.bounds[depth]
+    first = max(1, math.ceil(stock / d_hi * (1 - RANGE_RTOL)), _fewest(stock, high))
+    last = min(MAX_PASSES, math.floor(stock / d_lo * (1 + RANGE_RTOL)), _most(stock, low))
     if first > last:
         held = f"stock_mm = {spec.stock_mm:g}: depths of {d_lo:.4g}-{d_hi:.4g} mm meet the limits"
         raise InfeasibleError(operation.name, (), (f"{held}, no whole count of passes cuts it",))
     return first, last, r_max
+
+
+def _fewest(stock: float, high: float) -> int:
+    """The fewest passes of at most ``high`` deep (to :data:`DEPTH_RTOL`)."""
+    return math.ceil(stock / high * (1 - DEPTH_RTOL))
+
+
+def _most(stock: float, low: float) -> int:
+    """The most passes of at least ``low`` deep (to :data:`DEPTH_RTOL`)."""
+    return math.floor(stock / low * (1 + DEPTH_RTOL))
 
 
 def _maximize(lp: LogLinearProgram, band: bool) -> np.ndarray | None:
