@@ -78,6 +78,8 @@ TABLE_COMMANDS = {
     "optimize": ["optimize", str(EXAMPLES / "ivester_demo_part.toml")],
     "optimize-milling": ["optimize", str(EXAMPLES / "milling_demo_part.toml")],
     "optimize-constant-load": ["optimize", str(EXAMPLES / "tai_constant_load_part.toml")],
+    "optimize-passes": ["optimize", str(EXAMPLES / "turning_passes_part.toml")],
+    "optimize-milling-passes": ["optimize", str(EXAMPLES / "milling_passes_part.toml")],
     "predict": ["predict", "--tool", "CNMG432RN", "--depth-mm", "3", "--feed-mm-rev", "0.32"]
     + ["--speed-m-min", "200", "--diameter-mm", "60"],
     "domain": ["milling", "domain", str(EXAMPLES / "borangiu_domain.toml")],

@@ -46,7 +46,9 @@ def test_one_copy_of_each_example_is_packaged():
         "borangiu_domain",
         "ivester_demo_part",
         "milling_demo_part",
+        "milling_passes_part",
         "tai_constant_load_part",
+        "turning_passes_part",
     ]
     assert sorted(p.stem for p in PACKAGED.glob("*.toml")) == NAMES
     for name in NAMES:  # the packaged file is the repository's, not a second copy

@@ -77,6 +77,14 @@ _SUMMARIES = {
         "Borangiu's (feed rate, spindle speed) domain of one pass",
         "rcb milling domain FILE",
     ),
+    "turning_passes_part": (
+        "stock in whole passes: an OD with a finishing pass, a face",
+        "rcb optimize FILE",
+    ),
+    "milling_passes_part": (
+        "the milling demo's 6 mm slot in whole axial passes",
+        "rcb demo --plan FILE",
+    ),
 }
 
 

@@ -11,6 +11,7 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.table import Table
 
 from api.cli import tables
 from api.cli.common import JsonOption, emit, errors
@@ -23,6 +24,7 @@ from models.tool import Tool, predict_all
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import DEFAULT_FLANK_WEAR_MM, load_plan
 from supervisor.optimize.optimizer import optimize_plan
+from supervisor.optimize.result import OperationResult
 
 _out = Console()
 
@@ -178,6 +180,41 @@ def optimize(
         table = tables.predictions_table(f"{op.name} ({op.tool})", op.predicted)
         table.caption = tables.setpoint_caption(op)
         _out.print(table)
+        if op.passes is not None:
+            _out.print(passes_table(op))
+
+
+def passes_table(op: OperationResult) -> Table:
+    """The passes of an operation cut in whole passes: one row per kind, at its setpoint.
+
+    The operation's table above shows the roughing setpoint; the finishing pass's
+    predictions are in ``--json`` (``passes.groups``).
+    """
+    assert op.passes is not None
+    p = op.passes
+    table = tables.new_table(
+        title=f"{op.name}: {p.count} pass{'es' if p.count > 1 else ''} cut "
+        f"stock_mm = {tables.fmt(p.stock_mm)}"
+    )
+    params = [q for q in tables.PARAMETER_HEADINGS if q in op.setpoint]
+    table.add_column("passes", overflow="fold")
+    table.add_column("n", justify="right")
+    for q in params:
+        table.add_column(tables.PARAMETER_HEADINGS[q], justify="right")
+    table.add_column("MRR\ncm³/min", justify="right")
+    table.add_column("time\nmin", justify="right")
+    table.add_column("binding")
+    for g in p.groups:
+        r = g.result
+        table.add_row(
+            g.kind,
+            str(g.count),
+            *(tables.fmt(r.setpoint[q]) for q in params),
+            tables.fmt(r.mrr_cm3_min),
+            tables.fmt(r.time_min),
+            "\n".join(r.binding),
+        )
+    return table
 
 
 #: The ``type`` of the REST service's infeasible problem (:mod:`api.rest.problems`).

@@ -30,6 +30,7 @@ from supervisor.borangiu.domain import Domain, domain_from_mapping
 from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
 from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml
+from supervisor.inputs.passes import PassSpec, pass_spec, with_depth_bound
 from supervisor.optimize.program import OBJECTIVES, Objective
 
 #: Flank-wear criterion when an operation gives none: VB = 0.3 mm (ISO 3685:1993, 7.2).
@@ -54,6 +55,8 @@ _OPERATION_KEYS = (
     "productivity",
     "domain",
     "constant_load",
+    "stock_mm",
+    "finish",
 )
 
 
@@ -123,6 +126,8 @@ class Operation:
     constant_load : ConstantLoadConfig, optional
         Constant-load control of the spindle current (Tai et al., milling): its setpoints carry
         the reference current and feed limits (:mod:`supervisor.constant_load.setpoint`).
+    passes : PassSpec, optional
+        ``stock_mm`` cut in whole passes, maybe with a finish (:mod:`supervisor.inputs.passes`).
     """
 
     name: str
@@ -139,6 +144,7 @@ class Operation:
     productivity: CostData | None = None
     domain: Domain | None = None
     constant_load: ConstantLoadConfig | None = None
+    passes: PassSpec | None = None
 
 
 @dataclass(frozen=True)
@@ -243,13 +249,15 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         PARAMETERS[process],
         minimum=0.0,
     )
+    passes = pass_spec(table, path, process, limits, lambda d, p: _limits(d, p, tool), tool.models)
+    bounds = with_depth_bound(table.get("bounds"), f"{path}.bounds", process, passes)
     return Operation(
         name=name,
         process=process,
         tool=tool.name,
         volume_mm3=volume,
         limits=limits,
-        bounds=_bounds(table.get("bounds"), f"{path}.bounds", process),
+        bounds=_bounds(bounds, f"{path}.bounds", process),
         context=context,
         setpoint_rel_uncertainty=rel,
         description=fields.text(table, "description", path, default=""),
@@ -258,6 +266,7 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         productivity=cost,
         domain=domain,
         constant_load=_constant_load(table, path, process, machine),
+        passes=passes,
     )
 
 

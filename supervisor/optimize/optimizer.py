@@ -33,7 +33,7 @@ from supervisor.constant_load.setpoint import (
 )
 from supervisor.errors import InfeasibleError, PlanError
 from supervisor.inputs.plan import Machine, Operation, Plan
-from supervisor.optimize import socp
+from supervisor.optimize import passes, socp
 from supervisor.optimize.formulation import formulate, formulate_domain
 from supervisor.optimize.program import LogLinearProgram, Row
 from supervisor.optimize.result import OperationResult, PlanResult
@@ -79,6 +79,10 @@ def optimize_operation(
     SolverError
         The solver gave no optimal status, or the optimum fails the re-check.
     """
+    if operation.passes is not None:  # stock_mm in whole passes: a program per count
+        return passes.optimize_passes(
+            operation, tool, machine, lambda op: optimize_operation(op, tool, machine, cones), cones
+        )
     band: OperationResult | None = None
     infeasible: InfeasibleError | None = None
     cached = None if last is None else (last.fallback if last.robust_by == "cone" else last)
@@ -177,7 +181,7 @@ def optimize_plan(
     if not learned:  # the band programs alone: formulate all, then solve (errors name fields)
         lps: dict[int, LogLinearProgram] = {}
         for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
-            if op.name not in kept:
+            if op.name not in kept and op.passes is None:
                 with _fields_of(i):
                     lps[i] = formulate(op, tool, plan.machine)
         xs = {i: optimum(lp) for i, lp in lps.items()}
@@ -187,7 +191,7 @@ def optimize_plan(
             results.append(kept[op.name])
             continue
         with _fields_of(i):
-            if learned:
+            if learned or op.passes is not None:
                 last = earlier_results.get(op.name)
                 results.append(
                     optimize_operation(op, tool, plan.machine, learned.get(op.name), last)

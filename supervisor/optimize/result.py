@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Literal
 
 from models.kinematics import Process
 from models.powerlaw import Prediction
@@ -47,6 +48,10 @@ class OperationResult:
         With ``cone``: the band program's optimum beside it (not compared; a cache).
     tool_models : Tool or None
         The tool a band optimum was solved with (not compared; what the cache is keyed on).
+    passes : Passes or None
+        An operation cut in whole passes (``stock_mm``): their count, depths and setpoints
+        (:mod:`supervisor.optimize.passes`); ``setpoint`` is then the roughing passes' and
+        ``mrr_cm3_min`` the volume over ``time_min``.
     """
 
     name: str
@@ -63,6 +68,32 @@ class OperationResult:
     robust_by: str = "band"
     fallback: OperationResult | None = field(default=None, compare=False, repr=False)
     tool_models: Tool | None = field(default=None, compare=False, repr=False)
+    passes: Passes | None = None
+
+
+@dataclass(frozen=True)
+class PassGroup:
+    """The passes of one kind of a multi-pass operation, all at one setpoint.
+
+    ``kind`` is ``roughing`` (the equal passes) or ``finishing``; ``count`` how many;
+    ``depth_mm`` the depth of each (turning depth, milling axial depth) [mm]; ``result`` the
+    setpoint with its predictions, removal rate and binding constraints, and in
+    ``result.time_min`` the time of all ``count`` passes [min].
+    """
+
+    kind: Literal["roughing", "finishing"]
+    count: int
+    depth_mm: float
+    result: OperationResult
+
+
+@dataclass(frozen=True)
+class Passes:
+    """How an operation's ``stock_mm`` is cut: ``count`` passes, the roughing ones first."""
+
+    stock_mm: float
+    count: int
+    groups: tuple[PassGroup, ...]
 
 
 @dataclass(frozen=True)

@@ -57,6 +57,7 @@ from supervisor.errors import InfeasibleError
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
+from supervisor.optimize.passes import measured_at
 from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.law import apply_law, tool_life_measured
@@ -153,7 +154,9 @@ def update(
     ]
     for name, wear in report.tool_wear.items():
         _check_quantity(tools[name], name, "tool_life_mm3")
-        wear_measured = tool_life_measured(state, operations[name], results[name], wear)
+        wear_measured = tool_life_measured(
+            state, *measured_at(operations[name], results[name], "tool_life_mm3"), wear
+        )
         measured_items.append((name, "tool_life_mm3", wear_measured))
     for name, quantity, _ in measured_items:  # check the whole report before applying any
         _check_quantity(tools[name], name, quantity)
@@ -161,9 +164,8 @@ def update(
     learns = state.settings.rule.learns_model
     for name, quantity, measurement in measured_items:
         key = (name, quantity)
-        decision, model, sigma[key], seen[key] = apply_law(
-            state, operations[name], results[name], quantity, measurement
-        )
+        op, made = measured_at(operations[name], results[name], quantity)  # a pass's setpoint
+        decision, model, sigma[key], seen[key] = apply_law(state, op, made, quantity, measurement)
         if not learns:
             decisions.append(decision)
             tools[name] = _with_model(tools[name], model)
@@ -172,7 +174,6 @@ def update(
         # a part teaches goes to the posterior, and the decision reports the cone
         if decision.action == "expand":
             tools[name] = _with_model(tools[name], model)
-        op = operations[name]
         before = posterior.get(key) or post.prior(
             state.plan.tools[op.tool].models[quantity],
             op,
@@ -182,7 +183,7 @@ def update(
         )
         after = before
         if measurement.value > 0 and measurement.uncertainty > 0:
-            point = {**results[name].setpoint, **op.context}
+            point = {**made.setpoint, **op.context}
             after = post.observe(
                 before,
                 point,
@@ -192,7 +193,7 @@ def update(
                 report.edge_parts.get(name),
             )
         posterior[key] = after
-        decisions.append(_learned_decision(state, op, results[name], decision, before, after))
+        decisions.append(_learned_decision(state, op, made, decision, before, after))
     unchanged = tools == dict(state.tools) and posterior == dict(state.posterior)
     if unchanged or state.halt is not None:
         return replace(state, tools=tools, sigma=sigma, seen=seen, posterior=posterior), tuple(

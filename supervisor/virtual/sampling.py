@@ -92,6 +92,14 @@ def sample_machine(
     for name, value in (("spread", spread), ("exponent_spread", exponent_spread)):
         if not (math.isfinite(value) and value >= 0):
             raise InputError(name, value, "must be a number >= 0")
+    for i, op in enumerate(plan.operations):
+        if op.passes is not None and op.passes.finish is not None:  # one setpoint per operation
+            raise InputError(
+                f"operations[{i}].finish",
+                op.passes.finish.depth_mm,
+                "the virtual machine makes an operation at one setpoint: a finishing pass is "
+                "not simulated (equal passes are; rcb optimize and the REST service take it)",
+            )
     streams = np.random.default_rng(seed).spawn(len(plan.operations))
     processes: dict[str, TrueProcess] = {}
     for op, rng in zip(plan.operations, streams, strict=True):

@@ -158,6 +158,17 @@ class OperationIn(BaseModel):
         "tai_current_feed calibration of the machine), max_current_A, safety_factor, "
         "wear_interval_um",
     )
+    stock_mm: Positive | None = Field(
+        None,
+        description="stock to remove in whole passes (turning: radial, milling: axial); the "
+        "optimiser chooses the count and depth of the passes; the depth bound becomes optional",
+    )
+    finish: dict[str, Any] | None = Field(
+        None,
+        max_length=2,
+        description="with stock_mm, a finishing pass: its depth (depth_mm, milling "
+        "axial_depth_mm) and limits added to the operation's for that pass",
+    )
 
 
 class PlanIn(BaseModel):

@@ -22,6 +22,28 @@ class ConstantLoadOut(Out):
     wear_interval_mm: tuple[float, float]
 
 
+class PassGroupOut(Out):
+    """The passes of one kind of an operation cut in whole passes, all at one setpoint."""
+
+    kind: Literal["roughing", "finishing"]
+    count: int = Field(description="passes of this kind")
+    depth_mm: float = Field(description="depth of each (milling: axial depth)")
+    setpoint: dict[str, float]
+    predicted: dict[str, Band]
+    mrr_cm3_min: float
+    time_min: float = Field(description="of all passes of this kind")
+    binding: list[str]
+    robust_by: Literal["band", "cone"] = "band"
+
+
+class PassesOut(Out):
+    """An operation's stock_mm cut in whole passes: roughing first, then the finish if any."""
+
+    stock_mm: float
+    count: int = Field(description="passes in all")
+    groups: list[PassGroupOut]
+
+
 class OperationSetpoint(Out):
     """One operation's setpoint as in ``rcb optimize --json``."""
 
@@ -42,6 +64,11 @@ class OperationSetpoint(Out):
         "band",
         description="what keeps the setpoint safe: the bands, or (strategy learn) the learned "
         "model's cone; with cone, predicted shows the learned value and the cone's half-width",
+    )
+    passes: PassesOut | None = Field(
+        None,
+        description="an operation with stock_mm: the passes, their depths and setpoints; "
+        "setpoint is then the roughing passes', mrr_cm3_min the volume over time_min",
     )
 
 
