@@ -21,7 +21,6 @@ from api.cli.tables import new_table
 from supervisor.borangiu.domain import EQUATIONS
 from supervisor.borangiu.problem import load_domain_problem
 from supervisor.borangiu.result import DomainPoint, DomainResult
-from supervisor.optimize.optimizer import optimize_domain
 
 _out = Console()
 
@@ -34,6 +33,9 @@ def domain(
     as_json: JsonOption = False,
 ) -> None:
     """Borangiu's (w, n) domain of one pass: max MRR (LP) against least cost J (GP)."""
+    # imported here (the solvers): rcb --help and the other commands do not load them
+    from supervisor.optimize.optimizer import optimize_domain
+
     with errors():
         problem = load_domain_problem(domain_file)
         result = optimize_domain(problem)

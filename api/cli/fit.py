@@ -22,14 +22,6 @@ from rich.console import Console
 from rich.table import Table
 
 from api.cli.common import JsonOption, emit, errors, say
-from api.cli.fit_data import (
-    check_column,
-    positive_numbers,
-    read_csv,
-    select_rows,
-    wear_lives,
-    where_filter,
-)
 from api.cli.fit_tool import tool_table, tool_toml, write_tool_file
 from api.cli.tables import new_table
 from models.errors import InputError
@@ -119,6 +111,16 @@ def fit(
 
     Rows in error messages are counted from 1 after the header line (blank lines skipped).
     """
+    # imported here (pandas): rcb --help and the other commands do not load it
+    from api.cli.fit_data import (
+        check_column,
+        positive_numbers,
+        read_csv,
+        select_rows,
+        wear_lives,
+        where_filter,
+    )
+
     with errors():
         checked_process = process_of(process, "--process")
         band_kind = _band(band)
@@ -245,6 +247,8 @@ def _life_options(
 
 def _divided(spec: str, table: Any, name: str, data: Path) -> tuple[str, float]:
     """``--var NAME=COLUMN`` or ``NAME=COLUMN/NUMBER``: the column and what to divide it by."""
+    from api.cli.fit_data import check_column
+
     base, slash, number = spec.rpartition("/")
     if spec in table.columns or not slash or base.strip() not in table.columns:
         check_column(table, spec, f"--var {name}", data)

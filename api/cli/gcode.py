@@ -14,12 +14,11 @@ Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
-from sqlalchemy import Engine
 
 from api.cli.common import (
     DbOption,
@@ -31,7 +30,6 @@ from api.cli.common import (
     write_atomically,
 )
 from api.cli.tables import new_table
-from api.services import queries
 from api.services.errors import NotFoundError
 from api.settings import database_url
 from models.errors import InputError
@@ -43,6 +41,9 @@ from supervisor.gcode import (
     parse_range,
     rewrite_program,
 )
+
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
 
 _out = Console()
 
@@ -129,6 +130,8 @@ def _target(out: Path, program: Path) -> Path:
 def _setpoints(
     engine: Engine, plan_id: int, ranges: list[BlockRange], items: list[str]
 ) -> tuple[int, dict[str, OperationSetpoint]]:
+    from api.services import queries  # SQLAlchemy: loaded when the command runs, not for --help
+
     """The setpoint version in force and the setpoints of the mapped operations."""
     try:
         plan = queries.get_plan(engine=engine, plan_id=plan_id)

@@ -10,7 +10,6 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-import pydantic
 import typer
 from typer.core import TyperGroup
 
@@ -58,7 +57,9 @@ class _OneLineErrors(TyperGroup):
             sys.exit(err.exit_code)
         except click_errors.ClickException as err:
             message = " ".join(err.format_message().split())
-            if isinstance(err.__cause__, pydantic.ValidationError):  # typer's own coercion
+            # typer's own coercion (it loads pydantic when it runs: rcb --help does not)
+            pydantic = sys.modules.get("pydantic")
+            if pydantic is not None and isinstance(err.__cause__, pydantic.ValidationError):
                 given = ", ".join(repr(e.get("input")) for e in err.__cause__.errors())
                 message = f"{message} (got {given})"
             typer.echo(f"rcb: error: {message}", err=True)
