@@ -15,9 +15,8 @@ from rich.console import Console
 from api.cli import tables
 from api.cli.common import JsonOption, emit, errors
 from models.errors import InputError, ModelDomainError
-from models.kinematics import CONTEXT, PARAMETERS
+from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS
 from supervisor.errors import InfeasibleError
-from supervisor.inputs.plan import DEFAULT_FLANK_WEAR_MM
 
 if TYPE_CHECKING:
     from models.tool import Tool
