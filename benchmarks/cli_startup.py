@@ -4,20 +4,21 @@ Issue 18 item 8: ``rcb --help`` took about 2 s and 250 MB because every command 
 cvxpy, SciPy, pandas, SQLAlchemy, matplotlib and uvicorn at the top; they are now imported where
 a command runs (README, "Speed"). This script runs, each as a separate process, ``rcb --help``,
 ``rcb demo``, ``rcb optimize examples/ivester_demo_part.toml`` and ``rcb plans --db`` (an empty,
-migrated SQLite database) ``--runs`` times, and prints per command the median wall time and
-the median peak resident memory (``ru_maxrss`` of the child: what ``resource.getrusage
-(RUSAGE_CHILDREN)`` reports, read per child with :func:`os.wait4`; a run that takes over
-``TIMEOUT_S`` is killed and reported as exiting -9).
+migrated SQLite database) ``--runs`` times, and prints per command the median wall time and the
+median peak resident memory (``ru_maxrss`` of the child: what ``resource.getrusage
+(RUSAGE_CHILDREN)`` reports, read per child with :func:`os.wait4`; a run over ``TIMEOUT_S`` is
+killed). Beside them: a two-command Typer app's ``--help``, the floor no ``rcb --help`` can go
+below on the host at that moment (the interpreter, typer and rich).
 
 With ``--reference PATH`` (a checkout of other code, e.g. ``git worktree add /tmp/old c4c9685``
 or ``git archive c4c9685 | tar -x -C /tmp/old``) the same commands run for the reference in the
-same sitting, interleaved (each command runs for both sides in turn, this checkout first
-in even rounds and the reference first in odd ones, so a drift of the host's speed weighs on
-both alike), and the ratio this/reference is
-printed. Each side runs ``python -c "from api.cli.main import app; app()"`` with its checkout
-first on ``PYTHONPATH``, by ``--reference-python`` (default: the reference's ``.venv/bin/python``,
-else this python: the same installed libraries). ``--importtime`` also prints what
-``python -X importtime -c "import api.cli.main"`` says the heavy libraries cost each side.
+same sitting, interleaved (each command runs for both sides in turn, this checkout first in
+even rounds and the reference first in odd ones, so a drift of the host's speed weighs on both
+alike), and the ratio this/reference is printed. Each side runs ``python -c "from api.cli.main
+import app; app()"`` with its checkout first on ``PYTHONPATH``, by ``--reference-python``
+(default: the reference's ``.venv/bin/python``, else this python: the same installed
+libraries). ``--importtime`` also prints what ``python -X importtime -c "import api.cli.main"``
+says the heavy libraries cost each side.
 
     .venv/bin/python benchmarks/cli_startup.py [--runs 5] [--reference ../old] [--importtime]
 """
@@ -41,9 +42,24 @@ ROOT = Path(__file__).resolve().parents[1]
 MAX_RUNS = 50
 #: Longest one command may take [s].
 TIMEOUT_S = 300.0
-#: The libraries ``--importtime`` reports (top-level packages).
-HEAVY = ("cvxpy", "scipy", "pandas", "numpy", "sqlalchemy", "matplotlib", "fastapi", "uvicorn")
+#: The libraries ``--importtime`` reports (SciPy's package alone is cheap: its stats module).
+HEAVY = (
+    "cvxpy",
+    "scipy.stats",
+    "pandas",
+    "numpy",
+    "sqlalchemy",
+    "matplotlib",
+    "fastapi",
+    "uvicorn",
+)
 _RUN_RCB = "import sys; sys.argv[0] = 'rcb'; from api.cli.main import app; app()"
+#: The floor: a two-command Typer app's ``--help`` (the interpreter, typer, rich), run as ``rcb``.
+_RUN_FLOOR = (
+    "import sys, typer; app = typer.Typer(add_completion=False); "
+    "app.command('x')(lambda: None); app.command('y')(lambda: None); app()"
+)
+FLOOR = "(floor: 2-command Typer --help)"
 
 
 @dataclass(frozen=True)
@@ -66,6 +82,7 @@ def commands(side: Side, work: Path) -> dict[str, list[str]]:
     """The measured commands of ``side``: name -> ``rcb`` arguments."""
     db = f"sqlite:///{work / (side.label + '.db')}"
     return {
+        FLOOR: ["--help"],
         "rcb --help": ["--help"],
         "rcb demo": ["demo"],
         "rcb optimize": ["optimize", str(side.root / "examples" / "ivester_demo_part.toml")],
@@ -73,12 +90,15 @@ def commands(side: Side, work: Path) -> dict[str, list[str]]:
     }
 
 
-def run(side: Side, args: list[str], work: Path) -> tuple[float, float]:
-    """Wall time [s] and peak resident memory [MB] of one ``rcb`` process of ``side``."""
+def run(side: Side, args: list[str], work: Path, floor: bool = False) -> tuple[float, float]:
+    """Wall time [s] and peak resident memory [MB] of one ``rcb`` process of ``side``.
+
+    ``floor``: run the two-command Typer app instead (what no ``rcb --help`` can go below).
+    """
     with tempfile.TemporaryFile() as output:
         begin = time.perf_counter()
         child = subprocess.Popen(
-            [str(side.python), "-c", _RUN_RCB, *args],
+            [str(side.python), "-c", _RUN_FLOOR if floor else _RUN_RCB, *args],
             cwd=work,
             env=side.env(),
             stdout=output,
@@ -155,7 +175,8 @@ def main(argv: list[str] | None = None) -> None:
             for name in commands(sides[0], work):
                 for side in sides if n % 2 == 0 else sides[::-1]:
                     rcb_args = commands(side, work)[name]
-                    figures.setdefault((side.label, name), []).append(run(side, rcb_args, work))
+                    figure = run(side, rcb_args, work, floor=name == FLOOR)
+                    figures.setdefault((side.label, name), []).append(figure)
         costs = {s.label: import_costs(s, work) for s in sides} if args.importtime else {}
     _print(sides, figures, args.runs)
     if costs:
@@ -168,7 +189,7 @@ def _print(
     print(f"median of {n} run(s) per command; {sys.version.split()[0]}; {os.cpu_count()} CPUs")
     for side in sides:
         print(f"  {side.label}: {side.root} ({side.python})")
-    head = f"{'command':<26}" + "".join(f"{s.label + ' s':>12}{s.label + ' MB':>13}" for s in sides)
+    head = f"{'command':<32}" + "".join(f"{s.label + ' s':>12}{s.label + ' MB':>13}" for s in sides)
     print(head + ("  ratio s / MB" if len(sides) > 1 else ""))
     names = list(dict.fromkeys(name for _, name in figures))
     for name in names:
@@ -178,7 +199,7 @@ def _print(
             medians.append(
                 (statistics.median(w for w, _ in runs), statistics.median(m for _, m in runs))
             )
-        line = f"{name:<26}" + "".join(f"{w:>12.2f}{m:>13.0f}" for w, m in medians)
+        line = f"{name:<32}" + "".join(f"{w:>12.2f}{m:>13.0f}" for w, m in medians)
         if len(medians) > 1:
             (w0, m0), (w1, m1) = medians
             line += f"  {w0 / w1:.2f} / {m0 / m1:.2f}"
