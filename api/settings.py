@@ -13,7 +13,6 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from db.engine import DEFAULT_URL
 from models.errors import InputError
 
 #: The environment variable naming the database.
@@ -40,6 +39,9 @@ class Settings:
 
 def database_url(given: str | None, environ: Mapping[str, str] | None = None) -> str:
     """``given``, else ``$RCB_DATABASE_URL``, else the embedded default ``./rcb.db``."""
+    # imported here: db.engine loads SQLAlchemy, which rcb --help does not need
+    from db.engine import DEFAULT_URL
+
     env = os.environ if environ is None else environ
     return given or env.get(DATABASE_URL_VAR) or DEFAULT_URL
 

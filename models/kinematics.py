@@ -31,6 +31,8 @@ CONTEXT: dict[Process, tuple[str, ...]] = {
     "turning": ("workpiece_diameter_mm", "flank_wear_mm"),
     "milling": ("tool_diameter_mm", "flute_count", "flank_wear_mm"),
 }
+#: Flank-wear criterion when an operation gives none: VB = 0.3 mm (ISO 3685:1993, 7.2).
+DEFAULT_FLANK_WEAR_MM = 0.3
 
 #: Diameter on which spindle speed and torque depend.
 DIAMETER: dict[Process, str] = {

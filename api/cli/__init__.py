@@ -7,5 +7,7 @@ CSV, and ``fit_tool``, the TOML tool it writes), ``gcode``, ``html_report`` (``r
 ``review`` (``plans``, ``history``, ``parts``, ``export``, ``replan``), ``milling`` and
 ``domain`` (``rcb milling setup|domain``), ``admin`` (``db upgrade``, ``keys``, ``serve``); and
 the rich tables they print: ``tables``, ``demo_view``, ``parts_view`` (``rcb parts`` page by
-page).
+page). A command imports its heavy libraries (solvers, SQLAlchemy, pandas, matplotlib) in its
+body, so ``rcb --help`` loads none of them; ``lazy`` is the group class that imports ``rcb
+milling``'s commands only when that group runs.
 """

@@ -12,18 +12,17 @@ from typing import Annotated
 import typer
 from rich.console import Console
 from rich.text import Text
-from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api.cli.common import DbOption, emit, errors, say, shown
 from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
-from api.rest import serving
-from api.services import retention
+from api.services import sizes
 from api.services.errors import NotFoundError
-from api.services.keys import MAX_PAGE, create_key, list_keys, revoke_key
 from api.settings import auth_failure_burst, database_url
-from db.engine import make_engine, upgrade
 from models.errors import InputError
+
+# Each command imports the database layer (SQLAlchemy, Alembic) and the server (uvicorn) when
+# it runs: rcb --help and the other commands do not load them (README, "Speed").
 
 #: ``rcb db``.
 db_app = typer.Typer(help="The database: migrations, pruning.", no_args_is_help=True)
@@ -31,6 +30,10 @@ _out = Console()
 
 
 def _migrate(url: str) -> None:
+    from sqlalchemy.exc import ArgumentError, OperationalError
+
+    from db.engine import upgrade
+
     try:
         upgrade(url)
     except (ArgumentError, OperationalError) as err:
@@ -54,15 +57,18 @@ def db_upgrade(db: DbOption = None) -> None:
 def db_prune(
     audit_older_than: Annotated[
         str, typer.Option(help="Delete audit entries older than this (e.g. 365d, 24h, 90m).")
-    ] = retention.AUDIT_DEFAULT,
+    ] = sizes.AUDIT_DEFAULT,
     idempotency_older_than: Annotated[
         str, typer.Option(help="Delete idempotency records older than this (at least 24h).")
-    ] = retention.IDEMPOTENCY_DEFAULT,
+    ] = sizes.IDEMPOTENCY_DEFAULT,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     by: ByOption = None,
 ) -> None:
     """Delete old audit entries and idempotency records; prints how many."""
+    from api.services import retention
+    from db.engine import make_engine
+
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
@@ -100,6 +106,9 @@ def keys_create(
     by: ByOption = None,
 ) -> None:
     """Create an API key; it is printed once and stored only as a hash."""
+    from api.services.keys import create_key
+    from db.engine import make_engine
+
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
@@ -117,12 +126,15 @@ def keys_create(
 
 @keys_app.command("list")
 def keys_list(
-    limit: Annotated[int, typer.Option(help=f"Keys per page (1 to {MAX_PAGE}).")] = 50,
+    limit: Annotated[int, typer.Option(help=f"Keys per page (1 to {sizes.KEYS_PAGE}).")] = 50,
     after: Annotated[int, typer.Option(help="Show keys after this id (the next page).")] = 0,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """List API keys: id, role, label, plans, created, last use (never the key or its hash)."""
+    from api.services.keys import list_keys
+    from db.engine import make_engine
+
     url = database_url(db)
     with errors():
         _migrate(url)
@@ -161,6 +173,9 @@ def keys_revoke(
     by: ByOption = None,
 ) -> None:
     """Revoke an API key (kept in the audit log, refused from now on)."""
+    from api.services.keys import revoke_key
+    from db.engine import make_engine
+
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
@@ -183,6 +198,8 @@ def serve(
 
     A port in use exits with code 5 and one line; the workers exit when this process dies.
     """
+    from api.rest import serving
+
     url = database_url(db)
     with errors():
         auth_failure_burst()  # a malformed RCB_AUTH_FAILURE_BURST is refused before serving

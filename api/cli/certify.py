@@ -12,21 +12,20 @@ input, 3 the plan has no robust start, 4 solver failure (:func:`api.cli.common.e
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from api.cli.common import STRATEGY_HELP, JsonOption, emit, err_console, errors
 from api.cli.tables import new_table
-from models import fields
 from models.errors import InputError
-from supervisor.inputs.plan import load_plan
 from supervisor.rcb.strategies import DEFAULT_STRATEGY, STRATEGY_NAMES
-from supervisor.virtual.certificate import CertificateSummary, summarize
-from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, available_cpus, certify_plan
+from supervisor.virtual.sizes import MAX_PARTS, MAX_SCENARIOS
+
+if TYPE_CHECKING:
+    from supervisor.virtual.certificate import CertificateSummary
 
 #: Exit code when the certificate ran and some part crossed a true limit.
 VIOLATIONS_FOUND = 1
@@ -79,6 +78,14 @@ def certify(
     printing everything, JSON included), so a CI job fails on it; 2 bad input,
     3 no robust start, 4 solver failure.
     """
+    # imported here (NumPy, SciPy, the solvers): rcb --help and the other commands do not load them
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from models import fields
+    from supervisor.inputs.plan import load_plan
+    from supervisor.virtual.certificate import summarize
+    from supervisor.virtual.certify import available_cpus, certify_plan
+
     with errors():
         if strategy not in STRATEGY_NAMES:
             known = ", ".join(STRATEGY_NAMES)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
@@ -22,12 +23,8 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 import typer
 from rich.console import Console
-from sqlalchemy import Engine
-from sqlalchemy.engine import make_url
-from sqlalchemy.exc import ArgumentError, OperationalError
 
 from api.services.errors import NotFoundError, PlanHaltedError
-from db.engine import make_engine
 from db.errors import ConflictError
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
@@ -36,6 +33,8 @@ from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 err_console = Console(stderr=True)
 
 if TYPE_CHECKING:
+    from sqlalchemy import Engine
+
     StrategyName = str
 else:  # the choices typer offers and checks, from the registry (never restated)
     StrategyName = Literal[STRATEGY_NAMES]
@@ -77,10 +76,23 @@ def errors() -> Iterator[None]:
     except SolverError as err:
         say(f"rcb: solver: {err}")
         raise typer.Exit(4) from None
-    except (ArgumentError, OperationalError) as err:
+    except Exception as err:
+        if not _database_error(err):
+            raise
         first = str(err).splitlines()[0] if str(err).strip() else err.__class__.__name__
         say(f"rcb: error: --db: cannot use this database ({first}); is it migrated? rcb db upgrade")
         raise typer.Exit(2) from None
+
+
+def _database_error(err: Exception) -> bool:
+    """Whether SQLAlchemy refused the database URL or could not use the database.
+
+    SQLAlchemy is imported by the commands that open a database, only when they run (a
+    command's help or another command does not load it): when it is not loaded, no error of
+    its can have happened.
+    """
+    exc = sys.modules.get("sqlalchemy.exc")
+    return exc is not None and isinstance(err, (exc.ArgumentError, exc.OperationalError))
 
 
 def emit(data: object) -> None:
@@ -96,6 +108,9 @@ def _jsonable(value: object) -> str:
 
 def shown(url: str) -> str:
     """A database URL without its password."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
     try:
         return make_url(url).render_as_string(hide_password=True)
     except ArgumentError:
@@ -104,6 +119,11 @@ def shown(url: str) -> str:
 
 def existing_engine(url: str) -> Engine:
     """An engine for an existing database (a missing SQLite file is refused, not created)."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    from db.engine import make_engine
+
     try:
         parsed = make_url(url)
     except ArgumentError as err:

@@ -10,14 +10,10 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
-from rich.progress import Progress
 
-from api.cli import demo_view, examples
+from api.cli import examples
 from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors
-from supervisor.inputs.plan import load_plan
-from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
-from supervisor.virtual.demo import MILLING_DEMO_UNCERTAINTY, run_demo
 
 _out = Console()
 
@@ -57,6 +53,14 @@ def demo(
     With --milling: a slot and a side-finish pass on a virtual mill whose force is measured by
     the spindle current (Kim & Jeon). Writes nothing: the parts are simulated in memory.
     """
+    # imported here (NumPy, SciPy, the solvers): rcb --help and the other commands do not load them
+    from rich.progress import Progress
+
+    from api.cli import demo_view
+    from supervisor.inputs.plan import load_plan
+    from supervisor.rcb.state import RcbSettings
+    from supervisor.virtual.demo import MILLING_DEMO_UNCERTAINTY, run_demo
+
     with errors():
         settings = RcbSettings(strategy=strategy, alpha=alpha)
         if plan_file is None:

@@ -10,7 +10,7 @@ prints both with the constraints they lie on, Eq. 10's stationary point, and how
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
@@ -18,10 +18,9 @@ from rich.table import Table
 
 from api.cli.common import JsonOption, emit, errors
 from api.cli.tables import new_table
-from supervisor.borangiu.domain import EQUATIONS
-from supervisor.borangiu.problem import load_domain_problem
-from supervisor.borangiu.result import DomainPoint, DomainResult
-from supervisor.optimize.optimizer import optimize_domain
+
+if TYPE_CHECKING:
+    from supervisor.borangiu.result import DomainPoint, DomainResult
 
 _out = Console()
 
@@ -34,6 +33,10 @@ def domain(
     as_json: JsonOption = False,
 ) -> None:
     """Borangiu's (w, n) domain of one pass: max MRR (LP) against least cost J (GP)."""
+    # imported here (NumPy, the solvers): rcb --help and the other commands do not load them
+    from supervisor.borangiu.problem import load_domain_problem
+    from supervisor.optimize.optimizer import optimize_domain
+
     with errors():
         problem = load_domain_problem(domain_file)
         result = optimize_domain(problem)
@@ -82,6 +85,8 @@ def result_json(result: DomainResult) -> dict[str, Any]:
 
 
 def _label(name: str) -> str:
+    from supervisor.borangiu.domain import EQUATIONS
+
     return f"{name.removeprefix('domain.')} ({EQUATIONS.get(name, '')})"
 
 

@@ -15,28 +15,20 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
 from api.cli.common import JsonOption, emit, errors, say
-from api.cli.fit_data import (
-    check_column,
-    positive_numbers,
-    read_csv,
-    select_rows,
-    wear_lives,
-    where_filter,
-)
-from api.cli.fit_tool import tool_table, tool_toml, write_tool_file
 from api.cli.tables import new_table
 from models.errors import InputError
-from models.fit import FitResult, fit_power_law
-from models.fit_band import BANDS, Band
 from models.quantities import MODEL_QUANTITIES
-from models.tool import process_of, variables
+
+if TYPE_CHECKING:
+    from models.fit import FitResult
+    from models.fit_band import Band
 
 _out = Console()
 
@@ -119,6 +111,19 @@ def fit(
 
     Rows in error messages are counted from 1 after the header line (blank lines skipped).
     """
+    # imported here (pandas, NumPy): rcb --help and the other commands do not load them
+    from api.cli.fit_data import (
+        check_column,
+        positive_numbers,
+        read_csv,
+        select_rows,
+        wear_lives,
+        where_filter,
+    )
+    from api.cli.fit_tool import tool_table, tool_toml, write_tool_file
+    from models.fit import fit_power_law
+    from models.tool import process_of, variables
+
     with errors():
         checked_process = process_of(process, "--process")
         band_kind = _band(band)
@@ -245,6 +250,8 @@ def _life_options(
 
 def _divided(spec: str, table: Any, name: str, data: Path) -> tuple[str, float]:
     """``--var NAME=COLUMN`` or ``NAME=COLUMN/NUMBER``: the column and what to divide it by."""
+    from api.cli.fit_data import check_column
+
     base, slash, number = spec.rpartition("/")
     if spec in table.columns or not slash or base.strip() not in table.columns:
         check_column(table, spec, f"--var {name}", data)
@@ -263,6 +270,8 @@ def _count(n: int, noun: str) -> str:
 
 
 def _band(text: str) -> Band:
+    from models.fit_band import BANDS
+
     for band in BANDS:
         if text == band:
             return band

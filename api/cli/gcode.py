@@ -14,12 +14,11 @@ Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
-from sqlalchemy import Engine
 
 from api.cli.common import (
     DbOption,
@@ -31,18 +30,14 @@ from api.cli.common import (
     write_atomically,
 )
 from api.cli.tables import new_table
-from api.services import queries
 from api.services.errors import NotFoundError
 from api.settings import database_url
 from models.errors import InputError
-from supervisor.gcode import (
-    BlockRange,
-    GcodeError,
-    OperationSetpoint,
-    RewriteResult,
-    parse_range,
-    rewrite_program,
-)
+
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
+
+    from supervisor.gcode import BlockRange, OperationSetpoint, RewriteResult
 
 _out = Console()
 
@@ -75,6 +70,8 @@ def gcode(
     under G97) at the operation's workpiece diameter; every other byte is kept. A program
     whose modes cannot be determined is refused and nothing is written.
     """
+    from supervisor.gcode import GcodeError, rewrite_program  # when it runs, not for --help
+
     with errors():
         ranges = [_range(item) for item in mapping]
         source = _read_program(program)
@@ -99,6 +96,8 @@ def gcode(
 
 
 def _range(item: str) -> BlockRange:
+    from supervisor.gcode import GcodeError, parse_range
+
     try:
         return parse_range(item)
     except GcodeError as err:
@@ -130,6 +129,9 @@ def _setpoints(
     engine: Engine, plan_id: int, ranges: list[BlockRange], items: list[str]
 ) -> tuple[int, dict[str, OperationSetpoint]]:
     """The setpoint version in force and the setpoints of the mapped operations."""
+    from api.services import queries  # SQLAlchemy: loaded when the command runs, not for --help
+    from supervisor.gcode import OperationSetpoint
+
     try:
         plan = queries.get_plan(engine=engine, plan_id=plan_id)
         current = queries.current_setpoints(engine=engine, plan_id=plan_id)

@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from sqlalchemy.exc import DBAPIError
 
 from api.cli.common import (
     DbOption,
@@ -31,7 +30,7 @@ from api.cli.common import (
     shown,
     write_atomically,
 )
-from api.services import record
+from api.services import sizes
 from api.services.errors import NotFoundError
 from api.settings import database_url
 from models.errors import InputError
@@ -54,17 +53,23 @@ def html_report(
         typer.Option(
             "--last",
             min=1,
-            max=record.MAX_LAST,
+            max=sizes.REPORT_MAX_LAST,
             metavar="N",
-            help=f"Plot and list the last N parts (1..{record.MAX_LAST}); totals count all.",
+            help=f"Plot and list the last N parts (1..{sizes.REPORT_MAX_LAST}); totals count all.",
         ),
-    ] = record.DEFAULT_LAST,
+    ] = sizes.REPORT_DEFAULT_LAST,
 ) -> None:
     """Write a plan's record as one self-contained HTML page to mail (tables and plots).
 
     About 260 kB for the six operations of the demonstration part with no part, 380 kB with
     the default 100 parts plotted, whatever the plan's age (README, "rcb report").
     """
+    # imported here (SQLAlchemy; matplotlib below): rcb --help and the other commands do not
+    # load them
+    from sqlalchemy.exc import DBAPIError
+
+    from api.services import record
+
     with errors():
         check_target(out)
         url = database_url(db)

@@ -10,7 +10,6 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-import pydantic
 import typer
 from typer.core import TyperGroup
 
@@ -28,7 +27,7 @@ from api.cli.examples import examples_app
 from api.cli.fit import fit
 from api.cli.gcode import gcode
 from api.cli.html_report import html_report
-from api.cli.milling import milling_app
+from api.cli.lazy import lazy_group
 from api.cli.optimize import optimize, predict
 
 
@@ -58,7 +57,9 @@ class _OneLineErrors(TyperGroup):
             sys.exit(err.exit_code)
         except click_errors.ClickException as err:
             message = " ".join(err.format_message().split())
-            if isinstance(err.__cause__, pydantic.ValidationError):  # typer's own coercion
+            # typer's own coercion (it loads pydantic when it runs: rcb --help does not)
+            pydantic = sys.modules.get("pydantic")
+            if pydantic is not None and isinstance(err.__cause__, pydantic.ValidationError):
                 given = ", ".join(repr(e.get("input")) for e in err.__cause__.errors())
                 message = f"{message} (got {given})"
             typer.echo(f"rcb: error: {message}", err=True)
@@ -96,6 +97,20 @@ for _review in (
     app.command()(_review)  # api/cli/review.py, api/cli/replan.py
 app.add_typer(db_app, name="db")  # rcb db upgrade: api/cli/admin.py
 app.add_typer(keys_app, name="keys")  # rcb keys create|revoke: api/cli/admin.py
-app.add_typer(milling_app, name="milling")  # rcb milling setup|domain: api/cli/milling.py
+#: ``rcb milling``: its commands' modules load NumPy for their options' defaults and choices, so
+#: they are imported only when ``rcb milling ...`` runs (api/cli/lazy.py).
+milling_app = typer.Typer(
+    cls=lazy_group(
+        {
+            "domain": "api.cli.domain:domain",
+            "control": "api.cli.milling_control:control",
+            "setup": "api.cli.milling:setup",
+        }
+    ),
+    help="Milling: constant-load setup (Tai et al.), the (feed, speed) domain (Borangiu et al.), "
+    "inner feed-control loops on a paper's case.",
+    no_args_is_help=True,
+)
+app.add_typer(milling_app, name="milling")  # rcb milling domain|control|setup
 app.add_typer(examples_app, name="examples")  # rcb examples [copy]: api/cli/examples.py
 app.command()(serve)  # rcb serve: api/cli/admin.py

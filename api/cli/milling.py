@@ -31,8 +31,6 @@ from rich.console import Console
 from rich.table import Table
 
 from api.cli.common import emit, errors, number_cell
-from api.cli.domain import domain
-from api.cli.milling_control import control
 from api.cli.tables import new_table
 from models.errors import InputError
 from models.sensors import calibration_to_mapping, linear_current_calibration_from_mapping
@@ -44,11 +42,6 @@ from supervisor.constant_load import (
     constant_load_setup,
 )
 
-milling_app = typer.Typer(
-    help="Milling: constant-load setup (Tai et al.), the (feed, speed) domain (Borangiu et al.), "
-    "inner feed-control loops on a paper's case.",
-    no_args_is_help=True,
-)
 _out = Console()
 
 FEED, CURRENT = "feed_rate_mm_min", "spindle_current_A"
@@ -57,11 +50,6 @@ WEAR_COLUMNS = {"flank_wear_um": 1e-3, "flank_wear_mm": 1.0}
 _FILE = "TESTS.csv"
 
 
-milling_app.command("domain")(domain)  # rcb milling domain: api/cli/domain.py
-milling_app.command("control")(control)  # rcb milling control: api/cli/milling_control.py
-
-
-@milling_app.command("setup")
 def setup(
     tests: Annotated[
         Path,

@@ -16,18 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
-import matplotlib
+import typer
+from rich.console import Console
+from rich.table import Table
 
-matplotlib.use("Agg")
-
-import typer  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from rich.console import Console  # noqa: E402
-from rich.table import Table  # noqa: E402
-
-from api.cli.common import check_target, emit, errors, write_atomically  # noqa: E402
-from models.errors import InputError  # noqa: E402
-from supervisor.virtual.mill import CONTROLLERS, MillRun, run_case1  # noqa: E402
+from api.cli.common import check_target, emit, errors, write_atomically
+from models.errors import InputError
+from supervisor.virtual.mill import CONTROLLERS, MillRun, run_case1
 
 _out = Console()
 #: Plot formats by suffix.
@@ -149,6 +144,12 @@ def _table(document: dict[str, Any], paper: PaperCase) -> Table:
 
 def figure_bytes(run: MillRun, controller: str, paper: PaperCase, path: Path) -> bytes:
     """Force (with the reference) and feed (with the depth) against time, as SVG or PNG."""
+    # imported here: matplotlib takes about 0.3 s to import, and only --plot needs it
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
     figure = Figure(figsize=(8.0, 5.0), layout="constrained")
     force, feed = figure.subplots(2, 1, sharex=True)
     force.plot(run.time_s, run.force_N, linewidth=0.8, label="force")

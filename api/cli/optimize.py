@@ -7,7 +7,7 @@ Both read files only (the catalogue, a plan file) and write nothing; errors foll
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
@@ -15,21 +15,20 @@ from rich.table import Table
 
 from api.cli import tables
 from api.cli.common import JsonOption, emit, errors
-from api.services import to_json
-from models import fields
-from models.catalogue import get_tool
 from models.errors import InputError, ModelDomainError
-from models.kinematics import CONTEXT, PARAMETERS
-from models.tool import Tool, predict_all
+from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS
 from supervisor.errors import InfeasibleError
-from supervisor.inputs.plan import DEFAULT_FLANK_WEAR_MM, load_plan
-from supervisor.optimize.optimizer import optimize_plan
-from supervisor.optimize.result import OperationResult
+
+if TYPE_CHECKING:
+    from models.tool import Tool
+    from supervisor.optimize.result import OperationResult
 
 _out = Console()
 
 
 def _pairs(items: list[str], option: str) -> dict[str, float]:
+    from models import fields
+
     result: dict[str, float] = {}
     for item in items:
         name, sep, value = item.partition("=")
@@ -87,6 +86,11 @@ def predict(
     as_json: JsonOption = False,
 ) -> None:
     """Predict every model of a tool, with its band, at one set of cutting parameters."""
+    # imported here, as in every command: rcb --help and the other commands do not load them
+    from api.services import to_json
+    from models import fields
+    from models.tool import predict_all
+
     given = {
         "depth_mm": depth_mm,
         "feed_mm_rev": feed_mm_rev,
@@ -149,6 +153,9 @@ _OPTIONS = {
 
 
 def _tool(name: str, plan: Path | None) -> Tool:
+    from models.catalogue import get_tool
+    from supervisor.inputs.plan import load_plan
+
     if plan is None:
         return get_tool(name, "--tool")
     tools = load_plan(plan).tools
@@ -165,6 +172,11 @@ def optimize(
 
     Infeasible (exit 3): with --json a problem document on stdout as well, as the REST answers.
     """
+    # imported here (the solvers): rcb --help and the other commands do not load them
+    from api.services import to_json
+    from supervisor.inputs.plan import load_plan
+    from supervisor.optimize.optimizer import optimize_plan
+
     with errors():
         try:
             result = optimize_plan(load_plan(plan_file))

@@ -11,22 +11,25 @@ import sys
 from collections.abc import Iterable
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-import pandas as pd
 import typer
 from rich.console import Console
 from rich.table import Table
-from sqlalchemy import Engine
 
 from api.cli import parts_view
 from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
 from api.cli.tables import new_table, short_number
-from api.report import export as tidy
 from api.report import marks
-from api.services import queries
-from api.settings import database_url
+from api.services import sizes
 from models.errors import InputError
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from sqlalchemy import Engine
+
+# Each command imports the queries (SQLAlchemy) and pandas when it runs: rcb --help and the
+# other commands do not load them (README, "Speed").
 
 _out = Console()
 
@@ -36,12 +39,14 @@ PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb
 
 
 def _engine(db: str | None) -> Engine:
+    from api.settings import database_url
+
     return existing_engine(database_url(db))
 
 
 def plans(
     limit: Annotated[
-        int | None, typer.Option(help=f"Plans on the page (1-{queries.MAX_PAGE}, default 100).")
+        int | None, typer.Option(help=f"Plans on the page (1-{sizes.READ_PAGE}, default 100).")
     ] = None,
     cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
     db: DbOption = None,
@@ -52,6 +57,8 @@ def plans(
     A page, and how to get the next; ``--json`` without ``--limit`` streams every plan, one
     per line, a page at a time.
     """
+    from api.services import queries
+
     with errors():
         engine = _engine(db)
         size = _bounded("--limit", queries.LIST_PAGE if limit is None else limit)
@@ -108,12 +115,14 @@ def history(
         str | None, typer.Option(help="One operation in detail: setpoints, predictions, bands.")
     ] = None,
     last: Annotated[
-        int, typer.Option(help=f"The newest N setpoint versions (1-{queries.MAX_PAGE}).")
+        int, typer.Option(help=f"The newest N setpoint versions (1-{sizes.READ_PAGE}).")
     ] = 50,
     db: DbOption = None,
     as_json: _JsonOption = False,
 ) -> None:
     """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
+    from api.services import queries
+
     with errors():
         engine = _engine(db)
         data = queries.plan_history(
@@ -140,8 +149,8 @@ def history(
 
 def _bounded(option: str, count: int) -> int:
     """``count`` if it is a page size the queries take; else an error naming ``option``."""
-    if not 1 <= count <= queries.MAX_PAGE:
-        raise InputError(option, count, f"must be between 1 and {queries.MAX_PAGE}")
+    if not 1 <= count <= sizes.READ_PAGE:
+        raise InputError(option, count, f"must be between 1 and {sizes.READ_PAGE}")
     return count
 
 
@@ -225,6 +234,8 @@ def _marked(d: dict[str, Any]) -> str:
 
 
 def _all_parts(engine: Engine, plan_id: int) -> list[dict[str, Any]]:
+    from api.services import queries
+
     return queries.all_parts(engine=engine, plan_id=plan_id)
 
 
@@ -234,7 +245,7 @@ def parts(
         str | None, typer.Option(help="Only parts received at or after this ISO 8601 time (UTC).")
     ] = None,
     last: Annotated[
-        int | None, typer.Option(help=f"Only the newest N parts (1-{queries.MAX_PAGE}).")
+        int | None, typer.Option(help=f"Only the newest N parts (1-{sizes.READ_PAGE}).")
     ] = None,
     db: DbOption = None,
     as_json: _JsonOption = False,
@@ -243,6 +254,8 @@ def parts(
 
     Reads and prints a page at a time: ``--json`` streams, memory does not grow with the plan.
     """
+    from api.services import queries
+
     with errors():
         after = _since(since)
         engine = _engine(db)
@@ -283,6 +296,9 @@ def export(
     db: DbOption = None,
 ) -> None:
     """Parts, measurements, decisions and setpoint history as tidy tables (one row each)."""
+    from api.report import export as tidy
+    from api.services import queries
+
     with errors():
         if fmt not in ("csv", "parquet"):
             raise InputError("--format", fmt, "expected csv or parquet")

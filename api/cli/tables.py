@@ -8,7 +8,7 @@ column is folded onto the next line, never cut with an ellipsis, so no number is
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich import box
 from rich.console import Console, ConsoleOptions, RenderResult
@@ -17,7 +17,9 @@ from rich.table import Table
 
 from models.powerlaw import Prediction
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
-from supervisor.optimize.result import OperationResult, PlanResult
+
+if TYPE_CHECKING:  # only in signatures: the tables load no NumPy (rcb --help imports them)
+    from supervisor.optimize.result import OperationResult, PlanResult
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
 

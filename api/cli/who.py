@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import getpass
 import os
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from db.access import CLI_ACTOR, Actor
 from models.errors import InputError
+
+if TYPE_CHECKING:
+    from db.access import Actor
 
 #: Longest ``--by`` (the audit log's actor column holds 200 characters).
 MAX_NAME = 100
@@ -56,6 +58,8 @@ def cli_actor(by: str | None) -> Actor:
     Raises InputError naming ``--by`` for an empty name, one over :data:`MAX_NAME`
     characters, or one with a control or invisible formatting character.
     """
+    from db.access import CLI_ACTOR, Actor  # SQLAlchemy: only a command that writes loads it
+
     name = os_user() if by is None else by.strip()
     if not name:
         raise InputError("--by", by, "a name is needed (who does this)")

@@ -8,6 +8,7 @@ from datetime import UTC, datetime
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
+from api.services import sizes
 from api.services.errors import NotFoundError
 from db import tables as t
 from db.engine import reader
@@ -15,7 +16,7 @@ from db.plans import get_plan_row
 from models.errors import InputError
 
 #: Most parts (or setpoint versions) one page may hold.
-MAX_PAGE = 500
+MAX_PAGE = sizes.READ_PAGE
 
 
 def _read(engine: Engine) -> Session:

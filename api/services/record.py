@@ -14,7 +14,7 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services import queries
+from api.services import queries, sizes
 from api.services.reading import _read, _utc
 from db import history
 from db import record as db_record
@@ -24,9 +24,9 @@ from models.errors import InputError
 #: The measurement that carries a reported feed override and the tool change it called for.
 TOOL_CHANGE = "feed_override_percent"
 #: Parts plotted and listed unless asked otherwise (``rcb report --last``).
-DEFAULT_LAST = 100
+DEFAULT_LAST = sizes.REPORT_DEFAULT_LAST
 #: Most parts a report may plot (``--last``).
-MAX_LAST = 1000
+MAX_LAST = sizes.REPORT_MAX_LAST
 #: Setpoint versions listed one by one (the newest); older ones are summarised.
 HISTORY_ROWS = 200
 #: Older setpoint versions per summary row, while there are at most :data:`SUMMARY_ROWS` rows.

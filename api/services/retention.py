@@ -14,14 +14,15 @@ from typing import Any
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
+from api.services import sizes
 from db import access
 from db import tables as t
 from models.errors import InputError
 
 #: The default retention of the audit log.
-AUDIT_DEFAULT = "365d"
+AUDIT_DEFAULT = sizes.AUDIT_DEFAULT
 #: The default retention of idempotency records.
-IDEMPOTENCY_DEFAULT = "7d"
+IDEMPOTENCY_DEFAULT = sizes.IDEMPOTENCY_DEFAULT
 #: The shortest retention of idempotency records.
 IDEMPOTENCY_MIN = timedelta(hours=24)
 #: The longest duration accepted (100 years).

@@ -22,7 +22,7 @@ from models import fields, quantities
 from models.borangiu_cost import CostData, productivity_from_mapping
 from models.catalogue import catalogue
 from models.errors import InputError
-from models.kinematics import CONTEXT, PARAMETERS, Process
+from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS, Process
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from models.sensors import Calibration, TaiCurrentFeedCalibration, calibrations_from_mapping
 from models.tool import Tool, process_of, tool_from_mapping
@@ -32,9 +32,6 @@ from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml
 from supervisor.inputs.passes import PassSpec, pass_spec, with_depth_bound
 from supervisor.optimize.program import OBJECTIVES, Objective
-
-#: Flank-wear criterion when an operation gives none: VB = 0.3 mm (ISO 3685:1993, 7.2).
-DEFAULT_FLANK_WEAR_MM = 0.3
 
 _PLAN_KEYS = ("name", "machine", "tools", "operations", "description")
 _OPERATION_KEYS = (

@@ -13,12 +13,10 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-import cvxpy as cp
 import highspy
 import numpy as np
 
 from models.powerlaw import Prediction
-from supervisor.borangiu import productivity
 from supervisor.errors import Conflict, InfeasibleError, SolverError
 from supervisor.optimize import highs_lp, socp
 from supervisor.optimize.program import LogLinearProgram
@@ -27,8 +25,6 @@ from supervisor.optimize.program import LogLinearProgram
 BINDING_TOL = 1e-6
 #: A re-checked prediction may exceed its limit by at most this fraction (solver tolerance).
 RECHECK_RTOL = 1e-6
-
-_INFEASIBLE = (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE)
 
 
 def solve(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
@@ -57,8 +53,13 @@ def minimize_cost(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
 
     Errors as :func:`solve`.
     """
+    # imported here: cvxpy takes about 0.8 s to import, and only this program needs it
+    import cvxpy as cp
+
+    from supervisor.borangiu import productivity
+
     status, x = productivity.minimize(lp)
-    if status in _INFEASIBLE:
+    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
         raise diagnose(lp)
     if status != cp.OPTIMAL or x is None:
         raise SolverError(f"operation {lp.operation!r}: solver status {status}, not optimal")

@@ -75,16 +75,12 @@ from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES, PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import Operation
+from supervisor.rcb.strategies import DEFAULT_DRIFT
 
 #: The cone's multiple of the posterior standard deviation (README, closed-loop benchmark).
 DEFAULT_Z = 4.0
 #: Prior standard deviation of an exponent relative to its value, without a fitted covariance.
 DEFAULT_EXPONENT_SD = 0.15
-#: The ``learn`` strategy's random walk of the intercept per part [-]. 0 by default: with
-#: wear a regressor (edge age), the closed-loop benchmark's drift is explained by the model;
-#: 0.001 cost 0.004 of MRR/oracle after 30 parts there (README). Set it for a process that
-#: drifts in ways the power law and the edge age do not capture.
-DEFAULT_DRIFT = 0.0
 #: Prior standard deviation of the rise over one edge's life, in ln of the quantity [-]: a
 #: 10 % rise as one standard deviation (the virtual machine's benchmark drift is 5 %).
 DEFAULT_EDGE_SD = 0.1

@@ -3,6 +3,7 @@
 ``machine`` (true processes compiled per operation, instrument uncertainties), ``sampling``
 (drawing the truth inside the model bands; the oracle), ``simulate`` (making a part: true
 values, measurements, wear, violations), ``sensing`` (a virtual spindle sensor), ``demo`` (the
-paper's demonstration end to end), ``certify`` (a Monte Carlo certificate of a plan), ``mill/``
-(the virtual milling machine and its inner-loop controllers).
+paper's demonstration end to end), ``certify`` (a Monte Carlo certificate of a plan; its
+largest size in ``sizes``, which imports nothing), ``mill/`` (the virtual milling machine and
+its inner-loop controllers).
 """

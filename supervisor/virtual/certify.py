@@ -66,13 +66,14 @@ from supervisor.optimize.result import PlanResult
 from supervisor.rcb.state import Halt, RcbSettings, RcbState
 from supervisor.rcb.strategies import STRATEGY_NAMES
 from supervisor.rcb.update import start, update
+from supervisor.virtual import sizes
 from supervisor.virtual.certificate import Certificate, FloatArray, ScenarioTrace
 from supervisor.virtual.sampling import oracle_tools, sample_machine
 from supervisor.virtual.simulate import run_part
 
 #: The most scenarios and parts per scenario a certificate runs.
-MAX_SCENARIOS = 100_000
-MAX_PARTS = 1000
+MAX_SCENARIOS = sizes.MAX_SCENARIOS
+MAX_PARTS = sizes.MAX_PARTS
 
 #: ``progress(done)``: called with the number of scenarios finished so far.
 Progress = Callable[[int], None]

@@ -1,0 +1,90 @@
+"""``rcb --help`` imports none of the heavy libraries; a command still imports what it uses.
+
+Issue 18 item 8: every command module used to import cvxpy, SciPy, pandas, SQLAlchemy,
+matplotlib and uvicorn at the top, so ``rcb --help`` took about 2 s and 250 MB. The commands now
+import them where they run (README, "Speed"; the figures come from ``benchmarks/cli_startup.py``,
+never from a timed test). These tests count loaded modules instead of seconds: on the old code
+``rcb --help`` loads every library of :data:`LAZY`.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT
+
+#: What ``rcb --help`` must not load: the solvers, the numerics, the database and web stacks.
+LAZY = (
+    "cvxpy",
+    "scipy",
+    "numpy",
+    "pandas",
+    "pyarrow",
+    "matplotlib",
+    "sqlalchemy",
+    "alembic",
+    "fastapi",
+    "uvicorn",
+    "highspy",
+    "clarabel",
+)
+
+#: Runs ``rcb ARGS`` in a fresh interpreter; prints its exit code and which of LAZY it loaded.
+_PROBE = """
+import json, sys
+lazy, args = json.loads(sys.argv[1]), sys.argv[2:]
+from api.cli.main import app
+try:
+    app(args, prog_name="rcb")
+    code = 0
+except SystemExit as done:
+    code = done.code
+loaded = sorted({m.split(".")[0] for m in sys.modules} & set(lazy))
+print(json.dumps({"code": code, "loaded": loaded}), file=sys.stderr)
+"""
+
+
+def _probe(*args: str) -> tuple[int, list[str], str]:
+    """Exit code, the libraries of :data:`LAZY` loaded, and stdout of ``rcb ARGS``."""
+    proc = subprocess.run(
+        [sys.executable, "-c", _PROBE, json.dumps(LAZY), *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    found = json.loads(proc.stderr.strip().splitlines()[-1])
+    return found["code"], found["loaded"], proc.stdout
+
+
+@pytest.mark.parametrize("args", [["--help"], [], ["demo", "--help"], ["plans", "--help"]])
+def test_help_loads_no_heavy_library(args):
+    code, loaded, out = _probe(*args)
+    assert code in (0, 2)  # without arguments: the help, with click's usage exit code
+    assert "Commands" in out or "Options" in out
+    assert loaded == []
+
+
+def test_a_lazy_group_imports_its_commands():
+    # rcb milling's options need NumPy-backed values (Tai's safety factor, the controllers)
+    code, loaded, out = _probe("milling", "--help")
+    assert code == 0
+    assert [name for name in ("domain", "control", "setup") if name in out] == [
+        "domain",
+        "control",
+        "setup",
+    ]
+    assert "numpy" in loaded
+
+
+def test_demo_still_imports_what_it_uses():
+    code, loaded, out = _probe("demo", "--parts", "2", "--json")
+    assert code == 0
+    assert json.loads(out)["parts"] == 2
+    assert {"numpy", "highspy"} <= set(loaded)
+    assert "sqlalchemy" not in loaded  # the demo keeps everything in memory
