@@ -17,12 +17,21 @@ tool-life one. The rule, applied to every optimum (band and cone programs alike)
 3. *Best.* Of the candidates that pass, the one with the largest ``ln MRR`` (or the least
    Borangiu cost ``J`` for a productivity operation); ties to the first in order (lower
    grid points first).
-4. *Fallback.* Where no candidate passes (a sharp vertex of the rows), the program with every
-   row tightened by what one grid step of every parameter can move it is solved:
+4. *Fix and re-solve.* Where no candidate passes (a sharp vertex of the rows, or a bound
+   that is no grid point pushing another parameter more than one step), the parameters are
+   fixed one at a time, those farthest (in ln) from their nearest grid point first, so that
+   the others can make up for it: each to whichever of its
+   candidates lets the program of the parameters still free reach the better optimum
+   (:func:`fix_and_resolve`, at most two solves per parameter); the point once all are fixed
+   is checked as in step 2.
+5. *Tightened program.* Where that fails too, the program with every row tightened by what
+   one grid step of every parameter can move it is solved:
    ``b − Σ|a_i| s_i − z Σ‖G_i‖ s_i − TIGHTEN_MARGIN``, with ``s_i = ln(1 + step_i/low_i)`` the
    largest ln-step of one grid step within the bounds (:func:`tightened`). Every candidate
    around its optimum then meets every original row, by construction; steps 1-3 pick among
    them. A tightened program that is infeasible means no grid point is proven safe.
+
+:func:`machine_point` applies the whole rule.
 
 The setpoint's predictions, MRR and re-check are then those of the grid point
 (:mod:`supervisor.optimize.optimizer`).
@@ -32,7 +41,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -54,6 +63,8 @@ TIGHTEN_MARGIN = 2e-7
 def _levels(value: float, low: float, high: float, step: float) -> list[int]:
     """Step counts of the grid points next to ``value`` within ``[low, high]``."""
     k_low, k_high = steps_within(low, high, step)
+    if k_low > k_high:  # no grid point within the bounds (a plan refuses such bounds)
+        return []
     q = value / step
     k = round(q)
     near = [k] if abs(q - k) <= SNAP_RTOL * max(1.0, abs(q)) else [math.floor(q), math.floor(q) + 1]
@@ -72,7 +83,8 @@ def candidates(
         low, high = bounds[p]
         step = resolution[p]
         per_parameter.append([grid_value(k, step) for k in _levels(v, low, high, step)])
-    return np.array(list(itertools.product(*per_parameter)), dtype=float)
+    points = list(itertools.product(*per_parameter))
+    return np.array(points, dtype=float).reshape(len(points), len(per_parameter))
 
 
 def meets(lp: LogLinearProgram, points: np.ndarray[Any, Any], slack_z: float = 0.0) -> Any:
@@ -146,3 +158,77 @@ def cone_optimum(lp: LogLinearProgram) -> np.ndarray[Any, Any] | None:
         return None
     clipped: np.ndarray[Any, Any] = np.clip(x, lp.lower, lp.upper)
     return clipped
+
+
+#: A solver of a program: its optimum (ln-parameters), or None when it has none.
+Solve = Callable[[LogLinearProgram], "np.ndarray[Any, Any] | None"]
+
+
+def _score(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> float:
+    """How good an optimum is: ``ln MRR``, or ``−J`` for a productivity program."""
+    if lp.goal == "productivity" and lp.cost:
+        setpoint = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
+        return -borangiu_cost.evaluate(lp.cost, setpoint)
+    return float(np.dot(lp.objective, x))
+
+
+def fix_and_resolve(
+    lp: LogLinearProgram,
+    x: np.ndarray[Any, Any],
+    bounds: Mapping[str, tuple[float, float]],
+    resolution: Mapping[str, float],
+    solve: Solve,
+    slack_z: float = 0.0,
+) -> np.ndarray[Any, Any] | None:
+    """Step 4: fix the parameters on the grid one at a time, re-solving for the others."""
+    params = lp.parameters
+    gaps = []  # how far (in ln) each parameter must move to reach its nearest grid point
+    for p, v in zip(params, x, strict=True):
+        levels = _levels(math.exp(v), *bounds[p], resolution[p])
+        if not levels:
+            return None
+        gaps.append(min(abs(math.log(grid_value(k, resolution[p])) - v) for k in levels))
+    lower, upper = list(lp.lower), list(lp.upper)
+    values = np.empty(len(params), dtype=float)
+    current = x
+    for i in sorted(range(len(params)), key=lambda i: (-gaps[i], i)):
+        p = params[i]
+        chosen: tuple[float, np.ndarray[Any, Any], float] | None = None
+        for k in _levels(math.exp(current[i]), *bounds[p], resolution[p]):
+            value = grid_value(k, resolution[p])
+            lower[i] = upper[i] = math.log(value)
+            y = solve(replace(lp, lower=tuple(lower), upper=tuple(upper)))
+            if y is not None and (chosen is None or _score(lp, y) > chosen[2]):
+                chosen = (value, y, _score(lp, y))
+        if chosen is None:
+            return None
+        values[i] = chosen[0]
+        lower[i] = upper[i] = math.log(chosen[0])
+        current = chosen[1]
+    return values if meets(lp, values[None, :], slack_z)[0] else None
+
+
+def machine_point(
+    lp: LogLinearProgram,
+    x: np.ndarray[Any, Any],
+    bounds: Mapping[str, tuple[float, float]],
+    resolution: Mapping[str, float],
+    solve: Solve,
+) -> tuple[LogLinearProgram, np.ndarray[Any, Any], np.ndarray[Any, Any]] | None:
+    """The rule of the module docstring for the optimum ``x`` of ``lp``.
+
+    Returns ``(program, optimum, values)``: the grid point ``values`` (``lp.parameters``
+    order) and the program and optimum it comes from (``lp`` and ``x``, or the tightened
+    program and its optimum), for the rows it binds; None when no grid point is proven safe.
+    """
+    values = on_grid(lp, x, bounds, resolution)
+    if values is None:
+        values = fix_and_resolve(lp, x, bounds, resolution, solve)
+    if values is not None:
+        return lp, x, values
+    tight = tightened(lp, bounds, resolution)
+    x_tight = solve(tight)
+    if x_tight is None:
+        return None
+    values = on_grid(lp, x_tight, bounds, resolution)
+    return None if values is None else (tight, x_tight, values)

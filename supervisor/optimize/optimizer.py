@@ -31,13 +31,20 @@ from supervisor.constant_load.setpoint import (
     constant_load_setpoint,
     setup_of,
 )
-from supervisor.errors import InfeasibleError, PlanError
+from supervisor.errors import InfeasibleError, PlanError, SolverError
 from supervisor.inputs.plan import Machine, Operation, Plan
 from supervisor.optimize import grid, socp
 from supervisor.optimize.formulation import formulate, formulate_domain
 from supervisor.optimize.program import LogLinearProgram, Row
 from supervisor.optimize.result import OperationResult, PlanResult
-from supervisor.optimize.solve import binding, minimize_cost, optimum, recheck, solve
+from supervisor.optimize.solve import (
+    binding,
+    diagnose,
+    minimize_cost,
+    optimum,
+    recheck,
+    solve,
+)
 from supervisor.rcb.posterior import Cone, display_model
 
 #: Per operation name, per quantity: the cones of a ``learn`` state
@@ -112,16 +119,7 @@ def _learned(
         return None
     bounds, resolution = operation.bounds, machine.resolution
     slack_z = 0.0
-    found: tuple[LogLinearProgram, np.ndarray[Any, Any], np.ndarray[Any, Any]] | None = None
-    values = grid.on_grid(lp, x, bounds, resolution)
-    if values is not None:
-        found = (lp, x, values)
-    else:  # the fallback of supervisor.optimize.grid: the tightened cone program
-        tight = grid.tightened(lp, bounds, resolution)
-        x_tight = grid.cone_optimum(tight)
-        values = None if x_tight is None else grid.on_grid(lp, x_tight, bounds, resolution)
-        if x_tight is not None and values is not None:
-            found = (tight, x_tight, values)
+    found = grid.machine_point(lp, x, bounds, resolution, grid.cone_optimum)
     if last is not None and last.robust_by == "cone":
         kept = np.array([math.log(last.setpoint[p]) for p in lp.parameters])
         kept_values = grid.on_grid(lp, kept, bounds, resolution, KEEP_SLACK_Z)
@@ -248,18 +246,20 @@ def _band(
         :data:`GRID_HELD`).
     """
     bounds, resolution = operation.bounds, machine.resolution
-    values = grid.on_grid(lp, x, bounds, resolution)
-    held_lp = lp
-    if values is None:
-        held_lp = grid.tightened(lp, bounds, resolution)
-        try:
-            x = optimum(held_lp)
-        except InfeasibleError as err:
-            raise InfeasibleError(err.operation, err.conflicts, (*err.against, GRID_HELD)) from None
-        values = grid.on_grid(lp, x, bounds, resolution)
-        if values is None:  # float round-off defeated the construction
-            raise InfeasibleError(lp.operation, (), (GRID_HELD,))
+    found = grid.machine_point(lp, x, bounds, resolution, _optimum_or_none)
+    if found is None:
+        err = diagnose(grid.tightened(lp, bounds, resolution))
+        raise InfeasibleError(err.operation, err.conflicts, (*err.against, GRID_HELD))
+    held_lp, x, values = found
     return _result(operation, tool, lp, values, binding(held_lp, x), machine)
+
+
+def _optimum_or_none(lp: LogLinearProgram) -> np.ndarray[Any, Any] | None:
+    """:func:`optimum`, None where ``lp`` has none (the grid rule's sub-programs)."""
+    try:
+        return optimum(lp)
+    except (InfeasibleError, SolverError):
+        return None
 
 
 def _result(
