@@ -269,8 +269,10 @@ def test_step1_is_the_best_grid_neighbour_of_table5_row_r():
 
 
 def _with_resolution(sc: Scenario, resolution: dict[str, float] | None) -> dict[str, Any]:
-    data = copy.deepcopy(sc.data)
-    if resolution is not None:
+    data = copy.deepcopy(sc.data)  # the scenarios give a FINE resolution
+    if resolution is None:
+        del data["machine"]["resolution"]  # the defaults
+    else:
         data["machine"]["resolution"] = resolution
     return data
 

@@ -20,10 +20,10 @@ tool-life one. The rule, applied to every optimum (band and cone programs alike)
 4. *Fix and re-solve.* Where no candidate passes (a sharp vertex of the rows, or a bound
    that is no grid point pushing another parameter more than one step), the parameters are
    fixed one at a time, those farthest (in ln) from their nearest grid point first, so that
-   the others can make up for it: each to whichever of its
-   candidates lets the program of the parameters still free reach the better optimum
-   (:func:`fix_and_resolve`, at most two solves per parameter); the point once all are fixed
-   is checked as in step 2.
+   the others can make up for it: each to whichever of its candidates (and the grid points
+   :data:`FIX_REACH` steps beyond them) lets the program of the parameters still free reach
+   the better optimum (:func:`fix_and_resolve`, at most six solves per parameter); the
+   point once all are fixed is checked as in step 2.
 5. *Tightened program.* Where that fails too, the program with every row tightened by what
    one grid step of every parameter can move it is solved:
    ``b − Σ|a_i| s_i − z Σ‖G_i‖ s_i − TIGHTEN_MARGIN``, with ``s_i = ln(1 + step_i/low_i)`` the
@@ -52,23 +52,33 @@ from supervisor.inputs.resolution import grid_value, steps_within
 from supervisor.optimize import socp
 from supervisor.optimize.program import LogLinearProgram
 
-#: An optimum within this fraction of a step count of a grid point is that point (float noise).
-SNAP_RTOL = 1e-9
+#: An optimum within this fraction of its value of a grid point is that point (float noise:
+#: 3.0000000000000004 is 3 to 1.5e-16).
+SNAP_RTOL = 1e-12
 #: A candidate meets a row ``a·x <= b`` when ``a·x <= b + ROW_TOL`` (ln: 1 ppt, float rounding).
 ROW_TOL = 1e-12
+#: Fix and re-solve tries the grid points up to this many steps beyond the two next to the
+#: optimum (an interior-point optimum may lie a solver tolerance outside a row).
+FIX_REACH = 2
 #: Extra tightening of the fallback's rows [ln]: twice HiGHS's primal feasibility tolerance.
 TIGHTEN_MARGIN = 2e-7
 
 
-def _levels(value: float, low: float, high: float, step: float) -> list[int]:
-    """Step counts of the grid points next to ``value`` within ``[low, high]``."""
+def _levels(value: float, low: float, high: float, step: float, reach: int = 0) -> list[int]:
+    """Step counts of the grid points next to ``value`` within ``[low, high]``.
+
+    ``reach``: so many more steps on either side.
+    """
     k_low, k_high = steps_within(low, high, step)
     if k_low > k_high:  # no grid point within the bounds (a plan refuses such bounds)
         return []
     q = value / step
     k = round(q)
-    near = [k] if abs(q - k) <= SNAP_RTOL * max(1.0, abs(q)) else [math.floor(q), math.floor(q) + 1]
-    return sorted({min(max(c, k_low), k_high) for c in near})
+    if abs(q - k) <= SNAP_RTOL * max(1.0, abs(q)):
+        first, last = k, k
+    else:
+        first, last = math.floor(q), math.floor(q) + 1
+    return sorted({min(max(c, k_low), k_high) for c in range(first - reach, last + reach + 1)})
 
 
 def candidates(
@@ -172,6 +182,19 @@ def _score(lp: LogLinearProgram, x: np.ndarray[Any, Any]) -> float:
     return float(np.dot(lp.objective, x))
 
 
+def _fixed_rows_hold(lp: LogLinearProgram, x: Sequence[float], fixed: set[int]) -> bool:
+    """Whether the linear rows in the ``fixed`` parameters alone hold at ``x``.
+
+    Exactly (to :data:`ROW_TOL`), not to a solver's tolerance.
+    """
+    for row in lp.rows:
+        a = row.coefficients
+        if row.cone is None and all(a[j] == 0 or j in fixed for j in range(len(a))):
+            if sum(a[j] * x[j] for j in fixed) > row.rhs + ROW_TOL:
+                return False
+    return True
+
+
 def fix_and_resolve(
     lp: LogLinearProgram,
     x: np.ndarray[Any, Any],
@@ -191,12 +214,17 @@ def fix_and_resolve(
     lower, upper = list(lp.lower), list(lp.upper)
     values = np.empty(len(params), dtype=float)
     current = x
-    for i in sorted(range(len(params)), key=lambda i: (-gaps[i], i)):
+    *first, last = sorted(range(len(params)), key=lambda i: (-gaps[i], i))
+    fixed: set[int] = set()
+    for i in first:
         p = params[i]
+        fixed.add(i)
         chosen: tuple[float, np.ndarray[Any, Any], float] | None = None
-        for k in _levels(math.exp(current[i]), *bounds[p], resolution[p]):
+        for k in _levels(math.exp(current[i]), *bounds[p], resolution[p], FIX_REACH):
             value = grid_value(k, resolution[p])
             lower[i] = upper[i] = math.log(value)
+            if not _fixed_rows_hold(lp, lower, fixed):
+                continue
             y = solve(replace(lp, lower=tuple(lower), upper=tuple(upper)))
             if y is not None and (chosen is None or _score(lp, y) > chosen[2]):
                 chosen = (value, y, _score(lp, y))
@@ -205,7 +233,14 @@ def fix_and_resolve(
         values[i] = chosen[0]
         lower[i] = upper[i] = math.log(chosen[0])
         current = chosen[1]
-    return values if meets(lp, values[None, :], slack_z)[0] else None
+    # the last one: its candidates checked against the rows themselves, not a solver's
+    # tolerance, and the best that passes taken
+    p = params[last]
+    points = []
+    for k in _levels(math.exp(current[last]), *bounds[p], resolution[p], FIX_REACH):
+        values[last] = grid_value(k, resolution[p])
+        points.append(values.copy())
+    return best(lp, np.array(points), slack_z)
 
 
 def machine_point(
