@@ -154,15 +154,22 @@ def test_one_sided_law_mirrored_for_tool_life(state):
 
 
 def test_no_margin_holds():
-    # the band's upper edge on the 4.0 µm limit: the continuous optimum (a resolution of 1e-9;
-    # on the default grid the edge sits below the limit, and 3.95 + 0.05 is above the band)
+    # measured + u exactly on the limit and on the band's upper edge: no margin, inside the
+    # band. On the machine's grid the robust start's edge lies below the 4.0 µm limit, so the
+    # limit is set to that edge (the same setpoint: it met 4.0 and meets its own edge).
     plan = load_plan(DEMO_PLAN)
-    fine = replace(plan.machine, resolution=dict.fromkeys(plan.machine.resolution, 1e-9))
-    state = start(replace(plan, machine=fine), RcbSettings(strategy="ivester"))
+    settings = RcbSettings(strategy="ivester")
+    edge = _rough_od(start(plan, settings)).predicted["roughness_um"].upper
+    assert 3.99 < edge < 4.0
+    rough = plan.operations[0]
+    rough = replace(rough, limits={**rough.limits, "roughness_um": edge})
+    state = start(replace(plan, operations=(rough, *plan.operations[1:])), settings)
     ra = _rough_od(state).predicted["roughness_um"]
-    assert_allclose(ra.upper, 4.0, rtol=1e-6)
-    y = 4.0 - 0.05  # inside the band, measured + u exactly at the limit
-    new, (d,) = update(state, _report(state, {"rough-od": {"roughness_um": Measurement(y, 0.05)}}))
+    assert ra.upper == edge
+    u = 0.0625  # a power of two: y + u is the edge to the last bit
+    new, (d,) = update(
+        state, _report(state, {"rough-od": {"roughness_um": Measurement(edge - u, u)}})
+    )
     assert d.action == "hold" and not d.flagged and d.band_after == pytest.approx(ra.band)
     assert new.version == state.version  # nothing moved: no new setpoint version
 
