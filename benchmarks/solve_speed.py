@@ -13,10 +13,11 @@ What it measures, on the six-operation plan ``examples/ivester_demo_part.toml``:
    force limit is binding, so the optimum moves; the script checks that).
 3. **The plan, re-solved** — ``optimize_plan`` on the loaded plan (the optimiser keeps no
    result memo, so every call solves six LPs).
-4. **Breakdown of one re-solve** — the real ``optimize_operation`` with ``formulate`` and
-   ``highs_lp.maximize`` wrapped by timers (and HiGHS's own ``run`` inside it): time in
-   ``formulate()``, in building the HiGHS model, in HiGHS's run, and in the rest (clip,
-   predictions, re-check, result).
+4. **Breakdown of one re-solve** — the real ``optimize_operation`` with ``formulate``,
+   ``highs_lp.maximize`` (and HiGHS's own ``run`` inside it), ``grid.machine_point``,
+   ``predict_all`` and ``recheck`` wrapped by timers: time in ``formulate()``, in updating the
+   kept HiGHS instance, in HiGHS's run, in moving the optimum onto the machine's grid, in the
+   predictions and the re-check at the grid point, and in the rest (binding, result).
 5. **Reference: the same LP through cvxpy** — rough-od's program posed as a parametrised (DPP)
    cvxpy problem (parameters ``c, A, b, lo, hi``, as the optimiser did before it called HiGHS
    directly) and re-solved with HiGHS through cvxpy for the same tool variants; it shows what
@@ -283,7 +284,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from models.tool import Tool
     from supervisor.inputs.plan import load_plan
-    from supervisor.optimize import highs_lp, optimizer
+    from supervisor.optimize import grid, highs_lp, optimizer
     from supervisor.optimize.formulation import formulate
     from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 
@@ -358,7 +359,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  {'(per operation in the plan)':<44} {per_op:9.3f} ms")
 
     # 4. Breakdown of one re-solve: wrap formulate(), highs_lp.maximize and Highs.run.
-    parts: dict[str, list[float]] = {k: [] for k in ("formulate", "maximize", "run")}
+    parts: dict[str, list[float]] = {
+        k: [] for k in ("formulate", "maximize", "run", "grid", "predict", "recheck")
+    }
     # highs_lp's solver is the pybind11 class, whose instances take no attributes: wrap the
     # class's run (only this thread's instance solves while it is patched).
     highs_class = type(highs_lp._highs())
@@ -380,6 +383,9 @@ def main(argv: list[str] | None = None) -> int:
         patch.object(optimizer, "formulate", timer("formulate", real_formulate)),
         patch.object(highs_lp, "maximize", timer("maximize", real_maximize)),
         patch.object(highs_class, "run", timer("run", real_run)),
+        patch.object(grid, "machine_point", timer("grid", grid.machine_point)),
+        patch.object(optimizer, "predict_all", timer("predict", optimizer.predict_all)),
+        patch.object(optimizer, "recheck", timer("recheck", optimizer.recheck)),
     ):
         for i in range(20):  # warm-up
             optimize_operation(op, variants[i % len(variants)], machine)
@@ -394,7 +400,10 @@ def main(argv: list[str] | None = None) -> int:
     med = {k: Stats.of(v).median for k, v in parts.items()}
     med["total"] = Stats.of(total).median
     model = [m - r for m, r in zip(parts["maximize"], parts["run"], strict=True)]
-    rest = [t - f - m for t, f, m in zip(total, parts["formulate"], parts["maximize"], strict=True)]
+    rest = [
+        t - sum(parts[k][i] for k in ("formulate", "maximize", "grid", "predict", "recheck"))
+        for i, t in enumerate(total)
+    ]
     print()
     print(f"4. Breakdown of one re-solve of {OPERATION} (medians; shares of the total median)")
 
@@ -407,7 +416,10 @@ def main(argv: list[str] | None = None) -> int:
     share("highs_lp.maximize", med["maximize"])
     share("model to HiGHS (build, pass, read back)", Stats.of(model).median, 6)
     share("HiGHS run", med["run"], 6)
-    share("rest (clip, predictions, re-check, result)", Stats.of(rest).median)
+    share("onto the machine's grid (grid.machine_point)", med["grid"])
+    share("predictions at the grid point (predict_all)", med["predict"])
+    share("re-check against the models", med["recheck"])
+    share("rest (clip, binding, constant load, result)", Stats.of(rest).median)
     if cut:
         print("  (breakdown stopped early by the time cap)")
 
