@@ -100,14 +100,16 @@ def candidates(
 def meets(lp: LogLinearProgram, points: np.ndarray[Any, Any], slack_z: float = 0.0) -> Any:
     """Which rows of ``points`` (parameter values, ``(c, n)``) meet every row of ``lp``."""
     x = np.log(points)
-    ok = np.ones(len(points), dtype=bool)
-    for row in lp.rows:
-        lhs = x @ np.asarray(row.coefficients, dtype=float)
+    if not lp.rows:
+        return np.ones(len(points), dtype=bool)
+    a = np.array([row.coefficients for row in lp.rows], dtype=float)
+    lhs = x @ a.T  # (c, m)
+    for j, row in enumerate(lp.rows):
         if row.cone is not None:
             spread = np.linalg.norm(x @ row.cone.G.T + row.cone.h, axis=1)
-            lhs = lhs + (row.cone.z - slack_z) * spread
-        ok &= lhs <= row.rhs + ROW_TOL
-    return ok
+            lhs[:, j] += (row.cone.z - slack_z) * spread
+    rhs = np.array([row.rhs for row in lp.rows], dtype=float)
+    return np.all(lhs <= rhs + ROW_TOL, axis=1)
 
 
 def best(
