@@ -240,13 +240,53 @@ def test_the_rule_never_returns_a_point_that_breaks_a_row_or_a_bound(
         assert _solve_or_none(grid.tightened(lp, bounds, resolution)) is None
         return
     held, _, point = found
-    event("tightened" if held is not lp else "neighbour or fixed")
+    if held is not lp:
+        event("tightened program")
+    elif grid.on_grid(lp, x, bounds, resolution) is None:
+        event("fix and re-solve")
+    else:
+        event("a grid neighbour")
     for (p, (low, high)), v in zip(bounds.items(), point, strict=True):
         assert low <= v <= high
         assert on_grid(float(v), resolution[p])
     ln = np.log(point)
     for coefficients, rhs in rows:
         assert float(np.dot(coefficients, ln)) <= rhs + 1e-12
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    rows=st.lists(
+        st.tuples(st.tuples(exponent, exponent, exponent), st.floats(0.0, 0.5)), min_size=1
+    ),
+    lower=st.tuples(st.floats(0.05, 3.0), st.floats(0.01, 0.5), st.floats(20.0, 300.0)),
+    ratio=st.tuples(*[st.floats(1.0, 5.0)] * 3),
+    where=st.tuples(*[st.floats(0.0, 1.0)] * 3),
+    objective=st.tuples(*[st.floats(0.1, 1.0)] * 3),
+    resolution=steps,
+)
+def test_every_grid_neighbour_of_the_tightened_optimum_meets_every_row(
+    rows, lower, ratio, where, objective, resolution
+):
+    # the last resort's guarantee, by construction: rows tightened by one step of every
+    # parameter at its low bound (ln(1 + step/low)) leave room for any rounding. The rows
+    # pass a point inside the bounds with a margin of 0-0.5 in ln, so that they bind.
+    upper = tuple(lo * r for lo, r in zip(lower, ratio, strict=True))
+    params = ("depth_mm", "feed_mm_rev", "speed_m_min")
+    for p, lo, hi in zip(params, lower, upper, strict=True):
+        k_low, k_high = steps_within(lo, hi, resolution[p])
+        assume(k_low <= k_high)
+    bounds = dict(zip(params, zip(lower, upper, strict=True), strict=True))
+    inside = [math.log(lo) + t * math.log(r) for lo, r, t in zip(lower, ratio, where, strict=True)]
+    through = [(a, float(np.dot(a, inside)) + m) for a, m in rows]
+    lp = _program(through, lower, upper, objective)
+    x = _solve_or_none(grid.tightened(lp, bounds, resolution))
+    if x is None:
+        event("the tightened program is infeasible")
+        return
+    points = grid.candidates(params, np.exp(x), bounds, resolution)
+    event(f"{len(points)} neighbours")
+    assert grid.meets(lp, points).all()
 
 
 # --------------------------------------------------------------------------- plans
