@@ -22,8 +22,9 @@ tool-life one. The rule, applied to every optimum (band and cone programs alike)
    fixed one at a time, those farthest (in ln) from their nearest grid point first, so that
    the others can make up for it: each to whichever of its candidates (and the grid points
    :data:`FIX_REACH` steps beyond them) lets the program of the parameters still free reach
-   the better optimum (:func:`fix_and_resolve`, at most six solves per parameter); the
-   point once all are fixed is checked as in step 2.
+   the better optimum (:func:`fix_and_resolve`, at most six solves per parameter). A row in
+   fixed parameters alone is decided exactly, not to a solver's tolerance; the last
+   parameter's candidates are checked as in step 2 and the best taken as in step 3.
 5. *Tightened program.* Where that fails too, the program with every row tightened by what
    one grid step of every parameter can move it is solved:
    ``b − Σ|a_i| s_i − z Σ‖G_i‖ s_i − TIGHTEN_MARGIN``, with ``s_i = ln(1 + step_i/low_i)`` the
