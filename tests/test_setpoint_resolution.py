@@ -215,16 +215,20 @@ exponent = st.floats(-2.0, 2.0, allow_nan=False).map(lambda v: round(v, 3))
 
 @settings(max_examples=200, deadline=None)
 @given(
-    rows=st.lists(st.tuples(st.tuples(exponent, exponent, exponent), st.floats(-3.0, 6.0))),
+    rows=st.lists(st.tuples(st.tuples(exponent, exponent, exponent), st.floats(0.0, 0.5))),
     lower=st.tuples(st.floats(0.05, 3.0), st.floats(0.01, 0.5), st.floats(20.0, 300.0)),
     ratio=st.tuples(*[st.floats(1.0, 5.0)] * 3),
-    objective=st.tuples(*[st.sampled_from([0.0, 1.0])] * 3),
+    where=st.tuples(*[st.floats(0.0, 1.0)] * 3),
+    objective=st.tuples(*[st.sampled_from([0.0, 0.5, 1.0])] * 3),
     resolution=steps,
 )
 def test_the_rule_never_returns_a_point_that_breaks_a_row_or_a_bound(
-    rows, lower, ratio, objective, resolution
+    rows, lower, ratio, where, objective, resolution
 ):
+    # rows through a point inside the bounds, 0-0.5 above it in ln: feasible, and they bind
     upper = tuple(lo * r for lo, r in zip(lower, ratio, strict=True))
+    inside = [math.log(lo) + t * math.log(r) for lo, r, t in zip(lower, ratio, where, strict=True)]
+    rows = [(a, float(np.dot(a, inside)) + m) for a, m in rows]
     for p, lo, hi in zip(("depth_mm", "feed_mm_rev", "speed_m_min"), lower, upper, strict=True):
         k_low, k_high = steps_within(lo, hi, resolution[p])
         assume(k_low <= k_high)  # a plan refuses bounds that hold no grid point
