@@ -110,5 +110,7 @@ def test_rcb_optimize_shows_the_constant_load_limits():
     result = CliRunner().invoke(app, ["optimize", plan], env={"COLUMNS": "200"})
     assert result.exit_code == 0, result.output
     text = " ".join(result.stdout.split())
-    # end-mill: I_ref 0.85 × 0.28 A; lower limit 621.63 mm/min (tests/test_rest_constant_load.py)
-    assert "constant load: 0.238 A, feed 621.6-869.4 mm/min (upper set by the setpoint)" in text
+    # end-mill: I_ref 0.85 × 0.28 A; lower limit 621.63 mm/min (tests/test_rest_constant_load.py);
+    # upper: the setpoint's feed, fz 0.0434 mm on the grid (continuous 0.04347, 869.4 mm/min)
+    # × 2 flutes × 10 000 rpm = 868 mm/min
+    assert "constant load: 0.238 A, feed 621.6-868 mm/min (upper set by the setpoint)" in text

@@ -129,7 +129,10 @@ def test_a_reading_under_the_band_shrinks_it_by_a_quarter_of_the_margin_with_a_n
         made = next(o for o in start["operations"] if o["name"] == "rough-od")
         value, band = made["predicted"]["force_N"]["value"], made["predicted"]["force_N"]["band"]
         # the robust start: the force band's upper edge on the 2000 N limit (Table 5 step 1 R)
-        assert value + band == pytest.approx(2000.0, rel=1e-6)
+        # at the continuous optimum; at its grid point d 2.943, f 0.3248, v 200 just under it:
+        # (2130 + 150) · 2.943^0.888 · 0.3248^0.783 · 200^-0.0395 = 1999.518 N (Table 2)
+        assert made["setpoint"] == {"depth_mm": 2.943, "feed_mm_rev": 0.3248, "speed_m_min": 200}
+        assert value + band == pytest.approx(1999.518, abs=1e-3)
         assert 1600.0 + U_N < value - band  # the reading lies under the band's lower edge
         answer = _post(mes, plan_id, _force_report("SN-below", 1, 1600.0))
         assert answer.status_code == 201, answer.text

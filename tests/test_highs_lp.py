@@ -90,6 +90,53 @@ def test_highs_agrees_with_cvxpy(rows, lower, width, objective):
         assert np.all(x >= np.array(lower) - 1e-7) and np.all(x <= np.array(upper) + 1e-7)
 
 
+def _fresh(lp: LogLinearProgram) -> tuple[str, bytes | None]:
+    """``lp`` solved on a new HiGHS instance, the optimum's bytes (what a fresh solve gives)."""
+    highs = highs_lp._new_highs()
+    a = [r.coefficients for r in lp.rows]
+    b = [r.rhs for r in lp.rows]
+    sense = highspy.ObjSense.kMaximize
+    highs.passModel(highs_lp._model(lp.objective, a, b, lp.lower, lp.upper, sense=sense))
+    highs.run()
+    status, x = highs_lp._result(highs)
+    return status, None if x is None else x.tobytes()
+
+
+#: A few coefficient matrices (1-5 rows), so that a sequence comes back to a kept instance.
+matrices = st.lists(
+    st.lists(st.tuples(exponent, exponent, exponent), min_size=1, max_size=5).map(tuple),
+    min_size=1,
+    max_size=3,
+)
+
+
+@st.composite
+def sequences(draw: st.DrawFn) -> list[LogLinearProgram]:
+    """Programs over a few matrices, each with its own costs, bounds and right-hand sides."""
+    pool = draw(matrices)
+    programs = []
+    for _ in range(draw(st.integers(2, 16))):
+        coefficients = draw(st.sampled_from(pool))
+        rows = [(c, draw(st.floats(-3.0, 6.0))) for c in coefficients]
+        lower = draw(st.tuples(*[st.floats(-3.0, 1.0)] * 3))
+        width = draw(st.tuples(*[st.floats(0.0, 3.0)] * 3))
+        upper = [lo + w for lo, w in zip(lower, width, strict=True)]
+        objective = draw(st.tuples(*[st.sampled_from([0.0, 1.0])] * 3))
+        programs.append(_program(rows, lower, upper, objective))
+    return programs
+
+
+@settings(max_examples=150, deadline=None)
+@given(sequences())
+def test_a_kept_instance_answers_bit_for_bit_as_a_fresh_one(programs):
+    # The thread keeps a HiGHS instance per coefficient matrix and only updates costs, bounds
+    # and right-hand sides: each answer must be the fresh instance's, to the last bit, whatever
+    # was solved before it (ties between optimal vertices included).
+    for lp in programs:
+        status, x = highs_lp.maximize(lp)
+        assert (status, None if x is None else x.tobytes()) == _fresh(lp)
+
+
 def test_a_hand_solved_program():
     # max ln d + ln f + ln v with d <= 3, f <= 0.6, v <= 200 and one force row
     # 0.888 ln d + 0.783 ln f <= ln(2000 / 2280). Per unit of the row, ln f gains 1/0.783 and

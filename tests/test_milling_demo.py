@@ -63,10 +63,13 @@ def test_no_violations_and_faster(milling_json):
         "speed_m_min",
     }
     assert slot["final"]["mrr_cm3_min"] > slot["robust"]["mrr_cm3_min"]
-    # the force limit binds at the upper band edge: F + ΔF = 230 N (within solver tolerance)
+    # the force limit binds at the upper band edge: F + ΔF = 230 N at the continuous optimum;
+    # the setpoint on the machine's grid (0.001 mm, 0.0001 mm/tooth, 1 m/min) sits at most
+    # a grid step below it: F ∝ ap · fz^0.695, one step of ap (of 1-4 mm) or fz (of about
+    # 0.03 mm) is at most 0.1 % or 0.23 %
     for row in ("robust", "final"):
         force = slot[row]["predicted"]["force_N"]
-        assert force["value"] + force["band"] == pytest.approx(230.0, rel=1e-6)
+        assert 230.0 * (1 - 0.0035) <= force["value"] + force["band"] <= 230.0
 
 
 def test_force_is_measured_through_the_spindle_current(milling_json):

@@ -15,13 +15,23 @@ from api.cli.main import app
 from models.catalogue import get_tool
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import load_plan, plan_from_mapping
+from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 
 from conftest import DEMO_PLAN
 
+#: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: these tests
+#: check the optimiser's hand-solved optimum; tests/test_setpoint_resolution.py the grid.
+FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
+
 STEP1 = {
     "name": "step1",
-    "machine": {"name": "lathe-22kW", "max_power_kW": 22, "max_spindle_rpm": 4000},
+    "machine": {
+        "name": "lathe-22kW",
+        "max_power_kW": 22,
+        "max_spindle_rpm": 4000,
+        "resolution": FINE,
+    },
     "operations": [
         {
             "name": "rough-od",
@@ -69,7 +79,12 @@ def test_5kW_machine_makes_power_bind():
 
 def test_torque_rpm_and_feed_rate_limits_bind():
     data = json.loads(json.dumps(STEP1))
-    data["machine"] = {"name": "small", "max_spindle_rpm": 800, "max_torque_Nm": 40}
+    data["machine"] = {
+        "name": "small",
+        "max_spindle_rpm": 800,
+        "max_torque_Nm": 40,
+        "resolution": FINE,
+    }
     op = _solve(data)
     # 800 rpm on Ø60 mm caps v at 800·π·60/1000 = 150.80 m/min
     assert_allclose(op.setpoint["speed_m_min"], 800 * math.pi * 60 / 1000, rtol=1e-6)
@@ -89,6 +104,7 @@ def test_a_solve_does_not_depend_on_what_was_solved_before():
 
 def test_a_narrower_force_band_lets_the_cut_go_faster():
     plan = load_plan(DEMO_PLAN)
+    plan = replace(plan, machine=replace(plan.machine, resolution=FINE))
     op = plan.operations[0]
     tool = plan.tools[op.tool]
     narrower = replace(tool.models["force_N"], dK=100.0)
@@ -171,7 +187,12 @@ def test_milling_operation_hand_solved():
     # MRR = 1.5199 · 0.2 · 4 · 8000 / 1000 = 9.727 cm³/min.
     data = {
         "name": "mill",
-        "machine": {"name": "vmc", "max_spindle_rpm": 8000, "max_feed_rate_mm_min": 10000},
+        "machine": {
+            "name": "vmc",
+            "max_spindle_rpm": 8000,
+            "max_feed_rate_mm_min": 10000,
+            "resolution": FINE,
+        },
         "tools": [
             {
                 "name": "EM10",

@@ -25,6 +25,7 @@ from models.errors import InputError
 from supervisor.borangiu import productivity
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import plan_from_mapping
+from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 
@@ -42,9 +43,19 @@ COST = {
     "taylor_m": 0.25,
     "taylor_q": 0.5,
 }
+#: A resolution so fine that the setpoint is the continuous optimum to about 1e-7: these tests
+#: check the optimiser's continuous optimum; tests/test_setpoint_resolution.py the grid. (The
+#: geometric program's solver holds a row to about 2e-11 in ln, 3e-9 m/min at 157 m/min: the
+#: step stays above that, so the grid rule finds the grid point next to the row.)
+FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-8)
 PLAN = {
     "name": "mill",
-    "machine": {"name": "vmc", "max_spindle_rpm": 8000, "max_feed_rate_mm_min": 10000},
+    "machine": {
+        "name": "vmc",
+        "max_spindle_rpm": 8000,
+        "max_feed_rate_mm_min": 10000,
+        "resolution": FINE,
+    },
     "tools": [
         {
             "name": "EM10",
@@ -217,7 +228,8 @@ NO_FORCE_TOOL = {
 
 
 def _turning(**extra: Any) -> dict[str, Any]:
-    return {"name": "t", "machine": {"name": "lathe"}, "operations": [TURNING | extra]}
+    machine = {"name": "lathe", "resolution": FINE}
+    return {"name": "t", "machine": machine, "operations": [TURNING | extra]}
 
 
 def _no_force(**extra: Any) -> dict[str, Any]:

@@ -30,8 +30,9 @@ from numpy.testing import assert_allclose
 from models import kinematics
 from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES
-from supervisor.errors import InfeasibleError
+from supervisor.errors import InfeasibleError, PlanError
 from supervisor.inputs.plan import plan_from_mapping
+from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 from supervisor.optimize.result import OperationResult
 
@@ -51,6 +52,9 @@ SOLVER_FEAS_TOL = 1e-7
 MARGIN = 1e-4
 #: Least limit factor that makes the reference point feasible.
 FEASIBLE = 1 + MARGIN
+#: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: these tests
+#: check the optimiser's continuous optimum; tests/test_setpoint_resolution.py the grid.
+FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
 #: Flank-wear criterion VB when the operation gives none (ISO 3685).
 ISO_3685_VB_MM = 0.3
 
@@ -201,7 +205,7 @@ def scenarios(
     if with_life and (tool_life or draw(st.booleans())):
         op_limits["parts_per_edge"] = at_reference["tool_life_mm3"] / (volume * factor())
         limits["tool_life_mm3"] = ("min", op_limits["parts_per_edge"] * volume)
-    machine: dict[str, Any] = {"name": "property-lathe"}
+    machine: dict[str, Any] = {"name": "property-lathe", "resolution": FINE}
     for quantity, machine_field in MACHINE_FIELDS.items():
         where = draw(st.sampled_from(["nowhere", "machine", "operation", "both"]))
         given = []
@@ -429,6 +433,10 @@ def test_tightening_an_upper_bound_never_raises_the_mrr(sc: Scenario, param: str
     except InfeasibleError:
         event("infeasible after tightening")
         return
+    except PlanError as err:  # t = 0: [lo, lo], no point of the (fine) grid in it
+        event("no grid point left in the bounds")
+        assert err.field == f"operations[0].bounds.{param}"
+        return
     event("feasible after tightening")
     assert after.setpoint[param] <= new_hi * (1 + BOUND_RTOL)
     assert after.mrr_cm3_min <= before.mrr_cm3_min * (1 + mrr_rtol(sc))
@@ -632,7 +640,7 @@ def two_tool_plan(operations: list[str]) -> dict[str, Any]:
     }
     return {
         "name": "two-tools",
-        "machine": {"name": "lathe"},
+        "machine": {"name": "lathe", "resolution": FINE},
         "tools": tools,
         "operations": [ops[name] for name in operations],
     }
@@ -658,7 +666,7 @@ def test_a_limit_slightly_too_tight_is_named_as_the_conflict():
     limit = 200.0 * (1 - 5e-7)
     data = {
         "name": "tight",
-        "machine": {"name": "lathe"},
+        "machine": {"name": "lathe", "resolution": FINE},
         "tools": [
             {
                 "name": TOOL,
@@ -707,7 +715,7 @@ def test_a_power_limit_just_above_its_least_value_is_met():
     assert robust_edges(models, lower_corner, context, {})["power_kW"] < limit * (1 - 1e-6)
     data = {
         "name": "thin",
-        "machine": {"name": "lathe", "max_power_kW": limit},
+        "machine": {"name": "lathe", "max_power_kW": limit, "resolution": FINE},
         "tools": [{"name": TOOL, "process": "turning", "models": {"force_N": force}}],
         "operations": [
             {

@@ -22,14 +22,23 @@ from models.quantities import (
     UnknownQuantityError,
 )
 from supervisor.inputs.plan import plan_from_mapping
+from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
+#: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: these tests
+#: check the optimiser's hand-solved optimum; tests/test_setpoint_resolution.py the grid.
+FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
 STEP1 = {
     "name": "step1",
-    "machine": {"name": "lathe-22kW", "max_power_kW": 22, "max_spindle_rpm": 4000},
+    "machine": {
+        "name": "lathe-22kW",
+        "max_power_kW": 22,
+        "max_spindle_rpm": 4000,
+        "resolution": FINE,
+    },
     "operations": [
         {
             "name": "rough-od",

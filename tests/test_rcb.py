@@ -89,10 +89,12 @@ def test_a_violation_expands_and_never_shrinks(state):
 
 
 def test_one_sided_law_hand_computed(state):
-    # rough-grooves robust start (Ivester & Heigel Table 4 models, VCMR331): force Y = 578.53 N,
-    # ΔY = 177.10 N, so the band is [401.43, 755.63] N under the 1000 N limit.
+    # rough-grooves robust start (Ivester & Heigel Table 4 models, VCMR331) at its grid setpoint
+    # d 3, f 0.1008, v 200 (continuous f 0.100842: 578.53 ± 177.10 N): force Y = 578.35 N,
+    # ΔY = 177.05 N, so the band is [401.30, 755.40] N under the 1000 N limit.
     f = state.setpoints.operations[1].predicted["force_N"]
-    assert_allclose((f.value, f.band), (578.53, 177.10), atol=0.01)
+    assert state.setpoints.operations[1].setpoint["feed_mm_rev"] == 0.1008
+    assert_allclose((f.value, f.band), (578.35, 177.05), atol=0.01)
 
     def one(y, u):
         measured = {"rough-grooves": {"force_N": Measurement(y, u)}}
@@ -105,8 +107,8 @@ def test_one_sided_law_hand_computed(state):
     assert low.note == "below_band"
     assert_allclose(low.margin, 615.0)
     assert_allclose(low.band_after, f.band - 153.75)
-    # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.63: expand to cover
-    # it (765 − 578.53 = 186.47 N), flagged above_band, margin 235 N
+    # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.40: expand to cover
+    # it (765 − 578.35 = 186.65 N), flagged above_band, margin 235 N
     above = one(760.0, 5.0)
     assert above.action == "expand" and above.flagged and above.flag == "above_band"
     assert above.note is None
@@ -166,10 +168,23 @@ def test_one_sided_law_mirrored_for_tool_life(state):
     assert d.flag == "breach" and d.action == "expand" and d.margin < 0
 
 
-def test_no_margin_holds(state):
+def test_no_margin_holds():
+    # measured + u exactly on the limit and on the band's upper edge: no margin, inside the
+    # band. On the machine's grid the robust start's edge lies below the 4.0 µm limit, so the
+    # limit is set to that edge (the same setpoint: it met 4.0 and meets its own edge).
+    plan = load_plan(DEMO_PLAN)
+    settings = RcbSettings(strategy="ivester")
+    edge = _rough_od(start(plan, settings)).predicted["roughness_um"].upper
+    assert 3.99 < edge < 4.0
+    rough = plan.operations[0]
+    rough = replace(rough, limits={**rough.limits, "roughness_um": edge})
+    state = start(replace(plan, operations=(rough, *plan.operations[1:])), settings)
     ra = _rough_od(state).predicted["roughness_um"]
-    y = 4.0 - 0.05  # inside the band, measured + u exactly at the limit
-    new, (d,) = update(state, _report(state, {"rough-od": {"roughness_um": Measurement(y, 0.05)}}))
+    assert ra.upper == edge
+    u = 0.0625  # a power of two: y + u is the edge to the last bit
+    new, (d,) = update(
+        state, _report(state, {"rough-od": {"roughness_um": Measurement(edge - u, u)}})
+    )
     assert d.action == "hold" and not d.flagged and d.band_after == pytest.approx(ra.band)
     assert new.version == state.version  # nothing moved: no new setpoint version
 

@@ -215,10 +215,13 @@ def test_setpoints_table_shows_the_setpoints_in_force(stored, page):
             value, band = re.findall(r"[0-9.,]+", cells[-4])[:2]
             assert_allclose(float(value), op["predicted"][quantity]["value"], rtol=5e-4)
             assert_allclose(float(band), op["predicted"][quantity]["band"], rtol=5e-4)
-    # rough OD: force and roughness bind at the robust optimum, so their margin is 0
+    # rough OD: force and roughness bind at the robust optimum, so their margin is 0 there; at
+    # its grid point (0.001 mm, 0.0001 mm/rev) just above: one feed step of 0.32 mm/rev moves
+    # the force 0.025 % and Ra 0.04 %, so under 0.05 % of the 2000 N and 4.0 µm limits
     rough = [r for r in rows if r.get("data-operation") == "rough-od"]
     margins = {_text(r.findall("td")[-5]): _text(r.findall("td")[-2]) for r in rough}
-    assert margins["force F [N]"] == margins["roughness Ra [µm]"] == "0"
+    assert 0 < float(margins["force F [N]"]) < 0.0005 * 2000
+    assert 0 < float(margins["roughness Ra [µm]"]) < 0.0005 * 4.0
 
 
 def test_page_is_deterministic(stored, page):

@@ -46,7 +46,10 @@ def test_milling_plan_and_current_report(server):
         }
         assert "force_N" in slot["binding"]
         force = slot["predicted"]["force_N"]
-        assert force["value"] + force["band"] == pytest.approx(230.0, rel=1e-6)
+        # on the 230 N limit at the continuous optimum (ap 2.14140); at the grid point ap
+        # 2.141 mm just under it: (26.61 + 6.65) · 2.141 · 10^1.432 · 0.047^0.695 = 229.957 N
+        assert slot["setpoint"]["axial_depth_mm"] == 2.141
+        assert force["value"] + force["band"] == pytest.approx(229.957, abs=1e-3)
 
         current_A, u_A = 4.35, 0.02
         body = {

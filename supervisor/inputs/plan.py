@@ -1,6 +1,7 @@
 """Process plans: the machine, the tools and the operations of one part, read from TOML or JSON.
 
-A plan file holds ``name``, a ``[machine]`` table, optional inline ``[[tools]]`` (else tools come
+A plan file holds ``name``, a ``[machine]`` table (limits, sensor calibrations, the control's
+resolution: :mod:`supervisor.inputs.resolution`), optional inline ``[[tools]]`` (else tools come
 from the catalogue) and ``[[operations]]``. Every error names the dotted field and its value.
 
 A milling operation may say ``objective = "productivity"`` (default ``"mrr"``: the largest removal
@@ -31,29 +32,14 @@ from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_ma
 from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml
 from supervisor.inputs.passes import PassSpec, pass_spec, with_depth_bound
+from supervisor.inputs.resolution import DEFAULT_RESOLUTION, check_bounds, resolution_from_mapping
 from supervisor.optimize.program import OBJECTIVES, Objective
 
 _PLAN_KEYS = ("name", "machine", "tools", "operations", "description")
-_OPERATION_KEYS = (
-    "name",
-    "process",
-    "tool",
-    "description",
-    "volume_mm3",
-    "limits",
-    "bounds",
-    "workpiece_diameter_mm",
-    "tool_diameter_mm",
-    "flute_count",
-    "allowable_flank_wear_mm",
-    "setpoint_rel_uncertainty",
-    "catalog_setpoint",
-    "objective",
-    "productivity",
-    "domain",
-    "constant_load",
-    "stock_mm",
-    "finish",
+_OPERATION_KEYS = tuple(
+    "name process tool description volume_mm3 limits bounds workpiece_diameter_mm"
+    " tool_diameter_mm flute_count allowable_flank_wear_mm setpoint_rel_uncertainty"
+    " catalog_setpoint objective productivity domain constant_load stock_mm finish".split()
 )
 
 
@@ -69,6 +55,9 @@ class Machine:
     #: Named sensor calibrations (``[machine.calibrations.NAME]``, :mod:`models.sensors`):
     #: how a part report's spindle load or current becomes a force.
     calibrations: Mapping[str, Calibration] = field(default_factory=dict)
+    #: The step of each cutting parameter the control takes (``[machine.resolution]``,
+    #: :mod:`supervisor.inputs.resolution`): setpoints lie on this grid.
+    resolution: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_RESOLUTION))
 
     def limits(self) -> dict[str, float]:
         """The machine limits keyed by quantity name (``power_kW`` ...), in field order.
@@ -195,10 +184,15 @@ def _machine(data: object) -> Machine:
         raise InputError("machine", None, "required table missing")
     table = fields.mapping(data, "machine")
     machine_fields = quantities.machine_fields()
-    fields.only_keys(table, ("name", *machine_fields, "calibrations"), "machine")
+    fields.only_keys(table, ("name", *machine_fields, "calibrations", "resolution"), "machine")
     limits = {k: fields.optional_number(table, k, "machine", positive=True) for k in machine_fields}
     calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
-    return Machine(name=fields.text(table, "name", "machine"), calibrations=calibrations, **limits)
+    return Machine(
+        name=fields.text(table, "name", "machine"),
+        calibrations=calibrations,
+        resolution=resolution_from_mapping(table.get("resolution"), "machine.resolution"),
+        **limits,
+    )
 
 
 def _inline_tools(data: object) -> dict[str, Tool]:
@@ -247,14 +241,16 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         minimum=0.0,
     )
     passes = pass_spec(table, path, process, limits, lambda d, p: _limits(d, p, tool), tool.models)
-    bounds = with_depth_bound(table.get("bounds"), f"{path}.bounds", process, passes)
+    given = with_depth_bound(table.get("bounds"), f"{path}.bounds", process, passes)
+    bounds = _bounds(given, f"{path}.bounds", process)
+    check_bounds(bounds, machine.resolution, f"{path}.bounds")
     return Operation(
         name=name,
         process=process,
         tool=tool.name,
         volume_mm3=volume,
         limits=limits,
-        bounds=_bounds(bounds, f"{path}.bounds", process),
+        bounds=bounds,
         context=context,
         setpoint_rel_uncertainty=rel,
         description=fields.text(table, "description", path, default=""),

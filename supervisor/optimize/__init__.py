@@ -2,7 +2,8 @@
 
 ``program`` (the program's data: rows, cone terms, bounds), ``formulation`` (building it over
 the registry :data:`models.quantities.QUANTITIES`), ``highs_lp`` and ``socp`` (the solvers),
-``solve`` (an optimum, its re-check, binding rows, the infeasibility diagnosis), ``optimizer``
+``solve`` (an optimum, its re-check, binding rows, the infeasibility diagnosis), ``grid`` (the
+optimum moved onto the machine's resolution grid), ``optimizer``
 (operations and plans, the ``learn`` cones, Borangiu's (w, n) problem), ``result`` (frozen
 results), ``extras`` (what a setpoint carries beyond its parameters).
 """

@@ -14,13 +14,20 @@ the REST service, the closed-loop benchmark) is the hot path. cvxpy still solves
 modelling layer: Borangiu's geometric program (:mod:`supervisor.borangiu.productivity`); the tests
 check this solver against a cvxpy formulation of the same program.
 
-Each thread keeps one HiGHS instance and passes it a new model per solve; the solver state
-is cleared first, so a solve never depends on what was solved before.
+Each thread keeps one HiGHS instance per coefficient matrix (:func:`maximize`; at most
+:data:`MAX_KEPT`): a re-solve of a program whose matrix it holds only updates the costs,
+column bounds and right-hand sides (what a band or a limit changes between parts) and clears
+the solver, so HiGHS starts from its slack basis as on a fresh instance and the answer is
+bit-identical to a fresh solve (``tests/test_highs_lp.py`` checks it on random sequences of
+programs): no answer depends on the solve before it. Building and passing a new model cost
+as much as HiGHS's run (``benchmarks/solve_speed.py``, section 5). Other programs (the elastic
+LP, a second opinion with presolve) go to the thread's general instance as a new model.
 """
 
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import highspy
@@ -40,6 +47,18 @@ _INFEASIBLE = (
 _local = threading.local()
 
 
+#: Most coefficient matrices a thread keeps a HiGHS instance for (a plan has a few).
+MAX_KEPT = 64
+
+
+def _new_highs() -> _Highs:
+    """A quiet HiGHS instance (simplex without presolve, the LPs are tiny)."""
+    highs = _Highs()
+    highs.setOptionValue("output_flag", False)  # first call: no banner, no log
+    highs.setOptionValue("presolve", "off")
+    return highs
+
+
 def _highs() -> _Highs:
     """The calling thread's HiGHS instance (quiet; simplex without presolve, the LPs are tiny).
 
@@ -50,9 +69,7 @@ def _highs() -> _Highs:
     """
     highs: _Highs | None = getattr(_local, "highs", None)
     if highs is None:
-        highs = _Highs()
-        highs.setOptionValue("output_flag", False)  # first call: no banner, no log
-        highs.setOptionValue("presolve", "off")
+        highs = _new_highs()
         _local.highs = highs
     return highs
 
@@ -139,6 +156,24 @@ def solve_lp(
     finally:
         if presolve:
             highs.setOptionValue("presolve", "off")
+    return _result(highs)
+
+
+@dataclass
+class _Kept:
+    """A HiGHS instance holding one coefficient matrix, and the data it was last given."""
+
+    highs: _Highs
+    cost: tuple[float, ...]
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    rhs: tuple[float, ...]
+    index: Any  # 0..n-1 and 0..m-1 as int32, for the change calls
+    rows: Any
+    no_lower: Any  # -inf, the rows' lower sides
+
+
+def _result(highs: _Highs) -> tuple[Status, Any]:
     status = highs.getModelStatus()
     if status == highspy.HighsModelStatus.kOptimal:
         return "optimal", np.array(highs.getSolution().col_value, dtype=float)
@@ -147,23 +182,76 @@ def solve_lp(
     return "failed", None
 
 
+def _kept_solve(
+    coefficients: tuple[tuple[float, ...], ...],
+    cost: tuple[float, ...],
+    rhs: tuple[float, ...],
+    lower: tuple[float, ...],
+    upper: tuple[float, ...],
+) -> tuple[Status, Any]:
+    """``max cost·x`` on the thread's instance for ``coefficients``, updated, cleared, run.
+
+    A new instance (built, given the model and kept) where the thread holds none for this
+    matrix; one whose run gave no optimum or proof of infeasibility is dropped.
+    """
+    kept_by: dict[Any, _Kept] | None = getattr(_local, "kept", None)
+    if kept_by is None:
+        kept_by = _local.kept = {}
+    key = (len(cost), coefficients)
+    kept = kept_by.get(key)
+    if kept is None:
+        highs = _new_highs()
+        sense = highspy.ObjSense.kMaximize
+        highs.passModel(_model(cost, coefficients, rhs, lower, upper, sense=sense))
+        n, m = len(cost), len(rhs)
+        index = np.arange(n, dtype=np.int32)
+        rows = np.arange(m, dtype=np.int32)
+        kept = _Kept(highs, cost, lower, upper, rhs, index, rows, np.full(m, -highspy.kHighsInf))
+        if len(kept_by) >= MAX_KEPT:
+            kept_by.clear()
+        kept_by[key] = kept
+    else:
+        highs = kept.highs
+        n = len(cost)
+        if cost != kept.cost:
+            highs.changeColsCost(n, kept.index, np.array(cost, dtype=float))
+            kept.cost = cost
+        if lower != kept.lower or upper != kept.upper:
+            low, high = np.array(lower, dtype=float), np.array(upper, dtype=float)
+            highs.changeColsBounds(n, kept.index, low, high)
+            kept.lower, kept.upper = lower, upper
+        if rhs != kept.rhs:
+            # in the binding, missing from its type stub (highspy 1.16)
+            highs.changeRowsBounds(  # type: ignore[attr-defined]
+                len(rhs), kept.rows, kept.no_lower, np.array(rhs, dtype=float)
+            )
+            kept.rhs = rhs
+        highs.clearSolver()  # from the slack basis, as a fresh instance: no warm start
+    highs.run()
+    status, x = _result(highs)
+    if status == "failed":
+        kept_by.pop(key, None)
+    return status, x
+
+
 def maximize(lp: LogLinearProgram, *, presolve: bool = False) -> tuple[Status, Any]:
     """Solve ``max objective·x`` under ``lp``'s rows and bounds.
 
     Returns ``("optimal", x)`` with ``x`` the ln-parameters (a float array in
     ``lp.parameters`` order), ``("infeasible", None)`` when no point meets every row within
     the bounds, and ``("failed", None)`` for any other outcome (HiGHS's status is not an
-    answer to trust). ``presolve`` runs HiGHS's presolve first (a second opinion). A program
-    with cone rows goes to :func:`supervisor.optimize.socp.maximize` instead.
+    answer to trust). ``presolve`` runs HiGHS's presolve first (a second opinion, on a new
+    model); otherwise the thread's instance for ``lp``'s coefficient matrix is updated
+    (module docstring). A program with cone rows goes to
+    :func:`supervisor.optimize.socp.maximize` instead.
     """
-    if any(r.cone is not None for r in lp.rows):
+    rows = lp.rows
+    if [r.cone for r in rows].count(None) != len(rows):
         raise ValueError(f"operation {lp.operation!r}: cone rows need supervisor.optimize.socp")
-    return solve_lp(
-        lp.objective,
-        [r.coefficients for r in lp.rows],
-        [r.rhs for r in lp.rows],
-        lp.lower,
-        lp.upper,
-        maximize=True,
-        presolve=presolve,
-    )
+    coefficients = tuple([r.coefficients for r in rows])
+    rhs = tuple([r.rhs for r in rows])
+    if presolve or not rows:
+        return solve_lp(
+            lp.objective, coefficients, rhs, lp.lower, lp.upper, maximize=True, presolve=presolve
+        )
+    return _kept_solve(coefficients, lp.objective, rhs, lp.lower, lp.upper)

@@ -31,13 +31,20 @@ from supervisor.constant_load.setpoint import (
     constant_load_setpoint,
     setup_of,
 )
-from supervisor.errors import InfeasibleError, PlanError
+from supervisor.errors import InfeasibleError, PlanError, SolverError
 from supervisor.inputs.plan import Machine, Operation, Plan
-from supervisor.optimize import passes, socp
+from supervisor.optimize import grid, passes, socp
 from supervisor.optimize.formulation import formulate, formulate_domain
 from supervisor.optimize.program import LogLinearProgram, Row
 from supervisor.optimize.result import OperationResult, PlanResult
-from supervisor.optimize.solve import binding, minimize_cost, optimum, recheck, solve
+from supervisor.optimize.solve import (
+    binding,
+    diagnose,
+    minimize_cost,
+    optimum,
+    recheck,
+    solve,
+)
 from supervisor.rcb.posterior import Cone, display_model
 
 #: Per operation name, per quantity: the cones of a ``learn`` state
@@ -91,7 +98,7 @@ def optimize_operation(
     else:
         lp = formulate(operation, tool, machine)
         try:
-            band = _result(operation, tool, lp, optimum(lp), machine)
+            band = _band(operation, tool, lp, optimum(lp), machine)
         except InfeasibleError as err:
             infeasible = err  # raised below unless the learned program holds
     learned = _learned(operation, tool, machine, cones or {}, last)
@@ -115,26 +122,40 @@ def _learned(
     if not usable or operation.objective != "mrr":
         return None
     lp = formulate(operation, tool, machine, usable)
-    status, x = socp.maximize(lp)
-    if status != "optimal" or x is None:  # no learned optimum: the band program's holds
+    x = grid.cone_optimum(lp)
+    if x is None:  # no learned optimum: the band program's holds
         return None
-    x = np.clip(x, lp.lower, lp.upper)
+    bounds, resolution = operation.bounds, machine.resolution
     slack_z = 0.0
+    found = grid.machine_point(lp, x, bounds, resolution, grid.cone_optimum)
     if last is not None and last.robust_by == "cone":
         kept = np.array([math.log(last.setpoint[p]) for p in lp.parameters])
-        faster = float(np.dot(lp.objective, kept)) > float(np.dot(lp.objective, x))
-        if faster and socp.meets(lp, kept, KEEP_SLACK_Z):
-            x = kept  # shown, and re-checked, at the confidence that keeps it
+        kept_values = grid.on_grid(lp, kept, bounds, resolution, KEEP_SLACK_Z)
+        faster = kept_values is not None and (
+            found is None or _ln_mrr(lp, kept_values) > _ln_mrr(lp, found[2])
+        )
+        if faster and kept_values is not None and socp.meets(lp, kept, KEEP_SLACK_Z):
+            # shown, and re-checked, at the confidence that keeps it
+            found = (lp, kept, kept_values)
             usable = {q: replace(c, z=c.z - KEEP_SLACK_Z) for q, c in usable.items()}
             slack_z = KEEP_SLACK_Z
-    point = {**{p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}}
+    if found is None:  # no learned grid point is proven safe: the band program's holds
+        return None
+    held_lp, x_held, values = found
+    point = {p: float(v) for p, v in zip(lp.parameters, values, strict=True)}
     point.update(operation.context)
     rel = operation.setpoint_rel_uncertainty
     shown = replace(
         tool,
         models={**tool.models, **{q: display_model(c, point, rel) for q, c in usable.items()}},
     )
-    return replace(_result(operation, shown, lp, x, machine, slack_z), robust_by="cone")
+    held = binding(held_lp, x_held, slack_z)
+    return replace(_result(operation, shown, lp, values, held, machine), robust_by="cone")
+
+
+def _ln_mrr(lp: LogLinearProgram, values: np.ndarray[Any, Any]) -> float:
+    """``ln MRR`` (the objective, up to a constant) at parameter ``values``."""
+    return float(np.asarray(lp.objective, dtype=float) @ np.log(values))
 
 
 def optimize_plan(
@@ -197,7 +218,7 @@ def optimize_plan(
                     optimize_operation(op, tool, plan.machine, learned.get(op.name), last)
                 )
             else:
-                results.append(_result(op, tool, lps[i], xs[i], plan.machine))
+                results.append(_band(op, tool, lps[i], xs[i], plan.machine))
     return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
 
 
@@ -210,19 +231,58 @@ def _fields_of(index: int) -> Iterator[None]:
         raise PlanError(f"operations[{index}].{err.field}", err.value, err.reason) from None
 
 
-def _result(
+#: What holds a program whose continuous optimum has no grid point proven safe nearby.
+GRID_HELD = "setpoints on the grid of machine.resolution"
+
+
+def _band(
     operation: Operation,
     tool: Tool,
     lp: LogLinearProgram,
     x: np.ndarray[Any, Any],
     machine: Machine,
-    slack_z: float = 0.0,
 ) -> OperationResult:
-    """Predictions, re-check and timing at the optimum ``x`` (ln-parameters) of ``lp``.
+    """The band program's setpoint: its optimum ``x`` moved onto the machine's grid.
 
-    ``slack_z``: cone rows hold at ``z − slack_z`` (a learn setpoint kept in force).
+    The rule of :mod:`supervisor.optimize.grid`; ``binding`` names what holds the optimum it
+    comes from (the tightened program's, after the fallback).
+
+    Raises
+    ------
+    InfeasibleError
+        The tightened program of the fallback is infeasible (its conflicts, held also by
+        :data:`GRID_HELD`).
     """
-    setpoint = {p: math.exp(v) for p, v in zip(lp.parameters, x, strict=True)}
+    bounds, resolution = operation.bounds, machine.resolution
+    found = grid.machine_point(lp, x, bounds, resolution, _optimum_or_none)
+    if found is None:
+        err = diagnose(grid.tightened(lp, bounds, resolution))
+        raise InfeasibleError(err.operation, err.conflicts, (*err.against, GRID_HELD))
+    held_lp, x, values = found
+    return _result(operation, tool, lp, values, binding(held_lp, x), machine)
+
+
+def _optimum_or_none(lp: LogLinearProgram) -> np.ndarray[Any, Any] | None:
+    """:func:`optimum`, None where ``lp`` has none (the grid rule's sub-programs)."""
+    try:
+        return optimum(lp)
+    except (InfeasibleError, SolverError):
+        return None
+
+
+def _result(
+    operation: Operation,
+    tool: Tool,
+    lp: LogLinearProgram,
+    values: np.ndarray[Any, Any],
+    held: tuple[str, ...],
+    machine: Machine,
+) -> OperationResult:
+    """Predictions, re-check and timing at the grid point ``values`` (``lp.parameters`` order).
+
+    ``held``: the rows and bounds the optimum it comes from sits on.
+    """
+    setpoint = {p: float(v) for p, v in zip(lp.parameters, values, strict=True)}
     point = {**setpoint, **operation.context}
     predicted = predict_all(tool, point, operation.setpoint_rel_uncertainty)
     recheck(lp, predicted, point)
@@ -235,7 +295,7 @@ def _result(
         predicted=predicted,
         mrr_cm3_min=mrr,
         time_min=kinematics.machining_time_min(operation.volume_mm3, mrr),
-        binding=binding(lp, x, slack_z),
+        binding=held,
         objective=lp.goal,
         cost_per_kg=borangiu_cost.evaluate(lp.cost, setpoint) if lp.cost else None,
         constant_load=constant_load_of(operation, machine, setpoint),

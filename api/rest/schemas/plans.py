@@ -106,6 +106,13 @@ class MachineIn(BaseModel):
         "(ivester_spindle_load, linear_current, linear_current_by_feed, tai_current_feed) "
         "and its constants and provenance, as in a plan file (models.sensors)",
     )
+    resolution: dict[str, Positive] | None = Field(
+        None,
+        description="the step of each cutting parameter the control takes, in its unit "
+        "(default: depths 0.001 mm, feed_mm_rev 0.0001, speed_m_min 1, feed_per_tooth_mm "
+        "0.0001); setpoints lie on this grid (supervisor.inputs.resolution)",
+        json_schema_extra=keys_schema(_ALL_PARAMETERS),
+    )
 
 
 class OperationIn(BaseModel):
