@@ -154,7 +154,13 @@ async def observation_loop(
     """Segment a protocol's observations (OPC UA) into the queue; no checkpoint to resume."""
     recorder = Recorder(config, queue)
     segmenter = Segmenter(config.selectors, percentile=config.percentile)
+    connected = False
     async for observation in source:
+        if not connected:  # subscribed: --status shows where from (nothing to resume from)
+            where = config.opcua.url if config.opcua is not None else ""
+            queue.record(Checkpoint("opcua", where, 0, {}))
+            log.info("subscribed to %s", where)
+            connected = True
         for outcome in segmenter.feed(observation):
             recorder.outcome(outcome, None)
         if stop.is_set():

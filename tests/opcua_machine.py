@@ -1,0 +1,143 @@
+"""A test OPC UA server on 127.0.0.1 (asyncua) playing a virtual lathe's trace.
+
+The address space follows OPC 40502 (CNC Systems) where it defines the signals: under
+``Objects/CncInterface`` (namespace ``http://opcfoundation.org/UA/CNC/``) a spindle
+``CncSpindleList/Spindle`` with ``ActLoad`` and ``ActSpeed`` and a channel
+``CncChannelList/Channel`` with ``ActFeedrate``, ``ActProgramBlock`` and ``ActStatus``
+(CncChannelStatus: 0 Reset, 2 Active). What the specification does not place (part count, tool
+number, program name) is under ``Objects/Machine`` in the test's own namespace. Each sample of
+the trace is written with its own ``SourceTimestamp`` (1 ms apart), changed values only, the
+load every sample; the server runs in its own thread and event loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import datetime as dt
+import threading
+from typing import Any
+
+from asyncua import Server, ua
+
+from supervisor.virtual.trace import TraceSample
+
+CNC = "http://opcfoundation.org/UA/CNC/"
+PROGRAM = "O1001"
+_BASE = dt.datetime(2026, 11, 25, tzinfo=dt.UTC)
+
+
+class OpcUaMachine:
+    """``start()`` serves the trace's first sample; ``play()`` writes the rest; ``stop()``."""
+
+    def __init__(self, trace: list[TraceSample], port: int) -> None:
+        self.trace, self.port = trace, port
+        self.url = f"opc.tcp://127.0.0.1:{port}/rcb/"
+        self.loop = asyncio.new_event_loop()
+        self.ready, self.done = threading.Event(), threading.Event()
+        self._play: asyncio.Event | None = None
+        self._stop: asyncio.Event | None = None
+        self._thread = threading.Thread(target=self.loop.run_until_complete, args=(self._main(),))
+        self.error: BaseException | None = None
+
+    def start(self) -> None:
+        self._thread.start()
+        if not self.ready.wait(30):
+            raise RuntimeError(f"OPC UA server did not start: {self.error}")
+
+    def play(self) -> None:
+        assert self._play is not None
+        self.loop.call_soon_threadsafe(self._play.set)
+
+    def stop(self) -> None:
+        if self._stop is not None:
+            self.loop.call_soon_threadsafe(self._stop.set)
+        self._thread.join(30)
+
+    async def _main(self) -> None:
+        try:
+            await self._serve()
+        except BaseException as err:  # reported by start()
+            self.error = err
+            self.ready.set()
+            raise
+
+    async def _serve(self) -> None:
+        self._play, self._stop = asyncio.Event(), asyncio.Event()
+        server = Server()
+        await server.init()
+        server.set_endpoint(self.url)
+        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        cnc = await server.register_namespace(CNC)
+        own = await server.register_namespace("urn:rcb-supervisor:test-lathe")
+        interface = await server.nodes.objects.add_object(cnc, "CncInterface")
+        spindle = await (await interface.add_object(cnc, "CncSpindleList")).add_object(
+            own, "Spindle"
+        )
+        channel = await (await interface.add_object(cnc, "CncChannelList")).add_object(
+            own, "Channel"
+        )
+        machine = await server.nodes.objects.add_object(own, "Machine")
+        first = self.trace[0]
+        nodes: dict[str, tuple[Any, ua.VariantType]] = {}
+        for item, parent, ns, name, value, kind in (
+            ("execution", channel, cnc, "ActStatus", 0, ua.VariantType.Int32),
+            ("program", machine, own, "ProgramName", PROGRAM, ua.VariantType.String),
+            ("part_count", machine, own, "PartCount", 0, ua.VariantType.UInt32),
+            ("tool_number", machine, own, "ToolNumber", first.tool_number, ua.VariantType.UInt32),
+            ("block", channel, cnc, "ActProgramBlock", "", ua.VariantType.String),
+            ("spindle_speed_rpm", spindle, cnc, "ActSpeed", 0.0, ua.VariantType.Double),
+            ("feed_rate_mm_min", channel, cnc, "ActFeedrate", 0.0, ua.VariantType.Double),
+            ("spindle_load", spindle, cnc, "ActLoad", 0.0, ua.VariantType.Double),
+        ):
+            node = await parent.add_variable(ns, name, ua.Variant(value, kind))
+            nodes[item] = (node, kind)
+        async with server:
+            await self._write(nodes, None, first, 0)
+            self.ready.set()
+            await self._play.wait()
+            for i, sample in enumerate(self.trace[1:], start=1):
+                await self._write(nodes, self.trace[i - 1], sample, i)
+                if i % 20 == 0:
+                    await asyncio.sleep(0.004)
+            self.done.set()
+            await self._stop.wait()
+
+    @staticmethod
+    async def _write(
+        nodes: dict[str, tuple[Any, ua.VariantType]],
+        before: TraceSample | None,
+        sample: TraceSample,
+        i: int,
+    ) -> None:
+        stamp = _BASE + dt.timedelta(milliseconds=i)
+        values = {
+            "execution": 2 if sample.execution == "ACTIVE" else 0,
+            "program": PROGRAM,
+            "part_count": sample.part_count,
+            "tool_number": sample.tool_number,
+            "block": f"N{sample.block} G01",
+            "spindle_speed_rpm": sample.spindle_speed_rpm,
+            "feed_rate_mm_min": sample.feed_rate_mm_min,
+            "spindle_load": sample.spindle_load,
+        }
+        old = (
+            None
+            if before is None
+            else {
+                "execution": 2 if before.execution == "ACTIVE" else 0,
+                "program": PROGRAM,
+                "part_count": before.part_count,
+                "tool_number": before.tool_number,
+                "block": f"N{before.block} G01",
+                "spindle_speed_rpm": before.spindle_speed_rpm,
+                "feed_rate_mm_min": before.feed_rate_mm_min,
+                "spindle_load": None,
+            }
+        )
+        for item, value in values.items():
+            if old is not None and old[item] == value:
+                continue
+            node, kind = nodes[item]
+            await node.write_value(
+                ua.DataValue(ua.Variant(value, kind), SourceTimestamp=stamp, ServerTimestamp=stamp)
+            )

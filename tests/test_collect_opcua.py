@@ -1,0 +1,71 @@
+"""``rcb collect`` over OPC UA (asyncua) against a real ``rcb serve`` and a test server.
+
+Acceptance of issue 20: 20 parts of the demo part collected from an OPC UA subscription give
+the same setpoint versions and bands as the same parts posted directly as MES reports.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from supervisor.virtual.trace import block_map
+
+from collect_support import (
+    Collector,
+    demo_trace,
+    mes_reports,
+    new_plan,
+    outcome,
+    post_directly,
+    write_config,
+)
+from live import LiveServer, free_port
+from opcua_machine import OpcUaMachine
+
+PARTS = 20
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("collect-opcua")
+    server = LiveServer(f"sqlite:///{folder / 'rcb.db'}", folder / "serve.log")
+    server.start()
+    yield server
+    server.stop()
+
+
+def _source(url: str) -> str:
+    return "\n".join(
+        [
+            "[opcua]",
+            f'url = "{url}"',
+            "publishing_ms = 20",
+            "[opcua.nodes]",  # what OPC 40502 does not place; the rest are its defaults
+            'part_count = "Machine/PartCount"',
+            'tool_number = "Machine/ToolNumber"',
+            'program = "Machine/ProgramName"',
+        ]
+    )
+
+
+def test_twenty_parts_over_opc_ua_equal_the_same_parts_posted_by_an_mes(live, tmp_path):
+    plan_id, setpoints = new_plan(live)
+    direct_id, _ = new_plan(live)
+    ops, trace = demo_trace(setpoints, PARTS, seed=5)
+    machine = OpcUaMachine(trace, free_port())
+    machine.start()
+    config = write_config(tmp_path, live.base, plan_id, block_map(ops), _source(machine.url))
+    collector = Collector(config, live.keys["mes"])
+    try:
+        collector.start()
+        machine.play()
+        collector.wait(lambda c: c.get("sent", 0) == PARTS, what="20 parts sent")
+        assert collector.counts().get("skips", 0) == 0
+    finally:
+        collector.stop()
+        machine.stop()
+    post_directly(live, direct_id, mes_reports(ops, trace))
+    collected, direct = outcome(live, plan_id), outcome(live, direct_id)
+    assert len(collected["parts"]) == PARTS
+    assert len(collected["versions"]) > 1
+    assert collected == direct
