@@ -12,6 +12,7 @@ import json
 import logging
 import signal
 import sys
+import textwrap
 from pathlib import Path
 from typing import Annotated
 
@@ -49,29 +50,32 @@ def collect(
         queue.close()
 
 
+def _echo(line: str) -> None:
+    """One line of --status, wrapped to 80 columns (a log or a pipe)."""
+    typer.echo(textwrap.fill(line, width=80, subsequent_indent="      "))
+
+
 def _status(state: dict[str, object], as_json: bool) -> None:
     if as_json:
         typer.echo(json.dumps(state, indent=2))
         return
-    typer.echo(
+    _echo(
         f"pending {state['pending']}  sent {state['sent']}  rejected {state['rejected']}  "
         f"skipped parts {state['skipped_parts']}  gaps {state['gaps']}"
     )
     point = state["checkpoint"]
     if isinstance(point, dict):
-        typer.echo(
-            f"checkpoint: {point['source']} instance {point['instance']} next {point['next']}"
-        )
+        _echo(f"checkpoint: {point['source']} instance {point['instance']} next {point['next']}")
     for row in state["recent"]:  # type: ignore[attr-defined]
-        typer.echo(
+        _echo(
             f"  part {row['part_count']} ({row['program']}): {row['state']}"
             f" (HTTP {row['status']}, {row['tries']} tries)"
         )
     for row in state["recent_skipped"]:  # type: ignore[attr-defined]
         counts = ", ".join(str(n) for n in row["part_counts"])
-        typer.echo(f"  NOT reported: parts {counts}: {row['reason']}"[:200])
+        _echo(f"  NOT reported: parts {counts}: {row['reason']}")
     for row in state["recent_gaps"]:  # type: ignore[attr-defined]
-        typer.echo(f"  GAP: sequences {row['first']}..{row['last']}: {row['reason']}")
+        _echo(f"  GAP: sequences {row['first']}..{row['last']}: {row['reason']}")
 
 
 def _run(settings: object, queue: object) -> None:

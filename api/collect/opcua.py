@@ -83,7 +83,7 @@ def _value(item: str, value: Any, active: tuple[str, ...]) -> float | int | str 
 async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterator[Observation]:
     """Connect, subscribe and yield the observations in order until ``stop`` is set."""
     from asyncua import ua
-    from asyncua.client import Client
+    from asyncua.client.client import Client
     from asyncua.common.subscription import DataChangeEvent, OverflowPolicy
 
     client = Client(config.url)
@@ -113,7 +113,7 @@ async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterato
             parameters, None, queue_maxsize=100_000, overflow=OverflowPolicy.DISCONNECT
         )
         await subscription.subscribe_data_change(
-            list(nodes.values()), queuesize=config.queue_size, sampling_interval=0.0
+            list(nodes.values()), queuesize=config.queue_size, sampling_interval=ua.Double(0.0)
         )
         iterator = aiter(subscription)
         sequence = 0

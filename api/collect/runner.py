@@ -49,8 +49,10 @@ class Recorder:
                 data = json.dumps(body, sort_keys=True, separators=(",", ":")).encode()
                 report = (key, outcome.part_count, outcome.program, data)
                 added = self.queue.record(checkpoint, report=report)
+                unit = c.quantity.rpartition("_")[2]
                 passes = ", ".join(
-                    f"{p.operation} {p.value:.4g} ({p.samples} samples)" for p in outcome.passes
+                    f"{p.operation} {p.value:.4g} {unit} ({p.samples} samples)"
+                    for p in outcome.passes
                 )
                 state = "queued" if added else "queued before"
                 log.info("part %d (%s): %s; %s", outcome.part_count, body["serial"], state, passes)

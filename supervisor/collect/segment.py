@@ -42,6 +42,7 @@ ITEMS = (
 )
 #: The execution state in which load samples count (MTConnect ``Execution``; OPC UA mapped).
 ACTIVE = "ACTIVE"
+_JOINED = "the collector joined while the part was being made"
 _STATE_KEYS = (
     "part_count",
     "block",
@@ -167,8 +168,8 @@ class Segmenter:
                 raise InputError("state", unknown, "not segmenter state")
             self.values.update(state)
         elif joined_mid_part:
-            self.values["tainted"] = "the collector joined while the part was being made"
-        self._initial = state is None
+            self.values["tainted"] = _JOINED
+        self._cut_seen = False
         self._loads: dict[str, list[float]] = {}
         self._speeds: dict[str, list[float]] = {}
         self._feeds: dict[str, list[float]] = {}
@@ -201,10 +202,10 @@ class Segmenter:
         return []
 
     def _execution(self, value: object) -> None:
-        if self._initial and self.values["part_count"] is None and not self._loads:
-            # joined before any load sample: between parts unless the machine is cutting
-            if value != ACTIVE and str(self.values["tainted"]).startswith("the collector joined"):
-                self.values["tainted"] = None
+        # joined, and the machine stops before it cut anything we saw: between parts, so the
+        # next part is seen whole
+        if value != ACTIVE and not self._cut_seen and self.values["tainted"] == _JOINED:
+            self.values["tainted"] = None
         self.values["execution"] = value
 
     def _sample(self, value: object) -> None:
@@ -212,6 +213,7 @@ class Segmenter:
             return  # UNAVAILABLE or not a number: no sample
         if self.values["execution"] != ACTIVE:
             return
+        self._cut_seen = True
         operation = operation_at(self.selectors, self.values["block"], self.values["tool_number"])
         if operation is None:
             return
