@@ -91,7 +91,9 @@ def post_directly(live: LiveServer, plan_id: int, reports: list[dict[str, Any]])
     with live.client("mes") as c:
         for body in reports:
             answer = c.post(
-                f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": body["serial"]}
+                f"/plans/{plan_id}/parts",
+                json=body,
+                headers={"Idempotency-Key": f"mes:{plan_id}:{body['serial']}"},
             )
             assert answer.status_code == 201, answer.text
 

@@ -128,10 +128,11 @@ def test_selectors_reuse_the_gcode_map_form_and_refuse_what_cannot_be_told_apart
 @settings(max_examples=50, deadline=None)
 @given(st.text(min_size=1, max_size=300), st.text(min_size=1, max_size=300), st.integers(0, 10**9))
 def test_key_and_serial_are_deterministic_and_what_the_service_takes(machine, program, count):
-    key = idempotency_key(machine, program, count)
-    assert key == idempotency_key(machine, program, count)
+    key = idempotency_key(7, machine, program, count)
+    assert key == idempotency_key(7, machine, program, count)
     assert 1 <= len(key) <= 255 and all(33 <= ord(c) <= 126 for c in key)
-    assert key != idempotency_key(machine, program, count + 1)
+    assert key != idempotency_key(7, machine, program, count + 1)
+    assert key != idempotency_key(8, machine, program, count)  # keys are per API key, not plan
     assert 1 <= len(serial_of(machine, program, count)) <= 200
 
 

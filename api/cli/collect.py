@@ -45,7 +45,8 @@ def collect(
         if status:
             _status(queue.status(_STATUS_ROWS), as_json)
             return
-        _run(settings, queue)
+        with errors():  # a node or a file refused at start: one line, exit 2
+            _run(settings, queue)
     finally:
         queue.close()
 

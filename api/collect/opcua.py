@@ -42,6 +42,13 @@ PRIORITY = (
 _EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
 
 
+def lost() -> tuple[type[BaseException], ...]:
+    """The errors that mean the connection is lost or refused (asyncua's, the socket's)."""
+    from asyncua.ua.uaerrors import UaError
+
+    return (OSError, TimeoutError, ConnectionError, asyncio.IncompleteReadError, UaError)
+
+
 async def resolve(client: Any, spec: str, field: str) -> Any:
     """The node a NodeId string or a browse path names (see the module docstring)."""
     if spec.startswith(("ns=", "nsu=", "i=", "s=", "g=", "b=")):
@@ -84,7 +91,7 @@ async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterato
     """Connect, subscribe and yield the observations in order until ``stop`` is set."""
     from asyncua import ua
     from asyncua.client.client import Client
-    from asyncua.common.subscription import DataChangeEvent, OverflowPolicy
+    from asyncua.common.subscription import DataChangeEvent, OverflowPolicy, StatusChangeEvent
 
     client = Client(config.url)
     if config.security:
@@ -128,6 +135,8 @@ async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterato
                 batch.append(pending.get_nowait())
             changes = []
             for event in batch:
+                if isinstance(event, StatusChangeEvent):  # the server ended the subscription
+                    raise ConnectionError(f"subscription status {event.notification.Status}")
                 if not isinstance(event, DataChangeEvent):
                     continue
                 item = items.get(event.node.nodeid)

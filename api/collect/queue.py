@@ -200,9 +200,9 @@ class Queue:
         gaps = self.db.execute(
             "SELECT first_lost, last_lost, reason FROM gaps ORDER BY id DESC LIMIT ?", (last,)
         ).fetchall()
-        skipped_parts = sum(
-            len(json.loads(r[0])) for r in self.db.execute("SELECT part_counts FROM skipped")
-        )
+        skipped_parts = self.db.execute(
+            "SELECT coalesce(sum(json_array_length(part_counts)), 0) FROM skipped"
+        ).fetchone()[0]
         point = self.checkpoint()
         return {
             "pending": counts.get("pending", 0),

@@ -12,7 +12,7 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 
 import httpx
 
@@ -45,7 +45,7 @@ class Recorder:
                 calibration=c.calibration,
             )
             if body["operations"]:
-                key = idempotency_key(c.machine, outcome.program, outcome.part_count)
+                key = idempotency_key(c.plan_id, c.machine, outcome.program, outcome.part_count)
                 data = json.dumps(body, sort_keys=True, separators=(",", ":")).encode()
                 report = (key, outcome.part_count, outcome.program, data)
                 added = self.queue.record(checkpoint, report=report)
@@ -84,7 +84,15 @@ async def mtconnect_loop(
             state=None if saved is None else saved.state,
         )
         instance, start = (saved.instance, saved.next_sequence) if saved else ("", 0)
-        current = await agent.current()
+        current = None
+        while current is None:  # an agent down at start is waited for
+            if stop.is_set():
+                return
+            try:
+                current = await agent.current()
+            except (httpx.HTTPError, AgentError) as err:
+                log.warning("agent not read (%s); retrying", err)
+                await _pause(stop, max(1.0, source.poll_s))
         if saved is not None and current.instance_id != instance:
             gap = Gap(start, None, f"agent restarted: instance {instance} → {current.instance_id}")
             segmenter.gap(gap)
@@ -100,15 +108,15 @@ async def mtconnect_loop(
             try:
                 streams = await agent.sample(start, source.count)
             except AgentError as err:
-                if err.code != "OUT_OF_RANGE":
-                    raise
-                streams = await agent.current()
-                if streams.first_sequence <= start:
-                    raise
-                gap = Gap(start, streams.first_sequence - 1, "the agent's buffer wrapped")
+                first = await _first_sequence(agent) if err.code == "OUT_OF_RANGE" else None
+                if first is None or first <= start:
+                    log.warning("agent answered %s; retrying", err)
+                    await _pause(stop, max(1.0, source.poll_s))
+                    continue
+                gap = Gap(start, first - 1, "the agent's buffer wrapped")
                 segmenter.gap(gap)
-                _gap(queue, gap, instance, streams.first_sequence, segmenter)
-                start = streams.first_sequence
+                _gap(queue, gap, instance, first, segmenter)
+                start = first
                 continue
             except httpx.HTTPError as err:
                 log.warning("agent not reached (%s); retrying", type(err).__name__)
@@ -141,6 +149,14 @@ async def mtconnect_loop(
                 await _pause(stop, source.poll_s)
 
 
+async def _first_sequence(agent: Agent) -> int | None:
+    """The oldest sequence the agent holds (None: not read now)."""
+    try:
+        return (await agent.current()).first_sequence
+    except (httpx.HTTPError, AgentError):
+        return None
+
+
 def _gap(queue: Queue, gap: Gap, instance: str, resume: int, segmenter: Segmenter) -> None:
     log.error("GAP: %s", gap.describe())
     point = Checkpoint("mtconnect", instance, resume, segmenter.snapshot())
@@ -150,23 +166,36 @@ def _gap(queue: Queue, gap: Gap, instance: str, resume: int, segmenter: Segmente
 async def observation_loop(
     config: CollectorConfig,
     queue: Queue,
-    source: AsyncIterator[Observation],
+    connect: Callable[[], AsyncIterator[Observation]],
+    lost: tuple[type[BaseException], ...],
     stop: asyncio.Event,
 ) -> None:
-    """Segment a protocol's observations (OPC UA) into the queue; no checkpoint to resume."""
+    """Segment a subscription's observations (OPC UA) into the queue, reconnecting.
+
+    ``connect()`` opens the subscription and yields its observations; an exception of ``lost``
+    is a lost connection: a gap (the part in progress is skipped), then a new connection.
+    """
     recorder = Recorder(config, queue)
     segmenter = Segmenter(config.selectors, percentile=config.percentile)
-    connected = False
-    async for observation in source:
-        if not connected:  # subscribed: --status shows where from (nothing to resume from)
-            where = config.opcua.url if config.opcua is not None else ""
-            queue.record(Checkpoint("opcua", where, 0, {}))
-            log.info("subscribed to %s", where)
-            connected = True
-        for outcome in segmenter.feed(observation):
-            recorder.outcome(outcome, None)
-        if stop.is_set():
-            break
+    where = config.opcua.url if config.opcua is not None else ""
+    while not stop.is_set():
+        connected = False
+        try:
+            async for observation in connect():
+                if not connected:  # --status shows where from (there is nothing to resume)
+                    queue.record(Checkpoint("opcua", where, 0, {}))
+                    log.info("subscribed to %s", where)
+                    connected = True
+                for outcome in segmenter.feed(observation):
+                    recorder.outcome(outcome, None)
+                if stop.is_set():
+                    return
+        except lost as err:
+            gap = Gap(0, None, f"OPC UA connection lost or refused ({type(err).__name__})")
+            log.error("GAP: %s; reconnecting", gap.reason)
+            segmenter.gap(gap)
+            queue.record(None, gap=(gap.first_lost, gap.last_lost, gap.reason))
+            await _pause(stop, 1.0)
 
 
 async def _pause(stop: asyncio.Event, seconds: float) -> None:
@@ -184,7 +213,10 @@ async def run(config: CollectorConfig, queue: Queue, stop: asyncio.Event) -> Non
         from api.collect import opcua
 
         assert config.opcua is not None
-        reader = observation_loop(config, queue, opcua.observations(config.opcua, stop), stop)
+        source = config.opcua
+        reader = observation_loop(
+            config, queue, lambda: opcua.observations(source, stop), opcua.lost(), stop
+        )
     tasks = [asyncio.create_task(reader), asyncio.create_task(post_loop(config, queue, stop))]
     done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_EXCEPTION)
     stop.set()

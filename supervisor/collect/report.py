@@ -5,8 +5,8 @@ with its expanded uncertainty, the machine calibration that converts it and the 
 speed and feed rate; the service converts it to ``force_N`` with the calibration's propagated
 uncertainty (:func:`supervisor.inputs.signals.resolve`, :func:`models.sensors.to_force`; the idle
 load from the calibration's spindle-speed table at the measured speed) and stores the reading
-beside the force. The serial and the key follow from (machine, program, part count) only, so a
-part collected again after a restart is the same request: the service stores it once.
+beside the force. The serial and the key follow from the plan, machine, program and part count
+only, so a part collected again after a restart is the same request: the service stores it once.
 """
 
 from __future__ import annotations
@@ -32,9 +32,14 @@ def serial_of(machine: str, program: str, part_count: int) -> str:
     return f"{machine[:60]}/{hashlib.sha256(text.encode()).hexdigest()}/{part_count}"
 
 
-def idempotency_key(machine: str, program: str, part_count: int) -> str:
-    """``rcb-collect:lathe-1:O1001:17`` (percent-encoded; a SHA-256 past 255 characters)."""
-    key = f"rcb-collect:{quote(machine, safe='')}:{quote(program, safe='')}:{part_count}"
+def idempotency_key(plan_id: int, machine: str, program: str, part_count: int) -> str:
+    """``rcb-collect:3:lathe-1:O1001:17`` (percent-encoded; a SHA-256 past 255 characters).
+
+    The plan is part of the key: the service scopes keys to the API key, not to the plan, and a
+    machine that moves to another plan starts its program's count again.
+    """
+    names = f"{quote(machine, safe='')}:{quote(program, safe='')}"
+    key = f"rcb-collect:{plan_id}:{names}:{part_count}"
     if len(key) <= MAX_KEY:
         return key
     return "rcb-collect:sha256:" + hashlib.sha256(key.encode()).hexdigest()
