@@ -27,7 +27,7 @@ _BASE = dt.datetime(2026, 11, 25, tzinfo=dt.UTC)
 
 
 class OpcUaMachine:
-    """``start()`` serves the trace's first sample; ``play()`` writes the rest; ``stop()``."""
+    """``start()`` serves the trace's first sample; ``play(until)`` writes on; ``stop()``."""
 
     def __init__(self, trace: list[TraceSample], port: int) -> None:
         self.trace, self.port = trace, port
@@ -35,6 +35,8 @@ class OpcUaMachine:
         self.loop = asyncio.new_event_loop()
         self.ready, self.done = threading.Event(), threading.Event()
         self._play: asyncio.Event | None = None
+        self._target = 1
+        self.written = 1  # samples written so far
         self._stop: asyncio.Event | None = None
         self._thread = threading.Thread(target=self.loop.run_until_complete, args=(self._main(),))
         self.error: BaseException | None = None
@@ -44,9 +46,16 @@ class OpcUaMachine:
         if not self.ready.wait(30):
             raise RuntimeError(f"OPC UA server did not start: {self.error}")
 
-    def play(self) -> None:
+    def play(self, until: int | None = None) -> None:
+        """Write the samples up to ``until`` (all by default), then wait for more."""
         assert self._play is not None
-        self.loop.call_soon_threadsafe(self._play.set)
+        target = len(self.trace) if until is None else until
+        self.loop.call_soon_threadsafe(self._advance, target)
+
+    def _advance(self, target: int) -> None:
+        assert self._play is not None
+        self._target = max(self._target, target)
+        self._play.set()
 
     def stop(self) -> None:
         if self._stop is not None:
@@ -94,9 +103,12 @@ class OpcUaMachine:
         async with server:
             await self._write(nodes, None, first, 0)
             self.ready.set()
-            await self._play.wait()
             for i, sample in enumerate(self.trace[1:], start=1):
+                while i >= self._target:
+                    self._play.clear()
+                    await self._play.wait()
                 await self._write(nodes, self.trace[i - 1], sample, i)
+                self.written = i + 1
                 if i % 20 == 0:
                     await asyncio.sleep(0.004)
             self.done.set()

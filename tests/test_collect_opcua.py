@@ -6,6 +6,8 @@ the same setpoint versions and bands as the same parts posted directly as MES re
 
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from supervisor.virtual.trace import block_map
@@ -17,6 +19,7 @@ from collect_support import (
     new_plan,
     outcome,
     post_directly,
+    service_parts,
     write_config,
 )
 from live import LiveServer, free_port
@@ -69,3 +72,39 @@ def test_twenty_parts_over_opc_ua_equal_the_same_parts_posted_by_an_mes(live, tm
     assert len(collected["parts"]) == PARTS
     assert len(collected["versions"]) > 1
     assert collected == direct
+
+
+def test_kill_9_collector_mid_part_over_opc_ua_skips_that_part_and_stores_the_rest_once(
+    live, tmp_path
+):
+    """OPC UA keeps no history: the part being made while the collector was down is reported
+    as not collected, never posted with a partial force; every other part is stored once."""
+    parts = 5
+    plan_id, setpoints = new_plan(live)
+    ops, trace = demo_trace(setpoints, parts, seed=9)
+    per_part = (len(trace) - 1) // parts
+    machine = OpcUaMachine(trace, free_port())
+    machine.start()
+    config = write_config(tmp_path, live.base, plan_id, block_map(ops), _source(machine.url))
+    collector = Collector(config, live.keys["mes"])
+    try:
+        collector.start()
+        machine.play(until=2 * per_part + per_part // 2)  # parts 1, 2 made, part 3 half made
+        collector.wait(lambda c: c.get("sent", 0) == 2, what="parts 1, 2 sent")
+        collector.kill()
+        collector.start(ready=False)
+        deadline = time.monotonic() + 60
+        while collector.log.read_text().count("subscribed to") < 2:
+            assert time.monotonic() < deadline, collector.log.read_text()[-2000:]
+            time.sleep(0.05)
+        machine.play()
+        counts = collector.wait(
+            lambda c: c.get("sent", 0) == parts - 1 and c.get("skips", 0) == 1, what="the rest"
+        )
+    finally:
+        collector.stop()
+        machine.stop()
+    assert counts.get("rejected", 0) == 0
+    log = collector.log.read_text()
+    assert "parts 3: NOT reported: the collector joined while the part was being made" in log
+    assert service_parts(live, plan_id) == [f"lathe-1/O1001/{n}" for n in (1, 2, 4, 5)]
