@@ -29,14 +29,15 @@ _BASE = dt.datetime(2026, 11, 25, tzinfo=dt.UTC)
 class OpcUaMachine:
     """``start()`` serves the trace's first sample; ``play(until)`` writes on; ``stop()``."""
 
-    def __init__(self, trace: list[TraceSample], port: int) -> None:
-        self.trace, self.port = trace, port
+    def __init__(self, trace: list[TraceSample], port: int, start_at: int = 0) -> None:
+        """Serve ``trace`` from sample ``start_at`` (a machine that was running while down)."""
+        self.trace, self.port, self.start_at = trace, port, start_at
         self.url = f"opc.tcp://127.0.0.1:{port}/rcb/"
         self.loop = asyncio.new_event_loop()
         self.ready, self.done = threading.Event(), threading.Event()
         self._play: asyncio.Event | None = None
-        self._target = 1
-        self.written = 1  # samples written so far
+        self._target = start_at + 1
+        self.written = start_at + 1  # samples written so far
         self._stop: asyncio.Event | None = None
         self._thread = threading.Thread(target=self.loop.run_until_complete, args=(self._main(),))
         self.error: BaseException | None = None
@@ -59,8 +60,13 @@ class OpcUaMachine:
 
     def stop(self) -> None:
         if self._stop is not None:
-            self.loop.call_soon_threadsafe(self._stop.set)
+            self.loop.call_soon_threadsafe(self._halt)
         self._thread.join(30)
+
+    def _halt(self) -> None:
+        assert self._stop is not None and self._play is not None
+        self._stop.set()
+        self._play.set()
 
     async def _main(self) -> None:
         try:
@@ -86,12 +92,12 @@ class OpcUaMachine:
             own, "Channel"
         )
         machine = await server.nodes.objects.add_object(own, "Machine")
-        first = self.trace[0]
+        first = self.trace[self.start_at]
         nodes: dict[str, tuple[Any, ua.VariantType]] = {}
         for item, parent, ns, name, value, kind in (
             ("execution", channel, cnc, "ActStatus", 0, ua.VariantType.Int32),
             ("program", machine, own, "ProgramName", PROGRAM, ua.VariantType.String),
-            ("part_count", machine, own, "PartCount", 0, ua.VariantType.UInt32),
+            ("part_count", machine, own, "PartCount", first.part_count, ua.VariantType.UInt32),
             ("tool_number", machine, own, "ToolNumber", first.tool_number, ua.VariantType.UInt32),
             ("block", channel, cnc, "ActProgramBlock", "", ua.VariantType.String),
             ("spindle_speed_rpm", spindle, cnc, "ActSpeed", 0.0, ua.VariantType.Double),
@@ -101,12 +107,14 @@ class OpcUaMachine:
             node = await parent.add_variable(ns, name, ua.Variant(value, kind))
             nodes[item] = (node, kind)
         async with server:
-            await self._write(nodes, None, first, 0)
+            await self._write(nodes, None, first, self.start_at)
             self.ready.set()
-            for i, sample in enumerate(self.trace[1:], start=1):
-                while i >= self._target:
+            for i, sample in enumerate(self.trace[self.start_at + 1 :], start=self.start_at + 1):
+                while i >= self._target and not self._stop.is_set():
                     self._play.clear()
                     await self._play.wait()
+                if self._stop.is_set():
+                    break
                 await self._write(nodes, self.trace[i - 1], sample, i)
                 self.written = i + 1
                 if i % 20 == 0:

@@ -108,3 +108,42 @@ def test_kill_9_collector_mid_part_over_opc_ua_skips_that_part_and_stores_the_re
     log = collector.log.read_text()
     assert "parts 3: NOT reported: the collector joined while the part was being made" in log
     assert service_parts(live, plan_id) == [f"lathe-1/O1001/{n}" for n in (1, 2, 4, 5)]
+
+
+def test_a_lost_connection_is_a_gap_and_the_part_it_cuts_is_not_posted(live, tmp_path):
+    parts = 5
+    plan_id, setpoints = new_plan(live)
+    ops, trace = demo_trace(setpoints, parts, seed=13)
+    per_part = (len(trace) - 1) // parts
+    port = free_port()
+    machine = OpcUaMachine(trace, port)
+    machine.start()
+    config = write_config(tmp_path, live.base, plan_id, block_map(ops), _source(machine.url))
+    collector = Collector(config, live.keys["mes"])
+    again = None
+    try:
+        collector.start()
+        cut = 2 * per_part + per_part // 2
+        machine.play(until=cut)  # parts 1, 2 made, part 3 half made
+        collector.wait(lambda c: c.get("sent", 0) == 2, what="parts 1, 2 sent")
+        machine.stop()  # the server goes; the machine runs on
+        collector.wait(lambda c: c.get("gaps", 0) == 1, what="the gap")
+        again = OpcUaMachine(trace, port, start_at=cut + per_part // 4)
+        again.start()
+        deadline = time.monotonic() + 60
+        while collector.log.read_text().count("subscribed to") < 2:  # reconnected
+            assert time.monotonic() < deadline, collector.log.read_text()[-2000:]
+            time.sleep(0.05)
+        again.play()
+        counts = collector.wait(
+            lambda c: c.get("sent", 0) == parts - 1 and c.get("skips", 0) == 1, what="the rest"
+        )
+    finally:
+        collector.stop()
+        if again is not None:
+            again.stop()
+    assert counts.get("gaps") == 1 and counts.get("rejected", 0) == 0
+    log = collector.log.read_text()
+    assert "GAP: OPC UA connection lost or refused" in log
+    assert "parts 3: NOT reported: OPC UA connection lost" in log, log[-2000:]
+    assert service_parts(live, plan_id) == [f"lathe-1/O1001/{n}" for n in (1, 2, 4, 5)]

@@ -5,7 +5,10 @@ every change between two publishes). asyncua hands the notifications of one publ
 async iterator in one go; they are taken as a batch and ordered by their ``SourceTimestamp``
 (then execution, program, part count, tool, block, speed, feed rate, load: the state a load
 sample is read in comes first), since a server groups a publish's notifications by item.
-A local queue overflowing disconnects (asyncua ``OverflowPolicy.DISCONNECT``), never drops.
+A local queue overflowing disconnects (asyncua ``OverflowPolicy.DISCONNECT``), never drops;
+a connection asyncua's watchdog finds lost, or a server that does not answer a read of its
+state after :data:`PROBE_S` s without a notification, ends the iteration (the runner records a
+gap and connects again).
 
 A node is a NodeId (``ns=2;s=Spindle.Load``, ``nsu=...;i=...``) or a browse path from
 ``Objects``: ``CNC:CncInterface/CNC:CncSpindleList/Spindle/CNC:ActLoad``, each segment a
@@ -20,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import datetime as dt
 import os
+import time
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -40,6 +44,9 @@ PRIORITY = (
     "spindle_load",
 )
 _EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+#: Seconds without a notification after which the server is asked for its state (a half-open
+#: connection sends nothing and reports nothing); no answer within as long is a lost connection.
+PROBE_S = 2.0
 
 
 def lost() -> tuple[type[BaseException], ...]:
@@ -94,6 +101,12 @@ async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterato
     from asyncua.common.subscription import DataChangeEvent, OverflowPolicy, StatusChangeEvent
 
     client = Client(config.url)
+    lost: list[Exception] = []
+
+    async def on_lost(error: Exception) -> None:  # asyncua's watchdog saw the server go
+        lost.append(error)
+
+    client.connection_lost_callback = on_lost
     if config.security:
         await client.set_security_string(config.security)
     if config.username:
@@ -123,12 +136,18 @@ async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterato
             list(nodes.values()), queuesize=config.queue_size, sampling_interval=ua.Double(0.0)
         )
         iterator = aiter(subscription)
-        sequence = 0
+        sequence, heard = 0, time.monotonic()
         while not stop.is_set():
+            if lost:
+                raise ConnectionError(f"connection lost ({type(lost[0]).__name__})")
             try:
                 first = await asyncio.wait_for(anext(iterator), timeout=0.2)
             except TimeoutError:
+                if time.monotonic() - heard > PROBE_S:  # quiet: is the server still there?
+                    await asyncio.wait_for(client.nodes.server_state.read_value(), PROBE_S)
+                    heard = time.monotonic()
                 continue
+            heard = time.monotonic()
             batch: list[Any] = [first]
             pending = subscription._event_queue  # asyncua's iterator queue: the same publish
             while pending is not None and not pending.empty():

@@ -44,7 +44,7 @@ CREATE TABLE IF NOT EXISTS skipped (
 );
 CREATE TABLE IF NOT EXISTS gaps (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
-    first_lost INTEGER NOT NULL,
+    first_lost INTEGER,
     last_lost INTEGER,
     reason TEXT NOT NULL,
     at REAL NOT NULL
@@ -116,7 +116,7 @@ class Queue:
         *,
         report: tuple[str, int, str, bytes] | None = None,
         skipped: tuple[tuple[int, ...], str, str] | None = None,
-        gap: tuple[int, int | None, str] | None = None,
+        gap: tuple[int | None, int | None, str] | None = None,
     ) -> bool:
         """Queue a report, a skip or a gap and move the checkpoint, in one transaction.
 

@@ -178,6 +178,7 @@ async def observation_loop(
     recorder = Recorder(config, queue)
     segmenter = Segmenter(config.selectors, percentile=config.percentile)
     where = config.opcua.url if config.opcua is not None else ""
+    outage = False  # one gap per outage, however many tries it takes to connect again
     while not stop.is_set():
         connected = False
         try:
@@ -185,16 +186,19 @@ async def observation_loop(
                 if not connected:  # --status shows where from (there is nothing to resume)
                     queue.record(Checkpoint("opcua", where, 0, {}))
                     log.info("subscribed to %s", where)
-                    connected = True
+                    connected, outage = True, False
                 for outcome in segmenter.feed(observation):
                     recorder.outcome(outcome, None)
                 if stop.is_set():
                     return
         except lost as err:
-            gap = Gap(0, None, f"OPC UA connection lost or refused ({type(err).__name__})")
-            log.error("GAP: %s; reconnecting", gap.reason)
-            segmenter.gap(gap)
-            queue.record(None, gap=(gap.first_lost, gap.last_lost, gap.reason))
+            if not outage:
+                why = f"OPC UA connection lost or refused ({type(err).__name__}): no replay"
+                gap = Gap(None, None, why)
+                log.error("GAP: %s; reconnecting", gap.reason)
+                segmenter.gap(gap)
+                queue.record(None, gap=(gap.first_lost, gap.last_lost, gap.reason))
+                outage = True
             await _pause(stop, 1.0)
 
 

@@ -66,14 +66,19 @@ class Observation:
 
 @dataclass(frozen=True)
 class Gap:
-    """Observations ``first_lost..last_lost`` never reached the collector (None: unknown end)."""
+    """Observations ``first_lost..last_lost`` never reached the collector.
 
-    first_lost: int
+    None for ``last_lost``: the end is unknown; for both: the source numbers nothing (OPC UA).
+    """
+
+    first_lost: int | None
     last_lost: int | None
     reason: str
 
     def describe(self) -> str:
-        """``sequences 120..344 lost (buffer wrapped)``."""
+        """``sequences 120..344 lost (buffer wrapped)``, or the reason alone."""
+        if self.first_lost is None:
+            return self.reason
         end = "?" if self.last_lost is None else str(self.last_lost)
         return f"sequences {self.first_lost}..{end} lost ({self.reason})"
 
