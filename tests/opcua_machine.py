@@ -39,8 +39,18 @@ class OpcUaMachine:
         self._target = start_at + 1
         self.written = start_at + 1  # samples written so far
         self._stop: asyncio.Event | None = None
-        self._thread = threading.Thread(target=self.loop.run_until_complete, args=(self._main(),))
+        self._thread = threading.Thread(target=self._run)
         self.error: BaseException | None = None
+
+    def _run(self) -> None:
+        try:
+            self.loop.run_until_complete(self._main())
+        finally:  # sessions of clients that were killed leave tasks behind: end them
+            pending = asyncio.all_tasks(self.loop)
+            for task in pending:
+                task.cancel()
+            self.loop.run_until_complete(asyncio.gather(*pending, return_exceptions=True))
+            self.loop.close()
 
     def start(self) -> None:
         self._thread.start()
