@@ -43,6 +43,7 @@ class OpcUaMachine:
         self.error: BaseException | None = None
 
     def _run(self) -> None:
+        asyncio.set_event_loop(self.loop)
         try:
             self.loop.run_until_complete(self._main())
         finally:  # sessions of clients that were killed leave tasks behind: end them
