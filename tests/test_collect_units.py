@@ -242,3 +242,17 @@ def test_rcb_collect_refuses_a_bad_file_in_one_line_and_never_prints_the_key(tmp
     assert "pending 0  sent 0  rejected 0" in status.output
     assert all(len(line) <= 80 for line in status.output.splitlines())
     assert set(string.printable) >= set(status.output)
+
+
+def test_operations_by_tool_number_cut_passes_at_tool_changes():
+    by_tool = [parse_selector("rough=T1"), parse_selector("finish=T3")]
+    events = [("execution", "READY"), ("part_count", 0), ("execution", "ACTIVE")]
+    events += [("tool_number", 1), ("spindle_load", 2.0), ("spindle_load", 2.5)]
+    events += [("tool_number", 2), ("spindle_load", 9.0)]  # a tool no operation uses
+    events += [("tool_number", 3), ("spindle_load", 1.5), ("execution", "READY")]
+    events += [("spindle_load", 8.0), ("part_count", 1)]
+    (done,) = _feed(Segmenter(by_tool), events)
+    assert [(p.operation, p.value, p.samples) for p in done.passes] == [
+        ("rough", 2.5, 2),
+        ("finish", 1.5, 1),
+    ]
