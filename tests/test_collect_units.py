@@ -256,3 +256,16 @@ def test_operations_by_tool_number_cut_passes_at_tool_changes():
         ("rough", 2.5, 2),
         ("finish", 1.5, 1),
     ]
+
+
+def test_the_readme_example_is_a_valid_collector_file(tmp_path):
+    import tomllib
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## rcb collect: machine data in") :]
+    example = section[section.index("```toml\n") + 8 : section.index("```\n", 10)]
+    config = config_from_mapping(tomllib.loads(example), tmp_path)
+    assert config.machine == "lathe-1" and config.mtconnect is not None
+    assert [s.describe() for s in config.selectors] == ["rough-od=N100:N180", "finish-od=N300:N350"]
+    assert config.mtconnect.items["spindle_load"] == "Rotary/Load"
