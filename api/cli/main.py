@@ -22,6 +22,7 @@ from api.cli import replan as cli_replan
 from api.cli import review as cli_review
 from api.cli.admin import db_app, keys_app, serve
 from api.cli.certify import certify
+from api.cli.collect import collect
 from api.cli.demo import demo
 from api.cli.examples import examples_app
 from api.cli.fit import fit
@@ -114,3 +115,4 @@ milling_app = typer.Typer(
 app.add_typer(milling_app, name="milling")  # rcb milling domain|control|setup
 app.add_typer(examples_app, name="examples")  # rcb examples [copy]: api/cli/examples.py
 app.command()(serve)  # rcb serve: api/cli/admin.py
+app.command()(collect)  # rcb collect: api/cli/collect.py

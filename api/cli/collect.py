@@ -1,0 +1,98 @@
+"""``rcb collect --config collector.toml``: a machine's spindle signals → part reports.
+
+Runs until interrupted (SIGINT/SIGTERM stop it cleanly; a ``kill -9`` loses nothing: see
+:mod:`api.collect.queue`). ``--status`` prints the queue's state and exits. asyncua and httpx are
+imported inside the command, so other ``rcb`` commands do not load them.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import signal
+import sys
+import textwrap
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from api.cli.common import errors
+
+_STATUS_ROWS = 10
+
+
+def collect(
+    config: Annotated[
+        Path, typer.Option("--config", metavar="collector.toml", help="The collector's file.")
+    ],
+    status: Annotated[
+        bool, typer.Option("--status", help="Print the queue's state and exit.")
+    ] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="--status as JSON.")] = False,
+) -> None:
+    """Read one machine's spindle load over OPC UA or MTConnect and report each part."""
+    from api.collect.config import load_config
+    from api.collect.queue import open_queue
+
+    with errors():
+        settings = load_config(config)
+        if not status:
+            settings.api_key()  # refuse at once when the key's variable is unset
+    queue = open_queue(settings.queue_path)
+    try:
+        if status:
+            _status(queue.status(_STATUS_ROWS), as_json)
+            return
+        with errors():  # a node or a file refused at start: one line, exit 2
+            _run(settings, queue)
+    finally:
+        queue.close()
+
+
+def _echo(line: str) -> None:
+    """One line of --status, wrapped to 80 columns (a log or a pipe)."""
+    typer.echo(textwrap.fill(line, width=80, subsequent_indent="      "))
+
+
+def _status(state: dict[str, object], as_json: bool) -> None:
+    if as_json:
+        typer.echo(json.dumps(state, indent=2))
+        return
+    _echo(
+        f"pending {state['pending']}  sent {state['sent']}  rejected {state['rejected']}  "
+        f"skipped parts {state['skipped_parts']}  gaps {state['gaps']}"
+    )
+    point = state["checkpoint"]
+    if isinstance(point, dict):
+        _echo(f"checkpoint: {point['source']} instance {point['instance']} next {point['next']}")
+    for row in state["recent"]:  # type: ignore[attr-defined]
+        _echo(
+            f"  part {row['part_count']} ({row['program']}): {row['state']}"
+            f" (HTTP {row['status']}, {row['tries']} tries)"
+        )
+    for row in state["recent_skipped"]:  # type: ignore[attr-defined]
+        counts = ", ".join(str(n) for n in row["part_counts"])
+        _echo(f"  NOT reported: parts {counts}: {row['reason']}")
+    for row in state["recent_gaps"]:  # type: ignore[attr-defined]
+        _echo(f"  GAP: sequences {row['first']}..{row['last']}: {row['reason']}")
+
+
+def _run(settings: object, queue: object) -> None:
+    from api.collect.runner import run
+
+    logging.basicConfig(
+        stream=sys.stderr, level=logging.INFO, format="%(asctime)s rcb collect: %(message)s"
+    )
+    for noisy in ("asyncua", "httpx", "httpcore"):
+        logging.getLogger(noisy).setLevel(logging.WARNING)
+
+    async def main() -> None:
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        await run(settings, queue, stop)  # type: ignore[arg-type]
+
+    asyncio.run(main())

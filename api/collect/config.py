@@ -1,0 +1,280 @@
+"""``collector.toml``: one machine, one plan, one signal, one protocol (see README "rcb collect").
+
+Every error names the field and its value (:class:`models.errors.InputError`). Secrets are never
+in the file: the API key and an OPC UA password are read from the environment variables the file
+names, and neither is ever logged or shown by ``--status``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from models.errors import InputError
+from models.sensors import RAW_QUANTITIES
+from supervisor.collect.selectors import OperationSelector, check_selectors, parse_selector
+
+#: MTConnect data items read by default: ``Component/Type`` in the agent's streams.
+MTCONNECT_ITEMS: dict[str, str] = {
+    "spindle_load": "Rotary/Load",
+    "spindle_speed_rpm": "Rotary/RotaryVelocity",
+    "feed_rate_mm_min": "Path/PathFeedrate",
+    "block": "Path/Block",
+    "tool_number": "Path/ToolNumber",
+    "part_count": "Path/PartCount",
+    "execution": "Path/Execution",
+    "program": "Path/Program",
+}
+#: OPC UA nodes read by default: browse paths from ``Objects`` with the BrowseNames of OPC 40502
+#: (CNC Systems: ``CncInterface``, ``CncSpindleList``/``CncChannelList``, ``ActLoad``,
+#: ``ActSpeed``, ``ActFeedrate``, ``ActProgramBlock``, ``ActStatus``); ``{spindle}`` and
+#: ``{channel}`` are the instances' BrowseNames from ``[opcua]``. The companion specifications
+#: define no part counter, tool number or program name at a fixed path: give those.
+OPCUA_NODES: dict[str, str] = {
+    "spindle_load": "CNC:CncInterface/CNC:CncSpindleList/{spindle}/CNC:ActLoad",
+    "spindle_speed_rpm": "CNC:CncInterface/CNC:CncSpindleList/{spindle}/CNC:ActSpeed",
+    "feed_rate_mm_min": "CNC:CncInterface/CNC:CncChannelList/{channel}/CNC:ActFeedrate",
+    "block": "CNC:CncInterface/CNC:CncChannelList/{channel}/CNC:ActProgramBlock",
+    "execution": "CNC:CncInterface/CNC:CncChannelList/{channel}/CNC:ActStatus",
+}
+#: Namespace URIs of the prefixes a browse path may use.
+OPCUA_PREFIXES = {
+    "CNC": "http://opcfoundation.org/UA/CNC/",
+    "MT": "http://opcfoundation.org/UA/MachineTool/",
+}
+#: OPC 40502 CncChannelStatus: Reset 0, Interrupted 1, Active 2.
+OPCUA_ACTIVE = ("2",)
+REQUIRED_OPCUA = ("spindle_load", "part_count")
+
+
+@dataclass(frozen=True)
+class MTConnectConfig:
+    """An agent: base URL (with the device, e.g. ``http://agent:5000/lathe-1``)."""
+
+    url: str
+    items: Mapping[str, str]
+    count: int = 1000
+    poll_s: float = 0.2
+
+
+@dataclass(frozen=True)
+class OpcUaConfig:
+    """A server: endpoint, security, user, and the node of every signal."""
+
+    url: str
+    nodes: Mapping[str, str]
+    active_values: tuple[str, ...] = OPCUA_ACTIVE
+    security: str | None = None
+    username: str | None = None
+    password_env: str | None = None
+    publishing_ms: float = 50.0
+    queue_size: int = 10000
+
+    def __repr__(self) -> str:  # never print the password's variable's value, only its name
+        return f"OpcUaConfig(url={self.url!r}, username={self.username!r}, security=...)"
+
+
+@dataclass(frozen=True)
+class CollectorConfig:
+    """The whole ``collector.toml``."""
+
+    machine: str
+    queue_path: Path
+    service_url: str
+    plan_id: int
+    setpoint_version: int
+    api_key_env: str
+    quantity: str
+    uncertainty: float
+    calibration: str | None
+    percentile: float
+    selectors: tuple[OperationSelector, ...]
+    mtconnect: MTConnectConfig | None = None
+    opcua: OpcUaConfig | None = None
+    retry_max_s: float = 5.0
+
+    def api_key(self) -> str:
+        """The API key from the environment (never stored, never logged)."""
+        key = os.environ.get(self.api_key_env, "")
+        if not key:
+            raise InputError("service.api_key_env", self.api_key_env, "environment variable unset")
+        return key
+
+
+def load_config(path: Path) -> CollectorConfig:
+    """Read and check ``collector.toml``; relative paths are relative to its folder."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError("--config", str(path), "no such file") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError("--config", str(path), f"cannot be read ({err})") from None
+    except tomllib.TOMLDecodeError as err:
+        raise InputError("--config", str(path), f"not TOML ({err})") from None
+    return config_from_mapping(data, path.parent)
+
+
+def _table(data: Mapping[str, Any], key: str, path: str = "") -> Mapping[str, Any]:
+    where = f"{path}.{key}" if path else key
+    value = data.get(key)
+    if not isinstance(value, Mapping):
+        raise InputError(where, value, "required table missing")
+    return value
+
+
+def _text(data: Mapping[str, Any], key: str, path: str, default: str | None = None) -> str:
+    value = data.get(key, default)
+    if not isinstance(value, str) or not value.strip() or len(value) > 500:
+        raise InputError(f"{path}.{key}", value, "must be text of 1 to 500 characters")
+    return value
+
+
+def _number(
+    data: Mapping[str, Any], key: str, path: str, default: float, low: float, high: float
+) -> float:
+    if key not in data and math.isnan(default):
+        raise InputError(f"{path}.{key}", None, "required field missing")
+    value = data.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{path}.{key}", value, "must be a number")
+    if not low <= value <= high:
+        raise InputError(f"{path}.{key}", value, f"must be in [{low:g}, {high:g}]")
+    return float(value)
+
+
+def _whole(data: Mapping[str, Any], key: str, path: str, default: int | None, high: int) -> int:
+    value = data.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= high:
+        raise InputError(f"{path}.{key}", value, f"must be a whole number in 1..{high}")
+    return value
+
+
+def _only(data: Mapping[str, Any], keys: tuple[str, ...], path: str) -> None:
+    for key in data:
+        if key not in keys:
+            raise InputError(f"{path}.{key}" if path else key, data[key], "unknown field")
+
+
+def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
+    """Check a parsed ``collector.toml`` (see :func:`load_config`)."""
+    _only(data, ("collector", "service", "signal", "mtconnect", "opcua"), "")
+    collector, service, signal = (
+        _table(data, "collector"),
+        _table(data, "service"),
+        _table(data, "signal"),
+    )
+    _only(collector, ("machine", "queue", "retry_max_s"), "collector")
+    _only(service, ("url", "plan", "setpoint_version", "api_key_env"), "service")
+    keys = ("quantity", "uncertainty", "calibration", "percentile", "operations")
+    _only(signal, keys, "signal")
+    quantity = _text(signal, "quantity", "signal", "spindle_load_V")
+    if quantity not in RAW_QUANTITIES:
+        raise InputError("signal.quantity", quantity, f"must be one of {', '.join(RAW_QUANTITIES)}")
+    operations = signal.get("operations")
+    if not isinstance(operations, list) or not all(isinstance(o, str) for o in operations):
+        raise InputError("signal.operations", operations, "must be a list of OP=N100:N200 or OP=T1")
+    if len(operations) > 100:
+        raise InputError("signal.operations", len(operations), "at most 100 operations")
+    selectors = tuple(parse_selector(o, "signal.operations") for o in operations)
+    check_selectors(selectors, "signal.operations")
+    if ("mtconnect" in data) == ("opcua" in data):
+        raise InputError("mtconnect", None, "give exactly one of [mtconnect] and [opcua]")
+    queue = Path(_text(collector, "queue", "collector", "collector-queue.sqlite"))
+    calibration = signal.get("calibration")
+    if calibration is not None:
+        calibration = _text(signal, "calibration", "signal")
+    url = _text(service, "url", "service")
+    if not url.startswith(("http://", "https://")):
+        raise InputError("service.url", url, "must start with http:// or https://")
+    return CollectorConfig(
+        machine=_text(collector, "machine", "collector"),
+        queue_path=queue if queue.is_absolute() else base / queue,
+        service_url=url.rstrip("/"),
+        plan_id=_whole(service, "plan", "service", None, 2**31 - 1),
+        setpoint_version=_whole(service, "setpoint_version", "service", None, 2**31 - 1),
+        api_key_env=_text(service, "api_key_env", "service", "RCB_API_KEY"),
+        quantity=quantity,
+        uncertainty=_number(signal, "uncertainty", "signal", math.nan, 1e-9, 1e12),
+        calibration=calibration,
+        percentile=_number(signal, "percentile", "signal", 100.0, 1e-9, 100.0),
+        selectors=selectors,
+        mtconnect=_mtconnect(data["mtconnect"]) if "mtconnect" in data else None,
+        opcua=_opcua(data["opcua"]) if "opcua" in data else None,
+        retry_max_s=_number(collector, "retry_max_s", "collector", 5.0, 0.01, 3600.0),
+    )
+
+
+def _items(data: object, path: str, known: tuple[str, ...]) -> dict[str, str]:
+    if data is None:
+        return {}
+    if not isinstance(data, Mapping):
+        raise InputError(path, data, "must be a table of signal = source")
+    for key, value in data.items():
+        if key not in known:
+            raise InputError(f"{path}.{key}", value, f"unknown signal; known: {', '.join(known)}")
+        if not isinstance(value, str) or not value.strip():
+            raise InputError(f"{path}.{key}", value, "must be text")
+    return dict(data)
+
+
+def _mtconnect(data: object) -> MTConnectConfig:
+    if not isinstance(data, Mapping):
+        raise InputError("mtconnect", data, "must be a table")
+    _only(data, ("url", "count", "poll_s", "data_items"), "mtconnect")
+    url = _text(data, "url", "mtconnect")
+    if not url.startswith(("http://", "https://")):
+        raise InputError("mtconnect.url", url, "must start with http:// or https://")
+    items = {**MTCONNECT_ITEMS, **_items(data.get("data_items"), "mtconnect.data_items", _ITEMS)}
+    return MTConnectConfig(
+        url=url.rstrip("/"),
+        items=items,
+        count=_whole(data, "count", "mtconnect", 1000, 100_000),
+        poll_s=_number(data, "poll_s", "mtconnect", 0.2, 0.001, 60.0),
+    )
+
+
+def _opcua(data: object) -> OpcUaConfig:
+    if not isinstance(data, Mapping):
+        raise InputError("opcua", data, "must be a table")
+    keys = ("url", "nodes", "spindle", "channel", "active_values", "security", "username")
+    _only(data, (*keys, "password_env", "publishing_ms", "queue_size"), "opcua")
+    url = _text(data, "url", "opcua")
+    if not url.startswith("opc.tcp://"):
+        raise InputError("opcua.url", url, "must start with opc.tcp://")
+    spindle = _text(data, "spindle", "opcua", "Spindle")
+    channel = _text(data, "channel", "opcua", "Channel")
+    defaults = {k: v.format(spindle=spindle, channel=channel) for k, v in OPCUA_NODES.items()}
+    nodes = {**defaults, **_items(data.get("nodes"), "opcua.nodes", _ITEMS)}
+    for key in REQUIRED_OPCUA:
+        if key not in nodes:
+            raise InputError(f"opcua.nodes.{key}", None, "required: no companion-spec default")
+    active = data.get("active_values", list(OPCUA_ACTIVE))
+    if not isinstance(active, list) or not active:
+        raise InputError("opcua.active_values", active, "must be a list of values")
+    username = data.get("username")
+    if username is not None:
+        username = _text(data, "username", "opcua")
+    security = data.get("security")
+    if security is not None:
+        security = _text(data, "security", "opcua")
+    password_env = data.get("password_env")
+    if password_env is not None:
+        password_env = _text(data, "password_env", "opcua")
+    return OpcUaConfig(
+        url=url,
+        nodes=nodes,
+        active_values=tuple(str(a) for a in active),
+        security=security,
+        username=username,
+        password_env=password_env,
+        publishing_ms=_number(data, "publishing_ms", "opcua", 50.0, 1.0, 60_000.0),
+        queue_size=_whole(data, "queue_size", "opcua", 10000, 1_000_000),
+    )
+
+
+_ITEMS = tuple(MTCONNECT_ITEMS)

@@ -1,0 +1,171 @@
+"""An OPC UA server's subscription → observations (asyncua, imported only when used).
+
+One subscription with a monitored item per signal (``queuesize`` large, so the server keeps
+every change between two publishes). asyncua hands the notifications of one publish to an
+async iterator in one go; they are taken as a batch and ordered by their ``SourceTimestamp``
+(then execution, program, part count, tool, block, speed, feed rate, load: the state a load
+sample is read in comes first), since a server groups a publish's notifications by item.
+A local queue overflowing disconnects (asyncua ``OverflowPolicy.DISCONNECT``), never drops;
+a connection asyncua's watchdog finds lost, or a server that does not answer a read of its
+state after :data:`PROBE_S` s without a notification, ends the iteration (the runner records a
+gap and connects again).
+
+A node is a NodeId (``ns=2;s=Spindle.Load``, ``nsu=...;i=...``) or a browse path from
+``Objects``: ``CNC:CncInterface/CNC:CncSpindleList/Spindle/CNC:ActLoad``, each segment a
+BrowseName with an optional prefix (``CNC``, ``MT``: the OPC 40502 / 40501 namespace URIs; a
+number: a namespace index; none: any namespace). Security is asyncua's security string
+(``Basic256Sha256,SignAndEncrypt,cert.der,key.pem``); the password is read from the environment
+variable ``password_env`` names and never logged.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import datetime as dt
+import os
+import time
+from collections.abc import AsyncIterator
+from typing import Any
+
+from api.collect.config import OPCUA_PREFIXES, OpcUaConfig
+from models.errors import InputError
+from supervisor.collect.segment import ACTIVE, Observation
+from supervisor.collect.selectors import block_number
+
+#: Order of signals that change at the same instant (see the module docstring).
+PRIORITY = (
+    "execution",
+    "program",
+    "part_count",
+    "tool_number",
+    "block",
+    "spindle_speed_rpm",
+    "feed_rate_mm_min",
+    "spindle_load",
+)
+_EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+#: Seconds without a notification after which the server is asked for its state (a half-open
+#: connection sends nothing and reports nothing); no answer within as long is a lost connection.
+PROBE_S = 2.0
+
+
+def lost() -> tuple[type[BaseException], ...]:
+    """The errors that mean the connection is lost or refused (asyncua's, the socket's)."""
+    from asyncua.ua.uaerrors import UaError
+
+    return (OSError, TimeoutError, ConnectionError, asyncio.IncompleteReadError, UaError)
+
+
+async def resolve(client: Any, spec: str, field: str) -> Any:
+    """The node a NodeId string or a browse path names (see the module docstring)."""
+    if spec.startswith(("ns=", "nsu=", "i=", "s=", "g=", "b=")):
+        return client.get_node(spec)
+    node = client.nodes.objects
+    for segment in spec.split("/"):
+        prefix, _, name = segment.rpartition(":")
+        index: int | None = None
+        if prefix in OPCUA_PREFIXES:
+            index = await client.get_namespace_index(OPCUA_PREFIXES[prefix])
+        elif prefix:
+            index = int(prefix) if prefix.isdigit() else None
+            if index is None:
+                raise InputError(field, spec, f"unknown prefix {prefix!r} in {segment!r}")
+        for child in await node.get_children():
+            browse = await child.read_browse_name()
+            if browse.Name == name and (index is None or browse.NamespaceIndex == index):
+                node = child
+                break
+        else:
+            raise InputError(field, spec, f"no node {segment!r} on the server")
+    return node
+
+
+def _value(item: str, value: Any, active: tuple[str, ...]) -> float | int | str | None:
+    if value is None:
+        return None
+    if item == "execution":
+        return ACTIVE if str(getattr(value, "value", value)) in active else str(value)
+    if item == "block":
+        return block_number(str(value))
+    if item in ("part_count", "tool_number"):
+        return int(value)
+    if item == "program":
+        return str(value)
+    return float(value)
+
+
+async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterator[Observation]:
+    """Connect, subscribe and yield the observations in order until ``stop`` is set."""
+    from asyncua import ua
+    from asyncua.client.client import Client
+    from asyncua.common.subscription import DataChangeEvent, OverflowPolicy, StatusChangeEvent
+
+    client = Client(config.url)
+    lost: list[Exception] = []
+
+    async def on_lost(error: Exception) -> None:  # asyncua's watchdog saw the server go
+        lost.append(error)
+
+    client.connection_lost_callback = on_lost
+    if config.security:
+        await client.set_security_string(config.security)
+    if config.username:
+        client.set_user(config.username)
+        if config.password_env:
+            password = os.environ.get(config.password_env)
+            if not password:
+                raise InputError("opcua.password_env", config.password_env, "variable unset")
+            client.set_password(password)
+    async with client:
+        nodes = {
+            item: await resolve(client, spec, f"opcua.nodes.{item}")
+            for item, spec in config.nodes.items()
+        }
+        items = {node.nodeid: item for item, node in nodes.items()}
+        parameters = ua.CreateSubscriptionParameters(
+            RequestedPublishingInterval=config.publishing_ms,
+            RequestedLifetimeCount=10000,
+            RequestedMaxKeepAliveCount=100,
+            MaxNotificationsPerPublish=0,
+            Priority=0,
+        )
+        subscription = await client.create_subscription(
+            parameters, None, queue_maxsize=100_000, overflow=OverflowPolicy.DISCONNECT
+        )
+        await subscription.subscribe_data_change(
+            list(nodes.values()), queuesize=config.queue_size, sampling_interval=ua.Double(0.0)
+        )
+        iterator = aiter(subscription)
+        sequence, heard = 0, time.monotonic()
+        while not stop.is_set():
+            if lost:
+                raise ConnectionError(f"connection lost ({type(lost[0]).__name__})")
+            try:
+                first = await asyncio.wait_for(anext(iterator), timeout=0.2)
+            except TimeoutError:
+                if time.monotonic() - heard > PROBE_S:  # quiet: is the server still there?
+                    await asyncio.wait_for(client.nodes.server_state.read_value(), PROBE_S)
+                    heard = time.monotonic()
+                continue
+            heard = time.monotonic()
+            batch: list[Any] = [first]
+            pending = subscription._event_queue  # asyncua's iterator queue: the same publish
+            while pending is not None and not pending.empty():
+                batch.append(pending.get_nowait())
+            changes = []
+            for event in batch:
+                if isinstance(event, StatusChangeEvent):  # the server ended the subscription
+                    raise ConnectionError(f"subscription status {event.notification.Status}")
+                if not isinstance(event, DataChangeEvent):
+                    continue
+                item = items.get(event.node.nodeid)
+                if item is None:
+                    continue
+                stamp = event.data.monitored_item.Value.SourceTimestamp or _EPOCH
+                if stamp.tzinfo is None:
+                    stamp = stamp.replace(tzinfo=dt.UTC)
+                changes.append((stamp, PRIORITY.index(item), item, event.value))
+            changes.sort(key=lambda c: (c[0], c[1]))
+            for _, _, item, value in changes:
+                sequence += 1
+                yield Observation(sequence, item, _value(item, value, config.active_values))

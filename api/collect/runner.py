@@ -1,0 +1,232 @@
+"""The collector: observations → segmenter → queue, and the poster, in one asyncio loop.
+
+MTConnect resumes from the queue's checkpoint (the sequence after the last part boundary), so
+across restarts no observation is skipped and no part is queued twice; a ``from`` the agent no
+longer holds (its buffer wrapped) or a new agent instance is a gap: recorded, logged, and the
+parts it touches are skipped with it as the reason. OPC UA has no replay: after a restart the
+part in progress is skipped (the collector joined mid-part) unless the machine is not cutting.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+from collections.abc import AsyncIterator, Callable
+
+import httpx
+
+from api.collect.config import CollectorConfig, MTConnectConfig
+from api.collect.mtconnect import Agent, AgentError
+from api.collect.poster import post_loop
+from api.collect.queue import Checkpoint, Queue
+from supervisor.collect.report import idempotency_key, part_report
+from supervisor.collect.segment import Gap, Observation, Outcome, PartDone, Segmenter
+
+log = logging.getLogger("rcb.collect")
+
+
+class Recorder:
+    """Turns the segmenter's outcomes into queued reports and skips, logged per part."""
+
+    def __init__(self, config: CollectorConfig, queue: Queue) -> None:
+        self.config, self.queue = config, queue
+
+    def outcome(self, outcome: Outcome, checkpoint: Checkpoint | None) -> None:
+        """Queue a finished part (or record the parts skipped) with the checkpoint past it."""
+        c = self.config
+        if isinstance(outcome, PartDone):
+            body, left_out = part_report(
+                outcome,
+                machine=c.machine,
+                setpoint_version=c.setpoint_version,
+                quantity=c.quantity,
+                uncertainty=c.uncertainty,
+                calibration=c.calibration,
+            )
+            if body["operations"]:
+                key = idempotency_key(c.plan_id, c.machine, outcome.program, outcome.part_count)
+                data = json.dumps(body, sort_keys=True, separators=(",", ":")).encode()
+                report = (key, outcome.part_count, outcome.program, data)
+                added = self.queue.record(checkpoint, report=report)
+                unit = c.quantity.rpartition("_")[2]
+                passes = ", ".join(
+                    f"{p.operation} {p.value:.4g} {unit} ({p.samples} samples)"
+                    for p in outcome.passes
+                )
+                state = "queued" if added else "queued before"
+                log.info("part %d (%s): %s; %s", outcome.part_count, body["serial"], state, passes)
+                for why in left_out:
+                    log.warning("part %d: left out %s", outcome.part_count, why)
+                return
+            outcome_skip = ((outcome.part_count,), outcome.program, "; ".join(left_out))
+            self.queue.record(checkpoint, skipped=outcome_skip)
+            log.warning("part %d: NOT reported: %s", outcome.part_count, "; ".join(left_out))
+            return
+        counts = ", ".join(str(n) for n in outcome.part_counts)
+        self.queue.record(
+            checkpoint, skipped=(outcome.part_counts, outcome.program, outcome.reason)
+        )
+        log.warning("parts %s: NOT reported: %s", counts, outcome.reason)
+
+
+async def mtconnect_loop(
+    config: CollectorConfig, source: MTConnectConfig, queue: Queue, stop: asyncio.Event
+) -> None:
+    """Read the agent from the checkpoint on, until ``stop`` is set."""
+    recorder = Recorder(config, queue)
+    async with httpx.AsyncClient(timeout=30.0) as http:
+        agent = Agent(http, source.url, source.items)
+        saved = queue.checkpoint()
+        segmenter = Segmenter(
+            config.selectors,
+            percentile=config.percentile,
+            state=None if saved is None else saved.state,
+        )
+        instance, start = (saved.instance, saved.next_sequence) if saved else ("", 0)
+        current = None
+        while current is None:  # an agent down at start is waited for
+            if stop.is_set():
+                return
+            try:
+                current = await agent.current()
+            except (httpx.HTTPError, AgentError) as err:
+                log.warning("agent not read (%s); retrying", err)
+                await _pause(stop, max(1.0, source.poll_s))
+        if saved is not None and current.instance_id != instance:
+            gap = Gap(start, None, f"agent restarted: instance {instance} → {current.instance_id}")
+            segmenter.gap(gap)
+            _gap(queue, gap, current.instance_id, current.next_sequence, segmenter)
+            saved = None
+        if saved is None:
+            for observation in current.observations:
+                segmenter.feed(observation)  # latest values; a part in progress stays tainted
+            instance, start = current.instance_id, current.next_sequence
+            point = Checkpoint("mtconnect", instance, start, segmenter.snapshot())
+            queue.record(point)
+        while not stop.is_set():
+            try:
+                streams = await agent.sample(start, source.count)
+            except AgentError as err:
+                first = await _first_sequence(agent) if err.code == "OUT_OF_RANGE" else None
+                if first is None or first <= start:
+                    log.warning("agent answered %s; retrying", err)
+                    await _pause(stop, max(1.0, source.poll_s))
+                    continue
+                gap = Gap(start, first - 1, "the agent's buffer wrapped")
+                segmenter.gap(gap)
+                _gap(queue, gap, instance, first, segmenter)
+                start = first
+                continue
+            except httpx.HTTPError as err:
+                log.warning("agent not reached (%s); retrying", type(err).__name__)
+                await _pause(stop, source.poll_s * 5)
+                continue
+            if streams.instance_id != instance:
+                gap = Gap(
+                    start, None, f"agent restarted: instance {instance} → {streams.instance_id}"
+                )
+                segmenter.gap(gap)
+                current = await agent.current()
+                instance, start = current.instance_id, current.next_sequence
+                _gap(queue, gap, instance, start, segmenter)
+                continue
+            if streams.first_sequence > start:
+                gap = Gap(start, streams.first_sequence - 1, "the agent's buffer wrapped")
+                segmenter.gap(gap)
+                _gap(queue, gap, instance, streams.first_sequence, segmenter)
+            for observation in streams.observations:
+                if observation.sequence < start:
+                    continue  # never read twice
+                for outcome in segmenter.feed(observation):
+                    point = Checkpoint(
+                        "mtconnect", instance, observation.sequence + 1, segmenter.snapshot()
+                    )
+                    recorder.outcome(outcome, point)
+            advanced = streams.next_sequence > start
+            start = max(start, streams.next_sequence)
+            if not advanced or not streams.observations:
+                await _pause(stop, source.poll_s)
+
+
+async def _first_sequence(agent: Agent) -> int | None:
+    """The oldest sequence the agent holds (None: not read now)."""
+    try:
+        return (await agent.current()).first_sequence
+    except (httpx.HTTPError, AgentError):
+        return None
+
+
+def _gap(queue: Queue, gap: Gap, instance: str, resume: int, segmenter: Segmenter) -> None:
+    log.error("GAP: %s", gap.describe())
+    point = Checkpoint("mtconnect", instance, resume, segmenter.snapshot())
+    queue.record(point, gap=(gap.first_lost, gap.last_lost, gap.reason))
+
+
+async def observation_loop(
+    config: CollectorConfig,
+    queue: Queue,
+    connect: Callable[[], AsyncIterator[Observation]],
+    lost: tuple[type[BaseException], ...],
+    stop: asyncio.Event,
+) -> None:
+    """Segment a subscription's observations (OPC UA) into the queue, reconnecting.
+
+    ``connect()`` opens the subscription and yields its observations; an exception of ``lost``
+    is a lost connection: a gap (the part in progress is skipped), then a new connection.
+    """
+    recorder = Recorder(config, queue)
+    segmenter = Segmenter(config.selectors, percentile=config.percentile)
+    where = config.opcua.url if config.opcua is not None else ""
+    outage = False  # one gap per outage, however many tries it takes to connect again
+    while not stop.is_set():
+        connected = False
+        try:
+            async for observation in connect():
+                if not connected:  # --status shows where from (there is nothing to resume)
+                    queue.record(Checkpoint("opcua", where, 0, {}))
+                    log.info("subscribed to %s", where)
+                    connected, outage = True, False
+                for outcome in segmenter.feed(observation):
+                    recorder.outcome(outcome, None)
+                if stop.is_set():
+                    return
+        except lost as err:
+            if not outage:
+                why = f"OPC UA connection lost or refused ({type(err).__name__}): no replay"
+                gap = Gap(None, None, why)
+                log.error("GAP: %s; reconnecting", gap.reason)
+                segmenter.gap(gap)
+                queue.record(None, gap=(gap.first_lost, gap.last_lost, gap.reason))
+                outage = True
+            await _pause(stop, 1.0)
+
+
+async def _pause(stop: asyncio.Event, seconds: float) -> None:
+    try:
+        await asyncio.wait_for(stop.wait(), timeout=seconds)
+    except TimeoutError:
+        pass
+
+
+async def run(config: CollectorConfig, queue: Queue, stop: asyncio.Event) -> None:
+    """Collect and post until ``stop`` is set (or a task fails: then both stop)."""
+    if config.mtconnect is not None:
+        reader = mtconnect_loop(config, config.mtconnect, queue, stop)
+    else:
+        from api.collect import opcua
+
+        assert config.opcua is not None
+        source = config.opcua
+        reader = observation_loop(
+            config, queue, lambda: opcua.observations(source, stop), opcua.lost(), stop
+        )
+    tasks = [asyncio.create_task(reader), asyncio.create_task(post_loop(config, queue, stop))]
+    done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_EXCEPTION)
+    stop.set()
+    for task in tasks:
+        if task.done() and task.exception() is not None:
+            for other in tasks:
+                other.cancel()
+            raise task.exception()  # type: ignore[misc]
+    await asyncio.gather(*tasks, return_exceptions=True)
