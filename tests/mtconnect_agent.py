@@ -6,7 +6,7 @@ makes the first ``n`` observations available (``play`` releases them at a rate i
 the agent keeps the last ``buffer_size`` of them, so a reader that falls behind meets a buffer
 wrap: ``/sample?from=`` older than ``firstSequence`` is an MTConnectError ``OUT_OF_RANGE``.
 Documents are MTConnectStreams 2.0, valid against the standard's schema
-(``tests/data/MTConnectStreams_2.0_1.0.xsd.gz``, checked in ``tests/test_collect_mtconnect.py``).
+(the standard's XSD named by ``RCB_MTCONNECT_XSD``, checked in ``tests/test_collect_mtconnect.py``).
 """
 
 from __future__ import annotations

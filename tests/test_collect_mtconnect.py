@@ -9,6 +9,7 @@ buffer wrap is reported with the parts it affects, and those parts are not poste
 from __future__ import annotations
 
 import gzip
+import os
 from pathlib import Path
 
 import pytest
@@ -29,7 +30,10 @@ from collect_support import (
 from live import LiveServer
 from mtconnect_agent import Agent, observations, serve
 
-SCHEMA = Path(__file__).parent / "data" / "MTConnectStreams_2.0_1.0.xsd.gz"
+#: The MTConnectStreams 2.0 schema in its XSD 1.0 form (``MTConnectStreams_2.0_1.0.xsd``, plain
+#: or gzipped) from the MTConnect Institute's github.com/mtconnect/schema (Apache-2.0): not
+#: shipped with the project (third-party content stays out of the repository); a path to it.
+SCHEMA_VARIABLE = "RCB_MTCONNECT_XSD"
 PARTS = 20
 
 
@@ -57,7 +61,15 @@ def test_agent_documents_are_valid_mtconnect_streams_2_0(live):
     _, trace = demo_trace(setpoints, parts=2)
     agent = Agent(observations(trace), buffer_size=100)
     agent.release(250)
-    schema = etree.XMLSchema(etree.fromstring(gzip.decompress(SCHEMA.read_bytes())))
+    where = os.environ.get(SCHEMA_VARIABLE, "")
+    if not where or not Path(where).is_file():
+        pytest.skip(
+            f"{SCHEMA_VARIABLE} names no file: set it to MTConnectStreams_2.0_1.0.xsd[.gz] "
+            "(github.com/mtconnect/schema) to validate the agent's documents"
+        )
+    raw = Path(where).read_bytes()
+    text = gzip.decompress(raw) if raw[:2] == b"\x1f\x8b" else raw
+    schema = etree.XMLSchema(etree.fromstring(text))
     status, sample = agent.sample(agent.first(), 100)
     assert status == 200
     for document in (agent.current(), sample):
