@@ -1,0 +1,111 @@
+"""Polylines to G1 lines and one-quadrant G2/G3 arcs (Borangiu et al., IFAC 2007, §3).
+
+"Arcs can be in only one quadrant; if a generated arc spreads on more quadrants, the
+conversion program will decompose the big arc in several smaller arcs, each of them in a
+single quadrant. Arcs having the radius bigger than the superior limit of the CNC machine ...
+are approximated by lines." Runs of at least :data:`MIN_POINTS` points that lie within
+:data:`FIT_TOL_MM` of one circle, turn one way and stay in one quadrant of it become an arc.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: Largest distance of a polyline point from the fitted circle [mm].
+FIT_TOL_MM = 2e-3
+#: Fewest polyline points an arc replaces.
+MIN_POINTS = 4
+#: Most points tried in one arc.
+MAX_POINTS = 400
+
+
+@dataclass(frozen=True)
+class Move:
+    """A feed move to ``(x, y)``: a line, or an arc about ``centre`` (``ccw``: G3)."""
+
+    x: float
+    y: float
+    centre: tuple[float, float] | None = None
+    ccw: bool = False
+
+
+def _circle(a: NDArray[np.float64], b: NDArray[np.float64], c: NDArray[np.float64]) -> tuple[float, float, float] | None:
+    d = 2 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]))
+    if abs(d) < 1e-12:
+        return None
+    sa, sb, sc = a @ a, b @ b, c @ c
+    ux = (sa * (b[1] - c[1]) + sb * (c[1] - a[1]) + sc * (a[1] - b[1])) / d
+    uy = (sa * (c[0] - b[0]) + sb * (a[0] - c[0]) + sc * (b[0] - a[0])) / d
+    return float(ux), float(uy), float(math.hypot(a[0] - ux, a[1] - uy))
+
+
+def _quadrant(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.int_]:
+    return np.asarray(np.floor(np.arctan2(dy, dx) / (math.pi / 2)).astype(int) % 4)
+
+
+def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, float, bool] | None:
+    """The arc through ``points`` if it is one (module docstring), else None."""
+    circle = _circle(points[0], points[len(points) // 2], points[-1])
+    if circle is None:
+        return None
+    cx, cy, r = circle
+    if r > max_radius_mm or r < 1e-3:
+        return None
+    dx, dy = points[:, 0] - cx, points[:, 1] - cy
+    if np.abs(np.hypot(dx, dy) - r).max() > FIT_TOL_MM:
+        return None
+    seg = np.diff(points, axis=0)
+    cross = dx[:-1] * seg[:, 1] - dy[:-1] * seg[:, 0]
+    if not (np.all(cross > 0) or np.all(cross < 0)):
+        return None
+    # one quadrant: every interior point in the quadrant of the arc's middle
+    q = _quadrant(dx[1:-1], dy[1:-1])
+    if q.size and np.any(q != q[0]):
+        return None
+    span = np.unwrap(np.arctan2(dy, dx))
+    if abs(span[-1] - span[0]) > math.pi / 2 + 1e-9:
+        return None
+    return cx, cy, bool(cross[0] > 0)
+
+
+def to_moves(points: NDArray[np.float64], max_radius_mm: float) -> list[Move]:
+    """The moves that follow ``points[1:]`` from ``points[0]``.
+
+    From each point the longest arc is searched by doubling its length while it fits, then
+    halving the gap between the last fit and the first misfit.
+    """
+    moves: list[Move] = []
+    i, n = 0, len(points)
+    while i < n - 1:
+        j = i + MIN_POINTS - 1
+        best: tuple[int, tuple[float, float, bool]] | None = None
+        bad = None
+        while j < n and j - i < MAX_POINTS:
+            fit = _fits(points[i : j + 1], max_radius_mm)
+            if fit is None:
+                bad = j
+                break
+            best = (j, fit)
+            j = i + 2 * (j - i)
+        if best is not None:
+            hi = min(bad if bad is not None else min(j, n), n)
+            lo = best[0]
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                fit = _fits(points[i : mid + 1], max_radius_mm)
+                if fit is None:
+                    hi = mid
+                else:
+                    lo, best = mid, (mid, fit)
+        if best is None:
+            moves.append(Move(float(points[i + 1, 0]), float(points[i + 1, 1])))
+            i += 1
+            continue
+        j, (cx, cy, ccw) = best
+        moves.append(Move(float(points[j, 0]), float(points[j, 1]), (cx, cy), ccw))
+        i = j
+    return moves

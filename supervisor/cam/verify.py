@@ -1,0 +1,251 @@
+"""Verification by simulation: the program swept over the height field on the pixel grid.
+
+The stock starts as a block up to the stock top. Each roughing level's feed moves (a flat end
+mill at constant ``z``) sweep the region within ``R`` of the tool centre's path: the path,
+arcs included, is buffered by ``R`` (shapely) and rasterised on the pixel centres
+(:func:`skimage.draw.polygon`), and the material there is lowered to ``z``. The finishing
+moves lower the material to ``min_y P(y) + h(|x − y|)``, ``P`` the tip heights along the path
+and ``h`` the cutter's profile: a grey-scale erosion (:func:`scipy.ndimage.grey_erosion`).
+Reported: the largest gouge (material removed below the model), the largest stock left
+after roughing (the 3D distance from the roughed surface to the model), the largest left
+after finishing, and the machining time from the program's feeds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from scipy import ndimage
+from shapely.geometry import LineString, Point
+from shapely.geometry.base import BaseGeometry
+
+from supervisor.cam.contours import as_polygons
+from supervisor.cam.cutter import Cutter
+from supervisor.cam.motion import Segment
+
+#: Rapid traverse assumed for the cycle time (the plan gives none) [mm/min].
+RAPID_MM_MIN = 10_000.0
+#: Segments per quarter circle of the swept regions.
+QUAD_SEGS = 32
+
+
+@dataclass(frozen=True)
+class Verification:
+    """What the simulation found (module docstring) [mm, min]."""
+
+    gouge_mm: float
+    max_remaining_stock_mm: float
+    max_finish_stock_mm: float | None
+    cutting_time_min: float
+    rapid_time_min: float
+    rapids_below_stock: int
+
+    @property
+    def cycle_time_min(self) -> float:
+        """Cutting and rapid time [min]."""
+        return self.cutting_time_min + self.rapid_time_min
+
+
+def machining_time(moves: list[Segment]) -> tuple[float, float]:
+    """Cutting time at the programmed feeds and rapid time at :data:`RAPID_MM_MIN` [min]."""
+    cutting = rapid = 0.0
+    for m in moves:
+        if not all(math.isfinite(v) for v in m.start):
+            continue
+        length = m.length_mm()
+        if m.rapid:
+            rapid += length / RAPID_MM_MIN
+        elif length > 0:
+            cutting += length / m.feed_mm_min
+    return cutting, rapid
+
+
+def simulate(
+    model_mm: NDArray[np.float64],
+    pixel_mm: float,
+    stock_top_mm: float,
+    moves: list[Segment],
+    cutters: dict[int, Cutter],
+    window_mm: float,
+) -> Verification:
+    """Sweep the program's moves (module docstring).
+
+    Parameters
+    ----------
+    model_mm : ndarray
+        The model's heights [mm].
+    pixel_mm : float
+        Pixel size [mm].
+    stock_top_mm : float
+        Top of the stock [mm].
+    moves : list of Segment
+        The program's moves (:func:`supervisor.cam.motion.read_moves`).
+    cutters : dict
+        The cutter of each tool number; a flat end mill roughs, any other finishes.
+    window_mm : float
+        How far to look for the model around a point of the roughed surface [mm]: beyond
+        it the vertical stock (an upper bound of the distance) is taken.
+    """
+    material = np.full(model_mm.shape, float(stock_top_mm))
+    levels: dict[float, list[NDArray[np.float64]]] = defaultdict(list)
+    finish: list[NDArray[np.float64]] = []
+    finish_tool: Cutter | None = None
+    rapids_below = 0
+    run: list[tuple[float, float]] = []
+    run_z: float | None = None
+    rough_radius = 0.0
+
+    def close_run() -> None:
+        if run_z is not None and run:
+            levels[run_z].append(np.asarray(run, dtype=np.float64))
+
+    for m in moves:
+        if m.rapid:
+            close_run()
+            run, run_z = [], None
+            if math.isfinite(m.end[2]) and m.end[2] < stock_top_mm - 1e-9:
+                rapids_below += 1
+            continue
+        cutter = cutters[m.tool]
+        if cutter.kind == "flat" and m.start[2] == m.end[2]:
+            rough_radius = cutter.radius_mm
+            if run_z != m.end[2]:
+                close_run()
+                run, run_z = [m.start[:2]], m.end[2]
+            run.extend(map(tuple, m.points(pixel_mm / 4)[1:, :2]))
+        elif cutter.kind == "flat" and m.start[:2] == m.end[:2]:  # a plunge
+            close_run()
+            run, run_z = [m.end[:2]], m.end[2]
+        else:
+            close_run()
+            run, run_z = [], None
+            finish_tool = cutter
+            finish.append(m.points(pixel_mm / 2))
+    close_run()
+    for z in sorted(levels, reverse=True):
+        swept = _swept(levels[z], rough_radius, model_mm.shape, pixel_mm)
+        np.minimum(material, np.where(swept, z, np.inf), out=material)
+    gouge = float(np.max(model_mm - material))
+    stock = remaining_stock(model_mm, material, pixel_mm, window_mm)
+    finish_stock: float | None = None
+    if finish_tool is not None and finish:
+        material = np.minimum(material, _finished(np.vstack(finish), finish_tool, model_mm.shape, pixel_mm))
+        gouge = max(gouge, float(np.max(model_mm - material)))
+        finish_stock = float(np.max(material - model_mm))
+    cutting, rapid = machining_time(moves)
+    return Verification(max(0.0, gouge), stock, finish_stock, cutting, rapid, rapids_below)
+
+
+def _swept(
+    runs: list[NDArray[np.float64]], radius_mm: float, shape: tuple[int, int], pixel_mm: float
+) -> NDArray[np.bool_]:
+    """Pixel centres within ``radius_mm`` of any of the paths."""
+    geoms = [LineString(r) if len(r) > 1 else Point(r[0]) for r in runs]
+    region = shapely.union_all([g.buffer(radius_mm, quad_segs=QUAD_SEGS) for g in geoms])
+    return fill_polygons(region, shape, pixel_mm)
+
+
+def fill_polygons(region: BaseGeometry, shape: tuple[int, int], pixel_mm: float) -> NDArray[np.bool_]:
+    """Pixel centres inside ``region`` (even-odd over all its rings: holes stay empty).
+
+    A scanline fill: each ring edge gives the X where it crosses each pixel row's centre
+    line (half-open in Y, so a vertex is counted once), and the pixels between successive
+    crossings of a row are inside. Its cost grows with the rings' length in pixels, not with
+    the area times the vertex count.
+    """
+    rows, cols = shape
+    starts, ends = [], []
+    for poly in as_polygons(region):
+        for ring in [poly.exterior, *poly.interiors]:
+            xy = np.asarray(ring.coords)[:, :2] / pixel_mm
+            starts.append(xy[:-1])
+            ends.append(xy[1:])
+    mask = np.zeros(shape, dtype=bool)
+    if not starts:
+        return mask
+    a, b = np.vstack(starts), np.vstack(ends)
+    y_low, y_high = np.minimum(a[:, 1], b[:, 1]), np.maximum(a[:, 1], b[:, 1])
+    first = np.ceil(y_low).astype(np.int64)
+    count = np.maximum(0, np.ceil(y_high).astype(np.int64) - first)
+    keep = count > 0
+    a, b, first, count = a[keep], b[keep], first[keep], count[keep]
+    edge = np.repeat(np.arange(len(a)), count)
+    offset = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    y = (first[edge] + offset).astype(np.float64)
+    ax, ay, bx, by = a[edge, 0], a[edge, 1], b[edge, 0], b[edge, 1]
+    x = ax + (y - ay) * (bx - ax) / (by - ay)
+    order = np.lexsort((x, y))
+    y, x = y[order], x[order]
+    # crossings come in pairs per row: fill [ceil(x_in), ceil(x_out) - 1]
+    x_in, x_out, row_y = x[0::2], x[1::2], y[0::2]
+    c0 = np.clip(np.ceil(x_in).astype(np.int64), 0, cols)
+    c1 = np.clip(np.ceil(x_out).astype(np.int64), 0, cols)
+    r = rows - 1 - row_y.astype(np.int64)
+    ok = (r >= 0) & (r < rows) & (c1 > c0)
+    diff = np.zeros((rows, cols + 1), dtype=np.int32)
+    np.add.at(diff, (r[ok], c0[ok]), 1)
+    np.add.at(diff, (r[ok], c1[ok]), -1)
+    mask = np.cumsum(diff[:, :cols], axis=1) > 0
+    return mask
+
+
+def _finished(points: NDArray[np.float64], cutter: Cutter, shape: tuple[int, int], pixel_mm: float) -> NDArray[np.float64]:
+    """Material height after the finishing tip has passed through ``points``."""
+    big = 1.0e9
+    tips = np.full(shape, big)
+    cols = np.rint(points[:, 0] / pixel_mm).astype(int)
+    rows = shape[0] - 1 - np.rint(points[:, 1] / pixel_mm).astype(int)
+    inside = (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
+    np.minimum.at(tips, (rows[inside], cols[inside]), points[inside, 2])
+    footprint, structure = cutter.kernel(pixel_mm)
+    out = ndimage.grey_erosion(tips, footprint=footprint, structure=structure, mode="constant", cval=big)
+    return np.asarray(out, dtype=np.float64)
+
+
+def remaining_stock(
+    model_mm: NDArray[np.float64], material_mm: NDArray[np.float64], pixel_mm: float, window_mm: float
+) -> float:
+    """The largest distance from the material's surface to the model [mm].
+
+    The model is taken as one plane patch per pixel (its square, tilted by the central-
+    difference gradient): point samples alone would overstate the distance on a steep
+    surface by up to half the spacing of the samples along it. For each pixel ``x`` of the
+    material surface the distance to each patch within ``window_mm`` is that to the point of
+    the patch nearest the point's projection on its plane (exact where the projection falls
+    in the patch, an upper bound elsewhere); where no patch is within the window, the
+    vertical stock ``m − s`` (an upper bound) is taken.
+    """
+    vertical = material_mm - model_mm
+    gy, gx = np.gradient(model_mm, pixel_mm)
+    gy = -gy  # rows run down, y up
+    g2 = gx * gx + gy * gy
+    best = np.full(model_mm.shape, np.inf)
+    reach = int(math.ceil(window_mm / pixel_mm))
+    rows, cols = model_mm.shape
+    half = pixel_mm / 2
+    for dy in range(-reach, reach + 1):
+        for dx in range(-reach, reach + 1):
+            if (dy * dy + dx * dx) * pixel_mm**2 > (window_mm + pixel_mm) ** 2:
+                continue
+            # patch centre y at row + dy, col + dx; w = x − y in mm (x right, y up)
+            ys, yd = slice(max(0, dy), rows + min(0, dy)), slice(max(0, -dy), rows + min(0, -dy))
+            xs, xd = slice(max(0, dx), cols + min(0, dx)), slice(max(0, -dx), cols + min(0, -dx))
+            wx, wy = -dx * pixel_mm, dy * pixel_mm
+            h = material_mm[yd, xd] - model_mm[ys, xs]
+            px, py, p2 = gx[ys, xs], gy[ys, xs], g2[ys, xs]
+            t = (px * wx + py * wy + h * p2) / (1 + p2)
+            ux = np.clip(wx + (h - t) * px, -half, half)
+            uy = np.clip(wy + (h - t) * py, -half, half)
+            dz = h - (px * ux + py * uy)
+            d2 = (wx - ux) ** 2 + (wy - uy) ** 2 + np.clip(dz, 0.0, None) ** 2
+            np.minimum(best[yd, xd], d2, out=best[yd, xd])
+    distance = np.sqrt(best)
+    distance = np.minimum(distance, np.clip(vertical, 0.0, None))
+    beyond = distance > window_mm
+    distance[beyond] = np.clip(vertical[beyond], 0.0, None)
+    return float(distance.max())
