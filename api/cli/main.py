@@ -22,6 +22,7 @@ except ImportError:  # pragma: no cover - typer that uses click itself
 from api.cli import replan as cli_replan
 from api.cli import review as cli_review
 from api.cli.admin import db_app, keys_app, serve
+from api.cli.cam import cam_app
 from api.cli.certify import certify
 from api.cli.demo import demo
 from api.cli.examples import examples_app
@@ -97,5 +98,6 @@ for _review in (
 app.add_typer(db_app, name="db")  # rcb db upgrade: api/cli/admin.py
 app.add_typer(keys_app, name="keys")  # rcb keys create|revoke: api/cli/admin.py
 app.add_typer(milling_app, name="milling")  # rcb milling setup|domain: api/cli/milling.py
+app.add_typer(cam_app, name="cam")  # rcb cam depthmap: api/cli/cam.py
 app.add_typer(examples_app, name="examples")  # rcb examples [copy]: api/cli/examples.py
 app.command()(serve)  # rcb serve: api/cli/admin.py

@@ -17,6 +17,10 @@ from numpy.typing import NDArray
 
 #: Largest distance of a polyline point from the fitted circle [mm].
 FIT_TOL_MM = 2e-3
+#: Largest gap between a polyline segment and the arc over it (the sagitta) [mm]: the
+#: polyline's points lie on the circle, so the arc runs between the chords and the circle
+#: they were cut from.
+SAGITTA_TOL_MM = 1e-2
 #: Fewest polyline points an arc replaces.
 MIN_POINTS = 4
 #: Most points tried in one arc.
@@ -59,6 +63,9 @@ def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, flo
     if np.abs(np.hypot(dx, dy) - r).max() > FIT_TOL_MM:
         return None
     seg = np.diff(points, axis=0)
+    half = float(np.hypot(seg[:, 0], seg[:, 1]).max()) / 2
+    if half >= r or r - math.sqrt(r * r - half * half) > SAGITTA_TOL_MM:
+        return None
     cross = dx[:-1] * seg[:, 1] - dy[:-1] * seg[:, 0]
     if not (np.all(cross > 0) or np.all(cross < 0)):
         return None

@@ -22,12 +22,14 @@ from shapely.geometry.base import BaseGeometry
 #: A contour at a plateau's own height is ambiguous for marching squares; thresholds are
 #: taken this far above the level asked for [mm] (it eats that much of the allowance).
 LEVEL_EPS_MM = 1e-7
-#: The contour is moved inward by this fraction of a pixel (``p``): a pixel centre whose
-#: height is the threshold itself lies on the interpolated contour, and a cutter kept at its
-#: radius outside would never reach it. What this costs: the allowance, by ``0.35 p`` at most,
-#: where the surface is barely above the threshold; never the model (a model point above
-#: the threshold is at least the allowance inside the contour).
-SHRINK_PX = 0.35
+#: The contour is moved inward by this fraction of a pixel (``p``): where the surface jumps
+#: past the threshold between two pixels (a wall on a floor), the interpolated contour runs
+#: through the lower pixels' centres, a staircase whose dents (up to ``p/√2`` deep) a cutter
+#: kept at its radius outside cannot enter, and those pixels, at the level itself, would
+#: keep the stock of the level above. What this costs: the allowance, by ``0.75 p`` at most,
+#: where the surface is barely above the threshold; never the model (a model point above the
+#: threshold is at least the allowance inside the contour).
+SHRINK_PX = 0.75
 #: Then simplified (Douglas-Peucker) by this fraction of a pixel.
 SIMPLIFY_PX = 0.1
 

@@ -16,7 +16,8 @@ The rule made concrete here, on the allowance surface ``s_a``
    (:func:`supervisor.cam.feeds.cutting_limits`).
 3. Form accuracy: a constant-Z level leaves a stair whose thickness normal to a surface of
    slope ``g`` is ``Δ / sqrt(1 + g²)``. In each main pass ``(u, l]`` the least slope
-   ``g_min = min |∇ s_a|`` over the pixels with ``l < s_a < u`` sets
+   ``g_min = min |∇ s_a|`` over the pixels with ``l < s_a < u`` (central differences; not
+   beside a plateau, where they average a wall and a floor) sets
    ``Δ_j <= ε · sqrt(1 + g_min²)`` (``ε`` the form tolerance), so the pass is split into
    ``c_j = ceil((u − l) / (ε sqrt(1 + g_min²)))`` equal steps ``Δ_j = (u − l) / c_j``; with no
    pixel in the pass (a vertical wall) ``c_j = 1``.
@@ -85,10 +86,7 @@ class Band:
 
 
 def slope_map(surface_mm: NDArray[np.float64], pixel_mm: float, grey_level_mm: float, tolerance_mm: float) -> NDArray[np.float64]:
-    """``|∇ s|`` from the steeper one-sided difference along each axis [mm/mm].
-
-    The steeper side, so that a pixel at a crease (a wall meeting a floor) takes the wall's
-    slope, not an average of both.
+    """``|∇ s|`` by central differences [mm/mm].
 
     A coarse grey level makes flat terraces of one grey level each; where one grey level is
     more than a tenth of the form tolerance the surface is first smoothed over the width of
@@ -98,11 +96,8 @@ def slope_map(surface_mm: NDArray[np.float64], pixel_mm: float, grey_level_mm: f
     if grey_level_mm > tolerance_mm / 10:
         sigma = min(10.0, grey_level_mm / (0.2 * pixel_mm))
         surface = ndimage.gaussian_filter(surface_mm, sigma, mode="nearest")
-    padded = np.pad(surface, 1, mode="edge")
-    core = padded[1:-1, 1:-1]
-    gx = np.maximum(np.abs(padded[1:-1, 2:] - core), np.abs(core - padded[1:-1, :-2]))
-    gy = np.maximum(np.abs(padded[2:, 1:-1] - core), np.abs(core - padded[:-2, 1:-1]))
-    return np.asarray(np.hypot(gx, gy) / pixel_mm, dtype=np.float64)
+    gy, gx = np.gradient(surface, pixel_mm)
+    return np.asarray(np.hypot(gx, gy), dtype=np.float64)
 
 
 def plateaus(surface_mm: NDArray[np.float64], min_pixels: int) -> list[float]:
@@ -152,6 +147,12 @@ def roughing_levels(
     marks = {top, floor}
     marks.update(h for h in plateaus(surface_mm, plateau_pixels) if floor < h < top - Z_TOL_MM)
     breaks = sorted((m for m in marks if m <= top), reverse=True)
+    # a pixel beside a plateau (a wall's foot on a floor) has a central difference that
+    # averages the wall and the floor: not a slope of the surface, and the plateau is cut
+    # at its own height anyway
+    on_plateau = np.isin(np.round(surface_mm, 9), np.round(np.asarray(sorted(marks)), 9))
+    beside = ndimage.binary_dilation(on_plateau, structure=np.ones((3, 3), dtype=bool))
+    slope = np.where(beside, np.inf, slope)
     levels: list[Level] = []
     bands: list[Band] = []
     flat_values = surface_mm.ravel()

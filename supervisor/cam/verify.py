@@ -125,7 +125,7 @@ def simulate(
             close_run()
             run, run_z = [], None
             finish_tool = cutter
-            finish.append(m.points(pixel_mm / 2))
+            finish.append(_pixel_points(m, pixel_mm))
     close_run()
     for z in sorted(levels, reverse=True):
         swept = _swept(levels[z], rough_radius, model_mm.shape, pixel_mm)
@@ -192,6 +192,15 @@ def fill_polygons(region: BaseGeometry, shape: tuple[int, int], pixel_mm: float)
     np.add.at(diff, (r[ok], c1[ok]), -1)
     mask = np.cumsum(diff[:, :cols], axis=1) > 0
     return mask
+
+
+def _pixel_points(m: Segment, pixel_mm: float) -> NDArray[np.float64]:
+    """A finishing move's points one pixel step apart (its ends are pixel centres)."""
+    steps = max(
+        1, round(max(abs(m.end[0] - m.start[0]), abs(m.end[1] - m.start[1])) / pixel_mm)
+    )
+    t = np.linspace(0.0, 1.0, steps + 1)[:, None]
+    return np.asarray(m.start) + t * (np.asarray(m.end) - np.asarray(m.start))
 
 
 def _finished(points: NDArray[np.float64], cutter: Cutter, shape: tuple[int, int], pixel_mm: float) -> NDArray[np.float64]:
