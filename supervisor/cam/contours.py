@@ -81,15 +81,17 @@ def islands(
     crop = surface_mm[w.row0 : w.row0 + w.rows, w.col0 : w.col0 + w.cols]
     if not (crop > z_mm).any():
         return Polygon()
+    # one ring of the edge pixels repeated, then a low one: a part that reaches the map's
+    # edge gets its contour a pixel outside, so the inward move (SHRINK_PX) keeps the edge in
     low = min(float(crop.min()), z_mm) - 1.0
-    padded = np.pad(crop, 1, mode="constant", constant_values=low)
+    padded = np.pad(np.pad(crop, 1, mode="edge"), 1, mode="constant", constant_values=low)
     found = measure.find_contours(padded, z_mm, fully_connected="high")
     rings: list[Polygon] = []
     for c in found:
         if len(c) < 4:
             continue
-        rows = c[:, 0] - 1 + w.row0
-        cols = c[:, 1] - 1 + w.col0
+        rows = c[:, 0] - 2 + w.row0
+        cols = c[:, 1] - 2 + w.col0
         xy = np.column_stack((cols * pixel_mm, (full_rows - 1 - rows) * pixel_mm))
         poly = Polygon(xy)
         if not poly.is_valid:
