@@ -116,7 +116,7 @@ def depthmap(
         from supervisor.cam.depthmap import parse_z_range, read_depthmap
         from supervisor.cam.feeds import Feeds, milling_operation
         from supervisor.cam.finishing import parse_direction
-        from supervisor.cam.job import CamSettings, run_cam
+        from supervisor.cam.job import CamSettings, check_cutter, run_cam
         from supervisor.inputs.plan import load_plan
 
         check_target(out)
@@ -139,6 +139,11 @@ def depthmap(
                 negative=negative,
                 stock_top_mm=stock_top_mm,
             )
+            if rough_cutter.kind != "flat":
+                raise InputError("tool", tool, "roughing needs a flat end mill (flat:D)")
+            check_cutter(depth, rough_cutter, "tool")
+            if finish_cutter is not None:
+                check_cutter(depth, finish_cutter, "finish")
             if not plan.is_file():
                 raise InputError("--plan", str(plan), "no such file")
             loaded = load_plan(plan)

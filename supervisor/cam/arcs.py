@@ -69,9 +69,12 @@ def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, flo
     cross = dx[:-1] * seg[:, 1] - dy[:-1] * seg[:, 0]
     if not (np.all(cross > 0) or np.all(cross < 0)):
         return None
-    # one quadrant: every interior point in the quadrant of the arc's middle
-    q = _quadrant(dx[1:-1], dy[1:-1])
-    if q.size and np.any(q != q[0]):
+    # one quadrant: every point, the ends included, in the closed quadrant of the middle one
+    mid = len(points) // 2
+    q = int(_quadrant(dx[mid : mid + 1], dy[mid : mid + 1])[0])
+    angle = np.arctan2(dy, dx) - q * math.pi / 2
+    angle = (angle + math.pi) % (2 * math.pi) - math.pi
+    if np.any(angle < -1e-9) or np.any(angle > math.pi / 2 + 1e-9):
         return None
     span = np.unwrap(np.arctan2(dy, dx))
     if abs(span[-1] - span[0]) > math.pi / 2 + 1e-9:
