@@ -36,7 +36,11 @@ def ap_max() -> float:
     """The optimiser's axial limit for the roughing cutter (4.895 mm on this plan)."""
     plan = load_plan(PLAN)
     cutter = parse_cutter("flat:10")
-    return Feeds(plan, milling_operation(plan, "rough", cutter, "op")).limits(cutter).max_axial_depth_mm
+    return (
+        Feeds(plan, milling_operation(plan, "rough", cutter, "op"))
+        .limits(cutter)
+        .max_axial_depth_mm
+    )
 
 
 def _run(tmp_path: Path, heights: np.ndarray, z_high: float) -> dict:
@@ -45,9 +49,29 @@ def _run(tmp_path: Path, heights: np.ndarray, z_high: float) -> dict:
     out = tmp_path / "p.nc"
     result = CliRunner().invoke(
         app,
-        ["cam", "depthmap", str(image), "--pixel-mm", str(PIXEL), "--z-range-mm", f"0:{z_high}",
-         "--tool", "flat:10", "--finish", "ball:6", "--stepover-mm", "0.5", "--plan", str(PLAN),
-         "--operation", "rough", "--out", str(out), "--verify", "--json"],
+        [
+            "cam",
+            "depthmap",
+            str(image),
+            "--pixel-mm",
+            str(PIXEL),
+            "--z-range-mm",
+            f"0:{z_high}",
+            "--tool",
+            "flat:10",
+            "--finish",
+            "ball:6",
+            "--stepover-mm",
+            "0.5",
+            "--plan",
+            str(PLAN),
+            "--operation",
+            "rough",
+            "--out",
+            str(out),
+            "--verify",
+            "--json",
+        ],
     )
     assert result.exit_code == 0, result.output
     assert out.read_text().startswith("%\n")
@@ -82,7 +106,7 @@ def test_hemisphere(tmp_path, ap_max):
     _common(data, ap_max, 20.0)
     # by hand: s_a is a sphere of radius 20.5 above a floor at 0.5; its least slope in a
     # band (l, u) is at the band's top, sqrt(20.5² − u²)/u
-    hand = _by_hand(20.0, 0.5, ap_max, lambda u, l: math.sqrt(20.5**2 - u * u) / u)
+    hand = _by_hand(20.0, 0.5, ap_max, lambda u, low: math.sqrt(20.5**2 - u * u) / u)
     assert hand == 302  # 119 + 90 + 61 + 32 (4 main passes of 4.875 mm)
     # the map's own least slopes read a steep flank 0.4-2.7 % low (the pixel ball of the
     # allowance misses the sphere's true offset there): one more pass in each of the three
@@ -98,7 +122,7 @@ def test_pyramid(tmp_path, ap_max):
     _common(data, ap_max, 5.0)
     # by hand: faces of slope 1/3; the allowance rounds the diagonal ridges, whose top line
     # falls at (1/3)/√2 along the diagonal: the least slope; one main pass 5 → 0.5
-    hand = _by_hand(5.0, 0.5, ap_max, lambda u, l: (1 / 3) / math.sqrt(2))
+    hand = _by_hand(5.0, 0.5, ap_max, lambda u, low: (1 / 3) / math.sqrt(2))
     assert hand == 110  # ceil(4.5 / (0.04 · 1.0274)) = ceil(109.5)
     assert data["passes"] == hand
 
@@ -111,4 +135,4 @@ def test_step(tmp_path, ap_max):
     _common(data, ap_max, 8.0)
     # by hand: plateaus at 8.5 (the top, above the stock: none) and 0.5; the wall has no
     # pixel between them: main passes only, ceil(7.5 / 4.895) = 2
-    assert data["passes"] == _by_hand(8.0, 0.5, ap_max, lambda u, l: None) == 2
+    assert data["passes"] == _by_hand(8.0, 0.5, ap_max, lambda u, low: None) == 2

@@ -108,10 +108,33 @@ def moon_run(tmp_path_factory):
     out, preview = tmp / "moon.nc", tmp / "moon.png.preview.png"
     result = CliRunner().invoke(
         app,
-        ["cam", "depthmap", str(image), "--pixel-mm", "0.25", "--z-range-mm", "0:4",
-         "--tool", "flat:10", "--finish", "ball:6", "--stepover-mm", "0.75",
-         "--form-tolerance-mm", "0.2", "--plan", str(PLAN), "--operation", "rough",
-         "--out", str(out), "--preview", str(preview), "--verify", "--json"],
+        [
+            "cam",
+            "depthmap",
+            str(image),
+            "--pixel-mm",
+            "0.25",
+            "--z-range-mm",
+            "0:4",
+            "--tool",
+            "flat:10",
+            "--finish",
+            "ball:6",
+            "--stepover-mm",
+            "0.75",
+            "--form-tolerance-mm",
+            "0.2",
+            "--plan",
+            str(PLAN),
+            "--operation",
+            "rough",
+            "--out",
+            str(out),
+            "--preview",
+            str(preview),
+            "--verify",
+            "--json",
+        ],
     )
     assert result.exit_code == 0, result.output
     return json.loads(result.stdout), out.read_text(), preview
@@ -124,10 +147,22 @@ def test_moon_end_to_end_with_preview(moon_run):
     # craters narrower than the Ø10 mm end mill keep more than the allowance: reported
     assert 0.5 <= data["max_remaining_stock_mm"] < 4
     assert preview.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert set(data) == {"levels", "passes", "finishing", "gouge_mm",
-                         "max_remaining_stock_mm", "cycle_time_min"}
-    assert set(data["levels"][0]) == {"z_mm", "depth_mm", "paths", "length_mm", "setpoint",
-                                      "time_min"}
+    assert set(data) == {
+        "levels",
+        "passes",
+        "finishing",
+        "gouge_mm",
+        "max_remaining_stock_mm",
+        "cycle_time_min",
+    }
+    assert set(data["levels"][0]) == {
+        "z_mm",
+        "depth_mm",
+        "paths",
+        "length_mm",
+        "setpoint",
+        "time_min",
+    }
 
 
 def test_program_is_read_by_the_projects_gcode_reader(moon_run):
@@ -165,8 +200,14 @@ def test_bad_input_is_one_line_naming_the_option(tmp_path, change, option):
     grey[10:30, 10:30] = 200
     image = tmp_path / "m.png"
     io.imsave(image, grey, check_contrast=False)
-    args = {"--pixel-mm": "1", "--z-range-mm": "0:5", "--tool": "flat:10", "--plan": str(PLAN),
-            "--operation": "rough", "--out": str(tmp_path / "o.nc")}
+    args = {
+        "--pixel-mm": "1",
+        "--z-range-mm": "0:5",
+        "--tool": "flat:10",
+        "--plan": str(PLAN),
+        "--operation": "rough",
+        "--out": str(tmp_path / "o.nc"),
+    }
     first = str(image)
     if change == ["IMAGE_MISSING"]:
         first = str(tmp_path / "missing.png")

@@ -81,7 +81,9 @@ def depthmap(
     ] = None,
     finish_operation: Annotated[
         str | None,
-        typer.Option("--finish-operation", help="The plan's finishing operation [default: finish]."),
+        typer.Option(
+            "--finish-operation", help="The plan's finishing operation [default: finish]."
+        ),
     ] = None,
     stepover_mm: Annotated[
         float, typer.Option("--stepover-mm", help="Finishing stepover [mm].")
@@ -216,8 +218,10 @@ def result_json(result: CamResult) -> dict[str, Any]:
         for r in result.levels
     ]
     finishing = None
+    finish_min = 0.0
     f = result.finishing
     if f is not None:
+        finish_min = f.length_mm / f.setpoint.feed_rate_mm_min
         finishing = {
             "tool": f.cutter.describe(),
             "direction": f.direction,
@@ -226,12 +230,10 @@ def result_json(result: CamResult) -> dict[str, Any]:
             "length_mm": f.length_mm,
             "setpoint": f.setpoint.as_json(),
             "scallop_mm": f.scallop_mm,
-            "time_min": f.length_mm / f.setpoint.feed_rate_mm_min,
+            "time_min": finish_min,
         }
     v = result.verification
-    cutting = sum(r.time_min for r in result.levels) + (
-        0.0 if finishing is None else float(finishing["time_min"])  # type: ignore[arg-type]
-    )
+    cutting = sum(r.time_min for r in result.levels) + finish_min
     return {
         "levels": levels,
         "passes": len(levels),
@@ -244,7 +246,11 @@ def result_json(result: CamResult) -> dict[str, Any]:
 
 def _print(result: CamResult, out: Path) -> None:
     table = new_table(
-        "from Z", "to Z", "passes", "Δ mm", "least slope",
+        "from Z",
+        "to Z",
+        "passes",
+        "Δ mm",
+        "least slope",
         title=f"Roughing: {len(result.levels)} levels (Borangiu Δ_j, c_j)",
     )
     for b in result.bands:

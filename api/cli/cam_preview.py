@@ -23,7 +23,9 @@ def draw_preview(depthmap: DepthMap, result: CamResult, path: Path) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
 
-    fig, ax = plt.subplots(figsize=(6.4, 6.4 * depthmap.length_mm / max(depthmap.width_mm, 1e-9) + 0.6))
+    fig, ax = plt.subplots(
+        figsize=(6.4, 6.4 * depthmap.length_mm / max(depthmap.width_mm, 1e-9) + 0.6)
+    )
     ax.imshow(
         depthmap.height_mm,
         cmap="gray",
@@ -54,5 +56,5 @@ def draw_preview(depthmap: DepthMap, result: CamResult, path: Path) -> None:
     count = len(result.levels)
     ax.set_title(f"{count} roughing levels" + ("; finishing in red" if result.finishing else ""))
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -77,6 +77,10 @@ _SUMMARIES = {
         "Borangiu's (feed rate, spindle speed) domain of one pass",
         "rcb milling domain FILE",
     ),
+    "cam_relief_part": (
+        "a relief from a depth map: flat roughing, ball finishing",
+        "rcb cam depthmap IMAGE --plan FILE --operation rough ...",
+    ),
 }
 
 

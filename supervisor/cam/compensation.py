@@ -1,11 +1,11 @@
-"""Cutter compensation as grey-scale dilation (Borangiu et al., IFAC 2007, §3 and Fig. 3).
+r"""Cutter compensation as grey-scale dilation (Borangiu et al., IFAC 2007, §3 and Fig. 3).
 
 "At every location in the XY plane (i.e. any pixel in the image) one has to compute the depth
 which should be reached by the milling cutter, in order to be tangent to the surface. The
 shape of the milling cutter is modelled as a greyscale image, using the same scale factors as
 for the surface to be milled." The tip height at ``x`` is
 
-.. math:: c(x) = \\max_{|y - x| \\le R} \\; s(y) - h(|x - y|)
+.. math:: c(x) = \max_{|y - x| \le R} \; s(y) - h(|x - y|)
 
 with ``h`` the cutter's profile (:meth:`supervisor.cam.cutter.Cutter.profile_mm`): the
 grey-scale dilation of the height map ``s`` by the structuring function ``−h``
@@ -24,7 +24,9 @@ from supervisor.cam.cutter import Cutter
 _OUTSIDE_MM = -1.0e9
 
 
-def compensate(height_mm: NDArray[np.float64], cutter: Cutter, pixel_mm: float) -> NDArray[np.float64]:
+def compensate(
+    height_mm: NDArray[np.float64], cutter: Cutter, pixel_mm: float
+) -> NDArray[np.float64]:
     """The surface the cutter's tip follows so that the cutter stays tangent to ``height_mm``.
 
     Parameters
@@ -65,9 +67,7 @@ def offset_surface(
     yy, xx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
     d = np.hypot(yy, xx) * pixel_mm
     footprint = d <= allowance_mm + 1e-9
-    structure = np.where(
-        footprint, np.sqrt(np.clip(allowance_mm**2 - d**2, 0.0, None)), 0.0
-    )
+    structure = np.where(footprint, np.sqrt(np.clip(allowance_mm**2 - d**2, 0.0, None)), 0.0)
     out = ndimage.grey_dilation(
         height_mm, footprint=footprint, structure=structure, mode="constant", cval=_OUTSIDE_MM
     )

@@ -2,10 +2,10 @@
 
 "First a binary image is obtained by thresholding the original greyscale surface at the desired
 Z level. A contour detection algorithm is then applied for each binary image."
-:func:`skimage.measure.find_contours` (marching squares, with sub-pixel interpolation of the
-crossing) gives closed contours on the map padded with a low border, the crossing interpolated between pixel
-centres (a contour of the binary image instead would be a staircase whose notches a cutter
-cannot enter, leaving stock there); a contour inside an odd number of others is a hole. The polygons are in mm
+:func:`skimage.measure.find_contours` (marching squares) gives closed contours on the map
+padded with a low border, the crossing interpolated between pixel centres (a contour of the
+binary image instead would be a staircase whose notches a cutter cannot enter, leaving stock
+there); a contour inside an odd number of others is a hole. The polygons are in mm
 (:mod:`supervisor.cam.depthmap` axes).
 """
 
@@ -85,7 +85,9 @@ def islands(
     # edge gets its contour a pixel outside, so the inward move (SHRINK_PX) keeps the edge in
     low = min(float(crop.min()), z_mm) - 1.0
     padded = np.pad(np.pad(crop, 1, mode="edge"), 1, mode="constant", constant_values=low)
-    found = measure.find_contours(padded, z_mm, fully_connected="high")
+    found = measure.find_contours(  # type: ignore[no-untyped-call]
+        padded, z_mm, fully_connected="high"
+    )
     rings: list[Polygon] = []
     for c in found:
         if len(c) < 4:

@@ -178,7 +178,12 @@ def read_depthmap(
     else:
         raise InputError("image", str(path), f"must be 8- or 16-bit greyscale, not {data.dtype}")
     return grey_to_depthmap(
-        data, levels, pixel_mm, z_range_mm, negative=negative, stock_top_mm=stock_top_mm
+        np.asarray(data, dtype=np.int64),
+        levels,
+        pixel_mm,
+        z_range_mm,
+        negative=negative,
+        stock_top_mm=stock_top_mm,
     )
 
 

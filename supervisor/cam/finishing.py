@@ -63,12 +63,16 @@ def iso_lines(
     return _bresenham_lines(tip_mm, pixel_mm, stepover_mm, float(direction)), stepover_mm
 
 
-def _points(tip_mm: NDArray[np.float64], rr: NDArray[np.intp], cc: NDArray[np.intp], pixel_mm: float) -> NDArray[np.float64]:
+def _points(
+    tip_mm: NDArray[np.float64], rr: NDArray[np.intp], cc: NDArray[np.intp], pixel_mm: float
+) -> NDArray[np.float64]:
     rows = tip_mm.shape[0]
     return np.column_stack((cc * pixel_mm, (rows - 1 - rr) * pixel_mm, tip_mm[rr, cc]))
 
 
-def _bresenham_lines(tip_mm: NDArray[np.float64], pixel_mm: float, stepover_mm: float, angle_deg: float) -> list[NDArray[np.float64]]:
+def _bresenham_lines(
+    tip_mm: NDArray[np.float64], pixel_mm: float, stepover_mm: float, angle_deg: float
+) -> list[NDArray[np.float64]]:
     from skimage.draw import line
 
     rows, cols = tip_mm.shape
@@ -85,7 +89,9 @@ def _bresenham_lines(tip_mm: NDArray[np.float64], pixel_mm: float, stepover_mm: 
         ends = _clip(offset, (ux, uy), (nx, ny), cols - 1, rows - 1)
         if ends is not None:
             (x0, y0), (x1, y1) = ends
-            rr, cc = line(rows - 1 - round(y0), round(x0), rows - 1 - round(y1), round(x1))
+            rr, cc = line(  # type: ignore[no-untyped-call]
+                rows - 1 - round(y0), round(x0), rows - 1 - round(y1), round(x1)
+            )
             ok = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
             pts = _points(tip_mm, rr[ok], cc[ok], pixel_mm)
             if len(pts) >= 2:

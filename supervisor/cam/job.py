@@ -85,9 +85,7 @@ def check_cutter(depthmap: DepthMap, cutter: Cutter, field: str) -> None:
     """A cutter wider than the map cannot machine it."""
     side = min(depthmap.width_mm, depthmap.length_mm)
     if cutter.diameter_mm >= side:
-        raise InputError(
-            field, cutter.describe(), f"is as wide as the part or wider ({side:g} mm)"
-        )
+        raise InputError(field, cutter.describe(), f"is as wide as the part or wider ({side:g} mm)")
     if cutter.radius_mm < depthmap.pixel_mm:
         raise InputError(
             field, cutter.describe(), f"is smaller than two pixels ({depthmap.pixel_mm:g} mm)"
@@ -131,7 +129,11 @@ def run_cam(
     )
     total = len(levels)
     paths = rough(
-        surface, p, levels, cutter.radius_mm, limits.stepover_mm,
+        surface,
+        p,
+        levels,
+        cutter.radius_mm,
+        limits.stepover_mm,
         lambda done: tell("roughing", done, total),
     )
     reports = tuple(
@@ -150,7 +152,11 @@ def run_cam(
         lines, step = iso_lines(tip, p, settings.finish_stepover_mm, settings.finish_direction)
         depth = settings.allowance_mm + settings.form_tolerance_mm
         finishing = Finishing(
-            fcutter, tuple(lines), step, settings.finish_direction, ffeeds.at(depth, step),
+            fcutter,
+            tuple(lines),
+            step,
+            settings.finish_direction,
+            ffeeds.at(depth, step),
             scallop_height_mm(fcutter, step),
         )
         tell("finishing", 1, 1)
@@ -158,7 +164,9 @@ def run_cam(
         title,
         depthmap.stock_top_mm,
         (cutter, passes),
-        None if finishing is None else (
+        None
+        if finishing is None
+        else (
             finishing.cutter,
             Pass(f"finishing {finishing.cutter.describe()}", finishing.setpoint, finishing.lines),
         ),

@@ -85,7 +85,9 @@ class Band:
     slope: float | None
 
 
-def slope_map(surface_mm: NDArray[np.float64], pixel_mm: float, grey_level_mm: float, tolerance_mm: float) -> NDArray[np.float64]:
+def slope_map(
+    surface_mm: NDArray[np.float64], pixel_mm: float, grey_level_mm: float, tolerance_mm: float
+) -> NDArray[np.float64]:
     """``|∇ s|`` by fourth-order central differences [mm/mm].
 
     ``(−s(x+2p) + 8 s(x+p) − 8 s(x−p) + s(x−2p)) / (12 p)`` per axis (Fornberg, 1988): on a
@@ -176,7 +178,11 @@ def roughing_levels(
             u = upper - i * step
             low = lower if i == main - 1 else upper - (i + 1) * step
             g = _least_slope(sorted_values, order, flat_slopes, low, u)
-            count = 1 if g is None else math.ceil((u - low) / (tolerance_mm * math.hypot(1.0, g)) - 1e-9)
+            count = (
+                1
+                if g is None
+                else math.ceil((u - low) / (tolerance_mm * math.hypot(1.0, g)) - 1e-9)
+            )
             count = max(count, 1)
             bands.append(Band(u, low, count, (u - low) / count, g))
             levels.append(Level(low, u - low, "main", u, low, g))

@@ -99,7 +99,9 @@ def read_moves(text: str) -> list[Segment]:
             r0 = math.hypot(x - centre[0], y - centre[1])
             r1 = math.hypot(nx - centre[0], ny - centre[1])
             if abs(r0 - r1) > 1e-3:
-                raise InputError(f"program line {block.line}", block.text, "arc ends off its circle")
+                raise InputError(
+                    f"program line {block.line}", block.text, "arc ends off its circle"
+                )
             out.append(Segment(tool, False, start, (nx, ny, nz), feed, centre, motion == 3))
         else:
             out.append(Segment(tool, motion == 0, start, (nx, ny, nz), feed))

@@ -115,7 +115,10 @@ def _farthest(
     """The largest distance from a material pixel to the part ``mask`` [mm] (+1 pixel)."""
     if window is None:
         return 0.0
-    sl = (slice(window.row0, window.row0 + window.rows), slice(window.col0, window.col0 + window.cols))
+    sl = (
+        slice(window.row0, window.row0 + window.rows),
+        slice(window.col0, window.col0 + window.cols),
+    )
     part, mat = mask[sl], material[sl] & ~mask[sl]
     if not mat.any():
         return 0.0
@@ -171,11 +174,17 @@ def _inward(region: BaseGeometry, radius_mm: float, stepover_mm: float) -> list[
 
 def _pieces(geometry: BaseGeometry) -> list[Polyline]:
     """The line strings of a geometry as polylines, tiny ones dropped, pieces joined."""
-    lines = [g for g in shapely.get_parts(shapely.line_merge(_lines(geometry))) if isinstance(g, LineString)]
+    lines = [
+        g
+        for g in shapely.get_parts(shapely.line_merge(_lines(geometry)))
+        if isinstance(g, LineString)
+    ]
     return [np.asarray(g.coords, dtype=np.float64)[:, :2] for g in lines if g.length > MIN_PIECE_MM]
 
 
 def _lines(geometry: BaseGeometry) -> BaseGeometry:
     parts = [g for g in shapely.get_parts(geometry) if isinstance(g, LineString)]
-    parts += [LineString(g.exterior.coords) for g in shapely.get_parts(geometry) if isinstance(g, Polygon)]
+    parts += [
+        LineString(g.exterior.coords) for g in shapely.get_parts(geometry) if isinstance(g, Polygon)
+    ]
     return shapely.multilinestrings(parts) if parts else shapely.multilinestrings([])

@@ -134,7 +134,9 @@ def simulate(
     stock = remaining_stock(model_mm, material, pixel_mm, window_mm)
     finish_stock: float | None = None
     if finish_tool is not None and finish:
-        material = np.minimum(material, _finished(np.vstack(finish), finish_tool, model_mm.shape, pixel_mm))
+        material = np.minimum(
+            material, _finished(np.vstack(finish), finish_tool, model_mm.shape, pixel_mm)
+        )
         gouge = max(gouge, float(np.max(model_mm - material)))
         finish_stock = float(np.max(material - model_mm))
     cutting, rapid = machining_time(moves)
@@ -150,7 +152,9 @@ def _swept(
     return fill_polygons(region, shape, pixel_mm)
 
 
-def fill_polygons(region: BaseGeometry, shape: tuple[int, int], pixel_mm: float) -> NDArray[np.bool_]:
+def fill_polygons(
+    region: BaseGeometry, shape: tuple[int, int], pixel_mm: float
+) -> NDArray[np.bool_]:
     """Pixel centres inside ``region`` (even-odd over all its rings: holes stay empty).
 
     A scanline fill: each ring edge gives the X where it crosses each pixel row's centre
@@ -196,14 +200,15 @@ def fill_polygons(region: BaseGeometry, shape: tuple[int, int], pixel_mm: float)
 
 def _pixel_points(m: Segment, pixel_mm: float) -> NDArray[np.float64]:
     """A finishing move's points one pixel step apart (its ends are pixel centres)."""
-    steps = max(
-        1, round(max(abs(m.end[0] - m.start[0]), abs(m.end[1] - m.start[1])) / pixel_mm)
-    )
+    steps = max(1, round(max(abs(m.end[0] - m.start[0]), abs(m.end[1] - m.start[1])) / pixel_mm))
     t = np.linspace(0.0, 1.0, steps + 1)[:, None]
-    return np.asarray(m.start) + t * (np.asarray(m.end) - np.asarray(m.start))
+    start, end = np.asarray(m.start, dtype=np.float64), np.asarray(m.end, dtype=np.float64)
+    return np.asarray(start + t * (end - start), dtype=np.float64)
 
 
-def _finished(points: NDArray[np.float64], cutter: Cutter, shape: tuple[int, int], pixel_mm: float) -> NDArray[np.float64]:
+def _finished(
+    points: NDArray[np.float64], cutter: Cutter, shape: tuple[int, int], pixel_mm: float
+) -> NDArray[np.float64]:
     """Material height after the finishing tip has passed through ``points``."""
     big = 1.0e9
     tips = np.full(shape, big)
@@ -212,12 +217,17 @@ def _finished(points: NDArray[np.float64], cutter: Cutter, shape: tuple[int, int
     inside = (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
     np.minimum.at(tips, (rows[inside], cols[inside]), points[inside, 2])
     footprint, structure = cutter.kernel(pixel_mm)
-    out = ndimage.grey_erosion(tips, footprint=footprint, structure=structure, mode="constant", cval=big)
+    out = ndimage.grey_erosion(
+        tips, footprint=footprint, structure=structure, mode="constant", cval=big
+    )
     return np.asarray(out, dtype=np.float64)
 
 
 def remaining_stock(
-    model_mm: NDArray[np.float64], material_mm: NDArray[np.float64], pixel_mm: float, window_mm: float
+    model_mm: NDArray[np.float64],
+    material_mm: NDArray[np.float64],
+    pixel_mm: float,
+    window_mm: float,
 ) -> float:
     """The largest distance from the material's surface to the model [mm].
 
@@ -230,7 +240,7 @@ def remaining_stock(
     vertical stock ``m − s`` (an upper bound) is taken.
     """
     vertical = material_mm - model_mm
-    gy, gx = np.gradient(model_mm, pixel_mm)
+    gy, gx = (np.asarray(g, dtype=np.float64) for g in np.gradient(model_mm, pixel_mm))
     gy = -gy  # rows run down, y up
     g2 = gx * gx + gy * gy
     best = np.full(model_mm.shape, np.inf)
