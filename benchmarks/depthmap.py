@@ -37,9 +37,8 @@ def relief(side: int, pixel_mm: float) -> np.ndarray:
         h = np.maximum(h, np.sqrt(np.clip((r * size) ** 2 - d * d, 0, None)))
     pyr = 12 - 0.8 * np.maximum(abs(xx - 0.72 * size), abs(yy - 0.72 * size))
     h = np.maximum(h, np.clip(pyr, 0, None))
-    h[(xx > 0.05 * size) & (xx < 0.2 * size) & (yy > 0.55 * size)] = np.maximum(
-        h[(xx > 0.05 * size) & (xx < 0.2 * size) & (yy > 0.55 * size)], 6.0
-    )
+    block = (xx < 0.2 * size) & (yy > 0.55 * size)  # a step at the map's edge
+    h[block] = np.maximum(h[block], 6.0)
     return np.clip(h, 0, 20)
 
 

@@ -61,12 +61,12 @@ def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, flo
     cx, cy, r = circle
     if r > max_radius_mm or r < 1e-3:
         return None
-    dx, dy = points[:, 0] - cx, points[:, 1] - cy
-    if np.abs(np.hypot(dx, dy) - r).max() > FIT_TOL_MM:
-        return None
     seg = np.diff(points, axis=0)
     half = float(np.hypot(seg[:, 0], seg[:, 1]).max()) / 2
     if half >= r or r - math.sqrt(r * r - half * half) > SAGITTA_TOL_MM:
+        return None
+    dx, dy = points[:, 0] - cx, points[:, 1] - cy
+    if np.abs(np.hypot(dx, dy) - r).max() > FIT_TOL_MM:
         return None
     cross = dx[:-1] * seg[:, 1] - dy[:-1] * seg[:, 0]
     if not (np.all(cross > 0) or np.all(cross < 0)):
@@ -77,9 +77,6 @@ def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, flo
     angle = np.arctan2(dy, dx) - q * math.pi / 2
     angle = (angle + math.pi) % (2 * math.pi) - math.pi
     if np.any(angle < -1e-9) or np.any(angle > math.pi / 2 + 1e-9):
-        return None
-    span = np.unwrap(np.arctan2(dy, dx))
-    if abs(span[-1] - span[0]) > math.pi / 2 + 1e-9:
         return None
     return cx, cy, bool(cross[0] > 0)
 

@@ -31,7 +31,7 @@ from supervisor.cam.motion import Segment
 #: Rapid traverse assumed for the cycle time (the plan gives none) [mm/min].
 RAPID_MM_MIN = 10_000.0
 #: Segments per quarter circle of the swept regions.
-QUAD_SEGS = 32
+QUAD_SEGS = 16
 
 
 @dataclass(frozen=True)
@@ -117,7 +117,7 @@ def simulate(
             if run_z != m.end[2]:
                 close_run()
                 run, run_z = [m.start[:2]], m.end[2]
-            run.extend(map(tuple, m.points(pixel_mm / 4)[1:, :2]))
+            run.extend(map(tuple, _vertices(m)))
         elif cutter.kind == "flat" and m.start[:2] == m.end[:2]:  # a plunge
             close_run()
             run, run_z = [m.end[:2]], m.end[2]
@@ -143,12 +143,31 @@ def simulate(
     return Verification(max(0.0, gouge), stock, finish_stock, cutting, rapid, rapids_below)
 
 
+#: Largest gap between an arc and the chords it is swept as [mm].
+ARC_CHORD_MM = 1e-3
+
+
+def _vertices(m: Segment) -> list[tuple[float, float]]:
+    """The XY points a constant-Z move passes, its start excluded: chords for an arc."""
+    if m.centre is None:
+        return [(m.end[0], m.end[1])]
+    a0, a1, r = m.sweep()
+    step = 2 * math.acos(max(-1.0, 1 - ARC_CHORD_MM / r)) if r > ARC_CHORD_MM else math.pi
+    n = max(1, math.ceil(abs(a1 - a0) / step))
+    angles = a0 + (a1 - a0) * np.arange(1, n + 1) / n
+    xs = m.centre[0] + r * np.cos(angles)
+    ys = m.centre[1] + r * np.sin(angles)
+    xs[-1], ys[-1] = m.end[0], m.end[1]
+    return list(zip(xs.tolist(), ys.tolist(), strict=True))
+
+
 def _swept(
     runs: list[NDArray[np.float64]], radius_mm: float, shape: tuple[int, int], pixel_mm: float
 ) -> NDArray[np.bool_]:
     """Pixel centres within ``radius_mm`` of any of the paths."""
-    geoms = [LineString(r) if len(r) > 1 else Point(r[0]) for r in runs]
-    region = shapely.union_all([g.buffer(radius_mm, quad_segs=QUAD_SEGS) for g in geoms])
+    lines = [LineString(r) for r in runs if len(r) > 1]
+    points = [Point(r[0]) for r in runs if len(r) == 1]
+    region = shapely.GeometryCollection(lines + points).buffer(radius_mm, quad_segs=QUAD_SEGS)
     return fill_polygons(region, shape, pixel_mm)
 
 
