@@ -263,14 +263,14 @@ def _print(result: CamResult, out: Path) -> None:
     _out.print(
         f"optimiser limits: ap <= {lim.max_axial_depth_mm:.3f} mm, ae <= "
         f"{lim.max_radial_depth_mm:.3f} mm; stepover {lim.stepover_mm:.3f} mm",
-        soft_wrap=True,
+        soft_wrap=False,
     )
     speeds = sorted({r.setpoint.spindle_rpm for r in result.levels})
     feeds = sorted({r.setpoint.feed_rate_mm_min for r in result.levels})
     if speeds:
         _out.print(
             f"roughing S {speeds[0]}-{speeds[-1]} rpm, F {feeds[0]:g}-{feeds[-1]:g} mm/min",
-            soft_wrap=True,
+            soft_wrap=False,
         )
     f = result.finishing
     if f is not None:
@@ -278,13 +278,13 @@ def _print(result: CamResult, out: Path) -> None:
             f"finishing {f.cutter.describe()}: {len(f.lines)} lines, stepover "
             f"{f.stepover_mm:.3f} mm, scallop {f.scallop_mm:.4f} mm, "
             f"S {f.setpoint.spindle_rpm} F {f.setpoint.feed_rate_mm_min:g}",
-            soft_wrap=True,
+            soft_wrap=False,
         )
     v = result.verification
     if v is not None:
         _out.print(
             f"verified: gouge {v.gouge_mm:.4f} mm, stock after roughing "
             f"{v.max_remaining_stock_mm:.4f} mm, cycle {v.cycle_time_min:.1f} min",
-            soft_wrap=True,
+            soft_wrap=False,
         )
     _out.print(f"wrote {out}", soft_wrap=True)

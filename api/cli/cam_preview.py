@@ -24,7 +24,7 @@ def draw_preview(depthmap: DepthMap, result: CamResult, path: Path) -> None:
     from matplotlib.collections import LineCollection
 
     fig, ax = plt.subplots(
-        figsize=(6.4, 6.4 * depthmap.length_mm / max(depthmap.width_mm, 1e-9) + 0.6)
+        figsize=(5.2, 5.2 * depthmap.length_mm / max(depthmap.width_mm, 1e-9) + 0.6)
     )
     ax.imshow(
         depthmap.height_mm,
