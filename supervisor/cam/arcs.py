@@ -53,8 +53,28 @@ def _quadrant(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.in
     return np.asarray(np.floor(np.arctan2(dy, dx) / (math.pi / 2)).astype(int) % 4)
 
 
+def _may_fit(points: NDArray[np.float64], max_radius_mm: float) -> bool:
+    """A quick test on the first three points in plain floats: most polylines fail here."""
+    (ax, ay), (bx, by), (cx, cy) = points[0].tolist(), points[1].tolist(), points[2].tolist()
+    d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+    if abs(d) < 1e-12:
+        return False
+    sa, sb, sc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+    ux = (sa * (by - cy) + sb * (cy - ay) + sc * (ay - by)) / d
+    uy = (sa * (cx - bx) + sb * (ax - cx) + sc * (bx - ax)) / d
+    r = math.hypot(ax - ux, ay - uy)
+    half = max(math.hypot(bx - ax, by - ay), math.hypot(cx - bx, cy - by)) / 2
+    return (
+        1e-3 <= r <= max_radius_mm
+        and half < r
+        and r - math.sqrt(r * r - half * half) <= SAGITTA_TOL_MM
+    )
+
+
 def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, float, bool] | None:
     """The arc through ``points`` if it is one (module docstring), else None."""
+    if not _may_fit(points, max_radius_mm):
+        return None
     circle = _circle(points[0], points[len(points) // 2], points[-1])
     if circle is None:
         return None

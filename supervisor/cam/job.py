@@ -178,7 +178,7 @@ def run_cam(
         cutters = {ROUGH_TOOL: cutter}
         if finishing is not None:
             cutters[FINISH_TOOL] = finishing.cutter
-        window = settings.allowance_mm + settings.form_tolerance_mm + 4 * p
+        window = settings.allowance_mm + settings.form_tolerance_mm + 2 * p
         verification = simulate(
             depthmap.height_mm, p, depthmap.stock_top_mm, read_moves(program), cutters, window
         )
