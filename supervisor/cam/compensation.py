@@ -72,3 +72,33 @@ def offset_surface(
         height_mm, footprint=footprint, structure=structure, mode="constant", cval=_OUTSIDE_MM
     )
     return np.asarray(out, dtype=np.float64)
+
+
+def compensate_rows(
+    height_mm: NDArray[np.float64], cutter: Cutter, pixel_mm: float, rows: NDArray[np.intp]
+) -> NDArray[np.float64]:
+    """:func:`compensate` on the given rows only, shape ``(len(rows), cols)``.
+
+    The same dilation taken one kernel row at a time: for each row offset ``dy`` of the
+    cutter's footprint, a 1-D dilation along X of the map's rows ``rows + dy`` by that row of
+    the structure, and the largest over ``dy``. What iso-parametric lines along X need (a
+    line every few pixels), at that fraction of the full map's cost.
+    """
+    footprint, structure = cutter.kernel(pixel_mm)
+    reach = footprint.shape[0] // 2
+    padded = np.pad(height_mm, ((reach, reach), (0, 0)), constant_values=_OUTSIDE_MM)
+    out = np.full((len(rows), height_mm.shape[1]), _OUTSIDE_MM)
+    for k in range(footprint.shape[0]):
+        line = footprint[k : k + 1]
+        if not line.any():
+            continue
+        source = padded[np.asarray(rows) + k]
+        part = ndimage.grey_dilation(
+            source,
+            footprint=line,
+            structure=structure[k : k + 1],
+            mode="constant",
+            cval=_OUTSIDE_MM,
+        )
+        np.maximum(out, part, out=out)
+    return out

@@ -45,10 +45,7 @@ def iso_lines(
     rows, cols = tip_mm.shape
     if direction in ("x", "y"):
         step = max(1, round(stepover_mm / pixel_mm))
-        count = rows if direction == "y" else cols
-        index = list(range(0, count, step))
-        if index[-1] != count - 1:
-            index.append(count - 1)
+        index = line_indices(rows if direction == "y" else cols, step)
         lines = []
         for k, i in enumerate(index):
             if direction == "y":
@@ -61,6 +58,14 @@ def iso_lines(
             lines.append(line if k % 2 == 0 else line[::-1])
         return lines, step * pixel_mm
     return _bresenham_lines(tip_mm, pixel_mm, stepover_mm, float(direction)), stepover_mm
+
+
+def line_indices(count: int, step: int) -> list[int]:
+    """The rows (or columns) of the lines: every ``step``-th, and the last."""
+    index = list(range(0, count, step))
+    if index[-1] != count - 1:
+        index.append(count - 1)
+    return index
 
 
 def _points(

@@ -14,11 +14,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models.errors import InputError
-from supervisor.cam.compensation import compensate, offset_surface
+from supervisor.cam.compensation import compensate, compensate_rows, offset_surface
 from supervisor.cam.cutter import Cutter
 from supervisor.cam.depthmap import DepthMap
 from supervisor.cam.feeds import CuttingLimits, Feeds, PathSetpoint
-from supervisor.cam.finishing import iso_lines, scallop_height_mm
+from supervisor.cam.finishing import iso_lines, line_indices, scallop_height_mm
 from supervisor.cam.levels import Band, Level, roughing_levels, slope_map
 from supervisor.cam.motion import read_moves
 from supervisor.cam.program import FINISH_TOOL, ROUGH_TOOL, Pass, write_program
@@ -148,7 +148,7 @@ def run_cam(
     if finish is not None:
         tell("finishing", 0, 1)
         fcutter, ffeeds = finish
-        tip = compensate(depthmap.height_mm, fcutter, p)
+        tip = _tip_surface(depthmap.height_mm, fcutter, p, settings)
         lines, step = iso_lines(tip, p, settings.finish_stepover_mm, settings.finish_direction)
         depth = settings.allowance_mm + settings.form_tolerance_mm
         finishing = Finishing(
@@ -184,6 +184,21 @@ def run_cam(
         )
         tell("verifying", 1, 1)
     return CamResult(program, limits, reports, tuple(bands), finishing, verification)
+
+
+def _tip_surface(
+    height_mm: NDArray[np.float64], cutter: Cutter, pixel_mm: float, settings: CamSettings
+) -> NDArray[np.float64]:
+    """The compensated surface where the finishing lines need it (NaN elsewhere)."""
+    direction = settings.finish_direction
+    if direction not in ("x", "y"):
+        return compensate(height_mm, cutter, pixel_mm)
+    step = max(1, round(settings.finish_stepover_mm / pixel_mm))
+    grid = height_mm if direction == "y" else height_mm.T
+    index = np.asarray(line_indices(grid.shape[0], step))
+    tip = np.full(grid.shape, np.nan)
+    tip[index] = compensate_rows(grid, cutter, pixel_mm, index)
+    return tip if direction == "y" else np.ascontiguousarray(tip.T)
 
 
 def _title(index: int, total: int, level: Level) -> str:
