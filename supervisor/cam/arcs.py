@@ -104,32 +104,22 @@ def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, flo
 def to_moves(points: NDArray[np.float64], max_radius_mm: float) -> list[Move]:
     """The moves that follow ``points[1:]`` from ``points[0]``.
 
-    From each point the longest arc is searched by doubling its length while it fits, then
-    halving the gap between the last fit and the first misfit.
+    From each point the arc is grown by doubling its length while it fits (the longest of
+    those is taken: a bisection towards the first misfit cost as much again for little).
     """
     moves: list[Move] = []
     i, n = 0, len(points)
     while i < n - 1:
         j = i + MIN_POINTS - 1
         best: tuple[int, tuple[float, float, bool]] | None = None
-        bad = None
         while j < n and j - i < MAX_POINTS:
             fit = _fits(points[i : j + 1], max_radius_mm)
             if fit is None:
-                bad = j
                 break
             best = (j, fit)
             j = i + 2 * (j - i)
-        if best is not None:
-            hi = min(bad if bad is not None else min(j, n), n)
-            lo = best[0]
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                fit = _fits(points[i : mid + 1], max_radius_mm)
-                if fit is None:
-                    hi = mid
-                else:
-                    lo, best = mid, (mid, fit)
+            if j >= n > best[0] + 1 and n - 1 - i < MAX_POINTS:
+                j = n - 1  # the rest of the polyline, once
         if best is None:
             moves.append(Move(float(points[i + 1, 0]), float(points[i + 1, 1])))
             i += 1
