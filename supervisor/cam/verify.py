@@ -117,7 +117,7 @@ def simulate(
             if run_z != m.end[2]:
                 close_run()
                 run, run_z = [m.start[:2]], m.end[2]
-            run.extend(map(tuple, _vertices(m)))
+            run.extend(_vertices(m))
         elif cutter.kind == "flat" and m.start[:2] == m.end[:2]:  # a plunge
             close_run()
             run, run_z = [m.end[:2]], m.end[2]
