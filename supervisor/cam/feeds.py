@@ -22,6 +22,7 @@ with their bands, its limits, its bounds and Borangiu's (w, n) domain, Eqs. 2-7)
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from models.errors import InputError
@@ -114,9 +115,8 @@ class Feeds:
             return False
         return True
 
-    def _largest(self, low: float, high: float, ok: object) -> float:
-        test = ok if callable(ok) else None
-        assert test is not None
+    def _largest(self, low: float, high: float, test: Callable[[float], bool]) -> float:
+        """The largest value in ``[low, high]`` that passes ``test`` (monotone), by bisection."""
         if test(high):
             return high
         lo, hi = math.log(low), math.log(high)
