@@ -117,11 +117,13 @@ def run_cam(
     p = depthmap.pixel_mm
     limits = feeds.limits(cutter)
     surface = offset_surface(depthmap.height_mm, settings.allowance_mm, p)
-    slope = slope_map(surface, p, depthmap.grey_level_mm, settings.form_tolerance_mm)
+    slope = slope_map(depthmap.height_mm, p, depthmap.grey_level_mm, settings.form_tolerance_mm)
     plateau = max(1, math.ceil(math.pi * cutter.radius_mm**2 / p**2))
     levels, bands = roughing_levels(
         surface,
+        depthmap.height_mm,
         slope,
+        settings.allowance_mm,
         depthmap.stock_top_mm,
         limits.max_axial_depth_mm,
         settings.form_tolerance_mm,

@@ -6,7 +6,7 @@ such that ``Σ_j c_j·Δ_j = Z_f − Z_0`` and ``Σ_j c_j = C``", taking into ac
 accuracy (piecewise change of the cutting depth ``Δ_j`` on grey level gradient basis) and
 material characteristics (type and hardness of material impose upper limits on ``Δ_j``)".
 The rule made concrete here, on the allowance surface ``s_a``
-(:func:`supervisor.cam.compensation.offset_surface`):
+(:func:`supervisor.cam.compensation.offset_surface`, the model ``s`` grown by the allowance):
 
 1. Breakpoints: the stock top ``Z_0``, every plateau of ``s_a`` (a grey level held by at least
    as many flat pixels as the roughing cutter covers) and the floor ``Z_f = min s_a``: a
@@ -15,9 +15,14 @@ The rule made concrete here, on the allowance surface ``s_a``
    ``ap_max`` the largest axial depth the robust optimiser allows
    (:func:`supervisor.cam.feeds.cutting_limits`).
 3. Form accuracy: a constant-Z level leaves a stair whose thickness normal to a surface of
-   slope ``g`` is ``Δ / sqrt(1 + g²)``. In each main pass ``(u, l]`` the least slope
-   ``g_min = min |∇ s_a|`` over the pixels with ``l < s_a < u`` (central differences; not
-   within two pixels of a plateau, where they average a wall and a floor) sets
+   slope ``g`` is ``Δ / sqrt(1 + g²)``. The slope is read where the paper reads it, on the
+   model's own grey levels (fourth-order central differences, :func:`slope_map`), not on
+   ``s_a``: a ball dilation sampled on pixels is a few per cent off the true offset surface
+   on a steep flank. The offset surface keeps the model's normals: a model pixel ``y`` of
+   slope ``g`` carries the point of ``s_a`` at height ``s(y) + a / sqrt(1 + g²)`` (``a`` the
+   allowance), of the same slope (:func:`offset_heights`). In each main pass ``(u, l]`` the
+   least slope ``g_min`` over the model pixels whose point lies in ``l < z < u`` (not within
+   two pixels of a plateau, where the differences average a wall and a floor) sets
    ``Δ_j <= ε · sqrt(1 + g_min²)`` (``ε`` the form tolerance), so the pass is split into
    ``c_j = ceil((u − l) / (ε sqrt(1 + g_min²)))`` equal steps ``Δ_j = (u − l) / c_j``; with no
    pixel in the pass (a vertical wall) ``c_j = 1``.
@@ -108,6 +113,18 @@ def slope_map(
     return np.asarray(np.hypot(gx, gy), dtype=np.float64)
 
 
+def offset_heights(
+    height_mm: NDArray[np.float64], slope: NDArray[np.float64], allowance_mm: float
+) -> NDArray[np.float64]:
+    """Height of the point of ``s_a`` each model pixel carries: ``s + a / sqrt(1 + g²)`` [mm].
+
+    The ball of radius ``a`` touching the model at ``y`` has its top, the offset surface's
+    point there, at ``a`` along the normal ``(−∇s, 1) / sqrt(1 + g²)``; that point has the
+    model's slope ``g`` (module docstring, rule 3).
+    """
+    return np.asarray(height_mm + allowance_mm / np.hypot(1.0, slope), dtype=np.float64)
+
+
 def plateaus(surface_mm: NDArray[np.float64], min_pixels: int) -> list[float]:
     """Heights held by at least ``min_pixels`` flat pixels (equal to their 4 neighbours)."""
     cross = ndimage.generate_binary_structure(2, 1)
@@ -120,7 +137,9 @@ def plateaus(surface_mm: NDArray[np.float64], min_pixels: int) -> list[float]:
 
 def roughing_levels(
     surface_mm: NDArray[np.float64],
+    height_mm: NDArray[np.float64],
     slope: NDArray[np.float64],
+    allowance_mm: float,
     stock_top_mm: float,
     max_depth_mm: float,
     tolerance_mm: float,
@@ -132,8 +151,12 @@ def roughing_levels(
     ----------
     surface_mm : ndarray
         The allowance surface ``s_a`` [mm].
+    height_mm : ndarray
+        The model ``s`` [mm].
     slope : ndarray
-        ``|∇ s_a|`` (:func:`slope_map`).
+        ``|∇ s|``, the model's slope (:func:`slope_map`).
+    allowance_mm : float
+        ``a``, the allowance ``s_a`` adds [mm].
     stock_top_mm : float
         ``Z_0`` [mm].
     max_depth_mm : float
@@ -158,14 +181,16 @@ def roughing_levels(
     # a pixel beside a plateau (a wall's foot on a floor) has a central difference that
     # averages the wall and the floor: not a slope of the surface, and the plateau is cut
     # at its own height anyway
-    on_plateau = np.isin(np.round(surface_mm, 9), np.round(np.asarray(sorted(marks)), 9))
+    # (a model pixel on a plateau of s_a is one at the plateau's height less the allowance)
+    raised = np.round(height_mm + allowance_mm, 9)
+    on_plateau = np.isin(raised, np.round(np.asarray(sorted(marks)), 9))
     beside = ndimage.binary_dilation(on_plateau, structure=np.ones((5, 5), dtype=bool))
     beside[:2, :] = beside[-2:, :] = True  # the stencil needs two pixels each side
     beside[:, :2] = beside[:, -2:] = True
-    slope = np.where(beside, np.inf, slope)
+    slope = np.where(beside, np.inf, slope)  # (their offset heights are then the raised model)
     levels: list[Level] = []
     bands: list[Band] = []
-    flat_values = surface_mm.ravel()
+    flat_values = offset_heights(height_mm, slope, allowance_mm).ravel()
     flat_slopes = slope.ravel()
     order = np.argsort(flat_values, kind="stable")
     sorted_values = flat_values[order]
