@@ -27,6 +27,7 @@ from shapely.geometry.base import BaseGeometry
 from supervisor.cam.contours import as_polygons
 from supervisor.cam.cutter import Cutter
 from supervisor.cam.motion import Segment
+from supervisor.cam.stock import remaining_stock
 
 #: Rapid traverse assumed for the cycle time (the plan gives none) [mm/min].
 RAPID_MM_MIN = 10_000.0
@@ -256,50 +257,3 @@ def _finished(
         ok = (dest >= 0) & (dest < shape[0])
         out[dest[ok]] = np.minimum(out[dest[ok]], part[ok])
     return out
-
-
-def remaining_stock(
-    model_mm: NDArray[np.float64],
-    material_mm: NDArray[np.float64],
-    pixel_mm: float,
-    window_mm: float,
-) -> float:
-    """The largest distance from the material's surface to the model [mm].
-
-    The model is taken as one plane patch per pixel (its square, tilted by the central-
-    difference gradient): point samples alone would overstate the distance on a steep
-    surface by up to half the spacing of the samples along it. For each pixel ``x`` of the
-    material surface the distance to each patch within ``window_mm`` is that to the point of
-    the patch nearest the point's projection on its plane (exact where the projection falls
-    in the patch, an upper bound elsewhere); where no patch is within the window, the
-    vertical stock ``m − s`` (an upper bound) is taken.
-    """
-    vertical = material_mm - model_mm
-    gy, gx = (np.asarray(g, dtype=np.float64) for g in np.gradient(model_mm, pixel_mm))
-    gy = -gy  # rows run down, y up
-    g2 = gx * gx + gy * gy
-    best = np.full(model_mm.shape, np.inf)
-    reach = int(math.ceil(window_mm / pixel_mm))
-    rows, cols = model_mm.shape
-    half = pixel_mm / 2
-    for dy in range(-reach, reach + 1):
-        for dx in range(-reach, reach + 1):
-            if (dy * dy + dx * dx) * pixel_mm**2 > (window_mm + pixel_mm) ** 2:
-                continue
-            # patch centre y at row + dy, col + dx; w = x − y in mm (x right, y up)
-            ys, yd = slice(max(0, dy), rows + min(0, dy)), slice(max(0, -dy), rows + min(0, -dy))
-            xs, xd = slice(max(0, dx), cols + min(0, dx)), slice(max(0, -dx), cols + min(0, -dx))
-            wx, wy = -dx * pixel_mm, dy * pixel_mm
-            h = material_mm[yd, xd] - model_mm[ys, xs]
-            px, py, p2 = gx[ys, xs], gy[ys, xs], g2[ys, xs]
-            t = (px * wx + py * wy + h * p2) / (1 + p2)
-            ux = np.clip(wx + (h - t) * px, -half, half)
-            uy = np.clip(wy + (h - t) * py, -half, half)
-            dz = h - (px * ux + py * uy)
-            d2 = (wx - ux) ** 2 + (wy - uy) ** 2 + np.clip(dz, 0.0, None) ** 2
-            np.minimum(best[yd, xd], d2, out=best[yd, xd])
-    distance = np.sqrt(best)
-    distance = np.minimum(distance, np.clip(vertical, 0.0, None))
-    beyond = distance > window_mm
-    distance[beyond] = np.clip(vertical[beyond], 0.0, None)
-    return float(distance.max())
