@@ -43,7 +43,7 @@ def _circle(
     d = 2 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]))
     if abs(d) < 1e-12:
         return None
-    sa, sb, sc = a @ a, b @ b, c @ c
+    sa, sb, sc = a[0] * a[0] + a[1] * a[1], b[0] * b[0] + b[1] * b[1], c[0] * c[0] + c[1] * c[1]
     ux = (sa * (b[1] - c[1]) + sb * (c[1] - a[1]) + sc * (a[1] - b[1])) / d
     uy = (sa * (c[0] - b[0]) + sb * (a[0] - c[0]) + sc * (b[0] - a[0])) / d
     return float(ux), float(uy), float(math.hypot(a[0] - ux, a[1] - uy))
@@ -101,19 +101,99 @@ def _fits(points: NDArray[np.float64], max_radius_mm: float) -> tuple[float, flo
     return cx, cy, bool(cross[0] > 0)
 
 
-def to_moves(points: NDArray[np.float64], max_radius_mm: float) -> list[Move]:
+#: Run lengths (points − 1) whose fits :func:`fit_tables` works out for every start at once:
+#: the first three the doubling in :func:`to_moves` tries.
+TABLED = (MIN_POINTS - 1, 2 * (MIN_POINTS - 1), 4 * (MIN_POINTS - 1))
+#: A run's fit for every start: whether it fits, and the centre and direction where it does.
+Table = dict[
+    int, tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]
+]
+
+
+def fit_tables(paths: list[NDArray[np.float64]], max_radius_mm: float) -> list[Table]:
+    """:func:`_fits` of every run of :data:`TABLED` lengths of every path, in one go.
+
+    The same tests in the same order as :func:`_fits`, on arrays over all the paths
+    joined (a run that would cross from one path into the next is marked as no fit), so
+    the cost of a test is paid once for a level, not once per run.
+    """
+    if not paths:
+        return []
+    joined = np.vstack(paths)
+    starts = np.cumsum([0] + [len(q) for q in paths])
+    path_end = np.repeat(starts[1:], [len(q) for q in paths])  # one past each point's path
+    columns = {}
+    for k in TABLED:
+        length = k + 1
+        count = len(joined) - length + 1
+        if count <= 0:
+            empty = np.zeros(0)
+            columns[k] = (np.zeros(0, dtype=bool), empty, empty, np.zeros(0, dtype=bool))
+            continue
+        w = np.lib.stride_tricks.sliding_window_view(joined, (length, 2))[:, 0]
+        ok = np.arange(count) + length <= path_end[:count]
+        columns[k] = _fits_all(w, ok, max_radius_mm)
+    out: list[Table] = []
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
+        out.append({k: tuple(c[a:b] for c in col) for k, col in columns.items()})  # type: ignore[misc]
+    return out
+
+
+def _fits_all(
+    w: NDArray[np.float64], ok: NDArray[np.bool_], max_radius_mm: float
+) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """:func:`_fits` of each run ``w[i]`` (``(count, L, 2)``) where ``ok``, on arrays."""
+    length = w.shape[1]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for a, b, c, first in ((0, 1, 2, True), (0, length // 2, length - 1, False)):
+            ax, ay, bx, by = w[:, a, 0], w[:, a, 1], w[:, b, 0], w[:, b, 1]
+            cx, cy = w[:, c, 0], w[:, c, 1]
+            d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+            ok &= np.abs(d) >= 1e-12
+            sa, sb, sc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+            ux = (sa * (by - cy) + sb * (cy - ay) + sc * (ay - by)) / d
+            uy = (sa * (cx - bx) + sb * (ax - cx) + sc * (bx - ax)) / d
+            r = np.hypot(ax - ux, ay - uy)
+            if first:
+                half = np.maximum(np.hypot(bx - ax, by - ay), np.hypot(cx - bx, cy - by)) / 2
+            else:
+                seg = np.diff(w, axis=1)
+                half = np.hypot(seg[..., 0], seg[..., 1]).max(axis=1) / 2
+            ok &= (r >= 1e-3) & (r <= max_radius_mm) & (half < r)
+            ok &= r - np.sqrt(np.clip(r * r - half * half, 0.0, None)) <= SAGITTA_TOL_MM
+        dx, dy = w[..., 0] - ux[:, None], w[..., 1] - uy[:, None]
+        ok &= np.abs(np.hypot(dx, dy) - r[:, None]).max(axis=1) <= FIT_TOL_MM
+        cross = dx[:, :-1] * seg[..., 1] - dy[:, :-1] * seg[..., 0]
+        ok &= np.all(cross > 0, axis=1) | np.all(cross < 0, axis=1)
+        mid = length // 2
+        q = _quadrant(dx[:, mid], dy[:, mid])
+        angle = np.arctan2(dy, dx) - q[:, None] * (math.pi / 2)
+        angle = (angle + math.pi) % (2 * math.pi) - math.pi
+        ok &= ~(np.any(angle < -1e-9, axis=1) | np.any(angle > math.pi / 2 + 1e-9, axis=1))
+    return ok, ux, uy, cross[:, 0] > 0
+
+
+def to_moves(
+    points: NDArray[np.float64], max_radius_mm: float, table: Table | None = None
+) -> list[Move]:
     """The moves that follow ``points[1:]`` from ``points[0]``.
 
     From each point the arc is grown by doubling its length while it fits (the longest of
     those is taken: a bisection towards the first misfit cost as much again for little).
+    ``table``: the path's :func:`fit_tables` entry, the fits of the first lengths tried.
     """
+    known = table or {}
     moves: list[Move] = []
     i, n = 0, len(points)
     while i < n - 1:
         j = i + MIN_POINTS - 1
         best: tuple[int, tuple[float, float, bool]] | None = None
         while j < n and j - i < MAX_POINTS:
-            fit = _fits(points[i : j + 1], max_radius_mm)
+            row = known.get(j - i)
+            if row is None:
+                fit = _fits(points[i : j + 1], max_radius_mm)
+            else:
+                fit = (float(row[1][i]), float(row[2][i]), bool(row[3][i])) if row[0][i] else None
             if fit is None:
                 break
             best = (j, fit)

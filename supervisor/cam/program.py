@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from supervisor.cam.arcs import to_moves
+from supervisor.cam.arcs import fit_tables, to_moves
 from supervisor.cam.cutter import Cutter
 from supervisor.cam.feeds import PathSetpoint
 
@@ -80,6 +80,8 @@ def _emit_pass(out: list[str], p: Pass, safe: float, max_radius: float) -> None:
         f" fz {sp.feed_per_tooth_mm:.4f} vc {sp.speed_m_min:.1f})"
     )
     out.append(f"S{sp.spindle_rpm} M3")
+    flat = [path for path in p.paths if path.shape[1] == 2]
+    tables = iter(fit_tables(flat, max_radius))
     for k, path in enumerate(p.paths, start=1):
         out.append(f"(path {k} of {len(p.paths)})")
         if path.shape[1] == 2:
@@ -87,7 +89,7 @@ def _emit_pass(out: list[str], p: Pass, safe: float, max_radius: float) -> None:
             out.append(f"G0 X{_n(path[0, 0])} Y{_n(path[0, 1])}")
             out.append(f"G1 Z{_n(p.z_mm)} F{plunge:g}")
             first = True
-            for m in to_moves(path, max_radius):
+            for m in to_moves(path, max_radius, next(tables)):
                 f = f" F{feed:g}" if first else ""
                 first = False
                 if m.centre is None:
