@@ -81,15 +81,15 @@ def read_moves(text: str) -> list[Segment]:
     for block in parse_program(text):
         if block.problem:
             raise InputError(f"program line {block.line}", block.text, block.problem)
-        words = {w.letter: float(w.value) for w in block.words}
+        # the number as written to a float: the same value as through its Decimal
+        words = {w.letter: float(w.number) for w in block.words}
         if "T" in words:
             tool = int(words["T"])
         if "F" in words:
             feed = words["F"]
-        codes = [int(g) for g in block.codes("G")]
-        for g in codes:
-            if g in (0, 1, 2, 3):
-                motion = g
+        for w in block.words:
+            if w.letter == "G" and int(w.value) in (0, 1, 2, 3):
+                motion = int(w.value)
         if not any(k in words for k in "XYZ"):
             continue
         nx, ny, nz = words.get("X", x), words.get("Y", y), words.get("Z", z)

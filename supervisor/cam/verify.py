@@ -126,17 +126,19 @@ def simulate(
             close_run()
             run, run_z = [], None
             finish_tool = cutter
-            finish.append(_pixel_points(m, pixel_mm))
+            finish.append(np.asarray((m.start, m.end), dtype=np.float64))
     close_run()
     for z in sorted(levels, reverse=True):
-        swept = _swept(levels[z], rough_radius, model_mm.shape, pixel_mm)
-        np.minimum(material, np.where(swept, z, np.inf), out=material)
+        row0, swept = _swept(levels[z], rough_radius, model_mm.shape, pixel_mm)
+        band = material[row0 : row0 + len(swept)]
+        np.minimum(band, np.where(swept, z, np.inf), out=band)
     gouge = float(np.max(model_mm - material))
     stock = remaining_stock(model_mm, material, pixel_mm, window_mm)
     finish_stock: float | None = None
     if finish_tool is not None and finish:
         material = np.minimum(
-            material, _finished(np.vstack(finish), finish_tool, model_mm.shape, pixel_mm)
+            material,
+            _finished(_pixel_points(finish, pixel_mm), finish_tool, model_mm.shape, pixel_mm),
         )
         gouge = max(gouge, float(np.max(model_mm - material)))
         finish_stock = float(np.max(material - model_mm))
@@ -164,8 +166,8 @@ def _vertices(m: Segment) -> list[tuple[float, float]]:
 
 def _swept(
     runs: list[NDArray[np.float64]], radius_mm: float, shape: tuple[int, int], pixel_mm: float
-) -> NDArray[np.bool_]:
-    """Pixel centres within ``radius_mm`` of any of the paths."""
+) -> tuple[int, NDArray[np.bool_]]:
+    """Pixel centres within ``radius_mm`` of any of the paths (:func:`fill_polygons`)."""
     lines = [LineString(r) for r in runs if len(r) > 1]
     points = [Point(r[0]) for r in runs if len(r) == 1]
     region = shapely.GeometryCollection(lines + points).buffer(radius_mm, quad_segs=QUAD_SEGS)
@@ -174,8 +176,11 @@ def _swept(
 
 def fill_polygons(
     region: BaseGeometry, shape: tuple[int, int], pixel_mm: float
-) -> NDArray[np.bool_]:
+) -> tuple[int, NDArray[np.bool_]]:
     """Pixel centres inside ``region`` (even-odd over all its rings: holes stay empty).
+
+    Returned as the first row of the rows the region covers and the mask of those rows
+    (no pixel of another row is inside).
 
     A scanline fill: each ring edge gives the X where it crosses each pixel row's centre
     line (half-open in Y, so a vertex is counted once), and the pixels between successive
@@ -189,9 +194,8 @@ def fill_polygons(
             xy = np.asarray(ring.coords)[:, :2] / pixel_mm
             starts.append(xy[:-1])
             ends.append(xy[1:])
-    mask = np.zeros(shape, dtype=bool)
     if not starts:
-        return mask
+        return 0, np.zeros((0, shape[1]), dtype=bool)
     a, b = np.vstack(starts), np.vstack(ends)
     y_low, y_high = np.minimum(a[:, 1], b[:, 1]), np.maximum(a[:, 1], b[:, 1])
     first = np.ceil(y_low).astype(np.int64)
@@ -211,19 +215,33 @@ def fill_polygons(
     c1 = np.clip(np.ceil(x_out).astype(np.int64), 0, cols)
     r = rows - 1 - row_y.astype(np.int64)
     ok = (r >= 0) & (r < rows) & (c1 > c0)
-    diff = np.zeros((rows, cols + 1), dtype=np.int32)
-    np.add.at(diff, (r[ok], c0[ok]), 1)
-    np.add.at(diff, (r[ok], c1[ok]), -1)
-    mask = np.cumsum(diff[:, :cols], axis=1) > 0
-    return mask
+    if not ok.any():
+        return 0, np.zeros((0, cols), dtype=bool)
+    r, c0, c1 = r[ok], c0[ok], c1[ok]
+    first_row = int(r.min())
+    band = int(r.max()) + 1 - first_row
+    width = cols + 1
+    diff = np.bincount((r - first_row) * width + c0, minlength=band * width)
+    diff -= np.bincount((r - first_row) * width + c1, minlength=band * width)
+    mask = np.cumsum(diff.reshape(band, width)[:, :cols], axis=1) > 0
+    return first_row, mask
 
 
-def _pixel_points(m: Segment, pixel_mm: float) -> NDArray[np.float64]:
-    """A finishing move's points one pixel step apart (its ends are pixel centres)."""
-    steps = max(1, round(max(abs(m.end[0] - m.start[0]), abs(m.end[1] - m.start[1])) / pixel_mm))
-    t = np.linspace(0.0, 1.0, steps + 1)[:, None]
-    start, end = np.asarray(m.start, dtype=np.float64), np.asarray(m.end, dtype=np.float64)
-    return np.asarray(start + t * (end - start), dtype=np.float64)
+def _pixel_points(moves: list[NDArray[np.float64]], pixel_mm: float) -> NDArray[np.float64]:
+    """The finishing moves' points one pixel step apart (their ends are pixel centres).
+
+    ``moves``: each move's start and end (2, 3). Move ``k`` of ``n_k`` steps gives the points
+    ``start + (i / n_k)(end − start)``, ``i = 0 .. n_k`` (the end exactly), all at once.
+    """
+    ends = np.stack(moves)  # (m, 2, 3)
+    start, delta = ends[:, 0], ends[:, 1] - ends[:, 0]
+    reach = np.maximum(np.abs(delta[:, 0]), np.abs(delta[:, 1])) / pixel_mm
+    steps = np.maximum(1, np.rint(reach).astype(np.int64))
+    move = np.repeat(np.arange(len(ends)), steps + 1)
+    index = np.arange(len(move)) - np.repeat(np.cumsum(steps + 1) - (steps + 1), steps + 1)
+    t = (index * (1.0 / steps[move]))[:, None]
+    t[np.cumsum(steps + 1) - 1] = 1.0
+    return np.asarray(start[move] + t * delta[move], dtype=np.float64)
 
 
 def _finished(
