@@ -79,10 +79,13 @@ def rough(
     rows, cols = surface_mm.shape
     stock = box(0.0, 0.0, (cols - 1) * pixel_mm, (rows - 1) * pixel_mm)
     chord = radius_mm * (1 - math.cos(math.pi / (4 * QUAD_SEGS)))
+    reach_r = radius_mm + chord
     out: list[LevelPaths] = []
     below_cache: dict[float, tuple[BaseGeometry, NDArray[np.bool_], Window | None]] = {}
+    below_grown: dict[float, BaseGeometry] = {}
     for done, level in enumerate(levels, start=1):
         mask = surface_mm > level.z_mm + LEVEL_EPS_MM
+        useful: BaseGeometry | None = None
         if level.kind == "main":
             window = mask_window(np.ones_like(mask), 0)
             part = islands(surface_mm, level.z_mm, pixel_mm)
@@ -97,12 +100,20 @@ def rough(
             window = below_window
             part = islands(surface_mm, level.z_mm, pixel_mm, below_window)
             region = below_part.difference(part)
-            material = below_mask & ~mask
+            material = below_mask  # (not used: a rest level's reach is from its terrace)
+            if region.is_empty or not shapely.contains_properly(below_part, part):
+                useful = None
+            else:
+                if level.below_mm not in below_grown:
+                    below_grown = {level.below_mm: below_part.buffer(reach_r, quad_segs=QUAD_SEGS)}
+                useful = below_grown[level.below_mm].difference(
+                    part.buffer(-reach_r, quad_segs=QUAD_SEGS)
+                )
         if level.kind == "main":
             reach = _farthest(mask, material, window, pixel_mm)
         else:
             reach = _farthest_vertex(region, part, pixel_mm, stepover_mm)
-        paths = _rings(part, region, reach, radius_mm + chord, stepover_mm)
+        paths = _rings(part, region, reach, reach_r, stepover_mm, useful)
         out.append(LevelPaths(level, tuple(paths)))
         if progress is not None:
             progress(done)
@@ -141,12 +152,21 @@ def _farthest_vertex(
 
 
 def _rings(
-    part: BaseGeometry, region: BaseGeometry, reach_mm: float, radius_mm: float, stepover_mm: float
+    part: BaseGeometry,
+    region: BaseGeometry,
+    reach_mm: float,
+    radius_mm: float,
+    stepover_mm: float,
+    useful: BaseGeometry | None = None,
 ) -> list[Polyline]:
-    """Rings outside ``part`` at ``R + i·s`` from it, outermost first, clipped to what cuts."""
+    """Rings outside ``part`` at ``R + i·s`` from it, outermost first, clipped to what cuts.
+
+    ``useful``: ``region`` grown by ``R``, if known (:func:`rough`).
+    """
     if reach_mm <= 0 or region.is_empty:
         return []
-    useful = region.buffer(radius_mm, quad_segs=QUAD_SEGS)
+    if useful is None:
+        useful = region.buffer(radius_mm, quad_segs=QUAD_SEGS)
     if part.is_empty:
         return _inward(region, radius_mm, stepover_mm)
     count = max(0, math.ceil(reach_mm / stepover_mm) - 1)
