@@ -19,11 +19,12 @@ from skimage import io, transform
 from typer.testing import CliRunner
 
 from api.cli.main import app
-from supervisor.cam.arcs import to_moves
+from supervisor.cam.arcs import fit_tables, to_moves
 from supervisor.cam.compensation import compensate, offset_surface
 from supervisor.cam.cutter import parse_cutter
 from supervisor.cam.finishing import iso_lines, scallop_height_mm
 from supervisor.cam.motion import read_moves
+from supervisor.cam.stock import _whole, remaining_stock
 from supervisor.gcode.lexer import parse_program
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -78,6 +79,51 @@ def test_arcs_stay_in_one_quadrant_and_on_the_circle(radius, start, sweep):
     if radius > 100.0:
         assert all(m.centre is None for m in moves)
     assert (moves[-1].x, moves[-1].y) == pytest.approx(tuple(pts[-1]))
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.floats(0.5, 250.0), st.floats(0.0, 6.28), st.floats(-3.0, 3.0)),
+        min_size=1,
+        max_size=4,
+    ),
+    st.integers(0, 2**32 - 1),
+)
+def test_arc_tables_give_the_moves_run_by_run_fitting_gives(pieces, seed):
+    # paths of arcs of any radius (over and under the limit) with straight runs and a few
+    # jittered points between: the fits of every path of a level at once (fit_tables)
+    # give each path's moves exactly as fitting its runs one by one
+    rng = np.random.default_rng(seed)
+    paths = []
+    for radius, start, sweep in pieces:
+        t = np.linspace(start, start + sweep, int(rng.integers(2, 90)))
+        arc = np.column_stack((radius * np.cos(t), radius * np.sin(t)))
+        line = arc[-1] + np.outer(np.arange(1, int(rng.integers(1, 12))), rng.normal(size=2))
+        path = np.vstack((arc, line))
+        path[rng.random(len(path)) < 0.05] += rng.normal(scale=1e-3, size=2)
+        paths.append(path)
+    tables = fit_tables(paths, 100.0)
+    for path, table in zip(paths, tables, strict=True):
+        assert to_moves(path, 100.0, table) == to_moves(path, 100.0)
+
+
+@pytest.mark.parametrize("peak_mm", [3.0, 0.0])
+def test_stock_measure_by_decreasing_vertical_stock_is_the_whole_maps(peak_mm):
+    # a 200 x 200 px wavy model under a material left 0.2-0.7 mm above it, with (3.0) or
+    # without (0.0) one tall spot: the batches stop early or run into the whole-map pass;
+    # either way the largest distance is the one measured over every pixel
+    yy, xx = np.mgrid[0:200, 0:200] * 0.1
+    model = 2 + np.sin(xx / 2) * np.cos(yy / 3)
+    rng = np.random.default_rng(7)
+    material = model + 0.2 + 0.5 * rng.random(model.shape)
+    material[90:94, 120:125] += peak_mm
+    found = remaining_stock(model, material, 0.1, 0.74)
+    vertical = np.clip(material - model, 0.0, None)
+    gy, gx = np.gradient(model, 0.1)
+    whole = _whole((model, material, gx, -gy, gx * gx + gy * gy), vertical, 0.1, 0.74)
+    assert found == whole
+    assert 0.2 <= found <= 0.7 + peak_mm
 
 
 def test_scallop_height():
