@@ -44,6 +44,7 @@ def _operations(name: str) -> list[str]:
 def test_one_copy_of_each_example_is_packaged():
     assert NAMES == [
         "borangiu_domain",
+        "cam_relief_part",
         "ivester_demo_part",
         "milling_demo_part",
         "milling_passes_part",

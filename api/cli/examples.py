@@ -85,6 +85,10 @@ _SUMMARIES = {
         "the milling demo's 6 mm slot in whole axial passes",
         "rcb demo --plan FILE",
     ),
+    "cam_relief_part": (
+        "a relief from a depth map: flat roughing, ball finishing",
+        "rcb cam depthmap IMAGE --plan FILE --operation rough ...",
+    ),
 }
 
 

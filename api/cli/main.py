@@ -21,6 +21,7 @@ except ImportError:  # pragma: no cover - typer that uses click itself
 from api.cli import replan as cli_replan
 from api.cli import review as cli_review
 from api.cli.admin import db_app, keys_app, serve
+from api.cli.cam import cam_app
 from api.cli.certify import certify
 from api.cli.collect import collect
 from api.cli.demo import demo
@@ -113,6 +114,7 @@ milling_app = typer.Typer(
     no_args_is_help=True,
 )
 app.add_typer(milling_app, name="milling")  # rcb milling domain|control|setup
+app.add_typer(cam_app, name="cam")  # rcb cam depthmap: api/cli/cam.py
 app.add_typer(examples_app, name="examples")  # rcb examples [copy]: api/cli/examples.py
 app.command()(serve)  # rcb serve: api/cli/admin.py
 app.command()(collect)  # rcb collect: api/cli/collect.py
