@@ -87,7 +87,8 @@ _SUMMARIES = {
     ),
     "cam_relief_part": (
         "a relief from a depth map: flat roughing, ball finishing",
-        "rcb cam depthmap IMAGE --plan FILE --operation rough ...",
+        "rcb cam depthmap IMAGE --pixel-mm P --z-range-mm LO:HI --tool flat:10 "
+        "--plan FILE --operation rough --out OUT.nc",
     ),
 }
 
