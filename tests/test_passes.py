@@ -170,11 +170,16 @@ def _check_against_brute_force(body):
     stock = op.passes.roughing_stock_mm
     volume = op.volume_mm3 * stock / op.passes.stock_mm
     depth = DEPTH[op.process]
+    # never faster than the continuous optimum (off the machine's grid: a fine resolution)
+    fine = replace(machine, resolution=dict.fromkeys(machine.resolution, 1e-09))
+    exact = optimize_operation(replace(op, passes=None), tool, fine)
+    t_cont = volume / (1000 * exact.mrr_cm3_min)
+    assert rough.result.time_min >= t_cont * (1 - 1e-6)
+    # never slower than the grid's optimum rounded up to whole passes: its feed and speed,
+    # on the grid, still hold at the shallower depth (every maximum rises with depth)
     cont = optimize_operation(replace(op, passes=None), tool, machine)
     d_star = cont.setpoint[depth]
     rate_per_mm = cont.mrr_cm3_min / d_star  # R = MRR / d at the continuous optimum
-    t_cont = volume / (1000 * cont.mrr_cm3_min)
-    assert rough.result.time_min >= t_cont * (1 - 1e-6)
     n_up = max(1, math.ceil(stock / d_star * (1 - 1e-9)))
     if stock / n_up >= op.bounds[depth][0]:  # the rounded-up depth is within the bounds
         t_up = volume * n_up / (1000 * stock * rate_per_mm)
