@@ -83,7 +83,7 @@ def check_machine_values(result: PlanResult, plan: Any) -> None:
         for p, v in r.setpoint.items():
             low, high = op.bounds[p]
             assert low <= v <= high, (op.name, p, v)
-            assert on_grid(v, resolution[p]), (op.name, p, v)
+            assert on_grid(v, resolution[p]) or low == v == high, (op.name, p, v)
         point = {**r.setpoint, **op.context}
         assert_allclose(
             r.mrr_cm3_min, kinematics.mrr_monomial(op.process).evaluate(point), rtol=1e-12
@@ -133,6 +133,18 @@ def test_bounds_that_hold_no_grid_point_are_refused_naming_the_bound():
     assert "machine.resolution.speed_m_min" in str(info.value)
     data["machine"]["resolution"] = {"speed_m_min": 0.5}  # 150.5 is on this grid
     assert optimize_plan(plan_from_mapping(data)).operations[0].setpoint["speed_m_min"] == 150.5
+
+
+def test_a_parameter_the_plan_fixes_keeps_its_value_off_the_grid():
+    # a speed fixed at 150.25 m/min (no multiple of the 1 m/min default) is what the plan
+    # means: loaded, kept exactly, the other parameters on the grid; and a plan stored before
+    # the grid existed still loads
+    data = copy.deepcopy(STEP1)
+    data["operations"][0]["bounds"]["speed_m_min"] = [150.25, 150.25]
+    plan = plan_from_mapping(data)
+    result = optimize_plan(plan)
+    assert result.operations[0].setpoint["speed_m_min"] == 150.25
+    check_machine_values(result, plan)
 
 
 def test_the_cli_refuses_a_bad_resolution_naming_it(runner, tmp_path: Path):

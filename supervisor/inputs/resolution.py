@@ -82,8 +82,14 @@ def grid_value(k: int, step: float) -> float:
 def check_bounds(
     bounds: Mapping[str, tuple[float, float]], resolution: Mapping[str, float], path: str
 ) -> None:
-    """Refuse bounds that hold no grid point of the machine's resolution (``path``: bounds)."""
+    """Refuse bounds that hold no grid point of the machine's resolution (``path``: bounds).
+
+    A parameter the bounds fix (``low == high``, Tai's 1000 rpm as 62.832 m/min) is the value
+    the plan means: the setpoint keeps it (:mod:`supervisor.optimize.grid`), on the grid or not.
+    """
     for param, (low, high) in bounds.items():
+        if low == high:
+            continue
         k_low, k_high = steps_within(low, high, resolution[param])
         if k_low > k_high:
             raise PlanError(
