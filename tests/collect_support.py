@@ -4,7 +4,6 @@ part reports an MES would post for the same parts, and ``rcb collect`` as a real
 from __future__ import annotations
 
 import os
-import signal
 import sqlite3
 import subprocess
 import time
@@ -19,7 +18,7 @@ from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.trace import TracedOperation, TraceSample, machine_trace, traced_operations
 
 from conftest import DEMO_PLAN
-from live import RCB, LiveServer
+from live import RCB, LiveServer, kill_group, stop_group
 
 MACHINE, PROGRAM = "lathe-1", "O1001"
 UNCERTAINTY_V = 0.02  # expanded (k = 2) uncertainty of one spindle-load reading
@@ -168,20 +167,20 @@ class Collector:
 
     def kill(self) -> None:
         assert self.process is not None
-        os.killpg(self.process.pid, signal.SIGKILL)
-        self.process.wait(timeout=10)
+        kill_group(self.process)
         self.process = None
 
     def stop(self) -> None:
-        if self.process is None:
-            return
-        os.killpg(self.process.pid, signal.SIGTERM)
-        try:
-            self.process.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            os.killpg(self.process.pid, signal.SIGKILL)
-            self.process.wait(timeout=10)
-        self.process = None
+        if self.process is not None:
+            stop_group(self.process)
+            self.process = None
+
+    def wait_log(self, text: str, times: int, timeout_s: float = 60.0) -> None:
+        """Wait until ``text`` is in the collector's log ``times`` times."""
+        deadline = time.monotonic() + timeout_s
+        while self.log.read_text().count(text) < times:
+            assert time.monotonic() < deadline, self.log.read_text()[-2000:]
+            time.sleep(0.05)
 
     def counts(self) -> dict[str, int]:
         """Reports by state, parts skipped and gaps, read from the queue file."""

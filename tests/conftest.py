@@ -142,6 +142,13 @@ def engine(backend_url):
     engine.dispose()
 
 
+def _serving(url: str, tmp_path_factory) -> Iterator[LiveServer]:
+    live = LiveServer(url, tmp_path_factory.mktemp("log") / "serve.log")
+    live.start()
+    yield live
+    live.stop()
+
+
 @pytest.fixture(scope="module", params=["sqlite", "postgres"])
 def server(request, tmp_path_factory) -> Iterator[LiveServer]:
     """A running ``rcb serve`` on a fresh database, shared by a module's tests."""
@@ -149,7 +156,10 @@ def server(request, tmp_path_factory) -> Iterator[LiveServer]:
         url = f"sqlite:///{tmp_path_factory.mktemp('db') / 'rcb.db'}"
     else:
         url = request.getfixturevalue("module_postgres")
-    live = LiveServer(url, tmp_path_factory.mktemp("log") / "serve.log")
-    live.start()
-    yield live
-    live.stop()
+    yield from _serving(url, tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def sqlite_server(tmp_path_factory) -> Iterator[LiveServer]:
+    """A running ``rcb serve`` on a fresh SQLite database, shared by a module's tests."""
+    yield from _serving(f"sqlite:///{tmp_path_factory.mktemp('db') / 'rcb.db'}", tmp_path_factory)

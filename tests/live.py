@@ -25,6 +25,21 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def kill_group(process: subprocess.Popen[bytes]) -> None:
+    """``kill -9`` a process started in its own session, and its group: no shutdown."""
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait(timeout=10)
+
+
+def stop_group(process: subprocess.Popen[bytes]) -> None:
+    """Graceful stop of a process group (SIGTERM), SIGKILL if it hangs."""
+    os.killpg(process.pid, signal.SIGTERM)
+    try:
+        process.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        kill_group(process)
+
+
 class LiveServer:
     """``rcb serve --db URL`` in its own process group; ``keys`` holds one API key per role."""
 
@@ -61,21 +76,14 @@ class LiveServer:
     def kill(self) -> None:
         """``kill -9`` the whole server (process group): no shutdown, no cleanup."""
         if self.process is not None:
-            os.killpg(self.process.pid, signal.SIGKILL)
-            self.process.wait(timeout=10)
+            kill_group(self.process)
             self.process = None
 
     def stop(self) -> None:
         """Graceful stop (SIGTERM), SIGKILL if it hangs."""
-        if self.process is None:
-            return
-        os.killpg(self.process.pid, signal.SIGTERM)
-        try:
-            self.process.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            os.killpg(self.process.pid, signal.SIGKILL)
-            self.process.wait(timeout=10)
-        self.process = None
+        if self.process is not None:
+            stop_group(self.process)
+            self.process = None
 
     def client(
         self, role: str | None = "engineer", headers: dict[str, str] | None = None

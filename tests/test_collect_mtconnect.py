@@ -27,7 +27,6 @@ from collect_support import (
     service_parts,
     write_config,
 )
-from live import LiveServer
 from mtconnect_agent import Agent, observations, serve
 
 #: The MTConnectStreams 2.0 schema in its XSD 1.0 form (``MTConnectStreams_2.0_1.0.xsd``, plain
@@ -35,15 +34,6 @@ from mtconnect_agent import Agent, observations, serve
 #: shipped with the project (third-party content stays out of the repository); a path to it.
 SCHEMA_VARIABLE = "RCB_MTCONNECT_XSD"
 PARTS = 20
-
-
-@pytest.fixture(scope="module")
-def live(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("collect-mtc")
-    server = LiveServer(f"sqlite:///{folder / 'rcb.db'}", folder / "serve.log")
-    server.start()
-    yield server
-    server.stop()
 
 
 def _agent(trace, buffer_size):
@@ -56,8 +46,8 @@ def _source(url: str) -> str:
     return f'[mtconnect]\nurl = "{url}"\ncount = 400\npoll_s = 0.02'
 
 
-def test_agent_documents_are_valid_mtconnect_streams_2_0(live):
-    _, setpoints = new_plan(live)
+def test_agent_documents_are_valid_mtconnect_streams_2_0(sqlite_server):
+    _, setpoints = new_plan(sqlite_server)
     _, trace = demo_trace(setpoints, parts=2)
     agent = Agent(observations(trace), buffer_size=100)
     agent.release(250)
@@ -80,13 +70,13 @@ def test_agent_documents_are_valid_mtconnect_streams_2_0(live):
     assert not schema.validate(etree.fromstring(bad.encode()))
 
 
-def test_twenty_parts_equal_the_same_parts_posted_by_an_mes(live, tmp_path):
-    plan_id, setpoints = new_plan(live)
-    direct_id, _ = new_plan(live)
+def test_twenty_parts_equal_the_same_parts_posted_by_an_mes(sqlite_server, tmp_path):
+    plan_id, setpoints = new_plan(sqlite_server)
+    direct_id, _ = new_plan(sqlite_server)
     ops, trace = demo_trace(setpoints, PARTS)
     agent, server, url = _agent(trace, buffer_size=100_000)
-    config = write_config(tmp_path, live.base, plan_id, block_map(ops), _source(url))
-    collector = Collector(config, live.keys["mes"])
+    config = write_config(tmp_path, sqlite_server.base, plan_id, block_map(ops), _source(url))
+    collector = Collector(config, sqlite_server.keys["mes"])
     collector.start()
     try:
         agent.play(per_second=4000)
@@ -95,24 +85,24 @@ def test_twenty_parts_equal_the_same_parts_posted_by_an_mes(live, tmp_path):
         collector.stop()
         agent.stop()
         server.shutdown()
-    post_directly(live, direct_id, mes_reports(ops, trace))
-    collected, direct = outcome(live, plan_id), outcome(live, direct_id)
+    post_directly(sqlite_server, direct_id, mes_reports(ops, trace))
+    collected, direct = outcome(sqlite_server, plan_id), outcome(sqlite_server, direct_id)
     assert len(collected["parts"]) == PARTS
     assert len(collected["versions"]) > 1  # RCB moved the bands: the comparison has teeth
     assert collected == direct
 
 
 def test_kill_9_collector_mid_part_and_service_mid_post_twice_each_store_every_part_once(
-    live, tmp_path
+    sqlite_server, tmp_path
 ):
     parts = 8
-    plan_id, setpoints = new_plan(live)
+    plan_id, setpoints = new_plan(sqlite_server)
     ops, trace = demo_trace(setpoints, parts, seed=11)
     obs = observations(trace)
     per_part = len(obs) // parts
     agent, server, url = _agent(trace, buffer_size=100_000)
-    config = write_config(tmp_path, live.base, plan_id, block_map(ops), _source(url))
-    collector = Collector(config, live.keys["mes"])
+    config = write_config(tmp_path, sqlite_server.base, plan_id, block_map(ops), _source(url))
+    collector = Collector(config, sqlite_server.keys["mes"])
     collector.start()
     queued = lambda n: lambda c: c.get("pending", 0) + c.get("sent", 0) >= n  # noqa: E731
     try:
@@ -124,36 +114,38 @@ def test_kill_9_collector_mid_part_and_service_mid_post_twice_each_store_every_p
         for done in (4, 6):  # kill -9 the service while the collector posts, twice
             agent.release(done * per_part + per_part // 2)
             collector.wait(lambda c, n=done: c.get("sent", 0) >= n - 1, what="posts")
-            live.kill()
+            sqlite_server.kill()
             collector.wait(queued(done), what=f"{done} parts queued")
-            live.start()
+            sqlite_server.start()
         agent.release(len(obs))
         counts = collector.wait(lambda c: c.get("sent", 0) == parts, what="all sent")
     finally:
         collector.stop()
         agent.stop()
         server.shutdown()
-        if live.process is None:
-            live.start()
+        if sqlite_server.process is None:
+            sqlite_server.start()
     log = collector.log.read_text()
     assert log.count("service not reached") >= 2, "each service kill met a post"
-    assert sorted(service_parts(live, plan_id)) == sorted(
+    assert sorted(service_parts(sqlite_server, plan_id)) == sorted(
         f"lathe-1/O1001/{n}" for n in range(1, parts + 1)
     )
     assert counts.get("gaps", 0) == 0 and counts.get("skips", 0) == 0
     assert counts.get("rejected", 0) == 0
 
 
-def test_buffer_wrap_is_reported_with_the_parts_it_affects_and_they_are_not_posted(live, tmp_path):
-    plan_id, setpoints = new_plan(live)
-    direct_id, _ = new_plan(live)
+def test_buffer_wrap_is_reported_with_the_parts_it_affects_and_they_are_not_posted(
+    sqlite_server, tmp_path
+):
+    plan_id, setpoints = new_plan(sqlite_server)
+    direct_id, _ = new_plan(sqlite_server)
     parts = 6
     ops, trace = demo_trace(setpoints, parts, seed=3)
     obs = observations(trace)
     per_part = len(obs) // parts
     agent, server, url = _agent(trace, buffer_size=per_part)
-    config = write_config(tmp_path, live.base, plan_id, block_map(ops), _source(url))
-    collector = Collector(config, live.keys["mes"])
+    config = write_config(tmp_path, sqlite_server.base, plan_id, block_map(ops), _source(url))
+    collector = Collector(config, sqlite_server.keys["mes"])
     collector.start()
     try:
         agent.release_in_step(2 * per_part + per_part // 3, step=20)  # read within the buffer
@@ -172,8 +164,8 @@ def test_buffer_wrap_is_reported_with_the_parts_it_affects_and_they_are_not_post
     assert "GAP: sequences" in log and "the agent's buffer wrapped" in log
     assert "parts 3, 4: NOT reported: sequences" in log, log[-2000:]
     assert counts.get("rejected", 0) == 0
-    assert service_parts(live, plan_id) == [f"lathe-1/O1001/{n}" for n in (1, 2, 5, 6)]
+    assert service_parts(sqlite_server, plan_id) == [f"lathe-1/O1001/{n}" for n in (1, 2, 5, 6)]
     # the parts posted carry the right force: the same answers as an MES posting them
     reports = mes_reports(ops, trace)
-    post_directly(live, direct_id, [reports[n - 1] for n in (1, 2, 5, 6)])
-    assert outcome(live, plan_id) == outcome(live, direct_id)
+    post_directly(sqlite_server, direct_id, [reports[n - 1] for n in (1, 2, 5, 6)])
+    assert outcome(sqlite_server, plan_id) == outcome(sqlite_server, direct_id)
