@@ -15,10 +15,17 @@ from dataclasses import dataclass, field
 from models import fields
 from models.errors import InputError
 
+#: Coverage factor of a reported (expanded) uncertainty: ``σ = U / 2`` (GUM 6.2-6.3; Ivester &
+#: Heigel Table 5's ±2σ).
+COVERAGE_FACTOR = 2.0
+
 
 @dataclass(frozen=True)
 class Measurement:
-    """A measured value and its expanded uncertainty ``±uncertainty`` (same unit, ≈ 2σ)."""
+    """A measured value and its expanded uncertainty ``±uncertainty`` (same unit, ≈ 2σ).
+
+    ``σ = uncertainty /`` :data:`COVERAGE_FACTOR`.
+    """
 
     value: float
     uncertainty: float

@@ -56,7 +56,7 @@ from models import quantities
 from models.errors import InputError
 from models.powerlaw import PowerLawModel, Prediction
 from models.quantities import MODEL_QUANTITIES
-from supervisor.inputs.part_report import Measurement, ToolWear
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, ToolWear
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
 from supervisor.optimize.solve import RECHECK_RTOL
@@ -65,9 +65,6 @@ from supervisor.rcb.state import Action, Decision, Flag, Note, RcbState, prior_s
 #: A measurement is past a band's edge only beyond this fraction of it: an optimum sits on
 #: its limit within the optimiser's re-check tolerance.
 EDGE_RTOL = RECHECK_RTOL
-#: The coverage factor of a reported uncertainty ``u``: an expanded uncertainty, ``σ = u / k``
-#: (GUM 6.2-6.3; Ivester & Heigel Table 5's ± columns).
-U_COVERAGE_K = 2.0
 #: A reading raises the alarm (``breach``, or past a cone) only when it is past the limit (the
 #: cone's edge) by more than this many σ of its own noise: Shewhart's 3σ control limit, a false
 #: alarm in 740 readings of a process exactly at its limit, against 1 in 44 at ±u (2σ).
@@ -196,7 +193,7 @@ def _apply_law(
     margin = limit - guard if is_max else guard - limit
     # the far side of the reading at the alarm's coverage: past the limit, the process crossed
     # it beyond what the reading's noise explains; at ±u only, the part is out of tolerance
-    reach_u = ALARM_SIGMA / U_COVERAGE_K * u
+    reach_u = ALARM_SIGMA / COVERAGE_FACTOR * u
     far_side = max(y - reach_u, 0.0) if is_max else y + reach_u
     iso_side = max(y - u, 0.0) if is_max else y + u
     if result.robust_by == "cone":  # a cone bounds the true value: the alarm's far side

@@ -39,7 +39,7 @@ from models.monomial import Monomial
 from models.powerlaw import PowerLawModel
 from models.quantities import DERIVED_QUANTITIES, Sense
 from models.tool import Tool
-from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
 from supervisor.inputs.plan import Operation, Plan
 
 #: Force ± of Ivester & Heigel Table 5, "Measured" column, rows in order [N]; step 4 row AC1
@@ -72,8 +72,6 @@ DEFAULT_UNCERTAINTY: dict[str, float] = {
 
 #: A true value may pass its limit by this fraction before it counts as a violation.
 VIOLATION_RTOL = 1e-9
-#: Coverage factor of an expanded uncertainty: ``σ = U / 2`` (GUM 6.2-6.3; Table 5's ±2σ).
-COVERAGE_FACTOR = 2.0
 
 
 @dataclass(frozen=True)

@@ -20,9 +20,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from models.errors import InputError
-from supervisor.inputs.part_report import Measurement, ToolWear
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, ToolWear
 from supervisor.virtual.machine import (
-    COVERAGE_FACTOR,
     VIOLATION_RTOL,
     CompiledOperation,
     PartOutcome,
