@@ -24,6 +24,8 @@ from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 from supervisor.rcb.state import Decision, RcbState, prior_sigma
+from supervisor.rcb.wear import WearRise
+from supervisor.rcb.wear import from_json as wear_from_json
 
 
 def load_state(*, session: Session, plan_row: PlanRow) -> RcbState:
@@ -58,12 +60,13 @@ def band_state_rows(
             "seen": after.seen[(d.operation, d.quantity)],
             "sigma": after.sigma[(d.operation, d.quantity)],
             "posterior": _posterior_json(after.posterior.get((d.operation, d.quantity))),
+            "wear": _posterior_json(after.wear.get((d.operation, d.quantity))),
         }
         for d in decisions
     ]
 
 
-def _posterior_json(belief: Posterior | None) -> dict[str, Any] | None:
+def _posterior_json(belief: Posterior | WearRise | None) -> dict[str, Any] | None:
     return None if belief is None else belief.to_json()
 
 
@@ -75,6 +78,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}
     beliefs: dict[tuple[str, str], Posterior] = {}
+    wear: dict[tuple[str, str], WearRise] = {}
     settings = settings_of(plan_row.strategy, plan_row.alpha, plan_row.settings)
     models_in_force = latest_models(session=session, plan_id=plan_row.id)
     pairs = sorted(
@@ -99,6 +103,8 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
                 seen[(op.name, quantity)] = state.seen
                 if state.posterior is not None:
                     beliefs[(op.name, quantity)] = posterior_from_json(state.posterior)
+                if state.wear is not None:
+                    wear[(op.name, quantity)] = wear_from_json(state.wear)
         tools[op.name] = Tool(
             base.name, base.process, models, base.description, base.material, base.source
         )
@@ -115,6 +121,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
         seen,
         beliefs,
         halt_of(plan_row.halt),
+        wear,
     )
 
 

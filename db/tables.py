@@ -309,8 +309,9 @@ class BandState(Base):
 
     ``seen``: the most demanding measurement so far as a K-equivalent (supervisor.rcb.update);
     ``sigma``: the posterior σ of ln K (bayes); ``posterior``: the ``learn`` strategy's belief
-    (:meth:`supervisor.rcb.posterior.Posterior.to_json`), NULL for other strategies. Appended per
-    part; the newest row is in force.
+    (:meth:`supervisor.rcb.posterior.Posterior.to_json`), NULL for other strategies; ``wear``:
+    the rise per part an edge makes (:meth:`supervisor.rcb.wear.WearRise.to_json`), NULL for a
+    quantity that does not wear. Appended per part; the newest row is in force.
     """
 
     __tablename__ = "band_states"
@@ -322,6 +323,7 @@ class BandState(Base):
     seen: Mapped[float]
     sigma: Mapped[float]
     posterior: Mapped[dict[str, Any] | None]
+    wear: Mapped[dict[str, Any] | None]
 
 
 class PlanRevision(Base):

@@ -33,6 +33,11 @@ the limit matters. For a maximum:
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + 3σ`` under
 the limit) or ``below_band`` (``y − u`` under the lower edge), the notes ``past_limit`` and
 ``above_band``.
+With tool wear (an operation with a ``parts_per_edge`` limit, a report giving the edge's age),
+the margin of a rising quantity is taken from the reading projected to the edge's last part,
+``M = Y_lim − (y↑ + u)`` with ``y↑`` of :mod:`supervisor.rcb.wear` (the rise per part learned
+from the edge's readings): a new edge's margin is not the worn edge's. Flags, notes and the
+cover rule stay on the reading itself.
 ``ΔY'`` is stored as a new ``ΔK`` through the first-order law of
 :func:`models.powerlaw.relative_band`: ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
 
@@ -114,8 +119,13 @@ def apply_law(
     result: OperationResult,
     quantity: str,
     measurement: Measurement,
+    projection: float = 1.0,
 ) -> tuple[Decision, PowerLawModel, float, float]:
     """The one-sided law for one measured quantity: decision, model, σ of ln K, ``seen``.
+
+    ``projection``: ``y↑/y``, the reading's rise to its edge's last part
+    (:meth:`supervisor.rcb.wear.WearRise.factor`); the margin is taken from ``y↑`` for a
+    maximum (module docstring), flags and the cover rule from the reading itself.
 
     Raises
     ------
@@ -124,7 +134,7 @@ def apply_law(
         the operation's measured quantity.
     """
     try:
-        return _apply_law(state, operation, result, quantity, measurement)
+        return _apply_law(state, operation, result, quantity, measurement, projection)
     except ArithmeticError:
         where = f"operations.{operation.name}.measurements.{quantity}"
         raise InputError(where, measurement.value, _OUT_OF_RANGE) from None
@@ -136,6 +146,7 @@ def _apply_law(
     result: OperationResult,
     quantity: str,
     measurement: Measurement,
+    projection: float,
 ) -> tuple[Decision, PowerLawModel, float, float]:
     settings = state.settings
     model = state.tools[operation.name].models[quantity]
@@ -190,7 +201,10 @@ def _apply_law(
     if limit is None:
         hold = decision("hold", model, None, "no limit on this quantity")
         return hold, model, sigma, worst
-    margin = limit - guard if is_max else guard - limit
+    # the margin the edge will still have at its last part (wear, supervisor.rcb.wear)
+    margin = limit - (y * projection + u) if is_max else guard - limit
+    worn = is_max and projection > 1.0
+    projected = f"reading projected {100 * (projection - 1):+.3g} % for wear" if worn else ""
     # the far side of the reading at the alarm's coverage: past the limit, the process crossed
     # it beyond what the reading's noise explains; at ±u only, the part is out of tolerance
     reach_u = ALARM_SIGMA / COVERAGE_FACTOR * u
@@ -238,11 +252,17 @@ def _apply_law(
     below = " (note: past the band's other edge: the model is pessimistic)" if pessimistic else ""
     if margin <= 0:
         new = _with_band(model, max(predicted.band, cover), y_new.value, point, rel)
-        no_margin = decision("hold", new, margin, "no margin: measured + u at the limit", note=note)
+        why = "no margin: measured + u at the limit"
+        if projected:
+            why = f"no margin left at the edge's last part ({projected})"
+        no_margin = decision("hold", new, margin, why, note=note)
         return no_margin, new, sigma, worst
     band = max(predicted.band - settings.alpha * margin, floor)
     band = rule.least_band(band, sigma, y_new.value, settings.coverage_k, settings.tau)
     why = f"margin {margin:.4g} > 0: band shrinks by {settings.alpha:g} of it (floor {floor:.4g})"
+    if projected:
+        why = f"margin {margin:.4g} > 0 at the edge's last part ({projected}): band shrinks by"
+        why += f" {settings.alpha:g} of it (floor {floor:.4g})"
     if cover > band:
         band = cover
         why = "margin > 0, but the band keeps covering the most demanding measurement so far"

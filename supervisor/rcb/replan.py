@@ -7,8 +7,8 @@ Changes, each keyed by a dotted name and checked like the plan file:
 - ``models``: ``{"TOOL.QUANTITY": {"K"?, "dK"?}}`` sets K and/or ΔK of that model in every
   operation using the tool (exponents stay; the band is the engineer's, not RCB's);
 - ``reset_bands``: every operation's models go back to the tool's baseline (K and ΔK) and RCB
-  forgets what it has seen, the ``learn`` strategy its posterior too (Ivester & Heigel: the
-  uncertainty is earned again, part by part).
+  forgets what it has seen and the rise per part of a worn edge, the ``learn`` strategy its
+  posterior too (Ivester & Heigel: the uncertainty is earned again, part by part).
 
 The result is a new state (plan, models in force, setpoints); :mod:`api.services.plans` stores it
 as a setpoint version with cause ``replan``.
@@ -88,6 +88,7 @@ def replan(
     sigma = dict(state.sigma)
     seen = dict(state.seen)
     posterior = dict(state.posterior)
+    wear = dict(state.wear)
     if reset:
         sigma = {
             (op, q): prior_sigma(m, state.settings)
@@ -96,6 +97,7 @@ def replan(
         }
         seen = {}
         posterior = {}
+        wear = {}
     # learn: what the posterior learned carries over (its cones), unless the bands are reset
     cones = learned_cones(replace(state, plan=plan, posterior=posterior))
     result = optimize_plan(plan, tools, cones=cones)
@@ -108,6 +110,7 @@ def replan(
         sigma=sigma,
         seen=seen,
         posterior=posterior,
+        wear=wear,
         halt=None,  # an engineer's replan resumes a halted plan
     )
     return Replanned(new_state, new_body, reset)

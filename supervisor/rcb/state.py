@@ -21,6 +21,7 @@ from supervisor.optimize.result import PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY, Strategy
+from supervisor.rcb.wear import WearRise
 
 Action = Literal["shrink", "hold", "expand"]
 #: What made a decision flagged: the limit crossed, or the measurement beyond the band's
@@ -56,7 +57,9 @@ class RcbSettings:
         ``learn``: prior standard deviation of each exponent relative to its value [-], for a
         model without a fitted covariance.
     edge_sd : float
-        ``learn``: prior standard deviation of the rise over one edge's life, in ``ln`` [-].
+        Prior standard deviation of the rise over one edge's life, in ``ln`` [-]: ``learn``'s
+        edge-age coefficient and every strategy's wear projection (:mod:`supervisor.rcb.wear`;
+        0 turns the projection off).
     """
 
     strategy: str = DEFAULT_STRATEGY
@@ -105,7 +108,9 @@ class Decision:
     """What one measurement did to one band.
 
     ``margin`` is ``limit − (measured + u)`` for a maximum and ``(measured − u) − limit`` for
-    a minimum (``margin`` and ``limit`` are ``None`` for a quantity without a limit);
+    a minimum (``margin`` and ``limit`` are ``None`` for a quantity without a limit; for a
+    wearing quantity with the edge's age reported, ``measured`` projected to the edge's last
+    part, :mod:`supervisor.rcb.wear`);
     ``band_*`` are ``ΔY`` at the setpoint the part was made with. ``flag`` says why a
     decision is flagged (``breach``: the limit crossed; ``above_band``/``below_band``: past
     the band's guarding edge), ``note`` is information only (``below_band`` for a maximum:
@@ -180,6 +185,9 @@ class RcbState:
         Heigel's bands are "the range of K that encompasses all of the points".
     posterior : Mapping[tuple[str, str], Posterior]
         ``learn``: the posterior of ``(ln K, exponents)`` per (operation, quantity) measured.
+    wear : Mapping[tuple[str, str], WearRise]
+        Per (operation, wearing quantity) of an operation with a ``parts_per_edge`` limit, the
+        rise per part an edge makes (:mod:`supervisor.rcb.wear`), learned from the readings.
     halt : Halt or None
         Set when the bands leave no safe setpoint; only a replan clears it.
     """
@@ -193,6 +201,7 @@ class RcbState:
     seen: Mapping[tuple[str, str], float] = field(default_factory=dict)
     posterior: Mapping[tuple[str, str], Posterior] = field(default_factory=dict)
     halt: Halt | None = None
+    wear: Mapping[tuple[str, str], WearRise] = field(default_factory=dict)
 
 
 def prior_sigma(model: PowerLawModel, settings: RcbSettings) -> float:

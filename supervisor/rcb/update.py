@@ -54,12 +54,13 @@ from models.errors import InputError
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.errors import InfeasibleError
-from supervisor.inputs.part_report import PartReport
+from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 from supervisor.optimize.passes import measured_at
 from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
+from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.law import apply_law, tool_life_measured
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.state import (
@@ -71,6 +72,7 @@ from supervisor.rcb.state import (
     RcbState,
     prior_sigma,
 )
+from supervisor.rcb.wear import WearRise
 
 
 def start(plan: Plan, settings: RcbSettings | None = None) -> RcbState:
@@ -147,6 +149,7 @@ def update(
     sigma = dict(state.sigma)
     seen = dict(state.seen)
     posterior = dict(state.posterior)
+    rises = dict(state.wear)
     measured_items = [
         (name, quantity, measurement)
         for name, measured in report.measurements.items()
@@ -165,7 +168,15 @@ def update(
     for name, quantity, measurement in measured_items:
         key = (name, quantity)
         op, made = measured_at(operations[name], results[name], quantity)  # a pass's setpoint
-        decision, model, sigma[key], seen[key] = apply_law(state, op, made, quantity, measurement)
+        age = report.edge_parts.get(name)
+        projection = 1.0
+        rise = _wear_after(state, op, made, quantity, measurement, age)
+        if rise is not None:
+            rises[key] = rise
+            projection = rise.factor(age, state.settings.coverage_k)
+        decision, model, sigma[key], seen[key] = apply_law(
+            state, op, made, quantity, measurement, projection
+        )
         if not learns:
             decisions.append(decision)
             tools[name] = _with_model(tools[name], model)
@@ -196,14 +207,16 @@ def update(
         decisions.append(_learned_decision(state, op, made, decision, before, after))
     unchanged = tools == dict(state.tools) and posterior == dict(state.posterior)
     if unchanged or state.halt is not None:
-        return replace(state, tools=tools, sigma=sigma, seen=seen, posterior=posterior), tuple(
-            decisions
-        )
+        return replace(
+            state, tools=tools, sigma=sigma, seen=seen, posterior=posterior, wear=rises
+        ), tuple(decisions)
     try:
         new_setpoints = optimize_state(state, tools, posterior)
     except InfeasibleError:
         halt = _halt_of(state, tools, posterior)
-        halted = replace(state, tools=tools, sigma=sigma, seen=seen, posterior=posterior, halt=halt)
+        halted = replace(
+            state, tools=tools, sigma=sigma, seen=seen, posterior=posterior, halt=halt, wear=rises
+        )
         return halted, tuple(decisions)
     new = replace(
         state,
@@ -213,8 +226,34 @@ def update(
         sigma=sigma,
         seen=seen,
         posterior=posterior,
+        wear=rises,
     )
     return new, tuple(decisions)
+
+
+def _wear_after(
+    state: RcbState,
+    operation: Operation,
+    result: OperationResult,
+    quantity: str,
+    measurement: Measurement,
+    age: int | None,
+) -> WearRise | None:
+    """The rise per part of a wearing quantity after this reading (None: it does not wear)."""
+    edge_max = post.edge_max_of(operation, quantity)
+    if not edge_max:
+        return None
+    settings = state.settings
+    before = state.wear.get((operation.name, quantity))
+    if before is None:
+        before = wear_rise.prior(edge_max, settings.edge_sd)
+    elif before.edge_max != edge_max:  # a replan changed parts_per_edge: the rise per part stays
+        before = replace(before, edge_max=edge_max)
+    exponents = state.tools[operation.name].models[quantity].exponents
+    point = {**result.setpoint, **operation.context}
+    return wear_rise.observe(
+        before, age, measurement, point, exponents, settings.coverage_k, settings.exponent_sd
+    )
 
 
 def _learned_decision(

@@ -66,7 +66,7 @@ def create_plan(
     ] = _DEFAULTS.exponent_sd,
     edge_sd: Annotated[
         float,
-        Query(ge=0, le=10, allow_inf_nan=False, description="learn: wear prior sd per edge"),
+        Query(ge=0, le=10, allow_inf_nan=False, description="wear: prior sd of the rise per edge"),
     ] = _DEFAULTS.edge_sd,
     idempotency_key: OptionalKey = None,
 ) -> Response:

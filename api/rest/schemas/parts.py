@@ -94,7 +94,8 @@ class OperationReport(BaseModel):
     edge_parts: EdgeParts | None = Field(
         None,
         description="parts the operation's cutting edge made before this one (0: a new edge), "
-        "as the control's tool-life counter gives it; the learn strategy learns wear from it",
+        "as the control's tool-life counter gives it; every strategy learns wear from it (the "
+        "margin of a wearing quantity is then that of the edge's last part)",
     )
 
 
@@ -113,7 +114,11 @@ class Update(Out):
     operation: str
     quantity: str
     action: Action
-    margin: float | None
+    margin: float | None = Field(
+        description="limit - (measured + u) for a maximum, (measured - u) - limit for a "
+        "minimum; with edge_parts, a wearing quantity's reading projected to the edge's last "
+        "part (reason gives the projection); null without a limit",
+    )
     band_before: float
     band_after: float
     predicted: float | None = None
