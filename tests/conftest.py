@@ -22,6 +22,7 @@ from sqlalchemy.engine import make_url
 from typer.testing import CliRunner
 
 from db.engine import make_engine, upgrade
+from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 
 from live import LiveServer
 
@@ -35,6 +36,35 @@ LOCAL_POSTGRES = "postgresql+psycopg://postgres@127.0.0.1:5432/test"
 PROBE_TIMEOUT_S = 0.5
 #: Ivester & Heigel Table 5's measured ± columns (force_N, roughness_um).
 TABLE5_UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
+#: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: tests of a
+#: hand-solved optimum use it; tests/test_setpoint_resolution.py checks the grid itself.
+FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
+
+
+def step1_plan(resolution: dict[str, float] | None = None) -> dict[str, Any]:
+    """Ivester & Heigel Table 5 step 1 (the demonstration part's rough OD, Table 4) as a plan
+    mapping, a new one per call; ``resolution``: the machine's (None: the defaults)."""
+    machine: dict[str, Any] = {"name": "lathe-22kW", "max_power_kW": 22, "max_spindle_rpm": 4000}
+    if resolution is not None:
+        machine["resolution"] = dict(resolution)
+    return {
+        "name": "step1",
+        "machine": machine,
+        "operations": [
+            {
+                "name": "rough-od",
+                "tool": "CNMG432RN",
+                "workpiece_diameter_mm": 60,
+                "volume_mm3": 86400,
+                "limits": {"force_N": 2000, "roughness_um": 4.0},
+                "bounds": {
+                    "depth_mm": [0.5, 3.0],
+                    "feed_mm_rev": [0.1, 0.6],
+                    "speed_m_min": [100, 200],
+                },
+            }
+        ],
+    }
 
 
 def report_at(

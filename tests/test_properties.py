@@ -32,9 +32,10 @@ from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES
 from supervisor.errors import InfeasibleError, PlanError
 from supervisor.inputs.plan import plan_from_mapping
-from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 from supervisor.optimize.result import OperationResult
+
+from conftest import FINE
 
 PARAMS = kinematics.PARAMETERS["turning"]
 TOOL = "PROPERTY-INSERT"
@@ -52,9 +53,6 @@ SOLVER_FEAS_TOL = 1e-7
 MARGIN = 1e-4
 #: Least limit factor that makes the reference point feasible.
 FEASIBLE = 1 + MARGIN
-#: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: these tests
-#: check the optimiser's continuous optimum; tests/test_setpoint_resolution.py the grid.
-FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
 #: Flank-wear criterion VB when the operation gives none (ISO 3685).
 ISO_3685_VB_MM = 0.3
 

@@ -22,38 +22,14 @@ from models.quantities import (
     UnknownQuantityError,
 )
 from supervisor.inputs.plan import plan_from_mapping
-from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
-#: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: these tests
-#: check the optimiser's hand-solved optimum; tests/test_setpoint_resolution.py the grid.
-FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
-STEP1 = {
-    "name": "step1",
-    "machine": {
-        "name": "lathe-22kW",
-        "max_power_kW": 22,
-        "max_spindle_rpm": 4000,
-        "resolution": FINE,
-    },
-    "operations": [
-        {
-            "name": "rough-od",
-            "tool": "CNMG432RN",
-            "workpiece_diameter_mm": 60,
-            "volume_mm3": 86400,
-            "limits": {"force_N": 2000, "roughness_um": 4.0},
-            "bounds": {
-                "depth_mm": [0.5, 3.0],
-                "feed_mm_rev": [0.1, 0.6],
-                "speed_m_min": [100, 200],
-            },
-        }
-    ],
-}
+from conftest import FINE, step1_plan
+
+STEP1 = step1_plan(FINE)
 
 
 @contextmanager

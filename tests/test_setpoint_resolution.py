@@ -43,34 +43,14 @@ from supervisor.rcb.update import start, update
 from supervisor.virtual.sampling import oracle_tools, sample_machine
 from supervisor.virtual.simulate import run_part
 
-from conftest import DEMO_PLAN, ROOT
+from conftest import DEMO_PLAN, ROOT, step1_plan
 from live import LiveServer
 
 EXAMPLES = ROOT / "examples"
 #: A re-computed band edge may pass its limit by this fraction (float rounding only: the
 #: grid point is checked against every row to 1e-12 in ln).
 LIMIT_RTOL = 1e-9
-#: A resolution so fine that the grid point is the continuous optimum to about 1e-8.
-FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-09)
-
-STEP1: dict[str, Any] = {
-    "name": "step1",
-    "machine": {"name": "lathe-22kW", "max_power_kW": 22, "max_spindle_rpm": 4000},
-    "operations": [
-        {
-            "name": "rough-od",
-            "tool": "CNMG432RN",
-            "workpiece_diameter_mm": 60,
-            "volume_mm3": 86400,
-            "limits": {"force_N": 2000, "roughness_um": 4.0},
-            "bounds": {
-                "depth_mm": [0.5, 3.0],
-                "feed_mm_rev": [0.1, 0.6],
-                "speed_m_min": [100, 200],
-            },
-        }
-    ],
-}
+STEP1 = step1_plan()  # the machine's default resolution
 
 
 def on_grid(value: float, step: float) -> bool:
