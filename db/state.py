@@ -59,14 +59,15 @@ def band_state_rows(
             "part_id": part_id,
             "seen": after.seen[(d.operation, d.quantity)],
             "sigma": after.sigma[(d.operation, d.quantity)],
-            "posterior": _posterior_json(after.posterior.get((d.operation, d.quantity))),
-            "wear": _posterior_json(after.wear.get((d.operation, d.quantity))),
+            "posterior": _json_or_none(after.posterior.get((d.operation, d.quantity))),
+            "wear": _json_or_none(after.wear.get((d.operation, d.quantity))),
         }
         for d in decisions
     ]
 
 
-def _posterior_json(belief: Posterior | WearRise | None) -> dict[str, Any] | None:
+def _json_or_none(belief: Posterior | WearRise | None) -> dict[str, Any] | None:
+    """A belief as the JSON of its ``band_states`` column (None: no belief)."""
     return None if belief is None else belief.to_json()
 
 

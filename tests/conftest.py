@@ -17,12 +17,17 @@ from typing import Any
 
 import psycopg
 import pytest
-from sqlalchemy import text
+from sqlalchemy import Engine, text
 from sqlalchemy.engine import make_url
+from sqlalchemy.orm import Session
 from typer.testing import CliRunner
 
 from db.engine import make_engine, upgrade
+from db.plans import get_plan_row
+from db.state import load_state
+from db.state_cache import CACHE, database_key
 from supervisor.inputs.resolution import DEFAULT_RESOLUTION
+from supervisor.rcb.state import RcbState
 
 from live import LiveServer
 
@@ -65,6 +70,23 @@ def step1_plan(resolution: dict[str, float] | None = None) -> dict[str, Any]:
             }
         ],
     }
+
+
+def stored_state(engine: Engine, plan_id: int) -> RcbState:
+    """A plan's RCB state as the database holds it (the in-process cache forgotten first)."""
+    CACHE.clear()
+    with Session(engine) as session, session.begin():
+        row = get_plan_row(session=session, plan_id=plan_id, lock=True)
+        return load_state(session=session, plan_row=row)
+
+
+def cached_state(engine: Engine, plan_id: int) -> RcbState:
+    """The state the last report left in this process (db.state_cache), not read back."""
+    with Session(engine) as session:
+        row = get_plan_row(session=session, plan_id=plan_id)
+        state = CACHE.get(database_key(session), plan_id, row.state_token)
+    assert state is not None
+    return state
 
 
 def report_at(

@@ -11,22 +11,11 @@ from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
 from db.plan_state import settings_json, settings_of
-from db.plans import get_plan_row
-from db.state import load_state
-from db.state_cache import CACHE, database_key
 from supervisor.rcb.state import RcbSettings
 
-from conftest import DEMO_PLAN, report_at
+from conftest import DEMO_PLAN, cached_state, report_at, stored_state
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-
-
-def _loaded(engine, plan_id):
-    """The state as the database holds it (the in-process cache forgotten first)."""
-    CACHE.clear()
-    with Session(engine) as session, session.begin():
-        row = get_plan_row(session=session, plan_id=plan_id, lock=True)
-        return load_state(session=session, plan_row=row)
 
 
 def test_non_default_settings_survive_a_reload(engine):
@@ -41,7 +30,7 @@ def test_non_default_settings_survive_a_reload(engine):
     )
     assert settings != RcbSettings(strategy="bayes", alpha=0.4)
     plan_id = create_plan(engine=engine, body=PLAN, settings=settings).body["id"]
-    assert _loaded(engine, plan_id).settings == settings
+    assert stored_state(engine, plan_id).settings == settings
     with Session(engine) as session:
         stored = session.scalars(select(t.Plan.settings).where(t.Plan.id == plan_id)).one()
     assert stored == settings_json(settings)
@@ -60,19 +49,10 @@ def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):
         body = report_at(f"L-{i}", setpoints)
         answer = report_part(engine=engine, plan_id=plan_id, body=body).body
         setpoints = answer
-    in_memory = _in_memory(engine, plan_id)
+    in_memory = cached_state(engine, plan_id)
     assert len(in_memory.posterior) == 2 * len(PLAN["operations"])
     assert all(p.observations == 3 for p in in_memory.posterior.values())
-    loaded = _loaded(engine, plan_id)
+    loaded = stored_state(engine, plan_id)
     assert loaded.posterior == in_memory.posterior
     assert loaded.settings == in_memory.settings == settings
     assert loaded.halt is None and loaded.version == in_memory.version
-
-
-def _in_memory(engine, plan_id):
-    """The state the last report left in the process (db.state_cache), not read back."""
-    with Session(engine) as session:
-        row = get_plan_row(session=session, plan_id=plan_id)
-        state = CACHE.get(database_key(session), plan_id, row.state_token)
-    assert state is not None
-    return state

@@ -13,13 +13,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
-from sqlalchemy.orm import Session
 
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.plans import get_plan_row
-from db.state import load_state
-from db.state_cache import CACHE, database_key
 from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import wear
@@ -28,7 +24,7 @@ from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
 from supervisor.virtual.certify import run_scenario
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, cached_state, stored_state
 
 SETPOINT = {"depth_mm": 2.0, "feed_mm_rev": 0.3, "speed_m_min": 200.0}
 EXPONENTS = {"depth_mm": 0.888, "feed_mm_rev": 0.783, "speed_m_min": -0.0395}
@@ -205,17 +201,10 @@ def test_the_rise_survives_a_reload(engine):
             ],
         }
         setpoints = report_part(engine=engine, plan_id=plan_id, body=body).body
-    with Session(engine) as session:
-        row = get_plan_row(session=session, plan_id=plan_id)
-        in_memory = CACHE.get(database_key(session), plan_id, row.state_token)
-    assert in_memory is not None
+    in_memory = cached_state(engine, plan_id)
     rise = in_memory.wear[("rough-od", "force_N")]
     assert rise.differences == 2 and rise.last.age == 2 and rise.mean > 0
-    CACHE.clear()
-    with Session(engine) as session, session.begin():
-        row = get_plan_row(session=session, plan_id=plan_id, lock=True)
-        loaded = load_state(session=session, plan_row=row)
-    assert loaded.wear == in_memory.wear
+    assert stored_state(engine, plan_id).wear == in_memory.wear
 
 
 # --------------------------------------------------------------------------- closed loop
