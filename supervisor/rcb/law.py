@@ -259,10 +259,9 @@ def _apply_law(
         return no_margin, new, sigma, worst
     band = max(predicted.band - settings.alpha * margin, floor)
     band = rule.least_band(band, sigma, y_new.value, settings.coverage_k, settings.tau)
-    why = f"margin {margin:.4g} > 0: band shrinks by {settings.alpha:g} of it (floor {floor:.4g})"
-    if projected:
-        why = f"margin {margin:.4g} > 0 at the edge's last part ({projected}): band shrinks by"
-        why += f" {settings.alpha:g} of it (floor {floor:.4g})"
+    at = f" at the edge's last part ({projected})" if projected else ""
+    why = f"margin {margin:.4g} > 0{at}: band shrinks by {settings.alpha:g} of it"
+    why += f" (floor {floor:.4g})"
     if cover > band:
         band = cover
         why = "margin > 0, but the band keeps covering the most demanding measurement so far"
