@@ -107,7 +107,33 @@ def optimize_operation(
     if band is None:
         assert infeasible is not None  # a cached band is never None
         raise infeasible
+    if learned is not None and not _agrees(operation, tool, machine, cones or {}, band):
+        return replace(learned, fallback=band)
     return band
+
+
+def _agrees(
+    operation: Operation,
+    tool: Tool,
+    machine: Machine,
+    cones: Mapping[str, Cone],
+    band: OperationResult,
+) -> bool:
+    """Whether the learned models' means put the band optimum within every limit.
+
+    The band covers what was measured at the setpoints that measured it; where the learned
+    mean says the band optimum is past a limit (the band's exponents carry a reading's
+    evidence elsewhere, e.g. after a change of the process), the learned optimum is taken
+    though it is slower: evidence against the model wins (DESIGN.md, RCB). The mean, not
+    the cone: the band is the proven fallback, vetoed only by what was learned, not by what
+    is still uncertain (the cone of a new plan is wide at an edge's end).
+    """
+    usable = {q: c for q, c in cones.items() if q in tool.models}
+    if not usable:
+        return True
+    lp = formulate(operation, tool, machine, usable)
+    x = np.array([math.log(band.setpoint[p]) for p in lp.parameters])
+    return socp.meets(lp, x, max(c.z for c in usable.values()))
 
 
 def _learned(

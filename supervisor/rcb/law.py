@@ -76,7 +76,7 @@ EDGE_RTOL = RECHECK_RTOL
 ALARM_SIGMA = 3.0
 
 
-def _limit(operation: Operation, quantity: str) -> float | None:
+def limit_of(operation: Operation, quantity: str) -> float | None:
     """The limit on ``quantity`` in its unit (a per-part limit times the volume), or None."""
     entry = quantities.quantity(quantity)
     given = operation.limits.get(entry.limit_name)
@@ -158,7 +158,7 @@ def _apply_law(
     # a ``learn`` setpoint held by a cone, the learned value and the cone's half-width
     shown = result.predicted.get(quantity, predicted)
     y, u = measurement.value, measurement.uncertainty
-    limit = _limit(operation, quantity)
+    limit = limit_of(operation, quantity)
     is_max = MODEL_QUANTITIES[quantity].sense == "max"
     floor = settings.floors.get(quantity, u)
 

@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -132,6 +132,14 @@ class Posterior:
             scale = max(float(np.max(np.abs(np.diag(cov)))), 1e-300)
             cache[drift] = np.linalg.cholesky(cov + np.eye(len(cov)) * scale * _JITTER)
         return cache[drift]
+
+    @property
+    def mean_array(self) -> np.ndarray:
+        """``μ`` as an array (kept on the object: it is immutable)."""
+        cache: dict[str, np.ndarray] = self.__dict__.setdefault("_arrays", {})
+        if "mean" not in cache:
+            cache["mean"] = np.array(self.mean)
+        return cache["mean"]
 
     @property
     def edges(self) -> tuple[int, ...]:
@@ -285,6 +293,16 @@ def observe(
     )
 
 
+def discount(belief: Posterior, variance: float) -> Posterior:
+    """The belief after a random-walk step ``variance`` of its intercept: old evidence weighs less.
+
+    ``Σ₀₀ + q`` (:mod:`supervisor.rcb.monitor`: a change of the process sized by its innovation).
+    """
+    cov = [list(row) for row in belief.cov]
+    cov[0][0] += variance
+    return replace(belief, cov=tuple(tuple(row) for row in cov))
+
+
 @dataclass(frozen=True)
 class Cone:
     """The robust constraint of a posterior: ``μ·φ(x) ± z √(φᵀ Σ₊ φ + v_x)`` (module docstring).
@@ -301,7 +319,9 @@ class Cone:
         """The Cholesky factor of ``Σ₊``, computed once per posterior and drift."""
         return self.posterior.cholesky(self.drift)
 
-    def spread(self, point: Mapping[str, float], rel: Mapping[str, float], edge: int = 0) -> float:
+    def spread(
+        self, point: Mapping[str, float], rel: Mapping[str, float], edge: float = 0
+    ) -> float:
         """``√(φᵀ Σ₊ φ + v_x)`` at ``point`` and edge age ``edge``: the sd of ``ln y`` there."""
         root = self._chol.T @ self.posterior.features(point, edge)
         variance = float(root @ root)

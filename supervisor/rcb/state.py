@@ -19,9 +19,13 @@ from supervisor.errors import Conflict
 from supervisor.inputs.plan import Plan
 from supervisor.optimize.result import PlanResult
 from supervisor.rcb import posterior as post
+from supervisor.rcb.monitor import Monitor
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY, Strategy
 from supervisor.rcb.wear import WearRise
+
+#: A reading past its limit by more than this fraction of it halts the plan (a plan setting).
+DEFAULT_HALT_OVER = 0.25
 
 Action = Literal["shrink", "hold", "expand"]
 #: What made a decision flagged: the limit crossed, or the measurement beyond the band's
@@ -30,7 +34,7 @@ Flag = Literal["breach", "above_band", "below_band"]
 #: Information, never a flag: the measurement beyond the band's other edge, or past the limit
 #: by more than its ±u but within its noise's alarm limit (``past_limit``: the part is out of
 #: tolerance by ISO 14253-1's rule; the process is not proven past the limit).
-Note = Literal["below_band", "above_band", "past_limit"]
+Note = Literal["below_band", "above_band", "past_limit", "implausible_low", "regime_change"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +60,10 @@ class RcbSettings:
     exponent_sd : float
         ``learn``: prior standard deviation of each exponent relative to its value [-], for a
         model without a fitted covariance.
+    halt_over : float
+        A reading past its limit by more than this fraction of the limit (beyond its ``u``)
+        halts the plan for an engineer, whatever a strategy could still find (TMAC's extreme
+        limit, Heidenhain AFC's overload reaction) [-].
     edge_sd : float
         Prior standard deviation of the rise over one edge's life, in ``ln`` [-]: ``learn``'s
         edge-age coefficient and every strategy's wear projection (:mod:`supervisor.rcb.wear`;
@@ -70,6 +78,7 @@ class RcbSettings:
     z: float = post.DEFAULT_Z
     exponent_sd: float = post.DEFAULT_EXPONENT_SD
     edge_sd: float = post.DEFAULT_EDGE_SD
+    halt_over: float = DEFAULT_HALT_OVER
 
     def __post_init__(self) -> None:
         if self.strategy not in REGISTRY:
@@ -85,6 +94,8 @@ class RcbSettings:
             value = getattr(self, name)
             if not (math.isfinite(value) and 0 < value <= 100):
                 raise InputError(name, value, "must be a number in (0, 100]")
+        if not (math.isfinite(self.halt_over) and 0 < self.halt_over <= 10):
+            raise InputError("halt_over", self.halt_over, "must be a number in (0, 10]")
         if self.discrepancy is None:
             object.__setattr__(self, "discrepancy", self.rule.default_discrepancy)
         for name in ("discrepancy", "exponent_sd", "edge_sd"):
@@ -189,7 +200,11 @@ class RcbState:
         Per (operation, wearing quantity) of an operation with a ``parts_per_edge`` limit, the
         rise per part an edge makes (:mod:`supervisor.rcb.wear`), learned from the readings.
     halt : Halt or None
-        Set when the bands leave no safe setpoint; only a replan clears it.
+        Set when the bands leave no safe setpoint, or a reading passed its limit by more than
+        ``halt_over``; only a replan clears it.
+    monitors : Mapping[tuple[str, str], Monitor]
+        Per (operation, quantity) measured: the noise scale, the last reading learned from and
+        a quarantined one (:mod:`supervisor.rcb.monitor`).
     """
 
     plan: Plan
@@ -202,6 +217,7 @@ class RcbState:
     posterior: Mapping[tuple[str, str], Posterior] = field(default_factory=dict)
     halt: Halt | None = None
     wear: Mapping[tuple[str, str], WearRise] = field(default_factory=dict)
+    monitors: Mapping[tuple[str, str], Monitor] = field(default_factory=dict)
 
 
 def prior_sigma(model: PowerLawModel, settings: RcbSettings) -> float:

@@ -1,10 +1,21 @@
 r"""RCB strategies behind one protocol, and their registry.
 
-A strategy decides what a measurement teaches besides the band law of :mod:`supervisor.rcb.update`
+A strategy decides what a measurement teaches besides the band law of :mod:`supervisor.rcb.law`
 (the one-sided law of Ivester & Heigel, common to all): ``ivester`` nothing more, ``bayes`` a
 conjugate update of ``ln K``, ``learn`` a Bayesian regression of the whole power law
-(:mod:`supervisor.rcb.posterior`). The CLI's choices, the REST enum, the stored plan settings and
-the docs all come from :data:`REGISTRY`; a new strategy is one class here.
+(:mod:`supervisor.rcb.learning`). :func:`supervisor.rcb.update.update` runs every strategy
+through the same hooks, in this order, for each reading:
+
+1. :meth:`Strategy.expects`: what the strategy expects of the reading, on the low side (is it
+   too good to be true?) and the high side (has the process changed?), judged by
+   :func:`supervisor.rcb.monitor.watch`;
+2. :meth:`Strategy.forget`: a change discounts the old regime's evidence;
+3. :meth:`Strategy.adjust` and :meth:`Strategy.least_band`: inside the band law;
+4. :meth:`Strategy.learn`: what the strategy keeps beyond the band (``learn``: its posterior);
+5. :meth:`Strategy.cones`: the constraints it hands the optimiser beyond the band.
+
+The CLI's choices, the REST enum, the stored plan settings and the docs all come from
+:data:`REGISTRY`; a new strategy is one class here.
 """
 
 from __future__ import annotations
@@ -17,6 +28,11 @@ from typing import TYPE_CHECKING, ClassVar
 if TYPE_CHECKING:  # only named in signatures: the registry loads no NumPy (rcb --help reads it)
     from models.powerlaw import PowerLawModel
     from supervisor.inputs.part_report import Measurement
+    from supervisor.inputs.plan import Operation
+    from supervisor.optimize.result import OperationResult
+    from supervisor.rcb.monitor import Expected, Monitor, Watched
+    from supervisor.rcb.posterior import Cone, Posterior
+    from supervisor.rcb.state import Decision, RcbState
 
 #: The ``learn`` strategy's random walk of the intercept per part [-]
 #: (:mod:`supervisor.rcb.posterior`). 0 by default: with wear a regressor (edge age), the
@@ -29,9 +45,8 @@ DEFAULT_DRIFT = 0.0
 class Strategy:
     """The ``ivester`` strategy, and the hooks every other strategy may change.
 
-    ``adjust`` runs before the band law (it may move K), ``least_band`` bounds the band the
-    law gives from below; ``learns_model`` says the strategy keeps a posterior of the whole
-    power law and hands the optimiser a second-order-cone constraint.
+    ``learns_model`` says the strategy keeps a posterior of the whole power law and hands the
+    optimiser a second-order-cone constraint (:meth:`cones`).
     """
 
     name: ClassVar[str] = "ivester"
@@ -39,6 +54,39 @@ class Strategy:
     learns_model: ClassVar[bool] = False
     #: The discrepancy ``τ`` a plan gets when it names none (unused by ``ivester``).
     default_discrepancy: ClassVar[float] = 0.02
+
+    def expects(
+        self,
+        state: RcbState,
+        operation: Operation,
+        result: OperationResult,
+        quantity: str,
+        age: int | None,
+        monitor: Monitor,
+    ) -> tuple[Expected, Expected | None]:
+        """What a reading at ``result``'s setpoint should be: ``(low side, high side)``.
+
+        The low side is the catalogue model and its band read as ``k σ`` (the truth lies in
+        it, Ivester & Heigel: the band "encompasses all of the points"; the band in force is
+        one-sided and says nothing of how low a reading may be). The high side is the last
+        reading learned from, moved to this setpoint with the model's exponents
+        (:func:`supervisor.rcb.monitor.chain`; None before the first).
+        """
+        from supervisor.rcb import monitor as watcher
+
+        settings = state.settings
+        point = {**result.setpoint, **operation.context}
+        rel = operation.setpoint_rel_uncertainty
+        catalogue = state.plan.tools[operation.tool].models[quantity].predict(point, rel)
+        low = watcher.Expected(
+            math.log(catalogue.value), (catalogue.band / catalogue.value) / settings.coverage_k
+        )
+        exponents = state.tools[operation.name].models[quantity].exponents
+        return low, watcher.chain(monitor, point, exponents, settings.exponent_sd)
+
+    def forget(self, sigma: float, variance: float) -> float:
+        """σ of ``ln K`` after a change that discounts ``variance`` of evidence (here as is)."""
+        return sigma
 
     def adjust(
         self,
@@ -58,12 +106,37 @@ class Strategy:
         """The least band the law may shrink to at the measured setpoint (here ``band``)."""
         return band
 
+    def learn(
+        self,
+        state: RcbState,
+        operation: Operation,
+        result: OperationResult,
+        law: Decision,
+        measurement: Measurement,
+        watched: Watched,
+        age: int | None,
+    ) -> tuple[bool, Posterior | None, Decision]:
+        """After the law: ``(keep the law's model, the posterior, the decision)``.
+
+        Here the law's model is the model in force, no posterior is kept, and the decision
+        is the law's.
+        """
+        return True, None, law
+
+    def cones(self, state: RcbState) -> dict[str, dict[str, Cone]]:
+        """Per operation and quantity, the constraints beyond the band (here none)."""
+        return {}
+
 
 class Bayes(Strategy):
     r"""The law, and a conjugate normal update of ``ln K`` (:mod:`supervisor.rcb.update`)."""
 
     name: ClassVar[str] = "bayes"
     summary: ClassVar[str] = "the law, and a conjugate update of ln K (exponents stay)"
+
+    def forget(self, sigma: float, variance: float) -> float:
+        """The old regime discounted: ``σ² + q``, a random-walk step of ``ln K``."""
+        return math.sqrt(sigma**2 + variance)
 
     def adjust(
         self,
@@ -94,7 +167,10 @@ class Bayes(Strategy):
 
 
 class Learn(Strategy):
-    """The law as ``ivester`` (the proven-safe fallback) and a posterior of the whole model."""
+    """The law as ``ivester`` (the proven-safe fallback) and a posterior of the whole model.
+
+    Its hooks are :mod:`supervisor.rcb.learning`'s (imported when used: NumPy).
+    """
 
     name: ClassVar[str] = "learn"
     summary: ClassVar[str] = (
@@ -102,6 +178,43 @@ class Learn(Strategy):
     )
     learns_model: ClassVar[bool] = True
     default_discrepancy: ClassVar[float] = DEFAULT_DRIFT
+
+    def expects(
+        self,
+        state: RcbState,
+        operation: Operation,
+        result: OperationResult,
+        quantity: str,
+        age: int | None,
+        monitor: Monitor,
+    ) -> tuple[Expected, Expected | None]:
+        """The posterior predictive of ``ln y`` at the setpoint, on both sides."""
+        from supervisor.rcb import learning
+
+        expected = learning.expects(state, operation, result, quantity, age)
+        return expected, expected
+
+    def learn(
+        self,
+        state: RcbState,
+        operation: Operation,
+        result: OperationResult,
+        law: Decision,
+        measurement: Measurement,
+        watched: Watched,
+        age: int | None,
+    ) -> tuple[bool, Posterior | None, Decision]:
+        """The fallback band only grows; the posterior learns the reading (and a held one)."""
+        from supervisor.rcb import learning
+
+        belief, decision = learning.learn(state, operation, result, law, measurement, watched, age)
+        return law.action == "expand", belief, decision
+
+    def cones(self, state: RcbState) -> dict[str, dict[str, Cone]]:
+        """The posterior's cone per operation and quantity (:mod:`supervisor.rcb.posterior`)."""
+        from supervisor.rcb import learning
+
+        return learning.cones(state)
 
 
 #: Every strategy by name, in the order the docs list them.

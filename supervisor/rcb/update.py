@@ -49,9 +49,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import replace
+from typing import Any, cast
 
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
+from models.quantities import MODEL_QUANTITIES
 from models.tool import Tool
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.part_report import Measurement, PartReport
@@ -62,9 +64,10 @@ from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.law import apply_law, tool_life_measured
+from supervisor.rcb.monitor import Monitor, Watched, learned, watch
 from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
 from supervisor.rcb.state import (
-    Action,
     Decision,
     Halt,
     HaltedOperation,
@@ -88,15 +91,8 @@ def start(plan: Plan, settings: RcbSettings | None = None) -> RcbState:
 
 
 def learned_cones(state: RcbState) -> dict[str, dict[str, post.Cone]]:
-    """The cone constraints of a ``learn`` state, per operation and quantity."""
-    if not state.settings.rule.learns_model:
-        return {}
-    cones: dict[str, dict[str, post.Cone]] = {}
-    for (name, quantity), belief in state.posterior.items():
-        cones.setdefault(name, {})[quantity] = post.Cone(
-            belief, state.settings.z, state.settings.tau
-        )
-    return cones
+    """The constraints beyond the band that ``state``'s strategy hands the optimiser."""
+    return state.settings.rule.cones(state)
 
 
 def optimize_state(
@@ -130,8 +126,9 @@ def update(
     -------
     tuple[RcbState, tuple[Decision, ...]]
         The new state and one decision per measurement. When the new bands leave no safe
-        setpoint, the new state is *halted* (:attr:`RcbState.halt`) with the setpoints and
-        version unchanged; a halted state stays halted (its bands still learn).
+        setpoint, or a reading is past its limit by more than ``halt_over``, the new state is
+        *halted* (:attr:`RcbState.halt`) with the setpoints and version unchanged; a halted
+        state stays halted (its bands still learn).
 
     Raises
     ------
@@ -145,90 +142,106 @@ def update(
     for name in [*report.measurements, *report.tool_wear]:
         if name not in operations:
             raise InputError(f"operations.{name}", name, f"not an operation of {state.plan.name!r}")
-    tools = dict(state.tools)
-    sigma = dict(state.sigma)
-    seen = dict(state.seen)
-    posterior = dict(state.posterior)
-    rises = dict(state.wear)
     measured_items = [
         (name, quantity, measurement)
         for name, measured in report.measurements.items()
         for quantity, measurement in measured.items()
     ]
     for name, wear in report.tool_wear.items():
-        _check_quantity(tools[name], name, "tool_life_mm3")
+        _check_quantity(state.tools[name], name, "tool_life_mm3")
         wear_measured = tool_life_measured(
             state, *measured_at(operations[name], results[name], "tool_life_mm3"), wear
         )
         measured_items.append((name, "tool_life_mm3", wear_measured))
     for name, quantity, _ in measured_items:  # check the whole report before applying any
-        _check_quantity(tools[name], name, quantity)
-    decisions: list[Decision] = []
-    learns = state.settings.rule.learns_model
-    for name, quantity, measurement in measured_items:
-        key = (name, quantity)
-        op, made = measured_at(operations[name], results[name], quantity)  # a pass's setpoint
-        age = report.edge_parts.get(name)
-        projection = 1.0
-        rise = _wear_after(state, op, made, quantity, measurement, age)
-        if rise is not None:
-            rises[key] = rise
-            projection = rise.factor(age, state.settings.coverage_k)
-        decision, model, sigma[key], seen[key] = apply_law(
-            state, op, made, quantity, measurement, projection
-        )
-        if not learns:
-            decisions.append(decision)
-            tools[name] = _with_model(tools[name], model)
-            continue
-        # learn: the fallback band only ever grows (when a measurement contradicts it); what
-        # a part teaches goes to the posterior, and the decision reports the cone
-        if decision.action == "expand":
-            tools[name] = _with_model(tools[name], model)
-        before = posterior.get(key) or post.prior(
-            state.plan.tools[op.tool].models[quantity],
-            op,
-            state.settings.coverage_k,
-            state.settings.exponent_sd,
-            state.settings.edge_sd,
-        )
-        after = before
-        if measurement.value > 0 and measurement.uncertainty > 0:
-            point = {**made.setpoint, **op.context}
-            after = post.observe(
-                before,
-                point,
-                measurement,
-                state.settings.coverage_k,
-                state.settings.tau,
-                report.edge_parts.get(name),
-            )
-        posterior[key] = after
-        decisions.append(_learned_decision(state, op, made, decision, before, after))
-    unchanged = tools == dict(state.tools) and posterior == dict(state.posterior)
-    if unchanged or state.halt is not None:
-        return replace(
-            state, tools=tools, sigma=sigma, seen=seen, posterior=posterior, wear=rises
-        ), tuple(decisions)
-    try:
-        new_setpoints = optimize_state(state, tools, posterior)
-    except InfeasibleError:
-        halt = _halt_of(state, tools, posterior)
-        halted = replace(
-            state, tools=tools, sigma=sigma, seen=seen, posterior=posterior, halt=halt, wear=rises
-        )
-        return halted, tuple(decisions)
+        _check_quantity(state.tools[name], name, quantity)
     new = replace(
         state,
-        tools=tools,
-        setpoints=new_setpoints,
-        version=state.version + 1,
-        sigma=sigma,
-        seen=seen,
-        posterior=posterior,
-        wear=rises,
+        tools=dict(state.tools),
+        sigma=dict(state.sigma),
+        seen=dict(state.seen),
+        posterior=dict(state.posterior),
+        wear=dict(state.wear),
+        monitors=dict(state.monitors),
     )
-    return new, tuple(decisions)
+    decisions: list[Decision] = []
+    gross: list[HaltedOperation] = []
+    for name, quantity, measurement in measured_items:
+        op, made = measured_at(operations[name], results[name], quantity)  # a pass's setpoint
+        decision, over = _reading(state, new, op, made, quantity, measurement, report)
+        decisions.append(decision)
+        if over is not None:
+            gross.append(over)
+    if gross and state.halt is None:
+        return replace(new, halt=Halt(tuple(gross))), tuple(decisions)
+    unchanged = new.tools == state.tools and new.posterior == state.posterior
+    if unchanged or state.halt is not None:
+        return new, tuple(decisions)
+    try:
+        new_setpoints = optimize_state(state, new.tools, new.posterior)
+    except InfeasibleError:
+        return replace(new, halt=_halt_of(state, new.tools, new.posterior)), tuple(decisions)
+    return replace(new, setpoints=new_setpoints, version=state.version + 1), tuple(decisions)
+
+
+def _reading(
+    state: RcbState,
+    new: RcbState,
+    op: Operation,
+    made: OperationResult,
+    quantity: str,
+    measurement: Measurement,
+    report: PartReport,
+) -> tuple[Decision, HaltedOperation | None]:
+    """One reading through the monitor, the band law and the strategy; ``new``'s maps change.
+
+    Returns the decision and, for a reading past its limit by more than ``halt_over``, what
+    halts the plan.
+    """
+    settings = state.settings
+    rule = settings.rule
+    key = (op.name, quantity)
+    age = report.edge_parts.get(op.name)
+    point = {**made.setpoint, **op.context}
+    exponents = state.tools[op.name].models[quantity].exponents
+    monitor = state.monitors.get(key) or Monitor()
+    watched = Watched("accept", monitor)
+    if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
+        low, high = rule.expects(state, op, made, quantity, age, monitor)
+        watched = watch(monitor, low, high, measurement, point, exponents, settings.exponent_sd)
+    assert isinstance(new.monitors, dict)
+    new.monitors[key] = watched.monitor
+    if not watched.learns:  # quarantined: a decision to show, nothing learned
+        law, *_ = apply_law(state, op, made, quantity, measurement)
+        return quarantined(law, watched.sigma), None
+    scaled = Measurement(measurement.value, measurement.uncertainty * monitor.scale)
+    # the maps of ``new`` are this report's copies (update); each reading has its own key
+    maps = (new.tools, new.sigma, new.seen, new.wear, new.posterior)
+    assert all(isinstance(m, dict) for m in maps)
+    tools, sigma, seen, rises, posterior = cast(tuple[dict[Any, Any], ...], maps)
+    judged = state
+    if watched.forget > 0:  # the old regime's evidence weighs less
+        before = state.sigma.get(key, prior_sigma(state.tools[op.name].models[quantity], settings))
+        sigma[key] = rule.forget(before, watched.forget)
+        judged = replace(state, sigma=sigma)
+    projection = 1.0
+    rise = _wear_after(state, op, made, quantity, scaled, None if watched.changed else age)
+    if rise is not None:
+        rises[key] = rise
+        projection = rise.factor(age, settings.coverage_k)
+    decision, model, sigma[key], seen[key] = apply_law(
+        judged, op, made, quantity, scaled, projection
+    )
+    decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
+    if watched.changed:
+        decision = changed(decision, watched)
+    keep, belief, decision = rule.learn(state, op, made, decision, scaled, watched, age)
+    if keep:
+        tools[op.name] = _with_model(tools[op.name], model)
+    if belief is not None:
+        posterior[key] = belief
+    new.monitors[key] = learned(watched.monitor, measurement, point)
+    return decision, gross_breach(op, quantity, scaled, settings.halt_over)
 
 
 def _wear_after(
@@ -253,49 +266,6 @@ def _wear_after(
     point = {**result.setpoint, **operation.context}
     return wear_rise.observe(
         before, age, measurement, point, exponents, settings.coverage_k, settings.exponent_sd
-    )
-
-
-def _learned_decision(
-    state: RcbState,
-    operation: Operation,
-    result: OperationResult,
-    law: Decision,
-    before: Posterior,
-    after: Posterior,
-) -> Decision:
-    """A ``learn`` decision: the flags and margin of the law, the band and K of the cone.
-
-    ``band_before`` is the band the part was made with (the cone's half-width at a cone
-    setpoint, the band's at a band setpoint), ``band_after`` the new cone's half-width at the
-    same setpoint; ``K_*``/``dK_*`` those of the learned model shown there.
-    """
-    point = {**result.setpoint, **operation.context}
-    rel = operation.setpoint_rel_uncertainty
-    settings = state.settings
-    old = post.display_model(post.Cone(before, settings.z, settings.tau), point, rel)
-    new = post.display_model(post.Cone(after, settings.z, settings.tau), point, rel)
-    band_after = new.predict(point, rel).band
-    shown = result.predicted.get(law.quantity)
-    band_before = law.band_before if shown is None else shown.band
-    action: Action = "hold"
-    if law.flagged and band_after > band_before:
-        action = "expand"
-    elif band_after < band_before and not law.flagged:
-        action = "shrink"
-    why = law.reason if law.flagged else f"learned from {after.observations} measurements"
-    if law.note:
-        why += " (note: below the band: the model is pessimistic here)"
-    return replace(
-        law,
-        action=action,
-        band_before=band_before,
-        band_after=band_after,
-        dK_before=old.dK,
-        dK_after=new.dK,
-        K_before=old.K,
-        K_after=new.K,
-        reason=why,
     )
 
 

@@ -1,0 +1,185 @@
+r"""The ``learn`` strategy's hooks: what it expects of a reading, what it learns, its cones.
+
+Per operation and quantity ``learn`` keeps a posterior of the whole power law
+(:mod:`supervisor.rcb.posterior`) beside the band law's fallback band. For each reading that
+:func:`supervisor.rcb.monitor.watch` lets through:
+
+1. a change (or a confirmed quarantine) first discounts the old regime: the intercept's
+   variance grows by the ``q`` the monitor sized to explain the innovation;
+2. a confirmed quarantined reading is learned, then the reading itself, each with the noise at
+   the monitor's measured scale ``ŝ`` (``u`` becomes ``ŝ u``);
+3. *evidence against the model wins at once*: after a reading past the band (``above_band``,
+   ``breach``) or a change, the posterior mean at the setpoint that made it is at least
+   ``ln(y − ŝ u)``, the reading less its scatter as measured; where the update left it under
+   that (a posterior that many earlier readings hold in place), its intercept is raised to it.
+   The raise moves every prediction up by the same factor: it only ever makes the cone more
+   cautious.
+
+References
+----------
+.. [1] Bishop, Pattern Recognition and Machine Learning (2006), §3.3 (sequential Bayesian
+   linear regression).
+.. [2] Ivester & Heigel (NIST), "Adaptive Control Optimization": the bands "encompass all of
+   the points" (the reading a band must cover).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import Operation
+from supervisor.optimize.result import OperationResult
+from supervisor.rcb import posterior as post
+from supervisor.rcb.monitor import Expected, Reading, Watched
+from supervisor.rcb.posterior import Cone, Posterior
+from supervisor.rcb.state import Action, Decision, RcbState
+
+
+def belief_of(state: RcbState, operation: Operation, quantity: str) -> Posterior:
+    """The posterior in force for ``operation``'s ``quantity`` (the catalogue prior if none)."""
+    found = state.posterior.get((operation.name, quantity))
+    if found is not None:
+        return found
+    settings = state.settings
+    return post.prior(
+        state.plan.tools[operation.tool].models[quantity],
+        operation,
+        settings.coverage_k,
+        settings.exponent_sd,
+        settings.edge_sd,
+    )
+
+
+def expects(
+    state: RcbState,
+    operation: Operation,
+    result: OperationResult,
+    quantity: str,
+    age: int | None,
+) -> Expected:
+    """The posterior predictive of ``ln y`` at ``result``'s setpoint (without the noise)."""
+    belief = belief_of(state, operation, quantity)
+    point = {**result.setpoint, **operation.context}
+    cone = Cone(belief, state.settings.z, state.settings.tau)
+    n = float(age) if age is not None else belief.edge_max / 2.0
+    n = min(n, float(belief.edge_max))
+    mean = float(belief.features(point, n) @ belief.mean_array)
+    return Expected(mean, cone.spread(point, operation.setpoint_rel_uncertainty, n))
+
+
+def learn(
+    state: RcbState,
+    operation: Operation,
+    result: OperationResult,
+    law: Decision,
+    measurement: Measurement,
+    watched: Watched,
+    age: int | None,
+) -> tuple[Posterior, Decision]:
+    """The posterior after the reading (module docstring) and the decision that shows it.
+
+    ``measurement``: the reading with its ``u`` at the measured scale.
+    """
+    settings = state.settings
+    before = belief_of(state, operation, law.quantity)
+    after = post.discount(before, watched.forget) if watched.forget > 0 else before
+    point = {**result.setpoint, **operation.context}
+    scale = measurement.uncertainty / law.uncertainty if law.uncertainty > 0 else 1.0
+    if watched.held is not None:  # the quarantined reading its successor confirmed
+        held = _held_measurement(watched.held, scale)
+        after = post.observe(
+            after, _held_point(watched.held), held, settings.coverage_k, settings.tau, age
+        )
+    if measurement.value > 0 and measurement.uncertainty > 0:
+        after = post.observe(after, point, measurement, settings.coverage_k, settings.tau, age)
+        if law.flagged or watched.changed:
+            after = _at_least(after, point, measurement, age)
+    return after, _decision(state, operation, result, law, before, after)
+
+
+def cones(state: RcbState) -> dict[str, dict[str, Cone]]:
+    """The cone constraints of a ``learn`` state, per operation and quantity.
+
+    A chain noisier than it claims (the monitor's scale ``ŝ > 1``) widens its cone by ``ŝ``:
+    the posterior was narrowed by readings taken at the claimed noise (a normal-inverse-gamma
+    posterior's covariance scales with the noise variance, Gelman et al. §14.8).
+    """
+    out: dict[str, dict[str, Cone]] = {}
+    z = state.settings.z
+    for key, belief in state.posterior.items():
+        monitor = state.monitors.get(key)
+        scale = 1.0 if monitor is None else monitor.scale
+        out.setdefault(key[0], {})[key[1]] = Cone(belief, z * scale, state.settings.tau)
+    return out
+
+
+def _held_point(held: Reading) -> dict[str, float]:
+    return {name: math.exp(v) for name, v in held.ln_x.items()}
+
+
+def _held_measurement(held: Reading, scale: float) -> Measurement:
+    """The quarantined reading as a measurement, its ``u`` at the measured scale."""
+    y = math.exp(held.ln_y)
+    return Measurement(y, held.noise * 2.0 * y * scale)
+
+
+def _at_least(
+    belief: Posterior, point: dict[str, float], measurement: Measurement, age: int | None
+) -> Posterior:
+    """The posterior whose mean at ``point`` is at least ``ln(y − u)`` (module docstring)."""
+    y, u = measurement.value, measurement.uncertainty
+    if y <= u:
+        return belief
+    n = float(age) if age is not None else belief.edge_max / 2.0
+    n = min(n, float(belief.edge_max))
+    deficit = math.log(y - u) - float(belief.features(point, n) @ belief.mean_array)
+    if deficit <= 0:
+        return belief
+    return replace(belief, mean=(belief.mean[0] + deficit, *belief.mean[1:]))
+
+
+def _decision(
+    state: RcbState,
+    operation: Operation,
+    result: OperationResult,
+    law: Decision,
+    before: Posterior,
+    after: Posterior,
+) -> Decision:
+    """A ``learn`` decision: the flags and margin of the law, the band and K of the cone.
+
+    ``band_before`` is the band the part was made with (the cone's half-width at a cone
+    setpoint, the band's at a band setpoint), ``band_after`` the new cone's half-width at the
+    same setpoint; ``K_*``/``dK_*`` those of the learned model shown there.
+    """
+    point = {**result.setpoint, **operation.context}
+    rel = operation.setpoint_rel_uncertainty
+    settings = state.settings
+    old = post.display_model(Cone(before, settings.z, settings.tau), point, rel)
+    new = post.display_model(Cone(after, settings.z, settings.tau), point, rel)
+    band_after = new.predict(point, rel).band
+    shown = result.predicted.get(law.quantity)
+    band_before = law.band_before if shown is None else shown.band
+    action: Action = "hold"
+    if law.flagged and band_after > band_before:
+        action = "expand"
+    elif band_after < band_before and not law.flagged:
+        action = "shrink"
+    why = law.reason if law.flagged else f"learned from {after.observations} measurements"
+    if law.note == "regime_change":
+        why = f"{law.reason}; learned from {after.observations} measurements"
+    elif law.note == "below_band":
+        why += " (note: below the band: the model is pessimistic here)"
+    return replace(
+        law,
+        action=action,
+        band_before=band_before,
+        band_after=band_after,
+        dK_before=old.dK,
+        dK_after=new.dK,
+        K_before=old.K,
+        K_after=new.K,
+        reason=why,
+    )

@@ -1,0 +1,306 @@
+r"""What RCB watches in the readings of one quantity, whatever the strategy.
+
+The band law and the strategies learn from readings; a shop floor sends some that must not be
+learned from as they stand (DESIGN.md, RCB: "The shop floor misbehaves"). Per operation and
+quantity a :class:`Monitor` keeps what that takes, and :func:`watch` classifies each reading
+before anything is learned from it, against what the strategy expects of it
+(:meth:`supervisor.rcb.strategies.Strategy.expects`: a mean and a spread of ``ln y``, one for
+each side). With ``s`` the expectation's spread, ``s_n = ŝ (u/k)/y`` the reading's noise at the
+*measured* scale ``ŝ`` (below) and ``e = ln y − m`` the innovation,
+
+.. math:: r = e \,/\, \sqrt{s^2 + s_n^2}
+
+- ``r < −``:data:`LOW_SIGMA` on the low side: *too good to be true* (a loose cable, an air cut,
+  a broken insert that no longer cuts: a reading at 10 % of the truth is ``e = −2.3``). The
+  reading is quarantined (note ``implausible_low``): no band, posterior, wear rise or noise
+  scale learns from it. It is learned from once the next reading confirms it: consistent with
+  it within :data:`CONFIRM_SIGMA` of their joint noise (the setpoint's change taken out with
+  the model's exponents, their prior spread counted as noise, as :mod:`supervisor.rcb.wear`
+  does); the process has then moved down, and the pair is a ``regime_change``. A reading that
+  does not confirm it drops it (a glitch).
+- ``r > ``:data:`CHANGE_SIGMA` on the high side: *evidence against the model*, a process that
+  has changed (a harder batch, another insert supplier). The old regime's evidence is
+  discounted by a random-walk step of the intercept sized to explain the innovation,
+  ``q = e² − (s² + s_n²)`` (moment matching, the adaptive fading of a Kalman filter [3]_), so
+  the reading is learned at once instead of averaged in at ``1/n``; the decision says
+  ``regime_change``.
+
+The noise scale: the reported ``u`` is a prior on the noise, not its value. The variance of a
+reading is ``λ (u/k)²`` with ``λ ~ InvGamma(a, b)``, ``a = b =`` :data:`NOISE_PRIOR` before any
+reading (the reported ``u`` counts as that many half-readings). Each accepted reading that
+follows an accepted reading at nearly the same setpoint (the setpoint's change explains less
+than half the noise) gives the successive difference [1]_
+
+.. math:: d = \ln y - \ln y' - \sum_i e_i (\ln x_i - \ln x'_i), \qquad
+          \mathrm{E}\, d^2 = λ (s'^2 + s''^2) + \sum_i (s_e e_i \Delta\ln x_i)^2
+
+(``s'``, ``s''`` the two readings' reported noise in ``ln``), and the conjugate update
+``a ← a + ½``, ``b ← b + ½ (d² − misfit)⁺ / (s'² + s''²)`` [2]_. The scale in force is
+``ŝ = √max(b/a, 1)``: a chain noisier than it claims widens what every strategy allows for
+(``u`` becomes ``ŝ u`` in the band law, the alarm and ``learn``'s likelihood); one quieter than
+it claims is not trusted to be (the instrument's stated ``u`` stays the least). Successive
+differences need no model of the process, so a wrong model cannot pass as noise; slow drift
+(wear) adds only its square per part.
+
+References
+----------
+.. [1] von Neumann, Kent, Bellinson & Hart (1941), "The mean square successive difference",
+   Ann. Math. Statist. 12(2), 153-162.
+.. [2] Gelman et al., Bayesian Data Analysis, 3rd ed., §2.6 (normal variance, conjugate
+   inverse-gamma prior).
+.. [3] Xia, Rao, Ying & Shen (1994), "Adaptive fading Kalman filter with an application",
+   Automatica 30(8), 1333-1338; Mehra (1972), "Approaches to adaptive filtering", IEEE Trans.
+   Automatic Control 17(5) (innovation-based adaptation).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any, Literal
+
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
+
+#: A reading this many σ under what the strategy expects is quarantined (``implausible_low``).
+LOW_SIGMA = 6.0
+#: A reading this many σ over what the strategy expects is a change of the process.
+CHANGE_SIGMA = 4.0
+#: A quarantined reading is confirmed by the next one within this many σ of their joint noise.
+CONFIRM_SIGMA = 3.0
+#: A quarantined reading more than this (in ``ln``: a factor 2) under what was expected is
+#: never confirmed: no change of a process halves it; a sensor or a tool does.
+CONFIRMABLE = math.log(2.0)
+#: ``a = b`` of the noise scale's inverse-gamma prior: the reported ``u`` as 2 half-readings.
+NOISE_PRIOR = 1.0
+
+Verdict = Literal["accept", "quarantine", "confirm", "change"]
+
+
+@dataclass(frozen=True)
+class Expected:
+    """What a strategy expects of a reading: ``ln y ~ mean ± sd`` (without the reading's noise).
+
+    ``noise``: a part of the spread that is readings' noise (the chain's last reading), in
+    ``ln`` at the reported scale: it is counted at the measured scale ``ŝ``.
+    """
+
+    mean: float
+    sd: float
+    noise: float = 0.0
+
+
+@dataclass(frozen=True)
+class Reading:
+    """A reading kept by the monitor: ``ln y``, its reported noise ``s`` in ``ln``, ``ln x``."""
+
+    ln_y: float
+    noise: float
+    ln_x: Mapping[str, float]
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready mapping."""
+        return {"ln_y": self.ln_y, "noise": self.noise, "ln_x": dict(self.ln_x)}
+
+
+def _reading(data: Mapping[str, Any] | None) -> Reading | None:
+    if data is None:
+        return None
+    ln_x = {str(k): float(v) for k, v in data["ln_x"].items()}
+    return Reading(float(data["ln_y"]), float(data["noise"]), ln_x)
+
+
+@dataclass(frozen=True)
+class Monitor:
+    """Per operation and quantity: the noise scale's belief, the last and the held reading.
+
+    Parameters
+    ----------
+    shape, rate : float
+        ``a`` and ``b`` of the inverse-gamma belief on the noise variance's scale ``λ``.
+    last : Reading or None
+        The last reading learned from (the reference of the next successive difference).
+    held : Reading or None
+        A quarantined reading waiting for the next one to confirm or drop it.
+    quarantined, changes : int
+        Readings quarantined and changes detected so far.
+    """
+
+    shape: float = NOISE_PRIOR
+    rate: float = NOISE_PRIOR
+    last: Reading | None = None
+    held: Reading | None = None
+    quarantined: int = 0
+    changes: int = 0
+
+    @property
+    def scale(self) -> float:
+        """``ŝ = √max(b/a, 1)``: the noise in force as a multiple of the reported one."""
+        return math.sqrt(max(self.rate / self.shape, 1.0))
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready mapping (:func:`from_json` reads it back)."""
+        return {
+            "shape": self.shape,
+            "rate": self.rate,
+            "last": None if self.last is None else self.last.to_json(),
+            "held": None if self.held is None else self.held.to_json(),
+            "quarantined": self.quarantined,
+            "changes": self.changes,
+        }
+
+
+def from_json(data: Mapping[str, Any]) -> Monitor:
+    """The :class:`Monitor` of :meth:`Monitor.to_json`."""
+    return Monitor(
+        float(data["shape"]),
+        float(data["rate"]),
+        _reading(data.get("last")),
+        _reading(data.get("held")),
+        int(data.get("quarantined", 0)),
+        int(data.get("changes", 0)),
+    )
+
+
+@dataclass(frozen=True)
+class Watched:
+    """What :func:`watch` made of a reading.
+
+    ``forget``: the variance ``q`` the intercept's belief takes before it learns (0 unless a
+    change or a confirmed quarantine); ``held``: the quarantined reading a ``confirm`` learns
+    from too; ``sigma``: ``r`` of the reading on the side that decided (0 for ``accept``).
+    """
+
+    verdict: Verdict
+    monitor: Monitor
+    sigma: float = 0.0
+    forget: float = 0.0
+    held: Reading | None = None
+
+    @property
+    def learns(self) -> bool:
+        """Whether anything is learned from the reading."""
+        return self.verdict != "quarantine"
+
+    @property
+    def changed(self) -> bool:
+        """Whether the reading shows the process changed (note ``regime_change``)."""
+        return self.verdict in ("change", "confirm")
+
+
+def watch(
+    monitor: Monitor,
+    low: Expected,
+    high: Expected | None,
+    measurement: Measurement,
+    point: Mapping[str, float],
+    exponents: Mapping[str, float],
+    exponent_sd: float,
+) -> Watched:
+    """Classify a reading against what the strategy expects (module docstring).
+
+    ``low`` and ``high``: the expectation each side is judged against (``high`` None: no
+    change is looked for, and the noise scale does not learn). The monitor returned holds
+    the quarantined reading (or has dropped it), the counts and the noise scale;
+    :func:`learned` makes the reading the last one once it is learned from.
+    """
+    y, u = measurement.value, measurement.uncertainty
+    if not (y > 0 and u > 0):  # nothing to judge in logs (a zero reading is the law's)
+        return Watched("accept", replace(monitor, held=None))
+    reading = Reading(math.log(y), (u / COVERAGE_FACTOR) / y, _logs(point))
+    variance = monitor.scale**2
+    held = monitor.held
+    if (
+        held is not None
+        and held.ln_y - low.mean >= -CONFIRMABLE
+        and _consistent(held, reading, monitor.scale, exponents, exponent_sd)
+    ):
+        e = held.ln_y - low.mean
+        forget = max(e * e - _variance(low, held.noise, variance), 0.0)
+        counted = replace(monitor, held=None, changes=monitor.changes + 1)
+        return Watched("confirm", counted, _sigma(low, reading, variance), forget, held)
+    r_low = _sigma(low, reading, variance)
+    if r_low < -LOW_SIGMA:
+        kept = replace(monitor, held=reading, quarantined=monitor.quarantined + 1)
+        return Watched("quarantine", kept, r_low)
+    monitor = replace(monitor, held=None)
+    if high is None:
+        return Watched("accept", monitor)
+    e = reading.ln_y - high.mean
+    r_high = _sigma(high, reading, variance)
+    # the noise scale learns from the innovation, by the share of it that is noise; a change
+    # counts as a reading at the alarm's edge (it cannot be told from noise by itself)
+    unit = high.noise**2 + reading.noise**2
+    weight = variance * unit / (high.sd**2 + variance * unit)
+    e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
+    monitor = replace(
+        monitor,
+        shape=monitor.shape + 0.5 * weight,
+        rate=monitor.rate + 0.5 * weight * max(e2 - high.sd**2, 0.0) / unit,
+    )
+    if r_high > CHANGE_SIGMA:
+        forget = max(e * e - _variance(high, reading.noise, variance), 0.0)
+        counted = replace(monitor, changes=monitor.changes + 1)
+        return Watched("change", counted, r_high, forget)
+    return Watched("accept", monitor)
+
+
+def learned(monitor: Monitor, measurement: Measurement, point: Mapping[str, float]) -> Monitor:
+    """The monitor once the reading is learned from: it is the chain's last reading."""
+    y, u = measurement.value, measurement.uncertainty
+    if not (y > 0 and u > 0):
+        return replace(monitor, last=None)
+    return replace(monitor, last=Reading(math.log(y), (u / COVERAGE_FACTOR) / y, _logs(point)))
+
+
+def _logs(point: Mapping[str, float]) -> dict[str, float]:
+    return {name: math.log(value) for name, value in point.items() if value > 0}
+
+
+def _variance(expected: Expected, noise: float, scale2: float) -> float:
+    """The variance of a reading's innovation: the expectation's, and the noise at ``ŝ²``."""
+    return expected.sd**2 + scale2 * (expected.noise**2 + noise**2)
+
+
+def _sigma(expected: Expected, reading: Reading, scale2: float) -> float:
+    """``r``: the reading's distance from the expectation in σ of both."""
+    return (reading.ln_y - expected.mean) / math.sqrt(_variance(expected, reading.noise, scale2))
+
+
+def _difference(
+    before: Reading, after: Reading, exponents: Mapping[str, float], exponent_sd: float
+) -> tuple[float, float]:
+    """``d`` of two readings and the variance a wrong exponent makes of the setpoint's change."""
+    moved = {n: after.ln_x[n] - before.ln_x[n] for n in after.ln_x if n in before.ln_x}
+    d = after.ln_y - before.ln_y - sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
+    misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
+    return d, misfit
+
+
+def _consistent(
+    held: Reading, now: Reading, scale: float, exponents: Mapping[str, float], exponent_sd: float
+) -> bool:
+    """Whether ``now`` confirms ``held``: within :data:`CONFIRM_SIGMA` of their joint noise."""
+    if set(held.ln_x) != set(now.ln_x):
+        return False
+    d, misfit = _difference(held, now, exponents, exponent_sd)
+    joint = math.sqrt(scale**2 * (held.noise**2 + now.noise**2) + misfit)
+    return abs(d) <= CONFIRM_SIGMA * joint
+
+
+def chain(
+    monitor: Monitor, point: Mapping[str, float], exponents: Mapping[str, float], exponent_sd: float
+) -> Expected | None:
+    """The last reading learned from, moved to ``point`` with the model's exponents.
+
+    Its spread is the last reading's noise at the measured scale and what an exponent wrong by
+    its prior spread makes of the setpoint's change; None before the first reading.
+    """
+    last = monitor.last
+    now = _logs(point)
+    if last is None or set(last.ln_x) != set(now):
+        return None
+    moved = {n: now[n] - last.ln_x[n] for n in now}
+    mean = last.ln_y + sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
+    misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
+    return Expected(mean, math.sqrt(misfit), last.noise)

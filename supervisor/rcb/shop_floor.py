@@ -1,0 +1,75 @@
+"""The decisions of the shop-floor rules: a quarantined reading, a change, a gross breach.
+
+DESIGN.md, RCB, "The shop floor misbehaves": :mod:`supervisor.rcb.monitor` judges a reading;
+this module says what the decision of such a reading reads, and when a reading halts the plan.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from models.quantities import MODEL_QUANTITIES
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import Operation
+from supervisor.rcb.law import limit_of
+from supervisor.rcb.monitor import Watched
+from supervisor.rcb.state import Decision, HaltedOperation
+
+
+def quarantined(law: Decision, sigma: float) -> Decision:
+    """The decision of a quarantined reading: nothing moves, the operator is told.
+
+    ``law``: what the band law would have made of the reading (its margin and band are shown
+    as they stand); ``sigma``: how far under what was expected the reading is, in σ.
+    """
+    return replace(
+        law,
+        action="hold",
+        band_after=law.band_before,
+        dK_after=law.dK_before,
+        K_after=law.K_before,
+        flagged=False,
+        flag=None,
+        note="implausible_low",
+        reason=(
+            f"implausibly low: {-sigma:.3g}σ under what the model and its scatter allow "
+            "(check the sensor and the tool); not learned from until the next reading "
+            "confirms it"
+        ),
+    )
+
+
+def changed(decision: Decision, watched: Watched) -> Decision:
+    """The decision of a reading that shows the process changed (note ``regime_change``)."""
+    if watched.verdict == "confirm":
+        why = "regime change: the reading confirms the low one before it; both learned"
+    else:
+        why = f"regime change: {watched.sigma:.3g}σ over what was expected; old evidence discounted"
+    return replace(decision, note="regime_change", reason=f"{why}; {decision.reason}")
+
+
+def gross_breach(
+    operation: Operation, quantity: str, measurement: Measurement, halt_over: float
+) -> HaltedOperation | None:
+    """What halts the plan when the reading is past its limit by more than ``halt_over``.
+
+    For a maximum ``y − u > (1 + halt_over) · limit``, for a minimum ``y + u < (1 − halt_over)
+    · limit`` (``u`` at the measured noise scale): beyond its uncertainty, as an adaptive
+    control's extreme limit stops the spindle whatever the controller could still do.
+    """
+    limit = limit_of(operation, quantity)
+    if limit is None or limit <= 0:
+        return None
+    y, u = measurement.value, measurement.uncertainty
+    if MODEL_QUANTITIES[quantity].sense == "max":
+        past = (y - u) / limit - 1.0
+    else:
+        past = 1.0 - (y + u) / limit
+    if past <= halt_over:
+        return None
+    message = (
+        f"{operation.name} {quantity} measured {y:.6g} is past its limit {limit:.6g} by "
+        f"{100 * past:.3g} % (more than halt_over {100 * halt_over:.3g} %): an engineer must "
+        "check the process and replan"
+    )
+    return HaltedOperation(operation.name, (), (), message)
