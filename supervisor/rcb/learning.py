@@ -40,8 +40,11 @@ from supervisor.rcb.state import Action, Decision, RcbState
 def belief_of(state: RcbState, operation: Operation, quantity: str) -> Posterior:
     """The posterior in force for ``operation``'s ``quantity`` (the catalogue prior if none)."""
     found = state.posterior.get((operation.name, quantity))
-    if found is not None:
-        return found
+    return _prior_of(state, operation, quantity) if found is None else found
+
+
+def _prior_of(state: RcbState, operation: Operation, quantity: str) -> Posterior:
+    """The catalogue prior of ``operation``'s ``quantity``."""
     settings = state.settings
     return post.prior(
         state.plan.tools[operation.tool].models[quantity],
@@ -84,9 +87,13 @@ def learn(
     """
     settings = state.settings
     before = belief_of(state, operation, law.quantity)
-    after = post.discount(before, watched.forget) if watched.forget > 0 else before
-    point = {**result.setpoint, **operation.context}
+    after = before
     scale = measurement.uncertainty / law.uncertainty if law.uncertainty > 0 else 1.0
+    if scale**2 > before.noise_scale2:  # the readings so far were noisier than they claimed
+        after = post.rescaled(after, _prior_of(state, operation, law.quantity), scale**2)
+    if watched.forget > 0:
+        after = post.discount(after, watched.forget)
+    point = {**result.setpoint, **operation.context}
     if watched.held is not None:  # the quarantined reading its successor confirmed
         held = _held_measurement(watched.held, scale)
         after = post.observe(
@@ -100,18 +107,10 @@ def learn(
 
 
 def cones(state: RcbState) -> dict[str, dict[str, Cone]]:
-    """The cone constraints of a ``learn`` state, per operation and quantity.
-
-    A chain noisier than it claims (the monitor's scale ``ŝ > 1``) widens its cone by ``ŝ``:
-    the posterior was narrowed by readings taken at the claimed noise (a normal-inverse-gamma
-    posterior's covariance scales with the noise variance, Gelman et al. §14.8).
-    """
+    """The cone constraints of a ``learn`` state, per operation and quantity."""
     out: dict[str, dict[str, Cone]] = {}
-    z = state.settings.z
-    for key, belief in state.posterior.items():
-        monitor = state.monitors.get(key)
-        scale = 1.0 if monitor is None else monitor.scale
-        out.setdefault(key[0], {})[key[1]] = Cone(belief, z * scale, state.settings.tau)
+    for (name, quantity), belief in state.posterior.items():
+        out.setdefault(name, {})[quantity] = Cone(belief, state.settings.z, state.settings.tau)
     return out
 
 

@@ -112,6 +112,9 @@ class Posterior:
         Measurements applied so far.
     edge_max : int
         ``n_max``, the most parts an edge makes before this one; 0: no edge feature.
+    noise_scale2 : float
+        ``λ``, the noise variance's scale the readings' precision is counted at
+        (:func:`rescaled`; 1: as reported).
     """
 
     quantity: str
@@ -122,6 +125,7 @@ class Posterior:
     cov: tuple[tuple[float, ...], ...]
     observations: int = 0
     edge_max: int = 0
+    noise_scale2: float = 1.0
 
     def cholesky(self, drift: float) -> np.ndarray:
         """The Cholesky factor of ``Σ + drift² e₀e₀ᵀ`` (kept on the object: it is immutable)."""
@@ -193,6 +197,7 @@ class Posterior:
             "cov": [list(r) for r in self.cov],
             "observations": self.observations,
             "edge_max": self.edge_max,
+            "noise_scale2": self.noise_scale2,
         }
 
 
@@ -212,6 +217,7 @@ def from_json(data: Mapping[str, object]) -> Posterior:
         cov=tuple(tuple(float(v) for v in row) for row in cov),
         observations=int(data.get("observations", 0)),  # type: ignore[call-overload]
         edge_max=int(data.get("edge_max", 0)),  # type: ignore[call-overload]
+        noise_scale2=float(data.get("noise_scale2", 1.0)),  # type: ignore[arg-type]
     )
 
 
@@ -290,6 +296,39 @@ def observe(
         tuple(tuple(float(v) for v in row) for row in cov),
         belief.observations + 1,
         belief.edge_max,
+        belief.noise_scale2,
+    )
+
+
+def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) -> Posterior:
+    r"""The posterior with its readings counted at the noise variance's scale ``λ'``.
+
+    With a Gaussian prior ``N(μ₀, Σ₀)`` the posterior precision is the prior's plus the
+    readings', ``P = P₀ + D/λ``; the same readings at ``λ' > λ`` give
+
+    .. math:: P' = (1 − ρ) P_0 + ρ P, \qquad
+              μ' = P'^{-1} ig((1 − ρ) P_0 μ_0 + ρ P μig), \qquad ρ = λ / λ'
+
+    (a convex combination, so ``P'`` stays positive definite; exact without discounts, as a
+    normal-inverse-gamma posterior's data term scales with the noise variance, Gelman et al.
+    §14.8). A scale only ever grows here: a chain that once proved noisier than it claims is
+    not trusted again on a few quiet readings.
+    """
+    if noise_scale2 <= belief.noise_scale2:
+        return belief
+    rho = belief.noise_scale2 / noise_scale2
+    p0 = np.linalg.inv(np.array(prior_belief.cov))
+    p = np.linalg.inv(np.array(belief.cov))
+    precision = (1.0 - rho) * p0 + rho * p
+    weighted = (1.0 - rho) * p0 @ np.array(prior_belief.mean) + rho * p @ np.array(belief.mean)
+    cov = np.linalg.inv(precision)
+    cov = 0.5 * (cov + cov.T)
+    mean = cov @ weighted
+    return replace(
+        belief,
+        mean=tuple(float(m) for m in mean),
+        cov=tuple(tuple(float(v) for v in row) for row in cov),
+        noise_scale2=noise_scale2,
     )
 
 
