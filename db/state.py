@@ -21,6 +21,8 @@ from db.state_cache import CACHE, database_key
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
+from supervisor.rcb.monitor import Monitor
+from supervisor.rcb.monitor import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 from supervisor.rcb.state import Decision, RcbState, prior_sigma
@@ -61,12 +63,13 @@ def band_state_rows(
             "sigma": after.sigma[(d.operation, d.quantity)],
             "posterior": _json_or_none(after.posterior.get((d.operation, d.quantity))),
             "wear": _json_or_none(after.wear.get((d.operation, d.quantity))),
+            "monitor": _json_or_none(after.monitors.get((d.operation, d.quantity))),
         }
         for d in decisions
     ]
 
 
-def _json_or_none(belief: Posterior | WearRise | None) -> dict[str, Any] | None:
+def _json_or_none(belief: Posterior | WearRise | Monitor | None) -> dict[str, Any] | None:
     """A belief as the JSON of its ``band_states`` column (None: no belief)."""
     return None if belief is None else belief.to_json()
 
@@ -80,6 +83,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     seen: dict[tuple[str, str], float] = {}
     beliefs: dict[tuple[str, str], Posterior] = {}
     wear: dict[tuple[str, str], WearRise] = {}
+    monitors: dict[tuple[str, str], Monitor] = {}
     settings = settings_of(plan_row.strategy, plan_row.alpha, plan_row.settings)
     models_in_force = latest_models(session=session, plan_id=plan_row.id)
     pairs = sorted(
@@ -106,6 +110,8 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
                     beliefs[(op.name, quantity)] = posterior_from_json(state.posterior)
                 if state.wear is not None:
                     wear[(op.name, quantity)] = wear_from_json(state.wear)
+                if state.monitor is not None:
+                    monitors[(op.name, quantity)] = monitor_from_json(state.monitor)
         tools[op.name] = Tool(
             base.name, base.process, models, base.description, base.material, base.source
         )
@@ -123,6 +129,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
         beliefs,
         halt_of(plan_row.halt),
         wear,
+        monitors,
     )
 
 

@@ -311,7 +311,9 @@ class BandState(Base):
     ``sigma``: the posterior σ of ln K (bayes); ``posterior``: the ``learn`` strategy's belief
     (:meth:`supervisor.rcb.posterior.Posterior.to_json`), NULL for other strategies; ``wear``:
     the rise per part an edge makes (:meth:`supervisor.rcb.wear.WearRise.to_json`), NULL for a
-    quantity that does not wear. Appended per part; the newest row is in force.
+    quantity that does not wear; ``monitor``: what RCB watches in the readings (the noise scale,
+    the last reading learned from, a quarantined one: :meth:`supervisor.rcb.monitor.Monitor.
+    to_json`), NULL for rows stored before 0010. Appended per part; the newest row is in force.
     """
 
     __tablename__ = "band_states"
@@ -324,6 +326,7 @@ class BandState(Base):
     sigma: Mapped[float]
     posterior: Mapped[dict[str, Any] | None]
     wear: Mapped[dict[str, Any] | None]
+    monitor: Mapped[dict[str, Any] | None]
 
 
 class PlanRevision(Base):

@@ -175,7 +175,8 @@ def test_a_cone_setpoint_alarms_only_past_three_sigma(plan):
     assert between.flag is None and between.note == "past_limit"
     assert not between.flagged
     beyond, after = one(limit + 1.6 * u)  # y − 1.5u = limit + 0.005
-    assert beyond.flag == "breach" and beyond.flagged and beyond.note is None
+    # and, 4σ past what the posterior expects there, a change of the process (issue 27)
+    assert beyond.flag == "breach" and beyond.flagged and beyond.note == "regime_change"
     assert after.mrr_cm3_min < held.mrr_cm3_min  # the posterior takes it in: it backs off
 
 
@@ -200,7 +201,8 @@ def test_learn_is_never_slower_than_its_fallback_band(plan):
 def test_a_grown_band_with_no_setpoint_halts_instead_of_raising(plan):
     # rough-od reported at 6000 N and then at 10000 N: the second part's band leaves no
     # setpoint under the 2000 N limit; the state halts, the setpoints stay those in force.
-    state = start(plan, RcbSettings(strategy="ivester"))
+    # halt_over 10 (1000 %): the gross-breach halt is test_a_gross_breach_halts_every_strategy's
+    state = start(plan, RcbSettings(strategy="ivester", halt_over=10.0))
     for k, force in enumerate((6000.0, 10000.0)):
         report = PartReport(
             f"H-{k}", state.version, {"rough-od": {"force_N": Measurement(force, 10)}}
@@ -217,6 +219,31 @@ def test_a_grown_band_with_no_setpoint_halts_instead_of_raising(plan):
     again, _ = update(state, report)
     assert again.halt is not None and again.version == state.version
     assert replace(again, halt=None).halt is None
+
+
+@pytest.mark.parametrize("strategy", ["learn", "ivester", "bayes"])
+def test_a_gross_breach_halts_every_strategy(plan, strategy):
+    # 6000 ± 10 N on rough-od's 2000 N limit: (6000 - 10) / 2000 - 1 = 199.5 % past it, more
+    # than halt_over 25 %: the plan halts at once whatever a strategy could still find (issue
+    # 27); 2400 ± 10 N is 19.5 % past: a breach that backs off, no halt.
+    state = start(plan, RcbSettings(strategy=strategy))
+    near, (d,) = update(
+        state, PartReport("G-0", 1, {"rough-od": {"force_N": Measurement(2400.0, 10)}})
+    )
+    assert near.halt is None and d.flag == "breach"
+    halted, _ = update(
+        state, PartReport("G-1", 1, {"rough-od": {"force_N": Measurement(6000.0, 10)}})
+    )
+    assert halted.halt is not None and halted.version == 1
+    (only,) = halted.halt.operations
+    assert only.operation == "rough-od"
+    assert "measured 6000 is past its limit 2000 by 199.5 %" in only.message
+    # the same reading under halt_over 2 (200 %) is no gross breach
+    lenient = start(plan, RcbSettings(strategy=strategy, halt_over=2.0))
+    kept, _ = update(
+        lenient, PartReport("G-2", 1, {"rough-od": {"force_N": Measurement(6000.0, 10)}})
+    )
+    assert kept.halt is None or "halt_over" not in kept.halt.message
 
 
 def test_a_models_exponent_stderr_is_the_priors_spread(plan):

@@ -227,4 +227,7 @@ def test_the_paper_law_on_a_wearing_edge_stays_under_the_limit():
         crossed += run_scenario(
             unprojected, seed, 11, wear_drift_per_edge_life=0.05
         ).violations.sum()
-    assert crossed >= len(CROSSED)  # the same law without the projection crosses
+    # the same law without the projection still crosses: issue 27's measured noise scale
+    # (supervisor.rcb.monitor: the rise inflates successive differences, so u grows) stops most
+    # of the crossings it made before (12 seeds, 2 violations left), not all
+    assert crossed >= 2

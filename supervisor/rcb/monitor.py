@@ -97,17 +97,21 @@ class Reading:
     ln_y: float
     noise: float
     ln_x: Mapping[str, float]
+    age: int | None = None
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready mapping."""
-        return {"ln_y": self.ln_y, "noise": self.noise, "ln_x": dict(self.ln_x)}
+        return {"ln_y": self.ln_y, "noise": self.noise, "ln_x": dict(self.ln_x), "age": self.age}
 
 
 def _reading(data: Mapping[str, Any] | None) -> Reading | None:
     if data is None:
         return None
     ln_x = {str(k): float(v) for k, v in data["ln_x"].items()}
-    return Reading(float(data["ln_y"]), float(data["noise"]), ln_x)
+    age = data.get("age")
+    return Reading(
+        float(data["ln_y"]), float(data["noise"]), ln_x, None if age is None else int(age)
+    )
 
 
 @dataclass(frozen=True)
@@ -245,12 +249,15 @@ def watch(
     return Watched("accept", monitor)
 
 
-def learned(monitor: Monitor, measurement: Measurement, point: Mapping[str, float]) -> Monitor:
+def learned(
+    monitor: Monitor, measurement: Measurement, point: Mapping[str, float], age: int | None
+) -> Monitor:
     """The monitor once the reading is learned from: it is the chain's last reading."""
     y, u = measurement.value, measurement.uncertainty
     if not (y > 0 and u > 0):
         return replace(monitor, last=None)
-    return replace(monitor, last=Reading(math.log(y), (u / COVERAGE_FACTOR) / y, _logs(point)))
+    reading = Reading(math.log(y), (u / COVERAGE_FACTOR) / y, _logs(point), age)
+    return replace(monitor, last=reading)
 
 
 def _logs(point: Mapping[str, float]) -> dict[str, float]:
@@ -289,12 +296,19 @@ def _consistent(
 
 
 def chain(
-    monitor: Monitor, point: Mapping[str, float], exponents: Mapping[str, float], exponent_sd: float
+    monitor: Monitor,
+    point: Mapping[str, float],
+    exponents: Mapping[str, float],
+    exponent_sd: float,
+    age: int | None = None,
+    rise: tuple[float, float] | None = None,
 ) -> Expected | None:
     """The last reading learned from, moved to ``point`` with the model's exponents.
 
-    Its spread is the last reading's noise at the measured scale and what an exponent wrong by
-    its prior spread makes of the setpoint's change; None before the first reading.
+    Its spread is the last reading's noise (counted at the measured scale) and what an exponent
+    wrong by its prior spread makes of the setpoint's change. ``rise``: the mean and variance
+    of a worn edge's rise per part (:mod:`supervisor.rcb.wear`), added over the parts since
+    the last reading of the same edge. None before the first reading, and for a new edge.
     """
     last = monitor.last
     now = _logs(point)
@@ -303,4 +317,10 @@ def chain(
     moved = {n: now[n] - last.ln_x[n] for n in now}
     mean = last.ln_y + sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
     misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
+    if rise is not None and age is not None and last.age is not None:
+        if age < last.age:  # a new edge: its level is not the worn one's
+            return None
+        steps = age - last.age
+        mean += rise[0] * steps
+        misfit += rise[1] * steps**2
     return Expected(mean, math.sqrt(misfit), last.noise)

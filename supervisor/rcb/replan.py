@@ -7,7 +7,8 @@ Changes, each keyed by a dotted name and checked like the plan file:
 - ``models``: ``{"TOOL.QUANTITY": {"K"?, "dK"?}}`` sets K and/or ΔK of that model in every
   operation using the tool (exponents stay; the band is the engineer's, not RCB's);
 - ``reset_bands``: every operation's models go back to the tool's baseline (K and ΔK) and RCB
-  forgets what it has seen and the rise per part of a worn edge, the ``learn`` strategy its
+  forgets what it has seen, the rise per part of a worn edge and what it watched in the
+  readings (:mod:`supervisor.rcb.monitor`), the ``learn`` strategy its
   posterior too (Ivester & Heigel: the uncertainty is earned again, part by part).
 
 The result is a new state (plan, models in force, setpoints); :mod:`api.services.plans` stores it
@@ -89,6 +90,7 @@ def replan(
     seen = dict(state.seen)
     posterior = dict(state.posterior)
     wear = dict(state.wear)
+    monitors = dict(state.monitors)
     if reset:
         sigma = {
             (op, q): prior_sigma(m, state.settings)
@@ -98,6 +100,7 @@ def replan(
         seen = {}
         posterior = {}
         wear = {}
+        monitors = {}
     # learn: what the posterior learned carries over (its cones), unless the bands are reset
     cones = learned_cones(replace(state, plan=plan, posterior=posterior))
     result = optimize_plan(plan, tools, cones=cones)
@@ -111,6 +114,7 @@ def replan(
         seen=seen,
         posterior=posterior,
         wear=wear,
+        monitors=monitors,
         halt=None,  # an engineer's replan resumes a halted plan
     )
     return Replanned(new_state, new_body, reset)

@@ -45,7 +45,9 @@ def changed(decision: Decision, watched: Watched) -> Decision:
         why = "regime change: the reading confirms the low one before it; both learned"
     else:
         why = f"regime change: {watched.sigma:.3g}σ over what was expected; old evidence discounted"
-    return replace(decision, note="regime_change", reason=f"{why}; {decision.reason}")
+    # a part out of tolerance keeps its note (the quality department's); the reason says both
+    note = decision.note if decision.note == "past_limit" else "regime_change"
+    return replace(decision, note=note, reason=f"{why}; {decision.reason}")
 
 
 def gross_breach(
@@ -69,7 +71,7 @@ def gross_breach(
         return None
     message = (
         f"{operation.name} {quantity} measured {y:.6g} is past its limit {limit:.6g} by "
-        f"{100 * past:.3g} % (more than halt_over {100 * halt_over:.3g} %): an engineer must "
+        f"{100 * past:.1f} % (more than halt_over {100 * halt_over:.3g} %): an engineer must "
         "check the process and replan"
     )
     return HaltedOperation(operation.name, (), (), message)

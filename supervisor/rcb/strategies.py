@@ -82,7 +82,9 @@ class Strategy:
             math.log(catalogue.value), (catalogue.band / catalogue.value) / settings.coverage_k
         )
         exponents = state.tools[operation.name].models[quantity].exponents
-        return low, watcher.chain(monitor, point, exponents, settings.exponent_sd)
+        worn = state.wear.get((operation.name, quantity))
+        rise = None if worn is None else (worn.mean, worn.var)
+        return low, watcher.chain(monitor, point, exponents, settings.exponent_sd, age, rise)
 
     def forget(self, sigma: float, variance: float) -> float:
         """σ of ``ln K`` after a change that discounts ``variance`` of evidence (here as is)."""

@@ -173,7 +173,7 @@ def update(
         if over is not None:
             gross.append(over)
     if gross and state.halt is None:
-        return replace(new, halt=Halt(tuple(gross))), tuple(decisions)
+        return replace(new, halt=_gross_halt(state, new, gross)), tuple(decisions)
     unchanged = new.tools == state.tools and new.posterior == state.posterior
     if unchanged or state.halt is not None:
         return new, tuple(decisions)
@@ -213,6 +213,8 @@ def _reading(
     new.monitors[key] = watched.monitor
     if not watched.learns:  # quarantined: a decision to show, nothing learned
         law, *_ = apply_law(state, op, made, quantity, measurement)
+        assert isinstance(new.seen, dict)
+        new.seen[key] = state.seen.get(key, 0.0)  # a maximum's: 0 covers nothing
         return quarantined(law, watched.sigma), None
     scaled = Measurement(measurement.value, measurement.uncertainty * monitor.scale)
     # the maps of ``new`` are this report's copies (update); each reading has its own key
@@ -240,7 +242,7 @@ def _reading(
         tools[op.name] = _with_model(tools[op.name], model)
     if belief is not None:
         posterior[key] = belief
-    new.monitors[key] = learned(watched.monitor, measurement, point)
+    new.monitors[key] = learned(watched.monitor, measurement, point, age)
     return decision, gross_breach(op, quantity, scaled, settings.halt_over)
 
 
@@ -281,6 +283,24 @@ def _halt_of(
         except InfeasibleError as err:
             halted.append(HaltedOperation(op.name, err.conflicts, err.against, str(err)))
     return Halt(tuple(halted))
+
+
+def _gross_halt(state: RcbState, new: RcbState, gross: list[HaltedOperation]) -> Halt:
+    """The halt of readings past their limits by more than ``halt_over``.
+
+    Each such operation names its reading, and the limits its grown bands cannot meet where
+    they cannot; the other operations with no safe setpoint follow.
+    """
+    infeasible = {o.operation: o for o in _halt_of(state, new.tools, new.posterior).operations}
+    halted = []
+    for over in gross:
+        also = infeasible.pop(over.operation, None)
+        if also is None:
+            halted.append(over)
+            continue
+        message = f"{over.message}; {also.message}"
+        halted.append(replace(also, message=message))
+    return Halt((*halted, *infeasible.values()))
 
 
 def _setpoints_of(state: RcbState, report: PartReport, made_with: PlanResult | None) -> PlanResult:
