@@ -126,11 +126,11 @@ class FaultLog:
             return Tally(spec, "readings with scaled noise", kept, readings, "sum")
         if fault.kind == "step":
             made = float(self.after_step[int(fault.arguments[0])])
-            return Tally(spec, "parts made after the step", made, self.parts, "sum")
+            return Tally(spec, "parts made with the step in force", made, self.parts, "sum")
         if fault.kind == "curvature":
-            what = "max |ln bend| at the setpoints made (of: over the box)"
+            what = "max |ln bend| at the parts made / over the box"
             return Tally(spec, what, self.max_bend, fault.arguments[0], "max")
-        what = "max rise of force, roughness, current reached (of: at edge end of life)"
+        what = "max rise reached / at end of edge life"
         return Tally(spec, what, self.max_rise, fault.arguments[0], "max")
 
     def tallies(self) -> tuple[Tally, ...]:
