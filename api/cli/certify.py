@@ -2,7 +2,9 @@
 
 Thin over :mod:`supervisor.virtual.certify`: seeded true processes inside the plan's bands, RCB part
 by part, the true-limit violations counted, a one-sided 95 % Clopper-Pearson bound on the
-per-part violation probability, and MRR/oracle after 1, 5, 10 and ``--parts`` parts.
+per-part violation probability, and MRR/oracle after 1, 5, 10 and ``--parts`` parts; with
+``--fault`` on a misbehaving shop floor (:mod:`supervisor.virtual.fault_spec`), violations
+split into unavoidable and avoidable ones and a row per fault.
 
 Exit codes: 0 it ran and no part crossed a true limit; 1 it ran and some part did (the output
 is printed in full first), so a CI job fails on a regression of the safety promise; 2 bad

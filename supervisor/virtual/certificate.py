@@ -17,6 +17,11 @@ with ``1 − α = 0.95`` and ``B⁻¹`` the quantile of the beta distribution. I
 independent trials; the parts of one scenario share a true process, so read it as the bound
 for a shop whose machines are drawn as the scenarios are.
 
+A violation at a scenario's first part, or at the first part made with a step fault in force,
+is *unavoidable* (no controller could know the truth before it); the summary bounds the
+*avoidable* ones the same way, ``x`` the violating parts and ``n`` the parts made at the other
+positions (:mod:`supervisor.virtual.faults`).
+
 References
 ----------
 .. [1] Clopper & Pearson (1934), "The use of confidence or fiducial limits illustrated in the
