@@ -47,11 +47,18 @@ solves and every part; "parts" counts the parts actually made.
 ``--gp-scenarios`` seeds (default 50: it is slow), in its own worker pool. The digest covers
 the RCB strategies only; the GP column has its own.
 
+``--fault KIND[:ARGS]`` (repeatable) runs the scenarios on a misbehaving shop floor
+(:mod:`supervisor.virtual.fault_spec`: dropout, noise-scale, step, curvature, wear; wear alone is
+``--wear-drift``): the header lists the faults, MRR/oracle is against the oracle of the current
+(stepped, curved) truth, and the violations of each strategy are split into unavoidable (a
+scenario's first part, the first part after a step) and avoidable ones.
+
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/closed_loop.py [--scenarios 200] [--parts 30]
         [--strategy learn|ivester|bayes|all] [--plan examples/ivester_demo_part.toml]
-        [--jobs N] [--seed-offset 0] [--wear-drift 0] [--baseline gp [--gp-scenarios 50]]
+        [--jobs N] [--seed-offset 0] [--wear-drift 0] [--fault KIND[:ARGS] ...]
+        [--baseline gp [--gp-scenarios 50]]
         [--markdown]
 
 How long it takes: every part costs one plan re-optimisation (about 3 ms of one core in all),
@@ -78,11 +85,13 @@ from typing import Any
 import numpy as np
 
 from models import kinematics
+from models.errors import InputError
 from supervisor.inputs.plan import Plan, load_plan
 from supervisor.rcb.strategies import DEFAULT_STRATEGY, STRATEGY_NAMES
 from supervisor.virtual.certificate import Certificate, digest
 from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, available_cpus
 from supervisor.virtual.certify import simulate as simulate_certificates
+from supervisor.virtual.fault_spec import catalogue_help, parse_faults
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -293,6 +302,11 @@ def violation_lines(summary: Certificate) -> list[str]:
         f"scenarios; stopped (no safe setpoint) {len(stopped)}"
     )
     lines = [line]
+    if summary.faults:
+        lines.append(
+            f"    {summary.unavoidable_violations} unavoidable (part 1, the first part after a "
+            f"step), {summary.avoidable_violations} avoidable"
+        )
     if stopped:
         ops = Counter(s.stopped_op for s in stopped)
         at = sorted(s.stopped_at for s in stopped)
@@ -333,7 +347,15 @@ def main(argv: list[str] | None = None) -> int:
         "--wear-drift",
         type=float,
         default=0.0,
-        help="rise of force, roughness and current over an edge's life (0: none)",
+        help="rise of force, roughness and current over an edge's life (0: none); "
+        "the same as --fault wear:D",
+    )
+    parser.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="KIND[:ARGS]",
+        help="a fault of the shop floor, repeatable: " + catalogue_help().replace("%", "%%"),
     )
     parser.add_argument(
         "--baseline", choices=["gp"], help="add a baseline column (benchmarks/gp_baseline.py)"
@@ -356,6 +378,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--seed-offset must be >= 0")
     if not (np.isfinite(args.wear_drift) and args.wear_drift >= 0):
         parser.error("--wear-drift must be a number >= 0")
+    try:
+        faults = parse_faults(args.fault, wear_drift=args.wear_drift, wear_flag="--wear-drift")
+    except InputError as err:
+        parser.error(str(err))
+    if args.baseline == "gp" and faults.beyond_wear:
+        parser.error("--baseline gp: the GP baseline takes wear drift, no other --fault")
     gp_run: Callable[..., Any] | None = None
     if args.baseline == "gp":
         found = gp_baseline()
@@ -375,7 +403,7 @@ def main(argv: list[str] | None = None) -> int:
         scenarios=args.scenarios,
         parts=parts,
         seed=args.seed_offset,
-        wear_drift_per_edge_life=args.wear_drift,
+        faults=faults,
         jobs=jobs,
     )
     wall = perf() - t0
@@ -385,7 +413,7 @@ def main(argv: list[str] | None = None) -> int:
     if gp_run is not None:
         gp_seeds = range(args.seed_offset, args.seed_offset + args.gp_scenarios)
         gp_jobs = min(args.jobs, args.gp_scenarios)
-        gp = run_gp(gp_run, plan, gp_seeds, parts, args.wear_drift, gp_jobs)
+        gp = run_gp(gp_run, plan, gp_seeds, parts, faults.wear, gp_jobs)
     columns = [rcb_column(s) for s in summaries] + ([gp.column()] if gp is not None else [])
 
     rows = [k for k in ROWS if k <= parts]
@@ -396,8 +424,10 @@ def main(argv: list[str] | None = None) -> int:
     out.append(
         f"Closed-loop RCB vs oracle: {plan.name!r} ({len(plan.operations)} operations), "
         f"{args.scenarios} scenarios (seeds {seeds[0]}..{seeds[-1]}) x {parts} parts"
-        + (f", wear drift {args.wear_drift:g} per edge life" if args.wear_drift else "")
+        + (f", wear drift {faults.wear:g} per edge life" if faults.wear else "")
     )
+    if faults.beyond_wear:
+        out.append("Faults: " + " ".join(faults.specs))
     out.append("MRR/oracle: oracle cycle / cycle of the setpoints in force after k parts (k=0:")
     out.append("robust start); p5: 5th percentile over scenarios; viol: true-limit violations of")
     out.append("parts 1..k, summed over scenarios.")

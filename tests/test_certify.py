@@ -42,6 +42,12 @@ JSON_KEYS = {
     "violations",
     "stopped",
     "violation_probability_upper_95",
+    "unavoidable_violations",
+    "avoidable_violations",
+    "avoidable_violating_parts",
+    "avoidable_parts_made",
+    "avoidable_probability_upper_95",
+    "faults",
     "mrr_over_oracle",
 }
 
@@ -230,6 +236,10 @@ def test_cli_json():
     )
     assert data["violations"] == 0 and data["stopped"] == 0
     assert_allclose(data["violation_probability_upper_95"], 1 - 0.05 ** (1 / 12), rtol=1e-12)
+    # part 1 of each scenario is unavoidable: 4 scenarios x parts 2..3 are avoidable
+    assert (data["unavoidable_violations"], data["avoidable_violations"]) == (0, 0)
+    assert data["avoidable_parts_made"] == 8 and data["faults"] == []
+    assert_allclose(data["avoidable_probability_upper_95"], 1 - 0.05 ** (1 / 8), rtol=1e-12)
     assert list(data["mrr_over_oracle"]) == ["1", "3"]
     for row in data["mrr_over_oracle"].values():
         assert set(row) == {"mean", "p5"}

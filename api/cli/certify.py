@@ -2,7 +2,9 @@
 
 Thin over :mod:`supervisor.virtual.certify`: seeded true processes inside the plan's bands, RCB part
 by part, the true-limit violations counted, a one-sided 95 % Clopper-Pearson bound on the
-per-part violation probability, and MRR/oracle after 1, 5, 10 and ``--parts`` parts.
+per-part violation probability, and MRR/oracle after 1, 5, 10 and ``--parts`` parts; with
+``--fault`` on a misbehaving shop floor (:mod:`supervisor.virtual.fault_spec`), violations
+split into unavoidable and avoidable ones and a row per fault.
 
 Exit codes: 0 it ran and no part crossed a true limit; 1 it ran and some part did (the output
 is printed in full first), so a CI job fails on a regression of the safety promise; 2 bad
@@ -22,6 +24,7 @@ from api.cli.common import STRATEGY_HELP, JsonOption, emit, err_console, errors
 from api.cli.tables import new_table
 from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY, STRATEGY_NAMES
+from supervisor.virtual.fault_spec import catalogue_help, parse_faults
 from supervisor.virtual.sizes import MAX_PARTS, MAX_SCENARIOS
 
 if TYPE_CHECKING:
@@ -54,9 +57,18 @@ def certify(
         typer.Option(
             "--wear-drift",
             help="Rise of force, roughness and spindle current over an edge's life "
-            "(0.2: +20 %); edges change after parts_per_edge parts.",
+            "(0.2: +20 %); edges change after parts_per_edge parts. The same as "
+            "--fault wear:D.",
         ),
     ] = 0.0,
+    fault: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--fault",
+            metavar="KIND[:ARGS]",
+            help="A fault of the shop floor, repeatable: " + catalogue_help() + ".",
+        ),
+    ] = None,
     jobs: Annotated[
         int | None,
         typer.Option(
@@ -73,6 +85,9 @@ def certify(
     Per row k = 1, 5, 10, --parts: the true-limit violations of parts 1..k,
     the parts made, a one-sided 95 % Clopper-Pearson upper bound on the
     probability that a part crosses a true limit, and MRR/oracle (mean, p5).
+    Violations are split into unavoidable (a scenario's first part, the first
+    part after a step fault) and avoidable ones, with a bound on the latter;
+    with --fault, a row per fault says what it did.
 
     Exit code 0 when no part crossed a true limit, 1 when some did (after
     printing everything, JSON included), so a CI job fails on it; 2 bad input,
@@ -91,6 +106,7 @@ def certify(
             known = ", ".join(STRATEGY_NAMES)
             raise InputError("--strategy", strategy, f"expected one of: {known}")
         drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
+        faults = parse_faults(fault or [], wear_drift=drift, wear_flag="--wear-drift")
         plan = load_plan(plan_file)
         workers = jobs if jobs is not None else available_cpus()
         with Progress(
@@ -110,7 +126,7 @@ def certify(
                 scenarios=scenarios,
                 parts=parts,
                 seed=seed,
-                wear_drift_per_edge_life=drift,
+                faults=faults,
                 jobs=workers,
                 progress=lambda done: progress.update(task, completed=done),
             )
@@ -122,6 +138,9 @@ def certify(
         _out.print(title, markup=False, highlight=False)
         _out.print(table)
         _out.print(notes, markup=False, highlight=False)
+        _out.print(avoidable_line(summary), markup=False, highlight=False)
+        if summary.fault_rows:
+            _out.print(fault_table(summary))
     if summary.violations:
         raise typer.Exit(VIOLATIONS_FOUND)
 
@@ -137,6 +156,15 @@ def summary_json(summary: CertificateSummary) -> dict[str, Any]:
         "violations": summary.violations,
         "stopped": summary.stopped,
         "violation_probability_upper_95": summary.violation_probability_upper_95,
+        "unavoidable_violations": summary.unavoidable_violations,
+        "avoidable_violations": summary.avoidable_violations,
+        "avoidable_violating_parts": summary.avoidable_violating_parts,
+        "avoidable_parts_made": summary.avoidable_parts_made,
+        "avoidable_probability_upper_95": summary.avoidable_probability_upper_95,
+        "faults": [
+            {"fault": t.fault, "what": t.what, "value": t.value, "of": t.of}
+            for t in summary.fault_rows
+        ],
         "mrr_over_oracle": {
             str(r.after_parts): {"mean": r.mrr_over_oracle_mean, "p5": r.mrr_over_oracle_p5}
             for r in summary.rows
@@ -154,8 +182,8 @@ def summary_lines(summary: CertificateSummary) -> tuple[str, Table, str]:
         f"{summary.plan}: {summary.strategy}, {summary.scenarios} scenarios "
         f"(seeds {summary.seed}..{last}) x {summary.parts} parts"
     )
-    if summary.wear_drift_per_edge_life:
-        title += f", wear drift {summary.wear_drift_per_edge_life:g}"
+    if summary.faults:
+        title += ", faults " + " ".join(summary.faults)
     table = new_table()
     headings = (
         "after k\nparts",
@@ -183,3 +211,24 @@ def summary_lines(summary: CertificateSummary) -> tuple[str, Table, str]:
         "parts; p5: 5th percentile over scenarios."
     )
     return title, table, notes
+
+
+def avoidable_line(summary: CertificateSummary) -> str:
+    """Unavoidable and avoidable violations, and the bound on avoidable violating parts."""
+    return (
+        f"Violations: {summary.unavoidable_violations} unavoidable (a scenario's first part, "
+        f"the first part after a step), {summary.avoidable_violations} avoidable; "
+        f"{summary.avoidable_violating_parts} of {summary.avoidable_parts_made} parts at "
+        f"avoidable positions crossed a true limit, P <= "
+        f"{summary.avoidable_probability_upper_95:.3g} (95 %)."
+    )
+
+
+def fault_table(summary: CertificateSummary) -> Table:
+    """One row per fault: its spec, what it did, and out of how many (or of what maximum)."""
+    table = new_table("fault", "what it did")
+    table.add_column("value", justify="right")
+    for t in summary.fault_rows:
+        value = f"{t.value:g} of {t.of:g}" if t.combine == "sum" else f"{t.value:.3g}/{t.of:g}"
+        table.add_row(t.fault, t.what, value)
+    return table

@@ -17,6 +17,11 @@ with ``1 − α = 0.95`` and ``B⁻¹`` the quantile of the beta distribution. I
 independent trials; the parts of one scenario share a true process, so read it as the bound
 for a shop whose machines are drawn as the scenarios are.
 
+A violation at a scenario's first part, or at the first part made with a step fault in force,
+is *unavoidable* (no controller could know the truth before it); the summary bounds the
+*avoidable* ones the same way, ``x`` the violating parts and ``n`` the parts made at the other
+positions (:mod:`supervisor.virtual.faults`).
+
 References
 ----------
 .. [1] Clopper & Pearson (1934), "The use of confidence or fiducial limits illustrated in the
@@ -35,6 +40,8 @@ import numpy.typing as npt
 from scipy.stats import beta
 
 from models.errors import InputError
+from supervisor.virtual.fault_log import Tally, combine
+from supervisor.virtual.fault_spec import Faults
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -76,6 +83,15 @@ class ScenarioTrace:
         The operation that had no safe setpoint ("" if none).
     parts_made : int
         Parts made (``stopped_at`` if stopped, else ``parts``).
+    unavoidable_at : tuple[int, ...]
+        The parts whose violations are unavoidable: part 1 (no controller knows the truth
+        before it) and the first part of each step (:func:`supervisor.virtual.faults.
+        unavoidable_parts`); every other violation is avoidable.
+    tallies : tuple[Tally, ...]
+        What each fault did (:class:`supervisor.virtual.fault_log.Tally`); empty without one.
+    oracle_changes : tuple[tuple[int, float], ...]
+        ``(row, oracle cycle time [min])`` from each row on whose truth has another oracle
+        than row 0's (a step in force from part ``row + 1``); ``plan_ratio`` uses it.
     """
 
     seed: int
@@ -88,11 +104,39 @@ class ScenarioTrace:
     stopped_at: int
     stopped_op: str
     parts_made: int
+    unavoidable_at: tuple[int, ...] = (1,)
+    tallies: tuple[Tally, ...] = ()
+    oracle_changes: tuple[tuple[int, float], ...] = ()
 
     @property
     def stopped(self) -> bool:
         """Whether the scenario stopped for want of a safe setpoint."""
         return self.stopped_at > 0
+
+    def _at_unavoidable(self) -> list[int]:
+        """Indices into ``violations`` of the unavoidable parts made."""
+        return [p - 1 for p in self.unavoidable_at if p <= self.parts_made]
+
+    @property
+    def unavoidable_violations(self) -> int:
+        """Violations at an unavoidable part (the first, or the first after a step)."""
+        return int(sum(int(self.violations[i]) for i in self._at_unavoidable()))
+
+    @property
+    def avoidable_violations(self) -> int:
+        """Violations at every other part."""
+        return int(self.violations.sum()) - self.unavoidable_violations
+
+    @property
+    def avoidable_violating_parts(self) -> int:
+        """Parts not at an unavoidable position that crossed a true limit."""
+        bad = int(np.count_nonzero(self.violations))
+        return bad - sum(1 for i in self._at_unavoidable() if self.violations[i])
+
+    @property
+    def avoidable_parts_made(self) -> int:
+        """Parts made not at an unavoidable position."""
+        return self.parts_made - len(self._at_unavoidable())
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,6 +159,9 @@ class Certificate:
         One per seed ``seed .. seed + N − 1``, in that order.
     seconds : float
         Wall time of the scenarios (without starting worker processes) [s].
+    faults : Faults
+        The faults of the shop floor (:mod:`supervisor.virtual.fault_spec`; wear drift is
+        its ``wear`` fault); ``Faults()`` for none.
     """
 
     plan: str
@@ -124,6 +171,7 @@ class Certificate:
     wear_drift_per_edge_life: float
     scenarios: tuple[ScenarioTrace, ...]
     seconds: float
+    faults: Faults = Faults()
 
     @property
     def plan_ratio(self) -> FloatArray:
@@ -150,6 +198,16 @@ class Certificate:
     def violating_parts(self) -> int:
         """Parts that crossed at least one true limit."""
         return int(sum(int(np.count_nonzero(s.violations)) for s in self.scenarios))
+
+    @property
+    def unavoidable_violations(self) -> int:
+        """Violations at unavoidable parts (:attr:`ScenarioTrace.unavoidable_at`)."""
+        return sum(s.unavoidable_violations for s in self.scenarios)
+
+    @property
+    def avoidable_violations(self) -> int:
+        """Violations at every other part."""
+        return sum(s.avoidable_violations for s in self.scenarios)
 
     @property
     def parts_made(self) -> int:
@@ -216,6 +274,18 @@ class CertificateSummary:
     rows : tuple[SummaryRow, ...]
         After ``k`` parts for ``k`` in :func:`summary_rows`; the last (``k = parts``) covers
         every part, and the totals below are its.
+    faults : tuple[str, ...]
+        The faults, ``KIND:ARGS``, in order (empty for none).
+    unavoidable_violations, avoidable_violations : int
+        Violations at unavoidable parts (the first of a scenario, the first after a step)
+        and at every other part; they add up to ``violations``.
+    avoidable_violating_parts, avoidable_parts_made : int
+        Parts not at an unavoidable position that crossed a true limit, and that were made.
+    avoidable_probability_upper_95 : float
+        One-sided 95 % Clopper-Pearson upper bound on the probability that such a part
+        crosses a true limit [-].
+    fault_rows : tuple[Tally, ...]
+        What each fault did over every scenario (counts summed, maxima the largest).
     """
 
     plan: str
@@ -226,6 +296,13 @@ class CertificateSummary:
     wear_drift_per_edge_life: float
     stopped: int
     rows: tuple[SummaryRow, ...]
+    faults: tuple[str, ...]
+    unavoidable_violations: int
+    avoidable_violations: int
+    avoidable_violating_parts: int
+    avoidable_parts_made: int
+    avoidable_probability_upper_95: float
+    fault_rows: tuple[Tally, ...]
 
     @property
     def total(self) -> SummaryRow:
@@ -319,15 +396,25 @@ def summarize(certificate: Certificate) -> CertificateSummary:
                 mrr_over_oracle_p5=float(np.percentile(ratio[:, k], PERCENTILE)),
             )
         )
+    scenarios = certificate.scenarios
+    bad = sum(s.avoidable_violating_parts for s in scenarios)
+    n = sum(s.avoidable_parts_made for s in scenarios)
     return CertificateSummary(
         plan=certificate.plan,
         strategy=certificate.strategy,
-        scenarios=len(certificate.scenarios),
+        scenarios=len(scenarios),
         parts=certificate.parts,
         seed=certificate.seed,
         wear_drift_per_edge_life=certificate.wear_drift_per_edge_life,
         stopped=certificate.stopped,
         rows=tuple(rows),
+        faults=certificate.faults.specs,
+        unavoidable_violations=certificate.unavoidable_violations,
+        avoidable_violations=certificate.avoidable_violations,
+        avoidable_violating_parts=bad,
+        avoidable_parts_made=n,
+        avoidable_probability_upper_95=clopper_pearson_upper(bad, n, CONFIDENCE),
+        fault_rows=combine(t for s in scenarios for t in s.tallies),
     )
 
 
@@ -336,13 +423,21 @@ def digest(certificates: Sequence[Certificate]) -> str:
 
     The same scenarios give the same digest whatever ``jobs`` ran them; it covers the arrays
     of every :class:`ScenarioTrace`, the oracle's cycle time, where violations happened and
-    where the scenario stopped.
+    where the scenario stopped. With a fault other than wear (wear alone is the older
+    ``wear_drift_per_edge_life``, whose digests stay as they were) it covers the faults, the
+    unavoidable parts, the tallies and the oracle changes too; a fault-free digest is the one
+    from before the fault catalogue.
     """
     h = hashlib.sha256()
     for certificate in certificates:
         h.update(certificate.strategy.encode())
+        faulted = certificate.faults.beyond_wear
+        if faulted:
+            h.update(repr(certificate.faults.specs).encode())
         for s in certificate.scenarios:
             for array in (s.plan_ratio, s.op_ratio, s.cycle_min, s.violations):
                 h.update(np.ascontiguousarray(array).tobytes())
             h.update(repr((s.oracle_cycle_min, s.where, s.stopped_at, s.stopped_op)).encode())
+            if faulted:
+                h.update(repr((s.unavoidable_at, s.tallies, s.oracle_changes)).encode())
     return h.hexdigest()[:12]

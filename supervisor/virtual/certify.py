@@ -36,6 +36,13 @@ parts, the count its tool-life limit promises, and never within the run for an o
 without that limit; drift applies only where the tool has a tool-life model
 (:func:`supervisor.virtual.simulate.run_part`).
 
+With faults (:mod:`supervisor.virtual.fault_spec`, applied by
+:mod:`supervisor.virtual.faults`) the machine misbehaves as the catalogue says; the oracle of
+row ``k`` is the one of the truth part ``k + 1`` is made with (after a step, the stepped
+truth's; with curvature, the curved truth's: :mod:`supervisor.virtual.fault_oracle`), and
+violations are judged on the faulted truth. A violation at part 1 or at the first part made
+with a step in force is *unavoidable* (no controller knew), every other one *avoidable*.
+
 References
 ----------
 .. [1] Clopper & Pearson (1934), "The use of confidence or fiducial limits illustrated in the
@@ -61,14 +68,17 @@ from models.quantities import PARTS_PER_EDGE
 from supervisor.errors import SupervisorError
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import Plan
-from supervisor.optimize.optimizer import optimize_plan
 from supervisor.optimize.result import PlanResult
 from supervisor.rcb.state import Halt, RcbSettings, RcbState
 from supervisor.rcb.strategies import STRATEGY_NAMES
 from supervisor.rcb.update import start, update
 from supervisor.virtual import sizes
 from supervisor.virtual.certificate import Certificate, FloatArray, ScenarioTrace
-from supervisor.virtual.sampling import oracle_tools, sample_machine
+from supervisor.virtual.fault_log import FaultLog
+from supervisor.virtual.fault_oracle import truth_oracle
+from supervisor.virtual.fault_spec import Faults, with_wear
+from supervisor.virtual.faults import PartFaults, step_factor, unavoidable_parts
+from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
 #: The most scenarios and parts per scenario a certificate runs.
@@ -105,7 +115,12 @@ def _halted_operation(halt: Halt) -> str:
 
 
 def run_scenario(
-    initial: RcbState, seed: int, parts: int, *, wear_drift_per_edge_life: float = 0.0
+    initial: RcbState,
+    seed: int,
+    parts: int,
+    *,
+    wear_drift_per_edge_life: float = 0.0,
+    faults: Faults | None = None,
 ) -> ScenarioTrace:
     """Make ``parts`` parts with RCB from ``initial`` on the virtual machine of ``seed``.
 
@@ -114,22 +129,40 @@ def run_scenario(
     initial : RcbState
         The robust start, ``start(plan, RcbSettings(strategy=...))``; its plan is the plan.
     seed : int
-        Seed of the true process and of the measurement noise (``>= 0``).
+        Seed of the true process and of the measurement noise (``>= 0``); every fault's
+        stream is derived from it (:func:`supervisor.virtual.faults.fault_rng`).
     parts : int
         Parts to make, ``K >= 1``.
     wear_drift_per_edge_life : float
         Relative rise of force, roughness and spindle current over an edge's life [-]
-        (module docstring for the edge changes).
+        (module docstring for the edge changes); the alias of the fault ``wear:D``.
+    faults : Faults, optional
+        The faults of the shop floor (:mod:`supervisor.virtual.fault_spec`); none by default,
+        and then every result is as before the fault catalogue.
 
     Returns
     -------
     ScenarioTrace
-        MRR/oracle and cycle time after ``k = 0..parts`` parts, violations per part and where
-        the scenario stopped.
+        MRR/oracle and cycle time after ``k = 0..parts`` parts (row ``k`` against the oracle
+        of the truth part ``k + 1`` is made with), violations per part, the unavoidable
+        parts, what each fault did and where the scenario stopped.
     """
     plan = initial.plan
-    machine = sample_machine(plan, seed=seed, wear_drift_per_edge_life=wear_drift_per_edge_life)
-    oracle = optimize_plan(plan, tools=oracle_tools(machine))
+    faults = with_wear(faults or Faults(), wear_drift_per_edge_life)
+    machine = sample_machine(plan, seed=seed, wear_drift_per_edge_life=faults.wear)
+    log = FaultLog(faults, machine, seed) if faults else None
+    oracles: dict[float, PlanResult] = {}
+
+    def oracle_of(part: int) -> PlanResult:
+        """The oracle of the truth part ``part`` is made with (steps change it)."""
+        factor = step_factor(faults, part)
+        if factor not in oracles:
+            truth = PartFaults(factor, bends=log.bends) if log and faults.beyond_wear else None
+            oracles[factor] = truth_oracle(machine, truth)
+        return oracles[factor]
+
+    oracle = oracle_of(1)
+    changes: list[tuple[int, float]] = []
     # the edges of operations with a parts_per_edge limit are changed after that many parts,
     # and the MES reports each one's age (edge_parts), as a control's tool-life counter does
     edge_life = _edge_life_parts(plan)
@@ -144,10 +177,14 @@ def run_scenario(
     where: list[tuple[int, str, str]] = []
     stopped_at, stopped_op, made = 0, "", 0
     for k in range(1, parts + 1):
+        oracle = _oracle_row(oracle_of(k), oracle, k - 1, changes)
         plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(state.setpoints, oracle)
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
         edge_parts = {name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()}
-        outcome = run_part(machine, setpoints, rng, edge_parts)
+        part_faults = log.for_part(k) if log else None
+        outcome = run_part(machine, setpoints, rng, edge_parts, faults=part_faults)
+        if log:
+            log.record(k, setpoints, outcome, edge_parts)
         made = k
         violations[k - 1] = len(outcome.violations)
         where += [(k, v.operation, v.quantity) for v in outcome.violations]
@@ -158,10 +195,11 @@ def run_scenario(
             stopped_at, stopped_op = k, _halted_operation(state.halt)
             break
     if not stopped_at:
+        oracle = _oracle_row(oracle_of(parts + 1), oracle, parts, changes)
         plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(state.setpoints, oracle)
     return ScenarioTrace(
         seed=seed,
-        oracle_cycle_min=oracle.cycle_time_min,
+        oracle_cycle_min=oracle_of(1).cycle_time_min,
         plan_ratio=plan_ratio,
         op_ratio=op_ratio,
         cycle_min=cycle,
@@ -170,31 +208,43 @@ def run_scenario(
         stopped_at=stopped_at,
         stopped_op=stopped_op,
         parts_made=made,
+        unavoidable_at=unavoidable_parts(faults, parts),
+        tallies=log.tallies() if log else (),
+        oracle_changes=tuple(changes),
     )
+
+
+def _oracle_row(
+    oracle: PlanResult, before: PlanResult, row: int, changes: list[tuple[int, float]]
+) -> PlanResult:
+    """``oracle``, the one of row ``row``; noted in ``changes`` when it is not ``before``."""
+    if oracle is not before:
+        changes.append((row, oracle.cycle_time_min))
+    return oracle
 
 
 # --------------------------------------------------------------------------- many scenarios
 
 #: At most this many scenarios per task: the progress moves, and Ctrl-C waits for little.
 _MAX_CHUNK = 8
-#: Per worker process: the robust start of each strategy and the wear drift (_init_worker).
+#: Per worker process: the robust start of each strategy and the faults (_init_worker).
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(starts: Mapping[str, RcbState], wear_drift_per_edge_life: float) -> None:
+def _init_worker(starts: Mapping[str, RcbState], faults: Faults) -> None:
     # Ctrl-C is the parent's to handle: it cancels what is queued, the workers finish theirs
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER["starts"] = dict(starts)
-    _WORKER["drift"] = wear_drift_per_edge_life
+    _WORKER["faults"] = faults
 
 
 def _worker_scenario(task: tuple[str, int, int]) -> ScenarioTrace | None:
     """One scenario in a worker; None where it raised a domain error (see :func:`simulate`)."""
     strategy, seed, parts = task
     initial: RcbState = _WORKER["starts"][strategy]
-    drift: float = _WORKER["drift"]
+    faults: Faults = _WORKER["faults"]
     try:
-        return run_scenario(initial, seed, parts, wear_drift_per_edge_life=drift)
+        return run_scenario(initial, seed, parts, faults=faults)
     except (InputError, SupervisorError):
         # these carry structured arguments and do not survive pickling back to the parent;
         # the parent runs the (deterministic) scenario again and raises the error itself
@@ -242,6 +292,7 @@ def simulate(
     parts: int,
     seed: int = 0,
     wear_drift_per_edge_life: float = 0.0,
+    faults: Faults | None = None,
     jobs: int = 1,
     progress: Progress | None = None,
 ) -> tuple[Certificate, ...]:
@@ -260,7 +311,11 @@ def simulate(
     seed : int
         The first seed (``>= 0``).
     wear_drift_per_edge_life : float
-        Relative rise of force, roughness and spindle current over an edge's life [-].
+        Relative rise of force, roughness and spindle current over an edge's life [-]; the
+        alias of the fault ``wear:D`` (an error beside another ``wear`` value).
+    faults : Faults, optional
+        The faults of the shop floor, e.g. ``parse_faults(["dropout:0.1", "step"])``
+        (:mod:`supervisor.virtual.fault_spec`); none by default.
     jobs : int
         Worker processes; 1 runs every scenario in this process. More than ``scenarios`` are
         not started.
@@ -280,26 +335,26 @@ def simulate(
         The plan has no robust start.
     """
     _check(strategies, seed, scenarios, parts, wear_drift_per_edge_life, jobs)
+    shop = with_wear(faults or Faults(), wear_drift_per_edge_life)
     # checked above and by RcbSettings; Any: the strategy's type is the registry's business
     starts = {s: start(plan, RcbSettings(strategy=cast(Any, s))) for s in strategies}
     seeds = range(seed, seed + scenarios)
     jobs = min(jobs, scenarios)
-    drift = wear_drift_per_edge_life
 
     def traces(strategy: str, pool: Executor | None) -> Iterator[ScenarioTrace]:
         if pool is None:
             for s in seeds:
-                yield run_scenario(starts[strategy], s, parts, wear_drift_per_edge_life=drift)
+                yield run_scenario(starts[strategy], s, parts, faults=shop)
             return
         tasks = [(strategy, s, parts) for s in seeds]
         done = pool.map(_worker_scenario, tasks, chunksize=_chunk(scenarios, jobs))
         for s, trace in zip(seeds, done, strict=True):
             if trace is None:
-                trace = run_scenario(starts[strategy], s, parts, wear_drift_per_edge_life=drift)
+                trace = run_scenario(starts[strategy], s, parts, faults=shop)
             yield trace
 
     pool = (
-        ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(starts, drift))
+        ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(starts, shop))
         if jobs > 1
         else None
     )
@@ -320,9 +375,10 @@ def simulate(
                     strategy=strategy,
                     seed=seed,
                     parts=parts,
-                    wear_drift_per_edge_life=drift,
+                    wear_drift_per_edge_life=shop.wear,
                     scenarios=tuple(made),
                     seconds=time.perf_counter() - t0,
+                    faults=shop,
                 )
             )
     finally:  # on an error or Ctrl-C, drop the scenarios not started instead of running them
@@ -339,6 +395,7 @@ def certify_plan(
     parts: int = 30,
     seed: int = 0,
     wear_drift_per_edge_life: float = 0.0,
+    faults: Faults | None = None,
     jobs: int = 1,
     progress: Progress | None = None,
 ) -> Certificate:
@@ -354,6 +411,7 @@ def certify_plan(
         parts=parts,
         seed=seed,
         wear_drift_per_edge_life=wear_drift_per_edge_life,
+        faults=faults,
         jobs=jobs,
         progress=progress,
     )

@@ -130,11 +130,15 @@ class PartOutcome:
         :func:`models.tool.predict_all` names them.
     violations : tuple[Violation, ...]
         Every true limit crossed, in plan order.
+    dropped : tuple[tuple[str, str], ...]
+        ``(operation, quantity)`` of every reading that dropped out (the dropout fault of
+        :mod:`supervisor.virtual.faults`); empty without it.
     """
 
     measurements: Mapping[str, Mapping[str, Measurement]]
     true_values: Mapping[str, Mapping[str, float]]
     violations: tuple[Violation, ...]
+    dropped: tuple[tuple[str, str], ...] = ()
 
 
 class Mono(NamedTuple):

@@ -21,6 +21,7 @@ import numpy as np
 
 from models.errors import InputError
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, ToolWear
+from supervisor.virtual.faults import PartFaults, reading, true_model_values
 from supervisor.virtual.machine import (
     VIOLATION_RTOL,
     CompiledOperation,
@@ -35,6 +36,7 @@ def run_part(
     setpoints: Mapping[str, Mapping[str, float]],
     rng: np.random.Generator,
     edge_parts: Mapping[str, int] | None = None,
+    faults: PartFaults | None = None,
 ) -> PartOutcome:
     r"""Make one part: true values, measurements and the true limits crossed.
 
@@ -47,6 +49,9 @@ def run_part(
     where ``D`` is ``wear_drift_per_edge_life``, ``n`` the parts the edge made before this
     one, ``V`` the operation's volume and ``V_edge`` the true tool life (Eq. 8) at the
     setpoint and the allowable flank wear; operations without a tool-life model do not drift.
+    With ``faults`` the true models are bent and stepped before the drift, and the readings
+    scaled in noise or dropped out (:mod:`supervisor.virtual.faults`); without them the
+    noise stream and every value are as they were before the fault catalogue.
 
     Parameters
     ----------
@@ -59,6 +64,8 @@ def run_part(
         Source of the measurement noise; the same state gives the same measurements.
     edge_parts : Mapping[str, int], optional
         Per operation, the parts made with its current edge before this one (0 if absent).
+    faults : PartFaults, optional
+        The faults in force for this part (:func:`supervisor.virtual.faults.part_faults`).
 
     Returns
     -------
@@ -77,9 +84,12 @@ def run_part(
     measurements: dict[str, dict[str, Measurement]] = {}
     true_values: dict[str, dict[str, float]] = {}
     violations: list[Violation] = []
+    dropped: list[tuple[str, str]] = []
     for op in compiled:
         ln_x = _ln_setpoint(op, setpoints[op.name])
         values = {q: m.at(ln_x) for q, m in op.models}
+        if faults is not None:
+            values = true_model_values(faults, op, values, ln_x)
         used = used_parts.get(op.name, 0)
         if drift and used and "tool_life_mm3" in values:
             factor = 1.0 + drift * used * op.volume_mm3 / values["tool_life_mm3"]
@@ -89,7 +99,13 @@ def run_part(
             values[name] = per.at(ln_x) if base is None else values[base] * per.at(ln_x)
         measured: dict[str, Measurement] = {}
         for quantity, u, sigma in op.measured:
-            measured[quantity] = Measurement(max(values[quantity] + sigma * noise[k], 0.0), u)
+            if faults is None:
+                measured[quantity] = Measurement(max(values[quantity] + sigma * noise[k], 0.0), u)
+            else:
+                value, lost = reading(faults, k, values[quantity], sigma, noise[k])
+                measured[quantity] = Measurement(value, u)
+                if lost:
+                    dropped.append((op.name, quantity))
             k += 1
         for lim in op.limits:
             value = values[lim.value_of] / lim.scale
@@ -101,7 +117,7 @@ def run_part(
                 violations.append(Violation(op.name, lim.name, value, lim.limit))
         measurements[op.name] = measured
         true_values[op.name] = values
-    return PartOutcome(measurements, true_values, tuple(violations))
+    return PartOutcome(measurements, true_values, tuple(violations), tuple(dropped))
 
 
 def _ln_setpoint(op: CompiledOperation, setpoint: Mapping[str, float]) -> list[float]:
