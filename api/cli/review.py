@@ -15,7 +15,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.padding import Padding
 from rich.table import Table
+from rich.text import Text
 
 from api.cli import parts_view
 from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
@@ -104,8 +106,8 @@ def plans(
 def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
     """A halted plan's conflicts, and how to resume it."""
     _out.print(f"[bold red]plan {plan_id} HALTED[/]: {marks.halt_cause(halt)}", highlight=False)
-    for line in marks.halt_lines(halt):
-        _out.print(f"  {line}", markup=False, highlight=False)
+    for line in marks.halt_lines(halt):  # a long line (a gross breach's message) wraps indented
+        _out.print(Padding(Text(line), (0, 0, 0, 2)), highlight=False)
     _out.print(f"  resume: rcb replan {plan_id} (--limit, --model or --reset-bands)", markup=False)
 
 
