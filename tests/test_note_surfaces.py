@@ -237,6 +237,8 @@ def test_cli_history_json_and_plans_show_the_notes_and_the_halt(stored):
     notes = {d["note"] for v in data["versions"] for d in v["decisions"]}
     assert {"implausible_low", "regime_change"} <= notes
     assert data["halt"]["message"] == GROSS
+    listed = json.loads(_rcb("plans", "--db", stored["url"], "--json", columns=80))["plans"]
+    assert listed[0]["settings"]["halt_over"] == 0.25 and listed[0]["halt"]["message"] == GROSS
     for command in (["history", plan], ["plans"]):
         shown = _rcb(*command, "--db", stored["url"], columns=250)
         assert "a reading is past its limit by more than the plan's halt_over" in shown
@@ -263,6 +265,9 @@ def _check_page(page: str) -> None:
     rows = [r for r in root.iter("tr") if CHECK in _text(r)]
     assert any("check" in (r.get("class") or "").split() for r in rows)
     assert "span.check" in page and "tr.check td" in page  # the CSS that makes it stand out
+    overview = {_text(dt): dd for dt, dd in zip(root.iter("dt"), root.iter("dd"), strict=True)}
+    (count,) = overview["CHECK SENSOR: implausibly low readings"].iter("span")
+    assert count.get("class") == "check" and _text(count).startswith("1:")
     (halt,) = [s for s in root.iter("section") if s.get("class") == "halt"]
     assert GROSS in [_text(li) for li in halt.iter("li")]
     assert "A reading is past its limit by more than the plan's halt_over" in _text(halt)

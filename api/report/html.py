@@ -98,12 +98,16 @@ def _overview(record: Mapping[str, Any]) -> str:
         ("Flagged RCB decisions", f"{totals['flagged']} ({totals['breaches']} past a limit)"),
         ("Notes (information: below band, past limit, regime change …)", totals["notes"]),
     ]
-    if totals.get("checks"):
-        items.append(("CHECK SENSOR: implausibly low readings", totals["checks"]))
     if len(plotted) < count:
         shown = f"the last {len(plotted)} parts, from {plotted[0]['serial']}" if plotted else "none"
         items.append(("Plotted", shown))
-    return tag("dl", "".join(tag("dt", escaped(k)) + tag("dd", escaped(v)) for k, v in items))
+    listed = "".join(tag("dt", escaped(k)) + tag("dd", escaped(v)) for k, v in items)
+    if totals.get("checks"):  # implausibly low readings: the operator checks sensor and tool
+        text = escaped(f"{totals['checks']}: check the sensor and the tool")
+        listed += tag("dt", escaped("CHECK SENSOR: implausibly low readings")) + tag(
+            "dd", tag("span", text, class_="check")
+        )
+    return tag("dl", listed)
 
 
 def _halt_section(plan: Mapping[str, Any]) -> str:
