@@ -24,7 +24,9 @@ import httpx
 import pytest
 from rich.cells import cell_len
 
+from api.report import plots
 from api.report.html import render_record
+from api.report.series import operation_series
 from api.rest.schemas.parts import PartCreated
 from api.services import parts as part_service
 from api.services import record
@@ -111,11 +113,19 @@ def _stored_plan(url: str) -> dict[str, Any]:
             rough["measurements"]["force_N"] = {"value": 6000.0, "uncertainty": 10.0}
             answers["SN-GROSS"] = report_part(engine=engine, plan_id=plan_id, body=body).body
         state = stored_state(engine, plan_id)
-        page = render_record(record.report_record(engine=engine, plan_id=plan_id, last=100))
+        shown = record.report_record(engine=engine, plan_id=plan_id, last=100)
+        page = render_record(shown)
     finally:
         CACHE.clear()
         engine.dispose()
-    return {"url": url, "plan_id": plan_id, "answers": answers, "state": state, "page": page}
+    return {
+        "url": url,
+        "plan_id": plan_id,
+        "answers": answers,
+        "state": state,
+        "page": page,
+        "record": shown,
+    }
 
 
 @pytest.fixture(scope="module", params=["sqlite", "postgres"])
@@ -276,6 +286,17 @@ def _check_page(page: str) -> None:
 
 def test_the_report_shows_the_notes_and_the_halt(stored):
     _check_page(stored["page"])
+
+
+def test_the_outputs_plot_marks_the_implausible_reading_apart(stored):
+    shown = stored["record"]
+    series = operation_series(shown["plan"], shown["history"], shown["parts"], "rough-od")
+    force = next(o for o in series.outputs if o.quantity == "force_N")
+    assert force.checked.tolist() == [True, False, False, False]  # SN-LOW, not the next part
+    assert force.flagged.tolist() == [False, True, True, False]  # ABOVE, BREACH
+    figure = plots.outputs_figure(series)
+    labels = {line.get_label(): line for line in figure.axes[0].get_lines()}
+    assert list(labels["check sensor: implausibly low"].get_xdata()) == [1]  # part number
 
 
 def test_the_web_view_shows_the_notes_and_the_halt(stored):

@@ -64,7 +64,8 @@ _CAPTIONS = {
     "next part (open markers); dotted: the bounds. After Ivester & Heigel Fig. 4a.",
     "outputs": "Constrained outputs: prediction ± band at the setpoint each part was made with "
     "(shaded), measured value ± its uncertainty (error bars), limit (dashed), flagged RCB "
-    "decisions (crosses). After Ivester & Heigel Fig. 4b.",
+    "decisions (crosses), readings quarantined as implausibly low (yellow diamonds: check the "
+    "sensor and the tool). After Ivester & Heigel Fig. 4b.",
     "bands": "Uncertainty band ΔY of each output at the setpoint a part was made with, and "
     "what that part's RCB update left at the same setpoint.",
     "productivity": "Material removal rate and machining time of the operation.",
