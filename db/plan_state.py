@@ -4,7 +4,8 @@
 :class:`supervisor.rcb.state.RcbSettings` is one key of ``plans.settings`` (NULL, or a key missing:
 the default). ``plans.halt`` holds the conflicts of a halted plan in the form the REST
 answers show them (``message`` and, per operation, ``operation``, ``message``,
-``conflicts`` and ``held_by``).
+``conflicts`` and ``held_by``; a halt on a reading past its limit by more than ``halt_over`` has
+no conflicts and nothing holding it: its ``message`` says which reading).
 """
 
 from __future__ import annotations
@@ -16,7 +17,15 @@ from supervisor.errors import Conflict
 from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings
 
 #: The settings kept in ``plans.settings`` (strategy and alpha have columns of their own).
-SETTING_KEYS = ("floors", "coverage_k", "discrepancy", "z", "exponent_sd", "edge_sd")
+SETTING_KEYS = (
+    "floors",
+    "coverage_k",
+    "discrepancy",
+    "z",
+    "exponent_sd",
+    "edge_sd",
+    "halt_over",
+)
 
 
 def settings_json(settings: RcbSettings) -> dict[str, Any]:
@@ -28,6 +37,7 @@ def settings_json(settings: RcbSettings) -> dict[str, Any]:
         "z": settings.z,
         "exponent_sd": settings.exponent_sd,
         "edge_sd": settings.edge_sd,
+        "halt_over": settings.halt_over,
     }
 
 

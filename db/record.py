@@ -26,18 +26,28 @@ def part_totals(*, session: Session, plan_id: int) -> tuple[int, datetime | None
 
 
 def decision_totals(*, session: Session, plan_id: int) -> dict[str, int]:
-    """Flagged RCB decisions, those past a limit (breaches), and below/above-band notes."""
+    """Flagged RCB decisions, those past a limit (breaches), notes, and readings to check.
+
+    ``checks``: the decisions with the note ``implausible_low`` (a reading quarantined as too
+    good to be true: the operator checks the sensor and the tool); they count as notes too.
+    """
     d = t.RcbDecision
-    flagged, breaches, notes = session.execute(
+    flagged, breaches, notes, checks = session.execute(
         select(
             func.sum(case((d.flagged, 1), else_=0)),
             func.sum(case((d.flag == "breach", 1), else_=0)),
             func.sum(case((d.note.is_not(None), 1), else_=0)),
+            func.sum(case((d.note == "implausible_low", 1), else_=0)),
         )
         .join(t.Part, t.Part.id == d.part_id)
         .where(t.Part.plan_id == plan_id)
     ).one()
-    return {"flagged": int(flagged or 0), "breaches": int(breaches or 0), "notes": int(notes or 0)}
+    return {
+        "flagged": int(flagged or 0),
+        "breaches": int(breaches or 0),
+        "notes": int(notes or 0),
+        "checks": int(checks or 0),
+    }
 
 
 def version_groups(

@@ -117,7 +117,8 @@ class Plan(Base):
     strategy: Mapped[str] = mapped_column(String(20), default=DEFAULT_STRATEGY)
     alpha: Mapped[float] = mapped_column(default=DEFAULT_ALPHA)
     #: Every other setting of the strategy (floors, coverage_k, discrepancy, z, exponent_sd,
-    #: edge_sd; db.plan_state); NULL for a plan stored before 0005: the defaults.
+    #: edge_sd, halt_over; db.plan_state); NULL for a plan stored before 0005, or a key
+    #: missing (halt_over before it existed): the defaults.
     settings: Mapped[dict[str, Any] | None]
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
@@ -256,7 +257,8 @@ class RcbDecision(Base):
     reason: Mapped[str] = mapped_column(Text)
     #: ``breach``, ``above_band`` or ``below_band`` when flagged (NULL before 0005)
     flag: Mapped[str | None] = mapped_column(String(20))
-    #: information only: ``below_band`` (a maximum) or ``above_band`` (a minimum)
+    #: information only (supervisor.rcb.state.Note): ``below_band`` (a maximum) or
+    #: ``above_band`` (a minimum), ``past_limit``, ``implausible_low``, ``regime_change``
     note: Mapped[str | None] = mapped_column(String(20))
 
 

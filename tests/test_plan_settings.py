@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import math
 import tomllib
 
-from sqlalchemy import select
+import pytest
+from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
 from db.plan_state import settings_json, settings_of
-from supervisor.rcb.state import RcbSettings
+from models.errors import InputError
+from supervisor.rcb.state import DEFAULT_HALT_OVER, RcbSettings
 
 from conftest import DEMO_PLAN, cached_state, report_at, stored_state
 
@@ -27,6 +30,8 @@ def test_non_default_settings_survive_a_reload(engine):
         discrepancy=0.05,
         z=3.5,
         exponent_sd=0.2,
+        edge_sd=0.3,
+        halt_over=0.6,
     )
     assert settings != RcbSettings(strategy="bayes", alpha=0.4)
     plan_id = create_plan(engine=engine, body=PLAN, settings=settings).body["id"]
@@ -39,6 +44,36 @@ def test_non_default_settings_survive_a_reload(engine):
 def test_a_plan_stored_before_0005_gets_the_defaults():
     assert settings_of("learn", 0.25, None) == RcbSettings(strategy="learn")
     assert settings_of("ivester", 0.3, {"z": 5.0}) == RcbSettings("ivester", alpha=0.3, z=5.0)
+
+
+def test_halt_over_defaults_to_a_quarter_and_is_stored_with_the_plan():
+    assert DEFAULT_HALT_OVER == 0.25 and RcbSettings().halt_over == 0.25
+    assert settings_json(RcbSettings(halt_over=2.5))["halt_over"] == 2.5
+    assert settings_of("ivester", 0.25, {"halt_over": 0.1}).halt_over == 0.1
+
+
+def test_a_plan_stored_before_halt_over_reads_the_default(engine):
+    """A settings column written before the key existed: the default, no migration."""
+    plan_id = create_plan(engine=engine, body=PLAN, settings=RcbSettings(halt_over=3.0)).body["id"]
+    assert stored_state(engine, plan_id).settings.halt_over == 3.0
+    older = settings_json(RcbSettings())
+    del older["halt_over"]
+    with Session(engine) as session, session.begin():
+        session.execute(update(t.Plan).where(t.Plan.id == plan_id).values(settings=older))
+    assert stored_state(engine, plan_id).settings.halt_over == DEFAULT_HALT_OVER
+
+
+@pytest.mark.parametrize("value", [0.0, -0.25, 10.5, math.inf, math.nan])
+def test_halt_over_outside_0_to_10_is_refused_naming_it(value):
+    with pytest.raises(InputError) as refused:
+        RcbSettings(halt_over=value)
+    assert refused.value.field == "halt_over"
+    assert "halt_over" in str(refused.value) and str(value) in str(refused.value)
+
+
+def test_halt_over_of_10_is_the_largest_taken():
+    assert RcbSettings(halt_over=10.0).halt_over == 10.0
+    assert RcbSettings(halt_over=1e-6).halt_over == 1e-6
 
 
 def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):

@@ -15,7 +15,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.padding import Padding
 from rich.table import Table
+from rich.text import Text
 
 from api.cli import parts_view
 from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
@@ -103,9 +105,9 @@ def plans(
 
 def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
     """A halted plan's conflicts, and how to resume it."""
-    _out.print(f"[bold red]plan {plan_id} HALTED[/]: no setpoint meets the bands in force")
-    for line in marks.halt_lines(halt):
-        _out.print(f"  {line}", markup=False, highlight=False)
+    _out.print(f"[bold red]plan {plan_id} HALTED[/]: {marks.halt_cause(halt)}", highlight=False)
+    for line in marks.halt_lines(halt):  # a long line (a gross breach's message) wraps indented
+        _out.print(Padding(Text(line), (0, 0, 0, 2)), highlight=False)
     _out.print(f"  resume: rcb replan {plan_id} (--limit, --model or --reset-bands)", markup=False)
 
 
@@ -218,15 +220,23 @@ def _decisions(decisions: list[dict[str, Any]], operation: str | None) -> str:
 
 
 def _mark(d: dict[str, Any]) -> str:
-    """``BREACH``, ``ABOVE`` (rich markup: red) or ``note: below band`` (dim); else ``""``."""
+    """A decision's mark in rich markup, ``""`` if none.
+
+    ``BREACH``, ``ABOVE`` red; ``CHECK SENSOR: implausibly low`` black on yellow (the operator
+    checks the sensor and the tool); ``note: below band`` dim.
+    """
     label, kind = marks.decision_mark(d)
     if not label:
         return ""
-    return f"[dim]{label}[/]" if kind == "note" else f"[bold red]{label}[/]"
+    if kind == "note":
+        return f"[dim]{label}[/]"
+    if kind == "check":
+        return f"[bold black on yellow]{label}[/]"
+    return f"[bold red]{label}[/]"
 
 
 def _marked(d: dict[str, Any]) -> str:
-    """`` BREACH``, `` ABOVE`` or `` (note: below band)`` after a decision; else nothing."""
+    """`` BREACH``, `` ABOVE``, `` CHECK SENSOR: …`` or `` (note: …)`` after a decision."""
     label, kind = marks.decision_mark(d)
     if not label:
         return ""

@@ -46,6 +46,7 @@ def full_record(
             "flagged": sum(bool(d["flagged"]) for _, d in decisions),
             "breaches": sum(d.get("flag") == "breach" for _, d in decisions),
             "notes": sum(bool(d.get("note")) for _, d in decisions),
+            "checks": sum(d.get("note") == "implausible_low" for _, d in decisions),
             "first_cycle_time_min": versions[0]["cycle_time_min"],
         },
         "summaries": [{"first": g[0], "last": g[-1], "versions": len(g)} for g in groups],

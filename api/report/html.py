@@ -24,7 +24,7 @@ from api.report import plots
 from api.report.full_record import full_record
 from api.report.html_history import history_table, mark, tool_change_table
 from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
-from api.report.marks import halt_lines
+from api.report.marks import halt_cause, halt_lines
 from api.report.plots import number
 from api.report.series import OperationSeries, Output, cycle_series, operation_series
 from api.report.svg import render
@@ -48,6 +48,9 @@ td.num, #history td { text-align: right; font-variant-numeric: tabular-nums; }
 tr.flagged td { color: #b00; }
 .breach { color: #b00; font-weight: bold; } .above-band { color: #c50; font-weight: bold; }
 .below-band { color: #c50; font-weight: bold; } .note { color: #555; font-style: italic; }
+/* a reading too good to be true (implausible_low): a check for the operator, not a note */
+span.check { color: #000; background: #fd0; border: 1px solid #a60; font-weight: bold;
+             padding: 0 0.3em; } tr.check td { background: #fff6c2; }
 section.halt { border: 2px solid #b00; padding: 0 1em; margin: 1em 0; }
 section.halt h2 { color: #b00; border: none; }
 figure { margin: 1em 0; } figure svg { max-width: 100%; height: auto; display: block; }
@@ -61,7 +64,8 @@ _CAPTIONS = {
     "next part (open markers); dotted: the bounds. After Ivester & Heigel Fig. 4a.",
     "outputs": "Constrained outputs: prediction ± band at the setpoint each part was made with "
     "(shaded), measured value ± its uncertainty (error bars), limit (dashed), flagged RCB "
-    "decisions (crosses). After Ivester & Heigel Fig. 4b.",
+    "decisions (crosses), readings quarantined as implausibly low (yellow diamonds: check the "
+    "sensor and the tool). After Ivester & Heigel Fig. 4b.",
     "bands": "Uncertainty band ΔY of each output at the setpoint a part was made with, and "
     "what that part's RCB update left at the same setpoint.",
     "productivity": "Material removal rate and machining time of the operation.",
@@ -93,12 +97,18 @@ def _overview(record: Mapping[str, Any]) -> str:
         ("Setpoint version in force", newest["version"]),
         ("Cycle time", f"{number(first)} min at version 1 → {number(last)} min now{change}"),
         ("Flagged RCB decisions", f"{totals['flagged']} ({totals['breaches']} past a limit)"),
-        ("Below-band notes (model pessimistic)", totals["notes"]),
+        ("Notes (information: below band, past limit, regime change …)", totals["notes"]),
     ]
     if len(plotted) < count:
         shown = f"the last {len(plotted)} parts, from {plotted[0]['serial']}" if plotted else "none"
         items.append(("Plotted", shown))
-    return tag("dl", "".join(tag("dt", escaped(k)) + tag("dd", escaped(v)) for k, v in items))
+    listed = "".join(tag("dt", escaped(k)) + tag("dd", escaped(v)) for k, v in items)
+    if totals.get("checks"):  # implausibly low readings: the operator checks sensor and tool
+        text = escaped(f"{totals['checks']}: check the sensor and the tool")
+        listed += tag("dt", escaped("CHECK SENSOR: implausibly low readings")) + tag(
+            "dd", tag("span", text, class_="check")
+        )
+    return tag("dl", listed)
 
 
 def _halt_section(plan: Mapping[str, Any]) -> str:
@@ -107,8 +117,9 @@ def _halt_section(plan: Mapping[str, Any]) -> str:
     if plan.get("status") != "halted" or not halt:
         return ""
     lines = "".join(tag("li", escaped(line)) for line in halt_lines(halt))
+    cause = halt_cause(halt)
     text = (
-        "No setpoint meets the bands in force: setpoints are refused (409 plan_halted) until "
+        f"{cause[:1].upper()}{cause[1:]}: setpoints are refused (409 plan_halted) until "
         f"an engineer replans (rcb replan {plan['id']}, or POST .../replan)."
     )
     heading = tag("h2", escaped("HALTED"))

@@ -53,6 +53,7 @@ def history_table(record: Mapping[str, Any]) -> str:
         flagged = [d for d in marked if d["flagged"]]
         text = ", ".join(escaped(f"{d['operation']} {d['quantity']} ") + mark(d) for d in marked)
         kinds = sorted({decision_mark(d)[1] for d in flagged})
+        checks = ["check"] if any(decision_mark(d)[1] == "check" for d in marked) else []
         # numbers right-aligned by the page's CSS (#history), not a class per cell: 200 rows
         cells = [
             td(v["version"]),
@@ -63,7 +64,8 @@ def history_table(record: Mapping[str, Any]) -> str:
             *(td(number(mrr.get(n))) for n in names),
             tag("td", text),
         ]
-        rows.append(row(cells, class_=" ".join(["flagged", *kinds]) if flagged else None))
+        classes = (["flagged", *kinds] if flagged else []) + checks
+        rows.append(row(cells, class_=" ".join(classes) or None))
     caption = tag("caption", escaped("Setpoint versions: what caused each, and the MRR it gave"))
     body = tag("thead", head) + tag("tbody", "".join(rows))
     return tag("table", caption + body, id="history")

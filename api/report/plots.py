@@ -8,7 +8,8 @@ every operation:
   was made with, with its bounds (d, f, v for turning; ap, ae, fz, v for milling).
 - :func:`outputs_figure`: each constrained output over the parts: the prediction ± band at
   that setpoint (shaded), the measured value ± its uncertainty (error bars), the limit
-  (horizontal line), RCB decisions flagged as violations (red crosses).
+  (horizontal line), RCB decisions flagged as violations (red crosses), readings quarantined
+  as implausibly low (yellow diamonds: check the sensor and the tool).
 - :func:`bands_figure`: the band ΔY of each constrained output at the setpoint a part was made
   with, and the band the RCB update of that part left at the same setpoint.
 - :func:`productivity_figure`: the operation's MRR and machining time.
@@ -179,6 +180,16 @@ def _output_axes(ax: Axes, x: Array, output: Output) -> None:
             markersize=9,
             markeredgewidth=2,
             label="flagged",
+        )
+    if output.checked.any():  # a reading too good to be true: a check, not a flag
+        ax.plot(
+            x[output.checked],
+            output.measured[output.checked],
+            "D",
+            markerfacecolor="#fd0",
+            markeredgecolor="black",
+            markersize=8,
+            label="check sensor: implausibly low",
         )
     _limit_line(ax, output)
     ax.set_ylabel(quantity_label(output.quantity), parse_math=False)

@@ -25,6 +25,8 @@ Array = npt.NDArray[np.float64]
 
 #: Every quantity a plot may show (predicted or measured), by name.
 QUANTITIES = quantities.QUANTITIES
+#: The note of a reading quarantined as implausibly low (supervisor.rcb.state.Note), marked apart.
+CHECKED = "implausible_low"
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,9 @@ class Output:
         Band after the RCB update of the row's part, at the same setpoint (NaN: no decision).
     flagged : ndarray of bool
         The RCB decision flagged a violation (measurement outside the band or over the limit).
+    checked : ndarray of bool
+        The RCB decision quarantined the reading as implausibly low (note ``implausible_low``:
+        the operator checks the sensor and the tool).
     """
 
     quantity: str
@@ -58,6 +63,7 @@ class Output:
     uncertainty: Array
     band_after: Array
     flagged: npt.NDArray[np.bool_]
+    checked: npt.NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
@@ -180,6 +186,7 @@ def _output(
         uncertainty=_values(measured, "uncertainty"),
         band_after=_values(decided, "band_after"),
         flagged=np.array([bool(d and d["flagged"]) for d in decided], dtype=bool),
+        checked=np.array([bool(d and d.get("note") == CHECKED) for d in decided], dtype=bool),
     )
 
 

@@ -15,7 +15,11 @@ class NotFoundError(LookupError):
 
 
 class PlanHaltedError(Exception):
-    """The plan is halted: no setpoint meets its bands until an engineer replans."""
+    """The plan is halted (no setpoint meets its bands, or a reading past ``halt_over``).
+
+    Setpoints are refused until an engineer replans; ``conflicts``: per halted operation, as
+    stored (:mod:`db.plan_state`).
+    """
 
     def __init__(self, plan_id: int, halt: Mapping[str, Any]) -> None:
         self.field, self.value = "plan_id", plan_id

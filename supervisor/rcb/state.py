@@ -24,16 +24,21 @@ from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY, Strategy
 from supervisor.rcb.wear import WearRise
 
-#: A reading past its limit by more than this fraction of it halts the plan (a plan setting).
+#: A reading past its limit by more than this fraction of the limit halts the plan [-] (TMAC's
+#: extreme limit, Heidenhain AFC's overload reaction).
 DEFAULT_HALT_OVER = 0.25
 
 Action = Literal["shrink", "hold", "expand"]
 #: What made a decision flagged: the limit crossed, or the measurement beyond the band's
 #: guarding edge (``above_band`` for a maximum, ``below_band`` for a minimum).
 Flag = Literal["breach", "above_band", "below_band"]
-#: Information, never a flag: the measurement beyond the band's other edge, or past the limit
+#: Information, never a flag: the measurement beyond the band's other edge, past the limit
 #: by more than its ±u but within its noise's alarm limit (``past_limit``: the part is out of
-#: tolerance by ISO 14253-1's rule; the process is not proven past the limit).
+#: tolerance by ISO 14253-1's rule; the process is not proven past the limit), far below what
+#: the model and its scatter allow (``implausible_low``: a failing sensor, an air cut or a
+#: broken insert; quarantined, no speed-up from it until later readings at that setpoint
+#: confirm it), or the process changed (``regime_change``: a new batch, another insert
+#: supplier; the old evidence is discounted and re-learned).
 Note = Literal["below_band", "above_band", "past_limit", "implausible_low", "regime_change"]
 
 
@@ -60,14 +65,14 @@ class RcbSettings:
     exponent_sd : float
         ``learn``: prior standard deviation of each exponent relative to its value [-], for a
         model without a fitted covariance.
-    halt_over : float
-        A reading past its limit by more than this fraction of the limit (beyond its ``u``)
-        halts the plan for an engineer, whatever a strategy could still find (TMAC's extreme
-        limit, Heidenhain AFC's overload reaction) [-].
     edge_sd : float
         Prior standard deviation of the rise over one edge's life, in ``ln`` [-]: ``learn``'s
         edge-age coefficient and every strategy's wear projection (:mod:`supervisor.rcb.wear`;
         0 turns the projection off).
+    halt_over : float
+        A reading past its limit by more than this fraction of the limit halts the plan [-],
+        ``0 < halt_over <= 10`` (default :data:`DEFAULT_HALT_OVER`, 0.25: 25 % over), whatever a
+        strategy could still find, as an adaptive control's extreme limit stops a spindle.
     """
 
     strategy: str = DEFAULT_STRATEGY
@@ -94,14 +99,14 @@ class RcbSettings:
             value = getattr(self, name)
             if not (math.isfinite(value) and 0 < value <= 100):
                 raise InputError(name, value, "must be a number in (0, 100]")
-        if not (math.isfinite(self.halt_over) and 0 < self.halt_over <= 10):
-            raise InputError("halt_over", self.halt_over, "must be a number in (0, 10]")
         if self.discrepancy is None:
             object.__setattr__(self, "discrepancy", self.rule.default_discrepancy)
         for name in ("discrepancy", "exponent_sd", "edge_sd"):
             value = getattr(self, name)
             if not (math.isfinite(value) and 0 <= value <= 10):
                 raise InputError(name, value, "must be a number in [0, 10]")
+        if not (math.isfinite(self.halt_over) and 0 < self.halt_over <= 10):
+            raise InputError("halt_over", self.halt_over, "must be a number in (0, 10]")
 
     @property
     def rule(self) -> Strategy:
@@ -124,8 +129,10 @@ class Decision:
     part, :mod:`supervisor.rcb.wear`);
     ``band_*`` are ``ΔY`` at the setpoint the part was made with. ``flag`` says why a
     decision is flagged (``breach``: the limit crossed; ``above_band``/``below_band``: past
-    the band's guarding edge), ``note`` is information only (``below_band`` for a maximum:
-    the model is pessimistic there); ``flagged`` is ``flag is not None``.
+    the band's guarding edge), ``note`` is information only (:data:`Note`: ``below_band`` for
+    a maximum: the model is pessimistic there; ``implausible_low``: a reading quarantined as
+    too good to be true; ``regime_change``: the process changed and is being re-learned);
+    ``flagged`` is ``flag is not None``.
     """
 
     operation: str
@@ -150,7 +157,13 @@ class Decision:
 
 @dataclass(frozen=True)
 class HaltedOperation:
-    """An operation that no setpoint can run under the bands in force."""
+    """An operation the plan halted on, and why.
+
+    Either no setpoint can run it under the bands in force (``conflicts``: the limits that
+    cannot all be met; ``against``: what else is tight), or a reading was past its limit by more
+    than :attr:`RcbSettings.halt_over` (``conflicts`` and ``against`` empty; ``message`` names
+    the reading, the limit and by how much).
+    """
 
     operation: str
     conflicts: tuple[Conflict, ...]
@@ -160,7 +173,7 @@ class HaltedOperation:
 
 @dataclass(frozen=True)
 class Halt:
-    """Why a plan halted: the operations whose limits cannot all be met, and by how much."""
+    """Why a plan halted: per operation, the limits that cannot all be met, or a gross breach."""
 
     operations: tuple[HaltedOperation, ...]
 
@@ -200,8 +213,8 @@ class RcbState:
         Per (operation, wearing quantity) of an operation with a ``parts_per_edge`` limit, the
         rise per part an edge makes (:mod:`supervisor.rcb.wear`), learned from the readings.
     halt : Halt or None
-        Set when the bands leave no safe setpoint, or a reading passed its limit by more than
-        ``halt_over``; only a replan clears it.
+        Set when the bands leave no safe setpoint or a reading is past its limit by more than
+        ``settings.halt_over``; only a replan clears it.
     monitors : Mapping[tuple[str, str], Monitor]
         Per (operation, quantity) measured: the noise scale, the last reading learned from and
         a quarantined one (:mod:`supervisor.rcb.monitor`).

@@ -68,6 +68,15 @@ def create_plan(
         float,
         Query(ge=0, le=10, allow_inf_nan=False, description="wear: prior sd of the rise per edge"),
     ] = _DEFAULTS.edge_sd,
+    halt_over: Annotated[
+        float,
+        Query(
+            gt=0,
+            le=10,
+            allow_inf_nan=False,
+            description="a reading past its limit by more than this fraction of it halts",
+        ),
+    ] = _DEFAULTS.halt_over,
     idempotency_key: OptionalKey = None,
 ) -> Response:
     """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
@@ -81,6 +90,7 @@ def create_plan(
         z=z,
         exponent_sd=exponent_sd,
         edge_sd=edge_sd,
+        halt_over=halt_over,
     )
     written = use_cases.create_plan(
         engine=engine,

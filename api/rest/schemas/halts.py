@@ -18,16 +18,23 @@ class ConflictOut(Out):
 
 
 class HaltedOperationOut(Out):
-    """An operation no setpoint can run under the bands in force."""
+    """An operation the plan halted on.
+
+    No setpoint can run it under the bands in force (``conflicts``), or a reading was past its
+    limit by more than the plan's ``halt_over`` (``conflicts`` and ``held_by`` empty,
+    ``message`` names the reading, its limit and by how much).
+    """
 
     operation: str
     message: str
-    conflicts: list[ConflictOut]
+    conflicts: list[ConflictOut] = Field(
+        description="the limits that cannot all be met; empty for a gross breach"
+    )
     held_by: list[str] = Field(description="the other limits and bounds tight at the closest point")
 
 
 class HaltOut(Out):
-    """Why a plan halted."""
+    """Why a plan halted: the bands leave no setpoint, or a reading past halt_over."""
 
     message: str
     conflicts: list[HaltedOperationOut]

@@ -132,9 +132,14 @@ class Update(Out):
     )
     note: Note | None = Field(
         None,
-        description="information only, never an alarm: past the band's other edge (below_band "
-        "for a maximum: the model is pessimistic there), or past_limit (measured past the limit "
-        "by more than u, within 3σ: out of tolerance by ISO 14253-1, no process alarm)",
+        description="information only, never a flag: past the band's other edge (below_band "
+        "for a maximum: the model is pessimistic there); past_limit (measured past the limit "
+        "by more than u, within 3σ: out of tolerance by ISO 14253-1, no process alarm); "
+        "implausible_low (far below what the model and its scatter allow: a failing sensor, an "
+        "air cut or a broken insert; quarantined: no speed-up from it, learned from only when "
+        "the next readings at that setpoint confirm it; the operator should check the sensor "
+        "and the tool); regime_change (the process changed, e.g. a new batch or another insert "
+        "supplier: the old evidence is discounted and re-learned)",
     )
     reason: str
 
@@ -153,7 +158,9 @@ class ToolChangeOut(Out):
 class PartCreated(Out):
     """The part stored, what RCB did, the tool changes due, and the setpoints now in force.
 
-    ``halted``: the bands leave no safe setpoint; the part is stored, the setpoints shown are
+    ``halted``: the bands leave no safe setpoint, or a reading is past its limit by more than
+    the plan's ``halt_over`` (that operation's entry in ``conflicts`` then has no conflicts of
+    its own and its ``message`` names the reading); the part is stored, the setpoints shown are
     those it was made with, and ``GET .../setpoints`` answers 409 ``plan_halted`` until a
     replan.
     """

@@ -34,6 +34,10 @@ class RcbSettingsOut(Out):
     z: float
     exponent_sd: float
     edge_sd: float
+    halt_over: float = Field(
+        description="a reading past its limit by more than this fraction of the limit halts "
+        "the plan (0.25: 25 % over)"
+    )
 
 
 class PlanSummary(Out):

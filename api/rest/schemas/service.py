@@ -22,7 +22,9 @@ class Problem(BaseModel):
     value: Any = Field(None, description="the offending value")
     errors: list[dict[str, Any]] | None = None
     conflicts: list[dict[str, Any]] | None = Field(
-        None, description="plan_halted: per operation, the limits that cannot be met"
+        None,
+        description="plan_halted: per operation, the limits that cannot be met (none, and "
+        "the message naming the reading, for a reading past its limit by more than halt_over)",
     )
 
 
