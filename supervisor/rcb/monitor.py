@@ -10,7 +10,8 @@ each side). With ``s`` the expectation's spread, ``s_n = ŝ (u/k)/y`` the readin
 
 .. math:: r = e \,/\, \sqrt{s^2 + s_n^2}
 
-- ``r < −``:data:`LOW_SIGMA` on the low side: *too good to be true* (a loose cable, an air cut,
+- ``r < −``:data:`LOW_SIGMA` on the low side, or under half the expectation's lower ``2σ``
+  edge (a wide prior, before the first reading, makes ``r`` small): *too good to be true* (a loose cable, an air cut,
   a broken insert that no longer cuts: a reading at 10 % of the truth is ``e = −2.3``). The
   reading is quarantined (note ``implausible_low``): no band, posterior, wear rise or noise
   scale learns from it. It is learned from once the next reading confirms it: consistent with
@@ -224,7 +225,8 @@ def watch(
         counted = replace(monitor, held=None, changes=monitor.changes + 1)
         return Watched("confirm", counted, _sigma(low, reading, variance), forget, held)
     r_low = _sigma(low, reading, variance)
-    if r_low < -LOW_SIGMA:
+    under_half = reading.ln_y - low.mean < -(CONFIRMABLE + COVERAGE_FACTOR * low.sd)
+    if r_low < -LOW_SIGMA or under_half:
         kept = replace(monitor, held=reading, quarantined=monitor.quarantined + 1)
         return Watched("quarantine", kept, r_low)
     monitor = replace(monitor, held=None)
