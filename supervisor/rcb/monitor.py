@@ -10,15 +10,15 @@ each side). With ``s`` the expectation's spread, ``s_n = ŝ (u/k)/y`` the readin
 
 .. math:: r = e \,/\, \sqrt{s^2 + s_n^2}
 
-- ``r < −``:data:`LOW_SIGMA` on the low side, or under half the expectation's lower ``2σ``
-  edge (a wide prior, before the first reading, makes ``r`` small): *too good to be true* (a loose cable, an air cut,
-  a broken insert that no longer cuts: a reading at 10 % of the truth is ``e = −2.3``). The
-  reading is quarantined (note ``implausible_low``): no band, posterior, wear rise or noise
-  scale learns from it. It is learned from once the next reading confirms it: consistent with
-  it within :data:`CONFIRM_SIGMA` of their joint noise (the setpoint's change taken out with
-  the model's exponents, their prior spread counted as noise, as :mod:`supervisor.rcb.wear`
-  does); the process has then moved down, and the pair is a ``regime_change``. A reading that
-  does not confirm it drops it (a glitch).
+- ``r < −``:data:`LOW_SIGMA` on the low side, or under half the expectation's lower ``2σ`` edge
+  (a wide prior, before the first reading, makes ``r`` small): *too good to be true* (a loose
+  cable, an air cut, a broken insert that no longer cuts: a reading at 10 % of the truth is ``e
+  = −2.3``). The reading is quarantined (note ``implausible_low``): no band, posterior, wear
+  rise or noise scale learns from it. It is learned from once the next reading confirms it:
+  consistent with it within :data:`CONFIRM_SIGMA` of their joint noise (the setpoint's change
+  taken out with the model's exponents, their prior spread counted as noise, as
+  :mod:`supervisor.rcb.wear` does); the process has then moved down, and the pair is a
+  ``regime_change``. A reading that does not confirm it drops it (a glitch).
 - ``r > ``:data:`CHANGE_SIGMA` on the high side: *evidence against the model*, a process that
   has changed (a harder batch, another insert supplier). The old regime's evidence is
   discounted by a random-walk step of the intercept sized to explain the innovation,
