@@ -72,8 +72,7 @@ CONFIRM_SIGMA = 3.0
 #: A quarantined reading more than this (in ``ln``: a factor 2) under what was expected is
 #: never confirmed: no change of a process halves it; a sensor or a tool does.
 CONFIRMABLE = math.log(2.0)
-#: ``a = b`` of the noise scale's inverse-gamma prior: the reported ``u`` as 2 half-readings
-#: (1 adapted faster than 2 under a 3x noisier chain, at no cost to the clean benchmark).
+#: ``a = b`` of the noise scale's inverse-gamma prior: the reported ``u`` counts as two readings.
 NOISE_PRIOR = 1.0
 
 Verdict = Literal["accept", "quarantine", "confirm", "change"]
