@@ -22,7 +22,8 @@ from db.plans import add_setpoints, new_token
 from db.state import band_state_rows
 from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.inputs.part_report import PartReport
-from supervisor.rcb.state import Decision, RcbState
+from supervisor.rcb.decision import Decision
+from supervisor.rcb.state import RcbState
 
 #: The fields of a :class:`supervisor.rcb.update.Decision` that ``rcb_decisions`` stores
 #: under their own names (its operation is stored as ``operation_id``); the table is their

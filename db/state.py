@@ -21,11 +21,12 @@ from db.state_cache import CACHE, database_key
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
+from supervisor.rcb.decision import Decision
 from supervisor.rcb.monitor import Monitor
 from supervisor.rcb.monitor import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
-from supervisor.rcb.state import Decision, RcbState, prior_sigma
+from supervisor.rcb.state import RcbState, prior_sigma
 from supervisor.rcb.wear import WearRise
 from supervisor.rcb.wear import from_json as wear_from_json
 

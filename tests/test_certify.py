@@ -19,15 +19,16 @@ from supervisor.inputs.plan import load_plan
 from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 from supervisor.rcb.update import start
-from supervisor.virtual import certify
+from supervisor.virtual import certify, scenario
+from supervisor.virtual.bound import clopper_pearson_upper
 from supervisor.virtual.certificate import (
     Certificate,
-    clopper_pearson_upper,
     digest,
     summarize,
     summary_rows,
 )
-from supervisor.virtual.certify import run_scenario, simulate
+from supervisor.virtual.certify import simulate
+from supervisor.virtual.scenario import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -142,7 +143,7 @@ def test_summary_of_a_small_certificate():
 
 def test_a_scenario_stops_when_update_halts(monkeypatch):
     """rcb.update halts a plan whose bands leave no safe setpoint: the scenario stops there."""
-    real_update = certify.update
+    real_update = scenario.update
     calls = 0
 
     def update(state, report):
@@ -154,7 +155,7 @@ def test_a_scenario_stops_when_update_halts(monkeypatch):
         halted = HaltedOperation("finish-od", (), (), "no safe setpoint")
         return replace(new, halt=Halt((halted,))), decisions
 
-    monkeypatch.setattr(certify, "update", update)
+    monkeypatch.setattr(scenario, "update", update)
     initial = start(PLAN, RcbSettings(strategy="ivester"))
     trace = run_scenario(initial, 3, 5)
     assert trace.stopped and trace.stopped_at == 2 and trace.parts_made == 2
@@ -194,14 +195,14 @@ def test_engine_refuses_bad_counts(kwargs, field):
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_a_domain_error_in_a_scenario_reaches_the_caller_as_itself(monkeypatch, jobs):
     """InputError and InfeasibleError do not pickle back from a worker; the parent re-runs."""
-    real = certify.sample_machine
+    real = scenario.sample_machine
 
     def sample_machine(plan, seed, **kwargs):
         if seed == 2:
             raise InfeasibleError("rough-od", (), ())
         return real(plan, seed, **kwargs)
 
-    monkeypatch.setattr(certify, "sample_machine", sample_machine)  # forked workers see it
+    monkeypatch.setattr(scenario, "sample_machine", sample_machine)  # forked workers see it
     with pytest.raises(InfeasibleError, match="rough-od"):
         simulate(PLAN, ["ivester"], scenarios=4, parts=1, jobs=jobs)
 

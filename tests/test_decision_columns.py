@@ -14,7 +14,7 @@ from api.services import queries
 from api.services.to_json import decision_json
 from db import tables as t
 from db.parts import DECISION_COLUMNS
-from supervisor.rcb.state import Decision
+from supervisor.rcb.decision import Decision
 
 #: Decision fields that rcb_decisions does not store under their own name, and why.
 NOT_STORED = {

@@ -16,14 +16,14 @@ from supervisor.inputs.plan import load_plan
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start
+from supervisor.virtual.bound import clopper_pearson_upper
 from supervisor.virtual.certificate import (
     Certificate,
     ScenarioTrace,
-    clopper_pearson_upper,
     digest,
     summarize,
 )
-from supervisor.virtual.certify import run_scenario, simulate
+from supervisor.virtual.certify import simulate
 from supervisor.virtual.fault_oracle import truth_oracle
 from supervisor.virtual.fault_spec import Fault, Faults, parse_fault, parse_faults
 from supervisor.virtual.faults import (
@@ -36,6 +36,7 @@ from supervisor.virtual.faults import (
     unavoidable_parts,
 )
 from supervisor.virtual.sampling import sample_machine
+from supervisor.virtual.scenario import run_scenario
 from supervisor.virtual.simulate import run_part
 
 from conftest import DEMO_PLAN

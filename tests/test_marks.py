@@ -7,7 +7,7 @@ from typing import get_args
 import pytest
 
 from api.report.marks import NOTE_LABELS, decision_mark, halt_cause, halt_lines
-from supervisor.rcb.state import Note
+from supervisor.rcb.decision import Note
 
 
 @pytest.mark.parametrize(

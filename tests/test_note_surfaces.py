@@ -34,7 +34,8 @@ from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 from db.state_cache import CACHE
-from supervisor.rcb.state import Decision, Halt, HaltedOperation, RcbSettings, RcbState
+from supervisor.rcb.decision import Decision
+from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings, RcbState
 
 from conftest import DEMO_PLAN, ROOT, report_at, stored_state
 from live import RCB, LiveServer

@@ -22,7 +22,7 @@ from supervisor.rcb import wear
 from supervisor.rcb.replan import replan
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
-from supervisor.virtual.certify import run_scenario
+from supervisor.virtual.scenario import run_scenario
 
 from conftest import DEMO_PLAN, cached_state, stored_state
 

@@ -13,7 +13,7 @@ from models.tool import Tool
 from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.optimize.extras import extras_of
 from supervisor.optimize.result import OperationResult, PlanResult
-from supervisor.rcb.state import Decision
+from supervisor.rcb.decision import Decision
 
 
 def predictions_json(predicted: Mapping[str, Prediction]) -> dict[str, dict[str, float]]:

@@ -65,7 +65,8 @@ from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, ToolWear
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
 from supervisor.optimize.solve import RECHECK_RTOL
-from supervisor.rcb.state import Action, Decision, Flag, Note, RcbState, prior_sigma
+from supervisor.rcb.decision import Action, Decision, Flag, Note
+from supervisor.rcb.state import RcbState, prior_sigma
 
 #: A measurement is past a band's edge only beyond this fraction of it: an optimum sits on
 #: its limit within the optimiser's re-check tolerance.

@@ -28,22 +28,25 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import numpy as np
+
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
 from supervisor.rcb import posterior as post
+from supervisor.rcb.beliefs import Beliefs
+from supervisor.rcb.decision import Action, Decision
 from supervisor.rcb.monitor import Expected, Reading, Watched
 from supervisor.rcb.posterior import Cone, Posterior
-from supervisor.rcb.state import Action, Decision, RcbState
 
 
-def belief_of(state: RcbState, operation: Operation, quantity: str) -> Posterior:
+def belief_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
     """The posterior in force for ``operation``'s ``quantity`` (the catalogue prior if none)."""
     found = state.posterior.get((operation.name, quantity))
     return _prior_of(state, operation, quantity) if found is None else found
 
 
-def _prior_of(state: RcbState, operation: Operation, quantity: str) -> Posterior:
+def _prior_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
     """The catalogue prior of ``operation``'s ``quantity``."""
     settings = state.settings
     return post.prior(
@@ -56,7 +59,7 @@ def _prior_of(state: RcbState, operation: Operation, quantity: str) -> Posterior
 
 
 def expects(
-    state: RcbState,
+    state: Beliefs,
     operation: Operation,
     result: OperationResult,
     quantity: str,
@@ -73,7 +76,7 @@ def expects(
 
 
 def learn(
-    state: RcbState,
+    state: Beliefs,
     operation: Operation,
     result: OperationResult,
     law: Decision,
@@ -90,9 +93,9 @@ def learn(
     after = before
     scale = measurement.uncertainty / law.uncertainty if law.uncertainty > 0 else 1.0
     if scale**2 > before.noise_scale2:  # the readings so far were noisier than they claimed
-        after = post.rescaled(after, _prior_of(state, operation, law.quantity), scale**2)
+        after = rescaled(after, _prior_of(state, operation, law.quantity), scale**2)
     if watched.forget > 0:
-        after = post.discount(after, watched.forget)
+        after = discount(after, watched.forget)
     point = {**result.setpoint, **operation.context}
     if watched.held is not None:  # the quarantined reading its successor confirmed
         held = _held_measurement(watched.held, scale)
@@ -106,7 +109,7 @@ def learn(
     return after, _decision(state, operation, result, law, before, after)
 
 
-def cones(state: RcbState) -> dict[str, dict[str, Cone]]:
+def cones(state: Beliefs) -> dict[str, dict[str, Cone]]:
     """The cone constraints of a ``learn`` state, per operation and quantity."""
     out: dict[str, dict[str, Cone]] = {}
     for (name, quantity), belief in state.posterior.items():
@@ -140,7 +143,7 @@ def _at_least(
 
 
 def _decision(
-    state: RcbState,
+    state: Beliefs,
     operation: Operation,
     result: OperationResult,
     law: Decision,
@@ -182,3 +185,45 @@ def _decision(
         K_after=new.K,
         reason=why,
     )
+
+
+def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) -> Posterior:
+    r"""The posterior with its readings counted at the noise variance's scale ``λ'``.
+
+    With a Gaussian prior ``N(μ₀, Σ₀)`` the posterior precision is the prior's plus the
+    readings', ``P = P₀ + D/λ``; the same readings at ``λ' > λ`` give
+
+    .. math:: P' = (1 − ρ) P_0 + ρ P, \qquad
+              μ' = P'^{-1} \big((1 − ρ) P_0 μ_0 + ρ P μ\big), \qquad ρ = λ / λ'
+
+    (a convex combination, so ``P'`` stays positive definite; exact without discounts, as a
+    normal-inverse-gamma posterior's data term scales with the noise variance, Gelman et al.
+    §14.8). A scale only ever grows here: a chain that once proved noisier than it claims is
+    not trusted again on a few quiet readings.
+    """
+    if noise_scale2 <= belief.noise_scale2:
+        return belief
+    rho = belief.noise_scale2 / noise_scale2
+    p0 = np.linalg.inv(np.array(prior_belief.cov))
+    p = np.linalg.inv(np.array(belief.cov))
+    precision = (1.0 - rho) * p0 + rho * p
+    weighted = (1.0 - rho) * p0 @ np.array(prior_belief.mean) + rho * p @ np.array(belief.mean)
+    cov = np.linalg.inv(precision)
+    cov = 0.5 * (cov + cov.T)
+    mean = cov @ weighted
+    return replace(
+        belief,
+        mean=tuple(float(m) for m in mean),
+        cov=tuple(tuple(float(v) for v in row) for row in cov),
+        noise_scale2=noise_scale2,
+    )
+
+
+def discount(belief: Posterior, variance: float) -> Posterior:
+    """The belief after a random-walk step ``variance`` of its intercept: old evidence weighs less.
+
+    ``Σ₀₀ + q`` (:mod:`supervisor.rcb.monitor`: a change of the process sized by its innovation).
+    """
+    cov = [list(row) for row in belief.cov]
+    cov[0][0] += variance
+    return replace(belief, cov=tuple(tuple(row) for row in cov))

@@ -40,7 +40,7 @@ is a successive difference [1]_), by the share of the innovation's variance that
 change threshold, so one change counts as a reading at the alarm's edge). The scale in force is
 ``ŝ = √max(b/a, 1)``: a chain noisier than it claims widens what every strategy allows for
 (``u`` becomes ``ŝ u`` in the band law, the alarm and ``learn``'s likelihood, and ``learn``'s
-posterior counts its earlier readings at ``ŝ²``, :func:`supervisor.rcb.posterior.rescaled`);
+posterior counts its earlier readings at ``ŝ²``, :func:`supervisor.rcb.learning.rescaled`);
 one quieter than it claims is not trusted to be (the instrument's stated ``u`` stays the least).
 
 References

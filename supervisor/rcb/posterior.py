@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -75,7 +75,6 @@ from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES, PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import Operation
-from supervisor.rcb.strategies import DEFAULT_DRIFT
 
 #: The cone's multiple of the posterior standard deviation (README, closed-loop benchmark).
 DEFAULT_Z = 4.0
@@ -114,7 +113,7 @@ class Posterior:
         ``n_max``, the most parts an edge makes before this one; 0: no edge feature.
     noise_scale2 : float
         ``λ``, the noise variance's scale the readings' precision is counted at
-        (:func:`rescaled`; 1: as reported).
+        (:func:`supervisor.rcb.learning.rescaled`; 1: as reported).
     """
 
     quantity: str
@@ -300,48 +299,6 @@ def observe(
     )
 
 
-def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) -> Posterior:
-    r"""The posterior with its readings counted at the noise variance's scale ``λ'``.
-
-    With a Gaussian prior ``N(μ₀, Σ₀)`` the posterior precision is the prior's plus the
-    readings', ``P = P₀ + D/λ``; the same readings at ``λ' > λ`` give
-
-    .. math:: P' = (1 − ρ) P_0 + ρ P, \qquad
-              μ' = P'^{-1} ig((1 − ρ) P_0 μ_0 + ρ P μig), \qquad ρ = λ / λ'
-
-    (a convex combination, so ``P'`` stays positive definite; exact without discounts, as a
-    normal-inverse-gamma posterior's data term scales with the noise variance, Gelman et al.
-    §14.8). A scale only ever grows here: a chain that once proved noisier than it claims is
-    not trusted again on a few quiet readings.
-    """
-    if noise_scale2 <= belief.noise_scale2:
-        return belief
-    rho = belief.noise_scale2 / noise_scale2
-    p0 = np.linalg.inv(np.array(prior_belief.cov))
-    p = np.linalg.inv(np.array(belief.cov))
-    precision = (1.0 - rho) * p0 + rho * p
-    weighted = (1.0 - rho) * p0 @ np.array(prior_belief.mean) + rho * p @ np.array(belief.mean)
-    cov = np.linalg.inv(precision)
-    cov = 0.5 * (cov + cov.T)
-    mean = cov @ weighted
-    return replace(
-        belief,
-        mean=tuple(float(m) for m in mean),
-        cov=tuple(tuple(float(v) for v in row) for row in cov),
-        noise_scale2=noise_scale2,
-    )
-
-
-def discount(belief: Posterior, variance: float) -> Posterior:
-    """The belief after a random-walk step ``variance`` of its intercept: old evidence weighs less.
-
-    ``Σ₀₀ + q`` (:mod:`supervisor.rcb.monitor`: a change of the process sized by its innovation).
-    """
-    cov = [list(row) for row in belief.cov]
-    cov[0][0] += variance
-    return replace(belief, cov=tuple(tuple(row) for row in cov))
-
-
 @dataclass(frozen=True)
 class Cone:
     """The robust constraint of a posterior: ``μ·φ(x) ± z √(φᵀ Σ₊ φ + v_x)`` (module docstring).
@@ -351,7 +308,7 @@ class Cone:
 
     posterior: Posterior
     z: float
-    drift: float = DEFAULT_DRIFT
+    drift: float
 
     @property
     def _chol(self) -> np.ndarray:

@@ -11,9 +11,10 @@ from dataclasses import replace
 from models.quantities import MODEL_QUANTITIES
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import Operation
+from supervisor.rcb.decision import Decision
 from supervisor.rcb.law import limit_of
 from supervisor.rcb.monitor import Watched
-from supervisor.rcb.state import Decision, HaltedOperation
+from supervisor.rcb.state import HaltedOperation
 
 
 def quarantined(law: Decision, sigma: float) -> Decision:

@@ -30,9 +30,10 @@ if TYPE_CHECKING:  # only named in signatures: the registry loads no NumPy (rcb 
     from supervisor.inputs.part_report import Measurement
     from supervisor.inputs.plan import Operation
     from supervisor.optimize.result import OperationResult
+    from supervisor.rcb.beliefs import Beliefs
+    from supervisor.rcb.decision import Decision
     from supervisor.rcb.monitor import Expected, Monitor, Watched
     from supervisor.rcb.posterior import Cone, Posterior
-    from supervisor.rcb.state import Decision, RcbState
 
 #: The ``learn`` strategy's random walk of the intercept per part [-]
 #: (:mod:`supervisor.rcb.posterior`). 0 by default: with wear a regressor (edge age), the
@@ -57,7 +58,7 @@ class Strategy:
 
     def expects(
         self,
-        state: RcbState,
+        state: Beliefs,
         operation: Operation,
         result: OperationResult,
         quantity: str,
@@ -110,7 +111,7 @@ class Strategy:
 
     def learn(
         self,
-        state: RcbState,
+        state: Beliefs,
         operation: Operation,
         result: OperationResult,
         law: Decision,
@@ -125,7 +126,7 @@ class Strategy:
         """
         return True, None, law
 
-    def cones(self, state: RcbState) -> dict[str, dict[str, Cone]]:
+    def cones(self, state: Beliefs) -> dict[str, dict[str, Cone]]:
         """Per operation and quantity, the constraints beyond the band (here none)."""
         return {}
 
@@ -183,7 +184,7 @@ class Learn(Strategy):
 
     def expects(
         self,
-        state: RcbState,
+        state: Beliefs,
         operation: Operation,
         result: OperationResult,
         quantity: str,
@@ -198,7 +199,7 @@ class Learn(Strategy):
 
     def learn(
         self,
-        state: RcbState,
+        state: Beliefs,
         operation: Operation,
         result: OperationResult,
         law: Decision,
@@ -212,7 +213,7 @@ class Learn(Strategy):
         belief, decision = learning.learn(state, operation, result, law, measurement, watched, age)
         return law.action == "expand", belief, decision
 
-    def cones(self, state: RcbState) -> dict[str, dict[str, Cone]]:
+    def cones(self, state: Beliefs) -> dict[str, dict[str, Cone]]:
         """The posterior's cone per operation and quantity (:mod:`supervisor.rcb.posterior`)."""
         from supervisor.rcb import learning
 

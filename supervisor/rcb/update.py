@@ -63,18 +63,12 @@ from supervisor.optimize.passes import measured_at
 from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb import wear as wear_rise
+from supervisor.rcb.decision import Decision
 from supervisor.rcb.law import apply_law, tool_life_measured
 from supervisor.rcb.monitor import Monitor, Watched, learned, watch
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
-from supervisor.rcb.state import (
-    Decision,
-    Halt,
-    HaltedOperation,
-    RcbSettings,
-    RcbState,
-    prior_sigma,
-)
+from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings, RcbState, prior_sigma
 from supervisor.rcb.wear import WearRise
 
 

@@ -31,15 +31,13 @@ References
 from __future__ import annotations
 
 import hashlib
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import beta
 
-from models.errors import InputError
+from supervisor.virtual.bound import CONFIDENCE, clopper_pearson_upper
 from supervisor.virtual.fault_log import Tally, combine
 from supervisor.virtual.fault_spec import Faults
 
@@ -49,8 +47,6 @@ IntArray = npt.NDArray[np.int64]
 #: Rows of a :class:`CertificateSummary`, "after k parts"; those above ``parts`` are left out
 #: and ``parts`` itself is always a row.
 SUMMARY_ROWS: tuple[int, ...] = (1, 5, 10)
-#: Confidence of the one-sided upper bound on the per-part violation probability.
-CONFIDENCE = 0.95
 #: The low percentile of MRR/oracle over scenarios [%].
 PERCENTILE = 5.0
 
@@ -318,45 +314,6 @@ class CertificateSummary:
     def violation_probability_upper_95(self) -> float:
         """The bound over all parts [-]."""
         return self.total.violation_probability_upper_95
-
-
-def clopper_pearson_upper(failures: int, trials: int, confidence: float = CONFIDENCE) -> float:
-    r"""One-sided Clopper-Pearson upper confidence limit of a binomial probability.
-
-    .. math::
-
-        p_\mathrm{up} = B^{-1}(c;\ x + 1,\ n - x) \quad (x < n), \qquad
-        p_\mathrm{up} = 1 \quad (x = n)
-
-    which for ``x = 0`` is ``1 − (1 − c)^{1/n}``.
-
-    Parameters
-    ----------
-    failures : int
-        Trials that failed, ``x`` (``0 <= x <= n``).
-    trials : int
-        Trials, ``n`` (0 gives 1: nothing is known).
-    confidence : float
-        One-sided confidence ``c``, ``0 < c < 1`` [-].
-
-    Returns
-    -------
-    float
-        The upper limit of the failure probability [-].
-
-    References
-    ----------
-    .. [1] Clopper & Pearson (1934), Biometrika 26(4), 404-413.
-    """
-    if not 0 < confidence < 1:
-        raise InputError("confidence", confidence, "must be in (0, 1)")
-    if trials < 0 or not 0 <= failures <= max(trials, 0):
-        raise InputError("failures", failures, f"must be in 0..trials ({trials})")
-    if failures >= trials:
-        return 1.0
-    if failures == 0:
-        return float(-math.expm1(math.log1p(-confidence) / trials))
-    return float(beta.ppf(confidence, failures + 1, trials - failures))
 
 
 def summary_rows(parts: int) -> tuple[int, ...]:

@@ -32,7 +32,8 @@ from supervisor.inputs.plan import Plan
 from supervisor.inputs.signals import operating_point, resolve
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.optimize.result import PlanResult
-from supervisor.rcb.state import Decision, RcbSettings, RcbState
+from supervisor.rcb.decision import Decision
+from supervisor.rcb.state import RcbSettings, RcbState
 from supervisor.rcb.update import start, update
 from supervisor.virtual.machine import DEFAULT_UNCERTAINTY, PartOutcome, VirtualMachine
 from supervisor.virtual.sampling import oracle_tools, sample_machine

@@ -12,7 +12,7 @@ from api.rest.schemas.halts import HaltedOperationOut
 from api.rest.schemas.setpoints import OperationSetpoint
 from models.quantities import MODEL_QUANTITIES
 from supervisor.inputs.part_report import MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST
-from supervisor.rcb.state import Action, Flag, Note
+from supervisor.rcb.decision import Action, Flag, Note
 
 #: Quantities a part report may measure: every model quantity but tool life, which follows from
 #: ``tool_wear`` (:func:`supervisor.rcb.update.update`; the operation's tool must model it).

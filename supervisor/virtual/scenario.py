@@ -1,0 +1,156 @@
+"""One closed-loop scenario of a certificate: a virtual machine, RCB, ``parts`` parts.
+
+What a scenario does, row by row, is described in :mod:`supervisor.virtual.certify`, which runs
+many of them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from models.quantities import PARTS_PER_EDGE
+from supervisor.inputs.part_report import PartReport
+from supervisor.inputs.plan import Plan
+from supervisor.optimize.result import PlanResult
+from supervisor.rcb.state import Halt, RcbState
+from supervisor.rcb.update import update
+from supervisor.virtual.certificate import FloatArray, ScenarioTrace
+from supervisor.virtual.fault_log import FaultLog
+from supervisor.virtual.fault_oracle import truth_oracle
+from supervisor.virtual.fault_spec import Faults, with_wear
+from supervisor.virtual.faults import PartFaults, step_factor, unavoidable_parts
+from supervisor.virtual.sampling import sample_machine
+from supervisor.virtual.simulate import run_part
+
+
+def _record(result: PlanResult, oracle: PlanResult) -> tuple[float, FloatArray, float]:
+    """Plan MRR/oracle ratio, per-operation MRR/oracle ratios, cycle time."""
+    pairs = zip(result.operations, oracle.operations, strict=True)
+    ops = np.array([r.mrr_cm3_min / o.mrr_cm3_min for r, o in pairs])
+    cycle = result.cycle_time_min
+    return oracle.cycle_time_min / cycle, ops, cycle
+
+
+def _edge_life_parts(plan: Plan) -> dict[str, int | None]:
+    """Parts an edge makes before it is changed, per operation (None: never in a run)."""
+    out: dict[str, int | None] = {}
+    for op in plan.operations:
+        limit = op.limits.get(PARTS_PER_EDGE)
+        out[op.name] = None if limit is None else max(1, math.floor(limit))
+    return out
+
+
+def _halted_operation(halt: Halt) -> str:
+    """The operations a halt names, comma-separated."""
+    return ",".join(o.operation for o in halt.operations)
+
+
+def run_scenario(
+    initial: RcbState,
+    seed: int,
+    parts: int,
+    *,
+    wear_drift_per_edge_life: float = 0.0,
+    faults: Faults | None = None,
+) -> ScenarioTrace:
+    """Make ``parts`` parts with RCB from ``initial`` on the virtual machine of ``seed``.
+
+    Parameters
+    ----------
+    initial : RcbState
+        The robust start, ``start(plan, RcbSettings(strategy=...))``; its plan is the plan.
+    seed : int
+        Seed of the true process and of the measurement noise (``>= 0``); every fault's
+        stream is derived from it (:func:`supervisor.virtual.faults.fault_rng`).
+    parts : int
+        Parts to make, ``K >= 1``.
+    wear_drift_per_edge_life : float
+        Relative rise of force, roughness and spindle current over an edge's life [-]
+        (module docstring for the edge changes); the alias of the fault ``wear:D``.
+    faults : Faults, optional
+        The faults of the shop floor (:mod:`supervisor.virtual.fault_spec`); none by default,
+        and then every result is as before the fault catalogue.
+
+    Returns
+    -------
+    ScenarioTrace
+        MRR/oracle and cycle time after ``k = 0..parts`` parts (row ``k`` against the oracle
+        of the truth part ``k + 1`` is made with), violations per part, the unavoidable
+        parts, what each fault did and where the scenario stopped.
+    """
+    plan = initial.plan
+    faults = with_wear(faults or Faults(), wear_drift_per_edge_life)
+    machine = sample_machine(plan, seed=seed, wear_drift_per_edge_life=faults.wear)
+    log = FaultLog(faults, machine, seed) if faults else None
+    oracles: dict[float, PlanResult] = {}
+
+    def oracle_of(part: int) -> PlanResult:
+        """The oracle of the truth part ``part`` is made with (steps change it)."""
+        factor = step_factor(faults, part)
+        if factor not in oracles:
+            truth = PartFaults(factor, bends=log.bends) if log and faults.beyond_wear else None
+            oracles[factor] = truth_oracle(machine, truth)
+        return oracles[factor]
+
+    oracle = oracle_of(1)
+    changes: list[tuple[int, float]] = []
+    # the edges of operations with a parts_per_edge limit are changed after that many parts,
+    # and the MES reports each one's age (edge_parts), as a control's tool-life counter does
+    edge_life = _edge_life_parts(plan)
+    counted = {name: n for name, n in edge_life.items() if n is not None}
+    state = initial
+    rng = np.random.default_rng(seed)
+    n_ops = len(plan.operations)
+    plan_ratio = np.zeros(parts + 1)
+    op_ratio = np.zeros((parts + 1, n_ops))
+    cycle = np.full(parts + 1, np.nan)
+    violations = np.zeros(parts, dtype=np.int64)
+    where: list[tuple[int, str, str]] = []
+    stopped_at, stopped_op, made = 0, "", 0
+    for k in range(1, parts + 1):
+        oracle = _oracle_row(oracle_of(k), oracle, k - 1, changes)
+        plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(state.setpoints, oracle)
+        setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
+        edge_parts = {name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()}
+        part_faults = log.for_part(k) if log else None
+        outcome = run_part(machine, setpoints, rng, edge_parts, faults=part_faults)
+        if log:
+            log.record(k, setpoints, outcome, edge_parts)
+        made = k
+        violations[k - 1] = len(outcome.violations)
+        where += [(k, v.operation, v.quantity) for v in outcome.violations]
+        ages = {name: edge_parts[name] for name in counted}
+        report = PartReport(f"{seed}-{k}", state.version, outcome.measurements, edge_parts=ages)
+        state, _ = update(state, report)
+        if state.halt is not None:
+            stopped_at, stopped_op = k, _halted_operation(state.halt)
+            break
+    if not stopped_at:
+        oracle = _oracle_row(oracle_of(parts + 1), oracle, parts, changes)
+        plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(state.setpoints, oracle)
+    return ScenarioTrace(
+        seed=seed,
+        oracle_cycle_min=oracle_of(1).cycle_time_min,
+        plan_ratio=plan_ratio,
+        op_ratio=op_ratio,
+        cycle_min=cycle,
+        violations=violations,
+        where=tuple(where),
+        stopped_at=stopped_at,
+        stopped_op=stopped_op,
+        parts_made=made,
+        unavoidable_at=unavoidable_parts(faults, parts),
+        tallies=log.tallies() if log else (),
+        oracle_changes=tuple(changes),
+    )
+
+
+def _oracle_row(
+    oracle: PlanResult, before: PlanResult, row: int, changes: list[tuple[int, float]]
+) -> PlanResult:
+    """``oracle``, the one of row ``row``; noted in ``changes`` when it is not ``before``."""
+    if oracle is not before:
+        changes.append((row, oracle.cycle_time_min))
+    return oracle
