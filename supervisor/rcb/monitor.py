@@ -83,12 +83,16 @@ class Expected:
     """What a strategy expects of a reading: ``ln y ~ mean ± sd`` (without the reading's noise).
 
     ``noise``: a part of the spread that is readings' noise (the chain's last reading), in
-    ``ln`` at the reported scale: it is counted at the measured scale ``ŝ``.
+    ``ln`` at the reported scale: it is counted at the measured scale ``ŝ``. ``shift``: how far
+    the exponents moved the chain's reading to this setpoint (``ln``); a difference whose
+    shift is larger than the pair's noise says more about the exponents than about the noise,
+    and the noise scale does not learn from it (successive differences at nearly one setpoint).
     """
 
     mean: float
     sd: float
     noise: float = 0.0
+    shift: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -238,6 +242,8 @@ def watch(
     # counts as a reading at the alarm's edge (it cannot be told from noise by itself)
     unit = high.noise**2 + reading.noise**2
     weight = variance * unit / (high.sd**2 + variance * unit)
+    if high.shift**2 > unit:  # the setpoint moved too far to tell the noise from the model
+        weight = 0.0
     e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
     monitor = replace(
         monitor,
@@ -317,12 +323,13 @@ def chain(
     if last is None or set(last.ln_x) != set(now):
         return None
     moved = {n: now[n] - last.ln_x[n] for n in now}
-    mean = last.ln_y + sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
+    shift = sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
     misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
+    mean = last.ln_y + shift
     if rise is not None and age is not None and last.age is not None:
         if age < last.age:  # a new edge: its level is not the worn one's
             return None
         steps = age - last.age
         mean += rise[0] * steps
         misfit += rise[1] * steps**2
-    return Expected(mean, math.sqrt(misfit), last.noise)
+    return Expected(mean, math.sqrt(misfit), last.noise, shift)
