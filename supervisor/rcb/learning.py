@@ -30,7 +30,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
 from supervisor.rcb import posterior as post
@@ -69,8 +69,7 @@ def expects(
     belief = belief_of(state, operation, quantity)
     point = {**result.setpoint, **operation.context}
     cone = Cone(belief, state.settings.z, state.settings.tau)
-    n = float(age) if age is not None else belief.edge_max / 2.0
-    n = min(n, float(belief.edge_max))
+    n = belief.edge_age(age)
     mean = float(belief.features(point, n) @ belief.mean_array)
     return Expected(mean, cone.spread(point, operation.setpoint_rel_uncertainty, n))
 
@@ -124,7 +123,7 @@ def _held_point(held: Reading) -> dict[str, float]:
 def _held_measurement(held: Reading, scale: float) -> Measurement:
     """The quarantined reading as a measurement, its ``u`` at the measured scale."""
     y = math.exp(held.ln_y)
-    return Measurement(y, held.noise * 2.0 * y * scale)
+    return Measurement(y, held.noise * COVERAGE_FACTOR * y * scale)
 
 
 def _at_least(
@@ -134,9 +133,8 @@ def _at_least(
     y, u = measurement.value, measurement.uncertainty
     if y <= u:
         return belief
-    n = float(age) if age is not None else belief.edge_max / 2.0
-    n = min(n, float(belief.edge_max))
-    deficit = math.log(y - u) - float(belief.features(point, n) @ belief.mean_array)
+    at = belief.features(point, belief.edge_age(age))
+    deficit = math.log(y - u) - float(at @ belief.mean_array)
     if deficit <= 0:
         return belief
     return replace(belief, mean=(belief.mean[0] + deficit, *belief.mean[1:]))

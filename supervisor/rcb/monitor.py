@@ -62,6 +62,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
+from supervisor.rcb.wear import setpoint_shift
 
 #: A reading this many σ under what the strategy expects is quarantined (``implausible_low``).
 LOW_SIGMA = 6.0
@@ -216,7 +217,7 @@ def watch(
     y, u = measurement.value, measurement.uncertainty
     if not (y > 0 and u > 0):  # nothing to judge in logs (a zero reading is the law's)
         return Watched("accept", replace(monitor, held=None))
-    reading = Reading(math.log(y), (u / COVERAGE_FACTOR) / y, _logs(point))
+    reading = _reading_of(measurement, point)
     variance = monitor.scale**2
     held = monitor.held
     if (
@@ -261,11 +262,17 @@ def learned(
     monitor: Monitor, measurement: Measurement, point: Mapping[str, float], age: int | None
 ) -> Monitor:
     """The monitor once the reading is learned from: it is the chain's last reading."""
-    y, u = measurement.value, measurement.uncertainty
-    if not (y > 0 and u > 0):
+    if not (measurement.value > 0 and measurement.uncertainty > 0):
         return replace(monitor, last=None)
-    reading = Reading(math.log(y), (u / COVERAGE_FACTOR) / y, _logs(point), age)
-    return replace(monitor, last=reading)
+    return replace(monitor, last=_reading_of(measurement, point, age))
+
+
+def _reading_of(
+    measurement: Measurement, point: Mapping[str, float], age: int | None = None
+) -> Reading:
+    """A reading (``y > 0``, ``u > 0``) as the monitor keeps it."""
+    y, u = measurement.value, measurement.uncertainty
+    return Reading(math.log(y), (u / COVERAGE_FACTOR) / y, _logs(point), age)
 
 
 def _logs(point: Mapping[str, float]) -> dict[str, float]:
@@ -286,10 +293,8 @@ def _difference(
     before: Reading, after: Reading, exponents: Mapping[str, float], exponent_sd: float
 ) -> tuple[float, float]:
     """``d`` of two readings and the variance a wrong exponent makes of the setpoint's change."""
-    moved = {n: after.ln_x[n] - before.ln_x[n] for n in after.ln_x if n in before.ln_x}
-    d = after.ln_y - before.ln_y - sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
-    misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
-    return d, misfit
+    shift, misfit = setpoint_shift(before.ln_x, after.ln_x, exponents, exponent_sd)
+    return after.ln_y - before.ln_y - shift, misfit
 
 
 def _consistent(
@@ -322,9 +327,7 @@ def chain(
     now = _logs(point)
     if last is None or set(last.ln_x) != set(now):
         return None
-    moved = {n: now[n] - last.ln_x[n] for n in now}
-    shift = sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
-    misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
+    shift, misfit = setpoint_shift(last.ln_x, now, exponents, exponent_sd)
     mean = last.ln_y + shift
     if rise is not None and age is not None and last.age is not None:
         if age < last.age:  # a new edge: its level is not the worn one's

@@ -154,6 +154,11 @@ class Posterior:
         logs = [math.log(point[n]) - c for n, c in zip(self.names, self.center, strict=True)]
         return np.array([1.0, *logs, *((edge_parts,) if self.edge_max else ())])
 
+    def edge_age(self, edge_parts: int | None) -> float:
+        """``n`` of a reading: its edge's age up to ``n_max``, ``n_max / 2`` when not known."""
+        n = float(edge_parts) if edge_parts is not None else self.edge_max / 2.0
+        return min(n, float(self.edge_max))
+
     @property
     def exponent_means(self) -> tuple[float, ...]:
         """The posterior means of the exponents, in :attr:`names` order."""
@@ -272,11 +277,10 @@ def observe(
     ``edge_parts``: the parts the edge made before this one (None: not reported).
     """
     noise = max((measurement.uncertainty / coverage_k) / measurement.value, 1e-9)
-    n = float(edge_parts) if edge_parts is not None else belief.edge_max / 2.0
     if belief.edge_max and edge_parts is None:  # unknown age: its spread is noise too
         w_sd = math.sqrt(belief.cov[-1][-1]) + abs(belief.mean[-1])
         noise = math.hypot(noise, w_sd * belief.edge_max / 2.0)
-    phi = belief.features(point, min(n, float(belief.edge_max)))
+    phi = belief.features(point, belief.edge_age(edge_parts))
     mu = np.array(belief.mean)
     cov = np.array(belief.cov)
     cov[0, 0] += drift**2

@@ -48,8 +48,7 @@ References
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
-from typing import Any, cast
+from dataclasses import dataclass, replace
 
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
@@ -149,23 +148,23 @@ def update(
         measured_items.append((name, "tool_life_mm3", wear_measured))
     for name, quantity, _ in measured_items:  # check the whole report before applying any
         _check_quantity(state.tools[name], name, quantity)
-    new = replace(
-        state,
-        tools=dict(state.tools),
-        sigma=dict(state.sigma),
-        seen=dict(state.seen),
-        posterior=dict(state.posterior),
-        wear=dict(state.wear),
-        monitors=dict(state.monitors),
+    maps = _Maps(
+        dict(state.tools),
+        dict(state.sigma),
+        dict(state.seen),
+        dict(state.posterior),
+        dict(state.wear),
+        dict(state.monitors),
     )
     decisions: list[Decision] = []
     gross: list[HaltedOperation] = []
     for name, quantity, measurement in measured_items:
         op, made = measured_at(operations[name], results[name], quantity)  # a pass's setpoint
-        decision, over = _reading(state, new, op, made, quantity, measurement, report)
+        decision, over = _reading(state, maps, op, made, quantity, measurement, report)
         decisions.append(decision)
         if over is not None:
             gross.append(over)
+    new = replace(state, **vars(maps))
     if gross and state.halt is None:
         return replace(new, halt=_gross_halt(state, new, gross)), tuple(decisions)
     unchanged = new.tools == state.tools and new.posterior == state.posterior
@@ -178,16 +177,28 @@ def update(
     return replace(new, setpoints=new_setpoints, version=state.version + 1), tuple(decisions)
 
 
+@dataclass
+class _Maps:
+    """The state's maps after a report, copied from before it; :func:`_reading` fills them."""
+
+    tools: dict[str, Tool]
+    sigma: dict[tuple[str, str], float]
+    seen: dict[tuple[str, str], float]
+    posterior: dict[tuple[str, str], Posterior]
+    wear: dict[tuple[str, str], WearRise]
+    monitors: dict[tuple[str, str], Monitor]
+
+
 def _reading(
     state: RcbState,
-    new: RcbState,
+    new: _Maps,
     op: Operation,
     made: OperationResult,
     quantity: str,
     measurement: Measurement,
     report: PartReport,
 ) -> tuple[Decision, HaltedOperation | None]:
-    """One reading through the monitor, the band law and the strategy; ``new``'s maps change.
+    """One reading through the monitor, the band law and the strategy, into ``new``.
 
     Returns the decision and, for a reading past its limit by more than ``halt_over``, what
     halts the plan.
@@ -203,18 +214,13 @@ def _reading(
     if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
         low, high = rule.expects(state, op, made, quantity, age, monitor)
         watched = watch(monitor, low, high, measurement, point, exponents, settings.exponent_sd)
-    assert isinstance(new.monitors, dict)
     new.monitors[key] = watched.monitor
     if not watched.learns:  # quarantined: a decision to show, nothing learned
         law, *_ = apply_law(state, op, made, quantity, measurement)
-        assert isinstance(new.seen, dict)
         new.seen[key] = state.seen.get(key, 0.0)  # a maximum's: 0 covers nothing
         return quarantined(law, watched.sigma), None
     scaled = Measurement(measurement.value, measurement.uncertainty * monitor.scale)
-    # the maps of ``new`` are this report's copies (update); each reading has its own key
-    maps = (new.tools, new.sigma, new.seen, new.wear, new.posterior)
-    assert all(isinstance(m, dict) for m in maps)
-    tools, sigma, seen, rises, posterior = cast(tuple[dict[Any, Any], ...], maps)
+    tools, sigma, seen, rises, posterior = new.tools, new.sigma, new.seen, new.wear, new.posterior
     judged = state
     if watched.forget > 0:  # the old regime's evidence weighs less
         before = state.sigma.get(key, prior_sigma(state.tools[op.name].models[quantity], settings))

@@ -137,6 +137,24 @@ def from_json(data: Mapping[str, Any]) -> WearRise:
     )
 
 
+def setpoint_shift(
+    before: Mapping[str, float],
+    after: Mapping[str, float],
+    exponents: Mapping[str, float],
+    exponent_sd: float,
+) -> tuple[float, float]:
+    """``Σ e_i Δln x_i`` from ``before`` to ``after`` (``ln x`` by name), and its variance.
+
+    The variance is what exponents wrong by their prior spread ``s_e`` (relative) make of the
+    change, ``Σ (s_e e_i Δln x_i)²`` (module docstring); names of ``after`` missing from
+    ``before``, or without an exponent, do not move.
+    """
+    moved = {n: after[n] - before[n] for n in after if n in before}
+    shift = sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
+    misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
+    return shift, misfit
+
+
 def prior(edge_max: int, edge_sd: float) -> WearRise:
     """``N(0, (s_w / n_max)²)``: a rise of ``s_w`` over an edge's life as one σ."""
     return WearRise(0.0, (edge_sd / max(edge_max, 1)) ** 2, edge_max)
@@ -166,9 +184,8 @@ def observe(
     if last is None or age <= last.age or set(last.ln_x) != set(ln_x):
         return replace(belief, last=reading)  # a new edge (or the first reading)
     steps = age - last.age
-    moved = {name: ln_x[name] - last.ln_x[name] for name in ln_x}
-    d = reading.ln_y - last.ln_y - sum(exponents.get(n, 0.0) * dx for n, dx in moved.items())
-    misfit = sum((exponent_sd * exponents.get(n, 0.0) * dx) ** 2 for n, dx in moved.items())
+    shift, misfit = setpoint_shift(last.ln_x, ln_x, exponents, exponent_sd)
+    d = reading.ln_y - last.ln_y - shift
     eta_var = noise**2 + last.noise**2 + misfit
     gain = belief.var * steps / (belief.var * steps**2 + eta_var)
     mean = belief.mean + gain * (d - belief.mean * steps)
