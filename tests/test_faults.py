@@ -288,13 +288,13 @@ def test_fault_free_results_are_those_from_before_the_catalogue():
     # aabf515a2a9d and d17dc7599040 (checked when the catalogue landed); issue 27's rules
     # changed what the learner does, and these are today's: without a fault, the catalogue
     # changes nothing, and wear:0.05 is --wear-drift 0.05
-    assert digest(simulate(PLAN, ["ivester", "learn"], scenarios=3, parts=12)) == "fb39dc2a761d"
+    assert digest(simulate(PLAN, ["ivester", "learn"], scenarios=3, parts=12)) == "1725bcc25ab8"
     wear = simulate(PLAN, ["ivester"], scenarios=2, parts=12, seed=4, wear_drift_per_edge_life=0.05)
-    assert digest(wear) == "b026fa9e20a7"
+    assert digest(wear) == "d17dc7599040"
     worn = simulate(
         PLAN, ["ivester"], scenarios=2, parts=12, seed=4, faults=parse_faults(["wear:0.05"])
     )
-    assert digest(worn) == "b026fa9e20a7"
+    assert digest(worn) == "d17dc7599040"
 
 
 def test_neutral_faults_leave_the_noise_stream_alone():

@@ -121,12 +121,19 @@ def apply_law(
     quantity: str,
     measurement: Measurement,
     projection: float = 1.0,
+    moved: float = 0.0,
 ) -> tuple[Decision, PowerLawModel, float, float]:
     """The one-sided law for one measured quantity: decision, model, σ of ln K, ``seen``.
 
     ``projection``: ``y↑/y``, the reading's rise to its edge's last part
     (:meth:`supervisor.rcb.wear.WearRise.factor`); the margin is taken from ``y↑`` for a
     maximum (module docstring), flags and the cover rule from the reading itself.
+    ``moved``: for a reading that shows the process changed
+    (:mod:`supervisor.rcb.monitor`), the relative spread ``s`` of the model's exponents; a
+    flagged reading's band then reaches ``(y + u)·(g/Y_lim)^(k s)``, ``g = y + u``: the next
+    setpoint backs off by ``ln(g/Y_lim)`` in the quantity, and exponents wrong by ``k s`` of
+    themselves would carry the reading that much higher there (the band moves the reading
+    to another setpoint with the model's exponents).
 
     Raises
     ------
@@ -135,7 +142,7 @@ def apply_law(
         the operation's measured quantity.
     """
     try:
-        return _apply_law(state, operation, result, quantity, measurement, projection)
+        return _apply_law(state, operation, result, quantity, measurement, projection, moved)
     except ArithmeticError:
         where = f"operations.{operation.name}.measurements.{quantity}"
         raise InputError(where, measurement.value, _OUT_OF_RANGE) from None
@@ -148,6 +155,7 @@ def _apply_law(
     quantity: str,
     measurement: Measurement,
     projection: float,
+    moved: float,
 ) -> tuple[Decision, PowerLawModel, float, float]:
     settings = state.settings
     model = state.tools[operation.name].models[quantity]
@@ -236,6 +244,8 @@ def _apply_law(
     cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new.value
     if flag is not None or fallback_only:
         reach = guard - y_new.value if is_max else y_new.value - guard
+        if moved > 0 and is_max and guard > limit:  # a change: the back-off's exponent error
+            reach = guard * (guard / limit) ** (settings.coverage_k * moved) - y_new.value
         new = _with_band(model, max(predicted.band, reach, cover), y_new.value, point, rel)
         action: Action = "expand" if new.predict(point, rel).band > predicted.band else "hold"
         if flag is None:

@@ -74,7 +74,8 @@ CONFIRM_SIGMA = 3.0
 #: never confirmed: no change of a process halves it; a sensor or a tool does.
 CONFIRMABLE = math.log(2.0)
 #: ``a = b`` of the noise scale's inverse-gamma prior: the reported ``u`` counts as two readings.
-NOISE_PRIOR = 1.0
+NOISE_PRIOR = 1.5
+NOISE_RATE = 1.0
 
 Verdict = Literal["accept", "quarantine", "confirm", "change"]
 
@@ -137,7 +138,7 @@ class Monitor:
     """
 
     shape: float = NOISE_PRIOR
-    rate: float = NOISE_PRIOR
+    rate: float = NOISE_RATE
     last: Reading | None = None
     held: Reading | None = None
     quarantined: int = 0
@@ -147,6 +148,15 @@ class Monitor:
     def scale(self) -> float:
         """``ŝ = √max(b/a, 1)``: the noise in force as a multiple of the reported one."""
         return math.sqrt(max(self.rate / self.shape, 1.0))
+
+    @property
+    def prudent_scale(self) -> float:
+        """``√max(b/(a − 1), 1)``: the posterior mean of ``λ``, larger while ``a`` is small.
+
+        ``learn``'s likelihood uses it: a posterior narrowed by a few readings of a chain
+        whose noise is not yet known is what crossed limits under a misreported ``u``.
+        """
+        return math.sqrt(max(self.rate / (self.shape - 1.0), 1.0))
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready mapping (:func:`from_json` reads it back)."""

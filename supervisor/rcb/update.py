@@ -231,13 +231,17 @@ def _reading(
     if rise is not None:
         rises[key] = rise
         projection = rise.factor(age, settings.coverage_k)
+    moved = settings.exponent_sd if watched.verdict == "change" else 0.0
     decision, model, sigma[key], seen[key] = apply_law(
-        judged, op, made, quantity, scaled, projection
+        judged, op, made, quantity, scaled, projection, moved
     )
     decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
     if watched.changed:
         decision = changed(decision, watched)
-    keep, belief, decision = rule.learn(state, op, made, decision, scaled, watched, age)
+    prudent = Measurement(
+        measurement.value, measurement.uncertainty * watched.monitor.prudent_scale
+    )
+    keep, belief, decision = rule.learn(state, op, made, decision, prudent, watched, age)
     if keep:
         tools[op.name] = _with_model(tools[op.name], model)
     if belief is not None:
