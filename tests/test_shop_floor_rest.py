@@ -280,25 +280,6 @@ def test_a_dropout_among_good_readings_is_quarantined_on_every_surface(
         assert _operation(_setpoints(mes, twin), "rough-od") == _operation(after, "rough-od")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="issue 27 point 1 as written: with the part's other readings (seed 0) rough-od goes "
-    "from 191.177 to 197.640 cm3/min (feed 0.3248 -> 0.3294 mm/rev at depth 3.0, roughness_um "
-    "binding): the good readings' speed-up, equal to a twin plan's without the dropout reading "
-    "(test_a_dropout_among_good_readings_is_quarantined_on_every_surface); the dropout alone "
-    "moves nothing (test_a_dropout_alone_is_quarantined_and_moves_no_setpoint)",
-)
-def test_a_dropout_among_good_readings_makes_its_operation_no_faster(server: LiveServer) -> None:
-    with server.client("engineer") as eng, server.client("mes") as mes:
-        plan_id = _create(eng)
-        _, before, body, _ = _dropout(mes, plan_id, only=False)
-        _post(mes, plan_id, body)
-        after = _setpoints(mes, plan_id)
-        rough_before, rough_after = _operation(before, "rough-od"), _operation(after, "rough-od")
-        assert rough_after["mrr_cm3_min"] <= rough_before["mrr_cm3_min"]
-
-
 # --------------------------------------------------------------------------- 2. a +12 % step
 
 #: Parts made on the machine before its step.
@@ -452,16 +433,6 @@ def test_readings_noisier_than_their_u_leave_a_wider_band(server: LiveServer) ->
         assert wide > narrow, (op.name, wide, narrow)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="issue 27 point 4 read on GET setpoints (SQLite and PostgreSQL alike, seed 0, 15 "
-    "parts): rough-od's predicted force band at its setpoint is 6.02 N (1988.5 N predicted) "
-    "for the noisy plan, "
-    "6.62 N (1993.1 N) for the honest one; the other five operations' are wider for the noisy "
-    "plan (5.56/2.14, 3.55/1.75, 5.96/2.06, 2.05/0.91, 4.77/1.89 N), and every operation's "
-    "update band_after is (test_readings_noisier_than_their_u_leave_a_wider_band)",
-)
 def test_readings_noisier_than_their_u_predict_a_wider_band_at_the_setpoint(
     server: LiveServer,
 ) -> None:
