@@ -158,3 +158,26 @@ def test_rescaled_counts_the_readings_at_the_new_noise_scale():
     assert_allclose(wider.mean[0], 0.05 * 2500 / 2600, rtol=1e-9)
     assert wider.noise_scale2 == 4.0
     assert rescaled(wider, prior, 2.0) is wider  # a scale only ever grows
+
+
+def test_readings_a_little_over_part_after_part_are_a_change_by_cusum():
+    # ln y ~ ln 100 ± 0.01, readings 103 ± 0.001 (noise negligible): e = ln 1.03 = 0.029559,
+    # r = 2.9559 each (under the one-reading threshold 4); S = max(0, S + r − 0.5): 2.456,
+    # 4.912 (under h = 6), 7.368: the third reading is a change, its discount the mean shift²
+    # less the variance of a mean of three, 0.029559² − 1e-4 / 3 = 8.4040e-4
+    tight = m.Expected(math.log(100.0), 0.01)
+    monitor = m.Monitor()
+    for expected_s in (2.4559, 4.9118):
+        watched = _watch(monitor, 103.0, u=0.001, low=tight, high=tight)
+        assert watched.verdict == "accept"
+        assert_allclose(watched.monitor.cusum, expected_s, rtol=1e-4)
+        monitor = watched.monitor
+    third = _watch(monitor, 103.0, u=0.001, low=tight, high=tight)
+    assert third.verdict == "change" and third.monitor.cusum == 0.0
+    assert_allclose(third.forget, math.log(1.03) ** 2 - 1e-4 / 3, rtol=1e-4)
+    # 99 (r = −1.005) only lowers S to 3.407; 95 (r = −5.13) brings it back to 0 and forgets
+    assert_allclose(
+        _watch(monitor, 99.0, u=0.001, low=tight, high=tight).monitor.cusum, 3.4067, rtol=1e-4
+    )
+    back = _watch(monitor, 95.0, u=0.001, low=tight, high=tight).monitor
+    assert (back.cusum, back.drift_sum, back.drift_n) == (0.0, 0.0, 0)

@@ -24,7 +24,9 @@ each side). With ``s`` the expectation's spread, ``s_n = ŝ (u/k)/y`` the readin
   discounted by a random-walk step of the intercept sized to explain the innovation,
   ``q = e² − (s² + s_n²)`` (moment matching, the adaptive fading of a Kalman filter [3]_), so
   the reading is learned at once instead of averaged in at ``1/n``; the decision says
-  ``regime_change``.
+  ``regime_change``. A shift too small for one reading is found by the upper CUSUM of ``r``
+  (:data:`CUSUM_K`, :data:`CUSUM_H`; Page 1954 [4]_), which discounts the mean shift of the
+  readings since it last stood at 0.
 
 The noise scale: the reported ``u`` is a prior on the noise, not its value. The variance of a
 reading is ``λ (u/k)²`` with ``λ ~ InvGamma(a, b)``, ``a =`` :data:`NOISE_PRIOR`, ``b =``
@@ -58,6 +60,8 @@ References
 .. [3] Xia, Rao, Ying & Shen (1994), "Adaptive fading Kalman filter with an application",
    Automatica 30(8), 1333-1338; Mehra (1972), "Approaches to adaptive filtering", IEEE Trans.
    Automatic Control 17(5) (innovation-based adaptation).
+.. [4] Page (1954), "Continuous inspection schemes", Biometrika 41(1/2), 100-115; Montgomery,
+   Introduction to Statistical Quality Control, the tabular CUSUM.
 """
 
 from __future__ import annotations
@@ -74,6 +78,14 @@ from supervisor.rcb.wear import setpoint_shift
 LOW_SIGMA = 6.0
 #: A reading this many σ over what the strategy expects is a change of the process.
 CHANGE_SIGMA = 4.0
+#: The upper CUSUM of the standardised innovations, ``S ← max(0, S + r − k)``, raises a change
+#: when ``S > h`` (Page 1954; Montgomery, Statistical Quality Control, the tabular CUSUM):
+#: ``k = 0.5`` looks for a shift of one σ; ``h = 6`` runs about 2 600 in-control readings
+#: between false alarms (Siegmund's approximation). ``h = 5`` (about 900) backed a ``learn``
+#: setpoint off on a truth 0.95 x the model (tests/test_learn.py); ``h = 8`` (about 19 000)
+#: let a +12 % step under 3x noise cross on 655 parts in 60 scenarios, against 421 at 6.
+CUSUM_K = 0.5
+CUSUM_H = 6.0
 #: A quarantined reading is confirmed by the next one within this many σ of their joint noise.
 CONFIRM_SIGMA = 3.0
 #: A quarantined reading more than this (in ``ln``: a factor 2) under what was expected is
@@ -142,6 +154,10 @@ class Monitor:
         A quarantined reading waiting for the next one to confirm or drop it.
     quarantined, changes : int
         Readings quarantined and changes detected so far.
+    cusum, drift_sum, drift_n : float, float, int
+        The upper CUSUM of the high side's ``r`` (:data:`CUSUM_K`, :data:`CUSUM_H`), and the
+        sum and count of the innovations ``e`` since it last stood at 0 (their mean is the
+        shift a CUSUM alarm discounts).
     """
 
     shape: float = NOISE_PRIOR
@@ -150,6 +166,9 @@ class Monitor:
     held: Reading | None = None
     quarantined: int = 0
     changes: int = 0
+    cusum: float = 0.0
+    drift_sum: float = 0.0
+    drift_n: int = 0
 
     @property
     def scale(self) -> float:
@@ -174,6 +193,9 @@ class Monitor:
             "held": None if self.held is None else self.held.to_json(),
             "quarantined": self.quarantined,
             "changes": self.changes,
+            "cusum": self.cusum,
+            "drift_sum": self.drift_sum,
+            "drift_n": self.drift_n,
         }
 
 
@@ -186,6 +208,9 @@ def from_json(data: Mapping[str, Any]) -> Monitor:
         _reading(data.get("held")),
         int(data.get("quarantined", 0)),
         int(data.get("changes", 0)),
+        float(data.get("cusum", 0.0)),
+        float(data.get("drift_sum", 0.0)),
+        int(data.get("drift_n", 0)),
     )
 
 
@@ -268,11 +293,20 @@ def watch(
         shape=monitor.shape + 0.5 * weight,
         rate=monitor.rate + 0.5 * weight * max(e2 - high.sd**2, 0.0) / unit,
     )
-    if r_high > CHANGE_SIGMA:
-        forget = max(e * e - _variance(high, reading.noise, variance), 0.0)
-        counted = replace(monitor, changes=monitor.changes + 1)
+    spread2 = _variance(high, reading.noise, variance)
+    if r_high > CHANGE_SIGMA:  # one reading far over: a change at once
+        forget = max(e * e - spread2, 0.0)
+        counted = replace(monitor, changes=monitor.changes + 1, cusum=0.0, drift_sum=0.0, drift_n=0)
         return Watched("change", counted, r_high, forget)
-    return Watched("accept", monitor)
+    cusum = max(monitor.cusum + r_high - CUSUM_K, 0.0)
+    if cusum == 0.0:
+        return Watched("accept", replace(monitor, cusum=0.0, drift_sum=0.0, drift_n=0))
+    drift_sum, drift_n = monitor.drift_sum + e, monitor.drift_n + 1
+    if cusum > CUSUM_H:  # readings a little over, part after part: a change too
+        shift = drift_sum / drift_n
+        counted = replace(monitor, changes=monitor.changes + 1, cusum=0.0, drift_sum=0.0, drift_n=0)
+        return Watched("change", counted, cusum, max(shift * shift - spread2 / drift_n, 0.0))
+    return Watched("accept", replace(monitor, cusum=cusum, drift_sum=drift_sum, drift_n=drift_n))
 
 
 def learned(
