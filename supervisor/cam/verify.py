@@ -14,8 +14,9 @@ the material against surface points the compensation never looked at one by one:
 centres, and between them the midpoints of the triangles' diagonals (the centre of each
 square of four pixel centres, at the mean of the diagonal's two heights), where a wall
 steeper than the pixel grid stands. Reported: the largest gouge (material removed below the
-model, at either kind of point), the largest stock left after roughing (the 3D distance from the roughed surface to the model), the largest left
-after finishing, and the machining time from the program's feeds.
+model, at either kind of point), the largest stock left after roughing (the 3D distance from
+the roughed surface to the model), the largest left after finishing, and the machining time
+from the program's feeds.
 """
 
 from __future__ import annotations
