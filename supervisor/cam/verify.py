@@ -281,9 +281,7 @@ def _finished(
     dr, o = np.mgrid[-reach : reach + 1, -reach : reach + 1]
     distance = np.hypot(o - offset_px, dr - offset_px) * pixel_mm
     footprint = distance <= cutter.radius_mm + 1e-9
-    structure = np.where(
-        footprint, -cutter.profile_mm(np.minimum(distance, cutter.radius_mm)), 0.0
-    )
+    structure = np.where(footprint, -cutter.profile_mm(np.minimum(distance, cutter.radius_mm)), 0.0)
     # one kernel row at a time, from the rows the tip passed only (iso-lines along X pass
     # one row in a few): the same erosion, at that fraction of the cost
     visited = np.flatnonzero((tips < big).any(axis=1))
