@@ -42,9 +42,11 @@ OPCUA_NODES: dict[str, str] = {
     "block": "CNC:CncInterface/CNC:CncChannelList/{channel}/CNC:ActProgramBlock",
     "execution": "CNC:CncInterface/CNC:CncChannelList/{channel}/CNC:ActStatus",
 }
-#: Namespace URIs of the prefixes a browse path may use.
+#: Namespace URIs of the prefixes a browse path may use, exactly as the OPC Foundation's nodesets
+#: publish them (``<NamespaceUris>`` of ``Opc.Ua.CNC.NodeSet.xml``, OPC 40502 1.0: no trailing
+#: slash; of ``Opc.Ua.MachineTool.NodeSet2.xml``, OPC 40501 1.02: with one).
 OPCUA_PREFIXES = {
-    "CNC": "http://opcfoundation.org/UA/CNC/",
+    "CNC": "http://opcfoundation.org/UA/CNC",
     "MT": "http://opcfoundation.org/UA/MachineTool/",
 }
 #: OPC 40502 CncChannelStatus: Reset 0, Interrupted 1, Active 2.
