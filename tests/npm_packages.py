@@ -47,7 +47,8 @@ def npm_folder() -> Path:
                 pytest.skip(f"npm install {' '.join(PACKAGES)} took over 600 s")
             if answer.returncode != 0:
                 last = (answer.stderr.strip().splitlines() or ["no output"])[-1]
-                pytest.skip(f"npm install {' '.join(PACKAGES)} failed (registry reachable?): {last}")
+                why = f"failed (is the registry reachable?): {last}"
+                pytest.skip(f"npm install {' '.join(PACKAGES)} {why}")
             done.touch()
     return folder
 

@@ -144,6 +144,10 @@ async function main() {
         securityModes: [MessageSecurityMode.None],
         allowAnonymous: true,
         serverCertificateManager,
+        // every change reported (the collector's sampling interval 0 is answered with 0): by
+        // default node-opcua coalesces the changes of 100 ms into the last one, and a pass's
+        // peak between two reports would be lost
+        serverCapabilities: { minSupportedSampleRate: 0 },
     });
     await server.initialize();
     const nodes = buildSpace(server.engine.addressSpace);

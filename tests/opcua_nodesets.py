@@ -24,7 +24,7 @@ from asyncua import Server, ua
 
 from supervisor.virtual.trace import TraceSample
 
-from opcua_machine import PROGRAM, Nodes
+from opcua_machine import Nodes
 
 CNC = "http://opcfoundation.org/UA/CNC"
 MACHINE_TOOL = "http://opcfoundation.org/UA/MachineTool/"

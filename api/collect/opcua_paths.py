@@ -39,7 +39,7 @@ def _listing(names: list[str]) -> str:
 
 
 async def _node_id(client: Any, spec: str, field: str) -> Any:
-    from asyncua import ua
+    from asyncua.ua.status_codes import StatusCodes
     from asyncua.ua.uaerrors import UaStatusCodeError, UaStringParsingError
 
     try:
@@ -49,7 +49,7 @@ async def _node_id(client: Any, spec: str, field: str) -> Any:
     try:
         await node.read_browse_name()
     except UaStatusCodeError as err:
-        if err.code in (ua.StatusCodes.BadNodeIdUnknown, ua.StatusCodes.BadNodeIdInvalid):
+        if err.code in (StatusCodes.BadNodeIdUnknown, StatusCodes.BadNodeIdInvalid):
             raise InputError(field, spec, "the server has no node with this NodeId") from None
         raise
     return node
