@@ -261,6 +261,10 @@ def _best(signal: str, spec: str, found: list[DataItem], field: str) -> DataItem
     order = SUBTYPES.get(signal)
     if order is not None:
         found = [i for i in found if i.sub_type in order]
+    if len({i.component_id for i in found}) > 1:  # two spindles, two paths: never a guess
+        offered = ", ".join(i.describe() for i in found)
+        raise InputError(field, spec, f"ambiguous: {offered}; name the component or the item")
+    if order is not None:
         rank = {i.id: order.index(i.sub_type) for i in found}
         best = min(rank.values(), default=0)
         found = [i for i in found if rank[i.id] == best]
