@@ -30,7 +30,7 @@ from collect_support import (
 )
 from live import RCB, free_port
 from npm_packages import nodeset_folder, npm_folder
-from opcua_machine import OpcUaMachine
+from opcua_machine import OpcUaMachine, own_space
 from opcua_node_machine import NodeOpcUaMachine
 from opcua_nodesets import COLLECTOR_NODES, OfficialSpace
 
@@ -111,21 +111,50 @@ def test_a_path_not_on_the_server_is_one_line_naming_it(tmp_path, nodes, expecte
     ]
     machine = OpcUaMachine(trace, free_port(), space=space)
     machine.start()
-    config = write_config(tmp_path, "http://127.0.0.1:9/api/v1", 1, ["a=N100:N140"], "")
-    text = config.read_text(encoding="utf-8") + _source(machine.url, **nodes) + "\n"
-    config.write_text(text, encoding="utf-8")
     try:
-        answer = subprocess.run(
-            [str(RCB), "collect", "--config", str(config)],
-            capture_output=True,
-            text=True,
-            timeout=120,
-            env={**os.environ, KEY_VARIABLE: "not-used"},
-        )
+        errors, stderr = _refused(tmp_path, _source(machine.url, **nodes))
     finally:
         machine.stop()
-    lines = answer.stderr.strip().splitlines()
-    errors = [line for line in lines if line.startswith("rcb: error:")]
+    assert len(errors) == 1 and errors[0].startswith(expected), stderr[-2000:]
+
+
+async def _slash_space(server, first):
+    """OPC 40502's BrowseNames under the CNC URI with a trailing slash (as this project had it)."""
+    space = await own_space(server, first)
+    uri = "http://opcfoundation.org/UA/CNC"
+    array = await server.get_namespace_array()
+    await server.nodes.namespace_array.write_value([f"{uri}/" if u == uri else u for u in array])
+    return space
+
+
+def test_a_server_without_the_cnc_namespace_is_one_line_listing_its_namespaces(tmp_path):
+    trace = [TraceSample(0, "READY", 9000, 1, 0.0, 0.0, 0.0)] * 2
+    machine = OpcUaMachine(trace, free_port(), space=_slash_space)
+    machine.start()
+    try:
+        errors, stderr = _refused(tmp_path, _source(machine.url))
+    finally:
+        machine.stop()
+    assert len(errors) == 1, stderr[-2000:]
+    assert errors[0].startswith(
+        "rcb: error: opcua.nodes.spindle_load = 'CNC:CncInterface/CNC:CncSpindleList/Spindle/"
+        "CNC:ActLoad': the server has no namespace http://opcfoundation.org/UA/CNC (CNC:); it "
+        "has 0=http://opcfoundation.org/UA/, "
+    ), errors
+    assert "2=http://opcfoundation.org/UA/CNC/" in errors[0]
+
+
+def _refused(tmp_path, source: str) -> tuple[list[str], str]:
+    """``rcb collect`` with ``source``: exit 2, no traceback; its ``rcb: error:`` lines."""
+    config = write_config(tmp_path, "http://127.0.0.1:9/api/v1", 1, ["a=N100:N140"], "")
+    config.write_text(config.read_text(encoding="utf-8") + source + "\n", encoding="utf-8")
+    answer = subprocess.run(
+        [str(RCB), "collect", "--config", str(config)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, KEY_VARIABLE: "not-used"},
+    )
     assert answer.returncode == 2, answer.stderr[-2000:]
-    assert len(errors) == 1 and errors[0].startswith(expected), answer.stderr[-2000:]
     assert "Traceback" not in answer.stderr and "ValueError" not in answer.stderr
+    return [x for x in answer.stderr.splitlines() if x.startswith("rcb: error:")], answer.stderr
