@@ -7,10 +7,14 @@ the agent keeps the last ``buffer_size`` of them, so a reader that falls behind 
 wrap: ``/sample?from=`` older than ``firstSequence`` is an MTConnectError ``OUT_OF_RANGE``.
 Documents are MTConnectStreams 2.0, valid against the standard's schema
 (the standard's XSD named by ``RCB_MTCONNECT_XSD``, checked in ``tests/test_collect_mtconnect.py``).
+``/probe`` is the device model, as an agent has it: the spindle is the ``Rotary`` C in spindle
+mode, the path's feed rate is in MILLIMETER/SECOND as the Standard has it (the agent streams the
+trace's mm/min / 60), beside a feed-rate override in PERCENT.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from dataclasses import dataclass
@@ -34,6 +38,43 @@ ITEMS = {
     "spindle_load": ("Rotary", "c1", "Load", "Sload", "Samples"),
 }
 PROGRAM = "O1001"
+DEVICES_NS = "urn:mtconnect.org:MTConnectDevices:2.0"
+#: The device model (``/probe``): the ids of ITEMS, in their components. The load has no units
+#: here: the trace's is a voltage (Ivester & Heigel's sensor), which no MTConnect LOAD unit is.
+DEVICE = """<Device id="lathe" name="lathe" uuid="lathe-1">
+<DataItems><DataItem category="EVENT" id="avail" type="AVAILABILITY"/></DataItems>
+<Components><Axes id="ax" name="Axes"><Components><Rotary id="c1" name="C"><DataItems>
+<DataItem category="SAMPLE" id="Srpm" type="ROTARY_VELOCITY" subType="ACTUAL"
+ units="REVOLUTION/MINUTE" nativeUnits="REVOLUTION/MINUTE"/>
+<DataItem category="SAMPLE" id="Sload" type="LOAD"/>
+<DataItem category="EVENT" id="Smode" type="ROTARY_MODE">
+<Constraints><Value>SPINDLE</Value></Constraints></DataItem>
+</DataItems></Rotary></Components></Axes>
+<Controller id="cont" name="controller"><Components><Path id="path1" name="path"><DataItems>
+<DataItem category="EVENT" id="exec" type="EXECUTION"/>
+<DataItem category="EVENT" id="pgm" type="PROGRAM"/>
+<DataItem category="EVENT" id="pc" type="PART_COUNT"/>
+<DataItem category="EVENT" id="tool" type="TOOL_NUMBER"/>
+<DataItem category="EVENT" id="blk" type="BLOCK"/>
+<DataItem category="SAMPLE" id="Fovr" type="PATH_FEEDRATE" subType="OVERRIDE" units="PERCENT"/>
+<DataItem category="SAMPLE" id="Frt" type="PATH_FEEDRATE" subType="ACTUAL"
+ units="MILLIMETER/SECOND" nativeUnits="MILLIMETER/MINUTE"/>
+</DataItems></Path></Components></Controller></Components></Device>"""
+
+
+def mm_s_text(feed_rate_mm_min: float) -> str:
+    """The mm/s an agent streams for ``feed_rate_mm_min``: the float whose × 60 is it exactly.
+
+    (A collector reading it × 60 then reports the trace's own value, which the MES posts.)
+    """
+    x = feed_rate_mm_min / 60.0
+    for step in (0, 1, -1, 2, -2, 3, -3):
+        candidate = x
+        for _ in range(abs(step)):
+            candidate = math.nextafter(candidate, math.inf if step > 0 else -math.inf)
+        if candidate * 60.0 == feed_rate_mm_min:
+            return repr(candidate)
+    raise AssertionError(f"no float of mm/s is {feed_rate_mm_min!r} mm/min x 60: change the seed")
 
 
 @dataclass(frozen=True)
@@ -57,7 +98,7 @@ def observations(trace: list[TraceSample]) -> list[Obs]:
             "part_count": str(sample.part_count),
             "tool_number": str(sample.tool_number),
             "block": f"N{sample.block} G01",
-            "feed_rate_mm_min": repr(sample.feed_rate_mm_min),
+            "feed_rate_mm_min": mm_s_text(sample.feed_rate_mm_min),
             "spindle_speed_rpm": repr(sample.spindle_speed_rpm),
             "spindle_load": repr(sample.spindle_load),
         }
@@ -146,6 +187,15 @@ class Agent:
             f"{self.header(next_sequence)}<Streams>{device}</Streams></MTConnectStreams>"
         )
 
+    def probe(self) -> str:
+        return (
+            f'<?xml version="1.0" encoding="UTF-8"?>\n<MTConnectDevices xmlns="{DEVICES_NS}">'
+            f'<Header creationTime="2026-11-25T00:00:00Z" sender="test-agent" '
+            f'instanceId="{self.instance_id}" version="2.0.0.0" bufferSize="{self.buffer_size}" '
+            f'assetBufferSize="0" assetCount="0" deviceModelChangeTime="2026-11-25T00:00:00Z"/>'
+            f"<Devices>{DEVICE}</Devices></MTConnectDevices>"
+        )
+
     def current(self) -> str:
         with self.lock:
             latest: dict[str, Obs] = {}
@@ -183,7 +233,9 @@ def serve(agent: Agent) -> tuple[ThreadingHTTPServer, str]:
         def do_GET(self) -> None:
             url = urlparse(self.path)
             query = {k: v[0] for k, v in parse_qs(url.query).items()}
-            if url.path.endswith("/current"):
+            if url.path.endswith("/probe"):
+                status, body = 200, agent.probe()
+            elif url.path.endswith("/current"):
                 status, body = 200, agent.current()
             elif url.path.endswith("/sample"):
                 status, body = agent.sample(int(query.get("from", 1)), int(query.get("count", 100)))

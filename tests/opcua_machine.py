@@ -1,7 +1,9 @@
 """A test OPC UA server on 127.0.0.1 (asyncua) playing a virtual lathe's trace.
 
-The address space follows OPC 40502 (CNC Systems) where it defines the signals: under
-``Objects/CncInterface`` (namespace ``http://opcfoundation.org/UA/CNC/``) a spindle
+Its address space is built by a ``space`` function: :func:`own_space` (here) or
+``tests/opcua_nodesets.py``'s, built from the OPC Foundation's own nodesets. :func:`own_space`
+follows OPC 40502 (CNC Systems) where it defines the signals: under
+``Objects/CncInterface`` (namespace ``http://opcfoundation.org/UA/CNC``) a spindle
 ``CncSpindleList/Spindle`` with ``ActLoad`` and ``ActSpeed`` and a channel
 ``CncChannelList/Channel`` with ``ActFeedrate``, ``ActProgramBlock`` and ``ActStatus``
 (CncChannelStatus: 0 Reset, 2 Active). What the specification does not place (part count, tool
@@ -15,23 +17,56 @@ from __future__ import annotations
 import asyncio
 import datetime as dt
 import threading
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 from asyncua import Server, ua
 
 from supervisor.virtual.trace import TraceSample
 
-CNC = "http://opcfoundation.org/UA/CNC/"
+CNC = "http://opcfoundation.org/UA/CNC"  # as Opc.Ua.CNC.NodeSet.xml has it
 PROGRAM = "O1001"
 _BASE = dt.datetime(2026, 11, 25, tzinfo=dt.UTC)
+
+
+#: item → (node, its VariantType, whether its value is an array: OPC 40502's ActProgramBlock)
+Nodes = dict[str, tuple[Any, ua.VariantType, bool]]
+#: Builds a server's address space (before it starts) → the node of every signal.
+Space = Callable[[Server, TraceSample], Awaitable[Nodes]]
+
+
+async def own_space(server: Server, first: TraceSample) -> Nodes:
+    """The BrowseNames of OPC 40502 in a namespace of its own (see the module docstring)."""
+    cnc = await server.register_namespace(CNC)
+    own = await server.register_namespace("urn:rcb-supervisor:test-lathe")
+    interface = await server.nodes.objects.add_object(cnc, "CncInterface")
+    spindle = await (await interface.add_object(cnc, "CncSpindleList")).add_object(own, "Spindle")
+    channel = await (await interface.add_object(cnc, "CncChannelList")).add_object(own, "Channel")
+    machine = await server.nodes.objects.add_object(own, "Machine")
+    nodes: Nodes = {}
+    for item, parent, ns, name, value, kind in (
+        ("execution", channel, cnc, "ActStatus", 0, ua.VariantType.Int32),
+        ("program", machine, own, "ProgramName", PROGRAM, ua.VariantType.String),
+        ("part_count", machine, own, "PartCount", first.part_count, ua.VariantType.UInt32),
+        ("tool_number", machine, own, "ToolNumber", first.tool_number, ua.VariantType.UInt32),
+        ("block", channel, cnc, "ActProgramBlock", "", ua.VariantType.String),
+        ("spindle_speed_rpm", spindle, cnc, "ActSpeed", 0.0, ua.VariantType.Double),
+        ("feed_rate_mm_min", channel, cnc, "ActFeedrate", 0.0, ua.VariantType.Double),
+        ("spindle_load", spindle, cnc, "ActLoad", 0.0, ua.VariantType.Double),
+    ):
+        node = await parent.add_variable(ns, name, ua.Variant(value, kind))
+        nodes[item] = (node, kind, False)
+    return nodes
 
 
 class OpcUaMachine:
     """``start()`` serves the trace's first sample; ``play(until)`` writes on; ``stop()``."""
 
-    def __init__(self, trace: list[TraceSample], port: int, start_at: int = 0) -> None:
+    def __init__(
+        self, trace: list[TraceSample], port: int, start_at: int = 0, space: Space = own_space
+    ) -> None:
         """Serve ``trace`` from sample ``start_at`` (a machine that was running while down)."""
-        self.trace, self.port, self.start_at = trace, port, start_at
+        self.trace, self.port, self.start_at, self.space = trace, port, start_at, space
         self.url = f"opc.tcp://127.0.0.1:{port}/rcb/"
         self.loop = asyncio.new_event_loop()
         self.ready, self.done = threading.Event(), threading.Event()
@@ -93,30 +128,8 @@ class OpcUaMachine:
         await server.init()
         server.set_endpoint(self.url)
         server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
-        cnc = await server.register_namespace(CNC)
-        own = await server.register_namespace("urn:rcb-supervisor:test-lathe")
-        interface = await server.nodes.objects.add_object(cnc, "CncInterface")
-        spindle = await (await interface.add_object(cnc, "CncSpindleList")).add_object(
-            own, "Spindle"
-        )
-        channel = await (await interface.add_object(cnc, "CncChannelList")).add_object(
-            own, "Channel"
-        )
-        machine = await server.nodes.objects.add_object(own, "Machine")
         first = self.trace[self.start_at]
-        nodes: dict[str, tuple[Any, ua.VariantType]] = {}
-        for item, parent, ns, name, value, kind in (
-            ("execution", channel, cnc, "ActStatus", 0, ua.VariantType.Int32),
-            ("program", machine, own, "ProgramName", PROGRAM, ua.VariantType.String),
-            ("part_count", machine, own, "PartCount", first.part_count, ua.VariantType.UInt32),
-            ("tool_number", machine, own, "ToolNumber", first.tool_number, ua.VariantType.UInt32),
-            ("block", channel, cnc, "ActProgramBlock", "", ua.VariantType.String),
-            ("spindle_speed_rpm", spindle, cnc, "ActSpeed", 0.0, ua.VariantType.Double),
-            ("feed_rate_mm_min", channel, cnc, "ActFeedrate", 0.0, ua.VariantType.Double),
-            ("spindle_load", spindle, cnc, "ActLoad", 0.0, ua.VariantType.Double),
-        ):
-            node = await parent.add_variable(ns, name, ua.Variant(value, kind))
-            nodes[item] = (node, kind)
+        nodes = await self.space(server, first)
         async with server:
             await self._write(nodes, None, first, self.start_at)
             self.ready.set()
@@ -135,7 +148,7 @@ class OpcUaMachine:
 
     @staticmethod
     async def _write(
-        nodes: dict[str, tuple[Any, ua.VariantType]],
+        nodes: Nodes,
         before: TraceSample | None,
         sample: TraceSample,
         i: int,
@@ -168,7 +181,9 @@ class OpcUaMachine:
         for item, value in values.items():
             if old is not None and old[item] == value:
                 continue
-            node, kind = nodes[item]
+            node, kind, array = nodes[item]
+            if array:  # the block being run, then (here: none) the blocks after it
+                value = [value, "", ""]
             await node.write_value(
                 ua.DataValue(ua.Variant(value, kind), SourceTimestamp=stamp, ServerTimestamp=stamp)
             )

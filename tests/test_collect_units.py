@@ -174,13 +174,16 @@ def test_mtconnect_reader_takes_sequences_and_the_agent_error(tmp_path):
     agent = Agent(observations(trace), buffer_size=5)
     agent.release(100)
     from api.collect.config import MTCONNECT_ITEMS
+    from api.collect.mtconnect_devices import bind, parse_devices
 
-    streams = parse_streams(agent.current().encode(), MTCONNECT_ITEMS)
+    binding = bind(parse_devices(agent.probe().encode()), MTCONNECT_ITEMS)
+    streams = parse_streams(agent.current().encode(), binding)
     got = {o.item: o.value for o in streams.observations}
     assert got["block"] == 100 and got["spindle_load"] == 1.25 and got["execution"] == "ACTIVE"
+    assert got["feed_rate_mm_min"] == 300.0  # streamed as 5 mm/s (the device's units)
     assert streams.next_sequence == len(agent.obs) + 1 and streams.first_sequence > 1
     with pytest.raises(AgentError) as err:
-        parse_streams(agent.sample(1, 10)[1].encode(), MTCONNECT_ITEMS)
+        parse_streams(agent.sample(1, 10)[1].encode(), binding)
     assert err.value.code == "OUT_OF_RANGE"
 
 

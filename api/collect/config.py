@@ -19,7 +19,8 @@ from models.errors import InputError
 from models.sensors import RAW_QUANTITIES
 from supervisor.collect.selectors import OperationSelector, check_selectors, parse_selector
 
-#: MTConnect data items read by default: ``Component/Type`` in the agent's streams.
+#: MTConnect data items read by default: ``Component/Type`` (:mod:`api.collect.mtconnect_devices`:
+#: ``Rotary`` is the spindle, ``Path`` the path or else the controller).
 MTCONNECT_ITEMS: dict[str, str] = {
     "spindle_load": "Rotary/Load",
     "spindle_speed_rpm": "Rotary/RotaryVelocity",
@@ -42,9 +43,11 @@ OPCUA_NODES: dict[str, str] = {
     "block": "CNC:CncInterface/CNC:CncChannelList/{channel}/CNC:ActProgramBlock",
     "execution": "CNC:CncInterface/CNC:CncChannelList/{channel}/CNC:ActStatus",
 }
-#: Namespace URIs of the prefixes a browse path may use.
+#: Namespace URIs of the prefixes a browse path may use, exactly as the OPC Foundation's nodesets
+#: publish them (``<NamespaceUris>`` of ``Opc.Ua.CNC.NodeSet.xml``, OPC 40502 1.0: no trailing
+#: slash; of ``Opc.Ua.MachineTool.NodeSet2.xml``, OPC 40501 1.02: with one).
 OPCUA_PREFIXES = {
-    "CNC": "http://opcfoundation.org/UA/CNC/",
+    "CNC": "http://opcfoundation.org/UA/CNC",
     "MT": "http://opcfoundation.org/UA/MachineTool/",
 }
 #: OPC 40502 CncChannelStatus: Reset 0, Interrupted 1, Active 2.
@@ -60,6 +63,7 @@ class MTConnectConfig:
     items: Mapping[str, str]
     count: int = 1000
     poll_s: float = 0.2
+    spindle: str | None = None  # the spindle component's name or id; default: found by its mode
 
 
 @dataclass(frozen=True)
@@ -225,14 +229,18 @@ def _items(data: object, path: str, known: tuple[str, ...]) -> dict[str, str]:
 def _mtconnect(data: object) -> MTConnectConfig:
     if not isinstance(data, Mapping):
         raise InputError("mtconnect", data, "must be a table")
-    _only(data, ("url", "count", "poll_s", "data_items"), "mtconnect")
+    _only(data, ("url", "count", "poll_s", "data_items", "spindle"), "mtconnect")
     url = _text(data, "url", "mtconnect")
     if not url.startswith(("http://", "https://")):
         raise InputError("mtconnect.url", url, "must start with http:// or https://")
     items = {**MTCONNECT_ITEMS, **_items(data.get("data_items"), "mtconnect.data_items", _ITEMS)}
+    spindle = data.get("spindle")
+    if spindle is not None:
+        spindle = _text(data, "spindle", "mtconnect")
     return MTConnectConfig(
         url=url.rstrip("/"),
         items=items,
+        spindle=spindle,
         count=_whole(data, "count", "mtconnect", 1000, 100_000),
         poll_s=_number(data, "poll_s", "mtconnect", 0.2, 0.001, 60.0),
     )

@@ -10,10 +10,10 @@ a connection asyncua's watchdog finds lost, or a server that does not answer a r
 state after :data:`PROBE_S` s without a notification, ends the iteration (the runner records a
 gap and connects again).
 
-A node is a NodeId (``ns=2;s=Spindle.Load``, ``nsu=...;i=...``) or a browse path from
-``Objects``: ``CNC:CncInterface/CNC:CncSpindleList/Spindle/CNC:ActLoad``, each segment a
-BrowseName with an optional prefix (``CNC``, ``MT``: the OPC 40502 / 40501 namespace URIs; a
-number: a namespace index; none: any namespace). Security is asyncua's security string
+A node is a NodeId or a browse path from ``Objects`` (:mod:`api.collect.opcua_paths`: what
+cannot be resolved is an input error naming the path and what the server offers there). A
+block is a string or, as OPC 40502's ``ActProgramBlock``, an array of strings whose first
+element is the block being run. Security is asyncua's security string
 (``Basic256Sha256,SignAndEncrypt,cert.der,key.pem``); the password is read from the environment
 variable ``password_env`` names and never logged.
 """
@@ -27,7 +27,8 @@ import time
 from collections.abc import AsyncIterator
 from typing import Any
 
-from api.collect.config import OPCUA_PREFIXES, OpcUaConfig
+from api.collect.config import OpcUaConfig
+from api.collect.opcua_paths import resolve
 from models.errors import InputError
 from supervisor.collect.segment import ACTIVE, Observation
 from supervisor.collect.selectors import block_number
@@ -56,36 +57,14 @@ def lost() -> tuple[type[BaseException], ...]:
     return (OSError, TimeoutError, ConnectionError, asyncio.IncompleteReadError, UaError)
 
 
-async def resolve(client: Any, spec: str, field: str) -> Any:
-    """The node a NodeId string or a browse path names (see the module docstring)."""
-    if spec.startswith(("ns=", "nsu=", "i=", "s=", "g=", "b=")):
-        return client.get_node(spec)
-    node = client.nodes.objects
-    for segment in spec.split("/"):
-        prefix, _, name = segment.rpartition(":")
-        index: int | None = None
-        if prefix in OPCUA_PREFIXES:
-            index = await client.get_namespace_index(OPCUA_PREFIXES[prefix])
-        elif prefix:
-            index = int(prefix) if prefix.isdigit() else None
-            if index is None:
-                raise InputError(field, spec, f"unknown prefix {prefix!r} in {segment!r}")
-        for child in await node.get_children():
-            browse = await child.read_browse_name()
-            if browse.Name == name and (index is None or browse.NamespaceIndex == index):
-                node = child
-                break
-        else:
-            raise InputError(field, spec, f"no node {segment!r} on the server")
-    return node
-
-
 def _value(item: str, value: Any, active: tuple[str, ...]) -> float | int | str | None:
     if value is None:
         return None
     if item == "execution":
         return ACTIVE if str(getattr(value, "value", value)) in active else str(value)
-    if item == "block":
+    if item == "block":  # OPC 40502 ActProgramBlock: String[], the current block first
+        if isinstance(value, list | tuple):
+            return block_number(str(value[0])) if value else None
         return block_number(str(value))
     if item in ("part_count", "tool_number"):
         return int(value)

@@ -70,13 +70,40 @@ class Recorder:
         log.warning("parts %s: NOT reported: %s", counts, outcome.reason)
 
 
+def required(config: CollectorConfig) -> tuple[str, ...]:
+    """The signals no part can be cut into passes without.
+
+    The load, the part count, the execution state, and the block number or the tool number the
+    operations are selected by; the others (speed, feed rate, program) may be missing.
+    """
+    needed = ["spindle_load", "part_count", "execution"]
+    if any(s.tool_number is None for s in config.selectors):
+        needed.append("block")
+    if any(s.tool_number is not None for s in config.selectors):
+        needed.append("tool_number")
+    return tuple(needed)
+
+
 async def mtconnect_loop(
     config: CollectorConfig, source: MTConnectConfig, queue: Queue, stop: asyncio.Event
 ) -> None:
     """Read the agent from the checkpoint on, until ``stop`` is set."""
     recorder = Recorder(config, queue)
     async with httpx.AsyncClient(timeout=30.0) as http:
-        agent = Agent(http, source.url, source.items)
+        agent = Agent(
+            http, source.url, source.items, spindle=source.spindle, required=required(config)
+        )
+        while not agent.binding:  # the device model first; an agent down at start is waited for
+            if stop.is_set():
+                return
+            try:
+                for signal, bound in (await agent.bind()).items():
+                    log.info(
+                        "%s: data item %s, scale %g", signal, bound.item.describe(), bound.scale
+                    )
+            except (httpx.HTTPError, AgentError) as err:
+                log.warning("agent's device model not read (%s); retrying", err)
+                await _pause(stop, max(1.0, source.poll_s))
         saved = queue.checkpoint()
         segmenter = Segmenter(
             config.selectors,
