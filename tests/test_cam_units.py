@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rs274_support import needs_rs274, run_rs274
 from skimage import data as skdata
 from skimage import io, transform
 from typer.testing import CliRunner
@@ -223,6 +224,13 @@ def test_program_is_read_by_the_projects_gcode_reader(moon_run):
         a0, a1, r = m.sweep()
         assert abs(a1 - a0) <= math.pi / 2 + 1e-3 and r <= 200
     assert " M3" in program and "(level " in program and "(path 1 of" in program
+
+
+@needs_rs274
+def test_rs274_reads_the_moon_program_with_the_same_cycle_time(moon_run, tmp_path):
+    data, program, _ = moon_run
+    canon = run_rs274(program, tmp_path, {1: 10, 2: 6})
+    assert canon.cycle_min == pytest.approx(data["cycle_time_min"], rel=1e-3)
 
 
 BAD = [

@@ -10,6 +10,9 @@ for the surface to be milled." The tip height at ``x`` is
 with ``h`` the cutter's profile (:meth:`supervisor.cam.cutter.Cutter.profile_mm`): the
 grey-scale dilation of the height map ``s`` by the structuring function ``−h``
 (:func:`scipy.ndimage.grey_dilation`). Outside the map there is no material.
+
+This is the cutter against the pixel centres only: the vertices of the triangulated surface.
+The finishing drops the cutter on its edges and facets too (:mod:`supervisor.cam.dropcutter`).
 """
 
 from __future__ import annotations

@@ -5,8 +5,9 @@ image. In the same way, a tool path with the Y parameter constant is obtained by
 line from the image. Toolpaths that follow a constant direction in XY plane can be obtained
 by first computing the points of the 2D line along that direction using the Bresenham
 algorithm, and reading the grey values (heights) from these points." Here the heights are
-read from the compensated surface (:func:`supervisor.cam.compensation.compensate`), so the
-tip follows it and the cutter stays tangent to the model; :func:`skimage.draw.line` is
+read from the cutter's tip heights on the triangulated surface
+(:mod:`supervisor.cam.dropcutter`), so the tip follows them and the cutter stays tangent to
+the model; :func:`skimage.draw.line` is
 Bresenham's line. The lines are ``stepover`` apart (rounded to whole pixels for X and Y).
 """
 

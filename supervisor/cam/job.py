@@ -14,9 +14,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models.errors import InputError
-from supervisor.cam.compensation import compensate, compensate_rows, offset_surface
+from supervisor.cam.compensation import offset_surface
 from supervisor.cam.cutter import Cutter
 from supervisor.cam.depthmap import DepthMap
+from supervisor.cam.dropcutter import drop_map, drop_rows
 from supervisor.cam.feeds import CuttingLimits, Feeds, PathSetpoint
 from supervisor.cam.finishing import iso_lines, line_indices, scallop_height_mm
 from supervisor.cam.levels import Band, Level, roughing_levels, slope_map
@@ -191,15 +192,18 @@ def run_cam(
 def _tip_surface(
     height_mm: NDArray[np.float64], cutter: Cutter, pixel_mm: float, settings: CamSettings
 ) -> NDArray[np.float64]:
-    """The compensated surface where the finishing lines need it (NaN elsewhere)."""
+    """The cutter dropped on the triangulated surface where the finishing lines need it.
+
+    NaN elsewhere (:mod:`supervisor.cam.dropcutter`).
+    """
     direction = settings.finish_direction
     if direction not in ("x", "y"):
-        return compensate(height_mm, cutter, pixel_mm)
+        return drop_map(height_mm, cutter, pixel_mm)
     step = max(1, round(settings.finish_stepover_mm / pixel_mm))
     grid = height_mm if direction == "y" else height_mm.T
     index = np.asarray(line_indices(grid.shape[0], step))
     tip = np.full(grid.shape, np.nan)
-    tip[index] = compensate_rows(grid, cutter, pixel_mm, index)
+    tip[index] = drop_rows(grid, cutter, pixel_mm, index)
     return tip if direction == "y" else np.ascontiguousarray(tip.T)
 
 

@@ -1,4 +1,4 @@
-"""Verification by simulation: the program swept over the height field on the pixel grid.
+"""Verification by simulation: the program swept over the height field.
 
 The stock starts as a block up to the stock top. Each roughing level's feed moves (a flat end
 mill at constant ``z``) sweep the region within ``R`` of the tool centre's path: the path,
@@ -6,9 +6,17 @@ arcs included, is buffered by ``R`` (shapely) and rasterised on the pixel centre
 (:func:`skimage.draw.polygon`), and the material there is lowered to ``z``. The finishing
 moves lower the material to ``min_y P(y) + h(|x − y|)``, ``P`` the tip heights along the path
 and ``h`` the cutter's profile: a grey-scale erosion (:func:`scipy.ndimage.grey_erosion`).
-Reported: the largest gouge (material removed below the model), the largest stock left
-after roughing (the 3D distance from the roughed surface to the model), the largest left
-after finishing, and the machining time from the program's feeds.
+
+The check is independent of the finishing compensation: that drops the cutter on the
+triangulated surface at the path's points (:mod:`supervisor.cam.dropcutter`); this sweeps the
+program as written and read back (rounded, straight moves between the points) and measures
+the material against surface points the compensation never looked at one by one: the pixel
+centres, and between them the midpoints of the triangles' diagonals (the centre of each
+square of four pixel centres, at the mean of the diagonal's two heights), where a wall
+steeper than the pixel grid stands. Reported: the largest gouge (material removed below the
+model, at either kind of point), the largest stock left after roughing (the 3D distance from
+the roughed surface to the model), the largest left after finishing, and the machining time
+from the program's feeds.
 """
 
 from __future__ import annotations
@@ -136,12 +144,16 @@ def simulate(
     stock = remaining_stock(model_mm, material, pixel_mm, window_mm)
     finish_stock: float | None = None
     if finish_tool is not None and finish:
+        points = _pixel_points(finish, pixel_mm)
         material = np.minimum(
-            material,
-            _finished(_pixel_points(finish, pixel_mm), finish_tool, model_mm.shape, pixel_mm),
+            material, _finished(points, finish_tool, model_mm.shape, pixel_mm, 0.0)
         )
         gouge = max(gouge, float(np.max(model_mm - material)))
         finish_stock = float(np.max(material - model_mm))
+        # between the pixel centres: the triangles' diagonals at their midpoints
+        cells = _finished(points, finish_tool, model_mm.shape, pixel_mm, 0.5)[:-1, :-1]
+        diagonal = 0.5 * (model_mm[:-1, :-1] + model_mm[1:, 1:])
+        gouge = max(gouge, float(np.max(diagonal - cells)))
     cutting, rapid = machining_time(moves)
     return Verification(max(0.0, gouge), stock, finish_stock, cutting, rapid, rapids_below)
 
@@ -245,20 +257,34 @@ def _pixel_points(moves: list[NDArray[np.float64]], pixel_mm: float) -> NDArray[
 
 
 def _finished(
-    points: NDArray[np.float64], cutter: Cutter, shape: tuple[int, int], pixel_mm: float
+    points: NDArray[np.float64],
+    cutter: Cutter,
+    shape: tuple[int, int],
+    pixel_mm: float,
+    offset_px: float,
 ) -> NDArray[np.float64]:
-    """Material height after the finishing tip has passed through ``points``."""
+    """Material height after the finishing tip has passed through ``points``.
+
+    At the pixel centres (``offset_px`` 0) or at the points ``offset_px`` pixels to the
+    right of and below them (0.5: the squares' centres; the last row and column then fall
+    off the map). The tip points are taken at the pixel centres nearest them.
+    """
     big = 1.0e9
     tips = np.full(shape, big)
     cols = np.rint(points[:, 0] / pixel_mm).astype(int)
     rows = shape[0] - 1 - np.rint(points[:, 1] / pixel_mm).astype(int)
     inside = (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
     np.minimum.at(tips, (rows[inside], cols[inside]), points[inside, 2])
-    footprint, structure = cutter.kernel(pixel_mm)
+    # the cutter on the grid of tip positions around one target: tip row = target row + dr,
+    # tip column = target column + o, at the distance from the target to the tip's axis
+    reach = int(np.ceil(cutter.radius_mm / pixel_mm + offset_px + 1e-9))
+    dr, o = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    distance = np.hypot(o - offset_px, dr - offset_px) * pixel_mm
+    footprint = distance <= cutter.radius_mm + 1e-9
+    structure = np.where(footprint, -cutter.profile_mm(np.minimum(distance, cutter.radius_mm)), 0.0)
     # one kernel row at a time, from the rows the tip passed only (iso-lines along X pass
     # one row in a few): the same erosion, at that fraction of the cost
     visited = np.flatnonzero((tips < big).any(axis=1))
-    reach = footprint.shape[0] // 2
     out = np.full(shape, big)
     source = tips[visited]
     for k in range(footprint.shape[0]):
@@ -271,7 +297,7 @@ def _finished(
             mode="constant",
             cval=big,
         )
-        dest = visited + k - reach
+        dest = visited - (k - reach)
         ok = (dest >= 0) & (dest < shape[0])
         out[dest[ok]] = np.minimum(out[dest[ok]], part[ok])
     return out
