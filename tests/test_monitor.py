@@ -15,9 +15,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
+from scipy.stats import invgamma
 
 from supervisor.inputs.part_report import Measurement
 from supervisor.rcb import monitor as m
+from supervisor.rcb import noise
 from supervisor.rcb.learning import rescaled
 from supervisor.rcb.posterior import Posterior
 
@@ -93,7 +95,8 @@ def test_the_noise_scale_learns_from_a_successive_difference():
     assert_allclose(after.shape, 2.0)
     assert_allclose(after.rate, 1.0 + 0.5 * math.log(1.01) ** 2 / (0.005**2 + (0.5 / 101) ** 2))
     assert_allclose(after.scale, math.sqrt(max(after.rate / after.shape, 1.0)))
-    assert_allclose(after.prudent_scale, math.sqrt(after.rate / (after.shape - 1.0)))
+    upper = invgamma(after.shape, scale=after.rate).ppf(noise.PRUDENT_QUANTILE)
+    assert_allclose(after.prudent_scale, math.sqrt(upper))
     # the same difference after a setpoint move the exponents explain by more than the noise
     # (shift 0.8 · ln 1.1 = 0.0762): it says more about the exponents, nothing is learned
     moved = m.Expected(math.log(100.0), 0.0, 0.005, 0.8 * math.log(1.1))
@@ -103,7 +106,39 @@ def test_the_noise_scale_learns_from_a_successive_difference():
 def test_before_any_reading_the_law_takes_u_as_reported_and_learn_a_prudent_one():
     fresh = m.Monitor()
     assert fresh.scale == 1.0  # √max(1 / 1.5, 1)
-    assert_allclose(fresh.prudent_scale, math.sqrt(2.0))  # √(1 / 0.5)
+    # the upper quantile of InvGamma(1.5, 1): 0.95 -> 5.6843 (u x 2.3842), 0.93 -> 4.4569
+    # (x 2.1111), as scipy.stats.invgamma.ppf gives them
+    expected = {0.95: 5.684300, 0.93: 4.456937}[noise.PRUDENT_QUANTILE]
+    assert_allclose(fresh.prudent_scale, math.sqrt(expected), rtol=1e-6)
+
+
+def test_the_chains_noise_adds_every_operations_evidence():
+    # two operations read by one chain: evidence (0.5, 0.5) and (1.0, 2.0) over the prior
+    # (1.5, 1): the chain's belief is (3.0, 3.5), ŝ = √(3.5 / 3.0)
+    first, second = m.Monitor(2.0, 1.5), m.Monitor(2.5, 3.0)
+    chain = noise.pooled([first.noise, second.noise])
+    assert (chain.shape, chain.rate) == (3.0, 3.5)
+    assert_allclose(chain.scale, math.sqrt(3.5 / 3.0))
+    assert noise.pooled([]) == noise.NoiseScale()  # no reading yet: the prior
+    # a reading judged at the chain's scale adds its evidence to its own monitor: a successive
+    # difference with no model spread is all noise (weight 1, a + 0.5), 101 against 100 at
+    # noises 0.005 and 0.00495 (b + 0.5 · 2.000, as in the test above)
+    tight = m.Expected(math.log(100.0), 0.0, 0.005)
+    judged = m.watch(first, NEAR, tight, Measurement(101.0, 1.0), POINT, EXPONENTS, 0.15, chain)
+    assert_allclose(judged.monitor.shape, first.shape + 0.5)
+    assert_allclose(judged.monitor.rate, first.rate + 0.5 * 2.0, rtol=1e-3)
+    # r is judged at the chain's ŝ: 104 against 100 is e = 0.03922 over a noise of
+    # hypot(0.005, 0.5/104) = 0.006936: r = 5.65 at the monitor's own ŝ = 1 (a change), 1.88
+    # at a chain that has shown ŝ = 3 (b/a = 18/2)
+    own = m.watch(m.Monitor(), NEAR, tight, Measurement(104.0, 1.0), POINT, EXPONENTS, 0.15)
+    assert own.verdict == "change"
+    assert_allclose(own.sigma, math.log(1.04) / math.hypot(0.005, 0.5 / 104))
+    noisy = noise.NoiseScale(2.0, 18.0)
+    shared = m.watch(
+        m.Monitor(), NEAR, tight, Measurement(104.0, 1.0), POINT, EXPONENTS, 0.15, noisy
+    )
+    assert shared.verdict == "accept" and shared.monitor.cusum > 0
+    assert_allclose(shared.monitor.cusum, math.log(1.04) / (3 * 0.006936) - 0.5, rtol=1e-3)
 
 
 @pytest.mark.parametrize(("factor", "low", "high"), [(1.0, 1.0, 1.2), (3.0, 2.4, 3.6)])
@@ -157,7 +192,11 @@ def test_rescaled_counts_the_readings_at_the_new_noise_scale():
     assert_allclose(wider.cov[0][0], 1 / 2600, rtol=1e-9)
     assert_allclose(wider.mean[0], 0.05 * 2500 / 2600, rtol=1e-9)
     assert wider.noise_scale2 == 4.0
-    assert rescaled(wider, prior, 2.0) is wider  # a scale only ever grows
+    # and back: the chain proved quiet, the reading weighs 1e4 again
+    back = rescaled(wider, prior, 1.0)
+    assert_allclose(back.cov[0][0], 1 / 10100, rtol=1e-9)
+    assert_allclose(back.mean[0], posterior.mean[0], rtol=1e-9)
+    assert rescaled(wider, prior, 4.0) is wider
 
 
 def test_readings_a_little_over_part_after_part_are_a_change_by_cusum():

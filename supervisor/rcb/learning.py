@@ -91,7 +91,7 @@ def learn(
     before = belief_of(state, operation, law.quantity)
     after = before
     scale = measurement.uncertainty / law.uncertainty if law.uncertainty > 0 else 1.0
-    if scale**2 > before.noise_scale2:  # the readings so far were noisier than they claimed
+    if scale**2 != before.noise_scale2:  # the chain's noise, as now believed, has moved
         after = rescaled(after, _prior_of(state, operation, law.quantity), scale**2)
     if watched.forget > 0:
         after = discount(after, watched.forget)
@@ -189,23 +189,29 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
     r"""The posterior with its readings counted at the noise variance's scale ``λ'``.
 
     With a Gaussian prior ``N(μ₀, Σ₀)`` the posterior precision is the prior's plus the
-    readings', ``P = P₀ + D/λ``; the same readings at ``λ' > λ`` give
+    readings', ``P = P₀ + D/λ``; the same readings at ``λ'`` give
 
     .. math:: P' = (1 − ρ) P_0 + ρ P, \qquad
               μ' = P'^{-1} \big((1 − ρ) P_0 μ_0 + ρ P μ\big), \qquad ρ = λ / λ'
 
-    (a convex combination, so ``P'`` stays positive definite; exact without discounts, as a
-    normal-inverse-gamma posterior's data term scales with the noise variance, Gelman et al.
-    §14.8). A scale only ever grows here: a chain that once proved noisier than it claims is
-    not trusted again on a few quiet readings.
+    (exact without discounts, as a normal-inverse-gamma posterior's data term scales with the
+    noise variance, Gelman et al. §14.8). Both ways: ``learn``'s scale starts high (an upper
+    quantile of the chain's noise, :mod:`supervisor.rcb.monitor`) and comes down as readings
+    show a quiet chain, and the readings then weigh what they are worth. ``ρ > 1`` extrapolates
+    the combination; where discounts (a change's ``q``, the random walk ``τ``) have left less
+    precision than the prior's in some direction, ``P'`` can lose definiteness: then the belief
+    stays as it is (the more cautious of the two).
     """
-    if noise_scale2 <= belief.noise_scale2:
+    if noise_scale2 == belief.noise_scale2:
         return belief
     rho = belief.noise_scale2 / noise_scale2
     p0 = np.linalg.inv(np.array(prior_belief.cov))
     p = np.linalg.inv(np.array(belief.cov))
     precision = (1.0 - rho) * p0 + rho * p
     weighted = (1.0 - rho) * p0 @ np.array(prior_belief.mean) + rho * p @ np.array(belief.mean)
+    precision = 0.5 * (precision + precision.T)
+    if float(np.linalg.eigvalsh(precision)[0]) <= 0.0:
+        return belief
     cov = np.linalg.inv(precision)
     cov = 0.5 * (cov + cov.T)
     mean = cov @ weighted

@@ -29,27 +29,18 @@ each side). With ``s`` the expectation's spread, ``s_n = ŝ (u/k)/y`` the readin
   readings since it last stood at 0.
 
 The noise scale: the reported ``u`` is a prior on the noise, not its value. The variance of a
-reading is ``λ (u/k)²`` with ``λ ~ InvGamma(a, b)``, ``a =`` :data:`NOISE_PRIOR`, ``b =``
-:data:`NOISE_RATE` before any reading. Each reading not quarantined updates it from its
-innovation on the high side, ``E e² = s² + λ (s_c² + s_n²)`` (``s_c``: the noise of the chain's
-last reading, for ``ivester`` and ``bayes`` whose expectation is that reading moved to the
-setpoint: then ``e`` is a successive difference [1]_, counted only when the setpoint moved less
-than the pair's noise explains), by the share of the innovation's variance that is noise,
-``ω = λ̂ v / (s² + λ̂ v)`` with ``v = s_c² + s_n²``:
+reading is ``λ (u/k)²`` with ``λ ~ InvGamma(a, b)`` (:mod:`supervisor.rcb.noise`: its prior,
+the scales read off it, one belief per measuring chain). Each reading not quarantined
+updates it from its innovation on the high side, ``E e² = s² + λ (s_c² + s_n²)`` (``s_c``:
+the noise of the chain's last reading, for ``ivester`` and ``bayes`` whose expectation is
+that reading moved to the setpoint: then ``e`` is a successive difference [1]_, counted only
+when the setpoint moved less than the pair's noise explains), by the share of the
+innovation's variance that is noise, ``ω = λ̂ v / (s² + λ̂ v)`` with ``v = s_c² + s_n²``:
 
 .. math:: a ← a + ω/2, \qquad b ← b + \frac{ω}{2} \frac{(\min(e^2, c^2 σ_e^2) − s^2)^+}{v}
 
 (a conjugate update [2]_ weighted by how much the reading says about the noise; ``c`` the
-change threshold, so one change counts as a reading at the alarm's edge). Two scales are read
-off it, never under 1 (a chain quieter than it claims is not trusted to be):
-
-- ``ŝ = √max(b/a, 1)`` (1 before any reading), the band law's and the alarm's: ``u`` becomes
-  ``ŝ u`` there, with ``ŝ`` as it stood before the reading;
-- ``√max(b/(a − 1), 1)``, the posterior mean of ``λ`` (``√2`` before any reading, ``a − 1`` small
-  while few readings are in), ``learn``'s likelihood and the scale its earlier readings are
-  counted at (:func:`supervisor.rcb.learning.rescaled`): a posterior narrowed by two or three
-  readings of a chain whose noise is not yet known is what crossed limits under a misreported
-  ``u`` (noise-scale 3, 60 scenarios: 33 avoidable crossings at ``ŝ``, 5 at the mean).
+change threshold, so one change counts as a reading at the alarm's edge).
 
 References
 ----------
@@ -72,6 +63,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
+from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale
 from supervisor.rcb.wear import setpoint_shift
 
 #: A reading this many σ under what the strategy expects is quarantined (``implausible_low``).
@@ -91,11 +83,6 @@ CONFIRM_SIGMA = 3.0
 #: A quarantined reading more than this (in ``ln``: a factor 2) under what was expected is
 #: never confirmed: no change of a process halves it; a sensor or a tool does.
 CONFIRMABLE = math.log(2.0)
-#: ``a`` and ``b`` of the noise scale's inverse-gamma prior: ``b/a < 1`` (the law starts at the
-#: reported ``u``), ``b/(a − 1) = 2`` (``learn`` starts at ``√2 u``), three half-readings' weight.
-NOISE_PRIOR = 1.5
-NOISE_RATE = 1.0
-
 Verdict = Literal["accept", "quarantine", "confirm", "change"]
 
 
@@ -147,7 +134,9 @@ class Monitor:
     Parameters
     ----------
     shape, rate : float
-        ``a`` and ``b`` of the inverse-gamma belief on the noise variance's scale ``λ``.
+        ``a`` and ``b`` of the inverse-gamma belief on the noise variance's scale ``λ`` from the
+        prior and this operation's readings (:func:`supervisor.rcb.noise.pooled` adds the
+        other operations').
     last : Reading or None
         The last reading learned from (the reference of the next successive difference).
     held : Reading or None
@@ -171,18 +160,19 @@ class Monitor:
     drift_n: int = 0
 
     @property
+    def noise(self) -> NoiseScale:
+        """The monitor's own belief on the noise scale (the chain's: :func:`~.noise.pooled`)."""
+        return NoiseScale(self.shape, self.rate)
+
+    @property
     def scale(self) -> float:
-        """``ŝ = √max(b/a, 1)``: the noise in force as a multiple of the reported one."""
-        return math.sqrt(max(self.rate / self.shape, 1.0))
+        """``ŝ`` of this monitor's own belief (:attr:`NoiseScale.scale`)."""
+        return self.noise.scale
 
     @property
     def prudent_scale(self) -> float:
-        """``√max(b/(a − 1), 1)``: the posterior mean of ``λ``, larger while ``a`` is small.
-
-        ``learn``'s likelihood uses it: a posterior narrowed by a few readings of a chain
-        whose noise is not yet known is what crossed limits under a misreported ``u``.
-        """
-        return math.sqrt(max(self.rate / (self.shape - 1.0), 1.0))
+        """``learn``'s scale of this monitor's own belief (:attr:`NoiseScale.prudent_scale`)."""
+        return self.noise.prudent_scale
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready mapping (:func:`from_json` reads it back)."""
@@ -248,24 +238,28 @@ def watch(
     point: Mapping[str, float],
     exponents: Mapping[str, float],
     exponent_sd: float,
+    noise: NoiseScale | None = None,
 ) -> Watched:
     """Classify a reading against what the strategy expects (module docstring).
 
     ``low`` and ``high``: the expectation each side is judged against (``high`` None: no
-    change is looked for, and the noise scale does not learn). The monitor returned holds
-    the quarantined reading (or has dropped it), the counts and the noise scale;
+    change is looked for, and the noise scale does not learn). ``noise``: the chain's belief
+    on the noise scale (:func:`supervisor.rcb.noise.pooled`; default: the monitor's own);
+    what the reading adds to it is added to the monitor's own evidence. The monitor returned
+    holds the quarantined reading (or has dropped it), the counts and the noise scale;
     :func:`learned` makes the reading the last one once it is learned from.
     """
     y, u = measurement.value, measurement.uncertainty
     if not (y > 0 and u > 0):  # nothing to judge in logs (a zero reading is the law's)
         return Watched("accept", replace(monitor, held=None))
     reading = _reading_of(measurement, point)
-    variance = monitor.scale**2
+    scale = (monitor.noise if noise is None else noise).scale
+    variance = scale**2
     held = monitor.held
     if (
         held is not None
         and held.ln_y - low.mean >= -CONFIRMABLE
-        and _consistent(held, reading, monitor.scale, exponents, exponent_sd)
+        and _consistent(held, reading, scale, exponents, exponent_sd)
     ):
         e = held.ln_y - low.mean
         forget = max(e * e - _variance(low, held.noise, variance), 0.0)

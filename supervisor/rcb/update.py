@@ -65,6 +65,7 @@ from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.law import apply_law, tool_life_measured
 from supervisor.rcb.monitor import Monitor, Watched, learned, watch
+from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
 from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings, RcbState, prior_sigma
@@ -158,9 +159,11 @@ def update(
     )
     decisions: list[Decision] = []
     gross: list[HaltedOperation] = []
+    chains = _chains(state.monitors)
     for name, quantity, measurement in measured_items:
         op, made = measured_at(operations[name], results[name], quantity)  # a pass's setpoint
-        decision, over = _reading(state, maps, op, made, quantity, measurement, report)
+        noise = chains.get(quantity, NoiseScale())
+        decision, over = _reading(state, maps, op, made, quantity, measurement, report, noise)
         decisions.append(decision)
         if over is not None:
             gross.append(over)
@@ -197,11 +200,13 @@ def _reading(
     quantity: str,
     measurement: Measurement,
     report: PartReport,
+    noise: NoiseScale,
 ) -> tuple[Decision, HaltedOperation | None]:
     """One reading through the monitor, the band law and the strategy, into ``new``.
 
-    Returns the decision and, for a reading past its limit by more than ``halt_over``, what
-    halts the plan.
+    ``noise``: the measuring chain's noise scale before the report (:func:`_chains`). Returns
+    the decision and, for a reading past its limit by more than ``halt_over``, what halts the
+    plan.
     """
     settings = state.settings
     rule = settings.rule
@@ -213,13 +218,15 @@ def _reading(
     watched = Watched("accept", monitor)
     if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
         low, high = rule.expects(state, op, made, quantity, age, monitor)
-        watched = watch(monitor, low, high, measurement, point, exponents, settings.exponent_sd)
+        watched = watch(
+            monitor, low, high, measurement, point, exponents, settings.exponent_sd, noise
+        )
     new.monitors[key] = watched.monitor
     if not watched.learns:  # quarantined: a decision to show, nothing learned
         law, *_ = apply_law(state, op, made, quantity, measurement)
         new.seen[key] = state.seen.get(key, 0.0)  # a maximum's: 0 covers nothing
         return quarantined(law, watched.sigma), None
-    scaled = Measurement(measurement.value, measurement.uncertainty * monitor.scale)
+    scaled = Measurement(measurement.value, measurement.uncertainty * noise.scale)
     tools, sigma, seen, rises, posterior = new.tools, new.sigma, new.seen, new.wear, new.posterior
     judged = state
     if watched.forget > 0:  # the old regime's evidence weighs less
@@ -238,9 +245,11 @@ def _reading(
     decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
     if watched.changed:
         decision = changed(decision, watched)
-    prudent = Measurement(
-        measurement.value, measurement.uncertainty * watched.monitor.prudent_scale
+    gained = NoiseScale(  # the chain's belief with this reading's evidence
+        noise.shape + watched.monitor.shape - monitor.shape,
+        noise.rate + watched.monitor.rate - monitor.rate,
     )
+    prudent = Measurement(measurement.value, measurement.uncertainty * gained.prudent_scale)
     keep, belief, decision = rule.learn(state, op, made, decision, prudent, watched, age)
     if keep:
         tools[op.name] = _with_model(tools[op.name], model)
@@ -248,6 +257,18 @@ def _reading(
         posterior[key] = belief
     new.monitors[key] = learned(watched.monitor, measurement, point, age)
     return decision, gross_breach(op, quantity, scaled, settings.halt_over)
+
+
+def _chains(monitors: Mapping[tuple[str, str], Monitor]) -> dict[str, NoiseScale]:
+    """Per quantity, the noise scale of the chain that reads it in every operation.
+
+    :func:`supervisor.rcb.noise.pooled`: one instrument measures a quantity in every operation
+    of a plan and misreports its ``u`` by one factor.
+    """
+    by_quantity: dict[str, list[NoiseScale]] = {}
+    for (_, quantity), monitor in monitors.items():
+        by_quantity.setdefault(quantity, []).append(monitor.noise)
+    return {quantity: pooled(group) for quantity, group in by_quantity.items()}
 
 
 def _wear_after(
