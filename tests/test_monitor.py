@@ -120,25 +120,6 @@ def test_the_chains_noise_adds_every_operations_evidence():
     assert (chain.shape, chain.rate) == (3.0, 3.5)
     assert_allclose(chain.scale, math.sqrt(3.5 / 3.0))
     assert noise.pooled([]) == noise.NoiseScale()  # no reading yet: the prior
-    # a reading judged at the chain's scale adds its evidence to its own monitor: a successive
-    # difference with no model spread is all noise (weight 1, a + 0.5), 101 against 100 at
-    # noises 0.005 and 0.00495 (b + 0.5 · 2.000, as in the test above)
-    tight = m.Expected(math.log(100.0), 0.0, 0.005)
-    judged = m.watch(first, NEAR, tight, Measurement(101.0, 1.0), POINT, EXPONENTS, 0.15, chain)
-    assert_allclose(judged.monitor.shape, first.shape + 0.5)
-    assert_allclose(judged.monitor.rate, first.rate + 0.5 * 2.0, rtol=1e-3)
-    # r is judged at the chain's ŝ: 104 against 100 is e = 0.03922 over a noise of
-    # hypot(0.005, 0.5/104) = 0.006936: r = 5.65 at the monitor's own ŝ = 1 (a change), 1.88
-    # at a chain that has shown ŝ = 3 (b/a = 18/2)
-    own = m.watch(m.Monitor(), NEAR, tight, Measurement(104.0, 1.0), POINT, EXPONENTS, 0.15)
-    assert own.verdict == "change"
-    assert_allclose(own.sigma, math.log(1.04) / math.hypot(0.005, 0.5 / 104))
-    noisy = noise.NoiseScale(2.0, 18.0)
-    shared = m.watch(
-        m.Monitor(), NEAR, tight, Measurement(104.0, 1.0), POINT, EXPONENTS, 0.15, noisy
-    )
-    assert shared.verdict == "accept" and shared.monitor.cusum > 0
-    assert_allclose(shared.monitor.cusum, math.log(1.04) / (3 * 0.006936) - 0.5, rtol=1e-3)
 
 
 @pytest.mark.parametrize(("factor", "low", "high"), [(1.0, 1.0, 1.2), (3.0, 2.4, 3.6)])

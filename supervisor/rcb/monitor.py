@@ -238,22 +238,19 @@ def watch(
     point: Mapping[str, float],
     exponents: Mapping[str, float],
     exponent_sd: float,
-    noise: NoiseScale | None = None,
 ) -> Watched:
     """Classify a reading against what the strategy expects (module docstring).
 
     ``low`` and ``high``: the expectation each side is judged against (``high`` None: no
-    change is looked for, and the noise scale does not learn). ``noise``: the chain's belief
-    on the noise scale (:func:`supervisor.rcb.noise.pooled`; default: the monitor's own);
-    what the reading adds to it is added to the monitor's own evidence. The monitor returned
-    holds the quarantined reading (or has dropped it), the counts and the noise scale;
+    change is looked for, and the noise scale does not learn). The monitor returned holds
+    the quarantined reading (or has dropped it), the counts and the noise scale;
     :func:`learned` makes the reading the last one once it is learned from.
     """
     y, u = measurement.value, measurement.uncertainty
     if not (y > 0 and u > 0):  # nothing to judge in logs (a zero reading is the law's)
         return Watched("accept", replace(monitor, held=None))
     reading = _reading_of(measurement, point)
-    scale = (monitor.noise if noise is None else noise).scale
+    scale = monitor.scale
     variance = scale**2
     held = monitor.held
     if (

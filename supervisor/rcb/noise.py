@@ -6,16 +6,17 @@ misbehaves"). The variance of a reading is ``λ (u/k)²``, ``λ ~ InvGamma(a, b)
 Two scales are read off the belief, never under 1 (a chain quieter than it claims is not
 trusted to be):
 
-- ``ŝ = √max(b/a, 1)`` (1 before any reading), the band law's and the alarm's: ``u`` becomes
-  ``ŝ u`` there, with ``ŝ`` as it stood before the reading; the paper's law and its golden
-  numbers are unchanged while the readings agree with their ``u``;
-- ``√max(λ_q, 1)``, ``λ_q`` the upper :data:`PRUDENT_QUANTILE` quantile of ``λ`` (2.11 before
-  any reading), ``learn``'s likelihood and the scale its earlier readings are counted at
-  (:func:`supervisor.rcb.learning.rescaled`, in both directions): a posterior is not narrowed
-  by two or three readings of a chain whose noise is not yet known, and the scale comes down
-  as fast as the chain shows it is quiet.
+- ``ŝ = √max(b/a, 1)`` (1 before any reading) of the operation's own evidence, the band law's
+  and the alarm's: ``u`` becomes ``ŝ u`` there, with ``ŝ`` as it stood before the reading; the
+  paper's law and its golden numbers are unchanged while the readings agree with their ``u``
+  (pooled, one operation's model error counted as the chain's noise blinds every alarm);
+- ``√max(λ_q, 1)``, ``λ_q`` the upper :data:`PRUDENT_QUANTILE` quantile of the chain's ``λ``
+  (2.11 before any reading), ``learn``'s likelihood and the scale its earlier readings are
+  counted at (:func:`supervisor.rcb.learning.rescaled`, in both directions): a posterior is
+  not narrowed by two or three readings of a chain whose noise is not yet known, and the
+  scale comes down as fast as the chain shows it is quiet.
 
-The belief is the *chain's*: one instrument (the dynamometer, the profilometer, the spindle
+``learn``'s belief is the *chain's*: one instrument (the dynamometer, the profilometer, the spindle
 drive) reads a quantity in every operation of a plan and misreports its ``u`` by one factor
 in each. Each operation's monitor keeps its own evidence and :func:`pooled` adds them up: six
 operations teach the chain's noise six times as fast as one.
