@@ -12,6 +12,7 @@ from fastapi import FastAPI
 
 from api.report import ui
 from api.rest import content_type, problems
+from api.rest.lifespan import flushing
 from api.rest.limits import BodyLimit
 from api.rest.priority import WritesFirstMiddleware
 from api.rest.routes import health, parts, plans, review, tools
@@ -31,6 +32,7 @@ def create_app(url: str) -> FastAPI:
         docs_url=f"{PREFIX}/docs",
         redoc_url=None,
         responses=PROBLEMS,
+        lifespan=flushing(engine),  # audit counts written on a timer and at shutdown
     )
     app.state.engine = engine  # the routes' engine (api.rest.deps.engine_of)
     problems.install(app)
