@@ -117,12 +117,18 @@ def one_statement_reader(engine: Engine) -> Engine:
 
 
 def upgrade(url: str, revision: str = "head") -> None:
-    """Apply the Alembic migrations to ``url`` up to ``revision``."""
+    """Apply the Alembic migrations to ``url`` up to ``revision``, under the migration lock.
+
+    Instances starting at once on one database migrate one after another; the later ones find
+    it at ``revision`` (:func:`db.migrate.migration_lock`).
+    """
     from alembic.config import Config
 
     from alembic import command
+    from db.migrate import migration_lock
 
     config = Config()
     config.set_main_option("script_location", str(MIGRATIONS))
     config.attributes["url"] = url
-    command.upgrade(config, revision)
+    with migration_lock(url):
+        command.upgrade(config, revision)
