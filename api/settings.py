@@ -7,6 +7,7 @@ a worker imports the app factory by name and takes no arguments. ``RCB_AUTH_FAIL
 the wrong API keys one client address may send at once before 429 (default 60).
 ``RCB_DB_POOL_SIZE``, ``RCB_DB_MAX_OVERFLOW``, ``RCB_DB_POOL_TIMEOUT``: each worker's database
 connections and how long a request waits for one before 503 (:class:`db.engine.Pool`).
+``RCB_HTTP_*``: the HTTP connections' timeouts and caps (:class:`HttpLimits`).
 """
 
 from __future__ import annotations
@@ -109,3 +110,56 @@ def _whole(name: str, low: int, high: int, default: int, environ: Mapping[str, s
     if not (text.isascii() and text.isdigit() and low <= int(text) <= high):
         raise InputError(name, text, f"expected a whole number {low} to {high}")
     return int(text)
+
+
+@dataclass(frozen=True)
+class HttpLimits:
+    """How long an HTTP connection may take, and how many a worker holds (``rcb serve``).
+
+    Parameters
+    ----------
+    header_timeout_s : int
+        From the connection's opening (or a request's first byte on a kept-alive connection)
+        to the end of the request's head [s]; then the connection is closed.
+    body_timeout_s : int
+        From the end of a request's head to the end of its body [s]; then closed.
+    keep_alive_timeout_s : int
+        A kept-alive connection idle between requests is closed after this [s].
+    per_client : int
+        Connections one client address may hold at once; more are refused (503, closed).
+    total : int or None
+        Connections a worker holds at once; None: below its open-file limit
+        (:func:`api.rest.connections.total_cap`). When full, the oldest connection still
+        waiting for a request's head is closed to admit a new one.
+    """
+
+    header_timeout_s: int = 10
+    body_timeout_s: int = 30
+    keep_alive_timeout_s: int = 5
+    per_client: int = 64
+    total: int | None = None
+
+
+#: The environment variables of :class:`HttpLimits`, by field, with their ranges.
+HTTP_VARS = {
+    "header_timeout_s": ("RCB_HTTP_HEADER_TIMEOUT", 1, 3600),
+    "body_timeout_s": ("RCB_HTTP_BODY_TIMEOUT", 1, 3600),
+    "keep_alive_timeout_s": ("RCB_HTTP_KEEP_ALIVE_TIMEOUT", 1, 3600),
+    "per_client": ("RCB_HTTP_MAX_CONNECTIONS_PER_CLIENT", 1, 10**6),
+    "total": ("RCB_HTTP_MAX_CONNECTIONS", 2, 10**6),
+}
+
+
+def http_limits(environ: Mapping[str, str] | None = None) -> HttpLimits:
+    """The :class:`HttpLimits` of the environment (``$RCB_HTTP_HEADER_TIMEOUT`` ...).
+
+    Raises InputError naming the variable for a malformed or out-of-range value (``rcb serve``
+    checks them before serving).
+    """
+    default = HttpLimits()
+    given = {
+        name: _whole(variable, low, high, getattr(default, name) or 0, environ)
+        for name, (variable, low, high) in HTTP_VARS.items()
+    }
+    total = given.pop("total") or None  # 0: not given (derived from the file limit)
+    return HttpLimits(**given, total=total)
