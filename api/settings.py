@@ -5,15 +5,22 @@ without it the embedded default ``./rcb.db`` (:data:`db.engine.DEFAULT_URL`). Th
 hands a URL to its uvicorn workers through the same variable (:func:`hand_to_workers`), since
 a worker imports the app factory by name and takes no arguments. ``RCB_AUTH_FAILURE_BURST``:
 the wrong API keys one client address may send at once before 429 (default 60).
+``RCB_DB_POOL_SIZE``, ``RCB_DB_MAX_OVERFLOW``, ``RCB_DB_POOL_TIMEOUT``: each worker's database
+connections and how long a request waits for one before 503 (:class:`db.engine.Pool`).
+``RCB_HTTP_*``: the HTTP connections' timeouts and caps (:class:`HttpLimits`).
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from models.errors import InputError
+
+if TYPE_CHECKING:
+    from db.engine import Pool
 
 #: The environment variable naming the database.
 DATABASE_URL_VAR = "RCB_DATABASE_URL"
@@ -27,14 +34,17 @@ class Settings:
     ----------
     database_url : str
         SQLAlchemy URL of the database (migrated beforehand: ``rcb db upgrade``).
+    pool : db.engine.Pool
+        The database connections of a worker.
     """
 
     database_url: str
+    pool: Pool = field(default_factory=lambda: pool({}))
 
     @classmethod
     def from_env(cls, environ: Mapping[str, str] | None = None) -> Settings:
         """The settings of ``environ`` (default: the process environment)."""
-        return cls(database_url=database_url(None, environ))
+        return cls(database_url=database_url(None, environ), pool=pool(environ))
 
 
 def database_url(given: str | None, environ: Mapping[str, str] | None = None) -> str:
@@ -63,9 +73,93 @@ def auth_failure_burst(environ: Mapping[str, str] | None = None) -> int:
     Raises InputError naming the variable for a malformed value (``rcb serve`` checks it
     before serving, so a worker never meets one).
     """
-    text = (os.environ if environ is None else environ).get(AUTH_FAILURE_BURST_VAR)
+    return _whole(AUTH_FAILURE_BURST_VAR, 1, 10**6, AUTH_FAILURE_BURST, environ)
+
+
+#: The environment variables of a worker's connection pool, with their ranges.
+POOL_VARS = {
+    "RCB_DB_POOL_SIZE": (1, 1000),
+    "RCB_DB_MAX_OVERFLOW": (0, 1000),
+    "RCB_DB_POOL_TIMEOUT": (1, 600),
+}
+
+
+def pool(environ: Mapping[str, str] | None = None) -> Pool:
+    """A worker's connection pool, from the environment.
+
+    ``$RCB_DB_POOL_SIZE``, ``$RCB_DB_MAX_OVERFLOW`` and ``$RCB_DB_POOL_TIMEOUT`` (whole
+    seconds), each defaulting to :class:`db.engine.Pool`'s. Raises InputError naming the
+    variable for a malformed or out-of-range value (``rcb serve`` checks them first).
+    """
+    from db.engine import Pool
+
+    default = Pool()
+    given = (default.size, default.overflow, int(default.timeout_s))
+    size, overflow, timeout_s = (
+        _whole(name, low, high, value, environ)
+        for (name, (low, high)), value in zip(POOL_VARS.items(), given, strict=True)
+    )
+    return Pool(size=size, overflow=overflow, timeout_s=float(timeout_s))
+
+
+def _whole(name: str, low: int, high: int, default: int, environ: Mapping[str, str] | None) -> int:
+    """The whole number in ``$name`` (``low`` to ``high``), else ``default``."""
+    text = (os.environ if environ is None else environ).get(name)
     if text is None:
-        return AUTH_FAILURE_BURST
-    if not (text.isascii() and text.isdigit() and 1 <= int(text) <= 10**6):
-        raise InputError(AUTH_FAILURE_BURST_VAR, text, "expected a whole number 1 to 1000000")
+        return default
+    if not (text.isascii() and text.isdigit() and low <= int(text) <= high):
+        raise InputError(name, text, f"expected a whole number {low} to {high}")
     return int(text)
+
+
+@dataclass(frozen=True)
+class HttpLimits:
+    """How long an HTTP connection may take, and how many a worker holds (``rcb serve``).
+
+    Parameters
+    ----------
+    header_timeout_s : int
+        From the connection's opening (or a request's first byte on a kept-alive connection)
+        to the end of the request's head [s]; then the connection is closed.
+    body_timeout_s : int
+        From the end of a request's head to the end of its body [s]; then closed.
+    keep_alive_timeout_s : int
+        A kept-alive connection idle between requests is closed after this [s].
+    per_client : int
+        Connections one client address may hold at once; more are refused (503, closed).
+    total : int or None
+        Connections a worker holds at once; None: below its open-file limit
+        (:func:`api.rest.connections.total_cap`). When full, the oldest connection still
+        waiting for a request's head is closed to admit a new one.
+    """
+
+    header_timeout_s: int = 10
+    body_timeout_s: int = 30
+    keep_alive_timeout_s: int = 5
+    per_client: int = 64
+    total: int | None = None
+
+
+#: The environment variables of :class:`HttpLimits`, by field, with their ranges.
+HTTP_VARS = {
+    "header_timeout_s": ("RCB_HTTP_HEADER_TIMEOUT", 1, 3600),
+    "body_timeout_s": ("RCB_HTTP_BODY_TIMEOUT", 1, 3600),
+    "keep_alive_timeout_s": ("RCB_HTTP_KEEP_ALIVE_TIMEOUT", 1, 3600),
+    "per_client": ("RCB_HTTP_MAX_CONNECTIONS_PER_CLIENT", 1, 10**6),
+    "total": ("RCB_HTTP_MAX_CONNECTIONS", 2, 10**6),
+}
+
+
+def http_limits(environ: Mapping[str, str] | None = None) -> HttpLimits:
+    """The :class:`HttpLimits` of the environment (``$RCB_HTTP_HEADER_TIMEOUT`` ...).
+
+    Raises InputError naming the variable for a malformed or out-of-range value (``rcb serve``
+    checks them before serving).
+    """
+    default = HttpLimits()
+    given = {
+        name: _whole(variable, low, high, getattr(default, name) or 0, environ)
+        for name, (variable, low, high) in HTTP_VARS.items()
+    }
+    total = given.pop("total") or None  # 0: not given (derived from the file limit)
+    return HttpLimits(**given, total=total)

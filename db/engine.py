@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import threading
 import weakref
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -44,14 +45,48 @@ _readers: weakref.WeakKeyDictionary[Engine, Engine] = weakref.WeakKeyDictionary(
 _readers_lock = threading.Lock()
 
 
-def make_engine(url: str) -> Engine:
-    """An engine for ``url`` with the settings above for SQLite.
+@dataclass(frozen=True)
+class Pool:
+    """The writers' connection pool of one process (``rcb serve``: of each worker).
+
+    Parameters
+    ----------
+    size : int
+        Connections kept open.
+    overflow : int
+        Connections opened beyond ``size`` under load, closed when given back.
+    timeout_s : float
+        How long a request waits for a connection when all are in use [s]; then
+        ``sqlalchemy.exc.TimeoutError`` (503 over REST: :mod:`api.rest.problems`).
+
+    The defaults give 10 + 5 + 1 (the read pool, :func:`reader`) = 16 connections per worker
+    at most: 4 workers (2 instances x 2, or 1 x 4) hold at most 64 of PostgreSQL's default
+    ``max_connections`` 100 (of which 3 are reserved for superusers), leaving room for the
+    CLI, migrations and other clients. ``rcb serve`` reads them from ``RCB_DB_POOL_SIZE``,
+    ``RCB_DB_MAX_OVERFLOW`` and ``RCB_DB_POOL_TIMEOUT`` (:mod:`api.settings`).
+    """
+
+    size: int = 10
+    overflow: int = 5
+    timeout_s: float = 5.0
+
+    def connections(self) -> int:
+        """The most connections one process opens: writers' pool and overflow, and reads."""
+        return self.size + self.overflow + READ_POOL_SIZE
+
+
+#: The pool of a process not told otherwise.
+DEFAULT_POOL = Pool()
+
+
+def make_engine(url: str, pool: Pool = DEFAULT_POOL) -> Engine:
+    """An engine for ``url`` with the settings above for SQLite, its pool sized by ``pool``.
 
     Its sessions may defer rows to the end of their transaction (:func:`db.bulk.defer`).
     """
-    # PostgreSQL: a pool as large as a worker's concurrency, so connections are reused rather
-    # than opened and closed under load (4 workers x (24 + 1 read) stays under the default 100)
-    return _engine(make_url(url), pool_size=16, max_overflow=8)
+    return _engine(
+        make_url(url), pool_size=pool.size, max_overflow=pool.overflow, pool_timeout=pool.timeout_s
+    )
 
 
 def _engine(parsed: URL, *, read_pool: bool = False, **pool: Any) -> Engine:
@@ -117,12 +152,18 @@ def one_statement_reader(engine: Engine) -> Engine:
 
 
 def upgrade(url: str, revision: str = "head") -> None:
-    """Apply the Alembic migrations to ``url`` up to ``revision``."""
+    """Apply the Alembic migrations to ``url`` up to ``revision``, under the migration lock.
+
+    Instances starting at once on one database migrate one after another; the later ones find
+    it at ``revision`` (:func:`db.migrate.migration_lock`).
+    """
     from alembic.config import Config
 
     from alembic import command
+    from db.migrate import migration_lock
 
     config = Config()
     config.set_main_option("script_location", str(MIGRATIONS))
     config.attributes["url"] = url
-    command.upgrade(config, revision)
+    with migration_lock(url):
+        command.upgrade(config, revision)

@@ -18,7 +18,7 @@ from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import sizes
 from api.services.errors import NotFoundError
-from api.settings import auth_failure_burst, database_url
+from api.settings import auth_failure_burst, database_url, http_limits, pool
 from models.errors import InputError
 
 # Each command imports the database layer (SQLAlchemy, Alembic) and the server (uvicorn) when
@@ -203,6 +203,8 @@ def serve(
     url = database_url(db)
     with errors():
         auth_failure_burst()  # a malformed RCB_AUTH_FAILURE_BURST is refused before serving
+        pool()  # and a malformed RCB_DB_POOL_SIZE, RCB_DB_MAX_OVERFLOW or RCB_DB_POOL_TIMEOUT
+        http_limits()  # and RCB_HTTP_*
         _migrate(url)
         try:
             listener = serving.tcp_listener(host, port)

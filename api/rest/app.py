@@ -12,17 +12,21 @@ from fastapi import FastAPI
 
 from api.report import ui
 from api.rest import content_type, problems
+from api.rest.lifespan import flushing
 from api.rest.limits import BodyLimit
 from api.rest.priority import WritesFirstMiddleware
 from api.rest.routes import health, parts, plans, review, tools
 from api.rest.routes.common import PREFIX, PROBLEMS
 from api.settings import Settings
-from db.engine import make_engine
+from db.engine import DEFAULT_POOL, Pool, make_engine
 
 
-def create_app(url: str) -> FastAPI:
-    """The service on the database at ``url`` (migrated beforehand: ``rcb db upgrade``)."""
-    engine = make_engine(url)
+def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
+    """The service on the database at ``url`` (migrated beforehand: ``rcb db upgrade``).
+
+    ``pool``: its database connections; a request that finds none free in time is 503.
+    """
+    engine = make_engine(url, pool)
     app = FastAPI(
         title="rcb-supervisor",
         version="1",
@@ -31,6 +35,7 @@ def create_app(url: str) -> FastAPI:
         docs_url=f"{PREFIX}/docs",
         redoc_url=None,
         responses=PROBLEMS,
+        lifespan=flushing(engine),  # audit counts written on a timer and at shutdown
     )
     app.state.engine = engine  # the routes' engine (api.rest.deps.engine_of)
     problems.install(app)
@@ -48,4 +53,5 @@ def create_app(url: str) -> FastAPI:
 
 def app_from_env() -> FastAPI:
     """The app on ``$RCB_DATABASE_URL`` (default ``./rcb.db``): the uvicorn worker factory."""
-    return create_app(Settings.from_env().database_url)
+    settings = Settings.from_env()
+    return create_app(settings.database_url, settings.pool)

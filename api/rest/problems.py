@@ -17,9 +17,12 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from sqlalchemy.exc import OperationalError
+from sqlalchemy.exc import TimeoutError as PoolTimeoutError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
+from api.rest.unavailable import RETRY_AFTER_S, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
 from db.errors import ConflictError
@@ -65,6 +68,7 @@ _TITLES = {
     422: "Unprocessable content",
     429: "Too many requests",
     500: "Internal server error",
+    503: "Service unavailable",
 }
 
 
@@ -248,6 +252,16 @@ def install(app: FastAPI) -> None:
             headers = {**(headers or {}), "Allow": _allowed(request)}
         field = "body" if err.status_code == 400 else None  # a body FastAPI could not read
         return problem(request, err.status_code, code, str(err.detail), field, headers=headers)
+
+    @app.exception_handler(PoolTimeoutError)
+    @app.exception_handler(OperationalError)
+    async def _database(request: Request, err: Exception) -> JSONResponse:
+        if not unavailable(err):
+            return await _unexpected(request, err)
+        _log.warning("503 on %s %s: %s", request.method, request.url.path, err)
+        detail = "the database has no connection free now; nothing was stored; retry later"
+        headers = {"Retry-After": str(RETRY_AFTER_S)}
+        return problem(request, 503, "database_busy", detail, headers=headers)
 
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, err: Exception) -> JSONResponse:

@@ -38,7 +38,9 @@ from typing import TYPE_CHECKING, Any
 import uvicorn
 from uvicorn.supervisors import Multiprocess
 
-from api.settings import hand_to_workers
+from api.rest import connections
+from api.rest.connections import raise_file_limit
+from api.settings import hand_to_workers, http_limits
 from models.errors import InputError
 
 if TYPE_CHECKING:
@@ -80,8 +82,12 @@ def run(listener: socket.socket, url: str, *, workers: int, access_log: bool) ->
         Log every request.
     """
     hand_to_workers(url)  # the workers' factory reads it
+    raise_file_limit()  # inherited by the workers: room for the connections they may hold
     host, port = listener.getsockname()[:2]
     options: dict[str, Any] = {
+        # deadlines and caps of the connections (api.rest.connections, RCB_HTTP_*)
+        "http": connections.PROTOCOL,
+        "timeout_keep_alive": http_limits().keep_alive_timeout_s,
         "factory": True,
         "host": host,
         "port": port,

@@ -26,10 +26,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from sqlalchemy import Engine
-from sqlalchemy.exc import OperationalError
+from sqlalchemy.exc import OperationalError, SQLAlchemyError
 from sqlalchemy.orm import Session
 
-from api.services.throttle import FailureLimiter, FailureLog, RateLimitedError
+from api.services.throttle import FailureLimiter, FailureLog, Insert, RateLimitedError, Rewrite
 from api.settings import auth_failure_burst
 from db import access
 from db import tables as t
@@ -201,6 +201,17 @@ def _audit_unauthenticated(
 ) -> None:
     """Count the failure in its window's audit row; RateLimitedError if ``client`` failed often."""
     reason = "no key" if not key else "unknown or revoked key"
+    insert, rewrite = _writers(engine, action, session)
+    with _touched_lock:
+        failures = _failures.setdefault(engine, FailureLog())
+    failures.record(client, action, reason, insert, rewrite)
+    wait_s = LIMITER.spend(client) if key else 0  # only a wrong key can guess, or costs a read
+    if wait_s:
+        raise RateLimitedError(client or "this client", wait_s)
+
+
+def _writers(engine: Engine, action: str, session: Session | None) -> tuple[Insert, Rewrite]:
+    """The callbacks writing a coalesced failure row (``session``: see :func:`aside`)."""
 
     def insert(detail: dict[str, Any]) -> int:
         with aside(engine, session) as held:
@@ -211,12 +222,25 @@ def _audit_unauthenticated(
         with aside(engine, session) as held:
             return access.set_audit_detail(session=held, entry_id=entry_id, detail=detail)
 
+    return insert, rewrite
+
+
+def flush_failures(engine: Engine) -> int:
+    """Write the failure counts of ``engine`` this process holds in memory; rows written.
+
+    Called on a timer and at shutdown (:mod:`api.rest.lifespan`), each row in its own
+    transaction on a connection of its own. A database error is logged and the counts stay
+    pending for the next call.
+    """
     with _touched_lock:
-        failures = _failures.setdefault(engine, FailureLog())
-    failures.record(client, action, reason, insert, rewrite)
-    wait_s = LIMITER.spend(client) if key else 0  # only a wrong key can guess, or costs a read
-    if wait_s:
-        raise RateLimitedError(client or "this client", wait_s)
+        failures = _failures.get(engine)
+    if failures is None:
+        return 0
+    try:
+        return failures.flush(lambda action: _writers(engine, action, None))
+    except SQLAlchemyError as err:
+        _log.warning("authentication failure counts not written yet: %s", err)
+        return 0
 
 
 def audit_forbidden(

@@ -107,7 +107,10 @@ class FailureLog:
 
     The first failure of a window inserts the row (count 1); later ones count in memory and
     rewrite the row's detail at most every ``flush_s`` seconds, and when the next window of
-    the same client starts. A process that dies loses at most ``flush_s`` seconds of counts.
+    the same client starts. Counts still in memory are written by :meth:`flush`, which the
+    service calls every ``flush_s`` seconds and when it shuts down (:mod:`api.rest.lifespan`):
+    the end of a burst is counted even when no failure follows it. A process that is killed
+    loses at most ``flush_s`` seconds of counts.
 
     Parameters
     ----------
@@ -155,6 +158,23 @@ class FailureLog:
             self._windows[key] = window
             while len(self._windows) > MAX_CLIENTS:
                 self._windows.popitem(last=False)
+
+    def flush(self, writers: Callable[[str], tuple[Insert, Rewrite]]) -> int:
+        """Write every count not yet in its row; returns how many rows were written.
+
+        ``writers(action)``: the callbacks writing a row of that action. A row pruned meanwhile
+        is inserted again. A callback's error propagates; the counts not written stay pending.
+        """
+        with self._lock:  # a request's write keeps its own period (``written_at_s``)
+            written = 0
+            for (_client, action, _reason), window in self._windows.items():
+                if window.count > window.written:
+                    insert, rewrite = writers(action)
+                    if not rewrite(window.entry_id, self._detail(window)):
+                        window.entry_id = insert(self._detail(window))
+                    window.written = window.count
+                    written += 1
+            return written
 
     @staticmethod
     def _detail(window: _Window) -> dict[str, Any]:
