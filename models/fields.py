@@ -9,12 +9,59 @@ from __future__ import annotations
 
 import math
 import numbers
+import unicodedata
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
 
 from models.errors import InputError
+
+#: The most characters of an identifier (a serial, a name) once normalised: its column's width.
+MAX_IDENTITY = 200
+#: Unicode categories an identifier may not hold, and what the refusal calls them: controls,
+#: format characters (zero-width space and joiners, soft hyphen, BOM, bidirectional controls:
+#: invisible, so two spellings would look alike), surrogates, line and paragraph separators.
+_REFUSED_CATEGORIES = {
+    "Cc": "control characters",
+    "Cf": "invisible format characters",
+    "Cs": "surrogates",
+    "Zl": "control characters",
+    "Zp": "control characters",
+}
+
+
+def identity(value: str) -> str:
+    """A serial or a name as it is compared and stored: NFKC, without surrounding white space.
+
+    Normalised: compatibility forms (full-width ``ＧＯＯＤ-１`` is ``GOOD-1``), decomposed
+    accents (NFD ``É`` is the composed ``É``) and white space at either end (``'GOOD-1 '``).
+    Refused (:class:`ValueError`): a control, format (zero-width, bidirectional), surrogate,
+    line or paragraph separator character anywhere, which no one can see or type; nothing left;
+    more than :data:`MAX_IDENTITY` characters. Case is kept (serials may be case-sensitive).
+    """
+    for i, char in enumerate(value):
+        kind = _REFUSED_CATEGORIES.get(unicodedata.category(char))
+        if kind is not None:
+            name = unicodedata.name(char, "")
+            raise ValueError(
+                f"must not contain {kind} (U+{ord(char):04X}{' ' + name if name else ''} at {i})"
+            )
+    normal = unicodedata.normalize("NFKC", value).strip()
+    if not normal:
+        raise ValueError("must not be blank")
+    if len(normal) > MAX_IDENTITY:
+        raise ValueError(f"must be at most {MAX_IDENTITY} characters once normalised (NFKC)")
+    return normal
+
+
+def identity_field(data: Mapping[str, Any], key: str, path: str) -> str:
+    """A serial or a name field, as :func:`identity` normalises it; errors name the field."""
+    value = text(data, key, path)
+    try:
+        return identity(value)
+    except ValueError as err:
+        raise InputError(f"{path}.{key}" if path else key, value, str(err)) from None
 
 
 def mapping(value: object, path: str) -> Mapping[str, Any]:

@@ -330,10 +330,12 @@ def _write_tables(frames: dict[str, pd.DataFrame], out: Path, fmt: str) -> list[
         raise InputError(
             "--out", str(out), f"cannot create the directory ({err.strerror})"
         ) from None
+    from api.report.export import csv_bytes
+
     written = []
     for name, frame in frames.items():
         target = out / f"{name}.{fmt}"
-        data = frame.to_csv(index=False).encode("utf-8") if fmt == "csv" else frame.to_parquet()
+        data = csv_bytes(frame) if fmt == "csv" else frame.to_parquet()
         write_atomically(target, data)
         written.append(target)
     return written

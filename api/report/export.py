@@ -8,6 +8,11 @@
 - ``setpoints``: one row per setpoint version and operation: parameters (``depth_mm`` ...),
   ``mrr_cm3_min``, ``time_min``, binding limits, and each prediction with its band as
   ``<quantity>`` and ``<quantity>_band`` columns.
+
+A CSV file is opened by spreadsheets, which run a cell that starts with ``=``, ``+``, ``-``,
+``@``, a tab or a carriage return as a formula (CSV injection): :func:`csv_safe` prefixes such a
+text cell with a single quote (OWASP's rule). Numbers stay numbers (``-0.5`` is a number, not a
+formula); a parquet file holds typed columns no spreadsheet evaluates and is written as stored.
 """
 
 from __future__ import annotations
@@ -15,6 +20,35 @@ from __future__ import annotations
 from typing import Any
 
 import pandas as pd
+
+#: What a spreadsheet takes as the start of a formula (OWASP, CSV injection).
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def neutralised(cell: object) -> object:
+    """``cell`` with a single quote before it when it is text a spreadsheet would run."""
+    if isinstance(cell, str) and cell.startswith(FORMULA_STARTS):
+        return "'" + cell
+    return cell
+
+
+def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
+    """A copy of ``frame`` whose text cells no spreadsheet runs as a formula; numbers untouched."""
+    safe = frame.copy()
+    for column in safe.columns:
+        if not pd.api.types.is_numeric_dtype(safe[column]):  # text: object or str dtype
+            safe[column] = safe[column].map(neutralised)
+    return safe
+
+
+def csv_bytes(frame: pd.DataFrame) -> bytes:
+    """``frame`` as RFC 4180 CSV (UTF-8, CRLF) with :func:`csv_safe` cells.
+
+    CRLF line ends make the writer quote a cell holding a bare carriage return, which a reader
+    would otherwise take for the end of the row (the cell and the row after it lost).
+    """
+    text: str = csv_safe(frame).to_csv(index=False, lineterminator="\r\n")
+    return text.encode("utf-8")
 
 
 def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd.DataFrame]:

@@ -38,6 +38,8 @@ def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
             number = float(value)
         except ValueError:
             raise InputError(f"{field} {name}", value, "must be a number") from None
+        if name.strip() in floors:
+            raise InputError(field, item, f"{name.strip()} is given twice; give each floor once")
         floors[name.strip()] = number
     return floors
 

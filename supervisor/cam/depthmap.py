@@ -12,16 +12,22 @@ Coordinates: pixel ``(row, col)`` has its centre at ``x = col·p``, ``y = (rows 
 from __future__ import annotations
 
 import math
+import re
+import struct
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from models.errors import InputError
+from models.errors import MAX_ECHO, InputError
 
 #: The largest map accepted (pixels per side): 16 M pixels at most.
 MAX_SIDE_PX = 4000
+#: The most pixels of a map: checked from the image's header, before a pixel is decoded (a
+#: 1.9 MB TIFF of 30000 x 30000 decodes to 1.8 GB of 16-bit pixels, and more as it is read).
+MAX_PIXELS = MAX_SIDE_PX * MAX_SIDE_PX
 #: The smallest map: the contours and the dilation need a few pixels.
 MIN_SIDE_PX = 8
 #: The largest |z| and pixel size accepted [mm].
@@ -166,10 +172,12 @@ def read_depthmap(
 
     if not path.is_file():
         raise InputError("image", str(path), "no such file")
+    _check_size(path)
     try:
         data = np.asarray(io.imread(str(path)))
     except Exception as err:  # noqa: BLE001 - any reader failure is a bad file
-        raise InputError("image", str(path), f"cannot be read as an image ({err})") from None
+        why = str(err)[:MAX_ECHO]
+        raise InputError("image", str(path), f"cannot be read as an image ({why})") from None
     data = _grey_channel(data, str(path))
     if data.dtype == np.uint8:
         levels = 256
@@ -184,6 +192,65 @@ def read_depthmap(
         z_range_mm,
         negative=negative,
         stock_top_mm=stock_top_mm,
+    )
+
+
+def _check_size(path: Path) -> None:
+    """Refuse an image over :data:`MAX_SIDE_PX` a side from its header, before decoding it.
+
+    Pillow's ``Image.open`` reads the header only (PNG's IHDR, TIFF's first IFD); its own
+    bomb guard (``Image.MAX_IMAGE_PIXELS``, left as it is) raises at twice its limit, far above
+    this one, and only warns between. A TIFF Pillow cannot open is measured by tifffile's
+    header reader; any other file is left to the decoder, which refuses it.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                cols, rows = im.size
+    except Image.DecompressionBombError as err:  # over 2 x Image.MAX_IMAGE_PIXELS
+        shape = _png_shape(path) or _tiff_shape(path)
+        found = re.search(r"\((\d+) pixels\)", str(err))
+        pixels = f"{int(found.group(1))} pixels" if found else "over Pillow's limit"
+        size = f"{shape[1]} x {shape[0]} pixels" if shape else pixels
+        raise InputError("image", str(path), _too_large(size)) from None
+    except (UnidentifiedImageError, OSError, ValueError):
+        shape = _tiff_shape(path)
+        if shape is None:
+            return  # no image Pillow or tifffile knows: the decoder says so
+        rows, cols = shape
+    if max(rows, cols) > MAX_SIDE_PX:
+        raise InputError("image", str(path), _too_large(f"{cols} x {rows} pixels"))
+
+
+def _png_shape(path: Path) -> tuple[int, int] | None:
+    """Rows and columns of a PNG from its IHDR chunk, or None when it is no PNG."""
+    with path.open("rb") as file:
+        head = file.read(24)
+    if len(head) < 24 or head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
+        return None
+    cols, rows = struct.unpack(">II", head[16:24])
+    return rows, cols
+
+
+def _tiff_shape(path: Path) -> tuple[int, int] | None:
+    """Rows and columns of a TIFF's first image from its header (tifffile), or None."""
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            page = tif.pages.first
+            return int(page.imagelength), int(page.imagewidth)
+    except (tifffile.TiffFileError, OSError, ValueError, AttributeError):
+        return None
+
+
+def _too_large(size: str) -> str:
+    return (
+        f"is {size} (from its header); a depth map is at most {MAX_SIDE_PX} x {MAX_SIDE_PX} "
+        "pixels: refused before decoding"
     )
 
 

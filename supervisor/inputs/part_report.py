@@ -8,7 +8,6 @@ prints them ("horizontal and vertical bars are ±2σ measurement uncertainties",
 from __future__ import annotations
 
 import math
-import unicodedata
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -134,9 +133,6 @@ LARGEST = 1e12
 #: The smallest measured value and uncertainty in their unit: a reading is > 0, and this far
 #: above 0 that the band law's ratios of it stay finite.
 SMALLEST = 1e-9
-#: Characters a serial or an operation name may not hold besides the C0 and C1 controls: line
-#: and paragraph separators, bidirectional embeddings, overrides and isolates.
-_INVISIBLE = frozenset("\u2028\u2029\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
 
 _REPORT_KEYS = ("serial", "setpoint_version", "operations")
 _OPERATION_KEYS = ("name", "measurements", "tool_wear", "feed_override_percent", "edge_parts")
@@ -209,14 +205,8 @@ def report_from_mapping(data: object) -> PartReport:
 
 
 def _identifier(data: Mapping[str, object], key: str, path: str) -> str:
-    """A serial or an operation name: non-empty text without control characters."""
-    value = fields.text(data, key, path)
-    for i, char in enumerate(value):
-        if unicodedata.category(char) in ("Cc", "Cs") or char in _INVISIBLE:
-            where = f"{path}.{key}" if path else key
-            why = f"must not contain control characters (U+{ord(char):04X} at {i})"
-            raise InputError(where, value, why)
-    return value
+    """A serial or an operation name, normalised (:func:`models.fields.identity`)."""
+    return fields.identity_field(data, key, path)
 
 
 def _number(value: object, path: str, *, smallest: float = 0.0) -> float:

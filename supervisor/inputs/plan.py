@@ -171,7 +171,7 @@ def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -
         operations.append(op)
         tools[op.tool] = inline.get(op.tool) or catalogue()[op.tool]
     return Plan(
-        name=fields.text(table, "name", ""),
+        name=fields.identity_field(table, "name", ""),
         machine=machine,
         tools=tools,
         operations=tuple(operations),
@@ -210,7 +210,7 @@ def _inline_tools(data: object) -> dict[str, Tool]:
 def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Machine) -> Operation:
     table = fields.mapping(data, path)
     fields.only_keys(table, _OPERATION_KEYS, path)
-    name = fields.text(table, "name", path)
+    name = fields.identity_field(table, "name", path)
     tool_name = fields.text(table, "tool", path)
     tool = inline.get(tool_name) or catalogue().get(tool_name)
     if tool is None:

@@ -9,6 +9,7 @@ from fastapi.responses import JSONResponse, Response
 
 from api.rest import problems
 from api.rest.schemas.service import Problem
+from api.rest.strict import StrictRoute
 from api.services.idempotency import Idempotency, Written, fingerprint
 from db.tables import MAX_INT
 
@@ -44,8 +45,11 @@ REPLAYED: dict[str, Any] = {
 
 
 def resource_router(tag: str) -> APIRouter:
-    """A resource's router: its routes under :data:`PREFIX`, tagged, answering problems."""
-    return APIRouter(prefix=PREFIX, tags=[tag], responses=PROBLEMS)
+    """A resource's router: its routes under :data:`PREFIX`, tagged, answering problems.
+
+    Each route reads its request strictly (:class:`api.rest.strict.StrictRoute`).
+    """
+    return APIRouter(prefix=PREFIX, tags=[tag], responses=PROBLEMS, route_class=StrictRoute)
 
 
 def idempotency_of(request: Request, key: str | None, body: object) -> Idempotency | None:

@@ -7,12 +7,12 @@ control characters.
 
 from __future__ import annotations
 
-import unicodedata
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
 
 from db.tables import MAX_INT
+from models.fields import identity
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
 #: What the docs say of each strategy: its name and summary from the registry.
@@ -70,20 +70,14 @@ MAX_TEXT = 2000
 #: A string with something in it (the domain readers refuse blank text) that can be stored.
 Text = Annotated[str, Field(pattern=r"\S", max_length=MAX_TEXT), AfterValidator(_storable)]
 
-#: Characters an identifier may not hold besides the C0/C1 controls: line and paragraph
-#: separators and the bidirectional embeddings, overrides and isolates ("Trojan Source").
-_INVISIBLE = set("\u2028\u2029\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
-
 
 def _identifier(value: str) -> str:
-    """Refuse control characters in a name or serial: what a log, a label or a screen shows."""
-    for i, char in enumerate(value):
-        if unicodedata.category(char) == "Cc" or char in _INVISIBLE:
-            raise ValueError(f"must not contain control characters (U+{ord(char):04X} at {i})")
-    return value
+    """A serial or a name as it is compared and stored (:func:`models.fields.identity`)."""
+    return identity(value)
 
 
-#: A serial or a name: text of at most 200 characters, no control characters.
+#: A serial or a name: text of at most 200 characters, no control, format or other invisible
+#: characters; stored NFKC without surrounding white space (issue 29).
 Name = Annotated[
     str,
     Field(pattern=r"\S", max_length=200),

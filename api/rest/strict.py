@@ -1,0 +1,162 @@
+"""One reading of a request: strict JSON, one value per single-valued parameter, digit ids.
+
+Issue 29: FastAPI (through Python's ``json``) reads a UTF-16 or UTF-32 body as JSON, keeps the
+last of two equal keys in an object, takes the last of a repeated query parameter, and reads a
+path id ``%201`` (`` 1``), ``+1`` or ``١`` as plan 1. A client that sends either spelling then
+gets an answer to a request it did not mean. Here, before the route's own parameters are read:
+
+- the body (of a route that takes JSON) is UTF-8 (RFC 8259 §8.1): a NUL byte (UTF-16 or UTF-32
+  text) or an invalid UTF-8 sequence is 400 ``body_not_utf8``; invalid JSON is 400
+  ``malformed_json``; an object with a key twice is 400 ``duplicate_key`` naming the key;
+- a query parameter that takes one value, given twice, is 400 ``repeated_parameter`` naming it;
+- an integer path parameter is ASCII digits only, else 422 ``invalid`` naming it.
+
+Each as RFC 9457 problem+json (:mod:`api.rest.problems`).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import types
+from collections.abc import Callable, Coroutine, Sequence
+from typing import Any, Union, get_args, get_origin
+
+from fastapi import HTTPException
+from fastapi.dependencies.models import Dependant
+from fastapi.routing import APIRoute
+from starlette.requests import ClientDisconnect, Request
+from starlette.responses import Response
+
+from api.rest.problems import ProblemError
+
+_DIGITS = re.compile(r"[0-9]+")
+_MANY = (list, set, frozenset, tuple, Sequence)
+
+
+class DuplicateKeyError(Exception):
+    """An object of the body names ``key`` twice."""
+
+    def __init__(self, key: str) -> None:
+        self.key = key
+        super().__init__(key)
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    table: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in table:
+            raise DuplicateKeyError(key)
+        table[key] = value
+    return table
+
+
+def loads(body: bytes) -> Any:
+    """The JSON document in ``body``, read strictly; :class:`ProblemError` when it is not one."""
+    if b"\x00" in body:
+        at = body.index(b"\x00")
+        detail = (
+            f"the body has a NUL byte at offset {at}: it is not UTF-8 (UTF-16 or UTF-32?); "
+            "send JSON as UTF-8 (RFC 8259 §8.1)"
+        )
+        raise ProblemError(400, "body_not_utf8", detail, "body")
+    try:
+        text = body.decode("utf-8")
+    except UnicodeDecodeError as err:
+        detail = (
+            f"the body is not UTF-8 (byte 0x{body[err.start]:02x} at offset {err.start}); "
+            "send JSON as UTF-8 (RFC 8259 §8.1)"
+        )
+        raise ProblemError(400, "body_not_utf8", detail, "body") from None
+    try:
+        return json.loads(text, object_pairs_hook=_no_duplicates)
+    except DuplicateKeyError as err:
+        detail = f"the key {err.key!r} appears twice in one object; send each key once"
+        raise ProblemError(400, "duplicate_key", detail, err.key, err.key) from None
+    except json.JSONDecodeError as err:
+        detail = f"the body is not valid JSON: {err.msg} (line {err.lineno} column {err.colno})"
+        raise ProblemError(400, "malformed_json", detail, "body") from None
+    except (ValueError, RecursionError):  # an integer of over 4300 digits; nesting too deep
+        raise ProblemError(400, "malformed_json", "the body is not valid JSON", "body") from None
+
+
+class _Read(Request):
+    """A request whose body was read and parsed by :func:`loads`."""
+
+    def __init__(self, request: Request, body: bytes, document: Any) -> None:
+        super().__init__(request.scope, request.receive)
+        self._read, self._document = body, document
+
+    async def body(self) -> bytes:
+        """The body's bytes, as read once."""
+        return self._read
+
+    async def json(self) -> Any:
+        """The body's JSON document, as :func:`loads` read it."""
+        return self._document
+
+
+def _many(annotation: Any) -> bool:
+    """Whether a parameter of type ``annotation`` takes several values (``list[str] | None``)."""
+    origin = get_origin(annotation)
+    if origin in (Union, types.UnionType):
+        return any(_many(arg) for arg in get_args(annotation) if arg is not type(None))
+    return (origin or annotation) in _MANY
+
+
+def _integer(annotation: Any) -> bool:
+    origin = get_origin(annotation)
+    if origin in (Union, types.UnionType):
+        return any(_integer(arg) for arg in get_args(annotation))
+    return annotation is int
+
+
+def _params(dependant: Dependant) -> tuple[list[str], list[str]]:
+    """The aliases of the single-valued query parameters and of the integer path parameters."""
+    single, integers = [], []
+    for field in dependant.query_params:
+        if not _many(field.field_info.annotation):
+            single.append(field.alias)
+    for field in dependant.path_params:
+        if _integer(field.field_info.annotation):
+            integers.append(field.alias)
+    for sub in dependant.dependencies:
+        more_single, more_integers = _params(sub)
+        single += more_single
+        integers += more_integers
+    return single, integers
+
+
+class StrictRoute(APIRoute):
+    """An API route that reads its request as the module's docstring says, then as FastAPI does."""
+
+    def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
+        """FastAPI's handler, after the checks."""
+        handler = super().get_route_handler()
+        single, integers = _params(self.dependant)
+        takes_json = self.body_field is not None
+
+        async def strict(request: Request) -> Response:
+            for name in single:
+                given = request.query_params.getlist(name)
+                if len(given) > 1:
+                    detail = (
+                        f"the query parameter {name!r} is given {len(given)} times "
+                        f"({', '.join(map(repr, given))}); it takes one value"
+                    )
+                    raise ProblemError(400, "repeated_parameter", detail, name, given)
+            for name in integers:
+                raw = request.path_params.get(name)
+                if isinstance(raw, str) and not _DIGITS.fullmatch(raw):
+                    detail = f"{name} = {raw!r}: must be a whole number in digits 0-9"
+                    raise ProblemError(422, "invalid", detail, name, raw)
+            if takes_json:
+                try:
+                    body = await request.body()
+                except ClientDisconnect:  # or cut by api.rest.limits, whose 413 replaces this
+                    raise HTTPException(400, "the body was not received whole") from None
+                if body:
+                    request = _Read(request, body, loads(body))
+            return await handler(request)
+
+        return strict
