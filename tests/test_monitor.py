@@ -204,19 +204,22 @@ def test_readings_a_little_over_part_after_part_are_a_change_by_cusum():
 
 
 def test_a_drift_in_progress_off_the_model_teaches_the_noise_nothing():
-    # ln y ~ ln 100 ± 0.01 (a model's expectation, no chain noise); 102 ± 1 has s_n =
-    # 0.5/102 = 0.004902, r = ln 1.02 / hypot(0.01, 0.004902) = 1.7783; with the CUSUM at 0
-    # it would stand at 1.278 after it, over 1.0: the reading is part of a drift, not noise
+    # ln y ~ ln 100 ± 0.01 (a model's expectation, no chain noise); 103 ± 1 has s_n =
+    # 0.5/103 = 0.004854, r = ln 1.03 / hypot(0.01, 0.004854) = 2.6591; with the CUSUM at 0
+    # it would stand at 2.159 after it, over 2: the reading is part of a drift, not noise
     model = m.Expected(math.log(100.0), 0.01)
-    r = math.log(1.02) / math.hypot(0.01, 0.5 / 102)
-    gated = m.watch(m.Monitor(), NEAR, model, Measurement(102.0, 1.0), POINT, EXPONENTS, 0.15)
+    r = math.log(1.03) / math.hypot(0.01, 0.5 / 103)
+    assert_allclose(r, 2.6591, rtol=1e-4)
+    gated = m.watch(m.Monitor(), NEAR, model, Measurement(103.0, 1.0), POINT, EXPONENTS, 0.15)
     assert_allclose(gated.monitor.cusum, r - 0.5)
     assert (gated.monitor.shape, gated.monitor.rate) == (m.Monitor().shape, m.Monitor().rate)
-    # 100.5 (r = 0.4449, the CUSUM stays at 0) teaches it: weight s_n² / (s² + s_n²) = 0.19841
-    quiet = m.watch(m.Monitor(), NEAR, model, Measurement(100.5, 1.0), POINT, EXPONENTS, 0.15)
-    noise2 = (0.5 / 100.5) ** 2
+    # 102 (r = 1.7783, the CUSUM at 1.278, under 2) teaches it: weight s_n² / (s² + s_n²),
+    # s_n = 0.5/102: 0.19373
+    quiet = m.watch(m.Monitor(), NEAR, model, Measurement(102.0, 1.0), POINT, EXPONENTS, 0.15)
+    noise2 = (0.5 / 102) ** 2
+    assert_allclose(quiet.monitor.shape, 1.5 + 0.5 * 0.19373, rtol=1e-4)
     assert_allclose(quiet.monitor.shape, 1.5 + 0.5 * noise2 / (1e-4 + noise2))
     # a successive difference (the chain's last reading, noise 0.005) is not gated
     chain = m.Expected(math.log(100.0), 0.01, 0.005)
-    judged = m.watch(m.Monitor(), NEAR, chain, Measurement(102.0, 1.0), POINT, EXPONENTS, 0.15)
+    judged = m.watch(m.Monitor(), NEAR, chain, Measurement(103.0, 1.0), POINT, EXPONENTS, 0.15)
     assert judged.monitor.shape > m.Monitor().shape
