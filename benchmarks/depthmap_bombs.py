@@ -12,8 +12,6 @@ refusal is the baseline: what starting ``rcb cam depthmap`` costs before any ima
 
 from __future__ import annotations
 
-import os
-import resource
 import struct
 import subprocess
 import sys
@@ -86,27 +84,39 @@ class Refusal:
     peak_mb: float
 
 
+#: Forks and runs ``argv[2:]`` with ``RLIMIT_AS`` ``argv[1]`` (0: none) and writes its child's
+#: ``ru_maxrss`` [kB] to stdout. Linux keeps the high-water mark of the memory a process had
+#: when it called ``exec`` (``sig->maxrss``): a child forked by a large process (a pytest worker
+#: of 400 MB) reports the parent's size. Forked from this small launcher it reports its own.
+_LAUNCHER = """
+import os, resource, sys
+cap = int(sys.argv[1])
+pid = os.fork()
+if pid == 0:
+    if cap:
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+    os.execv(sys.argv[2], sys.argv[2:])
+_, status, usage = os.wait4(pid, 0)
+sys.stdout.write(str(usage.ru_maxrss))
+sys.exit(os.waitstatus_to_exitcode(status))
+"""
+
+
 def refuse(image: Path, out_dir: Path, address_space: int | None = None) -> Refusal:
     """Run ``rcb cam depthmap IMAGE`` in its own process; its peak RSS from ``wait4``.
 
     ``address_space``: a cap on the child's virtual memory [bytes] (``RLIMIT_AS``), so that a
-    decode that should not happen fails at once instead of filling the machine's memory.
+    decode that should not happen fails at once instead of filling the machine's memory. The
+    child is forked by a small launcher (:data:`_LAUNCHER`), whatever the caller's size.
     """
-
-    def cap() -> None:
-        if address_space is not None:
-            resource.setrlimit(resource.RLIMIT_AS, (address_space, address_space))
-
     args = [str(RCB), "cam", "depthmap", str(image), "--pixel-mm", "0.1"]
     args += ["--z-range-mm", "0:20", "--tool", "flat:10", "--plan", str(PLAN)]
     args += ["--operation", "rough", "--out", str(out_dir / "p.nc")]
-    with tempfile.TemporaryFile() as err:
-        process = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=err, preexec_fn=cap)
-        _, status, usage = os.wait4(process.pid, 0)
-        process.returncode = os.waitstatus_to_exitcode(status)
-        err.seek(0)
-        text = err.read().decode("utf-8", "replace")
-    return Refusal(process.returncode, text, usage.ru_maxrss / 1024)  # Linux: kB
+    launcher = [sys.executable, "-S", "-c", _LAUNCHER, str(address_space or 0), *args]
+    done = subprocess.run(launcher, capture_output=True, check=False)
+    text = done.stderr.decode("utf-8", "replace")
+    peak_kb = float(done.stdout.decode() or "nan")
+    return Refusal(done.returncode, text, peak_kb / 1024)  # Linux: kB
 
 
 def cases(folder: Path) -> dict[str, Path]:
