@@ -96,7 +96,7 @@ def test_the_noise_scale_learns_from_a_successive_difference():
     assert_allclose(after.rate, 1.0 + 0.5 * math.log(1.01) ** 2 / (0.005**2 + (0.5 / 101) ** 2))
     assert_allclose(after.scale, math.sqrt(max(after.rate / after.shape, 1.0)))
     upper = invgamma(after.shape, scale=after.rate).ppf(noise.PRUDENT_QUANTILE)
-    assert_allclose(after.prudent_scale, math.sqrt(upper))
+    assert_allclose(after.noise.prudent_scale, math.sqrt(upper))
     # the same difference after a setpoint move the exponents explain by more than the noise
     # (shift 0.8 · ln 1.1 = 0.0762): it says more about the exponents, nothing is learned
     moved = m.Expected(math.log(100.0), 0.0, 0.005, 0.8 * math.log(1.1))
@@ -109,7 +109,7 @@ def test_before_any_reading_the_law_takes_u_as_reported_and_learn_a_prudent_one(
     # the upper quantile of InvGamma(1.5, 1): 0.95 -> 5.6843 (u x 2.3842), 0.93 -> 4.4569
     # (x 2.1111), as scipy.stats.invgamma.ppf gives them
     expected = {0.95: 5.684300, 0.93: 4.456937}[noise.PRUDENT_QUANTILE]
-    assert_allclose(fresh.prudent_scale, math.sqrt(expected), rtol=1e-6)
+    assert_allclose(fresh.noise.prudent_scale, math.sqrt(expected), rtol=1e-6)
 
 
 def test_the_chains_noise_adds_every_operations_evidence():
@@ -160,7 +160,7 @@ def test_a_monitor_survives_its_json(shape, rate, quarantined, y):
     reading = m.Reading(math.log(y), 0.01, {"feed_mm_rev": -1.2}, 3)
     monitor = m.Monitor(shape, rate, reading, reading, quarantined, 2)
     assert m.from_json(monitor.to_json()) == monitor
-    assert monitor.scale >= 1.0 and monitor.prudent_scale >= monitor.scale
+    assert monitor.scale >= 1.0 and monitor.noise.prudent_scale >= monitor.scale
 
 
 def test_rescaled_counts_the_readings_at_the_new_noise_scale():

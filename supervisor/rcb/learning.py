@@ -196,7 +196,7 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
 
     (exact without discounts, as a normal-inverse-gamma posterior's data term scales with the
     noise variance, Gelman et al. §14.8). Both ways: ``learn``'s scale starts high (an upper
-    quantile of the chain's noise, :mod:`supervisor.rcb.monitor`) and comes down as readings
+    quantile of the chain's noise, :mod:`supervisor.rcb.noise`) and comes down as readings
     show a quiet chain, and the readings then weigh what they are worth. ``ρ > 1`` extrapolates
     the combination; where discounts (a change's ``q``, the random walk ``τ``) have left less
     precision than the prior's in some direction, ``P'`` can lose definiteness: then the belief

@@ -177,11 +177,6 @@ class Monitor:
         """``ŝ`` of this monitor's own belief (:attr:`NoiseScale.scale`)."""
         return self.noise.scale
 
-    @property
-    def prudent_scale(self) -> float:
-        """``learn``'s scale of this monitor's own belief (:attr:`NoiseScale.prudent_scale`)."""
-        return self.noise.prudent_scale
-
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready mapping (:func:`from_json` reads it back)."""
         return {
@@ -258,13 +253,12 @@ def watch(
     if not (y > 0 and u > 0):  # nothing to judge in logs (a zero reading is the law's)
         return Watched("accept", replace(monitor, held=None))
     reading = _reading_of(measurement, point)
-    scale = monitor.scale
-    variance = scale**2
+    variance = monitor.scale**2
     held = monitor.held
     if (
         held is not None
         and held.ln_y - low.mean >= -CONFIRMABLE
-        and _consistent(held, reading, scale, exponents, exponent_sd)
+        and _consistent(held, reading, monitor.scale, exponents, exponent_sd)
     ):
         e = held.ln_y - low.mean
         forget = max(e * e - _variance(low, held.noise, variance), 0.0)
@@ -286,7 +280,7 @@ def watch(
     weight = variance * unit / (high.sd**2 + variance * unit)
     if high.shift**2 > unit:  # the setpoint moved too far to tell the noise from the model
         weight = 0.0
-    if high.noise == 0.0 and monitor.cusum + _sigma(high, reading, variance) - CUSUM_K > DRIFTING:
+    if high.noise == 0.0 and monitor.cusum + r_high - CUSUM_K > DRIFTING:
         weight = 0.0  # a drift in progress off a model's expectation: its innovations are not noise
     e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
     monitor = replace(
