@@ -218,3 +218,22 @@ def service_parts(live: LiveServer, plan_id: int) -> list[str]:
         c.headers["Authorization"] = f"Bearer {live.keys['viewer']}"
         items = c.get(f"/plans/{plan_id}/parts", params={"limit": 500}).json()["items"]
     return [p["serial"] for p in items]
+
+
+def refused(folder: Path, source: str) -> tuple[list[str], str]:
+    """``rcb collect`` with ``source`` appended to a config: exit 2, no traceback.
+
+    Returns its ``rcb: error:`` lines and its whole stderr.
+    """
+    config = write_config(folder, "http://127.0.0.1:9/api/v1", 1, ["a=N100:N140"], "")
+    config.write_text(config.read_text(encoding="utf-8") + source + "\n", encoding="utf-8")
+    answer = subprocess.run(
+        [str(RCB), "collect", "--config", str(config)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, KEY_VARIABLE: "not-used"},
+    )
+    assert answer.returncode == 2, answer.stderr[-2000:]
+    assert "Traceback" not in answer.stderr and "ValueError" not in answer.stderr
+    return [x for x in answer.stderr.splitlines() if x.startswith("rcb: error:")], answer.stderr

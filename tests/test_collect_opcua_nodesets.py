@@ -11,24 +11,21 @@ registry these tests skip, saying so.
 
 from __future__ import annotations
 
-import os
-import subprocess
-
 import pytest
 
 from supervisor.virtual.trace import TraceSample, block_map
 
 from collect_support import (
-    KEY_VARIABLE,
     Collector,
     demo_trace,
     mes_reports,
     new_plan,
     outcome,
     post_directly,
+    refused,
     write_config,
 )
-from live import RCB, free_port
+from live import free_port
 from npm_packages import nodeset_folder, npm_folder
 from opcua_machine import OpcUaMachine, own_space
 from opcua_node_machine import NodeOpcUaMachine
@@ -112,7 +109,7 @@ def test_a_path_not_on_the_server_is_one_line_naming_it(tmp_path, nodes, expecte
     machine = OpcUaMachine(trace, free_port(), space=space)
     machine.start()
     try:
-        errors, stderr = _refused(tmp_path, _source(machine.url, **nodes))
+        errors, stderr = refused(tmp_path, _source(machine.url, **nodes))
     finally:
         machine.stop()
     assert len(errors) == 1 and errors[0].startswith(expected), stderr[-2000:]
@@ -132,7 +129,7 @@ def test_a_server_without_the_cnc_namespace_is_one_line_listing_its_namespaces(t
     machine = OpcUaMachine(trace, free_port(), space=_slash_space)
     machine.start()
     try:
-        errors, stderr = _refused(tmp_path, _source(machine.url))
+        errors, stderr = refused(tmp_path, _source(machine.url))
     finally:
         machine.stop()
     assert len(errors) == 1, stderr[-2000:]
@@ -142,19 +139,3 @@ def test_a_server_without_the_cnc_namespace_is_one_line_listing_its_namespaces(t
         "has 0=http://opcfoundation.org/UA/, "
     ), errors
     assert "2=http://opcfoundation.org/UA/CNC/" in errors[0]
-
-
-def _refused(tmp_path, source: str) -> tuple[list[str], str]:
-    """``rcb collect`` with ``source``: exit 2, no traceback; its ``rcb: error:`` lines."""
-    config = write_config(tmp_path, "http://127.0.0.1:9/api/v1", 1, ["a=N100:N140"], "")
-    config.write_text(config.read_text(encoding="utf-8") + source + "\n", encoding="utf-8")
-    answer = subprocess.run(
-        [str(RCB), "collect", "--config", str(config)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env={**os.environ, KEY_VARIABLE: "not-used"},
-    )
-    assert answer.returncode == 2, answer.stderr[-2000:]
-    assert "Traceback" not in answer.stderr and "ValueError" not in answer.stderr
-    return [x for x in answer.stderr.splitlines() if x.startswith("rcb: error:")], answer.stderr
