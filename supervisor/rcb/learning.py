@@ -95,6 +95,8 @@ def learn(
         after = rescaled(after, _prior_of(state, operation, law.quantity), scale**2)
     if watched.forget > 0:
         after = discount(after, watched.forget)
+    if watched.shift:
+        after = shifted(after, watched.shift)
     point = {**result.setpoint, **operation.context}
     if watched.held is not None:  # the quarantined reading its successor confirmed
         held = _held_measurement(watched.held, scale)
@@ -221,6 +223,21 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
         cov=tuple(tuple(float(v) for v in row) for row in cov),
         noise_scale2=noise_scale2,
     )
+
+
+def shifted(belief: Posterior, shift: float) -> Posterior:
+    """The belief with its intercept moved by ``shift`` [ln]: a change the other operations showed.
+
+    (:mod:`supervisor.rcb.common_cause`).
+    """
+    return replace(belief, mean=(belief.mean[0] + shift, *belief.mean[1:]))
+
+
+def moved(
+    state: Beliefs, operation: Operation, quantity: str, shift: float, variance: float
+) -> Posterior:
+    """The belief of an operation that could not read a common change: moved by it, discounted."""
+    return shifted(discount(belief_of(state, operation, quantity), variance), shift)
 
 
 def discount(belief: Posterior, variance: float) -> Posterior:

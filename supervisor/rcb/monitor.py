@@ -213,7 +213,10 @@ class Watched:
 
     ``forget``: the variance ``q`` the intercept's belief takes before it learns (0 unless a
     change or a confirmed quarantine); ``held``: the quarantined reading a ``confirm`` learns
-    from too; ``sigma``: ``r`` of the reading on the side that decided (0 for ``accept``).
+    from too; ``sigma``: ``r`` of the reading on the side that decided (0 for ``accept``);
+    ``innovation``: ``(e, v)`` on the high side when the reading was judged there (None: it
+    was not), which :mod:`supervisor.rcb.common_cause` pools over the operations; ``shift``:
+    how far the intercept moves before it learns, the change the other operations showed.
     """
 
     verdict: Verdict
@@ -221,6 +224,16 @@ class Watched:
     sigma: float = 0.0
     forget: float = 0.0
     held: Reading | None = None
+    innovation: tuple[float, float] | None = None
+    shift: float = 0.0
+
+    @property
+    def high(self) -> float | None:
+        """``r`` on the high side (None: not judged there)."""
+        if self.innovation is None:
+            return None
+        e, v = self.innovation
+        return e / math.sqrt(v)
 
     @property
     def learns(self) -> bool:
@@ -241,11 +254,16 @@ def watch(
     point: Mapping[str, float],
     exponents: Mapping[str, float],
     exponent_sd: float,
+    common: tuple[float, float] | None = None,
 ) -> Watched:
     """Classify a reading against what the strategy expects (module docstring).
 
     ``low`` and ``high``: the expectation each side is judged against (``high`` None: no
-    change is looked for, and the noise scale does not learn). The monitor returned holds
+    change is looked for, and the noise scale does not learn). ``common``: the readings of
+    this quantity in the part's operations moved up together (:mod:`supervisor.rcb.
+    common_cause`), by ``(shift, variance)`` as the others show it: a reading judged on the
+    high side is then a change that moves the intercept by ``shift`` and discounts
+    ``variance``, and teaches the noise scale nothing. The monitor returned holds
     the quarantined reading (or has dropped it), the counts and the noise scale;
     :func:`learned` makes the reading the last one once it is learned from.
     """
@@ -280,7 +298,7 @@ def watch(
     weight = variance * unit / (high.sd**2 + variance * unit)
     if high.shift**2 > unit:  # the setpoint moved too far to tell the noise from the model
         weight = 0.0
-    if high.noise == 0.0 and monitor.cusum + r_high - CUSUM_K > DRIFTING:
+    if common is not None or (high.noise == 0.0 and monitor.cusum + r_high - CUSUM_K > DRIFTING):
         weight = 0.0  # a drift in progress off a model's expectation: its innovations are not noise
     e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
     monitor = replace(
@@ -289,19 +307,23 @@ def watch(
         rate=monitor.rate + 0.5 * weight * max(e2 - high.sd**2, 0.0) / unit,
     )
     spread2 = _variance(high, reading.noise, variance)
-    if r_high > CHANGE_SIGMA:  # one reading far over: a change at once
-        forget = max(e * e - spread2, 0.0)
+    innovation = (e, spread2)
+    if common is not None or r_high > CHANGE_SIGMA:  # a change at once
         counted = replace(monitor, changes=monitor.changes + 1, cusum=0.0, drift_sum=0.0, drift_n=0)
-        return Watched("change", counted, r_high, forget)
+        shift, forget = common or (0.0, max(e * e - spread2, 0.0))
+        return Watched("change", counted, r_high, forget, None, innovation, shift)
     cusum = max(monitor.cusum + r_high - CUSUM_K, 0.0)
     if cusum == 0.0:
-        return Watched("accept", replace(monitor, cusum=0.0, drift_sum=0.0, drift_n=0))
+        reset = replace(monitor, cusum=0.0, drift_sum=0.0, drift_n=0)
+        return Watched("accept", reset, innovation=innovation)
     drift_sum, drift_n = monitor.drift_sum + e, monitor.drift_n + 1
     if cusum > CUSUM_H:  # readings a little over, part after part: a change too
         shift = drift_sum / drift_n
         counted = replace(monitor, changes=monitor.changes + 1, cusum=0.0, drift_sum=0.0, drift_n=0)
-        return Watched("change", counted, cusum, max(shift * shift - spread2 / drift_n, 0.0))
-    return Watched("accept", replace(monitor, cusum=cusum, drift_sum=drift_sum, drift_n=drift_n))
+        forget = max(shift * shift - spread2 / drift_n, 0.0)
+        return Watched("change", counted, cusum, forget, innovation=innovation)
+    drifting = replace(monitor, cusum=cusum, drift_sum=drift_sum, drift_n=drift_n)
+    return Watched("accept", drifting, innovation=innovation)
 
 
 def learned(

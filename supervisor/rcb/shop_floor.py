@@ -40,10 +40,20 @@ def quarantined(law: Decision, sigma: float) -> Decision:
     )
 
 
-def changed(decision: Decision, watched: Watched) -> Decision:
-    """The decision of a reading that shows the process changed (note ``regime_change``)."""
+def changed(decision: Decision, watched: Watched, common: float | None = None) -> Decision:
+    """The decision of a reading that shows the process changed (note ``regime_change``).
+
+    ``common``: Stouffer's ``Z`` of the quantity over the part's operations when they moved
+    together (:mod:`supervisor.rcb.common_cause`).
+    """
     if watched.verdict == "confirm":
         why = "regime change: the reading confirms the low one before it; both learned"
+    elif common is not None:
+        why = (
+            f"regime change: {watched.sigma:.3g}σ over what was expected, and this quantity "
+            f"rose in the part's operations together ({common:.3g}σ pooled); old evidence "
+            "discounted"
+        )
     else:
         why = f"regime change: {watched.sigma:.3g}σ over what was expected; old evidence discounted"
     # a part out of tolerance keeps its note (the quality department's); the reason says both

@@ -126,6 +126,16 @@ class Strategy:
         """
         return True, None, law
 
+    def moved(
+        self, state: Beliefs, operation: Operation, quantity: str, shift: float, variance: float
+    ) -> Posterior | None:
+        """The posterior of an operation whose reading of a common change was quarantined.
+
+        ``shift`` and ``variance``: the change the other operations showed
+        (:mod:`supervisor.rcb.common_cause`); here no posterior is kept.
+        """
+        return None
+
     def cones(self, state: Beliefs) -> dict[str, dict[str, Cone]]:
         """Per operation and quantity, the constraints beyond the band (here none)."""
         return {}
@@ -212,6 +222,14 @@ class Learn(Strategy):
 
         belief, decision = learning.learn(state, operation, result, law, measurement, watched, age)
         return law.action == "expand", belief, decision
+
+    def moved(
+        self, state: Beliefs, operation: Operation, quantity: str, shift: float, variance: float
+    ) -> Posterior | None:
+        """The posterior moved by the change and discounted by its variance."""
+        from supervisor.rcb import learning
+
+        return learning.moved(state, operation, quantity, shift, variance)
 
     def cones(self, state: Beliefs) -> dict[str, dict[str, Cone]]:
         """The posterior's cone per operation and quantity (:mod:`supervisor.rcb.posterior`)."""

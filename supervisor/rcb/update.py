@@ -62,9 +62,10 @@ from supervisor.optimize.passes import measured_at
 from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb import wear as wear_rise
+from supervisor.rcb.common_cause import CommonShift, common_shifts
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.law import apply_law, tool_life_measured
-from supervisor.rcb.monitor import Monitor, Watched, learned, watch
+from supervisor.rcb.monitor import Expected, Monitor, Watched, learned, watch
 from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
@@ -160,10 +161,18 @@ def update(
     decisions: list[Decision] = []
     gross: list[HaltedOperation] = []
     chains = _chains(state.monitors)
-    for name, quantity, measurement in measured_items:
-        op, made = measured_at(operations[name], results[name], quantity)  # a pass's setpoint
-        noise = chains.get(quantity, NoiseScale())
-        decision, over = _reading(state, maps, op, made, quantity, measurement, report, noise)
+    judged = [
+        _judge(state, *measured_at(operations[name], results[name], quantity), quantity, m, report)
+        for name, quantity, m in measured_items  # measured_at: a pass's setpoint
+    ]
+    on_high = [j for j in judged if j.innovation is not None]
+    common = common_shifts((j.quantity, j.innovation) for j in on_high if j.innovation)
+    for quantity, shift in common.items():
+        for index, j in enumerate(j for j in on_high if j.quantity == quantity):
+            j.watched = j.rejudged(state.settings.exponent_sd, shift.shift(without=index))
+    for j in judged:
+        noise = chains.get(j.quantity, NoiseScale())
+        decision, over = _reading(state, maps, j, report, noise, common.get(j.quantity))
         decisions.append(decision)
         if over is not None:
             gross.append(over)
@@ -192,18 +201,71 @@ class _Maps:
     monitors: dict[tuple[str, str], Monitor]
 
 
-def _reading(
+@dataclass
+class _Judged:
+    """A reading as the monitor judged it (:func:`_judge`), before anything learns from it.
+
+    ``watched`` is replaced when the report shows a common cause (:mod:`.common_cause`).
+    """
+
+    op: Operation
+    made: OperationResult
+    quantity: str
+    measurement: Measurement
+    monitor: Monitor
+    watched: Watched
+    point: dict[str, float] | None = None
+    exponents: Mapping[str, float] | None = None
+    expected: tuple[Expected, Expected | None] | None = None  # what the strategy expected
+
+    @property
+    def innovation(self) -> tuple[float, float] | None:
+        """``(e, v)`` on the high side (None: not judged there, or a quarantine confirmed)."""
+        return None if self.watched.verdict == "confirm" else self.watched.innovation
+
+    def rejudged(self, exponent_sd: float, common: tuple[float, float]) -> Watched:
+        """The judgement when the part's operations moved together (``watch``'s ``common``)."""
+        assert self.expected and self.point is not None and self.exponents is not None
+        low, high = self.expected
+        point, exponents = self.point, self.exponents
+        measurement = self.measurement
+        return watch(self.monitor, low, high, measurement, point, exponents, exponent_sd, common)
+
+
+def _judge(
     state: RcbState,
-    new: _Maps,
     op: Operation,
     made: OperationResult,
     quantity: str,
     measurement: Measurement,
     report: PartReport,
-    noise: NoiseScale,
-) -> tuple[Decision, HaltedOperation | None]:
-    """One reading through the monitor, the band law and the strategy, into ``new``.
+) -> _Judged:
+    """What the strategy expects of a reading and how the monitor judges it."""
+    monitor = state.monitors.get((op.name, quantity)) or Monitor()
+    judged = _Judged(op, made, quantity, measurement, monitor, Watched("accept", monitor))
+    if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
+        age = report.edge_parts.get(op.name)
+        judged.point = {**made.setpoint, **op.context}
+        judged.exponents = exponents = state.tools[op.name].models[quantity].exponents
+        judged.expected = state.settings.rule.expects(state, op, made, quantity, age, monitor)
+        low, high = judged.expected
+        sd = state.settings.exponent_sd
+        judged.watched = watch(monitor, low, high, measurement, judged.point, exponents, sd)
+    return judged
 
+
+def _reading(
+    state: RcbState,
+    new: _Maps,
+    item: _Judged,
+    report: PartReport,
+    noise: NoiseScale,
+    common: CommonShift | None,
+) -> tuple[Decision, HaltedOperation | None]:
+    """One judged reading through the band law and the strategy, into ``new``.
+
+    ``common``: the quantity's change in every operation of the part, when the report shows
+    one (:mod:`supervisor.rcb.common_cause`); a quarantined reading's operation moves by it.
     ``noise``: the measuring chain's noise scale before the report (:func:`_chains`), which
     ``learn``'s likelihood reads; the band law and the alarm read the operation's own ``ŝ``
     (pooled, one operation's model error, counted as the chain's noise, blinded every
@@ -214,19 +276,19 @@ def _reading(
     """
     settings = state.settings
     rule = settings.rule
+    op, made, quantity, measurement = item.op, item.made, item.quantity, item.measurement
+    monitor, watched = item.monitor, item.watched
     key = (op.name, quantity)
     age = report.edge_parts.get(op.name)
     point = {**made.setpoint, **op.context}
-    exponents = state.tools[op.name].models[quantity].exponents
-    monitor = state.monitors.get(key) or Monitor()
-    watched = Watched("accept", monitor)
-    if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
-        low, high = rule.expects(state, op, made, quantity, age, monitor)
-        watched = watch(monitor, low, high, measurement, point, exponents, settings.exponent_sd)
     new.monitors[key] = watched.monitor
     if not watched.learns:  # quarantined: a decision to show, nothing learned
         law, *_ = apply_law(state, op, made, quantity, measurement)
         new.seen[key] = state.seen.get(key, 0.0)  # a maximum's: 0 covers nothing
+        if common is not None:  # the change it could not read: as the others showed it
+            belief = rule.moved(state, op, quantity, *common.shift())
+            if belief is not None:
+                new.posterior[key] = belief
         return quarantined(law, watched.sigma), None
     scaled = Measurement(measurement.value, measurement.uncertainty * monitor.scale)
     tools, sigma, seen, rises, posterior = new.tools, new.sigma, new.seen, new.wear, new.posterior
@@ -246,7 +308,7 @@ def _reading(
     )
     decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
     if watched.changed:
-        decision = changed(decision, watched)
+        decision = changed(decision, watched, None if common is None else common.z)
     gained = NoiseScale(  # the chain's belief with this reading's evidence
         noise.shape + watched.monitor.shape - monitor.shape,
         noise.rate + watched.monitor.rate - monitor.rate,
