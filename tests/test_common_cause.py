@@ -67,12 +67,12 @@ def test_stouffer_z_is_the_mean_r_times_root_m(rs):
     assert cc.between_variance(innovations) >= 0.0
 
 
-def _learned_state():
-    """``learn`` after five clean parts of the demonstration plan (seed 3)."""
+def _learned_state(strategy="learn"):
+    """``strategy`` after five clean parts of the demonstration plan (seed 3)."""
     plan = load_plan(DEMO_PLAN)
     machine = sample_machine(plan, seed=3)
     rng = np.random.default_rng(3)
-    state = start(plan, RcbSettings(strategy="learn"))
+    state = start(plan, RcbSettings(strategy=strategy))
     for k in range(5):
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
         outcome = run_part(machine, setpoints, rng)
@@ -81,14 +81,16 @@ def _learned_state():
 
 
 def _reading_at(state, operation, sigma, u=0.05):
-    """A roughness reading ``sigma`` innovation-σ over what ``learn`` expects at the setpoint."""
+    """A roughness reading ``sigma`` innovation-σ over what the strategy expects (high side)."""
     op = next(o for o in state.plan.operations if o.name == operation)
     made = next(r for r in state.setpoints.operations if r.name == operation)
-    expected = learning.expects(state, op, made, "roughness_um", None)
-    scale = (state.monitors.get((operation, "roughness_um")) or Monitor()).scale
+    monitor = state.monitors.get((operation, "roughness_um")) or Monitor()
+    _, expected = state.settings.rule.expects(state, op, made, "roughness_um", None, monitor)
+    scale = monitor.scale
     y = math.exp(expected.mean)
     for _ in range(20):  # the reading's own noise (u/2)/y depends on y
-        v = expected.sd**2 + (scale * (u / 2) / y) ** 2
+        noise2 = (expected.noise**2 + ((u / 2) / y) ** 2) * scale**2
+        v = expected.sd**2 + noise2
         y = math.exp(expected.mean + sigma * math.sqrt(v))
     return Measurement(y, u), expected.mean, v
 
@@ -131,3 +133,32 @@ def test_a_rise_under_the_pooled_level_changes_nothing():
     measurements = {name: {"roughness_um": _reading_at(state, name, 1.5)[0]} for name in names}
     _, decisions = update(state, PartReport("S-1", state.version, measurements))
     assert all(d.note != "regime_change" for d in decisions)
+
+
+def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift():
+    # ivester learns no K: the quarantined operation's band grows to cover what it expected
+    # (its last reading moved to the setpoint) raised by the others' shift, at k = 2 of that
+    # value's spread (the expectation's and the shift's)
+    state = _learned_state("ivester")
+    names = [op.name for op in state.plan.operations]
+    unread, rest = names[0], names[1:]
+    readings = {name: _reading_at(state, name, 2.5) for name in rest}
+    measurements = {name: {"roughness_um": m} for name, (m, _, _) in readings.items()}
+    measurements[unread] = {"roughness_um": Measurement(0.2, 0.05)}
+    new, decisions = update(state, PartReport("S-1", state.version, measurements))
+    assert {d.note for d in decisions if d.operation in rest} == {"regime_change"}
+    found = cc.common_shifts(
+        ("roughness_um", (2.5 * math.sqrt(v), v)) for _, _, v in readings.values()
+    )["roughness_um"]
+    shift, variance = found.shift()
+    op = next(o for o in state.plan.operations if o.name == unread)
+    made = next(r for r in state.setpoints.operations if r.name == unread)
+    monitor = state.monitors[(unread, "roughness_um")]
+    _, high = state.settings.rule.expects(state, op, made, "roughness_um", None, monitor)
+    value = math.exp(high.mean + shift)
+    covered = value * (1 + 2 * math.sqrt(high.sd**2 + variance))
+    point = {**made.setpoint, **op.context}
+    before = state.tools[unread].models["roughness_um"].predict(point)
+    after = new.tools[unread].models["roughness_um"].predict(point)
+    assert before.value + before.band < covered  # it did not cover the change before
+    assert after.value + after.band == pytest.approx(covered, rel=1e-6)

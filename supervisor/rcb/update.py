@@ -47,6 +47,7 @@ References
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -55,7 +56,7 @@ from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES
 from models.tool import Tool
 from supervisor.errors import InfeasibleError
-from supervisor.inputs.part_report import Measurement, PartReport
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, PartReport
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 from supervisor.optimize.passes import measured_at
@@ -223,6 +224,18 @@ class _Judged:
         """``(e, v)`` on the high side (None: not judged there, or a quarantine confirmed)."""
         return None if self.watched.verdict == "confirm" else self.watched.innovation
 
+    def shifted(self, shift: float, variance: float) -> Measurement | None:
+        """What the strategy expected on the high side, moved by a common change (None: nothing).
+
+        ``shift`` and ``variance``: the change [ln] and its variance, which with the
+        expectation's own make the value's expanded uncertainty (``k = 2``).
+        """
+        if self.expected is None or self.expected[1] is None:
+            return None
+        high = self.expected[1]
+        value = math.exp(high.mean + shift)
+        return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(high.sd**2 + variance))
+
     def rejudged(self, exponent_sd: float, common: tuple[float, float]) -> Watched:
         """The judgement when the part's operations moved together (``watch``'s ``common``)."""
         assert self.expected and self.point is not None and self.exponents is not None
@@ -286,9 +299,7 @@ def _reading(
         law, *_ = apply_law(state, op, made, quantity, measurement)
         new.seen[key] = state.seen.get(key, 0.0)  # a maximum's: 0 covers nothing
         if common is not None:  # the change it could not read: as the others showed it
-            belief = rule.moved(state, op, quantity, *common.shift())
-            if belief is not None:
-                new.posterior[key] = belief
+            _unread_change(state, new, item, common)
         return quarantined(law, watched.sigma), None
     scaled = Measurement(measurement.value, measurement.uncertainty * monitor.scale)
     tools, sigma, seen, rises, posterior = new.tools, new.sigma, new.seen, new.wear, new.posterior
@@ -303,8 +314,13 @@ def _reading(
         rises[key] = rise
         projection = rise.factor(age, settings.coverage_k)
     moved = settings.exponent_sd if watched.verdict == "change" else 0.0
+    evidence = scaled
+    if common is not None and watched.verdict == "change":  # at least what the others showed
+        floor = item.shifted(watched.shift, watched.forget)
+        if floor is not None and _upper(floor) > _upper(scaled):
+            evidence = floor
     decision, model, sigma[key], seen[key] = apply_law(
-        judged, op, made, quantity, scaled, projection, moved
+        judged, op, made, quantity, evidence, projection, moved
     )
     decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
     if watched.changed:
@@ -321,6 +337,31 @@ def _reading(
         posterior[key] = belief
     new.monitors[key] = learned(watched.monitor, measurement, point, age)
     return decision, gross_breach(op, quantity, scaled, settings.halt_over)
+
+
+def _upper(measurement: Measurement) -> float:
+    return measurement.value + measurement.uncertainty
+
+
+def _unread_change(state: RcbState, new: _Maps, item: _Judged, common: CommonShift) -> None:
+    """An operation whose reading of a common change was quarantined moves by the others'.
+
+    The band law takes the reading the operation would have had, what it expected moved by
+    the shift (:meth:`_Judged.shifted`), and may only grow from it; ``learn``'s posterior
+    moves by the shift (:meth:`supervisor.rcb.strategies.Strategy.moved`).
+    """
+    op, quantity = item.op, item.quantity
+    key = (op.name, quantity)
+    shift, variance = common.shift()
+    virtual = item.shifted(shift, variance)
+    if virtual is not None:
+        law, model, sigma, seen = apply_law(state, op, item.made, quantity, virtual)
+        if law.action == "expand":
+            new.tools[op.name] = _with_model(new.tools[op.name], model)
+            new.sigma[key], new.seen[key] = sigma, seen
+    belief = state.settings.rule.moved(state, op, quantity, shift, variance)
+    if belief is not None:
+        new.posterior[key] = belief
 
 
 def _chains(monitors: Mapping[tuple[str, str], Monitor]) -> dict[str, NoiseScale]:
