@@ -85,8 +85,19 @@ def only_keys(data: Mapping[str, Any], allowed: Iterable[str], path: str) -> Non
             )
 
 
-def text(data: Mapping[str, Any], key: str, path: str, default: str | None = None) -> str:
-    """A non-empty string field of at most :data:`~models.bounds.MAX_TEXT` characters."""
+def text(
+    data: Mapping[str, Any],
+    key: str,
+    path: str,
+    default: str | None = None,
+    *,
+    most: int = MAX_TEXT,
+) -> str:
+    """A non-empty string field of at most ``most`` characters.
+
+    ``most`` is :data:`models.bounds.MAX_TEXT`, or :data:`models.bounds.MAX_IDENTITY` for a
+    name that is not normalised (:func:`identity_field` bounds those it normalises).
+    """
     where = f"{path}.{key}" if path else key
     if key not in data:
         if default is not None:
@@ -95,8 +106,8 @@ def text(data: Mapping[str, Any], key: str, path: str, default: str | None = Non
     value = data[key]
     if not isinstance(value, str) or not value.strip():
         raise InputError(where, value, "must be a non-empty string")
-    if len(value) > MAX_TEXT:
-        raise InputError(where, value, f"must be at most {MAX_TEXT} characters")
+    if len(value) > most:
+        raise InputError(where, value, f"must be at most {most} characters")
     return value
 
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from models import fields, kinematics
-from models.bounds import LARGEST_EXPONENT
+from models.bounds import LARGEST_EXPONENT, MAX_IDENTITY
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.powerlaw import PowerLawModel, Prediction
@@ -101,7 +101,7 @@ def tool_from_mapping(data: object, path: str) -> Tool:
     """Read a tool ``{name, process, models: {quantity: model}, ...}`` as in a plan file."""
     table = fields.mapping(data, path)
     fields.only_keys(table, _TOOL_KEYS, path)
-    name = fields.identity_field(table, "name", path)
+    name = fields.text(table, "name", path, most=MAX_IDENTITY)
     process = process_of(table.get("process"), _at(path, "process"))
     source = fields.text(table, "source", path, default="plan file")
     models_table: Mapping[str, Any] = fields.mapping(table.get("models", {}), _at(path, "models"))

@@ -262,7 +262,7 @@ def test_absurdly_small_machine_limits_are_diagnosed_not_overflowed():
     }
     with pytest.raises(InputError) as refused:
         plan_from_mapping(body)
-    assert refused.value.field == "machine.max_spindle_rpm"
+    assert refused.value.field in ("machine.max_spindle_rpm", "machine.max_torque_Nm")
     machine = {**body["machine"], "max_spindle_rpm": 1.0, "max_torque_Nm": 1.0}
     plan = plan_from_mapping({**body, "machine": machine})
     tiny = replace(plan.machine, max_spindle_rpm=5e-324, max_torque_Nm=5e-324)

@@ -21,7 +21,14 @@ from typing import Any
 
 from models import fields, quantities
 from models.borangiu_cost import CostData, productivity_from_mapping
-from models.bounds import MAX_CALIBRATIONS, MAX_FLUTES, MAX_OPERATIONS, MAX_TOOLS, check_count
+from models.bounds import (
+    MAX_CALIBRATIONS,
+    MAX_FLUTES,
+    MAX_IDENTITY,
+    MAX_OPERATIONS,
+    MAX_TOOLS,
+    check_count,
+)
 from models.catalogue import catalogue
 from models.errors import InputError
 from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS, Process
@@ -193,7 +200,7 @@ def _machine(data: object) -> Machine:
         check_count(len(given), MAX_CALIBRATIONS, "machine.calibrations", "calibrations")
     calibrations = calibrations_from_mapping(given, "machine.calibrations")
     return Machine(
-        name=fields.identity_field(table, "name", "machine"),
+        name=fields.text(table, "name", "machine", most=MAX_IDENTITY),
         calibrations=calibrations,
         resolution=resolution_from_mapping(table.get("resolution"), "machine.resolution"),
         **limits,
@@ -217,7 +224,7 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
     table = fields.mapping(data, path)
     fields.only_keys(table, _OPERATION_KEYS, path)
     name = fields.identity_field(table, "name", path)
-    tool_name = fields.identity_field(table, "tool", path)
+    tool_name = fields.text(table, "tool", path, most=MAX_IDENTITY)
     tool = inline.get(tool_name) or catalogue().get(tool_name)
     if tool is None:
         known = ", ".join(sorted({*inline, *catalogue()}))
