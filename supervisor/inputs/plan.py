@@ -166,11 +166,12 @@ def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -
     table = fields.mapping(data, "plan")
     fields.only_keys(table, _PLAN_KEYS, "")
     ops_data = table.get("operations")
-    if not isinstance(ops_data, list) or not ops_data:
-        raise InputError("operations", ops_data, "a plan needs a list of at least one operation")
-    check_count(len(ops_data), MAX_OPERATIONS, "operations", "operations in a plan")
+    if isinstance(ops_data, list):  # counted first: nothing of a plan too long is read
+        check_count(len(ops_data), MAX_OPERATIONS, "operations", "operations in a plan")
     machine = _machine(table.get("machine"))
     inline = {**(library or {}), **_inline_tools(table.get("tools", []))}
+    if not isinstance(ops_data, list) or not ops_data:
+        raise InputError("operations", ops_data, "a plan needs a list of at least one operation")
     operations: list[Operation] = []
     tools: dict[str, Tool] = {}
     for i, op_data in enumerate(ops_data):
