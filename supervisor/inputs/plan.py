@@ -22,7 +22,6 @@ from typing import Any
 from models import fields, quantities
 from models.borangiu_cost import CostData, productivity_from_mapping
 from models.bounds import (
-    MAX_CALIBRATIONS,
     MAX_FLUTES,
     MAX_IDENTITY,
     MAX_OPERATIONS,
@@ -196,10 +195,7 @@ def _machine(data: object) -> Machine:
     machine_fields = quantities.machine_fields()
     fields.only_keys(table, ("name", *machine_fields, "calibrations", "resolution"), "machine")
     limits = {k: fields.optional_number(table, k, "machine", positive=True) for k in machine_fields}
-    given = table.get("calibrations", {})
-    if isinstance(given, Mapping):
-        check_count(len(given), MAX_CALIBRATIONS, "machine.calibrations", "calibrations")
-    calibrations = calibrations_from_mapping(given, "machine.calibrations")
+    calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
     return Machine(
         name=fields.text(table, "name", "machine", most=MAX_IDENTITY),
         calibrations=calibrations,
