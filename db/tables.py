@@ -24,6 +24,7 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
+from models.bounds import LARGEST_WHOLE
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 
 #: Stable constraint names, so Alembic migrations name them the same on every database.
@@ -36,8 +37,8 @@ NAMING_CONVENTION = {
 }
 
 #: The largest value an integer column holds (PostgreSQL's ``integer``: 32 bits): every id,
-#: version and count the service takes is bounded by it.
-MAX_INT = 2**31 - 1
+#: version and count the service takes is bounded by it (:data:`models.bounds.LARGEST_WHOLE`).
+MAX_INT = LARGEST_WHOLE
 
 
 def utcnow() -> datetime:

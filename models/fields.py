@@ -2,7 +2,11 @@
 
 Reads nested mappings (TOML or JSON) into numbers and names, checks the numeric fields of frozen
 dataclasses (calibrations, the virtual mill's parts) and stores them back as plain floats.
-Every error names the dotted path of the offending field and its value.
+Every error names the dotted path of the offending field and its value. Every number is within
+:data:`models.bounds.LARGEST` in magnitude and every text within :data:`models.bounds.MAX_TEXT`
+characters (an identifier :data:`models.bounds.MAX_IDENTITY`), and a positive number at least
+:data:`models.bounds.SMALLEST_POSITIVE`: the bounds REST's schemas apply,
+so a plan file and a plan posted to REST are bounded alike.
 """
 
 from __future__ import annotations
@@ -15,10 +19,9 @@ from typing import Any
 
 import numpy as np
 
+from models.bounds import LARGEST, MAX_IDENTITY, MAX_TEXT, SMALLEST_POSITIVE
 from models.errors import InputError
 
-#: The most characters of an identifier (a serial, a name) once normalised: its column's width.
-MAX_IDENTITY = 200
 #: Unicode categories an identifier may not hold, and what the refusal calls them: controls,
 #: format characters (zero-width space and joiners, soft hyphen, BOM, bidirectional controls:
 #: invisible, so two spellings would look alike), surrogates, line and paragraph separators.
@@ -82,8 +85,19 @@ def only_keys(data: Mapping[str, Any], allowed: Iterable[str], path: str) -> Non
             )
 
 
-def text(data: Mapping[str, Any], key: str, path: str, default: str | None = None) -> str:
-    """A non-empty string field."""
+def text(
+    data: Mapping[str, Any],
+    key: str,
+    path: str,
+    default: str | None = None,
+    *,
+    most: int = MAX_TEXT,
+) -> str:
+    """A non-empty string field of at most ``most`` characters.
+
+    ``most`` is :data:`models.bounds.MAX_TEXT`, or :data:`models.bounds.MAX_IDENTITY` for a
+    name that is not normalised (:func:`identity_field` bounds those it normalises).
+    """
     where = f"{path}.{key}" if path else key
     if key not in data:
         if default is not None:
@@ -92,16 +106,26 @@ def text(data: Mapping[str, Any], key: str, path: str, default: str | None = Non
     value = data[key]
     if not isinstance(value, str) or not value.strip():
         raise InputError(where, value, "must be a non-empty string")
+    if len(value) > most:
+        raise InputError(where, value, f"must be at most {most} characters")
     return value
 
 
 def number(
-    value: object, path: str, *, positive: bool = False, minimum: float | None = None
+    value: object,
+    path: str,
+    *,
+    positive: bool = False,
+    minimum: float | None = None,
+    largest: float = LARGEST,
 ) -> float:
-    """A finite real number (not a bool), optionally positive or at least ``minimum``.
+    """A finite real number (not a bool) within ``±largest``, optionally positive or >= ``minimum``.
+
+    Positive means at least :data:`models.bounds.SMALLEST_POSITIVE` (as REST's ``Positive``).
 
     Python ``int`` and ``float`` and numpy real scalars are numbers; bools (Python's or numpy's)
-    are not.
+    are not. ``largest`` is :data:`models.bounds.LARGEST` unless a field has a tighter bound
+    (an exponent: :data:`models.bounds.LARGEST_EXPONENT`).
     """
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
         raise InputError(path, value, "must be a number")
@@ -110,8 +134,12 @@ def number(
     result = float(value)
     if not math.isfinite(result):
         raise InputError(path, value, "must be a finite number")
+    if abs(result) > largest:
+        raise InputError(path, value, f"must be within ±{largest:g}")
     if positive and result <= 0:
         raise InputError(path, value, "must be greater than 0")
+    if positive and result < SMALLEST_POSITIVE:
+        raise InputError(path, value, f"must be at least {SMALLEST_POSITIVE:g}")
     if minimum is not None and result < minimum:
         raise InputError(path, value, f"must be at least {minimum:g}")
     return result
@@ -133,12 +161,14 @@ def number_table(
     *,
     positive: bool = False,
     minimum: float | None = None,
+    largest: float = LARGEST,
 ) -> dict[str, float]:
-    """A table of numbers whose keys must be among ``allowed``."""
+    """A table of numbers whose keys must be among ``allowed``; each as :func:`number` reads it."""
     table = mapping(value, path)
     only_keys(table, allowed, path)
     return {
-        k: number(v, f"{path}.{k}", positive=positive, minimum=minimum) for k, v in table.items()
+        k: number(v, f"{path}.{k}", positive=positive, minimum=minimum, largest=largest)
+        for k, v in table.items()
     }
 
 

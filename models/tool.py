@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from models import fields, kinematics
+from models.bounds import LARGEST_EXPONENT, MAX_IDENTITY
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.powerlaw import PowerLawModel, Prediction
@@ -69,7 +70,10 @@ def model_from_mapping(
     if "K" not in table:
         raise InputError(_at(path, "K"), None, "required field missing")
     exponents = fields.number_table(
-        table.get("exponents", {}), _at(path, "exponents"), variables(process)
+        table.get("exponents", {}),
+        _at(path, "exponents"),
+        variables(process),
+        largest=LARGEST_EXPONENT,
     )
     return PowerLawModel(
         quantity=quantity,
@@ -84,14 +88,20 @@ def model_from_mapping(
 
 def _stderr(data: object, exponents: Mapping[str, float], path: str) -> dict[str, float]:
     """A model's ``exponent_stderr``: a standard error >= 0 per exponent it names."""
-    return fields.number_table(data, _at(path, "exponent_stderr"), tuple(exponents), minimum=0.0)
+    return fields.number_table(
+        data,
+        _at(path, "exponent_stderr"),
+        tuple(exponents),
+        minimum=0.0,
+        largest=LARGEST_EXPONENT,
+    )
 
 
 def tool_from_mapping(data: object, path: str) -> Tool:
     """Read a tool ``{name, process, models: {quantity: model}, ...}`` as in a plan file."""
     table = fields.mapping(data, path)
     fields.only_keys(table, _TOOL_KEYS, path)
-    name = fields.text(table, "name", path)
+    name = fields.text(table, "name", path, most=MAX_IDENTITY)
     process = process_of(table.get("process"), _at(path, "process"))
     source = fields.text(table, "source", path, default="plan file")
     models_table: Mapping[str, Any] = fields.mapping(table.get("models", {}), _at(path, "models"))

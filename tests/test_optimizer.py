@@ -13,6 +13,7 @@ from numpy.testing import assert_allclose
 
 from api.cli.main import app
 from models.catalogue import get_tool
+from models.errors import InputError
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import load_plan, plan_from_mapping
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
@@ -239,7 +240,9 @@ def test_table_output_shows_the_json_numbers(runner):
 
 
 def test_absurdly_small_machine_limits_are_diagnosed_not_overflowed():
-    # found by schemathesis: max_spindle_rpm = 5e-324 made the diagnosis's exp(slack) overflow
+    # found by schemathesis: max_spindle_rpm = 5e-324 made the diagnosis's exp(slack) overflow.
+    # A plan file or a REST body now refuses it (models.bounds.SMALLEST_POSITIVE, issue 29):
+    # the optimizer is given the machine directly, and must still diagnose, not overflow.
     body = {
         "name": "tiny",
         "machine": {"name": "m", "max_spindle_rpm": 5e-324, "max_torque_Nm": 5e-324},
@@ -257,8 +260,14 @@ def test_absurdly_small_machine_limits_are_diagnosed_not_overflowed():
             }
         ],
     }
+    with pytest.raises(InputError) as refused:
+        plan_from_mapping(body)
+    assert refused.value.field in ("machine.max_spindle_rpm", "machine.max_torque_Nm")
+    machine = {**body["machine"], "max_spindle_rpm": 1.0, "max_torque_Nm": 1.0}
+    plan = plan_from_mapping({**body, "machine": machine})
+    tiny = replace(plan.machine, max_spindle_rpm=5e-324, max_torque_Nm=5e-324)
     with pytest.raises(InfeasibleError) as err:
-        optimize_plan(plan_from_mapping(body))
+        optimize_plan(replace(plan, machine=tiny))
     needed = {c.name: c.required for c in err.value.conflicts}
     # at the lower bounds (v = 100 m/min on Ø60): n = 1000·v/(π·D) = 530.5 rpm
     assert needed["machine.max_spindle_rpm"] == pytest.approx(1000 * 100 / (math.pi * 60), rel=1e-6)

@@ -26,6 +26,7 @@ from rich.console import Console
 
 from api.services.errors import NotFoundError, PlanHaltedError
 from db.errors import ConflictError
+from models.bounds import LARGEST
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
@@ -174,7 +175,10 @@ def _umask() -> int:
 
 
 def number_cell(text: str, where: str) -> float:
-    """A table cell as a finite number; ``where`` (``column[row]``) names it in errors."""
+    """A table cell as a finite number within :data:`models.bounds.LARGEST` in magnitude.
+
+    ``where`` (``column[row]``) names it in errors.
+    """
     cell = text.strip()
     if not cell:
         raise InputError(where, cell, "missing value")
@@ -184,4 +188,6 @@ def number_cell(text: str, where: str) -> float:
         raise InputError(where, cell, "must be a number") from None
     if not math.isfinite(value):
         raise InputError(where, cell, "must be a finite number")
+    if abs(value) > LARGEST:
+        raise InputError(where, cell, f"must be within ±{LARGEST:g}")
     return value

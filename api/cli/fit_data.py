@@ -9,12 +9,14 @@ header line. Errors are :class:`models.errors.InputError` naming the option or t
 
 from __future__ import annotations
 
+from contextlib import suppress
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from api.cli.common import number_cell
+from models.bounds import MAX_CSV_BYTES, MAX_CSV_ROWS
 from models.errors import InputError
 from models.wear_life import series_lives
 
@@ -23,7 +25,14 @@ _SHOWN_VALUES = 12
 
 
 def read_csv(path: Path) -> pd.DataFrame:
-    """Every cell as text (so ``--where`` compares text); empty cells are ``""``."""
+    """Every cell as text (so ``--where`` compares text); empty cells are ``""``.
+
+    A file over :data:`models.bounds.MAX_CSV_BYTES` is refused before it is read, one over
+    :data:`models.bounds.MAX_CSV_ROWS` rows once it is.
+    """
+    with suppress(OSError):  # a missing or unreadable file: pandas says why below
+        if path.is_file() and path.stat().st_size > MAX_CSV_BYTES:
+            raise InputError("data file", str(path), f"is larger than {MAX_CSV_BYTES} bytes")
     try:
         table = pd.read_csv(path, dtype=str, keep_default_na=False, encoding="utf-8-sig")
     except FileNotFoundError:
@@ -42,6 +51,9 @@ def read_csv(path: Path) -> pd.DataFrame:
     table.columns = [str(c).strip() for c in table.columns]
     if table.empty:
         raise InputError("data file", str(path), "has a header line but no rows")
+    if len(table) > MAX_CSV_ROWS:
+        why = f"has {len(table)} rows; at most {MAX_CSV_ROWS}"
+        raise InputError("data file", str(path), why)
     return table
 
 

@@ -9,15 +9,22 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from models.bounds import (
+    LARGEST,
+    LARGEST_WHOLE,
+    MAX_OPERATIONS,
+    SMALLEST_MEASURED,
+    check_count,
+)
 from models.errors import InputError
 from models.sensors import RAW_QUANTITIES
 from supervisor.collect.selectors import OperationSelector, check_selectors, parse_selector
+from supervisor.inputs.files import read_toml
 
 #: MTConnect data items read by default: ``Component/Type`` (:mod:`api.collect.mtconnect_devices`:
 #: ``Rotary`` is the spindle, ``Path`` the path or else the controller).
@@ -111,15 +118,14 @@ class CollectorConfig:
 
 
 def load_config(path: Path) -> CollectorConfig:
-    """Read and check ``collector.toml``; relative paths are relative to its folder."""
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError("--config", str(path), "no such file") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError("--config", str(path), f"cannot be read ({err})") from None
-    except tomllib.TOMLDecodeError as err:
-        raise InputError("--config", str(path), f"not TOML ({err})") from None
+    """Read and check ``collector.toml``; relative paths are relative to its folder.
+
+    Read as every TOML file the CLI reads (:func:`supervisor.inputs.files.read_toml`: at most
+    :data:`models.bounds.MAX_DOCUMENT_BYTES`); errors name ``--config``.
+    """
+    data = read_toml(path, "--config")
+    if not isinstance(data, Mapping):  # tomllib always gives a table; for mypy
+        raise InputError("--config", str(path), "is not a TOML table")
     return config_from_mapping(data, path.parent)
 
 
@@ -182,8 +188,7 @@ def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
     operations = signal.get("operations")
     if not isinstance(operations, list) or not all(isinstance(o, str) for o in operations):
         raise InputError("signal.operations", operations, "must be a list of OP=N100:N200 or OP=T1")
-    if len(operations) > 100:
-        raise InputError("signal.operations", len(operations), "at most 100 operations")
+    check_count(len(operations), MAX_OPERATIONS, "signal.operations", "operations")
     selectors = tuple(parse_selector(o, "signal.operations") for o in operations)
     check_selectors(selectors, "signal.operations")
     if ("mtconnect" in data) == ("opcua" in data):
@@ -199,11 +204,11 @@ def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
         machine=_text(collector, "machine", "collector"),
         queue_path=queue if queue.is_absolute() else base / queue,
         service_url=url.rstrip("/"),
-        plan_id=_whole(service, "plan", "service", None, 2**31 - 1),
-        setpoint_version=_whole(service, "setpoint_version", "service", None, 2**31 - 1),
+        plan_id=_whole(service, "plan", "service", None, LARGEST_WHOLE),
+        setpoint_version=_whole(service, "setpoint_version", "service", None, LARGEST_WHOLE),
         api_key_env=_text(service, "api_key_env", "service", "RCB_API_KEY"),
         quantity=quantity,
-        uncertainty=_number(signal, "uncertainty", "signal", math.nan, 1e-9, 1e12),
+        uncertainty=_number(signal, "uncertainty", "signal", math.nan, SMALLEST_MEASURED, LARGEST),
         calibration=calibration,
         percentile=_number(signal, "percentile", "signal", 100.0, 1e-9, 100.0),
         selectors=selectors,

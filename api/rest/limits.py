@@ -12,10 +12,12 @@ from starlette.requests import Request
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from api.rest import problems
+from models.bounds import MAX_DOCUMENT_BYTES
 
-#: The largest request body the service reads [bytes]: 1 MiB (a plan of a hundred operations
-#: is some 100 kB, a part report a few kB).
-MAX_BODY_BYTES = 1024 * 1024
+#: The largest request body the service reads [bytes]: :data:`models.bounds.MAX_DOCUMENT_BYTES`,
+#: 1 MiB, the bound of a plan file too (a plan of a hundred operations is some 100 kB, a part
+#: report a few kB).
+MAX_BODY_BYTES = MAX_DOCUMENT_BYTES
 
 
 class BodyLimit:

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from models import fields
+from models.bounds import MAX_CALIBRATIONS, check_count
 from models.errors import InputError
 from models.sensors.convert import Calibration
 from models.sensors.ivester import IvesterSpindleLoadCalibration
@@ -293,9 +294,11 @@ def calibrations_from_mapping(data: object, path: str) -> dict[str, Calibration]
     Returns
     -------
     dict of str to Calibration
-        The calibrations by name.
+        The calibrations by name; at most :data:`models.bounds.MAX_CALIBRATIONS`, counted
+        before any is read.
     """
     table = fields.mapping(data, path)
+    check_count(len(table), MAX_CALIBRATIONS, path, "calibrations")
     return {
         name: calibration_from_mapping(value, f"{path}.{name}") for name, value in table.items()
     }

@@ -15,13 +15,14 @@ import hashlib
 from typing import Any
 from urllib.parse import quote
 
+from models.bounds import MAX_IDENTITY
 from models.sensors import RAW_QUANTITIES
 from supervisor.collect.segment import PartDone
 
 #: The longest Idempotency-Key the service takes (visible ASCII).
 MAX_KEY = 255
-#: The longest serial the service takes.
-MAX_SERIAL = 200
+#: The longest serial the service takes (:data:`models.bounds.MAX_IDENTITY`).
+MAX_SERIAL = MAX_IDENTITY
 
 
 def serial_of(machine: str, program: str, part_count: int) -> str:

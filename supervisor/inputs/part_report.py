@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from models import fields
+from models.bounds import LARGEST_WHOLE, MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST_MEASURED
 from models.errors import InputError
 
 #: Coverage factor of a reported (expanded) uncertainty: ``σ = U / 2`` (GUM 6.2-6.3; Ivester &
@@ -123,17 +124,6 @@ class PartReport:
     edge_parts: Mapping[str, int] = field(default_factory=dict)
 
 
-#: The most parts an edge may be reported to have made (a bound on the input, not physics).
-MAX_EDGE_PARTS = 1_000_000
-#: The most operations one report may carry (a bound on the input).
-MAX_OPERATIONS = 100
-#: The largest magnitude of a reported number in its unit (1e12 N, 1e12 mm³: no machine
-#: measures it, and the band law's squares of it stay finite).
-LARGEST = 1e12
-#: The smallest measured value and uncertainty in their unit: a reading is > 0, and this far
-#: above 0 that the band law's ratios of it stay finite.
-SMALLEST = 1e-9
-
 _REPORT_KEYS = ("serial", "setpoint_version", "operations")
 _OPERATION_KEYS = ("name", "measurements", "tool_wear", "feed_override_percent", "edge_parts")
 
@@ -150,8 +140,10 @@ def report_from_mapping(data: object) -> PartReport:
     table = fields.mapping(data, "report")
     fields.only_keys(table, _REPORT_KEYS, "")
     version = table.get("setpoint_version")
-    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+    if isinstance(version, bool) or not isinstance(version, int):
         raise InputError("setpoint_version", version, "must be a whole number >= 1")
+    if not 1 <= version <= LARGEST_WHOLE:
+        raise InputError("setpoint_version", version, f"must be in 1..{LARGEST_WHOLE}")
     operations = table.get("operations")
     if not isinstance(operations, list):
         raise InputError("operations", operations, "must be a list of operations")
@@ -180,7 +172,8 @@ def report_from_mapping(data: object) -> PartReport:
                 measurements[name][q] = _measurement(m, where)
         if "feed_override_percent" in op:
             where = f"{path}.feed_override_percent"
-            overrides[name] = _number(op["feed_override_percent"], where, smallest=SMALLEST)
+            given = op["feed_override_percent"]
+            overrides[name] = _number(given, where, smallest=SMALLEST_MEASURED)
         if "edge_parts" in op:
             where, n = f"{path}.edge_parts", op["edge_parts"]
             if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_EDGE_PARTS:
@@ -194,7 +187,7 @@ def report_from_mapping(data: object) -> PartReport:
                 raise InputError(f"{where}.volume_mm3", None, "required field missing")
             wear[name] = ToolWear(
                 _measurement(w.get("flank_wear_mm"), f"{where}.flank_wear_mm"),
-                _number(w["volume_mm3"], f"{where}.volume_mm3", smallest=SMALLEST),
+                _number(w["volume_mm3"], f"{where}.volume_mm3", smallest=SMALLEST_MEASURED),
             )
         if not (measured or name in wear or name in overrides):
             why = "nothing measured: give a measurement, tool_wear or feed_override_percent"
@@ -210,11 +203,8 @@ def _identifier(data: Mapping[str, object], key: str, path: str) -> str:
 
 
 def _number(value: object, path: str, *, smallest: float = 0.0) -> float:
-    """A finite number in ``[smallest, LARGEST]`` (not a bool, not a string)."""
-    result = fields.number(value, path, minimum=smallest)
-    if result > LARGEST:
-        raise InputError(path, value, f"must be at most {LARGEST:g}")
-    return result
+    """A finite number in ``[smallest, models.bounds.LARGEST]`` (not a bool, not a string)."""
+    return fields.number(value, path, minimum=smallest)
 
 
 def _is_signal(quantity: str, data: object) -> bool:
@@ -241,7 +231,7 @@ def _signal(quantity: str, data: object, path: str) -> Signal:
 
 
 def _measurement(data: object, path: str) -> Measurement:
-    """What a machine can measure: ``SMALLEST <= value <= LARGEST``, ``0 < uncertainty < value``.
+    """What a machine can measure: ``SMALLEST_MEASURED <= value <= LARGEST``, ``u < value``.
 
     Every reported quantity is a maximum (force, roughness, current, spindle load) or flank
     wear: a reading of 0 or one without uncertainty is no measurement.
@@ -251,8 +241,8 @@ def _measurement(data: object, path: str) -> Measurement:
     for key in ("value", "uncertainty"):
         if key not in table:
             raise InputError(f"{path}.{key}", None, "required field missing")
-    value = _number(table["value"], f"{path}.value", smallest=SMALLEST)
-    uncertainty = _number(table["uncertainty"], f"{path}.uncertainty", smallest=SMALLEST)
+    value = _number(table["value"], f"{path}.value", smallest=SMALLEST_MEASURED)
+    uncertainty = _number(table["uncertainty"], f"{path}.uncertainty", smallest=SMALLEST_MEASURED)
     if uncertainty >= value:
         where = f"{path}.uncertainty"
         raise InputError(where, table["uncertainty"], f"must be less than the value {value:g}")

@@ -21,6 +21,13 @@ from typing import Any
 
 from models import fields, quantities
 from models.borangiu_cost import CostData, productivity_from_mapping
+from models.bounds import (
+    MAX_FLUTES,
+    MAX_IDENTITY,
+    MAX_OPERATIONS,
+    MAX_TOOLS,
+    check_count,
+)
 from models.catalogue import catalogue
 from models.errors import InputError
 from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS, Process
@@ -157,9 +164,11 @@ def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -
     """
     table = fields.mapping(data, "plan")
     fields.only_keys(table, _PLAN_KEYS, "")
+    ops_data = table.get("operations")
+    if isinstance(ops_data, list):  # counted first: nothing of a plan too long is read
+        check_count(len(ops_data), MAX_OPERATIONS, "operations", "operations in a plan")
     machine = _machine(table.get("machine"))
     inline = {**(library or {}), **_inline_tools(table.get("tools", []))}
-    ops_data = table.get("operations")
     if not isinstance(ops_data, list) or not ops_data:
         raise InputError("operations", ops_data, "a plan needs a list of at least one operation")
     operations: list[Operation] = []
@@ -188,7 +197,7 @@ def _machine(data: object) -> Machine:
     limits = {k: fields.optional_number(table, k, "machine", positive=True) for k in machine_fields}
     calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
     return Machine(
-        name=fields.text(table, "name", "machine"),
+        name=fields.text(table, "name", "machine", most=MAX_IDENTITY),
         calibrations=calibrations,
         resolution=resolution_from_mapping(table.get("resolution"), "machine.resolution"),
         **limits,
@@ -198,6 +207,7 @@ def _machine(data: object) -> Machine:
 def _inline_tools(data: object) -> dict[str, Tool]:
     if not isinstance(data, list):
         raise InputError("tools", data, "must be a list of tool tables")
+    check_count(len(data), MAX_TOOLS, "tools", "inline tools in a plan")
     tools: dict[str, Tool] = {}
     for i, entry in enumerate(data):
         tool = tool_from_mapping(entry, f"tools[{i}]")
@@ -211,7 +221,7 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
     table = fields.mapping(data, path)
     fields.only_keys(table, _OPERATION_KEYS, path)
     name = fields.identity_field(table, "name", path)
-    tool_name = fields.text(table, "tool", path)
+    tool_name = fields.text(table, "tool", path, most=MAX_IDENTITY)
     tool = inline.get(tool_name) or catalogue().get(tool_name)
     if tool is None:
         known = ", ".join(sorted({*inline, *catalogue()}))
@@ -342,8 +352,9 @@ def _context(table: Mapping[str, Any], path: str, process: Process) -> dict[str,
         if key not in table:
             raise InputError(f"{path}.{key}", None, f"required for a {process} operation")
         context[key] = fields.number(table[key], f"{path}.{key}", positive=True)
-        if key == "flute_count" and not context[key].is_integer():
-            raise InputError(f"{path}.{key}", table[key], "must be a whole number of flutes")
+        if key == "flute_count" and not (context[key].is_integer() and context[key] <= MAX_FLUTES):
+            why = f"must be a whole number of flutes, at most {MAX_FLUTES}"
+            raise InputError(f"{path}.{key}", table[key], why)
     for other in sorted({k for keys in CONTEXT.values() for k in keys} - set(CONTEXT[process])):
         if other in table:
             raise InputError(f"{path}.{other}", table[other], f"not used by a {process} operation")

@@ -15,6 +15,7 @@ from api.rest.schemas.review import History, ModelVersions, PlanModels
 from api.rest.schemas.tools import TextCursor
 from api.services import queries
 from api.services.priority import GATE
+from models.bounds import MAX_IDENTITY
 
 router = resource_router("review")
 
@@ -60,7 +61,7 @@ def model_versions(
     engine: EngineDep,
     plan_id: PlanId,
     actor: Anyone,
-    operation: Annotated[str | None, Query(max_length=200, pattern=NO_NUL)] = None,
+    operation: Annotated[str | None, Query(max_length=MAX_IDENTITY, pattern=NO_NUL)] = None,
     quantity: Annotated[str | None, Query(max_length=50, pattern=NO_NUL)] = None,
     cursor: TextCursor = None,
     limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,

@@ -13,6 +13,7 @@ from api.rest.schemas.common import NO_NUL
 from api.rest.schemas.tools import TextCursor, ToolIn, ToolList, ToolOut
 from api.services import queries
 from api.services import tools as use_cases
+from models.bounds import MAX_IDENTITY
 
 router = resource_router("tools")
 
@@ -31,7 +32,7 @@ def list_tools(
 @router.get("/tools/{name}", response_model=ToolOut)
 def get_tool(
     engine: EngineDep,
-    name: Annotated[str, Path(max_length=200, pattern=NO_NUL)],
+    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
     actor: Anyone,
 ) -> dict[str, Any]:
     """One tool with its baseline models and their provenance."""

@@ -1,8 +1,9 @@
 """What the schemas share: checked numbers and text, the strategy names, the closed models.
 
 Issue 17: every input is strict (no ``true`` or ``"5"`` taken for a number), finite and within
-:data:`LARGEST`, and every text is bounded and storable; identifiers (serials, names) carry no
-control characters.
+:data:`models.bounds.LARGEST`, and every text is bounded and storable; identifiers (serials,
+names) carry no control characters. Issue 29: every bound comes from :mod:`models.bounds`, which
+the CLI's readers apply too.
 """
 
 from __future__ import annotations
@@ -11,7 +12,13 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
 
-from db.tables import MAX_INT
+from models.bounds import (
+    LARGEST,
+    LARGEST_WHOLE,
+    MAX_IDENTITY,
+    MAX_TEXT,
+    SMALLEST_POSITIVE,
+)
 from models.fields import identity
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
@@ -45,27 +52,16 @@ def _storable(value: str) -> str:
     return value
 
 
-#: The largest magnitude of a number in any input, in the field's unit: far above any machining
-#: value (1e12 N, 1e12 mm³), far below where the physics' squares and powers overflow a float.
-LARGEST = 1e12
-
 _FINITE = {"strict": True, "allow_inf_nan": False}
 #: A number: strict (JSON ``true`` or ``"5"`` is refused, an integer is taken), finite, and at
-#: most :data:`LARGEST` in magnitude.
+#: most :data:`models.bounds.LARGEST` in magnitude.
 Number = Annotated[float, Field(ge=-LARGEST, le=LARGEST, **_FINITE)]
-#: The least value of a :data:`Positive`: no subnormal like 5e-324, whose ratios and powers in
-#: the physics overflow a float.
-SMALLEST_POSITIVE = 1e-12
-#: A :data:`Number` > 0 (at least :data:`SMALLEST_POSITIVE`).
+#: A :data:`Number` > 0 (at least :data:`models.bounds.SMALLEST_POSITIVE`).
 Positive = Annotated[float, Field(ge=SMALLEST_POSITIVE, le=LARGEST, **_FINITE)]
 #: A :data:`Number` >= 0.
 NonNegative = Annotated[float, Field(ge=0, le=LARGEST, **_FINITE)]
-#: The largest whole number an input may hold: what a 32-bit integer column stores.
-LARGEST_WHOLE = MAX_INT
 #: A whole number >= 1 (strict: no ``true``, ``"5"`` or ``5.0``) that an integer column holds.
 Count = Annotated[int, Field(strict=True, ge=1, le=LARGEST_WHOLE)]
-#: The most characters of a free text (a description).
-MAX_TEXT = 2000
 
 #: A string with something in it (the domain readers refuse blank text) that can be stored.
 Text = Annotated[str, Field(pattern=r"\S", max_length=MAX_TEXT), AfterValidator(_storable)]
@@ -76,11 +72,11 @@ def _identifier(value: str) -> str:
     return identity(value)
 
 
-#: A serial or a name: text of at most 200 characters, no control, format or other invisible
-#: characters; stored NFKC without surrounding white space (issue 29).
+#: A serial or a name: text of at most :data:`models.bounds.MAX_IDENTITY` characters, no
+#: control, format or other invisible characters; stored NFKC without surrounding white space.
 Name = Annotated[
     str,
-    Field(pattern=r"\S", max_length=200),
+    Field(pattern=r"\S", max_length=MAX_IDENTITY),
     AfterValidator(_storable),
     AfterValidator(_identifier),
 ]

@@ -7,11 +7,11 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
-from api.rest.schemas.common import LARGEST, Count, Name, NonNegative, Out, Positive, keys_schema
+from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive, keys_schema
 from api.rest.schemas.halts import HaltedOperationOut
 from api.rest.schemas.setpoints import OperationSetpoint
+from models.bounds import LARGEST, MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST_MEASURED
 from models.quantities import MODEL_QUANTITIES
-from supervisor.inputs.part_report import MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST
 from supervisor.rcb.decision import Action, Flag, Note
 
 #: Quantities a part report may measure: every model quantity but tool life, which follows from
@@ -19,8 +19,10 @@ from supervisor.rcb.decision import Action, Flag, Note
 MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
 
 
-#: A measured value or its uncertainty: > 0 (SMALLEST) and finite.
-Measured = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=SMALLEST, le=LARGEST)]
+#: A measured value or its uncertainty: > 0 (SMALLEST_MEASURED), finite, at most LARGEST.
+Measured = Annotated[
+    float, Field(strict=True, allow_inf_nan=False, ge=SMALLEST_MEASURED, le=LARGEST)
+]
 #: Parts an edge made before this one.
 EdgeParts = Annotated[int, Field(strict=True, ge=0, le=MAX_EDGE_PARTS)]
 

@@ -11,6 +11,13 @@ from api.rest.schemas.common import Name, Number, Out, Positive, Strategy, Text,
 from api.rest.schemas.halts import HaltOut
 from api.rest.schemas.setpoints import OperationSetpoint
 from api.rest.schemas.tools import ToolIn
+from models.bounds import (
+    MAX_CALIBRATIONS,
+    MAX_FLUTES,
+    MAX_OPERATIONS,
+    MAX_TABLE_KEYS,
+    MAX_TOOLS,
+)
 from models.kinematics import PARAMETERS, PROCESSES, Process
 from models.quantities import limit_keys
 from supervisor.optimize.program import Objective
@@ -86,8 +93,6 @@ class PlanDetail(PlanSummary):
     body: dict[str, Any]
 
 
-#: The most entries of a list or table in a plan (operations, tools, calibrations).
-MAX_ENTRIES = 100
 #: What an operation's ``limits`` may name (the quantity registry, models.quantities): maxima
 #: of the models, the machine quantities, and the tool-life minimum ``parts_per_edge``.
 LIMITS = list(limit_keys())
@@ -105,7 +110,7 @@ class MachineIn(BaseModel):
     max_feed_rate_mm_min: Positive | None = None
     calibrations: dict[Name, dict[str, Any]] | None = Field(
         None,
-        max_length=MAX_ENTRIES,
+        max_length=MAX_CALIBRATIONS,
         description="named sensor calibrations, each a table with a `kind` "
         "(ivester_spindle_load, linear_current, linear_current_by_feed, tai_current_feed) "
         "and its constants and provenance, as in a plan file (models.sensors)",
@@ -139,7 +144,7 @@ class OperationIn(BaseModel):
     )
     workpiece_diameter_mm: Positive | None = Field(None, description="turning")
     tool_diameter_mm: Positive | None = Field(None, description="milling")
-    flute_count: Annotated[int, Field(strict=True, ge=1, le=1000)] | None = Field(
+    flute_count: Annotated[int, Field(strict=True, ge=1, le=MAX_FLUTES)] | None = Field(
         None, description="milling"
     )
     allowable_flank_wear_mm: Positive | None = Field(None, description="default 0.3 (ISO 3685)")
@@ -164,7 +169,7 @@ class OperationIn(BaseModel):
     )
     constant_load: dict[str, Any] | None = Field(
         None,
-        max_length=MAX_ENTRIES,
+        max_length=MAX_TABLE_KEYS,
         description="constant-load control (Tai et al., milling): calibration (a "
         "tai_current_feed calibration of the machine), max_current_A, safety_factor, "
         "wear_interval_um",
@@ -190,9 +195,9 @@ class PlanIn(BaseModel):
     description: Text | None = None
     machine: MachineIn
     tools: list[ToolIn] | None = Field(
-        None, max_length=MAX_ENTRIES, description="inline tools (else catalogue or stored)"
+        None, max_length=MAX_TOOLS, description="inline tools (else catalogue or stored)"
     )
-    operations: list[OperationIn] = Field(min_length=1, max_length=MAX_ENTRIES)
+    operations: list[OperationIn] = Field(min_length=1, max_length=MAX_OPERATIONS)
 
 
 #: The create route's example: the rough OD of Ivester & Heigel's demonstration part.

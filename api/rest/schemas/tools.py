@@ -8,12 +8,15 @@ from fastapi import Query
 from pydantic import BaseModel, ConfigDict, Field
 
 from api.rest.schemas.common import Name, NonNegative, Out, Positive, Text, keys_schema
+from models.bounds import LARGEST_EXPONENT
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.quantities import MODEL_QUANTITIES
 
-#: An exponent of a power law or its standard error: machining exponents lie within ±10
-#: (Taylor's 1/n of a ceramic edge near 8); beyond ±100 ``x^e`` overflows a float.
-Exponent = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-100, le=100)]
+#: An exponent of a power law or its standard error: within ±:data:`models.bounds.LARGEST_EXPONENT`.
+Exponent = Annotated[
+    float,
+    Field(strict=True, allow_inf_nan=False, ge=-LARGEST_EXPONENT, le=LARGEST_EXPONENT),
+]
 
 
 class ModelIn(BaseModel):
