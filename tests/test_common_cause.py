@@ -162,3 +162,18 @@ def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift()
     after = new.tools[unread].models["roughness_um"].predict(point)
     assert before.value + before.band < covered  # it did not cover the change before
     assert after.value + after.band == pytest.approx(covered, rel=1e-6)
+
+
+def test_a_failed_sensor_at_the_change_neither_hides_the_rise_nor_pulls_it_down():
+    # five readings at 3 sigma (e = 0.12, v = 0.0016) and one at 30 % of the truth that escaped
+    # quarantine (e = -0.8: r = -20): counted at -2 sigma, e = -0.08. Z = (15 - 2)/sqrt(6) =
+    # 5.307 (unclipped: -2.04, no change found); w = 625 each, mean 0.52/6 = 0.08667,
+    # Q = 625 x (5 x 0.03333^2 + 0.16667^2) = 20.833, scale 3750 - 625 = 3125,
+    # tau^2 = (20.833 - 5)/3125 = 0.0050667
+    innovations = [(0.12, 0.0016)] * 5 + [(-0.8, 0.0016)]
+    (found,) = cc.common_shifts([("roughness_um", i) for i in innovations]).values()
+    assert found.z == pytest.approx(13 / math.sqrt(6))
+    assert found.tau2 == pytest.approx((125 / 6 - 5) / 3125)
+    assert found.shift() == pytest.approx((0.52 / 6, 0.0016 / 6 + found.tau2 * 7 / 6))
+    # the failed one moves by the other five's 0.12, variance (0.0016 + tau^2)/5 + tau^2
+    assert found.shift(without=5) == pytest.approx((0.12, 0.0064), rel=1e-9)

@@ -15,7 +15,8 @@ innovation ``e_i`` over the innovation's variance ``v_i``), so Stouffer's combin
 .. math:: Z = \frac{1}{\sqrt{m}} \sum_{i=1}^{m} r_i
 
 is standard normal when nothing changed and grows as ``√m`` times a shift the operations share
-[1]_. ``Z >`` :data:`COMMON_SIGMA` (the one-reading alarm's level: a report raises no more
+[1]_; an innovation under ``−2σ`` counts at ``−2σ`` (:data:`FLOOR_SIGMA`, a winsorised sum [3]_:
+a reading at 30 % of the truth that escaped quarantine, ``r ≈ −20``, would hide the rise). ``Z >`` :data:`COMMON_SIGMA` (the one-reading alarm's level: a report raises no more
 false alarms than one more reading would) is a change of that quantity in every operation.
 
 **Learning it.** Each operation's shift is the common one plus its own: ``e_i = δ + η_i +
@@ -39,6 +40,8 @@ References
    superior to Fisher's approach", J. Evol. Biol. 18(5), 1368-1373.
 .. [2] DerSimonian & Laird (1986), "Meta-analysis in clinical trials", Controlled Clinical
    Trials 7(3), 177-188.
+.. [3] Huber (1964), "Robust estimation of a location parameter", Ann. Math. Statist. 35(1),
+   73-101 (a bounded influence of each observation).
 """
 
 from __future__ import annotations
@@ -51,6 +54,10 @@ from supervisor.rcb.monitor import CHANGE_SIGMA
 
 #: The pooled ``Z`` over which a quantity changed in every operation of the part [σ].
 COMMON_SIGMA = CHANGE_SIGMA
+#: An innovation under ``−FLOOR_SIGMA`` σ counts at that edge (winsorised): a sensor that
+#: failed at the part of the change (a reading at 30 % of the truth is ``r ≈ −20``) must not
+#: hide the others' rise, nor pull their shift down.
+FLOOR_SIGMA = 2.0
 
 
 @dataclass(frozen=True)
@@ -107,8 +114,8 @@ def common_shifts(items: Iterable[tuple[str, tuple[float, float]]]) -> dict[str,
     common cause to show beyond its own alarm.
     """
     by_quantity: dict[str, list[tuple[float, float]]] = {}
-    for quantity, innovation in items:
-        by_quantity.setdefault(quantity, []).append(innovation)
+    for quantity, (e, v) in items:
+        by_quantity.setdefault(quantity, []).append((max(e, -FLOOR_SIGMA * math.sqrt(v)), v))
     out = {}
     for quantity, innovations in by_quantity.items():
         z = pooled_sigma(innovations)

@@ -50,8 +50,8 @@ def changed(decision: Decision, watched: Watched, common: float | None = None) -
         why = "regime change: the reading confirms the low one before it; both learned"
     elif common is not None:
         why = (
-            f"regime change: {watched.sigma:.3g}σ over what was expected, and this quantity "
-            f"rose in the part's operations together ({common:.3g}σ pooled); old evidence "
+            f"regime change: this quantity rose in the part's operations together "
+            f"({common:.3g}σ pooled; this reading {watched.sigma:+.3g}σ); old evidence "
             "discounted"
         )
     else:
