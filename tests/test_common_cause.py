@@ -138,7 +138,8 @@ def test_a_rise_under_the_pooled_level_changes_nothing():
 def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift():
     # ivester learns no K: the quarantined operation's band grows to cover what it expected
     # (its last reading moved to the setpoint) raised by the others' shift, at k = 2 of that
-    # value's spread (the expectation's and the shift's)
+    # value's spread (the expectation's, its last reading's noise at the measured scale, and
+    # the shift's)
     state = _learned_state("ivester")
     names = [op.name for op in state.plan.operations]
     unread, rest = names[0], names[1:]
@@ -156,7 +157,8 @@ def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift()
     monitor = state.monitors[(unread, "roughness_um")]
     _, high = state.settings.rule.expects(state, op, made, "roughness_um", None, monitor)
     value = math.exp(high.mean + shift)
-    covered = value * (1 + 2 * math.sqrt(high.sd**2 + variance))
+    spread2 = high.sd**2 + (monitor.scale * high.noise) ** 2 + variance  # its last reading's too
+    covered = value * (1 + 2 * math.sqrt(spread2))
     point = {**made.setpoint, **op.context}
     before = state.tools[unread].models["roughness_um"].predict(point)
     after = new.tools[unread].models["roughness_um"].predict(point)

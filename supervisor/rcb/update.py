@@ -228,13 +228,15 @@ class _Judged:
         """What the strategy expected on the high side, moved by a common change (None: nothing).
 
         ``shift`` and ``variance``: the change [ln] and its variance, which with the
-        expectation's own make the value's expanded uncertainty (``k = 2``).
+        expectation's own (its readings' noise at the measured scale ``ŝ``) make the value's
+        expanded uncertainty (``k = 2``).
         """
         if self.expected is None or self.expected[1] is None:
             return None
         high = self.expected[1]
         value = math.exp(high.mean + shift)
-        return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(high.sd**2 + variance))
+        spread2 = high.sd**2 + (self.monitor.scale * high.noise) ** 2 + variance
+        return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(spread2))
 
     def rejudged(self, exponent_sd: float, common: tuple[float, float]) -> Watched:
         """The judgement when the part's operations moved together (``watch``'s ``common``)."""
