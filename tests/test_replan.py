@@ -60,7 +60,7 @@ def test_a_relaxed_limit_is_stored_as_a_replan_version_and_a_dry_run_stores_noth
 def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
     ivester = RcbSettings(strategy="ivester")  # the paper's law narrows the band in force
     plan_id = create_plan(engine=engine, body=BODY, settings=ivester).body["id"]
-    bodies, _ = _reports(4)
+    bodies, _ = _reports(4, settings=ivester)  # made at its own setpoints
     for body in bodies:
         report_part(engine=engine, plan_id=plan_id, body=body)
     shrunk = _state(engine, plan_id)
