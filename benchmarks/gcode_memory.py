@@ -156,7 +156,10 @@ def main() -> int:
         args = [str(plan_id), "--program", str(tiny), "--out", str(folder / "o")]
         args += [x for m in maps for x in ("--map", m)] + ["--db", url, "--json"]
         start = run_gcode(options.rcb, args, folder / "o")
-        print(f"start-up (one part, exit {start.exit_code}): {start.seconds:.2f} s, {start.peak_mb:.0f} MB")
+        print(
+            f"start-up (one part, exit {start.exit_code}): {start.seconds:.2f} s, "
+            f"{start.peak_mb:.0f} MB"
+        )
         print(
             f"{'program':>10} {'s':>8} {'peak MB':>8} {'s/MB':>6} {'(s-start)/MB':>12} "
             f"{'JSON MB':>8} {'exit':>4}"
@@ -169,7 +172,8 @@ def main() -> int:
             run = run_gcode(options.rcb, args, folder / "out.json")
             print(
                 f"{actual_mb:>7.1f} MB {run.seconds:>8.1f} {run.peak_mb:>8.0f} "
-                f"{run.seconds / actual_mb:>6.2f} {(run.seconds - start.seconds) / actual_mb:>12.2f} "
+                f"{run.seconds / actual_mb:>6.2f} "
+                f"{(run.seconds - start.seconds) / actual_mb:>12.2f} "
                 f"{run.stdout_bytes / 1e6:>8.2f} {run.exit_code:>4}"
             )
             if run.exit_code:
@@ -177,7 +181,8 @@ def main() -> int:
             program.unlink()
         line = write_long_line(folder / "LONG.nc", options.long_line_mb)
         args = [str(plan_id), "--program", str(line), "--out", str(folder / "OUT.nc")]
-        run = run_gcode(options.rcb, [*args, "--map", "rough-od=N10:N20", "--db", url], folder / "o")
+        args += ["--map", "rough-od=N10:N20", "--db", url]
+        run = run_gcode(options.rcb, args, folder / "o")
         print(
             f"one line of F words, {line.stat().st_size / 1e6:.1f} MB: exit {run.exit_code}, "
             f"{run.seconds:.2f} s, peak {run.peak_mb:.0f} MB, "

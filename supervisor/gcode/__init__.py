@@ -84,12 +84,15 @@ from supervisor.gcode.ranges import (
     parse_range,
     resolve_ranges,
 )
-from supervisor.gcode.result import Change, Notice, RewriteResult
-from supervisor.gcode.rewrite import rewrite_program
+from supervisor.gcode.result import MAX_LISTED, Change, Notice, RewriteReport, RewriteResult
+from supervisor.gcode.source import MAX_LINE_BYTES
+from supervisor.gcode.stream import rewrite_program, rewrite_stream
 
 __all__ = [
     "FEED_MM_MIN_PLACES",
     "FEED_MM_REV_PLACES",
+    "MAX_LINE_BYTES",
+    "MAX_LISTED",
     "SPEED_PLACES",
     "Block",
     "BlockRange",
@@ -99,10 +102,12 @@ __all__ = [
     "OperationSetpoint",
     "Quantity",
     "ResolvedRange",
+    "RewriteReport",
     "RewriteResult",
     "Word",
     "parse_program",
     "parse_range",
     "resolve_ranges",
     "rewrite_program",
+    "rewrite_stream",
 ]

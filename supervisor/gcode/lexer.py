@@ -101,11 +101,16 @@ def parse_program(text: str) -> tuple[Block, ...]:
     for index, match in enumerate(re.finditer(r"[^\n]*\n|[^\n]+\Z", text)):
         raw = match.group()
         ending = "\r\n" if raw.endswith("\r\n") else "\n" if raw.endswith("\n") else ""
-        blocks.append(_read_line(raw[: len(raw) - len(ending)], ending, index + 1))
+        blocks.append(read_block(raw[: len(raw) - len(ending)], ending, index + 1))
     return tuple(blocks)
 
 
-def _read_line(text: str, ending: str, line: int) -> Block:
+def read_block(text: str, ending: str, line: int) -> Block:
+    """Read one line (without its ending) into words; ``line`` is its number, from 1.
+
+    A byte-order mark at the start of line 1 is skipped; a line that cannot be read is kept
+    with its ``problem``.
+    """
     i = 1 if line == 1 and text.startswith(_BOM) else 0
     if text[i:].lstrip().startswith("%"):
         return Block(line, text, ending, (), None, False, True, None)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from decimal import Decimal
 
@@ -48,7 +47,6 @@ _CALLS = {("M", Decimal(98)), ("M", Decimal(198)), ("M", Decimal(97))}
 _CALLS |= {("G", Decimal(65)), ("G", Decimal(66)), ("G", Decimal("66.1"))}
 _ENDS = {("M", Decimal(2)), ("M", Decimal(30)), ("M", Decimal(99))}
 _CLAMP_CODES = {Decimal(50), Decimal(92)}
-_CONTOUR_CYCLES = {Decimal(70), Decimal(71), Decimal(72), Decimal(73)}
 _CYCLE_CUTS = {Decimal(n) for n in (70, 71, 72, 73, 74, 75, 90)}
 
 
@@ -110,7 +108,7 @@ def _enter(state: _State, block: Block) -> _State:
     speed = block.word("S")
     if g & _CLAMP_CODES and speed is not None:
         clamp = _Clamp(float(speed.value), n, block.text[speed.start : speed.end])
-        clamps = (*clamps, clamp) if block.optional_skip else (clamp,)
+        clamps = _added(clamps, clamp) if block.optional_skip else (clamp,)
     return replace(
         state,
         units=modes["units"],
@@ -144,19 +142,13 @@ def _leave(state: _State, block: Block) -> _State:
     return replace(after, last_feed=last_feed, last_speed=last_speed)
 
 
-def _contours(blocks: Sequence[Block]) -> dict[int, int]:
-    """Lines of the contour blocks (P to Q) of every G70-G73 cycle → line of the cycle."""
-    line_of: dict[int, int] = {}
-    for block in blocks:
-        if block.number is not None and not block.problem:
-            line_of.setdefault(block.number, block.line)
-    inside: dict[int, int] = {}
-    for block in blocks:
-        p, q = block.word("P"), block.word("Q")
-        if block.problem or p is None or q is None or not set(block.codes("G")) & _CONTOUR_CYCLES:
-            continue
-        first, last = line_of.get(int(p.value)), line_of.get(int(q.value))
-        if first is not None and last is not None:
-            for line in range(first, last + 1):
-                inside.setdefault(line, block.line)
-    return inside
+def _added(clamps: tuple[_Clamp, ...], clamp: _Clamp) -> tuple[_Clamp, ...]:
+    """The clamps that may be in force once ``clamp`` may be too (an optional-skip block).
+
+    A clamp no lower than one before it is dropped: a setpoint it would refuse, the earlier
+    one refuses first (:func:`supervisor.gcode.rewrite._check_clamps` names the first). So
+    the tuple stays short however many optional-skip clamps a program has.
+    """
+    if any(before.rpm <= clamp.rpm for before in clamps):
+        return clamps
+    return (*clamps, clamp)
