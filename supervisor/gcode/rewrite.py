@@ -249,8 +249,11 @@ def close_range(run: Pass, state: _State, progress: Progress) -> None:
 
 def carry_over(run: Pass, state: _State, block: Block) -> None:
     """Warn when a new F or S of a range stays in force for a cutting move after the range."""
-    if run.pending_feed is None and run.pending_speed is None:
-        return
+    if all(
+        pending is None or block.line <= pending.resolved.last_line
+        for pending in (run.pending_feed, run.pending_speed)
+    ):
+        return  # no new F or S, or still in its range
     g = set(block.codes("G"))
     ends = any((w.letter, w.value) in _ENDS | _CALLS for w in block.words)
     ends = ends or block.marker or block.word("O") is not None

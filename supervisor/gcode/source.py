@@ -9,8 +9,7 @@ longer than :data:`MAX_LINE_BYTES` is refused after reading that many bytes of i
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 from models.errors import MAX_ECHO
 from supervisor.gcode.errors import GcodeError
@@ -35,9 +34,8 @@ class ProgramSource(Protocol):
         ...
 
 
-@dataclass(frozen=True, slots=True)
-class Line:
-    """One line of a program as read.
+class Line(NamedTuple):
+    """One line of a program as read (immutable; a named tuple: quick to make).
 
     Parameters
     ----------
