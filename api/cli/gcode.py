@@ -93,6 +93,9 @@ def gcode(
         emit(result_json(report, plan, version, program, out))
     else:
         _out.print(_table(report, plan, version))
+        if report.change_count > SHOWN:
+            more = report.change_count - SHOWN
+            _out.print(f"... and {more} more words changed ({_JSON_LISTS})", soft_wrap=True)
     for notice in report.warnings[:SHOWN]:
         at = f"line {notice.line}: " if notice.line is not None else ""
         say(f"rcb: warning: {program.name} {at}{notice.operation}: {notice.message}")
@@ -330,14 +333,9 @@ def result_json(
 
 
 def _table(result: RewriteReport, plan_id: int, version: int) -> Table:
-    more = result.change_count - min(len(result.changes), SHOWN)
     table = new_table(
         title=f"plan {plan_id}, setpoint version {version}: {result.change_count} words changed",
         title_justify="left",
-        caption=f"... and {more} more words changed (--json lists the first 1000)"
-        if more
-        else None,
-        caption_justify="left",
     )
     for column in ("line", "operation", "old", "new", "mode", "quantity"):
         table.add_column(column, justify="right" if column == "line" else "left")

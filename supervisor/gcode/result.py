@@ -126,8 +126,9 @@ class Listing(Generic[_T]):
         """Count ``item``; keep it if it is among the first ``cap`` by ``key``."""
         order = (key, self.count)
         self.count += 1
-        if self.cap is not None and len(self._keys) >= self.cap and order >= self._keys[-1]:
-            return
+        if self.cap is not None and len(self._keys) >= self.cap:
+            if not self._keys or order >= self._keys[-1]:
+                return
         at = bisect.bisect_right(self._keys, order)
         self._keys.insert(at, order)
         self._items.insert(at, item)
