@@ -455,7 +455,7 @@ def test_the_help_states_the_caps_as_they_are():
 
     help_text = " ".join((gcode.__doc__ or "").split())
     assert f"first {cli.SHOWN} changes" in help_text and f"first {cli.SHOWN} warnings" in help_text
-    assert f"first {MAX_LISTED} of each" in help_text
+    assert f"--json the first {MAX_LISTED} of each" in help_text
     assert f"over {MAX_LINE_BYTES} bytes" in help_text
     assert cli._JSON_LISTS == f"--json lists the first {MAX_LISTED}"
 

@@ -79,8 +79,10 @@ def gcode(
     F becomes the feed (G95 mm/rev, or mm/min under G94) and S the speed (G96 m/min, or rpm
     under G97) at the operation's workpiece diameter; every other byte is kept. A program
     whose modes cannot be determined, or with a line over 4096 bytes, is refused and nothing
-    is written. The table shows the first 50 changes and stderr the first 50 warnings; --json
-    lists the first 1000 of each; every one is counted (changes_total, warnings_total).
+    is written.
+
+    Every change and warning is counted: the table shows the first 50 changes, stderr the
+    first 50 warnings, --json the first 1000 of each (changes_total, warnings_total).
     """
     with errors():
         ranges = [_range(item) for item in mapping]
