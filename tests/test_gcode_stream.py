@@ -40,9 +40,10 @@ from supervisor.gcode import (
     rewrite_program,
     rewrite_stream,
 )
-from supervisor.gcode.contours import ContourSweep, cycle_of
+from supervisor.gcode.contours import ContourSweep, Cycles, cycle_of
 from supervisor.gcode.lexer import _checked, _scanned_words, read_block
 from supervisor.gcode.result import Listing
+from supervisor.gcode.scan import first_lines
 
 THREAD = OperationSetpoint("thread", feed_mm_rev=0.2, speed_m_min=100, workpiece_diameter_mm=50)
 GOLDEN = [
@@ -327,16 +328,23 @@ def cycle_programs(draw):
 @given(cycle_programs())
 def test_the_contour_sweep_finds_what_the_table_found(text):
     blocks = parse_program(text)
-    cycles = [c for c in map(cycle_of, blocks) if c is not None]
-    line_of: dict[int, int] = {}
-    for block in blocks:
-        if block.number is not None and not block.problem:
-            line_of.setdefault(block.number, block.line)
-    sweep = ContourSweep.of(cycles, line_of)
+    cycles = Cycles()
+    for cycle in filter(None, map(cycle_of, blocks)):
+        cycles.add(cycle)
+    index = first_lines(io.BytesIO(text.encode()), cycles.named(), "IN.nc")
+    sweep = ContourSweep.of(cycles, index)
     expected = _old_contours(blocks)
     assert {b.line: sweep.cycle_at(b.line) for b in blocks} == {
         b.line: expected.get(b.line) for b in blocks
     }
+
+
+def test_a_cycle_naming_a_block_beyond_18_digits_names_none():
+    big = 10**19
+    block = read_block(f"N5 G71 P{big} Q7", "", 1)
+    assert cycle_of(block) == (1, -1, 7)
+    index = Cycles().named()
+    assert big not in index and 5 not in index
 
 
 @settings(max_examples=100, deadline=None)

@@ -11,10 +11,10 @@ that may carry a block number a cycle names.
 
 from __future__ import annotations
 
-from collections.abc import Container, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-from supervisor.gcode.contours import Cycle, cycle_of, may_number
+from supervisor.gcode.contours import Cycles, NumberIndex, cycle_of, may_number
 from supervisor.gcode.lexer import Block, read_block
 from supervisor.gcode.ranges import BlockRange, Sightings
 from supervisor.gcode.source import ProgramSource, read_lines
@@ -30,7 +30,7 @@ class Scan:
         The lines of the block numbers the ranges name.
     first_problem : Block or None
         The first line that cannot be read.
-    cycles : tuple[Cycle, ...]
+    cycles : Cycles
         The G70-G73 cycles with P and Q, in program order.
     lines : int
         How many lines the program has.
@@ -40,7 +40,7 @@ class Scan:
 
     sightings: Sightings
     first_problem: Block | None
-    cycles: tuple[Cycle, ...]
+    cycles: Cycles
     lines: int
     size_bytes: int
 
@@ -56,7 +56,7 @@ def scan_program(source: ProgramSource, ranges: Sequence[BlockRange], program_na
     wanted = {n for r in ranges for n in (r.start, r.end)}
     sightings = Sightings()
     first_problem: Block | None = None
-    cycles: list[Cycle] = []
+    cycles = Cycles()
     lines = size = 0
     for line in read_lines(source, program_name):
         block = read_block(line.text, line.ending, line.number)
@@ -66,19 +66,16 @@ def scan_program(source: ProgramSource, ranges: Sequence[BlockRange], program_na
         if block.problem and first_problem is None:
             first_problem = block
         if (cycle := cycle_of(block)) is not None:
-            cycles.append(cycle)
-    return Scan(sightings, first_problem, tuple(cycles), lines, size)
+            cycles.add(cycle)
+    return Scan(sightings, first_problem, cycles, lines, size)
 
 
-def first_lines(
-    source: ProgramSource, numbers: Container[int], program_name: str
-) -> dict[int, int]:
-    """The first line of each block number of ``numbers``, on a readable line, if found."""
-    found: dict[int, int] = {}
+def first_lines(source: ProgramSource, index: NumberIndex, program_name: str) -> NumberIndex:
+    """``index`` with the first line of each of its block numbers, on a readable line."""
     for line in read_lines(source, program_name):
-        if not may_number(line.text, numbers):
+        if not may_number(line.text, index):
             continue
         block = read_block(line.text, line.ending, line.number)
-        if block.number is not None and not block.problem and block.number in numbers:
-            found.setdefault(block.number, block.line)
-    return found
+        if block.number is not None and not block.problem:
+            index.see(block.number, block.line)
+    return index

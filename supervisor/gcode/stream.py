@@ -90,11 +90,12 @@ def rewrite_stream(
             f"cannot be read: {problem.problem}; every line up to the end of the last range "
             "must be plain G-code, so that its modes and flow are certain",
         )
-    named = {n for cycle in scan.cycles for n in (cycle.first, cycle.last)}
-    line_of = first_lines(source, named, program_name) if named else {}
+    index = scan.cycles.named()
+    if index.numbers:
+        first_lines(source, index, program_name)
     run = Pass(program_name, setpoints, Listing(listed), Listing(listed))
     stop = problem.line if problem is not None else None
-    walk = _Walk(run, located, ContourSweep.of(scan.cycles, line_of), stop)
+    walk = _Walk(run, located, ContourSweep.of(scan.cycles, index), stop)
     _write(source, target, walk, scan)
     return RewriteReport(
         changes=run.changes.listed(),
