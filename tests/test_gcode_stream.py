@@ -250,6 +250,18 @@ def test_a_block_number_on_many_lines_lists_ten():
     )
 
 
+def test_messages_cut_a_word_of_thousands_of_digits():
+    clamp = "S" + "0" * 3000 + "900"
+    err = refused(program(f"N1 G21 G95 G96 G50 {clamp}", "N2 S150 M03"), "rough-od=N1:N2")
+    assert "the spindle clamp S0000000" in err.reason and "…" in err.reason
+    assert len(str(err)) < 600
+    feed = "F" + "0" * 3000 + ".2"
+    result = rewrite(program("N1 G21 G95 G96 S150", f"N2 G32 Z-5. {feed}"), "rough-od=N1:N2")
+    assert len(result.warnings[0].message) < 100  # the thread lead, cut
+    huge = rewrite(program("N1 G21 G95 G96 S150", f"N2 G01 Z-5. {feed}"), "rough-od=N1:N2")
+    assert huge.changes[-1].old == feed  # a change says exactly what it replaced
+
+
 class ChangingSource(io.BytesIO):
     """A program that gains a line once it was read the first time."""
 

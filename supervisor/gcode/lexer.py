@@ -219,5 +219,11 @@ def _block_number(words: Sequence[Word]) -> tuple[int | None, str | None]:
     return int(value), None
 
 
+#: The most characters of a word a message shows (``F0.25``; a word of 4000 digits is cut).
+MAX_WORD_SHOWN = 40
+
+
 def _text(block: Block, word: Word) -> str:
-    return block.text[word.start : word.end]
+    """The word as written, as messages show it: cut with ``…`` past :data:`MAX_WORD_SHOWN`."""
+    text = block.text[word.start : word.end]
+    return text if len(text) <= MAX_WORD_SHOWN else text[: MAX_WORD_SHOWN - 1] + "…"

@@ -121,7 +121,7 @@ def _enter(state: _State, block: Block) -> _State:
     clamps = state.clamps
     speed = block.word("S")
     if g & _CLAMP_CODES and speed is not None:
-        clamp = _Clamp(float(speed.value), n, block.text[speed.start : speed.end])
+        clamp = _Clamp(float(speed.value), n, _text(block, speed))
         clamps = _added(clamps, clamp) if block.optional_skip else (clamp,)
     units, feed, spindle = modes["units"], modes["feed"], modes["spindle"]
     return _State(units, feed, spindle, clamps, motion, cycle, *state.last)

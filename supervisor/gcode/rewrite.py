@@ -221,7 +221,7 @@ def _edit(
     mode: str,
 ) -> None:
     run.edits.append((word.number_start, word.end, number))
-    old = _text(block, word)
+    old = block.text[word.start : word.end]  # whole: a change says exactly what it replaced
     new = block.text[word.start : word.number_start] + number
     change = Change(block.line, word.start + 1, op.name, old, new, quantity, mode)
     run.changes.add(block.line, change)
