@@ -30,6 +30,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 RCB = Path(sys.executable).with_name("rcb")
+#: The most ``rcb gcode`` may take on a 50 MB program [MB of peak RSS] (issue 29's acceptance).
+TARGET_MB = 300.0
 #: Header of every program: metric, feed per revolution, constant surface speed, the clamp.
 _HEAD = "%\nO1001 (BENCHMARK PART, REPEATED)\nN1 G21 G40 G18 G95\nN2 G50 S3000\nN3 G28 U0. W0.\n"
 #: One part (block numbers relative to its first, ``{n}`` + offset).
@@ -142,12 +144,13 @@ def run_gcode(rcb: Path, args: list[str], stdout: Path) -> Run:
 
 
 def main() -> int:
-    """Print a row per program and the long line's refusal."""
+    """Print a row per program and the long line's refusal; exit 1 when one is over target."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=float, nargs="+", default=[1.0, 10.0, 50.0])
     parser.add_argument("--rcb", type=Path, default=RCB, help="the rcb executable to run")
     parser.add_argument("--long-line-mb", type=float, default=10.0)
     options = parser.parse_args()
+    failed = False
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         url, plan_id = store_plan(folder)
@@ -178,6 +181,7 @@ def main() -> int:
             )
             if run.exit_code:
                 print(f"  stderr: {run.stderr[:300]}")
+            failed |= run.exit_code != 0 or (actual_mb <= 50.5 and run.peak_mb > TARGET_MB)
             program.unlink()
         line = write_long_line(folder / "LONG.nc", options.long_line_mb)
         args = [str(plan_id), "--program", str(line), "--out", str(folder / "OUT.nc")]
@@ -188,7 +192,9 @@ def main() -> int:
             f"{run.seconds:.2f} s, peak {run.peak_mb:.0f} MB, "
             f"stderr {len(run.stderr)} characters:\n  {run.stderr[:400].rstrip()}"
         )
-    return 0
+        failed |= run.exit_code != 2 or run.peak_mb > TARGET_MB
+    print(f"target: up to 50 MB rewritten, the long line refused, each under {TARGET_MB:.0f} MB")
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

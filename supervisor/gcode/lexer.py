@@ -11,8 +11,9 @@ from typing import NamedTuple
 _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)")
 _BOM = "\ufeff"
 #: A line of nothing but spaces, comments and words, perhaps ended by a ``;`` comment: read by
-#: :data:`_TOKENS` alone (:func:`_plain_words`), as the character loop of :func:`read_block`
-#: would. Any other line (an optional skip ``/``, something unreadable) takes that loop.
+#: :data:`_PIECES` alone (:func:`_plain_words`), as the character loop (:func:`_scanned_words`)
+#: would; a test checks they agree. Any other line (an optional skip ``/``, something
+#: unreadable) takes that loop.
 _PLAIN = re.compile(
     r"(?:\s|\([^)]*\)|[A-Za-z:][ \t]*[+-]?(?:\d+(?:\.\d*)?|\.\d+))*(?:;.*)?", re.DOTALL
 )

@@ -18,7 +18,7 @@ from typing import Protocol
 
 from supervisor.gcode.contours import ContourSweep
 from supervisor.gcode.errors import GcodeError
-from supervisor.gcode.lexer import read_block
+from supervisor.gcode.lexer import Block, read_block
 from supervisor.gcode.modes import _enter, _leave, _unknown
 from supervisor.gcode.ranges import BlockRange, OperationSetpoint, ResolvedRange, locate_ranges
 from supervisor.gcode.result import MAX_LISTED, Listing, RewriteReport, RewriteResult
@@ -84,12 +84,7 @@ def rewrite_stream(
     located = locate_ranges(scan.sightings, ranges)
     problem = scan.first_problem
     if problem is not None and problem.line <= located[-1].last_line:
-        raise GcodeError(
-            f"{program_name} line {problem.line}",
-            problem.text.strip(),
-            f"cannot be read: {problem.problem}; every line up to the end of the last range "
-            "must be plain G-code, so that its modes and flow are certain",
-        )
+        raise _unreadable(problem, program_name)
     index = scan.cycles.named()
     if index.numbers:
         first_lines(source, index, program_name)
@@ -105,6 +100,15 @@ def rewrite_stream(
         change_count=run.changes.count,
         warning_count=run.warnings.count,
         changes_by_operation={r.operation: run.by_operation.get(r.operation, 0) for r in ranges},
+    )
+
+
+def _unreadable(block: Block, program_name: str) -> GcodeError:
+    return GcodeError(
+        f"{program_name} line {block.line}",
+        block.text.strip(),
+        f"cannot be read: {block.problem}; every line up to the end of the last range "
+        "must be plain G-code, so that its modes and flow are certain",
     )
 
 
