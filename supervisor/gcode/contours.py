@@ -143,6 +143,8 @@ class ContourSweep:
                 firsts.append(first)
                 lasts.append(last)
                 lines.append(line)
+        if all(a <= b for a, b in zip(firsts, firsts[1:], strict=False)):
+            return cls(firsts, lasts, lines)  # as programs mostly are: no sort, no copy
         order = sorted(range(len(firsts)), key=firsts.__getitem__)
         return cls(
             array("q", (firsts[i] for i in order)),

@@ -23,7 +23,7 @@ from supervisor.gcode.modes import _enter, _leave, _unknown
 from supervisor.gcode.ranges import BlockRange, OperationSetpoint, ResolvedRange, locate_ranges
 from supervisor.gcode.result import MAX_LISTED, Listing, RewriteReport, RewriteResult
 from supervisor.gcode.rewrite import Pass, Progress, carry_over, close_range, rewrite_block
-from supervisor.gcode.scan import Scan, first_lines, scan_program
+from supervisor.gcode.scan import first_lines, scan_program
 from supervisor.gcode.source import BYTES, ENCODING, Line, ProgramSource, read_lines
 
 
@@ -80,18 +80,9 @@ def rewrite_stream(
             raise GcodeError("map", r.describe(), f"no setpoint for operation {r.operation!r}")
     if not ranges:
         raise GcodeError("map", None, "give at least one OPERATION=N<start>:N<end>")
-    scan = scan_program(source, ranges, program_name)
-    located = locate_ranges(scan.sightings, ranges)
-    problem = scan.first_problem
-    if problem is not None and problem.line <= located[-1].last_line:
-        raise _unreadable(problem, program_name)
-    index = scan.cycles.named()
-    if index.numbers:
-        first_lines(source, index, program_name)
+    located, walk, expected = _prepare(source, ranges, program_name)
     run = Pass(program_name, setpoints, Listing(listed), Listing(listed))
-    stop = problem.line if problem is not None else None
-    walk = _Walk(run, located, ContourSweep.of(scan.cycles, index), stop)
-    _write(source, target, walk, scan)
+    _write(source, target, _Walk(run, located, *walk), expected)
     return RewriteReport(
         changes=run.changes.listed(),
         warnings=run.warnings.listed(),
@@ -101,6 +92,27 @@ def rewrite_stream(
         warning_count=run.warnings.count,
         changes_by_operation={r.operation: run.by_operation.get(r.operation, 0) for r in ranges},
     )
+
+
+def _prepare(
+    source: ProgramSource, ranges: Sequence[BlockRange], program_name: str
+) -> tuple[tuple[ResolvedRange, ...], tuple[ContourSweep, int | None], tuple[int, int]]:
+    """The readings before the rewrite: the ranges located, the contours, where to stop.
+
+    Returns the ranges, the contours and the first unreadable line (the walk stops there),
+    and the program's lines and bytes. The scan's cycles and the index of the block numbers
+    they name are dropped here, once the contours are built.
+    """
+    scan = scan_program(source, ranges, program_name)
+    located = locate_ranges(scan.sightings, ranges)
+    problem = scan.first_problem
+    if problem is not None and problem.line <= located[-1].last_line:
+        raise _unreadable(problem, program_name)
+    index = scan.cycles.named()
+    if index.numbers:
+        first_lines(source, index, program_name)
+    stop = problem.line if problem is not None else None
+    return located, (ContourSweep.of(scan.cycles, index), stop), (scan.lines, scan.size_bytes)
 
 
 def _unreadable(block: Block, program_name: str) -> GcodeError:
@@ -175,7 +187,9 @@ class _Walk:
         return line > self.located[-1].last_line and not pending
 
 
-def _write(source: ProgramSource, target: ProgramTarget, walk: _Walk, scan: Scan) -> None:
+def _write(
+    source: ProgramSource, target: ProgramTarget, walk: _Walk, expected: tuple[int, int]
+) -> None:
     """Walk the program, writing each line: rewritten inside the ranges, else as read."""
     state = _unknown("no {names} before it", 0)
     lines = size = 0
@@ -196,10 +210,10 @@ def _write(source: ProgramSource, target: ProgramTarget, walk: _Walk, scan: Scan
                 close_range(walk.run, state, progress)
         state = _leave(state, block)
         target.write(_edited(line, walk.run.take_edits()))
-    if (lines, size) != (scan.lines, scan.size_bytes):
+    if (lines, size) != expected:
         raise GcodeError(
             walk.run.program,
-            f"{scan.lines} lines, {scan.size_bytes} bytes",
+            f"{expected[0]} lines, {expected[1]} bytes",
             f"changed while it was read (now {lines} lines, {size} bytes); read it again",
         )
 
