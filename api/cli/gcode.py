@@ -2,10 +2,18 @@
 
 The command reads the setpoints in force (:func:`api.services.queries.current_setpoints`) and each
 operation's workpiece diameter (:func:`api.services.queries.get_plan`), rewrites the block ranges
-given with ``--map OP=N100:N200`` by :func:`supervisor.gcode.rewrite_program` (which documents the
+given with ``--map OP=N100:N200`` by :func:`supervisor.gcode.rewrite_stream` (which documents the
 dialect, the refusals, the warnings and the number formats), and writes ``--out`` atomically, only
 when everything succeeded. The program is read as bytes and written back with the same bytes
 wherever nothing changed (UTF-8, undecodable bytes carried through unchanged).
+
+Bounded whatever the program's size: the program is read a line at a time (a line longer than
+:data:`supervisor.gcode.MAX_LINE_BYTES` is refused, and read no further) and the new one
+streamed into a temporary file beside ``--out``, synced and renamed only on success (as
+:func:`api.cli.common.write_atomically`; on any error it is removed). Every change and warning
+is counted; the table shows the first :data:`SHOWN` changes, stderr the first :data:`SHOWN`
+warnings, and ``--json`` lists the first :data:`supervisor.gcode.MAX_LISTED` of each with
+``changes_total``/``changes_truncated`` and ``warnings_total``/``warnings_truncated``.
 
 Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
 :func:`api.cli.common.errors`).
@@ -13,22 +21,18 @@ Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
 
 from __future__ import annotations
 
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import IO, TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
-from api.cli.common import (
-    DbOption,
-    check_target,
-    emit,
-    errors,
-    existing_engine,
-    say,
-    write_atomically,
-)
+from api.cli.common import DbOption, check_target, emit, errors, existing_engine, say
 from api.cli.tables import new_table
 from api.services.errors import NotFoundError
 from api.settings import database_url
@@ -37,12 +41,18 @@ from models.errors import InputError
 if TYPE_CHECKING:
     from sqlalchemy import Engine
 
-    from supervisor.gcode import BlockRange, OperationSetpoint, RewriteResult
+    from supervisor.gcode import BlockRange, OperationSetpoint, RewriteReport
 
 _out = Console()
 
-#: How the program's bytes become text and back: the same bytes out for every byte in.
-_ENCODING, _BYTES = "utf-8", "surrogateescape"
+#: The most changes the table shows, and warnings stderr shows (the first, in program order);
+#: a line after them counts the rest. ``--json`` lists more (``supervisor.gcode.MAX_LISTED``).
+SHOWN = 50
+#: Where to find what the table or stderr leave out (``supervisor.gcode.MAX_LISTED``, restated
+#: so that ``rcb --help`` imports nothing more: a test checks they agree).
+_JSON_LISTS = "--json lists the first 1000"
+#: The bytes read at a time when checking that the program is not empty.
+_CHUNK_BYTES = 1 << 16
 
 
 def gcode(
@@ -68,31 +78,33 @@ def gcode(
 
     F becomes the feed (G95 mm/rev, or mm/min under G94) and S the speed (G96 m/min, or rpm
     under G97) at the operation's workpiece diameter; every other byte is kept. A program
-    whose modes cannot be determined is refused and nothing is written.
-    """
-    from supervisor.gcode import GcodeError, rewrite_program  # when it runs, not for --help
+    whose modes cannot be determined, or with a line over 4096 bytes, is refused and nothing
+    is written.
 
+    Every change and warning is counted: the table shows the first 50 changes, stderr the
+    first 50 warnings, --json the first 1000 of each (changes_total, warnings_total).
+    """
     with errors():
         ranges = [_range(item) for item in mapping]
-        source = _read_program(program)
-        target = _target(out, program)
-        engine = existing_engine(database_url(db))
-        version, setpoints = _setpoints(engine, plan, ranges, mapping)
-        try:
-            result = rewrite_program(source, setpoints, ranges, program_name=program.name)
-        except GcodeError as err:
-            if err.field == "map":
-                raise InputError("--map", err.value, err.reason) from None
-            raise
-        write_atomically(target, result.text.encode(_ENCODING, _BYTES))
+        with _opened(program) as source:
+            target = _target(out, program)
+            engine = existing_engine(database_url(db))
+            version, setpoints = _setpoints(engine, plan, ranges, mapping)
+            report = _rewrite(source, program, target, setpoints, ranges)
     if as_json:
-        emit(result_json(result, plan, version, program, out))
+        emit(result_json(report, plan, version, program, out))
     else:
-        _out.print(_table(result, plan, version))
-    for notice in result.warnings:
+        _out.print(_table(report, plan, version))
+        if report.change_count > SHOWN:
+            more = report.change_count - SHOWN
+            _out.print(f"... and {more} more words changed ({_JSON_LISTS})", soft_wrap=True)
+    for notice in report.warnings[:SHOWN]:
         at = f"line {notice.line}: " if notice.line is not None else ""
         say(f"rcb: warning: {program.name} {at}{notice.operation}: {notice.message}")
-    say(f"rcb: wrote {out} ({len(result.changes)} words changed)")
+    if report.warning_count > SHOWN:
+        more = report.warning_count - SHOWN
+        say(f"rcb: warning: {program.name}: {more} more warnings ({_JSON_LISTS})")
+    say(f"rcb: wrote {out} ({report.change_count} words changed)")
 
 
 def _range(item: str) -> BlockRange:
@@ -104,18 +116,131 @@ def _range(item: str) -> BlockRange:
         raise InputError("--map", item, err.reason) from None
 
 
-def _read_program(path: Path) -> str:
+class _Program:
+    """The program file, read by the rewrite: a read error is an error of ``--program``."""
+
+    def __init__(self, file: IO[bytes], path: Path) -> None:
+        self._file, self._path = file, path
+
+    def readline(self, size: int = -1, /) -> bytes:
+        """The next line, of at most ``size`` bytes."""
+        try:
+            return self._file.readline(size)
+        except OSError as err:
+            raise _unreadable(self._path, err) from None
+
+    def seek(self, offset: int, whence: int = 0, /) -> int:
+        """Move to ``offset``."""
+        try:
+            return self._file.seek(offset, whence)
+        except OSError as err:
+            raise _unreadable(self._path, err) from None
+
+
+def _unreadable(path: Path, err: OSError) -> InputError:
+    reason = err.strerror or err.__class__.__name__
+    return InputError("--program", str(path), f"cannot be read ({reason})")
+
+
+@contextmanager
+def _opened(path: Path) -> Iterator[_Program]:
+    """The program, open; refused if missing, a directory, unreadable or empty."""
     try:
-        data = path.read_bytes()
+        file = path.open("rb")
     except FileNotFoundError:
         raise InputError("--program", str(path), "no such file") from None
     except IsADirectoryError:
         raise InputError("--program", str(path), "is a directory, not a program") from None
     except OSError as err:
-        raise InputError("--program", str(path), f"cannot be read ({err.strerror})") from None
-    if not data.strip():
-        raise InputError("--program", str(path), "is empty")
-    return data.decode(_ENCODING, _BYTES)
+        raise _unreadable(path, err) from None
+    with file:
+        try:
+            while (chunk := file.read(_CHUNK_BYTES)) and not chunk.strip():
+                pass
+        except OSError as err:
+            raise _unreadable(path, err) from None
+        if not chunk:
+            raise InputError("--program", str(path), "is empty")
+        if not file.seekable():
+            raise InputError("--program", str(path), "is not a file (it is read more than once)")
+        yield _Program(file, path)
+
+
+class _Out:
+    """The temporary file the new program goes to: a write error is an error of ``--out``."""
+
+    def __init__(self, file: IO[bytes], path: Path) -> None:
+        self._file, self._path = file, path
+
+    def write(self, data: bytes, /) -> int:
+        """Write ``data``."""
+        try:
+            return self._file.write(data)
+        except OSError as err:
+            raise _unwritable(self._path, err) from None
+
+
+def _unwritable(path: Path, err: OSError) -> InputError:
+    reason = err.strerror or err.__class__.__name__
+    return InputError("--out", str(path), f"cannot be written ({reason})")
+
+
+@contextmanager
+def _written_atomically(path: Path) -> Iterator[_Out]:
+    """A file that becomes ``path`` whole when the block succeeds, else nothing at all.
+
+    As :func:`api.cli.common.write_atomically`, streamed: a temporary file beside ``path``,
+    synced, given the mode a new file would have, and renamed; removed on any error.
+    """
+    try:
+        handle, temporary = tempfile.mkstemp(
+            prefix=f".{path.name}.", suffix=".tmp", dir=path.parent
+        )
+    except OSError as err:
+        raise _unwritable(path, err) from None
+    try:
+        with os.fdopen(handle, "wb") as file:
+            yield _Out(file, path)
+            file.flush()
+            os.fsync(file.fileno())
+        os.chmod(temporary, 0o666 & ~_umask())  # as a new file would be, not mkstemp's 0600
+        os.replace(temporary, path)
+    except OSError as err:
+        _remove(temporary)
+        raise _unwritable(path, err) from None
+    except BaseException:
+        _remove(temporary)
+        raise
+
+
+def _remove(temporary: str) -> None:
+    with suppress(OSError):
+        os.unlink(temporary)
+
+
+def _umask() -> int:
+    current = os.umask(0o022)
+    os.umask(current)
+    return current
+
+
+def _rewrite(
+    source: _Program,
+    program: Path,
+    target: Path,
+    setpoints: dict[str, OperationSetpoint],
+    ranges: list[BlockRange],
+) -> RewriteReport:
+    """Stream the new program into ``target``; a ``map`` error is one of ``--map``."""
+    from supervisor.gcode import GcodeError, rewrite_stream  # when it runs, not for --help
+
+    try:
+        with _written_atomically(target) as file:
+            return rewrite_stream(source, file, setpoints, ranges, program_name=program.name)
+    except GcodeError as err:
+        if err.field == "map":
+            raise InputError("--map", err.value, err.reason) from None
+        raise
 
 
 def _target(out: Path, program: Path) -> Path:
@@ -165,9 +290,9 @@ def _setpoints(
 
 
 def result_json(
-    result: RewriteResult, plan_id: int, version: int, program: Path, out: Path
+    result: RewriteReport, plan_id: int, version: int, program: Path, out: Path
 ) -> dict[str, Any]:
-    """The result as ``rcb gcode --json`` prints it."""
+    """The result as ``rcb gcode --json`` prints it (the first changes and warnings, counted)."""
     return {
         "plan_id": plan_id,
         "setpoint_version": version,
@@ -182,9 +307,12 @@ def result_json(
                 "speed_m_min": result.setpoints[r.range.operation].speed_m_min,
                 "workpiece_diameter_mm": result.setpoints[r.range.operation].workpiece_diameter_mm,
                 "spindle_rpm": result.setpoints[r.range.operation].spindle_rpm,
+                "words_changed": result.changes_by_operation[r.range.operation],
             }
             for r in result.ranges
         ],
+        "changes_total": result.change_count,
+        "changes_truncated": result.change_count - len(result.changes),
         "changes": [
             {
                 "line": c.line,
@@ -197,6 +325,8 @@ def result_json(
             }
             for c in result.changes
         ],
+        "warnings_total": result.warning_count,
+        "warnings_truncated": result.warning_count - len(result.warnings),
         "warnings": [
             {"line": w.line, "operation": w.operation, "message": w.message}
             for w in result.warnings
@@ -204,13 +334,13 @@ def result_json(
     }
 
 
-def _table(result: RewriteResult, plan_id: int, version: int) -> Table:
+def _table(result: RewriteReport, plan_id: int, version: int) -> Table:
     table = new_table(
-        title=f"plan {plan_id}, setpoint version {version}: {len(result.changes)} words changed",
+        title=f"plan {plan_id}, setpoint version {version}: {result.change_count} words changed",
         title_justify="left",
     )
     for column in ("line", "operation", "old", "new", "mode", "quantity"):
         table.add_column(column, justify="right" if column == "line" else "left")
-    for c in result.changes:
+    for c in result.changes[:SHOWN]:
         table.add_row(str(c.line), c.operation, c.old, c.new, c.mode, c.quantity)
     return table

@@ -1,12 +1,22 @@
 """Rewrite the feed (F) and spindle speed (S) words of a lathe program with the setpoints.
 
-Modules: :mod:`~supervisor.gcode.lexer` (reading lines, words and comments),
+Modules: :mod:`~supervisor.gcode.source` (a program's lines from a binary stream, bounded),
+:mod:`~supervisor.gcode.lexer` (reading lines, words and comments),
 :mod:`~supervisor.gcode.modes` (the modal state along a program),
 :mod:`~supervisor.gcode.ranges` (each operation's setpoint and block range),
+:mod:`~supervisor.gcode.contours` (the contour blocks of G70-G73 cycles),
+:mod:`~supervisor.gcode.scan` (the readings before the rewrite),
 :mod:`~supervisor.gcode.numbers` (the new F and S numbers and their style),
-:mod:`~supervisor.gcode.rewrite` (the rewrite), :mod:`~supervisor.gcode.result` (its result)
+:mod:`~supervisor.gcode.rewrite` (the rewrite of a block), :mod:`~supervisor.gcode.stream`
+(the rewrite of a program, streamed), :mod:`~supervisor.gcode.result` (its result)
 and :mod:`~supervisor.gcode.errors` (:class:`GcodeError`). The public names are re-exported
 here.
+
+Size. :func:`rewrite_stream` reads the program from a binary stream a line at a time and
+writes the new one as it goes: its memory does not grow with the program and its time grows
+linearly (:func:`rewrite_program` does the same on a text in memory). A line longer than
+:data:`MAX_LINE_BYTES` (4096) is refused after that many bytes are read. Every change and
+warning is counted; the first :data:`MAX_LISTED` (1000) of each are listed.
 
 A program is read line by line in the ISO 6983 / Fanuc style: an optional block number
 ``N``, words (a letter and a number, several G codes per block allowed), comments in
@@ -40,7 +50,9 @@ What is refused (:class:`GcodeError`), so that a program is never rewritten on a
   G97 too (Fanuc ignores G50 under G97, Haas clamps): raise the clamp, or give the plan's
   machine ``max_spindle_rpm`` so the optimiser respects it;
 - a block N missing or given more than once, a range ending before it starts, overlapping
-  ranges.
+  ranges;
+- a line longer than :data:`MAX_LINE_BYTES`, anywhere in the program, and a program that
+  changed between two readings.
 
 What is left alone, with a warning in the result: the F of a threading block (G32, G33, G34,
 G76, G92 with F and the G32-G34/G92 blocks after it: the F is the lead) and of a tapping
@@ -84,12 +96,15 @@ from supervisor.gcode.ranges import (
     parse_range,
     resolve_ranges,
 )
-from supervisor.gcode.result import Change, Notice, RewriteResult
-from supervisor.gcode.rewrite import rewrite_program
+from supervisor.gcode.result import MAX_LISTED, Change, Notice, RewriteReport, RewriteResult
+from supervisor.gcode.source import MAX_LINE_BYTES
+from supervisor.gcode.stream import rewrite_program, rewrite_stream
 
 __all__ = [
     "FEED_MM_MIN_PLACES",
     "FEED_MM_REV_PLACES",
+    "MAX_LINE_BYTES",
+    "MAX_LISTED",
     "SPEED_PLACES",
     "Block",
     "BlockRange",
@@ -99,10 +114,12 @@ __all__ = [
     "OperationSetpoint",
     "Quantity",
     "ResolvedRange",
+    "RewriteReport",
     "RewriteResult",
     "Word",
     "parse_program",
     "parse_range",
     "resolve_ranges",
     "rewrite_program",
+    "rewrite_stream",
 ]

@@ -6,14 +6,28 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from decimal import Decimal
+from typing import NamedTuple
 
 _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)")
 _BOM = "\ufeff"
+#: A line of nothing but spaces, comments and words, perhaps ended by a ``;`` comment: read by
+#: :data:`_PIECES` alone (:func:`_plain_words`), as the character loop (:func:`_scanned_words`)
+#: would; a test checks they agree. Any other line (an optional skip ``/``, something
+#: unreadable) takes that loop.
+_PLAIN = re.compile(
+    r"(?:\s|\([^)]*\)|[A-Za-z:][ \t]*[+-]?(?:\d+(?:\.\d*)?|\.\d+))*(?:;.*)?", re.DOTALL
+)
+#: In a line :data:`_PLAIN` matches, from a word's end: the spaces and comments before the next
+#: word, then the word (letter, spaces, number), a ``;`` comment, or the end of the line. Each
+#: match starts where the one before ended, so the lengths give the columns.
+_PIECES = re.compile(
+    r"(\s*(?:\([^)]*\)\s*)*)(?:(;.*)|([A-Za-z:])([ \t]*)([+-]?(?:\d+(?:\.\d*)?|\.\d+))|$)",
+    re.DOTALL,
+)
 
 
-@dataclass(frozen=True)
-class Word:
-    """One word of a block: a letter and a number.
+class Word(NamedTuple):
+    """One word of a block: a letter and a number (immutable; a named tuple: quick to make).
 
     Parameters
     ----------
@@ -74,11 +88,14 @@ class Block:
 
     def codes(self, letter: str) -> tuple[Decimal, ...]:
         """The values of the words with ``letter`` (e.g. every G code of the block)."""
-        return tuple(w.value for w in self.words if w.letter == letter)
+        return tuple([w.value for w in self.words if w.letter == letter])
 
     def word(self, letter: str) -> Word | None:
         """The first word with ``letter``, or None."""
-        return next((w for w in self.words if w.letter == letter), None)
+        for w in self.words:
+            if w.letter == letter:
+                return w
+        return None
 
 
 def parse_program(text: str) -> tuple[Block, ...]:
@@ -101,14 +118,26 @@ def parse_program(text: str) -> tuple[Block, ...]:
     for index, match in enumerate(re.finditer(r"[^\n]*\n|[^\n]+\Z", text)):
         raw = match.group()
         ending = "\r\n" if raw.endswith("\r\n") else "\n" if raw.endswith("\n") else ""
-        blocks.append(_read_line(raw[: len(raw) - len(ending)], ending, index + 1))
+        blocks.append(read_block(raw[: len(raw) - len(ending)], ending, index + 1))
     return tuple(blocks)
 
 
-def _read_line(text: str, ending: str, line: int) -> Block:
+def read_block(text: str, ending: str, line: int) -> Block:
+    """Read one line (without its ending) into words; ``line`` is its number, from 1.
+
+    A byte-order mark at the start of line 1 is skipped; a line that cannot be read is kept
+    with its ``problem``.
+    """
     i = 1 if line == 1 and text.startswith(_BOM) else 0
     if text[i:].lstrip().startswith("%"):
         return Block(line, text, ending, (), None, False, True, None)
+    if _PLAIN.fullmatch(text, i):
+        return _checked(line, text, ending, _plain_words(text, i), False, None)
+    return _checked(line, text, ending, *_scanned_words(text, i))
+
+
+def _scanned_words(text: str, i: int) -> tuple[list[Word], bool, str | None]:
+    """The words of any line from index ``i``, whether it is an optional skip, its problem."""
     words: list[Word] = []
     skip = False
     problem = None
@@ -148,9 +177,33 @@ def _read_line(text: str, ending: str, line: int) -> Block:
                 "(macro variables and expressions are not supported)"
             )
             break
+    return words, skip, problem
+
+
+def _plain_words(text: str, start: int) -> list[Word]:
+    """The words of a line :data:`_PLAIN` matches from ``start``."""
+    words = []
+    at = start
+    for before, semicolon, char, spaces, written in _PIECES.findall(text, start):
+        if semicolon or not char:
+            break
+        at += len(before)
+        number_start = at + 1 + len(spaces)
+        end = number_start + len(written)
+        letter = "O" if char == ":" else char.upper()
+        words.append(Word(letter, written, Decimal(written), at, number_start, end))
+        at = end
+    return words
+
+
+def _checked(
+    line: int, text: str, ending: str, words: list[Word], skip: bool, problem: str | None
+) -> Block:
+    """The block of ``words``, with its number, and a problem for two N, F or S words."""
     number, number_problem = _block_number(words)
+    letters = [w.letter for w in words]
     for letter in "FS":
-        if sum(1 for w in words if w.letter == letter) > 1:
+        if letters.count(letter) > 1:
             number_problem = number_problem or f"two {letter} words in one block"
     return Block(line, text, ending, tuple(words), number, skip, False, problem or number_problem)
 
@@ -167,5 +220,11 @@ def _block_number(words: Sequence[Word]) -> tuple[int | None, str | None]:
     return int(value), None
 
 
+#: The most characters of a word a message shows (``F0.25``; a word of 4000 digits is cut).
+MAX_WORD_SHOWN = 40
+
+
 def _text(block: Block, word: Word) -> str:
-    return block.text[word.start : word.end]
+    """The word as written, as messages show it: cut with ``…`` past :data:`MAX_WORD_SHOWN`."""
+    text = block.text[word.start : word.end]
+    return text if len(text) <= MAX_WORD_SHOWN else text[: MAX_WORD_SHOWN - 1] + "…"

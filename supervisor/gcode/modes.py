@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from decimal import Decimal
 
 from supervisor.gcode.lexer import Block, _text
@@ -36,6 +35,11 @@ class _State:
     last_feed: tuple[int, str] | None = None  # line and word of the F in force
     last_speed: tuple[int, str] | None = None
 
+    @property
+    def last(self) -> tuple[tuple[int, str] | None, tuple[int, str] | None]:
+        """``last_feed`` and ``last_speed``."""
+        return self.last_feed, self.last_speed
+
 
 _GROUPS: dict[str, tuple[str, dict[Decimal, str]]] = {
     "units": ("G20 or G21", {Decimal(20): "G20", Decimal(21): "G21"}),
@@ -48,7 +52,8 @@ _CALLS = {("M", Decimal(98)), ("M", Decimal(198)), ("M", Decimal(97))}
 _CALLS |= {("G", Decimal(65)), ("G", Decimal(66)), ("G", Decimal("66.1"))}
 _ENDS = {("M", Decimal(2)), ("M", Decimal(30)), ("M", Decimal(99))}
 _CLAMP_CODES = {Decimal(50), Decimal(92)}
-_CONTOUR_CYCLES = {Decimal(70), Decimal(71), Decimal(72), Decimal(73)}
+#: The letters of the words :func:`_leave` reads: a block with none leaves the state as it is.
+_LEAVING = frozenset("MGOFS")
 _CYCLE_CUTS = {Decimal(n) for n in (70, 71, 72, 73, 74, 75, 90)}
 
 
@@ -64,6 +69,13 @@ def _unknown(template: str, line: int) -> _State:
 def _enter(state: _State, block: Block) -> _State:
     """The state in force for the words of ``block``: its own G codes apply to it."""
     g = set(block.codes("G"))
+    if not g:
+        return state  # every mode, the motion, the cycle and the clamps are set by G codes
+    if g <= _MOTION.keys():  # G00-G03 alone: the motion, and no canned cycle
+        motion = _MOTION[max(g)]
+        if (state.motion, state.cycle) == (motion, ""):
+            return state
+        return _State(state.units, state.feed, state.spindle, state.clamps, motion, "", *state.last)
     n = block.line
     modes = {"units": state.units, "feed": state.feed, "spindle": state.spindle}
     for group, (_, codes) in _GROUPS.items():
@@ -109,21 +121,16 @@ def _enter(state: _State, block: Block) -> _State:
     clamps = state.clamps
     speed = block.word("S")
     if g & _CLAMP_CODES and speed is not None:
-        clamp = _Clamp(float(speed.value), n, block.text[speed.start : speed.end])
-        clamps = (*clamps, clamp) if block.optional_skip else (clamp,)
-    return replace(
-        state,
-        units=modes["units"],
-        feed=modes["feed"],
-        spindle=modes["spindle"],
-        clamps=clamps,
-        motion=motion,
-        cycle=cycle,
-    )
+        clamp = _Clamp(float(speed.value), n, _text(block, speed))
+        clamps = _added(clamps, clamp) if block.optional_skip else (clamp,)
+    units, feed, spindle = modes["units"], modes["feed"], modes["spindle"]
+    return _State(units, feed, spindle, clamps, motion, cycle, *state.last)
 
 
 def _leave(state: _State, block: Block) -> _State:
     """The state after ``block``: subprogram calls and program ends make every mode unknown."""
+    if not any(w.letter in _LEAVING for w in block.words):
+        return state
     n = block.line
     call = next((w for w in block.words if (w.letter, w.value) in _CALLS), None)
     end = next((w for w in block.words if (w.letter, w.value) in _ENDS), None)
@@ -141,22 +148,17 @@ def _leave(state: _State, block: Block) -> _State:
         after = _unknown(f"no {{names}} since program {_text(block, program)} at line {n}", n)
     else:
         after = state
-    return replace(after, last_feed=last_feed, last_speed=last_speed)
+    a = after
+    return _State(a.units, a.feed, a.spindle, a.clamps, a.motion, a.cycle, last_feed, last_speed)
 
 
-def _contours(blocks: Sequence[Block]) -> dict[int, int]:
-    """Lines of the contour blocks (P to Q) of every G70-G73 cycle → line of the cycle."""
-    line_of: dict[int, int] = {}
-    for block in blocks:
-        if block.number is not None and not block.problem:
-            line_of.setdefault(block.number, block.line)
-    inside: dict[int, int] = {}
-    for block in blocks:
-        p, q = block.word("P"), block.word("Q")
-        if block.problem or p is None or q is None or not set(block.codes("G")) & _CONTOUR_CYCLES:
-            continue
-        first, last = line_of.get(int(p.value)), line_of.get(int(q.value))
-        if first is not None and last is not None:
-            for line in range(first, last + 1):
-                inside.setdefault(line, block.line)
-    return inside
+def _added(clamps: tuple[_Clamp, ...], clamp: _Clamp) -> tuple[_Clamp, ...]:
+    """The clamps that may be in force once ``clamp`` may be too (an optional-skip block).
+
+    A clamp no lower than one before it is dropped: a setpoint it would refuse, the earlier
+    one refuses first (:func:`supervisor.gcode.rewrite._check_clamps` names the first). So
+    the tuple stays short however many optional-skip clamps a program has.
+    """
+    if any(before.rpm <= clamp.rpm for before in clamps):
+        return clamps
+    return (*clamps, clamp)

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 from models.kinematics import turning_spindle_rpm
 from supervisor.gcode.errors import GcodeError
 from supervisor.gcode.lexer import Block
 
 _RANGE = re.compile(r"\s*[Nn]?(\d+)\s*:\s*[Nn]?(\d+)\s*")
+#: The most lines an error lists for a block number found on several.
+SHOWN_LINES = 10
 
 
 @dataclass(frozen=True)
@@ -113,15 +115,44 @@ def resolve_ranges(
         With field ``"map"``: no range, a block number missing or found on several lines,
         the end before the start, two ranges sharing a line.
     """
-    if not ranges:
-        raise GcodeError("map", None, "give at least one OPERATION=N<start>:N<end>")
-    lines: dict[int, list[int]] = {}
+    sightings = Sightings()
     for block in blocks:
         if block.number is not None:
-            lines.setdefault(block.number, []).append(block.line)
+            sightings.add(block.number, block.line)
+    return locate_ranges(sightings, ranges)
+
+
+@dataclass
+class Sightings:
+    """The lines of some block numbers: the first :data:`SHOWN_LINES` each, and how many.
+
+    Mutable, local to one scan of a program.
+    """
+
+    lines: dict[int, list[int]] = field(default_factory=dict)
+    counts: dict[int, int] = field(default_factory=dict)
+
+    def add(self, number: int, line: int) -> None:
+        """Block ``number`` is on ``line``."""
+        found = self.lines.setdefault(number, [])
+        if len(found) < SHOWN_LINES:
+            found.append(line)
+        self.counts[number] = self.counts.get(number, 0) + 1
+
+
+def locate_ranges(sightings: Sightings, ranges: Sequence[BlockRange]) -> tuple[ResolvedRange, ...]:
+    """Locate each range from the lines its block numbers were seen on (:func:`resolve_ranges`).
+
+    Raises
+    ------
+    GcodeError
+        As :func:`resolve_ranges`.
+    """
+    if not ranges:
+        raise GcodeError("map", None, "give at least one OPERATION=N<start>:N<end>")
     located = []
     for r in ranges:
-        first, last = _line_of(lines, r.start, r), _line_of(lines, r.end, r)
+        first, last = _line_of(sightings, r.start, r), _line_of(sightings, r.end, r)
         if last < first:
             raise GcodeError(
                 "map",
@@ -141,11 +172,13 @@ def resolve_ranges(
     return tuple(located)
 
 
-def _line_of(lines: Mapping[int, list[int]], number: int, r: BlockRange) -> int:
-    found = lines.get(number, [])
+def _line_of(sightings: Sightings, number: int, r: BlockRange) -> int:
+    found = sightings.lines.get(number, [])
     if not found:
         raise GcodeError("map", r.describe(), f"no block N{number} in the program")
     if len(found) > 1:
         where = ", ".join(str(n) for n in found)
+        more = sightings.counts[number] - len(found)
+        where += f" and {more} more" if more else ""
         raise GcodeError("map", r.describe(), f"block N{number} is on several lines ({where})")
     return found[0]

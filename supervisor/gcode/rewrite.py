@@ -1,26 +1,21 @@
-"""The rewrite: each operation's F and S words in its block range get its setpoint."""
+"""The rewrite of one block: its F and S words get its operation's setpoint, or a warning.
+
+:func:`supervisor.gcode.stream.rewrite_stream` walks the program a block at a time and calls
+:func:`rewrite_block` for each block inside a range, :func:`close_range` at a range's last
+block and :func:`carry_over` for every block; they record what they change and warn about in a
+:class:`Pass`.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from decimal import Decimal
 
 from models.kinematics import turning_spindle_rpm
 from supervisor.gcode.errors import GcodeError
-from supervisor.gcode.lexer import Block, Word, _text, parse_program
-from supervisor.gcode.modes import (
-    _AXES,
-    _CALLS,
-    _CLAMP_CODES,
-    _CYCLE_CUTS,
-    _ENDS,
-    _contours,
-    _enter,
-    _leave,
-    _State,
-    _unknown,
-)
+from supervisor.gcode.lexer import Block, Word, _text
+from supervisor.gcode.modes import _AXES, _CALLS, _CLAMP_CODES, _CYCLE_CUTS, _ENDS, _State
 from supervisor.gcode.numbers import (
     FEED_MM_MIN_PLACES,
     FEED_MM_REV_PLACES,
@@ -29,12 +24,12 @@ from supervisor.gcode.numbers import (
     _floor,
     _styled,
 )
-from supervisor.gcode.ranges import BlockRange, OperationSetpoint, ResolvedRange, resolve_ranges
-from supervisor.gcode.result import Change, Notice, RewriteResult
+from supervisor.gcode.ranges import OperationSetpoint, ResolvedRange
+from supervisor.gcode.result import Change, Listing, Notice
 
 
 @dataclass
-class _Progress:
+class Progress:
     """What one range has done so far (mutable: local to one rewrite)."""
 
     resolved: ResolvedRange
@@ -44,111 +39,41 @@ class _Progress:
 
 
 @dataclass
-class _Pass:
-    """The accumulators of one rewrite (mutable: local to :func:`rewrite_program`)."""
+class Pass:
+    """The accumulators of one rewrite (mutable: local to one rewrite).
+
+    ``changes`` and ``warnings`` count everything and keep the first ``listed`` of each;
+    ``edits`` are those of the block being rewritten (start, end, new number), taken with
+    :meth:`take_edits` once it is done.
+    """
 
     program: str
     setpoints: Mapping[str, OperationSetpoint]
-    changes: list[Change] = field(default_factory=list)
-    warnings: list[Notice] = field(default_factory=list)
-    edits: dict[int, list[tuple[int, int, str]]] = field(default_factory=dict)
-    pending_feed: _Progress | None = None
-    pending_speed: _Progress | None = None
+    changes: Listing[Change]
+    warnings: Listing[Notice]
+    by_operation: dict[str, int] = field(default_factory=dict)
+    edits: list[tuple[int, int, str]] = field(default_factory=list)
+    pending_feed: Progress | None = None
+    pending_speed: Progress | None = None
 
     def warn(self, line: int | None, operation: str, message: str) -> None:
-        self.warnings.append(Notice(line, operation, message))
+        """Record a warning about ``line``."""
+        self.warnings.add(line or 0, Notice(line, operation, message))
 
     def where(self, block: Block) -> str:
+        """The field of an error about ``block``: ``"<program> line <n>"``."""
         return f"{self.program} line {block.line}"
 
-
-def rewrite_program(
-    text: str,
-    setpoints: Mapping[str, OperationSetpoint],
-    ranges: Sequence[BlockRange],
-    *,
-    program_name: str = "program",
-) -> RewriteResult:
-    """Rewrite the F and S words of each operation's block range with its setpoint.
-
-    Parameters
-    ----------
-    text : str
-        The program (lines ending in LF or CRLF; both kept).
-    setpoints : Mapping[str, OperationSetpoint]
-        The setpoint of every operation named in ``ranges``.
-    ranges : Sequence[BlockRange]
-        The block ranges; an operation may have several, no two may share a line.
-    program_name : str
-        Name of the program in error messages (``"<name> line <n>"``).
-
-    Returns
-    -------
-    RewriteResult
-        The new text, the changes and the warnings (see the package docstring).
-
-    Raises
-    ------
-    GcodeError
-        When the program or a range cannot be rewritten safely (see the package docstring).
-
-    Notes
-    -----
-    Under G95 an F word becomes ``f`` [mm/rev]; under G94 ``f · n`` [mm/min] with
-    ``n = 1000 v / (π D)`` [rpm] at the operation's diameter D. Under G96 an S word becomes
-    ``v`` [m/min]; under G97 ``n`` [rpm]. Values are rounded down (package docstring).
-    """
-    for r in ranges:
-        if r.operation not in setpoints:
-            raise GcodeError("map", r.describe(), f"no setpoint for operation {r.operation!r}")
-    blocks = parse_program(text)
-    located = resolve_ranges(blocks, ranges)
-    last_line = located[-1].last_line
-    for block in blocks[:last_line]:
-        if block.problem:
-            raise GcodeError(
-                f"{program_name} line {block.line}",
-                block.text.strip(),
-                f"cannot be read: {block.problem}; every line up to the end of the last range "
-                "must be plain G-code, so that its modes and flow are certain",
-            )
-    progress_at: dict[int, _Progress] = {}
-    for resolved in located:
-        tracker = _Progress(resolved)
-        for number in range(resolved.first_line, resolved.last_line + 1):
-            progress_at[number] = tracker
-    contour = _contours(blocks)
-    run = _Pass(program_name, setpoints)
-    state = _unknown("no {names} before it", 0)
-    for block in blocks:
-        if block.problem:
-            break  # after the last range: nothing more to rewrite or to warn about
-        state = _enter(state, block)
-        _carry_over(run, state, block)
-        progress = progress_at.get(block.line)
-        if progress is not None:
-            _rewrite_block(run, state, block, progress, contour.get(block.line))
-            if block.line == progress.resolved.last_line:
-                _close(run, state, progress)
-        state = _leave(state, block)
-    out = []
-    for block in blocks:
-        written = block.text
-        for start, end, new in sorted(run.edits.get(block.line, []), reverse=True):
-            written = written[:start] + new + written[end:]
-        out.append(written + block.ending)
-    return RewriteResult(
-        text="".join(out),
-        changes=tuple(run.changes),
-        warnings=tuple(sorted(run.warnings, key=lambda w: w.line or 0)),
-        ranges=located,
-        setpoints={r.operation: setpoints[r.operation] for r in ranges},
-    )
+    def take_edits(self) -> list[tuple[int, int, str]]:
+        """The edits of the block just rewritten; none are left."""
+        edits, self.edits = self.edits, []
+        return edits
 
 
-def _rewrite_block(
-    run: _Pass, state: _State, block: Block, progress: _Progress, contour_of: int | None
+def rewrite_block(
+    run: Pass, state: _State, block: Block, progress: Progress, contour_of: int | None
 ) -> None:
+    """Rewrite the F and S words of ``block``, inside ``progress``'s range, or warn."""
     op = run.setpoints[progress.resolved.range.operation]
     g = set(block.codes("G"))
     call = next((w for w in block.words if (w.letter, w.value) in _CALLS), None)
@@ -180,7 +105,7 @@ def _rewrite_block(
         _check_clamps(run, state, block, progress, op)
 
 
-def _metric(run: _Pass, state: _State, block: Block, word: Word) -> None:
+def _metric(run: Pass, state: _State, block: Block, word: Word) -> None:
     if state.units.code == "G20":
         raise GcodeError(
             run.where(block),
@@ -197,7 +122,7 @@ def _metric(run: _Pass, state: _State, block: Block, word: Word) -> None:
 
 
 def _rewrite_feed(
-    run: _Pass, state: _State, block: Block, word: Word, progress: _Progress, op: OperationSetpoint
+    run: Pass, state: _State, block: Block, word: Word, progress: Progress, op: OperationSetpoint
 ) -> None:
     g = set(block.codes("G"))
     old = _text(block, word)
@@ -241,7 +166,7 @@ def _rewrite_feed(
 
 
 def _rewrite_speed(
-    run: _Pass, state: _State, block: Block, word: Word, progress: _Progress, op: OperationSetpoint
+    run: Pass, state: _State, block: Block, word: Word, progress: Progress, op: OperationSetpoint
 ) -> None:
     old = _text(block, word)
     _metric(run, state, block, word)
@@ -269,7 +194,7 @@ def _rewrite_speed(
 
 
 def _check_clamps(
-    run: _Pass, state: _State, block: Block, progress: _Progress, op: OperationSetpoint
+    run: Pass, state: _State, block: Block, progress: Progress, op: OperationSetpoint
 ) -> None:
     rpm = progress.rpm_needed
     assert rpm is not None
@@ -287,7 +212,7 @@ def _check_clamps(
 
 
 def _edit(
-    run: _Pass,
+    run: Pass,
     block: Block,
     word: Word,
     number: str,
@@ -295,13 +220,15 @@ def _edit(
     quantity: Quantity,
     mode: str,
 ) -> None:
-    run.edits.setdefault(block.line, []).append((word.number_start, word.end, number))
-    old = _text(block, word)
+    run.edits.append((word.number_start, word.end, number))
+    old = block.text[word.start : word.end]  # whole: a change says exactly what it replaced
     new = block.text[word.start : word.number_start] + number
-    run.changes.append(Change(block.line, word.start + 1, op.name, old, new, quantity, mode))
+    change = Change(block.line, word.start + 1, op.name, old, new, quantity, mode)
+    run.changes.add(block.line, change)
+    run.by_operation[op.name] = run.by_operation.get(op.name, 0) + 1
 
 
-def _close(run: _Pass, state: _State, progress: _Progress) -> None:
+def close_range(run: Pass, state: _State, progress: Progress) -> None:
     """Warn about a range with no F or no S word."""
     r = progress.resolved
     where = f"N{r.range.start}-N{r.range.end} (lines {r.first_line}-{r.last_line})"
@@ -320,8 +247,13 @@ def _close(run: _Pass, state: _State, progress: _Progress) -> None:
         )
 
 
-def _carry_over(run: _Pass, state: _State, block: Block) -> None:
+def carry_over(run: Pass, state: _State, block: Block) -> None:
     """Warn when a new F or S of a range stays in force for a cutting move after the range."""
+    if all(
+        pending is None or block.line <= pending.resolved.last_line
+        for pending in (run.pending_feed, run.pending_speed)
+    ):
+        return  # no new F or S, or still in its range
     g = set(block.codes("G"))
     ends = any((w.letter, w.value) in _ENDS | _CALLS for w in block.words)
     ends = ends or block.marker or block.word("O") is not None
