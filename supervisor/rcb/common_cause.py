@@ -16,8 +16,9 @@ innovation ``e_i`` over the innovation's variance ``v_i``), so Stouffer's combin
 
 is standard normal when nothing changed and grows as ``√m`` times a shift the operations share
 [1]_; an innovation under ``−2σ`` counts at ``−2σ`` (:data:`FLOOR_SIGMA`, a winsorised sum [3]_:
-a reading at 30 % of the truth that escaped quarantine, ``r ≈ −20``, would hide the rise). ``Z >`` :data:`COMMON_SIGMA` (the one-reading alarm's level: a report raises no more
-false alarms than one more reading would) is a change of that quantity in every operation.
+a reading at 30 % of the truth that escaped quarantine, ``r ≈ −20``, would hide the rise).
+``Z >`` :data:`COMMON_SIGMA` (the one-reading alarm's level: a report raises no more false
+alarms than one more reading would) is a change of that quantity in every operation.
 
 **Learning it.** Each operation's shift is the common one plus its own: ``e_i = δ + η_i +
 ε_i`` with ``η_i ~ N(0, τ²)``, a random-effects model whose ``τ²`` is DerSimonian and Laird's
