@@ -228,14 +228,6 @@ class Watched:
     shift: float = 0.0
 
     @property
-    def high(self) -> float | None:
-        """``r`` on the high side (None: not judged there)."""
-        if self.innovation is None:
-            return None
-        e, v = self.innovation
-        return e / math.sqrt(v)
-
-    @property
     def learns(self) -> bool:
         """Whether anything is learned from the reading."""
         return self.verdict != "quarantine"

@@ -47,16 +47,14 @@ References
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
-from models.quantities import MODEL_QUANTITIES
 from models.tool import Tool
 from supervisor.errors import InfeasibleError
-from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, PartReport
+from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 from supervisor.optimize.passes import measured_at
@@ -65,8 +63,9 @@ from supervisor.rcb import posterior as post
 from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.common_cause import CommonShift, common_shifts
 from supervisor.rcb.decision import Decision
+from supervisor.rcb.judged import Judged, judge
 from supervisor.rcb.law import apply_law, tool_life_measured
-from supervisor.rcb.monitor import Expected, Monitor, Watched, learned, watch
+from supervisor.rcb.monitor import Monitor, learned
 from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
@@ -163,7 +162,7 @@ def update(
     gross: list[HaltedOperation] = []
     chains = _chains(state.monitors)
     judged = [
-        _judge(state, *measured_at(operations[name], results[name], quantity), quantity, m, report)
+        judge(state, *measured_at(operations[name], results[name], quantity), quantity, m, report)
         for name, quantity, m in measured_items  # measured_at: a pass's setpoint
     ]
     on_high = [j for j in judged if j.innovation is not None]
@@ -202,77 +201,10 @@ class _Maps:
     monitors: dict[tuple[str, str], Monitor]
 
 
-@dataclass
-class _Judged:
-    """A reading as the monitor judged it (:func:`_judge`), before anything learns from it.
-
-    ``watched`` is replaced when the report shows a common cause (:mod:`.common_cause`).
-    """
-
-    op: Operation
-    made: OperationResult
-    quantity: str
-    measurement: Measurement
-    monitor: Monitor
-    watched: Watched
-    point: dict[str, float] | None = None
-    exponents: Mapping[str, float] | None = None
-    expected: tuple[Expected, Expected | None] | None = None  # what the strategy expected
-
-    @property
-    def innovation(self) -> tuple[float, float] | None:
-        """``(e, v)`` on the high side (None: not judged there, or a quarantine confirmed)."""
-        return None if self.watched.verdict == "confirm" else self.watched.innovation
-
-    def shifted(self, shift: float, variance: float) -> Measurement | None:
-        """What the strategy expected on the high side, moved by a common change (None: nothing).
-
-        ``shift`` and ``variance``: the change [ln] and its variance, which with the
-        expectation's own (its readings' noise at the measured scale ``ŝ``) make the value's
-        expanded uncertainty (``k = 2``).
-        """
-        if self.expected is None or self.expected[1] is None:
-            return None
-        high = self.expected[1]
-        value = math.exp(high.mean + shift)
-        spread2 = high.sd**2 + (self.monitor.scale * high.noise) ** 2 + variance
-        return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(spread2))
-
-    def rejudged(self, exponent_sd: float, common: tuple[float, float]) -> Watched:
-        """The judgement when the part's operations moved together (``watch``'s ``common``)."""
-        assert self.expected and self.point is not None and self.exponents is not None
-        low, high = self.expected
-        point, exponents = self.point, self.exponents
-        measurement = self.measurement
-        return watch(self.monitor, low, high, measurement, point, exponents, exponent_sd, common)
-
-
-def _judge(
-    state: RcbState,
-    op: Operation,
-    made: OperationResult,
-    quantity: str,
-    measurement: Measurement,
-    report: PartReport,
-) -> _Judged:
-    """What the strategy expects of a reading and how the monitor judges it."""
-    monitor = state.monitors.get((op.name, quantity)) or Monitor()
-    judged = _Judged(op, made, quantity, measurement, monitor, Watched("accept", monitor))
-    if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
-        age = report.edge_parts.get(op.name)
-        judged.point = {**made.setpoint, **op.context}
-        judged.exponents = exponents = state.tools[op.name].models[quantity].exponents
-        judged.expected = state.settings.rule.expects(state, op, made, quantity, age, monitor)
-        low, high = judged.expected
-        sd = state.settings.exponent_sd
-        judged.watched = watch(monitor, low, high, measurement, judged.point, exponents, sd)
-    return judged
-
-
 def _reading(
     state: RcbState,
     new: _Maps,
-    item: _Judged,
+    item: Judged,
     report: PartReport,
     noise: NoiseScale,
     common: CommonShift | None,
@@ -345,11 +277,11 @@ def _upper(measurement: Measurement) -> float:
     return measurement.value + measurement.uncertainty
 
 
-def _unread_change(state: RcbState, new: _Maps, item: _Judged, common: CommonShift) -> None:
+def _unread_change(state: RcbState, new: _Maps, item: Judged, common: CommonShift) -> None:
     """An operation whose reading of a common change was quarantined moves by the others'.
 
     The band law takes the reading the operation would have had, what it expected moved by
-    the shift (:meth:`_Judged.shifted`), and may only grow from it; ``learn``'s posterior
+    the shift (:meth:`Judged.shifted`), and may only grow from it; ``learn``'s posterior
     moves by the shift (:meth:`supervisor.rcb.strategies.Strategy.moved`).
     """
     op, quantity = item.op, item.quantity

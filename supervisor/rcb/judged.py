@@ -1,0 +1,87 @@
+"""A reading as the monitor judged it, before anything learns from it (:mod:`.update`).
+
+:func:`judge` asks the strategy what it expects of a reading and the monitor how it judges
+it; when the report shows a change every operation shares (:mod:`.common_cause`),
+:meth:`Judged.rejudged` judges it again with that change, and :meth:`Judged.shifted` is the
+reading an operation would have had under it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from models.quantities import MODEL_QUANTITIES
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, PartReport
+from supervisor.inputs.plan import Operation
+from supervisor.optimize.result import OperationResult
+from supervisor.rcb.monitor import Expected, Monitor, Watched, watch
+from supervisor.rcb.state import RcbState
+
+
+@dataclass
+class Judged:
+    """A reading as the monitor judged it (:func:`judge`), before anything learns from it.
+
+    ``watched`` is replaced when the report shows a common cause (:mod:`.common_cause`).
+    """
+
+    op: Operation
+    made: OperationResult
+    quantity: str
+    measurement: Measurement
+    monitor: Monitor
+    watched: Watched
+    point: dict[str, float] | None = None
+    exponents: Mapping[str, float] | None = None
+    expected: tuple[Expected, Expected | None] | None = None  # what the strategy expected
+
+    @property
+    def innovation(self) -> tuple[float, float] | None:
+        """``(e, v)`` on the high side (None: not judged there, or a quarantine confirmed)."""
+        return None if self.watched.verdict == "confirm" else self.watched.innovation
+
+    def shifted(self, shift: float, variance: float) -> Measurement | None:
+        """What the strategy expected on the high side, moved by a common change (None: nothing).
+
+        ``shift`` and ``variance``: the change [ln] and its variance, which with the
+        expectation's own (its readings' noise at the measured scale ``ŝ``) make the value's
+        expanded uncertainty (``k = 2``).
+        """
+        if self.expected is None or self.expected[1] is None:
+            return None
+        high = self.expected[1]
+        value = math.exp(high.mean + shift)
+        spread2 = high.sd**2 + (self.monitor.scale * high.noise) ** 2 + variance
+        return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(spread2))
+
+    def rejudged(self, exponent_sd: float, common: tuple[float, float]) -> Watched:
+        """The judgement when the part's operations moved together (``watch``'s ``common``)."""
+        assert self.expected and self.point is not None and self.exponents is not None
+        low, high = self.expected
+        point, exponents = self.point, self.exponents
+        measurement = self.measurement
+        return watch(self.monitor, low, high, measurement, point, exponents, exponent_sd, common)
+
+
+def judge(
+    state: RcbState,
+    op: Operation,
+    made: OperationResult,
+    quantity: str,
+    measurement: Measurement,
+    report: PartReport,
+) -> Judged:
+    """What the strategy expects of a reading and how the monitor judges it."""
+    monitor = state.monitors.get((op.name, quantity)) or Monitor()
+    judged = Judged(op, made, quantity, measurement, monitor, Watched("accept", monitor))
+    if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
+        age = report.edge_parts.get(op.name)
+        judged.point = {**made.setpoint, **op.context}
+        judged.exponents = exponents = state.tools[op.name].models[quantity].exponents
+        judged.expected = state.settings.rule.expects(state, op, made, quantity, age, monitor)
+        low, high = judged.expected
+        sd = state.settings.exponent_sd
+        judged.watched = watch(monitor, low, high, measurement, judged.point, exponents, sd)
+    return judged
