@@ -56,6 +56,15 @@ def database_url(given: str | None, environ: Mapping[str, str] | None = None) ->
     return given or env.get(DATABASE_URL_VAR) or DEFAULT_URL
 
 
+def database_field(given: str | None, environ: Mapping[str, str] | None = None) -> str:
+    """Where :func:`database_url` found the URL, as an error names it.
+
+    ``--db`` when given (or for the default), ``RCB_DATABASE_URL`` when taken from there.
+    """
+    env = os.environ if environ is None else environ
+    return DATABASE_URL_VAR if not given and env.get(DATABASE_URL_VAR) else "--db"
+
+
 def hand_to_workers(url: str) -> None:
     """Put ``url`` where the workers' app factory reads it (:meth:`Settings.from_env`)."""
     os.environ[DATABASE_URL_VAR] = url

@@ -151,11 +151,43 @@ def one_statement_reader(engine: Engine) -> Engine:
     return engine.execution_options(**{_READ_ONLY: True})
 
 
-def upgrade(url: str, revision: str = "head") -> None:
+@dataclass(frozen=True)
+class Migration:
+    """What :func:`upgrade` did: the revision the database was at, and the one it is at now.
+
+    Parameters
+    ----------
+    before : str or None
+        The revision found under the lock; None for a database never migrated (empty).
+    after : str or None
+        The revision after the upgrade.
+    """
+
+    before: str | None
+    after: str | None
+
+    def changed(self) -> bool:
+        """Whether the upgrade applied any migration."""
+        return self.before != self.after
+
+
+def revisions() -> tuple[str, ...]:
+    """The revisions of the migrations (:data:`MIGRATIONS`), oldest first; the last is head."""
+    from alembic.config import Config
+    from alembic.script import ScriptDirectory
+
+    config = Config()
+    config.set_main_option("script_location", str(MIGRATIONS))
+    found = ScriptDirectory.from_config(config).walk_revisions()  # newest first
+    return tuple(reversed([script.revision for script in found]))
+
+
+def upgrade(url: str, revision: str = "head") -> Migration:
     """Apply the Alembic migrations to ``url`` up to ``revision``, under the migration lock.
 
     Instances starting at once on one database migrate one after another; the later ones find
-    it at ``revision`` (:func:`db.migrate.migration_lock`).
+    it at ``revision`` (:func:`db.migrate.migration_lock`). Returns the revisions before and
+    after, both read under the lock.
     """
     from alembic.config import Config
 
@@ -166,4 +198,20 @@ def upgrade(url: str, revision: str = "head") -> None:
     config.set_main_option("script_location", str(MIGRATIONS))
     config.attributes["url"] = url
     with migration_lock(url):
+        before = current_revision(url)
         command.upgrade(config, revision)
+        return Migration(before=before, after=current_revision(url))
+
+
+def current_revision(url: str) -> str | None:
+    """The Alembic revision of the database at ``url``; None when it was never migrated."""
+    from sqlalchemy.pool import NullPool
+
+    from db.urls import revision
+
+    engine = create_engine(make_url(url), poolclass=NullPool)
+    try:
+        with engine.connect() as connection:
+            return revision(connection)
+    finally:
+        engine.dispose()

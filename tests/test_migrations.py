@@ -8,7 +8,7 @@ from alembic.migration import MigrationContext
 from sqlalchemy import inspect, text
 
 from api.cli.main import app
-from db.engine import make_engine, upgrade
+from db.engine import make_engine, revisions, upgrade
 from db.plan_state import settings_of
 from db.tables import Base, utcnow
 from supervisor.rcb.state import RcbSettings
@@ -47,8 +47,11 @@ def test_rcb_db_upgrade_command(runner, tmp_path):
     url = f"sqlite:///{tmp_path / 'cli.db'}"
     result = runner.invoke(app, ["db", "upgrade", "--db", url])
     assert result.exit_code == 0, result.output
-    assert "up to date" in result.stderr
+    head = revisions()[-1]
+    assert result.stderr == f"rcb: database {url} migrated from empty to revision {head}\n"
     _no_difference(url)
+    again = runner.invoke(app, ["db", "upgrade", "--db", url])
+    assert again.stderr == f"rcb: database {url} is up to date (revision {head})\n"
     bad = runner.invoke(app, ["db", "upgrade", "--db", "nonsense://x"])
     assert bad.exit_code == 2 and "--db" in bad.stderr and "Traceback" not in bad.stderr
 

@@ -7,7 +7,7 @@ Each command migrates the database first (``rcb db upgrade`` does nothing else).
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -18,8 +18,17 @@ from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import sizes
 from api.services.errors import NotFoundError
-from api.settings import auth_failure_burst, database_url, http_limits, pool
+from api.settings import (
+    auth_failure_burst,
+    database_field,
+    database_url,
+    http_limits,
+    pool,
+)
 from models.errors import InputError
+
+if TYPE_CHECKING:
+    from db.engine import Migration
 
 # Each command imports the database layer (SQLAlchemy, Alembic) and the server (uvicorn) when
 # it runs: rcb --help and the other commands do not load them (README, "Speed").
@@ -29,28 +38,40 @@ db_app = typer.Typer(help="The database: migrations, pruning.", no_args_is_help=
 _out = Console()
 
 
-def _migrate(url: str) -> None:
-    from sqlalchemy.exc import ArgumentError, OperationalError
+def _migrate(url: str, field: str = "--db") -> Migration:
+    """Migrate the database at ``url`` (named by ``field``) to the newest revision.
+
+    A URL rcb cannot keep data at, or a database it cannot reach, is an InputError with the
+    reason and its fix (:mod:`db.urls`).
+    """
+    from sqlalchemy.exc import ArgumentError, DBAPIError
 
     from db.engine import upgrade
+    from db.urls import check, explain
 
+    check(url, field)
     try:
-        upgrade(url)
-    except (ArgumentError, OperationalError) as err:
-        raise InputError(
-            "--db",
-            url,
-            f"cannot use this database ({err.__class__.__name__}: {str(err).splitlines()[0]})",
-        ) from None
+        return upgrade(url)
+    except (ArgumentError, DBAPIError) as err:
+        reason = explain(err, url)
+        if reason is None:
+            first = str(err).splitlines()[0]
+            reason = f"cannot use this database ({err.__class__.__name__}: {first})"
+        raise InputError(field, shown(url), reason) from None
 
 
 @db_app.command("upgrade")
 def db_upgrade(db: DbOption = None) -> None:
-    """Create or migrate the database to the newest schema."""
+    """Create or migrate the database to the newest schema; says which revisions it applied."""
     url = database_url(db)
     with errors():
-        _migrate(url)
-    say(f"rcb: database {shown(url)} is up to date")
+        done = _migrate(url, database_field(db))
+    if done.before is None:
+        say(f"rcb: database {shown(url)} migrated from empty to revision {done.after}")
+    elif done.changed():
+        say(f"rcb: database {shown(url)} migrated from revision {done.before} to {done.after}")
+    else:
+        say(f"rcb: database {shown(url)} is up to date (revision {done.after})")
 
 
 @db_app.command("prune")
@@ -72,7 +93,7 @@ def db_prune(
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
-        _migrate(url)
+        _migrate(url, database_field(db))
         pruned = retention.prune(
             engine=make_engine(url),
             audit_older_than=audit_older_than,
@@ -112,7 +133,7 @@ def keys_create(
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
-        _migrate(url)
+        _migrate(url, database_field(db))
         created = create_key(
             engine=make_engine(url), role=role, label=label, plans=plan, actor=actor
         )
@@ -137,7 +158,7 @@ def keys_list(
 
     url = database_url(db)
     with errors():
-        _migrate(url)
+        _migrate(url, database_field(db))
         page = list_keys(engine=make_engine(url), after=after, limit=limit)
     if as_json:
         emit(page)
@@ -179,7 +200,7 @@ def keys_revoke(
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
-        _migrate(url)
+        _migrate(url, database_field(db))
         try:
             revoked = revoke_key(engine=make_engine(url), key_id=key_id, actor=actor)
         except NotFoundError as err:
@@ -205,7 +226,7 @@ def serve(
         auth_failure_burst()  # a malformed RCB_AUTH_FAILURE_BURST is refused before serving
         pool()  # and a malformed RCB_DB_POOL_SIZE, RCB_DB_MAX_OVERFLOW or RCB_DB_POOL_TIMEOUT
         http_limits()  # and RCB_HTTP_*
-        _migrate(url)
+        _migrate(url, database_field(db))
         try:
             listener = serving.tcp_listener(host, port)
         except serving.PortInUseError as err:

@@ -81,7 +81,7 @@ def errors() -> Iterator[None]:
         if not _database_error(err):
             raise
         first = str(err).splitlines()[0] if str(err).strip() else err.__class__.__name__
-        say(f"rcb: error: --db: cannot use this database ({first}); is it migrated? rcb db upgrade")
+        say(f"rcb: error: --db: cannot use this database ({first})")
         raise typer.Exit(2) from None
 
 
@@ -118,25 +118,61 @@ def shown(url: str) -> str:
         return url
 
 
-def existing_engine(url: str) -> Engine:
-    """An engine for an existing database (a missing SQLite file is refused, not created)."""
-    from sqlalchemy.engine import make_url
-    from sqlalchemy.exc import ArgumentError
+def existing_engine(url: str, field: str = "--db") -> Engine:
+    """An engine for an existing database migrated to this rcb's newest revision.
 
+    Checked here, before a command uses it, so that each mistake is one line with its fix
+    (:func:`db.urls.check`): a missing SQLite file is refused (not created), a server that does
+    not answer is named by host and port, a database not migrated (or behind) asks for
+    ``rcb db upgrade``. ``field`` names where the URL came from (``--db`` or
+    ``RCB_DATABASE_URL``: :func:`api.settings.database_field`).
+    """
     from db.engine import make_engine
+    from db.urls import check
+
+    parsed = check(url, field)
+    if parsed.get_backend_name() == "sqlite" and not Path(parsed.database or "").is_file():
+        reason = f"no such database file; create it: {_upgrade(url, field)}"
+        raise InputError(field, shown(url), reason)
+    engine = make_engine(url)
+    try:
+        _check_revision(engine, url, field)
+    except BaseException:
+        engine.dispose()
+        raise
+    return engine
+
+
+def _check_revision(engine: Engine, url: str, field: str) -> None:
+    """Refuse a database not at this rcb's newest revision, naming the command that fixes it."""
+    from sqlalchemy.exc import DBAPIError
+
+    from db.engine import revisions
+    from db.urls import explain, revision
 
     try:
-        parsed = make_url(url)
-    except ArgumentError as err:
-        raise InputError("--db", url, f"not a database URL ({err})") from None
-    database = parsed.database
-    if parsed.get_backend_name() == "sqlite" and database not in (None, "", ":memory:"):
-        if not Path(database).is_file():
-            raise InputError("--db", shown(url), "no such database file (rcb db upgrade)")
-    try:
-        return make_engine(url)
-    except ArgumentError as err:  # also an unknown dialect or driver
-        raise InputError("--db", shown(url), f"cannot use this database ({err})") from None
+        with engine.connect() as connection:
+            found = revision(connection)
+    except DBAPIError as err:
+        reason = explain(err, url)
+        if reason is None:
+            raise
+        raise InputError(field, shown(url), reason) from None
+    known = revisions()
+    if found is None:
+        reason = f"the database is not migrated; run {_upgrade(url, field)}"
+    elif found not in known:
+        reason = f"the database is at revision {found!r}, unknown to this rcb (a newer one?)"
+    elif found != known[-1]:
+        reason = f"the database is at revision {found}, not {known[-1]}; run {_upgrade(url, field)}"
+    else:
+        return
+    raise InputError(field, shown(url), reason)
+
+
+def _upgrade(url: str, field: str) -> str:
+    """The command that migrates the database ``url`` named by ``field``."""
+    return "rcb db upgrade" if field != "--db" else f"rcb db upgrade --db {shown(url)}"
 
 
 def check_target(path: Path, field: str = "--out") -> None:

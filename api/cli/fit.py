@@ -112,6 +112,7 @@ def fit(
     Rows in error messages are counted from 1 after the header line (blank lines skipped).
     """
     # imported here (pandas, NumPy): rcb --help and the other commands do not load them
+    from api.cli.fit_checks import fit_warnings
     from api.cli.fit_data import (
         check_column,
         positive_numbers,
@@ -228,6 +229,8 @@ def fit(
         emit(payload)
     else:
         _out.print(_table(result, response, quantity, columns, source))
+    for warning in fit_warnings(result, quantity or response):
+        say(f"rcb: warning: {warning}")
     if never:
         say(f"rcb: {len(never)} tool(s) never reach the wear limit, left out: {', '.join(never)}")
     if written:

@@ -35,7 +35,7 @@ from rich.table import Table
 from api.cli.common import DbOption, check_target, emit, errors, existing_engine, say
 from api.cli.tables import new_table
 from api.services.errors import NotFoundError
-from api.settings import database_url
+from api.settings import database_field, database_url
 from models.errors import InputError
 
 if TYPE_CHECKING:
@@ -88,7 +88,7 @@ def gcode(
         ranges = [_range(item) for item in mapping]
         with _opened(program) as source:
             target = _target(out, program)
-            engine = existing_engine(database_url(db))
+            engine = existing_engine(database_url(db), database_field(db))
             version, setpoints = _setpoints(engine, plan, ranges, mapping)
             report = _rewrite(source, program, target, setpoints, ranges)
     if as_json:

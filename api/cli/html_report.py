@@ -32,7 +32,7 @@ from api.cli.common import (
 )
 from api.services import sizes
 from api.services.errors import NotFoundError
-from api.settings import database_url
+from api.settings import database_field, database_url
 from models.errors import InputError
 
 
@@ -73,7 +73,7 @@ def html_report(
     with errors():
         check_target(out)
         url = database_url(db)
-        engine = existing_engine(url)
+        engine = existing_engine(url, database_field(db))
         try:
             data = record.report_record(engine=engine, plan_id=plan, last=last)
         except NotFoundError:

@@ -16,6 +16,8 @@ from typing import Any
 import typer
 from typer.core import TyperGroup
 
+from api.cli.helptext import escape_tree
+
 
 def _load(name: str, target: str) -> Any:
     """The click command of ``target`` (``"module:function"``), named ``name``."""
@@ -23,7 +25,9 @@ def _load(name: str, target: str) -> Any:
     function = getattr(importlib.import_module(module), attribute)
     single = typer.Typer(add_completion=False)
     single.command(name)(function)
-    return typer.main.get_command(single)
+    command = typer.main.get_command(single)
+    escape_tree(command)  # "[mm]" in a help text is a unit, not Rich markup
+    return command
 
 
 def lazy_group(commands: Mapping[str, str]) -> type[TyperGroup]:

@@ -28,6 +28,7 @@ from api.cli.demo import demo
 from api.cli.examples import examples_app
 from api.cli.fit import fit
 from api.cli.gcode import gcode
+from api.cli.helptext import escape_tree
 from api.cli.html_report import html_report
 from api.cli.lazy import lazy_group
 from api.cli.optimize import optimize, predict
@@ -46,6 +47,7 @@ class _OneLineErrors(TyperGroup):
         **extra: Any,
     ) -> Any:
         """Run the command; on a usage error print ``rcb: error: ...`` and exit 2."""
+        escape_tree(self)  # "[mm]" in a help text is a unit, not Rich markup
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, False, windows_expand_args, **extra)
         try:

@@ -16,7 +16,7 @@ from api.cli.common import DbOption, emit, errors, existing_engine, say
 from api.cli.review import PlanArg
 from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
-from api.settings import database_url
+from api.settings import database_field, database_url
 from models.errors import InputError
 
 _out = Console()
@@ -55,7 +55,7 @@ def replan(
             changes["reset_bands"] = True
         changes = {k: v for k, v in changes.items() if v}
         written = replan(
-            engine=existing_engine(database_url(db)),
+            engine=existing_engine(database_url(db), database_field(db)),
             plan_id=plan,
             changes=changes,
             dry_run=dry_run,

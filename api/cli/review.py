@@ -41,9 +41,9 @@ PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb
 
 
 def _engine(db: str | None) -> Engine:
-    from api.settings import database_url
+    from api.settings import database_field, database_url
 
-    return existing_engine(database_url(db))
+    return existing_engine(database_url(db), database_field(db))
 
 
 def plans(

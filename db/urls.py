@@ -1,0 +1,119 @@
+"""Database URLs checked where they come in, and what a database's failures mean to its user.
+
+A new user's first mistakes with ``--db`` (or ``$RCB_DATABASE_URL``) each get one line with the
+fix (issue 30): a file path where a URL belongs, a driver rcb does not install (``mysql://``),
+an in-memory SQLite database (nothing of it would outlive the command), a server that does not
+answer, a database not yet migrated. :func:`check` refuses a URL before an engine is made;
+:func:`explain` turns SQLAlchemy's error on connecting into a reason naming host and port;
+:func:`revision` reads where a database's migrations stand.
+"""
+
+from __future__ import annotations
+
+import os
+
+from sqlalchemy import Connection, inspect
+from sqlalchemy.engine import URL, make_url
+from sqlalchemy.exc import ArgumentError, DBAPIError
+
+from models.errors import InputError
+
+#: The drivers rcb installs (dependencies in pyproject.toml), each with an example URL.
+SUPPORTED = {
+    "sqlite": "sqlite:///./rcb.db",
+    "postgresql+psycopg": "postgresql+psycopg://user@host:5432/rcb",
+}
+#: The table Alembic keeps the database's revision in.
+VERSION_TABLE = "alembic_version"
+_SUPPORTED_TEXT = ", ".join(f"{name} ({example})" for name, example in SUPPORTED.items())
+
+
+def check(url: str, field: str = "--db") -> URL:
+    """``url`` parsed, if rcb can keep its data there; else InputError naming ``field``.
+
+    Refused: text that is not a URL (a file path gets its ``sqlite:///`` form, absolute), a
+    driver rcb does not install, and an in-memory SQLite database.
+    """
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        raise InputError(field, url, _not_a_url(url)) from None
+    name = parsed.drivername
+    if name in ("sqlite", "sqlite+pysqlite"):
+        if _in_memory(parsed):
+            raise InputError(
+                field,
+                _shown(url, parsed),
+                "an in-memory database keeps nothing after rcb exits; "
+                f"give a file, e.g. {SUPPORTED['sqlite']}",
+            )
+        return parsed
+    if name == "postgresql+psycopg":
+        return parsed
+    raise InputError(
+        field, _shown(url, parsed), f"unsupported database driver {name!r}; use {_SUPPORTED_TEXT}"
+    )
+
+
+def _not_a_url(url: str) -> str:
+    """Why ``url`` is not a URL, with the URL it may have meant."""
+    if "://" not in url and url.strip():
+        path = os.path.abspath(os.path.expanduser(url))
+        return f"a file path, not a database URL; write it as sqlite:///{path}"
+    return f"not a database URL; use {_SUPPORTED_TEXT}"
+
+
+def _in_memory(parsed: URL) -> bool:
+    database = parsed.database or ""
+    return database in ("", ":memory:") or parsed.query.get("mode") == "memory"
+
+
+def _shown(url: str, parsed: URL) -> str:
+    """``url`` as given, or with its password hidden if it has one."""
+    return url if parsed.password is None else parsed.render_as_string(hide_password=True)
+
+
+def explain(err: Exception, url: str) -> str | None:
+    """What a failure to connect to ``url`` means, with the fix; None for any other error."""
+    if not isinstance(err, DBAPIError) or not _connecting(err):
+        return None
+    parsed = make_url(url)
+    text = str(err.orig) if err.orig is not None else str(err)
+    first = text.strip().splitlines()[0] if text.strip() else err.__class__.__name__
+    if parsed.get_backend_name() == "sqlite":
+        if "unable to open database file" in text:
+            folder = os.path.dirname(os.path.abspath(parsed.database or "."))
+            return f"cannot open or create the file (does the directory {folder} exist?)"
+        return None
+    where = f"{parsed.host or 'localhost'}:{parsed.port or 5432}"
+    if "does not exist" in text and "database" in text:
+        return (
+            f"the server at {where} has no database {parsed.database!r}; "
+            f"create it (createdb -h {parsed.host or 'localhost'} -p {parsed.port or 5432} "
+            f"{parsed.database}), then rcb db upgrade"
+        )
+    if "authentication failed" in text or "password" in text:
+        return f"the server at {where} refused the login ({first})"
+    if "resolve host" in text or "translate host" in text:
+        return f"no such host {parsed.host!r} (a typing mistake in the URL?)"
+    if "refused" in text or "timeout" in text or "timed out" in text:
+        return f"the server does not answer at {where} (is PostgreSQL running there?)"
+    return f"cannot connect to the server at {where} ({first})"
+
+
+def _connecting(err: DBAPIError) -> bool:
+    """Whether ``err`` happened while connecting (psycopg and sqlite3 both say so)."""
+    text = str(err.orig)
+    return any(
+        sign in text
+        for sign in ("connection failed", "failed to resolve host", "unable to open database file")
+    )
+
+
+def revision(connection: Connection) -> str | None:
+    """The database's Alembic revision; None when it was never migrated (no version table)."""
+    if not inspect(connection).has_table(VERSION_TABLE):
+        return None
+    from alembic.runtime.migration import MigrationContext
+
+    return MigrationContext.configure(connection).get_current_revision()
