@@ -20,7 +20,6 @@ from supervisor.inputs.plan import load_plan
 from supervisor.rcb import common_cause as cc
 from supervisor.rcb import learning
 from supervisor.rcb.monitor import Monitor
-from supervisor.rcb.noise import pooled
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
 from supervisor.virtual.sampling import sample_machine
@@ -82,14 +81,12 @@ def _learned_state(strategy="learn"):
 
 
 def _reading_at(state, operation, sigma, u=0.05):
-    """A roughness reading ``sigma`` σ over what the strategy expects (high side), its σ as the
-    pooled test counts it: the noise at the chain's prudent scale (or the operation's ŝ)."""
+    """A roughness reading ``sigma`` innovation-σ over what the strategy expects (high side)."""
     op = next(o for o in state.plan.operations if o.name == operation)
     made = next(r for r in state.setpoints.operations if r.name == operation)
     monitor = state.monitors.get((operation, "roughness_um")) or Monitor()
     _, expected = state.settings.rule.expects(state, op, made, "roughness_um", None, monitor)
-    chain = pooled([m.noise for (_, q), m in state.monitors.items() if q == "roughness_um"])
-    scale = max(monitor.scale, chain.prudent_scale)
+    scale = monitor.scale
     y = math.exp(expected.mean)
     for _ in range(20):  # the reading's own noise (u/2)/y depends on y
         noise2 = (expected.noise**2 + ((u / 2) / y) ** 2) * scale**2
@@ -108,8 +105,7 @@ def test_a_rise_every_operation_shows_is_a_change_of_each_and_of_the_one_unread(
     new, decisions = update(state, PartReport("S-1", state.version, measurements))
     by_op = {d.operation: d for d in decisions}
     assert by_op[unread].note == "implausible_low"
-    for name in rest:  # 2.5 sigma each (a little more at their own scale), under CHANGE_SIGMA
-        # and the CUSUM; pooled sqrt(5) x 2.5
+    for name in rest:  # 2.5 sigma each, under CHANGE_SIGMA and the CUSUM; pooled sqrt(5) x 2.5
         assert by_op[name].note == "regime_change", name
         assert "pooled" in by_op[name].reason
     # the unread operation's intercept moved by the others' weighted shift (tau^2 = 0 here:

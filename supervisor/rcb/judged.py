@@ -42,20 +42,6 @@ class Judged:
         """``(e, v)`` on the high side (None: not judged there, or a quarantine confirmed)."""
         return None if self.watched.verdict == "confirm" else self.watched.innovation
 
-    def innovation_at(self, scale: float) -> tuple[float, float] | None:
-        """``(e, v)`` with the readings' noise at ``scale``, or the monitor's ``ŝ`` if larger.
-
-        The pooled test of :mod:`.common_cause` counts the noise at the chain's prudent scale:
-        while a chain's noise is not yet known, six readings of a chain three times noisier than
-        it claims look like a common rise (``Z ~ N(0, 9)``).
-        """
-        if self.innovation is None or not self.expected or self.expected[1] is None:
-            return None
-        high = self.expected[1]
-        noise = (self.measurement.uncertainty / COVERAGE_FACTOR) / self.measurement.value
-        s = max(scale, self.monitor.scale)
-        return self.innovation[0], high.sd**2 + s**2 * (high.noise**2 + noise**2)
-
     def shifted(self, shift: float, variance: float) -> Measurement | None:
         """What the strategy expected on the high side, moved by a common change (None: nothing).
 

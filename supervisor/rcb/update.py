@@ -166,9 +166,7 @@ def update(
         for name, quantity, m in measured_items  # measured_at: a pass's setpoint
     ]
     on_high = [j for j in judged if j.innovation is not None]
-    prudent = {q: chains.get(q, NoiseScale()).prudent_scale for q in {j.quantity for j in on_high}}
-    pooled = [(j.quantity, j.innovation_at(prudent[j.quantity])) for j in on_high]
-    common = common_shifts((q, i) for q, i in pooled if i is not None)
+    common = common_shifts((j.quantity, j.innovation) for j in on_high if j.innovation)
     for quantity, shift in common.items():
         for index, j in enumerate(j for j in on_high if j.quantity == quantity):
             j.watched = j.rejudged(state.settings.exponent_sd, shift.shift(without=index))
