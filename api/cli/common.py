@@ -49,6 +49,11 @@ StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEG
 #: ``--json`` of the commands that print tables otherwise.
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
 
+#: Every PLAN argument: a plan's id or its name (:func:`plan_of` turns it into the id).
+PlanArg = Annotated[
+    str, typer.Argument(metavar="PLAN", help="The plan's id or name (rcb plans lists them).")
+]
+
 DbOption = Annotated[
     str | None,
     typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
@@ -137,6 +142,16 @@ def existing_engine(url: str) -> Engine:
         return make_engine(url)
     except ArgumentError as err:  # also an unknown dialect or driver
         raise InputError("--db", shown(url), f"cannot use this database ({err})") from None
+
+
+def plan_of(engine: Engine, plan: str) -> int:
+    """The id of a PLAN argument: digits are the id, anything else the plan's name.
+
+    An unknown name: :class:`models.errors.InputError` (one line, exit 2 in :func:`errors`).
+    """
+    from api.services.plans import resolve_plan
+
+    return resolve_plan(engine=engine, plan=plan)
 
 
 def check_target(path: Path, field: str = "--out") -> None:

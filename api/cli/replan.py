@@ -12,8 +12,7 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from api.cli.common import DbOption, emit, errors, existing_engine, say
-from api.cli.review import PlanArg
+from api.cli.common import DbOption, PlanArg, emit, errors, existing_engine, plan_of, say
 from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
 from api.settings import database_url
@@ -54,9 +53,11 @@ def replan(
         if reset_bands:
             changes["reset_bands"] = True
         changes = {k: v for k, v in changes.items() if v}
+        engine = existing_engine(database_url(db))
+        plan_key = plan_of(engine, plan)
         written = replan(
-            engine=existing_engine(database_url(db)),
-            plan_id=plan,
+            engine=engine,
+            plan_id=plan_key,
             changes=changes,
             dry_run=dry_run,
             actor=actor,
@@ -66,7 +67,7 @@ def replan(
         emit(answer)
         return
     table = new_table(
-        title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else "")
+        title=f"plan {plan_key}: replan" + (" (dry run, nothing stored)" if dry_run else "")
     )
     for column in ("operation", "parameter", "now", "new"):
         table.add_column(
