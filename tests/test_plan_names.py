@@ -89,7 +89,7 @@ def test_create_show_list_and_history_by_name(runner, backend_url, tmp_path):
         _one_line_error(unknown, "PLAN", "no plan named 'ivester-demo' (rcb plans lists them)")
 
 
-def test_names_of_digits_refused_and_bad_files_one_line(runner, tmp_path):
+def test_digit_names_bad_files_and_misplaced_options_one_line(runner, tmp_path):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
     upgrade(url)
     digits = tmp_path / "digits.json"
@@ -100,6 +100,9 @@ def test_names_of_digits_refused_and_bad_files_one_line(runner, tmp_path):
     _one_line_error(_rcb(runner, "plans", "create", broken, "--db", url), "FILE", "not valid JSON")
     missing = tmp_path / "missing.toml"
     _one_line_error(_rcb(runner, "plans", "create", missing, "--db", url), "FILE", "no such file")
+    # the group's own options go after the command, not silently ignored
+    misplaced = _rcb(runner, "plans", "--db", url, "show", "1")
+    _one_line_error(misplaced, "--db", "goes after the command: rcb plans show ... --db")
 
 
 def test_rest_refuses_a_second_plan_of_a_name(server, runner):

@@ -70,6 +70,12 @@ def plans(
     PLAN`` shows one; every PLAN argument takes a plan's id or its name.
     """
     if ctx.invoked_subcommand is not None:  # rcb plans create|show|list: that command's work
+        options = (("--limit", limit), ("--cursor", cursor), ("--db", db), ("--json", as_json))
+        for name, value in options:  # rcb plans --db X show 1 would read ./rcb.db: refused
+            if value:
+                with errors():
+                    where = f"rcb plans {ctx.invoked_subcommand} ... {name}"
+                    raise InputError(name, value, f"goes after the command: {where}")
         return
     from api.services import queries
 
