@@ -70,13 +70,9 @@ def plans(
     PLAN`` shows one; every PLAN argument takes a plan's id or its name.
     """
     if ctx.invoked_subcommand is not None:  # rcb plans create|show|list: that command's work
-        options = (("--limit", limit), ("--cursor", cursor), ("--db", db), ("--json", as_json))
-        for name, value in options:  # rcb plans --db X show 1 would read ./rcb.db: refused
-            if value:
-                with errors():
-                    where = f"rcb plans {ctx.invoked_subcommand} ... {name}"
-                    raise InputError(name, value, f"goes after the command: {where}")
-        return
+        return _refuse_before(
+            ctx.invoked_subcommand, limit=limit, cursor=cursor, db=db, json=as_json
+        )
     from api.services import queries
 
     with errors():
@@ -96,29 +92,44 @@ def plans(
                     sys.stdout.write(",\n" + json.dumps(p, default=datetime.isoformat))
             sys.stdout.write(f'\n], "next_cursor": {json.dumps(page["next_cursor"])}}}\n')
     if not as_json:
-        table = new_table(title="plans")
-        for column in ("id", "name", "machine", "RCB", "ver", "parts", "status", "created"):
-            table.add_column(
-                column, justify="right" if column in ("id", "ver", "parts") else "left"
-            )
-        for p in page["plans"]:
-            halted = p["status"] == "halted"
-            table.add_row(
-                str(p["id"]),
-                p["name"],
-                p["machine"],
-                f"{p['strategy']} α={p['alpha']:g}",
-                str(p["setpoint_version"]),
-                str(p["parts"]),
-                "[bold red]HALTED[/]" if halted else "running",
-                p["created_at"].strftime("%Y-%m-%d %H:%M"),
-            )
-        _out.print(table)
-        for p in page["plans"]:
-            if p["status"] == "halted":
-                _print_halt(p["id"], p["halt"])
+        _print_plans(page["plans"])
     if page["next_cursor"] is not None:
         say(f"rcb: next page: rcb plans --cursor {page['next_cursor']} --limit {size}")
+
+
+def _print_plans(listed: list[dict[str, Any]]) -> None:
+    """A page of plans as a table, then each halted plan's conflicts."""
+    table = new_table(title="plans")
+    for column in ("id", "name", "machine", "RCB", "ver", "parts", "status", "created"):
+        table.add_column(column, justify="right" if column in ("id", "ver", "parts") else "left")
+    for p in listed:
+        halted = p["status"] == "halted"
+        table.add_row(
+            str(p["id"]),
+            p["name"],
+            p["machine"],
+            f"{p['strategy']} α={p['alpha']:g}",
+            str(p["setpoint_version"]),
+            str(p["parts"]),
+            "[bold red]HALTED[/]" if halted else "running",
+            p["created_at"].strftime("%Y-%m-%d %H:%M"),
+        )
+    _out.print(table)
+    for p in listed:
+        if p["status"] == "halted":
+            _print_halt(p["id"], p["halt"])
+
+
+def _refuse_before(command: str, **options: object) -> None:
+    """Refuse an option of ``rcb plans`` given before its command (it would be ignored).
+
+    ``rcb plans --db X show 1`` would read ./rcb.db: one line, exit 2.
+    """
+    for name, value in options.items():
+        if value:
+            with errors():
+                where = f"rcb plans {command} ... --{name}"
+                raise InputError(f"--{name}", value, f"goes after the command: {where}")
 
 
 def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
