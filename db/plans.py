@@ -40,14 +40,8 @@ def add_plan(
     result: PlanResult,
     settings: RcbSettings,
 ) -> int:
-    """Store a plan, its machine and tools (if new), version 1 of its models and setpoints.
-
-    A plan of the same name is refused (:class:`db.errors.PlanNameTakenError`); two creates
-    racing, the unique index refuses the second (a retry finds the first).
-    """
-    taken = plan_id_by_name(session=session, name=plan.name)
-    if taken is not None:
-        raise PlanNameTakenError(plan.name, taken)
+    """Store a plan of a new name, its machine and tools (if new), version 1 of everything."""
+    _refuse_taken(session, plan.name)  # a name names one plan
     machine = _machine(session, plan)
     plan_row = t.Plan(
         name=plan.name,
@@ -102,6 +96,16 @@ def add_plan(
 def new_token() -> str:
     """A fresh ``plans.state_token``."""
     return uuid.uuid4().hex
+
+
+def _refuse_taken(session: Session, name: str) -> None:
+    """Refuse a name a stored plan has (:class:`db.errors.PlanNameTakenError`).
+
+    Two creates racing, the unique index refuses the second (a retry finds the first).
+    """
+    taken = plan_id_by_name(session=session, name=name)
+    if taken is not None:
+        raise PlanNameTakenError(name, taken)
 
 
 def plan_id_by_name(*, session: Session, name: str) -> int | None:
