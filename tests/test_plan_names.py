@@ -160,6 +160,6 @@ def test_migration_0011_renames_later_duplicates(backend_url):
         "a#3",
         "a#5",
         "c" * 200,
-        "c" * 197 + "#7",  # cut to the column's 200 characters
+        "c" * 198 + "#7",  # cut to the column's 200 characters
     ]
     _no_difference(backend_url)
