@@ -4,8 +4,31 @@ from __future__ import annotations
 
 
 class ConflictError(Exception):
-    """The request contradicts what is stored (a duplicate serial, a tool redefined)."""
+    """The request contradicts what is stored (a duplicate serial, a tool redefined).
+
+    ``code``: the REST problem's (409).
+    """
+
+    code = "conflict"
 
     def __init__(self, field: str, value: object, reason: str) -> None:
         self.field, self.value, self.reason = field, value, reason
         super().__init__(f"{field} = {value!r}: {reason}")
+
+
+class PlanNameTakenError(ConflictError):
+    """A stored plan has this name already (a name names one plan: alembic 0011).
+
+    ``code`` is the REST problem's (``plan_name_taken``); ``plan_id`` the stored plan's id.
+    """
+
+    code = "plan_name_taken"
+
+    def __init__(self, name: str, plan_id: int) -> None:
+        self.plan_id = plan_id
+        super().__init__(
+            "name",
+            name,
+            f"plan {plan_id} has this name; give the new plan another name, or change plan "
+            f"{plan_id} with rcb replan {plan_id} (POST /plans/{plan_id}/replan)",
+        )

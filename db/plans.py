@@ -15,7 +15,7 @@ from sqlalchemy import func, insert, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.errors import ConflictError
+from db.errors import ConflictError, PlanNameTakenError
 from db.intake import PlanHead
 from db.library import ensure_tool, load_tools
 from db.model_versions import model_version_row, version_numbers
@@ -40,7 +40,8 @@ def add_plan(
     result: PlanResult,
     settings: RcbSettings,
 ) -> int:
-    """Store a plan, its machine and tools (if new), version 1 of its models and setpoints."""
+    """Store a plan of a new name, its machine and tools (if new), version 1 of everything."""
+    _refuse_taken(session, plan.name)  # a name names one plan
     machine = _machine(session, plan)
     plan_row = t.Plan(
         name=plan.name,
@@ -95,6 +96,21 @@ def add_plan(
 def new_token() -> str:
     """A fresh ``plans.state_token``."""
     return uuid.uuid4().hex
+
+
+def _refuse_taken(session: Session, name: str) -> None:
+    """Refuse a name a stored plan has (:class:`db.errors.PlanNameTakenError`).
+
+    Two creates racing, the unique index refuses the second (a retry finds the first).
+    """
+    taken = plan_id_by_name(session=session, name=name)
+    if taken is not None:
+        raise PlanNameTakenError(name, taken)
+
+
+def plan_id_by_name(*, session: Session, name: str) -> int | None:
+    """The id of the plan named ``name``, None if there is none (names are unique)."""
+    return session.scalars(select(t.Plan.id).where(t.Plan.name == name)).one_or_none()
 
 
 def get_plan_row(*, session: Session, plan_id: int, lock: bool = False) -> t.Plan | None:

@@ -111,6 +111,8 @@ class Plan(Base):
     """A plan: the structure as given (JSON), its RCB law and the current setpoint version."""
 
     __tablename__ = "plans"
+    #: A name names one plan (alembic 0011): PLAN arguments take it as well as the id.
+    __table_args__ = (Index("ix_plans_name", "name", unique=True),)
     id: Mapped[int] = mapped_column(primary_key=True)
     name: Mapped[str] = mapped_column(String(200))
     machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"))

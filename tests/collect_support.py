@@ -17,7 +17,7 @@ from supervisor.inputs.plan import plan_from_mapping
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.trace import TracedOperation, TraceSample, machine_trace, traced_operations
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, renamed
 from live import RCB, LiveServer, kill_group, stop_group
 
 MACHINE, PROGRAM = "lathe-1", "O1001"
@@ -43,7 +43,7 @@ def plan_body() -> dict[str, Any]:
 def new_plan(live: LiveServer) -> tuple[int, dict[str, dict[str, float]]]:
     """A plan on the service and its version-1 setpoints by operation."""
     with live.client("engineer") as c:
-        created = c.post("/plans", json=plan_body(), params={"strategy": "ivester"})
+        created = c.post("/plans", json=renamed(plan_body()), params={"strategy": "ivester"})
         assert created.status_code == 201, created.text
         plan_id = created.json()["id"]
         answer = c.get(f"/plans/{plan_id}/setpoints").json()

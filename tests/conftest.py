@@ -8,6 +8,7 @@ per session with a short timeout; otherwise those tests skip, saying how to enab
 from __future__ import annotations
 
 import functools
+import itertools
 import os
 import socket
 import uuid
@@ -108,6 +109,16 @@ def report_at(
             for op in setpoints["operations"]
         ],
     }
+
+
+#: Numbers the plans :func:`renamed` makes (one count per test process).
+_PLAN_NAMES = itertools.count(1)
+
+
+def renamed(body: dict[str, Any]) -> dict[str, Any]:
+    """``body`` under a name of its own: a name names one plan (alembic 0011), and a module's
+    server or a test may store several plans of one plan file."""
+    return {**body, "name": f"{body['name']}-{next(_PLAN_NAMES)}"}
 
 
 @pytest.fixture

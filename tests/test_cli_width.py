@@ -93,6 +93,8 @@ TABLE_COMMANDS = {
 DB_COMMANDS = {
     "plans": ["plans"],
     "history": ["history", "1"],
+    "history-by-name": ["history", "ivester-demo-part"],
+    "plans-show": ["plans", "show", "ivester-demo-part"],
     "history-operation": ["history", "1", "--operation", "finish-grooves"],
     "parts": ["parts", "1"],
     "replan": ["replan", "1", "--limit", "rough-od.force_N=1900", "--dry-run"],

@@ -12,7 +12,7 @@ import tomllib
 
 import pytest
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, renamed
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 U_N = 10.0  # the force measurements' uncertainty [N]
@@ -43,7 +43,7 @@ def _force_update(answer: dict) -> dict:
 
 def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server):
     with server.client("engineer") as eng, server.client("mes") as mes:
-        created = eng.post("/plans", params={"strategy": "ivester"}, json=PLAN)
+        created = eng.post("/plans", params={"strategy": "ivester"}, json=renamed(PLAN))
         assert created.status_code == 201, created.text
         plan_id = created.json()["id"]
         assert eng.get(f"/plans/{plan_id}").json()["status"] == "running"
@@ -121,7 +121,7 @@ def test_a_reading_under_the_band_shrinks_it_by_a_quarter_of_the_margin_with_a_n
     """One-sided law: 1600 ± 10 N under a band whose limit is 2000 N is no violation."""
     params = {"strategy": "ivester"} | ({"floor": f"force_N={floor}"} if floor else {})
     with server.client("engineer") as eng, server.client("mes") as mes:
-        created = eng.post("/plans", params=params, json=PLAN)
+        created = eng.post("/plans", params=params, json=renamed(PLAN))
         assert created.status_code == 201, created.text
         plan_id = created.json()["id"]
         settings = eng.get(f"/plans/{plan_id}").json()["settings"]

@@ -92,7 +92,7 @@ def _more_plans(engine: Any, like: int, count: int) -> list[int]:
         row = session.get(t.Plan, like)
         copies = [
             t.Plan(
-                name=f"copy {i}",
+                name=f"copy {count}.{i}",  # a name names one plan
                 machine_id=row.machine_id,
                 body=row.body,
                 strategy=row.strategy,

@@ -37,7 +37,7 @@ from db.state_cache import CACHE
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings, RcbState
 
-from conftest import DEMO_PLAN, ROOT, report_at, stored_state
+from conftest import DEMO_PLAN, ROOT, renamed, report_at, stored_state
 from live import RCB, LiveServer
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
@@ -204,7 +204,9 @@ def test_rest_shows_the_notes_and_the_halt(stored):
 )
 def test_post_plans_takes_halt_over_and_refuses_a_bad_one_naming_it(stored, value, status):
     with stored["server"].client("engineer") as c:
-        answer = c.post("/plans", params={"strategy": "ivester", "halt_over": value}, json=PLAN)
+        answer = c.post(
+            "/plans", params={"strategy": "ivester", "halt_over": value}, json=renamed(PLAN)
+        )
         assert answer.status_code == status, answer.text
         if status == 201:
             settings = c.get(f"/plans/{answer.json()['id']}").json()["settings"]

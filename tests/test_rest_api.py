@@ -22,7 +22,7 @@ from db import tables as t
 from db.engine import make_engine
 from models.errors import InputError
 
-from conftest import DEMO_PLAN, TABLE5_UNCERTAINTY, report_at
+from conftest import DEMO_PLAN, TABLE5_UNCERTAINTY, renamed, report_at
 from live import RCB, free_port
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
@@ -41,7 +41,7 @@ def test_health_needs_no_key(server):
 
 def test_mes_loop_shrinks_bands_by_a_quarter_of_the_margin_and_replays_change_nothing(server):
     with server.client("engineer") as eng, server.client("mes") as mes:
-        created = eng.post("/plans", json=PLAN, params={"strategy": "ivester"})
+        created = eng.post("/plans", json=renamed(PLAN), params={"strategy": "ivester"})
         assert created.status_code == 201, created.text
         plan = created.json()
         assert plan["setpoint_version"] == 1
@@ -100,7 +100,7 @@ def test_mes_loop_shrinks_bands_by_a_quarter_of_the_margin_and_replays_change_no
 
 def test_parts_pages_cover_every_part_once_in_order(server):
     with server.client("engineer") as c:
-        plan_id = c.post("/plans", json=PLAN, params={"strategy": "ivester"}).json()["id"]
+        plan_id = c.post("/plans", json=renamed(PLAN), params={"strategy": "ivester"}).json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
         for i in range(7):
             r = _post_part(c, plan_id, report_at(f"P{i}", setpoints), f"pg-{plan_id}-{i}")
@@ -124,7 +124,7 @@ def test_parts_pages_cover_every_part_once_in_order(server):
 
 def test_history_and_model_versions_record_every_change_with_its_cause(server):
     with server.client("engineer") as c:
-        plan_id = c.post("/plans", json=PLAN, params={"strategy": "ivester"}).json()["id"]
+        plan_id = c.post("/plans", json=renamed(PLAN), params={"strategy": "ivester"}).json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
         for i in range(2):
             setpoints = _post_part(
@@ -188,7 +188,7 @@ def test_tools_can_be_added_read_back_and_used_by_a_plan(server):
         assert again.status_code == 409 and again.json()["field"] == "name"
         plan = {**PLAN, "operations": [{**PLAN["operations"][0], "tool": name}]}
         plan["operations"][0]["limits"] = {"force_N": 2000, "roughness_um": 4.0}
-        created = c.post("/plans", json=plan)
+        created = c.post("/plans", json=renamed(plan))
         assert created.status_code == 201, created.text
         assert created.json()["operations"][0]["tool"] == name
 
@@ -220,7 +220,7 @@ def test_roles(server, role, method, path, status):
 
 def test_errors_are_problems_naming_the_field(server):
     with server.client("engineer") as c:
-        plan_id = c.post("/plans", json=PLAN).json()["id"]
+        plan_id = c.post("/plans", json=renamed(PLAN)).json()["id"]
         setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
         body = report_at("E1", setpoints)
         missing = c.post(f"/plans/{plan_id}/parts", json=body)
@@ -263,9 +263,10 @@ def test_writes_and_auth_failures_are_in_the_audit_log(server):
     with server.client(None) as anon:
         anon.get("/plans")
     with server.client("viewer") as v:
-        v.post("/plans", json=PLAN)
+        v.post("/plans", json=renamed(PLAN))
+    body = renamed(PLAN)
     with server.client("engineer") as c:
-        plan_id = c.post("/plans", json=PLAN).json()["id"]
+        plan_id = c.post("/plans", json=body).json()["id"]
     engine = make_engine(server.url)
     with Session(engine) as session:
         rows = session.scalars(select(t.AuditEntry).order_by(t.AuditEntry.id)).all()
@@ -274,7 +275,7 @@ def test_writes_and_auth_failures_are_in_the_audit_log(server):
     assert ("GET /api/v1/plans", "unauthenticated") in results
     assert ("POST /api/v1/plans", "forbidden") in results
     assert ("create plan", "201") in results
-    assert any(r.target == "plan ivester-demo-part" and r.result == "201" for r in rows)
+    assert any(r.target == f"plan {body['name']}" and r.result == "201" for r in rows)
     assert plan_id >= 1
 
 

@@ -34,7 +34,7 @@ from supervisor.virtual.machine import TrueProcess, VirtualMachine
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
-from conftest import DEMO_PLAN, ROOT
+from conftest import DEMO_PLAN, ROOT, renamed
 from live import RCB, LiveServer
 
 BODY = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
@@ -54,7 +54,7 @@ U_N = 10.0  # the gross breach's force uncertainty [N]
 
 def _create(eng: httpx.Client) -> int:
     """A plan of the demonstration part with the default strategy (``learn``)."""
-    created = eng.post("/plans", json=BODY)
+    created = eng.post("/plans", json=renamed(BODY))
     assert created.status_code == 201, created.text
     plan_id: int = created.json()["id"]
     assert eng.get(f"/plans/{plan_id}").json()["strategy"] == "learn"

@@ -19,7 +19,7 @@ from supervisor.inputs.plan import plan_from_mapping
 from supervisor.inputs.signals import resolve
 from supervisor.optimize.optimizer import optimize_plan
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, renamed
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 PLAN["machine"]["calibrations"] = {
@@ -66,8 +66,8 @@ def _load_report(serial, setpoints, load_V, u_load_V):
 
 def test_a_spindle_load_report_shrinks_the_band_exactly_as_its_force_would(server):
     with server.client("engineer") as c:
-        a = c.post("/plans", json=PLAN, params={"strategy": "ivester"}).json()
-        b = c.post("/plans", json=PLAN, params={"strategy": "ivester"}).json()
+        a = c.post("/plans", json=renamed(PLAN), params={"strategy": "ivester"}).json()
+        b = c.post("/plans", json=renamed(PLAN), params={"strategy": "ivester"}).json()
         op = _rough_od(a)
         assert _rpm(op) * 2 * math.pi / 60 > 70.2  # Eq. 2 side of the ratio (Ivester & Heigel)
         # a reading that corresponds to 95 % of the predicted force: inside the band, margin left
@@ -126,7 +126,7 @@ def test_a_spindle_load_report_shrinks_the_band_exactly_as_its_force_would(serve
 
 def test_bad_readings_are_refused_naming_the_field(server):
     with server.client("engineer") as c:
-        plan = c.post("/plans", json=PLAN).json()
+        plan = c.post("/plans", json=renamed(PLAN)).json()
         no_cal = {
             **PLAN,
             "machine": {k: v for k, v in PLAN["machine"].items() if k != "calibrations"},

@@ -49,6 +49,11 @@ StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEG
 #: ``--json`` of the commands that print tables otherwise.
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
 
+#: Every PLAN argument: a plan's id or its name (:func:`plan_of` turns it into the id).
+PlanArg = Annotated[
+    str, typer.Argument(metavar="PLAN", help="The plan's id or name (rcb plans lists them).")
+]
+
 DbOption = Annotated[
     str | None,
     typer.Option("--db", help="Database URL (default: $RCB_DATABASE_URL, else ./rcb.db)."),
@@ -173,6 +178,16 @@ def _check_revision(engine: Engine, url: str, field: str) -> None:
 def _upgrade(url: str, field: str) -> str:
     """The command that migrates the database ``url`` named by ``field``."""
     return "rcb db upgrade" if field != "--db" else f"rcb db upgrade --db {shown(url)}"
+
+
+def plan_of(engine: Engine, plan: str) -> int:
+    """The id of a PLAN argument: digits are the id, anything else the plan's name.
+
+    An unknown name: :class:`models.errors.InputError` (one line, exit 2 in :func:`errors`).
+    """
+    from api.services.plans import resolve_plan
+
+    return resolve_plan(engine=engine, plan=plan)
 
 
 def check_target(path: Path, field: str = "--out") -> None:

@@ -32,7 +32,16 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from api.cli.common import DbOption, check_target, emit, errors, existing_engine, say
+from api.cli.common import (
+    DbOption,
+    PlanArg,
+    check_target,
+    emit,
+    errors,
+    existing_engine,
+    plan_of,
+    say,
+)
 from api.cli.tables import new_table
 from api.services.errors import NotFoundError
 from api.settings import database_field, database_url
@@ -56,7 +65,7 @@ _CHUNK_BYTES = 1 << 16
 
 
 def gcode(
-    plan: Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")],
+    plan: PlanArg,
     program: Annotated[
         Path, typer.Option("--program", metavar="IN.nc", help="The lathe program to read.")
     ],
@@ -89,12 +98,13 @@ def gcode(
         with _opened(program) as source:
             target = _target(out, program)
             engine = existing_engine(database_url(db), database_field(db))
-            version, setpoints = _setpoints(engine, plan, ranges, mapping)
+            plan_key = plan_of(engine, plan)
+            version, setpoints = _setpoints(engine, plan_key, ranges, mapping)
             report = _rewrite(source, program, target, setpoints, ranges)
     if as_json:
-        emit(result_json(report, plan, version, program, out))
+        emit(result_json(report, plan_key, version, program, out))
     else:
-        _out.print(_table(report, plan, version))
+        _out.print(_table(report, plan_key, version))
         if report.change_count > SHOWN:
             more = report.change_count - SHOWN
             _out.print(f"... and {more} more words changed ({_JSON_LISTS})", soft_wrap=True)

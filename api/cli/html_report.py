@@ -23,9 +23,11 @@ import typer
 
 from api.cli.common import (
     DbOption,
+    PlanArg,
     check_target,
     errors,
     existing_engine,
+    plan_of,
     say,
     shown,
     write_atomically,
@@ -42,7 +44,7 @@ def _no_table(message: str) -> bool:
 
 
 def html_report(
-    plan: Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")],
+    plan: PlanArg,
     out: Annotated[
         Path,
         typer.Option("--out", help="The HTML file to write (replaced atomically if it exists)."),
@@ -75,9 +77,10 @@ def html_report(
         url = database_url(db)
         engine = existing_engine(url, database_field(db))
         try:
-            data = record.report_record(engine=engine, plan_id=plan, last=last)
+            plan_key = plan_of(engine, plan)
+            data = record.report_record(engine=engine, plan_id=plan_key, last=last)
         except NotFoundError:
-            raise InputError("PLAN", plan, f"no such plan in {shown(url)}") from None
+            raise InputError("PLAN", plan_key, f"no such plan in {shown(url)}") from None
         except DBAPIError as err:
             first = str(err.orig or err).strip().splitlines()[0]
             hint = "; rcb db upgrade creates the tables" if _no_table(first) else ""
@@ -93,7 +96,7 @@ def html_report(
         write_atomically(out, page.encode("utf-8"))
     size = len(page.encode("utf-8"))
     say(
-        f"rcb: wrote {out}: plan {plan} {data['plan']['name']}, {data['totals']['parts']} "
+        f"rcb: wrote {out}: plan {plan_key} {data['plan']['name']}, {data['totals']['parts']} "
         f"parts ({len(data['parts'])} plotted), setpoint version "
         f"{data['history']['versions'][-1]['version']}, {size / 1000:.0f} kB"
     )

@@ -18,6 +18,7 @@ try:  # recent typer vendors click as typer._click; its exceptions are not click
 except ImportError:  # pragma: no cover - typer that uses click itself
     from click import exceptions as click_errors  # type: ignore[no-redef]
 
+from api.cli import plans as cli_plans
 from api.cli import replan as cli_replan
 from api.cli import review as cli_review
 from api.cli.admin import db_app, keys_app, serve
@@ -91,8 +92,14 @@ app.command()(certify)  # rcb certify: api/cli/certify.py
 app.command()(fit)  # rcb fit: api/cli/fit.py
 app.command()(gcode)  # rcb gcode: api/cli/gcode.py
 app.command("report")(html_report)  # rcb report: api/cli/html_report.py
+#: ``rcb plans``: alone (or ``list``) it lists; ``create`` and ``show``: api/cli/plans.py
+plans_app = typer.Typer(invoke_without_command=True, no_args_is_help=False)
+plans_app.callback()(cli_review.plans)
+plans_app.command("list")(cli_review.plans)
+plans_app.command("create")(cli_plans.create)
+plans_app.command("show")(cli_plans.show)
+app.add_typer(plans_app, name="plans")  # api/cli/review.py, api/cli/plans.py
 for _review in (
-    cli_review.plans,
     cli_review.history,
     cli_review.parts,
     cli_review.export,

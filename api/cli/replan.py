@@ -12,8 +12,7 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from api.cli.common import DbOption, emit, errors, existing_engine, say
-from api.cli.review import PlanArg
+from api.cli.common import DbOption, PlanArg, emit, errors, existing_engine, plan_of, say
 from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
 from api.settings import database_field, database_url
@@ -46,17 +45,12 @@ def replan(
 
     with errors():
         actor = cli_actor(by)
-        changes: dict[str, Any] = {
-            "limits": {k: _limit_value(k, v) for k, v in _pairs(limit or [], "--limit").items()},
-            "bounds": {k: _bounds(k, v) for k, v in _pairs(bound or [], "--bound").items()},
-            "models": dict(_model(m) for m in model or []),
-        }
-        if reset_bands:
-            changes["reset_bands"] = True
-        changes = {k: v for k, v in changes.items() if v}
+        changes = _changes(limit or [], bound or [], model or [], reset_bands)
+        engine = existing_engine(database_url(db), database_field(db))
+        plan_key = plan_of(engine, plan)
         written = replan(
-            engine=existing_engine(database_url(db), database_field(db)),
-            plan_id=plan,
+            engine=engine,
+            plan_id=plan_key,
             changes=changes,
             dry_run=dry_run,
             actor=actor,
@@ -66,7 +60,7 @@ def replan(
         emit(answer)
         return
     table = new_table(
-        title=f"plan {plan}: replan" + (" (dry run, nothing stored)" if dry_run else "")
+        title=f"plan {plan_key}: replan" + (" (dry run, nothing stored)" if dry_run else "")
     )
     for column in ("operation", "parameter", "now", "new"):
         table.add_column(
@@ -84,6 +78,20 @@ def replan(
     before, after = answer["cycle_time_min"]
     stored = "not stored" if dry_run else f"stored as setpoint version {answer['setpoint_version']}"
     say(f"rcb: cycle time {before:.4g} -> {after:.4g} min; {stored}")
+
+
+def _changes(
+    limit: list[str], bound: list[str], model: list[str], reset_bands: bool
+) -> dict[str, Any]:
+    """The change document of the options (as ``POST .../replan`` takes it)."""
+    changes: dict[str, Any] = {
+        "limits": {k: _limit_value(k, v) for k, v in _pairs(limit, "--limit").items()},
+        "bounds": {k: _bounds(k, v) for k, v in _pairs(bound, "--bound").items()},
+        "models": dict(_model(m) for m in model),
+    }
+    if reset_bands:
+        changes["reset_bands"] = True
+    return {k: v for k, v in changes.items() if v}
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:

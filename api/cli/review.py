@@ -20,7 +20,16 @@ from rich.table import Table
 from rich.text import Text
 
 from api.cli import parts_view
-from api.cli.common import DbOption, emit, errors, existing_engine, say, write_atomically
+from api.cli.common import (
+    DbOption,
+    PlanArg,
+    emit,
+    errors,
+    existing_engine,
+    plan_of,
+    say,
+    write_atomically,
+)
 from api.cli.tables import new_table, short_number
 from api.report import marks
 from api.services import sizes
@@ -37,7 +46,6 @@ _out = Console()
 
 #: ``--json`` of the review commands (their help says less than :data:`api.cli.common.JsonOption`).
 _JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
-PlanArg = Annotated[int, typer.Argument(metavar="PLAN", help="The plan's id (rcb plans).")]
 
 
 def _engine(db: str | None) -> Engine:
@@ -47,6 +55,7 @@ def _engine(db: str | None) -> Engine:
 
 
 def plans(
+    ctx: typer.Context,
     limit: Annotated[
         int | None, typer.Option(help=f"Plans on the page (1-{sizes.READ_PAGE}, default 100).")
     ] = None,
@@ -54,11 +63,16 @@ def plans(
     db: DbOption = None,
     as_json: _JsonOption = False,
 ) -> None:
-    """List plans by id: machine, RCB law, setpoint version in force, parts reported.
+    """List plans by id and name: machine, RCB law, setpoint version in force, parts reported.
 
     A page, and how to get the next; ``--json`` without ``--limit`` streams every plan, one
-    per line, a page at a time.
+    per line, a page at a time. ``rcb plans create FILE`` stores a plan, ``rcb plans show
+    PLAN`` shows one; every PLAN argument takes a plan's id or its name.
     """
+    if ctx.invoked_subcommand is not None:  # rcb plans create|show|list: that command's work
+        return _refuse_before(
+            ctx.invoked_subcommand, limit=limit, cursor=cursor, db=db, json=as_json
+        )
     from api.services import queries
 
     with errors():
@@ -78,29 +92,44 @@ def plans(
                     sys.stdout.write(",\n" + json.dumps(p, default=datetime.isoformat))
             sys.stdout.write(f'\n], "next_cursor": {json.dumps(page["next_cursor"])}}}\n')
     if not as_json:
-        table = new_table(title="plans")
-        for column in ("id", "name", "machine", "RCB", "ver", "parts", "status", "created"):
-            table.add_column(
-                column, justify="right" if column in ("id", "ver", "parts") else "left"
-            )
-        for p in page["plans"]:
-            halted = p["status"] == "halted"
-            table.add_row(
-                str(p["id"]),
-                p["name"],
-                p["machine"],
-                f"{p['strategy']} α={p['alpha']:g}",
-                str(p["setpoint_version"]),
-                str(p["parts"]),
-                "[bold red]HALTED[/]" if halted else "running",
-                p["created_at"].strftime("%Y-%m-%d %H:%M"),
-            )
-        _out.print(table)
-        for p in page["plans"]:
-            if p["status"] == "halted":
-                _print_halt(p["id"], p["halt"])
+        _print_plans(page["plans"])
     if page["next_cursor"] is not None:
         say(f"rcb: next page: rcb plans --cursor {page['next_cursor']} --limit {size}")
+
+
+def _print_plans(listed: list[dict[str, Any]]) -> None:
+    """A page of plans as a table, then each halted plan's conflicts."""
+    table = new_table(title="plans")
+    for column in ("id", "name", "machine", "RCB", "ver", "parts", "status", "created"):
+        table.add_column(column, justify="right" if column in ("id", "ver", "parts") else "left")
+    for p in listed:
+        halted = p["status"] == "halted"
+        table.add_row(
+            str(p["id"]),
+            p["name"],
+            p["machine"],
+            f"{p['strategy']} α={p['alpha']:g}",
+            str(p["setpoint_version"]),
+            str(p["parts"]),
+            "[bold red]HALTED[/]" if halted else "running",
+            p["created_at"].strftime("%Y-%m-%d %H:%M"),
+        )
+    _out.print(table)
+    for p in listed:
+        if p["status"] == "halted":
+            _print_halt(p["id"], p["halt"])
+
+
+def _refuse_before(command: str, **options: object) -> None:
+    """Refuse an option of ``rcb plans`` given before its command (it would be ignored).
+
+    ``rcb plans --db X show 1`` would read ./rcb.db: one line, exit 2.
+    """
+    for name, value in options.items():
+        if value:
+            with errors():
+                where = f"rcb plans {command} ... --{name}"
+                raise InputError(f"--{name}", value, f"goes after the command: {where}")
 
 
 def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
@@ -127,11 +156,12 @@ def history(
 
     with errors():
         engine = _engine(db)
+        plan_key = plan_of(engine, plan)
         data = queries.plan_history(
-            engine=engine, plan_id=plan, page_size=_bounded("--last", last), newest=True
+            engine=engine, plan_id=plan_key, page_size=_bounded("--last", last), newest=True
         )
         caused = [v["part_id"] for v in data["versions"] if v["part_id"] is not None]
-        decisions = queries.decisions(engine=engine, plan_id=plan, part_ids=caused)
+        decisions = queries.decisions(engine=engine, plan_id=plan_key, part_ids=caused)
         names = [op["name"] for op in data["versions"][0]["operations"]]
         if operation is not None and operation not in names:
             raise InputError(
@@ -146,7 +176,7 @@ def history(
         return
     _out.print(_history_table(data, operation))
     if data["status"] == "halted":
-        _print_halt(plan, data["halt"])
+        _print_halt(plan_key, data["halt"])
 
 
 def _bounded(option: str, count: int) -> int:
@@ -269,22 +299,23 @@ def parts(
     with errors():
         after = _since(since)
         engine = _engine(db)
+        plan_key = plan_of(engine, plan)
         if last is not None:
             newest = queries.parts(
                 engine=engine,
-                plan_id=plan,
+                plan_id=plan_key,
                 page_size=_bounded("--last", last),
                 newest=True,
                 since=after,
             )
             pages: Iterable[list[dict[str, Any]]] = [newest["items"]]
         else:
-            queries.get_plan(engine=engine, plan_id=plan)  # an unknown plan: one line, exit 2
-            pages = queries.part_pages(engine=engine, plan_id=plan, since=after)
+            queries.get_plan(engine=engine, plan_id=plan_key)  # an unknown plan: one line, exit 2
+            pages = queries.part_pages(engine=engine, plan_id=plan_key, since=after)
         if as_json:
-            parts_view.stream_json(plan, pages)
+            parts_view.stream_json(plan_key, pages)
             return
-        title = f"plan {plan}: parts" + (f" since {since}" if since else "")
+        title = f"plan {plan_key}: parts" + (f" since {since}" if since else "")
         for page in pages:
             _out.print(parts_view.parts_table(title, page, short_number, _mark))
 
@@ -313,8 +344,9 @@ def export(
         if fmt not in ("csv", "parquet"):
             raise InputError("--format", fmt, "expected csv or parquet")
         engine = _engine(db)
+        plan_key = plan_of(engine, plan)
         tables = tidy.tables(
-            queries.full_history(engine=engine, plan_id=plan), _all_parts(engine, plan)
+            queries.full_history(engine=engine, plan_id=plan_key), _all_parts(engine, plan_key)
         )
         written = _write_tables(tables, out, fmt)
     for path in written:

@@ -25,7 +25,7 @@ from starlette.routing import Match
 from api.rest.unavailable import RETRY_AFTER_S, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
-from db.errors import ConflictError
+from db.errors import ConflictError, PlanNameTakenError
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
 
@@ -82,8 +82,12 @@ def problem(
     errors: list[dict[str, Any]] | None = None,
     headers: dict[str, str] | None = None,
     conflicts: list[dict[str, Any]] | None = None,
+    extensions: dict[str, Any] | None = None,
 ) -> JSONResponse:
-    """A problem+json response (``conflicts``: a halted plan's, an RFC 9457 extension member)."""
+    """A problem+json response (``conflicts``: a halted plan's, an RFC 9457 extension member).
+
+    ``extensions``: further extension members (``plan_id``: the plan that has a name taken).
+    """
     body: dict[str, Any] = {
         "type": _TYPE_BASE + code,
         "title": _TITLES.get(status, "Error"),
@@ -98,6 +102,7 @@ def problem(
         body["errors"] = errors[:MAX_ERRORS]
     if conflicts is not None:
         body["conflicts"] = conflicts
+    body.update(extensions or {})
     return JSONResponse(
         _valid_unicode(body), status_code=status, media_type=MEDIA_TYPE, headers=headers
     )
@@ -201,7 +206,9 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(ConflictError)
     async def _conflict(request: Request, err: ConflictError) -> JSONResponse:
-        return problem(request, 409, "conflict", str(err), err.field, err.value)
+        # plan_name_taken names the stored plan of that name too
+        extra = {"plan_id": err.plan_id} if isinstance(err, PlanNameTakenError) else None
+        return problem(request, 409, err.code, str(err), err.field, err.value, extensions=extra)
 
     @app.exception_handler(PlanHaltedError)
     async def _halted(request: Request, err: PlanHaltedError) -> JSONResponse:

@@ -6,6 +6,7 @@ Idempotency-Key, and audited, refused or not.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -18,7 +19,14 @@ from api.services.idempotency import Idempotency, Written
 from api.services.transactions import audited, write
 from db import access, library
 from db.access import Actor
-from db.plans import add_plan, add_replan, current_body, get_plan_row, plan_tools
+from db.plans import (
+    add_plan,
+    add_replan,
+    current_body,
+    get_plan_row,
+    plan_id_by_name,
+    plan_tools,
+)
 from db.state import load_state
 from models.errors import InputError
 from supervisor.inputs.plan import plan_from_mapping
@@ -44,6 +52,26 @@ def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
     return floors
 
 
+#: A PLAN argument of only these characters is a plan's id; any other, its name.
+_ID = re.compile(r"[0-9]+")
+
+
+def resolve_plan(*, engine: Engine, plan: str) -> int:
+    """The id of the plan that ``plan`` names: its id (digits), else its name.
+
+    Names are unique (:class:`db.errors.PlanNameTakenError`); an id is not checked here (the
+    use case that reads the plan says so when there is none).
+    """
+    text = plan.strip()
+    if _ID.fullmatch(text):
+        return int(text)
+    with Session(engine) as session:
+        plan_id = plan_id_by_name(session=session, name=plan)
+    if plan_id is None:
+        raise InputError("PLAN", plan, f"no plan named {plan!r} (rcb plans lists them)")
+    return plan_id
+
+
 def create_plan(
     *,
     engine: Engine,
@@ -61,6 +89,8 @@ def create_plan(
         with Session(engine) as session:
             stored_tools = library.load_tools(session=session)
         plan = plan_from_mapping(body, stored_tools)
+        if _ID.fullmatch(plan.name.strip()):
+            raise InputError("name", plan.name, "must not be only digits (PLAN digits: an id)")
         result = optimize_plan(plan)  # outside the write transaction: it needs no lock
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
@@ -71,6 +101,7 @@ def create_plan(
                 "id": plan_id,
                 "name": plan.name,
                 "setpoint_version": 1,
+                "cycle_time_min": result.cycle_time_min,
                 **operations_json(result),
             }
 

@@ -29,6 +29,7 @@ class PlanCreated(Out):
     id: int
     name: str
     setpoint_version: int
+    cycle_time_min: float = Field(description="the machining time of one part at version 1")
     operations: list[OperationSetpoint]
 
 

@@ -26,6 +26,9 @@ class Problem(BaseModel):
         description="plan_halted: per operation, the limits that cannot be met (none, and "
         "the message naming the reading, for a reading past its limit by more than halt_over)",
     )
+    plan_id: int | None = Field(
+        None, description="plan_name_taken: the id of the stored plan that has the name"
+    )
 
 
 class Health(Out):

@@ -1,0 +1,179 @@
+"""``rcb plans create FILE`` and ``rcb plans show PLAN``: store a plan by name, read one back.
+
+``create`` is the command line's ``POST /plans``: the same use case
+(:func:`api.services.plans.create_plan`), so a plan file is checked, optimised and stored with
+setpoint version 1 exactly as over REST, and a name already stored is refused the same way
+(``plan_name_taken``: one line, exit 2). ``rcb plans`` (or ``rcb plans list``) lists them
+(:func:`api.cli.review.plans`); :mod:`api.cli.main` makes the group.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.console import Console
+
+from api.cli.common import (
+    DbOption,
+    JsonOption,
+    PlanArg,
+    StrategyOption,
+    emit,
+    errors,
+    existing_engine,
+    plan_of,
+    say,
+)
+from api.cli.tables import new_table, short_number
+from api.cli.who import ByOption, cli_actor
+from models.bounds import MAX_DOCUMENT_BYTES
+from models.errors import InputError
+from supervisor.rcb.strategies import DEFAULT_STRATEGY
+
+if TYPE_CHECKING:
+    from rich.table import Table
+
+_out = Console()
+
+PlanFile = Annotated[
+    Path,
+    typer.Argument(
+        metavar="FILE",
+        help="The plan file: TOML (as rcb optimize reads), or JSON of the same structure "
+        "(as POST /plans takes).",
+    ),
+]
+
+
+def create(
+    plan_file: PlanFile,
+    strategy: StrategyOption = DEFAULT_STRATEGY,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+    by: ByOption = None,
+) -> None:
+    """Store a plan under its name: checked, optimised, setpoint version 1.
+
+    A name names one plan: a name already stored is refused (change that plan with
+    ``rcb replan PLAN``, or give the new one another name). Prints the new plan's id, which
+    every PLAN argument takes, as it takes the name.
+    """
+    from api.services.plans import create_plan
+    from api.settings import database_field, database_url
+    from supervisor.rcb.state import RcbSettings
+
+    with errors():
+        actor = cli_actor(by)
+        body = read_plan_file(plan_file)
+        engine = existing_engine(database_url(db), database_field(db))
+        written = create_plan(
+            engine=engine, body=body, settings=RcbSettings(strategy=strategy), actor=actor
+        )
+    answer = written.body
+    if as_json:
+        emit(answer)
+        return
+    title = f"plan {answer['id']} {answer['name']}: stored, setpoint version 1"
+    _out.print(_setpoint_table(title, answer["operations"]))
+    say(
+        f"rcb: plan {answer['id']} {answer['name']}: setpoint version "
+        f"{answer['setpoint_version']}, cycle time {answer['cycle_time_min']:.4g} min"
+    )
+
+
+def read_plan_file(path: Path) -> dict[str, Any]:
+    """A plan file's structure: ``.json`` as JSON, anything else as TOML (errors name FILE)."""
+    from supervisor.inputs.files import read_toml
+
+    if path.suffix.lower() != ".json":
+        data = read_toml(path, "FILE")
+    else:
+        try:
+            with path.open("rb") as file:
+                raw = file.read(MAX_DOCUMENT_BYTES + 1)
+        except OSError as err:
+            raise InputError("FILE", str(path), f"cannot be read ({err.strerror})") from None
+        if len(raw) > MAX_DOCUMENT_BYTES:
+            raise InputError("FILE", str(path), f"is larger than {MAX_DOCUMENT_BYTES} bytes")
+        try:
+            data = json.loads(raw.decode("utf-8"))
+        except (UnicodeDecodeError, ValueError) as err:
+            raise InputError("FILE", str(path), f"is not valid JSON ({err})") from None
+    if not isinstance(data, dict):
+        raise InputError("FILE", str(path), "must hold a plan (a table of name, machine ...)")
+    return data
+
+
+def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> None:
+    """One plan: its operations with limits and bounds, its RCB settings, the setpoints in force.
+
+    A halted plan has no setpoints in force: its halt is shown instead.
+    """
+    from api.services import queries
+    from api.services.errors import PlanHaltedError
+    from api.settings import database_field, database_url
+
+    with errors():
+        engine = existing_engine(database_url(db), database_field(db))
+        plan_key = plan_of(engine, plan)
+        data = queries.get_plan(engine=engine, plan_id=plan_key)
+        try:
+            current: dict[str, Any] | None = queries.current_setpoints(
+                engine=engine, plan_id=plan_key
+            )
+        except PlanHaltedError:
+            current = None
+    data["setpoints"] = current
+    if as_json:
+        emit(data)
+        return
+    for table in _show_tables(data, current):
+        _out.print(table)
+    settings = ", ".join(f"{k}={v}" for k, v in data["settings"].items())
+    state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
+    say(
+        f"rcb: plan {data['id']} {data['name']} on {data['machine']}: {state}, setpoint version "
+        f"{data['setpoint_version']}, {data['parts']} parts; RCB {data['strategy']} "
+        f"alpha={data['alpha']:g} ({settings})"
+    )
+
+
+def _show_tables(data: dict[str, Any], current: dict[str, Any] | None) -> list[Table]:
+    """The setpoints in force (none for a halted plan), then each operation's limits and bounds."""
+    title = f"plan {data['id']} {data['name']}: setpoint version {data['setpoint_version']}"
+    tables = [] if current is None else [_setpoint_table(title, current["operations"])]
+    limits = new_table(title=f"plan {data['id']} {data['name']}: limits and bounds")
+    for column in ("operation", "tool", "limits", "bounds"):
+        limits.add_column(column, overflow="fold")
+    for op in data["operations"]:
+        limits.add_row(
+            op["name"],
+            op["tool"],
+            "\n".join(f"{k} {short_number(v)}" for k, v in op["limits"].items()),
+            "\n".join(
+                f"{k} {short_number(lo)}-{short_number(hi)}" for k, (lo, hi) in op["bounds"].items()
+            ),
+        )
+    return [*tables, limits]
+
+
+def _setpoint_table(title: str, operations: list[dict[str, Any]]) -> Table:
+    """One row per operation: tool, each cutting parameter, MRR."""
+    table = new_table(title=title)
+    params = list(dict.fromkeys(k for op in operations for k in op["setpoint"]))
+    table.add_column("operation", overflow="fold")
+    table.add_column("tool", overflow="fold")
+    for p in params:
+        table.add_column(p, justify="right")
+    table.add_column("MRR\ncm³/min", justify="right")
+    for op in operations:
+        table.add_row(
+            op["name"],
+            op["tool"],
+            *(short_number(op["setpoint"].get(p)) for p in params),
+            short_number(op["mrr_cm3_min"]),
+        )
+    return table
