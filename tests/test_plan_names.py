@@ -11,29 +11,17 @@ from __future__ import annotations
 import json
 import tomllib
 
-from alembic.autogenerate import compare_metadata
-from alembic.migration import MigrationContext
 from sqlalchemy import text
+from test_migrations import _no_difference  # autogenerate finds nothing, every table there
 
 from api.cli.main import app
 from db.engine import make_engine, upgrade
-from db.tables import Base, utcnow
+from db.tables import utcnow
 
 from conftest import DEMO_PLAN
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 NAME = PLAN["name"]
-
-
-def _no_difference(url: str) -> None:
-    """Autogenerate finds nothing to change (the unique index is the tables' own)."""
-    engine = make_engine(url)
-    try:
-        with engine.connect() as connection:
-            context = MigrationContext.configure(connection, opts={"compare_type": True})
-            assert compare_metadata(context, Base.metadata) == []
-    finally:
-        engine.dispose()
 
 
 def _rcb(runner, *args):
