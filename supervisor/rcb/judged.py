@@ -37,11 +37,6 @@ class Judged:
     exponents: Mapping[str, float] | None = None
     expected: tuple[Expected, Expected | None] | None = None  # what the strategy expected
 
-    @property
-    def innovation(self) -> tuple[float, float] | None:
-        """``(e, v)`` on the high side (None: not judged there, or a quarantine confirmed)."""
-        return None if self.watched.verdict == "confirm" else self.watched.innovation
-
     def shifted(self, shift: float, variance: float) -> Measurement | None:
         """What the strategy expected on the high side, moved by a common change (None: nothing).
 

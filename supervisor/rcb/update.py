@@ -165,8 +165,8 @@ def update(
         judge(state, *measured_at(operations[name], results[name], quantity), quantity, m, report)
         for name, quantity, m in measured_items  # measured_at: a pass's setpoint
     ]
-    on_high = [j for j in judged if j.innovation is not None]
-    common = common_shifts((j.quantity, j.innovation) for j in on_high if j.innovation)
+    on_high = [j for j in judged if j.watched.innovation is not None]  # none when confirmed
+    common = common_shifts((j.quantity, i) for j in on_high if (i := j.watched.innovation))
     for quantity, shift in common.items():
         for index, j in enumerate(j for j in on_high if j.quantity == quantity):
             j.watched = j.rejudged(state.settings.exponent_sd, shift.shift(without=index))
