@@ -101,8 +101,12 @@ def depthmap(
         float, typer.Option("--allowance-mm", help="Stock left by roughing [mm].")
     ] = 0.5,
     form_tolerance_mm: Annotated[
-        float, typer.Option("--form-tolerance-mm", help="Stair left between levels [mm].")
-    ] = 0.04,
+        float | None,
+        typer.Option(
+            "--form-tolerance-mm",
+            help="Stair left between levels [mm] [default: the allowance with --finish, else 0.04].",
+        ),
+    ] = None,
     max_arc_radius_mm: Annotated[
         float, typer.Option("--max-arc-radius-mm", help="Largest G2/G3 radius [mm].")
     ] = 200.0,
@@ -118,7 +122,12 @@ def depthmap(
         from supervisor.cam.depthmap import parse_z_range, read_depthmap
         from supervisor.cam.feeds import Feeds, milling_operation
         from supervisor.cam.finishing import parse_direction
-        from supervisor.cam.job import CamSettings, check_cutter, run_cam
+        from supervisor.cam.job import (
+            CamSettings,
+            check_cutter,
+            default_form_tolerance_mm,
+            run_cam,
+        )
         from supervisor.inputs.plan import load_plan
 
         check_target(out)
@@ -127,6 +136,8 @@ def depthmap(
             if preview.suffix.lower() not in (".png", ".svg"):
                 raise InputError("--preview", str(preview), "must end in .png or .svg")
         _bounded(allowance_mm, "--allowance-mm", 0.0, 10.0)
+        if form_tolerance_mm is None:
+            form_tolerance_mm = default_form_tolerance_mm(allowance_mm, finish is not None)
         _bounded(form_tolerance_mm, "--form-tolerance-mm", 0.001, 10.0)
         _bounded(stepover_mm, "--stepover-mm", 0.001, 100.0)
         _bounded(max_arc_radius_mm, "--max-arc-radius-mm", 0.0, 1.0e5)

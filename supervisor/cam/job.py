@@ -29,12 +29,30 @@ from supervisor.cam.verify import Verification, simulate
 Progress = Callable[[str, int, int], None]
 
 
+#: The stair a constant-Z level may leave when roughing is the last pass [mm].
+FORM_TOLERANCE_MM = 0.04
+
+
+def default_form_tolerance_mm(allowance_mm: float, finishing: bool) -> float:
+    """The form tolerance when none is given [mm].
+
+    Before a finishing pass the stair only has to be no thicker than the stock the finisher
+    is planned for: it cuts at the allowance plus the form tolerance (:func:`run_cam` plans
+    its setpoint at that depth), so a stair of the allowance doubles that depth at most and
+    the finisher's setpoint is planned for it. ``moon.png`` (512 px at 0.25 mm, z 0-4 mm,
+    Ø10 flat, Ø6 ball): 89 roughing levels and 267 min at 0.04 mm, 10 levels and 61 min
+    at the allowance (0.5 mm). Without a finishing pass the levels are the final form:
+    :data:`FORM_TOLERANCE_MM`.
+    """
+    return allowance_mm if finishing and allowance_mm > 0 else FORM_TOLERANCE_MM
+
+
 @dataclass(frozen=True)
 class CamSettings:
-    """Choices of one run [mm]; the defaults are the command line's."""
+    """Choices of one run [mm]; the defaults are the command line's without ``--finish``."""
 
     allowance_mm: float = 0.5
-    form_tolerance_mm: float = 0.04
+    form_tolerance_mm: float = FORM_TOLERANCE_MM
     finish_stepover_mm: float = 0.5
     finish_direction: str | float = "y"
     max_arc_radius_mm: float = 200.0
