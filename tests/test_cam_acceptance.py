@@ -31,7 +31,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PLAN = ROOT / "examples" / "cam_relief_part.toml"
 PIXEL = 0.1
 ALLOWANCE = 0.5  # the command's default
-TOLERANCE = 0.04  # the form tolerance the hand counts are made for (given: with --finish the default is the allowance)
+# the form tolerance the hand counts are for (given: with --finish the default is the allowance)
+TOLERANCE = 0.04
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""`rcb cam depthmap`'s form tolerance when none is given (issue 30: a sensible program on moon.png).
+"""`rcb cam depthmap`'s form tolerance when none is given (issue 30: a sensible moon.png program).
 
 Before a finishing pass the stair may be as thick as the allowance (the finisher's setpoint is
 planned at allowance + form tolerance); without one the levels are the final form (0.04 mm).

@@ -104,7 +104,8 @@ def depthmap(
         float | None,
         typer.Option(
             "--form-tolerance-mm",
-            help="Stair left between levels [mm] [default: the allowance with --finish, else 0.04].",
+            help="Stair left between levels [mm] [default: the allowance with --finish, "
+            "else 0.04].",
         ),
     ] = None,
     max_arc_radius_mm: Annotated[
