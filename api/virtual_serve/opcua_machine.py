@@ -1,4 +1,7 @@
-"""A test OPC UA server on 127.0.0.1 (asyncua) playing a virtual lathe's trace.
+"""An OPC UA server on 127.0.0.1 (asyncua) playing a virtual lathe's trace.
+
+``rcb virtual serve --protocol opcua`` serves it (:mod:`api.virtual_serve.run`); the collector's
+tests start it in a thread.
 
 Its address space is built by a ``space`` function: :func:`own_space` (here) or
 ``tests/opcua_nodesets.py``'s, built from the OPC Foundation's own nodesets. :func:`own_space`
@@ -89,6 +92,7 @@ class OpcUaMachine:
             self.loop.close()
 
     def start(self) -> None:
+        """Start serving (in a thread); raise when the server does not start in 30 s."""
         self._thread.start()
         if not self.ready.wait(30):
             raise RuntimeError(f"OPC UA server did not start: {self.error}")
@@ -105,6 +109,7 @@ class OpcUaMachine:
         self._play.set()
 
     def stop(self) -> None:
+        """Stop serving and wait for the thread."""
         if self._stop is not None:
             self.loop.call_soon_threadsafe(self._halt)
         self._thread.join(30)
