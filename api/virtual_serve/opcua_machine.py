@@ -79,6 +79,22 @@ class OpcUaMachine:
         self._stop: asyncio.Event | None = None
         self._thread = threading.Thread(target=self._run)
         self.error: BaseException | None = None
+        self._server: Server | None = None
+
+    def watched(self) -> bool:
+        """Whether a client has a subscription with a monitored item (read in its loop)."""
+        server = self._server
+        if server is None or not self.ready.is_set():
+            return False
+
+        async def look() -> bool:
+            subscriptions = server.iserver.subscription_service.subscriptions.values()
+            return any(s.monitored_item_srv._monitored_items for s in subscriptions)
+
+        try:
+            return asyncio.run_coroutine_threadsafe(look(), self.loop).result(timeout=5)
+        except (TimeoutError, RuntimeError):  # the loop is closing
+            return False
 
     def _run(self) -> None:
         asyncio.set_event_loop(self.loop)
@@ -94,8 +110,8 @@ class OpcUaMachine:
     def start(self) -> None:
         """Start serving (in a thread); raise when the server does not start in 30 s."""
         self._thread.start()
-        if not self.ready.wait(30):
-            raise RuntimeError(f"OPC UA server did not start: {self.error}")
+        if not self.ready.wait(30) or self.error is not None:
+            raise RuntimeError(f"OPC UA server did not start: {self.error!r}")
 
     def play(self, until: int | None = None) -> None:
         """Write the samples up to ``until`` (all by default), then wait for more."""
@@ -129,7 +145,7 @@ class OpcUaMachine:
 
     async def _serve(self) -> None:
         self._play, self._stop = asyncio.Event(), asyncio.Event()
-        server = Server()
+        server = self._server = Server()
         await server.init()
         server.set_endpoint(self.url)
         server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
