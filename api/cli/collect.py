@@ -14,11 +14,15 @@ import signal
 import sys
 import textwrap
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from api.cli.common import errors
+
+if TYPE_CHECKING:
+    from api.collect.config import CollectorConfig
+    from api.collect.queue import Queue
 
 _STATUS_ROWS = 10
 
@@ -79,8 +83,8 @@ def _status(state: dict[str, object], as_json: bool) -> None:
         _echo(f"  GAP: sequences {row['first']}..{row['last']}: {row['reason']}")
 
 
-def _run(settings: object, queue: object) -> None:
-    from api.collect.runner import run
+def _run(settings: CollectorConfig, queue: Queue) -> None:
+    from api.collect.runner import log, run
 
     logging.basicConfig(
         stream=sys.stderr, level=logging.INFO, format="%(asctime)s rcb collect: %(message)s"
@@ -88,11 +92,37 @@ def _run(settings: object, queue: object) -> None:
     for noisy in ("asyncua", "httpx", "httpcore"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
 
-    async def main() -> None:
-        stop = asyncio.Event()
+    async def main() -> str:
+        stop, caught = asyncio.Event(), list[str]()
+
+        def on_signal(sig: signal.Signals) -> None:
+            caught.append(sig.name)
+            stop.set()
+
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
-        await run(settings, queue, stop)  # type: ignore[arg-type]
+            loop.add_signal_handler(sig, on_signal, sig)
+        await run(settings, queue, stop)
+        return caught[0] if caught else "the reader ended"
 
-    asyncio.run(main())
+    before, why = queue.status(0), "an error"
+    try:
+        why = asyncio.run(main())
+    finally:
+        after = queue.status(0)
+        log.info(
+            "stopped (%s): this run queued %d parts, sent %d, rejected %d, skipped %d, gaps %d; "
+            "%d pending in the queue (rcb collect --status)",
+            why,
+            _total(after) - _total(before),
+            after["sent"] - before["sent"],
+            after["rejected"] - before["rejected"],
+            after["skipped_parts"] - before["skipped_parts"],
+            after["gaps"] - before["gaps"],
+            after["pending"],
+        )
+
+
+def _total(state: dict[str, Any]) -> int:
+    """Reports in the queue, whatever their state."""
+    return int(state["pending"] + state["sent"] + state["rejected"])

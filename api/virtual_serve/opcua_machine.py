@@ -23,13 +23,14 @@ import threading
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-from asyncua import Server, ua
+from asyncua import ua
+from asyncua.server.server import Server
 
 from supervisor.virtual.trace import TraceSample
 
 CNC = "http://opcfoundation.org/UA/CNC"  # as Opc.Ua.CNC.NodeSet.xml has it
 PROGRAM = "O1001"
-_BASE = dt.datetime(2026, 11, 25, tzinfo=dt.UTC)
+_BASE = ua.DateTime(2026, 11, 25, tzinfo=dt.UTC)  # asyncua's datetime, as DataValue declares
 
 
 #: item → (node, its VariantType, whether its value is an array: OPC 40502's ActProgramBlock)
@@ -203,8 +204,10 @@ class OpcUaMachine:
             if old is not None and old[item] == value:
                 continue
             node, kind, array = nodes[item]
-            if array:  # the block being run, then (here: none) the blocks after it
-                value = [value, "", ""]
+            # an array: the block being run, then (here: none) the blocks after it
+            written: object = [value, "", ""] if array else value
             await node.write_value(
-                ua.DataValue(ua.Variant(value, kind), SourceTimestamp=stamp, ServerTimestamp=stamp)
+                ua.DataValue(
+                    ua.Variant(written, kind), SourceTimestamp=stamp, ServerTimestamp=stamp
+                )
             )
