@@ -44,7 +44,7 @@ def serve(
     protocol: Annotated[Protocol, typer.Option(help="mtconnect (an agent) or opcua (a server).")],
     plan: Annotated[
         Path,
-        typer.Option(metavar="FILE", help="A plan file with [machine.calibrations.spindle_load]."),
+        typer.Option(metavar="FILE", help="A plan with a machine.calibrations.spindle_load table."),
     ],
     port: Annotated[
         int | None,
