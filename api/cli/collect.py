@@ -1,8 +1,9 @@
 """``rcb collect --config collector.toml``: a machine's spindle signals → part reports.
 
 Runs until interrupted (SIGINT/SIGTERM stop it cleanly; a ``kill -9`` loses nothing: see
-:mod:`api.collect.queue`). ``--status`` prints the queue's state and exits. asyncua and httpx are
-imported inside the command, so other ``rcb`` commands do not load them.
+:mod:`api.collect.queue`), or with ``--parts N`` until N parts are sent; it logs its start, each
+part and its stop with the run's counts. ``--status`` prints the queue's state and exits.
+asyncua and httpx are imported inside the command, so other ``rcb`` commands do not load them.
 """
 
 from __future__ import annotations
@@ -35,6 +36,14 @@ def collect(
         bool, typer.Option("--status", help="Print the queue's state and exit.")
     ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="--status as JSON.")] = False,
+    parts: Annotated[
+        int | None,
+        typer.Option(
+            "--parts",
+            min=1,
+            help="Stop once this many parts are sent in this run (default: at SIGTERM/SIGINT).",
+        ),
+    ] = None,
 ) -> None:
     """Read one machine's spindle load over OPC UA or MTConnect and report each part."""
     from api.collect.config import load_config
@@ -50,7 +59,7 @@ def collect(
             _status(queue.status(_STATUS_ROWS), as_json)
             return
         with errors():  # a node or a file refused at start: one line, exit 2
-            _run(settings, queue)
+            _run(settings, queue, parts)
     finally:
         queue.close()
 
@@ -83,7 +92,7 @@ def _status(state: dict[str, object], as_json: bool) -> None:
         _echo(f"  GAP: sequences {row['first']}..{row['last']}: {row['reason']}")
 
 
-def _run(settings: CollectorConfig, queue: Queue) -> None:
+def _run(settings: CollectorConfig, queue: Queue, parts: int | None) -> None:
     from api.collect.runner import log, run
 
     logging.basicConfig(
@@ -102,8 +111,15 @@ def _run(settings: CollectorConfig, queue: Queue) -> None:
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, on_signal, sig)
+        counting = None
+        if parts is not None:
+            counting = asyncio.create_task(_until_sent(queue, before["sent"] + parts, stop))
         await run(settings, queue, stop)
-        return caught[0] if caught else "the reader ended"
+        if counting is not None:
+            await counting
+        if caught:
+            return caught[0]
+        return f"{parts} parts sent" if parts is not None else "the reader ended"
 
     before, why = queue.status(0), "an error"
     try:
@@ -121,6 +137,18 @@ def _run(settings: CollectorConfig, queue: Queue) -> None:
             after["gaps"] - before["gaps"],
             after["pending"],
         )
+
+
+async def _until_sent(queue: Queue, sent: int, stop: asyncio.Event) -> None:
+    """Set ``stop`` once the queue counts ``sent`` reports sent (or when it is set)."""
+    while not stop.is_set():
+        if queue.status(0)["sent"] >= sent:
+            stop.set()
+            return
+        try:
+            await asyncio.wait_for(stop.wait(), timeout=0.2)
+        except TimeoutError:
+            pass
 
 
 def _total(state: dict[str, Any]) -> int:

@@ -62,6 +62,9 @@ def serve(
         Path | None,
         typer.Option(metavar="collector.toml", help="Write the collector's file for this machine."),
     ] = None,
+    machine: Annotated[
+        str, typer.Option(help="The machine's name in --collector's file (in each serial).")
+    ] = "virtual-lathe",
     service_url: Annotated[
         str, typer.Option(help="The REST service, in --collector's file.")
     ] = "http://127.0.0.1:8000/api/v1",
@@ -71,7 +74,7 @@ def serve(
 ) -> None:
     """Serve a virtual lathe making the plan's parts at its version-1 setpoints, until stopped."""
     from api.virtual_serve import run
-    from api.virtual_serve.collector_file import collector_toml, write_collector
+    from api.virtual_serve.collector_file import collector_toml, queue_name, write_collector
     from api.virtual_serve.lathe import build
 
     _logging()
@@ -82,7 +85,9 @@ def serve(
     try:
         with errors():
             if collector is not None:
-                text = collector_toml(lathe, protocol.value, published.url, service_url, plan_id)
+                service = (service_url, plan_id)
+                queue = queue_name(collector)
+                text = collector_toml(lathe, protocol.value, published.url, service, machine, queue)
                 write_collector(collector, text)
     except typer.Exit:
         published.close()

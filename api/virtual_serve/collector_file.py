@@ -19,7 +19,6 @@ from models.errors import InputError
 
 #: Expanded (k = 2) uncertainty of one reading [V]: the trace's noise is 0.004 V (one sigma).
 UNCERTAINTY_V = 0.02
-MACHINE = "virtual-lathe"
 
 
 def _quoted(text: str) -> str:
@@ -27,15 +26,21 @@ def _quoted(text: str) -> str:
 
 
 def collector_toml(
-    lathe: VirtualLathe, protocol: str, url: str, service_url: str, plan_id: int
+    lathe: VirtualLathe,
+    protocol: str,
+    url: str,
+    service: tuple[str, int],
+    machine: str,
+    queue: str,
 ) -> str:
-    """The file's text (see the module docstring)."""
+    """The file's text: ``service`` is the REST service's URL and the plan's id."""
+    service_url, plan_id = service
     operations = ", ".join(_quoted(m) for m in lathe.operation_map())
     lines = [
         f"# rcb collect --config this file: reads the virtual lathe at {url}",
         "[collector]",
-        f"machine = {_quoted(MACHINE)}",
-        'queue = "collector-queue.sqlite"',
+        f"machine = {_quoted(machine)}",
+        f"queue = {_quoted(queue)}",
         "[service]",
         f"url = {_quoted(service_url)}",
         f"plan = {plan_id}",
@@ -59,6 +64,11 @@ def collector_toml(
             'program = "Machine/ProgramName"',
         ]
     return "\n".join(lines) + "\n"
+
+
+def queue_name(path: Path) -> str:
+    """The queue of the collector whose file is ``path`` (``collector-queue.sqlite``)."""
+    return f"{path.stem}-queue.sqlite"
 
 
 def write_collector(path: Path, text: str) -> None:
