@@ -171,7 +171,7 @@ def test_a_collector_started_after_the_parts_says_it_waits_and_start_buffer_read
         late = collect(tmp_path, sqlite_server)
         said = late.wait_log(
             r"reading from sequence (\d+), the agent's next: the (\d+) observations in its "
-            r"buffer \(parts made before now\) are not read; waiting for new parts"
+            r"buffer \(what the machine did before now\) are not read; waiting for new parts"
         )
         assert int(said[1]) > 1 and int(said[2]) == int(said[1]) - 1
         assert late.terminate() == 0

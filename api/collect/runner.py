@@ -195,9 +195,9 @@ def _first_start(
     for observation in current.observations:
         segmenter.feed(observation)  # latest values; a part in progress stays tainted
     log.info(
-        "reading from sequence %d, the agent's next: the %d observations in its buffer (parts "
-        'made before now) are not read; waiting for new parts ([mtconnect] start = "buffer" '
-        "reads them)",
+        "reading from sequence %d, the agent's next: the %d observations in its buffer (what "
+        "the machine did before now) are not read; waiting for new parts ([mtconnect] start = "
+        '"buffer" reads them)',
         current.next_sequence,
         held,
     )
