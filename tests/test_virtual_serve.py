@@ -109,9 +109,10 @@ def virtual(tmp: Path, protocol: str, live: LiveServer, plan_id: int, *extra: st
     return machine
 
 
-def collect(tmp: Path, live: LiveServer) -> Process:
+def collect(tmp: Path, live: LiveServer, *extra: str) -> Process:
     env = {"RCB_API_KEY": live.keys["mes"]}
-    return Process(["collect", "--config", str(tmp / "collector.toml")], tmp / "collect.log", env)
+    args = ["collect", "--config", str(tmp / "collector.toml"), *extra]
+    return Process(args, tmp / "collect.log", env)
 
 
 def peaks(text: str, pattern: str) -> dict[int, str]:
@@ -180,17 +181,17 @@ def test_a_collector_started_after_the_parts_says_it_waits_and_start_buffer_read
             (tmp_path / name).unlink(missing_ok=True)
         config = tmp_path / "collector.toml"
         config.write_text(config.read_text() + 'start = "buffer"\n', encoding="utf-8")
-        again = collect(tmp_path, sqlite_server)
-        serials = wait_stored(sqlite_server, plan_id, parts, again)
-        again.wait_log(f"part {parts}: stored")
-        assert again.terminate() == 0
+        again = collect(tmp_path, sqlite_server, "--parts", str(parts))  # then it stops
+        assert again.process.wait(timeout=TIMEOUT_S) == 0, again.text()[-3000:]
+        serials = stored(sqlite_server, plan_id)
     finally:
         for process in (late, again, machine):
             if process is not None:
                 process.kill()
     assert serials == [f"virtual-lathe/O1001/{n}" for n in range(1, parts + 1)]
     assert "reading from sequence 1, the oldest the agent holds" in again.text()
-    assert f"this run queued {parts} parts, sent {parts}" in again.text()
+    said = f"stopped ({parts} parts sent): this run queued {parts} parts, sent {parts}"
+    assert said in again.text()
 
 
 @contextmanager
