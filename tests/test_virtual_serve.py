@@ -224,6 +224,8 @@ def test_bad_input_is_one_line_naming_the_option(tmp_path):
     assert "modbus" in said and "--protocol" in said
     said = _refused(tmp_path, "--protocol", "mtconnect", "--plan", str(PLAN), "--parts", "0")
     assert "--parts" in said
+    url = ("--protocol", "mtconnect", "--plan", str(PLAN), "--service-url", "127.0.0.1:8000")
+    assert "--service-url = '127.0.0.1:8000': must start with http://" in _refused(tmp_path, *url)
     with listening() as port:  # a port something else listens on
         args = ("--protocol", "mtconnect", "--plan", str(PLAN), "--port", str(port))
         said = _refused(tmp_path, *args)

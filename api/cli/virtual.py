@@ -80,7 +80,12 @@ def serve(
     _logging()
     chosen = port or DEFAULT_PORTS[protocol]
     with errors():
-        lathe = build(plan, parts, seed)
+        _check(service_url, machine)
+        try:
+            lathe = build(plan, parts, seed)
+        except KeyboardInterrupt:  # Ctrl-C while the plan is optimised: nothing served yet
+            say("rcb virtual: interrupted before serving")
+            raise typer.Exit(130) from None
         published = _publish(lathe, protocol, chosen)
     try:
         with errors():
@@ -101,6 +106,14 @@ def serve(
     if collector is not None:
         say(f"rcb virtual: wrote {collector}: rcb collect --config {collector}")
     run.run(lathe, published, seconds_per_part, wait_for_reader)
+
+
+def _check(service_url: str, machine: str) -> None:
+    """Refuse the collector file's options before anything is built."""
+    if not service_url.startswith(("http://", "https://")):
+        raise InputError("--service-url", service_url, "must start with http:// or https://")
+    if not machine.strip() or len(machine) > 200:
+        raise InputError("--machine", machine, "must be text of 1 to 200 characters")
 
 
 def _publish(lathe: VirtualLathe, protocol: Protocol, port: int) -> Published:
