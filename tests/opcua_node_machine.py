@@ -10,10 +10,10 @@ import threading
 import time
 from pathlib import Path
 
+from api.virtual_serve.opcua_machine import PROGRAM
 from supervisor.virtual.trace import TraceSample
 
 from live import kill_group
-from opcua_machine import PROGRAM
 
 SCRIPT = Path(__file__).with_name("opcua_node_server.js")
 

@@ -22,9 +22,8 @@ from pathlib import Path
 
 from asyncua import Server, ua
 
+from api.virtual_serve.opcua_machine import Nodes
 from supervisor.virtual.trace import TraceSample
-
-from opcua_machine import Nodes
 
 CNC = "http://opcfoundation.org/UA/CNC"
 MACHINE_TOOL = "http://opcfoundation.org/UA/MachineTool/"
@@ -62,7 +61,7 @@ async def _type(server: Server, uri: str, name: str) -> ua.NodeId:
 
 
 class OfficialSpace:
-    """``space`` for :class:`opcua_machine.OpcUaMachine`: the nodesets of ``folder``."""
+    """``space`` for the virtual lathe's ``OpcUaMachine``: the nodesets of ``folder``."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder

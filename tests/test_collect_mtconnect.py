@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 from lxml import etree
 
+from api.virtual_serve.mtconnect_agent import Agent, observations, serve
 from supervisor.virtual.trace import block_map
 
 from collect_support import (
@@ -27,7 +28,6 @@ from collect_support import (
     service_parts,
     write_config,
 )
-from mtconnect_agent import Agent, observations, serve
 
 #: The MTConnectStreams 2.0 schema in its XSD 1.0 form (``MTConnectStreams_2.0_1.0.xsd``, plain
 #: or gzipped) from the MTConnect Institute's github.com/mtconnect/schema (Apache-2.0): not

@@ -16,11 +16,11 @@ import pytest
 from api.collect.config import MTCONNECT_ITEMS
 from api.collect.mtconnect import latest_values, parse_streams
 from api.collect.mtconnect_devices import bind, parse_devices, with_modes
+from api.virtual_serve.mtconnect_agent import Agent, observations, serve
 from models.errors import InputError
 from supervisor.virtual.trace import TraceSample
 
 from collect_support import refused
-from mtconnect_agent import Agent, observations, serve
 
 DATA = Path(__file__).parent / "data" / "mtconnect"
 REQUIRED = ("spindle_load", "part_count", "execution", "block")

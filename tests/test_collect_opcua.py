@@ -6,6 +6,7 @@ the same setpoint versions and bands as the same parts posted directly as MES re
 
 from __future__ import annotations
 
+from api.virtual_serve.opcua_machine import OpcUaMachine
 from supervisor.virtual.trace import block_map
 
 from collect_support import (
@@ -19,7 +20,6 @@ from collect_support import (
     write_config,
 )
 from live import free_port
-from opcua_machine import OpcUaMachine
 
 PARTS = 20
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import pytest
 
+from api.virtual_serve.opcua_machine import OpcUaMachine, own_space
 from supervisor.virtual.trace import TraceSample, block_map
 
 from collect_support import (
@@ -27,7 +28,6 @@ from collect_support import (
 )
 from live import free_port
 from npm_packages import nodeset_folder, npm_folder
-from opcua_machine import OpcUaMachine, own_space
 from opcua_node_machine import NodeOpcUaMachine
 from opcua_nodesets import COLLECTOR_NODES, OfficialSpace
 

@@ -16,12 +16,11 @@ from api.cli.main import app
 from api.collect.config import config_from_mapping
 from api.collect.mtconnect import AgentError, parse_streams
 from api.collect.queue import Checkpoint, open_queue
+from api.virtual_serve.mtconnect_agent import Agent, observations
 from models.errors import InputError
 from supervisor.collect.report import idempotency_key, part_report, serial_of
 from supervisor.collect.segment import Gap, Observation, PartDone, PartSkipped, Segmenter
 from supervisor.collect.selectors import block_number, check_selectors, parse_selector
-
-from mtconnect_agent import Agent, observations
 
 OPS = [parse_selector("rough=N100:N140"), parse_selector("finish=N200:N240")]
 

@@ -50,6 +50,7 @@ def test_one_copy_of_each_example_is_packaged():
         "milling_passes_part",
         "tai_constant_load_part",
         "turning_passes_part",
+        "virtual_lathe_part",
     ]
     assert sorted(p.stem for p in PACKAGED.glob("*.toml")) == NAMES
     for name in NAMES:  # the packaged file is the repository's, not a second copy

@@ -1,8 +1,9 @@
 """``rcb collect --config collector.toml``: a machine's spindle signals → part reports.
 
 Runs until interrupted (SIGINT/SIGTERM stop it cleanly; a ``kill -9`` loses nothing: see
-:mod:`api.collect.queue`). ``--status`` prints the queue's state and exits. asyncua and httpx are
-imported inside the command, so other ``rcb`` commands do not load them.
+:mod:`api.collect.queue`), or with ``--parts N`` until N parts are sent; it logs its start, each
+part and its stop with the run's counts. ``--status`` prints the queue's state and exits.
+asyncua and httpx are imported inside the command, so other ``rcb`` commands do not load them.
 """
 
 from __future__ import annotations
@@ -14,11 +15,15 @@ import signal
 import sys
 import textwrap
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from api.cli.common import errors
+
+if TYPE_CHECKING:
+    from api.collect.config import CollectorConfig
+    from api.collect.queue import Queue
 
 _STATUS_ROWS = 10
 
@@ -31,6 +36,14 @@ def collect(
         bool, typer.Option("--status", help="Print the queue's state and exit.")
     ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="--status as JSON.")] = False,
+    parts: Annotated[
+        int | None,
+        typer.Option(
+            "--parts",
+            min=1,
+            help="Stop once this many parts are sent in this run (default: at SIGTERM/SIGINT).",
+        ),
+    ] = None,
 ) -> None:
     """Read one machine's spindle load over OPC UA or MTConnect and report each part."""
     from api.collect.config import load_config
@@ -46,7 +59,7 @@ def collect(
             _status(queue.status(_STATUS_ROWS), as_json)
             return
         with errors():  # a node or a file refused at start: one line, exit 2
-            _run(settings, queue)
+            _run(settings, queue, parts)
     finally:
         queue.close()
 
@@ -79,8 +92,8 @@ def _status(state: dict[str, object], as_json: bool) -> None:
         _echo(f"  GAP: sequences {row['first']}..{row['last']}: {row['reason']}")
 
 
-def _run(settings: object, queue: object) -> None:
-    from api.collect.runner import run
+def _run(settings: CollectorConfig, queue: Queue, parts: int | None) -> None:
+    from api.collect.runner import log, run
 
     logging.basicConfig(
         stream=sys.stderr, level=logging.INFO, format="%(asctime)s rcb collect: %(message)s"
@@ -88,11 +101,56 @@ def _run(settings: object, queue: object) -> None:
     for noisy in ("asyncua", "httpx", "httpcore"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
 
-    async def main() -> None:
-        stop = asyncio.Event()
+    async def main() -> str:
+        stop, caught = asyncio.Event(), list[str]()
+
+        def on_signal(sig: signal.Signals) -> None:
+            caught.append(sig.name)
+            stop.set()
+
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
-        await run(settings, queue, stop)  # type: ignore[arg-type]
+            loop.add_signal_handler(sig, on_signal, sig)
+        counting = None
+        if parts is not None:
+            counting = asyncio.create_task(_until_sent(queue, before["sent"] + parts, stop))
+        await run(settings, queue, stop)
+        if counting is not None:
+            await counting
+        if caught:
+            return caught[0]
+        return f"{parts} parts sent" if parts is not None else "the reader ended"
 
-    asyncio.run(main())
+    before, why = queue.status(0), "an error"
+    try:
+        why = asyncio.run(main())
+    finally:
+        after = queue.status(0)
+        log.info(
+            "stopped (%s): this run queued %d parts, sent %d, rejected %d, skipped %d, gaps %d; "
+            "%d pending in the queue (rcb collect --status)",
+            why,
+            _total(after) - _total(before),
+            after["sent"] - before["sent"],
+            after["rejected"] - before["rejected"],
+            after["skipped_parts"] - before["skipped_parts"],
+            after["gaps"] - before["gaps"],
+            after["pending"],
+        )
+
+
+async def _until_sent(queue: Queue, sent: int, stop: asyncio.Event) -> None:
+    """Set ``stop`` once the queue counts ``sent`` reports sent (or when it is set)."""
+    while not stop.is_set():
+        if queue.status(0)["sent"] >= sent:
+            stop.set()
+            return
+        try:
+            await asyncio.wait_for(stop.wait(), timeout=0.2)
+        except TimeoutError:
+            pass
+
+
+def _total(state: dict[str, Any]) -> int:
+    """Reports in the queue, whatever their state."""
+    return int(state["pending"] + state["sent"] + state["rejected"])

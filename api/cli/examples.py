@@ -85,6 +85,10 @@ _SUMMARIES = {
         "the milling demo's 6 mm slot in whole axial passes",
         "rcb demo --plan FILE",
     ),
+    "virtual_lathe_part": (
+        "the demo part with its spindle-load calibration: a machine to collect from",
+        "rcb virtual serve --protocol mtconnect --plan FILE",
+    ),
     "cam_relief_part": (
         "a relief from a depth map: flat roughing, ball finishing",
         "rcb cam depthmap IMAGE --pixel-mm P --z-range-mm LO:HI --tool flat:10 "

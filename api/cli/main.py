@@ -33,6 +33,7 @@ from api.cli.helptext import escape_tree
 from api.cli.html_report import html_report
 from api.cli.lazy import lazy_group
 from api.cli.optimize import optimize, predict
+from api.cli.virtual import virtual_app
 
 
 class _OneLineErrors(TyperGroup):
@@ -127,3 +128,4 @@ app.add_typer(cam_app, name="cam")  # rcb cam depthmap: api/cli/cam.py
 app.add_typer(examples_app, name="examples")  # rcb examples [copy]: api/cli/examples.py
 app.command()(serve)  # rcb serve: api/cli/admin.py
 app.command()(collect)  # rcb collect: api/cli/collect.py
+app.add_typer(virtual_app, name="virtual")  # rcb virtual serve: api/cli/virtual.py

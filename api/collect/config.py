@@ -38,6 +38,9 @@ MTCONNECT_ITEMS: dict[str, str] = {
     "execution": "Path/Execution",
     "program": "Path/Program",
 }
+#: Where a collector without a checkpoint starts reading an agent: its next sequence (parts made
+#: from now on) or the oldest observation in its buffer (the parts it still holds).
+MTCONNECT_STARTS = ("next", "buffer")
 #: OPC UA nodes read by default: browse paths from ``Objects`` with the BrowseNames of OPC 40502
 #: (CNC Systems: ``CncInterface``, ``CncSpindleList``/``CncChannelList``, ``ActLoad``,
 #: ``ActSpeed``, ``ActFeedrate``, ``ActProgramBlock``, ``ActStatus``); ``{spindle}`` and
@@ -71,6 +74,7 @@ class MTConnectConfig:
     count: int = 1000
     poll_s: float = 0.2
     spindle: str | None = None  # the spindle component's name or id; default: found by its mode
+    start: str = "next"  # without a checkpoint: "next" (new observations) or "buffer" (oldest)
 
 
 @dataclass(frozen=True)
@@ -234,7 +238,7 @@ def _items(data: object, path: str, known: tuple[str, ...]) -> dict[str, str]:
 def _mtconnect(data: object) -> MTConnectConfig:
     if not isinstance(data, Mapping):
         raise InputError("mtconnect", data, "must be a table")
-    _only(data, ("url", "count", "poll_s", "data_items", "spindle"), "mtconnect")
+    _only(data, ("url", "count", "poll_s", "data_items", "spindle", "start"), "mtconnect")
     url = _text(data, "url", "mtconnect")
     if not url.startswith(("http://", "https://")):
         raise InputError("mtconnect.url", url, "must start with http:// or https://")
@@ -242,10 +246,14 @@ def _mtconnect(data: object) -> MTConnectConfig:
     spindle = data.get("spindle")
     if spindle is not None:
         spindle = _text(data, "spindle", "mtconnect")
+    start = data.get("start", "next")
+    if start not in MTCONNECT_STARTS:
+        raise InputError("mtconnect.start", start, f"must be one of {', '.join(MTCONNECT_STARTS)}")
     return MTConnectConfig(
         url=url.rstrip("/"),
         items=items,
         spindle=spindle,
+        start=start,
         count=_whole(data, "count", "mtconnect", 1000, 100_000),
         poll_s=_number(data, "poll_s", "mtconnect", 0.2, 0.001, 60.0),
     )

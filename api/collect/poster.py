@@ -63,10 +63,11 @@ async def post_one(
     if answer.status_code in (200, 201):
         how = "already stored, replayed" if summary.get("replayed") else "stored"
         log.info(
-            "part %d: %s (part id %s%s)",
+            "part %d: %s (part id %s, setpoint version now %s%s)",
             item.part_count,
             how,
             summary.get("part_id"),
+            summary.get("setpoint_version"),
             ", plan HALTED" if summary.get("halted") else "",
         )
         return "sent", answer.status_code, summary

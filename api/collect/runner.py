@@ -17,7 +17,7 @@ from collections.abc import AsyncIterator, Callable
 import httpx
 
 from api.collect.config import CollectorConfig, MTConnectConfig
-from api.collect.mtconnect import Agent, AgentError
+from api.collect.mtconnect import Agent, AgentError, Streams
 from api.collect.poster import post_loop
 from api.collect.queue import Checkpoint, Queue
 from supervisor.collect.report import idempotency_key, part_report
@@ -126,11 +126,14 @@ async def mtconnect_loop(
             _gap(queue, gap, current.instance_id, current.next_sequence, segmenter)
             saved = None
         if saved is None:
-            for observation in current.observations:
-                segmenter.feed(observation)  # latest values; a part in progress stays tainted
-            instance, start = current.instance_id, current.next_sequence
-            point = Checkpoint("mtconnect", instance, start, segmenter.snapshot())
-            queue.record(point)
+            instance, start = _first_start(source, current, segmenter)
+            queue.record(Checkpoint("mtconnect", instance, start, segmenter.snapshot()))
+        else:
+            log.info(
+                "resuming at sequence %d, after the last part queued (agent instance %s)",
+                start,
+                instance,
+            )
         while not stop.is_set():
             try:
                 streams = await agent.sample(start, source.count)
@@ -176,6 +179,31 @@ async def mtconnect_loop(
                 await _pause(stop, source.poll_s)
 
 
+def _first_start(
+    source: MTConnectConfig, current: Streams, segmenter: Segmenter
+) -> tuple[str, int]:
+    """Where a collector without a checkpoint reads from (``[mtconnect] start``), logged."""
+    held = max(0, current.next_sequence - current.first_sequence)
+    if source.start == "buffer":
+        log.info(
+            "reading from sequence %d, the oldest the agent holds (%d observations): the parts "
+            "in its buffer are collected",
+            current.first_sequence,
+            held,
+        )
+        return current.instance_id, current.first_sequence
+    for observation in current.observations:
+        segmenter.feed(observation)  # latest values; a part in progress stays tainted
+    log.info(
+        "reading from sequence %d, the agent's next: the %d observations in its buffer (what "
+        "the machine did before now) are not read; waiting for new parts ([mtconnect] start = "
+        '"buffer" reads them)',
+        current.next_sequence,
+        held,
+    )
+    return current.instance_id, current.next_sequence
+
+
 async def _first_sequence(agent: Agent) -> int | None:
     """The oldest sequence the agent holds (None: not read now)."""
     try:
@@ -212,7 +240,11 @@ async def observation_loop(
             async for observation in connect():
                 if not connected:  # --status shows where from (there is nothing to resume)
                     queue.record(Checkpoint("opcua", where, 0, {}))
-                    log.info("subscribed to %s", where)
+                    log.info(
+                        "subscribed to %s: values from now on (OPC UA has no replay: parts "
+                        "made before are not read); waiting for new parts",
+                        where,
+                    )
                     connected, outage = True, False
                 for outcome in segmenter.feed(observation):
                     recorder.outcome(outcome, None)
@@ -238,6 +270,16 @@ async def _pause(stop: asyncio.Event, seconds: float) -> None:
 
 async def run(config: CollectorConfig, queue: Queue, stop: asyncio.Event) -> None:
     """Collect and post until ``stop`` is set (or a task fails: then both stop)."""
+    log.info(
+        "starting: machine %s, plan %d at %s, setpoint version %d, reading %s",
+        config.machine,
+        config.plan_id,
+        config.service_url,
+        config.setpoint_version,
+        f"MTConnect agent {config.mtconnect.url}"
+        if config.mtconnect is not None
+        else f"OPC UA server {config.opcua.url if config.opcua else ''}",
+    )
     if config.mtconnect is not None:
         reader = mtconnect_loop(config, config.mtconnect, queue, stop)
     else:

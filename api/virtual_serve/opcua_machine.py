@@ -1,4 +1,7 @@
-"""A test OPC UA server on 127.0.0.1 (asyncua) playing a virtual lathe's trace.
+"""An OPC UA server on 127.0.0.1 (asyncua) playing a virtual lathe's trace.
+
+``rcb virtual serve --protocol opcua`` serves it (:mod:`api.virtual_serve.run`); the collector's
+tests start it in a thread.
 
 Its address space is built by a ``space`` function: :func:`own_space` (here) or
 ``tests/opcua_nodesets.py``'s, built from the OPC Foundation's own nodesets. :func:`own_space`
@@ -20,13 +23,14 @@ import threading
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-from asyncua import Server, ua
+from asyncua import ua
+from asyncua.server.server import Server
 
 from supervisor.virtual.trace import TraceSample
 
 CNC = "http://opcfoundation.org/UA/CNC"  # as Opc.Ua.CNC.NodeSet.xml has it
 PROGRAM = "O1001"
-_BASE = dt.datetime(2026, 11, 25, tzinfo=dt.UTC)
+_BASE = ua.DateTime(2026, 11, 25, tzinfo=dt.UTC)  # asyncua's datetime, as DataValue declares
 
 
 #: item → (node, its VariantType, whether its value is an array: OPC 40502's ActProgramBlock)
@@ -76,6 +80,22 @@ class OpcUaMachine:
         self._stop: asyncio.Event | None = None
         self._thread = threading.Thread(target=self._run)
         self.error: BaseException | None = None
+        self._server: Server | None = None
+
+    def watched(self) -> bool:
+        """Whether a client has a subscription with a monitored item (read in its loop)."""
+        server = self._server
+        if server is None or not self.ready.is_set():
+            return False
+
+        async def look() -> bool:
+            subscriptions = server.iserver.subscription_service.subscriptions.values()
+            return any(s.monitored_item_srv._monitored_items for s in subscriptions)
+
+        try:
+            return asyncio.run_coroutine_threadsafe(look(), self.loop).result(timeout=5)
+        except (TimeoutError, RuntimeError):  # the loop is closing
+            return False
 
     def _run(self) -> None:
         asyncio.set_event_loop(self.loop)
@@ -89,9 +109,10 @@ class OpcUaMachine:
             self.loop.close()
 
     def start(self) -> None:
+        """Start serving (in a thread); raise when the server does not start in 30 s."""
         self._thread.start()
-        if not self.ready.wait(30):
-            raise RuntimeError(f"OPC UA server did not start: {self.error}")
+        if not self.ready.wait(30) or self.error is not None:
+            raise RuntimeError(f"OPC UA server did not start: {self.error!r}")
 
     def play(self, until: int | None = None) -> None:
         """Write the samples up to ``until`` (all by default), then wait for more."""
@@ -105,6 +126,7 @@ class OpcUaMachine:
         self._play.set()
 
     def stop(self) -> None:
+        """Stop serving and wait for the thread."""
         if self._stop is not None:
             self.loop.call_soon_threadsafe(self._halt)
         self._thread.join(30)
@@ -124,7 +146,7 @@ class OpcUaMachine:
 
     async def _serve(self) -> None:
         self._play, self._stop = asyncio.Event(), asyncio.Event()
-        server = Server()
+        server = self._server = Server()
         await server.init()
         server.set_endpoint(self.url)
         server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
@@ -182,8 +204,10 @@ class OpcUaMachine:
             if old is not None and old[item] == value:
                 continue
             node, kind, array = nodes[item]
-            if array:  # the block being run, then (here: none) the blocks after it
-                value = [value, "", ""]
+            # an array: the block being run, then (here: none) the blocks after it
+            written: object = [value, "", ""] if array else value
             await node.write_value(
-                ua.DataValue(ua.Variant(value, kind), SourceTimestamp=stamp, ServerTimestamp=stamp)
+                ua.DataValue(
+                    ua.Variant(written, kind), SourceTimestamp=stamp, ServerTimestamp=stamp
+                )
             )

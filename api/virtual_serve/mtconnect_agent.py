@@ -1,4 +1,7 @@
-"""A test MTConnect agent on 127.0.0.1 (stdlib ``http.server``) playing a virtual lathe's trace.
+"""An MTConnect agent on 127.0.0.1 (stdlib ``http.server``) playing a virtual lathe's trace.
+
+``rcb virtual serve --protocol mtconnect`` serves it (:mod:`api.virtual_serve.run`); the
+collector's tests serve it in a thread (:func:`serve`).
 
 The trace's samples become observations with sequence numbers as an agent makes them: a data
 item gets an observation when its value changes (the load at every sample). ``release(n)``
@@ -17,6 +20,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
@@ -74,11 +78,13 @@ def mm_s_text(feed_rate_mm_min: float) -> str:
             candidate = math.nextafter(candidate, math.inf if step > 0 else -math.inf)
         if candidate * 60.0 == feed_rate_mm_min:
             return repr(candidate)
-    raise AssertionError(f"no float of mm/s is {feed_rate_mm_min!r} mm/min x 60: change the seed")
+    return repr(x)  # none within 3 ulp (not met in practice): the nearest, off by round-off
 
 
 @dataclass(frozen=True)
 class Obs:
+    """One observation: its sequence number, signal, text and timestamp."""
+
     sequence: int
     item: str
     text: str
@@ -87,7 +93,13 @@ class Obs:
 
 def observations(trace: list[TraceSample]) -> list[Obs]:
     """The agent's observations of a trace, in sequence order (changes only; load always)."""
+    return observations_per_sample(trace)[0]
+
+
+def observations_per_sample(trace: list[TraceSample]) -> tuple[list[Obs], list[int]]:
+    """The observations of a trace, and how many there are once each sample is made."""
     found: list[Obs] = []
+    made: list[int] = []
     last: dict[str, str] = {}
     for i, sample in enumerate(trace):
         stamp = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(1_700_000_000 + i // 100))
@@ -106,7 +118,8 @@ def observations(trace: list[TraceSample]) -> list[Obs]:
             if item == "spindle_load" or last.get(item) != text:
                 found.append(Obs(len(found) + 1, item, text, stamp))
                 last[item] = text
-    return found
+        made.append(len(found))
+    return found, made
 
 
 class Agent:
@@ -121,6 +134,7 @@ class Agent:
         self._stop = threading.Event()
 
     def release(self, n: int) -> None:
+        """Make the first ``n`` observations available (never fewer than before)."""
         with self.lock:
             self.released = max(self.released, min(n, len(self.obs)))
 
@@ -143,18 +157,21 @@ class Agent:
             deadline = time.monotonic() + timeout_s
             while self.read_to < self.released:
                 if time.monotonic() > deadline:
-                    raise AssertionError(f"no reader past sequence {self.read_to}")
+                    raise TimeoutError(f"no reader past sequence {self.read_to}")
                 time.sleep(0.005)
 
     def stop(self) -> None:
+        """Stop :meth:`play`."""
         self._stop.set()
 
     def first(self) -> int:
+        """The oldest sequence in the buffer (``firstSequence``)."""
         return max(1, self.released - self.buffer_size + 1)
 
     def header(self, next_sequence: int) -> str:
+        """The ``<Header>`` of a streams document."""
         return (
-            f'<Header creationTime="2026-11-25T00:00:00Z" sender="test-agent" '
+            f'<Header creationTime="2026-11-25T00:00:00Z" sender="rcb-virtual" '
             f'instanceId="{self.instance_id}" version="2.0.0.0" '
             f'bufferSize="{self.buffer_size}" deviceModelChangeTime="2026-11-25T00:00:00Z" '
             f'nextSequence="{next_sequence}" '
@@ -162,6 +179,7 @@ class Agent:
         )
 
     def document(self, chosen: list[Obs], next_sequence: int) -> str:
+        """An MTConnectStreams document of ``chosen``."""
         components: dict[tuple[str, str], dict[str, list[str]]] = {}
         for o in chosen:
             component, cid, element, did, category = ITEMS[o.item]
@@ -188,15 +206,17 @@ class Agent:
         )
 
     def probe(self) -> str:
+        """The ``/probe`` document: the device model."""
         return (
             f'<?xml version="1.0" encoding="UTF-8"?>\n<MTConnectDevices xmlns="{DEVICES_NS}">'
-            f'<Header creationTime="2026-11-25T00:00:00Z" sender="test-agent" '
+            f'<Header creationTime="2026-11-25T00:00:00Z" sender="rcb-virtual" '
             f'instanceId="{self.instance_id}" version="2.0.0.0" bufferSize="{self.buffer_size}" '
             f'assetBufferSize="0" assetCount="0" deviceModelChangeTime="2026-11-25T00:00:00Z"/>'
             f"<Devices>{DEVICE}</Devices></MTConnectDevices>"
         )
 
     def current(self) -> str:
+        """The ``/current`` document: the latest observation of every data item."""
         with self.lock:
             latest: dict[str, Obs] = {}
             for o in self.obs[: self.released]:
@@ -206,6 +226,7 @@ class Agent:
             )
 
     def sample(self, start: int, count: int) -> tuple[int, str]:
+        """The ``/sample?from=start&count=count`` answer: HTTP status and document."""
         with self.lock:
             if start < self.first() or start > self.released + 1:
                 return 400, self.error("OUT_OF_RANGE", f"'from' must be >= {self.first()}")
@@ -214,17 +235,24 @@ class Agent:
             return 200, self.document(chosen, start + len(chosen))
 
     def error(self, code: str, text: str) -> str:
+        """An MTConnectError document."""
         return (
             '<?xml version="1.0" encoding="UTF-8"?>\n'
             '<MTConnectError xmlns="urn:mtconnect.org:MTConnectError:2.0">'
-            f'<Header creationTime="2026-11-25T00:00:00Z" sender="test-agent" '
+            f'<Header creationTime="2026-11-25T00:00:00Z" sender="rcb-virtual" '
             f'instanceId="{self.instance_id}" version="2.0.0.0" bufferSize="{self.buffer_size}"/>'
             f'<Errors><Error errorCode="{code}">{escape(text)}</Error></Errors></MTConnectError>'
         )
 
 
-def serve(agent: Agent) -> tuple[ThreadingHTTPServer, str]:
-    """Serve ``agent`` on 127.0.0.1 (a free port) in a thread; the server and its base URL."""
+def serve(
+    agent: Agent, port: int = 0, on_sample: Callable[[], None] | None = None
+) -> tuple[ThreadingHTTPServer, str]:
+    """Serve ``agent`` on 127.0.0.1 in a thread; the server and its base URL (with the device).
+
+    ``port`` 0 takes a free port. ``on_sample`` is called at every ``/sample`` request (before
+    it is answered): ``rcb virtual serve`` starts making parts when a reader first asks.
+    """
 
     class Handler(BaseHTTPRequestHandler):
         def log_message(self, *args: Any) -> None:
@@ -238,6 +266,8 @@ def serve(agent: Agent) -> tuple[ThreadingHTTPServer, str]:
             elif url.path.endswith("/current"):
                 status, body = 200, agent.current()
             elif url.path.endswith("/sample"):
+                if on_sample is not None:
+                    on_sample()
                 status, body = agent.sample(int(query.get("from", 1)), int(query.get("count", 100)))
             else:
                 status, body = 404, agent.error("INVALID_REQUEST", url.path)
@@ -248,6 +278,7 @@ def serve(agent: Agent) -> tuple[ThreadingHTTPServer, str]:
             self.end_headers()
             self.wfile.write(data)
 
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    server = ThreadingHTTPServer(("127.0.0.1", port), Handler)
+    server.daemon_threads = True
     threading.Thread(target=server.serve_forever, daemon=True).start()
     return server, f"http://127.0.0.1:{server.server_address[1]}/lathe"

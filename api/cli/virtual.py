@@ -1,0 +1,134 @@
+"""``rcb virtual serve``: a virtual lathe making parts, as an MTConnect agent or OPC UA server.
+
+A machine to try ``rcb collect`` against (docs/try-a-machine.md): the plan file's parts on the
+virtual lathe (:mod:`api.virtual_serve.lathe`), served on 127.0.0.1 until SIGTERM or SIGINT
+(:mod:`api.virtual_serve.run`). ``--collector FILE`` writes the ``collector.toml`` that reads it.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from api.cli.common import errors, say
+from models.errors import InputError
+
+if TYPE_CHECKING:
+    from api.virtual_serve.lathe import VirtualLathe
+    from api.virtual_serve.run import Published
+
+virtual_app = typer.Typer(
+    help="A virtual lathe to try rcb collect against: its parts over MTConnect or OPC UA.",
+    no_args_is_help=True,
+)
+
+
+class Protocol(enum.StrEnum):
+    """The protocols the virtual lathe speaks."""
+
+    mtconnect = "mtconnect"
+    opcua = "opcua"
+
+
+#: The port of each protocol when none is given: cppagent's and OPC UA's (IANA 4840).
+DEFAULT_PORTS = {Protocol.mtconnect: 5000, Protocol.opcua: 4840}
+
+
+@virtual_app.command("serve")
+def serve(
+    protocol: Annotated[Protocol, typer.Option(help="mtconnect (an agent) or opcua (a server).")],
+    plan: Annotated[
+        Path,
+        typer.Option(metavar="FILE", help="A plan with a machine.calibrations.spindle_load table."),
+    ],
+    port: Annotated[
+        int | None,
+        typer.Option(min=1, max=65535, help="TCP port on 127.0.0.1 [default: 5000 or 4840]."),
+    ] = None,
+    parts: Annotated[int, typer.Option(min=1, max=1000, help="Parts to make.")] = 10,
+    seconds_per_part: Annotated[
+        float, typer.Option(min=0.01, max=3600.0, help="Time to make one part [s].")
+    ] = 1.0,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the virtual machine and noise.")] = 7,
+    wait_for_reader: Annotated[
+        bool, typer.Option(help="Make the first part only once a collector reads the machine.")
+    ] = True,
+    collector: Annotated[
+        Path | None,
+        typer.Option(metavar="collector.toml", help="Write the collector's file for this machine."),
+    ] = None,
+    machine: Annotated[
+        str, typer.Option(help="The machine's name in --collector's file (in each serial).")
+    ] = "virtual-lathe",
+    service_url: Annotated[
+        str, typer.Option(help="The REST service, in --collector's file.")
+    ] = "http://127.0.0.1:8000/api/v1",
+    plan_id: Annotated[
+        int, typer.Option(min=1, help="The stored plan's id, in --collector's file.")
+    ] = 1,
+) -> None:
+    """Serve a virtual lathe making the plan's parts at its version-1 setpoints, until stopped."""
+    from api.virtual_serve import run
+    from api.virtual_serve.collector_file import collector_toml, queue_name, write_collector
+    from api.virtual_serve.lathe import build
+
+    _logging()
+    chosen = port or DEFAULT_PORTS[protocol]
+    with errors():
+        _check(service_url, machine)
+        try:
+            lathe = build(plan, parts, seed)
+        except KeyboardInterrupt:  # Ctrl-C while the plan is optimised: nothing served yet
+            say("rcb virtual: interrupted before serving")
+            raise typer.Exit(130) from None
+        published = _publish(lathe, protocol, chosen)
+    try:
+        with errors():
+            if collector is not None:
+                service = (service_url, plan_id)
+                queue = queue_name(collector)
+                text = collector_toml(lathe, protocol.value, published.url, service, machine, queue)
+                write_collector(collector, text)
+    except typer.Exit:
+        published.close()
+        raise
+    name = "MTConnect agent" if protocol is Protocol.mtconnect else "OPC UA server"
+    say(
+        f"rcb virtual: {name} at {published.url}: {parts} parts of {lathe.plan.name!r} at its "
+        f"setpoint version 1, one every {seconds_per_part:g} s; operations "
+        f"{' '.join(lathe.operation_map())}"
+    )
+    if collector is not None:
+        say(f"rcb virtual: wrote {collector}: rcb collect --config {collector}")
+    run.run(lathe, published, seconds_per_part, wait_for_reader)
+
+
+def _check(service_url: str, machine: str) -> None:
+    """Refuse the collector file's options before anything is built."""
+    if not service_url.startswith(("http://", "https://")):
+        raise InputError("--service-url", service_url, "must start with http:// or https://")
+    if not machine.strip() or len(machine) > 200:
+        raise InputError("--machine", machine, "must be text of 1 to 200 characters")
+
+
+def _publish(lathe: VirtualLathe, protocol: Protocol, port: int) -> Published:
+    from api.virtual_serve import run
+
+    serve_on = run.mtconnect if protocol is Protocol.mtconnect else run.opcua
+    try:
+        return serve_on(lathe, port)
+    except (OSError, RuntimeError) as err:
+        raise InputError("--port", port, f"cannot serve on 127.0.0.1 ({err})") from None
+
+
+def _logging() -> None:
+    logging.basicConfig(
+        stream=sys.stderr, level=logging.INFO, format="%(asctime)s rcb virtual: %(message)s"
+    )
+    # asyncua warns that a server without security has no signing policy: this one has none
+    logging.getLogger("asyncua").setLevel(logging.ERROR)
