@@ -37,7 +37,7 @@ class Command:
         for want in self.expected:
             if want.endswith("..."):
                 head = want[:-3]
-                if not any(line.startswith(head) for line in printed):
+                if not any(line.strip().startswith(head.strip()) for line in printed):
                     missing.append(want)
             elif not any(want.strip() in line for line in printed):
                 missing.append(want)
