@@ -88,16 +88,18 @@ def script(cmds: list[Command], port: int, outputs: Path) -> str:
 
     Variables and background jobs carry from one command to the next, as in a terminal. The
     script stops at the first command that fails, leaving its index and status in
-    ``outputs/failed``.
+    ``outputs/failed``; ``outputs/seconds`` holds each command's start and end.
     """
     lines = ["set -u", "set -o pipefail"]
     for index, cmd in enumerate(cmds):
         text = cmd.text.replace(f":{PORT}", f":{port}").replace(f"--port {PORT}", f"--port {port}")
         out = shlex.quote(str(outputs / f"{index}.out"))
         failed = shlex.quote(str(outputs / "failed"))
+        times = shlex.quote(str(outputs / "seconds"))
         if text.rstrip().endswith("&") and not text.rstrip().endswith("&&"):
             lines.append(f"{text.rstrip()[:-1]} > {out} 2>&1 &")
             continue
-        lines.append(f"{{\n{text}\n}} > {out} 2>&1")
-        lines.append(f"status=$?; if [ $status -ne 0 ]; then echo {index} $status > {failed}; exit 1; fi")
+        lines.append(f"start=$EPOCHREALTIME; {{\n{text}\n}} > {out} 2>&1")
+        lines.append(f"status=$?; echo {index} $start $EPOCHREALTIME >> {times}")
+        lines.append(f"if [ $status -ne 0 ]; then echo {index} $status > {failed}; exit 1; fi")
     return "\n".join(lines) + "\n"

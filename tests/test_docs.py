@@ -75,7 +75,10 @@ def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int, Path]:
     if "<!-- docs-test: serve -->" in page.read_text(encoding="utf-8"):
         serve = subprocess.Popen(
             ["rcb", "serve", "--db", "sqlite:///./rcb.db", "--port", str(port)],
-            cwd=folder, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            cwd=folder,
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
             start_new_session=True,
         )
         _wait_for(port, 60)

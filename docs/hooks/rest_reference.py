@@ -55,7 +55,10 @@ def _operation(path: str, method: str, op: dict[str, Any]) -> list[str]:
     lines += [f"operationId: `{op.get('operationId', '')}`", ""]
     params = op.get("parameters", [])
     if params:
-        lines += ["| parameter | in | type | required | description |", "| --- | --- | --- | --- | --- |"]
+        lines += [
+            "| parameter | in | type | required | description |",
+            "| --- | --- | --- | --- | --- |",
+        ]
         for p in params:
             desc = _cell(p.get("description", "") or p.get("schema", {}).get("description", ""))
             lines.append(
