@@ -97,7 +97,7 @@ def script(cmds: list[Command], port: int, outputs: Path) -> str:
         failed = shlex.quote(str(outputs / "failed"))
         times = shlex.quote(str(outputs / "seconds"))
         if text.rstrip().endswith("&") and not text.rstrip().endswith("&&"):
-            lines.append(f"{text.rstrip()[:-1]} > {out} 2>&1 &")
+            lines.append(f"{text.rstrip()[:-1].rstrip()} > {out} 2>&1 &")
             continue
         lines.append(f"start=$EPOCHREALTIME; {{\n{text}\n}} > {out} 2>&1")
         lines.append(f"status=$?; echo {index} $start $EPOCHREALTIME >> {times}")

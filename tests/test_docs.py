@@ -2,7 +2,9 @@
 
 Each page's console blocks (README.md and every ``docs/**/*.md``, found at collection time, so
 a new page is run without a change here) run in order in one bash shell, in a fresh folder,
-with ``rcb`` of this virtual environment first on PATH and a fresh SQLite database: each
+with ``rcb`` of this virtual environment first on PATH and a fresh SQLite database (the
+checkout's ``examples/`` and ``tests/data/`` are linked into it, as a command run from a
+checkout sees them): each
 command must exit 0 and print the lines its block shows (``tests/docs_console.py``). A server
 a page starts (``rcb serve ... &``) gets a free port in place of the 8000 it writes, and the
 page's process group is killed at the end. A page may declare ``<!-- docs-test: serve -->``:
@@ -68,13 +70,23 @@ def _wait_for(port: int, seconds: float) -> None:
 def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int, Path]:
     outputs = folder / ".docs-test"
     outputs.mkdir()
+    (folder / "examples").symlink_to(ROOT / "examples")
+    (folder / "tests").mkdir()
+    (folder / "tests" / "data").symlink_to(ROOT / "tests" / "data")
     port = _free_port()
     env = _environment(folder)
     (outputs / "run.sh").write_text(script(cmds, port, outputs), encoding="utf-8")
     serve = None
     if "<!-- docs-test: serve -->" in page.read_text(encoding="utf-8"):
         serve = subprocess.Popen(
-            ["rcb", "serve", "--db", "sqlite:///./rcb.db", "--port", str(port)],
+            [
+                str(Path(sys.executable).parent / "rcb"),
+                "serve",
+                "--db",
+                "sqlite:///./rcb.db",
+                "--port",
+                str(port),
+            ],
             cwd=folder,
             env=env,
             stdout=subprocess.DEVNULL,
@@ -152,3 +164,63 @@ def test_the_new_users_flow_is_run_in_order():
     if machine.exists():  # written in parallel (issue 30 item 3)
         texts = " ".join(c.text for c in commands(machine, ROOT))
         assert "rcb virtual serve" in texts and "rcb collect" in texts
+
+
+PAGE = """# A page
+
+```console
+$ echo one \\
+    two
+one two
+$ printf 'a long line\\n'
+a long...
+```
+
+<!-- docs-test: skip it would reach a machine -->
+```console
+$ false
+```
+
+```text
+$ not a console block
+```
+"""
+
+
+def test_a_page_is_read_as_its_commands_their_output_and_its_skips(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(PAGE, encoding="utf-8")
+    found = commands(page, tmp_path)
+    assert [(c.line, c.text, c.expected) for c in found] == [
+        (4, "echo one \\\n    two", ("one two",)),
+        (7, "printf 'a long line\\n'", ("a long...",)),
+    ]
+    assert found[0].expects_in("one two\n") == []
+    assert found[0].expects_in("one\n") == ["one two"]
+    assert found[1].expects_in("  a long line\n") == []
+    assert found[1].expects_in("not a long line\n") == ["a long..."]
+
+
+def test_the_script_stops_at_the_first_failing_command_and_names_it(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("```console\n$ X=1\n$ test $X = 2\n$ echo never > ran\n```\n", "utf-8")
+    outputs = tmp_path / "out"
+    outputs.mkdir()
+    run = outputs / "run.sh"
+    run.write_text(script(commands(page, tmp_path), 1234, outputs), encoding="utf-8")
+    code = subprocess.run(["bash", str(run)], cwd=tmp_path, timeout=30).returncode
+    assert code == 1
+    assert (outputs / "failed").read_text().split() == ["1", "1"]
+    assert not (tmp_path / "ran").exists()
+
+
+def test_the_port_the_docs_write_becomes_the_tests_port(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(
+        "```console\n$ rcb serve --port 8000 &\n$ curl http://127.0.0.1:8000/api/v1/health\n```\n",
+        "utf-8",
+    )
+    text = script(commands(page, tmp_path), 40123, tmp_path)
+    serve = next(line for line in text.splitlines() if line.startswith("rcb serve"))
+    assert serve.startswith("rcb serve --port 40123 > ") and serve.endswith(" 2>&1 &")
+    assert "http://127.0.0.1:40123/api/v1/health" in text and "8000" not in text
