@@ -224,3 +224,40 @@ def test_the_port_the_docs_write_becomes_the_tests_port(tmp_path):
     serve = next(line for line in text.splitlines() if line.startswith("rcb serve"))
     assert serve.startswith("rcb serve --port 40123 > ") and serve.endswith(" 2>&1 &")
     assert "http://127.0.0.1:40123/api/v1/health" in text and "8000" not in text
+
+
+def _hook(name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, ROOT / "docs" / "hooks" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_rest_reference_has_every_operation_and_schema_of_the_openapi_document():
+    hook = _hook("rest_reference")
+    document = hook._document()
+    page = hook.render(document)
+    for path, item in document["paths"].items():
+        for method in item:
+            assert f"### `{method.upper()} {path}`" in page
+    for name in document["components"]["schemas"]:
+        assert f"### {name} {{#schema-{name.lower()}}}" in page
+    assert "`POST /api/v1/plans/{plan_id}/parts`" in page and "[PartCreated]" in page
+
+
+def test_the_cli_reference_has_every_command_with_its_options():
+    import typer
+
+    from api.cli.main import app
+
+    page = _hook("cli_reference").render()
+    root = typer.main.get_command(app)
+    for name in root.list_commands(None):
+        assert f"## `rcb {name}`" in page
+    create = page[page.index("### `rcb plans create`") :]
+    create = create[: create.index("\n### ")]
+    assert "`--strategy <learn|ivester|bayes>`" in create and "[default: learn]" in create
+    assert "| `--depth-mm <float>` | Turning depth [mm]. |" in page  # a unit, not Rich markup

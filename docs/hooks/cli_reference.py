@@ -32,7 +32,8 @@ def _params(command: Any, ctx: Any) -> list[str]:
         if record is None or record[0].startswith("--help"):
             continue
         usage, help_text = record
-        rows.append(f"| `{_cell(usage)}` | {_cell(help_text)} |")
+        # a pipe inside a code span does not split a Markdown table's row: not escaped there
+        rows.append(f"| `{' '.join(usage.split())}` | {_cell(help_text)} |")
     if not rows:
         return []
     return ["| argument or option | description |", "| --- | --- |", *rows, ""]
