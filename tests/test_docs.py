@@ -7,8 +7,9 @@ checkout's ``examples/`` and ``tests/data/`` are linked into it, as a command ru
 checkout sees them): each
 command must exit 0 and print the lines its block shows (``tests/docs_console.py``). A server
 a page starts (``rcb serve ... &``) gets a free port in place of the 8000 it writes, and the
-page's process group is killed at the end. A page may declare ``<!-- docs-test: serve -->``:
-the test then starts ``rcb serve`` on ``./rcb.db`` (port 8000 in the page) before it.
+page's process group is killed at the end. A page may declare ``<!-- docs-test: serve -->``
+on a line of its own: the test then starts ``rcb serve`` on ``./rcb.db`` (port 8000 in the
+page) before its commands.
 
 README's opening block (a fresh virtual environment with the demo; one with the whole test
 suite) is a ``bash`` block, not a console block: it is not run here, because the second
@@ -40,6 +41,7 @@ INSTALL = (
     "python3 -m venv .venv && .venv/bin/pip install -q -e . && .venv/bin/rcb demo",
     'python3 -m venv .venv && .venv/bin/pip install -q -e ".[test]" && .venv/bin/python -m pytest',
 )
+SERVE = re.compile(r"^<!-- docs-test: serve -->$", re.MULTILINE)
 PAGE_SECONDS = 150  # a page's whole run, server start included
 
 
@@ -77,7 +79,7 @@ def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int, Path]:
     env = _environment(folder)
     (outputs / "run.sh").write_text(script(cmds, port, outputs), encoding="utf-8")
     serve = None
-    if "<!-- docs-test: serve -->" in page.read_text(encoding="utf-8"):
+    if SERVE.search(page.read_text(encoding="utf-8")):
         serve = subprocess.Popen(
             [
                 str(Path(sys.executable).parent / "rcb"),
@@ -261,3 +263,21 @@ def test_the_cli_reference_has_every_command_with_its_options():
     create = create[: create.index("\n### ")]
     assert "`--strategy <learn|ivester|bayes>`" in create and "[default: learn]" in create
     assert "| `--depth-mm <float>` | Turning depth [mm]. |" in page  # a unit, not Rich markup
+
+
+def test_a_page_that_declares_a_server_gets_one_on_the_port_it_writes(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(
+        "<!-- docs-test: serve -->\n\n```console\n"
+        "$ curl -s --retry 30 --retry-connrefused --retry-delay 1 "
+        "http://127.0.0.1:8000/api/v1/health\n"
+        '{"status":"ok"}\n```\n',
+        "utf-8",
+    )
+    folder = tmp_path / "run"
+    folder.mkdir()
+    cmds = commands(page, tmp_path)
+    code, outputs = _run(page, cmds, folder)
+    assert code == 0 and not (outputs / "failed").exists()
+    assert cmds[0].expects_in((outputs / "0.out").read_text()) == []
+    assert (folder / "rcb.db").exists()  # the test's server made the page's database
