@@ -1,0 +1,105 @@
+"""The console blocks of the docs as bash scripts: what ``tests/test_docs.py`` runs.
+
+A console block is a fenced block opened with three backticks and ``console``. In it a line
+starting with ``$ `` is a command (a line ending in a backslash continues on the next line);
+the lines up to the next command are its expected output: each non-empty one that is not
+``...`` must appear in what the command printed (stdout and stderr together), and a line
+ending in ``...`` must begin a printed line. A block preceded by the HTML comment
+``<!-- docs-test: skip REASON -->`` is not run (the README's install commands are not in a
+console block at all: see ``tests/test_docs.py``).
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from dataclasses import dataclass
+from pathlib import Path
+
+FENCE = re.compile(r"^```console\s*$")
+SKIP = re.compile(r"<!--\s*docs-test:\s*skip\b(.*?)-->")
+PORT = "8000"  # the port the docs write; the test puts a free one in its place
+
+
+@dataclass(frozen=True)
+class Command:
+    """One ``$ `` command of a page, where it is written and what it should print."""
+
+    page: str
+    line: int
+    text: str
+    expected: tuple[str, ...]
+
+    def expects_in(self, output: str) -> list[str]:
+        """The expected lines missing from ``output`` (empty: all there)."""
+        printed = [line.rstrip() for line in output.splitlines()]
+        missing = []
+        for want in self.expected:
+            if want.endswith("..."):
+                head = want[:-3]
+                if not any(line.strip().startswith(head.strip()) for line in printed):
+                    missing.append(want)
+            elif not any(want.strip() in line for line in printed):
+                missing.append(want)
+        return missing
+
+
+def commands(page: Path, root: Path) -> list[Command]:
+    """Every command of ``page``'s console blocks, in order."""
+    name = page.relative_to(root).as_posix()
+    lines = page.read_text(encoding="utf-8").splitlines()
+    found: list[Command] = []
+    inside = skipped = False
+    current: list[str] = []
+    start = 0
+    expected: list[str] = []
+
+    def close() -> None:
+        if current:
+            found.append(Command(name, start, "\n".join(current), tuple(expected)))
+
+    for number, line in enumerate(lines, 1):
+        if not inside:
+            if FENCE.match(line):
+                inside = True
+                previous = next((p for p in reversed(lines[: number - 1]) if p.strip()), "")
+                skipped = bool(SKIP.search(previous))
+                current, expected = [], []
+            continue
+        if line.startswith("```"):
+            if not skipped:
+                close()
+            inside, current, expected = False, [], []
+            continue
+        if skipped:
+            continue
+        if current and current[-1].endswith("\\") and not expected:
+            current.append(line)
+        elif line.startswith("$ "):
+            close()
+            current, expected, start = [line[2:]], [], number
+        elif current and line.strip() and line.strip() != "...":
+            expected.append(line.rstrip())
+    return found
+
+
+def script(cmds: list[Command], port: int, outputs: Path) -> str:
+    """A bash script running ``cmds`` in one shell, each one's output to its own file.
+
+    Variables and background jobs carry from one command to the next, as in a terminal. The
+    script stops at the first command that fails, leaving its index and status in
+    ``outputs/failed``; ``outputs/seconds`` holds each command's start and end.
+    """
+    lines = ["set -u", "set -o pipefail"]
+    for index, cmd in enumerate(cmds):
+        text = cmd.text.replace(f":{PORT}", f":{port}").replace(f"--port {PORT}", f"--port {port}")
+        out = shlex.quote(str(outputs / f"{index}.out"))
+        failed = shlex.quote(str(outputs / "failed"))
+        times = shlex.quote(str(outputs / "seconds"))
+        if text.rstrip().endswith("&") and not text.rstrip().endswith("&&"):
+            lines.append(f"{text.rstrip()[:-1].rstrip()} > {out} 2>&1 &")
+            continue
+        lines.append(f"start=$EPOCHREALTIME; {{\n{text}\n}} > {out} 2>&1")
+        lines.append(f"status=$?; echo {index} $start $EPOCHREALTIME >> {times}")
+        lines.append(f"if [ $status -ne 0 ]; then echo {index} $status > {failed}; exit 1; fi")
+    return "\n".join(lines) + "\n"
