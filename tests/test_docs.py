@@ -145,6 +145,15 @@ def test_readme_is_at_most_10_kB_and_links_into_the_docs():
         assert (ROOT / link).is_file(), link
 
 
+def test_readmes_machine_commands_are_run_by_the_machine_page():
+    """README's serve, collect, watch block is skipped there: the page runs the same lines."""
+    block = re.search(r"## Try a machine.*?```console\n(.*?)```", README.read_text(), re.S)
+    assert block is not None
+    lines = [line[2:] for line in block.group(1).splitlines() if line.startswith("$ ")]
+    page = [c.text for c in commands(ROOT / "docs" / "try-a-machine.md", ROOT)]
+    assert len(lines) == 3 and all(line in page for line in lines), (lines, page)
+
+
 def test_readme_runs_the_demo_and_the_first_commands():
     texts = [c.text for c in commands(README, ROOT)]
     assert texts and texts[0].startswith("rcb demo")
