@@ -19,10 +19,11 @@ from pathlib import Path
 
 import httpx
 import pytest
+from test_cli_errors import dumps
 
 from api.cli.main import app as rcb
+
 from conftest import DEMO_PLAN
-from test_cli_errors import dumps
 
 GENERATOR = Path(sys.executable).with_name("openapi-python-client")
 PACKAGE = "rcb_client"
@@ -109,9 +110,7 @@ def test_create_plan_gives_typed_setpoints(created):
     assert isinstance(force, models.Band) and force.band > 0
     assert force.value + force.band <= PLAN["operations"][0]["limits"]["force_N"] * (1 + 1e-6)
     power = rough.predicted.power_k_w  # derived from the force and the speed
-    assert math.isclose(
-        power.value, force.value * rough.setpoint.speed_m_min / 60000, rel_tol=1e-6
-    )
+    assert math.isclose(power.value, force.value * rough.setpoint.speed_m_min / 60000, rel_tol=1e-6)
 
 
 def test_get_setpoints_and_the_wire_omits_absent_names(client, created, sqlite_server):
