@@ -9,7 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 
 from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive
 from api.rest.schemas.halts import HaltedOperationOut
-from api.rest.schemas.quantities import KeyedIn, KeyedOut, keyed_model
+from api.rest.schemas.quantities import keyed_table
 from api.rest.schemas.setpoints import OperationSetpoint
 from models.bounds import LARGEST, MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST_MEASURED
 from models.quantities import MODEL_QUANTITIES, QUANTITIES
@@ -88,16 +88,16 @@ class MeasurementOut(Out):
     raw: dict[str, Any] | None = None
 
 
-if TYPE_CHECKING:  # to mypy, tables of names; at run time built from the registry
-    Measurements = KeyedIn
-    MeasurementsOut = KeyedOut
+if TYPE_CHECKING:  # to mypy, maps of names; at run time typed tables built from the registry
+    Measurements = dict[str, ReadingIn]
+    MeasurementsOut = dict[str, MeasurementOut]
 else:
     #: A part report's measurements: a property per measurable quantity.
-    Measurements = keyed_model(
-        "Measurements", _MEASUREMENTS_DOC, MEASURABLE, ReadingIn, _measured, KeyedIn
+    Measurements = keyed_table(
+        "Measurements", _MEASUREMENTS_DOC, MEASURABLE, ReadingIn, _measured, extra="allow"
     )
     #: A stored part's measurements.
-    MeasurementsOut = keyed_model(
+    MeasurementsOut = keyed_table(
         "MeasurementsOut", _STORED_DOC, MEASURABLE, MeasurementOut, _measured
     )
 
@@ -119,7 +119,7 @@ class OperationReport(BaseModel):
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     name: Name
-    measurements: Measurements = Field(default_factory=Measurements)
+    measurements: Measurements = Field(default_factory=dict)
     tool_wear: ToolWearIn | None = None
     feed_override_percent: Positive | None = Field(
         None,

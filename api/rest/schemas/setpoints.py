@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Literal
 from pydantic import Field
 
 from api.rest.schemas.common import Band, Out
-from api.rest.schemas.quantities import KeyedOut, keyed_model
+from api.rest.schemas.quantities import keyed_table
 from models.kinematics import PARAMETERS, PROCESSES
 from models.quantities import QUANTITIES
 from supervisor.optimize.program import Objective
@@ -16,14 +16,20 @@ from supervisor.optimize.program import Objective
 ALL_PARAMETERS = list(dict.fromkeys(p for process in PROCESSES for p in PARAMETERS[process]))
 
 
+#: The unit each parameter name ends with (DESIGN.md, "Contracts"), longest first.
+_UNITS = (("_mm_rev", "mm/rev"), ("_m_min", "m/min"), ("_mm", "mm"))
+
+
 def _parameter(name: str) -> str:
-    processes = [p for p in PROCESSES if name in PARAMETERS[p]]
-    return f"{name.rsplit('_', 1)[0].replace('_', ' ')} ({', '.join(processes)})"
+    """``feed [mm/rev] (turning)``: the name's words, its unit, the processes that have it."""
+    processes = ", ".join(p for p in PROCESSES if name in PARAMETERS[p])
+    suffix, unit = next((s, u) for s, u in _UNITS if name.endswith(s))
+    return f"{name.removesuffix(suffix).replace('_', ' ')} [{unit}] ({processes})"
 
 
 def _quantity(name: str) -> str:
     q = QUANTITIES[name]
-    return f"{q.description} [{q.unit}] ({q.kind}, a {q.sense}imum when limited)"
+    return f"{q.description} [{q.unit}]; a limit on it is a {q.sense}imum"
 
 
 _SETPOINT_DOC = (
@@ -36,14 +42,14 @@ _PREDICTED_DOC = (
     "them and the parameters), its value and band, in the unit its name ends with."
 )
 
-if TYPE_CHECKING:  # to mypy, tables of names; at run time built from the registries
-    Setpoint = KeyedOut
-    Predicted = KeyedOut
+if TYPE_CHECKING:  # to mypy, maps of names; at run time typed tables built from the registries
+    Setpoint = dict[str, float]
+    Predicted = dict[str, Band]
 else:
     #: A setpoint: a property per cutting parameter (models.kinematics.PARAMETERS).
-    Setpoint = keyed_model("Setpoint", _SETPOINT_DOC, ALL_PARAMETERS, float, _parameter)
+    Setpoint = keyed_table("Setpoint", _SETPOINT_DOC, ALL_PARAMETERS, float, _parameter)
     #: Predictions: a property per quantity (models.quantities.QUANTITIES).
-    Predicted = keyed_model("Predicted", _PREDICTED_DOC, list(QUANTITIES), Band, _quantity)
+    Predicted = keyed_table("Predicted", _PREDICTED_DOC, list(QUANTITIES), Band, _quantity)
 
 
 class ConstantLoadOut(Out):
