@@ -11,6 +11,7 @@ from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive
 from api.rest.schemas.halts import HaltedOperationOut
 from api.rest.schemas.quantities import keyed_table
 from api.rest.schemas.setpoints import OperationSetpoint
+from api.services.record import TOOL_CHANGE
 from models.bounds import LARGEST, MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST_MEASURED
 from models.quantities import MODEL_QUANTITIES, QUANTITIES
 from supervisor.rcb.decision import Action, Flag, Note
@@ -18,10 +19,18 @@ from supervisor.rcb.decision import Action, Flag, Note
 #: Quantities a part report may measure: every model quantity but tool life, which follows from
 #: ``tool_wear`` (:func:`supervisor.rcb.update.update`; the operation's tool must model it).
 MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
+#: What a stored part's measurements may hold: the measurable quantities (a spindle reading as
+#: converted), and a constant-load operation's feed override (api.services.record.TOOL_CHANGE).
+STORED = [*MEASURABLE, TOOL_CHANGE]
 _RAW = "the machine's calibration converts it to force_N"
 
 
 def _measured(name: str) -> str:
+    if name == TOOL_CHANGE:
+        return (
+            "the reported feed override [%] (uncertainty 0); raw: the commanded feed rate, its "
+            "lower limit and whether the tool was due for a change"
+        )
     if name not in QUANTITIES:
         return f"spindle load reading [V]; {_RAW}"
     q = QUANTITIES[name]
@@ -97,9 +106,7 @@ else:
         "Measurements", _MEASUREMENTS_DOC, MEASURABLE, ReadingIn, _measured, extra="allow"
     )
     #: A stored part's measurements.
-    MeasurementsOut = keyed_table(
-        "MeasurementsOut", _STORED_DOC, MEASURABLE, MeasurementOut, _measured
-    )
+    MeasurementsOut = keyed_table("MeasurementsOut", _STORED_DOC, STORED, MeasurementOut, _measured)
 
 
 class ToolWearIn(BaseModel):
