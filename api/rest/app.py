@@ -11,12 +11,12 @@ from __future__ import annotations
 from fastapi import FastAPI
 
 from api.report import ui
-from api.rest import content_type, problems
+from api.rest import answers, content_type, problems
 from api.rest.lifespan import flushing
 from api.rest.limits import BodyLimit
 from api.rest.priority import WritesFirstMiddleware
 from api.rest.routes import health, parts, plans, review, tools
-from api.rest.routes.common import PREFIX, PROBLEMS
+from api.rest.routes.common import PREFIX
 from api.settings import Settings
 from db.engine import DEFAULT_POOL, Pool, make_engine
 
@@ -34,7 +34,6 @@ def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
         openapi_url=f"{PREFIX}/openapi.json",
         docs_url=f"{PREFIX}/docs",
         redoc_url=None,
-        responses=PROBLEMS,
         lifespan=flushing(engine),  # audit counts written on a timer and at shutdown
     )
     app.state.engine = engine  # the routes' engine (api.rest.deps.engine_of)
@@ -48,6 +47,7 @@ def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
         # mounts a router lazily, and a request's route then lacks the prefix (the audit
         # log's action, api.rest.deps.action_of) and a 405 cannot list its methods (Allow)
         app.router.routes.extend(resource.router.routes)
+    answers.declare(app)  # each route's problem statuses (api.rest.answers)
     return app
 
 

@@ -143,6 +143,7 @@ def role(*allowed: str) -> Callable[..., Actor]:
         in_scope(request, checked)
         return checked
 
+    check.allowed_roles = allowed  # type: ignore[attr-defined]  # read by api.rest.answers
     return check
 
 
@@ -192,6 +193,7 @@ def holding(*allowed: str) -> Callable[..., AsyncIterator[auth.Authenticated]]:
                 with CancelScope(shield=True):
                     await run_in_threadpool(held.close)
 
+    check.allowed_roles = allowed  # type: ignore[attr-defined]  # read by api.rest.answers
     return check
 
 

@@ -26,8 +26,10 @@ from api.rest.unavailable import RETRY_AFTER_S, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
 from db.errors import ConflictError, PlanNameTakenError
+from db.plan_state import halt_json
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
+from supervisor.rcb.state import Halt, HaltedOperation
 
 MEDIA_TYPE = "application/problem+json"
 #: The most characters of an offending value (or of a field path) an error body echoes.
@@ -193,7 +195,9 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(InfeasibleError)
     async def _infeasible(request: Request, err: InfeasibleError) -> JSONResponse:
         field = f"operations.{err.operation}.limits"
-        return problem(request, 422, "infeasible", str(err), field, err.operation)
+        return problem(
+            request, 422, "infeasible", str(err), field, err.operation, conflicts=conflicts_of(err)
+        )
 
     @app.exception_handler(SolverError)
     async def _solver(request: Request, err: SolverError) -> JSONResponse:
@@ -274,6 +278,13 @@ def install(app: FastAPI) -> None:
     async def _unexpected(request: Request, err: Exception) -> JSONResponse:
         _log.exception("unexpected error on %s %s", request.method, request.url.path)
         return problem(request, 500, "internal", "internal error; nothing was stored")
+
+
+def conflicts_of(err: InfeasibleError) -> list[dict[str, Any]]:
+    """The limits in conflict as a halted plan's ``conflicts`` and ``rcb optimize --json``."""
+    halted = HaltedOperation(err.operation, err.conflicts, err.against, str(err))
+    conflicts: list[dict[str, Any]] = halt_json(Halt((halted,)))["conflicts"]
+    return conflicts
 
 
 def _allowed(request: Request) -> str:

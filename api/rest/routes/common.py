@@ -7,19 +7,12 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Header, Path, Request
 from fastapi.responses import JSONResponse, Response
 
-from api.rest import problems
-from api.rest.schemas.service import Problem
 from api.rest.strict import StrictRoute
 from api.services.idempotency import Idempotency, Written, fingerprint
 from db.tables import MAX_INT
 
 #: Where the service lives (the web view is at /ui, api.report.ui).
 PREFIX = "/api/v1"
-#: The errors every route may answer, as problem+json (api.rest.problems).
-PROBLEMS: dict[int | str, dict[str, Any]] = {
-    status: {"model": Problem, "content": {problems.MEDIA_TYPE: {}}}
-    for status in (400, 401, 403, 404, 409, 422, 429)
-}
 
 #: Largest id (the tables' integer keys are 32-bit on PostgreSQL).
 MAX_ID = MAX_INT
@@ -45,11 +38,12 @@ REPLAYED: dict[str, Any] = {
 
 
 def resource_router(tag: str) -> APIRouter:
-    """A resource's router: its routes under :data:`PREFIX`, tagged, answering problems.
+    """A resource's router: its routes under :data:`PREFIX`, tagged.
 
-    Each route reads its request strictly (:class:`api.rest.strict.StrictRoute`).
+    Each route reads its request strictly (:class:`api.rest.strict.StrictRoute`); the problems
+    it can answer are declared when the app is built (:func:`api.rest.answers.declare`).
     """
-    return APIRouter(prefix=PREFIX, tags=[tag], responses=PROBLEMS, route_class=StrictRoute)
+    return APIRouter(prefix=PREFIX, tags=[tag], route_class=StrictRoute)
 
 
 def idempotency_of(request: Request, key: str | None, body: object) -> Idempotency | None:

@@ -6,7 +6,7 @@ from api.rest.schemas.service import Health
 router = resource_router("service")
 
 
-@router.get("/health", response_model=Health)
+@router.get("/health", response_model=Health, operation_id="getHealth")
 def health() -> dict[str, str]:
     """Liveness; no key needed."""
     return {"status": "ok"}

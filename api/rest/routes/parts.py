@@ -7,6 +7,7 @@ from typing import Annotated, Any
 from fastapi import Query, Request
 from fastapi.responses import Response
 
+from api.rest.answers import problems_at
 from api.rest.deps import Anyone, EngineDep, Reporter
 from api.rest.routes.common import (
     REPLAYED,
@@ -24,7 +25,12 @@ from api.services import queries
 router = resource_router("mes")
 
 
-@router.get("/plans/{plan_id}/setpoints", response_model=Setpoints)
+@router.get(
+    "/plans/{plan_id}/setpoints",
+    response_model=Setpoints,
+    operation_id="getSetpoints",
+    responses=problems_at(409),  # plan_halted: conflicts say why
+)
 def setpoints(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """The setpoints in force: what the next part is made with."""
     return queries.current_setpoints(engine=engine, plan_id=plan_id)
@@ -34,7 +40,8 @@ def setpoints(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, An
     "/plans/{plan_id}/parts",
     status_code=201,
     response_model=PartCreated,
-    responses={201: {"headers": REPLAYED}},
+    operation_id="reportPart",
+    responses={201: {"headers": REPLAYED}, **problems_at(500)},  # 500: the solver failed
 )
 def report_part(
     request: Request,
@@ -60,7 +67,7 @@ def report_part(
     return answer(written)
 
 
-@router.get("/plans/{plan_id}/parts", response_model=PartsPage)
+@router.get("/plans/{plan_id}/parts", response_model=PartsPage, operation_id="listParts")
 def parts(
     engine: EngineDep,
     plan_id: PlanId,

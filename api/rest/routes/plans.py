@@ -7,6 +7,7 @@ from typing import Annotated, Any
 from fastapi import Body, Query, Request
 from fastapi.responses import Response
 
+from api.rest.answers import problems_at
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import (
     REPLAYED,
@@ -34,7 +35,8 @@ _DEFAULTS = RcbSettings()
     "/plans",
     status_code=201,
     response_model=PlanCreated,
-    responses={201: {"headers": REPLAYED}},
+    operation_id="createPlan",
+    responses={201: {"headers": REPLAYED}, **problems_at(500)},  # 500: the solver failed
 )
 def create_plan(
     request: Request,
@@ -106,7 +108,12 @@ def create_plan(
     "/plans/{plan_id}/replan",
     status_code=201,
     response_model=Replanned,
-    responses={200: {"model": Replanned, "description": "dry run: nothing stored"}},
+    operation_id="replanPlan",
+    responses={
+        200: {"model": Replanned, "description": "dry run: nothing stored"},
+        201: {"headers": REPLAYED},
+        **problems_at(500),  # the solver failed
+    },
 )
 def replan(
     request: Request,
@@ -130,7 +137,7 @@ def replan(
     return answer(written)
 
 
-@router.get("/plans", response_model=PlanList)
+@router.get("/plans", response_model=PlanList, operation_id="listPlans")
 def list_plans(
     engine: EngineDep,
     actor: Anyone,
@@ -144,7 +151,7 @@ def list_plans(
     return queries.list_plans(engine=engine, cursor=cursor, page_size=limit, only=actor.plans)
 
 
-@router.get("/plans/{plan_id}", response_model=PlanDetail)
+@router.get("/plans/{plan_id}", response_model=PlanDetail, operation_id="getPlan")
 def get_plan(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """One plan: machine limits, operations, and the structure it was created from."""
     return queries.get_plan(engine=engine, plan_id=plan_id)

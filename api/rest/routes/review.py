@@ -20,7 +20,7 @@ from models.bounds import MAX_IDENTITY
 router = resource_router("review")
 
 
-@router.get("/plans/{plan_id}/history", response_model=History)
+@router.get("/plans/{plan_id}/history", response_model=History, operation_id="getHistory")
 def plan_history(
     engine: EngineDep,
     plan_id: PlanId,
@@ -50,13 +50,17 @@ def plan_history(
         return page_response(History, data, "versions")
 
 
-@router.get("/plans/{plan_id}/models", response_model=PlanModels)
+@router.get("/plans/{plan_id}/models", response_model=PlanModels, operation_id="getModels")
 def plan_models(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """Per operation and quantity the model in force."""
     return queries.models_in_force(engine=engine, plan_id=plan_id)
 
 
-@router.get("/plans/{plan_id}/models/versions", response_model=ModelVersions)
+@router.get(
+    "/plans/{plan_id}/models/versions",
+    response_model=ModelVersions,
+    operation_id="listModelVersions",
+)
 def model_versions(
     engine: EngineDep,
     plan_id: PlanId,

@@ -18,7 +18,7 @@ from models.bounds import MAX_IDENTITY
 router = resource_router("tools")
 
 
-@router.get("/tools", response_model=ToolList)
+@router.get("/tools", response_model=ToolList, operation_id="listTools")
 def list_tools(
     engine: EngineDep,
     actor: Anyone,
@@ -29,7 +29,7 @@ def list_tools(
     return queries.list_tools(engine=engine, cursor=cursor, page_size=limit)
 
 
-@router.get("/tools/{name}", response_model=ToolOut)
+@router.get("/tools/{name}", response_model=ToolOut, operation_id="getTool")
 def get_tool(
     engine: EngineDep,
     name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
@@ -43,6 +43,7 @@ def get_tool(
     "/tools",
     status_code=201,
     response_model=ToolOut,
+    operation_id="addTool",
     responses={201: {"headers": REPLAYED}},
 )
 def add_tool(

@@ -3,20 +3,39 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
-from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive, keys_schema
+from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive
 from api.rest.schemas.halts import HaltedOperationOut
+from api.rest.schemas.quantities import keyed_table
 from api.rest.schemas.setpoints import OperationSetpoint
+from api.services.record import TOOL_CHANGE
 from models.bounds import LARGEST, MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST_MEASURED
-from models.quantities import MODEL_QUANTITIES
+from models.quantities import MODEL_QUANTITIES, QUANTITIES
 from supervisor.rcb.decision import Action, Flag, Note
 
 #: Quantities a part report may measure: every model quantity but tool life, which follows from
 #: ``tool_wear`` (:func:`supervisor.rcb.update.update`; the operation's tool must model it).
 MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
+#: What a stored part's measurements may hold: the measurable quantities (a spindle reading as
+#: converted), and a constant-load operation's feed override (api.services.record.TOOL_CHANGE).
+STORED = [*MEASURABLE, TOOL_CHANGE]
+_RAW = "the machine's calibration converts it to force_N"
+
+
+def _measured(name: str) -> str:
+    if name == TOOL_CHANGE:
+        return (
+            "the reported feed override [%] (uncertainty 0); raw: the commanded feed rate, its "
+            "lower limit and whether the tool was due for a change"
+        )
+    if name not in QUANTITIES:
+        return f"spindle load reading [V]; {_RAW}"
+    q = QUANTITIES[name]
+    raw = f"; or a raw reading {_RAW}" if name == "spindle_current_A" else ""
+    return f"{q.description} [{q.unit}]{raw}"
 
 
 #: A measured value or its uncertainty: > 0 (SMALLEST_MEASURED), finite, at most LARGEST.
@@ -63,6 +82,33 @@ class ReadingIn(MeasurementIn):
     u_feed_rate_mm_min: NonNegative | None = None
 
 
+_MEASUREMENTS_DOC = (
+    "Per quantity the operation's tool models (tool life: ``tool_wear``), what was measured; "
+    "or a spindle reading converted to force_N by the machine's calibration."
+)
+_STORED_DOC = "Per quantity, what was measured (a spindle reading: as converted, with raw)."
+
+
+class MeasurementOut(Out):
+    """A stored measurement; ``raw``: the spindle reading it was converted from, if any."""
+
+    value: float
+    uncertainty: float
+    raw: dict[str, Any] | None = None
+
+
+if TYPE_CHECKING:  # to mypy, maps of names; at run time typed tables built from the registry
+    Measurements = dict[str, ReadingIn]
+    MeasurementsOut = dict[str, MeasurementOut]
+else:
+    #: A part report's measurements: a property per measurable quantity.
+    Measurements = keyed_table(
+        "Measurements", _MEASUREMENTS_DOC, MEASURABLE, ReadingIn, _measured, extra="allow"
+    )
+    #: A stored part's measurements.
+    MeasurementsOut = keyed_table("MeasurementsOut", _STORED_DOC, STORED, MeasurementOut, _measured)
+
+
 class ToolWearIn(BaseModel):
     """Flank wear of the operation's edge and the volume the edge has cut so far."""
 
@@ -80,13 +126,7 @@ class OperationReport(BaseModel):
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     name: Name
-    measurements: dict[str, ReadingIn] = Field(
-        default_factory=dict,
-        description="per quantity the operation's tool models (tool life: ``tool_wear``), "
-        "or a spindle reading converted to force_N by the machine's calibration",
-        max_length=len(MEASURABLE),
-        json_schema_extra=keys_schema(MEASURABLE),
-    )
+    measurements: Measurements = Field(default_factory=dict)
     tool_wear: ToolWearIn | None = None
     feed_override_percent: Positive | None = Field(
         None,
@@ -177,14 +217,6 @@ class PartCreated(Out):
     operations: list[OperationSetpoint]
 
 
-class MeasurementOut(Out):
-    """A stored measurement; ``raw``: the spindle reading it was converted from, if any."""
-
-    value: float
-    uncertainty: float
-    raw: dict[str, Any] | None = None
-
-
 class ToolWearOut(Out):
     """A stored flank-wear measurement."""
 
@@ -196,7 +228,7 @@ class PartOperation(Out):
     """One operation of a stored part."""
 
     name: str
-    measurements: dict[str, MeasurementOut]
+    measurements: MeasurementsOut
     tool_wear: ToolWearOut | None = None
 
 

@@ -7,8 +7,9 @@ from typing import Literal
 
 from pydantic import Field
 
-from api.rest.schemas.common import Band, Out
+from api.rest.schemas.common import Out
 from api.rest.schemas.halts import HaltOut
+from api.rest.schemas.setpoints import Predicted, Setpoint
 
 
 class ModelInForce(Out):
@@ -24,8 +25,8 @@ class HistoryOperation(Out):
 
     name: str
     tool: str
-    setpoint: dict[str, float]
-    predicted: dict[str, Band]
+    setpoint: Setpoint
+    predicted: Predicted
     mrr_cm3_min: float
     time_min: float
     binding: list[str]

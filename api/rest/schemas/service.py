@@ -7,6 +7,15 @@ from typing import Any, Literal
 from pydantic import BaseModel, Field
 
 from api.rest.schemas.common import Out
+from api.rest.schemas.halts import HaltedOperationOut
+
+
+class FieldError(BaseModel):
+    """One reason a request was refused: the field, what is wrong, the value sent."""
+
+    field: str = Field(description="the offending field, as a dotted path")
+    message: str
+    value: Any = Field(None, description="the offending value (at most 200 characters)")
 
 
 class Problem(BaseModel):
@@ -20,11 +29,15 @@ class Problem(BaseModel):
     code: str = Field(description="machine-readable error code")
     field: str | None = Field(None, description="the offending field, as a dotted path")
     value: Any = Field(None, description="the offending value")
-    errors: list[dict[str, Any]] | None = None
-    conflicts: list[dict[str, Any]] | None = Field(
+    errors: list[FieldError] | None = Field(
+        None, description="invalid: every field refused (at most 20), the first is ``field``"
+    )
+    conflicts: list[HaltedOperationOut] | None = Field(
         None,
-        description="plan_halted: per operation, the limits that cannot be met (none, and "
-        "the message naming the reading, for a reading past its limit by more than halt_over)",
+        description="infeasible and plan_halted: per operation, the limits that cannot all be "
+        "met and what each would have to be (as rcb optimize --json and a halted plan give "
+        "them); plan_halted on a reading past its limit by more than halt_over: no conflicts, "
+        "and the message names the reading",
     )
     plan_id: int | None = Field(
         None, description="plan_name_taken: the id of the stored plan that has the name"

@@ -2,12 +2,54 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from pydantic import Field
 
 from api.rest.schemas.common import Band, Out
+from api.rest.schemas.quantities import keyed_table
+from models.kinematics import PARAMETERS, PROCESSES
+from models.quantities import QUANTITIES
 from supervisor.optimize.program import Objective
+
+#: Every cutting parameter, in the processes' order (turning's, then milling's new ones).
+ALL_PARAMETERS = list(dict.fromkeys(p for process in PROCESSES for p in PARAMETERS[process]))
+
+
+#: The unit each parameter name ends with (DESIGN.md, "Contracts"), longest first.
+_UNITS = (("_mm_rev", "mm/rev"), ("_m_min", "m/min"), ("_mm", "mm"))
+
+
+def _parameter(name: str) -> str:
+    """``feed [mm/rev] (turning)``: the name's words, its unit, the processes that have it."""
+    processes = ", ".join(p for p in PROCESSES if name in PARAMETERS[p])
+    suffix, unit = next((s, u) for s, u in _UNITS if name.endswith(s))
+    return f"{name.removesuffix(suffix).replace('_', ' ')} [{unit}] ({processes})"
+
+
+def _quantity(name: str) -> str:
+    q = QUANTITIES[name]
+    return f"{q.description} [{q.unit}]; a limit on it is a {q.sense}imum"
+
+
+_SETPOINT_DOC = (
+    "The cutting parameters of an operation, each in the unit its name ends with; those of "
+    "its process only (turning: depth_mm, feed_mm_rev, speed_m_min; milling: axial_depth_mm, "
+    "radial_depth_mm, feed_per_tooth_mm, speed_m_min)."
+)
+_PREDICTED_DOC = (
+    "Per quantity predicted at the setpoint (those the tool models, and those derived from "
+    "them and the parameters), its value and band, in the unit its name ends with."
+)
+
+if TYPE_CHECKING:  # to mypy, maps of names; at run time typed tables built from the registries
+    Setpoint = dict[str, float]
+    Predicted = dict[str, Band]
+else:
+    #: A setpoint: a property per cutting parameter (models.kinematics.PARAMETERS).
+    Setpoint = keyed_table("Setpoint", _SETPOINT_DOC, ALL_PARAMETERS, float, _parameter)
+    #: Predictions: a property per quantity (models.quantities.QUANTITIES).
+    Predicted = keyed_table("Predicted", _PREDICTED_DOC, list(QUANTITIES), Band, _quantity)
 
 
 class ConstantLoadOut(Out):
@@ -28,8 +70,8 @@ class PassGroupOut(Out):
     kind: Literal["roughing", "finishing"]
     count: int = Field(description="passes of this kind")
     depth_mm: float = Field(description="depth of each (milling: axial depth)")
-    setpoint: dict[str, float]
-    predicted: dict[str, Band]
+    setpoint: Setpoint
+    predicted: Predicted
     mrr_cm3_min: float
     time_min: float = Field(description="of all passes of this kind")
     binding: list[str]
@@ -50,8 +92,8 @@ class OperationSetpoint(Out):
     name: str
     tool: str
     process: str
-    setpoint: dict[str, float]
-    predicted: dict[str, Band]
+    setpoint: Setpoint
+    predicted: Predicted
     mrr_cm3_min: float
     time_min: float
     binding: list[str]
