@@ -245,3 +245,16 @@ def test_health_without_a_key(generated, sqlite_server):
     ) as anonymous:
         answer = get_health.sync_detailed(client=anonymous)
     assert answer.status_code == 200 and answer.parsed.status == "ok"
+
+
+def test_the_docs_generate_the_client_as_this_test_does():
+    """docs/rest-client.md's generator block is not run by the docs test: this test runs it."""
+    page = (Path(__file__).resolve().parents[1] / "docs" / "rest-client.md").read_text()
+    lines = [line[2:] for line in page.splitlines() if line.startswith("$ ")]
+    install = [line for line in lines if "pip install openapi-python-client" in line]
+    generate = [line for line in lines if "openapi-python-client generate" in line]
+    assert len(install) == 1 and install[0].endswith(GENERATOR_SPEC)
+    assert len(generate) == 1
+    for flag in ("--url", "/api/v1/openapi.json", "--meta none", "--fail-on-warning"):
+        assert flag in generate[0], flag
+    assert f"--output-path {PACKAGE}" in generate[0]
