@@ -27,9 +27,9 @@ from api.report.svg_marks import Scale, mark_svg, marker_defs, px, use_shape
 S = TypeVar("S")
 
 #: The chart's width, the y-axis margin on the left, the legend's width on the right [px].
-WIDTH_PX, LEFT_PX, LEGEND_PX = 760.0, 72.0, 200.0
+WIDTH_PX, LEFT_PX, LEGEND_PX = 780.0, 84.0, 210.0
 #: Height of a panel, gap between panels, room for a title, room for the x axis [px].
-PANEL_PX, GAP_PX, TITLE_PX, BOTTOM_PX = 120.0, 14.0, 24.0, 38.0
+PANEL_PX, GAP_PX, TITLE_PX, BOTTOM_PX = 140.0, 14.0, 24.0, 38.0
 #: Font sizes of labels and of tick values [px]; height of a legend entry [px].
 FONT_PX, TICK_FONT_PX, ENTRY_PX = 11.0, 10.0, 14.0
 #: Fonts named in every SVG.
@@ -146,7 +146,7 @@ def _panel(
         ]
     middle = top + PANEL_PX / 2
     out.append(
-        f'<text x="12" y="{px(middle)}" text-anchor="middle" '
+        f'<text x="12" y="{px(middle)}" text-anchor="middle" font-size="{px(TICK_FONT_PX)}" '
         f'transform="rotate(-90 12 {px(middle)})">{escaped(panel.ylabel)}</text>'
     )
     out.append(_legend(panel, right + 10, top, prefix))

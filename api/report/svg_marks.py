@@ -108,10 +108,34 @@ def _steps(run: list[tuple[float, float]]) -> list[tuple[float, float]]:
     return out
 
 
+def _simplified(points: list[tuple[float, float]]) -> list[tuple[str, str]]:
+    """The points as written (one decimal), without repeats and without the middle of three
+    on one horizontal or vertical: a setpoint held for 100 parts is one segment."""
+    out: list[tuple[str, str]] = []
+    for x, y in points:
+        point = (px(x), px(y))
+        if out and point == out[-1]:
+            continue
+        if len(out) >= 2 and any(out[-2][k] == out[-1][k] == point[k] for k in (0, 1)):
+            out[-1] = point
+        else:
+            out.append(point)
+    return out
+
+
 def _d(points: list[tuple[float, float]], close: bool = False) -> str:
-    head, *rest = points
-    text = f"M{px(head[0])} {px(head[1])}" + "".join(f"L{px(x)} {px(y)}" for x, y in rest)
-    return text + ("z" if close else "")
+    """Path data through ``points``: ``M``, then ``H``, ``V`` or ``L`` to each next one."""
+    (x0, y0), *rest = _simplified(points)
+    text, last = [f"M{x0} {y0}"], (x0, y0)
+    for x, y in rest:
+        if y == last[1]:
+            text.append(f"H{x}")
+        elif x == last[0]:
+            text.append(f"V{y}")
+        else:
+            text.append(f"L{x} {y}")
+        last = (x, y)
+    return "".join(text) + ("z" if close else "")
 
 
 def _dash(mark: Mark) -> str:
