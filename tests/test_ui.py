@@ -17,6 +17,7 @@ from urllib.parse import urlsplit
 
 import httpx
 import pytest
+from test_report_layout import BROKEN_WORDS_JS
 
 from api.report.plots import number
 from api.services.keys import create_key, revoke_key
@@ -393,5 +394,8 @@ def test_plan_pages_fit_1280_wide_in_chromium(server, three_plans, tmp_path):
                     box = cell.bounding_box()
                     assert box is not None and box["x"] + box["width"] <= 1280, f"{kind} {shot}"
                 assert re.search(r"\bnan\b", page.inner_text("body"), re.I) is None, kind
+                # no number, header or name breaks inside a word (issue 30)
+                broken = page.evaluate(BROKEN_WORDS_JS, None)
+                assert broken == [], f"{kind}: words broken across lines: {broken}; {shot}"
         finally:
             browser.close()

@@ -134,8 +134,8 @@ def tool_change_table(parts: Sequence[Mapping[str, Any]]) -> str:
         due = bool(raw.get("tool_change_due"))
         verdict = ("DUE: " if due else "not due: ") + str(raw.get("reason", ""))
         cells = [
-            td(serial),
-            td(operation),
+            td(serial, class_="nw"),
+            td(operation, class_="nw"),
             _num(reading["value"]),
             _num(raw.get("commanded_feed_rate_mm_min")),
             _num(raw.get("feed_rate_lower_mm_min")),

@@ -169,8 +169,7 @@ def _text(
     size = f' font-size="{px(TICK_FONT_PX)}"' if small else ""
     bold = f' font-weight="{weight}"' if weight else ""
     return (
-        f'<text x="{px(x)}" y="{px(y)}" text-anchor="{anchor}"{size}{bold}>'
-        f"{escaped(text)}</text>"
+        f'<text x="{px(x)}" y="{px(y)}" text-anchor="{anchor}"{size}{bold}>{escaped(text)}</text>'
     )
 
 
