@@ -29,8 +29,11 @@ STROKED: dict[Marker, float] = {"cross": 2.0, "open": 1.2}
 
 @dataclass(frozen=True)
 class Scale:
-    """Data to pixels: x from ``x_range`` onto ``left..right``, y from ``y_range`` onto
-    ``bottom..top`` (pixels grow downwards)."""
+    """Data to pixels.
+
+    x from ``x_range`` onto ``left..right``, y from ``y_range`` onto ``bottom..top`` (pixels
+    grow downwards).
+    """
 
     x_range: tuple[float, float]
     y_range: tuple[float, float]
@@ -40,10 +43,12 @@ class Scale:
     bottom: float
 
     def x(self, value: float) -> float:
+        """The pixel column of part number ``value``."""
         low, high = self.x_range
         return self.left + (value - low) / (high - low) * (self.right - self.left)
 
     def y(self, value: float) -> float:
+        """The pixel row of ``value``."""
         low, high = self.y_range
         return self.bottom - (value - low) / (high - low) * (self.bottom - self.top)
 
@@ -109,8 +114,11 @@ def _steps(run: list[tuple[float, float]]) -> list[tuple[float, float]]:
 
 
 def _simplified(points: list[tuple[float, float]]) -> list[tuple[str, str]]:
-    """The points as written (one decimal), without repeats and without the middle of three
-    on one horizontal or vertical: a setpoint held for 100 parts is one segment."""
+    """The points as written (one decimal), without repeats.
+
+    The middle of three points on one horizontal or vertical is dropped: a setpoint held
+    for 100 parts is one segment.
+    """
     out: list[tuple[str, str]] = []
     for x, y in points:
         point = (px(x), px(y))
