@@ -1,4 +1,4 @@
-"""A plan's production history as plots (matplotlib figures), one set per operation.
+"""A plan's production history as plots (charts drawn as SVG), one set per operation.
 
 After Ivester & Heigel [1]_, Fig. 4: (a) the input parameters and (b) the constrained outputs
 of an operation, part by part, as Recursive Constraint Bounding moves the setpoint. Here, for
