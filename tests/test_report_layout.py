@@ -31,6 +31,8 @@ CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
 VIEWPORT = {"width": 1280, "height": 800}
 SCREENSHOT = Path("/tmp/report_layout.png")
+#: Playwright's bound on each wait [ms], not its 30 s default a loaded host once hit.
+WAIT_BOUND_MS = 180_000
 
 #: The words of every table cell (and caption) that span more than one line, with the cell.
 BROKEN_WORDS_JS = """
@@ -56,10 +58,12 @@ BROKEN_WORDS_JS = """
 """
 
 
-def chromium_page(sync_api, playwright):
+def chromium_page(playwright):
     """A browser (Debian's Chromium) and a page at a 1280 x 800 viewport."""
     browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-    return browser, browser.new_context(viewport=VIEWPORT).new_page()
+    context = browser.new_context(viewport=VIEWPORT)
+    context.set_default_timeout(WAIT_BOUND_MS)  # only a hung browser reaches it
+    return browser, context.new_page()
 
 
 def needs_chromium():
@@ -87,7 +91,7 @@ def report_page(tmp_path_factory) -> str:
 def test_no_word_breaks_inside_a_cell_at_1280(report_page, tmp_path):
     sync_api = needs_chromium()
     with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(sync_api, p)
+        browser, page = chromium_page(p)
         try:
             page.set_content(report_page, wait_until="load")
             page.screenshot(path=str(SCREENSHOT), full_page=True)
@@ -113,7 +117,7 @@ def test_the_check_finds_a_word_broken_inside(report_page):
         1,
     )
     with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(sync_api, p)
+        browser, page = chromium_page(p)
         try:
             page.set_content(squeezed, wait_until="load")
             broken = page.evaluate(BROKEN_WORDS_JS, None)

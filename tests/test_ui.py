@@ -40,6 +40,9 @@ CHROMIUM_ARGS = [
     "--disable-sync",
 ]
 SCREENSHOT = Path("/tmp/ui_plan.png")
+#: Playwright's bound on each wait [ms]: the page answers in under a second (issue 30), so only
+#: a hung server reaches it; not Playwright's 30 s default, which a loaded host once hit.
+WAIT_BOUND_MS = 180_000
 #: The XML namespace names inline SVG declares: identifiers, never fetched.
 SVG_NAMESPACES = {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
 
@@ -246,6 +249,7 @@ def test_plan_page_renders_in_headless_chromium(server, plan_id, tmp_path):
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         try:
             context = browser.new_context(viewport={"width": 1280, "height": 900})
+            context.set_default_timeout(WAIT_BOUND_MS)
             context.route("**/*", local_only)
             page = context.new_page()
             page.goto(f"{_ui(server)}/plans/{plan_id}")
@@ -367,6 +371,7 @@ def test_plan_pages_fit_1280_wide_in_chromium(server, three_plans, tmp_path):
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         try:
             context = browser.new_context(viewport={"width": 1280, "height": 800})
+            context.set_default_timeout(WAIT_BOUND_MS)
             page = context.new_page()
             page.goto(f"{_ui(server)}/login")
             page.fill("input[name=key]", server.keys["viewer"])
