@@ -296,6 +296,9 @@ def test_series_follow_the_setpoint_each_part_was_made_with(stored):
         for p in parts
     ]
     assert_allclose(force.band_after[:-1], [d["band_after"] for d in decided])
+    # held: the update kept the band in force although the one it computed is wider
+    held = [d["action"] == "hold" and d["band_after"] > d["band_before"] for d in decided]
+    assert force.held.tolist() == [*held, False] and any(held)  # learn, from few parts
     assert list(series.parameters) == ["depth_mm", "feed_mm_rev", "speed_m_min"]
 
 

@@ -135,4 +135,4 @@ def test_the_bands_plot_says_what_each_mark_is(report_page):
         assert entry in figure, entry
     caption = figure[figure.index("<figcaption>") :]
     assert "Triangles: the band that part" in caption
-    assert "above the line without a cross (RCB action hold)" in caption.replace("Above", "above")
+    assert "A grey triangle above the line (RCB action hold)" in caption

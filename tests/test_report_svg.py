@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -36,6 +37,7 @@ def _output(n: int = 5) -> Output:
         band_after=np.append(np.linspace(300, 200, n), np.nan),
         flagged=np.array([False, False, True, False, False, False][: n + 1]),
         checked=np.zeros(n + 1, dtype=bool),
+        held=np.zeros(n + 1, dtype=bool),
     )
 
 
@@ -105,3 +107,20 @@ def test_nice_ticks_are_round_and_cover_the_range():
 def test_bad_id_prefix_is_refused_naming_it():
     with pytest.raises(ValueError, match="id_prefix = 'x\" onload'"):
         render(lambda _: Chart("", "", ()), None, 'x" onload')
+
+
+def test_a_wider_band_held_is_drawn_apart_from_one_applied():
+    held = np.array([True, True, False, False, False, False])
+    output = replace(_output(), held=held)
+    x = np.arange(1.0, 7.0)
+    marks = {m.label: m for m in plots._band_marks(x, output)}
+    applied = marks["ΔY after the part's RCB update"]
+    kept = marks["ΔY learned, still wider: held"]
+    assert np.isnan(applied.y[:2]).all()
+    assert_allclose(applied.y[2:5], output.band_after[2:5])
+    assert_allclose(kept.y[:2], output.band_after[:2])
+    assert np.isnan(kept.y[2:]).all()
+    assert applied.color != kept.color
+    root = ET.fromstring(to_svg(Chart("", "", (Panel("band", tuple(marks.values())),)), "b"))
+    drawn = {p.get("marker-mid"): len(p.get("points").split()) for p in root.iter(f"{SVG}polyline")}
+    assert drawn["url(#b-mk-triangle-2ca02c)"] == 3 and drawn["url(#b-mk-triangle-666666)"] == 2

@@ -73,11 +73,12 @@ _CAPTIONS = {
     "bands": "Uncertainty band ΔY of each output. Line: the band in force at the setpoint each "
     "part was made with, the one the optimiser kept the limit with (open circle: the next "
     "part's). Triangles: the band that part's RCB update computed at the same setpoint. A "
-    "triangle below the line: the band shrank by part of the margin, and the next setpoint "
-    "may be faster. A triangle above the line with a cross: a flagged reading; the band grew "
-    "to cover it and the next setpoint backs off. Above the line without a cross (RCB action "
-    "hold): the band learned from the parts so far (strategies learn and bayes) is still wider "
-    "than the one in force at that setpoint; nothing is relaxed, the setpoint keeps its band.",
+    "green triangle below the line: the band shrank by part of the margin, and the next "
+    "setpoint may be faster. A triangle above the line with a cross: a flagged reading; the "
+    "band grew to cover it and the next setpoint backs off. A grey triangle above the line "
+    "(RCB action hold): the band learned from the parts so far (strategies learn and bayes) "
+    "is still wider than the one in force at that setpoint; nothing is relaxed, the setpoint "
+    "keeps its band.",
     "productivity": "Material removal rate and machining time of the operation.",
 }
 

@@ -181,8 +181,14 @@ def outputs_figure(series: OperationSeries) -> Chart:
 def _band_marks(x: Array, output: Output) -> tuple[Mark, ...]:
     marks = list(_setpoint_line(x, output.band, "ΔY in force (the optimiser's)"))
     if np.isfinite(output.band_after).any():
-        after = "ΔY after the part's RCB update"
-        marks.append(Mark("points", x, output.band_after, UPDATE, after, marker="triangle"))
+        used = np.where(output.held, np.nan, output.band_after)
+        if np.isfinite(used).any():
+            after = "ΔY after the part's RCB update"
+            marks.append(Mark("points", x, used, UPDATE, after, marker="triangle"))
+    if output.held.any():  # a wider band learned from few parts: not taken up
+        held = np.where(output.held, output.band_after, np.nan)
+        label = "ΔY learned, still wider: held"
+        marks.append(Mark("points", x, held, BOUND, label, marker="triangle"))
     if output.flagged.any():
         flagged = output.band_after[output.flagged]
         marks.append(Mark("points", x[output.flagged], flagged, ALARM, "flagged", marker="cross"))
