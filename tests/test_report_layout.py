@@ -58,6 +58,19 @@ BROKEN_WORDS_JS = """
 """
 
 
+#: The texts of the plots (labels, ticks, legends) that stick out of their SVG.
+TEXT_OUTSIDE_SVG_JS = """
+() => [...document.querySelectorAll('figure svg')].flatMap(svg => {
+  const box = svg.getBoundingClientRect();
+  return [...svg.querySelectorAll('text')].filter(t => {
+    const r = t.getBoundingClientRect();
+    return r.left < box.left - 0.5 || r.right > box.right + 0.5
+        || r.top < box.top - 0.5 || r.bottom > box.bottom + 0.5;
+  }).map(t => t.textContent);
+})
+"""
+
+
 def chromium_page(playwright):
     """A browser (Debian's Chromium) and a page at a 1280 x 800 viewport."""
     browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
@@ -99,12 +112,14 @@ def test_no_word_breaks_inside_a_cell_at_1280(report_page, tmp_path):
             cells = page.evaluate("() => document.querySelectorAll('th, td').length")
             scroll = page.evaluate("() => document.documentElement.scrollWidth")
             limit = page.locator("#setpoints td", has_text="864,000").first.inner_text()
+            outside = page.evaluate(TEXT_OUTSIDE_SVG_JS)
         finally:
             browser.close()
     assert cells > 400  # the check saw the tables (31 versions x 12 columns, setpoints ...)
     assert broken == [], f"words broken across lines: {broken}; screenshot {SCREENSHOT}"
     assert scroll <= VIEWPORT["width"]  # and the page still fits: nothing scrolls sideways
     assert limit == "864,000 (minimum)"  # never "(min)" beside a "Time [min]" column
+    assert outside == [], f"plot text cut at the plot's edge: {outside}"
 
 
 def test_the_check_finds_a_word_broken_inside(report_page):

@@ -27,7 +27,7 @@ from api.report.svg_marks import Scale, mark_svg, marker_defs, px, use_shape
 S = TypeVar("S")
 
 #: The chart's width, the y-axis margin on the left, the legend's width on the right [px].
-WIDTH_PX, LEFT_PX, LEGEND_PX = 780.0, 84.0, 210.0
+WIDTH_PX, LEFT_PX, LEGEND_PX = 800.0, 84.0, 230.0
 #: Height of a panel, gap between panels, room for a title, room for the x axis [px].
 PANEL_PX, GAP_PX, TITLE_PX, BOTTOM_PX = 140.0, 14.0, 24.0, 38.0
 #: Font sizes of labels and of tick values [px]; height of a legend entry [px].
