@@ -17,7 +17,7 @@ from urllib.parse import urlsplit
 
 import httpx
 import pytest
-from test_report_layout import BROKEN_WORDS_JS
+from test_report_layout import BROKEN_WORDS_JS, CHROMIUM, CHROMIUM_ARGS, WAIT_BOUND_MS
 
 from api.report.plots import number
 from api.services.keys import create_key, revoke_key
@@ -29,20 +29,7 @@ PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 NAMES = [op["name"] for op in PLAN["operations"]]
 MRR_V1 = 191.2  # cm³/min, Ivester & Heigel Table 5, step 1 row R
 PLOT_KINDS = 4  # parameters, outputs, bands, productivity per operation; plus one cycle plot
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
 SCREENSHOT = Path("/tmp/ui_plan.png")
-#: Playwright's bound on each wait [ms]: the page answers in under a second (issue 30), so only
-#: a hung server reaches it; not Playwright's 30 s default, which a loaded host once hit.
-WAIT_BOUND_MS = 180_000
 #: The XML namespace names inline SVG declares: identifiers, never fetched.
 SVG_NAMESPACES = {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
 
