@@ -164,7 +164,8 @@ def mark_svg(mark: Mark, scale: Scale, prefix: str) -> str:
             f'stroke="{mark.color}" stroke-width="1.2"{_dash(mark)}/>'
         )
     if mark.kind in ("band", "bars"):
-        assert mark.y2 is not None, f"a {mark.kind} needs y2"
+        if mark.y2 is None:
+            raise ValueError(f"mark kind = {mark.kind!r}: needs y2, the other edge")
         y2 = [scale.y(float(v)) if math.isfinite(v) else math.nan for v in mark.y2]
         return _band(mark, xs, ys, y2, gid) if mark.kind == "band" else _bars(xs, ys, y2, gid)
     runs = [[(xs[i], ys[i]) for i in run] for run in _runs(ys)]
