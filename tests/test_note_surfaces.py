@@ -298,8 +298,8 @@ def test_the_outputs_plot_marks_the_implausible_reading_apart(stored):
     assert force.checked.tolist() == [True, False, False, False]  # SN-LOW, not the next part
     assert force.flagged.tolist() == [False, True, True, False]  # ABOVE, BREACH
     figure = plots.outputs_figure(series)
-    labels = {line.get_label(): line for line in figure.axes[0].get_lines()}
-    assert list(labels["check sensor: implausibly low"].get_xdata()) == [1]  # part number
+    labels = {mark.label: mark for mark in figure.panels[0].marks}
+    assert list(labels["check sensor: implausibly low"].x) == [1]  # part number
 
 
 def test_the_web_view_shows_the_notes_and_the_halt(stored):

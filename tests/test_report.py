@@ -1,5 +1,5 @@
 """rcb report: the HTML record of a plan (api/report/html.py, api/report/plots.py,
-api/cli/html_report.py).
+api/report/svg.py, api/cli/html_report.py).
 
 A plan of the demonstration part (Ivester & Heigel) with 10 parts from the virtual lathe in a
 temporary SQLite database; part SN-0004 reports a rough-OD force over the 2000 N limit, which
@@ -18,7 +18,6 @@ from html.parser import HTMLParser
 
 import numpy as np
 import pytest
-from matplotlib.lines import Line2D
 from numpy.testing import assert_allclose
 
 from api.report import plots
@@ -245,18 +244,19 @@ def test_limit_lines_are_at_the_plan_limits(stored, page):
         # the drawn lines: one horizontal line per limit, at the limit
         figure = plots.outputs_figure(series)
         lines = {
-            line.get_gid(): line
-            for ax in figure.axes
-            for line in ax.get_lines()
-            if (line.get_gid() or "").startswith("limit-")
+            mark.gid: mark
+            for panel in figure.panels
+            for mark in panel.marks
+            if (mark.gid or "").startswith("limit-")
         }
         assert set(lines) == {f"limit-{q}" for q in expected}
         for quantity, limit in expected.items():
-            ydata = lines[f"limit-{quantity}"].get_ydata()
-            assert_allclose(ydata, [limit, limit])
+            assert lines[f"limit-{quantity}"].kind == "hline"
+            assert_allclose(lines[f"limit-{quantity}"].y, [limit])
             # and in the page: the line's group, and its legend entry with the value
             assert f'id="op{index}-outputs-limit-{quantity}"' in page
-    assert "limit (max) 2000 N" in page and "limit (min) 864,000 mm³" in page  # rough-od
+    # rough-od; "min" would read as minutes beside a time
+    assert "limit (maximum) 2000 N" in page and "limit (minimum) 864,000 mm³" in page
 
 
 def test_over_limit_part_is_flagged_and_marked(stored, page):
@@ -267,12 +267,9 @@ def test_over_limit_part_is_flagged_and_marked(stored, page):
     assert force.flagged[OVER_LIMIT] and force.measured[OVER_LIMIT] == 2100.0
     assert len(force.flagged) == PARTS + 1 and not force.flagged[-1]  # the next part: no data
     figure = plots.outputs_figure(series)
-    marks = [
-        line
-        for line in figure.axes[0].get_lines()
-        if isinstance(line, Line2D) and line.get_label() == "flagged"
-    ]
-    assert len(marks) == 1 and OVER_LIMIT + 1 in marks[0].get_xdata()  # x: part number
+    marks = [mark for mark in figure.panels[0].marks if mark.label == "flagged"]
+    assert len(marks) == 1 and list(marks[0].x) == [OVER_LIMIT + 1]  # x: part number
+    assert list(marks[0].y) == [2100.0]
     # the history row of the version SN-0004 caused
     rows = _table(_xml(page), "history").findall("tbody/tr")
     row = next(r for r in rows if _text(r.findall("td")[2]) == f"SN-{OVER_LIMIT + 1:04d}")
@@ -299,6 +296,9 @@ def test_series_follow_the_setpoint_each_part_was_made_with(stored):
         for p in parts
     ]
     assert_allclose(force.band_after[:-1], [d["band_after"] for d in decided])
+    # held: the update kept the band in force although the one it computed is wider
+    held = [d["action"] == "hold" and d["band_after"] > d["band_before"] for d in decided]
+    assert force.held.tolist() == [*held, False] and any(held)  # learn, from few parts
     assert list(series.parameters) == ["depth_mm", "feed_mm_rev", "speed_m_min"]
 
 
@@ -337,8 +337,8 @@ def test_a_plan_without_parts_shows_its_start(stored):
 def test_last_parts_keep_their_numbers(stored):
     _, _, plan, history, parts = stored
     series = operation_series(plan, history, parts[-3:], "rough-od", first_part=PARTS - 2)
-    line = plots.parameters_figure(series).axes[0].get_lines()[0]
-    assert_allclose(line.get_xdata(), [PARTS - 2, PARTS - 1, PARTS, PARTS + 1])
+    line = plots.parameters_figure(series).panels[0].marks[0]
+    assert_allclose(line.x, [PARTS - 2, PARTS - 1, PARTS, PARTS + 1])
     text = render_report(plan, history, parts, last=3)
     root = _xml(text)
     overview = dict(zip(map(_text, root.iter("dt")), map(_text, root.iter("dd")), strict=True))
@@ -382,7 +382,7 @@ def test_cli_writes_the_page(runner, cli, stored, page, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["report.html"]  # no temporary file left
     assert result.stdout == "" and f"rcb: wrote {out}" in result.stderr
     size = out.stat().st_size
-    assert 200_000 < size < 400_000  # about 290 kB for 6 operations and 10 parts (README)
+    assert 150_000 < size < 250_000  # about 190 kB for 6 operations and 10 parts (docs)
 
 
 def test_cli_reads_the_database_from_the_environment(runner, cli, stored, tmp_path, monkeypatch):

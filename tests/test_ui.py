@@ -17,6 +17,7 @@ from urllib.parse import urlsplit
 
 import httpx
 import pytest
+from test_report_layout import BROKEN_WORDS_JS, CHROMIUM, CHROMIUM_ARGS, WAIT_BOUND_MS
 
 from api.report.plots import number
 from api.services.keys import create_key, revoke_key
@@ -28,16 +29,6 @@ PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 NAMES = [op["name"] for op in PLAN["operations"]]
 MRR_V1 = 191.2  # cm³/min, Ivester & Heigel Table 5, step 1 row R
 PLOT_KINDS = 4  # parameters, outputs, bands, productivity per operation; plus one cycle plot
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
 SCREENSHOT = Path("/tmp/ui_plan.png")
 #: The XML namespace names inline SVG declares: identifiers, never fetched.
 SVG_NAMESPACES = {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
@@ -245,6 +236,7 @@ def test_plan_page_renders_in_headless_chromium(server, plan_id, tmp_path):
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         try:
             context = browser.new_context(viewport={"width": 1280, "height": 900})
+            context.set_default_timeout(WAIT_BOUND_MS)
             context.route("**/*", local_only)
             page = context.new_page()
             page.goto(f"{_ui(server)}/plans/{plan_id}")
@@ -366,6 +358,7 @@ def test_plan_pages_fit_1280_wide_in_chromium(server, three_plans, tmp_path):
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         try:
             context = browser.new_context(viewport={"width": 1280, "height": 800})
+            context.set_default_timeout(WAIT_BOUND_MS)
             page = context.new_page()
             page.goto(f"{_ui(server)}/login")
             page.fill("input[name=key]", server.keys["viewer"])
@@ -393,5 +386,8 @@ def test_plan_pages_fit_1280_wide_in_chromium(server, three_plans, tmp_path):
                     box = cell.bounding_box()
                     assert box is not None and box["x"] + box["width"] <= 1280, f"{kind} {shot}"
                 assert re.search(r"\bnan\b", page.inner_text("body"), re.I) is None, kind
+                # no number, header or name breaks inside a word (issue 30)
+                broken = page.evaluate(BROKEN_WORDS_JS, None)
+                assert broken == [], f"{kind}: words broken across lines: {broken}; {shot}"
         finally:
             browser.close()

@@ -63,11 +63,10 @@ def html_report(
 ) -> None:
     """Write a plan's record as one self-contained HTML page to mail (tables and plots).
 
-    About 260 kB for the six operations of the demonstration part with no part, 380 kB with
-    the default 100 parts plotted, whatever the plan's age (README, "rcb report").
+    About 125 kB for the six operations of the demonstration part with no part, 240 kB with
+    the default 100 parts plotted, whatever the plan's age (docs/report.md).
     """
-    # imported here (SQLAlchemy; matplotlib below): rcb --help and the other commands do not
-    # load them
+    # imported here (SQLAlchemy, NumPy): rcb --help and the other commands do not load them
     from sqlalchemy.exc import DBAPIError
 
     from api.services import record
@@ -89,7 +88,7 @@ def html_report(
             ) from None
         finally:
             engine.dispose()
-        # imported here: matplotlib costs about 0.3 s, which no other rcb command should pay
+        # the plots are drawn as SVG directly (api/report/svg.py): no matplotlib to import
         from api.report.html import render_record
 
         page = render_record(data)

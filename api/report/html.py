@@ -36,13 +36,17 @@ _CSS = """
 body { font: 14px/1.4 system-ui, -apple-system, "Segoe UI", Roboto, Arial, sans-serif;
        color: #222; margin: 2em auto; max-width: 84em; padding: 0 1em; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.25em; margin-top: 2em; border-bottom: 1px solid #ccc; }
-/* tables fit their container (1280 px wide windows and up): cells wrap, nothing scrolls */
+/* tables fit their container (1280 px wide windows and up): cells wrap between words, never
+   inside one; a number, a value with its unit and a name with hyphens stay on one line */
 table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.85em; width: 100%; }
 caption { text-align: left; font-weight: bold; padding: 0.2em 0; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.4em; vertical-align: top;
-         overflow-wrap: anywhere; }
+         overflow-wrap: normal; word-break: normal; hyphens: manual; }
 th { background: #f3f3f3; text-align: left; }
-td.num, #history td { text-align: right; font-variant-numeric: tabular-nums; }
+td.num, #history td { text-align: right; font-variant-numeric: tabular-nums;
+                      white-space: nowrap; }
+#history td:nth-child(4), #history td:last-child, td.band { white-space: normal; }
+.nw, th.name { white-space: nowrap; }
 #history td:nth-child(2), #history td:nth-child(3), #history td:nth-child(4),
 #history td:last-child { text-align: left; }
 tr.flagged td { color: #b00; }
@@ -66,8 +70,15 @@ _CAPTIONS = {
     "(shaded), measured value ± its uncertainty (error bars), limit (dashed), flagged RCB "
     "decisions (crosses), readings quarantined as implausibly low (yellow diamonds: check the "
     "sensor and the tool). After Ivester & Heigel Fig. 4b.",
-    "bands": "Uncertainty band ΔY of each output at the setpoint a part was made with, and "
-    "what that part's RCB update left at the same setpoint.",
+    "bands": "Uncertainty band ΔY of each output. Line: the band in force at the setpoint each "
+    "part was made with, the one the optimiser kept the limit with (open circle: the next "
+    "part's). Triangles: the band that part's RCB update computed at the same setpoint. A "
+    "green triangle below the line: the band shrank by part of the margin, and the next "
+    "setpoint may be faster. A triangle above the line with a cross: a flagged reading; the "
+    "band grew to cover it and the next setpoint backs off. A grey triangle above the line "
+    "(RCB action hold): the band learned from the parts so far (strategies learn and bayes) "
+    "is still wider than the one in force at that setpoint; nothing is relaxed, the setpoint "
+    "keeps its band.",
     "productivity": "Material removal rate and machining time of the operation.",
 }
 
@@ -138,9 +149,16 @@ def _margin(output: Output) -> float | None:
     return 0.0 if abs(margin) <= BINDING_RTOL * output.limit else margin
 
 
+def nowrap(text: object) -> str:
+    """``text`` (escaped) in a span that never breaks across lines."""
+    return tag("span", escaped(text), class_="nw")
+
+
 def _setpoint_text(series: OperationSeries) -> str:
+    """The parameters in force, each ``f = 0.32 mm/rev`` on one line (HTML)."""
     return ", ".join(
-        plots.parameter_value(name, float(values[-1])) for name, values in series.parameters.items()
+        nowrap(plots.parameter_value(name, float(values[-1])))
+        for name, values in series.parameters.items()
     )
 
 
@@ -154,13 +172,15 @@ def _output_cells(
     measured = escaped("–")
     if d is not None:
         flag = mark(d)
-        measured = escaped(f"{number(d['margin'])} ({d['serial']}, {d['action']}") + (
+        serial = nowrap(f"({d['serial']},")
+        measured = f"{nowrap(number(d['margin']))} {serial} {escaped(d['action'])}" + (
             f", {flag})" if flag else ")"
         )
-    word = "max" if output.sense == "max" else "min"
+    word = plots.SENSE_WORDS[output.sense]  # "min" beside "Time [min]" would read as minutes
+    predicted = f"{nowrap(f'{number(value)} ± {number(band)}')}{escaped(relative)}"
     return [
         td(plots.quantity_label(output.quantity)),
-        td(f"{number(value)} ± {number(band)}{relative}" if shown else "–", class_="num"),
+        tag("td", predicted, class_="num band") if shown else td("–", class_="num"),
         td(f"{number(output.limit)} ({word})" if output.limit is not None else "–", class_="num"),
         _num(_margin(output)),
         tag("td", measured),
@@ -190,8 +210,8 @@ def _setpoints_table(record: Mapping[str, Any], series: Sequence[OperationSeries
     for s in series:
         span = max(len(s.outputs), 1)
         first = [
-            td(f"{s.name} ({s.tool})", rowspan=span),
-            td(_setpoint_text(s), rowspan=span),
+            tag("td", f"{nowrap(s.name)} {nowrap(f'({s.tool})')}", rowspan=span),
+            tag("td", _setpoint_text(s), rowspan=span),
             _num(float(s.mrr_cm3_min[-1]), rowspan=span),
             _num(float(s.time_min[-1]), rowspan=span),
             td(", ".join(binding.get(s.name, [])), rowspan=span),

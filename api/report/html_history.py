@@ -44,14 +44,17 @@ def history_table(record: Mapping[str, Any]) -> str:
             th("MRR [cm³/min]", colspan=len(names)),
             th("Flags and notes of the part", rowspan=2),
         ]
-    ) + row(th(n) for n in names)
+    ) + row(th(n, class_="name") for n in names)
     rows = [_summary_row(s, names) for s in record["summaries"]]
     marks = record["marks"]
     for v in listed_versions(history):
         mrr = {o["name"]: o["mrr_cm3_min"] for o in v["operations"]}
         marked = [d for d in marks.get(v["part_id"], []) if decision_mark(d)[0]]
         flagged = [d for d in marked if d["flagged"]]
-        text = ", ".join(escaped(f"{d['operation']} {d['quantity']} ") + mark(d) for d in marked)
+        text = ", ".join(
+            tag("span", escaped(f"{d['operation']} {d['quantity']}"), class_="nw") + " " + mark(d)
+            for d in marked
+        )
         kinds = sorted({decision_mark(d)[1] for d in flagged})
         checks = ["check"] if any(decision_mark(d)[1] == "check" for d in marked) else []
         # numbers right-aligned by the page's CSS (#history), not a class per cell: 200 rows
@@ -131,8 +134,8 @@ def tool_change_table(parts: Sequence[Mapping[str, Any]]) -> str:
         due = bool(raw.get("tool_change_due"))
         verdict = ("DUE: " if due else "not due: ") + str(raw.get("reason", ""))
         cells = [
-            td(serial),
-            td(operation),
+            td(serial, class_="nw"),
+            td(operation, class_="nw"),
             _num(reading["value"]),
             _num(raw.get("commanded_feed_rate_mm_min")),
             _num(raw.get("feed_rate_lower_mm_min")),

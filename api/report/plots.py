@@ -1,4 +1,4 @@
-"""A plan's production history as plots (matplotlib figures), one set per operation.
+"""A plan's production history as plots (charts drawn as SVG), one set per operation.
 
 After Ivester & Heigel [1]_, Fig. 4: (a) the input parameters and (b) the constrained outputs
 of an operation, part by part, as Recursive Constraint Bounding moves the setpoint. Here, for
@@ -17,10 +17,11 @@ every operation:
 and for the plan :func:`cycle_figure`, the cycle time. The last point of every series (open
 markers) is the setpoint in force: what the next part will be made with.
 
-The ``*_figure`` functions draw the series of :mod:`api.report.series` (built from the JSON
-dicts of :mod:`api.services.queries`); :func:`api.report.svg.render` turns a figure into SVG
-text for the HTML report. The labels and numbers printed on the axes are here too, and the
-HTML report's tables print theirs with the same functions.
+The ``*_figure`` functions turn the series of :mod:`api.report.series` (built from the JSON
+dicts of :mod:`api.services.queries`) into :class:`api.report.chart.Chart` s: what is drawn,
+as data; :func:`api.report.svg.render` draws one as SVG text for the HTML report. The labels
+and numbers printed on the axes are here too, and the HTML report's tables print theirs with
+the same functions.
 
 References
 ----------
@@ -32,21 +33,19 @@ from __future__ import annotations
 
 import math
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-
-import numpy as np  # noqa: E402 - after selecting the backend
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
-
-from api.report.series import QUANTITIES, Array, CycleSeries, OperationSeries, Output  # noqa: E402
+from api.report.chart import Chart, Mark, Panel
+from api.report.series import QUANTITIES, Array, CycleSeries, OperationSeries, Output
 
 #: Beyond this many parts the setpoint lines have no marker per part (smaller SVG).
 MARKERS_UP_TO = 40
-#: Width of a figure and height of one row of axes [in].
-WIDTH_IN, ROW_IN = 7.5, 1.7
+#: The x label of every chart.
+PART_AXIS = "part (in the order received; the last point: next part)"
+#: Colours: the setpoint (blue), the RCB update (green), limits and flags (red), bounds (grey).
+SETPOINT, UPDATE, ALARM, BOUND, CHECK = "#1f77b4", "#2ca02c", "#d62728", "#666666", "#ffdd00"
+#: How a limit's sense is written: "min" next to a time in minutes would read as minutes.
+SENSE_WORDS = {"max": "maximum", "min": "minimum"}
 
 #: Description, symbol and unit of each cutting parameter.
 PARAMETER_NAMES: dict[str, tuple[str, str, str]] = {
@@ -105,153 +104,121 @@ def unit(name: str) -> str:
 # drawing
 
 
-def _figure(rows: int) -> tuple[Figure, list[Axes]]:
-    """A figure of ``rows`` axes sharing the part axis (no pyplot: no global figure list)."""
-    figure = Figure(figsize=(WIDTH_IN, 0.6 + ROW_IN * rows), layout="constrained")
-    axes = figure.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
-    for ax in axes:
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    axes[-1].set_xlabel("part (in the order received; the last point: next part)")
-    return figure, list(axes)
-
-
 def _x(series: OperationSeries | CycleSeries) -> Array:
     """The part numbers of the rows (the last row: the next part)."""
     return np.arange(series.first_part, series.first_part + len(series.versions), dtype=float)
 
 
-def _legend(ax: Axes) -> None:
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", frameon=False)
-
-
-def _setpoint_line(ax: Axes, x: Array, y: Array, label: str) -> None:
+def _setpoint_line(x: Array, y: Array, label: str) -> tuple[Mark, ...]:
     """Values per part (steps; markers up to :data:`MARKERS_UP_TO` parts), next part (open)."""
-    if len(x) > MARKERS_UP_TO:
-        ax.plot(x, y, drawstyle="steps-mid", color="C0", linewidth=1.0, label=label)
-    else:
-        ax.plot(x, y, drawstyle="steps-mid", color="C0", linewidth=1.0)
-        ax.plot(x[:-1], y[:-1], "o", color="C0", label=label)
-    ax.plot(x[-1:], y[-1:], "o", color="C0", markerfacecolor="white", label="next part")
+    steps = Mark("steps", x, y, SETPOINT, label if len(x) > MARKERS_UP_TO else None)
+    marks = [steps]
+    if len(x) <= MARKERS_UP_TO:
+        marks.append(Mark("points", x[:-1], y[:-1], SETPOINT, label))
+    marks.append(Mark("points", x[-1:], y[-1:], SETPOINT, "next part", marker="open"))
+    return tuple(marks)
 
 
-def _error_bars(ax: Axes, x: Array, y: Array, u: Array) -> None:
-    """Points ± u; the bars are one path (NaN-separated), not one SVG element per bar."""
-    bars = np.column_stack([y - u, y + u, np.full_like(y, np.nan)]).ravel()
-    ax.plot(np.repeat(x, 3), bars, color="k", linewidth=1.0, label="± u (measurement)")
-    ax.plot(x, y, "o", color="k", markersize=3.0, label="measured")
+def _error_bars(x: Array, y: Array, u: Array) -> tuple[Mark, ...]:
+    """Points ± u: the bars are one path, not one SVG element per bar."""
+    return (
+        Mark("bars", x, y - u, "#000", "± u (measurement)", y2=y + u),
+        Mark("points", x, y, "#000", "measured"),
+    )
 
 
-def parameters_figure(series: OperationSeries) -> Figure:
+def parameters_figure(series: OperationSeries) -> Chart:
     """The cutting parameters over the parts, with their bounds (Ivester & Heigel Fig. 4a)."""
-    figure, axes = _figure(len(series.parameters))
     x = _x(series)
-    for ax, (name, values) in zip(axes, series.parameters.items(), strict=True):
-        _setpoint_line(ax, x, values, "made with")
-        for bound in series.bounds.get(name, ()):
-            ax.axhline(bound, color="0.4", linestyle=":", linewidth=1.0)
-        ax.plot([], [], color="0.4", linestyle=":", label="bounds")
-        ax.set_ylabel(parameter_label(name))
-        _legend(ax)
-    figure.suptitle(f"{series.name}: cutting parameters", fontsize="medium", parse_math=False)
-    return figure
+    panels = []
+    for name, values in series.parameters.items():
+        bounds = series.bounds.get(name, ())
+        lines = tuple(
+            Mark("hline", x[:1], np.array([b]), BOUND, "bounds" if i == 0 else None, dotted=True)
+            for i, b in enumerate(bounds)
+        )
+        panels.append(Panel(parameter_label(name), _setpoint_line(x, values, "made with") + lines))
+    return Chart(f"{series.name}: cutting parameters", PART_AXIS, tuple(panels))
 
 
-def _limit_line(ax: Axes, output: Output) -> None:
-    if output.limit is None:
-        return
-    word = "max" if output.sense == "max" else "min"
-    line = ax.axhline(output.limit, color="C3", linestyle="--", linewidth=1.2)
-    line.set_label(f"limit ({word}) {number(output.limit)} {unit(output.quantity)}")
-    line.set_gid(f"limit-{output.quantity}")
+def limit_label(output: Output) -> str:
+    """A limit's legend entry: ``limit (maximum) 2000 N``."""
+    word = SENSE_WORDS[output.sense]
+    return f"limit ({word}) {number(output.limit)} {unit(output.quantity)}".rstrip()
 
 
-def _output_axes(ax: Axes, x: Array, output: Output) -> None:
+def _output_marks(x: Array, output: Output) -> tuple[Mark, ...]:
     low, high = output.predicted - output.band, output.predicted + output.band
-    ax.fill_between(x, low, high, step="mid", color="C0", alpha=0.2, label="predicted ± band")
-    ax.plot(x, output.predicted, drawstyle="steps-mid", color="C0", label="predicted")
+    marks = [
+        Mark("band", x, low, SETPOINT, "predicted ± band", y2=high),
+        Mark("steps", x, output.predicted, SETPOINT, "predicted"),
+    ]
     if np.isfinite(output.measured).any():
-        _error_bars(ax, x, output.measured, output.uncertainty)
+        marks += _error_bars(x, output.measured, output.uncertainty)
     if output.flagged.any():
-        ax.plot(
-            x[output.flagged],
-            output.measured[output.flagged],
-            "x",
-            color="C3",
-            markersize=9,
-            markeredgewidth=2,
-            label="flagged",
-        )
+        flagged = output.measured[output.flagged]
+        marks.append(Mark("points", x[output.flagged], flagged, ALARM, "flagged", marker="cross"))
     if output.checked.any():  # a reading too good to be true: a check, not a flag
-        ax.plot(
-            x[output.checked],
-            output.measured[output.checked],
-            "D",
-            markerfacecolor="#fd0",
-            markeredgecolor="black",
-            markersize=8,
-            label="check sensor: implausibly low",
-        )
-    _limit_line(ax, output)
-    ax.set_ylabel(quantity_label(output.quantity), parse_math=False)
-    _legend(ax)
+        checked = output.measured[output.checked]
+        label = "check sensor: implausibly low"
+        marks.append(Mark("points", x[output.checked], checked, CHECK, label, marker="diamond"))
+    if output.limit is not None:
+        limit = np.array([output.limit])
+        gid = f"limit-{output.quantity}"
+        marks.append(Mark("hline", x[:1], limit, ALARM, limit_label(output), dashed=True, gid=gid))
+    return tuple(marks)
 
 
-def outputs_figure(series: OperationSeries) -> Figure:
+def outputs_figure(series: OperationSeries) -> Chart:
     """The constrained outputs over the parts (Ivester & Heigel Fig. 4b)."""
-    figure, axes = _figure(max(len(series.outputs), 1))
     x = _x(series)
-    for ax, output in zip(axes, series.outputs, strict=False):
-        _output_axes(ax, x, output)
-    figure.suptitle(f"{series.name}: constrained outputs", fontsize="medium", parse_math=False)
-    return figure
+    panels = tuple(
+        Panel(quantity_label(o.quantity), _output_marks(x, o)) for o in series.outputs
+    ) or (Panel("", ()),)
+    return Chart(f"{series.name}: constrained outputs", PART_AXIS, panels)
 
 
-def bands_figure(series: OperationSeries) -> Figure:
+def _band_marks(x: Array, output: Output) -> tuple[Mark, ...]:
+    marks = list(_setpoint_line(x, output.band, "ΔY in force (the optimiser's)"))
+    if np.isfinite(output.band_after).any():
+        used = np.where(output.held, np.nan, output.band_after)
+        if np.isfinite(used).any():
+            after = "ΔY after the part's RCB update"
+            marks.append(Mark("points", x, used, UPDATE, after, marker="triangle"))
+    if output.held.any():  # a wider band learned from few parts: not taken up
+        held = np.where(output.held, output.band_after, np.nan)
+        label = "ΔY learned, still wider: held"
+        marks.append(Mark("points", x, held, BOUND, label, marker="triangle"))
+    if output.flagged.any():
+        flagged = output.band_after[output.flagged]
+        marks.append(Mark("points", x[output.flagged], flagged, ALARM, "flagged", marker="cross"))
+    return tuple(marks)
+
+
+def bands_figure(series: OperationSeries) -> Chart:
     """The band ΔY of each constrained output: before (at the setpoint) and after RCB."""
-    figure, axes = _figure(max(len(series.outputs), 1))
     x = _x(series)
-    for ax, output in zip(axes, series.outputs, strict=False):
-        _setpoint_line(ax, x, output.band, "at the setpoint made with")
-        if np.isfinite(output.band_after).any():
-            ax.plot(x, output.band_after, "v", color="C2", label="after the part's RCB update")
-        if output.flagged.any():
-            ax.plot(
-                x[output.flagged],
-                output.band_after[output.flagged],
-                "x",
-                color="C3",
-                markersize=9,
-                markeredgewidth=2,
-                label="flagged",
-            )
-        ax.set_ylim(bottom=0.0)
-        ax.set_ylabel(f"band Δ {quantity_label(output.quantity)}", parse_math=False)
-        _legend(ax)
-    figure.suptitle(f"{series.name}: uncertainty bands", fontsize="medium", parse_math=False)
-    return figure
+    panels = tuple(
+        Panel(f"band Δ {quantity_label(o.quantity)}", _band_marks(x, o), from_zero=True)
+        for o in series.outputs
+    ) or (Panel("", ()),)
+    return Chart(f"{series.name}: uncertainty bands", PART_AXIS, panels)
 
 
-def productivity_figure(series: OperationSeries) -> Figure:
+def productivity_figure(series: OperationSeries) -> Chart:
     """The operation's material removal rate and machining time over the parts."""
-    figure, (mrr, time) = _figure(2)
     x = _x(series)
-    _setpoint_line(mrr, x, series.mrr_cm3_min, "made with")
-    mrr.set_ylabel("MRR [cm³/min]")
-    _setpoint_line(time, x, series.time_min, "made with")
-    time.set_ylabel("machining time [min]")
-    for ax in (mrr, time):
-        _legend(ax)
-    figure.suptitle(f"{series.name}: productivity", fontsize="medium", parse_math=False)
-    return figure
+    panels = (
+        Panel("MRR [cm³/min]", _setpoint_line(x, series.mrr_cm3_min, "made with")),
+        Panel("machining time [min]", _setpoint_line(x, series.time_min, "made with")),
+    )
+    return Chart(f"{series.name}: productivity", PART_AXIS, panels)
 
 
-def cycle_figure(series: CycleSeries) -> Figure:
+def cycle_figure(series: CycleSeries) -> Chart:
     """The plan's cycle time (sum of the operations' machining times) over the parts."""
-    figure, (ax,) = _figure(1)
-    _setpoint_line(ax, _x(series), series.cycle_time_min, "made with")
-    ax.set_ylabel("cycle time [min]")
-    _legend(ax)
-    return figure
+    line = _setpoint_line(_x(series), series.cycle_time_min, "made with")
+    return Chart("", PART_AXIS, (Panel("cycle time [min]", line),))
 
 
 #: The plots of every operation, in the order the report shows them.

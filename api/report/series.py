@@ -52,6 +52,9 @@ class Output:
     checked : ndarray of bool
         The RCB decision quarantined the reading as implausibly low (note ``implausible_low``:
         the operator checks the sensor and the tool).
+    held : ndarray of bool
+        The RCB decision held the band in force although the band it computed is wider (action
+        ``hold``, ``band_after > band``: a model learned from few parts, not taken up).
     """
 
     quantity: str
@@ -64,6 +67,7 @@ class Output:
     band_after: Array
     flagged: npt.NDArray[np.bool_]
     checked: npt.NDArray[np.bool_]
+    held: npt.NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
@@ -176,17 +180,20 @@ def _output(
     predicted = [sp["predicted"].get(quantity) for sp in setpoints]
     measured = [*(m.get(quantity) for m in measurements), None]
     decided = [*(d.get(quantity) for d in decisions), None]
+    band, band_after = _values(predicted, "band"), _values(decided, "band_after")
+    hold = np.array([bool(d and d["action"] == "hold") for d in decided], dtype=bool)
     return Output(
         quantity=quantity,
         limit=limit[0],
         sense=limit[1],
         predicted=_values(predicted, "value"),
-        band=_values(predicted, "band"),
+        band=band,
         measured=_values(measured, "value"),
         uncertainty=_values(measured, "uncertainty"),
-        band_after=_values(decided, "band_after"),
+        band_after=band_after,
         flagged=np.array([bool(d and d["flagged"]) for d in decided], dtype=bool),
         checked=np.array([bool(d and d.get("note") == CHECKED) for d in decided], dtype=bool),
+        held=hold & (band_after > band),
     )
 
 

@@ -40,8 +40,6 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from scipy.special import gammaincinv
-
 #: ``a`` and ``b`` of the noise scale's inverse-gamma prior: ``b/a < 1`` (the law starts at the
 #: reported ``u``), three half-readings' weight; its upper 7 % quantile, ``λ = 4.46``, is what
 #: ``learn`` starts at (a chain 2.11 x noisier than it claims).
@@ -70,6 +68,10 @@ class NoiseScale:
         ``P(λ > λ_q) = 1 − q`` is ``P(G < b/λ_q) = 1 − q`` for ``G ~ Gamma(a, 1)``, so ``λ_q =
         b / P⁻¹(a, 1 − q)`` (Gelman et al. §2.6; ``scipy.special.gammaincinv``).
         """
+        # imported here: scipy.special takes 0.3-1 s to import, which every reader of a plan's
+        # state (rcb report, the web view) paid at start without ever calling it
+        from scipy.special import gammaincinv
+
         quantile = self.rate / float(gammaincinv(self.shape, 1.0 - PRUDENT_QUANTILE))
         return math.sqrt(max(quantile, 1.0))
 
