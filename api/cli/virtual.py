@@ -44,7 +44,7 @@ def serve(
     protocol: Annotated[Protocol, typer.Option(help="mtconnect (an agent) or opcua (a server).")],
     plan: Annotated[
         Path,
-        typer.Option(metavar="FILE", help="A plan with a machine.calibrations.spindle_load table."),
+        typer.Option(metavar="FILE", help="A plan with a spindle-load calibration table."),
     ],
     port: Annotated[
         int | None,
@@ -55,9 +55,13 @@ def serve(
         float, typer.Option(min=0.01, max=3600.0, help="Time to make one part [s].")
     ] = 1.0,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the virtual machine and noise.")] = 7,
-    wait_for_reader: Annotated[
-        bool, typer.Option(help="Make the first part only once a collector reads the machine.")
-    ] = True,
+    no_wait_for_reader: Annotated[
+        bool,
+        typer.Option(
+            "--no-wait-for-reader",
+            help="Make the first part at once (by default: once a collector reads the machine).",
+        ),
+    ] = False,
     collector: Annotated[
         Path | None,
         typer.Option(metavar="collector.toml", help="Write the collector's file for this machine."),
@@ -66,7 +70,12 @@ def serve(
         str, typer.Option(help="The machine's name in --collector's file (in each serial).")
     ] = "virtual-lathe",
     service_url: Annotated[
-        str, typer.Option(help="The REST service, in --collector's file.")
+        str,
+        typer.Option(
+            metavar="URL",
+            show_default=False,
+            help="The REST service, in --collector's file [default: rcb serve on port 8000].",
+        ),
     ] = "http://127.0.0.1:8000/api/v1",
     plan_id: Annotated[
         int, typer.Option(min=1, help="The stored plan's id, in --collector's file.")
@@ -105,7 +114,7 @@ def serve(
     )
     if collector is not None:
         say(f"rcb virtual: wrote {collector}: rcb collect --config {collector}")
-    run.run(lathe, published, seconds_per_part, wait_for_reader)
+    run.run(lathe, published, seconds_per_part, not no_wait_for_reader)
 
 
 def _check(service_url: str, machine: str) -> None:
