@@ -61,15 +61,6 @@ class ConstantLoadConfig:
     safety_factor: float = PAPER_SAFETY_FACTOR
     wear_interval_mm: tuple[float, float] = PAPER_WEAR_INTERVAL_MM
 
-    def to_mapping(self) -> dict[str, object]:
-        """The plan-file table (wear interval in µm, as written)."""
-        return {
-            "calibration": self.calibration,
-            "max_current_A": self.max_current_A,
-            "safety_factor": self.safety_factor,
-            "wear_interval_um": [round(w * 1000.0, 9) for w in self.wear_interval_mm],
-        }
-
 
 @dataclass(frozen=True)
 class ConstantLoadSetpoint:

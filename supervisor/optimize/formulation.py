@@ -33,8 +33,8 @@ from supervisor.borangiu import domain
 from supervisor.borangiu.problem import DomainProblem
 from supervisor.errors import Conflict, InfeasibleError
 from supervisor.inputs.plan import Machine, Operation
+from supervisor.optimize.learned import LearnedCone
 from supervisor.optimize.program import ConeTerm, LogLinearProgram, Row
-from supervisor.rcb.posterior import Cone
 
 
 def _row(
@@ -75,7 +75,7 @@ def formulate(
     operation: Operation,
     tool: Tool,
     machine: Machine,
-    cones: Mapping[str, Cone] | None = None,
+    cones: Mapping[str, LearnedCone] | None = None,
 ) -> LogLinearProgram:
     """Build the robust log-linear program of ``operation`` with ``tool`` on ``machine``.
 
@@ -87,9 +87,7 @@ def formulate(
     params = kinematics.PARAMETERS[process]
     context = operation.context
     rel = operation.setpoint_rel_uncertainty
-    factors = {
-        (q, n): c.factor(params, rel, n) for q, c in learned.items() for n in c.posterior.edges
-    }
+    factors = {(q, n): c.factor(params, rel, n) for q, c in learned.items() for n in c.edges}
 
     def row(
         name: str,
@@ -110,12 +108,12 @@ def formulate(
 
     def ages(quantity: str) -> tuple[int, ...]:
         """Edge ages a learned quantity's rows hold at (:attr:`Posterior.edges`); else (0,)."""
-        return learned[quantity].posterior.edges if quantity in learned else (0,)
+        return learned[quantity].edges if quantity in learned else (0,)
 
     def edge(quantity: Quantity, sense: Sense, edge_age: int = 0) -> Monomial:
         """The model of ``quantity`` at the band edge that guards a limit of ``sense``."""
         if quantity.name in learned:  # the nominal: the cone row adds the spread
-            return learned[quantity.name].posterior.model(edge_parts=edge_age).monomial
+            return learned[quantity.name].nominal(edge_age)
         model = tool.models[quantity.name]
         rel_band = model.relative_band(rel)
         factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band

@@ -35,6 +35,7 @@ from supervisor.errors import InfeasibleError, PlanError, SolverError
 from supervisor.inputs.plan import Machine, Operation, Plan
 from supervisor.optimize import grid, passes, socp
 from supervisor.optimize.formulation import formulate, formulate_domain
+from supervisor.optimize.learned import LearnedCone
 from supervisor.optimize.program import LogLinearProgram, Row
 from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.optimize.solve import (
@@ -45,11 +46,10 @@ from supervisor.optimize.solve import (
     recheck,
     solve,
 )
-from supervisor.rcb.posterior import Cone, display_model
 
 #: Per operation name, per quantity: the cones of a ``learn`` state
 #: (:mod:`supervisor.rcb.posterior`).
-Cones = Mapping[str, Mapping[str, Cone]]
+Cones = Mapping[str, Mapping[str, LearnedCone]]
 
 #: A ``learn`` setpoint in force is kept while it meets its cones at ``z`` less this (a new
 #: one is chosen at ``z``): the hysteresis that stops a posterior mean's noise from backing a
@@ -66,7 +66,7 @@ def optimize_operation(
     operation: Operation,
     tool: Tool,
     machine: Machine,
-    cones: Mapping[str, Cone] | None = None,
+    cones: Mapping[str, LearnedCone] | None = None,
     last: OperationResult | None = None,
 ) -> OperationResult:
     """Robust optimum of one operation (max MRR or least ``J``, every limit at the band edge).
@@ -116,7 +116,7 @@ def _agrees(
     operation: Operation,
     tool: Tool,
     machine: Machine,
-    cones: Mapping[str, Cone],
+    cones: Mapping[str, LearnedCone],
     band: OperationResult,
 ) -> bool:
     """Whether the learned models' means put the band optimum within every limit.
@@ -140,7 +140,7 @@ def _learned(
     operation: Operation,
     tool: Tool,
     machine: Machine,
-    cones: Mapping[str, Cone],
+    cones: Mapping[str, LearnedCone],
     last: OperationResult | None = None,
 ) -> OperationResult | None:
     """The optimum under the learned models' cones, or None (no cone, or infeasible)."""
@@ -163,7 +163,7 @@ def _learned(
         if faster and kept_values is not None and socp.meets(lp, kept, KEEP_SLACK_Z):
             # shown, and re-checked, at the confidence that keeps it
             found = (lp, kept, kept_values)
-            usable = {q: replace(c, z=c.z - KEEP_SLACK_Z) for q, c in usable.items()}
+            usable = {q: c.at_z(c.z - KEEP_SLACK_Z) for q, c in usable.items()}
             slack_z = KEEP_SLACK_Z
     if found is None:  # no learned grid point is proven safe: the band program's holds
         return None
@@ -173,7 +173,7 @@ def _learned(
     rel = operation.setpoint_rel_uncertainty
     shown = replace(
         tool,
-        models={**tool.models, **{q: display_model(c, point, rel) for q, c in usable.items()}},
+        models={**tool.models, **{q: c.shown(point, rel) for q, c in usable.items()}},
     )
     held = binding(held_lp, x_held, slack_z)
     return replace(_result(operation, shown, lp, values, held, machine), robust_by="cone")

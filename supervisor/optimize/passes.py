@@ -48,10 +48,10 @@ from supervisor.inputs.passes import DEPTH, DEPTH_RTOL, MAX_PASSES
 from supervisor.inputs.plan import Machine, Operation
 from supervisor.optimize import socp
 from supervisor.optimize.formulation import formulate
+from supervisor.optimize.learned import LearnedCone
 from supervisor.optimize.program import LogLinearProgram
 from supervisor.optimize.result import OperationResult, Passes, PassGroup
 from supervisor.optimize.solve import solve
-from supervisor.rcb.posterior import Cone
 
 #: One operation's robust optimum (the optimiser's, with the operation's cones if any).
 SolveOne = Callable[[Operation], OperationResult]
@@ -100,7 +100,7 @@ def optimize_passes(
     tool: Tool,
     machine: Machine,
     solve_one: SolveOne,
-    cones: Mapping[str, Cone] | None = None,
+    cones: Mapping[str, LearnedCone] | None = None,
 ) -> OperationResult:
     """The fastest whole number of passes of ``operation``'s stock, and their setpoints.
 
@@ -157,7 +157,7 @@ def best_roughing(
     tool: Tool,
     machine: Machine,
     solve_one: SolveOne,
-    cones: Mapping[str, Cone] | None = None,
+    cones: Mapping[str, LearnedCone] | None = None,
 ) -> tuple[int, OperationResult]:
     """The count of equal roughing passes with the least time, and its optimum (module doc)."""
     spec = operation.passes
@@ -187,7 +187,7 @@ def search_range(
     operation: Operation,
     tool: Tool,
     machine: Machine,
-    cones: Mapping[str, Cone] | None = None,
+    cones: Mapping[str, LearnedCone] | None = None,
 ) -> tuple[int, int, float]:
     """The counts of roughing passes worth solving, and ``R_max`` [cm³/min per mm of depth].
 

@@ -35,9 +35,10 @@ from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.beliefs import Beliefs
+from supervisor.rcb.cone import Cone
 from supervisor.rcb.decision import Action, Decision
 from supervisor.rcb.monitor import Expected, Reading, Watched
-from supervisor.rcb.posterior import Cone, Posterior
+from supervisor.rcb.posterior import Posterior
 
 
 def belief_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
@@ -159,8 +160,8 @@ def _decision(
     point = {**result.setpoint, **operation.context}
     rel = operation.setpoint_rel_uncertainty
     settings = state.settings
-    old = post.display_model(Cone(before, settings.z, settings.tau), point, rel)
-    new = post.display_model(Cone(after, settings.z, settings.tau), point, rel)
+    old = Cone(before, settings.z, settings.tau).shown(point, rel)
+    new = Cone(after, settings.z, settings.tau).shown(point, rel)
     band_after = new.predict(point, rel).band
     shown = result.predicted.get(law.quantity)
     band_before = law.band_before if shown is None else shown.band

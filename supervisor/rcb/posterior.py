@@ -72,7 +72,7 @@ import numpy as np
 
 from models import kinematics
 from models.powerlaw import PowerLawModel
-from models.quantities import MODEL_QUANTITIES, PARTS_PER_EDGE
+from models.quantities import PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import Operation
 
@@ -300,94 +300,4 @@ def observe(
         belief.observations + 1,
         belief.edge_max,
         belief.noise_scale2,
-    )
-
-
-@dataclass(frozen=True)
-class Cone:
-    """The robust constraint of a posterior: ``μ·φ(x) ± z √(φᵀ Σ₊ φ + v_x)`` (module docstring).
-
-    ``drift`` is the random-walk step of the part to come, added to ``Σ``'s intercept.
-    """
-
-    posterior: Posterior
-    z: float
-    drift: float
-
-    @property
-    def _chol(self) -> np.ndarray:
-        """The Cholesky factor of ``Σ₊``, computed once per posterior and drift."""
-        return self.posterior.cholesky(self.drift)
-
-    def spread(
-        self, point: Mapping[str, float], rel: Mapping[str, float], edge: float = 0
-    ) -> float:
-        """``√(φᵀ Σ₊ φ + v_x)`` at ``point`` and edge age ``edge``: the sd of ``ln y`` there."""
-        root = self._chol.T @ self.posterior.features(point, edge)
-        variance = float(root @ root)
-        return math.sqrt(variance + self.setpoint_variance(rel))
-
-    def setpoint_variance(self, rel: Mapping[str, float]) -> float:
-        """``v_x``: the plan's setpoint uncertainties through the mean exponents, as ``σ²``."""
-        exps = dict(zip(self.posterior.names, self.posterior.exponent_means, strict=True))
-        return sum((exps.get(n, 0.0) * r / 2.0) ** 2 for n, r in rel.items())
-
-    def edge_log(self, point: Mapping[str, float], rel: Mapping[str, float]) -> float:
-        """``ln`` of the guarding edge at ``point``, the worst over the edge's life."""
-        mean = np.array(self.posterior.mean)
-        sign = 1.0 if MODEL_QUANTITIES[self.posterior.quantity].sense == "max" else -1.0
-        values = [
-            float(self.posterior.features(point, n) @ mean)
-            + sign * self.z * self.spread(point, rel, n)
-            for n in self.posterior.edges
-        ]
-        return max(values) if sign > 0 else min(values)
-
-    def _linear(self, params: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``Lᵀ`` times the map ``ln x ↦ φ``: ``(G, h₀, Lᵀe_n)``, made once per cone."""
-        cache: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, np.ndarray]]
-        cache = self.__dict__.setdefault("_linear_parts", {})
-        if params not in cache:
-            chol_t = self._chol.T
-            selector = np.zeros((len(chol_t), len(params)))
-            offset = np.zeros(len(chol_t))
-            offset[0] = 1.0
-            names = self.posterior.names
-            for i, (name, c) in enumerate(zip(names, self.posterior.center, strict=True)):
-                selector[i + 1, params.index(name)] = 1.0
-                offset[i + 1] = -c
-            cache[params] = (chol_t @ selector, chol_t @ offset, chol_t[:, -1].copy())
-        return cache[params]
-
-    def factor(
-        self, params: tuple[str, ...], rel: Mapping[str, float], edge: int = 0
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """``(G, h)``: ``φᵀ Σ₊ φ + v_x = ‖G ln x + h‖²`` over ``params``, at edge age ``edge``."""
-        G, h0, per_part = self._linear(params)
-        h = h0 + float(edge) * per_part if self.posterior.edge_max else h0
-        extra = self.setpoint_variance(rel)
-        if extra > 0:
-            G = np.vstack([G, np.zeros(len(params))])
-            h = np.append(h, math.sqrt(extra))
-        return G, h
-
-
-def display_model(
-    cone: Cone, point: Mapping[str, float], rel: Mapping[str, float]
-) -> PowerLawModel:
-    """The learned model whose band at ``point`` is the cone's half-width there.
-
-    The value is ``exp(μ·φ)`` of a new edge; ``ΔK`` is chosen so that the first-order band at
-    ``point`` (with the plan's setpoint uncertainties, :func:`models.powerlaw.relative_band`)
-    reaches the cone's guarding edge over the edge's life, so predictions, re-checks and every
-    surface show ``ΔY`` at the setpoint as for a band.
-    """
-    model = cone.posterior.model()
-    value = model.predict(point).value
-    edge = math.exp(cone.edge_log(point, rel))
-    band = abs(edge - value)
-    setpoint_part = model.relative_band(rel) ** 2
-    dK_over_K = math.sqrt(max((band / value) ** 2 - setpoint_part, 0.0))
-    return PowerLawModel(
-        model.quantity, model.K, model.K * dK_over_K, model.exponents, model.source, model.reference
     )

@@ -31,9 +31,10 @@ if TYPE_CHECKING:  # only named in signatures: the registry loads no NumPy (rcb 
     from supervisor.inputs.plan import Operation
     from supervisor.optimize.result import OperationResult
     from supervisor.rcb.beliefs import Beliefs
+    from supervisor.rcb.cone import Cone
     from supervisor.rcb.decision import Decision
     from supervisor.rcb.monitor import Expected, Monitor, Watched
-    from supervisor.rcb.posterior import Cone, Posterior
+    from supervisor.rcb.posterior import Posterior
 
 #: The ``learn`` strategy's random walk of the intercept per part [-]
 #: (:mod:`supervisor.rcb.posterior`). 0 by default: with wear a regressor (edge age), the

@@ -62,6 +62,7 @@ from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.common_cause import CommonShift, common_shifts
+from supervisor.rcb.cone import Cone
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.judged import Judged, judge
 from supervisor.rcb.law import apply_law, tool_life_measured
@@ -85,7 +86,7 @@ def start(plan: Plan, settings: RcbSettings | None = None) -> RcbState:
     return RcbState(plan, tools, optimize_plan(plan, tools), 1, settings, sigma)
 
 
-def learned_cones(state: RcbState) -> dict[str, dict[str, post.Cone]]:
+def learned_cones(state: RcbState) -> dict[str, dict[str, Cone]]:
     """The constraints beyond the band that ``state``'s strategy hands the optimiser."""
     return state.settings.rule.cones(state)
 

@@ -191,11 +191,6 @@ class Certificate:
         return int(sum(int(s.violations.sum()) for s in self.scenarios))
 
     @property
-    def violating_parts(self) -> int:
-        """Parts that crossed at least one true limit."""
-        return int(sum(int(np.count_nonzero(s.violations)) for s in self.scenarios))
-
-    @property
     def unavoidable_violations(self) -> int:
         """Violations at unavoidable parts (:attr:`ScenarioTrace.unavoidable_at`)."""
         return sum(s.unavoidable_violations for s in self.scenarios)
