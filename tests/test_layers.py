@@ -149,7 +149,6 @@ TWO_WAY_TODAY = {
     ("borangiu", "optimize"),
     ("constant_load", "inputs"),
     ("constant_load", "optimize"),
-    ("inputs", "optimize"),
 }
 
 

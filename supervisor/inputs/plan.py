@@ -38,9 +38,9 @@ from supervisor.borangiu.domain import Domain, domain_from_mapping
 from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
 from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml
+from supervisor.inputs.objectives import OBJECTIVES, Objective
 from supervisor.inputs.passes import PassSpec, pass_spec, with_depth_bound
 from supervisor.inputs.resolution import DEFAULT_RESOLUTION, check_bounds, resolution_from_mapping
-from supervisor.optimize.program import OBJECTIVES, Objective
 
 _PLAN_KEYS = ("name", "machine", "tools", "operations", "description")
 _OPERATION_KEYS = tuple(

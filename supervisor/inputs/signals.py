@@ -11,9 +11,9 @@ diameter, the spindle speed ``n = 1000·v/(π·D)`` and the feed rate ``f·n`` (
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from typing import Any
+from typing import Any, Protocol
 
 from models import kinematics
 from models.errors import InputError
@@ -21,14 +21,36 @@ from models.sensors import Calibration, calibration_to_mapping, to_force
 from models.sensors.convert import converts
 from supervisor.inputs.part_report import Measurement, PartReport, Signal
 from supervisor.inputs.plan import Plan
-from supervisor.optimize.result import PlanResult
 
 #: Stored beside a converted measurement: the reading, the calibration and the context used.
 RawRecord = dict[str, Any]
 
 
+class OperationSetpoint(Protocol):
+    """One operation's setpoint as a result holds it (``OperationResult``)."""
+
+    @property
+    def name(self) -> str:
+        """The operation's name."""
+        ...
+
+    @property
+    def setpoint(self) -> Mapping[str, float]:
+        """Its cutting parameters [units as named]."""
+        ...
+
+
+class MadeWith(Protocol):
+    """The setpoints a part was made with (a ``PlanResult``; ``inputs`` does not import it)."""
+
+    @property
+    def operations(self) -> Sequence[OperationSetpoint]:
+        """Every operation's setpoint."""
+        ...
+
+
 def resolve(
-    report: PartReport, plan: Plan, made_with: PlanResult
+    report: PartReport, plan: Plan, made_with: MadeWith
 ) -> tuple[PartReport, dict[tuple[str, str], RawRecord]]:
     """Convert every raw reading of ``report``; the report RCB sees, and the raw records.
 
@@ -38,7 +60,7 @@ def resolve(
         As read from the MES, with ``signals``.
     plan : Plan
         The plan (its machine's calibrations, the operations' tools and context).
-    made_with : PlanResult
+    made_with : MadeWith
         The setpoints the part was made with (speed and feed for the conversion).
 
     Returns

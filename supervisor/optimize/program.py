@@ -8,16 +8,12 @@ imports nothing from either side.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
 from models.monomial import Monomial
 from models.quantities import Sense
-
-#: What an operation's optimum is for: the largest MRR, or the least Borangiu cost ``J``.
-Objective = Literal["mrr", "productivity"]
-OBJECTIVES: tuple[Objective, ...] = ("mrr", "productivity")
+from supervisor.inputs.objectives import Objective
 
 
 @dataclass(frozen=True, eq=False)

@@ -10,7 +10,7 @@ from models.kinematics import Process
 from models.powerlaw import Prediction
 from models.tool import Tool
 from supervisor.constant_load.setpoint import ConstantLoadSetpoint
-from supervisor.optimize.program import Objective
+from supervisor.inputs.objectives import Objective
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ from models.bounds import (
 )
 from models.kinematics import PARAMETERS, PROCESSES, Process
 from models.quantities import limit_keys
-from supervisor.optimize.program import Objective
+from supervisor.inputs.objectives import Objective
 
 
 class PlanCreated(Out):

@@ -10,7 +10,7 @@ from api.rest.schemas.common import Band, Out
 from api.rest.schemas.quantities import keyed_table
 from models.kinematics import PARAMETERS, PROCESSES
 from models.quantities import QUANTITIES
-from supervisor.optimize.program import Objective
+from supervisor.inputs.objectives import Objective
 
 #: Every cutting parameter, in the processes' order (turning's, then milling's new ones).
 ALL_PARAMETERS = list(dict.fromkeys(p for process in PROCESSES for p in PARAMETERS[process]))
