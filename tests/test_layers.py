@@ -145,7 +145,6 @@ def _folder_pairs(graph, package="supervisor"):
 #: The two-way folder imports inside supervisor/ still to undo (issue 31, item 5); none may be
 #: added, and one that is undone must leave this list (the test says so).
 TWO_WAY_TODAY = {
-    ("borangiu", "inputs"),
     ("borangiu", "optimize"),
     ("constant_load", "inputs"),
     ("constant_load", "optimize"),

@@ -85,7 +85,7 @@ def result_json(result: DomainResult) -> dict[str, Any]:
 
 
 def _label(name: str) -> str:
-    from supervisor.borangiu.domain import EQUATIONS
+    from models.borangiu_domain import EQUATIONS
 
     return f"{name.removeprefix('domain.')} ({EQUATIONS.get(name, '')})"
 

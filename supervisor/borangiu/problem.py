@@ -3,7 +3,7 @@
 A domain file (:func:`load_domain_problem`; TOML: ``name``, ``[cut]``, ``[domain]``,
 ``[productivity]``) poses Borangiu's own problem in ``ln(w, n)``: the largest feed rate (an LP:
 the largest MRR) and the least ``J`` (a GP), on the domain of Eqs. 2-7
-(:mod:`supervisor.borangiu.domain`) with the cost of :mod:`models.borangiu_cost`.
+(:mod:`models.borangiu_domain`) with the cost of :mod:`models.borangiu_cost`.
 
 References
 ----------
@@ -23,8 +23,8 @@ from models.borangiu_cost import (
     coefficients_from_cost,
     productivity_from_mapping,
 )
+from models.borangiu_domain import Domain, domain_from_mapping
 from models.errors import InputError
-from supervisor.borangiu.domain import Domain, domain_from_mapping
 from supervisor.inputs.files import read_toml
 
 

@@ -8,7 +8,7 @@ A milling operation may say ``objective = "productivity"`` (default ``"mrr"``: t
 rate) with an ``[operations.productivity]`` table of Borangiu's cost data
 (:func:`models.borangiu_cost.productivity_from_mapping`; the coefficient form ``a, b, c
 ...`` holds for one fixed depth and width, so it is refused here), and ``[operations.domain]`` adds
-Borangiu's constraints (:class:`supervisor.borangiu.domain.Domain`) as rows.
+Borangiu's constraints (:class:`models.borangiu_domain.Domain`) as rows.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from typing import Any
 
 from models import fields, quantities
 from models.borangiu_cost import CostData, productivity_from_mapping
+from models.borangiu_domain import Domain, domain_from_mapping
 from models.bounds import (
     MAX_FLUTES,
     MAX_IDENTITY,
@@ -34,7 +35,6 @@ from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS, Proces
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 from models.sensors import Calibration, TaiCurrentFeedCalibration, calibrations_from_mapping
 from models.tool import Tool, process_of, tool_from_mapping
-from supervisor.borangiu.domain import Domain, domain_from_mapping
 from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
 from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml

@@ -25,11 +25,11 @@ import math
 from collections.abc import Mapping
 
 from models import borangiu_cost, kinematics, quantities
+from models import borangiu_domain as domain
 from models.errors import InputError
 from models.monomial import Monomial
 from models.quantities import Quantity, Sense
 from models.tool import Tool
-from supervisor.borangiu import domain
 from supervisor.borangiu.problem import DomainProblem
 from supervisor.errors import Conflict, InfeasibleError
 from supervisor.inputs.plan import Machine, Operation

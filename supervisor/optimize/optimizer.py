@@ -7,7 +7,7 @@ a part is one small LP per operation.
 An operation whose objective is Borangiu's productivity cost ``J`` is solved on its own, as
 a geometric program under the same rows (:mod:`supervisor.borangiu.productivity`);
 :func:`optimize_domain` solves Borangiu's (w, n) problem of one pass both ways
-(:mod:`supervisor.borangiu.domain`).
+(:mod:`models.borangiu_domain`).
 """
 
 from __future__ import annotations
