@@ -1,6 +1,6 @@
 r"""Borangiu's productivity cost ``J``: a posynomial in the cutting parameters.
 
-Minimised as a geometric program by :mod:`supervisor.borangiu.productivity`.
+Minimised as a geometric program by :mod:`supervisor.optimize.productivity`.
 
 Borangiu et al. take Milner's productivity (Eq. 1): the mass removed in one tool life over what
 that tool life costs,

@@ -26,9 +26,9 @@ from typer.testing import CliRunner
 from api.cli.domain import domain as domain_command
 from models import borangiu_cost
 from models.errors import InputError
-from supervisor.borangiu import productivity
 from supervisor.borangiu.problem import domain_problem_from_mapping, load_domain_problem
 from supervisor.errors import InfeasibleError
+from supervisor.optimize import productivity
 from supervisor.optimize.formulation import formulate_domain
 from supervisor.optimize.optimizer import optimize_domain
 

@@ -22,10 +22,10 @@ from numpy.testing import assert_allclose
 from api.cli.main import app
 from models import borangiu_cost, kinematics
 from models.errors import InputError
-from supervisor.borangiu import productivity
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.inputs.resolution import DEFAULT_RESOLUTION
+from supervisor.optimize import productivity
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_operation, optimize_plan
 

@@ -5,7 +5,8 @@
 - :mod:`~supervisor.borangiu.problem`: the ``(w, n)`` problem of one pass, from a domain file.
 - :mod:`~supervisor.borangiu.result`: its two optima (largest feed rate, least ``J``) and
   Eq. 10's stationary point.
-- :mod:`~supervisor.borangiu.productivity`: the cvxpy DGP that minimises ``J``.
+- the cvxpy DGP that minimises ``J`` is a solver of the optimiser's programs:
+  :mod:`supervisor.optimize.productivity`.
 
 The cost ``J`` itself (Eq. 1 with Taylor's tool life and Eq. 7's power) is pure physics, in
 :mod:`models.borangiu_cost`.

@@ -8,12 +8,48 @@ here to within 1 ppm of the lower limit.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 from models.errors import InputError
 from supervisor.constant_load.setpoint import ConstantLoadSetpoint
-from supervisor.inputs.part_report import PartReport
-from supervisor.optimize.result import PlanResult
+
+# What ``tool_changes`` reads of a part report and of the setpoints it was made with (a
+# ``PartReport``, a ``PlanResult``): constant_load/ imports neither inputs/ nor optimize/, which
+# import it (issue 31: no two-way folder imports).
+
+
+class Overrides(Protocol):
+    """A part report's feed overrides (``PartReport``)."""
+
+    @property
+    def feed_overrides(self) -> Mapping[str, float]:
+        """Per operation, the feed override the control reported [%]."""
+        ...
+
+
+class OperationMade(Protocol):
+    """One operation's setpoint as a result holds it (``OperationResult``)."""
+
+    @property
+    def name(self) -> str:
+        """The operation's name."""
+        ...
+
+    @property
+    def constant_load(self) -> ConstantLoadSetpoint | None:
+        """Its constant-load setpoint, if it has constant-load control."""
+        ...
+
+
+class Made(Protocol):
+    """The setpoints a part was made with (``PlanResult``)."""
+
+    @property
+    def operations(self) -> Sequence[OperationMade]:
+        """Every operation's setpoint."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -72,7 +108,7 @@ def tool_change(
     return ToolChange(operation, feed_override_percent, commanded, lower, due, reason)
 
 
-def tool_changes(report: PartReport, made_with: PlanResult) -> tuple[ToolChange, ...]:
+def tool_changes(report: Overrides, made_with: Made) -> tuple[ToolChange, ...]:
     """One :class:`ToolChange` per reported feed override, in the report's order.
 
     Raises

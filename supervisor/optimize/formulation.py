@@ -13,7 +13,7 @@ through a logarithmic transformation"; DESIGN.md, "The robust optimisation"):
   scales); each limit key is looked up in the registry, an unknown one is an error,
 - Borangiu's domain constraints (Eqs. 2-7) of a milling operation's ``[operations.domain]``,
 - objective: maximise ``ln(MRR)`` (Eq. 10), or, for ``objective = "productivity"``, minimise
-  Borangiu's cost ``J`` (a posynomial, :mod:`supervisor.borangiu.productivity`) under the same rows.
+  Borangiu's cost ``J`` (a posynomial, :mod:`supervisor.optimize.productivity`) under the same rows.
 
 ``ΔK_eff = K · ΔY/Y`` carries the setpoint uncertainties too (GUM, :mod:`models.powerlaw`).
 :func:`formulate_domain` poses Borangiu's own (w, n) problem of one pass the same way.

@@ -11,7 +11,7 @@ re-solve of a 3-variable LP costs 1-3 ms, nearly all of it cvxpy's per-call work
 stuffing through scipy.sparse and building a new HiGHS model), while HiGHS itself takes a
 tenth of that; ``benchmarks/solve_speed.py`` prints both. The re-solve between parts (RCB,
 the REST service, the closed-loop benchmark) is the hot path. cvxpy still solves what needs a
-modelling layer: Borangiu's geometric program (:mod:`supervisor.borangiu.productivity`); the tests
+modelling layer: Borangiu's geometric program (:mod:`supervisor.optimize.productivity`); the tests
 check this solver against a cvxpy formulation of the same program.
 
 Each thread keeps one HiGHS instance per coefficient matrix (:func:`maximize`; at most

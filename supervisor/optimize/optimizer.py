@@ -5,7 +5,7 @@ The max-MRR program of an operation (:mod:`supervisor.optimize.formulation`) goe
 a part is one small LP per operation.
 
 An operation whose objective is Borangiu's productivity cost ``J`` is solved on its own, as
-a geometric program under the same rows (:mod:`supervisor.borangiu.productivity`);
+a geometric program under the same rows (:mod:`supervisor.optimize.productivity`);
 :func:`optimize_domain` solves Borangiu's (w, n) problem of one pass both ways
 (:mod:`models.borangiu_domain`).
 """

@@ -1,7 +1,7 @@
 """The data of a log-linear program: its rows, cone terms and bounds (no solver objects).
 
 A leaf of :mod:`supervisor.optimize`: the formulation builds these, the solvers
-(:mod:`.highs_lp`, :mod:`.socp`, :mod:`supervisor.borangiu.productivity`) read them, and it
+(:mod:`.highs_lp`, :mod:`.socp`, :mod:`supervisor.optimize.productivity`) read them, and it
 imports nothing from either side.
 """
 

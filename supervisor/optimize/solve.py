@@ -1,7 +1,7 @@
 """Solving one log-linear program: its optimum, the rows it binds, its re-check, its diagnosis.
 
 The max-MRR program goes to HiGHS directly (:mod:`supervisor.optimize.highs_lp`), the least-``J``
-one to cvxpy as a geometric program (:mod:`supervisor.borangiu.productivity`). Only an optimal
+one to cvxpy as a geometric program (:mod:`supervisor.optimize.productivity`). Only an optimal
 status is an answer; the optimum is re-checked against the models (:func:`recheck`), and an
 infeasible program is diagnosed by an elastic LP that names the limits in conflict and by how
 much (:func:`diagnose`).
@@ -56,7 +56,7 @@ def minimize_cost(lp: LogLinearProgram) -> np.ndarray[Any, Any]:
     # imported here: cvxpy takes about 0.8 s to import, and only this program needs it
     import cvxpy as cp
 
-    from supervisor.borangiu import productivity
+    from supervisor.optimize import productivity
 
     status, x = productivity.minimize(lp)
     if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
