@@ -15,7 +15,7 @@ from api.rest.schemas.review import History
 from api.services import queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from api.services.priority import WritesFirst
+from api.services.writes_first import WritesFirst
 
 
 def test_a_reader_waits_for_the_write_in_flight():

@@ -14,9 +14,9 @@ from api.report import ui
 from api.rest import answers, content_type, problems
 from api.rest.lifespan import flushing
 from api.rest.limits import BodyLimit
-from api.rest.priority import WritesFirstMiddleware
 from api.rest.routes import health, parts, plans, review, tools
 from api.rest.routes.common import PREFIX
+from api.rest.writes_in_flight import WritesFirstMiddleware
 from api.settings import Settings
 from db.engine import DEFAULT_POOL, Pool, make_engine
 
@@ -39,7 +39,7 @@ def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
     app.state.engine = engine  # the routes' engine (api.rest.deps.engine_of)
     problems.install(app)
     content_type.install(app)  # 415 for a body not sent as JSON (api.rest.content_type)
-    app.add_middleware(WritesFirstMiddleware)  # reads step aside (api.rest.priority)
+    app.add_middleware(WritesFirstMiddleware)  # reads step aside (api.rest.writes_in_flight)
     app.add_middleware(BodyLimit)  # 413 before a body over 1 MiB is read (api.rest.limits)
     ui.install(app, engine)  # the read-only web view at /ui/ (api/report/ui.py)
     for resource in (health, plans, parts, review, tools):

@@ -4,7 +4,7 @@ FastAPI validates a sync route's answer in a worker thread but renders its JSON 
 loop, in one call: a 500 kB history page then holds the loop (and the interpreter lock)
 while an MES report waits. :func:`page_response` validates and converts the page's items a
 chunk at a time in the route's own thread, pausing between chunks while a write is in
-flight (:mod:`api.services.priority`), and returns the finished response: the document is
+flight (:mod:`api.services.writes_first`), and returns the finished response: the document is
 the one FastAPI would render from ``response_model`` (same validation, same JSON values).
 """
 
@@ -19,7 +19,7 @@ from typing import Any
 from fastapi.responses import Response
 from pydantic import BaseModel, TypeAdapter
 
-from api.services.priority import GATE
+from api.services.writes_first import GATE
 
 #: Items validated and converted between two pauses.
 CHUNK = 10

@@ -10,13 +10,13 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.priority import GATE
 from api.services.reading import MAX_PAGE, _cursor, _plan, _read, _utc
+from api.services.writes_first import GATE
 from db import history
 from db import tables as t
 from models.errors import InputError
 
-#: Versions converted between two pauses for writes in flight (api.services.priority).
+#: Versions converted between two pauses for writes in flight (api.services.writes_first).
 PAUSE_EVERY = 10
 #: Setpoint versions on a history page unless asked otherwise.
 HISTORY_PAGE = 100
@@ -71,7 +71,7 @@ def plan_history(
     out = []
     for n, (v, serial, setpoints) in enumerate(versions):
         if n % PAUSE_EVERY == 0:
-            GATE.pause()  # a part report in flight goes first (api.services.priority)
+            GATE.pause()  # a part report in flight goes first (api.services.writes_first)
         out.append(_history_version(v, serial, setpoints, ops, models[v.id], actors.get(v.version)))
     edge = (versions[0] if newest else versions[-1])[0].version if versions else 0
     status = "halted" if halt is not None else "running"

@@ -14,7 +14,7 @@ from api.rest.schemas.common import NO_NUL
 from api.rest.schemas.review import History, ModelVersions, PlanModels
 from api.rest.schemas.tools import TextCursor
 from api.services import queries
-from api.services.priority import GATE
+from api.services.writes_first import GATE
 from models.bounds import MAX_IDENTITY
 
 router = resource_router("review")
@@ -39,7 +39,7 @@ def plan_history(
 
     Each page lists its versions oldest first; ``next_cursor`` continues in ``order``.
     """
-    with GATE.reading():  # one long read at a time, part reports first (api.services.priority)
+    with GATE.reading():  # one long read at a time, part reports first (api.services.writes_first)
         data = queries.plan_history(
             engine=engine,
             plan_id=plan_id,

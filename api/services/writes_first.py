@@ -8,7 +8,7 @@ between pieces of their work (after a query, every few rows converted): while a 
 in flight in this process the reader waits until it is done, at most ``max_wait_s`` per
 pause, so reads are slowed but never starved. Writers announce themselves with
 :meth:`WritesFirst.writing` (the REST service does it for every request that is not a
-read, :mod:`api.rest.priority`). Long reads also run one at a time per process
+read, :mod:`api.rest.writes_in_flight`). Long reads also run one at a time per process
 (:meth:`WritesFirst.reading`): two readers and a writer sharing the interpreter lock left
 the writer a third of it.
 

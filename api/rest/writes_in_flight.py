@@ -1,6 +1,6 @@
 """ASGI middleware: every request that is not a read counts as a write in flight.
 
-While it is in flight, long reads pause at their next step (:mod:`api.services.priority`),
+While it is in flight, long reads pause at their next step (:mod:`api.services.writes_first`),
 so the MES's part reports keep their pace when engineers page through history.
 """
 
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from api.services.priority import GATE
+from api.services.writes_first import GATE
 
 _READS = frozenset({"GET", "HEAD", "OPTIONS"})
 
