@@ -14,7 +14,8 @@ Every function takes a session (keyword-only) and leaves the transaction to its 
 - :mod:`db.intake`: a part report's first step: the plan locked, the part's row, a stored answer.
 - :mod:`db.library`: tools and their baseline models.
 - :mod:`db.history`: read-only queries for review (plans, parts page by page, versions).
-- :mod:`db.access`: API keys, idempotency records, the audit log.
+- :mod:`db.api_keys`, :mod:`db.audit`, :mod:`db.idempotency`: API keys, the audit log (and
+  pruning), idempotency records.
 - :mod:`db.keylock`: which idempotency keys are in flight, on SQLite (file locks).
 - :mod:`db.bulk`: many rows inserted and updated in one statement (PostgreSQL).
 - :mod:`db.errors`: the errors db raises.

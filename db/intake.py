@@ -16,8 +16,8 @@ On PostgreSQL it is one statement::
     SELECT plan.*, (SELECT id FROM part), stored.* FROM (SELECT) LEFT JOIN plan ... LEFT JOIN stored
 
 Why one statement may read the stored answer: the idempotency key's in-flight lock is taken
-by an earlier statement of the same transaction (:func:`db.access.authenticate_claiming` or
-:func:`db.access.claim_key`). Only the lock's holder writes a key's record, and a statement's
+by an earlier statement of the same transaction (:func:`db.api_keys.authenticate_claiming` or
+:func:`db.idempotency.claim_key`). Only the lock's holder writes a key's record, and a statement's
 snapshot (READ COMMITTED) is taken when it starts, after every earlier holder committed. The
 plan's row lock may wait for another report of the plan; ``FOR UPDATE`` then returns the row
 as that report committed it (PostgreSQL docs, "Read Committed Isolation Level"), and the

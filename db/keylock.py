@@ -7,7 +7,7 @@ key's hash) for as long as it runs; a second request for the same key finds the 
 The kernel drops a process's locks when it dies (``kill -9`` included), so a crashed request
 never leaves its key stuck. POSIX locks belong to a process, not a thread, so threads of one
 server process also check an in-process set. PostgreSQL uses advisory locks instead
-(:func:`db.access.claim_key`).
+(:func:`db.idempotency.claim_key`).
 """
 
 from __future__ import annotations

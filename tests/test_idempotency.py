@@ -13,9 +13,9 @@ from api.services.idempotency import Idempotency, InFlightError, KeyReuseError, 
 from api.services.keys import create_key
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db import access, keylock
+from db import idempotency, keylock
 from db import tables as t
-from db.access import Actor
+from db.api_keys import Actor
 
 from conftest import DEMO_PLAN, report_at
 
@@ -90,7 +90,7 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
         assert holder.__enter__() is True  # as a running request would hold it
         release = holder.__exit__
     else:
-        lock = access.KEY_LOCK.format(api_key_id=":api_key_id")
+        lock = idempotency.KEY_LOCK.format(api_key_id=":api_key_id")
         connection = engine.connect()
         transaction = connection.begin()
         connection.execute(

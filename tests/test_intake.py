@@ -14,7 +14,7 @@ from sqlalchemy.orm import Session
 
 from api.services.keys import create_key
 from api.services.plans import create_plan
-from db import access
+from db import idempotency
 from db import tables as t
 from db.engine import make_engine, upgrade
 from db.intake import PlanHead, open_report
@@ -35,8 +35,8 @@ def stored(backend_url):
         session.execute(
             t.core_table(t.IdempotencyRecord).insert(),
             [
-                access.idempotency_row(key_id, "done", "h" * 64, 201, {"part_id": 7}),
-                access.idempotency_row(None, "cli-done", "c" * 64, 201, {"part_id": 8}),
+                idempotency.idempotency_row(key_id, "done", "h" * 64, 201, {"part_id": 7}),
+                idempotency.idempotency_row(None, "cli-done", "c" * 64, 201, {"part_id": 8}),
             ],
         )
     yield engine, plan_id, key_id

@@ -31,7 +31,7 @@ from api.services.keys import create_key
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
-from db.access import Actor
+from db.api_keys import Actor
 from db.bulk import Encoded, defer, write_rows
 from db.engine import make_engine, upgrade
 

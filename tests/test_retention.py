@@ -12,7 +12,7 @@ from sqlalchemy.orm import Session
 from api.cli.main import app
 from api.services import auth
 from api.services.throttle import FailureLimiter, FailureLog
-from db import access
+from db import audit, idempotency
 from db import tables as t
 
 #: Ages of the stored rows.
@@ -28,11 +28,11 @@ def _seed(engine) -> None:
     now = t.utcnow()
     with Session(engine) as session, session.begin():
         for what, age in AUDIT_AGES.items():
-            row = access.audit_row("cli", "test", what, "ok")
-            session.execute(insert(access.AUDIT), {**row, "at": now - age})
+            row = audit.audit_row("cli", "test", what, "ok")
+            session.execute(insert(audit.AUDIT), {**row, "at": now - age})
         for what, age in IDEMPOTENCY_AGES.items():
-            row = access.idempotency_row(None, what, "0" * 64, 201, {"ok": True})
-            session.execute(insert(access.IDEMPOTENCY), {**row, "created_at": now - age})
+            row = idempotency.idempotency_row(None, what, "0" * 64, 201, {"ok": True})
+            session.execute(insert(idempotency.IDEMPOTENCY), {**row, "created_at": now - age})
 
 
 def _left(engine) -> tuple[set[str], set[str]]:

@@ -17,7 +17,7 @@ import typer
 from models.errors import InputError
 
 if TYPE_CHECKING:
-    from db.access import Actor
+    from db.api_keys import Actor
 
 #: Longest ``--by`` (the audit log's actor column holds 200 characters).
 MAX_NAME = 100
@@ -58,7 +58,7 @@ def cli_actor(by: str | None) -> Actor:
     Raises InputError naming ``--by`` for an empty name, one over :data:`MAX_NAME`
     characters, or one with a control or invisible formatting character.
     """
-    from db.access import CLI_ACTOR, Actor  # SQLAlchemy: only a command that writes loads it
+    from db.api_keys import CLI_ACTOR, Actor  # SQLAlchemy: only a command that writes loads it
 
     name = os_user() if by is None else by.strip()
     if not name:

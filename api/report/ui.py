@@ -28,7 +28,7 @@ from api.report.html import render_record
 from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
 from api.services import auth, queries, record
 from api.services.errors import NotFoundError
-from db.access import Actor
+from db.api_keys import Actor
 from db.tables import MAX_INT
 from models.errors import InputError
 

@@ -29,7 +29,7 @@ from fastapi.utils import create_model_field
 
 from api.rest.problems import MEDIA_TYPE
 from api.rest.schemas.service import Problem
-from db.access import ROLES
+from db.api_keys import ROLES
 
 #: What each status means, as its response's description.
 MEANINGS = {

@@ -24,7 +24,7 @@ from sqlalchemy import Engine
 from api.rest.problems import ProblemError
 from api.rest.routes.common import MAX_ID
 from api.services import auth
-from db.access import Actor
+from db.api_keys import Actor
 
 _bearer = HTTPBearer(auto_error=False, description="An API key from `rcb keys create`.")
 Credentials = Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]

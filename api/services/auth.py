@@ -4,7 +4,7 @@
 checks the key of a write in the transaction the write goes on in: on PostgreSQL the key's
 lookup opens that transaction on one pooled connection and, given the request's
 Idempotency-Key, takes that key's in-flight lock in the same statement
-(:func:`db.access.authenticate_claiming`); :func:`api.services.parts.report_part` continues it.
+(:func:`db.api_keys.authenticate_claiming`); :func:`api.services.parts.report_part` continues it.
 Every failure (unknown or revoked key, a role that may not) is appended to the audit log,
 on the request's own connection when it holds one (:func:`aside`), coalesced per client
 address, action and window, and a failure with a wrong key from a client address that keeps
@@ -31,9 +31,9 @@ from sqlalchemy.orm import Session
 
 from api.services.throttle import FailureLimiter, FailureLog, Insert, RateLimitedError, Rewrite
 from api.settings import auth_failure_burst
-from db import access
+from db import api_keys, audit
 from db import tables as t
-from db.access import Actor
+from db.api_keys import Actor
 from db.engine import one_statement_reader
 
 __all__ = ["RateLimitedError"]
@@ -100,7 +100,7 @@ def authenticate(
     actor = None
     if key:
         with Session(one_statement_reader(engine)) as session:  # no write lock for a read
-            actor = access.authenticate(session=session, key=key)
+            actor = api_keys.authenticate(session=session, key=key)
     if actor is None:
         _audit_unauthenticated(engine, key, action, client)
     elif _due(actor):
@@ -116,7 +116,7 @@ def _touch(engine: Engine, key_id: int) -> None:
     """Record a key's last use in its own short transaction (best effort: logged on failure)."""
     try:
         with Session(engine) as session, session.begin():
-            access.touch_key(session=session, key_id=key_id, at=t.utcnow())
+            api_keys.touch_key(session=session, key_id=key_id, at=t.utcnow())
     except OperationalError as err:  # a busy database: the last use waits for the next
         _log.warning("last use of key %s not recorded: %s", key_id, err)
 
@@ -141,7 +141,7 @@ def authenticate_write(
         return None if actor is None else Authenticated(actor)
     session = Session(engine)
     try:
-        actor, claimed = access.authenticate_claiming(
+        actor, claimed = api_keys.authenticate_claiming(
             session=session, key=key, idempotency_key=idempotency_key
         )
         if actor is None:
@@ -151,7 +151,7 @@ def authenticate_write(
                 session.close()
             return None
         if _due(actor):  # in the write's own transaction: no second connection
-            access.touch_key(session=session, key_id=int(actor.id or 0), at=t.utcnow())
+            api_keys.touch_key(session=session, key_id=int(actor.id or 0), at=t.utcnow())
     except BaseException:
         session.close()
         raise
@@ -215,12 +215,12 @@ def _writers(engine: Engine, action: str, session: Session | None) -> tuple[Inse
 
     def insert(detail: dict[str, Any]) -> int:
         with aside(engine, session) as held:
-            row = access.audit_row("anonymous", action, "", "unauthenticated", detail)
-            return access.audit_returning_id(session=held, row=row)
+            row = audit.audit_row("anonymous", action, "", "unauthenticated", detail)
+            return audit.audit_returning_id(session=held, row=row)
 
     def rewrite(entry_id: int, detail: dict[str, Any]) -> bool:
         with aside(engine, session) as held:
-            return access.set_audit_detail(session=held, entry_id=entry_id, detail=detail)
+            return audit.set_audit_detail(session=held, entry_id=entry_id, detail=detail)
 
     return insert, rewrite
 
@@ -248,6 +248,4 @@ def audit_forbidden(
 ) -> None:
     """Record a request refused for the actor's role (``held``: see :func:`authenticated`)."""
     with aside(engine, held.session if held else None) as session:
-        access.audit(
-            session=session, actor=actor.name, action=action, target="", result="forbidden"
-        )
+        audit.audit(session=session, actor=actor.name, action=action, target="", result="forbidden")

@@ -9,7 +9,7 @@ from sqlalchemy.orm import Session
 
 from api.services import sizes
 from api.services.errors import NotFoundError
-from db import access
+from db import api_keys, audit
 from db.tables import MAX_INT
 from models.errors import InputError
 
@@ -25,15 +25,15 @@ def create_key(
     role: str,
     label: str = "",
     plans: list[int] | None = None,
-    actor: access.Actor = access.CLI_ACTOR,
+    actor: api_keys.Actor = api_keys.CLI_ACTOR,
 ) -> dict[str, Any]:
     """A new API key of ``role``, printed once: ``{"key", "role", "id", "plans"}``.
 
     ``plans``: the plan ids the key may see (None or empty: every plan); each must exist.
     ``actor``: who creates it, for the audit log (``rcb keys create --by``).
     """
-    if role not in access.ROLES:
-        raise InputError("--role", role, f"expected one of: {', '.join(access.ROLES)}")
+    if role not in api_keys.ROLES:
+        raise InputError("--role", role, f"expected one of: {', '.join(api_keys.ROLES)}")
     scope = sorted(set(plans)) if plans else None
     if scope is not None:
         if len(scope) > MAX_PLANS:
@@ -43,12 +43,12 @@ def create_key(
                 raise InputError("--plan", plan_id, f"a plan id is 1 to {MAX_INT}")
     with Session(engine) as session, session.begin():
         if scope is not None:
-            missing = access.plans_missing(session=session, plan_ids=scope)
+            missing = api_keys.plans_missing(session=session, plan_ids=scope)
             if missing:
                 raise InputError("--plan", missing[0], "no such plan")
-        key_id, key = access.create_key(session=session, role=role, label=label, plans=scope)
+        key_id, key = api_keys.create_key(session=session, role=role, label=label, plans=scope)
         target = f"key {key_id}" + (f" plans {scope}" if scope else "")
-        access.audit(
+        audit.audit(
             session=session, actor=actor.name, action="create key", target=target, result=role
         )
     return {"key": key, "role": role, "id": key_id, "plans": scope}
@@ -65,7 +65,7 @@ def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, A
     if not 0 <= after <= MAX_INT:
         raise InputError("--after", after, f"a key id is 0 to {MAX_INT}")
     with Session(engine) as session, session.begin():
-        rows = access.list_keys(session=session, after=after, limit=limit + 1)
+        rows = api_keys.list_keys(session=session, after=after, limit=limit + 1)
         page = [
             {
                 "id": row.id,
@@ -82,14 +82,14 @@ def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, A
 
 
 def revoke_key(
-    *, engine: Engine, key_id: int, actor: access.Actor = access.CLI_ACTOR
+    *, engine: Engine, key_id: int, actor: api_keys.Actor = api_keys.CLI_ACTOR
 ) -> dict[str, Any]:
     """Revoke an API key; it stays stored for the audit log (``actor``: who revokes it)."""
     with Session(engine) as session, session.begin():
-        row = access.revoke_key(session=session, key_id=key_id)
+        row = api_keys.revoke_key(session=session, key_id=key_id)
         if row is None:
             raise NotFoundError("ID", key_id)
-        access.audit(
+        audit.audit(
             session=session,
             actor=actor.name,
             action="revoke key",

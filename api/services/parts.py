@@ -14,8 +14,8 @@ from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, Written, replay_of
 from api.services.plans import operations_json
 from api.services.transactions import audited, write
-from db import access
-from db.access import Actor
+from db import api_keys
+from db.api_keys import Actor
 from db.errors import ConflictError
 from db.intake import open_report, serial_exists
 from db.parts import add_part
@@ -36,7 +36,7 @@ def report_part(
     engine: Engine,
     plan_id: int,
     body: Mapping[str, Any],
-    actor: Actor = access.CLI_ACTOR,
+    actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
     held: Authenticated | None = None,
 ) -> Written:

@@ -17,8 +17,8 @@ from api.services import to_json
 from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, Written
 from api.services.transactions import audited, write
-from db import access, library
-from db.access import Actor
+from db import api_keys, library
+from db.api_keys import Actor
 from db.plans import (
     add_plan,
     add_replan,
@@ -77,7 +77,7 @@ def create_plan(
     engine: Engine,
     body: Mapping[str, Any],
     settings: RcbSettings | None = None,
-    actor: Actor = access.CLI_ACTOR,
+    actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
 ) -> Written:
     """Check and optimise a plan, store it with setpoint version 1 (status 201).
@@ -122,7 +122,7 @@ def replan(
     plan_id: int,
     changes: Mapping[str, Any],
     dry_run: bool = False,
-    actor: Actor = access.CLI_ACTOR,
+    actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
 ) -> Written:
     """Apply an engineer's change and re-optimise; unless ``dry_run``, store it.

@@ -15,7 +15,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from api.services import sizes
-from db import access
+from db import api_keys, audit
 from db import tables as t
 from models.errors import InputError
 
@@ -46,7 +46,7 @@ def prune(
     engine: Engine,
     audit_older_than: str = AUDIT_DEFAULT,
     idempotency_older_than: str = IDEMPOTENCY_DEFAULT,
-    actor: access.Actor = access.CLI_ACTOR,
+    actor: api_keys.Actor = api_keys.CLI_ACTOR,
 ) -> dict[str, Any]:
     """Delete audit entries and idempotency records older than the given ages, in one transaction.
 
@@ -65,12 +65,12 @@ def prune(
     now = t.utcnow()
     before = {"audit_before": now - audit_age, "idempotency_before": now - idem_age}
     with Session(engine) as session, session.begin():
-        deleted = access.prune(
+        deleted = audit.prune(
             session=session,
             audit_before=before["audit_before"],
             idempotency_before=before["idempotency_before"],
         )
-        access.audit(
+        audit.audit(
             session=session,
             actor=actor.name,
             action="prune",

@@ -11,8 +11,8 @@ from sqlalchemy.orm import Session
 from api.services import to_json
 from api.services.idempotency import Idempotency, Written
 from api.services.transactions import audited, write
-from db import access, library
-from db.access import Actor
+from db import api_keys, library
+from db.api_keys import Actor
 from db.errors import ConflictError
 from models.catalogue import catalogue
 from models.tool import tool_from_mapping
@@ -22,7 +22,7 @@ def add_tool(
     *,
     engine: Engine,
     body: Mapping[str, Any],
-    actor: Actor = access.CLI_ACTOR,
+    actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
 ) -> Written:
     """Store a new tool with its baseline models (status 201); the name must be new."""

@@ -17,9 +17,10 @@ from sqlalchemy.orm import Session
 
 from api.services.auth import Authenticated, aside
 from api.services.idempotency import Idempotency, InFlightError, Written, replay_of
-from db import access, bulk, keylock
-from db.access import Actor
+from db import audit, bulk, keylock
+from db.api_keys import Actor
 from db.errors import ConflictError
+from db.idempotency import IDEMPOTENCY, claim_key, idempotency_row
 from db.intake import stored_answer
 
 #: A write's work in its transaction: (status, body), or a replay found by the work itself.
@@ -85,7 +86,7 @@ def _write_once(
                 stored = None
                 if idempotency is not None:
                     if claimed is None:
-                        claimed = access.claim_key(
+                        claimed = claim_key(
                             session=session, api_key_id=actor.id, key=idempotency.key
                         )
                     if not claimed:
@@ -96,7 +97,7 @@ def _write_once(
                         )
                 done = stored or work(session)
                 if isinstance(done, Written):
-                    access.audit(
+                    audit.audit(
                         session=session,
                         actor=actor.name,
                         action=action,
@@ -108,12 +109,12 @@ def _write_once(
                 answer = bulk.Encoded.of(body)
                 # the key's record and the audit entry go out with the rows the work deferred
                 # (a part report's: one statement on PostgreSQL, db.bulk)
-                rows = [(access.AUDIT, [access.audit_row(actor.name, action, target, str(status))])]
+                rows = [(audit.AUDIT, [audit.audit_row(actor.name, action, target, str(status))])]
                 if idempotency is not None:
-                    record = access.idempotency_row(
+                    record = idempotency_row(
                         actor.id, idempotency.key, idempotency.request_hash, status, answer
                     )
-                    rows.insert(0, (access.IDEMPOTENCY, [record]))
+                    rows.insert(0, (IDEMPOTENCY, [record]))
                 bulk.write_deferred(session, rows)
                 return Written(status, body, text=answer.text)
     except IntegrityError as err:
@@ -171,7 +172,7 @@ def audited(
             "message": str(err)[:500],
         }
         with aside(engine, held.session if held else None) as session:
-            access.audit(
+            audit.audit(
                 session=session,
                 actor=actor.name,
                 action=action,

@@ -1,4 +1,4 @@
-"""API keys, idempotency records and the audit log: who may write, and what was written.
+"""API keys: who may write and what they may see.
 
 Keys are 256-bit random tokens, so a plain SHA-256 is the right hash (a slow password hash
 buys nothing against a key with that much entropy; OWASP "Password Storage", "pepper" note):
@@ -13,12 +13,12 @@ import hmac
 import secrets
 from dataclasses import dataclass
 from datetime import datetime
-from typing import Any
 
-from sqlalchemy import JSON, delete, insert, select, text, update
+from sqlalchemy import JSON, select, text, update
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.idempotency import KEY_LOCK
 
 #: Roles and what they may do (checked by the REST layer).
 ROLES = ("mes", "engineer", "viewer")
@@ -42,10 +42,6 @@ class Actor:
         """Whether the plan is in the actor's reach (a scoped key sees only its plans)."""
         return self.plans is None or plan_id in self.plans
 
-
-#: Core tables of the append-only rows written here (inserted without the ORM's unit of work).
-AUDIT = t.core_table(t.AuditEntry)
-IDEMPOTENCY = t.core_table(t.IdempotencyRecord)
 
 #: The engineer at the local command line (not a REST client).
 CLI_ACTOR = Actor(None, "engineer", "cli")
@@ -125,100 +121,3 @@ def plans_missing(*, session: Session, plan_ids: list[int]) -> list[int]:
     """The ids of ``plan_ids`` that name no stored plan."""
     found = set(session.scalars(select(t.Plan.id).where(t.Plan.id.in_(plan_ids))))
     return [p for p in plan_ids if p not in found]
-
-
-def prune(
-    *, session: Session, audit_before: datetime, idempotency_before: datetime
-) -> dict[str, int]:
-    """Delete audit entries and idempotency records older than the given times.
-
-    Returns how many rows of each table were deleted:
-    ``{"audit_log": n, "idempotency_records": m}``.
-    """
-    counted = {
-        "audit_log": (AUDIT, AUDIT.c.at < audit_before),
-        "idempotency_records": (IDEMPOTENCY, IDEMPOTENCY.c.created_at < idempotency_before),
-    }
-    deleted = {}
-    for name, (table, older) in counted.items():
-        result = session.execute(delete(table).where(older))
-        deleted[name] = int(getattr(result, "rowcount", 0))
-    return deleted
-
-
-def audit(
-    *,
-    session: Session,
-    actor: str,
-    action: str,
-    target: str,
-    result: str,
-    detail: dict[str, Any] | None = None,
-) -> None:
-    """Append one entry to the audit log (an insert now, in the session's transaction)."""
-    session.execute(insert(AUDIT), audit_row(actor, action, target, result, detail))
-
-
-def audit_returning_id(*, session: Session, row: dict[str, Any]) -> int:
-    """Append the audit entry ``row`` (see :func:`audit_row`); returns its id."""
-    return int(session.execute(insert(AUDIT).returning(AUDIT.c.id), row).scalar_one())
-
-
-def set_audit_detail(*, session: Session, entry_id: int, detail: dict[str, Any]) -> bool:
-    """Replace the ``detail`` of an audit entry (a coalesced entry's count grows).
-
-    Returns whether the entry was there (False: it was pruned meanwhile).
-    """
-    result = session.execute(update(AUDIT).where(AUDIT.c.id == entry_id).values(detail=detail))
-    return bool(getattr(result, "rowcount", 0))
-
-
-def audit_row(
-    actor: str, action: str, target: str, result: str, detail: dict[str, Any] | None = None
-) -> dict[str, Any]:
-    """The row of an audit entry, every column given (for :func:`db.bulk.write_rows`)."""
-    return {
-        "at": t.utcnow(),
-        "actor": actor,
-        "action": action,
-        "target": target,
-        "result": result,
-        "detail": detail,
-    }
-
-
-#: The advisory lock of an idempotency key on PostgreSQL: 64 bits of a hash of the key
-#: (``:idempotency_key``), seeded with the API key's id (0 for the local CLI).
-KEY_LOCK = "hashtextextended(:idempotency_key, {api_key_id})"
-
-
-def claim_key(*, session: Session, api_key_id: int | None, key: str) -> bool:
-    """Take the in-flight lock of an idempotency key for this transaction (PostgreSQL).
-
-    ``pg_try_advisory_xact_lock`` is held until commit or rollback and released by the server
-    when the connection dies, so a crashed request never leaves a key stuck in flight.
-    On SQLite, writers are serialised by ``BEGIN IMMEDIATE`` and the in-flight check is the
-    file lock of :mod:`db.keylock`, taken before the transaction; here it is always True.
-    """
-    if session.get_bind().dialect.name != "postgresql":
-        return True
-    query = text(f"SELECT pg_try_advisory_xact_lock({KEY_LOCK.format(api_key_id=':api_key_id')})")
-    return bool(session.scalar(query, {"idempotency_key": key, "api_key_id": api_key_id or 0}))
-
-
-def idempotency_row(
-    api_key_id: int | None, key: str, request_hash: str, status: int, body: Any
-) -> dict[str, Any]:
-    """The row of a completed request's key, every column given (see :func:`audit_row`).
-
-    ``body``: the response body, or it with its JSON text (:class:`db.bulk.Encoded`).
-    """
-    return {
-        "api_key_id": api_key_id,
-        "key": key,
-        "request_hash": request_hash,
-        "state": "done",
-        "response_status": status,
-        "response_body": body,
-        "created_at": t.utcnow(),
-    }
