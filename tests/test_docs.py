@@ -32,6 +32,7 @@ from pathlib import Path
 import pytest
 
 from docs_console import Command, commands, script
+from live import free_port
 
 ROOT = Path(__file__).parents[1]
 README = ROOT / "README.md"
@@ -43,12 +44,6 @@ INSTALL = (
 )
 SERVE = re.compile(r"^<!-- docs-test: serve -->$", re.MULTILINE)
 PAGE_SECONDS = 150  # a page's whole run, server start included
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _environment(folder: Path) -> dict[str, str]:
@@ -75,7 +70,7 @@ def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int, Path]:
     (folder / "examples").symlink_to(ROOT / "examples")
     (folder / "tests").mkdir()
     (folder / "tests" / "data").symlink_to(ROOT / "tests" / "data")
-    port = _free_port()
+    port = free_port()
     env = _environment(folder)
     (outputs / "run.sh").write_text(script(cmds, port, outputs), encoding="utf-8")
     serve = None

@@ -15,10 +15,12 @@ import sys
 import tomllib
 import xml.etree.ElementTree as ET
 from html.parser import HTMLParser
+from pathlib import Path
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from sqlalchemy.engine import Engine
 
 from api.report import plots
 from api.report.html import render_html_report as render_report
@@ -72,14 +74,21 @@ def _reports(n, seed=3):
     return bodies
 
 
-@pytest.fixture(scope="module")
-def stored(tmp_path_factory):
-    url = f"sqlite:///{tmp_path_factory.mktemp('report') / 'rcb.db'}"
+def stored_demo(folder: Path, parts: int) -> tuple[str, Engine, int]:
+    """A SQLite database in ``folder`` with the demonstration plan and ``parts`` parts reported:
+    its URL, an engine on it (the caller disposes of it) and the plan's id."""
+    url = f"sqlite:///{folder / 'rcb.db'}"
     upgrade(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
-    for body in _reports(PARTS):
+    for body in _reports(parts):
         report_part(engine=engine, plan_id=plan_id, body=body)
+    return url, engine, plan_id
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory):
+    url, engine, plan_id = stored_demo(tmp_path_factory.mktemp("report"), PARTS)
     plan = queries.get_plan(engine=engine, plan_id=plan_id)
     parts = queries.parts(engine=engine, plan_id=plan_id, page_size=queries.MAX_PAGE)["items"]
     history = queries.plan_history(engine=engine, plan_id=plan_id)

@@ -18,13 +18,10 @@ import shutil
 from pathlib import Path
 
 import pytest
-from test_report import BODY, _reports
+from test_report import stored_demo
 
 from api.report.html import render_record
-from api.services.parts import report_part
-from api.services.plans import create_plan
 from api.services.record import report_record
-from db.engine import make_engine, upgrade
 
 PARTS = 30
 CHROMIUM = Path("/usr/bin/chromium")
@@ -99,12 +96,7 @@ def needs_chromium():
 
 @pytest.fixture(scope="module")
 def report_page(tmp_path_factory) -> str:
-    url = f"sqlite:///{tmp_path_factory.mktemp('layout') / 'rcb.db'}"
-    upgrade(url)
-    engine = make_engine(url)
-    plan_id = create_plan(engine=engine, body=BODY).body["id"]
-    for body in _reports(PARTS):
-        report_part(engine=engine, plan_id=plan_id, body=body)
+    _, engine, plan_id = stored_demo(tmp_path_factory.mktemp("layout"), PARTS)
     page = render_record(report_record(engine=engine, plan_id=plan_id))
     engine.dispose()
     return page

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from api.cli.common import errors, say
+from api.virtual_serve import MAX_PARTS
 from models.errors import InputError
 
 if TYPE_CHECKING:
@@ -50,7 +51,7 @@ def serve(
         int | None,
         typer.Option(min=1, max=65535, help="TCP port on 127.0.0.1 [default: 5000 or 4840]."),
     ] = None,
-    parts: Annotated[int, typer.Option(min=1, max=1000, help="Parts to make.")] = 10,
+    parts: Annotated[int, typer.Option(min=1, max=MAX_PARTS, help="Parts to make.")] = 10,
     seconds_per_part: Annotated[
         float, typer.Option(min=0.01, max=3600.0, help="Time to make one part [s].")
     ] = 1.0,

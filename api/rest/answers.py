@@ -27,6 +27,7 @@ from fastapi.dependencies.models import Dependant
 from fastapi.routing import APIRoute
 from fastapi.utils import create_model_field
 
+from api.rest.limits import MAX_BODY_BYTES
 from api.rest.problems import MEDIA_TYPE
 from api.rest.schemas.service import Problem
 from db.api_keys import ROLES
@@ -39,7 +40,7 @@ MEANINGS = {
     403: "The key's role may not do this (or a key scoped to plans writes to no plan)",
     404: "No such resource (a plan outside a key's scope answers so too)",
     409: "Conflict: see `code` (a halted plan, a name or serial taken, a request in flight)",
-    413: "The request body is over the limit of 1 MiB",
+    413: f"The request body is over the limit of {MAX_BODY_BYTES // 2**20} MiB",
     422: "Invalid input: `field` and `value` name it (`errors`: every one); `infeasible`: "
     "`conflicts` names the limits that cannot all be met",
     429: "Too many failed authentications from this address; wait `Retry-After` seconds",

@@ -5,3 +5,7 @@
 :mod:`supervisor.virtual.trace`; :mod:`~api.virtual_serve.run` builds the trace from a plan
 file and paces the parts. A network server is an interface, hence ``api``.
 """
+
+#: The most parts one ``rcb virtual serve`` makes (the whole trace is held in memory); here,
+#: without imports, so that ``rcb --help`` reads it without loading the optimiser.
+MAX_PARTS = 1000

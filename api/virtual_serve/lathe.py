@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from api.virtual_serve import MAX_PARTS
 from models.errors import InputError
 from supervisor.inputs.plan import Plan, load_plan
 from supervisor.optimize.optimizer import optimize_plan
@@ -29,8 +30,6 @@ from supervisor.virtual.trace import (
 
 #: The calibration the trace is shown through: ``[machine.calibrations.spindle_load]``.
 CALIBRATION = "spindle_load"
-#: The most parts one ``rcb virtual serve`` makes (the whole trace is held in memory).
-MAX_PARTS = 1000
 #: The setpoint version every part is made with (the service's first).
 SETPOINT_VERSION = 1
 
