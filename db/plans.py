@@ -218,18 +218,13 @@ def operation_rows(*, session: Session, plan_id: int) -> dict[str, t.Operation]:
 
 def _machine(session: Session, plan: Plan) -> t.Machine:
     m = plan.machine
-    limits = {
-        "max_power_kW": m.max_power_kW,
-        "max_spindle_rpm": m.max_spindle_rpm,
-        "max_torque_Nm": m.max_torque_Nm,
-        "max_feed_rate_mm_min": m.max_feed_rate_mm_min,
-    }
+    limits = {name: float(value) for name, value in m.limits().items()}
     row = session.scalars(select(t.Machine).where(t.Machine.name == m.name)).one_or_none()
     if row is None:
-        row = t.Machine(name=m.name, **limits)
+        row = t.Machine(name=m.name, limits=limits)
         session.add(row)
         session.flush()
-    elif {k: getattr(row, k) for k in limits} != limits:
+    elif row.limits != limits:
         raise ConflictError("machine.name", m.name, "a machine of this name has other limits")
     return row
 

@@ -63,15 +63,14 @@ def core_table(entity: type[Base]) -> Table:
 
 
 class Machine(Base):
-    """A machine tool and its limits (NULL: no limit)."""
+    """A machine tool and its limits."""
 
     __tablename__ = "machines"
     id: Mapped[int] = mapped_column(primary_key=True)
     name: Mapped[str] = mapped_column(String(200), unique=True)
-    max_power_kW: Mapped[float | None]
-    max_spindle_rpm: Mapped[float | None]
-    max_torque_Nm: Mapped[float | None]
-    max_feed_rate_mm_min: Mapped[float | None]
+    #: The limits keyed by quantity (``{"power_kW": 22.0}``; a quantity absent: no limit), as
+    #: :attr:`supervisor.inputs.plan.Machine.limit_of` holds them (alembic 0012).
+    limits: Mapped[dict[str, Any]] = mapped_column(server_default="{}")
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
 
 

@@ -59,8 +59,11 @@ class Quantity:
     kind : {"model", "derived"}
         Predicted by a tool's model, or derived from the cutting parameters.
     machine_field : str or None
-        The :class:`supervisor.inputs.plan.Machine` field that bounds it (``max_torque_Nm``),
-        or None.
+        The machine limit that bounds it, as a plan file's ``[machine]`` table and the REST
+        ``MachineIn`` name it (``max_torque_Nm``), or None. Everything else about a machine
+        limit is derived from this: :class:`supervisor.inputs.plan.Machine` holds its value
+        keyed by :attr:`name`, the database's ``machines.limits`` likewise, the REST schema and
+        the read side by this name.
     factor : Callable[[Process], Monomial] or None
         Derived: the monomial in the cutting parameters and the context that multiplies
         :attr:`based_on` (or is the value, without one) [unit per unit of ``based_on``].

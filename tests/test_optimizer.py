@@ -265,7 +265,7 @@ def test_absurdly_small_machine_limits_are_diagnosed_not_overflowed():
     assert refused.value.field in ("machine.max_spindle_rpm", "machine.max_torque_Nm")
     machine = {**body["machine"], "max_spindle_rpm": 1.0, "max_torque_Nm": 1.0}
     plan = plan_from_mapping({**body, "machine": machine})
-    tiny = replace(plan.machine, max_spindle_rpm=5e-324, max_torque_Nm=5e-324)
+    tiny = replace(plan.machine, limit_of={"spindle_rpm": 5e-324, "torque_Nm": 5e-324})
     with pytest.raises(InfeasibleError) as err:
         optimize_plan(replace(plan, machine=tiny))
     needed = {c.name: c.required for c in err.value.conflicts}

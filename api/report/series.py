@@ -157,8 +157,9 @@ def constrained_quantities(
         else:
             out[key] = (float(limit), "max")
     binding = {name for sp in setpoints for name in sp["binding"]}
+    bounds = quantities.machine_fields()
     for key, limit in plan["machine_limits"].items():
-        quantity = key.removeprefix("max_")
+        quantity = bounds[key]
         if quantity in binding and quantity not in out and limit is not None:
             out[quantity] = (float(limit), "max")
     for quantity in sorted(measured - set(out)):

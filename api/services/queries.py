@@ -27,6 +27,7 @@ from db import history, library
 from db import tables as t
 from db.parts import count_parts
 from db.plans import current_body, setpoints_of
+from models import quantities
 from models.catalogue import catalogue
 from models.errors import InputError
 
@@ -43,10 +44,8 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
         return {
             **history.summary(row, machine.name if machine else "", parts),
             "machine_limits": {
-                "max_power_kW": machine.max_power_kW if machine else None,
-                "max_spindle_rpm": machine.max_spindle_rpm if machine else None,
-                "max_torque_Nm": machine.max_torque_Nm if machine else None,
-                "max_feed_rate_mm_min": machine.max_feed_rate_mm_min if machine else None,
+                key: machine.limits.get(name) if machine else None
+                for key, name in quantities.machine_fields().items()
             },
             "operations": [
                 {

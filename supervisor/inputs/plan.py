@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from dataclasses import fields as fields_of
 from pathlib import Path
 from typing import Any
 
@@ -52,36 +51,42 @@ _OPERATION_KEYS = tuple(
 
 @dataclass(frozen=True)
 class Machine:
-    """A machine tool and its limits (``None``: no limit)."""
+    """A machine tool and its limits.
+
+    Parameters
+    ----------
+    name : str
+        The machine's name.
+    limit_of : Mapping[str, float]
+        The machine's limits keyed by quantity (``power_kW`` ...): one per machine-limited
+        quantity of :mod:`models.quantities` (its ``machine_field`` names it in a plan file,
+        ``max_power_kW``); a quantity absent: no limit.
+    calibrations : Mapping[str, Calibration]
+        Named sensor calibrations (``[machine.calibrations.NAME]``, :mod:`models.sensors`):
+        how a part report's spindle load or current becomes a force.
+    resolution : Mapping[str, float]
+        The step of each cutting parameter the control takes (``[machine.resolution]``,
+        :mod:`supervisor.inputs.resolution`): setpoints lie on this grid.
+    """
 
     name: str
-    max_power_kW: float | None = None
-    max_spindle_rpm: float | None = None
-    max_torque_Nm: float | None = None
-    max_feed_rate_mm_min: float | None = None
-    #: Named sensor calibrations (``[machine.calibrations.NAME]``, :mod:`models.sensors`):
-    #: how a part report's spindle load or current becomes a force.
+    limit_of: Mapping[str, float] = field(default_factory=dict)
     calibrations: Mapping[str, Calibration] = field(default_factory=dict)
-    #: The step of each cutting parameter the control takes (``[machine.resolution]``,
-    #: :mod:`supervisor.inputs.resolution`): setpoints lie on this grid.
     resolution: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_RESOLUTION))
 
+    def __post_init__(self) -> None:
+        """Every limit bounds a machine-limited quantity of the registry."""
+        bounded = set(quantities.machine_fields().values())
+        for name in self.limit_of:
+            if name not in bounded:
+                raise quantities.UnknownQuantityError(
+                    "machine", name, f"no machine limit; known: {', '.join(sorted(bounded))}"
+                )
+
     def limits(self) -> dict[str, float]:
-        """The machine limits keyed by quantity name (``power_kW`` ...), in field order.
-
-        Which field bounds which quantity is :attr:`models.quantities.Quantity.machine_field`.
-        """
-        bounds = quantities.machine_fields()
-        result: dict[str, float] = {}
-        for name in _FIELD_ORDER:
-            value = getattr(self, name)
-            if name in bounds and value is not None:
-                result[bounds[name]] = value
-        return result
-
-
-#: The fields of :class:`Machine` in their order: the order of :meth:`Machine.limits`.
-_FIELD_ORDER = tuple(f.name for f in fields_of(Machine))
+        """The machine limits keyed by quantity name (``power_kW`` ...), in registry order."""
+        order = quantities.machine_fields().values()
+        return {name: self.limit_of[name] for name in order if name in self.limit_of}
 
 
 @dataclass(frozen=True)
@@ -194,13 +199,17 @@ def _machine(data: object) -> Machine:
     table = fields.mapping(data, "machine")
     machine_fields = quantities.machine_fields()
     fields.only_keys(table, ("name", *machine_fields, "calibrations", "resolution"), "machine")
-    limits = {k: fields.optional_number(table, k, "machine", positive=True) for k in machine_fields}
+    limits = {
+        name: fields.number(table[key], f"machine.{key}", positive=True)
+        for key, name in machine_fields.items()
+        if key in table
+    }
     calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
     return Machine(
         name=fields.text(table, "name", "machine", most=MAX_IDENTITY),
+        limit_of=limits,
         calibrations=calibrations,
         resolution=resolution_from_mapping(table.get("resolution"), "machine.resolution"),
-        **limits,
     )
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from api.rest.schemas.common import Name, Number, Out, Positive, Strategy, Text, keys_schema
 from api.rest.schemas.halts import HaltOut
@@ -19,7 +19,7 @@ from models.bounds import (
     MAX_TOOLS,
 )
 from models.kinematics import PARAMETERS, PROCESSES, Process
-from models.quantities import limit_keys
+from models.quantities import limit_keys, machine_fields
 from supervisor.inputs.objectives import Objective
 
 
@@ -100,15 +100,19 @@ LIMITS = list(limit_keys())
 _ALL_PARAMETERS = sorted({v for p in PROCESSES for v in PARAMETERS[p]})
 
 
-class MachineIn(BaseModel):
+#: The machine's name and a field per machine limit of the quantity registry
+#: (:attr:`models.quantities.Quantity.machine_field`, ``max_power_kW`` ...), in that order.
+_MachineLimits: type[BaseModel] = create_model(
+    "_MachineLimits",
+    __config__=ConfigDict(extra="forbid", allow_inf_nan=False),
+    name=(Name, ...),
+    **dict.fromkeys(machine_fields(), (Positive | None, None)),  # type: ignore[call-overload]
+)
+
+
+class MachineIn(_MachineLimits):  # type: ignore[misc,valid-type]
     """The machine and its limits (omitted: no limit)."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    name: Name
-    max_power_kW: Positive | None = None
-    max_spindle_rpm: Positive | None = None
-    max_torque_Nm: Positive | None = None
-    max_feed_rate_mm_min: Positive | None = None
     calibrations: dict[Name, dict[str, Any]] | None = Field(
         None,
         max_length=MAX_CALIBRATIONS,
