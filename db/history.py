@@ -15,6 +15,9 @@ from sqlalchemy.orm import Session, aliased
 from db import tables as t
 from db.plan_state import settings_json, settings_of
 
+#: The settings a plan summary shows as fields of its own, not under ``settings``.
+_OWN_FIELDS = ("strategy", "alpha")
+
 
 def plans(
     *, session: Session, after_id: int = 0, limit: int = 100, only: frozenset[int] | None = None
@@ -44,14 +47,15 @@ def plans(
 
 
 def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
-    """The fields a plan list shows."""
+    """The fields a plan list shows (strategy and alpha beside the other settings)."""
+    settings = settings_of(plan.settings)
     return {
         "id": plan.id,
         "name": plan.name,
         "machine": machine,
-        "strategy": plan.strategy,
-        "alpha": plan.alpha,
-        "settings": settings_json(settings_of(plan.strategy, plan.alpha, plan.settings)),
+        "strategy": settings.strategy,
+        "alpha": settings.alpha,
+        "settings": {k: v for k, v in settings_json(settings).items() if k not in _OWN_FIELDS},
         "status": "halted" if plan.halt is not None else "running",
         "halt": plan.halt,
         "setpoint_version": plan.current_setpoint_version,

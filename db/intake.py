@@ -47,8 +47,6 @@ class PlanHead:
     id: int
     name: str
     machine_id: int
-    strategy: str
-    alpha: float
     current_setpoint_version: int
     state_token: str
     settings: dict[str, Any] | None
@@ -77,8 +75,6 @@ _HEAD = (
     "id",
     "name",
     "machine_id",
-    "strategy",
-    "alpha",
     "current_setpoint_version",
     "state_token",
     "settings",

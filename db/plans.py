@@ -47,8 +47,6 @@ def add_plan(
         name=plan.name,
         machine_id=machine.id,
         body=dict(body),
-        strategy=settings.strategy,
-        alpha=settings.alpha,
         settings=settings_json(settings),
         current_setpoint_version=1,
         state_token=new_token(),
@@ -151,7 +149,7 @@ def add_replan(
     after: RcbState,
     actor: str,
 ) -> None:
-    """Store a replan: the revision, the changed models (cause ``replan``), new setpoints."""
+    """Store a replan: revision, changed models (cause ``replan``), setpoints, settings."""
     rows = operation_rows(session=session, plan_id=plan_row.id)
     ops = {name: row.id for name, row in rows.items()}
     last_part = session.scalar(select(func.max(t.Part.id)).where(t.Part.plan_id == plan_row.id))
@@ -186,6 +184,8 @@ def add_replan(
     )
     plan_row.current_setpoint_version = after.version
     plan_row.halt = None  # a replan resumes a halted plan
+    if after.settings != before.settings:  # rcb replan --rcb NAME=VALUE
+        plan_row.settings = settings_json(after.settings)
     plan_row.state_token = new_token()
     session.flush()
 

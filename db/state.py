@@ -85,7 +85,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     beliefs: dict[tuple[str, str], Posterior] = {}
     wear: dict[tuple[str, str], WearRise] = {}
     monitors: dict[tuple[str, str], Monitor] = {}
-    settings = settings_of(plan_row.strategy, plan_row.alpha, plan_row.settings)
+    settings = settings_of(plan_row.settings)
     models_in_force = latest_models(session=session, plan_id=plan_row.id)
     pairs = sorted(
         (ops[op.name].id, quantity)

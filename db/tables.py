@@ -25,7 +25,6 @@ from sqlalchemy import (
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 from models.bounds import LARGEST_WHOLE
-from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 
 #: Stable constraint names, so Alembic migrations name them the same on every database.
 NAMING_CONVENTION = {
@@ -116,11 +115,9 @@ class Plan(Base):
     name: Mapped[str] = mapped_column(String(200))
     machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"))
     body: Mapped[dict[str, Any]]
-    strategy: Mapped[str] = mapped_column(String(20), default=DEFAULT_STRATEGY)
-    alpha: Mapped[float] = mapped_column(default=DEFAULT_ALPHA)
-    #: Every other setting of the strategy (floors, coverage_k, discrepancy, z, exponent_sd,
-    #: edge_sd, halt_over; db.plan_state); NULL for a plan stored before 0005, or a key
-    #: missing (halt_over before it existed): the defaults.
+    #: Every RCB setting of the plan by name (supervisor.rcb.settings.SETTINGS: strategy,
+    #: alpha, floors ...; db.plan_state); a key missing (halt_over before it existed): the
+    #: default. Strategy and alpha were columns before alembic 0013.
     settings: Mapped[dict[str, Any] | None]
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))

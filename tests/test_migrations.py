@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import json
+
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 from sqlalchemy import inspect, text
@@ -96,8 +98,13 @@ def _upgrade_0004_to_0005(url: str) -> None:
     with engine.connect() as connection:
         row = connection.execute(text("SELECT settings, halt FROM plans")).one()
     engine.dispose()
-    assert tuple(row) == (None, None)
-    assert settings_of("ivester", 0.25, row.settings) == RcbSettings("ivester")
+    # 0013 moved strategy and alpha into settings: every other setting the default
+    assert (json.loads(row.settings) if isinstance(row.settings, str) else row.settings) == {
+        "strategy": "ivester",
+        "alpha": 0.25,
+    }
+    assert row.halt is None
+    assert settings_of({"strategy": "ivester", "alpha": 0.25}) == RcbSettings("ivester")
     _no_difference(url)
 
 

@@ -42,14 +42,16 @@ def test_non_default_settings_survive_a_reload(engine):
 
 
 def test_a_plan_stored_before_0005_gets_the_defaults():
-    assert settings_of("learn", 0.25, None) == RcbSettings(strategy="learn")
-    assert settings_of("ivester", 0.3, {"z": 5.0}) == RcbSettings("ivester", alpha=0.3, z=5.0)
+    assert settings_of(None) == RcbSettings(strategy="learn")
+    assert settings_of({"strategy": "ivester", "alpha": 0.3, "z": 5.0}) == RcbSettings(
+        "ivester", alpha=0.3, z=5.0
+    )
 
 
 def test_halt_over_defaults_to_a_quarter_and_is_stored_with_the_plan():
     assert DEFAULT_HALT_OVER == 0.25 and RcbSettings().halt_over == 0.25
     assert settings_json(RcbSettings(halt_over=2.5))["halt_over"] == 2.5
-    assert settings_of("ivester", 0.25, {"halt_over": 0.1}).halt_over == 0.1
+    assert settings_of({"strategy": "ivester", "halt_over": 0.1}).halt_over == 0.1
 
 
 def test_a_plan_stored_before_halt_over_reads_the_default(engine):

@@ -29,6 +29,7 @@ from db.errors import ConflictError
 from models.bounds import LARGEST
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
+from supervisor.rcb.settings import SETTINGS
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
 err_console = Console(stderr=True)
@@ -45,6 +46,30 @@ STRATEGY_HELP = (
 )
 #: ``--strategy``: a name of :data:`supervisor.rcb.strategies.REGISTRY`, its summary in the help.
 StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEGY_HELP)]
+
+
+def _setting_help() -> str:
+    """Each setting of :data:`supervisor.rcb.settings.SETTINGS`: its form, range and doc."""
+    parts = []
+    for name, s in SETTINGS.items():
+        if s.kind == "choice":
+            parts.append(f"{name}={'|'.join(s.choices)}")
+        elif s.kind == "floors":
+            parts.append(f"floors.QUANTITY=VALUE >= {s.low:g} ({s.doc})")
+        else:
+            parts.append(f"{name} in {s.interval} ({s.doc})")
+    return "; ".join(parts)
+
+
+#: ``--rcb NAME=VALUE``: an RCB setting, its names, ranges and docs from the declaration.
+RcbOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--rcb",
+        metavar="NAME=VALUE",
+        help="An RCB setting (repeatable), over the plan file's [rcb] table: " + _setting_help(),
+    ),
+]
 
 #: ``--json`` of the commands that print tables otherwise.
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]

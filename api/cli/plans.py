@@ -17,10 +17,12 @@ import typer
 from rich.console import Console
 
 from api.cli.common import (
+    STRATEGY_HELP,
     DbOption,
     JsonOption,
     PlanArg,
-    StrategyOption,
+    RcbOption,
+    StrategyName,
     emit,
     errors,
     existing_engine,
@@ -31,7 +33,6 @@ from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
 from models.bounds import MAX_DOCUMENT_BYTES
 from models.errors import InputError
-from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
 if TYPE_CHECKING:
     from rich.table import Table
@@ -50,7 +51,11 @@ PlanFile = Annotated[
 
 def create(
     plan_file: PlanFile,
-    strategy: StrategyOption = DEFAULT_STRATEGY,
+    strategy: Annotated[
+        StrategyName | None,
+        typer.Option("--strategy", help=f"{STRATEGY_HELP} Default: the file's [rcb] strategy."),
+    ] = None,
+    rcb: RcbOption = None,
     db: DbOption = None,
     as_json: JsonOption = False,
     by: ByOption = None,
@@ -63,15 +68,18 @@ def create(
     """
     from api.services.plans import create_plan
     from api.settings import database_field, database_url
-    from supervisor.rcb.state import RcbSettings
+    from supervisor.rcb.settings import assignments
+    from supervisor.rcb.state import plan_settings
 
     with errors():
         actor = cli_actor(by)
         body = read_plan_file(plan_file)
+        given = assignments(rcb or [], "--rcb")
+        if strategy is not None:
+            given["strategy"] = strategy
+        settings = plan_settings(body, given)  # the file's [rcb] table, the options over it
         engine = existing_engine(database_url(db), database_field(db))
-        written = create_plan(
-            engine=engine, body=body, settings=RcbSettings(strategy=strategy), actor=actor
-        )
+        written = create_plan(engine=engine, body=body, settings=settings, actor=actor)
     answer = written.body
     if as_json:
         emit(answer)

@@ -1,4 +1,4 @@
-"""``rcb replan PLAN``: change limits, bounds or models, re-optimise, store a new version.
+"""``rcb replan PLAN``: change limits, bounds, models or RCB settings, re-optimise, store.
 
 The engineer's side of :func:`api.services.plans.replan` (REST ``POST .../replan``): the
 options are parsed into the same change document, ``--dry-run`` stores nothing, and the new
@@ -12,7 +12,16 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from api.cli.common import DbOption, PlanArg, emit, errors, existing_engine, plan_of, say
+from api.cli.common import (
+    DbOption,
+    PlanArg,
+    RcbOption,
+    emit,
+    errors,
+    existing_engine,
+    plan_of,
+    say,
+)
 from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
 from api.settings import database_field, database_url
@@ -33,6 +42,7 @@ def replan(
     reset_bands: Annotated[
         bool, typer.Option("--reset-bands", help="Back to the tools' baseline bands.")
     ] = False,
+    rcb: RcbOption = None,
     dry_run: Annotated[
         bool, typer.Option("--dry-run", help="Show the result; store nothing.")
     ] = False,
@@ -40,12 +50,18 @@ def replan(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     by: ByOption = None,
 ) -> None:
-    """Change limits, bounds or models, re-optimise, show the difference, store a new version."""
+    """Change limits, bounds or models, re-optimise, show the difference, store a new version.
+
+    ``--rcb NAME=VALUE`` changes an RCB setting of the plan (``--rcb alpha=0.3``).
+    """
     from api.services.plans import replan
+    from supervisor.rcb.settings import assignments
 
     with errors():
         actor = cli_actor(by)
         changes = _changes(limit or [], bound or [], model or [], reset_bands)
+        if rcb:
+            changes["rcb"] = assignments(rcb, "--rcb")
         engine = existing_engine(database_url(db), database_field(db))
         plan_key = plan_of(engine, plan)
         written = replan(

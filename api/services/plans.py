@@ -32,7 +32,7 @@ from models.errors import InputError
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.replan import replan as supervisor_replan
-from supervisor.rcb.state import RcbSettings, RcbState
+from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
 
 
 def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
@@ -82,10 +82,11 @@ def create_plan(
 ) -> Written:
     """Check and optimise a plan, store it with setpoint version 1 (status 201).
 
-    ``settings``: the plan's RCB law, every setting stored (default: :class:`RcbSettings`).
+    ``settings``: the plan's RCB law, every setting stored (default: the body's ``rcb`` table,
+    :func:`supervisor.rcb.state.plan_settings`).
     """
     with audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
-        settings = settings or RcbSettings()
+        settings = settings or plan_settings(body)  # else the plan's [rcb] table
         with Session(engine) as session:
             stored_tools = library.load_tools(session=session)
         plan = plan_from_mapping(body, stored_tools)

@@ -2,7 +2,9 @@
 
 A plan file holds ``name``, a ``[machine]`` table (limits, sensor calibrations, the control's
 resolution: :mod:`supervisor.inputs.resolution`), optional inline ``[[tools]]`` (else tools come
-from the catalogue) and ``[[operations]]``. Every error names the dotted field and its value.
+from the catalogue), ``[[operations]]`` and an optional ``[rcb]`` table of RCB settings
+(:mod:`supervisor.rcb.settings`, read where a plan is stored). Every error names the dotted
+field and its value.
 
 A milling operation may say ``objective = "productivity"`` (default ``"mrr"``: the largest removal
 rate) with an ``[operations.productivity]`` table of Borangiu's cost data
@@ -41,7 +43,11 @@ from supervisor.inputs.objectives import OBJECTIVES, Objective
 from supervisor.inputs.passes import PassSpec, pass_spec, with_depth_bound
 from supervisor.inputs.resolution import DEFAULT_RESOLUTION, check_bounds, resolution_from_mapping
 
-_PLAN_KEYS = ("name", "machine", "tools", "operations", "description")
+#: ``rcb``: the plan's RCB settings, read by :func:`supervisor.rcb.state.plan_settings` where a
+#: plan is stored (the settings are RCB's, not the plan's structure).
+#: ``rcb``: the plan's RCB settings, read by :func:`supervisor.rcb.state.plan_settings` where a
+#: plan is stored (they are RCB's, not the plan's structure).
+_PLAN_KEYS = ("name", "machine", "tools", "operations", "description", "rcb")
 _OPERATION_KEYS = tuple(
     "name process tool description volume_mm3 limits bounds workpiece_diameter_mm"
     " tool_diameter_mm flute_count allowable_flank_wear_mm setpoint_rel_uncertainty"

@@ -6,6 +6,8 @@ Changes, each keyed by a dotted name and checked like the plan file:
 - ``bounds``: ``{"OP.PARAM": [low, high]}`` sets a parameter's bounds;
 - ``models``: ``{"TOOL.QUANTITY": {"K"?, "dK"?}}`` sets K and/or ΔK of that model in every
   operation using the tool (exponents stay; the band is the engineer's, not RCB's);
+- ``rcb``: ``{"alpha": 0.3}`` changes RCB settings (:mod:`supervisor.rcb.settings`; the
+  plan body's ``rcb`` table takes them too);
 - ``reset_bands``: every operation's models go back to the tool's baseline (K and ΔK) and RCB
   forgets what it has seen, the rise per part of a worn edge and what it watched in the
   readings (:mod:`supervisor.rcb.monitor`), the ``learn`` strategy its
@@ -27,10 +29,11 @@ from models.errors import InputError
 from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.settings import settings_from_table
 from supervisor.rcb.state import RcbState, prior_sigma
 from supervisor.rcb.update import learned_cones
 
-_CHANGE_KEYS = ("limits", "bounds", "models", "reset_bands")
+_CHANGE_KEYS = ("limits", "bounds", "models", "reset_bands", "rcb")
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,40 @@ def replan(
     fields.only_keys(table, _CHANGE_KEYS, "")
     if not any(table.get(k) for k in _CHANGE_KEYS):
         raise InputError("changes", dict(table), "nothing to change")
+    new_body = _changed_body(body, table)
+    plan = plan_from_mapping(new_body, library)  # names the field of a bad limit or bound
+    settings = state.settings
+    if table.get("rcb"):
+        given = settings_from_table(table["rcb"])
+        settings = replace(settings, **given)  # type: ignore[arg-type]
+        new_body["rcb"] = {**new_body.get("rcb", {}), **given}
+    reset = table.get("reset_bands", False)
+    if not isinstance(reset, bool):
+        raise InputError("reset_bands", reset, "must be true or false")
+    tools = {
+        op.name: (
+            plan.tools[op.tool] if reset else _carried(state.tools[op.name], plan.tools[op.tool])
+        )
+        for op in plan.operations
+    }
+    for key, value in fields.mapping(table.get("models", {}), "models").items():
+        tools = _set_model(tools, plan.operations, key, value)
+    kept = replace(state, plan=plan, tools=tools, settings=settings)
+    if reset:
+        kept = _forgotten(kept)
+    # learn: what the posterior learned carries over (its cones), unless the bands are reset
+    result = optimize_plan(plan, tools, cones=learned_cones(kept))
+    new_state = replace(
+        kept,
+        setpoints=result,
+        version=state.version + 1,
+        halt=None,  # an engineer's replan resumes a halted plan
+    )
+    return Replanned(new_state, new_body, reset)
+
+
+def _changed_body(body: Mapping[str, Any], table: Mapping[str, Any]) -> dict[str, Any]:
+    """``body`` with the ``limits`` and ``bounds`` of ``table`` set (a deep copy)."""
     new_body = copy.deepcopy(dict(body))
     ops = {op["name"]: op for op in new_body["operations"]}
     for key, value in fields.mapping(table.get("limits", {}), "limits").items():
@@ -74,50 +111,17 @@ def replan(
     for key, value in fields.mapping(table.get("bounds", {}), "bounds").items():
         op, param = _split(key, "bounds", ops)
         ops[op].setdefault("bounds", {})[param] = value
-    plan = plan_from_mapping(new_body, library)  # names the field of a bad limit or bound
-    reset = table.get("reset_bands", False)
-    if not isinstance(reset, bool):
-        raise InputError("reset_bands", reset, "must be true or false")
-    tools = {
-        op.name: (
-            plan.tools[op.tool] if reset else _carried(state.tools[op.name], plan.tools[op.tool])
-        )
-        for op in plan.operations
+    return new_body
+
+
+def _forgotten(state: RcbState) -> RcbState:
+    """``state`` with fresh bands: what RCB saw, the wear, monitors and posteriors forgotten."""
+    sigma = {
+        (op, q): prior_sigma(m, state.settings)
+        for op, tool in state.tools.items()
+        for q, m in tool.models.items()
     }
-    for key, value in fields.mapping(table.get("models", {}), "models").items():
-        tools = _set_model(tools, plan.operations, key, value)
-    sigma = dict(state.sigma)
-    seen = dict(state.seen)
-    posterior = dict(state.posterior)
-    wear = dict(state.wear)
-    monitors = dict(state.monitors)
-    if reset:
-        sigma = {
-            (op, q): prior_sigma(m, state.settings)
-            for op, tool in tools.items()
-            for q, m in tool.models.items()
-        }
-        seen = {}
-        posterior = {}
-        wear = {}
-        monitors = {}
-    # learn: what the posterior learned carries over (its cones), unless the bands are reset
-    cones = learned_cones(replace(state, plan=plan, posterior=posterior))
-    result = optimize_plan(plan, tools, cones=cones)
-    new_state = replace(
-        state,
-        plan=plan,
-        tools=tools,
-        setpoints=result,
-        version=state.version + 1,
-        sigma=sigma,
-        seen=seen,
-        posterior=posterior,
-        wear=wear,
-        monitors=monitors,
-        halt=None,  # an engineer's replan resumes a halted plan
-    )
-    return Replanned(new_state, new_body, reset)
+    return replace(state, sigma=sigma, seen={}, posterior={}, wear={}, monitors={})
 
 
 def _split(key: str, where: str, ops: Mapping[str, Any]) -> tuple[str, str]:

@@ -8,13 +8,11 @@ Frozen objects, so that a whole production history can be replayed offline
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
-from models.errors import InputError
 from models.powerlaw import PowerLawModel
-from models.quantities import MODEL_QUANTITIES
 from models.tool import Tool
 from supervisor.errors import Conflict
 from supervisor.inputs.plan import Plan
@@ -22,12 +20,10 @@ from supervisor.optimize.result import PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.monitor import Monitor
 from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.settings import DEFAULT_HALT_OVER as DEFAULT_HALT_OVER
+from supervisor.rcb.settings import SETTINGS, settings_from_table
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY, Strategy
 from supervisor.rcb.wear import WearRise
-
-#: A reading past its limit by more than this fraction of the limit halts the plan [-] (TMAC's
-#: extreme limit, Heidenhain AFC's overload reaction).
-DEFAULT_HALT_OVER = 0.25
 
 
 @dataclass(frozen=True)
@@ -74,27 +70,11 @@ class RcbSettings:
     halt_over: float = DEFAULT_HALT_OVER
 
     def __post_init__(self) -> None:
-        if self.strategy not in REGISTRY:
-            raise InputError("strategy", self.strategy, f"expected one of: {', '.join(REGISTRY)}")
-        if not (0 < self.alpha <= 1):
-            raise InputError("alpha", self.alpha, "must be in (0, 1]")
-        for quantity, floor in self.floors.items():
-            if quantity not in MODEL_QUANTITIES:
-                raise InputError(f"floors.{quantity}", floor, "unknown quantity")
-            if not (math.isfinite(floor) and floor >= 0):
-                raise InputError(f"floors.{quantity}", floor, "must be a number >= 0")
-        for name in ("coverage_k", "z"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0 < value <= 100):
-                raise InputError(name, value, "must be a number in (0, 100]")
-        if self.discrepancy is None:
-            object.__setattr__(self, "discrepancy", self.rule.default_discrepancy)
-        for name in ("discrepancy", "exponent_sd", "edge_sd"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0 <= value <= 10):
-                raise InputError(name, value, "must be a number in [0, 10]")
-        if not (math.isfinite(self.halt_over) and 0 < self.halt_over <= 10):
-            raise InputError("halt_over", self.halt_over, "must be a number in (0, 10]")
+        """Each setting checked as :data:`supervisor.rcb.settings.SETTINGS` declares it."""
+        for name, setting in SETTINGS.items():
+            if name == "discrepancy" and self.discrepancy is None:
+                object.__setattr__(self, "discrepancy", self.rule.default_discrepancy)
+            setting.check(getattr(self, name), name)
 
     @property
     def rule(self) -> Strategy:
@@ -105,6 +85,18 @@ class RcbSettings:
     def tau(self) -> float:
         """The discrepancy in force (the strategy's default when none was given)."""
         return self.rule.default_discrepancy if self.discrepancy is None else self.discrepancy
+
+
+def plan_settings(
+    body: Mapping[str, Any], given: Mapping[str, object] | None = None
+) -> RcbSettings:
+    """The settings of a plan: its ``[rcb]`` table, then ``given`` over it.
+
+    ``given``: settings named on the command line or in the query, checked already; every
+    other setting its default. A bad ``[rcb]`` entry is an error naming ``rcb.NAME``.
+    """
+    chosen: dict[str, Any] = {**settings_from_table(body.get("rcb")), **(given or {})}
+    return RcbSettings(**chosen)
 
 
 @dataclass(frozen=True)

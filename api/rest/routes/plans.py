@@ -4,7 +4,7 @@
 
 from typing import Annotated, Any
 
-from fastapi import Body, Query, Request
+from fastapi import Body, Depends, Query, Request
 from fastapi.responses import Response
 
 from api.rest.answers import problems_at
@@ -17,18 +17,14 @@ from api.rest.routes.common import (
     idempotency_of,
     resource_router,
 )
-from api.rest.schemas.common import STRATEGY_DOC, Strategy
 from api.rest.schemas.plans import PLAN_EXAMPLE, PlanCreated, PlanDetail, PlanIn, PlanList
+from api.rest.schemas.rcb_settings import settings_in_query
 from api.rest.schemas.replan import ReplanIn, Replanned
 from api.services import plans as use_cases
 from api.services import queries
-from supervisor.rcb.state import RcbSettings
-from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
+from supervisor.rcb.state import plan_settings
 
 router = resource_router("plans")
-
-#: The defaults of the plan settings the create route takes.
-_DEFAULTS = RcbSettings()
 
 
 @router.post(
@@ -43,57 +39,13 @@ def create_plan(
     engine: EngineDep,
     plan: Annotated[PlanIn, Body(openapi_examples=PLAN_EXAMPLE)],
     actor: Engineer,
-    strategy: Annotated[Strategy, Query(description=STRATEGY_DOC)] = (DEFAULT_STRATEGY),
-    alpha: Annotated[
-        float,
-        Query(gt=0, le=1, allow_inf_nan=False, description="fraction of the margin"),
-    ] = DEFAULT_ALPHA,
-    floor: Annotated[
-        list[str] | None,
-        Query(description="least band QUANTITY=VALUE (repeatable); default: the u"),
-    ] = None,
-    coverage_k: Annotated[
-        float, Query(gt=0, le=100, allow_inf_nan=False, description="the band as k σ")
-    ] = _DEFAULTS.coverage_k,
-    discrepancy: Annotated[
-        float | None,
-        Query(ge=0, le=10, allow_inf_nan=False, description="τ; default: the strategy's"),
-    ] = None,
-    z: Annotated[
-        float, Query(gt=0, le=100, allow_inf_nan=False, description="learn: the cone's z")
-    ] = _DEFAULTS.z,
-    exponent_sd: Annotated[
-        float,
-        Query(ge=0, le=10, allow_inf_nan=False, description="learn: exponent prior sd"),
-    ] = _DEFAULTS.exponent_sd,
-    edge_sd: Annotated[
-        float,
-        Query(ge=0, le=10, allow_inf_nan=False, description="wear: prior sd of the rise per edge"),
-    ] = _DEFAULTS.edge_sd,
-    halt_over: Annotated[
-        float,
-        Query(
-            gt=0,
-            le=10,
-            allow_inf_nan=False,
-            description="a reading past its limit by more than this fraction of it halts",
-        ),
-    ] = _DEFAULTS.halt_over,
+    given: Annotated[dict[str, object], Depends(settings_in_query)],
     idempotency_key: OptionalKey = None,
 ) -> Response:
     """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
     body = plan.model_dump(mode="json", exclude_none=True)
-    settings = RcbSettings(
-        strategy=strategy,
-        alpha=alpha,
-        floors=use_cases.floors_from(floor or [], "floor"),
-        coverage_k=coverage_k,
-        discrepancy=discrepancy,
-        z=z,
-        exponent_sd=exponent_sd,
-        edge_sd=edge_sd,
-        halt_over=halt_over,
-    )
+    # the plan's rcb table, the settings the query names over it
+    settings = plan_settings(body, given)
     written = use_cases.create_plan(
         engine=engine,
         body=body,

@@ -9,6 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from api.rest.schemas.common import Name, Number, Out, Positive, Strategy, Text, keys_schema
 from api.rest.schemas.halts import HaltOut
+from api.rest.schemas.rcb_settings import RcbSettingsIn, RcbSettingsOut
 from api.rest.schemas.setpoints import OperationSetpoint
 from api.rest.schemas.tools import ToolIn
 from models.bounds import (
@@ -31,21 +32,6 @@ class PlanCreated(Out):
     setpoint_version: int
     cycle_time_min: float = Field(description="the machining time of one part at version 1")
     operations: list[OperationSetpoint]
-
-
-class RcbSettingsOut(Out):
-    """The plan's RCB settings beyond strategy and alpha."""
-
-    floors: dict[str, float] = Field(description="least band per quantity; default: the u")
-    coverage_k: float
-    discrepancy: float
-    z: float
-    exponent_sd: float
-    edge_sd: float
-    halt_over: float = Field(
-        description="a reading past its limit by more than this fraction of the limit halts "
-        "the plan (0.25: 25 % over)"
-    )
 
 
 class PlanSummary(Out):
@@ -203,6 +189,9 @@ class PlanIn(BaseModel):
         None, max_length=MAX_TOOLS, description="inline tools (else catalogue or stored)"
     )
     operations: list[OperationIn] = Field(min_length=1, max_length=MAX_OPERATIONS)
+    rcb: RcbSettingsIn | None = Field(
+        None, description="the plan's RCB settings (the query parameters take precedence)"
+    )
 
 
 #: The create route's example: the rough OD of Ivester & Heigel's demonstration part.

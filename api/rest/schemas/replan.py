@@ -5,6 +5,7 @@ from __future__ import annotations
 from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
 from api.rest.schemas.common import NonNegative, Out, Positive
+from api.rest.schemas.rcb_settings import RcbSettingsIn
 from api.rest.schemas.setpoints import OperationSetpoint
 
 
@@ -30,6 +31,7 @@ class ReplanIn(BaseModel):
         None, description="TOOL.QUANTITY -> {K, dK} in every operation using the tool"
     )
     reset_bands: StrictBool | None = Field(None, description="back to the tools' baseline bands")
+    rcb: RcbSettingsIn | None = Field(None, description="new RCB settings (the others stay)")
 
 
 class SetpointChange(Out):
