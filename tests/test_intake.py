@@ -69,8 +69,6 @@ def test_a_new_serial_stores_the_part_and_returns_the_plan_head(stored):
             row.id,
             row.name,
             row.machine_id,
-            row.strategy,
-            row.alpha,
             row.current_setpoint_version,
             row.state_token,
             row.settings,

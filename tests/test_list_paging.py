@@ -95,8 +95,6 @@ def _more_plans(engine: Any, like: int, count: int) -> list[int]:
                 name=f"copy {count}.{i}",  # a name names one plan
                 machine_id=row.machine_id,
                 body=row.body,
-                strategy=row.strategy,
-                alpha=row.alpha,
                 settings=row.settings,
                 current_setpoint_version=1,
             )

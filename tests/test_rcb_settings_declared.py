@@ -129,3 +129,18 @@ def test_the_settings_and_their_defaults_are_declared_once():
         if setting.default is not None:
             assert getattr(defaults, name) == setting.default_value(), name
     assert list(SETTINGS) == list(RcbSettings.__dataclass_fields__)
+
+
+def test_strategy_on_the_command_line_takes_precedence_over_the_file(engine, runner, tmp_path):
+    url = engine.url.render_as_string(hide_password=False)
+    text = DEMO_PLAN.read_text(encoding="utf-8")
+    for n, (options, strategy) in enumerate(
+        (([], "bayes"), (["--strategy", "ivester"], "ivester"), (["--rcb", "z=5"], "bayes"))
+    ):
+        plan_file = tmp_path / f"plan{n}.toml"
+        named = text.replace('name = "', f'name = "precedence-{n}-', 1)
+        plan_file.write_text(named + '\n[rcb]\nstrategy = "bayes"\n', encoding="utf-8")
+        done = runner.invoke(app, ["plans", "create", str(plan_file), "--db", url, *options])
+        assert done.exit_code == 0, done.output
+        plan_id = int(done.stderr.split("rcb: plan ")[1].split()[0])
+        assert stored_state(engine, plan_id).settings.strategy == strategy

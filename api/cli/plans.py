@@ -17,12 +17,11 @@ import typer
 from rich.console import Console
 
 from api.cli.common import (
-    STRATEGY_HELP,
     DbOption,
     JsonOption,
     PlanArg,
     RcbOption,
-    StrategyName,
+    StrategyOption,
     emit,
     errors,
     existing_engine,
@@ -33,6 +32,7 @@ from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
 from models.bounds import MAX_DOCUMENT_BYTES
 from models.errors import InputError
+from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
 if TYPE_CHECKING:
     from rich.table import Table
@@ -51,10 +51,8 @@ PlanFile = Annotated[
 
 def create(
     plan_file: PlanFile,
-    strategy: Annotated[
-        StrategyName | None,
-        typer.Option("--strategy", help=f"{STRATEGY_HELP} Default: the file's [rcb] strategy."),
-    ] = None,
+    ctx: typer.Context,
+    strategy: StrategyOption = DEFAULT_STRATEGY,
     rcb: RcbOption = None,
     db: DbOption = None,
     as_json: JsonOption = False,
@@ -64,7 +62,8 @@ def create(
 
     A name names one plan: a name already stored is refused (change that plan with
     ``rcb replan PLAN``, or give the new one another name). Prints the new plan's id, which
-    every PLAN argument takes, as it takes the name.
+    every PLAN argument takes, as it takes the name. The RCB settings are the file's ``[rcb]``
+    table, with ``--strategy`` and ``--rcb NAME=VALUE`` over it.
     """
     from api.services.plans import create_plan
     from api.settings import database_field, database_url
@@ -75,7 +74,8 @@ def create(
         actor = cli_actor(by)
         body = read_plan_file(plan_file)
         given = assignments(rcb or [], "--rcb")
-        if strategy is not None:
+        source = ctx.get_parameter_source("strategy")
+        if source is not None and source.name != "DEFAULT":  # else the file's [rcb] strategy
             given["strategy"] = strategy
         settings = plan_settings(body, given)  # the file's [rcb] table, the options over it
         engine = existing_engine(database_url(db), database_field(db))

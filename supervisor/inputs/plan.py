@@ -2,9 +2,8 @@
 
 A plan file holds ``name``, a ``[machine]`` table (limits, sensor calibrations, the control's
 resolution: :mod:`supervisor.inputs.resolution`), optional inline ``[[tools]]`` (else tools come
-from the catalogue), ``[[operations]]`` and an optional ``[rcb]`` table of RCB settings
-(:mod:`supervisor.rcb.settings`, read where a plan is stored). Every error names the dotted
-field and its value.
+from the catalogue), ``[[operations]]``, optionally ``[rcb]`` (:mod:`supervisor.rcb.settings`).
+Every error names the dotted field and its value.
 
 A milling operation may say ``objective = "productivity"`` (default ``"mrr"``: the largest removal
 rate) with an ``[operations.productivity]`` table of Borangiu's cost data
@@ -45,8 +44,7 @@ from supervisor.inputs.resolution import DEFAULT_RESOLUTION, check_bounds, resol
 
 #: ``rcb``: the plan's RCB settings, read by :func:`supervisor.rcb.state.plan_settings` where a
 #: plan is stored (the settings are RCB's, not the plan's structure).
-#: ``rcb``: the plan's RCB settings, read by :func:`supervisor.rcb.state.plan_settings` where a
-#: plan is stored (they are RCB's, not the plan's structure).
+#: ``rcb``: RCB settings, read by :func:`supervisor.rcb.state.plan_settings` (not the structure)
 _PLAN_KEYS = ("name", "machine", "tools", "operations", "description", "rcb")
 _OPERATION_KEYS = tuple(
     "name process tool description volume_mm3 limits bounds workpiece_diameter_mm"
@@ -59,20 +57,10 @@ _OPERATION_KEYS = tuple(
 class Machine:
     """A machine tool and its limits.
 
-    Parameters
-    ----------
-    name : str
-        The machine's name.
-    limit_of : Mapping[str, float]
-        The machine's limits keyed by quantity (``power_kW`` ...): one per machine-limited
-        quantity of :mod:`models.quantities` (its ``machine_field`` names it in a plan file,
-        ``max_power_kW``); a quantity absent: no limit.
-    calibrations : Mapping[str, Calibration]
-        Named sensor calibrations (``[machine.calibrations.NAME]``, :mod:`models.sensors`):
-        how a part report's spindle load or current becomes a force.
-    resolution : Mapping[str, float]
-        The step of each cutting parameter the control takes (``[machine.resolution]``,
-        :mod:`supervisor.inputs.resolution`): setpoints lie on this grid.
+    ``limit_of``: limits keyed by machine-limited quantity (``power_kW``; a plan file names it
+    by its ``machine_field``, ``max_power_kW``; absent: no limit). ``calibrations``: sensor
+    calibrations (:mod:`models.sensors`); ``resolution``: the grid setpoints lie on
+    (:mod:`supervisor.inputs.resolution`).
     """
 
     name: str

@@ -22,12 +22,12 @@ from __future__ import annotations
 import importlib
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from models.errors import InputError
 from models.quantities import MODEL_QUANTITIES
-from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, STRATEGY_NAMES
+from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY
 
 # No NumPy here (rcb --help derives its --rcb help from SETTINGS): models.fields is imported
 # where a value is checked, and the learn posterior's defaults are read from
@@ -63,8 +63,9 @@ class Setting:
         ``low <= value <= high``; ``floors``: each floor is at least ``low``.
     open_low : bool
         Whether ``low`` itself is refused.
-    choices : tuple of str
-        ``choice``: the values allowed.
+    among : Mapping[str, object]
+        ``choice``: the values allowed are its keys, read when checked (a registry, which a
+        test or a plug-in may extend).
     """
 
     name: str
@@ -74,7 +75,12 @@ class Setting:
     low: float = 0
     high: float = math.inf
     open_low: bool = False
-    choices: tuple[str, ...] = ()
+    among: Mapping[str, object] = field(default_factory=dict)
+
+    @property
+    def choices(self) -> tuple[str, ...]:
+        """``choice``: the values allowed, now."""
+        return tuple(self.among)
 
     def default_value(self) -> object:
         """The default (a callable one called)."""
@@ -128,7 +134,7 @@ def _posterior(name: str) -> Callable[[], float]:
 SETTINGS: Mapping[str, Setting] = {
     s.name: s
     for s in (
-        Setting("strategy", "RCB strategy", DEFAULT_STRATEGY, "choice", choices=STRATEGY_NAMES),
+        Setting("strategy", "RCB strategy", DEFAULT_STRATEGY, "choice", among=REGISTRY),
         Setting("alpha", "fraction of the margin", DEFAULT_ALPHA, low=0, high=1, open_low=True),
         Setting("floors", "least band per quantity; default: the u", {}, "floors", low=0),
         Setting("coverage_k", "the band as k σ", 2.0, low=0, high=100, open_low=True),
