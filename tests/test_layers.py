@@ -208,7 +208,6 @@ LONG_TODAY = {
     "api/cli/cam.py::depthmap",  # 124
     "api/cli/certify.py::certify",  # 107
     "api/cli/demo.py::demo",  # 65
-    "api/cli/fit.py::fit",  # 202
     "api/cli/milling.py::setup",  # 61
     "api/cli/optimize.py::predict",  # 94
     "api/cli/virtual.py::serve",  # 75
