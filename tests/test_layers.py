@@ -220,7 +220,6 @@ LONG_TODAY = {
     "api/services/parts.py::_report_part.work",  # 62
     "api/services/record.py::report_record",  # 67
     "db/parts.py::add_part",  # 84
-    "models/fit.py::fit_power_law",  # 138
     "models/sensors/convert.py::to_force",  # 132
     "models/sensors/ivester.py::ivester_force_N",  # 72
     "models/sensors/kim_jeon.py::fit_linear_calibration",  # 70
