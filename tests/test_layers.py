@@ -242,7 +242,6 @@ LONG_TODAY = {
     "supervisor/virtual/certify.py::simulate",  # 101
     "supervisor/virtual/demo.py::run_demo",  # 99
     "supervisor/virtual/fault_oracle.py::_curved",  # 64
-    "supervisor/virtual/mill/run.py::simulate",  # 110
     "supervisor/virtual/sampling.py::sample_machine",  # 103
     "supervisor/virtual/scenario.py::run_scenario",  # 98
     "supervisor/virtual/simulate.py::run_part",  # 87
