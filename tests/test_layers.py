@@ -212,7 +212,6 @@ LONG_TODAY = {
     "api/cli/virtual.py::serve",  # 75
     "api/collect/opcua.py::observations",  # 75
     "api/collect/runner.py::mtconnect_loop",  # 93
-    "api/report/ui.py::install",  # 103
     "api/rest/problems.py::install",  # 100
     "api/rest/routes/plans.py::create_plan",  # 64
     "api/services/parts.py::_report_part",  # 87
