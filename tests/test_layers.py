@@ -232,7 +232,6 @@ LONG_TODAY = {
     "supervisor/constant_load/tool_change_rule.py::tool_change_due",  # 81
     "supervisor/inputs/part_report.py::report_from_mapping",  # 67
     "supervisor/inputs/signals.py::resolve",  # 67
-    "supervisor/optimize/optimizer.py::optimize_plan",  # 62
     "supervisor/rcb/law.py::_apply_law",  # 134
     "supervisor/rcb/monitor.py::watch",  # 78
     "supervisor/rcb/replan.py::replan",  # 76
