@@ -241,7 +241,7 @@ LONG_TODAY = {
     "supervisor/virtual/demo.py::run_demo",  # 99
     "supervisor/virtual/fault_oracle.py::_curved",  # 64
     "supervisor/virtual/sampling.py::sample_machine",  # 103
-    "supervisor/virtual/scenario.py::run_scenario",  # 98
+    "supervisor/virtual/scenario.py::run_machine",  # 79
     "supervisor/virtual/simulate.py::run_part",  # 87
 }
 
