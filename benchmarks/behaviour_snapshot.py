@@ -115,7 +115,13 @@ class Outcome:
     err: str
 
 
+#: The prefix of a script of the checkout being run (the revision's own script runs its code).
+SCRIPT = "@code/"
+
+
 def _run(source: Path, argv: list[str], work: Path) -> Outcome:
+    """``argv`` with ``source``'s code; a script named by :data:`SCRIPT` is ``source``'s own."""
+    argv = [str(source / a[len(SCRIPT) :]) if a.startswith(SCRIPT) else a for a in argv]
     env = dict(
         os.environ, PYTHONPATH=str(source), COLUMNS="80", NO_COLOR="1", TERM="dumb", CI="true"
     )
@@ -136,7 +142,7 @@ def _programs(only: str | None) -> list[tuple[str, list[str]]]:
     rcb = ["-c", "from api.cli.main import app; app()"]
     found = [(name, [*rcb, *args]) for name, args in COMMANDS]
     found.append(("openapi", ["-c", OPENAPI]))
-    loop = str(ROOT / "benchmarks" / "closed_loop.py")
+    loop = SCRIPT + "benchmarks/closed_loop.py"
     found.append(("closed loop digest", [loop, "--scenarios", "6", "--parts", "8", "--jobs", "1"]))
     return [(n, a) for n, a in found if only is None or only in n]
 

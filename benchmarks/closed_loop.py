@@ -41,6 +41,9 @@ the output, including the printed digest of all per-scenario results, is the sam
 ``--jobs``. The wall time covers the whole simulation: starting the workers, the oracle
 solves and every part; "parts" counts the parts actually made.
 
+``--fleet MACHINES`` runs the fleet-prior benchmark instead (``benchmarks/fleet_loop.py``:
+machines learn a plan, then a new one starts from what they learned).
+
 ``--baseline gp`` adds a column for a Gaussian-process controller when
 ``benchmarks/gp_baseline.py`` exists and scikit-learn imports: its
 ``run_gp_scenario(plan, seed, parts, wear_drift_per_edge_life)`` on the first
@@ -92,6 +95,7 @@ from supervisor.virtual.certificate import Certificate, digest
 from supervisor.virtual.certify import MAX_PARTS, MAX_SCENARIOS, available_cpus
 from supervisor.virtual.certify import simulate as simulate_certificates
 from supervisor.virtual.fault_spec import catalogue_help, parse_faults
+from supervisor.virtual.fleet import DEFAULT_MACHINE_SPREAD
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -108,6 +112,8 @@ TARGET_SECONDS = 60.0
 PERCENTILE = 5.0
 #: Scenarios of the GP baseline by default (a GP fit per part is slow).
 GP_SCENARIOS = 50
+#: The most machines of ``--fleet``.
+MAX_FLEET = 32
 
 perf = time.perf_counter
 
@@ -369,6 +375,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--markdown", action="store_true", help="also print the main table as Markdown"
     )
+    parser.add_argument(
+        "--fleet",
+        type=int,
+        metavar="MACHINES",
+        help="the fleet prior: MACHINES - 1 machines learn, then a new one starts from them "
+        "(benchmarks/fleet_loop.py)",
+    )
+    parser.add_argument(
+        "--learn-parts", type=int, default=30, help="--fleet: parts each learning machine makes"
+    )
+    parser.add_argument(
+        "--fleet-spread",
+        type=float,
+        default=DEFAULT_MACHINE_SPREAD,
+        help="--fleet: the true between-machine spread of ln K",
+    )
     args = parser.parse_args(argv)
     if args.scenarios < 1 or args.parts < 1 or args.jobs < 1 or args.gp_scenarios < 1:
         parser.error("--scenarios, --parts, --jobs and --gp-scenarios must be >= 1")
@@ -390,6 +412,15 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(found, str):
             parser.error(f"--baseline gp: {found}")
         gp_run = found
+    if args.fleet is not None:
+        if not (2 <= args.fleet <= MAX_FLEET and 1 <= args.learn_parts <= MAX_PARTS):
+            parser.error(f"--fleet must be 2..{MAX_FLEET} and --learn-parts 1..{MAX_PARTS}")
+        if not (np.isfinite(args.fleet_spread) and 0 <= args.fleet_spread <= 1):
+            parser.error("--fleet-spread must be a number in [0, 1]")
+        sys.path.insert(0, str(Path(__file__).parent))
+        import fleet_loop  # type: ignore[import-not-found]
+
+        return int(fleet_loop.run(load_plan(args.plan), args))
     strategies = list(STRATEGY_NAMES) if args.strategy == "all" else [args.strategy]
     plan = load_plan(args.plan)
     parts = args.parts

@@ -2,8 +2,9 @@
 
 - :mod:`~models.powerlaw`, :mod:`~models.monomial`: the power law ``Y = K · Π x_i^e_i`` with its
   band ``±ΔK`` (Ivester & Heigel Eqs. 5, 6, 8), and monomials of the cutting parameters.
-- :mod:`~models.fit`, :mod:`~models.fit_band`, :mod:`~models.fit_design`: fitting a power law
-  to test data, its band, and the checks of the data.
+- :mod:`~models.fit`, :mod:`~models.fit_points`, :mod:`~models.fit_band`,
+  :mod:`~models.fit_design`: fitting a power law to test data (its points checked and in
+  logs), its band, and the checks of the data.
 - :mod:`~models.kinematics`, :mod:`~models.quantities`, :mod:`~models.tool`: turning and
   milling kinematics, the constrained quantities, a tool with its models.
 - :mod:`~models.milling_force`: Kim & Jeon's milling force (Eq. 1), or a power law.

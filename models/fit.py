@@ -23,8 +23,9 @@ where :math:`y` is the left-hand side. ``s`` and ``R²`` are on the log scale. `
 is the back-transformed coefficient: the median of ``Y`` at a point if the log residuals are
 symmetric, not its mean (no log-normal bias correction, as in the source models).
 
-The band ``ΔK`` and its coverage are :mod:`models.fit_band`'s; the checks of the data and
-the log design, :mod:`models.fit_design`'s.
+The band ``ΔK`` and its coverage are :mod:`models.fit_band`'s; the points on the log scale,
+:mod:`models.fit_points`'s, with the checks of the data and the log design of
+:mod:`models.fit_design`.
 
 References
 ----------
@@ -47,13 +48,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
-from models.errors import InputError
 from models.fit_band import Band, band_dK, check_band, coverage
-from models.fit_design import check_design, check_positive, vector
+from models.fit_points import LN_K, LogPoints, log_points
 from models.powerlaw import PowerLawModel
-
-#: Name of the intercept in ``stderr`` and ``parameters``.
-LN_K = "ln_K"
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -265,87 +262,80 @@ def fit_power_law(
        band = range of K that encompasses all points.
     .. [2] Taylor & Kuyatt, NIST TN 1297 (1994), Sec. 6: expanded uncertainty ``k·u``.
     """
-    fixed = dict(fixed or {})
-    labels = dict(labels or {})
     checked_k = check_band(band, k)
-    names = list(variables)
-    y_raw = vector(response, response_name)
-    n = y_raw.size
-    columns = {name: vector(variables[name], labels.get(name, name)) for name in names}
-    for name, column in columns.items():
-        if column.size != n:
-            raise InputError(
-                labels.get(name, name),
-                f"{column.size} values",
-                f"the response {response_name} has {n}; every column needs one value per point",
-            )
-    row_names = list(rows) if rows is not None else list(range(n))
-    if len(row_names) != n:
-        raise InputError("rows", f"{len(row_names)} labels", f"expected one per point ({n})")
-    check_positive(y_raw, response_name, row_names)
-    for name, column in columns.items():
-        check_positive(column, labels.get(name, name), row_names)
-    for name, exponent in fixed.items():
-        if not math.isfinite(exponent):
-            raise InputError(f"fixed.{name}", exponent, "must be a finite number")
-        if name not in columns and exponent != 0.0:
-            raise InputError(
-                f"fixed.{name}", exponent, f"a fixed exponent other than 0 needs the {name} values"
-            )
+    labels = dict(labels or {})
+    points = log_points(response, variables, dict(fixed or {}), response_name, labels, rows)
+    return _fit_result(points, _least_squares(points), band, k, checked_k)
 
-    free = [name for name in names if name not in fixed]
-    p = 1 + len(free)
-    if n <= p:
-        params = ", ".join([LN_K, *free])
-        raise InputError(
-            "n",
-            n,
-            f"{n} points cannot fit {p} parameters ({params}) and leave a residual to estimate "
-            f"s; need at least {p + 1}",
-        )
-    logs = {name: np.log(column) for name, column in columns.items()}
-    y = np.log(y_raw)
-    for name, exponent in fixed.items():
-        if name in logs:
-            y = y - exponent * logs[name]
-    free_logs = [logs[name] for name in free]
-    check_design(free, [columns[name] for name in free], free_logs, labels)
 
-    X = np.column_stack([np.ones(n), *free_logs])
+@dataclass(frozen=True)
+class _LeastSquares:
+    """The least-squares estimates of a fit on the log scale (Draper & Smith, Ch. 5)."""
+
+    beta: FloatArray
+    residuals: FloatArray
+    s: float
+    covariance: FloatArray
+    stderr: FloatArray
+    r2: float
+
+
+def _least_squares(points: LogPoints) -> _LeastSquares:
+    r"""Estimate ``ln K`` and the free exponents by QR, with their covariance and ``R²``.
+
+    .. math::
+
+        s^2 = \frac{r^\mathsf{T} r}{n - p}, \qquad
+        \operatorname{cov}(\widehat{\ln K}, \hat e) = s^2 (X^\mathsf{T} X)^{-1}
+            = s^2 R^{-1} R^{-\mathsf{T}}
+
+    References
+    ----------
+    .. [1] N. R. Draper & H. Smith, Applied Regression Analysis, 3rd ed. (1998), Ch. 5:
+       ``V(b) = (XᵀX)⁻¹ σ²`` estimated with ``s²``.
+    """
+    n, y = points.n, points.y
+    X = np.column_stack([np.ones(n), *points.free_logs])
     q, r_factor = np.linalg.qr(X)
     r_inv = np.linalg.inv(r_factor)
     beta = r_inv @ (q.T @ y)
     residuals = y - X @ beta
     ssr = float(residuals @ residuals)
-    dof = n - p
+    dof = n - (1 + len(points.free))
     s = math.sqrt(ssr / dof)
     covariance = (s * s) * (r_inv @ r_inv.T)
     stderr_values = np.sqrt(np.diag(covariance))
     centred = y - float(np.mean(y))
     sst = float(centred @ centred)
-    r2 = _r_squared(ssr, sst, y)
+    return _LeastSquares(beta, residuals, s, covariance, stderr_values, _r_squared(ssr, sst, y))
 
-    K = math.exp(float(beta[0]))
-    fitted = {name: float(beta[i + 1]) for i, name in enumerate(free)}
-    exponents = {name: fitted[name] if name in fitted else fixed[name] for name in names}
+
+def _fit_result(
+    points: LogPoints, fit: _LeastSquares, band: Band, k: float, checked_k: float | None
+) -> FitResult:
+    """The :class:`FitResult` of the estimates: ``K``, every exponent, the band and coverage."""
+    K = math.exp(float(fit.beta[0]))
+    fixed = points.fixed
+    fitted = {name: float(fit.beta[i + 1]) for i, name in enumerate(points.free)}
+    exponents = {name: fitted[name] if name in fitted else fixed[name] for name in points.names}
     exponents.update({name: e for name, e in fixed.items() if name not in exponents})
-    dK = band_dK(K, s, residuals, band, k)
-    parameters = (LN_K, *free)
+    dK = band_dK(K, fit.s, fit.residuals, band, k)
+    parameters = (LN_K, *points.free)
     return FitResult(
         K=K,
         dK=dK,
         exponents=exponents,
         fixed=fixed,
-        stderr={name: float(stderr_values[i]) for i, name in enumerate(parameters)},
+        stderr={name: float(fit.stderr[i]) for i, name in enumerate(parameters)},
         parameters=parameters,
-        covariance=tuple(tuple(float(c) for c in row) for row in covariance),
-        s=s,
-        n=n,
-        r2=r2,
-        log_residuals=tuple(float(r) for r in residuals),
+        covariance=tuple(tuple(float(c) for c in row) for row in fit.covariance),
+        s=fit.s,
+        n=points.n,
+        r2=fit.r2,
+        log_residuals=tuple(float(r) for r in fit.residuals),
         band=band,
         k=checked_k,
-        coverage=coverage(K, dK, residuals),
+        coverage=coverage(K, dK, fit.residuals),
     )
 
 

@@ -1,7 +1,8 @@
 """Imports flow api → db → supervisor → models (DESIGN.md, "Layers"), with no import cycle.
 
 The module graph is read with ``ast`` from every file of every package, counting every import:
-at the top, inside functions and under ``TYPE_CHECKING`` alike.
+at the top, inside functions and under ``TYPE_CHECKING`` alike. The same files are held small:
+no module over 400 lines, no function over 60 (the long ones of today listed, a ratchet).
 """
 
 from __future__ import annotations
@@ -196,3 +197,107 @@ def test_use_cases_do_not_import_their_interfaces(module):
     interfaces = ("api.rest", "api.cli", "api.report")
     bad = {m for m in _imports(module, MODULES[module]) if m.startswith(interfaces)}
     assert not bad
+
+
+#: The longest production function, from its ``def`` line (decorators excluded) to its last
+#: line, nested functions counted within their parent (issue 31 item 7).
+MAX_FUNCTION_LINES = 60
+#: The production functions longer than that today, as "path::qualname" (a nested function
+#: as ``parent.child``, a method as ``Class.method``) with their length when listed. A ratchet:
+#: no function may join, and one that is no longer long must leave.
+LONG_TODAY = {
+    "api/cli/certify.py::certify",  # 107
+    "api/cli/demo.py::demo",  # 65
+    "api/cli/milling.py::setup",  # 61
+    "api/cli/optimize.py::predict",  # 94
+    "api/cli/virtual.py::serve",  # 75
+    "api/collect/opcua.py::observations",  # 75
+    "api/collect/runner.py::mtconnect_loop",  # 93
+    "api/rest/problems.py::install",  # 100
+    "api/rest/routes/plans.py::create_plan",  # 64
+    "api/services/parts.py::_report_part",  # 87
+    "api/services/parts.py::_report_part.work",  # 62
+    "api/services/record.py::report_record",  # 67
+    "db/parts.py::add_part",  # 84
+    "models/sensors/convert.py::to_force",  # 132
+    "models/sensors/ivester.py::ivester_force_N",  # 72
+    "models/sensors/kim_jeon.py::fit_linear_calibration",  # 70
+    "models/sensors/tai.py::fit_tai_calibration",  # 74
+    "supervisor/cam/job.py::run_cam",  # 94
+    "supervisor/cam/levels.py::roughing_levels",  # 86
+    "supervisor/cam/roughing.py::rough",  # 67
+    "supervisor/cam/verify.py::simulate",  # 82
+    "supervisor/constant_load/limits.py::constant_load_setup",  # 91
+    "supervisor/constant_load/limits.py::limits_from_calibration",  # 80
+    "supervisor/constant_load/strength.py::strength_current_A",  # 66
+    "supervisor/constant_load/tool_change_rule.py::tool_change_due",  # 81
+    "supervisor/inputs/part_report.py::report_from_mapping",  # 67
+    "supervisor/inputs/signals.py::resolve",  # 67
+    "supervisor/rcb/law.py::_apply_law",  # 134
+    "supervisor/rcb/monitor.py::watch",  # 78
+    "supervisor/rcb/replan.py::replan",  # 76
+    "supervisor/rcb/update.py::_reading",  # 70
+    "supervisor/rcb/update.py::update",  # 84
+    "supervisor/virtual/certify.py::simulate",  # 101
+    "supervisor/virtual/demo.py::run_demo",  # 99
+    "supervisor/virtual/fault_oracle.py::_curved",  # 64
+    "supervisor/virtual/sampling.py::sample_machine",  # 103
+    "supervisor/virtual/scenario.py::run_machine",  # 79
+    "supervisor/virtual/simulate.py::run_part",  # 87
+}
+
+
+def _function_lengths(source, prefix=""):
+    """Every function of ``source`` (module text): {qualname: lines from ``def`` to its end}."""
+    lengths = {}
+
+    def visit(node, scope):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+                name = f"{scope}{child.name}"
+                lengths[f"{prefix}{name}"] = child.end_lineno - child.lineno + 1
+                visit(child, f"{name}.")
+            elif isinstance(child, ast.ClassDef):
+                visit(child, f"{scope}{child.name}.")
+            else:
+                visit(child, scope)
+
+    visit(ast.parse(source), "")
+    return lengths
+
+
+def _long_functions(paths, root=ROOT):
+    """The functions of ``paths`` over :data:`MAX_FUNCTION_LINES`: {"path::qualname": lines}."""
+    found = {}
+    for path in paths:
+        prefix = f"{path.relative_to(root).as_posix()}::"
+        lengths = _function_lengths(path.read_text(encoding="utf-8"), prefix)
+        found |= {name: n for name, n in lengths.items() if n > MAX_FUNCTION_LINES}
+    return found
+
+
+def test_no_new_long_function():
+    # alembic/ (the migrations) is no package of PACKAGES, so it is not read
+    long = _long_functions(MODULES.values())
+    new = {name: n for name, n in long.items() if name not in LONG_TODAY}
+    assert not new, f"functions over {MAX_FUNCTION_LINES} lines: " + "; ".join(
+        f"{name} ({n})" for name, n in sorted(new.items())
+    )
+    undone = LONG_TODAY - set(long)
+    assert not undone, f"no longer long (or gone), take them out of LONG_TODAY: {sorted(undone)}"
+
+
+def test_the_long_function_finder_flags_61_lines_and_passes_60(tmp_path):
+    def module(lines):
+        # a decorator (not counted), the def line, then the body: ``lines`` lines in all
+        body = "".join(f"    x{i} = {i}\n" for i in range(lines - 2))
+        return f"@staticmethod\ndef f():\n{body}    return 0\n"
+
+    (tmp_path / "ok.py").write_text(module(60), encoding="utf-8")
+    (tmp_path / "long.py").write_text(module(61), encoding="utf-8")
+    found = _long_functions(sorted(tmp_path.glob("*.py")), root=tmp_path)
+    assert found == {"long.py::f": 61}
+    nested = (
+        "class C:\n    def m(self):\n        def g():\n            return 1\n        return g\n"
+    )
+    assert _function_lengths(nested) == {"C.m": 4, "C.m.g": 2}

@@ -14,16 +14,39 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
 
+from api.cli.cam_options import (
+    AllowanceOption,
+    FinishDirectionOption,
+    FinishOperationOption,
+    FinishOption,
+    FormToleranceOption,
+    ImageArgument,
+    MaxArcRadiusOption,
+    NegativeOption,
+    OperationOption,
+    OutOption,
+    PixelOption,
+    PlanOption,
+    PreviewOption,
+    StepoverOption,
+    StockTopOption,
+    ToolOption,
+    VerifyOption,
+    ZRangeOption,
+)
 from api.cli.common import JsonOption, check_target, emit, errors, write_atomically
 from api.cli.tables import new_table
 from models.errors import InputError
 
 if TYPE_CHECKING:
+    from supervisor.cam.cutter import Cutter
+    from supervisor.cam.depthmap import DepthMap
+    from supervisor.cam.feeds import Feeds
     from supervisor.cam.job import CamResult
 
 cam_app = typer.Typer(
@@ -67,108 +90,47 @@ def _bounded(value: float, option: str, low: float, high: float) -> float:
 
 @cam_app.command("depthmap")
 def depthmap(
-    image: Annotated[Path, typer.Argument(metavar="IMAGE", help="8/16-bit greyscale PNG or TIFF.")],
-    pixel_mm: Annotated[float, typer.Option("--pixel-mm", help="Pixel size [mm].")],
-    z_range_mm: Annotated[
-        str, typer.Option("--z-range-mm", metavar="LO:HI", help="Heights of black and white [mm].")
-    ],
-    tool: Annotated[str, typer.Option("--tool", help="Roughing cutter: flat:D.")],
-    plan: Annotated[Path, typer.Option("--plan", metavar="PLAN.toml", help="The plan file.")],
-    operation: Annotated[str, typer.Option("--operation", help="The plan's roughing operation.")],
-    out: Annotated[Path, typer.Option("--out", metavar="program.nc", help="Program to write.")],
-    finish: Annotated[
-        str | None, typer.Option("--finish", help="Finishing cutter: ball:D, bull:D:R or flat:D.")
-    ] = None,
-    finish_operation: Annotated[
-        str | None,
-        typer.Option(
-            "--finish-operation", help="The plan's finishing operation [default: finish]."
-        ),
-    ] = None,
-    stepover_mm: Annotated[
-        float, typer.Option("--stepover-mm", help="Finishing stepover [mm].")
-    ] = 0.5,
-    finish_direction: Annotated[
-        str, typer.Option("--finish-direction", help="x, y or an angle in degrees (Bresenham).")
-    ] = "y",
-    negative: Annotated[
-        bool, typer.Option("--negative", help="Complement the grey levels (a mould).")
-    ] = False,
-    stock_top_mm: Annotated[
-        float | None, typer.Option("--stock-top-mm", help="Top of the stock [default: HI].")
-    ] = None,
-    allowance_mm: Annotated[
-        float, typer.Option("--allowance-mm", help="Stock left by roughing [mm].")
-    ] = 0.5,
-    form_tolerance_mm: Annotated[
-        float | None,
-        typer.Option(
-            "--form-tolerance-mm",
-            help="Stair left between levels [mm] [default: the allowance with --finish, "
-            "else 0.04].",
-        ),
-    ] = None,
-    max_arc_radius_mm: Annotated[
-        float, typer.Option("--max-arc-radius-mm", help="Largest G2/G3 radius [mm].")
-    ] = 200.0,
-    preview: Annotated[
-        Path | None, typer.Option("--preview", metavar="preview.png", help="Draw the paths.")
-    ] = None,
-    verify: Annotated[bool, typer.Option("--verify", help="Simulate the program.")] = False,
+    image: ImageArgument,
+    pixel_mm: PixelOption,
+    z_range_mm: ZRangeOption,
+    tool: ToolOption,
+    plan: PlanOption,
+    operation: OperationOption,
+    out: OutOption,
+    finish: FinishOption = None,
+    finish_operation: FinishOperationOption = None,
+    stepover_mm: StepoverOption = 0.5,
+    finish_direction: FinishDirectionOption = "y",
+    negative: NegativeOption = False,
+    stock_top_mm: StockTopOption = None,
+    allowance_mm: AllowanceOption = 0.5,
+    form_tolerance_mm: FormToleranceOption = None,
+    max_arc_radius_mm: MaxArcRadiusOption = 200.0,
+    preview: PreviewOption = None,
+    verify: VerifyOption = False,
     as_json: JsonOption = False,
 ) -> None:
     """Roughing (constant Z) and finishing (iso-parametric) G-code of a depth map."""
     with errors():
-        from supervisor.cam.cutter import parse_cutter
         from supervisor.cam.depthmap import parse_z_range, read_depthmap
-        from supervisor.cam.feeds import Feeds, milling_operation
-        from supervisor.cam.finishing import parse_direction
-        from supervisor.cam.job import (
-            CamSettings,
-            check_cutter,
-            default_form_tolerance_mm,
-            run_cam,
-        )
-        from supervisor.inputs.plan import load_plan
+        from supervisor.cam.job import CamSettings, run_cam
 
-        check_target(out)
-        if preview is not None:
-            check_target(preview, "--preview")
-            if preview.suffix.lower() not in (".png", ".svg"):
-                raise InputError("--preview", str(preview), "must end in .png or .svg")
-        _bounded(allowance_mm, "--allowance-mm", 0.0, 10.0)
-        if form_tolerance_mm is None:
-            form_tolerance_mm = default_form_tolerance_mm(allowance_mm, finish is not None)
-        _bounded(form_tolerance_mm, "--form-tolerance-mm", 0.001, 10.0)
-        _bounded(stepover_mm, "--stepover-mm", 0.001, 100.0)
-        _bounded(max_arc_radius_mm, "--max-arc-radius-mm", 0.0, 1.0e5)
+        _check_targets(out, preview)
+        tolerance_mm = _check_numbers(
+            allowance_mm, form_tolerance_mm, stepover_mm, max_arc_radius_mm, finish is not None
+        )
         with _options():
-            rough_cutter = parse_cutter(tool, "tool")
-            finish_cutter = None if finish is None else parse_cutter(finish, "finish")
-            direction = parse_direction(finish_direction)
+            rough_cutter, finish_cutter, direction = _cutters(tool, finish, finish_direction)
+            z_range = parse_z_range(z_range_mm)
             depth = read_depthmap(
-                image,
-                pixel_mm,
-                parse_z_range(z_range_mm),
-                negative=negative,
-                stock_top_mm=stock_top_mm,
+                image, pixel_mm, z_range, negative=negative, stock_top_mm=stock_top_mm
             )
-            if rough_cutter.kind != "flat":
-                raise InputError("tool", tool, "roughing needs a flat end mill (flat:D)")
-            check_cutter(depth, rough_cutter, "tool")
-            if finish_cutter is not None:
-                check_cutter(depth, finish_cutter, "finish")
-            if not plan.is_file():
-                raise InputError("--plan", str(plan), "no such file")
-            loaded = load_plan(plan)
-            feeds = Feeds(loaded, milling_operation(loaded, operation, rough_cutter, "operation"))
-            finishing = None
-            if finish_cutter is not None:
-                name = finish_operation or "finish"
-                op = milling_operation(loaded, name, finish_cutter, "finish_operation")
-                finishing = (finish_cutter, Feeds(loaded, op))
+            _check_cutters(depth, tool, rough_cutter, finish_cutter)
+            feeds, finishing = _feeds(
+                plan, operation, rough_cutter, finish_cutter, finish_operation
+            )
             settings = CamSettings(
-                allowance_mm, form_tolerance_mm, stepover_mm, direction, max_arc_radius_mm
+                allowance_mm, tolerance_mm, stepover_mm, direction, max_arc_radius_mm
             )
             with _progress(not as_json) as tell:
                 result = run_cam(
@@ -181,15 +143,95 @@ def depthmap(
                     title=f"rcb cam depthmap {image.name}",
                     progress=tell,
                 )
-        write_atomically(out, result.program.encode())
-        if preview is not None:
-            from api.cli.cam_preview import draw_preview
-
-            draw_preview(depth, result, preview)
+        _write(out, preview, depth, result)
     if as_json:
         emit(result_json(result))
         return
     _print(result, out)
+
+
+def _check_targets(out: Path, preview: Path | None) -> None:
+    """The program and the preview can be written; a preview is a PNG or an SVG."""
+    check_target(out)
+    if preview is not None:
+        check_target(preview, "--preview")
+        if preview.suffix.lower() not in (".png", ".svg"):
+            raise InputError("--preview", str(preview), "must end in .png or .svg")
+
+
+def _check_numbers(
+    allowance_mm: float,
+    form_tolerance_mm: float | None,
+    stepover_mm: float,
+    max_arc_radius_mm: float,
+    finishing: bool,
+) -> float:
+    """Check the numeric options; the form tolerance [mm], its default filled in."""
+    from supervisor.cam.job import default_form_tolerance_mm
+
+    _bounded(allowance_mm, "--allowance-mm", 0.0, 10.0)
+    if form_tolerance_mm is None:
+        form_tolerance_mm = default_form_tolerance_mm(allowance_mm, finishing)
+    _bounded(form_tolerance_mm, "--form-tolerance-mm", 0.001, 10.0)
+    _bounded(stepover_mm, "--stepover-mm", 0.001, 100.0)
+    _bounded(max_arc_radius_mm, "--max-arc-radius-mm", 0.0, 1.0e5)
+    return form_tolerance_mm
+
+
+def _cutters(
+    tool: str, finish: str | None, finish_direction: str
+) -> tuple[Cutter, Cutter | None, str | float]:
+    """The roughing cutter, the finishing cutter (if any) and the finishing direction."""
+    from supervisor.cam.cutter import parse_cutter
+    from supervisor.cam.finishing import parse_direction
+
+    rough_cutter = parse_cutter(tool, "tool")
+    finish_cutter = None if finish is None else parse_cutter(finish, "finish")
+    return rough_cutter, finish_cutter, parse_direction(finish_direction)
+
+
+def _check_cutters(
+    depth: DepthMap, tool: str, rough_cutter: Cutter, finish_cutter: Cutter | None
+) -> None:
+    """Roughing takes a flat end mill; each cutter fits the depth map."""
+    from supervisor.cam.job import check_cutter
+
+    if rough_cutter.kind != "flat":
+        raise InputError("tool", tool, "roughing needs a flat end mill (flat:D)")
+    check_cutter(depth, rough_cutter, "tool")
+    if finish_cutter is not None:
+        check_cutter(depth, finish_cutter, "finish")
+
+
+def _feeds(
+    plan: Path,
+    operation: str,
+    rough_cutter: Cutter,
+    finish_cutter: Cutter | None,
+    finish_operation: str | None,
+) -> tuple[Feeds, tuple[Cutter, Feeds] | None]:
+    """The feeds of the plan's roughing operation, and of its finishing one with its cutter."""
+    from supervisor.cam.feeds import Feeds, milling_operation
+    from supervisor.inputs.plan import load_plan
+
+    if not plan.is_file():
+        raise InputError("--plan", str(plan), "no such file")
+    loaded = load_plan(plan)
+    feeds = Feeds(loaded, milling_operation(loaded, operation, rough_cutter, "operation"))
+    if finish_cutter is None:
+        return feeds, None
+    name = finish_operation or "finish"
+    op = milling_operation(loaded, name, finish_cutter, "finish_operation")
+    return feeds, (finish_cutter, Feeds(loaded, op))
+
+
+def _write(out: Path, preview: Path | None, depth: DepthMap, result: CamResult) -> None:
+    """Write the program (atomically) and, with ``--preview``, draw its paths."""
+    write_atomically(out, result.program.encode())
+    if preview is not None:
+        from api.cli.cam_preview import draw_preview
+
+        draw_preview(depth, result, preview)
 
 
 @contextmanager

@@ -68,20 +68,28 @@ _NAV_CSS = "nav.ui { font-size: 0.9em; margin-bottom: 1em; } nav.ui form { displ
 
 def install(app: FastAPI, engine: Engine) -> None:
     """Add the web view's routes to ``app``, reading the database of ``engine``."""
+    _install_login(app, engine)
+    _install_logout(app)
+    _install_pages(app, engine)
 
-    def actor_of(request: Request) -> Actor | None:
-        """The actor of the cookie's key, authenticated again; None without a valid one."""
-        key = request.cookies.get(COOKIE)
-        if not key:
-            return None  # nothing to check (a first visit): not audited
-        route = request.scope.get("route")
-        action = f"{request.method} {getattr(route, 'path', '?')}"
-        client = request.client.host if request.client else ""
-        actor = auth.authenticate(engine=engine, key=key, action=action, client=client)
-        if actor is not None and actor.role not in ROLES:
-            auth.audit_forbidden(engine=engine, actor=actor, action=action)
-            return None
-        return actor
+
+def _actor_of(engine: Engine, request: Request) -> Actor | None:
+    """The actor of the cookie's key, authenticated again; None without a valid one."""
+    key = request.cookies.get(COOKIE)
+    if not key:
+        return None  # nothing to check (a first visit): not audited
+    route = request.scope.get("route")
+    action = f"{request.method} {getattr(route, 'path', '?')}"
+    client = request.client.host if request.client else ""
+    actor = auth.authenticate(engine=engine, key=key, action=action, client=client)
+    if actor is not None and actor.role not in ROLES:
+        auth.audit_forbidden(engine=engine, actor=actor, action=action)
+        return None
+    return actor
+
+
+def _install_login(app: FastAPI, engine: Engine) -> None:
+    """``/ui/login``: the form, and its post that checks the key and sets the cookie."""
 
     @app.get(f"{PREFIX}/login", include_in_schema=False)
     def login_form() -> HTMLResponse:
@@ -120,6 +128,10 @@ def install(app: FastAPI, engine: Engine) -> None:
         )
         return response
 
+
+def _install_logout(app: FastAPI) -> None:
+    """``/ui/logout``: a post that deletes the cookie."""
+
     @app.post(f"{PREFIX}/logout", include_in_schema=False)
     def logout(request: Request) -> Response:
         if not _same_origin(request):
@@ -134,10 +146,14 @@ def install(app: FastAPI, engine: Engine) -> None:
         )
         return response
 
+
+def _install_pages(app: FastAPI, engine: Engine) -> None:
+    """``/ui/``, the plans the key may see, and ``/ui/plans/{id}``, one plan's report."""
+
     @app.get(f"{PREFIX}/", include_in_schema=False)
     def plans(request: Request) -> Response:
         try:
-            actor = actor_of(request)
+            actor = _actor_of(engine, request)
         except auth.RateLimitedError as err:
             return _too_many(err)
         if actor is None:
@@ -152,7 +168,7 @@ def install(app: FastAPI, engine: Engine) -> None:
     @app.get(f"{PREFIX}/plans/{{plan_id}}", include_in_schema=False)
     def plan(request: Request, plan_id: str) -> Response:
         try:
-            actor = actor_of(request)
+            actor = _actor_of(engine, request)
         except auth.RateLimitedError as err:
             return _too_many(err)
         if actor is None:

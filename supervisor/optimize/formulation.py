@@ -23,6 +23,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
 
 from models import borangiu_cost, kinematics, quantities
 from models import borangiu_domain as domain
@@ -82,14 +85,60 @@ def formulate(
     ``cones``: per quantity, a learned model's cone (``learn`` strategy) that replaces the
     band row of that quantity (and of power and torque, for ``force_N``).
     """
-    learned = cones or {}
-    process = operation.process
-    params = kinematics.PARAMETERS[process]
-    context = operation.context
-    rel = operation.setpoint_rel_uncertainty
-    factors = {(q, n): c.factor(params, rel, n) for q, c in learned.items() for n in c.edges}
+    edges = _Edges.of(operation, tool, cones or {})
+    rows, derived = _limit_rows(edges, machine)
+    rows += _derived_rows(edges, derived)
+    params, context = edges.params, edges.context
+    if operation.domain is not None:
+        for lim in domain.milling_limits(operation.domain):
+            rows.append(
+                _row(params, context, lim.name, lim.monomial, lim.limit, lim.sense, check=True)
+            )
+    cost = _cost(operation, tool)
+    mrr = kinematics.mrr_monomial(operation.process).fix(context)
+    bounds = [operation.bounds[p] for p in params]
+    return LogLinearProgram(
+        operation=operation.name,
+        parameters=params,
+        objective=tuple(mrr.exponents.get(p, 0.0) for p in params),
+        rows=tuple(rows),
+        lower=tuple(math.log(lo) for lo, _ in bounds),
+        upper=tuple(math.log(hi) for _, hi in bounds),
+        cost=cost,
+        goal=operation.objective,
+    )
+
+
+@dataclass(frozen=True)
+class _Edges:
+    """The models of one operation at their guarding band edges, and their rows.
+
+    A quantity with a learned cone (``learn`` strategy) is its nominal model and a cone row at
+    each edge age; any other is the tool's model scaled to the edge of its band, ``K ± ΔK_eff``
+    (Ivester & Heigel Eqs. 11-13).
+    """
+
+    operation: Operation
+    tool: Tool
+    learned: Mapping[str, LearnedCone]
+    params: tuple[str, ...]
+    factors: Mapping[tuple[str, int], tuple[np.ndarray, np.ndarray]]
+
+    @classmethod
+    def of(cls, operation: Operation, tool: Tool, learned: Mapping[str, LearnedCone]) -> _Edges:
+        """The edges of ``operation`` with ``tool``; each cone factored at each edge age."""
+        params = kinematics.PARAMETERS[operation.process]
+        rel = operation.setpoint_rel_uncertainty
+        factors = {(q, n): c.factor(params, rel, n) for q, c in learned.items() for n in c.edges}
+        return cls(operation, tool, learned, params, factors)
+
+    @property
+    def context(self) -> Mapping[str, float]:
+        """The operation's fixed context (tool diameter, flutes ...)."""
+        return self.operation.context
 
     def row(
+        self,
         name: str,
         monomial: Monomial,
         limit: float,
@@ -99,22 +148,26 @@ def formulate(
         of: str = "",
         edge_age: int = 0,
     ) -> Row:
-        cone = learned.get(of)
+        """:func:`_row` in the operation's parameters; a cone row if ``of`` was learned."""
+        cone = self.learned.get(of)
         term = None
         if cone is not None:
-            G, h = factors[(of, edge_age)]
+            G, h = self.factors[(of, edge_age)]
             term = ConeTerm(G, h, cone.z)
+        params, context = self.params, self.context
         return _row(params, context, name, monomial, limit, sense, scale, given_as, cone=term)
 
-    def ages(quantity: str) -> tuple[int, ...]:
+    def ages(self, quantity: str) -> tuple[int, ...]:
         """Edge ages a learned quantity's rows hold at (:attr:`Posterior.edges`); else (0,)."""
-        return learned[quantity].edges if quantity in learned else (0,)
+        return self.learned[quantity].edges if quantity in self.learned else (0,)
 
-    def edge(quantity: Quantity, sense: Sense, edge_age: int = 0) -> Monomial:
+    def edge(self, quantity: Quantity, sense: Sense, edge_age: int = 0) -> Monomial:
         """The model of ``quantity`` at the band edge that guards a limit of ``sense``."""
-        if quantity.name in learned:  # the nominal: the cone row adds the spread
-            return learned[quantity.name].nominal(edge_age)
-        model = tool.models[quantity.name]
+        if quantity.name in self.learned:  # the nominal: the cone row adds the spread
+            return self.learned[quantity.name].nominal(edge_age)
+        operation = self.operation
+        rel = operation.setpoint_rel_uncertainty
+        model = self.tool.models[quantity.name]
         rel_band = model.relative_band(rel)
         factor = 1.0 + rel_band if sense == "max" else 1.0 - rel_band
         if factor <= 0:
@@ -129,8 +182,15 @@ def formulate(
             raise InfeasibleError(operation.name, (conflict,), held)
         return model.monomial.scaled(factor)
 
+
+def _limit_rows(edges: _Edges, machine: Machine) -> tuple[list[Row], dict[str, tuple[float, str]]]:
+    """The rows of the operation's model limits, and the derived limits still to pose.
+
+    A derived limit is the tighter of the machine's and the operation's own, named as it was
+    given; the limits are read in the order given (an unknown key is an error there).
+    """
+    operation = edges.operation
     rows: list[Row] = []
-    # the tighter of the machine's limit and the operation's own, named as it was given
     derived = {
         q: (v, f"machine.{quantities.quantity(q).machine_field}")
         for q, v in machine.limits().items()
@@ -144,48 +204,43 @@ def formulate(
         # a model quantity, at its guarding band edge; a maximum at every edge age, a minimum
         # (tool life) for the new edge
         scale = operation.volume_mm3 if quantity.limit_per_volume else 1.0
-        name = quantity.name
-        for age in ages(name) if quantity.sense == "max" else (0,):
-            monomial = edge(quantity, quantity.sense, age)
-            rows.append(row(name, monomial, limit * scale, quantity.sense, scale, key, name, age))
+        name, sense = quantity.name, quantity.sense
+        for age in edges.ages(name) if sense == "max" else (0,):
+            monomial = edges.edge(quantity, sense, age)
+            rows.append(edges.row(name, monomial, limit * scale, sense, scale, key, name, age))
+    return rows, derived
+
+
+def _derived_rows(edges: _Edges, derived: Mapping[str, tuple[float, str]]) -> list[Row]:
+    """The rows of the derived limits: exact kinematics, or scaled from a model's edge."""
+    process = edges.operation.process
+    rows: list[Row] = []
     for name, (limit, given_as) in derived.items():
         quantity = quantities.quantity(name)
         base = quantity.based_on
         if base is None:  # exact kinematics
             monomial = quantity.monomial(process)
-            rows.append(row(name, monomial, limit, quantity.sense, 1.0, given_as))
+            rows.append(edges.row(name, monomial, limit, quantity.sense, 1.0, given_as))
             continue
         # from the guarding edge of the model it scales, at every edge age
-        for age in ages(base):
-            base_edge = edge(quantities.quantity(base), quantity.sense, age)
+        for age in edges.ages(base):
+            base_edge = edges.edge(quantities.quantity(base), quantity.sense, age)
             monomial = quantity.monomial(process, base_edge)
-            rows.append(row(name, monomial, limit, quantity.sense, 1.0, given_as, base, age))
-    if operation.domain is not None:
-        for lim in domain.milling_limits(operation.domain):
-            rows.append(
-                _row(params, context, lim.name, lim.monomial, lim.limit, lim.sense, check=True)
-            )
-    cost: tuple[Monomial, ...] = ()
-    if operation.productivity is not None:
-        power = None
-        cutting_power = quantities.quantity("power_kW")
-        force = tool.models.get(cutting_power.based_on or "")
-        if force is not None:
-            power = cutting_power.monomial(process, force.monomial)
-        terms = borangiu_cost.milling_cost_terms(operation.productivity, power)
-        cost = tuple(t.fix(context) for t in terms)
-    mrr = kinematics.mrr_monomial(process).fix(context)
-    bounds = [operation.bounds[p] for p in params]
-    return LogLinearProgram(
-        operation=operation.name,
-        parameters=params,
-        objective=tuple(mrr.exponents.get(p, 0.0) for p in params),
-        rows=tuple(rows),
-        lower=tuple(math.log(lo) for lo, _ in bounds),
-        upper=tuple(math.log(hi) for _, hi in bounds),
-        cost=cost,
-        goal=operation.objective,
-    )
+            rows.append(edges.row(name, monomial, limit, quantity.sense, 1.0, given_as, base, age))
+    return rows
+
+
+def _cost(operation: Operation, tool: Tool) -> tuple[Monomial, ...]:
+    """Borangiu's cost ``J`` of ``objective = "productivity"``, its terms in the context fixed."""
+    if operation.productivity is None:
+        return ()
+    power = None
+    cutting_power = quantities.quantity("power_kW")
+    force = tool.models.get(cutting_power.based_on or "")
+    if force is not None:
+        power = cutting_power.monomial(operation.process, force.monomial)
+    terms = borangiu_cost.milling_cost_terms(operation.productivity, power)
+    return tuple(t.fix(operation.context) for t in terms)
 
 
 def formulate_domain(problem: DomainProblem) -> LogLinearProgram:

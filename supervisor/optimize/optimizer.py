@@ -213,18 +213,7 @@ def optimize_plan(
     overrides = tools or {}
     learned = cones or {}
     used = [overrides.get(op.name) or plan.tools[op.tool] for op in plan.operations]
-    kept: dict[str, OperationResult] = {}
-    earlier_results: dict[str, OperationResult] = {}
-    if previous is not None:
-        result, solved_with, cones_with = previous
-        earlier = earlier_results = {r.name: r for r in result.operations}
-        kept = {
-            op.name: earlier[op.name]
-            for op, tool in zip(plan.operations, used, strict=True)
-            if op.name in earlier
-            and solved_with.get(op.name) == tool
-            and cones_with.get(op.name) == learned.get(op.name)
-        }
+    kept, earlier_results = _kept(plan, used, previous, learned)
     if not learned:  # the band programs alone: formulate all, then solve (errors name fields)
         lps: dict[int, LogLinearProgram] = {}
         for i, (op, tool) in enumerate(zip(plan.operations, used, strict=True)):
@@ -246,6 +235,31 @@ def optimize_plan(
             else:
                 results.append(_band(op, tool, lps[i], xs[i], plan.machine))
     return PlanResult(plan=plan.name, machine=plan.machine.name, operations=tuple(results))
+
+
+def _kept(
+    plan: Plan,
+    used: list[Tool],
+    previous: tuple[PlanResult, Mapping[str, Tool], Cones] | None,
+    learned: Cones,
+) -> tuple[dict[str, OperationResult], dict[str, OperationResult]]:
+    """The earlier results that still hold, and every earlier result, by operation name.
+
+    An earlier result holds where the operation's tool and cones are those it was solved with
+    (DESIGN.md, RCB step 4: re-optimise the operations whose bands changed).
+    """
+    if previous is None:
+        return {}, {}
+    result, solved_with, cones_with = previous
+    earlier = {r.name: r for r in result.operations}
+    kept = {
+        op.name: earlier[op.name]
+        for op, tool in zip(plan.operations, used, strict=True)
+        if op.name in earlier
+        and solved_with.get(op.name) == tool
+        and cones_with.get(op.name) == learned.get(op.name)
+    }
+    return kept, earlier
 
 
 @contextmanager

@@ -43,4 +43,6 @@ class Beliefs(Protocol):
     @property
     def posterior(self) -> Mapping[tuple[str, str], Posterior]: ...  # noqa: D102
     @property
+    def priors(self) -> Mapping[tuple[str, str], Posterior]: ...  # noqa: D102
+    @property
     def wear(self) -> Mapping[tuple[str, str], WearRise]: ...  # noqa: D102

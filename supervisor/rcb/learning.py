@@ -48,7 +48,10 @@ def belief_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
 
 
 def _prior_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
-    """The catalogue prior of ``operation``'s ``quantity``."""
+    """The prior of ``operation``'s ``quantity``: the plan's start (a fleet's) or the catalogue."""
+    started = state.priors.get((operation.name, quantity))
+    if started is not None:
+        return started
     settings = state.settings
     return post.prior(
         state.plan.tools[operation.tool].models[quantity],

@@ -30,8 +30,8 @@ from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.settings import settings_from_table
+from supervisor.rcb.start import learned_cones
 from supervisor.rcb.state import RcbState, prior_sigma
-from supervisor.rcb.update import learned_cones
 
 _CHANGE_KEYS = ("limits", "bounds", "models", "reset_bands", "rcb")
 

@@ -162,6 +162,9 @@ class RcbState:
     monitors : Mapping[tuple[str, str], Monitor]
         Per (operation, quantity) measured: the noise scale, the last reading learned from and
         a quarantined one (:mod:`supervisor.rcb.monitor`).
+    priors : Mapping[tuple[str, str], Posterior]
+        ``learn``: per (operation, quantity), the prior the posterior started from where it is
+        not the catalogue's (a fleet prior, :mod:`supervisor.fleet.prior`).
     """
 
     plan: Plan
@@ -175,6 +178,7 @@ class RcbState:
     halt: Halt | None = None
     wear: Mapping[tuple[str, str], WearRise] = field(default_factory=dict)
     monitors: Mapping[tuple[str, str], Monitor] = field(default_factory=dict)
+    priors: Mapping[tuple[str, str], Posterior] = field(default_factory=dict)
 
 
 def prior_sigma(model: PowerLawModel, settings: RcbSettings) -> float:

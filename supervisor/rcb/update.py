@@ -55,14 +55,13 @@ from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.errors import InfeasibleError
 from supervisor.inputs.part_report import Measurement, PartReport
-from supervisor.inputs.plan import Operation, Plan
-from supervisor.optimize.optimizer import optimize_operation, optimize_plan
+from supervisor.inputs.plan import Operation
+from supervisor.optimize.optimizer import optimize_operation
 from supervisor.optimize.passes import measured_at
 from supervisor.optimize.result import OperationResult, PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.common_cause import CommonShift, common_shifts
-from supervisor.rcb.cone import Cone
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.judged import Judged, judge
 from supervisor.rcb.law import apply_law, tool_life_measured
@@ -70,38 +69,11 @@ from supervisor.rcb.monitor import Monitor, learned
 from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
-from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings, RcbState, prior_sigma
+from supervisor.rcb.start import learned_cones as learned_cones  # callers import it from here
+from supervisor.rcb.start import optimize_state
+from supervisor.rcb.start import start as start  # callers import it from here
+from supervisor.rcb.state import Halt, HaltedOperation, RcbState, prior_sigma
 from supervisor.rcb.wear import WearRise
-
-
-def start(plan: Plan, settings: RcbSettings | None = None) -> RcbState:
-    """The initial state: catalogue models, robust optimum as setpoint version 1."""
-    settings = settings or RcbSettings()
-    tools = {op.name: plan.tools[op.tool] for op in plan.operations}
-    sigma = {
-        (op, q): prior_sigma(m, settings)
-        for op, tool in tools.items()
-        for q, m in tool.models.items()
-    }
-    return RcbState(plan, tools, optimize_plan(plan, tools), 1, settings, sigma)
-
-
-def learned_cones(state: RcbState) -> dict[str, dict[str, Cone]]:
-    """The constraints beyond the band that ``state``'s strategy hands the optimiser."""
-    return state.settings.rule.cones(state)
-
-
-def optimize_state(
-    state: RcbState, tools: Mapping[str, Tool], posterior: Mapping[tuple[str, str], Posterior]
-) -> PlanResult:
-    """The setpoints of ``state``'s plan under ``tools`` (and the cones of ``posterior``)."""
-    trial = replace(state, tools=tools, posterior=posterior)
-    return optimize_plan(
-        state.plan,
-        tools,
-        previous=(state.setpoints, state.tools, learned_cones(state)),
-        cones=learned_cones(trial),
-    )
 
 
 def update(

@@ -106,7 +106,7 @@ def sample_machine(
         nominal = plan.tools[op.tool]
         wears = wear_drift_per_edge_life > 0 and "tool_life_mm3" in nominal.models
         true_models = {
-            q: _true_model(
+            q: true_model(
                 nominal.models[q],
                 op,
                 rng,
@@ -135,18 +135,22 @@ def sample_machine(
     )
 
 
-def _true_model(
+def true_model(
     model: PowerLawModel,
     op: Operation,
     rng: np.random.Generator,
     spread: float,
     exponent_spread: float,
     drift: float = 0.0,
+    box: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> PowerLawModel:
     """One true model inside ``model``'s band over ``op``'s bounds (see :func:`sample_machine`).
 
     ``drift``: the rise over an edge's life the model will see; the new edge's truth is drawn
-    that much under the band's upper edge, so the worn edge's stays inside it too.
+    that much under the band's upper edge, so the worn edge's stays inside it too. ``box``:
+    ``ln`` of the low and high end of each input (sorted by name) to keep it inside the band
+    over, instead of ``op``'s (a tool shared by several operations,
+    :mod:`supervisor.virtual.fleet`).
     """
     source = f"true model of {op.name!r}, sampled inside the band of K = {model.K:g} ± {model.dK:g}"
     if model.dK == 0:
@@ -156,7 +160,7 @@ def _true_model(
     scales = np.array([exponent_spread * abs(model.exponents[n]) for n in names])
     eps = rng.standard_normal(len(names)) * scales
     u = float(rng.random())
-    low, high = _log_range(names, op)
+    low, high = log_range(names, op) if box is None else box
     # ln(true/nominal) = ln(1 + δ) + Σ ε_i ln x_i must lie in [ln(1 − b), ln(1 + b)]
     ln_lo = math.log1p(-band) + _BAND_MARGIN if band < 1 else -math.inf
     # a drift beyond the band's width cannot fit inside it: the truth at the band's low edge
@@ -179,7 +183,7 @@ def _true_model(
     )
 
 
-def _log_range(names: list[str], op: Operation) -> tuple[np.ndarray, np.ndarray]:
+def log_range(names: list[str], op: Operation) -> tuple[np.ndarray, np.ndarray]:
     """``ln`` of the low and high end of each variable: bounds, or the context value twice."""
     low, high = [], []
     for name in names:

@@ -7,6 +7,7 @@ many of them.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from supervisor.virtual.fault_log import FaultLog
 from supervisor.virtual.fault_oracle import truth_oracle
 from supervisor.virtual.fault_spec import Faults, with_wear
 from supervisor.virtual.faults import PartFaults, step_factor, unavoidable_parts
+from supervisor.virtual.machine import VirtualMachine
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
@@ -80,9 +82,27 @@ def run_scenario(
         of the truth part ``k + 1`` is made with), violations per part, the unavoidable
         parts, what each fault did and where the scenario stopped.
     """
-    plan = initial.plan
     faults = with_wear(faults or Faults(), wear_drift_per_edge_life)
-    machine = sample_machine(plan, seed=seed, wear_drift_per_edge_life=faults.wear)
+    machine = sample_machine(initial.plan, seed=seed, wear_drift_per_edge_life=faults.wear)
+    return run_machine(initial, machine, seed, parts, faults=faults)[0]
+
+
+def run_machine(
+    initial: RcbState,
+    machine: VirtualMachine,
+    seed: int,
+    parts: int,
+    *,
+    faults: Faults | None = None,
+    noise_seed: int | Sequence[int] | None = None,
+) -> tuple[ScenarioTrace, RcbState]:
+    """:func:`run_scenario` on a given ``machine``; also the state after the last report.
+
+    ``noise_seed``: the seed of the measurement noise (``seed`` when not given): the machines
+    of a fleet (:mod:`supervisor.virtual.fleet`) each draw their own.
+    """
+    plan = initial.plan
+    faults = faults or Faults()
     log = FaultLog(faults, machine, seed) if faults else None
     oracles: dict[float, PlanResult] = {}
 
@@ -101,7 +121,7 @@ def run_scenario(
     edge_life = _edge_life_parts(plan)
     counted = {name: n for name, n in edge_life.items() if n is not None}
     state = initial
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(seed if noise_seed is None else noise_seed)
     n_ops = len(plan.operations)
     plan_ratio = np.zeros(parts + 1)
     op_ratio = np.zeros((parts + 1, n_ops))
@@ -130,7 +150,7 @@ def run_scenario(
     if not stopped_at:
         oracle = _oracle_row(oracle_of(parts + 1), oracle, parts, changes)
         plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(state.setpoints, oracle)
-    return ScenarioTrace(
+    trace = ScenarioTrace(
         seed=seed,
         oracle_cycle_min=oracle_of(1).cycle_time_min,
         plan_ratio=plan_ratio,
@@ -145,6 +165,7 @@ def run_scenario(
         tallies=log.tallies() if log else (),
         oracle_changes=tuple(changes),
     )
+    return trace, state
 
 
 def _oracle_row(

@@ -220,6 +220,45 @@ def simulate(
     MillRun
         The series and the per-segment metrics.
     """
+    wear_mm, feed_mm_min = initial_flank_wear_mm, initial_feed_rate_mm_min
+    inputs = (signal, reference, steady_fraction, max_time_s, wear_mm, feed_mm_min)
+    start = _start(setup, workpiece, controller, *inputs)
+    rows, stopped = _time_steps(setup, workpiece, controller, start, rng, stop_at_lower_limit)
+    series = _read_only_series(rows)
+    ref = start.reference
+    ref_force = _reference_force(ref, signal, start.calibration)
+    segments = _segment_metrics(workpiece, series, ref, ref_force, steady_fraction)
+    limits = start.limits
+    return MillRun(
+        signal, ref, ref_force, limits, segments=segments, **series, stopped_at_lower_limit=stopped
+    )
+
+
+@dataclass(frozen=True)
+class _Start:
+    """A run's checked inputs: the signal, its reference, the horizon and the initial state."""
+
+    signal: str
+    reference: float
+    calibration: Any
+    limits: FeedLimits
+    horizon_s: float
+    flank_wear_mm: float
+    feed_rate_mm_min: float
+
+
+def _start(
+    setup: MillSetup,
+    workpiece: StepWorkpiece,
+    controller: FeedController,
+    signal: str,
+    reference: float,
+    steady_fraction: float,
+    max_time_s: float | None,
+    initial_flank_wear_mm: float,
+    initial_feed_rate_mm_min: float,
+) -> _Start:
+    """Check the inputs of :func:`simulate`; the horizon's default from the lower feed limit."""
     if signal not in SIGNALS:
         raise InputError("signal", signal, f"must be one of {', '.join(SIGNALS)}")
     ref = fields.positive(reference, "reference")
@@ -234,6 +273,23 @@ def simulate(
     horizon = fields.positive(max_time_s, "max_time_s")
     wear = fields.at_least(initial_flank_wear_mm, "initial_flank_wear_mm")
     feed = fields.positive(initial_feed_rate_mm_min, "initial_feed_rate_mm_min")
+    return _Start(signal, ref, calibration, limits, horizon, wear, feed)
+
+
+def _time_steps(
+    setup: MillSetup,
+    workpiece: StepWorkpiece,
+    controller: FeedController,
+    start: _Start,
+    rng: np.random.Generator,
+    stop_at_lower_limit: bool,
+) -> tuple[list[tuple[float, ...]], bool]:
+    """Steps 1-5 of the module's loop, one row of :data:`_SERIES` per sample.
+
+    Returns the rows and whether the run stopped at the lower feed limit.
+    """
+    signal, ref, calibration = start.signal, start.reference, start.calibration
+    limits, wear, feed = start.limits, start.flank_wear_mm, start.feed_rate_mm_min
     controller.reset(feed, setup.spindle_rpm)
     command = limits.clamp(feed)
     process, sensor = setup.process, setup.sensor
@@ -241,8 +297,7 @@ def simulate(
     filtered = process.current_A(feed, depth, controller.spindle_rpm, wear)
     t = x = 0.0
     rows: list[tuple[float, ...]] = []
-    stopped = False
-    while t < horizon and x < workpiece.length_mm:
+    while t < start.horizon_s and x < workpiece.length_mm:
         n = controller.spindle_rpm
         dt = setup.sample_period_s or 60.0 / n
         previous = feed
@@ -265,25 +320,19 @@ def simulate(
         command = controller.step(measured, ref, dt)
         rows.append((t, x, depth, force, current, measured, command, feed, n, wear))
         if stop_at_lower_limit and limits.at_lower(command):
-            stopped = True
-            break
+            return rows, True
+    return rows, False
+
+
+def _read_only_series(rows: list[tuple[float, ...]]) -> dict[str, Any]:
+    """The rows of :func:`_time_steps` as one read-only array per name of :data:`_SERIES`."""
     data = np.array(rows, dtype=float).reshape(-1, len(_SERIES))
     series: dict[str, Any] = {}
     for i, name in enumerate(_SERIES):
         column = np.ascontiguousarray(data[:, i])
         column.flags.writeable = False
         series[name] = column
-    ref_force = _reference_force(ref, signal, calibration)
-    segments = _segment_metrics(workpiece, series, ref, ref_force, steady_fraction)
-    return MillRun(
-        signal=signal,
-        reference=ref,
-        reference_force_N=ref_force,
-        limits=limits,
-        segments=segments,
-        stopped_at_lower_limit=stopped,
-        **series,
-    )
+    return series
 
 
 def _reference_force(reference: float, signal: str, calibration: Any) -> float:

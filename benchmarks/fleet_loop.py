@@ -1,0 +1,113 @@
+"""``benchmarks/closed_loop.py --fleet MACHINES``: a new machine starts from what others learned.
+
+Per scenario (:mod:`supervisor.virtual.fleet_scenario`): a virtual fleet of ``MACHINES``
+machines that cut with the plan's tools, each a little differently (a true between-machine
+spread of ``ln K``, ``--fleet-spread``); the first ``MACHINES − 1`` make ``--learn-parts``
+parts each with ``learn`` from the catalogue; then the last one makes ``--parts`` parts from
+the fleet prior (:mod:`supervisor.fleet.prior`) and, with the same noise, from the
+catalogue. MRR/oracle is against the new machine's oracle, row ``k`` the setpoints in force
+after ``k`` part reports (``k = 0``: the first part's). Every tenth scenario's new machine lies
+outside the spread the fleet has seen (``δ = ±3 s``); its violations are counted apart, and
+only those at its first part are allowed.
+
+Usage (from the repository root)::
+
+    .venv/bin/python benchmarks/closed_loop.py --fleet 4 [--scenarios 1000] [--parts 30]
+        [--learn-parts 30] [--fleet-spread 0.03] [--jobs N] [--seed-offset 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from supervisor.inputs.plan import Plan
+from supervisor.virtual.fleet_scenario import FleetTrace, simulate_fleet
+
+#: The rows printed: MRR/oracle after k parts.
+ROWS = (0, 1, 2, 3, 5, 10, 30)
+#: The targets of issue 32 (fleet prior): at the first part, and after 3 parts.
+TARGET_FIRST, TARGET_AFTER_3 = 0.95, 0.98
+
+
+def _ratios(traces: Sequence[FleetTrace], which: str) -> np.ndarray:
+    return np.array([getattr(t, which).plan_ratio for t in traces])
+
+
+def _violations(traces: Sequence[FleetTrace], which: str) -> tuple[int, int]:
+    """(at the first part, later) over ``traces``."""
+    parts = [p for t in traces for p, _, _ in getattr(t, which).where]
+    return sum(1 for p in parts if p == 1), sum(1 for p in parts if p > 1)
+
+
+def _met(flag: bool) -> str:
+    return "met" if flag else "NOT met"
+
+
+def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str]:
+    """The printed lines (module docstring)."""
+    inside = [t for t in traces if not t.outside]
+    rows = [k for k in ROWS if k <= parts]
+    out = [f"{'after k parts':<14}" + "".join(f"{'k=' + str(k):>14}" for k in rows)]
+    for which in ("fleet", "catalogue"):
+        for label, chosen in (("all", traces), ("inside", inside)):
+            r = _ratios(chosen, which)
+            cells = "".join(
+                f"{r[:, k].mean():>8.3f} {np.percentile(r[:, k], 5):>5.3f}" for k in rows
+            )
+            out.append(f"{which + ' ' + label:<14}{cells}")
+    out.append("  (each cell: mean, p5 of MRR/oracle)")
+    for which in ("fleet", "catalogue"):
+        first_in, later_in = _violations(inside, which)
+        first_out, later_out = _violations([t for t in traces if t.outside], which)
+        out.append(
+            f"{which}: violations inside the spread {first_in} at part 1, {later_in} later; "
+            f"outside {first_out} at part 1, {later_out} later"
+        )
+    learned = sum(t.learned_violations for t in traces)
+    out.append(f"learning machines (catalogue start): {learned} violations")
+    spreads = [p.spread for t in traces for p in t.provenance]
+    if spreads:
+        out.append(
+            f"between-machine spread learned: median {100 * float(np.median(spreads)):.2f} %, "
+            f"p5-p95 {100 * float(np.percentile(spreads, 5)):.2f}-"
+            f"{100 * float(np.percentile(spreads, 95)):.2f} %"
+        )
+    r = _ratios(inside, "fleet")
+    first, after3 = float(r[:, 0].mean()), float(r[:, min(3, parts)].mean())
+    first_in, later_in = _violations(inside, "fleet")
+    later_out = _violations([t for t in traces if t.outside], "fleet")[1]
+    avoidable = first_in + later_in + later_out
+    out.append(
+        f"targets: first part >= {TARGET_FIRST}: {first:.3f} {_met(first >= TARGET_FIRST)}; "
+        f"after 3 >= {TARGET_AFTER_3}: {after3:.3f} {_met(after3 >= TARGET_AFTER_3)}; "
+        f"0 avoidable: {avoidable} {_met(avoidable == 0)}"
+    )
+    out.append(f"wall {seconds:.1f} s")
+    return out
+
+
+def run(plan: Plan, args: argparse.Namespace) -> int:
+    """Simulate and print (``closed_loop.py`` parsed the arguments)."""
+    seeds = range(args.seed_offset, args.seed_offset + args.scenarios)
+    t0 = time.perf_counter()
+    traces = simulate_fleet(
+        plan,
+        seeds,
+        args.fleet,
+        args.parts,
+        args.learn_parts,
+        min(args.jobs, args.scenarios),
+        args.fleet_spread,
+    )
+    print(
+        f"Fleet prior: {plan.name!r}, {args.scenarios} scenarios: {args.fleet - 1} machines "
+        f"learn {args.learn_parts} parts each, then a new machine makes {args.parts}; "
+        f"true between-machine spread {100 * args.fleet_spread:.1f} %"
+    )
+    for line in report(traces, args.parts, time.perf_counter() - t0):
+        print(line)
+    return 0

@@ -1,0 +1,178 @@
+r"""A new plan's ``learn`` prior from what plans on other machines learned with the same tools.
+
+For every operation and measured quantity of the new plan, the learned posteriors of the same
+tool (name, process and work material) and quantity in the fleet's plans are read as evidence
+about the tool's law (:mod:`.evidence`), grouped by machine and combined in the hierarchical
+model of :mod:`.hierarchy`. The result is mapped back to the operation's own parameters
+(``β = T^{-1}(θ − o)``, the inverse of :func:`.evidence.transform`), with the edge-age
+coefficient of a wearing quantity from the catalogue prior. On a machine the fleet already
+holds, that machine's own evidence is added to the fleet's belief about it (its offset ``δ_m``
+is then known as well as its readings show).
+
+A quantity no plan of the fleet measured with the tool keeps the catalogue prior and says so
+(:class:`Provenance` with no plans).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from models.tool import Tool
+from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms, transform
+from supervisor.fleet.hierarchy import DEFAULT_SPREAD, SPREAD_WEIGHT, fleet_belief
+from supervisor.inputs.plan import Operation, Plan
+from supervisor.rcb import posterior as post
+from supervisor.rcb.posterior import Posterior
+
+
+@dataclass(frozen=True)
+class Learned:
+    """One operation's learned model in the fleet: where it was learned and what it knows.
+
+    ``tool``: the operation's catalogue tool (its prior is rebuilt from it, ``coverage_k``,
+    ``exponent_sd`` and ``edge_sd`` of the plan's settings).
+    """
+
+    machine: str
+    plan: str
+    operation: Operation
+    tool: Tool
+    posterior: Posterior
+    coverage_k: float
+    exponent_sd: float
+    edge_sd: float = post.DEFAULT_EDGE_SD
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a fleet prior came from: shown with it on every surface."""
+
+    quantity: str
+    plans: tuple[str, ...]
+    machines: tuple[str, ...]
+    spread: float
+    readings: int
+
+    def describe(self) -> str:
+        """``force_N: prior from 3 plans on 2 machines, between-machine spread 4.1 %, 96 …``."""
+        if not self.plans:
+            return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
+        plans = "plan" if len(self.plans) == 1 else "plans"
+        machines = "machine" if len(self.machines) == 1 else "machines"
+        return (
+            f"{self.quantity}: prior from {len(self.plans)} {plans} on {len(self.machines)} "
+            f"{machines}, between-machine spread {100 * self.spread:.1f} %, "
+            f"{self.readings} readings"
+        )
+
+
+@dataclass(frozen=True)
+class FleetPrior:
+    """An operation's prior for one quantity and its provenance."""
+
+    posterior: Posterior
+    provenance: Provenance
+
+
+def same_tool(a: Tool, b: Tool) -> bool:
+    """The fleet's key: the tool's name, process and work material."""
+    return (a.name, a.process, a.material) == (b.name, b.process, b.material)
+
+
+def fleet_priors(
+    plan: Plan,
+    learned: Sequence[Learned],
+    coverage_k: float,
+    exponent_sd: float,
+    edge_sd: float = post.DEFAULT_EDGE_SD,
+    default_spread: float = DEFAULT_SPREAD,
+    spread_weight: float = SPREAD_WEIGHT,
+) -> dict[tuple[str, str], FleetPrior]:
+    """Per (operation, quantity) of ``plan`` with fleet evidence, its prior (module docstring)."""
+    out: dict[tuple[str, str], FleetPrior] = {}
+    for op in plan.operations:
+        tool = plan.tools[op.tool]
+        for quantity, model in tool.models.items():
+            if model.dK <= 0:
+                continue
+            found = [
+                item
+                for item in learned
+                if same_tool(item.tool, tool) and item.posterior.quantity == quantity
+            ]
+            if not found:
+                continue
+            catalogue = post.prior(model, op, coverage_k, exponent_sd, edge_sd)
+            made = _prior(plan.machine.name, op, catalogue, found, default_spread, spread_weight)
+            if made is not None:
+                out[(op.name, quantity)] = made
+    return out
+
+
+def _prior(
+    machine: str,
+    op: Operation,
+    catalogue: Posterior,
+    found: Sequence[Learned],
+    default_spread: float,
+    spread_weight: float,
+) -> FleetPrior | None:
+    by_machine: dict[str, Evidence] = {}
+    for item in found:
+        item_prior = post.prior(
+            item.tool.models[catalogue.quantity],
+            item.operation,
+            item.coverage_k,
+            item.exponent_sd,
+            item.edge_sd,
+        )
+        if item_prior.names != catalogue.names:
+            continue
+        seen = evidence(item.posterior, item_prior, item.operation.context)
+        by_machine[item.machine] = (
+            by_machine[item.machine] + seen if item.machine in by_machine else seen
+        )
+    if not by_machine:
+        return None
+    own = by_machine.pop(machine, None)
+    prior_mean, prior_cov = in_tool_terms(catalogue, op.context)
+    reference = np.array([1.0, *catalogue.center])
+    belief = fleet_belief(
+        list(by_machine.values()), prior_mean, prior_cov, reference, default_spread, spread_weight
+    )
+    mean, cov = belief.mean, belief.cov
+    if own is not None:  # this machine's offset, as its own readings show it
+        information = np.linalg.inv(cov) + own.information
+        cov = np.linalg.inv(information)
+        mean = cov @ (np.linalg.inv(belief.cov) @ belief.mean + own.vector)
+    prior = _in_operation_terms(catalogue, op.context, mean, cov)
+    plans = tuple(sorted({item.plan for item in found}))
+    machines = tuple(sorted({item.machine for item in found}))
+    readings = sum(item.posterior.observations for item in found)
+    provenance = Provenance(catalogue.quantity, plans, machines, belief.spread, readings)
+    return FleetPrior(prior, provenance)
+
+
+def _in_operation_terms(
+    catalogue: Posterior, context: Mapping[str, float], mean: np.ndarray, cov: np.ndarray
+) -> Posterior:
+    """``θ ~ N(mean, cov)`` as the operation's ``β`` (the edge coefficient as catalogued)."""
+    t, offset = transform(catalogue, context)
+    t_inv = np.linalg.inv(t)
+    beta = t_inv @ (mean - offset)
+    sigma = t_inv @ cov @ t_inv.T
+    size = len(catalogue.mean)
+    full_mean = np.array(catalogue.mean, dtype=float)
+    full_cov = np.array(catalogue.cov, dtype=float)
+    n = len(beta)
+    full_mean[:n] = beta
+    full_cov[:n, :n] = 0.5 * (sigma + sigma.T)
+    assert full_cov.shape == (size, size)
+    return replace(
+        catalogue,
+        mean=tuple(float(v) for v in full_mean),
+        cov=tuple(tuple(float(v) for v in row) for row in full_cov),
+    )

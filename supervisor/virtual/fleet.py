@@ -1,0 +1,155 @@
+r"""A virtual fleet: machines that cut with the same tools, each a little differently.
+
+The truth of a tool's quantity is drawn once per fleet (as :func:`~supervisor.virtual.sampling.
+sample_machine` draws one, kept inside the band over the bounds of *every* operation that uses
+the tool, so that one law holds for all of them), and each machine ``m`` multiplies it by
+``exp(δ_m)``, ``δ_m ~ N(0, s²)`` per tool and quantity, ``s`` the between-machine spread
+(:data:`DEFAULT_MACHINE_SPREAD`). This is the hierarchical model of :mod:`supervisor.fleet.
+hierarchy`; what the learner does *not* assume is the spread's value: it learns it, from a
+default of its own. A machine drawn ``outside`` sits at ``δ = ±3 s`` for every tool and
+quantity: further from the fleet than any it has seen. The tool's truth is drawn inside the
+catalogue band narrowed by ``3 s`` on each side, so that every machine's, an outside one's
+included, lies inside the catalogue's band (the catalogue holds every machine) where the band
+is that wide; a narrower band (the 7 % of CNMG432RN's force in Ivester & Heigel's Table 2,
+one machine's scatter) holds the tool's law, and other machines may lie outside it by up to
+their offset.
+
+The noise of each machine's readings is the plan's ``u`` (:data:`~supervisor.virtual.machine.
+DEFAULT_UNCERTAINTY`), drawn from ``numpy.random.default_rng([seed, m])``
+(:func:`noise_seed`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from models.powerlaw import PowerLawModel
+from models.tool import Tool
+from supervisor.inputs.plan import Plan
+from supervisor.virtual.machine import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine
+from supervisor.virtual.sampling import log_range, true_model
+
+#: The between-machine spread of ``ln K`` the virtual fleet draws [-]: 3 %, the share of a
+#: tool's scatter a machine's rigidity and spindle make (smaller than a catalogue band's
+#: 10-50 %, which also holds the material's batch-to-batch and the model's error).
+DEFAULT_MACHINE_SPREAD = 0.03
+#: Where a machine drawn outside the fleet's spread sits, in multiples of the spread.
+OUTSIDE = 3.0
+#: The streams of the fleet's truths and of its machines' offsets, apart from every noise.
+_TRUTH_STREAM = 1_000_003
+_OFFSET_STREAM = 1_000_033
+
+
+def noise_seed(seed: int, machine: int) -> list[int]:
+    """The seed of machine ``machine``'s measurement noise in scenario ``seed``."""
+    return [seed, machine]
+
+
+def sample_fleet(
+    plan: Plan,
+    seed: int,
+    machines: int,
+    *,
+    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    outside: bool = False,
+    spread: float = 1 / 3,
+    exponent_spread: float = 0.05,
+) -> tuple[VirtualMachine, ...]:
+    """``machines`` virtual machines running ``plan`` (module docstring); the last ``outside``.
+
+    ``spread`` and ``exponent_spread`` are those of the tool's truth, as
+    :func:`~supervisor.virtual.sampling.sample_machine` takes them.
+    """
+    truths = fleet_truths(plan, seed, machine_spread, spread, exponent_spread)
+    rng = np.random.default_rng([seed, _OFFSET_STREAM])
+    fleet = []
+    for m in range(machines):
+        offsets = {}
+        for key in truths:
+            draw = float(rng.standard_normal())
+            last_outside = outside and m == machines - 1
+            delta = math.copysign(OUTSIDE, draw) if last_outside else draw
+            exact = plan.tools[key[0]].models[key[1]].dK == 0  # a model without a band
+            offsets[key] = 0.0 if exact else delta * machine_spread
+        fleet.append(_machine(plan, truths, offsets, f"fleet machine {m} of scenario {seed}"))
+    return tuple(fleet)
+
+
+def fleet_truths(
+    plan: Plan,
+    seed: int,
+    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    spread: float = 1 / 3,
+    exponent_spread: float = 0.05,
+) -> dict[tuple[str, str], PowerLawModel]:
+    """Per (tool, quantity), the law every machine of the fleet of ``seed`` is an offset of."""
+    rng = np.random.default_rng([seed, _TRUTH_STREAM])
+    truths: dict[tuple[str, str], PowerLawModel] = {}
+    for tool_name in sorted({op.tool for op in plan.operations}):
+        tool = plan.tools[tool_name]
+        ops = [op for op in plan.operations if op.tool == tool_name]
+        for quantity in sorted(tool.models):
+            model = tool.models[quantity]
+            names = sorted(model.exponents)
+            ranges = [log_range(names, op) for op in ops]
+            box = (np.min([r[0] for r in ranges], 0), np.max([r[1] for r in ranges], 0))
+            inner = _inside(model, OUTSIDE * machine_spread)
+            truths[(tool_name, quantity)] = true_model(
+                inner, ops[0], rng, spread, exponent_spread, box=box
+            )
+    return truths
+
+
+def _inside(model: PowerLawModel, room: float) -> PowerLawModel:
+    """``model`` with a band that keeps a truth moved by up to ``±room`` (ln) inside its own.
+
+    The catalogue's band holds every machine (module docstring).
+    """
+    if model.dK == 0:
+        return model
+    band = model.dK / model.K
+    high = math.expm1(math.log1p(band) - room)
+    low = 1.0 - (1.0 - band) * math.exp(room) if band < 1 else high
+    return PowerLawModel(
+        model.quantity,
+        model.K,
+        model.K * max(min(high, low), 0.0),
+        dict(model.exponents),
+        model.source,
+        model.reference,
+    )
+
+
+def _machine(
+    plan: Plan,
+    truths: dict[tuple[str, str], PowerLawModel],
+    offsets: dict[tuple[str, str], float],
+    label: str,
+) -> VirtualMachine:
+    processes = {}
+    for op in plan.operations:
+        nominal = plan.tools[op.tool]
+        models = {q: _offset(truths[(op.tool, q)], offsets[(op.tool, q)]) for q in nominal.models}
+        tool = Tool(
+            name=nominal.name,
+            process=nominal.process,
+            models=models,
+            description=f"true process of operation {op.name!r} ({label})",
+            material=nominal.material,
+            source=f"sampled inside the bands of {nominal.source or nominal.name}",
+        )
+        processes[op.name] = TrueProcess(op.name, tool)
+    return VirtualMachine(plan=plan, processes=processes, uncertainty=dict(DEFAULT_UNCERTAINTY))
+
+
+def _offset(model: PowerLawModel, delta: float) -> PowerLawModel:
+    return PowerLawModel(
+        model.quantity,
+        model.K * math.exp(delta),
+        model.dK,
+        dict(model.exponents),
+        model.source,
+        model.reference,
+    )

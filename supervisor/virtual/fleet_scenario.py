@@ -1,0 +1,117 @@
+"""A fleet scenario: machines learn a plan, then a new machine starts it from what they learned.
+
+For a scenario ``seed`` (:func:`run_fleet_scenario`): the fleet of ``machines`` virtual
+machines (:func:`supervisor.virtual.fleet.sample_fleet`; every :data:`OUTSIDE_EVERY`-th
+scenario's new machine outside the spread); each of the first ``machines − 1`` makes
+``learn_parts`` parts with ``learn`` from the catalogue; their posteriors are the fleet
+(:mod:`supervisor.fleet.prior`: a plan that halted or saw a change of its process is left out,
+as the database leaves it out until an engineer puts it back); the last machine then makes
+``parts`` parts twice with the same noise, once from the fleet prior and once from the
+catalogue, each scored against that machine's oracle (:func:`supervisor.virtual.scenario.
+run_machine`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+
+from supervisor.fleet.prior import Learned, Provenance, fleet_priors
+from supervisor.inputs.plan import Plan
+from supervisor.rcb.state import RcbSettings, RcbState
+from supervisor.rcb.update import start
+from supervisor.virtual.certificate import ScenarioTrace
+from supervisor.virtual.fleet import DEFAULT_MACHINE_SPREAD, noise_seed, sample_fleet
+from supervisor.virtual.scenario import run_machine
+
+#: Every this many scenarios (seeds ``≡ OUTSIDE_EVERY − 1``), the new machine is drawn outside.
+OUTSIDE_EVERY = 10
+
+
+@dataclass(frozen=True)
+class FleetTrace:
+    """The new machine's run from the fleet prior and from the catalogue, and the fleet."""
+
+    seed: int
+    outside: bool
+    fleet: ScenarioTrace
+    catalogue: ScenarioTrace
+    learned_violations: int
+    provenance: tuple[Provenance, ...]
+
+
+def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
+    """What one plan's state gives the fleet: nothing after a halt or a change of the process."""
+    if state.halt is not None or any(m.changes for m in state.monitors.values()):
+        return []
+    settings = state.settings
+    ops = {op.name: op for op in state.plan.operations}
+    return [
+        Learned(
+            machine,
+            plan,
+            ops[name],
+            state.plan.tools[ops[name].tool],
+            belief,
+            settings.coverage_k,
+            settings.exponent_sd,
+            settings.edge_sd,
+        )
+        for (name, _), belief in sorted(state.posterior.items())
+    ]
+
+
+def run_fleet_scenario(
+    plan: Plan,
+    seed: int,
+    machines: int,
+    parts: int,
+    learn_parts: int,
+    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+) -> FleetTrace:
+    """One scenario (module docstring); ``machine_spread``: the fleet's true spread."""
+    outside = seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
+    fleet = sample_fleet(plan, seed, machines, machine_spread=machine_spread, outside=outside)
+    settings = RcbSettings(strategy="learn")
+    catalogue = start(plan, settings)
+    learned: list[Learned] = []
+    violations = 0
+    for m, machine in enumerate(fleet[:-1]):
+        trace, state = run_machine(
+            catalogue, machine, seed, learn_parts, noise_seed=noise_seed(seed, m)
+        )
+        violations += int(trace.violations.sum())
+        learned += learned_from(state, f"machine-{m}", f"plan-{m}")
+    priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
+    from_fleet = start(plan, settings, {k: p.posterior for k, p in priors.items()})
+    new, last = fleet[-1], noise_seed(seed, machines - 1)
+    return FleetTrace(
+        seed,
+        outside,
+        run_machine(from_fleet, new, seed, parts, noise_seed=last)[0],
+        run_machine(catalogue, new, seed, parts, noise_seed=last)[0],
+        violations,
+        tuple(p.provenance for _, p in sorted(priors.items())),
+    )
+
+
+def _one(task: tuple[Plan, int, int, int, int, float]) -> FleetTrace:
+    return run_fleet_scenario(*task)
+
+
+def simulate_fleet(
+    plan: Plan,
+    seeds: Sequence[int],
+    machines: int,
+    parts: int,
+    learn_parts: int,
+    jobs: int = 1,
+    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+) -> list[FleetTrace]:
+    """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
+    tasks = [(plan, s, machines, parts, learn_parts, machine_spread) for s in seeds]
+    if jobs <= 1:
+        return [_one(t) for t in tasks]
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        return list(pool.map(_one, tasks, chunksize=max(1, len(tasks) // (4 * jobs))))
