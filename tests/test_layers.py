@@ -214,7 +214,6 @@ LONG_TODAY = {
     "api/collect/opcua.py::observations",  # 75
     "api/collect/runner.py::mtconnect_loop",  # 93
     "api/rest/problems.py::install",  # 100
-    "api/rest/routes/plans.py::create_plan",  # 64
     "api/services/parts.py::_report_part",  # 87
     "api/services/parts.py::_report_part.work",  # 62
     "api/services/record.py::report_record",  # 67
@@ -235,7 +234,6 @@ LONG_TODAY = {
     "supervisor/inputs/signals.py::resolve",  # 67
     "supervisor/rcb/law.py::_apply_law",  # 134
     "supervisor/rcb/monitor.py::watch",  # 78
-    "supervisor/rcb/replan.py::replan",  # 76
     "supervisor/rcb/update.py::_reading",  # 70
     "supervisor/rcb/update.py::update",  # 84
     "supervisor/virtual/certify.py::simulate",  # 101

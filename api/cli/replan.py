@@ -71,10 +71,14 @@ def replan(
             dry_run=dry_run,
             actor=actor,
         )
-    answer = written.body
     if as_json:
-        emit(answer)
+        emit(written.body)
         return
+    _show(plan_key, written.body, dry_run)
+
+
+def _show(plan_key: int, answer: dict[str, Any], dry_run: bool) -> None:
+    """The replan's difference as a table and its cycle times."""
     table = new_table(
         title=f"plan {plan_key}: replan" + (" (dry run, nothing stored)" if dry_run else "")
     )
