@@ -14,7 +14,7 @@ import socket
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import psycopg
 import pytest
@@ -31,6 +31,9 @@ from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.rcb.state import RcbState
 
 from live import LiveServer
+
+if TYPE_CHECKING:
+    from scale_support import Copied, Reported
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -226,3 +229,22 @@ def server(request, tmp_path_factory) -> Iterator[LiveServer]:
 def sqlite_server(tmp_path_factory) -> Iterator[LiveServer]:
     """A running ``rcb serve`` on a fresh SQLite database, shared by a module's tests."""
     yield from _serving(f"sqlite:///{tmp_path_factory.mktemp('db') / 'rcb.db'}", tmp_path_factory)
+
+
+@pytest.fixture(params=["sqlite", "postgres"])
+def bayes_history(request, tmp_path, tmp_path_factory) -> Iterator[Copied | Reported]:
+    """test_service.BODY under the bayes strategy (a setpoint version per part) after n of its
+    virtual-lathe reports, ``.at(n)`` an engine: on SQLite a copy of the run's shared
+    database (tests/scale_support.py), on PostgreSQL reported here into a fresh database."""
+    from scale_support import Copied, Reported  # it imports test_service, which imports this
+
+    if request.param == "sqlite":
+        history: Copied | Reported = Copied(tmp_path_factory, tmp_path, "bayes")
+        yield history
+        history.close()
+        return
+    url = request.getfixturevalue("empty_postgres")
+    upgrade(url)
+    engine = make_engine(url)
+    yield Reported(engine, "bayes")
+    engine.dispose()
