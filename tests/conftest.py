@@ -33,7 +33,7 @@ from supervisor.rcb.state import RcbState
 from live import LiveServer
 
 if TYPE_CHECKING:
-    from scale_support import Copied, Reported
+    from scale_support import Copied, PostgresCopied
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -232,41 +232,53 @@ def sqlite_server(tmp_path_factory) -> Iterator[LiveServer]:
 
 
 @pytest.fixture(params=["sqlite", "postgres"])
-def bayes_history(request, tmp_path, tmp_path_factory) -> Iterator[Copied | Reported]:
+def bayes_history(request, tmp_path, tmp_path_factory) -> Iterator[Copied | PostgresCopied]:
     """test_service.BODY under the bayes strategy (a setpoint version per part) after n of its
-    virtual-lathe reports, ``.at(n)`` an engine: on SQLite a copy of the run's shared
-    database (tests/scale_support.py), on PostgreSQL reported here into a fresh database."""
-    from scale_support import Copied, Reported  # it imports test_service, which imports this
+    virtual-lathe reports, ``.at(n)`` an engine on a database of the test's own, copied from
+    the run's shared one (tests/scale_support.py): a SQLite file, or a PostgreSQL database."""
+    from scale_support import Copied, PostgresCopied  # it imports test_service, which imports this
 
+    history: Copied | PostgresCopied
     if request.param == "sqlite":
-        history: Copied | Reported = Copied(tmp_path_factory, tmp_path, "bayes")
-        yield history
-        history.close()
+        history = Copied(tmp_path_factory, tmp_path, "bayes")
+    else:
+        server = postgres_url()
+        if server is None:
+            pytest.skip(postgres_skip_reason())
+        history = PostgresCopied(tmp_path_factory, server)
+    yield history
+    history.close()
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """The run's shared PostgreSQL histories dropped, once every worker is done (the xdist
+    controller, or the only process): tests/scale_support.py."""
+    if hasattr(session.config, "workerinput") or (server := postgres_url()) is None:
         return
-    url = request.getfixturevalue("empty_postgres")
-    upgrade(url)
-    engine = make_engine(url)
-    yield Reported(engine, "bayes")
-    engine.dispose()
+    from scale_support import drop_postgres_snapshots
+
+    drop_postgres_snapshots(session.config._tmp_path_factory.getbasetemp(), server)
 
 
 #: The files that take longest, run first and longest first (seconds on a loaded 2-core host,
 #: the sum of their tests, issue 30 item 8). ``--dist loadfile`` hands each worker whole files
 #: in collection order: started first, the long files run beside each other and the short
 #: ones fill in after them, where in name order one long file ran alone at the end.
+#: test_history_scale leads: it builds the run's shared bayes histories (tests/scale_support)
+#: that test_report_scale and test_state_scale, later, copy without waiting on the lock.
 HEAVY_FIRST = (
-    "test_collect_opcua_nodesets.py",  # 100 s
+    "test_history_scale.py",  # 60 s, 40 s of them the shared histories
     "test_rest_concurrency.py",  # 99 s
     "test_note_surfaces.py",  # 88 s
+    "test_collect_opcua_nodesets.py",  # 55 s
     "test_rest_schema.py",  # 64 s
-    "test_history_scale.py",  # 60 s
     "test_docs.py",  # 60 s
-    "test_report_scale.py",  # 50 s
     "test_cli_db_errors.py",  # 50 s
     "test_virtual_serve.py",  # 44 s
+    "test_report_scale.py",  # 40 s
     "test_collect_opcua.py",  # 42 s
     "test_rest_pool.py",  # 39 s
-    "test_state_scale.py",  # 32 s
+    "test_state_scale.py",  # 15 s
     "test_list_paging.py",  # 21 s
     "test_rest_sweep.py",  # 20 s
     "test_cli_width.py",  # 20 s

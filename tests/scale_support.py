@@ -9,7 +9,10 @@ a lock. The database is copied whole (SQLite's backup API) after each part count
 reads, and each test gets its own copy of the count it asks for: what it reads is what it
 would have written itself, since the reports are the same and made in the same order.
 
-On PostgreSQL a test still reports the parts into its own database (:class:`Reported`).
+On PostgreSQL the same: the bayes reports are made once into one database, which is copied
+(``CREATE DATABASE ... TEMPLATE``) at each count; each test gets its own database made from
+the copy (:class:`PostgresCopied`); the copies are dropped when the run ends
+(:func:`drop_postgres_snapshots`, from conftest's ``pytest_sessionfinish``).
 """
 
 from __future__ import annotations
@@ -17,10 +20,12 @@ from __future__ import annotations
 import fcntl
 import os
 import sqlite3
+import uuid
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine
+from sqlalchemy import Engine, text
+from sqlalchemy.engine import make_url
 from test_service import BODY, _reports
 
 from api.services.parts import report_part
@@ -36,6 +41,13 @@ SNAPSHOTS: dict[str | None, tuple[int, ...]] = {
     "ivester": (20, 300),
     None: (400,),
 }
+
+
+#: The bayes counts the PostgreSQL tests read (test_history_scale, test_report_scale).
+POSTGRES_SNAPSHOTS = (19, 20, 399, 400)
+#: The folder, in the run's shared folder, whose file ``databases`` names the PostgreSQL
+#: databases the run made (one a line).
+POSTGRES_FOLDER = "history-bayes-postgres"
 
 
 def settings_of(strategy: str | None) -> RcbSettings | None:
@@ -89,6 +101,107 @@ def _snapshot(tmp_path_factory: Any, strategy: str | None, parts: int) -> Path:
     return folder / f"{parts}.db"
 
 
+def _database(server: str, name: str) -> str:
+    return make_url(server).set(database=name).render_as_string(hide_password=False)
+
+
+def _admin(server: str) -> Engine:
+    return make_engine(server).execution_options(isolation_level="AUTOCOMMIT")
+
+
+def _build_postgres(folder: Path, server: str) -> None:
+    """The bayes reports into one PostgreSQL database, copied at each POSTGRES_SNAPSHOTS."""
+    stem = f"rcb_test_hist_{uuid.uuid4().hex[:8]}"
+    names = folder / "databases"
+    work = f"{stem}_work"
+    admin = _admin(server)
+    try:
+        with admin.connect() as connection:
+            names.write_text(f"{work}\n")
+            connection.execute(text(f'CREATE DATABASE "{work}"'))
+        url = _database(server, work)
+        upgrade(url)
+        settings = settings_of("bayes")
+        bodies, _ = _reports(max(POSTGRES_SNAPSHOTS), settings=settings)
+        done = 0
+        for count in POSTGRES_SNAPSHOTS:
+            engine = make_engine(url)
+            if done == 0:
+                plan = create_plan(engine=engine, body=BODY, settings=settings).body
+                assert plan["id"] == PLAN_ID
+            for body in bodies[done:count]:
+                assert report_part(engine=engine, plan_id=PLAN_ID, body=body).status == 201
+            done = count
+            engine.dispose()  # and its read pool: a template has no one connected
+            with admin.connect() as connection, names.open("a") as listed:
+                listed.write(f"{stem}_{count}\n")
+                connection.execute(text(f'CREATE DATABASE "{stem}_{count}" TEMPLATE "{work}"'))
+        with admin.connect() as connection:
+            connection.execute(text(f'DROP DATABASE "{work}" WITH (FORCE)'))
+    finally:
+        admin.dispose()
+
+
+def _postgres_snapshot(tmp_path_factory: Any, server: str, parts: int) -> str:
+    """The name of the shared PostgreSQL database after ``parts`` bayes reports."""
+    assert parts in POSTGRES_SNAPSHOTS, parts
+    folder = _run_folder(tmp_path_factory) / POSTGRES_FOLDER
+    folder.mkdir(exist_ok=True)
+    with (folder / "lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (folder / "built").exists():
+            _build_postgres(folder, server)
+            (folder / "built").touch()
+    work = (folder / "databases").read_text().split()[0]
+    return f"{work.removesuffix('_work')}_{parts}"
+
+
+def drop_postgres_snapshots(base: Path, server: str) -> None:
+    """Drop the copies the run made (``base``: the run's shared folder), if it made any."""
+    names = base / POSTGRES_FOLDER / "databases"
+    if not names.exists():
+        return
+    admin = _admin(server)
+    try:
+        with admin.connect() as connection:
+            for name in names.read_text().split():
+                connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+    finally:
+        admin.dispose()
+    names.unlink()
+
+
+class PostgresCopied:
+    """The bayes plan after n reports, each a new database made from the shared copy."""
+
+    def __init__(self, tmp_path_factory: Any, server: str) -> None:
+        self.factory, self.server = tmp_path_factory, server
+        self.made: list[tuple[str, Engine]] = []
+
+    def at(self, parts: int) -> Engine:
+        template = _postgres_snapshot(self.factory, self.server, parts)
+        name = f"rcb_test_{uuid.uuid4().hex[:12]}"
+        admin = _admin(self.server)
+        try:
+            with admin.connect() as connection:
+                connection.execute(text(f'CREATE DATABASE "{name}" TEMPLATE "{template}"'))
+        finally:
+            admin.dispose()
+        engine = make_engine(_database(self.server, name))
+        self.made.append((name, engine))
+        return engine
+
+    def close(self) -> None:
+        admin = _admin(self.server)
+        try:
+            for name, engine in self.made:
+                engine.dispose()
+                with admin.connect() as connection:
+                    connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+        finally:
+            admin.dispose()
+
+
 class Copied:
     """The plan :data:`PLAN_ID` of ``strategy`` after n reports, each a copy of the shared
     SQLite database (in ``tmp``), its engine disposed by :meth:`close`."""
@@ -107,26 +220,3 @@ class Copied:
     def close(self) -> None:
         for engine in self.engines:
             engine.dispose()
-
-
-class Reported:
-    """The same plan reported into one database as the counts are asked for (increasing)."""
-
-    def __init__(self, engine: Engine, strategy: str | None) -> None:
-        self.engine, self.strategy, self.done = engine, strategy, 0
-        self.bodies: list[dict[str, Any]] = []
-
-    def at(self, parts: int) -> Engine:
-        settings = settings_of(self.strategy)
-        if not self.bodies:
-            self.bodies, _ = _reports(max(SNAPSHOTS[self.strategy]), settings=settings)
-            plan = create_plan(engine=self.engine, body=BODY, settings=settings).body
-            assert plan["id"] == PLAN_ID
-        assert parts >= self.done, (self.done, parts)
-        for body in self.bodies[self.done : parts]:
-            assert report_part(engine=self.engine, plan_id=PLAN_ID, body=body).status == 201
-        self.done = parts
-        return self.engine
-
-    def close(self) -> None:
-        pass
