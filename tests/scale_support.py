@@ -1,13 +1,14 @@
 """The long plan histories of the scale tests, reported once per run and copied to each test.
 
-The scale tests of the report, the history page and the state read (test_report_scale.py,
-test_history_scale.py, test_state_scale.py) each reported the same virtual-lathe parts of
-``test_service.BODY`` into a fresh SQLite database: 1,500 bayes reports in all, 12-50 s a
-test. Here the reports of one strategy are made once per run, through the same
-``report_part`` calls, by the first test (of any xdist worker) that asks; the others wait on
-a lock. The database is copied whole (SQLite's backup API) after each part count some test
-reads, and each test gets its own copy of the count it asks for: what it reads is what it
-would have written itself, since the reports are the same and made in the same order.
+The scale tests of the report, the history page, the state read and the model versions' page
+(test_report_scale.py, test_history_scale.py, test_state_scale.py, test_list_paging.py) each
+reported the same virtual-lathe parts of ``test_service.BODY`` into a fresh database: 1,600
+bayes reports in all on SQLite, 860 on PostgreSQL, 10-50 s a test. Here the reports of one
+strategy are made once per run, through the same ``report_part`` calls, by the first test
+(of any xdist worker) that asks; the others wait on a lock. The SQLite database is copied
+whole (SQLite's backup API) after each part count some test reads, and each test gets its
+own copy of the count it asks for: what it reads is what it would have written itself, since
+the reports are the same and made in the same order.
 
 On PostgreSQL the same: the bayes reports are made once into one database, which is copied
 (``CREATE DATABASE ... TEMPLATE``) at each count; each test gets its own database made from
@@ -37,14 +38,15 @@ from supervisor.rcb.state import RcbSettings
 PLAN_ID = 1
 #: Per strategy (None: the default), the part counts some test reads.
 SNAPSHOTS: dict[str | None, tuple[int, ...]] = {
-    "bayes": (19, 20, 300, 399, 400),
+    "bayes": (4, 19, 20, 59, 300, 399, 400),
     "ivester": (20, 300),
     None: (400,),
 }
 
 
-#: The bayes counts the PostgreSQL tests read (test_history_scale, test_report_scale).
-POSTGRES_SNAPSHOTS = (19, 20, 399, 400)
+#: The bayes counts the PostgreSQL tests read (test_history_scale, test_report_scale,
+#: test_list_paging).
+POSTGRES_SNAPSHOTS = (4, 19, 20, 59, 399, 400)
 #: The folder, in the run's shared folder, whose file ``databases`` names the PostgreSQL
 #: databases the run made (one a line).
 POSTGRES_FOLDER = "history-bayes-postgres"
