@@ -260,31 +260,44 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
     drop_postgres_snapshots(session.config._tmp_path_factory.getbasetemp(), server)
 
 
-#: The files that take longest, run first and longest first (seconds on a loaded 2-core host,
-#: the sum of their tests, issue 30 item 8). ``--dist loadfile`` hands each worker whole files
-#: in collection order: started first, the long files run beside each other and the short
-#: ones fill in after them, where in name order one long file ran alone at the end.
-#: test_history_scale leads: it builds the run's shared bayes histories (tests/scale_support)
-#: that test_report_scale and test_state_scale, later, copy without waiting on the lock.
+#: The files that take longest, run first and longest first: the sum of their tests' times
+#: (setup and teardown included) in a full run on a 2-core host at load 7-13 (issue 30 item
+#: 8); every other file took under 20 s. ``--dist loadfile`` hands each worker whole files in
+#: collection order (``--no-loadscope-reorder``: not xdist's order by number of tests, which
+#: put files of few long tests last): the long files run beside each other and the short ones
+#: fill in after them. test_list_paging's time includes building the run's shared bayes
+#: histories (tests/scale_support.py) that the scale files after it copy.
 HEAVY_FIRST = (
-    "test_history_scale.py",  # 60 s, 40 s of them the shared histories
-    "test_rest_concurrency.py",  # 99 s
-    "test_note_surfaces.py",  # 88 s
-    "test_collect_opcua_nodesets.py",  # 55 s
-    "test_rest_schema.py",  # 64 s
-    "test_docs.py",  # 60 s
-    "test_cli_db_errors.py",  # 50 s
-    "test_virtual_serve.py",  # 44 s
-    "test_report_scale.py",  # 40 s
-    "test_collect_opcua.py",  # 42 s
-    "test_rest_pool.py",  # 39 s
-    "test_state_scale.py",  # 15 s
-    "test_list_paging.py",  # 21 s
-    "test_rest_sweep.py",  # 20 s
-    "test_cli_width.py",  # 20 s
-    "test_audit_burst.py",  # 19 s
-    "test_collect_mtconnect.py",  # 19 s
-    "test_cam_acceptance.py",  # 18 s
+    "test_rest_concurrency.py",  # 128 s
+    "test_cli_width.py",  # 120 s
+    "test_rest_schema.py",  # 107 s
+    "test_list_paging.py",  # 100 s
+    "test_docs.py",  # 87 s
+    "test_cli_db_errors.py",  # 82 s
+    "test_cli_actor.py",  # 76 s
+    "test_note_surfaces.py",  # 72 s
+    "test_collect_opcua_nodesets.py",  # 63 s
+    "test_virtual_serve.py",  # 41 s
+    "test_rest_pool.py",  # 41 s
+    "test_history_scale.py",  # 40 s
+    "test_collect_opcua.py",  # 39 s
+    "test_content_type.py",  # 37 s
+    "test_migration_lock.py",  # 36 s
+    "test_report_scale.py",  # 32 s
+    "test_shop_floor_rest.py",  # 31 s
+    "test_rest_sweep.py",  # 29 s
+    "test_rest_identities.py",  # 27 s
+    "test_cli_errors.py",  # 27 s
+    "test_gcode_stream.py",  # 24 s
+    "test_keys_scope_audit.py",  # 23 s
+    "test_rest_validation.py",  # 23 s
+    "test_collect_mtconnect.py",  # 23 s
+    "test_plan_names.py",  # 22 s
+    "test_replan.py",  # 22 s
+    "test_cam_acceptance.py",  # 22 s
+    "test_cam_bombs.py",  # 22 s
+    "test_audit_burst.py",  # 21 s
+    "test_examples.py",  # 20 s
 )
 
 
