@@ -14,7 +14,7 @@ import socket
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import psycopg
 import pytest
@@ -31,6 +31,9 @@ from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.rcb.state import RcbState
 
 from live import LiveServer
+
+if TYPE_CHECKING:
+    from scale_support import Copied, PostgresCopied
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
@@ -226,3 +229,81 @@ def server(request, tmp_path_factory) -> Iterator[LiveServer]:
 def sqlite_server(tmp_path_factory) -> Iterator[LiveServer]:
     """A running ``rcb serve`` on a fresh SQLite database, shared by a module's tests."""
     yield from _serving(f"sqlite:///{tmp_path_factory.mktemp('db') / 'rcb.db'}", tmp_path_factory)
+
+
+@pytest.fixture(params=["sqlite", "postgres"])
+def bayes_history(request, tmp_path, tmp_path_factory) -> Iterator[Copied | PostgresCopied]:
+    """test_service.BODY under the bayes strategy (a setpoint version per part) after n of its
+    virtual-lathe reports, ``.at(n)`` an engine on a database of the test's own, copied from
+    the run's shared one (tests/scale_support.py): a SQLite file, or a PostgreSQL database."""
+    from scale_support import Copied, PostgresCopied  # it imports test_service, which imports this
+
+    history: Copied | PostgresCopied
+    if request.param == "sqlite":
+        history = Copied(tmp_path_factory, tmp_path, "bayes")
+    else:
+        server = postgres_url()
+        if server is None:
+            pytest.skip(postgres_skip_reason())
+        history = PostgresCopied(tmp_path_factory, server)
+    yield history
+    history.close()
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """The run's shared PostgreSQL histories dropped, once every worker is done (the xdist
+    controller, or the only process): tests/scale_support.py."""
+    if hasattr(session.config, "workerinput") or (server := postgres_url()) is None:
+        return
+    from scale_support import drop_postgres_snapshots
+
+    drop_postgres_snapshots(session.config._tmp_path_factory.getbasetemp(), server)
+
+
+#: The files that take longest, run first and longest first: the sum of their tests' times
+#: (setup and teardown included) in a full run on a 2-core host at load 7-13 (issue 30 item
+#: 8); every other file took under 20 s. ``--dist loadfile`` hands each worker whole files in
+#: collection order (``--no-loadscope-reorder``: not xdist's order by number of tests, which
+#: put files of few long tests last): the long files run beside each other and the short ones
+#: fill in after them. test_list_paging's time includes building the run's shared bayes
+#: histories (tests/scale_support.py) that the scale files after it copy.
+HEAVY_FIRST = (
+    "test_rest_concurrency.py",  # 128 s
+    "test_cli_width.py",  # 120 s
+    "test_rest_schema.py",  # 107 s
+    "test_list_paging.py",  # 100 s
+    "test_docs.py",  # 87 s
+    "test_cli_db_errors.py",  # 82 s
+    "test_cli_actor.py",  # 76 s
+    "test_note_surfaces.py",  # 72 s
+    "test_collect_opcua_nodesets.py",  # 63 s
+    "test_virtual_serve.py",  # 41 s
+    "test_rest_pool.py",  # 41 s
+    "test_history_scale.py",  # 40 s
+    "test_collect_opcua.py",  # 39 s
+    "test_content_type.py",  # 37 s
+    "test_migration_lock.py",  # 36 s
+    "test_report_scale.py",  # 32 s
+    "test_shop_floor_rest.py",  # 31 s
+    "test_rest_sweep.py",  # 29 s
+    "test_rest_identities.py",  # 27 s
+    "test_cli_errors.py",  # 27 s
+    "test_gcode_stream.py",  # 24 s
+    "test_keys_scope_audit.py",  # 23 s
+    "test_rest_validation.py",  # 23 s
+    "test_collect_mtconnect.py",  # 23 s
+    "test_plan_names.py",  # 22 s
+    "test_replan.py",  # 22 s
+    "test_cam_acceptance.py",  # 22 s
+    "test_cam_bombs.py",  # 22 s
+    "test_audit_burst.py",  # 21 s
+    "test_examples.py",  # 20 s
+)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The files of :data:`HEAVY_FIRST` first, in its order, then the rest in name order; the
+    order within a file (and its module fixtures' grouping) is kept: the sort is stable."""
+    rank = {name: i for i, name in enumerate(HEAVY_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))

@@ -11,6 +11,8 @@ registry these tests skip, saying so.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import pytest
 
 from api.virtual_serve.opcua_machine import OpcUaMachine, own_space
@@ -78,6 +80,21 @@ def test_twenty_parts_from_a_node_opcua_server(sqlite_server, tmp_path):
     )
 
 
+@pytest.fixture(scope="module")
+def official_machine() -> Iterator[OpcUaMachine]:
+    """One asyncua server with the official nodesets, never played, that the collectors of the
+    paths below are refused by (importing the nodesets takes 5-15 s: once, not per path)."""
+    space = OfficialSpace(nodeset_folder())
+    trace = [
+        TraceSample(0, "READY", 9000, 1, 0.0, 0.0, 0.0),
+        TraceSample(0, "ACTIVE", 100, 1, 1.25, 1000.0, 300.0),
+    ]
+    machine = OpcUaMachine(trace, free_port(), space=space)
+    machine.start()
+    yield machine
+    machine.stop()
+
+
 @pytest.mark.parametrize(
     ("nodes", "expected"),
     [
@@ -100,18 +117,10 @@ def test_twenty_parts_from_a_node_opcua_server(sqlite_server, tmp_path):
         ),
     ],
 )
-def test_a_path_not_on_the_server_is_one_line_naming_it(tmp_path, nodes, expected):
-    space = OfficialSpace(nodeset_folder())
-    trace = [
-        TraceSample(0, "READY", 9000, 1, 0.0, 0.0, 0.0),
-        TraceSample(0, "ACTIVE", 100, 1, 1.25, 1000.0, 300.0),
-    ]
-    machine = OpcUaMachine(trace, free_port(), space=space)
-    machine.start()
-    try:
-        errors, stderr = refused(tmp_path, _source(machine.url, **nodes))
-    finally:
-        machine.stop()
+def test_a_path_not_on_the_server_is_one_line_naming_it(
+    official_machine, tmp_path, nodes, expected
+):
+    errors, stderr = refused(tmp_path, _source(official_machine.url, **nodes))
     assert len(errors) == 1 and errors[0].startswith(expected), stderr[-2000:]
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 import httpx
 import pytest
+from scale_support import PLAN_ID
 from sqlalchemy import event, select, text
 from sqlalchemy.orm import Session
 from test_service import BODY, _reports
@@ -29,7 +30,6 @@ from db.engine import make_engine, reader
 from models.catalogue import catalogue
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
-from supervisor.rcb.state import RcbSettings
 
 from conftest import report_at
 
@@ -180,14 +180,11 @@ def test_a_tools_page_merges_the_catalogue_and_costs_the_same_at_5_and_300_store
         assert collation == "C"
 
 
-def test_model_versions_page_by_version_and_the_models_in_force_by_seek(engine):
-    bayes = RcbSettings("bayes")  # a model version per part and quantity
-    bodies, _ = _reports(60, settings=bayes)
-    plan_id = create_plan(engine=engine, body=BODY, settings=bayes).body["id"]
-    counter, costs = Counter(engine), {}
-    for size, (lo, hi) in ((5, (0, 4)), (60, (4, 59))):
-        for body in bodies[lo:hi]:
-            assert report_part(engine=engine, plan_id=plan_id, body=body).status == 201
+def test_model_versions_page_by_version_and_the_models_in_force_by_seek(bayes_history):
+    plan_id, costs = PLAN_ID, {}  # bayes: a model version per part and quantity
+    for size in (5, 60):
+        engine = bayes_history.at(size - 1)  # the plan's first version and one per part
+        counter = Counter(engine)
         with Session(engine) as session:  # the reference: every row, read whole
             rows = session.execute(
                 select(t.OperationModelVersion, t.Operation.position, t.Operation.name)

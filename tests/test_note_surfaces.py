@@ -23,7 +23,9 @@ from typing import Any
 import httpx
 import pytest
 from rich.cells import cell_len
+from typer.testing import CliRunner
 
+from api.cli.main import app
 from api.report import plots
 from api.report.html import render_record
 from api.report.series import operation_series
@@ -244,13 +246,21 @@ def test_cli_tables_show_the_notes_and_fit_80_columns(stored, command):
         assert word in words, word
 
 
+def _rcb_json(*args: str) -> Any:
+    """``rcb ... --json`` in this process: the document, not the terminal (run for real
+    above and below), is what is checked."""
+    done = CliRunner().invoke(app, [*args, "--json"])
+    assert done.exit_code == 0, done.output
+    return json.loads(done.stdout)
+
+
 def test_cli_history_json_and_plans_show_the_notes_and_the_halt(stored):
     plan = str(stored["plan_id"])
-    data = json.loads(_rcb("history", plan, "--db", stored["url"], "--json", columns=80))
+    data = _rcb_json("history", plan, "--db", stored["url"])
     notes = {d["note"] for v in data["versions"] for d in v["decisions"]}
     assert {"implausible_low", "regime_change"} <= notes
     assert data["halt"]["message"] == GROSS
-    listed = json.loads(_rcb("plans", "--db", stored["url"], "--json", columns=80))["plans"]
+    listed = _rcb_json("plans", "--db", stored["url"])["plans"]
     assert listed[0]["settings"]["halt_over"] == 0.25 and listed[0]["halt"]["message"] == GROSS
     for command in (["history", plan], ["plans"]):
         shown = _rcb(*command, "--db", stored["url"], columns=250)

@@ -9,8 +9,9 @@ import re
 from typing import Any
 
 import pytest
+from scale_support import PLAN_ID, Copied
 from sqlalchemy import event, text
-from test_service import BODY, _reports
+from test_service import BODY
 
 from api.report import full_record as full_module
 from api.report import html_history
@@ -18,10 +19,8 @@ from api.report.full_record import full_record
 from api.report.html import render_record
 from api.services import queries
 from api.services import record as record_module
-from api.services.parts import report_part
 from api.services.plans import create_plan
 from api.services.record import report_record
-from supervisor.rcb.state import RcbSettings
 
 LAST = 5
 
@@ -62,18 +61,12 @@ def small_pages(monkeypatch):
     monkeypatch.setattr(record_module, "SUMMARY_ROWS", 1)
 
 
-def test_the_report_reads_the_same_at_20_and_at_400_parts(engine, small_pages):
-    bayes = RcbSettings("bayes")  # a setpoint version per part
-    bodies, _ = _reports(400, settings=bayes)
-    plan_id = create_plan(engine=engine, body=BODY, settings=bayes).body["id"]
-    for body in bodies[:20]:
-        assert report_part(engine=engine, plan_id=plan_id, body=body).status == 201
-    reads = Reads(engine)
+def test_the_report_reads_the_same_at_20_and_at_400_parts(bayes_history, small_pages):
+    plan_id = PLAN_ID  # bayes: a setpoint version per part
     seen = {}
     for size in (20, 400):
-        if size == 400:
-            for body in bodies[20:]:
-                assert report_part(engine=engine, plan_id=plan_id, body=body).status == 201
+        engine = bayes_history.at(size)
+        reads = Reads(engine)
         got, rows = reads.run(plan_id=plan_id, last=LAST)
         seen[size] = rows
         # the same record as computed from every part and version
@@ -105,22 +98,14 @@ def test_the_report_reads_the_same_at_20_and_at_400_parts(engine, small_pages):
     assert all(n <= 10 * 20 for ns in marks.values() for n in ns)
 
 
-def test_a_long_plan_page_stays_small(tmp_path):
+def test_a_long_plan_page_stays_small(tmp_path, tmp_path_factory):
     """The demonstration plan after 400 parts: the page plots the last 100 and stays under
     400 kB (measured: 259 kB at 0 parts, 362 kB at 100, 381 kB at 1000; 6.9 MB at 1000
     before issue 17). With a setpoint version per part (bayes) it is 420 kB: under 1 MB."""
-    from db.engine import make_engine, upgrade
-
-    for strategy, limit in ((None, 400_000), (RcbSettings("bayes"), 1_000_000)):
-        url = f"sqlite:///{tmp_path / f'rcb-{limit}.db'}"
-        upgrade(url)
-        engine = make_engine(url)
-        bodies, _ = _reports(400, settings=strategy)
-        plan_id = create_plan(engine=engine, body=BODY, settings=strategy).body["id"]
-        for body in bodies:
-            report_part(engine=engine, plan_id=plan_id, body=body)
-        page = render_record(report_record(engine=engine, plan_id=plan_id))
-        engine.dispose()
+    for strategy, limit in ((None, 400_000), ("bayes", 1_000_000)):
+        history = Copied(tmp_path_factory, tmp_path, strategy)  # 400 parts, shared
+        page = render_record(report_record(engine=history.at(400), plan_id=PLAN_ID))
+        history.close()
         size = len(page.encode("utf-8"))
         assert size <= limit, (strategy, size)
         assert "the last 100 parts, from SN-0301" in page

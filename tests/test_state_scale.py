@@ -8,6 +8,7 @@ and over every model version grew with the parts; the index seeks do not.
 from __future__ import annotations
 
 import pytest
+from scale_support import PLAN_ID, Copied
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 from test_service import BODY, _reports
@@ -16,7 +17,6 @@ from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import state as db_state
 from db import tables as t
-from db.engine import make_engine, upgrade
 from db.model_versions import latest_models, version_numbers
 from db.plans import get_plan_row
 from supervisor.rcb.state import RcbSettings
@@ -43,20 +43,14 @@ def _steps(engine, plan_id):
 
 
 @pytest.mark.parametrize("strategy", ["bayes", "ivester"])
-def test_a_cache_miss_reads_the_same_rows_at_20_and_at_300_parts(tmp_path, strategy):
-    url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
-    engine = make_engine(url)
-    settings = RcbSettings(strategy)
-    plan_id = create_plan(engine=engine, body=BODY, settings=settings).body["id"]
-    bodies, offline = _reports(300, settings=settings)
-    for body in bodies[:20]:
-        report_part(engine=engine, plan_id=plan_id, body=body)
-    _, _, early = _steps(engine, plan_id)
-    for body in bodies[20:]:
-        report_part(engine=engine, plan_id=plan_id, body=body)
-    state, numbers, late = _steps(engine, plan_id)
-    engine.dispose()
+def test_a_cache_miss_reads_the_same_rows_at_20_and_at_300_parts(
+    tmp_path, tmp_path_factory, strategy
+):
+    history = Copied(tmp_path_factory, tmp_path, strategy)  # the run's shared reports
+    _, _, early = _steps(history.at(20), PLAN_ID)
+    state, numbers, late = _steps(history.at(300), PLAN_ID)
+    history.close()
+    _, offline = _reports(300, settings=RcbSettings(strategy))
     # the state read is the one the offline replay of the same 300 reports reaches
     assert state.version == offline.version
     assert state.sigma == pytest.approx(offline.sigma)
