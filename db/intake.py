@@ -51,6 +51,7 @@ class PlanHead:
     state_token: str
     settings: dict[str, Any] | None
     halt: dict[str, Any] | None
+    prior: dict[str, Any] | None
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,7 @@ _HEAD = (
     "state_token",
     "settings",
     "halt",
+    "prior",
 )
 _PLANS = t.core_table(t.Plan)
 _PARTS = t.core_table(t.Part)
@@ -123,6 +125,7 @@ _STATEMENTS = {
         state_token=String,
         settings=JSON,
         halt=JSON,
+        prior=JSON,
         part_id=Integer,
         request_hash=String,
         response_status=Integer,

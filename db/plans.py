@@ -39,8 +39,9 @@ def add_plan(
     plan: Plan,
     result: PlanResult,
     settings: RcbSettings,
+    prior: dict[str, Any] | None = None,
 ) -> int:
-    """Store a plan of a new name, its machine and tools (if new), version 1 of everything."""
+    """Store a plan of a new name, its machine, tools (if new), version 1 and its ``prior``."""
     _refuse_taken(session, plan.name)  # a name names one plan
     machine = _machine(session, plan)
     plan_row = t.Plan(
@@ -48,6 +49,7 @@ def add_plan(
         machine_id=machine.id,
         body=dict(body),
         settings=settings_json(settings),
+        prior=prior,
         current_setpoint_version=1,
         state_token=new_token(),
     )

@@ -14,6 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
+from db.fleet import priors_of
 from db.model_versions import latest_models
 from db.plan_state import halt_of, settings_of
 from db.plans import PlanRow, current_body, operation_rows, plan_tools, setpoints_of
@@ -82,7 +83,6 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     tools: dict[str, Tool] = {}
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}
-    beliefs: dict[tuple[str, str], Posterior] = {}
     wear: dict[tuple[str, str], WearRise] = {}
     monitors: dict[tuple[str, str], Monitor] = {}
     settings = settings_of(plan_row.settings)
@@ -93,6 +93,8 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
         for quantity in plan.tools[op.tool].models
     )
     band_states = _latest_band_states(session, pairs, _bands_reset_after(session, plan_row.id))
+    priors = priors_of(plan_row.prior)  # a fleet prior the plan started from (db.fleet)
+    beliefs: dict[tuple[str, str], Posterior] = dict(priors)  # until a reading moves them
     for op in plan.operations:
         base = plan.tools[op.tool]
         models = {}
@@ -131,6 +133,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
         halt_of(plan_row.halt),
         wear,
         monitors,
+        priors,
     )
 
 

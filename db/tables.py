@@ -119,6 +119,9 @@ class Plan(Base):
     #: alpha, floors ...; db.plan_state); a key missing (halt_over before it existed): the
     #: default. Strategy and alpha were columns before alembic 0013.
     settings: Mapped[dict[str, Any] | None]
+    #: The priors the plan started from where not the catalogue's, per "operation|quantity":
+    #: ``posterior`` and ``provenance`` (db.fleet_prior, alembic 0014); NULL: the catalogue.
+    prior: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     current_setpoint_version: Mapped[int] = mapped_column(default=1)
@@ -132,7 +135,11 @@ class Operation(Base):
     """One operation of a plan, in plan order."""
 
     __tablename__ = "operations"
-    __table_args__ = (UniqueConstraint("plan_id", "name"), UniqueConstraint("plan_id", "position"))
+    __table_args__ = (
+        UniqueConstraint("plan_id", "name"),
+        UniqueConstraint("plan_id", "position"),
+        Index("ix_operations_tool", "tool_id"),  # the fleet of a tool (db.fleet, alembic 0014)
+    )
     id: Mapped[int] = mapped_column(primary_key=True)
     plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))
     position: Mapped[int]

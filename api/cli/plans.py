@@ -10,6 +10,7 @@ setpoint version 1 exactly as over REST, and a name already stored is refused th
 from __future__ import annotations
 
 import json
+from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -39,6 +40,23 @@ if TYPE_CHECKING:
 
 _out = Console()
 
+
+class Prior(StrEnum):
+    """What ``learn`` starts from (db.fleet.PRIORS)."""
+
+    fleet = "fleet"
+    catalogue = "catalogue"
+
+
+PriorOption = Annotated[
+    Prior | None,
+    typer.Option(
+        "--prior",
+        help="learn's start: fleet (what the stored plans learned with the plan's tools) or "
+        "catalogue. [default: fleet where the database holds it]",
+        show_default=False,
+    ),
+]
 PlanFile = Annotated[
     Path,
     typer.Argument(
@@ -54,6 +72,7 @@ def create(
     ctx: typer.Context,
     strategy: StrategyOption = DEFAULT_STRATEGY,
     rcb: RcbOption = None,
+    prior: PriorOption = None,
     db: DbOption = None,
     as_json: JsonOption = False,
     by: ByOption = None,
@@ -63,7 +82,9 @@ def create(
     A name names one plan: a name already stored is refused (change that plan with
     ``rcb replan PLAN``, or give the new one another name). Prints the new plan's id, which
     every PLAN argument takes, as it takes the name. The RCB settings are the file's ``[rcb]``
-    table, with ``--strategy`` and ``--rcb NAME=VALUE`` over it.
+    table, with ``--strategy`` and ``--rcb NAME=VALUE`` over it. ``learn`` starts from what
+    the stored plans learned with the same tools (``--prior fleet``, the default where the
+    database holds it) or from the tools' catalogue models (``--prior catalogue``).
     """
     from api.services.plans import create_plan
     from api.settings import database_field, database_url
@@ -79,13 +100,14 @@ def create(
             given["strategy"] = strategy
         settings = plan_settings(body, given)  # the file's [rcb] table, the options over it
         engine = existing_engine(database_url(db), database_field(db))
-        written = create_plan(engine=engine, body=body, settings=settings, actor=actor)
+        written = create_plan(engine=engine, body=body, settings=settings, actor=actor, prior=prior)
     answer = written.body
     if as_json:
         emit(answer)
         return
     title = f"plan {answer['id']} {answer['name']}: stored, setpoint version 1"
     _out.print(_setpoint_table(title, answer["operations"]))
+    _say_prior(answer["provenance"])
     say(
         f"rcb: plan {answer['id']} {answer['name']}: setpoint version "
         f"{answer['setpoint_version']}, cycle time {answer['cycle_time_min']:.4g} min"
@@ -140,6 +162,7 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
         return
     for table in _show_tables(data, current):
         _out.print(table)
+    _say_prior(data["provenance"])
     settings = ", ".join(f"{k}={v}" for k, v in data["settings"].items())
     state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
     say(
@@ -147,6 +170,26 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
         f"{data['setpoint_version']}, {data['parts']} parts; RCB {data['strategy']} "
         f"alpha={data['alpha']:g} ({settings})"
     )
+
+
+def _say_prior(provenance: dict[str, list[dict[str, Any]]]) -> None:
+    """Where each fleet prior came from, a row per operation and quantity (none: catalogue)."""
+    if not provenance:
+        return
+    table = new_table(title="learn's fleet prior (--json names the plans and machines)")
+    for column in ("operation", "quantity", "plans", "machines", "spread", "readings"):
+        table.add_column(column, overflow="fold")
+    for operation, lines in provenance.items():
+        for i, line in enumerate(lines):
+            table.add_row(
+                operation if i == 0 else "",
+                line["quantity"],
+                str(len(line["plans"])),
+                str(len(line["machines"])),
+                f"{100 * line['between_machine_spread']:.1f} %",
+                str(line["readings"]),
+            )
+    _out.print(table)
 
 
 def _show_tables(data: dict[str, Any], current: dict[str, Any] | None) -> list[Table]:

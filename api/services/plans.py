@@ -19,6 +19,7 @@ from api.services.idempotency import Idempotency, Written
 from api.services.transactions import audited, write
 from db import api_keys, library
 from db.api_keys import Actor
+from db.fleet import plan_priors, prior_answer, prior_json
 from db.plans import (
     add_plan,
     add_replan,
@@ -30,9 +31,9 @@ from db.plans import (
 from db.state import load_state
 from models.errors import InputError
 from supervisor.inputs.plan import plan_from_mapping
-from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.replan import replan as supervisor_replan
 from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
+from supervisor.rcb.update import start
 
 
 def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
@@ -79,30 +80,41 @@ def create_plan(
     settings: RcbSettings | None = None,
     actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
+    prior: str | None = None,
 ) -> Written:
     """Check and optimise a plan, store it with setpoint version 1 (status 201).
 
     ``settings``: the plan's RCB law, every setting stored (default: the body's ``rcb`` table,
-    :func:`supervisor.rcb.state.plan_settings`).
+    :func:`supervisor.rcb.state.plan_settings`). ``prior``: ``fleet`` (what the stored plans
+    learned with its tools, :mod:`db.fleet`), ``catalogue``, or None: the fleet's where the
+    database holds evidence for a ``learn`` plan's tools, else the catalogue's.
     """
     with audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
         settings = settings or plan_settings(body)  # else the plan's [rcb] table
         with Session(engine) as session:
             stored_tools = library.load_tools(session=session)
-        plan = plan_from_mapping(body, stored_tools)
-        if _ID.fullmatch(plan.name.strip()):
-            raise InputError("name", plan.name, "must not be only digits (PLAN digits: an id)")
-        result = optimize_plan(plan)  # outside the write transaction: it needs no lock
+            plan = plan_from_mapping(body, stored_tools)
+            if _ID.fullmatch(plan.name.strip()):
+                raise InputError("name", plan.name, "must not be only digits (PLAN digits: an id)")
+            priors = plan_priors(session=session, plan=plan, settings=settings, prior=prior)
+        # outside the write transaction: it needs no lock
+        result = start(plan, settings, {k: p.posterior for k, p in priors.items()}).setpoints
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             plan_id = add_plan(
-                session=session, body=body, plan=plan, result=result, settings=settings
+                session=session,
+                body=body,
+                plan=plan,
+                result=result,
+                settings=settings,
+                prior=prior_json(priors),
             )
             return 201, {
                 "id": plan_id,
                 "name": plan.name,
                 "setpoint_version": 1,
                 "cycle_time_min": result.cycle_time_min,
+                **prior_answer(prior_json(priors)),
                 **operations_json(result),
             }
 

@@ -25,6 +25,7 @@ from api.services.reading import MAX_PAGE as MAX_PAGE
 from api.services.reading import _cursor, _plan, _read, _utc
 from db import history, library
 from db import tables as t
+from db.fleet import prior_answer
 from db.parts import count_parts
 from db.plans import current_body, setpoints_of
 from models import quantities
@@ -47,6 +48,7 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
                 key: machine.limits.get(name) if machine else None
                 for key, name in quantities.machine_fields().items()
             },
+            **prior_answer(row.prior),
             "operations": [
                 {
                     "name": op.name,
@@ -75,6 +77,7 @@ def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
     return {
         "plan_id": plan_id,
         "setpoint_version": version,
+        **prior_answer(row.prior),
         "operations": to_json.plan_json(result)["operations"],
     }
 

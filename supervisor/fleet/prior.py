@@ -33,7 +33,9 @@ class Learned:
     """One operation's learned model in the fleet: where it was learned and what it knows.
 
     ``tool``: the operation's catalogue tool (its prior is rebuilt from it, ``coverage_k``,
-    ``exponent_sd`` and ``edge_sd`` of the plan's settings).
+    ``exponent_sd`` and ``edge_sd`` of the plan's settings); ``start``: the prior the plan
+    started from where not the catalogue's (a fleet prior: its evidence is the fleet's, not
+    this plan's, and is taken out so that it is not counted twice).
     """
 
     machine: str
@@ -44,6 +46,7 @@ class Learned:
     coverage_k: float
     exponent_sd: float
     edge_sd: float = post.DEFAULT_EDGE_SD
+    start: Posterior | None = None
 
 
 @dataclass(frozen=True)
@@ -122,7 +125,7 @@ def _prior(
 ) -> FleetPrior | None:
     by_machine: dict[str, Evidence] = {}
     for item in found:
-        item_prior = post.prior(
+        item_prior = item.start or post.prior(
             item.tool.models[catalogue.quantity],
             item.operation,
             item.coverage_k,

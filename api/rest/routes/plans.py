@@ -2,7 +2,7 @@
 
 # no "from __future__ import annotations": FastAPI reads these annotations at run time
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import Body, Depends, Query, Request
 from fastapi.responses import Response
@@ -41,6 +41,13 @@ def create_plan(
     actor: Engineer,
     given: Annotated[dict[str, object], Depends(settings_in_query)],
     idempotency_key: OptionalKey = None,
+    prior: Annotated[
+        Literal["fleet", "catalogue"] | None,
+        Query(
+            description="learn's start: fleet (what the stored plans learned with the plan's "
+            "tools) or catalogue; default: fleet where the database holds evidence for them"
+        ),
+    ] = None,
 ) -> Response:
     """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
     body = plan.model_dump(mode="json", exclude_none=True)
@@ -51,7 +58,8 @@ def create_plan(
         body=body,
         settings=settings,
         actor=actor,
-        idempotency=idempotency_of(request, idempotency_key, body),
+        idempotency=idempotency_of(request, idempotency_key, {**body, "?prior": prior}),
+        prior=prior,
     )
     return answer(written)
 

@@ -10,7 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from api.rest.schemas.common import Name, Number, Out, Positive, Strategy, Text, keys_schema
 from api.rest.schemas.halts import HaltOut
 from api.rest.schemas.rcb_settings import RcbSettingsIn, RcbSettingsOut
-from api.rest.schemas.setpoints import OperationSetpoint
+from api.rest.schemas.setpoints import OperationSetpoint, PriorSource, Provenances
 from api.rest.schemas.tools import ToolIn
 from models.bounds import (
     MAX_CALIBRATIONS,
@@ -31,6 +31,8 @@ class PlanCreated(Out):
     name: str
     setpoint_version: int
     cycle_time_min: float = Field(description="the machining time of one part at version 1")
+    prior: PriorSource
+    provenance: Provenances
     operations: list[OperationSetpoint]
 
 
@@ -76,6 +78,8 @@ class PlanDetail(PlanSummary):
     """A plan with its machine limits, operations and the structure it was created from."""
 
     machine_limits: dict[str, float | None]
+    prior: PriorSource
+    provenance: Provenances
     operations: list[PlanOperation]
     body: dict[str, Any]
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import Field
 
@@ -114,9 +114,42 @@ class OperationSetpoint(Out):
     )
 
 
+class PriorProvenance(Out):
+    """Where a quantity's fleet prior came from."""
+
+    quantity: str
+    plans: list[str] = Field(description="the stored plans whose readings it holds")
+    machines: list[str] = Field(description="the machines they ran on")
+    between_machine_spread: float = Field(
+        description="the learned spread of ln K between machines [-] (0.041: 4.1 %)"
+    )
+    readings: int
+    text: str = Field(description="the provenance as one line")
+
+
+#: What ``learn`` started from.
+PriorSource = Annotated[
+    Literal["fleet", "catalogue"],
+    Field(
+        description="what learn started from: what the stored plans learned with the plan's "
+        "tools (fleet), or the tools' catalogue models"
+    ),
+]
+#: Per operation, where each quantity's fleet prior came from.
+Provenances = Annotated[
+    dict[str, list[PriorProvenance]],
+    Field(
+        description="per operation, where each quantity's fleet prior came from (empty: the "
+        "catalogue's)"
+    ),
+]
+
+
 class Setpoints(Out):
     """The setpoints in force."""
 
     plan_id: int
     setpoint_version: int
+    prior: PriorSource
+    provenance: Provenances
     operations: list[OperationSetpoint]

@@ -1,0 +1,182 @@
+"""What the stored plans learned with a set of tools: the fleet's evidence (issue 32).
+
+One statement reads, for every operation that uses one of the tools in a ``learn`` plan, the
+newest band state of each of its tool's quantities (an index seek per pair on
+``band_states (operation_id, quantity, part_id)``, the operations by ``ix_operations_tool``):
+the number of statements is the same for 10 plans as for 1000, and no cost grows with the
+parts they made. The tools' models come from one more statement (:func:`db.library.
+load_tools`).
+
+Left out, as :mod:`supervisor.fleet.prior` asks: a plan that is halted, and a plan one of
+whose quantities saw a change of its process (a ``regime_change``: its monitor counted one)
+until a replan that resets its bands.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session, aliased
+
+from db import tables as t
+from db.library import load_tools
+from db.plan_state import settings_of
+from models.errors import InputError
+from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors
+from supervisor.inputs.plan import Operation, Plan
+from supervisor.rcb.monitor import from_json as monitor_from_json
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.posterior import from_json as posterior_from_json
+from supervisor.rcb.state import RcbSettings
+
+
+def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learned]:
+    """Every stored ``learn`` posterior of the named tools' quantities (module docstring)."""
+    names = sorted(set(tool_names))
+    if not names:
+        return []
+    tools = load_tools(session=session, names=names)
+    b, newest = t.BandState, aliased(t.BandState)
+    latest = (
+        select(newest.id)
+        .where(newest.operation_id == t.Operation.id, newest.quantity == t.ToolModel.quantity)
+        .order_by(newest.part_id.desc())
+        .limit(1)
+        .scalar_subquery()
+    )
+    rows = session.execute(
+        select(
+            t.Operation, t.Tool.name, t.Plan.name, t.Plan.settings, t.Machine.name, b, t.Plan.prior
+        )
+        .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+        .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
+        .join(t.Plan, t.Operation.plan_id == t.Plan.id)
+        .join(t.Machine, t.Plan.machine_id == t.Machine.id)
+        .join(b, b.id == latest)
+        .where(t.Tool.name.in_(names), t.Plan.halt.is_(None), b.posterior.is_not(None))
+        .order_by(t.Plan.id, t.Operation.position, b.quantity)
+    ).all()
+    changed = {plan for _, _, plan, _, _, state, _ in rows if _changes(state.monitor)}
+    out = []
+    for op, tool, plan, stored, machine, state, started in rows:
+        settings = settings_of(stored)
+        if plan in changed or settings.strategy != "learn":
+            continue
+        out.append(
+            Learned(
+                machine,
+                plan,
+                _operation(op, tool),
+                tools[tool],
+                posterior_from_json(state.posterior),
+                settings.coverage_k,
+                settings.exponent_sd,
+                settings.edge_sd,
+                priors_of(started).get((op.name, state.quantity)),
+            )
+        )
+    return out
+
+
+def _changes(monitor: dict[str, object] | None) -> bool:
+    return monitor is not None and monitor_from_json(monitor).changes > 0
+
+
+def _operation(row: t.Operation, tool: str) -> Operation:
+    """The stored operation as far as its prior needs it (bounds, context, limits)."""
+    return Operation(
+        name=row.name,
+        process=row.process,  # type: ignore[arg-type]
+        tool=tool,
+        volume_mm3=row.volume_mm3,
+        limits={str(k): float(v) for k, v in row.limits.items()},
+        bounds={str(k): (float(v[0]), float(v[1])) for k, v in row.bounds.items()},
+        context={str(k): float(v) for k, v in row.context.items()},
+    )
+
+
+def prior_json(priors: Mapping[tuple[str, str], FleetPrior]) -> dict[str, Any] | None:
+    """``plans.prior`` of a plan's fleet priors (None: it starts from the catalogue)."""
+    if not priors:
+        return None
+    return {
+        f"{op}|{quantity}": {
+            "posterior": p.posterior.to_json(),
+            "provenance": provenance_json(p.provenance),
+        }
+        for (op, quantity), p in sorted(priors.items())
+    }
+
+
+def provenance_json(p: Provenance) -> dict[str, Any]:
+    """A prior's provenance as stored and answered (REST, ``--json``)."""
+    return {
+        "quantity": p.quantity,
+        "plans": list(p.plans),
+        "machines": list(p.machines),
+        "between_machine_spread": p.spread,
+        "readings": p.readings,
+        "text": p.describe(),
+    }
+
+
+def priors_of(stored: Mapping[str, Any] | None) -> dict[tuple[str, str], Posterior]:
+    """The priors of ``plans.prior`` per (operation, quantity) (empty: the catalogue's)."""
+    out = {}
+    for key, value in (stored or {}).items():
+        op, _, quantity = key.rpartition("|")
+        out[(op, quantity)] = posterior_from_json(value["posterior"])
+    return out
+
+
+def prior_answer(stored: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``prior`` and ``provenance`` of a plan's answers (REST, ``--json``)."""
+    return {"prior": "fleet" if stored else "catalogue", "provenance": provenance_of(stored)}
+
+
+def provenance_of(stored: Mapping[str, Any] | None) -> dict[str, list[dict[str, Any]]]:
+    """Per operation, the provenance of each quantity's prior (empty: the catalogue's)."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for key, value in sorted((stored or {}).items()):
+        op, _, _ = key.rpartition("|")
+        out.setdefault(op, []).append(value["provenance"])
+    return out
+
+
+#: What ``--prior`` / ``?prior=`` take.
+PRIORS = ("fleet", "catalogue")
+
+
+def plan_priors(
+    *, session: Session, plan: Plan, settings: RcbSettings, prior: str | None
+) -> dict[tuple[str, str], FleetPrior]:
+    """The fleet priors a new plan starts from (empty: the catalogue's).
+
+    ``prior``: ``fleet``, ``catalogue`` or None (the fleet's where the database holds evidence
+    for the plan's tools and the plan learns, else the catalogue's).
+
+    Raises
+    ------
+    InputError
+        ``prior`` is none of :data:`PRIORS`; or ``fleet`` for a strategy other than ``learn``,
+        or with no stored evidence for the plan's tools.
+    """
+    if prior is not None and prior not in PRIORS:
+        raise InputError("prior", prior, f"must be one of {', '.join(PRIORS)}")
+    if prior == "catalogue" or (prior is None and settings.strategy != "learn"):
+        return {}
+    if settings.strategy != "learn":
+        raise InputError(
+            "prior", prior, f"only learn starts from a fleet prior, not {settings.strategy}"
+        )
+    learned = fleet_evidence(session=session, tool_names=[op.tool for op in plan.operations])
+    priors = fleet_priors(
+        plan, learned, settings.coverage_k, settings.exponent_sd, settings.edge_sd
+    )
+    if prior == "fleet" and not priors:
+        raise InputError(
+            "prior", prior, "no stored learn plan has measured this plan's tools: use catalogue"
+        )
+    return priors

@@ -1,0 +1,139 @@
+"""The fleet prior through the database (issue 32): plans on two machines learn, a third starts
+from them, on SQLite and PostgreSQL; the fleet is read in the same statements for any count."""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+import pytest
+from sqlalchemy import event
+from sqlalchemy.orm import Session
+from test_service import BODY, _reports
+
+from api.services.parts import report_part
+from api.services.plans import create_plan
+from db.fleet import fleet_evidence
+from models.errors import InputError
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.rcb.state import RcbSettings
+from supervisor.virtual.fleet import noise_seed, sample_fleet
+from supervisor.virtual.simulate import run_part
+
+from conftest import stored_state
+
+LEARN = RcbSettings(strategy="learn")
+
+
+def _body(name: str, machine: str) -> dict[str, Any]:
+    body = copy.deepcopy(BODY)
+    body["name"], body["machine"]["name"] = name, machine
+    return body
+
+
+#: The virtual fleet the plans run on (supervisor.virtual.fleet: one law per tool, a ln K
+#: offset per machine): scenario 11, four machines.
+FLEET = sample_fleet(plan_from_mapping(BODY), 11, 4)
+
+
+def _learned(  # type: ignore[no-untyped-def]
+    engine, name: str, machine: int, parts: int, prior: str = "catalogue"
+) -> int:
+    """A plan on machine ``machine`` of :data:`FLEET` that made ``parts`` parts with learn."""
+    body = _body(name, f"lathe-{machine}")
+    plan_id = int(create_plan(engine=engine, body=body, settings=LEARN, prior=prior).body["id"])
+    state = stored_state(engine, plan_id)
+    rng = np.random.default_rng(noise_seed(11, machine))
+    for i in range(parts):
+        outcome = run_part(
+            FLEET[machine], {op.name: op.setpoint for op in state.setpoints.operations}, rng
+        )
+        body = {
+            "serial": f"{name}-{i + 1}",
+            "setpoint_version": state.version,
+            "operations": [
+                {
+                    "name": op,
+                    "measurements": {
+                        q: {"value": m.value, "uncertainty": m.uncertainty}
+                        for q, m in measured.items()
+                    },
+                }
+                for op, measured in outcome.measurements.items()
+            ],
+        }
+        assert report_part(engine=engine, plan_id=plan_id, body=body).status == 201
+        state = stored_state(engine, plan_id)
+    return plan_id
+
+
+def test_a_new_plan_starts_from_two_machines_and_says_so(engine) -> None:
+    _learned(engine, "fleet-a", 0, 12)
+    _learned(engine, "fleet-b", 1, 12)
+    fleet = create_plan(engine=engine, body=_body("fleet-c", "lathe-3"), settings=LEARN).body
+    catalogue = create_plan(
+        engine=engine, body=_body("fleet-d", "lathe-4"), settings=LEARN, prior="catalogue"
+    ).body
+    assert (fleet["prior"], catalogue["prior"]) == ("fleet", "catalogue")
+    assert fleet["cycle_time_min"] < catalogue["cycle_time_min"]
+    assert catalogue["provenance"] == {}
+    lines = [p for ps in fleet["provenance"].values() for p in ps]
+    assert {p["quantity"] for p in lines} == {"force_N", "roughness_um"}
+    assert all(p["plans"] == ["fleet-a", "fleet-b"] for p in lines)
+    assert all(p["machines"] == ["lathe-0", "lathe-1"] for p in lines)
+    # 12 parts on each machine, per operation of the tool: CNMG432RN one, VCMR331 two
+    assert {p["readings"] for p in fleet["provenance"]["rough-od"]} == {24}
+    assert {p["readings"] for p in fleet["provenance"]["rough-grooves"]} == {48}
+    assert lines[0]["text"].startswith(f"{lines[0]['quantity']}: prior from 2 plans on 2 machines")
+    # the stored plan starts where it was created: its state holds the priors, and learns on
+    state = stored_state(engine, fleet["id"])
+    assert set(state.priors) == {
+        (op, p["quantity"]) for op, ps in fleet["provenance"].items() for p in ps
+    }
+    assert state.posterior == state.priors
+    bodies, _ = _reports(1, seed=5, settings=LEARN)
+    assert report_part(engine=engine, plan_id=fleet["id"], body=bodies[0]).status == 201
+
+
+def test_the_fleet_is_read_in_the_same_statements_for_two_plans_as_for_four(engine) -> None:
+    counted: list[str] = []
+
+    def count(*args: Any) -> None:
+        counted.append(args[2])
+
+    def statements() -> int:
+        counted.clear()
+        event.listen(engine, "before_cursor_execute", count)
+        try:
+            with Session(engine) as session:
+                found = fleet_evidence(session=session, tool_names=["CNMG432RN", "VCMR331"])
+        finally:
+            event.remove(engine, "before_cursor_execute", count)
+        assert found
+        return len(counted)
+
+    _learned(engine, "n-a", 0, 2)
+    _learned(engine, "n-b", 1, 2)
+    two = statements()
+    _learned(engine, "n-c", 2, 2)
+    _learned(engine, "n-d", 3, 2)
+    assert statements() == two
+
+
+def test_a_fleet_prior_needs_a_fleet_and_learn(engine) -> None:
+    with pytest.raises(InputError) as caught:
+        create_plan(engine=engine, body=_body("x", "lathe-x"), settings=LEARN, prior="fleet")
+    assert caught.value.field == "prior"
+    _learned(engine, "fleet-a", 0, 2)
+    with pytest.raises(InputError, match="only learn"):
+        create_plan(
+            engine=engine,
+            body=_body("y", "lathe-y"),
+            settings=RcbSettings(strategy="ivester"),
+            prior="fleet",
+        )
+    ivester = create_plan(
+        engine=engine, body=_body("z", "lathe-z"), settings=RcbSettings(strategy="ivester")
+    ).body
+    assert ivester["prior"] == "catalogue"  # the default for a strategy that does not learn
