@@ -1,0 +1,85 @@
+"""The fleet prior through the real server (issue 32): two plans on two machines of the virtual
+fleet learn over REST, a third starts from them, faster than the catalogue, and says so."""
+
+from __future__ import annotations
+
+import copy
+import uuid
+from typing import Any
+
+import numpy as np
+from test_service import BODY
+
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.virtual.fleet import noise_seed, sample_fleet
+from supervisor.virtual.simulate import run_part
+
+#: The virtual fleet (scenario 11, four machines): one law per tool, a ln K offset per machine.
+FLEET = sample_fleet(plan_from_mapping(BODY), 11, 4)
+
+
+def _body(tag: str, machine: int) -> dict[str, Any]:
+    body = copy.deepcopy(BODY)
+    body["name"], body["machine"]["name"] = f"fleet-{tag}", f"lathe-{tag}-{machine}"
+    return body
+
+
+def _measured(outcome: dict[str, dict[str, Measurement]]) -> list[dict[str, Any]]:
+    return [
+        {
+            "name": op,
+            "measurements": {
+                q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in ms.items()
+            },
+        }
+        for op, ms in outcome.items()
+    ]
+
+
+def _learn(eng, mes, tag: str, machine: int, parts: int) -> None:  # type: ignore[no-untyped-def]
+    created = eng.post("/plans", json=_body(tag, machine), params={"prior": "catalogue"})
+    assert created.status_code == 201, created.text
+    plan_id = created.json()["id"]
+    rng = np.random.default_rng(noise_seed(11, machine))
+    for i in range(parts):
+        current = mes.get(f"/plans/{plan_id}/setpoints").json()
+        setpoints = {op["name"]: op["setpoint"] for op in current["operations"]}
+        outcome = run_part(FLEET[machine], setpoints, rng)
+        body = {
+            "serial": f"{tag}-{machine}-{i}",
+            "setpoint_version": current["setpoint_version"],
+            "operations": _measured(outcome.measurements),
+        }
+        r = mes.post(
+            f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": body["serial"]}
+        )
+        assert r.status_code == 201, r.text
+
+
+def test_a_third_machine_starts_from_two_and_the_setpoints_say_so(server) -> None:
+    tag = uuid.uuid4().hex[:8]
+    with server.client("engineer") as eng, server.client("mes") as mes:
+        _learn(eng, mes, f"{tag}-a", 0, 10)
+        _learn(eng, mes, f"{tag}-b", 1, 10)
+        fleet = eng.post("/plans", json=_body(f"{tag}-c", 2))
+        catalogue = eng.post("/plans", json=_body(f"{tag}-d", 3), params={"prior": "catalogue"})
+        assert fleet.status_code == catalogue.status_code == 201, fleet.text
+        assert fleet.json()["prior"] == "fleet"
+        assert fleet.json()["cycle_time_min"] < catalogue.json()["cycle_time_min"]
+        setpoints = mes.get(f"/plans/{fleet.json()['id']}/setpoints").json()
+        shown = mes.get(f"/plans/{fleet.json()['id']}").json()
+    assert setpoints["prior"] == shown["prior"] == "fleet"
+    assert setpoints["provenance"] == shown["provenance"] == fleet.json()["provenance"]
+    line = setpoints["provenance"]["rough-od"][0]
+    assert line["plans"] == [f"fleet-{tag}-a", f"fleet-{tag}-b"]
+    assert line["readings"] == 20
+    assert line["text"].startswith("force_N: prior from 2 plans on 2 machines")
+
+
+def test_a_prior_that_is_not_one_is_a_problem_naming_it(server) -> None:
+    with server.client("engineer") as eng:
+        r = eng.post("/plans", json=_body(uuid.uuid4().hex[:8], 0), params={"prior": "flet"})
+    assert r.status_code == 422
+    assert r.headers["content-type"].startswith("application/problem+json")
+    assert "prior" in r.text and "flet" in r.text
