@@ -5,11 +5,11 @@ newest band state of each of its tool's quantities (an index seek per pair on
 ``band_states (operation_id, quantity, part_id)``, the operations by ``ix_operations_tool``):
 the number of statements is the same for 10 plans as for 1000, and no cost grows with the
 parts they made. The tools' models come from one more statement (:func:`db.library.
-load_tools`).
+load_tools`), and the models other databases exported and this one imported from a third
+(``imported_models``, by ``ix_imported_models_tool``).
 
-Left out, as :mod:`supervisor.fleet.prior` asks: a plan that is halted, and a plan one of
-whose quantities saw a change of its process (a ``regime_change``: its monitor counted one)
-until a replan that resets its bands.
+Left out: a plan that is halted, and a plan one of whose quantities saw a change of its
+process (a ``regime_change``: its monitor counted one).
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from db import tables as t
 from db.library import load_tools
 from db.plan_state import settings_of
 from models.errors import InputError
+from supervisor.fleet.document import read_item
 from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb.monitor import from_json as monitor_from_json
@@ -77,7 +78,8 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
                 priors_of(started).get((op.name, state.quantity)),
             )
         )
-    return out
+    imported = select(t.ImportedModel.body).where(t.ImportedModel.tool.in_(names))
+    return out + [read_item(body, "imported_models.body") for body in session.scalars(imported)]
 
 
 def _changes(monitor: dict[str, object] | None) -> bool:

@@ -337,6 +337,22 @@ class BandState(Base):
     monitor: Mapped[dict[str, Any] | None]
 
 
+class ImportedModel(Base):
+    """A learned model another database exported (``rcb models import``, :mod:`db.fleet`).
+
+    ``body``: one item of the document (:func:`supervisor.fleet.document.item_json`);
+    ``source``: where it came from (the file's name and the exporting plan).
+    """
+
+    __tablename__ = "imported_models"
+    __table_args__ = (Index("ix_imported_models_tool", "tool"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    tool: Mapped[str] = mapped_column(String(200))
+    body: Mapped[dict[str, Any]]
+    source: Mapped[str] = mapped_column(Text)
+    imported_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
 class PlanRevision(Base):
     """An engineer's replan: the plan structure from then on, the changes, who made them.
 

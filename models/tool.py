@@ -97,6 +97,32 @@ def _stderr(data: object, exponents: Mapping[str, float], path: str) -> dict[str
     )
 
 
+def model_mapping(model: PowerLawModel, stderr: bool = True) -> dict[str, Any]:
+    """``model`` as :func:`model_from_mapping` reads it (``exponent_stderr`` when it has any)."""
+    out: dict[str, Any] = {
+        "K": model.K,
+        "dK": model.dK,
+        "exponents": dict(model.exponents),
+        "source": model.source,
+        "reference": model.reference,
+    }
+    if stderr and model.exponent_stderr:
+        out["exponent_stderr"] = dict(model.exponent_stderr)
+    return out
+
+
+def tool_mapping(tool: Tool, stderr: bool = True) -> dict[str, Any]:
+    """``tool`` as :func:`tool_from_mapping` reads it (a plan file's tool table)."""
+    return {
+        "name": tool.name,
+        "process": tool.process,
+        "description": tool.description,
+        "material": tool.material,
+        "source": tool.source,
+        "models": {q: model_mapping(m, stderr) for q, m in tool.models.items()},
+    }
+
+
 def tool_from_mapping(data: object, path: str) -> Tool:
     """Read a tool ``{name, process, models: {quantity: model}, ...}`` as in a plan file."""
     table = fields.mapping(data, path)

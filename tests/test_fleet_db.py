@@ -4,16 +4,21 @@ from them, on SQLite and PostgreSQL; the fleet is read in the same statements fo
 from __future__ import annotations
 
 import copy
+import json
 from typing import Any
 
 import numpy as np
 import pytest
-from sqlalchemy import event
+from sqlalchemy import event, func, select
 from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
+from api.cli.main import app
+from api.services.fleet_models import export_tool, import_tool
 from api.services.parts import report_part
 from api.services.plans import create_plan
+from db import tables as t
+from db.engine import make_engine, upgrade
 from db.fleet import fleet_evidence
 from models.errors import InputError
 from supervisor.inputs.plan import plan_from_mapping
@@ -137,3 +142,58 @@ def test_a_fleet_prior_needs_a_fleet_and_learn(engine) -> None:
         engine=engine, body=_body("z", "lathe-z"), settings=RcbSettings(strategy="ivester")
     ).body
     assert ivester["prior"] == "catalogue"  # the default for a strategy that does not learn
+
+
+def test_exported_models_imported_into_a_fresh_database_give_the_same_prior(
+    engine, tmp_path
+) -> None:
+    """A second plant: every tool's learned models, exported and imported into an empty
+    SQLite database, make the same fleet prior for the same new plan, to the last bit."""
+    _learned(engine, "fleet-a", 0, 6)
+    _learned(engine, "fleet-b", 1, 6)
+    url = f"sqlite:///{tmp_path / 'second.db'}"
+    upgrade(url)
+    second = make_engine(url)
+    tools = sorted({op["tool"] for op in BODY["operations"]})
+    for tool in tools:
+        document = export_tool(engine=engine, tool=tool)
+        json.dumps(document)  # it travels as JSON
+        assert import_tool(engine=second, data=document, source=f"{tool}.json").status == 201
+    here = create_plan(engine=engine, body=_body("fleet-c", "lathe-2"), settings=LEARN).body
+    there = create_plan(engine=second, body=_body("fleet-c", "lathe-2"), settings=LEARN).body
+    assert there["prior"] == "fleet"
+    assert there["operations"] == here["operations"]
+    assert there["provenance"] == here["provenance"]
+    assert stored_state(second, there["id"]).priors == stored_state(engine, here["id"]).priors
+    second.dispose()
+
+
+def test_a_document_that_is_not_one_stores_nothing(engine) -> None:
+    _learned(engine, "fleet-a", 0, 2)
+    document = export_tool(engine=engine, tool="VCMR331")
+    document["learned"][-1]["posterior"]["mean"] = [1.0]  # sizes that do not match
+    with pytest.raises(InputError) as caught:
+        import_tool(engine=engine, data=document, source="bad.json")
+    assert caught.value.field.endswith(".posterior.cov")
+    with Session(engine) as session:
+        assert session.scalar(select(func.count()).select_from(t.ImportedModel)) == 0
+
+
+def test_rcb_models_export_and_import_at_the_cli(engine, tmp_path, runner) -> None:
+    _learned(engine, "fleet-a", 0, 2)
+    backend_url = engine.url.render_as_string(hide_password=False)
+    out = tmp_path / "vcmr331.json"
+    done = runner.invoke(
+        app, ["models", "export", "VCMR331", "--out", str(out), "--db", backend_url]
+    )
+    assert done.exit_code == 0, done.output
+    assert "4 learned models of VCMR331 written" in done.output  # 2 operations x 2 quantities
+    second = f"sqlite:///{tmp_path / 'second.db'}"
+    upgrade(second)
+    done = runner.invoke(app, ["models", "import", str(out), "--db", second])
+    assert done.exit_code == 0 and "4 learned models stored from vcmr331.json" in done.output
+    (tmp_path / "bad.json").write_text('{"format": "x"}', encoding="utf-8")
+    done = runner.invoke(app, ["models", "import", str(tmp_path / "bad.json"), "--db", second])
+    assert done.exit_code == 2
+    assert "document.format = 'x': must be 'rcb-fleet-models/1'" in done.output
+    assert "Traceback" not in done.output

@@ -4,8 +4,10 @@
 operation and quantity, with where each came from (:mod:`db.fleet`, :mod:`supervisor.fleet.
 prior`); NULL for a plan that started from the catalogue (every plan stored before). The index
 ``ix_operations_tool`` on ``operations (tool_id)`` finds every operation of a tool, so the
-fleet's evidence is read in the same number of statements for 10 plans as for 1000. The
-downgrade drops both (a plan that started from a fleet prior keeps its learned states).
+fleet's evidence is read in the same number of statements for 10 plans as for 1000.
+``imported_models``: learned models another database exported (``rcb models import``), one
+row per operation and quantity, found by their tool's name. The downgrade drops all three (a
+plan that started from a fleet prior keeps its learned states).
 
 Revision ID: 0014
 Revises: 0013
@@ -27,8 +29,19 @@ depends_on = None
 def upgrade() -> None:
     op.add_column("plans", sa.Column("prior", sa.JSON(none_as_null=True), nullable=True))
     op.create_index("ix_operations_tool", "operations", ["tool_id"])
+    op.create_table(
+        "imported_models",
+        sa.Column("id", sa.Integer(), primary_key=True),
+        sa.Column("tool", sa.String(200), nullable=False),
+        sa.Column("body", sa.JSON(), nullable=False),
+        sa.Column("source", sa.Text(), nullable=False),
+        sa.Column("imported_at", sa.DateTime(timezone=True), nullable=False),
+    )
+    op.create_index("ix_imported_models_tool", "imported_models", ["tool"])
 
 
 def downgrade() -> None:
+    op.drop_index("ix_imported_models_tool", table_name="imported_models")
+    op.drop_table("imported_models")
     op.drop_index("ix_operations_tool", table_name="operations")
     op.drop_column("plans", "prior")

@@ -32,6 +32,7 @@ from api.cli.gcode import gcode
 from api.cli.helptext import escape_tree
 from api.cli.html_report import html_report
 from api.cli.lazy import lazy_group
+from api.cli.models import models_app
 from api.cli.optimize import optimize, predict
 from api.cli.virtual import virtual_app
 
@@ -100,6 +101,7 @@ plans_app.command("list")(cli_review.plans)
 plans_app.command("create")(cli_plans.create)
 plans_app.command("show")(cli_plans.show)
 app.add_typer(plans_app, name="plans")  # api/cli/review.py, api/cli/plans.py
+app.add_typer(models_app, name="models")  # rcb models export|import: api/cli/models.py
 for _review in (
     cli_review.history,
     cli_review.parts,

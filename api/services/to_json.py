@@ -9,7 +9,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from models.powerlaw import PowerLawModel, Prediction
-from models.tool import Tool
+from models.tool import Tool, model_mapping, tool_mapping
 from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.optimize.extras import extras_of
 from supervisor.optimize.result import OperationResult, PlanResult
@@ -78,22 +78,9 @@ def decision_json(d: Decision) -> dict[str, Any]:
 
 def model_json(model: PowerLawModel) -> dict[str, Any]:
     """A power-law model with its provenance."""
-    return {
-        "K": model.K,
-        "dK": model.dK,
-        "exponents": dict(model.exponents),
-        "source": model.source,
-        "reference": model.reference,
-    }
+    return model_mapping(model, stderr=False)
 
 
 def tool_json(tool: Tool) -> dict[str, Any]:
     """A tool in the plan-file format, with its baseline models and provenance."""
-    return {
-        "name": tool.name,
-        "process": tool.process,
-        "description": tool.description,
-        "material": tool.material,
-        "source": tool.source,
-        "models": {q: model_json(m) for q, m in tool.models.items()},
-    }
+    return tool_mapping(tool, stderr=False)

@@ -1,0 +1,74 @@
+"""``rcb models export TOOL`` and ``rcb models import FILE``: learned models between plants.
+
+A second plant's database starts where the first one is: its new plans with the tool start
+from the first plant's learned models (``rcb plans create --prior fleet``) and its own.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from api.cli.common import DbOption, errors, existing_engine, say
+from api.cli.who import ByOption, cli_actor
+from models.bounds import MAX_DOCUMENT_BYTES
+from models.errors import InputError
+
+models_app = typer.Typer(
+    help="A tool's learned models between databases (the fleet prior of a second plant).",
+    no_args_is_help=True,
+)
+
+
+@models_app.command("export")
+def export(
+    tool: Annotated[str, typer.Argument(metavar="TOOL", help="The tool's name.")],
+    out: Annotated[Path, typer.Option("--out", help="The JSON file to write.")],
+    material: Annotated[
+        str | None, typer.Option("--material", help="Only the models on this work material.")
+    ] = None,
+    db: DbOption = None,
+) -> None:
+    """Write TOOL's learned models (every learn plan's posterior, where it was learned)."""
+    from api.services.fleet_models import export_tool
+    from api.settings import database_field, database_url
+
+    with errors():
+        engine = existing_engine(database_url(db), database_field(db))
+        data = export_tool(engine=engine, tool=tool, material=material)
+        try:
+            out.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+        except OSError as err:
+            raise InputError("--out", str(out), f"cannot be written ({err.strerror})") from None
+    say(f"rcb: {len(data['learned'])} learned models of {tool} written to {out}")
+
+
+@models_app.command("import")
+def import_(
+    file: Annotated[Path, typer.Argument(metavar="FILE", help="A file rcb models export wrote.")],
+    db: DbOption = None,
+    by: ByOption = None,
+) -> None:
+    """Store the learned models of FILE (all or none): new plans with the tool start from them."""
+    from api.services.fleet_models import import_tool
+    from api.settings import database_field, database_url
+
+    with errors():
+        actor = cli_actor(by)
+        try:
+            with file.open("rb") as handle:
+                raw = handle.read(MAX_DOCUMENT_BYTES + 1)
+        except OSError as err:
+            raise InputError("FILE", str(file), f"cannot be read ({err.strerror})") from None
+        if len(raw) > MAX_DOCUMENT_BYTES:
+            raise InputError("FILE", str(file), f"is larger than {MAX_DOCUMENT_BYTES} bytes")
+        try:
+            data = json.loads(raw.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise InputError("FILE", str(file), f"is not JSON ({err})") from None
+        engine = existing_engine(database_url(db), database_field(db))
+        written = import_tool(engine=engine, data=data, source=file.name, actor=actor)
+    say(f"rcb: {written.body['stored']} learned models stored from {file.name}")

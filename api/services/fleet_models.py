@@ -1,0 +1,35 @@
+"""The use cases of ``rcb models export`` and ``import`` (:mod:`db.fleet_models`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session
+
+from api.services.idempotency import Written
+from api.services.transactions import audited, write
+from db import api_keys
+from db.api_keys import Actor
+from db.fleet_models import export_models, import_models
+
+
+def export_tool(*, engine: Engine, tool: str, material: str | None = None) -> dict[str, Any]:
+    """The document of ``tool``'s learned models (a read)."""
+    with Session(engine) as session, session.begin():
+        return export_models(session=session, tool=tool, material=material)
+
+
+def import_tool(
+    *, engine: Engine, data: object, source: str, actor: Actor = api_keys.CLI_ACTOR
+) -> Written:
+    """Store a document's learned models, all or none (audited)."""
+    with audited(engine, actor, "import models", source):
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            stored = import_models(session=session, data=data, source=source)
+            return 201, {"stored": stored, "source": source}
+
+        return write(
+            engine, actor=actor, action="import models", target=source, idempotency=None, work=work
+        )

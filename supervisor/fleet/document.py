@@ -1,0 +1,158 @@
+"""A tool's learned models as a document that travels between databases (issue 32).
+
+``rcb models export TOOL`` writes, and ``rcb models import FILE`` reads, a JSON document::
+
+    {"format": "rcb-fleet-models/1", "tool": "CNMG432RN", "material": "AISI 1045",
+     "learned": [{"machine": ..., "plan": ..., "operation": {...}, "tool": {...},
+                  "posterior": {...}, "start": {...} | null,
+                  "coverage_k": 2.0, "exponent_sd": 0.15, "edge_sd": 0.1}, ...]}
+
+one item per operation and quantity a ``learn`` plan measured (:class:`~supervisor.fleet.prior.
+Learned`): where it was learned, the operation's bounds and context and its catalogue tool (to
+rebuild the prior its evidence is counted against), the posterior, and the fleet prior it
+started from. Nothing else of the database travels (no parts, no keys). Reading checks every
+field and names the offending one (``learned[3].posterior.mean``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from models import fields
+from models.errors import InputError
+from models.tool import process_of, tool_from_mapping, tool_mapping
+from supervisor.fleet.prior import Learned
+from supervisor.inputs.plan import Operation
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.posterior import from_json as posterior_from_json
+
+FORMAT = "rcb-fleet-models/1"
+#: The most items a document holds (a plant's year of plans on one tool is far fewer).
+MAX_ITEMS = 100_000
+_ITEM_KEYS = (
+    "machine",
+    "plan",
+    "operation",
+    "tool",
+    "posterior",
+    "start",
+    "coverage_k",
+    "exponent_sd",
+    "edge_sd",
+)
+
+
+def document(tool: str, material: str, learned: Sequence[Learned]) -> dict[str, Any]:
+    """The document of ``learned`` (module docstring)."""
+    return {
+        "format": FORMAT,
+        "tool": tool,
+        "material": material,
+        "learned": [item_json(item) for item in learned],
+    }
+
+
+def item_json(item: Learned) -> dict[str, Any]:
+    """One learned model as the document holds it."""
+    op = item.operation
+    return {
+        "machine": item.machine,
+        "plan": item.plan,
+        "operation": {
+            "name": op.name,
+            "process": op.process,
+            "volume_mm3": op.volume_mm3,
+            "limits": dict(op.limits),
+            "bounds": {k: list(v) for k, v in op.bounds.items()},
+            "context": dict(op.context),
+        },
+        "tool": tool_mapping(item.tool),
+        "posterior": item.posterior.to_json(),
+        "start": None if item.start is None else item.start.to_json(),
+        "coverage_k": item.coverage_k,
+        "exponent_sd": item.exponent_sd,
+        "edge_sd": item.edge_sd,
+    }
+
+
+def read_document(data: object, path: str = "document") -> tuple[str, list[Learned]]:
+    """The tool and the learned models of a document; refuses anything it does not hold."""
+    table = fields.mapping(data, path)
+    fields.only_keys(table, ("format", "tool", "material", "learned"), path)
+    if table.get("format") != FORMAT:
+        raise InputError(f"{path}.format", table.get("format"), f"must be {FORMAT!r}")
+    tool = fields.text(table, "tool", path)
+    items = table.get("learned")
+    if not isinstance(items, list) or len(items) > MAX_ITEMS:
+        raise InputError(
+            f"{path}.learned", type(items).__name__, f"must be a list of <= {MAX_ITEMS}"
+        )
+    return tool, [read_item(item, f"{path}.learned[{i}]") for i, item in enumerate(items)]
+
+
+def read_item(data: object, path: str) -> Learned:
+    """One learned model of a document (:func:`item_json`)."""
+    table = fields.mapping(data, path)
+    fields.only_keys(table, _ITEM_KEYS, path)
+    tool = tool_from_mapping(table.get("tool"), f"{path}.tool")
+    posterior = _posterior(table.get("posterior"), f"{path}.posterior")
+    start = table.get("start")
+    if posterior.quantity not in tool.models:
+        raise InputError(
+            f"{path}.posterior.quantity", posterior.quantity, "not a model of the tool"
+        )
+    return Learned(
+        fields.text(table, "machine", path),
+        fields.text(table, "plan", path),
+        _operation(table.get("operation"), tool.name, f"{path}.operation"),
+        tool,
+        posterior,
+        fields.number(table.get("coverage_k"), f"{path}.coverage_k", positive=True),
+        fields.number(table.get("exponent_sd"), f"{path}.exponent_sd", minimum=0.0),
+        fields.number(table.get("edge_sd"), f"{path}.edge_sd", minimum=0.0),
+        None if start is None else _posterior(start, f"{path}.start"),
+    )
+
+
+def _posterior(data: object, path: str) -> Posterior:
+    """A posterior whose mean and covariance are finite and of matching sizes."""
+    table = fields.mapping(data, path)
+    try:
+        belief = posterior_from_json(table)
+    except (KeyError, TypeError, ValueError, AssertionError) as err:
+        raise InputError(path, type(data).__name__, f"is not a posterior ({err})") from None
+    size = len(belief.mean)
+    if size != 1 + len(belief.names) + (1 if belief.edge_max else 0) or any(
+        len(row) != size for row in belief.cov
+    ):
+        raise InputError(f"{path}.cov", size, "sizes of mean and cov do not match its names")
+    if not all(math.isfinite(v) for v in (*belief.mean, *(x for r in belief.cov for x in r))):
+        raise InputError(f"{path}.mean", "non-finite", "mean and cov must be finite numbers")
+    return belief
+
+
+def _operation(data: object, tool: str, path: str) -> Operation:
+    table = fields.mapping(data, path)
+    fields.only_keys(table, ("name", "process", "volume_mm3", "limits", "bounds", "context"), path)
+    bounds = fields.mapping(table.get("bounds", {}), f"{path}.bounds")
+    return Operation(
+        name=fields.text(table, "name", path),
+        process=process_of(table.get("process"), f"{path}.process"),
+        tool=tool,
+        volume_mm3=fields.number(table.get("volume_mm3"), f"{path}.volume_mm3", positive=True),
+        limits=_numbers(table.get("limits", {}), f"{path}.limits"),
+        bounds={
+            str(k): (
+                fields.number(v[0], f"{path}.bounds.{k}", positive=True),
+                fields.number(v[1], f"{path}.bounds.{k}", positive=True),
+            )
+            for k, v in bounds.items()
+        },
+        context=_numbers(table.get("context", {}), f"{path}.context"),
+    )
+
+
+def _numbers(data: object, path: str) -> dict[str, float]:
+    return {str(k): fields.number(v, f"{path}.{k}") for k, v in fields.mapping(data, path).items()}
