@@ -8,8 +8,10 @@ parts they made. The tools' models come from one more statement (:func:`db.libra
 load_tools`), and the models other databases exported and this one imported from a third
 (``imported_models``, by ``ix_imported_models_tool``).
 
-Left out: a plan that is halted, and a plan one of whose quantities saw a change of its
-process (a ``regime_change``: its monitor counted one).
+Left out: a plan that is halted; a plan or machine an engineer took out (``rcb fleet
+exclude``, ``fleet_exclusions``); and a plan whose quantities saw a change of their process
+(a ``regime_change``: their monitors counted one) beyond those an engineer accepted putting it
+back (``rcb fleet include``, ``plans.fleet_changes_accepted``).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import exists, or_, select
 from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
@@ -49,7 +51,14 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     )
     rows = session.execute(
         select(
-            t.Operation, t.Tool.name, t.Plan.name, t.Plan.settings, t.Machine.name, b, t.Plan.prior
+            t.Operation,
+            t.Tool.name,
+            t.Plan.name,
+            t.Plan.settings,
+            t.Machine.name,
+            b,
+            t.Plan.prior,
+            t.Plan.fleet_changes_accepted,
         )
         .join(t.Tool, t.Operation.tool_id == t.Tool.id)
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
@@ -57,11 +66,15 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .join(b, b.id == latest)
         .where(t.Tool.name.in_(names), t.Plan.halt.is_(None), b.posterior.is_not(None))
+        .where(~exists().where(_excluded))
         .order_by(t.Plan.id, t.Operation.position, b.quantity)
     ).all()
-    changed = {plan for _, _, plan, _, _, state, _ in rows if _changes(state.monitor)}
+    changes: dict[str, int] = {}
+    for _, _, plan, _, _, state, _, _ in rows:
+        changes[plan] = changes.get(plan, 0) + _changes(state.monitor)
+    changed = {plan for _, _, plan, _, _, _, _, accepted in rows if changes[plan] > accepted}
     out = []
-    for op, tool, plan, stored, machine, state, started in rows:
+    for op, tool, plan, stored, machine, state, started, _ in rows:
         settings = settings_of(stored)
         if plan in changed or settings.strategy != "learn":
             continue
@@ -82,8 +95,13 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     return out + [read_item(body, "imported_models.body") for body in session.scalars(imported)]
 
 
-def _changes(monitor: dict[str, object] | None) -> bool:
-    return monitor is not None and monitor_from_json(monitor).changes > 0
+#: An engineer took the row's plan or its machine out of the fleet (``fleet_exclusions``).
+_excluded = or_(t.FleetExclusion.plan_id == t.Plan.id, t.FleetExclusion.machine == t.Machine.name)
+
+
+def _changes(monitor: dict[str, object] | None) -> int:
+    """The changes of its process a quantity's monitor counted."""
+    return 0 if monitor is None else monitor_from_json(monitor).changes
 
 
 def _operation(row: t.Operation, tool: str) -> Operation:

@@ -122,6 +122,8 @@ class Plan(Base):
     #: The priors the plan started from where not the catalogue's, per "operation|quantity":
     #: ``posterior`` and ``provenance`` (db.fleet_prior, alembic 0014); NULL: the catalogue.
     prior: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
+    #: The changes of its process an engineer accepted putting it back in the fleet (db.fleet).
+    fleet_changes_accepted: Mapped[int] = mapped_column(default=0, server_default="0")
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     current_setpoint_version: Mapped[int] = mapped_column(default=1)
@@ -351,6 +353,18 @@ class ImportedModel(Base):
     body: Mapped[dict[str, Any]]
     source: Mapped[str] = mapped_column(Text)
     imported_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class FleetExclusion(Base):
+    """A plan or a machine an engineer took out of the fleet (``rcb fleet exclude``)."""
+
+    __tablename__ = "fleet_exclusions"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    plan_id: Mapped[int | None] = mapped_column(ForeignKey("plans.id"))
+    machine: Mapped[str | None] = mapped_column(String(200))
+    reason: Mapped[str] = mapped_column(Text)
+    actor: Mapped[str] = mapped_column(String(200))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
 
 
 class PlanRevision(Base):

@@ -28,6 +28,7 @@ from api.cli.collect import collect
 from api.cli.demo import demo
 from api.cli.examples import examples_app
 from api.cli.fit import fit
+from api.cli.fleet import fleet_app
 from api.cli.gcode import gcode
 from api.cli.helptext import escape_tree
 from api.cli.html_report import html_report
@@ -102,6 +103,7 @@ plans_app.command("create")(cli_plans.create)
 plans_app.command("show")(cli_plans.show)
 app.add_typer(plans_app, name="plans")  # api/cli/review.py, api/cli/plans.py
 app.add_typer(models_app, name="models")  # rcb models export|import: api/cli/models.py
+app.add_typer(fleet_app, name="fleet")  # rcb fleet exclude|include: api/cli/fleet.py
 for _review in (
     cli_review.history,
     cli_review.parts,

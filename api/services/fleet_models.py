@@ -11,6 +11,7 @@ from api.services.idempotency import Written
 from api.services.transactions import audited, write
 from db import api_keys
 from db.api_keys import Actor
+from db.fleet_exclusions import exclude, include
 from db.fleet_models import export_models, import_models
 
 
@@ -32,4 +33,43 @@ def import_tool(
 
         return write(
             engine, actor=actor, action="import models", target=source, idempotency=None, work=work
+        )
+
+
+def exclude_from_fleet(
+    *,
+    engine: Engine,
+    plan_id: int | None,
+    machine: str | None,
+    reason: str,
+    actor: Actor = api_keys.CLI_ACTOR,
+) -> Written:
+    """Take a plan or a machine out of the fleet (audited)."""
+    target = f"plan {plan_id}" if machine is None else f"machine {machine}"
+    with audited(engine, actor, "fleet exclude", target):
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            exclude(
+                session=session, plan_id=plan_id, machine=machine, reason=reason, actor=actor.name
+            )
+            return 200, {"excluded": target, "reason": reason}
+
+        return write(
+            engine, actor=actor, action="fleet exclude", target=target, idempotency=None, work=work
+        )
+
+
+def include_in_fleet(
+    *, engine: Engine, plan_id: int | None, machine: str | None, actor: Actor = api_keys.CLI_ACTOR
+) -> Written:
+    """Put a plan or a machine back in the fleet; a plan's changes so far accepted (audited)."""
+    target = f"plan {plan_id}" if machine is None else f"machine {machine}"
+    with audited(engine, actor, "fleet include", target):
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            accepted = include(session=session, plan_id=plan_id, machine=machine)
+            return 200, {"included": target, "changes_accepted": accepted}
+
+        return write(
+            engine, actor=actor, action="fleet include", target=target, idempotency=None, work=work
         )

@@ -1,0 +1,49 @@
+"""An engineer takes a plan or a machine out of the fleet, and puts it back (``rcb fleet``).
+
+Excluded, a plan's (or every plan of a machine's) learned models no longer make any new
+plan's prior (:func:`db.fleet.fleet_evidence`); a plan whose process changed is out by
+itself until an engineer puts it back, accepting the changes it counted so far.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import delete, select
+from sqlalchemy.orm import Session
+
+from db import tables as t
+from db.plans import get_plan_row
+from db.state import load_state
+from models.errors import InputError
+
+
+def exclude(
+    *, session: Session, plan_id: int | None, machine: str | None, reason: str, actor: str
+) -> None:
+    """Take ``plan_id`` or ``machine`` (one of them) out of the fleet."""
+    _one(plan_id, machine)
+    if (
+        machine is not None
+        and session.scalar(select(t.Machine.id).where(t.Machine.name == machine)) is None
+    ):
+        raise InputError("--machine", machine, "no stored plan runs on this machine")
+    session.add(t.FleetExclusion(plan_id=plan_id, machine=machine, reason=reason, actor=actor))
+
+
+def include(*, session: Session, plan_id: int | None, machine: str | None) -> int:
+    """Put ``plan_id`` or ``machine`` back; a plan's changes so far are accepted. Returns them."""
+    _one(plan_id, machine)
+    if machine is not None:
+        session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.machine == machine))
+        return 0
+    row = get_plan_row(session=session, plan_id=plan_id or 0, lock=True)
+    if row is None:
+        raise InputError("PLAN", plan_id, "no such plan")
+    session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.plan_id == plan_id))
+    changes = sum(m.changes for m in load_state(session=session, plan_row=row).monitors.values())
+    row.fleet_changes_accepted = changes
+    return changes
+
+
+def _one(plan_id: int | None, machine: str | None) -> None:
+    if (plan_id is None) == (machine is None):
+        raise InputError("--plan/--machine", None, "name exactly one of a plan and a machine")
