@@ -197,3 +197,18 @@ def test_rcb_models_export_and_import_at_the_cli(engine, tmp_path, runner) -> No
     assert done.exit_code == 2
     assert "document.format = 'x': must be 'rcb-fleet-models/1'" in done.output
     assert "Traceback" not in done.output
+
+
+def test_the_report_says_what_the_models_started_from(engine, tmp_path, runner) -> None:
+    _learned(engine, "fleet-a", 0, 2)
+    _learned(engine, "fleet-b", 1, 2)
+    create_plan(engine=engine, body=_body("fleet-c", "lathe-2"), settings=LEARN)
+    url = engine.url.render_as_string(hide_password=False)
+    pages = {}
+    for plan in ("fleet-a", "fleet-c"):
+        out = tmp_path / f"{plan}.html"
+        done = runner.invoke(app, ["report", plan, "--db", url, "--out", str(out)])
+        assert done.exit_code == 0, done.output
+        pages[plan] = out.read_text(encoding="utf-8")
+    assert "<dd>the tools&#x27; catalogue models</dd>" in pages["fleet-a"]
+    assert "<dd>the fleet: 2 plans on 2 machines, between-machine spread" in pages["fleet-c"]

@@ -103,6 +103,7 @@ def _overview(record: Mapping[str, Any]) -> str:
         ("Status", "HALTED" if plan.get("status") == "halted" else "running"),
         ("Machine", plan["machine"]),
         ("RCB", f"{plan['strategy']}, α = {plan['alpha']:g}"),
+        ("Models started from", _prior_line(plan)),
         ("Plan created", timestamp(plan["created_at"])),
         ("Parts reported", f"{count}, last {timestamp(received)}" if count else 0),
         ("Setpoint version in force", newest["version"]),
@@ -120,6 +121,20 @@ def _overview(record: Mapping[str, Any]) -> str:
             "dd", tag("span", text, class_="check")
         )
     return tag("dl", listed)
+
+
+def _prior_line(plan: Mapping[str, Any]) -> str:
+    """The catalogue, or the fleet: how many plans and machines, the spread learned."""
+    lines = [p for ps in plan.get("provenance", {}).values() for p in ps]
+    if plan.get("prior") != "fleet" or not lines:
+        return "the tools' catalogue models"
+    plans = {name for p in lines for name in p["plans"]}
+    machines = {name for p in lines for name in p["machines"]}
+    spreads = [100 * p["between_machine_spread"] for p in lines]
+    return (
+        f"the fleet: {len(plans)} plans on {len(machines)} machines, between-machine spread "
+        f"{min(spreads):.1f}-{max(spreads):.1f} % (rcb plans show lists each quantity's)"
+    )
 
 
 def _halt_section(plan: Mapping[str, Any]) -> str:
