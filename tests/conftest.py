@@ -46,7 +46,7 @@ PROBE_TIMEOUT_S = 0.5
 #: Ivester & Heigel Table 5's measured ± columns (force_N, roughness_um).
 TABLE5_UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
 #: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: tests of a
-#: hand-solved optimum use it; tests/test_setpoint_resolution.py checks the grid itself.
+#: hand-solved optimum use it; tests/supervisor/test_setpoint_resolution.py checks the grid itself.
 FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
 
 
@@ -268,42 +268,53 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
 #: fill in after them. test_list_paging's time includes building the run's shared bayes
 #: histories (tests/scale_support.py) that the scale files after it copy.
 HEAVY_FIRST = (
-    "test_rest_concurrency.py",  # 128 s
-    "test_cli_width.py",  # 120 s
-    "test_rest_schema.py",  # 107 s
-    "test_list_paging.py",  # 100 s
-    "test_docs.py",  # 87 s
-    "test_cli_db_errors.py",  # 82 s
-    "test_cli_actor.py",  # 76 s
-    "test_note_surfaces.py",  # 72 s
-    "test_collect_opcua_nodesets.py",  # 63 s
-    "test_virtual_serve.py",  # 41 s
-    "test_rest_pool.py",  # 41 s
-    "test_history_scale.py",  # 40 s
-    "test_collect_opcua.py",  # 39 s
-    "test_content_type.py",  # 37 s
-    "test_migration_lock.py",  # 36 s
-    "test_report_scale.py",  # 32 s
-    "test_shop_floor_rest.py",  # 31 s
-    "test_rest_sweep.py",  # 29 s
-    "test_rest_identities.py",  # 27 s
-    "test_cli_errors.py",  # 27 s
-    "test_gcode_stream.py",  # 24 s
-    "test_keys_scope_audit.py",  # 23 s
-    "test_rest_validation.py",  # 23 s
-    "test_collect_mtconnect.py",  # 23 s
-    "test_plan_names.py",  # 22 s
-    "test_replan.py",  # 22 s
-    "test_cam_acceptance.py",  # 22 s
-    "test_cam_bombs.py",  # 22 s
-    "test_audit_burst.py",  # 21 s
-    "test_examples.py",  # 20 s
+    "api/test_rest_concurrency.py",  # 128 s
+    "api/test_cli_width.py",  # 120 s
+    "api/test_rest_schema.py",  # 107 s
+    "api/test_list_paging.py",  # 100 s
+    "api/test_docs.py",  # 87 s
+    "db/test_cli_db_errors.py",  # 82 s
+    "api/test_cli_actor.py",  # 76 s
+    "api/test_note_surfaces.py",  # 72 s
+    "api/test_collect_opcua_nodesets.py",  # 63 s
+    "api/test_virtual_serve.py",  # 41 s
+    "api/test_rest_pool.py",  # 41 s
+    "api/test_history_scale.py",  # 40 s
+    "api/test_collect_opcua.py",  # 39 s
+    "api/test_content_type.py",  # 37 s
+    "db/test_migration_lock.py",  # 36 s
+    "api/test_report_scale.py",  # 32 s
+    "api/test_shop_floor_rest.py",  # 31 s
+    "api/test_rest_sweep.py",  # 29 s
+    "api/test_rest_identities.py",  # 27 s
+    "api/test_cli_errors.py",  # 27 s
+    "supervisor/test_gcode_stream.py",  # 24 s
+    "api/test_keys_scope_audit.py",  # 23 s
+    "api/test_rest_validation.py",  # 23 s
+    "api/test_collect_mtconnect.py",  # 23 s
+    "api/test_plan_names.py",  # 22 s
+    "api/test_replan.py",  # 22 s
+    "supervisor/test_cam_acceptance.py",  # 22 s
+    "supervisor/test_cam_bombs.py",  # 22 s
+    "api/test_audit_burst.py",  # 21 s
+    "api/test_examples.py",  # 20 s
 )
 
 
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The files of :data:`HEAVY_FIRST` first, in its order, then the rest in name order; the
-    order within a file (and its module fixtures' grouping) is kept: the sort is stable."""
+    """The files of :data:`HEAVY_FIRST` (paths under tests/) first, in its order, then the rest in
+    collection order (folder, then name); the order within a file (and its module fixtures'
+    grouping) is kept: the sort is stable."""
     rank = {name: i for i, name in enumerate(HEAVY_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+    tests = Path(__file__).resolve().parent
+
+    def key(item: pytest.Item) -> int:
+        path = item.path.resolve()
+        return (
+            rank.get(path.relative_to(tests).as_posix(), len(rank))
+            if path.is_relative_to(tests)
+            else len(rank)
+        )
+
+    items.sort(key=key)

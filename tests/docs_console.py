@@ -1,4 +1,4 @@
-"""The console blocks of the docs as bash scripts: what ``tests/test_docs.py`` runs.
+"""The console blocks of the docs as bash scripts: what ``tests/api/test_docs.py`` runs.
 
 A console block is a fenced block opened with three backticks and ``console``. In it a line
 starting with ``$ `` is a command (a line ending in a backslash continues on the next line);
@@ -6,7 +6,7 @@ the lines up to the next command are its expected output: each non-empty one tha
 ``...`` must appear in what the command printed (stdout and stderr together), and a line
 ending in ``...`` must begin a printed line. A block preceded by the HTML comment
 ``<!-- docs-test: skip REASON -->`` is not run (the README's install commands are not in a
-console block at all: see ``tests/test_docs.py``).
+console block at all: see ``tests/api/test_docs.py``).
 """
 
 from __future__ import annotations

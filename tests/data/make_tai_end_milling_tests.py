@@ -1,10 +1,10 @@
 """Write ``tai_end_milling_tests.csv``: constant-feed end-milling tests shaped on Tai et al.
 
 Run ``python tests/data/make_tai_end_milling_tests.py`` to rewrite the CSV next to this file;
-``tests/test_constant_load.py`` checks that :func:`csv_text` reproduces it byte for byte. Only the
-standard library is used, and the noise is drawn from ``random.Random(SEED).random()`` (the one
-generator method whose sequence Python promises to keep across versions) by Box-Muller, so the
-file does not depend on a numpy version.
+``tests/supervisor/test_constant_load.py`` checks that :func:`csv_text` reproduces it byte for
+byte. Only the standard library is used, and the noise is drawn from
+``random.Random(SEED).random()`` (the one generator method whose sequence Python promises to keep
+across versions) by Box-Muller, so the file does not depend on a numpy version.
 
 The plane ``I = A + B·f + k1·VB`` (Tai, Tsai & Li, IEEE Access 2023, Eq. 14)
 ----------------------------------------------------------------------------
@@ -17,7 +17,7 @@ The paper prints no A, B or k1 for end milling, only points read off its figures
 - Fig. 7: at 700 mm/min the current was "close to the reference current of 0.24 A" at
   167.3 µm; at 600 mm/min it "reached 0.236 A" at 205.1 µm.
 
-``B`` and ``A`` are those of ``tests/test_sensors.py`` (the sharp line through 1000 mm/min,
+``B`` and ``A`` are those of ``tests/models/test_sensors.py`` (the sharp line through 1000 mm/min,
 0.24 A, with the slope the two Fig. 7 points give when read as 0.240 A and 0.236 A):
 
     B  = 0.004 / (400 − 300 · 0.2051/0.1673) = 1.24156e-4 A/(mm/min)

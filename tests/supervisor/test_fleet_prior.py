@@ -1,0 +1,174 @@
+"""The fleet prior (issue 32): evidence in the tool's terms, the hierarchy, a new plan's prior.
+
+Numbers are worked by hand from the formulas in :mod:`supervisor.fleet.evidence` and
+:mod:`supervisor.fleet.hierarchy` (cited per test).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from models.errors import InputError
+from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms
+from supervisor.fleet.hierarchy import between_spread, fleet_belief, marginal
+from supervisor.fleet.prior import Learned, Provenance, fleet_priors
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import load_plan
+from supervisor.rcb import posterior as post
+from supervisor.rcb.state import RcbSettings
+from supervisor.rcb.update import start
+
+PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
+SETTINGS = RcbSettings(strategy="learn")
+
+
+def _catalogue(op_name: str, quantity: str) -> post.Posterior:
+    op = next(o for o in PLAN.operations if o.name == op_name)
+    model = PLAN.tools[op.tool].models[quantity]
+    return post.prior(model, op, SETTINGS.coverage_k, SETTINGS.exponent_sd, SETTINGS.edge_sd)
+
+
+def _op(name: str):  # type: ignore[no-untyped-def]
+    return next(o for o in PLAN.operations if o.name == name)
+
+
+def test_one_reading_at_the_centre_is_its_precision_along_1_c() -> None:
+    """A reading ``y ± u`` at the box centre: ``J = (1, c)(1, c)ᵀ/σ²`` and ``h = (1, c)(ln y −
+    Σ e_j ln x_j)/σ²`` with ``σ = (u/2)/y`` (evidence module docstring, ``θ = Tβ + o``)."""
+    op = _op("rough-grooves")
+    prior = _catalogue(op.name, "force_N")
+    centre = {n: math.exp(c) for n, c in zip(prior.names, prior.center, strict=True)}
+    y, u = 600.0, 12.0
+    after = post.observe(prior, centre, Measurement(y, u), coverage_k=2.0, drift=0.0)
+    seen = evidence(after, prior, op.context)
+    sigma = (u / 2) / y
+    along = np.array([1.0, *prior.center])
+    assert_allclose(seen.information, np.outer(along, along) / sigma**2, rtol=1e-6, atol=1e-3)
+    context = sum(e * math.log(op.context[n]) for n, e in prior.context_exponents.items())
+    assert_allclose(seen.vector, along * (math.log(y) - context) / sigma**2, rtol=1e-6)
+    assert seen.readings == 1
+
+
+def test_tool_terms_of_the_catalogue_prior_give_back_K_and_the_exponents() -> None:
+    """The catalogue prior's mean in the tool's terms is ``(ln K, e_i)`` of the tool's model."""
+    op = _op("rough-od")
+    model = PLAN.tools[op.tool].models["force_N"]
+    mean, _ = in_tool_terms(_catalogue(op.name, "force_N"), op.context)
+    names = _catalogue(op.name, "force_N").names
+    assert_allclose(mean, [math.log(model.K), *(model.exponents[n] for n in names)], rtol=1e-12)
+
+
+def test_a_machine_says_at_most_the_spread_about_the_fleet() -> None:
+    """One dimension: ``J' = J − J²/(σ_b⁻² + J) = 1/(1/J + σ_b²)``: 100 and 0.05 give 80."""
+    one = Evidence((), np.array([[100.0]]), np.array([100.0 * 0.3]), 5)
+    j, h = marginal(one, 0.05)
+    assert_allclose(j, [[80.0]])
+    assert_allclose(h, [80.0 * 0.3])
+    huge = Evidence((), np.array([[1e12]]), np.array([0.0]), 10**6)
+    assert_allclose(marginal(huge, 0.05)[0], [[1 / 0.05**2]], rtol=1e-6)
+
+
+def test_the_spread_pools_the_default_with_DerSimonian_Laird() -> None:
+    """Two machines at ``ln Y`` 0 and 0.1, variance 1e-4 each, a flat prior: ``Q = 50``,
+    ``τ̂² = (50 − 1)/10 000 = 0.0049``; ``σ_b² = (2 · 0.05² + 1 · 0.0049)/3``."""
+    flat = np.array([[1e-12]])
+    machines = [Evidence((), np.array([[1e4]]), np.array([1e4 * y]), 30) for y in (0.0, 0.1)]
+    spread = between_spread(machines, np.array([0.0]), flat, np.array([1.0]))
+    assert spread == pytest.approx(math.sqrt((2 * 0.05**2 + 0.0049) / 3), rel=1e-6)
+    same = [Evidence((), np.array([[1e4]]), np.array([0.0]), 30) for _ in range(2)]
+    assert between_spread(same, np.array([0.0]), flat, np.array([1.0])) == pytest.approx(
+        math.sqrt(2 * 0.05**2 / 3)
+    )
+    assert between_spread(machines[:1], np.array([0.0]), flat, np.array([1.0])) == 0.05
+
+
+def test_a_new_machine_is_the_fleet_mean_plus_the_spread() -> None:
+    """Prior ``N(0, 1)``, one machine ``J = 100, h = 100 · 0.2``: ``J' = 80, h' = 16``,
+    ``P = 81``, mean ``16/81``, variance ``1/81 + 0.05²`` (hierarchy module docstring)."""
+    one = Evidence((), np.array([[100.0]]), np.array([20.0]), 7)
+    belief = fleet_belief([one], np.array([0.0]), np.array([[1.0]]), np.array([1.0]))
+    assert_allclose(belief.mean, [16 / 81])
+    assert_allclose(belief.cov, [[1 / 81 + 0.05**2]])
+    assert (belief.machines, belief.readings, belief.spread) == (1, 7, 0.05)
+
+
+def _learned(machine: str, plan: str, op_name: str, readings: list[float]) -> list[Learned]:
+    """``op_name``'s force and roughness posteriors after readings of ``factor`` x the
+    catalogue's value at the corners of the half-size box about its centre, in turn."""
+    op = _op(op_name)
+    out = []
+    for quantity in ("force_N", "roughness_um"):
+        belief = _catalogue(op_name, quantity)
+        half = [0.25 * math.log(op.bounds[n][1] / op.bounds[n][0]) for n in belief.names]
+        for i, factor in enumerate(readings):
+            signs = [1 if (i >> j) & 1 else -1 for j in range(len(half))]
+            ln_x = [c + s * h for c, s, h in zip(belief.center, signs, half, strict=True)]
+            point = {n: math.exp(v) for n, v in zip(belief.names, ln_x, strict=True)}
+            prior = _catalogue(op_name, quantity)
+            y = factor * math.exp(float(prior.features(point) @ prior.mean_array))
+            belief = post.observe(belief, point, Measurement(y, 0.02 * y), 2.0, 0.0)
+        out.append(
+            Learned(machine, plan, op, PLAN.tools[op.tool], belief, 2.0, SETTINGS.exponent_sd)
+        )
+    return out
+
+
+def test_a_new_plan_starts_from_what_two_machines_learned() -> None:
+    """Both machines read 10 % over the catalogue: the prior's mean follows, its band narrows to
+    little more than the between-machine spread,
+    the other operation of the same tool (VCMR331) gets it too, and the provenance says so."""
+    learned = _learned("m1", "p1", "rough-grooves", [1.1] * 6)
+    learned += _learned("m2", "p2", "rough-grooves", [1.1] * 6)
+    priors = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)
+    catalogue = _catalogue("rough-contour", "force_N")
+    made = priors[("rough-contour", "force_N")]
+    assert made.posterior.mean[0] == pytest.approx(catalogue.mean[0] + math.log(1.1), abs=0.02)
+    assert made.provenance.spread**2 < made.posterior.cov[0][0] < 0.2 * catalogue.cov[0][0]
+    assert ("rough-od", "force_N") not in priors  # another tool (CNMG432RN): no evidence
+    assert made.provenance == Provenance(
+        "force_N", ("p1", "p2"), ("m1", "m2"), made.provenance.spread, 12
+    )
+    assert made.provenance.describe() == (
+        "force_N: prior from 2 plans on 2 machines, between-machine spread "
+        f"{100 * made.provenance.spread:.1f} %, 12 readings"
+    )
+
+
+def test_on_a_machine_of_the_fleet_its_own_readings_count_in_full() -> None:
+    """The plan's own machine: its offset is known from its readings, so the prior is
+    narrower than a new machine's (which adds the whole spread)."""
+    learned = _learned("lathe-22kW", "p1", "rough-grooves", [1.1] * 6)
+    learned += _learned("m2", "p2", "rough-grooves", [1.1] * 6)
+    own = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)[("rough-grooves", "force_N")]
+    other = [replace(i, machine="m3") if i.machine == "lathe-22kW" else i for i in learned]
+    new = fleet_priors(PLAN, other, 2.0, SETTINGS.exponent_sd)[("rough-grooves", "force_N")]
+    assert own.posterior.cov[0][0] < 0.5 * new.posterior.cov[0][0]
+
+
+def test_a_fleet_prior_starts_faster_than_the_catalogue() -> None:
+    """Two machines that read the catalogue's value and a between-machine spread of 2 %: the
+    first setpoints run faster (at the default 5 % the cone, ``4 σ`` wide, is no narrower than
+    the catalogue's roughness bands of these tools)."""
+    learned: list[Learned] = []
+    for name in ("rough-od", "rough-grooves", "rough-contour", "finish-od"):
+        learned += _learned("m1", "p1", name, [1.0] * 16) + _learned("m2", "p2", name, [1.0] * 16)
+    priors = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd, default_spread=0.02)
+    fleet = start(PLAN, SETTINGS, {k: p.posterior for k, p in priors.items()})
+    catalogue = start(PLAN, SETTINGS)
+    assert fleet.setpoints.cycle_time_min < 0.97 * catalogue.setpoints.cycle_time_min
+    assert fleet.priors == fleet.posterior
+
+
+def test_only_learn_starts_from_a_fleet_prior() -> None:
+    prior = {("rough-od", "force_N"): _catalogue("rough-od", "force_N")}
+    with pytest.raises(InputError) as caught:
+        start(PLAN, RcbSettings(strategy="ivester"), prior)
+    assert caught.value.field == "prior"
+    with pytest.raises(InputError, match="not .operation, quantity. pairs"):
+        start(PLAN, SETTINGS, {("nowhere", "force_N"): prior[("rough-od", "force_N")]})

@@ -1,0 +1,73 @@
+"""The virtual fleet (issue 32): machines that share a tool's law up to a ln K offset each."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import pytest
+
+from supervisor.inputs.plan import load_plan
+from supervisor.virtual.fleet import DEFAULT_MACHINE_SPREAD, OUTSIDE, fleet_truths, sample_fleet
+from supervisor.virtual.fleet_scenario import run_fleet_scenario
+
+PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
+
+
+def _k(machine, op: str, quantity: str) -> float:  # type: ignore[no-untyped-def]
+    return float(machine.processes[op].tool.models[quantity].K)
+
+
+def test_the_same_seed_draws_the_same_fleet_and_machines_differ_by_ln_K_only() -> None:
+    a, b = sample_fleet(PLAN, 5, 3), sample_fleet(PLAN, 5, 3)
+    assert a == b
+    first, second = a[0].processes["rough-od"].tool, a[1].processes["rough-od"].tool
+    for q, model in first.models.items():
+        assert second.models[q].exponents == model.exponents
+    # two operations of one tool (VCMR331) share the law on a machine: the same K
+    assert _k(a[0], "rough-grooves", "force_N") == _k(a[0], "rough-contour", "force_N")
+
+
+def test_an_outside_machine_sits_at_three_spreads_from_the_fleet() -> None:
+    """``δ = ±3 s`` for every tool and quantity with a band (module docstring)."""
+    truths = fleet_truths(PLAN, 7, machine_spread=0.02)
+    fleet = sample_fleet(PLAN, 7, 2, machine_spread=0.02, outside=True)
+    for op in PLAN.operations:
+        for q in ("force_N", "roughness_um"):
+            ratio = math.log(_k(fleet[-1], op.name, q) / truths[(op.tool, q)].K)
+            assert abs(ratio) == pytest.approx(OUTSIDE * 0.02, rel=1e-9)
+
+
+def test_every_machine_lies_inside_the_catalogue_band_where_it_is_wide_enough() -> None:
+    """The catalogue's band holds every machine, an outside one's included, where it is wider
+    than the offsets (``ln(1 ± b)`` beyond ``±3 s``); elsewhere within ``e^{±3 s}`` of it."""
+    room = OUTSIDE * DEFAULT_MACHINE_SPREAD
+    for seed in range(6):
+        for machine in sample_fleet(PLAN, seed, 4, outside=True):
+            for op in PLAN.operations:
+                nominal = PLAN.tools[op.tool]
+                true = machine.processes[op.name].tool
+                names = list(op.bounds)
+                for corner in itertools.product(*(op.bounds[n] for n in names)):
+                    point = {**op.context, **dict(zip(names, corner, strict=True))}
+                    for q, model in nominal.models.items():
+                        if model.dK == 0:
+                            continue
+                        ratio = true.models[q].predict(point).value / model.predict(point).value
+                        band = model.dK / model.K
+                        wide = math.log1p(band) > room and math.log1p(-band) < -room
+                        low, high = (1 - band, 1 + band)
+                        if not wide:
+                            low, high = low * math.exp(-room), high * math.exp(room)
+                        assert low - 1e-9 <= ratio <= high + 1e-9, (seed, op.name, q)
+
+
+def test_a_new_machine_starts_faster_from_the_fleet_and_crosses_nothing() -> None:
+    """Seed 3: three machines learn 12 parts; the new one's first setpoints from the fleet are
+    faster than the catalogue's, and neither run crosses a true limit in 6 parts."""
+    trace = run_fleet_scenario(PLAN, 3, 4, 6, 12)
+    assert trace.fleet.plan_ratio[0] > trace.catalogue.plan_ratio[0] + 0.01
+    assert trace.fleet.where == () and trace.catalogue.where == ()
+    assert {p.quantity for p in trace.provenance} == {"force_N", "roughness_um"}
+    assert all(p.machines == ("machine-0", "machine-1", "machine-2") for p in trace.provenance)
