@@ -129,10 +129,20 @@ def test_a_rise_every_operation_shows_is_a_change_of_each_and_of_the_one_unread(
 def test_a_rise_under_the_pooled_level_changes_nothing():
     state = _learned_state()
     names = [op.name for op in state.plan.operations]
-    # 1.5 sigma in each of six: Z = 1.5 sqrt(6) = 3.67 < 4
-    measurements = {name: {"roughness_um": _reading_at(state, name, 1.5)[0]} for name in names}
+    # 1.3 sigma in each of six: Z = 1.3 sqrt(6) = 3.18 < COMMON_SIGMA = 3.5
+    measurements = {name: {"roughness_um": _reading_at(state, name, 1.3)[0]} for name in names}
     _, decisions = update(state, PartReport("S-1", state.version, measurements))
     assert all(d.note != "regime_change" for d in decisions)
+
+
+def test_a_rise_over_the_pooled_level_under_the_one_reading_alarm_is_a_change():
+    # 1.5 sigma in each of six: Z = 1.5 sqrt(6) = 3.67 > 3.5, each reading under the 4 sigma
+    # of its own alarm (a step that one reading hides: all five faults, seed 987, Z = 3.97)
+    state = _learned_state()
+    names = [op.name for op in state.plan.operations]
+    measurements = {name: {"roughness_um": _reading_at(state, name, 1.5)[0]} for name in names}
+    _, decisions = update(state, PartReport("S-1", state.version, measurements))
+    assert {d.note for d in decisions if d.quantity == "roughness_um"} == {"regime_change"}
 
 
 def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift():
