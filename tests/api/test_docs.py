@@ -43,7 +43,10 @@ INSTALL = (
     'python3 -m venv .venv && .venv/bin/pip install -q -e ".[test]" && .venv/bin/python -m pytest',
 )
 SERVE = re.compile(r"^<!-- docs-test: serve -->$", re.MULTILINE)
-PAGE_SECONDS = 150  # a page's whole run, server start included
+#: A hang guard on a page's whole run, server start included: try-a-machine takes 23 s on a quiet
+#: host and passed 150 s once with both cores oversubscribed (issue 30 point 8: no failure
+#: that is only the host's speed).
+PAGE_SECONDS = 600
 
 
 def _environment(folder: Path) -> dict[str, str]:
