@@ -26,7 +26,7 @@ from rich.console import Console
 
 from api.services.errors import NotFoundError, PlanHaltedError
 from db.errors import ConflictError
-from models.bounds import LARGEST
+from models.bounds import LARGEST, MAX_DOCUMENT_BYTES
 from models.errors import InputError
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.rcb.settings import SETTINGS
@@ -267,3 +267,18 @@ def number_cell(text: str, where: str) -> float:
     if abs(value) > LARGEST:
         raise InputError(where, cell, f"must be within ±{LARGEST:g}")
     return value
+
+
+def read_json_file(path: Path) -> object:
+    """A JSON file of at most ``MAX_DOCUMENT_BYTES`` (errors name FILE; one line, exit 2)."""
+    try:
+        with path.open("rb") as file:
+            raw = file.read(MAX_DOCUMENT_BYTES + 1)
+    except OSError as err:
+        raise InputError("FILE", str(path), f"cannot be read ({err.strerror})") from None
+    if len(raw) > MAX_DOCUMENT_BYTES:
+        raise InputError("FILE", str(path), f"is larger than {MAX_DOCUMENT_BYTES} bytes")
+    try:
+        return json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as err:
+        raise InputError("FILE", str(path), f"is not valid JSON ({err})") from None

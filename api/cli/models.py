@@ -12,9 +12,8 @@ from typing import Annotated
 
 import typer
 
-from api.cli.common import DbOption, errors, existing_engine, say
+from api.cli.common import DbOption, errors, existing_engine, read_json_file, say
 from api.cli.who import ByOption, cli_actor
-from models.bounds import MAX_DOCUMENT_BYTES
 from models.errors import InputError
 
 models_app = typer.Typer(
@@ -58,17 +57,7 @@ def import_(
 
     with errors():
         actor = cli_actor(by)
-        try:
-            with file.open("rb") as handle:
-                raw = handle.read(MAX_DOCUMENT_BYTES + 1)
-        except OSError as err:
-            raise InputError("FILE", str(file), f"cannot be read ({err.strerror})") from None
-        if len(raw) > MAX_DOCUMENT_BYTES:
-            raise InputError("FILE", str(file), f"is larger than {MAX_DOCUMENT_BYTES} bytes")
-        try:
-            data = json.loads(raw.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise InputError("FILE", str(file), f"is not JSON ({err})") from None
+        data = read_json_file(file)
         engine = existing_engine(database_url(db), database_field(db))
         written = import_tool(engine=engine, data=data, source=file.name, actor=actor)
     say(f"rcb: {written.body['stored']} learned models stored from {file.name}")

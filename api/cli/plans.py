@@ -9,7 +9,6 @@ setpoint version 1 exactly as over REST, and a name already stored is refused th
 
 from __future__ import annotations
 
-import json
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -27,11 +26,11 @@ from api.cli.common import (
     errors,
     existing_engine,
     plan_of,
+    read_json_file,
     say,
 )
 from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
-from models.bounds import MAX_DOCUMENT_BYTES
 from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
@@ -121,17 +120,7 @@ def read_plan_file(path: Path) -> dict[str, Any]:
     if path.suffix.lower() != ".json":
         data = read_toml(path, "FILE")
     else:
-        try:
-            with path.open("rb") as file:
-                raw = file.read(MAX_DOCUMENT_BYTES + 1)
-        except OSError as err:
-            raise InputError("FILE", str(path), f"cannot be read ({err.strerror})") from None
-        if len(raw) > MAX_DOCUMENT_BYTES:
-            raise InputError("FILE", str(path), f"is larger than {MAX_DOCUMENT_BYTES} bytes")
-        try:
-            data = json.loads(raw.decode("utf-8"))
-        except (UnicodeDecodeError, ValueError) as err:
-            raise InputError("FILE", str(path), f"is not valid JSON ({err})") from None
+        data = read_json_file(path)
     if not isinstance(data, dict):
         raise InputError("FILE", str(path), "must hold a plan (a table of name, machine ...)")
     return data

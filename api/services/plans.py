@@ -99,6 +99,7 @@ def create_plan(
             priors = plan_priors(session=session, plan=plan, settings=settings, prior=prior)
         # outside the write transaction: it needs no lock
         result = start(plan, settings, {k: p.posterior for k, p in priors.items()}).setpoints
+        stored_prior = prior_json(priors)
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             plan_id = add_plan(
@@ -107,14 +108,14 @@ def create_plan(
                 plan=plan,
                 result=result,
                 settings=settings,
-                prior=prior_json(priors),
+                prior=stored_prior,
             )
             return 201, {
                 "id": plan_id,
                 "name": plan.name,
                 "setpoint_version": 1,
                 "cycle_time_min": result.cycle_time_min,
-                **prior_answer(prior_json(priors)),
+                **prior_answer(stored_prior),
                 **operations_json(result),
             }
 
