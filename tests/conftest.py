@@ -46,7 +46,8 @@ PROBE_TIMEOUT_S = 0.5
 #: Ivester & Heigel Table 5's measured ± columns (force_N, roughness_um).
 TABLE5_UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
 #: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: tests of a
-#: hand-solved optimum use it; tests/supervisor/test_setpoint_resolution.py checks the grid itself.
+#: hand-solved optimum use it; tests/supervisor/test_setpoint_resolution.py and
+#: test_setpoint_grid_rule.py check the grid itself.
 FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
 
 
