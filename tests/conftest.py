@@ -286,6 +286,7 @@ HEAVY_FIRST = (
     "db/test_migration_lock.py",  # 36 s
     "api/test_report_scale.py",  # 32 s
     "api/test_shop_floor_rest.py",  # 31 s
+    "api/test_shop_floor_rest_breach.py",  # split from test_shop_floor_rest (31 s together)
     "api/test_rest_sweep.py",  # 29 s
     "api/test_rest_identities.py",  # 27 s
     "api/test_cli_errors.py",  # 27 s
