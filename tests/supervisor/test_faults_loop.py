@@ -16,19 +16,11 @@ from api.cli.main import app
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start
 from supervisor.virtual.bound import clopper_pearson_upper
-from supervisor.virtual.certificate import (
-    Certificate,
-    ScenarioTrace,
-    digest,
-    summarize,
-)
+from supervisor.virtual.certificate import Certificate, ScenarioTrace, digest, summarize
 from supervisor.virtual.certify import simulate
 from supervisor.virtual.fault_oracle import truth_oracle
 from supervisor.virtual.fault_spec import parse_faults
-from supervisor.virtual.faults import (
-    PartFaults,
-    draw_bends,
-)
+from supervisor.virtual.faults import PartFaults, draw_bends
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.scenario import run_scenario
 from supervisor.virtual.simulate import run_part

@@ -19,8 +19,8 @@ from conftest import FINE
 def two_tool_plan(operations: list[str]) -> dict[str, Any]:
     """Operations ``a`` (feasible) and ``b`` (infeasible), with 6 rows each: one cached program.
 
-    Found by the properties of test_properties.py; tool B's depth exponent of 1e-7 is what makes the solver's
-    warm start from ``a``'s optimum fail.
+    Found by the properties of test_properties.py; tool B's depth exponent of 1e-7 is what
+    makes the solver's warm start from ``a``'s optimum fail.
     """
     tools = [
         {

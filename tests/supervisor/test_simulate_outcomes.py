@@ -16,10 +16,7 @@ from simulate_support import OPS, PLAN, ROUGH_OD, _setpoints
 from models.errors import InputError
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan
-from supervisor.virtual.machine import (
-    Violation,
-    VirtualMachine,
-)
+from supervisor.virtual.machine import Violation, VirtualMachine
 from supervisor.virtual.sampling import oracle_tools, sample_machine
 from supervisor.virtual.simulate import measure_tool_wear, run_part
 
