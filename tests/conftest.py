@@ -289,7 +289,9 @@ HEAVY_FIRST = (
     "api/test_shop_floor_rest_breach.py",  # split from test_shop_floor_rest (31 s together)
     "api/test_rest_sweep.py",  # 29 s
     "api/test_rest_identities.py",  # 27 s
-    "api/test_cli_errors.py",  # 27 s
+    "api/test_cli_errors.py",  # 27 s with the two below, split from it
+    "api/test_cli_errors_predict.py",
+    "api/test_cli_errors_unsolvable.py",
     "supervisor/test_gcode_stream.py",  # 24 s
     "api/test_keys_scope_audit.py",  # 23 s
     "api/test_rest_validation.py",  # 23 s
