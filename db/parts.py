@@ -27,7 +27,7 @@ from supervisor.rcb.state import RcbState
 
 #: The fields of a :class:`supervisor.rcb.update.Decision` that ``rcb_decisions`` stores
 #: under their own names (its operation is stored as ``operation_id``); the table is their
-#: one definition, and tests/test_decision_columns.py pins them to the Decision's fields.
+#: one definition, and tests/db/test_decision_columns.py pins them to the Decision's fields.
 DECISION_COLUMNS = tuple(
     c.key
     for c in t.core_table(t.RcbDecision).columns

@@ -245,7 +245,7 @@ class RcbDecision(Base):
     Every field of the Decision but its operation (stored as ``operation_id``) and the
     measured, predicted, uncertainty and limit it was made from (the part's measurement, the
     setpoint version and the operation hold those) has a column of its own name;
-    tests/test_decision_columns.py pins this.
+    tests/db/test_decision_columns.py pins this.
     """
 
     __tablename__ = "rcb_decisions"

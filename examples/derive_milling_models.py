@@ -1,7 +1,7 @@
 """How the force model of examples/milling_demo_part.toml follows from Kim & Jeon and Tai et al.
 
 Run: ``python examples/derive_milling_models.py``. Prints the fitted power law and the checks
-against the papers' numbers; tests/test_milling_demo.py asserts the same numbers.
+against the papers' numbers; tests/api/test_milling_demo.py asserts the same numbers.
 
 - Kim & Jeon (Precision Engineering 2011) Eq. 1, full immersion, two flutes: the mean and the
   oscillating part of F_y are ``Ks·ft·d/2`` and at most ``Ks·ft·h/(4π)·sin(2πd/h)·sqrt(1+Krt²)``

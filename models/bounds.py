@@ -5,7 +5,7 @@ a number, a name, a list or a file the CLI reads is bounded as REST bounds it. T
 (:mod:`api.rest.schemas`), the domain readers (:mod:`models.fields`, :mod:`models.tool`,
 :mod:`supervisor.inputs`), ``rcb fit`` and ``rcb collect``'s configuration import these values;
 none restates them. :data:`BOUNDS` lists them with what each bounds, for the docs and for the
-tests that send each one past its bound to both surfaces (``tests/test_bounds.py``).
+tests that send each one past its bound to both surfaces (``tests/models/test_bounds.py``).
 
 These are bounds on the input, not physics: far above any machining value and far below where
 the physics' squares and powers overflow a float.

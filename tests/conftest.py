@@ -46,7 +46,8 @@ PROBE_TIMEOUT_S = 0.5
 #: Ivester & Heigel Table 5's measured ± columns (force_N, roughness_um).
 TABLE5_UNCERTAINTY = {"force_N": 3.0, "roughness_um": 0.05}
 #: A resolution so fine that the setpoint is the continuous optimum to about 1e-8: tests of a
-#: hand-solved optimum use it; tests/supervisor/test_setpoint_resolution.py checks the grid itself.
+#: hand-solved optimum use it; tests/supervisor/test_setpoint_resolution.py and
+#: test_setpoint_grid_rule.py check the grid itself.
 FINE = dict.fromkeys(DEFAULT_RESOLUTION, 1e-9)
 
 
@@ -285,9 +286,12 @@ HEAVY_FIRST = (
     "db/test_migration_lock.py",  # 36 s
     "api/test_report_scale.py",  # 32 s
     "api/test_shop_floor_rest.py",  # 31 s
+    "api/test_shop_floor_rest_breach.py",  # split from test_shop_floor_rest (31 s together)
     "api/test_rest_sweep.py",  # 29 s
     "api/test_rest_identities.py",  # 27 s
-    "api/test_cli_errors.py",  # 27 s
+    "api/test_cli_errors.py",  # 27 s with the two below, split from it
+    "api/test_cli_errors_predict.py",
+    "api/test_cli_errors_unsolvable.py",
     "supervisor/test_gcode_stream.py",  # 24 s
     "api/test_keys_scope_audit.py",  # 23 s
     "api/test_rest_validation.py",  # 23 s

@@ -9,7 +9,8 @@ makes the first ``n`` observations available (``play`` releases them at a rate i
 the agent keeps the last ``buffer_size`` of them, so a reader that falls behind meets a buffer
 wrap: ``/sample?from=`` older than ``firstSequence`` is an MTConnectError ``OUT_OF_RANGE``.
 Documents are MTConnectStreams 2.0, valid against the standard's schema
-(the standard's XSD named by ``RCB_MTCONNECT_XSD``, checked in ``tests/test_collect_mtconnect.py``).
+(the standard's XSD named by ``RCB_MTCONNECT_XSD``, checked in
+``tests/api/test_collect_mtconnect.py``).
 ``/probe`` is the device model, as an agent has it: the spindle is the ``Rotary`` C in spindle
 mode, the path's feed rate is in MILLIMETER/SECOND as the Standard has it (the agent streams the
 trace's mm/min / 60), beside a feed-rate override in PERCENT.

@@ -18,10 +18,10 @@ Each thread keeps one HiGHS instance per coefficient matrix (:func:`maximize`; a
 :data:`MAX_KEPT`): a re-solve of a program whose matrix it holds only updates the costs,
 column bounds and right-hand sides (what a band or a limit changes between parts) and clears
 the solver, so HiGHS starts from its slack basis as on a fresh instance and the answer is
-bit-identical to a fresh solve (``tests/test_highs_lp.py`` checks it on random sequences of
-programs): no answer depends on the solve before it. Building and passing a new model cost
-as much as HiGHS's run (``benchmarks/solve_speed.py``, section 5). Other programs (the elastic
-LP, a second opinion with presolve) go to the thread's general instance as a new model.
+bit-identical to a fresh solve (``tests/supervisor/test_highs_lp.py`` checks it on random
+sequences of programs): no answer depends on the solve before it. Building and passing a new
+model cost as much as HiGHS's run (``benchmarks/solve_speed.py``, section 5). Other programs (the
+elastic LP, a second opinion with presolve) go to the thread's general instance as a new model.
 """
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 
 The NASA Ames / UC Berkeley milling wear labels (tests/data, 16 cases, a 70 mm face mill with 6
 inserts): per case the time VB first reaches 0.3 mm, then T = K · ap^a · fz^b with fz = feed/6.
-Golden values: tests/models/test_fit.py ``MEASURED_LIFE`` (cast iron n 8: K 27.82, a −1.0318,
-b −0.0968, R² 0.8659, s 0.1788; steel n 7: K 1.2016, a −0.8543, b −0.6906), measured once with
-numpy's lstsq on the same table.
+Golden values: tests/models/test_fit_tool_life.py ``MEASURED_LIFE`` (cast iron n 8: K 27.82,
+a −1.0318, b −0.0968, R² 0.8659, s 0.1788; steel n 7: K 1.2016, a −0.8543, b −0.6906), measured
+once with numpy's lstsq on the same table.
 """
 
 from __future__ import annotations

@@ -299,3 +299,31 @@ def test_the_long_function_finder_flags_61_lines_and_passes_60(tmp_path):
         "class C:\n    def m(self):\n        def g():\n            return 1\n        return g\n"
     )
     assert _function_lengths(nested) == {"C.m": 4, "C.m.g": 2}
+
+
+def _long_files(paths, root=ROOT):
+    """The files of ``paths`` over :data:`MAX_LINES` lines, counted as
+    :func:`test_no_module_is_over_400_lines` counts them: {"path": lines}."""
+    return {
+        path.relative_to(root).as_posix(): n
+        for path in paths
+        if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_LINES
+    }
+
+
+def test_no_test_file_is_over_400_lines():
+    # issue 31 item 7: the tests are held small too, conftest.py and the helper modules
+    # included; a long one is split by topic, its shared helpers in a module without test_
+    long = _long_files(sorted((ROOT / "tests").rglob("*.py")))
+    assert not long, f"test files over {MAX_LINES} lines: " + "; ".join(
+        f"{name} ({n})" for name, n in sorted(long.items())
+    )
+
+
+def test_the_long_file_finder_flags_401_lines_and_passes_400(tmp_path):
+    (tmp_path / "ok.py").write_text("x = 0\n" * 400, encoding="utf-8")
+    (tmp_path / "long.py").write_text("x = 0\n" * 401, encoding="utf-8")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "long.py").write_text("x = 0\n" * 400 + "y = 1", encoding="utf-8")
+    found = _long_files(sorted(tmp_path.rglob("*.py")), root=tmp_path)
+    assert found == {"long.py": 401, "sub/long.py": 401}

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from test_cli_errors import dumps
+from cli_errors_support import dumps
 
 from api.cli.main import app as rcb
 

@@ -4,102 +4,40 @@ api/report/svg.py, api/cli/html_report.py).
 A plan of the demonstration part (Ivester & Heigel) with 10 parts from the virtual lathe in a
 temporary SQLite database; part SN-0004 reports a rough-OD force over the 2000 N limit, which
 RCB must flag. The page is checked as XML (it is written to be well-formed) and its tables
-against the stored numbers; the limit lines and flags against the figures' artists.
+against the stored numbers; the limit lines and flags against the figures' artists. The
+command, rcb report, is checked in test_report_cli.py; the plan and its page are made by
+tests/report_support.py.
 """
 
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
-import tomllib
 import xml.etree.ElementTree as ET
 from html.parser import HTMLParser
-from pathlib import Path
 
-import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-from sqlalchemy.engine import Engine
+from report_support import OVER_LIMIT, PARTS, record_page, stored_record
 
 from api.report import plots
 from api.report.html import render_html_report as render_report
 from api.report.series import operation_series
 from api.report.svg import render
-from api.services import queries
-from api.services.parts import report_part
-from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
-from supervisor.inputs.part_report import report_from_mapping
-from supervisor.inputs.plan import plan_from_mapping
-from supervisor.rcb.update import start, update
-from supervisor.virtual.sampling import sample_machine
-from supervisor.virtual.simulate import run_part
-
-from conftest import DEMO_PLAN
-
-BODY = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-PARTS = 10
-#: Part index (0-based) whose rough-OD force is reported over the limit.
-OVER_LIMIT = 3
-KINDS = ("parameters", "outputs", "bands", "productivity")
-#: The XML namespace names inline SVG declares: identifiers, never fetched.
-SVG_NAMESPACES = {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
-
-INPUT_ERROR = 2
-
-
-def _reports(n, seed=3):
-    """n part reports from the virtual lathe (as tests/api/test_service.py), one over the limit."""
-    plan = plan_from_mapping(BODY)
-    machine, rng, state = sample_machine(plan, seed), np.random.default_rng(seed), start(plan)
-    bodies = []
-    for i in range(n):
-        outcome = run_part(
-            machine, {op.name: op.setpoint for op in state.setpoints.operations}, rng
-        )
-        measured = {
-            name: {q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in ms.items()}
-            for name, ms in outcome.measurements.items()
-        }
-        if i == OVER_LIMIT:
-            measured["rough-od"]["force_N"] = {"value": 2100.0, "uncertainty": 3.0}
-        body = {
-            "serial": f"SN-{i + 1:04d}",
-            "setpoint_version": state.version,
-            "operations": [{"name": k, "measurements": v} for k, v in measured.items()],
-        }
-        bodies.append(body)
-        state, _ = update(state, report_from_mapping(body))
-    return bodies
-
-
-def stored_demo(folder: Path, parts: int) -> tuple[str, Engine, int]:
-    """A SQLite database in ``folder`` with the demonstration plan and ``parts`` parts reported:
-    its URL, an engine on it (the caller disposes of it) and the plan's id."""
-    url = f"sqlite:///{folder / 'rcb.db'}"
-    upgrade(url)
-    engine = make_engine(url)
-    plan_id = create_plan(engine=engine, body=BODY).body["id"]
-    for body in _reports(parts):
-        report_part(engine=engine, plan_id=plan_id, body=body)
-    return url, engine, plan_id
 
 
 @pytest.fixture(scope="module")
 def stored(tmp_path_factory):
-    url, engine, plan_id = stored_demo(tmp_path_factory.mktemp("report"), PARTS)
-    plan = queries.get_plan(engine=engine, plan_id=plan_id)
-    parts = queries.parts(engine=engine, plan_id=plan_id, page_size=queries.MAX_PAGE)["items"]
-    history = queries.plan_history(engine=engine, plan_id=plan_id)
-    engine.dispose()
-    return url, plan_id, plan, history, parts
+    return stored_record(tmp_path_factory)
 
 
 @pytest.fixture(scope="module")
 def page(stored):
-    _, _, plan, history, parts = stored
-    return render_report(plan, history, parts)
+    return record_page(stored)
+
+
+KINDS = ("parameters", "outputs", "bands", "productivity")
+#: The XML namespace names inline SVG declares: identifiers, never fetched.
+SVG_NAMESPACES = {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
 
 
 def _xml(text):
@@ -368,115 +306,3 @@ def test_svg_ids_are_prefixed_and_checked(stored):
     assert all(i.startswith("p1-") for i in re.findall(r'\bid="([^"]*)"', svg))
     with pytest.raises(ValueError, match="id_prefix"):
         render(plots.parameters_figure, series, 'x" onload="')
-
-
-# --------------------------------------------------------------------------------------------
-# the command
-
-
-@pytest.fixture
-def cli():
-    from api.cli.main import app
-
-    return app
-
-
-def test_cli_writes_the_page(runner, cli, stored, page, tmp_path):
-    url, plan_id, *_ = stored
-    out = tmp_path / "report.html"
-    out.write_text("old")
-    result = runner.invoke(cli, ["report", str(plan_id), "--out", str(out), "--db", url])
-    assert result.exit_code == 0, result.output
-    assert out.read_text(encoding="utf-8") == page  # the same data, the same page
-    assert [p.name for p in tmp_path.iterdir()] == ["report.html"]  # no temporary file left
-    assert result.stdout == "" and f"rcb: wrote {out}" in result.stderr
-    size = out.stat().st_size
-    assert 150_000 < size < 250_000  # about 190 kB for 6 operations and 10 parts (docs)
-
-
-def test_cli_reads_the_database_from_the_environment(runner, cli, stored, tmp_path, monkeypatch):
-    url, plan_id, *_ = stored
-    monkeypatch.setenv("RCB_DATABASE_URL", url)
-    out = tmp_path / "r.html"
-    result = runner.invoke(cli, ["report", str(plan_id), "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    assert out.is_file()
-
-
-@pytest.mark.parametrize(
-    ("args", "field"),
-    [
-        (["999", "--out", "{tmp}/r.html", "--db", "{url}"], "PLAN = 999: no such plan"),
-        (["1", "--out", "{tmp}/missing/r.html", "--db", "{url}"], "--out = '{tmp}/missing/r.html'"),
-        (["1", "--out", "{tmp}", "--db", "{url}"], "--out = '{tmp}': is a directory"),
-        (["1", "--out", "{tmp}/r.html", "--db", "sqlite:///{tmp}/none.db"], "--db = "),
-        (["1", "--out", "{tmp}/r.html", "--db", "nonsense"], "--db = 'nonsense'"),
-    ],
-)
-def test_cli_refuses_bad_input_in_one_line(runner, cli, stored, tmp_path, args, field):
-    url, *_ = stored
-    filled = [a.format(tmp=tmp_path, url=url) for a in args]
-    result = runner.invoke(cli, ["report", *filled])
-    assert result.exit_code == INPUT_ERROR, result.output
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("rcb: error: ")
-    assert field.format(tmp=tmp_path) in lines[0]
-    assert "Traceback" not in result.output
-    assert list(tmp_path.iterdir()) == []  # nothing written, no database file created
-
-
-def test_cli_plots_the_last_parts(runner, cli, stored, page, tmp_path):
-    url, plan_id, *_ = stored
-    out = tmp_path / "r.html"
-    args = ["report", str(plan_id), "--out", str(out), "--db", url]
-    result = runner.invoke(cli, [*args, "--last", "2"])
-    assert result.exit_code == 0, result.output
-    assert "the last 2 parts" in out.read_text(encoding="utf-8")
-    assert out.stat().st_size < len(page.encode("utf-8"))
-    refused = runner.invoke(cli, [*args, "--last", "0"])
-    assert refused.exit_code == INPUT_ERROR and "--last" in refused.output
-
-
-def test_cli_reports_a_failed_write_in_one_line(runner, cli, stored, tmp_path, monkeypatch):
-    url, plan_id, *_ = stored
-    out = tmp_path / "r.html"
-
-    def refuse(*args, **kwargs):
-        raise PermissionError(13, "Permission denied")
-
-    monkeypatch.setattr("api.cli.common.os.replace", refuse)
-    result = runner.invoke(cli, ["report", str(plan_id), "--out", str(out), "--db", url])
-    assert result.exit_code == INPUT_ERROR
-    assert result.stderr == f"rcb: error: --out = '{out}': cannot be written (Permission denied)\n"
-    assert list(tmp_path.iterdir()) == []  # the temporary file is removed
-
-
-def test_cli_refuses_an_unwritable_directory(runner, cli, stored, tmp_path):
-    url, plan_id, *_ = stored
-    locked = tmp_path / "locked"
-    locked.mkdir()
-    locked.chmod(0o500)
-    try:
-        if _writable(locked):
-            pytest.skip("running as a user who can write anywhere (root)")
-        out = locked / "r.html"
-        result = runner.invoke(cli, ["report", str(plan_id), "--out", str(out), "--db", url])
-        assert result.exit_code == INPUT_ERROR
-        assert result.stderr.startswith(f"rcb: error: --out = '{out}': cannot be written")
-        assert list(locked.iterdir()) == []
-    finally:
-        locked.chmod(0o700)
-
-
-def test_other_commands_do_not_pay_for_matplotlib():
-    code = "import sys, api.cli.html_report; assert 'matplotlib' not in sys.modules"
-    subprocess.run([sys.executable, "-c", code], check=True)
-
-
-def _writable(directory):
-    try:
-        (directory / "probe").write_text("")
-    except OSError:
-        return False
-    (directory / "probe").unlink()
-    return True

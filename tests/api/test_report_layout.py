@@ -18,7 +18,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from test_report import stored_demo
+from report_support import stored_demo
 
 from api.report.html import render_record
 from api.services.record import report_record

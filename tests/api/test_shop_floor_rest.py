@@ -1,4 +1,4 @@
-"""The shop floor misbehaves, through a real ``rcb serve`` (issue 27's acceptance).
+"""The shop floor misbehaves, through a real ``rcb serve`` (issue 27's acceptance, 1 and 2).
 
 DESIGN.md, RCB, "The shop floor misbehaves", with the default strategy (``learn``) on the
 demonstration plan, over REST on SQLite and PostgreSQL. A virtual machine
@@ -11,8 +11,9 @@ measurements posted with the version they were made with and the rough-od edge's
    held, not flagged, on the answer, the stored part and the history; no speed-up from it.
 2. A +12 % step of every true maximum is a ``regime_change``, and the part after it, made on
    the stepped machine at the new setpoints, crosses no true limit.
-3. A gross breach (6000 N on 2000 N) halts the plan; a replan with reset bands resumes.
-4. Readings 3x noisier than their reported u leave a wider band than honest ones.
+
+The gross breach and the noisy readings (3 and 4 of the acceptance) are in
+test_shop_floor_rest_breach.py; the helpers in tests/shop_floor_support.py.
 """
 
 from __future__ import annotations
@@ -20,103 +21,35 @@ from __future__ import annotations
 import dataclasses
 import json
 import subprocess
-import tomllib
-from collections.abc import Mapping
 from typing import Any
 
 import httpx
 import numpy as np
 import pytest
+from shop_floor_support import (
+    EDGE_LIFE,
+    PLAN,
+    SEED,
+    _create,
+    _made_at,
+    _operation,
+    _post,
+    _report,
+    _setpoints,
+    _update,
+)
 
 from supervisor.inputs.part_report import Measurement
-from supervisor.inputs.plan import load_plan
 from supervisor.virtual.machine import TrueProcess, VirtualMachine
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
-from conftest import DEMO_PLAN, ROOT, renamed
+from conftest import ROOT
 from live import RCB, LiveServer
 
-BODY = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
-PLAN = load_plan(DEMO_PLAN)
-#: The truth of every test: one virtual machine inside the plan's bands (and its noise seed).
-SEED = 0
-#: Parts the rough-od edge makes before it is changed (the plan's parts_per_edge).
-EDGE_LIFE = 10
 #: The measured quantities whose truth the step raises (every "max" model quantity).
 STEPPED = ("force_N", "roughness_um", "spindle_current_A")
 STEP = 1.12
-U_N = 10.0  # the gross breach's force uncertainty [N]
-
-
-# --------------------------------------------------------------------------- helpers
-
-
-def _create(eng: httpx.Client) -> int:
-    """A plan of the demonstration part with the default strategy (``learn``).
-
-    From the catalogue: the module's server holds other learn plans of the same tools, whose
-    learning would otherwise be this plan's fleet prior (issue 32); these tests are about one
-    plan's own learning.
-    """
-    created = eng.post("/plans", json=renamed(BODY), params={"prior": "catalogue"})
-    assert created.status_code == 201, created.text
-    plan_id: int = created.json()["id"]
-    assert eng.get(f"/plans/{plan_id}").json()["strategy"] == "learn"
-    return plan_id
-
-
-def _post(mes: httpx.Client, plan_id: int, body: dict[str, Any]) -> dict[str, Any]:
-    key = f"shop-{plan_id}-{body['serial']}"
-    answer = mes.post(f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": key})
-    assert answer.status_code == 201, answer.text
-    created: dict[str, Any] = answer.json()
-    return created
-
-
-def _setpoints(mes: httpx.Client, plan_id: int) -> dict[str, Any]:
-    answer = mes.get(f"/plans/{plan_id}/setpoints")
-    assert answer.status_code == 200, answer.text
-    setpoints: dict[str, Any] = answer.json()
-    return setpoints
-
-
-def _made_at(setpoints: dict[str, Any]) -> dict[str, dict[str, float]]:
-    """The cutting parameters of every operation, for :func:`run_part`."""
-    return {op["name"]: op["setpoint"] for op in setpoints["operations"]}
-
-
-def _operation(setpoints: dict[str, Any], name: str) -> dict[str, Any]:
-    found: dict[str, Any] = next(op for op in setpoints["operations"] if op["name"] == name)
-    return found
-
-
-def _report(
-    serial: str,
-    version: int,
-    measurements: Mapping[str, Mapping[str, Measurement]],
-    age: int,
-) -> dict[str, Any]:
-    """A part report of ``measurements`` made with ``version``; rough-od's edge made ``age``."""
-    return {
-        "serial": serial,
-        "setpoint_version": version,
-        "operations": [
-            {
-                "name": name,
-                "measurements": {
-                    q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in read.items()
-                },
-            }
-            | ({"edge_parts": age} if name == "rough-od" else {})
-            for name, read in measurements.items()
-        ],
-    }
-
-
-def _update(updates: list[dict[str, Any]], operation: str, quantity: str) -> dict[str, Any]:
-    (found,) = [u for u in updates if (u["operation"], u["quantity"]) == (operation, quantity)]
-    return found
 
 
 def _make_parts(
@@ -326,127 +259,3 @@ def test_a_twelve_percent_step_is_a_regime_change_and_the_next_part_is_safe(
         assert after["setpoint_version"] == answer["setpoint_version"] > before["setpoint_version"]
         following = run_part(stepped, _made_at(after), rng, {"rough-od": serial % EDGE_LIFE})
         assert following.violations == ()
-
-
-# --------------------------------------------------------------------------- 3. a gross breach
-
-
-def test_a_gross_breach_halts_the_default_strategy_and_a_replan_resumes(
-    server: LiveServer,
-) -> None:
-    with server.client("engineer") as eng, server.client("mes") as mes:
-        plan_id = _create(eng)
-        assert eng.get(f"/plans/{plan_id}").json()["settings"]["halt_over"] == 0.25
-        body = {
-            "serial": "SN-6000",
-            "setpoint_version": 1,
-            "operations": [
-                {
-                    "name": "rough-od",
-                    "measurements": {"force_N": {"value": 6000.0, "uncertainty": U_N}},
-                }
-            ],
-        }
-        answer = _post(mes, plan_id, body)
-        assert answer["halted"] is True
-        assert answer["setpoint_version"] == 1  # the setpoints the part was made with stay
-        assert [c["operation"] for c in answer["conflicts"]] == ["rough-od"]
-        # (6000 − 10) / 2000 − 1 = 199.5 % past the 2000 N limit, more than halt_over 25 %
-        named = "rough-od force_N measured 6000 is past its limit 2000 by 199.5 %"
-        message = answer["conflicts"][0]["message"]
-        assert named in message and "halt_over 25 %" in message
-        breach = _update(answer["updates"], "rough-od", "force_N")
-        assert breach["flag"] == "breach" and breach["flagged"] is True
-
-        refused = mes.get(f"/plans/{plan_id}/setpoints")
-        assert refused.status_code == 409, refused.text
-        assert refused.headers["content-type"].startswith("application/problem+json")
-        problem = refused.json()
-        assert problem["code"] == "plan_halted" and problem["status"] == 409
-        assert named in problem["detail"]
-        assert problem["conflicts"] == answer["conflicts"]
-        assert eng.get(f"/plans/{plan_id}").json()["status"] == "halted"
-
-        resumed = eng.post(
-            f"/plans/{plan_id}/replan",
-            json={"reset_bands": True},
-            headers={"Idempotency-Key": f"shop-resume-{plan_id}"},
-        )
-        assert resumed.status_code == 201, resumed.text
-        assert resumed.json()["setpoint_version"] == 2
-        again = _setpoints(mes, plan_id)
-        assert again["setpoint_version"] == 2
-        assert eng.get(f"/plans/{plan_id}").json()["status"] == "running"
-
-
-# --------------------------------------------------------------------------- 4. noise 3x u
-
-#: Parts of each plan; the scatter of the noisy plan's force readings, in their reported σ.
-NOISY_PARTS, NOISE_SCALE = 15, 3.0
-
-
-def _scattered(
-    mes: httpx.Client, plan_id: int, machine: VirtualMachine, z: np.ndarray, scale: float
-) -> dict[str, Any]:
-    """:data:`NOISY_PARTS` parts whose readings scatter about the machine's truth at the
-    setpoints in force: force by ``scale`` times its reported σ = u/2, roughness by its σ
-    (``z``: the standard normal draws, part × operation × quantity); the last 201 answer."""
-    u_force, u_finish = machine.uncertainty["force_N"], machine.uncertainty["roughness_um"]
-    answer: dict[str, Any] = {}
-    for k in range(1, NOISY_PARTS + 1):
-        setpoints = _setpoints(mes, plan_id)
-        age = (k - 1) % EDGE_LIFE
-        truth = run_part(machine, _made_at(setpoints), np.random.default_rng(0), {"rough-od": age})
-        read = {
-            name: {
-                "force_N": Measurement(
-                    truth.true_values[name]["force_N"] + scale * u_force / 2 * z[k - 1, i, 0],
-                    u_force,
-                ),
-                "roughness_um": Measurement(
-                    truth.true_values[name]["roughness_um"] + u_finish / 2 * z[k - 1, i, 1],
-                    u_finish,
-                ),
-            }
-            for i, name in enumerate(op.name for op in PLAN.operations)
-        }
-        body = _report(f"SN-{k}", setpoints["setpoint_version"], read, age)
-        answer = _post(mes, plan_id, body)
-        assert answer["halted"] is False
-    return answer
-
-
-def _noisy_and_honest(
-    server: LiveServer,
-) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]:
-    """Two plans fed the same parts of the same truth, force 3x noisier than its u on the
-    first; the last 201 answers and the setpoints after them."""
-    machine = sample_machine(PLAN, SEED)
-    z = np.random.default_rng(SEED).standard_normal((NOISY_PARTS, len(PLAN.operations), 2))
-    with server.client("engineer") as eng, server.client("mes") as mes:
-        noisy, honest = _create(eng), _create(eng)
-        loud = _scattered(mes, noisy, machine, z, NOISE_SCALE)
-        calm = _scattered(mes, honest, machine, z, 1.0)
-        return loud, calm, _setpoints(mes, noisy), _setpoints(mes, honest)
-
-
-def test_readings_noisier_than_their_u_leave_a_wider_band(server: LiveServer) -> None:
-    loud, calm, _, _ = _noisy_and_honest(server)
-    for op in PLAN.operations:
-        wide = _update(loud["updates"], op.name, "force_N")["band_after"]
-        narrow = _update(calm["updates"], op.name, "force_N")["band_after"]
-        assert wide > narrow, (op.name, wide, narrow)
-
-
-def test_readings_noisier_than_their_u_predict_a_wider_band_at_the_setpoint(
-    server: LiveServer,
-) -> None:
-    _, _, noisy, honest = _noisy_and_honest(server)
-    bands = {
-        op.name: (
-            _operation(noisy, op.name)["predicted"]["force_N"]["band"],
-            _operation(honest, op.name)["predicted"]["force_N"]["band"],
-        )
-        for op in PLAN.operations
-    }
-    assert all(wide > narrow for wide, narrow in bands.values()), bands

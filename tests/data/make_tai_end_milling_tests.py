@@ -17,7 +17,7 @@ The paper prints no A, B or k1 for end milling, only points read off its figures
 - Fig. 7: at 700 mm/min the current was "close to the reference current of 0.24 A" at
   167.3 µm; at 600 mm/min it "reached 0.236 A" at 205.1 µm.
 
-``B`` and ``A`` are those of ``tests/models/test_sensors.py`` (the sharp line through 1000 mm/min,
+``B`` and ``A`` are those of ``tests/sensors_support.py`` (the sharp line through 1000 mm/min,
 0.24 A, with the slope the two Fig. 7 points give when read as 0.240 A and 0.236 A):
 
     B  = 0.004 / (400 − 300 · 0.2051/0.1673) = 1.24156e-4 A/(mm/min)

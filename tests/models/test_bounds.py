@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from test_cli_errors import INPUT_ERROR, cli_error, dumps, one_line, run_rcb
+from cli_errors_support import INPUT_ERROR, cli_error, dumps, one_line, run_rcb
 
 from models import bounds
 from models.errors import InputError

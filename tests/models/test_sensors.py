@@ -1,36 +1,29 @@
-"""Sensor conversions: Ivester & Heigel Eqs. 1-4, Kim & Jeon §6, Tai et al. Eqs. 13-15."""
+"""Sensor conversions: Ivester & Heigel Eqs. 1-4, Kim & Jeon §6.
+
+Tai et al. Eqs. 13-15: test_sensors_tai.py; to_force, bad data and the plan-file format:
+test_sensors_to_force.py.
+"""
 
 from __future__ import annotations
 
-import json
 import math
-import re
-import tomllib
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
-from scipy.optimize import curve_fit
+from sensors_support import IDLE_TABLE, MC_SAMPLES, _kim_jeon_150_mpm_data
 
-from models import sensors
-from models.errors import InputError, ModelDomainError
+from models.errors import ModelDomainError
 from models.sensors import (
     IVESTER_SPINDLE_LOAD,
     KIM_JEON_SPINDLE_FMAX_4500RPM,
-    Converted,
     FeedDependentCurrentCalibration,
     IvesterSpindleLoadCalibration,
-    LinearCurrentCalibration,
-    TaiCurrentFeedCalibration,
     calibration_from_current_relation,
-    calibration_from_mapping,
-    calibration_to_mapping,
-    calibrations_from_mapping,
     feed_dependent_force_N,
     fit_linear_calibration,
-    fit_tai_calibration,
     ivester_force_N,
     ivester_idle_load_V,
     ivester_load_V,
@@ -39,21 +32,8 @@ from models.sensors import (
     kim_jeon_rms_current_A,
     linear_current_force_N,
     rpm_to_rad_s,
-    tai_feed_rate_mm_min,
-    tai_reference_current_A,
-    tai_spindle_current_A,
     to_force,
 )
-
-MC_SAMPLES = 200_000
-
-IDLE_TABLE = IvesterSpindleLoadCalibration(
-    idle_speeds_rpm=(300.0, 600.0, 1200.0, 2400.0),
-    idle_loads_V=(0.20, 0.25, 0.35, 0.55),
-    u_idle_load_V=0.01,
-    source="test idle table",
-)
-
 
 # --------------------------------------------------------------------------------------------
 # Ivester & Heigel Eqs. 1-4
@@ -224,14 +204,6 @@ def test_rms_uncertainty_against_monte_carlo():
     assert_allclose(rms.std(ddof=1), first_order.uncertainty, rtol=0.05)
 
 
-def _kim_jeon_150_mpm_data():
-    """Synthetic calibration cuts on the paper's 150 mpm relation I = 5.762e-3 F + 3.206 A."""
-    rng = np.random.default_rng(11)
-    forces = np.linspace(40.0, 400.0, 15)
-    currents = 5.762e-3 * forces + 3.206 + rng.normal(0.0, 0.02, forces.size)
-    return currents, forces
-
-
 def test_linear_fit_matches_numpy_polyfit():
     currents, forces = _kim_jeon_150_mpm_data()
     cal = fit_linear_calibration(currents, forces, source="test cuts", feed_rate_mm_min=150)
@@ -342,369 +314,3 @@ def test_fit_recovers_an_exact_line(offset, slope, currents):
     assert cal.slope_N_per_A == pytest.approx(slope, rel=1e-6)
     assert cal.offset_N == pytest.approx(offset, abs=1e-9 * scale)
     assert cal.residual_sd_N == pytest.approx(0.0, abs=1e-9 * scale)
-
-
-# --------------------------------------------------------------------------------------------
-# Tai, Tsai & Li Eqs. 13-15
-
-# A, B, k1 from the paper's own end-milling numbers (§III.A), three points (f, VB, I):
-#   sharp tool: I = 0.24 A at about 1000 mm/min (Fig. 4)                  (1000, 0,      0.240)
-#   700 mm/min: current close to 0.24 A at VB = 167.3 µm (Fig. 7)         ( 700, 0.1673, 0.240)
-#   600 mm/min: current 0.236 A at VB = 205.1 µm (Fig. 7)                 ( 600, 0.2051, 0.236)
-# Eq. 14, I = A + B f + k1 VB, minus the first point:
-#   (2) − (1): 0 = −300 B + 0.1673 k1          -> k1 = 1793.2 B
-#   (3) − (1): −0.004 = −400 B + 0.2051 k1 = −400 B + 367.78 B = −32.22 B
-#   B = 1.2416e-4 A/(mm/min); k1 = 0.22263 A/mm (2.2263e-4 A/µm); A = 0.24 − 0.12416 = 0.11584 A
-TAI_B = 0.004 / (400 - 300 * 0.2051 / 0.1673)
-TAI_K1 = 300 * TAI_B / 0.1673
-TAI_A = 0.24 - 1000 * TAI_B
-
-
-def test_tai_constants_from_the_papers_numbers():
-    assert_allclose([TAI_A, TAI_B, TAI_K1], [0.11584, 1.2416e-4, 0.22263], rtol=1e-4)
-
-
-def _tai_tests(noise_A=0.0, seed=0):
-    """Constant-feed tests on the paper-derived plane: sharp-tool feeds and worn tools."""
-    rng = np.random.default_rng(seed)
-    feeds, wears = [], []
-    for f in (600.0, 700.0, 800.0, 900.0, 1000.0, 1100.0):  # sharp tools (Fig. 4)
-        feeds += [f] * 3  # "three cutting tests were carried out for each cutting condition"
-        wears += [0.0] * 3
-    for f in (600.0, 700.0):  # wear tests at constant feed (Fig. 7)
-        for vb in (0.05, 0.10, 0.15, 0.20):
-            feeds.append(f)
-            wears.append(vb)
-    feeds, wears = np.array(feeds), np.array(wears)
-    currents = TAI_A + TAI_B * feeds + TAI_K1 * wears + rng.normal(0.0, noise_A, feeds.size)
-    return feeds, wears, currents
-
-
-def test_reference_current_gives_the_upper_feed_limit():
-    # Tai et al. §III.A: reference current = 0.85 × 0.28 A = 0.238 A (printed as 0.24 A);
-    # "the feedrate corresponding to the initial spindle current of 0.24 A without any tool
-    # wear was about 1000 mm/min. Therefore, the upper limit of the feedrate ... 1000 mm/min."
-    feeds, wears, currents = _tai_tests()
-    cal = fit_tai_calibration(feeds, wears, currents, source="paper-derived plane")
-    i_ref = tai_reference_current_A(0.28)
-    assert_allclose(i_ref, 0.238, rtol=1e-12)
-    # the line passes through (1000 mm/min, 0.24 A)
-    assert_allclose(tai_spindle_current_A(cal, 1000.0).value, 0.24, rtol=1e-9)
-    assert_allclose(tai_feed_rate_mm_min(cal, 0.24).value, 1000.0, rtol=1e-9)
-    # Eq. 15 at VB = 0 and I = 0.238 A: f = (0.238 − 0.11584)/1.2416e-4 = 983.89 mm/min, the
-    # feed where the line's current is exactly 0.238 A; "about 1000" (the paper rounds 0.238)
-    upper = tai_feed_rate_mm_min(cal, i_ref)
-    assert_allclose(upper.value, 983.89, rtol=1e-5)
-    assert_allclose(tai_spindle_current_A(cal, upper.value).value, 0.238, rtol=1e-9)
-    assert upper.value == pytest.approx(1000.0, rel=0.02)
-
-
-def test_lower_feed_limit_at_the_largest_wear():
-    # Tai et al. after Eq. 15: "f_m is the minimum and lower limit of feedrate when V_B reaches
-    # the maximum"; the paper's 600 mm/min end-milling limit drew 0.236 A at VB = 205.1 µm:
-    #   f = (0.236 − 0.11584)/1.2416e-4 − (0.22263/1.2416e-4)·0.2051 = 967.8 − 367.8 = 600 mm/min
-    cal = TaiCurrentFeedCalibration(TAI_A, TAI_B, TAI_K1, source="Tai et al. §III.A")
-    assert_allclose(tai_feed_rate_mm_min(cal, 0.236, 0.2051).value, 600.0, rtol=1e-9)
-    assert tai_feed_rate_mm_min(cal, 0.236, 0.2051).value < tai_feed_rate_mm_min(cal, 0.236).value
-
-
-def test_tai_fit_matches_scipy_curve_fit():
-    feeds, wears, currents = _tai_tests(noise_A=0.002, seed=1)
-    cal = fit_tai_calibration(feeds, wears, currents, source="test")
-    popt, pcov = curve_fit(
-        lambda x, a, b, k1: a + b * x[0] + k1 * x[1],
-        np.vstack([feeds, wears]),
-        currents,
-        p0=[0.1, 1e-4, 0.2],
-    )
-    assert_allclose(
-        [cal.idle_current_A, cal.slope_A_per_mm_min, cal.wear_coefficient_A_per_mm],
-        popt,
-        rtol=1e-6,
-    )
-    assert_allclose(cal.covariance, pcov, rtol=1e-5)
-    assert cal.n == feeds.size
-
-
-def test_tai_feed_uncertainty_against_monte_carlo():
-    feeds, wears, currents = _tai_tests(noise_A=0.002, seed=2)
-    cal = fit_tai_calibration(feeds, wears, currents, source="test")
-    i_ref, u_i, vb, u_vb = 0.238, 0.001, 0.15, 0.01
-    first_order = tai_feed_rate_mm_min(cal, i_ref, vb, u_current_A=u_i, u_flank_wear_mm=u_vb)
-    rng = np.random.default_rng(9)
-    beta = [cal.idle_current_A, cal.slope_A_per_mm_min, cal.wear_coefficient_A_per_mm]
-    p = rng.multivariate_normal(beta, cal.covariance, MC_SAMPLES)
-    i = rng.normal(i_ref, u_i, MC_SAMPLES)
-    w = rng.normal(vb, u_vb, MC_SAMPLES)
-    sampled = (i - p[:, 0] - p[:, 2] * w) / p[:, 1]
-    assert_allclose(np.median(sampled), first_order.value, rtol=0.01)
-    assert_allclose(sampled.std(ddof=1), first_order.uncertainty, rtol=0.05)
-
-
-@settings(max_examples=200, deadline=None)
-@given(feed=st.floats(0.0, 3000.0), wear=st.floats(0.0, 0.5))
-def test_tai_current_feed_round_trip(feed, wear):
-    cal = TaiCurrentFeedCalibration(TAI_A, TAI_B, TAI_K1, source="Tai et al.")
-    current = tai_spindle_current_A(cal, feed, wear).value
-    assert tai_feed_rate_mm_min(cal, current, wear).value == pytest.approx(feed, abs=1e-6)
-
-
-def test_tai_fit_needs_wear_variation_to_identify_k1():
-    with pytest.raises(InputError) as err:
-        fit_tai_calibration([600, 700, 800, 900], [0, 0, 0, 0], [0.19, 0.2, 0.21, 0.23])
-    assert err.value.field == "flank_wears_mm"
-
-
-# --------------------------------------------------------------------------------------------
-# to_force: the entry point, and bad data
-
-
-def test_to_force_with_a_linear_current_calibration():
-    cal = LinearCurrentCalibration(
-        offset_N=-556.4, slope_N_per_A=173.55, u_offset_N=4.0, u_slope_N_per_A=1.0,
-        corr_offset_slope=-0.9, residual_sd_N=3.0, source="test",
-    )  # fmt: skip
-    force = to_force(cal, "spindle_current_A", 4.5, 0.02, {})
-    standard = linear_current_force_N(cal, 4.5, 0.01)
-    assert_allclose(force.value, -556.4 + 173.55 * 4.5)
-    assert_allclose(force.uncertainty, 2 * standard.uncertainty)
-    assert isinstance(force, Converted)
-
-
-@pytest.mark.parametrize(
-    ("calibration", "raw", "value", "uncertainty", "context", "field"),
-    [
-        (IDLE_TABLE, "spindle_load_V", 0.8, 0.01, {"workpiece_diameter_mm": 60},
-         "context.spindle_speed_rpm"),
-        (IDLE_TABLE, "spindle_load_V", 0.8, 0.01, {"spindle_speed_rpm": 900},
-         "context.workpiece_diameter_mm"),
-        (IVESTER_SPINDLE_LOAD, "spindle_load_V", 0.8, 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}, "context.idle_load_V"),
-        (IDLE_TABLE, "spindle_load_V", 0.8, 0.01,
-         {"spindle_speed_rpm": "fast", "workpiece_diameter_mm": 60}, "context.spindle_speed_rpm"),
-        (IDLE_TABLE, "spindle_load_V", 0.8, 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": -60}, "context.workpiece_diameter_mm"),
-        (IDLE_TABLE, "spindle_load_V", 0.8, 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": math.nan},
-         "context.workpiece_diameter_mm"),
-        (IDLE_TABLE, "spindle_load_V", 0.8, 0.01,
-         {"spindle_speed_rpm": 9000, "workpiece_diameter_mm": 60}, "context.spindle_speed_rpm"),
-        (IDLE_TABLE, "spindle_load_V", math.nan, 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}, "spindle_load_V.value"),
-        (IDLE_TABLE, "spindle_load_V", "0.8", 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}, "spindle_load_V.value"),
-        (IDLE_TABLE, "spindle_load_V", -0.8, 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}, "spindle_load_V.value"),
-        (IDLE_TABLE, "spindle_load_V", 0.1, 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}, "spindle_load_V.value"),
-        (IDLE_TABLE, "spindle_load_V", 0.8, -0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}, "spindle_load_V.uncertainty"),
-        (IDLE_TABLE, "spindle_current_A", 0.8, 0.01,
-         {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}, "raw_quantity"),
-        (IDLE_TABLE, "spindle_power_kW", 0.8, 0.01, {}, "raw_quantity"),
-        (KIM_JEON_SPINDLE_FMAX_4500RPM, "spindle_current_A", 4.5, 0.01,
-         {"spindle_speed_rpm": 4500}, "context.feed_rate_mm_min"),
-        (KIM_JEON_SPINDLE_FMAX_4500RPM, "spindle_current_A", 4.5, 0.01,
-         {"feed_rate_mm_min": 300}, "context.spindle_speed_rpm"),
-        (KIM_JEON_SPINDLE_FMAX_4500RPM, "spindle_current_A", 4.5, 0.01,
-         {"spindle_speed_rpm": 3000, "feed_rate_mm_min": 300}, "context.spindle_speed_rpm"),
-        (KIM_JEON_SPINDLE_FMAX_4500RPM, "spindle_current_A", 4.5, 0.01,
-         {"spindle_speed_rpm": 4500, "feed_rate_mm_min": 600}, "context.feed_rate_mm_min"),
-        (TaiCurrentFeedCalibration(TAI_A, TAI_B, TAI_K1), "spindle_current_A", 0.2, 0.0, {},
-         "calibration.kind"),
-        (object(), "spindle_current_A", 0.2, 0.0, {}, "calibration.kind"),
-    ],
-)  # fmt: skip
-def test_to_force_bad_data_names_the_field(calibration, raw, value, uncertainty, context, field):
-    with pytest.raises(InputError) as err:
-        to_force(calibration, raw, value, uncertainty, context)
-    assert err.value.field == field
-
-
-def test_to_force_path_names_the_reading():
-    with pytest.raises(InputError) as err:
-        to_force(IDLE_TABLE, "spindle_load_V", math.inf, 0.01,
-                 {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60},
-                 path="operations[0].measurements.spindle_load_V")  # fmt: skip
-    assert err.value.field == "operations[0].measurements.spindle_load_V.value"
-
-
-@pytest.mark.parametrize(
-    ("call", "field"),
-    [
-        (lambda: ivester_force_N(True, 0.0, 600, 60, idle_load_V=0.3), "load_V"),
-        (lambda: ivester_force_N(0.8, 0.0, 0, 60, idle_load_V=0.3), "spindle_speed_rpm"),
-        (lambda: ivester_force_N(0.8, 0.0, 600, None, idle_load_V=0.3), "workpiece_diameter_mm"),
-        (lambda: ivester_force_N(0.8, math.nan, 600, 60, idle_load_V=0.3), "u_load_V"),
-        (lambda: kim_jeon_rms_current_A([1.0, 2.0]), "phase_currents_A"),
-        (lambda: kim_jeon_rms_current_A([1.0, "2", 3.0]), "phase_currents_A[1]"),
-        (lambda: kim_jeon_rms_current_A([1.0, 2.0, 3.0], [0.1, -0.1, 0.1]),
-         "u_phase_currents_A[1]"),
-        (lambda: fit_linear_calibration([1.0, 2.0], [10.0, 20.0]), "currents_A"),
-        (lambda: fit_linear_calibration([1.0, 1.0, 1.0], [10.0, 20.0, 30.0]), "currents_A"),
-        (lambda: fit_linear_calibration([1.0, 2.0, 3.0], [10.0, 20.0]), "forces_N"),
-        (lambda: fit_linear_calibration([1.0, math.nan, 3.0], [1.0, 2.0, 3.0]), "currents_A[1]"),
-        (lambda: fit_linear_calibration([1.0, 2.0, 3.0], [1.0, -2.0, 3.0]), "forces_N[1]"),
-        (lambda: fit_linear_calibration(3.0, [1.0, 2.0, 3.0]), "currents_A"),
-        (lambda: fit_linear_calibration([1.0, 2.0, 3.0], [30.0, 20.0, 10.0]), "forces_N"),
-        (lambda: LinearCurrentCalibration(0.0, -1.0), "slope_N_per_A"),
-        (lambda: LinearCurrentCalibration(0.0, 1.0, corr_offset_slope=1.5), "corr_offset_slope"),
-        (lambda: tai_feed_rate_mm_min(TaiCurrentFeedCalibration(0.1, 1e-4), 0.05), "current_A"),
-        (lambda: TaiCurrentFeedCalibration(0.1, 1e-4, 0.2, corr_idle_slope=0.9,
-                                           corr_idle_wear=0.9, corr_slope_wear=-0.9),
-         "corr_idle_slope"),
-        (lambda: tai_reference_current_A(0.28, 1.17), "factor"),
-        (lambda: IvesterSpindleLoadCalibration(idle_speeds_rpm=(600.0, 300.0),
-                                               idle_loads_V=(0.2, 0.3)), "idle_speeds_rpm"),
-        (lambda: IvesterSpindleLoadCalibration(idle_speeds_rpm=(300.0, 600.0),
-                                               idle_loads_V=(0.2,)), "idle_loads_V"),
-        (lambda: FeedDependentCurrentCalibration(points=(LinearCurrentCalibration(0, 1),)),
-         "points"),
-        (lambda: FeedDependentCurrentCalibration(
-            points=(LinearCurrentCalibration(0, 1), LinearCurrentCalibration(0, 2))),
-         "points[0].feed_rate_mm_min"),
-    ],
-)  # fmt: skip
-def test_bad_arguments_name_the_field(call, field):
-    with pytest.raises(InputError) as err:
-        call()
-    assert err.value.field == field
-
-
-# --------------------------------------------------------------------------------------------
-# plan-file format
-
-
-def _docstring_toml():
-    """The TOML example of the module docstring, so that the documentation stays true."""
-    doc = sensors.__doc__
-    block = doc[doc.index("::\n") + 3 : doc.index("Read them with")]
-    return tomllib.loads("\n".join(line[4:] for line in block.splitlines()))
-
-
-def test_docstring_example_reads():
-    plan = _docstring_toml()
-    cals = calibrations_from_mapping(plan["machine"]["calibrations"], "machine.calibrations")
-    load = cals["spindle_load"]
-    assert isinstance(load, IvesterSpindleLoadCalibration)
-    assert load.idle_speeds_rpm == (300.0, 600.0, 1200.0, 2400.0)
-    assert load.m_low_N_mm_per_V == 2.19e5
-    assert isinstance(cals["spindle_current"], LinearCurrentCalibration)
-    assert cals["spindle_current"].spindle_speed_rpm == 4500
-    by_feed = cals["spindle_current_by_feed"]
-    assert isinstance(by_feed, FeedDependentCurrentCalibration)
-    assert by_feed.feed_rates_mm_min == (150.0, 300.0)
-    assert isinstance(cals["milling_current"], TaiCurrentFeedCalibration)
-    force, u_force = to_force(
-        load, "spindle_load_V", 0.9, 0.02, {"spindle_speed_rpm": 900, "workpiece_diameter_mm": 60}
-    )
-    assert force > 0 and u_force > 0
-
-
-def test_defaults_of_a_minimal_spindle_load_table_are_the_papers():
-    cal = calibration_from_mapping(
-        {"kind": "ivester_spindle_load", "source": "paper"}, "machine.calibrations.load"
-    )
-    assert cal == IvesterSpindleLoadCalibration(source="paper")
-    assert (cal.m_low_N_mm_per_V, cal.m_coefficient, cal.m_exponent) == (2.19e5, 1.39e8, -1.52)
-    assert cal.corner_speed_rad_s == 70.2
-
-
-@pytest.mark.parametrize(
-    "calibration",
-    [
-        IVESTER_SPINDLE_LOAD,
-        IDLE_TABLE,
-        KIM_JEON_SPINDLE_FMAX_4500RPM,
-        fit_linear_calibration(*_kim_jeon_150_mpm_data(), date="2024-05-02", notes="cuts 1-15"),
-        fit_tai_calibration(*_tai_tests(noise_A=0.002), source="test"),
-    ],
-)
-def test_mapping_round_trip(calibration):
-    table = calibration_to_mapping(calibration)
-    assert calibration_from_mapping(table, "c") == calibration
-    assert calibration_from_mapping(json.loads(json.dumps(table)), "c") == calibration
-
-
-def test_numpy_scalars_are_stored_as_plain_floats():
-    cal = LinearCurrentCalibration(np.int64(-500), np.float32(170.0), n=3, source="test")
-    assert type(cal.offset_N) is float and type(cal.slope_N_per_A) is float
-    json.dumps(calibration_to_mapping(cal))
-
-
-def test_toml_date_is_read_as_iso_text():
-    data = tomllib.loads(
-        'kind = "linear_current"\nsource = "s"\ndate = 2024-05-02\n'
-        "offset_N = -556.4\nslope_N_per_A = 173.55\n"
-    )
-    assert calibration_from_mapping(data, "c").date == "2024-05-02"
-
-
-P = "machine.calibrations.x"
-
-
-@pytest.mark.parametrize(
-    ("table", "field"),
-    [
-        ({"source": "s"}, f"{P}.kind"),
-        ({"kind": "kistler_dynamometer", "source": "s"}, f"{P}.kind"),
-        ({"kind": 3, "source": "s"}, f"{P}.kind"),
-        ({"kind": "ivester_spindle_load"}, f"{P}.source"),
-        ({"kind": "ivester_spindle_load", "source": ""}, f"{P}.source"),
-        ({"kind": "ivester_spindle_load", "source": "s", "m_exponent": "x"}, f"{P}.m_exponent"),
-        ({"kind": "ivester_spindle_load", "source": "s", "m_low_N_mm_per_V": -1},
-         f"{P}.m_low_N_mm_per_V"),
-        ({"kind": "ivester_spindle_load", "source": "s", "u_m_N_mm_per_V": math.nan},
-         f"{P}.u_m_N_mm_per_V"),
-        ({"kind": "ivester_spindle_load", "source": "s", "m_slope": 1}, f"{P}.m_slope"),
-        ({"kind": "ivester_spindle_load", "source": "s", "idle_speeds_rpm": [1, 2]},
-         f"{P}.idle_loads_V"),
-        ({"kind": "ivester_spindle_load", "source": "s", "idle_speeds_rpm": [1, 2],
-          "idle_loads_V": [0.1, "x"]}, f"{P}.idle_loads_V[1]"),
-        ({"kind": "ivester_spindle_load", "source": "s", "idle_speeds_rpm": [1, 2],
-          "idle_loads_V": [0.1, -0.2]}, f"{P}.idle_loads_V[1]"),
-        ({"kind": "linear_current", "source": "s", "slope_N_per_A": 1}, f"{P}.offset_N"),
-        ({"kind": "linear_current", "source": "s", "offset_N": 1}, f"{P}.slope_N_per_A"),
-        ({"kind": "linear_current", "source": "s", "offset_N": 1, "slope_N_per_A": 0},
-         f"{P}.slope_N_per_A"),
-        ({"kind": "linear_current", "source": "s", "offset_N": 1, "slope_N_per_A": 1,
-          "u_offset_N": -1}, f"{P}.u_offset_N"),
-        ({"kind": "linear_current", "source": "s", "offset_N": 1, "slope_N_per_A": 1,
-          "n": 2.5}, f"{P}.n"),
-        ({"kind": "linear_current", "source": "s", "offset_N": True, "slope_N_per_A": 1},
-         f"{P}.offset_N"),
-        ({"kind": "linear_current_by_feed", "source": "s"}, f"{P}.points"),
-        ({"kind": "linear_current_by_feed", "source": "s", "points": {"a": 1}}, f"{P}.points"),
-        ({"kind": "linear_current_by_feed", "source": "s",
-          "points": [{"offset_N": 1, "slope_N_per_A": 1}]}, f"{P}.points[0].feed_rate_mm_min"),
-        ({"kind": "linear_current_by_feed", "source": "s",
-          "points": [{"feed_rate_mm_min": 1, "offset_N": 1, "slope_N_per_A": 1}]},
-         f"{P}.points"),
-        ({"kind": "linear_current_by_feed", "source": "s",
-          "points": [{"feed_rate_mm_min": 1, "offset_N": 1, "slope_N_per_A": 1},
-                     {"feed_rate_mm_min": 2, "offset_N": 1, "slope_N_per_A": "steep"}]},
-         f"{P}.points[1].slope_N_per_A"),
-        ({"kind": "tai_current_feed", "source": "s", "idle_current_A": 0.1},
-         f"{P}.slope_A_per_mm_min"),
-        ({"kind": "tai_current_feed", "source": "s", "idle_current_A": 0.1,
-          "slope_A_per_mm_min": 1e-4, "corr_slope_wear": -2}, f"{P}.corr_slope_wear"),
-        ("not a table", P),
-    ],
-)  # fmt: skip
-def test_mapping_errors_name_the_dotted_field(table, field):
-    with pytest.raises(InputError) as err:
-        calibration_from_mapping(table, P)
-    assert err.value.field == field
-
-
-def test_every_public_function_cites_its_paper():
-    cited = re.compile(r"Ivester|Kim & Jeon|Tai")
-    for name in dir(sensors):
-        obj = getattr(sensors, name)
-        if (
-            callable(obj)
-            and getattr(obj, "__module__", "") == "models.sensors"
-            and name.split("_")[0] in {"ivester", "kim", "tai", "fit", "linear", "feed", "to"}
-            and not name.endswith("_from_mapping")
-        ):
-            assert cited.search(obj.__doc__ or ""), name

@@ -4,92 +4,36 @@ The rewrite reads the program a line at a time and writes the new one as it goes
 (:func:`supervisor.gcode.rewrite_stream`). The golden files ``cycles.golden.nc`` and
 ``mixed.golden.nc`` were written by the in-memory rewrite this replaced (commit 164862a), as
 ``demo_g95_g96.golden.nc`` and ``g94_g97.golden.nc`` were before it. No test here is timed:
-``benchmarks/gcode_memory.py`` prints the time and memory.
+``benchmarks/gcode_memory.py`` prints the time and memory. The properties of the reader and the
+sweep are in test_gcode_stream_properties.py, the command in test_gcode_stream_cli.py.
 """
 
 from __future__ import annotations
 
 import io
-import json
-import re
-from pathlib import Path
 
 import pytest
+from gcode_support import DATA, SETPOINTS, THREAD, long_program, program, refused, rewrite, stream
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_gcode import (
-    DATA,
-    SETPOINTS,
-    cli_args,
-    program,
-    refused,
-    rewrite,
-    run,
-    stored_plan,  # noqa: F401 (a fixture)
-)
 
-from api.cli import gcode as cli
 from models.errors import MAX_ECHO
 from supervisor.gcode import (
     MAX_LINE_BYTES,
     MAX_LISTED,
     GcodeError,
-    OperationSetpoint,
-    parse_program,
     parse_range,
     rewrite_program,
     rewrite_stream,
 )
-from supervisor.gcode.contours import ContourSweep, Cycles, cycle_of
-from supervisor.gcode.lexer import _checked, _scanned_words, read_block
 from supervisor.gcode.result import Listing
-from supervisor.gcode.scan import first_lines
 
-THREAD = OperationSetpoint("thread", feed_mm_rev=0.2, speed_m_min=100, workpiece_diameter_mm=50)
 GOLDEN = [
     ("demo_g95_g96", ("rough-od=N100:N180", "finish-od=N300:N350")),
     ("g94_g97", ("rough-od=N10:N60",)),
     ("cycles", ("rough-od=N100:N190", "thread=N200:N240")),
     ("mixed", ("rough-od=N100:N150", "finish-od=N300:N340")),
 ]
-#: One part of a long program: block numbers ``{0}``..``{9}`` (``n``, ``n + 10`` ...).
-PART = [
-    "(PART)",
-    "N{0} T0101",
-    "N{1} G96 S187 M03",
-    "N{2} G00 X62. Z2.",
-    "N{3} G71 P{4} Q{6} U0.4 W0.1 F0.25",
-    "N{4} G00 X40. F0.12",
-    "N{5} G01 Z-20.",
-    "N{6} X62.",
-    "N{7} G01 Z-110. F0.25",
-    "N{8} G32 Z-30. F2.0",
-    "N{9} G01 X64. F.3",
-]
-
-
-def stream(data: bytes, *maps: str, listed: int | None = None, setpoints=None):
-    """The new program's bytes and the report of :func:`rewrite_stream` on ``data``."""
-    target = io.BytesIO()
-    report = rewrite_stream(
-        io.BytesIO(data),
-        target,
-        setpoints or {**SETPOINTS, "thread": THREAD},
-        [parse_range(m) for m in maps],
-        program_name="IN.nc",
-        listed=listed,
-    )
-    return target.getvalue(), report
-
-
-def long_program(parts: int, ending: str = "\n") -> str:
-    """``parts`` parts after a G21 G95 header, each with new block numbers, then M30."""
-    lines = ["%", "O1234", "N1 G21 G95 G50 S3000"]
-    for part in range(parts):
-        first = 100 + 100 * part
-        lines += [line.format(*(first + 10 * k for k in range(10))) for line in PART]
-    lines += [f"N{100 + 100 * parts} M30", "%"]
-    return ending.join(lines) + ending
 
 
 # --------------------------------------------------------------------------------------------
@@ -281,207 +225,3 @@ def test_a_program_changed_between_two_readings_is_refused():
     source = ChangingSource(program("N1 G21 G95 G96 S150", "N2 G01 X10. F0.2").encode())
     with pytest.raises(GcodeError, match="changed while it was read"):
         rewrite_stream(source, io.BytesIO(), SETPOINTS, [parse_range("rough-od=N1:N2")])
-
-
-# --------------------------------------------------------------------------------------------
-# properties: the plain-line reader, the contours, untouched bytes
-
-_LINE = st.text(alphabet="NGFSXZPQ0123456789.+- \t()/;%:#[]xfgn", max_size=30)
-
-
-@settings(max_examples=500, deadline=None)
-@given(_LINE)
-def test_the_plain_line_reader_reads_as_the_character_loop(text):
-    block = read_block(text, "\n", 2)
-    if not block.marker:
-        assert block == _checked(2, text, "\n", *_scanned_words(text, 0))
-
-
-@pytest.mark.parametrize(
-    "text",
-    ["N10 G01 X10. (F0.2) F0.3 (S1)", "n1 g01 x 10. f .3 ; S9 (", ":100 (A)(B)  ", "N1 X1(F2"],
-)
-def test_the_plain_line_reader_on_comments_and_spaces(text):
-    assert read_block(text, "", 3) == _checked(3, text, "", *_scanned_words(text, 0))
-
-
-def _old_contours(blocks) -> dict[int, int]:
-    """Contour line → cycle line, every line in a table (the code before the sweep)."""
-    line_of: dict[int, int] = {}
-    for block in blocks:
-        if block.number is not None and not block.problem:
-            line_of.setdefault(block.number, block.line)
-    inside: dict[int, int] = {}
-    for block in blocks:
-        cycle = cycle_of(block)
-        if cycle is None:
-            continue
-        first, last = line_of.get(cycle.first), line_of.get(cycle.last)
-        if first is not None and last is not None:
-            for line in range(first, last + 1):
-                inside.setdefault(line, block.line)
-    return inside
-
-
-@st.composite
-def cycle_programs(draw):
-    lines = []
-    for _ in range(draw(st.integers(1, 25))):
-        n = draw(st.integers(1, 9))
-        if draw(st.booleans()):
-            p, q = draw(st.integers(1, 9)), draw(st.integers(1, 9))
-            lines.append(f"N{n} G{draw(st.sampled_from([70, 71, 72, 73, 1]))} P{p} Q{q}")
-        else:
-            lines.append(draw(st.sampled_from([f"N{n} G01 X1.", "G01 Z2.", f"N{n} #1=2"])))
-    return program(*lines)
-
-
-@settings(max_examples=300, deadline=None)
-@given(cycle_programs())
-def test_the_contour_sweep_finds_what_the_table_found(text):
-    blocks = parse_program(text)
-    cycles = Cycles()
-    for cycle in filter(None, map(cycle_of, blocks)):
-        cycles.add(cycle)
-    index = first_lines(io.BytesIO(text.encode()), cycles.named(), "IN.nc")
-    sweep = ContourSweep.of(cycles, index)
-    expected = _old_contours(blocks)
-    assert {b.line: sweep.cycle_at(b.line) for b in blocks} == {
-        b.line: expected.get(b.line) for b in blocks
-    }
-
-
-def test_a_cycle_naming_a_block_beyond_18_digits_names_none():
-    big = 10**19
-    block = read_block(f"N5 G71 P{big} Q7", "", 1)
-    assert cycle_of(block) == (1, -1, 7)
-    index = Cycles().named()
-    assert big not in index and 5 not in index
-
-
-@settings(max_examples=100, deadline=None)
-@given(
-    st.lists(
-        st.tuples(
-            st.sampled_from(["G01 X10. F0.2", "G00 Z5.", "S150", "(C)", "", "G01 Z-2. F.1"]),
-            st.binary(max_size=6).filter(lambda b: b"\n" not in b and b")" not in b),
-            st.sampled_from([b"\n", b"\r\n"]),
-        ),
-        min_size=1,
-        max_size=12,
-    )
-)
-def test_lines_without_a_change_come_back_byte_for_byte(body):
-    lines = [b"N1 G21 G95 G96 S150 M03\n"]
-    for k, (words, junk, end) in enumerate(body):
-        lines.append(f"N{k + 2} {words} ".encode() + b"(" + junk + b")" + end)
-    lines.append(f"N{len(body) + 2} M30\n".encode())
-    written, report = stream(b"".join(lines), f"rough-od=N1:N{len(body) + 1}")
-    out = [line + b"\n" for line in written.split(b"\n")[:-1]]
-    assert len(out) == len(lines) and b"".join(out) == written
-    changed = {c.line for c in report.changes}
-    for number, (before, after) in enumerate(zip(lines, out, strict=True), start=1):
-        if number not in changed:
-            assert after == before
-        elif b" (" in before:
-            assert after.endswith(before[before.index(b" (") :])  # the comment's bytes
-
-
-# --------------------------------------------------------------------------------------------
-# the command: bounded output, nothing written on an error
-
-
-def _long_cli_args(url: str, plan_id: int, tmp_path: Path, parts: int) -> tuple[list[str], Path]:
-    source = tmp_path / "LONG.nc"
-    source.write_text(long_program(parts))
-    out = tmp_path / "OUT.nc"
-    args = [str(plan_id), "--program", str(source), "--out", str(out)]
-    return [*args, "--map", f"rough-od=N100:N{100 + 100 * parts - 10}", "--db", url], out
-
-
-def test_cli_json_lists_the_first_changes_and_counts_them_all(stored_plan, tmp_path):  # noqa: F811
-    url, plan_id, _ = stored_plan
-    args, out = _long_cli_args(url, plan_id, tmp_path, 400)
-    result = run([*args, "--json"])
-    assert result.exit_code == 0, result.stderr
-    data = json.loads(result.stdout)
-    assert (data["changes_total"], len(data["changes"])) == (1600, MAX_LISTED)
-    assert data["changes_truncated"] == 1600 - MAX_LISTED
-    assert (data["warnings_total"], data["warnings_truncated"], len(data["warnings"])) == (
-        800,
-        0,
-        800,
-    )
-    assert data["operations"][0]["words_changed"] == 1600
-    warned = [line for line in result.stderr.splitlines() if line.startswith("rcb: warning:")]
-    assert len(warned) == cli.SHOWN + 1
-    assert warned[-1] == f"rcb: warning: LONG.nc: {800 - cli.SHOWN} more warnings " + (
-        "(--json lists the first 1000)"
-    )
-    assert result.stderr.endswith("(1600 words changed)\n")
-    assert out.read_text().count("F0.") > 1000
-
-
-def test_cli_table_shows_the_first_fifty(stored_plan, tmp_path):  # noqa: F811
-    url, plan_id, _ = stored_plan
-    args, _ = _long_cli_args(url, plan_id, tmp_path, 100)
-    result = run(args)
-    assert result.exit_code == 0, result.stderr
-    assert "400 words changed" in result.stdout
-    assert result.stdout.endswith("... and 350 more words changed (--json lists the first 1000)\n")
-    assert result.stdout.count("more words changed") == 1
-    rows = [line for line in result.stdout.splitlines() if re.match(r"\s*\d+\s+rough-od", line)]
-    assert len(rows) == cli.SHOWN
-
-
-def test_cli_refuses_a_long_line_in_one_bounded_line_and_writes_nothing(stored_plan, tmp_path):  # noqa: F811
-    url, plan_id, _ = stored_plan
-    source = tmp_path / "BIG.nc"
-    source.write_bytes(b"N100 G21 G95 G96\nN110" + b" F0.1" * 200_000 + b"\nN180 M30\n")
-    out = tmp_path / "OUT.nc"
-    args = [str(plan_id), "--program", str(source), "--out", str(out)]
-    result = run([*args, "--map", "rough-od=N100:N180", "--db", url])
-    assert result.exit_code == 2
-    assert result.stderr.startswith("rcb: error: BIG.nc line 2 = 'N110 F0.1 F0.1")
-    assert "is longer than 4096 bytes" in result.stderr
-    assert result.stderr.count("\n") == 1 and len(result.stderr) < 500
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["BIG.nc"]
-
-
-def test_cli_writes_nothing_when_the_end_of_a_long_program_is_refused(stored_plan, tmp_path):  # noqa: F811
-    url, plan_id, _ = stored_plan
-    args, out = _long_cli_args(url, plan_id, tmp_path, 2000)
-    source = tmp_path / "LONG.nc"
-    text = source.read_text().replace("N200090 G01 X64. F.3", "N200090 G98 G01 X64. F.3")
-    source.write_text(text)  # the last part's last F: refused once 2 MB are written
-    result = run(args)
-    assert result.exit_code == 2, result.stderr
-    assert result.stderr.startswith("rcb: error: LONG.nc line 22003 = 'F.3': the feed mode is")
-    assert not out.exists()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["LONG.nc"]
-
-
-def test_cli_refuses_a_program_of_only_whitespace(stored_plan, tmp_path):  # noqa: F811
-    url, plan_id, _ = stored_plan
-    source = tmp_path / "BLANK.nc"
-    source.write_bytes(b" \r\n\t" * 40_000)  # more than one chunk
-    args = [str(plan_id), "--program", str(source), "--out", str(tmp_path / "OUT.nc")]
-    result = run([*args, "--map", "rough-od=N100:N180", "--db", url])
-    assert result.exit_code == 2 and "is empty" in result.stderr
-
-
-def test_the_help_states_the_caps_as_they_are():
-    from api.cli.gcode import gcode
-
-    help_text = " ".join((gcode.__doc__ or "").split())
-    assert f"first {cli.SHOWN} changes" in help_text and f"first {cli.SHOWN} warnings" in help_text
-    assert f"--json the first {MAX_LISTED} of each" in help_text
-    assert f"over {MAX_LINE_BYTES} bytes" in help_text
-    assert cli._JSON_LISTS == f"--json lists the first {MAX_LISTED}"
-
-
-def test_the_cli_reads_what_the_stream_writes(stored_plan, tmp_path):  # noqa: F811
-    url, plan_id, _ = stored_plan
-    out = tmp_path / "OUT.nc"
-    assert run(cli_args(url, plan_id, out)).exit_code == 0
-    assert out.read_bytes().count(b"\n") == (DATA / "demo_g95_g96.nc").read_bytes().count(b"\n")

@@ -3,26 +3,26 @@
 The rule (:mod:`supervisor.optimize.grid`): the best grid neighbour of the continuous optimum
 that meets every robust row, else the best neighbour of the tightened program's optimum; the
 predictions are those of the grid point. The grid is ``[machine.resolution]`` of the plan
-(:mod:`supervisor.inputs.resolution`). Checked here on hand-made programs, on random plans
+(:mod:`supervisor.inputs.resolution`). Checked here on plan files, on random plans
 (Hypothesis), on the learn strategy's cone setpoints, milling and constant-load plans, the
-virtual machine's oracle, the CLI and the REST service.
+virtual machine's oracle, the CLI and the REST service; on hand-made programs in
+test_setpoint_grid_rule.py.
 """
 
 from __future__ import annotations
 
 import copy
 import json
-import math
-from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import assume, event, given, settings
+from grid_support import on_grid, steps
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
-from test_properties import Scenario, robust_edges, scenarios
+from property_support import Scenario, robust_edges, scenarios
 
 from api.cli.main import app
 from models import kinematics
@@ -31,11 +31,9 @@ from models.tool import predict_all
 from supervisor.errors import InfeasibleError, PlanError
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import load_plan, plan_from_mapping
-from supervisor.inputs.resolution import DEFAULT_RESOLUTION, steps_within
-from supervisor.optimize import grid, highs_lp
+from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.optimize.formulation import formulate
 from supervisor.optimize.optimizer import optimize_plan
-from supervisor.optimize.program import LogLinearProgram, Row
 from supervisor.optimize.result import PlanResult
 from supervisor.optimize.solve import optimum
 from supervisor.rcb.state import RcbSettings
@@ -51,11 +49,6 @@ EXAMPLES = ROOT / "examples"
 #: grid point is checked against every row to 1e-12 in ln).
 LIMIT_RTOL = 1e-9
 STEP1 = step1_plan()  # the machine's default resolution
-
-
-def on_grid(value: float, step: float) -> bool:
-    """``value`` is a whole number of ``step`` as written (decimal arithmetic)."""
-    return Decimal(repr(value)) % Decimal(repr(step)) == 0
 
 
 def check_machine_values(result: PlanResult, plan: Any) -> None:
@@ -137,154 +130,6 @@ def test_the_cli_refuses_a_bad_resolution_naming_it(runner, tmp_path: Path):
     assert result.exit_code not in (0, 1), result.output
     assert "machine.resolution.depth_mm" in result.output
     assert "Traceback" not in result.output
-
-
-# --------------------------------------------------------------------------- the rule
-
-
-def test_float_noise_next_to_a_bound_is_the_bound():
-    # the issue's values: 3.0000000000000004 with bound 3.0, 10.000000000000002 on a 10 mm
-    # tool (radial depth fixed), 199.99999999999991 with bound 200
-    bounds = {"depth_mm": (0.5, 3.0), "radial_depth_mm": (10.0, 10.0), "speed_m_min": (100, 200)}
-    values = (3.0000000000000004, 10.000000000000002, 199.99999999999991)
-    points = grid.candidates(tuple(bounds), values, bounds, DEFAULT_RESOLUTION)
-    assert points.tolist() == [[3.0, 10.0, 200.0]]
-
-
-def _program(rows, lower, upper, objective=(1.0, 1.0, 1.0)) -> LogLinearProgram:
-    return LogLinearProgram(
-        operation="op",
-        parameters=("depth_mm", "feed_mm_rev", "speed_m_min"),
-        objective=tuple(objective),
-        rows=tuple(
-            Row(f"q{i}", c, b, math.exp(b), "max", f"q{i}") for i, (c, b) in enumerate(rows)
-        ),
-        lower=tuple(math.log(v) for v in lower),
-        upper=tuple(math.log(v) for v in upper),
-    )
-
-
-def _solve_or_none(lp: LogLinearProgram) -> np.ndarray | None:
-    status, x = highs_lp.maximize(lp)
-    return np.clip(x, lp.lower, lp.upper) if status == "optimal" else None
-
-
-def test_rounding_the_speed_down_would_break_roughness_so_the_rule_does_not():
-    # Roughness f · v^-0.5 <= R (it falls with speed) binds with v on its bound 200.5, which
-    # is no grid point: v must go down to 200, and with it the feed by sqrt(200/200.5) - 1
-    # = -0.125 %, more than one feed step (0.0001 of about 0.3 mm/rev). So no grid
-    # neighbour of the optimum meets the row (rounding everything down breaks it); fixing v
-    # first (its one candidate) and re-solving gives the feed.
-    bounds = {"depth_mm": (0.5, 3.0), "feed_mm_rev": (0.05, 0.6), "speed_m_min": (100, 200.5)}
-    rhs = math.log(0.3) - 0.5 * math.log(200.5)
-    lp = _program([((0.0, 1.0, -0.5), rhs)], *zip(*bounds.values(), strict=True))
-    x = _solve_or_none(lp)
-    assert x is not None
-    assert_allclose(np.exp(x), [3.0, 0.3, 200.5])
-    floor = np.array([3.0, 0.2999, 200.0])  # every parameter rounded down
-    assert not grid.meets(lp, floor[None, :])[0]
-    assert grid.on_grid(lp, x, bounds, DEFAULT_RESOLUTION) is None
-    found = grid.machine_point(lp, x, bounds, DEFAULT_RESOLUTION, _solve_or_none)
-    assert found is not None
-    # f <= 0.3 · sqrt(200 / 200.5) = 0.299626: the best grid feed at v = 200 is 0.2996
-    assert found[2].tolist() == [3.0, 0.2996, 200.0]
-    assert grid.meets(lp, found[2][None, :])[0]
-    # the last resort alone (tightened rows) is safe too, at one step of v at its low bound
-    tight = grid.tightened(lp, bounds, DEFAULT_RESOLUTION)
-    x_tight = _solve_or_none(tight)
-    point = grid.on_grid(lp, x_tight, bounds, DEFAULT_RESOLUTION)
-    assert point is not None and grid.meets(lp, point[None, :])[0]
-    assert point[1] < 0.2996
-
-
-steps = st.fixed_dictionaries(
-    {
-        "depth_mm": st.sampled_from([0.1, 0.01, 0.001]),
-        "feed_mm_rev": st.sampled_from([0.01, 0.001, 0.0001]),
-        "speed_m_min": st.sampled_from([5.0, 1.0, 0.5, 0.1]),
-    }
-)
-exponent = st.floats(-2.0, 2.0, allow_nan=False).map(lambda v: round(v, 3))
-
-
-@settings(max_examples=200, deadline=None)
-@given(
-    rows=st.lists(st.tuples(st.tuples(exponent, exponent, exponent), st.floats(0.0, 0.5))),
-    lower=st.tuples(st.floats(0.05, 3.0), st.floats(0.01, 0.5), st.floats(20.0, 300.0)),
-    ratio=st.tuples(*[st.floats(1.0, 5.0)] * 3),
-    where=st.tuples(*[st.floats(0.0, 1.0)] * 3),
-    objective=st.tuples(*[st.sampled_from([0.0, 0.5, 1.0])] * 3),
-    resolution=steps,
-)
-def test_the_rule_never_returns_a_point_that_breaks_a_row_or_a_bound(
-    rows, lower, ratio, where, objective, resolution
-):
-    # rows through a point inside the bounds, 0-0.5 above it in ln: feasible, and they bind
-    upper = tuple(lo * r for lo, r in zip(lower, ratio, strict=True))
-    inside = [math.log(lo) + t * math.log(r) for lo, r, t in zip(lower, ratio, where, strict=True)]
-    rows = [(a, float(np.dot(a, inside)) + m) for a, m in rows]
-    for p, lo, hi in zip(("depth_mm", "feed_mm_rev", "speed_m_min"), lower, upper, strict=True):
-        k_low, k_high = steps_within(lo, hi, resolution[p])
-        assume(k_low <= k_high)  # a plan refuses bounds that hold no grid point
-    pairs = zip(lower, upper, strict=True)
-    bounds = dict(zip(("depth_mm", "feed_mm_rev", "speed_m_min"), pairs, strict=True))
-    lp = _program(rows, lower, upper, objective)
-    x = _solve_or_none(lp)
-    if x is None:
-        return
-    found = grid.machine_point(lp, x, bounds, resolution, _solve_or_none)
-    if found is None:
-        event("no grid point proven safe")
-        assert _solve_or_none(grid.tightened(lp, bounds, resolution)) is None
-        return
-    held, _, point = found
-    if held is not lp:
-        event("tightened program")
-    elif grid.on_grid(lp, x, bounds, resolution) is None:
-        event("fix and re-solve")
-    else:
-        event("a grid neighbour")
-    for (p, (low, high)), v in zip(bounds.items(), point, strict=True):
-        assert low <= v <= high
-        assert on_grid(float(v), resolution[p])
-    ln = np.log(point)
-    for coefficients, rhs in rows:
-        assert float(np.dot(coefficients, ln)) <= rhs + 1e-12
-
-
-@settings(max_examples=150, deadline=None)
-@given(
-    rows=st.lists(
-        st.tuples(st.tuples(exponent, exponent, exponent), st.floats(0.0, 0.5)), min_size=1
-    ),
-    lower=st.tuples(st.floats(0.05, 3.0), st.floats(0.01, 0.5), st.floats(20.0, 300.0)),
-    ratio=st.tuples(*[st.floats(1.0, 5.0)] * 3),
-    where=st.tuples(*[st.floats(0.0, 1.0)] * 3),
-    objective=st.tuples(*[st.floats(0.1, 1.0)] * 3),
-    resolution=steps,
-)
-def test_every_grid_neighbour_of_the_tightened_optimum_meets_every_row(
-    rows, lower, ratio, where, objective, resolution
-):
-    # the last resort's guarantee, by construction: rows tightened by one step of every
-    # parameter at its low bound (ln(1 + step/low)) leave room for any rounding. The rows
-    # pass a point inside the bounds with a margin of 0-0.5 in ln, so that they bind.
-    upper = tuple(lo * r for lo, r in zip(lower, ratio, strict=True))
-    params = ("depth_mm", "feed_mm_rev", "speed_m_min")
-    for p, lo, hi in zip(params, lower, upper, strict=True):
-        k_low, k_high = steps_within(lo, hi, resolution[p])
-        assume(k_low <= k_high)
-    bounds = dict(zip(params, zip(lower, upper, strict=True), strict=True))
-    inside = [math.log(lo) + t * math.log(r) for lo, r, t in zip(lower, ratio, where, strict=True)]
-    through = [(a, float(np.dot(a, inside)) + m) for a, m in rows]
-    lp = _program(through, lower, upper, objective)
-    x = _solve_or_none(grid.tightened(lp, bounds, resolution))
-    if x is None:
-        event("the tightened program is infeasible")
-        return
-    points = grid.candidates(params, np.exp(x), bounds, resolution)
-    event(f"{len(points)} neighbours")
-    assert grid.meets(lp, points).all()
 
 
 # --------------------------------------------------------------------------- plans
