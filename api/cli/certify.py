@@ -36,45 +36,54 @@ VIOLATIONS_FOUND = 1
 _out = Console()
 
 
+_PlanArg = Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")]
+_ScenariosOption = Annotated[
+    int,
+    typer.Option(
+        "--scenarios",
+        min=1,
+        max=MAX_SCENARIOS,
+        help="True processes drawn inside the bands (seeds SEED..SEED+N-1).",
+    ),
+]
+_PartsOption = Annotated[
+    int, typer.Option("--parts", min=1, max=MAX_PARTS, help="Parts made per scenario.")
+]
+_SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Seed of the first scenario.")]
+_WearDriftOption = Annotated[
+    float,
+    typer.Option(
+        "--wear-drift",
+        help="Rise of force, roughness and spindle current over an edge's life "
+        "(0.2: +20 %); edges change after parts_per_edge parts. The same as "
+        "--fault wear:D.",
+    ),
+]
+_FaultOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--fault",
+        metavar="KIND[:ARGS]",
+        help="A fault of the shop floor, repeatable: " + catalogue_help() + ".",
+    ),
+]
+_JobsOption = Annotated[
+    int | None,
+    typer.Option(
+        "--jobs", min=1, help="Worker processes (default: the CPUs available; 1: no pool)."
+    ),
+]
+
+
 def certify(
-    plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
+    plan_file: _PlanArg,
     strategy: Annotated[str, typer.Option("--strategy", help=STRATEGY_HELP)] = DEFAULT_STRATEGY,
-    scenarios: Annotated[
-        int,
-        typer.Option(
-            "--scenarios",
-            min=1,
-            max=MAX_SCENARIOS,
-            help="True processes drawn inside the bands (seeds SEED..SEED+N-1).",
-        ),
-    ] = 200,
-    parts: Annotated[
-        int, typer.Option("--parts", min=1, max=MAX_PARTS, help="Parts made per scenario.")
-    ] = 30,
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the first scenario.")] = 0,
-    wear_drift: Annotated[
-        float,
-        typer.Option(
-            "--wear-drift",
-            help="Rise of force, roughness and spindle current over an edge's life "
-            "(0.2: +20 %); edges change after parts_per_edge parts. The same as "
-            "--fault wear:D.",
-        ),
-    ] = 0.0,
-    fault: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--fault",
-            metavar="KIND[:ARGS]",
-            help="A fault of the shop floor, repeatable: " + catalogue_help() + ".",
-        ),
-    ] = None,
-    jobs: Annotated[
-        int | None,
-        typer.Option(
-            "--jobs", min=1, help="Worker processes (default: the CPUs available; 1: no pool)."
-        ),
-    ] = None,
+    scenarios: _ScenariosOption = 200,
+    parts: _PartsOption = 30,
+    seed: _SeedOption = 0,
+    wear_drift: _WearDriftOption = 0.0,
+    fault: _FaultOption = None,
+    jobs: _JobsOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Monte Carlo certificate of a plan under an RCB strategy (violations, MRR).
@@ -93,6 +102,39 @@ def certify(
     printing everything, JSON included), so a CI job fails on it; 2 bad input,
     3 no robust start, 4 solver failure.
     """
+    with errors():
+        summary = _certified(
+            plan_file,
+            strategy,
+            scenarios=scenarios,
+            parts=parts,
+            seed=seed,
+            wear_drift=wear_drift,
+            fault=fault or [],
+            jobs=jobs,
+            as_json=as_json,
+        )
+    if as_json:
+        emit(summary_json(summary))
+    else:
+        _print_summary(summary)
+    if summary.violations:
+        raise typer.Exit(VIOLATIONS_FOUND)
+
+
+def _certified(
+    plan_file: Path,
+    strategy: str,
+    *,
+    scenarios: int,
+    parts: int,
+    seed: int,
+    wear_drift: float,
+    fault: list[str],
+    jobs: int | None,
+    as_json: bool,
+) -> CertificateSummary:
+    """The options checked, the plan loaded and certified (a progress bar on a terminal)."""
     # imported here (NumPy, SciPy, the solvers): rcb --help and the other commands do not load them
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -101,48 +143,46 @@ def certify(
     from supervisor.virtual.certificate import summarize
     from supervisor.virtual.certify import available_cpus, certify_plan
 
-    with errors():
-        if strategy not in STRATEGY_NAMES:
-            known = ", ".join(STRATEGY_NAMES)
-            raise InputError("--strategy", strategy, f"expected one of: {known}")
-        drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
-        faults = parse_faults(fault or [], wear_drift=drift, wear_flag="--wear-drift")
-        plan = load_plan(plan_file)
-        workers = jobs if jobs is not None else available_cpus()
-        with Progress(
-            TextColumn(f"certify {plan.name} ({strategy})"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("scenarios"),
-            TimeElapsedColumn(),
-            console=err_console,
-            transient=True,
-            disable=as_json or not err_console.is_terminal,
-        ) as progress:
-            task = progress.add_task("scenarios", total=scenarios)
-            certificate = certify_plan(
-                plan,
-                strategy,
-                scenarios=scenarios,
-                parts=parts,
-                seed=seed,
-                faults=faults,
-                jobs=workers,
-                progress=lambda done: progress.update(task, completed=done),
-            )
-        summary = summarize(certificate)
-    if as_json:
-        emit(summary_json(summary))
-    else:
-        title, table, notes = summary_lines(summary)
-        _out.print(title, markup=False, highlight=False)
-        _out.print(table)
-        _out.print(notes, markup=False, highlight=False)
-        _out.print(avoidable_line(summary), markup=False, highlight=False)
-        if summary.fault_rows:
-            _out.print(fault_table(summary))
-    if summary.violations:
-        raise typer.Exit(VIOLATIONS_FOUND)
+    if strategy not in STRATEGY_NAMES:
+        known = ", ".join(STRATEGY_NAMES)
+        raise InputError("--strategy", strategy, f"expected one of: {known}")
+    drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
+    faults = parse_faults(fault, wear_drift=drift, wear_flag="--wear-drift")
+    plan = load_plan(plan_file)
+    workers = jobs if jobs is not None else available_cpus()
+    with Progress(
+        TextColumn(f"certify {plan.name} ({strategy})"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("scenarios"),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=True,
+        disable=as_json or not err_console.is_terminal,
+    ) as progress:
+        task = progress.add_task("scenarios", total=scenarios)
+        certificate = certify_plan(
+            plan,
+            strategy,
+            scenarios=scenarios,
+            parts=parts,
+            seed=seed,
+            faults=faults,
+            jobs=workers,
+            progress=lambda done: progress.update(task, completed=done),
+        )
+    return summarize(certificate)
+
+
+def _print_summary(summary: CertificateSummary) -> None:
+    """The tables and notes of the certificate, as plain text around rich tables."""
+    title, table, notes = summary_lines(summary)
+    _out.print(title, markup=False, highlight=False)
+    _out.print(table)
+    _out.print(notes, markup=False, highlight=False)
+    _out.print(avoidable_line(summary), markup=False, highlight=False)
+    if summary.fault_rows:
+        _out.print(fault_table(summary))
 
 
 def summary_json(summary: CertificateSummary) -> dict[str, Any]:

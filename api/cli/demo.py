@@ -22,6 +22,23 @@ DEMO_PLAN = "ivester_demo_part"
 #: The milling demonstration (slot and side finish, spindle current as the force sensor).
 MILLING_DEMO_PLAN = "milling_demo_part"
 
+_PlanOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--plan",
+        help="The plan (default: the installed example ivester_demo_part, or "
+        "milling_demo_part with --milling; rcb examples).",
+    ),
+]
+_MillingOption = Annotated[
+    bool,
+    typer.Option(
+        "--milling",
+        help="The milling demonstration (slot and side finish, spindle current as the "
+        "force sensor) on a virtual mill.",
+    ),
+]
+
 
 def demo(
     parts: Annotated[int, typer.Option("--parts", help="Parts made with RCB.", min=1)] = 20,
@@ -30,22 +47,8 @@ def demo(
     alpha: Annotated[
         float, typer.Option("--alpha", help="Fraction of the margin a band shrinks by.")
     ] = DEFAULT_ALPHA,
-    plan_file: Annotated[
-        Path | None,
-        typer.Option(
-            "--plan",
-            help="The plan (default: the installed example ivester_demo_part, or "
-            "milling_demo_part with --milling; rcb examples).",
-        ),
-    ] = None,
-    milling: Annotated[
-        bool,
-        typer.Option(
-            "--milling",
-            help="The milling demonstration (slot and side finish, spindle current as the "
-            "force sensor) on a virtual mill.",
-        ),
-    ] = False,
+    plan_file: _PlanOption = None,
+    milling: _MillingOption = False,
     as_json: JsonOption = False,
 ) -> None:
     """The paper's demonstration: catalogue, robust start, then RCB part by part on a virtual lathe.

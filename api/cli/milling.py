@@ -50,15 +50,18 @@ WEAR_COLUMNS = {"flank_wear_um": 1e-3, "flank_wear_mm": 1.0}
 _FILE = "TESTS.csv"
 
 
+_TestsArg = Annotated[
+    Path,
+    typer.Argument(
+        metavar=_FILE,
+        help="Constant-feed tests: feed_rate_mm_min, spindle_current_A, flank_wear_um "
+        "(or flank_wear_mm).",
+    ),
+]
+
+
 def setup(
-    tests: Annotated[
-        Path,
-        typer.Argument(
-            metavar=_FILE,
-            help="Constant-feed tests: feed_rate_mm_min, spindle_current_A, flank_wear_um "
-            "(or flank_wear_mm).",
-        ),
-    ],
+    tests: _TestsArg,
     safety_factor: Annotated[
         float,
         typer.Option("--safety-factor", help="Reference current / largest current withstood."),

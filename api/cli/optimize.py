@@ -42,53 +42,59 @@ def _pairs(items: list[str], option: str) -> dict[str, float]:
     return result
 
 
+_ToolOption = Annotated[str, typer.Option("--tool", help="Tool name (catalogue or --plan).")]
+_DepthOption = Annotated[float | None, typer.Option("--depth-mm", help="Turning depth [mm].")]
+_FeedOption = Annotated[float | None, typer.Option("--feed-mm-rev", help="Turning feed [mm/rev].")]
+_SpeedOption = Annotated[float | None, typer.Option("--speed-m-min", help="Cutting speed [m/min].")]
+_AxialOption = Annotated[
+    float | None, typer.Option("--axial-depth-mm", help="Milling axial depth [mm].")
+]
+_RadialOption = Annotated[
+    float | None, typer.Option("--radial-depth-mm", help="Milling radial depth [mm].")
+]
+_FeedPerToothOption = Annotated[
+    float | None, typer.Option("--feed-per-tooth-mm", help="Milling feed per tooth [mm].")
+]
+_DiameterOption = Annotated[
+    float | None,
+    typer.Option("--diameter-mm", help="Turning: workpiece diameter [mm] (adds torque, rpm)."),
+]
+_ToolDiameterOption = Annotated[
+    float | None, typer.Option("--tool-diameter-mm", help="Milling: tool diameter [mm].")
+]
+_FlutesOption = Annotated[int | None, typer.Option("--flutes", help="Milling: number of flutes.")]
+_FlankWearOption = Annotated[
+    float,
+    typer.Option("--flank-wear-mm", help="Allowable flank wear for tool life [mm]."),
+]
+_RelOption = Annotated[
+    list[str] | None,
+    typer.Option("--rel-uncertainty", help="Setpoint uncertainty NAME=Δx/x (repeatable)."),
+]
+_PlanOption = Annotated[
+    Path | None, typer.Option("--plan", help="Take the tool from this plan file.")
+]
+
+
 def predict(
-    tool: Annotated[str, typer.Option("--tool", help="Tool name (catalogue or --plan).")],
-    depth_mm: Annotated[
-        float | None, typer.Option("--depth-mm", help="Turning depth [mm].")
-    ] = None,
-    feed_mm_rev: Annotated[
-        float | None, typer.Option("--feed-mm-rev", help="Turning feed [mm/rev].")
-    ] = None,
-    speed_m_min: Annotated[
-        float | None, typer.Option("--speed-m-min", help="Cutting speed [m/min].")
-    ] = None,
-    axial_depth_mm: Annotated[
-        float | None, typer.Option("--axial-depth-mm", help="Milling axial depth [mm].")
-    ] = None,
-    radial_depth_mm: Annotated[
-        float | None, typer.Option("--radial-depth-mm", help="Milling radial depth [mm].")
-    ] = None,
-    feed_per_tooth_mm: Annotated[
-        float | None, typer.Option("--feed-per-tooth-mm", help="Milling feed per tooth [mm].")
-    ] = None,
-    workpiece_diameter_mm: Annotated[
-        float | None,
-        typer.Option("--diameter-mm", help="Turning: workpiece diameter [mm] (adds torque, rpm)."),
-    ] = None,
-    tool_diameter_mm: Annotated[
-        float | None, typer.Option("--tool-diameter-mm", help="Milling: tool diameter [mm].")
-    ] = None,
-    flute_count: Annotated[
-        int | None, typer.Option("--flutes", help="Milling: number of flutes.")
-    ] = None,
-    flank_wear_mm: Annotated[
-        float,
-        typer.Option("--flank-wear-mm", help="Allowable flank wear for tool life [mm]."),
-    ] = DEFAULT_FLANK_WEAR_MM,
-    rel_uncertainty: Annotated[
-        list[str] | None,
-        typer.Option("--rel-uncertainty", help="Setpoint uncertainty NAME=Δx/x (repeatable)."),
-    ] = None,
-    plan: Annotated[
-        Path | None, typer.Option("--plan", help="Take the tool from this plan file.")
-    ] = None,
+    tool: _ToolOption,
+    depth_mm: _DepthOption = None,
+    feed_mm_rev: _FeedOption = None,
+    speed_m_min: _SpeedOption = None,
+    axial_depth_mm: _AxialOption = None,
+    radial_depth_mm: _RadialOption = None,
+    feed_per_tooth_mm: _FeedPerToothOption = None,
+    workpiece_diameter_mm: _DiameterOption = None,
+    tool_diameter_mm: _ToolDiameterOption = None,
+    flute_count: _FlutesOption = None,
+    flank_wear_mm: _FlankWearOption = DEFAULT_FLANK_WEAR_MM,
+    rel_uncertainty: _RelOption = None,
+    plan: _PlanOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Predict every model of a tool, with its band, at one set of cutting parameters."""
     # imported here, as in every command: rcb --help and the other commands do not load them
     from api.services import to_json
-    from models import fields
     from models.tool import predict_all
 
     given = {
@@ -105,21 +111,8 @@ def predict(
     }
     with errors():
         found = _tool(tool, plan)
-        allowed = PARAMETERS[found.process] + CONTEXT[found.process]
-        point: dict[str, float] = {}
-        for name, value in given.items():
-            option = _OPTIONS[name]
-            if value is None:
-                if name in PARAMETERS[found.process]:
-                    raise InputError(option, None, f"required for {found.process} tool {tool!r}")
-                continue
-            if name not in allowed:
-                raise InputError(option, value, f"not used by {found.process} tool {tool!r}")
-            point[name] = fields.number(value, option, positive=True)
-        rel = _pairs(rel_uncertainty or [], "--rel-uncertainty")
-        for name in rel:
-            if name not in PARAMETERS[found.process]:
-                raise InputError("--rel-uncertainty", name, "not a cutting parameter of this tool")
+        point = _point(found, tool, given)
+        rel = _rel_uncertainties(found, rel_uncertainty or [])
         try:
             predicted = predict_all(found, point, rel)
         except ModelDomainError as err:
@@ -136,6 +129,33 @@ def predict(
     else:
         at = ", ".join(f"{k}={v:g}" for k, v in point.items())
         _out.print(tables.predictions_table(f"{found.name} ({found.process}) at {at}", predicted))
+
+
+def _point(found: Tool, tool: str, given: dict[str, float | None]) -> dict[str, float]:
+    """The cutting parameters and context given: each the tool's process needs, none it does not."""
+    from models import fields
+
+    allowed = PARAMETERS[found.process] + CONTEXT[found.process]
+    point: dict[str, float] = {}
+    for name, value in given.items():
+        option = _OPTIONS[name]
+        if value is None:
+            if name in PARAMETERS[found.process]:
+                raise InputError(option, None, f"required for {found.process} tool {tool!r}")
+            continue
+        if name not in allowed:
+            raise InputError(option, value, f"not used by {found.process} tool {tool!r}")
+        point[name] = fields.number(value, option, positive=True)
+    return point
+
+
+def _rel_uncertainties(found: Tool, items: list[str]) -> dict[str, float]:
+    """``--rel-uncertainty NAME=Δx/x`` pairs, each naming a cutting parameter of the tool."""
+    rel = _pairs(items, "--rel-uncertainty")
+    for name in rel:
+        if name not in PARAMETERS[found.process]:
+            raise InputError("--rel-uncertainty", name, "not a cutting parameter of this tool")
+    return rel
 
 
 _OPTIONS = {

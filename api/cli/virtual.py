@@ -40,44 +40,51 @@ class Protocol(enum.StrEnum):
 DEFAULT_PORTS = {Protocol.mtconnect: 5000, Protocol.opcua: 4840}
 
 
+_PlanOption = Annotated[
+    Path,
+    typer.Option(metavar="FILE", help="A plan with a spindle-load calibration table."),
+]
+_PortOption = Annotated[
+    int | None,
+    typer.Option(min=1, max=65535, help="TCP port on 127.0.0.1 [default: 5000 or 4840]."),
+]
+_NoWaitOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-wait-for-reader",
+        help="Make the first part at once (by default: once a collector reads the machine).",
+    ),
+]
+_CollectorOption = Annotated[
+    Path | None,
+    typer.Option(metavar="collector.toml", help="Write the collector's file for this machine."),
+]
+_ServiceUrlOption = Annotated[
+    str,
+    typer.Option(
+        metavar="URL",
+        show_default=False,
+        help="The REST service, in --collector's file [default: rcb serve on port 8000].",
+    ),
+]
+
+
 @virtual_app.command("serve")
 def serve(
     protocol: Annotated[Protocol, typer.Option(help="mtconnect (an agent) or opcua (a server).")],
-    plan: Annotated[
-        Path,
-        typer.Option(metavar="FILE", help="A plan with a spindle-load calibration table."),
-    ],
-    port: Annotated[
-        int | None,
-        typer.Option(min=1, max=65535, help="TCP port on 127.0.0.1 [default: 5000 or 4840]."),
-    ] = None,
+    plan: _PlanOption,
+    port: _PortOption = None,
     parts: Annotated[int, typer.Option(min=1, max=MAX_PARTS, help="Parts to make.")] = 10,
     seconds_per_part: Annotated[
         float, typer.Option(min=0.01, max=3600.0, help="Time to make one part [s].")
     ] = 1.0,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the virtual machine and noise.")] = 7,
-    no_wait_for_reader: Annotated[
-        bool,
-        typer.Option(
-            "--no-wait-for-reader",
-            help="Make the first part at once (by default: once a collector reads the machine).",
-        ),
-    ] = False,
-    collector: Annotated[
-        Path | None,
-        typer.Option(metavar="collector.toml", help="Write the collector's file for this machine."),
-    ] = None,
+    no_wait_for_reader: _NoWaitOption = False,
+    collector: _CollectorOption = None,
     machine: Annotated[
         str, typer.Option(help="The machine's name in --collector's file (in each serial).")
     ] = "virtual-lathe",
-    service_url: Annotated[
-        str,
-        typer.Option(
-            metavar="URL",
-            show_default=False,
-            help="The REST service, in --collector's file [default: rcb serve on port 8000].",
-        ),
-    ] = "http://127.0.0.1:8000/api/v1",
+    service_url: _ServiceUrlOption = "http://127.0.0.1:8000/api/v1",
     plan_id: Annotated[
         int, typer.Option(min=1, help="The stored plan's id, in --collector's file.")
     ] = 1,

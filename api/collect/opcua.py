@@ -25,13 +25,17 @@ import datetime as dt
 import os
 import time
 from collections.abc import AsyncIterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from api.collect.config import OpcUaConfig
 from api.collect.opcua_paths import resolve
 from models.errors import InputError
 from supervisor.collect.segment import ACTIVE, Observation
 from supervisor.collect.selectors import block_number
+
+if TYPE_CHECKING:
+    from asyncua.client.client import Client
+    from asyncua.common.subscription import Subscription
 
 #: Order of signals that change at the same instant (see the module docstring).
 PRIORITY = (
@@ -75,45 +79,9 @@ def _value(item: str, value: Any, active: tuple[str, ...]) -> float | int | str 
 
 async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterator[Observation]:
     """Connect, subscribe and yield the observations in order until ``stop`` is set."""
-    from asyncua import ua
-    from asyncua.client.client import Client
-    from asyncua.common.subscription import DataChangeEvent, OverflowPolicy, StatusChangeEvent
-
-    client = Client(config.url)
-    lost: list[Exception] = []
-
-    async def on_lost(error: Exception) -> None:  # asyncua's watchdog saw the server go
-        lost.append(error)
-
-    client.connection_lost_callback = on_lost
-    if config.security:
-        await client.set_security_string(config.security)
-    if config.username:
-        client.set_user(config.username)
-        if config.password_env:
-            password = os.environ.get(config.password_env)
-            if not password:
-                raise InputError("opcua.password_env", config.password_env, "variable unset")
-            client.set_password(password)
+    client, lost = await _client(config)
     async with client:
-        nodes = {
-            item: await resolve(client, spec, f"opcua.nodes.{item}")
-            for item, spec in config.nodes.items()
-        }
-        items = {node.nodeid: item for item, node in nodes.items()}
-        parameters = ua.CreateSubscriptionParameters(
-            RequestedPublishingInterval=config.publishing_ms,
-            RequestedLifetimeCount=10000,
-            RequestedMaxKeepAliveCount=100,
-            MaxNotificationsPerPublish=0,
-            Priority=0,
-        )
-        subscription = await client.create_subscription(
-            parameters, None, queue_maxsize=100_000, overflow=OverflowPolicy.DISCONNECT
-        )
-        await subscription.subscribe_data_change(
-            list(nodes.values()), queuesize=config.queue_size, sampling_interval=ua.Double(0.0)
-        )
+        subscription, items = await _subscribe(client, config)
         iterator = aiter(subscription)
         sequence, heard = 0, time.monotonic()
         while not stop.is_set():
@@ -131,20 +99,82 @@ async def observations(config: OpcUaConfig, stop: asyncio.Event) -> AsyncIterato
             pending = subscription._event_queue  # asyncua's iterator queue: the same publish
             while pending is not None and not pending.empty():
                 batch.append(pending.get_nowait())
-            changes = []
-            for event in batch:
-                if isinstance(event, StatusChangeEvent):  # the server ended the subscription
-                    raise ConnectionError(f"subscription status {event.notification.Status}")
-                if not isinstance(event, DataChangeEvent):
-                    continue
-                item = items.get(event.node.nodeid)
-                if item is None:
-                    continue
-                stamp = event.data.monitored_item.Value.SourceTimestamp or _EPOCH
-                if stamp.tzinfo is None:
-                    stamp = stamp.replace(tzinfo=dt.UTC)
-                changes.append((stamp, PRIORITY.index(item), item, event.value))
-            changes.sort(key=lambda c: (c[0], c[1]))
-            for _, _, item, value in changes:
+            for item, value in _changes(batch, items):
                 sequence += 1
                 yield Observation(sequence, item, _value(item, value, config.active_values))
+
+
+async def _client(config: OpcUaConfig) -> tuple[Client, list[Exception]]:
+    """An asyncua client, not yet connected, with its security and user; and its losses.
+
+    The list fills when asyncua's watchdog sees the server go.
+    """
+    from asyncua.client.client import Client
+
+    client = Client(config.url)
+    lost: list[Exception] = []
+
+    async def on_lost(error: Exception) -> None:  # asyncua's watchdog saw the server go
+        lost.append(error)
+
+    client.connection_lost_callback = on_lost
+    if config.security:
+        await client.set_security_string(config.security)
+    if config.username:
+        client.set_user(config.username)
+        if config.password_env:
+            password = os.environ.get(config.password_env)
+            if not password:
+                raise InputError("opcua.password_env", config.password_env, "variable unset")
+            client.set_password(password)
+    return client, lost
+
+
+async def _subscribe(client: Client, config: OpcUaConfig) -> tuple[Subscription, dict[Any, str]]:
+    """One subscription with a monitored item per signal; and each node id's signal.
+
+    A local queue overflowing disconnects rather than drops (module docstring).
+    """
+    from asyncua import ua
+    from asyncua.common.subscription import OverflowPolicy
+
+    nodes = {
+        item: await resolve(client, spec, f"opcua.nodes.{item}")
+        for item, spec in config.nodes.items()
+    }
+    items = {node.nodeid: item for item, node in nodes.items()}
+    parameters = ua.CreateSubscriptionParameters(
+        RequestedPublishingInterval=config.publishing_ms,
+        RequestedLifetimeCount=10000,
+        RequestedMaxKeepAliveCount=100,
+        MaxNotificationsPerPublish=0,
+        Priority=0,
+    )
+    subscription = await client.create_subscription(
+        parameters, None, queue_maxsize=100_000, overflow=OverflowPolicy.DISCONNECT
+    )
+    await subscription.subscribe_data_change(
+        list(nodes.values()), queuesize=config.queue_size, sampling_interval=ua.Double(0.0)
+    )
+    return subscription, items
+
+
+def _changes(batch: list[Any], items: dict[Any, str]) -> list[tuple[str, Any]]:
+    """The data changes of one publish, ordered by source time, then by :data:`PRIORITY`."""
+    from asyncua.common.subscription import DataChangeEvent, StatusChangeEvent
+
+    changes = []
+    for event in batch:
+        if isinstance(event, StatusChangeEvent):  # the server ended the subscription
+            raise ConnectionError(f"subscription status {event.notification.Status}")
+        if not isinstance(event, DataChangeEvent):
+            continue
+        item = items.get(event.node.nodeid)
+        if item is None:
+            continue
+        stamp = event.data.monitored_item.Value.SourceTimestamp or _EPOCH
+        if stamp.tzinfo is None:
+            stamp = stamp.replace(tzinfo=dt.UTC)
+        changes.append((stamp, PRIORITY.index(item), item, event.value))
+    changes.sort(key=lambda c: (c[0], c[1]))
+    return [(item, value) for _, _, item, value in changes]

@@ -93,47 +93,18 @@ async def mtconnect_loop(
         agent = Agent(
             http, source.url, source.items, spindle=source.spindle, required=required(config)
         )
-        while not agent.binding:  # the device model first; an agent down at start is waited for
-            if stop.is_set():
-                return
-            try:
-                for signal, bound in (await agent.bind()).items():
-                    log.info(
-                        "%s: data item %s, scale %g", signal, bound.item.describe(), bound.scale
-                    )
-            except (httpx.HTTPError, AgentError) as err:
-                log.warning("agent's device model not read (%s); retrying", err)
-                await _pause(stop, max(1.0, source.poll_s))
+        if not await _bind(agent, source, stop):
+            return
         saved = queue.checkpoint()
         segmenter = Segmenter(
             config.selectors,
             percentile=config.percentile,
             state=None if saved is None else saved.state,
         )
-        instance, start = (saved.instance, saved.next_sequence) if saved else ("", 0)
-        current = None
-        while current is None:  # an agent down at start is waited for
-            if stop.is_set():
-                return
-            try:
-                current = await agent.current()
-            except (httpx.HTTPError, AgentError) as err:
-                log.warning("agent not read (%s); retrying", err)
-                await _pause(stop, max(1.0, source.poll_s))
-        if saved is not None and current.instance_id != instance:
-            gap = Gap(start, None, f"agent restarted: instance {instance} → {current.instance_id}")
-            segmenter.gap(gap)
-            _gap(queue, gap, current.instance_id, current.next_sequence, segmenter)
-            saved = None
-        if saved is None:
-            instance, start = _first_start(source, current, segmenter)
-            queue.record(Checkpoint("mtconnect", instance, start, segmenter.snapshot()))
-        else:
-            log.info(
-                "resuming at sequence %d, after the last part queued (agent instance %s)",
-                start,
-                instance,
-            )
+        current = await _current(agent, source, stop)
+        if current is None:
+            return
+        instance, start = _resume(queue, source, segmenter, saved, current)
         while not stop.is_set():
             try:
                 streams = await agent.sample(start, source.count)
@@ -161,22 +132,95 @@ async def mtconnect_loop(
                 instance, start = current.instance_id, current.next_sequence
                 _gap(queue, gap, instance, start, segmenter)
                 continue
-            if streams.first_sequence > start:
-                gap = Gap(start, streams.first_sequence - 1, "the agent's buffer wrapped")
-                segmenter.gap(gap)
-                _gap(queue, gap, instance, streams.first_sequence, segmenter)
-            for observation in streams.observations:
-                if observation.sequence < start:
-                    continue  # never read twice
-                for outcome in segmenter.feed(observation):
-                    point = Checkpoint(
-                        "mtconnect", instance, observation.sequence + 1, segmenter.snapshot()
-                    )
-                    recorder.outcome(outcome, point)
+            _feed(streams, instance, start, queue, segmenter, recorder)
             advanced = streams.next_sequence > start
             start = max(start, streams.next_sequence)
             if not advanced or not streams.observations:
                 await _pause(stop, source.poll_s)
+
+
+async def _bind(agent: Agent, source: MTConnectConfig, stop: asyncio.Event) -> bool:
+    """Read the agent's device model, waiting for an agent down at start (False: stopped)."""
+    while not agent.binding:
+        if stop.is_set():
+            return False
+        try:
+            for signal, bound in (await agent.bind()).items():
+                log.info("%s: data item %s, scale %g", signal, bound.item.describe(), bound.scale)
+        except (httpx.HTTPError, AgentError) as err:
+            log.warning("agent's device model not read (%s); retrying", err)
+            await _pause(stop, max(1.0, source.poll_s))
+    return True
+
+
+async def _current(agent: Agent, source: MTConnectConfig, stop: asyncio.Event) -> Streams | None:
+    """The agent's current state, waiting for an agent down at start (None: stopped)."""
+    current = None
+    while current is None:
+        if stop.is_set():
+            return None
+        try:
+            current = await agent.current()
+        except (httpx.HTTPError, AgentError) as err:
+            log.warning("agent not read (%s); retrying", err)
+            await _pause(stop, max(1.0, source.poll_s))
+    return current
+
+
+def _resume(
+    queue: Queue,
+    source: MTConnectConfig,
+    segmenter: Segmenter,
+    saved: Checkpoint | None,
+    current: Streams,
+) -> tuple[str, int]:
+    """Instance and sequence to read from: the checkpoint's, unless there is none.
+
+    A checkpoint of another agent instance is a gap (the agent restarted): recorded, and the
+    reading starts as without a checkpoint (:func:`_first_start`), that start recorded.
+    """
+    instance, start = (saved.instance, saved.next_sequence) if saved else ("", 0)
+    if saved is not None and current.instance_id != instance:
+        gap = Gap(start, None, f"agent restarted: instance {instance} → {current.instance_id}")
+        segmenter.gap(gap)
+        _gap(queue, gap, current.instance_id, current.next_sequence, segmenter)
+        saved = None
+    if saved is None:
+        instance, start = _first_start(source, current, segmenter)
+        queue.record(Checkpoint("mtconnect", instance, start, segmenter.snapshot()))
+    else:
+        log.info(
+            "resuming at sequence %d, after the last part queued (agent instance %s)",
+            start,
+            instance,
+        )
+    return instance, start
+
+
+def _feed(
+    streams: Streams,
+    instance: str,
+    start: int,
+    queue: Queue,
+    segmenter: Segmenter,
+    recorder: Recorder,
+) -> None:
+    """One sample's observations from ``start`` on into the segmenter; a wrapped buffer a gap.
+
+    Each part's outcome is recorded with the checkpoint just after its last observation.
+    """
+    if streams.first_sequence > start:
+        gap = Gap(start, streams.first_sequence - 1, "the agent's buffer wrapped")
+        segmenter.gap(gap)
+        _gap(queue, gap, instance, streams.first_sequence, segmenter)
+    for observation in streams.observations:
+        if observation.sequence < start:
+            continue  # never read twice
+        for outcome in segmenter.feed(observation):
+            point = Checkpoint(
+                "mtconnect", instance, observation.sequence + 1, segmenter.snapshot()
+            )
+            recorder.outcome(outcome, point)
 
 
 def _first_start(

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -178,106 +178,124 @@ def field_path(loc: Sequence[str | int]) -> str:
     return out or "body"
 
 
+async def _problem(request: Request, err: ProblemError) -> JSONResponse:
+    return problem(
+        request, err.status, err.code, err.detail, err.field, err.value, headers=err.headers
+    )
+
+
+async def _input(request: Request, err: InputError) -> JSONResponse:
+    return problem(request, 422, "invalid", str(err), err.field, err.value)
+
+
+async def _infeasible(request: Request, err: InfeasibleError) -> JSONResponse:
+    field = f"operations.{err.operation}.limits"
+    return problem(
+        request, 422, "infeasible", str(err), field, err.operation, conflicts=conflicts_of(err)
+    )
+
+
+async def _solver(request: Request, err: SolverError) -> JSONResponse:
+    _log.error("solver failure: %s", err)
+    return problem(request, 500, "solver", str(err))
+
+
+async def _not_found(request: Request, err: NotFoundError) -> JSONResponse:
+    return problem(request, 404, "not_found", str(err), err.field, err.value)
+
+
+async def _conflict(request: Request, err: ConflictError) -> JSONResponse:
+    # plan_name_taken names the stored plan of that name too
+    extra = {"plan_id": err.plan_id} if isinstance(err, PlanNameTakenError) else None
+    return problem(request, 409, err.code, str(err), err.field, err.value, extensions=extra)
+
+
+async def _halted(request: Request, err: PlanHaltedError) -> JSONResponse:
+    return problem(
+        request, 409, "plan_halted", str(err), err.field, err.value, conflicts=err.conflicts
+    )
+
+
+async def _in_flight(request: Request, err: InFlightError) -> JSONResponse:
+    return problem(request, 409, "in_flight", str(err), err.field, err.value)
+
+
+async def _reuse(request: Request, err: KeyReuseError) -> JSONResponse:
+    return problem(request, 422, "idempotency_key_reused", str(err), err.field, err.value)
+
+
+async def _validation(request: Request, err: RequestValidationError) -> JSONResponse:
+    errors = [
+        {
+            "field": clip(field_path(e.get("loc", ()))),
+            "message": e.get("msg", ""),
+            "value": echo(e.get("input")),
+        }
+        for e in err.errors()[:MAX_ERRORS]
+    ]
+    first = errors[0] if errors else {"field": "body", "message": "invalid", "value": None}
+    if any(e.get("type") == "json_invalid" for e in err.errors()):
+        return problem(request, 400, "malformed_json", "the body is not valid JSON", "body")
+    for e in err.errors():  # the Idempotency-Key header: 400, as the IETF draft asks
+        loc = [str(part).lower() for part in e.get("loc", ())]
+        if loc[:2] == ["header", "idempotency-key"]:
+            if e.get("type") == "missing":
+                detail = "this POST needs an Idempotency-Key header"
+                return problem(request, 400, "idempotency_key_missing", detail, KEY_HEADER)
+            detail = "Idempotency-Key must be 1 to 255 visible ASCII characters"
+            value = e.get("input")
+            return problem(request, 400, "idempotency_key_invalid", detail, KEY_HEADER, value)
+    detail = f"{first['field']} = {first['value']!r}: {first['message']}"
+    return problem(request, 422, "invalid", detail, first["field"], first["value"], errors=errors)
+
+
+async def _http(request: Request, err: StarletteHTTPException) -> JSONResponse:
+    code = {404: "not_found", 405: "method_not_allowed"}.get(err.status_code, "http_error")
+    headers = getattr(err, "headers", None)
+    if err.status_code == 405:
+        headers = {**(headers or {}), "Allow": _allowed(request)}
+    field = "body" if err.status_code == 400 else None  # a body FastAPI could not read
+    return problem(request, err.status_code, code, str(err.detail), field, headers=headers)
+
+
+async def _database(request: Request, err: Exception) -> JSONResponse:
+    if not unavailable(err):
+        return await _unexpected(request, err)
+    _log.warning("503 on %s %s: %s", request.method, request.url.path, err)
+    detail = "the database has no connection free now; nothing was stored; retry later"
+    headers = {"Retry-After": str(RETRY_AFTER_S)}
+    return problem(request, 503, "database_busy", detail, headers=headers)
+
+
+async def _unexpected(request: Request, err: Exception) -> JSONResponse:
+    _log.exception("unexpected error on %s %s", request.method, request.url.path)
+    return problem(request, 500, "internal", "internal error; nothing was stored")
+
+
+#: Each error class and its handler, in the order :func:`install` registers them.
+_HANDLERS: tuple[tuple[type[Exception], Callable[..., Awaitable[JSONResponse]]], ...] = (
+    (ProblemError, _problem),
+    (InputError, _input),
+    (InfeasibleError, _infeasible),
+    (SolverError, _solver),
+    (NotFoundError, _not_found),
+    (ConflictError, _conflict),
+    (PlanHaltedError, _halted),
+    (InFlightError, _in_flight),
+    (KeyReuseError, _reuse),
+    (RequestValidationError, _validation),
+    (StarletteHTTPException, _http),
+    (OperationalError, _database),
+    (PoolTimeoutError, _database),
+    (Exception, _unexpected),
+)
+
+
 def install(app: FastAPI) -> None:
     """Register the handlers that turn every error into problem+json, and document them so."""
     _document(app)
-
-    @app.exception_handler(ProblemError)
-    async def _problem(request: Request, err: ProblemError) -> JSONResponse:
-        return problem(
-            request, err.status, err.code, err.detail, err.field, err.value, headers=err.headers
-        )
-
-    @app.exception_handler(InputError)
-    async def _input(request: Request, err: InputError) -> JSONResponse:
-        return problem(request, 422, "invalid", str(err), err.field, err.value)
-
-    @app.exception_handler(InfeasibleError)
-    async def _infeasible(request: Request, err: InfeasibleError) -> JSONResponse:
-        field = f"operations.{err.operation}.limits"
-        return problem(
-            request, 422, "infeasible", str(err), field, err.operation, conflicts=conflicts_of(err)
-        )
-
-    @app.exception_handler(SolverError)
-    async def _solver(request: Request, err: SolverError) -> JSONResponse:
-        _log.error("solver failure: %s", err)
-        return problem(request, 500, "solver", str(err))
-
-    @app.exception_handler(NotFoundError)
-    async def _not_found(request: Request, err: NotFoundError) -> JSONResponse:
-        return problem(request, 404, "not_found", str(err), err.field, err.value)
-
-    @app.exception_handler(ConflictError)
-    async def _conflict(request: Request, err: ConflictError) -> JSONResponse:
-        # plan_name_taken names the stored plan of that name too
-        extra = {"plan_id": err.plan_id} if isinstance(err, PlanNameTakenError) else None
-        return problem(request, 409, err.code, str(err), err.field, err.value, extensions=extra)
-
-    @app.exception_handler(PlanHaltedError)
-    async def _halted(request: Request, err: PlanHaltedError) -> JSONResponse:
-        return problem(
-            request, 409, "plan_halted", str(err), err.field, err.value, conflicts=err.conflicts
-        )
-
-    @app.exception_handler(InFlightError)
-    async def _in_flight(request: Request, err: InFlightError) -> JSONResponse:
-        return problem(request, 409, "in_flight", str(err), err.field, err.value)
-
-    @app.exception_handler(KeyReuseError)
-    async def _reuse(request: Request, err: KeyReuseError) -> JSONResponse:
-        return problem(request, 422, "idempotency_key_reused", str(err), err.field, err.value)
-
-    @app.exception_handler(RequestValidationError)
-    async def _validation(request: Request, err: RequestValidationError) -> JSONResponse:
-        errors = [
-            {
-                "field": clip(field_path(e.get("loc", ()))),
-                "message": e.get("msg", ""),
-                "value": echo(e.get("input")),
-            }
-            for e in err.errors()[:MAX_ERRORS]
-        ]
-        first = errors[0] if errors else {"field": "body", "message": "invalid", "value": None}
-        if any(e.get("type") == "json_invalid" for e in err.errors()):
-            return problem(request, 400, "malformed_json", "the body is not valid JSON", "body")
-        for e in err.errors():  # the Idempotency-Key header: 400, as the IETF draft asks
-            loc = [str(part).lower() for part in e.get("loc", ())]
-            if loc[:2] == ["header", "idempotency-key"]:
-                if e.get("type") == "missing":
-                    detail = "this POST needs an Idempotency-Key header"
-                    return problem(request, 400, "idempotency_key_missing", detail, KEY_HEADER)
-                detail = "Idempotency-Key must be 1 to 255 visible ASCII characters"
-                value = e.get("input")
-                return problem(request, 400, "idempotency_key_invalid", detail, KEY_HEADER, value)
-        detail = f"{first['field']} = {first['value']!r}: {first['message']}"
-        return problem(
-            request, 422, "invalid", detail, first["field"], first["value"], errors=errors
-        )
-
-    @app.exception_handler(StarletteHTTPException)
-    async def _http(request: Request, err: StarletteHTTPException) -> JSONResponse:
-        code = {404: "not_found", 405: "method_not_allowed"}.get(err.status_code, "http_error")
-        headers = getattr(err, "headers", None)
-        if err.status_code == 405:
-            headers = {**(headers or {}), "Allow": _allowed(request)}
-        field = "body" if err.status_code == 400 else None  # a body FastAPI could not read
-        return problem(request, err.status_code, code, str(err.detail), field, headers=headers)
-
-    @app.exception_handler(PoolTimeoutError)
-    @app.exception_handler(OperationalError)
-    async def _database(request: Request, err: Exception) -> JSONResponse:
-        if not unavailable(err):
-            return await _unexpected(request, err)
-        _log.warning("503 on %s %s: %s", request.method, request.url.path, err)
-        detail = "the database has no connection free now; nothing was stored; retry later"
-        headers = {"Retry-After": str(RETRY_AFTER_S)}
-        return problem(request, 503, "database_busy", detail, headers=headers)
-
-    @app.exception_handler(Exception)
-    async def _unexpected(request: Request, err: Exception) -> JSONResponse:
-        _log.exception("unexpected error on %s %s", request.method, request.url.path)
-        return problem(request, 500, "internal", "internal error; nothing was stored")
+    for error, handler in _HANDLERS:
+        app.exception_handler(error)(handler)
 
 
 def conflicts_of(err: InfeasibleError) -> list[dict[str, Any]]:

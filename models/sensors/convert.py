@@ -3,6 +3,16 @@
 Dispatches on the calibration's kind: spindle load by Ivester & Heigel Eqs. 1-4, spindle
 current by Kim & Jeon §6.2.3 (one line, or lines per feed rate). Uncertainties in and out are
 expanded ones at a coverage factor ``k`` (GUM, JCGM 100:2008, §6.2).
+
+The ``context`` each calibration kind needs, each entry in the unit its name carries
+(uncertainties ``u_*`` expanded, at the coverage factor of the call):
+
+- ``ivester_spindle_load``: ``spindle_speed_rpm``, ``workpiece_diameter_mm`` (required);
+  ``u_workpiece_diameter_mm``; ``idle_load_V`` and ``u_idle_load_V`` (required unless the
+  calibration has an idle-load table; a measured idle load takes precedence over the table).
+- ``linear_current``: ``spindle_speed_rpm`` if the calibration names its speed.
+- ``linear_current_by_feed``: ``feed_rate_mm_min`` (required), ``u_feed_rate_mm_min``;
+  ``spindle_speed_rpm`` as above.
 """
 
 from __future__ import annotations
@@ -74,6 +84,108 @@ def _check_speed(
         )
 
 
+def _check_kind(calibration: Calibration, raw_quantity: str) -> None:
+    """Refuse a calibration that gives no force, or a reading it does not convert."""
+    kind = getattr(calibration, "kind", None)
+    if isinstance(calibration, TaiCurrentFeedCalibration):
+        raise InputError(
+            "calibration.kind",
+            kind,
+            "converts spindle current to feed rate, not to force (see tai_feed_rate_mm_min)",
+        )
+    if kind not in _CONVERTS:
+        raise InputError(
+            "calibration.kind", kind, f"unknown; expected one of: {', '.join(_CONVERTS)}"
+        )
+    if raw_quantity not in RAW_QUANTITIES:
+        raise InputError(
+            "raw_quantity", raw_quantity, f"unknown; expected one of: {', '.join(RAW_QUANTITIES)}"
+        )
+    if raw_quantity != _CONVERTS[kind]:
+        raise InputError(
+            "raw_quantity", raw_quantity, f"a {kind} calibration converts {_CONVERTS[kind]}"
+        )
+
+
+def _checked_reading(
+    value: float, uncertainty: float, coverage_k: float, name: str
+) -> tuple[float, float, float]:
+    """The coverage factor, the reading and its standard uncertainty, each checked."""
+    k = fields.number(coverage_k, "coverage_k", positive=True)
+    reading = fields.number(value, f"{name}.value", minimum=0.0)
+    return k, reading, fields.uncertainty(uncertainty, f"{name}.uncertainty") / k
+
+
+def _ivester_from_context(
+    calibration: IvesterSpindleLoadCalibration,
+    reading: float,
+    u_reading: float,
+    context: Mapping[str, object],
+    k: float,
+) -> tuple[Converted, str]:
+    """Spindle load to force (Ivester & Heigel Eqs. 1-4); the idle load measured, else tabled.
+
+    Returns the standard-uncertainty result and what a negative force means here.
+    """
+    speed = _context_required(context, "spindle_speed_rpm")
+    diameter = _context_required(context, "workpiece_diameter_mm")
+    u_diameter = _context_optional(context, "u_workpiece_diameter_mm", 0.0) or 0.0
+    idle = _context_optional(context, "idle_load_V", None)
+    if idle is not None:
+        u_idle = (_context_optional(context, "u_idle_load_V", 0.0) or 0.0) / k
+    elif calibration.idle_speeds_rpm:
+        idle, u_idle = _ivester_idle(calibration, speed, "context.spindle_speed_rpm")
+    else:
+        raise InputError(
+            "context.idle_load_V", None, "required: the calibration has no idle-load table"
+        )
+    result = _ivester_force(
+        calibration, reading, u_reading, idle, u_idle, speed, diameter, u_diameter / k
+    )
+    return result, f"below the idle load {idle:.6g} V at this speed (no cutting)"
+
+
+def _force(
+    calibration: Calibration,
+    reading: float,
+    u_reading: float,
+    context: Mapping[str, object],
+    k: float,
+    include_residual: bool,
+) -> tuple[Converted, str]:
+    """The force by the calibration's kind (standard uncertainty), and what a negative one means.
+
+    Spindle load by Ivester & Heigel Eqs. 1-4; spindle current by Kim & Jeon §6.2.3.
+    """
+    context = fields.mapping(context, "context")
+    if isinstance(calibration, IvesterSpindleLoadCalibration):
+        return _ivester_from_context(calibration, reading, u_reading, context, k)
+    if isinstance(calibration, LinearCurrentCalibration):
+        _check_speed(calibration.spindle_speed_rpm, calibration.speed_tolerance_rel, context)
+        force, var_current, var_cal = _linear_force(
+            calibration, reading, u_reading, include_residual
+        )
+        below = "below the calibration's zero-force current"
+        return Converted(force, math.sqrt(var_current + var_cal)), below
+    if isinstance(calibration, FeedDependentCurrentCalibration):
+        _check_speed(calibration.spindle_speed_rpm, calibration.speed_tolerance_rel, context)
+        feed = _context_required(context, "feed_rate_mm_min")
+        u_feed = _context_optional(context, "u_feed_rate_mm_min", 0.0) or 0.0
+        result = _feed_dependent_force(
+            calibration,
+            reading,
+            u_reading,
+            feed,
+            u_feed / k,
+            include_residual,
+            "context.feed_rate_mm_min",
+        )
+        return result, "below the calibration's zero-force current at this feed rate"
+    raise InputError(  # pragma: no cover - every kind in _CONVERTS is handled above
+        "calibration.kind", calibration.kind, "not a force calibration"
+    )
+
+
 def to_force(
     calibration: Calibration,
     raw_quantity: str,
@@ -99,25 +211,15 @@ def to_force(
     uncertainty : float
         Its expanded uncertainty (coverage ``coverage_k``) [V] or [A].
     context : Mapping[str, object]
-        What the conversion needs, each in the unit its name carries; keys it does not use
-        are ignored, uncertainties ``u_*`` are expanded (coverage ``coverage_k``):
-
-        - ``ivester_spindle_load``: ``spindle_speed_rpm``, ``workpiece_diameter_mm``
-          (required); ``u_workpiece_diameter_mm``; ``idle_load_V`` and ``u_idle_load_V``
-          (required unless the calibration has an idle-load table; a measured idle load
-          takes precedence over the table).
-        - ``linear_current``: ``spindle_speed_rpm`` if the calibration names its speed.
-        - ``linear_current_by_feed``: ``feed_rate_mm_min`` (required),
-          ``u_feed_rate_mm_min``; ``spindle_speed_rpm`` as above.
+        What the conversion needs, by calibration kind (listed in the module docstring);
+        keys it does not use are ignored.
     coverage_k : float
         Coverage factor of the given and returned uncertainties (2: the ±2σ of part
         reports). Calibration uncertainties are standard ones and are scaled by it.
     include_residual : bool
-        Current calibrations: add the residual scatter ``s`` (see
-        :func:`linear_current_force_N`).
+        Current calibrations: add the residual scatter ``s`` (see :func:`linear_current_force_N`).
     path : str, optional
-        Name of the reading in errors (default ``raw_quantity``): ``{path}.value``,
-        ``{path}.uncertainty``.
+        Errors name the reading ``{path}.value``, ``{path}.uncertainty`` (default ``raw_quantity``).
 
     Returns
     -------
@@ -138,71 +240,9 @@ def to_force(
     .. [1] Ivester & Heigel, Eqs. 1-4 (spindle load); Kim & Jeon §6.2.3 (spindle current).
     """
     name = path or raw_quantity
-    kind = getattr(calibration, "kind", None)
-    if isinstance(calibration, TaiCurrentFeedCalibration):
-        raise InputError(
-            "calibration.kind",
-            kind,
-            "converts spindle current to feed rate, not to force (see tai_feed_rate_mm_min)",
-        )
-    if kind not in _CONVERTS:
-        raise InputError(
-            "calibration.kind", kind, f"unknown; expected one of: {', '.join(_CONVERTS)}"
-        )
-    if raw_quantity not in RAW_QUANTITIES:
-        raise InputError(
-            "raw_quantity", raw_quantity, f"unknown; expected one of: {', '.join(RAW_QUANTITIES)}"
-        )
-    if raw_quantity != _CONVERTS[kind]:
-        raise InputError(
-            "raw_quantity", raw_quantity, f"a {kind} calibration converts {_CONVERTS[kind]}"
-        )
-    k = fields.number(coverage_k, "coverage_k", positive=True)
-    reading = fields.number(value, f"{name}.value", minimum=0.0)
-    u_reading = fields.uncertainty(uncertainty, f"{name}.uncertainty") / k
-    context = fields.mapping(context, "context")
-
-    result: Converted
-    if isinstance(calibration, IvesterSpindleLoadCalibration):
-        speed = _context_required(context, "spindle_speed_rpm")
-        diameter = _context_required(context, "workpiece_diameter_mm")
-        u_diameter = _context_optional(context, "u_workpiece_diameter_mm", 0.0) or 0.0
-        idle = _context_optional(context, "idle_load_V", None)
-        if idle is not None:
-            u_idle = (_context_optional(context, "u_idle_load_V", 0.0) or 0.0) / k
-        elif calibration.idle_speeds_rpm:
-            idle, u_idle = _ivester_idle(calibration, speed, "context.spindle_speed_rpm")
-        else:
-            raise InputError(
-                "context.idle_load_V", None, "required: the calibration has no idle-load table"
-            )
-        result = _ivester_force(
-            calibration, reading, u_reading, idle, u_idle, speed, diameter, u_diameter / k
-        )
-        below = f"below the idle load {idle:.6g} V at this speed (no cutting)"
-    elif isinstance(calibration, LinearCurrentCalibration):
-        _check_speed(calibration.spindle_speed_rpm, calibration.speed_tolerance_rel, context)
-        force, var_current, var_cal = _linear_force(
-            calibration, reading, u_reading, include_residual
-        )
-        result = Converted(force, math.sqrt(var_current + var_cal))
-        below = "below the calibration's zero-force current"
-    elif isinstance(calibration, FeedDependentCurrentCalibration):
-        _check_speed(calibration.spindle_speed_rpm, calibration.speed_tolerance_rel, context)
-        feed = _context_required(context, "feed_rate_mm_min")
-        u_feed = _context_optional(context, "u_feed_rate_mm_min", 0.0) or 0.0
-        result = _feed_dependent_force(
-            calibration,
-            reading,
-            u_reading,
-            feed,
-            u_feed / k,
-            include_residual,
-            "context.feed_rate_mm_min",
-        )
-        below = "below the calibration's zero-force current at this feed rate"
-    else:  # pragma: no cover - every kind in _CONVERTS is handled above
-        raise InputError("calibration.kind", kind, "not a force calibration")
+    _check_kind(calibration, raw_quantity)
+    k, reading, u_reading = _checked_reading(value, uncertainty, coverage_k, name)
+    result, below = _force(calibration, reading, u_reading, context, k, include_residual)
     if result.value < 0:
         raise ModelDomainError(f"{name}.value", value, below)
     return Converted(result.value, k * result.uncertainty)

@@ -3,6 +3,11 @@
 Eqs. 1-2 give the ratio ``m`` of torque to spindle load as a function of spindle speed, Eq. 3
 the cutting force ``F = m·(L − L_idle)/D`` and Eq. 4 its uncertainty; :func:`ivester_load_V`
 inverts Eq. 3.
+
+Units of Eq. 3: ``m`` [N·mm/V] · ``L`` [V] / ``D`` [mm] = N. The text calls ``m`` "the ratio
+between torque and spindle load", but Eq. 3 divides by the diameter, not the radius, so ``m`` is
+twice the torque per volt (torque ``F·D/2``); :func:`ivester_force_N` applies Eq. 3 as printed,
+since Eqs. 1-3 are the fitted model. See :func:`ivester_spindle_torque_Nm`.
 """
 
 from __future__ import annotations
@@ -218,21 +223,15 @@ def ivester_force_N(
 
     Parameters
     ----------
-    load_V : float
-        Spindle load signal while cutting [V].
-    u_load_V : float
-        Its standard uncertainty [V].
+    load_V, u_load_V : float
+        Spindle load signal while cutting and its standard uncertainty [V].
     spindle_speed_rpm : float
         Spindle speed [rpm]; ``φ = 2π n/60`` [rad/s] selects Eq. 1 or Eq. 2.
-    workpiece_diameter_mm : float
-        Working diameter ``D`` [mm].
-    idle_load_V : float
-        Idle load at that spindle speed, measured without cutting [V] (see
-        :func:`ivester_idle_load_V`).
-    u_idle_load_V : float
-        Its standard uncertainty [V].
-    u_workpiece_diameter_mm : float
-        Standard uncertainty of ``D`` [mm].
+    workpiece_diameter_mm, u_workpiece_diameter_mm : float
+        Working diameter ``D`` and its standard uncertainty [mm].
+    idle_load_V, u_idle_load_V : float
+        Idle load at that spindle speed, measured without cutting (see
+        :func:`ivester_idle_load_V`), and its standard uncertainty [V].
     calibration : IvesterSpindleLoadCalibration
         Constants of Eqs. 1-2 and ``u_m`` (default: the paper's).
 
@@ -241,13 +240,6 @@ def ivester_force_N(
     Converted
         Cutting force [N] and its standard uncertainty [N]. A load below the idle load gives
         a negative force (no cutting); :func:`to_force` refuses it.
-
-    Notes
-    -----
-    Units: ``m`` [N·mm/V] · ``L`` [V] / ``D`` [mm] = N. The text calls ``m`` "the ratio
-    between torque and spindle load", but Eq. 3 divides by the diameter, not the radius, so
-    ``m`` is twice the torque per volt (torque ``F·D/2``); Eq. 3 is applied as printed,
-    since Eqs. 1-3 are the fitted model. See :func:`ivester_spindle_torque_Nm`.
 
     References
     ----------

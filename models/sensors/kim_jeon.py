@@ -10,9 +10,10 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
+import numpy.typing as npt
 
 from models import fields
 from models.errors import InputError, ModelDomainError
@@ -132,6 +133,28 @@ class LinearCurrentCalibration:
         return ((self.u_offset_N**2, cov_ab), (cov_ab, self.u_slope_N_per_A**2))
 
 
+def _fit_force_on_current(
+    currents_A: Iterable[float], forces_N: Iterable[float]
+) -> tuple[npt.NDArray[Any], list[float], npt.NDArray[Any], float, int]:
+    """OLS of force on current for :func:`fit_linear_calibration`, its inputs checked first.
+
+    Returns ``[a, b]``, their standard uncertainties, their correlation matrix, ``s`` and ``n``.
+    """
+    currents = np.asarray(fields.number_list(currents_A, "currents_A", minimum=0.0))
+    forces = np.asarray(fields.number_list(forces_N, "forces_N", minimum=0.0))
+    if currents.size != forces.size:
+        raise InputError("forces_N", forces_N, f"needs one force per current ({currents.size})")
+    if currents.size < 3:
+        raise InputError("currents_A", currents_A, "needs at least 3 points")
+    if float(np.ptp(currents)) == 0.0:
+        raise InputError("currents_A", currents_A, "must not all be equal")
+    beta, cov, s = least_squares(np.column_stack([np.ones_like(currents), currents]), forces)
+    if beta[1] <= 0:
+        raise ModelDomainError("forces_N", forces_N, "force must rise with current")
+    u, corr = uncertainties_from_covariance(cov)
+    return beta, u, corr, s, int(currents.size)
+
+
 def fit_linear_calibration(
     currents_A: Iterable[float],
     forces_N: Iterable[float],
@@ -175,18 +198,7 @@ def fit_linear_calibration(
     .. [1] Kim & Jeon, §6.1.3 (Fig. 9) and §6.2.3.
     .. [2] GUM (JCGM 100:2008) Annex H.3 (calibration of a linear relation).
     """
-    currents = np.asarray(fields.number_list(currents_A, "currents_A", minimum=0.0))
-    forces = np.asarray(fields.number_list(forces_N, "forces_N", minimum=0.0))
-    if currents.size != forces.size:
-        raise InputError("forces_N", forces_N, f"needs one force per current ({currents.size})")
-    if currents.size < 3:
-        raise InputError("currents_A", currents_A, "needs at least 3 points")
-    if float(np.ptp(currents)) == 0.0:
-        raise InputError("currents_A", currents_A, "must not all be equal")
-    beta, cov, s = least_squares(np.column_stack([np.ones_like(currents), currents]), forces)
-    if beta[1] <= 0:
-        raise ModelDomainError("forces_N", forces_N, "force must rise with current")
-    u, corr = uncertainties_from_covariance(cov)
+    beta, u, corr, s, n = _fit_force_on_current(currents_A, forces_N)
     return LinearCurrentCalibration(
         offset_N=float(beta[0]),
         slope_N_per_A=float(beta[1]),
@@ -194,7 +206,7 @@ def fit_linear_calibration(
         u_slope_N_per_A=u[1],
         corr_offset_slope=float(corr[0, 1]),
         residual_sd_N=s,
-        n=int(currents.size),
+        n=n,
         feed_rate_mm_min=feed_rate_mm_min,
         spindle_speed_rpm=spindle_speed_rpm,
         source=source,

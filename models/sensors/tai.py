@@ -9,9 +9,10 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
+import numpy.typing as npt
 
 from models import fields
 from models.errors import InputError, ModelDomainError
@@ -95,6 +96,35 @@ class TaiCurrentFeedCalibration:
         return covariance_matrix(u, {ij: getattr(self, name) for ij, name in _TAI_CORR.items()})
 
 
+def _checked_tests(
+    feed_rates_mm_min: Iterable[float],
+    flank_wears_mm: Iterable[float],
+    currents_A: Iterable[float],
+) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+    """The design matrix ``[1, f, VB]`` and the currents of checked test data (Tai Eq. 14).
+
+    Refused: unequal lengths, fewer than 4 points, and feed rates and wears that do not vary
+    independently (``B`` and ``k1`` would not be identified).
+    """
+    feeds = np.asarray(fields.number_list(feed_rates_mm_min, "feed_rates_mm_min", positive=True))
+    wears = np.asarray(fields.number_list(flank_wears_mm, "flank_wears_mm", minimum=0.0))
+    currents = np.asarray(fields.number_list(currents_A, "currents_A", minimum=0.0))
+    if wears.size != feeds.size:
+        raise InputError("flank_wears_mm", flank_wears_mm, f"needs {feeds.size} values")
+    if currents.size != feeds.size:
+        raise InputError("currents_A", currents_A, f"needs {feeds.size} values")
+    if feeds.size < 4:
+        raise InputError("feed_rates_mm_min", feed_rates_mm_min, "needs at least 4 points")
+    design = np.column_stack([np.ones_like(feeds), feeds, wears])
+    if np.linalg.matrix_rank(design) < 3:
+        raise InputError(
+            "flank_wears_mm",
+            flank_wears_mm,
+            "feed rates and flank wears must vary independently to identify B and k1",
+        )
+    return design, currents
+
+
 def fit_tai_calibration(
     feed_rates_mm_min: Iterable[float],
     flank_wears_mm: Iterable[float],
@@ -132,22 +162,7 @@ def fit_tai_calibration(
     ----------
     .. [1] Tai, Tsai & Li, Eqs. 13-14 and §III.A.
     """
-    feeds = np.asarray(fields.number_list(feed_rates_mm_min, "feed_rates_mm_min", positive=True))
-    wears = np.asarray(fields.number_list(flank_wears_mm, "flank_wears_mm", minimum=0.0))
-    currents = np.asarray(fields.number_list(currents_A, "currents_A", minimum=0.0))
-    if wears.size != feeds.size:
-        raise InputError("flank_wears_mm", flank_wears_mm, f"needs {feeds.size} values")
-    if currents.size != feeds.size:
-        raise InputError("currents_A", currents_A, f"needs {feeds.size} values")
-    if feeds.size < 4:
-        raise InputError("feed_rates_mm_min", feed_rates_mm_min, "needs at least 4 points")
-    design = np.column_stack([np.ones_like(feeds), feeds, wears])
-    if np.linalg.matrix_rank(design) < 3:
-        raise InputError(
-            "flank_wears_mm",
-            flank_wears_mm,
-            "feed rates and flank wears must vary independently to identify B and k1",
-        )
+    design, currents = _checked_tests(feed_rates_mm_min, flank_wears_mm, currents_A)
     beta, cov, s = least_squares(design, currents)
     if beta[1] <= 0:
         raise ModelDomainError("currents_A", currents_A, "current must rise with feed rate")
@@ -163,7 +178,7 @@ def fit_tai_calibration(
         corr_idle_wear=float(corr[0, 2]),
         corr_slope_wear=float(corr[1, 2]),
         residual_sd_A=s,
-        n=int(feeds.size),
+        n=int(currents.size),
         source=source,
         reference=reference,
         date=date,

@@ -123,6 +123,38 @@ def run_cam(
     progress: Progress | None = None,
 ) -> CamResult:
     """Roughing (and finishing) program of a depth map (package docstring)."""
+    _check_cutters(depthmap, cutter, finish, settings)
+    tell = progress or (lambda stage, done, total: None)
+    limits = feeds.limits(cutter)
+    reports, bands = _roughing(depthmap, cutter, feeds, limits, settings, tell)
+    passes = [
+        Pass(_title(i, len(reports), r.paths.level), r.setpoint, r.paths.paths, r.paths.level.z_mm)
+        for i, r in enumerate(reports, start=1)
+        if r.paths.paths
+    ]
+    finishing = None if finish is None else _finishing(depthmap, finish, settings, tell)
+    program = write_program(
+        title,
+        depthmap.stock_top_mm,
+        (cutter, passes),
+        None
+        if finishing is None
+        else (
+            finishing.cutter,
+            Pass(f"finishing {finishing.cutter.describe()}", finishing.setpoint, finishing.lines),
+        ),
+        settings.max_arc_radius_mm,
+    )
+    verification = None
+    if verify:
+        verification = _verify(depthmap, program, cutter, finishing, settings, tell)
+    return CamResult(program, limits, reports, tuple(bands), finishing, verification)
+
+
+def _check_cutters(
+    depthmap: DepthMap, cutter: Cutter, finish: tuple[Cutter, Feeds] | None, settings: CamSettings
+) -> None:
+    """Refuse cutters that cannot machine the map, before any work: roughing needs a flat one."""
     if cutter.kind != "flat":
         raise InputError("tool", cutter.describe(), "roughing needs a flat end mill (flat:D)")
     check_cutter(depthmap, cutter, "tool")
@@ -132,9 +164,18 @@ def run_cam(
             raise InputError(
                 "stepover_mm", settings.finish_stepover_mm, "must be at most the finishing radius"
             )
-    tell = progress or (lambda stage, done, total: None)
+
+
+def _roughing(
+    depthmap: DepthMap,
+    cutter: Cutter,
+    feeds: Feeds,
+    limits: CuttingLimits,
+    settings: CamSettings,
+    tell: Progress,
+) -> tuple[tuple[LevelReport, ...], list[Band]]:
+    """The roughing levels over the offset surface, their paths and each one's setpoint."""
     p = depthmap.pixel_mm
-    limits = feeds.limits(cutter)
     surface = offset_surface(depthmap.height_mm, settings.allowance_mm, p)
     slope = slope_map(depthmap.height_mm, p, depthmap.grey_level_mm, settings.form_tolerance_mm)
     plateau = max(1, math.ceil(math.pi * cutter.radius_mm**2 / p**2))
@@ -160,51 +201,55 @@ def run_cam(
     reports = tuple(
         LevelReport(lp, feeds.at(lp.level.depth_mm, limits.stepover_mm)) for lp in paths
     )
-    passes = [
-        Pass(_title(i, len(reports), r.paths.level), r.setpoint, r.paths.paths, r.paths.level.z_mm)
-        for i, r in enumerate(reports, start=1)
-        if r.paths.paths
-    ]
-    finishing: Finishing | None = None
-    if finish is not None:
-        tell("finishing", 0, 1)
-        fcutter, ffeeds = finish
-        tip = _tip_surface(depthmap.height_mm, fcutter, p, settings)
-        lines, step = iso_lines(tip, p, settings.finish_stepover_mm, settings.finish_direction)
-        depth = settings.allowance_mm + settings.form_tolerance_mm
-        finishing = Finishing(
-            fcutter,
-            tuple(lines),
-            step,
-            settings.finish_direction,
-            ffeeds.at(depth, step),
-            scallop_height_mm(fcutter, step),
-        )
-        tell("finishing", 1, 1)
-    program = write_program(
-        title,
-        depthmap.stock_top_mm,
-        (cutter, passes),
-        None
-        if finishing is None
-        else (
-            finishing.cutter,
-            Pass(f"finishing {finishing.cutter.describe()}", finishing.setpoint, finishing.lines),
-        ),
-        settings.max_arc_radius_mm,
+    return reports, bands
+
+
+def _finishing(
+    depthmap: DepthMap, finish: tuple[Cutter, Feeds], settings: CamSettings, tell: Progress
+) -> Finishing:
+    """Iso-lines over the finishing cutter's tip surface, at the allowance plus the tolerance.
+
+    The setpoint is planned for that depth: the stock the roughing stair leaves at most.
+    """
+    tell("finishing", 0, 1)
+    fcutter, ffeeds = finish
+    tip = _tip_surface(depthmap.height_mm, fcutter, depthmap.pixel_mm, settings)
+    lines, step = iso_lines(
+        tip, depthmap.pixel_mm, settings.finish_stepover_mm, settings.finish_direction
     )
-    verification = None
-    if verify:
-        tell("verifying", 0, 1)
-        cutters = {ROUGH_TOOL: cutter}
-        if finishing is not None:
-            cutters[FINISH_TOOL] = finishing.cutter
-        window = settings.allowance_mm + settings.form_tolerance_mm + 2 * p
-        verification = simulate(
-            depthmap.height_mm, p, depthmap.stock_top_mm, read_moves(program), cutters, window
-        )
-        tell("verifying", 1, 1)
-    return CamResult(program, limits, reports, tuple(bands), finishing, verification)
+    depth = settings.allowance_mm + settings.form_tolerance_mm
+    finishing = Finishing(
+        fcutter,
+        tuple(lines),
+        step,
+        settings.finish_direction,
+        ffeeds.at(depth, step),
+        scallop_height_mm(fcutter, step),
+    )
+    tell("finishing", 1, 1)
+    return finishing
+
+
+def _verify(
+    depthmap: DepthMap,
+    program: str,
+    cutter: Cutter,
+    finishing: Finishing | None,
+    settings: CamSettings,
+    tell: Progress,
+) -> Verification:
+    """The program's moves cut from the stock and compared with the map, near the surface."""
+    tell("verifying", 0, 1)
+    p = depthmap.pixel_mm
+    cutters = {ROUGH_TOOL: cutter}
+    if finishing is not None:
+        cutters[FINISH_TOOL] = finishing.cutter
+    window = settings.allowance_mm + settings.form_tolerance_mm + 2 * p
+    verification = simulate(
+        depthmap.height_mm, p, depthmap.stock_top_mm, read_moves(program), cutters, window
+    )
+    tell("verifying", 1, 1)
+    return verification
 
 
 def _tip_surface(

@@ -35,6 +35,7 @@ cut is at most ``u − l <= ap_max``.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Literal
 
@@ -173,47 +174,20 @@ def roughing_levels(
     bands : list of Band
         The ``(c_j, Δ_j)`` of each main pass.
     """
-    floor = float(surface_mm.min())
-    top = float(stock_top_mm)
-    marks = {top, floor}
-    marks.update(h for h in plateaus(surface_mm, plateau_pixels) if floor < h < top - Z_TOL_MM)
-    breaks = sorted((m for m in marks if m <= top), reverse=True)
-    # a pixel beside a plateau (a wall's foot on a floor) has a central difference that
-    # averages the wall and the floor: not a slope of the surface, and the plateau is cut
-    # at its own height anyway
-    # (a model pixel on a plateau of s_a is one at the plateau's height less the allowance)
-    raised = np.round(height_mm + allowance_mm, 9)
-    on_plateau = np.isin(raised, np.round(np.asarray(sorted(marks)), 9))
-    beside = ndimage.binary_dilation(on_plateau, structure=np.ones((5, 5), dtype=bool))
-    beside[:2, :] = beside[-2:, :] = True  # the stencil needs two pixels each side
-    beside[:, :2] = beside[:, -2:] = True
-    slope = np.where(beside, np.inf, slope)  # (their offset heights are then the raised model)
+    marks = _breakpoints(surface_mm, stock_top_mm, plateau_pixels)
+    breaks = sorted((m for m in marks if m <= float(stock_top_mm)), reverse=True)
+    slope = _slope_off_plateaus(height_mm, slope, allowance_mm, marks)
     levels: list[Level] = []
     bands: list[Band] = []
-    flat_values = offset_heights(height_mm, slope, allowance_mm).ravel()
-    flat_slopes = slope.ravel()
-    order = np.argsort(flat_values, kind="stable")
-    sorted_values = flat_values[order]
+    sorted_values, order, flat_slopes = _by_offset_height(height_mm, slope, allowance_mm)
     for upper, lower in zip(breaks[:-1], breaks[1:], strict=True):
         if upper - lower <= Z_TOL_MM:
             continue
-        main = math.ceil((upper - lower) / max_depth_mm - 1e-9)
-        step = (upper - lower) / main
-        for i in range(main):
-            u = upper - i * step
-            low = lower if i == main - 1 else upper - (i + 1) * step
+        for u, low in _main_passes(upper, lower, max_depth_mm):
             g = _least_slope(sorted_values, order, flat_slopes, low, u)
-            count = (
-                1
-                if g is None
-                else math.ceil((u - low) / (tolerance_mm * math.hypot(1.0, g)) - 1e-9)
-            )
-            count = max(count, 1)
-            bands.append(Band(u, low, count, (u - low) / count, g))
-            levels.append(Level(low, u - low, "main", u, low, g))
-            for k in range(1, count):
-                z = u - k * (u - low) / count
-                levels.append(Level(z, u - z, "rest", u, low, g))
+            band, pass_levels = _split_pass(u, low, g, tolerance_mm)
+            bands.append(band)
+            levels.extend(pass_levels)
             if len(levels) > MAX_LEVELS:
                 raise InputError(
                     "form_tolerance_mm",
@@ -221,6 +195,74 @@ def roughing_levels(
                     f"needs more than {MAX_LEVELS} roughing levels on this map; use a larger one",
                 )
     return levels, bands
+
+
+def _breakpoints(
+    surface_mm: NDArray[np.float64], stock_top_mm: float, plateau_pixels: int
+) -> set[float]:
+    """Rule 1: the stock top, the floor and every plateau between them [mm]."""
+    floor = float(surface_mm.min())
+    top = float(stock_top_mm)
+    marks = {top, floor}
+    marks.update(h for h in plateaus(surface_mm, plateau_pixels) if floor < h < top - Z_TOL_MM)
+    return marks
+
+
+def _slope_off_plateaus(
+    height_mm: NDArray[np.float64],
+    slope: NDArray[np.float64],
+    allowance_mm: float,
+    marks: set[float],
+) -> NDArray[np.float64]:
+    """``slope`` made infinite within two pixels of a plateau and of the map's edge.
+
+    A pixel beside a plateau (a wall's foot on a floor) has a central difference that averages
+    the wall and the floor: not a slope of the surface, and the plateau is cut at its own
+    height anyway.
+    """
+    # (a model pixel on a plateau of s_a is one at the plateau's height less the allowance)
+    raised = np.round(height_mm + allowance_mm, 9)
+    on_plateau = np.isin(raised, np.round(np.asarray(sorted(marks)), 9))
+    beside = ndimage.binary_dilation(on_plateau, structure=np.ones((5, 5), dtype=bool))
+    beside[:2, :] = beside[-2:, :] = True  # the stencil needs two pixels each side
+    beside[:, :2] = beside[:, -2:] = True
+    return np.where(beside, np.inf, slope)  # (their offset heights are then the raised model)
+
+
+def _by_offset_height(
+    height_mm: NDArray[np.float64], slope: NDArray[np.float64], allowance_mm: float
+) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
+    """The model pixels' offset heights sorted, their order, and the slopes (all flattened).
+
+    Sorted once, so that each pass finds its pixels by bisection (:func:`_least_slope`).
+    """
+    flat_values = offset_heights(height_mm, slope, allowance_mm).ravel()
+    order = np.argsort(flat_values, kind="stable")
+    return flat_values[order], order, slope.ravel()
+
+
+def _main_passes(upper: float, lower: float, max_depth_mm: float) -> Iterator[tuple[float, float]]:
+    """Rule 2: ``(u, l)`` of the ``ceil((U − L) / ap_max)`` equal main passes, top down.
+
+    A generator: the caller stops at :data:`MAX_LEVELS` before a tiny ``ap_max`` makes many.
+    """
+    main = math.ceil((upper - lower) / max_depth_mm - 1e-9)
+    step = (upper - lower) / main
+    for i in range(main):
+        yield upper - i * step, lower if i == main - 1 else upper - (i + 1) * step
+
+
+def _split_pass(
+    u: float, low: float, g: float | None, tolerance_mm: float
+) -> tuple[Band, list[Level]]:
+    """Rule 3: the main pass ``(low, u]`` in ``c_j`` equal steps; its main level, then rests."""
+    count = 1 if g is None else math.ceil((u - low) / (tolerance_mm * math.hypot(1.0, g)) - 1e-9)
+    count = max(count, 1)
+    levels = [Level(low, u - low, "main", u, low, g)]
+    for k in range(1, count):
+        z = u - k * (u - low) / count
+        levels.append(Level(z, u - z, "rest", u, low, g))
+    return Band(u, low, count, (u - low) / count, g), levels
 
 
 def _least_slope(

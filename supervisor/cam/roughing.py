@@ -36,6 +36,8 @@ QUAD_SEGS = 16
 MIN_PIECE_MM = 1e-3
 
 Polyline = NDArray[np.float64]  # (n, 2) tool-centre x, y [mm]
+#: A main level as the rest levels above it need it: its part, its mask and their window.
+_Below = tuple[BaseGeometry, NDArray[np.bool_], Window | None]
 
 
 @dataclass(frozen=True)
@@ -81,43 +83,68 @@ def rough(
     chord = radius_mm * (1 - math.cos(math.pi / (4 * QUAD_SEGS)))
     reach_r = radius_mm + chord
     out: list[LevelPaths] = []
-    below_cache: dict[float, tuple[BaseGeometry, NDArray[np.bool_], Window | None]] = {}
+    below_cache: dict[float, _Below] = {}
     below_grown: dict[float, BaseGeometry] = {}
     for done, level in enumerate(levels, start=1):
-        mask = surface_mm > level.z_mm + LEVEL_EPS_MM
-        useful: BaseGeometry | None = None
         if level.kind == "main":
-            window = mask_window(np.ones_like(mask), 0)
-            part = islands(surface_mm, level.z_mm, pixel_mm)
-            region: BaseGeometry = stock
-            material = np.ones_like(mask)
-            below_cache = {level.z_mm: (part, mask, mask_window(mask, 2))}
+            paths, below = _main_paths(surface_mm, pixel_mm, level, stock, reach_r, stepover_mm)
+            below_cache = {level.z_mm: below}
         else:
-            below_part, below_mask, below_window = below_cache[level.below_mm]
-            if below_window is None:
+            below = below_cache[level.below_mm]
+            if below[2] is None:
                 out.append(LevelPaths(level, ()))
                 continue
-            window = below_window
-            part = islands(surface_mm, level.z_mm, pixel_mm, below_window)
-            region = below_part.difference(part)
-            material = below_mask  # (not used: a rest level's reach is from its terrace)
-            if region.is_empty or not shapely.contains_properly(below_part, part):
-                useful = None
-            else:
-                if level.below_mm not in below_grown:
-                    below_grown = {level.below_mm: below_part.buffer(reach_r, quad_segs=QUAD_SEGS)}
-                useful = below_grown[level.below_mm].difference(
-                    part.buffer(-reach_r, quad_segs=QUAD_SEGS)
-                )
-        if level.kind == "main":
-            reach = _farthest(mask, material, window, pixel_mm)
-        else:
-            reach = _farthest_vertex(region, part, pixel_mm, stepover_mm)
-        paths = _rings(part, region, reach, reach_r, stepover_mm, useful)
+            paths = _rest_paths(
+                surface_mm, pixel_mm, level, below, below_grown, reach_r, stepover_mm
+            )
         out.append(LevelPaths(level, tuple(paths)))
         if progress is not None:
             progress(done)
     return out
+
+
+def _main_paths(
+    surface_mm: NDArray[np.float64],
+    pixel_mm: float,
+    level: Level,
+    stock: BaseGeometry,
+    reach_r: float,
+    stepover_mm: float,
+) -> tuple[list[Polyline], _Below]:
+    """A main level's rings, clearing the whole stock outside its part; and what rests need."""
+    mask = surface_mm > level.z_mm + LEVEL_EPS_MM
+    window = mask_window(np.ones_like(mask), 0)
+    part = islands(surface_mm, level.z_mm, pixel_mm)
+    below = (part, mask, mask_window(mask, 2))
+    reach = _farthest(mask, np.ones_like(mask), window, pixel_mm)
+    return _rings(part, stock, reach, reach_r, stepover_mm, None), below
+
+
+def _rest_paths(
+    surface_mm: NDArray[np.float64],
+    pixel_mm: float,
+    level: Level,
+    below: _Below,
+    below_grown: dict[float, BaseGeometry],
+    reach_r: float,
+    stepover_mm: float,
+) -> list[Polyline]:
+    """A rest level's rings over the terrace between its part and the main level's below.
+
+    ``below_grown`` keeps the main level's part grown by the reach, computed once for all the
+    rest levels of that main level (only the latest main level's is kept).
+    """
+    below_part, _, below_window = below
+    part = islands(surface_mm, level.z_mm, pixel_mm, below_window)
+    region = below_part.difference(part)
+    useful: BaseGeometry | None = None
+    if not region.is_empty and shapely.contains_properly(below_part, part):
+        if level.below_mm not in below_grown:
+            below_grown.clear()
+            below_grown[level.below_mm] = below_part.buffer(reach_r, quad_segs=QUAD_SEGS)
+        useful = below_grown[level.below_mm].difference(part.buffer(-reach_r, quad_segs=QUAD_SEGS))
+    reach = _farthest_vertex(region, part, pixel_mm, stepover_mm)
+    return _rings(part, region, reach, reach_r, stepover_mm, useful)
 
 
 def _farthest(

@@ -100,7 +100,45 @@ def simulate(
         How far to look for the model around a point of the roughed surface [mm]: beyond
         it the vertical stock (an upper bound of the distance) is taken.
     """
+    sorted_moves = _sort_moves(moves, cutters, stock_top_mm)
     material = np.full(model_mm.shape, float(stock_top_mm))
+    for z in sorted(sorted_moves.levels, reverse=True):
+        row0, swept = _swept(
+            sorted_moves.levels[z], sorted_moves.rough_radius_mm, model_mm.shape, pixel_mm
+        )
+        band = material[row0 : row0 + len(swept)]
+        np.minimum(band, np.where(swept, z, np.inf), out=band)
+    gouge = float(np.max(model_mm - material))
+    stock = remaining_stock(model_mm, material, pixel_mm, window_mm)
+    finish_stock: float | None = None
+    if sorted_moves.finish_tool is not None and sorted_moves.finish:
+        gouge, finish_stock = _finish_check(
+            model_mm, material, sorted_moves.finish, sorted_moves.finish_tool, pixel_mm, gouge
+        )
+    cutting, rapid = machining_time(moves)
+    return Verification(
+        max(0.0, gouge), stock, finish_stock, cutting, rapid, sorted_moves.rapids_below
+    )
+
+
+@dataclass(frozen=True)
+class _SortedMoves:
+    """The program's moves by kind: roughing runs per level, finishing moves, rapids."""
+
+    levels: dict[float, list[NDArray[np.float64]]]
+    finish: list[NDArray[np.float64]]
+    finish_tool: Cutter | None
+    rapids_below: int
+    rough_radius_mm: float
+
+
+def _sort_moves(
+    moves: list[Segment], cutters: dict[int, Cutter], stock_top_mm: float
+) -> _SortedMoves:
+    """Runs of a flat end mill at one ``z`` (a plunge starts one), the finishing moves apart.
+
+    A rapid ends a run, and one that ends below the stock top is counted.
+    """
     levels: dict[float, list[NDArray[np.float64]]] = defaultdict(list)
     finish: list[NDArray[np.float64]] = []
     finish_tool: Cutter | None = None
@@ -136,26 +174,29 @@ def simulate(
             finish_tool = cutter
             finish.append(np.asarray((m.start, m.end), dtype=np.float64))
     close_run()
-    for z in sorted(levels, reverse=True):
-        row0, swept = _swept(levels[z], rough_radius, model_mm.shape, pixel_mm)
-        band = material[row0 : row0 + len(swept)]
-        np.minimum(band, np.where(swept, z, np.inf), out=band)
-    gouge = float(np.max(model_mm - material))
-    stock = remaining_stock(model_mm, material, pixel_mm, window_mm)
-    finish_stock: float | None = None
-    if finish_tool is not None and finish:
-        points = _pixel_points(finish, pixel_mm)
-        material = np.minimum(
-            material, _finished(points, finish_tool, model_mm.shape, pixel_mm, 0.0)
-        )
-        gouge = max(gouge, float(np.max(model_mm - material)))
-        finish_stock = float(np.max(material - model_mm))
-        # between the pixel centres: the triangles' diagonals at their midpoints
-        cells = _finished(points, finish_tool, model_mm.shape, pixel_mm, 0.5)[:-1, :-1]
-        diagonal = 0.5 * (model_mm[:-1, :-1] + model_mm[1:, 1:])
-        gouge = max(gouge, float(np.max(diagonal - cells)))
-    cutting, rapid = machining_time(moves)
-    return Verification(max(0.0, gouge), stock, finish_stock, cutting, rapid, rapids_below)
+    return _SortedMoves(levels, finish, finish_tool, rapids_below, rough_radius)
+
+
+def _finish_check(
+    model_mm: NDArray[np.float64],
+    material: NDArray[np.float64],
+    finish: list[NDArray[np.float64]],
+    finish_tool: Cutter,
+    pixel_mm: float,
+    gouge: float,
+) -> tuple[float, float]:
+    """The finishing moves over the roughed ``material``: the gouge so far raised, stock left.
+
+    The gouge is measured at the pixel centres and at the midpoints of the diagonals.
+    """
+    points = _pixel_points(finish, pixel_mm)
+    material = np.minimum(material, _finished(points, finish_tool, model_mm.shape, pixel_mm, 0.0))
+    gouge = max(gouge, float(np.max(model_mm - material)))
+    finish_stock = float(np.max(material - model_mm))
+    # between the pixel centres: the triangles' diagonals at their midpoints
+    cells = _finished(points, finish_tool, model_mm.shape, pixel_mm, 0.5)[:-1, :-1]
+    diagonal = 0.5 * (model_mm[:-1, :-1] + model_mm[1:, 1:])
+    return max(gouge, float(np.max(diagonal - cells))), finish_stock
 
 
 #: Largest gap between an arc and the chords it is swept as [mm].

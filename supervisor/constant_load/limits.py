@@ -1,7 +1,22 @@
 r"""Reference current and feed-rate limits from constant-feed tests (Tai et al. §II.F).
 
 See :mod:`supervisor.constant_load` for the method, the bands and which end of the wear
-interval sets the lower limit.
+interval sets the lower limit. Both :func:`constant_load_setup` (fit, then limits) and
+:func:`limits_from_calibration` (limits of a plane already fitted) set
+
+.. math::
+
+    I_\text{ref} = \min\big(\eta\, I_\text{max},\ I_\text{strength}\big), \qquad
+    f_\text{upper} = \frac{I_\text{ref} - A}{B}, \qquad
+    f_\text{lower} = \frac{I_\text{ref} - A}{B} - \frac{k_1}{B} V_{B,\max} + k\,u_f
+
+(Eq. 15 at ``VB = 0`` and at the worn end of the interval; the band ``k·u_f`` raises the lower
+limit). The nominal wear at the lower limit is ``V_B,max − k·u_f·B/k1``.
+
+Both refuse, naming the field and value (:class:`~models.errors.InputError`): too few cuts, no
+worn cuts, a current that does not rise with wear, a safety factor outside (0, 1], a reversed
+interval, a reference current at or below the idle current, a lower limit at or above the upper
+one, a band wider than the interval.
 """
 
 from __future__ import annotations
@@ -97,17 +112,11 @@ def constant_load_setup(
     coverage_k: float = COVERAGE_K,
     source: str = "constant-feed tests",
 ) -> ConstantLoadSetup:
-    r"""Reference current and feed-rate limits from constant-feed tests (Tai et al. §II.F).
+    """Reference current and feed-rate limits from constant-feed tests (Tai et al. §II.F).
 
-    .. math::
-
-        I_\text{ref} = \min\big(\eta\, I_\text{max},\ I_\text{strength}\big), \qquad
-        f_\text{upper} = \frac{I_\text{ref} - A}{B}, \qquad
-        f_\text{lower} = \frac{I_\text{ref} - A}{B} - \frac{k_1}{B} V_{B,\max} + k\,u_f
-
-    (Eq. 15 at ``VB = 0`` and at the worn end of the interval; module docstring for the band
-    ``k·u_f`` that raises the lower limit). The nominal wear at the lower limit is
-    ``V_B,max − k·u_f·B/k1``.
+    Fits the plane ``I = A + B·f + k1·VB`` (Eq. 14), then the limits of Eq. 15 as
+    :func:`limits_from_calibration`. The equations, and the refusals (an :class:`InputError`
+    naming the field and value), are in the module docstring.
 
     Parameters
     ----------
@@ -133,20 +142,37 @@ def constant_load_setup(
     ConstantLoadSetup
         The setup.
 
-    Raises
-    ------
-    InputError
-        Naming the field and value: too few cuts, no worn cuts, a current that does not rise
-        with wear, a safety factor outside (0, 1], a reversed interval, a reference current at
-        or below the idle current, a lower limit at or above the upper one, a band wider than
-        the interval.
-
     References
     ----------
     .. [1] Tai, Tsai & Li, Eqs. 13-15, §II.F and §III.A.
     """
     feeds, currents, wears = list(feed_rates_mm_min), list(currents_A), list(flank_wears_mm)
     eta, k, interval = _options(safety_factor, coverage_k, wear_interval_mm)  # before the fit
+    cal = _fit_with_wear(feeds, currents, wears, source)
+    return limits_from_calibration(
+        cal,
+        max_current_A=_withstood_current_A(max_current_A, currents),
+        safety_factor=eta,
+        wear_interval_mm=interval,
+        strength=strength,
+        coverage_k=k,
+    )
+
+
+def _withstood_current_A(max_current_A: float | None, currents: list[float]) -> float:
+    """The largest current the tool withstood (Tai §III.A): given, else the tests' largest."""
+    if max_current_A is None:
+        return max(float(c) for c in currents)
+    return number(max_current_A, "max_current_A", positive=True)
+
+
+def _fit_with_wear(
+    feeds: list[float], currents: list[float], wears: list[float], source: str
+) -> TaiCurrentFeedCalibration:
+    """The plane of Tai Eq. 14 fitted to the tests, refused without worn cuts or with ``k1 <= 0``.
+
+    The lower feed limit needs the current to rise with wear, so wear tests must be there.
+    """
     checked = [number(w, f"flank_wears_mm[{i}]", minimum=0.0) for i, w in enumerate(wears)]
     if len(feeds) >= 4 and not any(checked):
         raise InputError(
@@ -164,18 +190,7 @@ def constant_load_setup(
             "k1 fitted to flank_wears_mm and currents_A is not positive: the current must rise "
             "with flank wear to set a lower feed limit (Tai Eq. 14)",
         )
-    if max_current_A is None:  # "the largest current the tool withstood" (Tai §III.A)
-        i_max = max(float(c) for c in currents)
-    else:
-        i_max = number(max_current_A, "max_current_A", positive=True)
-    return limits_from_calibration(
-        cal,
-        max_current_A=i_max,
-        safety_factor=eta,
-        wear_interval_mm=interval,
-        strength=strength,
-        coverage_k=k,
-    )
+    return cal
 
 
 def limits_from_calibration(
@@ -195,7 +210,7 @@ def limits_from_calibration(
     """
     eta, k, (sharp_end, worn_end) = _options(safety_factor, coverage_k, wear_interval_mm)
     i_max = number(max_current_A, "max_current_A", positive=True)
-    a, b, k1 = cal.idle_current_A, cal.slope_A_per_mm_min, cal.wear_coefficient_A_per_mm
+    a, k1 = cal.idle_current_A, cal.wear_coefficient_A_per_mm
     if k1 <= 0:
         raise ModelDomainError(
             "wear_coefficient_A_per_mm",
@@ -203,41 +218,10 @@ def limits_from_calibration(
             "is not positive: the current must rise with flank wear to set a lower feed limit "
             "(Tai Eq. 14)",
         )
-    by_factor = eta * i_max
     i_strength = None if strength is None else strength_current_A(strength, coverage_k=k)
-    governed_by: Governor = "safety_factor"
-    i_ref = by_factor
-    if i_strength is not None and i_strength < by_factor:
-        governed_by, i_ref = "strength", i_strength
-    if i_ref <= a:
-        how = (
-            f"the strength limit's current {i_ref:.4g} A"
-            if governed_by == "strength"
-            else f"safety_factor {eta:g} × max_current_A {i_max:.4g} A"
-        )
-        raise ModelDomainError(
-            "reference_current_A",
-            i_ref,
-            f"{how} is at or below the idle current A = {a:.4g} A: no feed rate draws it",
-        )
-    s = cal.residual_sd_A
-    up, u_up = tai_feed_rate_mm_min(cal, i_ref, 0.0, u_current_A=s)
-    if i_ref - a - k1 * worn_end <= 0:
-        raise ModelDomainError(
-            "wear_interval_mm",
-            wear_interval_mm,
-            f"a tool worn to {worn_end * 1000:g} µm draws {a + k1 * worn_end:.4g} A without "
-            f"cutting, at or above the reference current {i_ref:.4g} A",
-        )
-    worn, u_worn = tai_feed_rate_mm_min(cal, i_ref, worn_end, u_current_A=s)
-    low = worn + k * u_worn
-    wear_band = k * u_worn * b / k1
-    if low >= up:
-        raise ModelDomainError(
-            "wear_interval_mm",
-            wear_interval_mm,
-            f"the lower feed limit {low:.1f} mm/min is not below the upper one {up:.1f} mm/min",
-        )
+    i_ref, governed_by = _reference_current(a, eta, i_max, i_strength)
+    up, u_up = tai_feed_rate_mm_min(cal, i_ref, 0.0, u_current_A=cal.residual_sd_A)
+    low, u_worn, wear_band = _lower_limit(cal, i_ref, up, wear_interval_mm, worn_end, k)
     if worn_end - wear_band < sharp_end:
         raise ModelDomainError(
             "wear_interval_mm",
@@ -258,6 +242,65 @@ def limits_from_calibration(
         wear_interval_mm=(sharp_end, worn_end),
         coverage_k=k,
     )
+
+
+def _reference_current(
+    idle_A: float, eta: float, i_max: float, i_strength: float | None
+) -> tuple[float, Governor]:
+    """``min(η·I_max, I_strength)`` and which bound set it; refused at or below the idle current.
+
+    At or below ``A`` no feed rate draws the reference current (Tai Eq. 13 at ``f = 0``).
+    """
+    by_factor = eta * i_max
+    governed_by: Governor = "safety_factor"
+    i_ref = by_factor
+    if i_strength is not None and i_strength < by_factor:
+        governed_by, i_ref = "strength", i_strength
+    if i_ref <= idle_A:
+        how = (
+            f"the strength limit's current {i_ref:.4g} A"
+            if governed_by == "strength"
+            else f"safety_factor {eta:g} × max_current_A {i_max:.4g} A"
+        )
+        raise ModelDomainError(
+            "reference_current_A",
+            i_ref,
+            f"{how} is at or below the idle current A = {idle_A:.4g} A: no feed rate draws it",
+        )
+    return i_ref, governed_by
+
+
+def _lower_limit(
+    cal: TaiCurrentFeedCalibration,
+    i_ref: float,
+    up: float,
+    wear_interval_mm: object,
+    worn_end: float,
+    k: float,
+) -> tuple[float, float, float]:
+    """Eq. 15 at the worn end raised by its band ``k·u``: the limit, ``u`` and the wear band.
+
+    Refused when the worn tool draws the reference current without cutting, or when the limit
+    is not below the upper one ``up``.
+    """
+    a, b, k1 = cal.idle_current_A, cal.slope_A_per_mm_min, cal.wear_coefficient_A_per_mm
+    if i_ref - a - k1 * worn_end <= 0:
+        raise ModelDomainError(
+            "wear_interval_mm",
+            wear_interval_mm,
+            f"a tool worn to {worn_end * 1000:g} µm draws {a + k1 * worn_end:.4g} A without "
+            f"cutting, at or above the reference current {i_ref:.4g} A",
+        )
+    worn, u_worn = tai_feed_rate_mm_min(cal, i_ref, worn_end, u_current_A=cal.residual_sd_A)
+    low = worn + k * u_worn
+    wear_band = k * u_worn * b / k1
+    if low >= up:
+        raise ModelDomainError(
+            "wear_interval_mm",
+            wear_interval_mm,
+            f"the lower feed limit {low:.1f} mm/min is not below the upper one {up:.1f} mm/min",
+        )
+    return low, u_worn, wear_band
 
 
 def _options(

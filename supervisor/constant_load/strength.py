@@ -54,6 +54,29 @@ class ForceLimit:
             raise InputError("calibration", self.calibration, "must be a LinearCurrentCalibration")
 
 
+def _band_root_A(strength: ForceLimit, k: float, alpha: float) -> float:
+    """The smaller root of the quadratic of :func:`strength_current_A`, polished by Newton.
+
+    ``alpha = b² − k²u_b² > 0``: the band rises with the current, so the root is the current
+    where it meets the strength.
+    """
+    cal = strength.calibration
+    a, b = cal.offset_N, cal.slope_N_per_A
+    (var_a, cov_ab), (_, var_b) = cal.covariance
+    c = strength.strength_force_N - a
+    c0 = var_a + cal.residual_sd_N**2 + (b * strength.u_current_A) ** 2
+    beta = b * c + k * k * cov_ab
+    gamma = c * c - k * k * c0
+    denominator = beta + math.sqrt(max(beta * beta - alpha * gamma, 0.0))
+    current = gamma / denominator if denominator > 0 else 0.0
+    for _ in range(3):  # Newton on a + b·I + k·u_F(I) − F_s: the root loses digits to rounding
+        u_f = math.sqrt(max(c0 + 2.0 * current * cov_ab + current * current * var_b, 0.0))
+        excess = a + b * current + k * u_f - strength.strength_force_N
+        slope = b + (k * (current * var_b + cov_ab) / u_f if u_f > 0 else 0.0)
+        current = max(current - excess / slope, 0.0)
+    return current
+
+
 def strength_current_A(strength: ForceLimit, *, coverage_k: float = COVERAGE_K) -> float:
     r"""Largest spindle current whose upper force band stays at or under the tool's strength.
 
@@ -86,8 +109,8 @@ def strength_current_A(strength: ForceLimit, *, coverage_k: float = COVERAGE_K) 
     """
     k = number(coverage_k, "coverage_k", positive=True)
     cal = strength.calibration
-    a, b = cal.offset_N, cal.slope_N_per_A
-    (var_a, cov_ab), (_, var_b) = cal.covariance
+    b = cal.slope_N_per_A
+    var_b = cal.covariance[1][1]
     alpha = b * b - k * k * var_b
     if alpha <= 0:
         raise InputError(
@@ -104,17 +127,7 @@ def strength_current_A(strength: ForceLimit, *, coverage_k: float = COVERAGE_K) 
             f"below the upper force band at zero current, "
             f"{at_zero.value + k * at_zero.uncertainty:.4g} N",
         )
-    c = strength.strength_force_N - a
-    c0 = var_a + cal.residual_sd_N**2 + (b * strength.u_current_A) ** 2
-    beta = b * c + k * k * cov_ab
-    gamma = c * c - k * k * c0
-    denominator = beta + math.sqrt(max(beta * beta - alpha * gamma, 0.0))
-    current = gamma / denominator if denominator > 0 else 0.0
-    for _ in range(3):  # Newton on a + b·I + k·u_F(I) − F_s: the root loses digits to rounding
-        u_f = math.sqrt(max(c0 + 2.0 * current * cov_ab + current * current * var_b, 0.0))
-        excess = a + b * current + k * u_f - strength.strength_force_N
-        slope = b + (k * (current * var_b + cov_ab) / u_f if u_f > 0 else 0.0)
-        current = max(current - excess / slope, 0.0)
+    current = _band_root_A(strength, k, alpha)
     check = linear_current_force_N(cal, current, strength.u_current_A)
     excess = check.value + k * check.uncertainty - strength.strength_force_N
     if excess > 1e-9 * strength.strength_force_N:  # re-check with the model (STYLE.md)

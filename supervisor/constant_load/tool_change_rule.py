@@ -90,22 +90,9 @@ def tool_change_due(
             "give exactly one of feed_rate_mm_min and feed_override_percent",
         )
     tolerance = number(tolerance_mm_min, "tolerance_mm_min", minimum=0.0)
-    if feed_override_percent is not None:
-        override = number(feed_override_percent, "feed_override_percent", positive=True)
-        programmed = setup.upper.feed_rate_mm_min
-        if programmed_feed_rate_mm_min is not None:
-            programmed = number(
-                programmed_feed_rate_mm_min, "programmed_feed_rate_mm_min", positive=True
-            )
-        feed = programmed * override / 100.0
-    else:
-        if programmed_feed_rate_mm_min is not None:
-            raise InputError(
-                "programmed_feed_rate_mm_min",
-                programmed_feed_rate_mm_min,
-                "applies to feed_override_percent only",
-            )
-        feed = number(feed_rate_mm_min, "feed_rate_mm_min", positive=True)
+    feed = _commanded_feed_mm_min(
+        setup, feed_rate_mm_min, feed_override_percent, programmed_feed_rate_mm_min
+    )
     cal, lower = setup.calibration, setup.lower.feed_rate_mm_min
     margin = feed - lower
     due = margin <= tolerance + _REACHED_REL * lower
@@ -113,16 +100,49 @@ def tool_change_due(
         setup.reference_current_A - cal.idle_current_A - cal.slope_A_per_mm_min * feed
     ) / cal.wear_coefficient_A_per_mm
     wear = max(wear, 0.0)
+    reason = _reason(setup, due, feed, margin, wear)
+    return ToolChangeDecision(due, feed, lower, margin, wear, reason)
+
+
+def _commanded_feed_mm_min(
+    setup: ConstantLoadSetup,
+    feed_rate_mm_min: float | None,
+    feed_override_percent: float | None,
+    programmed_feed_rate_mm_min: float | None,
+) -> float:
+    """The commanded feed: given, or the override's percentage of the programmed feed.
+
+    The programmed feed defaults to the upper limit (the part program runs at it and the
+    controller only overrides down); it means nothing beside a commanded feed, so is refused.
+    """
+    if feed_override_percent is not None:
+        override = number(feed_override_percent, "feed_override_percent", positive=True)
+        programmed = setup.upper.feed_rate_mm_min
+        if programmed_feed_rate_mm_min is not None:
+            programmed = number(
+                programmed_feed_rate_mm_min, "programmed_feed_rate_mm_min", positive=True
+            )
+        return programmed * override / 100.0
+    if programmed_feed_rate_mm_min is not None:
+        raise InputError(
+            "programmed_feed_rate_mm_min",
+            programmed_feed_rate_mm_min,
+            "applies to feed_override_percent only",
+        )
+    return number(feed_rate_mm_min, "feed_rate_mm_min", positive=True)
+
+
+def _reason(setup: ConstantLoadSetup, due: bool, feed: float, margin: float, wear: float) -> str:
+    """One sentence for the operator and the log: change the tool, or keep cutting."""
+    lower = setup.lower.feed_rate_mm_min
     lo, hi = (1000 * w for w in setup.wear_interval_mm)
     if due:
-        reason = (
+        return (
             f"change the tool: the commanded feed {feed:.1f} mm/min has reached the lower limit "
             f"{lower:.1f} mm/min (flank wear about {wear * 1000:.0f} µm, tool-change interval "
             f"{lo:g}-{hi:g} µm)"
         )
-    else:
-        reason = (
-            f"keep cutting: the commanded feed {feed:.1f} mm/min is {margin:.1f} mm/min above "
-            f"the lower limit {lower:.1f} mm/min (flank wear about {wear * 1000:.0f} µm)"
-        )
-    return ToolChangeDecision(due, feed, lower, margin, wear, reason)
+    return (
+        f"keep cutting: the commanded feed {feed:.1f} mm/min is {margin:.1f} mm/min above "
+        f"the lower limit {lower:.1f} mm/min (flank wear about {wear * 1000:.0f} µm)"
+    )

@@ -96,26 +96,38 @@ def resolve(
             label, calibration = _calibration(plan, signal, path)
             context = operating_point(op.process, {**op.context, **setpoints[name].setpoint})
             context.update(signal.context)
-            force = to_force(
-                calibration,
-                quantity,
-                signal.reading.value,
-                signal.reading.uncertainty,
-                context,
-                path=path,
-            )
-            measurements.setdefault(name, {})["force_N"] = Measurement(
-                force.value, force.uncertainty
-            )
-            raw[(name, "force_N")] = {
-                "quantity": quantity,
-                "value": signal.reading.value,
-                "uncertainty": signal.reading.uncertainty,
-                "calibration": label,
-                "calibration_table": calibration_to_mapping(calibration),
-                "context": {k: v for k, v in context.items() if isinstance(v, int | float)},
-            }
+            force, record = _converted(quantity, signal, label, calibration, context, path)
+            measurements.setdefault(name, {})["force_N"] = force
+            raw[(name, "force_N")] = record
     return replace(report, measurements=measurements, signals={}), raw
+
+
+def _converted(
+    quantity: str,
+    signal: Signal,
+    label: str,
+    calibration: Calibration,
+    context: dict[str, object],
+    path: str,
+) -> tuple[Measurement, RawRecord]:
+    """One reading as a ``force_N`` measurement, and the record of what it was converted from."""
+    force = to_force(
+        calibration,
+        quantity,
+        signal.reading.value,
+        signal.reading.uncertainty,
+        context,
+        path=path,
+    )
+    record: RawRecord = {
+        "quantity": quantity,
+        "value": signal.reading.value,
+        "uncertainty": signal.reading.uncertainty,
+        "calibration": label,
+        "calibration_table": calibration_to_mapping(calibration),
+        "context": {k: v for k, v in context.items() if isinstance(v, int | float)},
+    }
+    return Measurement(force.value, force.uncertainty), record
 
 
 def _bare_currents_as_readings(report: PartReport, plan: Plan) -> PartReport:

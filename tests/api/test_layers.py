@@ -206,32 +206,11 @@ MAX_FUNCTION_LINES = 60
 #: as ``parent.child``, a method as ``Class.method``) with their length when listed. A ratchet:
 #: no function may join, and one that is no longer long must leave.
 LONG_TODAY = {
-    "api/cli/certify.py::certify",  # 107
-    "api/cli/demo.py::demo",  # 65
-    "api/cli/milling.py::setup",  # 61
-    "api/cli/optimize.py::predict",  # 94
-    "api/cli/virtual.py::serve",  # 75
-    "api/collect/opcua.py::observations",  # 75
-    "api/collect/runner.py::mtconnect_loop",  # 93
-    "api/rest/problems.py::install",  # 100
     "api/services/parts.py::_report_part",  # 87
     "api/services/parts.py::_report_part.work",  # 62
     "api/services/record.py::report_record",  # 67
     "db/parts.py::add_part",  # 84
-    "models/sensors/convert.py::to_force",  # 132
-    "models/sensors/ivester.py::ivester_force_N",  # 72
-    "models/sensors/kim_jeon.py::fit_linear_calibration",  # 70
-    "models/sensors/tai.py::fit_tai_calibration",  # 74
-    "supervisor/cam/job.py::run_cam",  # 94
-    "supervisor/cam/levels.py::roughing_levels",  # 86
-    "supervisor/cam/roughing.py::rough",  # 67
-    "supervisor/cam/verify.py::simulate",  # 82
-    "supervisor/constant_load/limits.py::constant_load_setup",  # 91
-    "supervisor/constant_load/limits.py::limits_from_calibration",  # 80
-    "supervisor/constant_load/strength.py::strength_current_A",  # 66
-    "supervisor/constant_load/tool_change_rule.py::tool_change_due",  # 81
     "supervisor/inputs/part_report.py::report_from_mapping",  # 67
-    "supervisor/inputs/signals.py::resolve",  # 67
     "supervisor/rcb/law.py::_apply_law",  # 134
     "supervisor/rcb/monitor.py::watch",  # 78
     "supervisor/rcb/update.py::_reading",  # 70
