@@ -216,7 +216,7 @@ LONG_TODAY = {
     "api/rest/problems.py::install",  # 100
     "api/services/parts.py::_report_part",  # 87
     "api/services/parts.py::_report_part.work",  # 62
-    "api/services/record.py::report_record",  # 67
+    "api/services/read/record.py::report_record",  # 67
     "db/parts.py::add_part",  # 84
     "models/sensors/convert.py::to_force",  # 132
     "models/sensors/ivester.py::ivester_force_N",  # 72

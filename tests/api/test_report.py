@@ -26,7 +26,7 @@ from api.report import plots
 from api.report.html import render_html_report as render_report
 from api.report.series import operation_series
 from api.report.svg import render
-from api.services import queries
+from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade

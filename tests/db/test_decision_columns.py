@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 
 from api.rest.schemas.parts import Update
-from api.services import queries
+from api.services import read as queries
 from api.services.to_json import decision_json
 from db import tables as t
 from db.parts import DECISION_COLUMNS

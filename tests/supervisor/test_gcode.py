@@ -20,7 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from api.services import queries
+from api.services import read as queries
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 from supervisor.gcode import (
