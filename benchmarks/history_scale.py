@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from api.services import queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
+from api.services.read import history as read_history
 from db.engine import make_engine, upgrade
 from db.state_cache import CACHE
 from supervisor.inputs.part_report import report_from_mapping
@@ -103,7 +103,7 @@ def measure(engine: Any, url: str, plan_id: int, lathe: Lathe, work: Path) -> di
     page = []
     for _ in range(3):
         begin = time.perf_counter()
-        queries.plan_history(engine=engine, plan_id=plan_id)
+        read_history.plan_history(engine=engine, plan_id=plan_id)
         page.append(time.perf_counter() - begin)
     history = _process(["history", str(plan_id), "--db", url, "--json"])
     html = work / "report.html"

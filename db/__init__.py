@@ -13,7 +13,7 @@ Every function takes a session (keyword-only) and leaves the transaction to its 
 - :mod:`db.parts`: what a part report stores (measurements, decisions, changes).
 - :mod:`db.intake`: a part report's first step: the plan locked, the part's row, a stored answer.
 - :mod:`db.library`: tools and their baseline models.
-- :mod:`db.history`: read-only queries for review (plans, parts page by page, versions).
+- :mod:`db.read`: what the read use cases read, by resource (plans, parts, history, record).
 - :mod:`db.api_keys`, :mod:`db.audit`, :mod:`db.idempotency`: API keys, the audit log (and
   pruning), idempotency records.
 - :mod:`db.keylock`: which idempotency keys are in flight, on SQLite (file locks).

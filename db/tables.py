@@ -164,7 +164,7 @@ class OperationModelVersion(Base):
     __tablename__ = "operation_model_versions"
     __table_args__ = (
         UniqueConstraint("operation_id", "quantity", "version"),
-        # the model in force at a part's setpoint version, and the part-less ones (db.history)
+        # the model in force at a part's setpoint version, and the part-less ones (db.read.history)
         Index("ix_operation_model_versions_quantity_part", "operation_id", "quantity", "part_id"),
         Index("ix_operation_model_versions_part", "operation_id", "part_id", "quantity"),
     )

@@ -6,7 +6,10 @@ Every error names the dotted path of the offending field and its value. Every nu
 :data:`models.bounds.LARGEST` in magnitude and every text within :data:`models.bounds.MAX_TEXT`
 characters (an identifier :data:`models.bounds.MAX_IDENTITY`), and a positive number at least
 :data:`models.bounds.SMALLEST_POSITIVE`: the bounds REST's schemas apply,
-so a plan file and a plan posted to REST are bounded alike.
+so a plan file and a plan posted to REST are bounded alike. A few readers take their bounds
+from the caller and state them in one message whatever went wrong (:func:`text_within`,
+:func:`number_within`, :func:`whole_within`): ``collector.toml``'s, which an operator reads on
+the collector's console.
 """
 
 from __future__ import annotations
@@ -74,12 +77,32 @@ def mapping(value: object, path: str) -> Mapping[str, Any]:
     return value
 
 
-def only_keys(data: Mapping[str, Any], allowed: Iterable[str], path: str) -> None:
-    """Refuse keys of ``data`` that are not in ``allowed`` (catches misspelt fields)."""
+def table(data: Mapping[str, Any], key: str, path: str = "") -> Mapping[str, Any]:
+    """A required table (a TOML table, a JSON object) under ``key``; its fields are read apart.
+
+    Absent or not a table: "required table missing", the field named by its dotted path.
+    """
+    where = f"{path}.{key}" if path else key
+    value = data.get(key)
+    if not isinstance(value, Mapping):
+        raise InputError(where, value, "required table missing")
+    return value
+
+
+def only_keys(
+    data: Mapping[str, Any], allowed: Iterable[str], path: str, *, list_allowed: bool = True
+) -> None:
+    """Refuse keys of ``data`` that are not in ``allowed`` (catches misspelt fields).
+
+    ``list_allowed``: whether the refusal lists the allowed fields, or says "unknown field"
+    only (``collector.toml``, whose fields its documentation lists).
+    """
     allowed = tuple(allowed)
     for key in data:
         if key not in allowed:
             where = f"{path}.{key}" if path else key
+            if not list_allowed:
+                raise InputError(where, data[key], "unknown field")
             raise InputError(
                 where, data[key], f"unknown field; expected one of: {', '.join(allowed)}"
             )
@@ -108,6 +131,61 @@ def text(
         raise InputError(where, value, "must be a non-empty string")
     if len(value) > most:
         raise InputError(where, value, f"must be at most {most} characters")
+    return value
+
+
+def text_within(
+    data: Mapping[str, Any], key: str, path: str, default: str | None = None, *, most: int
+) -> str:
+    """A string field of 1 to ``most`` characters, not blank; ``default`` when absent.
+
+    One message for every refusal (absent without a default, not a string, blank, too long):
+    "must be text of 1 to ``most`` characters", which says what would be accepted.
+    """
+    value = data.get(key, default)
+    if not isinstance(value, str) or not value.strip() or len(value) > most:
+        where = f"{path}.{key}" if path else key
+        raise InputError(where, value, f"must be text of 1 to {most} characters")
+    return value
+
+
+def number_within(
+    data: Mapping[str, Any],
+    key: str,
+    path: str,
+    *,
+    low: float,
+    high: float,
+    default: float | None = None,
+) -> float:
+    """A finite number field (an ``int`` or a ``float``, not a bool) in ``[low, high]``.
+
+    ``default`` when absent; without one an absent field is "required field missing". Any
+    other refusal is "must be a number" or "must be in [low, high]", the bounds as ``:g``.
+    """
+    where = f"{path}.{key}" if path else key
+    if key not in data and default is None:
+        raise InputError(where, None, "required field missing")
+    value = data.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(where, value, "must be a number")
+    if not low <= value <= high:
+        raise InputError(where, value, f"must be in [{low:g}, {high:g}]")
+    return float(value)
+
+
+def whole_within(
+    data: Mapping[str, Any], key: str, path: str, *, most: int, default: int | None = None
+) -> int:
+    """A whole number field (an ``int``, not a bool) from 1 to ``most``; ``default`` when absent.
+
+    One message for every refusal, absence without a default included: "must be a whole
+    number in 1..``most``".
+    """
+    value = data.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= most:
+        where = f"{path}.{key}" if path else key
+        raise InputError(where, value, f"must be a whole number in 1..{most}")
     return value
 
 

@@ -16,7 +16,7 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from api.services import queries
+from api.services import read as queries
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 from supervisor.gcode import (

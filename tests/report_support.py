@@ -11,7 +11,7 @@ import numpy as np
 from sqlalchemy.engine import Engine
 
 from api.report.html import render_html_report as render_report
-from api.services import queries
+from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade

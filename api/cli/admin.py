@@ -16,7 +16,7 @@ from rich.text import Text
 from api.cli.common import DbOption, emit, errors, say, shown
 from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
-from api.services import sizes
+from api.services import request_limits
 from api.services.errors import NotFoundError
 from api.settings import (
     auth_failure_burst,
@@ -78,10 +78,10 @@ def db_upgrade(db: DbOption = None) -> None:
 def db_prune(
     audit_older_than: Annotated[
         str, typer.Option(help="Delete audit entries older than this (e.g. 365d, 24h, 90m).")
-    ] = sizes.AUDIT_DEFAULT,
+    ] = request_limits.AUDIT_DEFAULT,
     idempotency_older_than: Annotated[
         str, typer.Option(help="Delete idempotency records older than this (at least 24h).")
-    ] = sizes.IDEMPOTENCY_DEFAULT,
+    ] = request_limits.IDEMPOTENCY_DEFAULT,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     by: ByOption = None,
@@ -147,7 +147,9 @@ def keys_create(
 
 @keys_app.command("list")
 def keys_list(
-    limit: Annotated[int, typer.Option(help=f"Keys per page (1 to {sizes.KEYS_PAGE}).")] = 50,
+    limit: Annotated[
+        int, typer.Option(help=f"Keys per page (1 to {request_limits.KEYS_PAGE}).")
+    ] = 50,
     after: Annotated[int, typer.Option(help="Show keys after this id (the next page).")] = 0,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,

@@ -1,10 +1,10 @@
 """``rcb gcode``: write a plan's current setpoints into the F and S words of a lathe program.
 
-The command reads the setpoints in force (:func:`api.services.queries.current_setpoints`) and each
-operation's workpiece diameter (:func:`api.services.queries.get_plan`), rewrites the block ranges
-given with ``--map OP=N100:N200`` by :func:`supervisor.gcode.rewrite_stream` (which documents the
-dialect, the refusals, the warnings and the number formats), and writes ``--out`` atomically, only
-when everything succeeded. The program is read as bytes and written back with the same bytes
+The command reads the setpoints in force (:func:`api.services.read.setpoints.current_setpoints`) and
+each operation's workpiece diameter (:func:`api.services.read.plans.get_plan`), rewrites the block
+ranges given with ``--map OP=N100:N200`` by :func:`supervisor.gcode.rewrite_stream` (which documents
+the dialect, the refusals, the warnings and the number formats), and writes ``--out`` atomically,
+only when everything succeeded. The program is read as bytes and written back with the same bytes
 wherever nothing changed (UTF-8, undecodable bytes carried through unchanged).
 
 Bounded whatever the program's size: the program is read a line at a time (a line longer than
@@ -264,12 +264,14 @@ def _setpoints(
     engine: Engine, plan_id: int, ranges: list[BlockRange], items: list[str]
 ) -> tuple[int, dict[str, OperationSetpoint]]:
     """The setpoint version in force and the setpoints of the mapped operations."""
-    from api.services import queries  # SQLAlchemy: loaded when the command runs, not for --help
+    # SQLAlchemy: loaded when the command runs, not for --help
+    from api.services.read import plans as read_plans
+    from api.services.read import setpoints as read_setpoints
     from supervisor.gcode import OperationSetpoint
 
     try:
-        plan = queries.get_plan(engine=engine, plan_id=plan_id)
-        current = queries.current_setpoints(engine=engine, plan_id=plan_id)
+        plan = read_plans.get_plan(engine=engine, plan_id=plan_id)
+        current = read_setpoints.current_setpoints(engine=engine, plan_id=plan_id)
     except NotFoundError:
         raise InputError("PLAN", plan_id, "no such plan (rcb plans lists them)") from None
     context = {op["name"]: op for op in plan["operations"]}

@@ -1,6 +1,6 @@
 """``rcb report PLAN --out report.html``: a plan's record as one self-contained HTML page.
 
-The command reads what the page shows with :func:`api.services.record.report_record`: the last
+The command reads what the page shows with :func:`api.services.read.record.report_record`: the last
 ``--last`` parts (default 100), the newest 200 setpoint versions (older ones summarised per 100
 by the database) and the plan's totals as SQL aggregates, so the reads and the page stay the
 same size whatever the plan's age. It renders them with
@@ -32,7 +32,7 @@ from api.cli.common import (
     shown,
     write_atomically,
 )
-from api.services import sizes
+from api.services import request_limits
 from api.services.errors import NotFoundError
 from api.settings import database_field, database_url
 from models.errors import InputError
@@ -55,11 +55,14 @@ def html_report(
         typer.Option(
             "--last",
             min=1,
-            max=sizes.REPORT_MAX_LAST,
+            max=request_limits.REPORT_MAX_LAST,
             metavar="N",
-            help=f"Plot and list the last N parts (1..{sizes.REPORT_MAX_LAST}); totals count all.",
+            help=(
+                f"Plot and list the last N parts (1..{request_limits.REPORT_MAX_LAST});"
+                " totals count all."
+            ),
         ),
-    ] = sizes.REPORT_DEFAULT_LAST,
+    ] = request_limits.REPORT_DEFAULT_LAST,
 ) -> None:
     """Write a plan's record as one self-contained HTML page to mail (tables and plots).
 
@@ -69,7 +72,7 @@ def html_report(
     # imported here (SQLAlchemy, NumPy): rcb --help and the other commands do not load them
     from sqlalchemy.exc import DBAPIError
 
-    from api.services import record
+    from api.services.read import record
 
     with errors():
         check_target(out)

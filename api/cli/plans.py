@@ -131,16 +131,17 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
 
     A halted plan has no setpoints in force: its halt is shown instead.
     """
-    from api.services import queries
     from api.services.errors import PlanHaltedError
+    from api.services.read import plans as read_plans
+    from api.services.read import setpoints as read_setpoints
     from api.settings import database_field, database_url
 
     with errors():
         engine = existing_engine(database_url(db), database_field(db))
         plan_key = plan_of(engine, plan)
-        data = queries.get_plan(engine=engine, plan_id=plan_key)
+        data = read_plans.get_plan(engine=engine, plan_id=plan_key)
         try:
-            current: dict[str, Any] | None = queries.current_setpoints(
+            current: dict[str, Any] | None = read_setpoints.current_setpoints(
                 engine=engine, plan_id=plan_key
             )
         except PlanHaltedError:

@@ -1,6 +1,6 @@
 """Engineers' review at the command line: ``rcb plans``, ``history``, ``parts``, ``export``.
 
-Thin commands over :mod:`api.services.queries` (the REST routes call the same), rich tables or
+Thin commands over :mod:`api.services.read` (the REST routes call the same), rich tables or
 ``--json``; every command takes ``--db URL``.
 """
 
@@ -32,7 +32,7 @@ from api.cli.common import (
 )
 from api.cli.tables import new_table, short_number
 from api.report import marks
-from api.services import sizes
+from api.services import request_limits
 from models.errors import InputError
 
 if TYPE_CHECKING:
@@ -57,7 +57,8 @@ def _engine(db: str | None) -> Engine:
 def plans(
     ctx: typer.Context,
     limit: Annotated[
-        int | None, typer.Option(help=f"Plans on the page (1-{sizes.READ_PAGE}, default 100).")
+        int | None,
+        typer.Option(help=f"Plans on the page (1-{request_limits.READ_PAGE}, default 100)."),
     ] = None,
     cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
     db: DbOption = None,
@@ -73,13 +74,14 @@ def plans(
         return _refuse_before(
             ctx.invoked_subcommand, limit=limit, cursor=cursor, db=db, json=as_json
         )
-    from api.services import queries
+    from api.services.read import plans as read_plans
+    from api.services.read.common import LIST_PAGE
 
     with errors():
         engine = _engine(db)
-        size = _bounded("--limit", queries.LIST_PAGE if limit is None else limit)
+        size = _bounded("--limit", LIST_PAGE if limit is None else limit)
         try:
-            page = queries.list_plans(engine=engine, cursor=cursor, page_size=size)
+            page = read_plans.list_plans(engine=engine, cursor=cursor, page_size=size)
         except InputError as err:  # the option's name: --cursor
             raise InputError(f"--{err.field}", err.value, err.reason) from None
         if as_json:
@@ -87,7 +89,9 @@ def plans(
             for n, p in enumerate(page["plans"]):
                 sys.stdout.write((",\n" if n else "\n") + json.dumps(p, default=datetime.isoformat))
             while limit is None and page["next_cursor"] is not None:
-                page = queries.list_plans(engine=engine, cursor=page["next_cursor"], page_size=size)
+                page = read_plans.list_plans(
+                    engine=engine, cursor=page["next_cursor"], page_size=size
+                )
                 for p in page["plans"]:
                     sys.stdout.write(",\n" + json.dumps(p, default=datetime.isoformat))
             sys.stdout.write(f'\n], "next_cursor": {json.dumps(page["next_cursor"])}}}\n')
@@ -146,22 +150,23 @@ def history(
         str | None, typer.Option(help="One operation in detail: setpoints, predictions, bands.")
     ] = None,
     last: Annotated[
-        int, typer.Option(help=f"The newest N setpoint versions (1-{sizes.READ_PAGE}).")
+        int, typer.Option(help=f"The newest N setpoint versions (1-{request_limits.READ_PAGE}).")
     ] = 50,
     db: DbOption = None,
     as_json: _JsonOption = False,
 ) -> None:
     """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
-    from api.services import queries
+    from api.services.read import history as read_history
+    from api.services.read import plan_parts as read_parts
 
     with errors():
         engine = _engine(db)
         plan_key = plan_of(engine, plan)
-        data = queries.plan_history(
+        data = read_history.plan_history(
             engine=engine, plan_id=plan_key, page_size=_bounded("--last", last), newest=True
         )
         caused = [v["part_id"] for v in data["versions"] if v["part_id"] is not None]
-        decisions = queries.decisions(engine=engine, plan_id=plan_key, part_ids=caused)
+        decisions = read_parts.decisions(engine=engine, plan_id=plan_key, part_ids=caused)
         names = [op["name"] for op in data["versions"][0]["operations"]]
         if operation is not None and operation not in names:
             raise InputError(
@@ -181,8 +186,8 @@ def history(
 
 def _bounded(option: str, count: int) -> int:
     """``count`` if it is a page size the queries take; else an error naming ``option``."""
-    if not 1 <= count <= sizes.READ_PAGE:
-        raise InputError(option, count, f"must be between 1 and {sizes.READ_PAGE}")
+    if not 1 <= count <= request_limits.READ_PAGE:
+        raise InputError(option, count, f"must be between 1 and {request_limits.READ_PAGE}")
     return count
 
 
@@ -274,9 +279,9 @@ def _marked(d: dict[str, Any]) -> str:
 
 
 def _all_parts(engine: Engine, plan_id: int) -> list[dict[str, Any]]:
-    from api.services import queries
+    from api.services.read import plan_parts as read_parts
 
-    return queries.all_parts(engine=engine, plan_id=plan_id)
+    return read_parts.all_parts(engine=engine, plan_id=plan_id)
 
 
 def parts(
@@ -285,7 +290,7 @@ def parts(
         str | None, typer.Option(help="Only parts received at or after this ISO 8601 time (UTC).")
     ] = None,
     last: Annotated[
-        int | None, typer.Option(help=f"Only the newest N parts (1-{sizes.READ_PAGE}).")
+        int | None, typer.Option(help=f"Only the newest N parts (1-{request_limits.READ_PAGE}).")
     ] = None,
     db: DbOption = None,
     as_json: _JsonOption = False,
@@ -294,14 +299,15 @@ def parts(
 
     Reads and prints a page at a time: ``--json`` streams, memory does not grow with the plan.
     """
-    from api.services import queries
+    from api.services.read import plan_parts as read_parts
+    from api.services.read import plans as read_plans
 
     with errors():
         after = _since(since)
         engine = _engine(db)
         plan_key = plan_of(engine, plan)
         if last is not None:
-            newest = queries.parts(
+            newest = read_parts.parts(
                 engine=engine,
                 plan_id=plan_key,
                 page_size=_bounded("--last", last),
@@ -310,8 +316,10 @@ def parts(
             )
             pages: Iterable[list[dict[str, Any]]] = [newest["items"]]
         else:
-            queries.get_plan(engine=engine, plan_id=plan_key)  # an unknown plan: one line, exit 2
-            pages = queries.part_pages(engine=engine, plan_id=plan_key, since=after)
+            read_plans.get_plan(
+                engine=engine, plan_id=plan_key
+            )  # an unknown plan: one line, exit 2
+            pages = read_parts.part_pages(engine=engine, plan_id=plan_key, since=after)
         if as_json:
             parts_view.stream_json(plan_key, pages)
             return
@@ -338,7 +346,7 @@ def export(
 ) -> None:
     """Parts, measurements, decisions and setpoint history as tidy tables (one row each)."""
     from api.report import export as tidy
-    from api.services import queries
+    from api.services.read import history as read_history
 
     with errors():
         if fmt not in ("csv", "parquet"):
@@ -346,7 +354,7 @@ def export(
         engine = _engine(db)
         plan_key = plan_of(engine, plan)
         tables = tidy.tables(
-            queries.full_history(engine=engine, plan_id=plan_key), _all_parts(engine, plan_key)
+            read_history.full_history(engine=engine, plan_id=plan_key), _all_parts(engine, plan_key)
         )
         written = _write_tables(tables, out, fmt)
     for path in written:

@@ -7,7 +7,6 @@ names, and neither is ever logged or shown by ``--status``.
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -22,6 +21,7 @@ from models.bounds import (
     check_count,
 )
 from models.errors import InputError
+from models.fields import number_within, only_keys, table, text_within, whole_within
 from models.sensors import RAW_QUANTITIES
 from supervisor.collect.selectors import OperationSelector, check_selectors, parse_selector
 from supervisor.inputs.files import read_toml
@@ -63,6 +63,8 @@ OPCUA_PREFIXES = {
 #: OPC 40502 CncChannelStatus: Reset 0, Interrupted 1, Active 2.
 OPCUA_ACTIVE = ("2",)
 REQUIRED_OPCUA = ("spindle_load", "part_count")
+#: Most characters of a text field (a URL, a name, a path, a variable's name).
+MAX_FIELD_TEXT = 500
 
 
 @dataclass(frozen=True)
@@ -133,60 +135,19 @@ def load_config(path: Path) -> CollectorConfig:
     return config_from_mapping(data, path.parent)
 
 
-def _table(data: Mapping[str, Any], key: str, path: str = "") -> Mapping[str, Any]:
-    where = f"{path}.{key}" if path else key
-    value = data.get(key)
-    if not isinstance(value, Mapping):
-        raise InputError(where, value, "required table missing")
-    return value
-
-
-def _text(data: Mapping[str, Any], key: str, path: str, default: str | None = None) -> str:
-    value = data.get(key, default)
-    if not isinstance(value, str) or not value.strip() or len(value) > 500:
-        raise InputError(f"{path}.{key}", value, "must be text of 1 to 500 characters")
-    return value
-
-
-def _number(
-    data: Mapping[str, Any], key: str, path: str, default: float, low: float, high: float
-) -> float:
-    if key not in data and math.isnan(default):
-        raise InputError(f"{path}.{key}", None, "required field missing")
-    value = data.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise InputError(f"{path}.{key}", value, "must be a number")
-    if not low <= value <= high:
-        raise InputError(f"{path}.{key}", value, f"must be in [{low:g}, {high:g}]")
-    return float(value)
-
-
-def _whole(data: Mapping[str, Any], key: str, path: str, default: int | None, high: int) -> int:
-    value = data.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= high:
-        raise InputError(f"{path}.{key}", value, f"must be a whole number in 1..{high}")
-    return value
-
-
-def _only(data: Mapping[str, Any], keys: tuple[str, ...], path: str) -> None:
-    for key in data:
-        if key not in keys:
-            raise InputError(f"{path}.{key}" if path else key, data[key], "unknown field")
-
-
 def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
     """Check a parsed ``collector.toml`` (see :func:`load_config`)."""
-    _only(data, ("collector", "service", "signal", "mtconnect", "opcua"), "")
-    collector, service, signal = (
-        _table(data, "collector"),
-        _table(data, "service"),
-        _table(data, "signal"),
+    only_keys(
+        data, ("collector", "service", "signal", "mtconnect", "opcua"), "", list_allowed=False
     )
-    _only(collector, ("machine", "queue", "retry_max_s"), "collector")
-    _only(service, ("url", "plan", "setpoint_version", "api_key_env"), "service")
+    collector, service, signal = (table(data, key) for key in ("collector", "service", "signal"))
+    only_keys(collector, ("machine", "queue", "retry_max_s"), "collector", list_allowed=False)
+    only_keys(
+        service, ("url", "plan", "setpoint_version", "api_key_env"), "service", list_allowed=False
+    )
     keys = ("quantity", "uncertainty", "calibration", "percentile", "operations")
-    _only(signal, keys, "signal")
-    quantity = _text(signal, "quantity", "signal", "spindle_load_V")
+    only_keys(signal, keys, "signal", list_allowed=False)
+    quantity = text_within(signal, "quantity", "signal", "spindle_load_V", most=MAX_FIELD_TEXT)
     if quantity not in RAW_QUANTITIES:
         raise InputError("signal.quantity", quantity, f"must be one of {', '.join(RAW_QUANTITIES)}")
     operations = signal.get("operations")
@@ -197,28 +158,38 @@ def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
     check_selectors(selectors, "signal.operations")
     if ("mtconnect" in data) == ("opcua" in data):
         raise InputError("mtconnect", None, "give exactly one of [mtconnect] and [opcua]")
-    queue = Path(_text(collector, "queue", "collector", "collector-queue.sqlite"))
+    queue = Path(
+        text_within(collector, "queue", "collector", "collector-queue.sqlite", most=MAX_FIELD_TEXT)
+    )
     calibration = signal.get("calibration")
     if calibration is not None:
-        calibration = _text(signal, "calibration", "signal")
-    url = _text(service, "url", "service")
+        calibration = text_within(signal, "calibration", "signal", most=MAX_FIELD_TEXT)
+    url = text_within(service, "url", "service", most=MAX_FIELD_TEXT)
     if not url.startswith(("http://", "https://")):
         raise InputError("service.url", url, "must start with http:// or https://")
     return CollectorConfig(
-        machine=_text(collector, "machine", "collector"),
+        machine=text_within(collector, "machine", "collector", most=MAX_FIELD_TEXT),
         queue_path=queue if queue.is_absolute() else base / queue,
         service_url=url.rstrip("/"),
-        plan_id=_whole(service, "plan", "service", None, LARGEST_WHOLE),
-        setpoint_version=_whole(service, "setpoint_version", "service", None, LARGEST_WHOLE),
-        api_key_env=_text(service, "api_key_env", "service", "RCB_API_KEY"),
+        plan_id=whole_within(service, "plan", "service", most=LARGEST_WHOLE),
+        setpoint_version=whole_within(service, "setpoint_version", "service", most=LARGEST_WHOLE),
+        api_key_env=text_within(
+            service, "api_key_env", "service", "RCB_API_KEY", most=MAX_FIELD_TEXT
+        ),
         quantity=quantity,
-        uncertainty=_number(signal, "uncertainty", "signal", math.nan, SMALLEST_MEASURED, LARGEST),
+        uncertainty=number_within(
+            signal, "uncertainty", "signal", low=SMALLEST_MEASURED, high=LARGEST
+        ),
         calibration=calibration,
-        percentile=_number(signal, "percentile", "signal", 100.0, 1e-9, 100.0),
+        percentile=number_within(
+            signal, "percentile", "signal", low=1e-9, high=100.0, default=100.0
+        ),
         selectors=selectors,
         mtconnect=_mtconnect(data["mtconnect"]) if "mtconnect" in data else None,
         opcua=_opcua(data["opcua"]) if "opcua" in data else None,
-        retry_max_s=_number(collector, "retry_max_s", "collector", 5.0, 0.01, 3600.0),
+        retry_max_s=number_within(
+            collector, "retry_max_s", "collector", low=0.01, high=3600.0, default=5.0
+        ),
     )
 
 
@@ -238,14 +209,19 @@ def _items(data: object, path: str, known: tuple[str, ...]) -> dict[str, str]:
 def _mtconnect(data: object) -> MTConnectConfig:
     if not isinstance(data, Mapping):
         raise InputError("mtconnect", data, "must be a table")
-    _only(data, ("url", "count", "poll_s", "data_items", "spindle", "start"), "mtconnect")
-    url = _text(data, "url", "mtconnect")
+    only_keys(
+        data,
+        ("url", "count", "poll_s", "data_items", "spindle", "start"),
+        "mtconnect",
+        list_allowed=False,
+    )
+    url = text_within(data, "url", "mtconnect", most=MAX_FIELD_TEXT)
     if not url.startswith(("http://", "https://")):
         raise InputError("mtconnect.url", url, "must start with http:// or https://")
     items = {**MTCONNECT_ITEMS, **_items(data.get("data_items"), "mtconnect.data_items", _ITEMS)}
     spindle = data.get("spindle")
     if spindle is not None:
-        spindle = _text(data, "spindle", "mtconnect")
+        spindle = text_within(data, "spindle", "mtconnect", most=MAX_FIELD_TEXT)
     start = data.get("start", "next")
     if start not in MTCONNECT_STARTS:
         raise InputError("mtconnect.start", start, f"must be one of {', '.join(MTCONNECT_STARTS)}")
@@ -254,8 +230,8 @@ def _mtconnect(data: object) -> MTConnectConfig:
         items=items,
         spindle=spindle,
         start=start,
-        count=_whole(data, "count", "mtconnect", 1000, 100_000),
-        poll_s=_number(data, "poll_s", "mtconnect", 0.2, 0.001, 60.0),
+        count=whole_within(data, "count", "mtconnect", most=100_000, default=1000),
+        poll_s=number_within(data, "poll_s", "mtconnect", low=0.001, high=60.0, default=0.2),
     )
 
 
@@ -263,12 +239,14 @@ def _opcua(data: object) -> OpcUaConfig:
     if not isinstance(data, Mapping):
         raise InputError("opcua", data, "must be a table")
     keys = ("url", "nodes", "spindle", "channel", "active_values", "security", "username")
-    _only(data, (*keys, "password_env", "publishing_ms", "queue_size"), "opcua")
-    url = _text(data, "url", "opcua")
+    only_keys(
+        data, (*keys, "password_env", "publishing_ms", "queue_size"), "opcua", list_allowed=False
+    )
+    url = text_within(data, "url", "opcua", most=MAX_FIELD_TEXT)
     if not url.startswith("opc.tcp://"):
         raise InputError("opcua.url", url, "must start with opc.tcp://")
-    spindle = _text(data, "spindle", "opcua", "Spindle")
-    channel = _text(data, "channel", "opcua", "Channel")
+    spindle = text_within(data, "spindle", "opcua", "Spindle", most=MAX_FIELD_TEXT)
+    channel = text_within(data, "channel", "opcua", "Channel", most=MAX_FIELD_TEXT)
     defaults = {k: v.format(spindle=spindle, channel=channel) for k, v in OPCUA_NODES.items()}
     nodes = {**defaults, **_items(data.get("nodes"), "opcua.nodes", _ITEMS)}
     for key in REQUIRED_OPCUA:
@@ -279,13 +257,13 @@ def _opcua(data: object) -> OpcUaConfig:
         raise InputError("opcua.active_values", active, "must be a list of values")
     username = data.get("username")
     if username is not None:
-        username = _text(data, "username", "opcua")
+        username = text_within(data, "username", "opcua", most=MAX_FIELD_TEXT)
     security = data.get("security")
     if security is not None:
-        security = _text(data, "security", "opcua")
+        security = text_within(data, "security", "opcua", most=MAX_FIELD_TEXT)
     password_env = data.get("password_env")
     if password_env is not None:
-        password_env = _text(data, "password_env", "opcua")
+        password_env = text_within(data, "password_env", "opcua", most=MAX_FIELD_TEXT)
     return OpcUaConfig(
         url=url,
         nodes=nodes,
@@ -293,8 +271,10 @@ def _opcua(data: object) -> OpcUaConfig:
         security=security,
         username=username,
         password_env=password_env,
-        publishing_ms=_number(data, "publishing_ms", "opcua", 50.0, 1.0, 60_000.0),
-        queue_size=_whole(data, "queue_size", "opcua", 10000, 1_000_000),
+        publishing_ms=number_within(
+            data, "publishing_ms", "opcua", low=1.0, high=60_000.0, default=50.0
+        ),
+        queue_size=whole_within(data, "queue_size", "opcua", most=1_000_000, default=10000),
     )
 
 

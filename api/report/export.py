@@ -52,7 +52,7 @@ def csv_bytes(frame: pd.DataFrame) -> bytes:
 
 
 def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd.DataFrame]:
-    """The four tables from :func:`api.services.queries.plan_history` and the plan's parts."""
+    """The four tables from :func:`api.services.read.history.plan_history` and the plan's parts."""
     plan_id = history["plan_id"]
     part_rows = [
         {

@@ -1,6 +1,6 @@
 """A report's record computed in Python from every part and every setpoint version.
 
-:func:`api.services.record.report_record` reads a bounded record with SQL aggregates; this
+:func:`api.services.read.record.report_record` reads a bounded record with SQL aggregates; this
 computes the same record from the complete lists (``get_plan``, a whole ``plan_history`` and
 every ``parts`` item, oldest first), for callers that already hold them and for the tests that
 check the SQL against it.
@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from api.services.record import HISTORY_ROWS, group_size
+from api.services.read.record import HISTORY_ROWS, group_size
 
 
 def full_record(
@@ -20,7 +20,7 @@ def full_record(
     parts: Sequence[Mapping[str, Any]],
     last: int | None = None,
 ) -> dict[str, Any]:
-    """The record :func:`api.services.record.report_record` reads, from complete lists.
+    """The record :func:`api.services.read.record.report_record` reads, from complete lists.
 
     ``last``: the parts kept (the last ``last``; all if None).
     """

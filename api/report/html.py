@@ -1,6 +1,6 @@
 """A plan's production record as one self-contained HTML page an engineer can mail.
 
-:func:`render_record` takes the record of :func:`api.services.record.report_record` (bounded:
+:func:`render_record` takes the record of :func:`api.services.read.record.report_record` (bounded:
 the last parts, the newest setpoint versions, totals and summaries from SQL) and returns the
 page: the setpoints in force with their bands and margins, the setpoint versions with their
 cause and MRR (older ones summarised), the tool changes called for, the cycle time, and per
@@ -270,7 +270,8 @@ def render_record(record: Mapping[str, Any]) -> str:
     Parameters
     ----------
     record : Mapping
-        :func:`api.services.record.report_record` (or :func:`api.report.full_record.full_record`):
+        :func:`api.services.read.record.report_record` (or
+        :func:`api.report.full_record.full_record`):
         the plan, the parts to plot (oldest first), the setpoint versions they were made with
         and the newest ones, totals, summaries of older versions, last decisions and marks.
 
@@ -317,11 +318,11 @@ def render_html_report(
     Parameters
     ----------
     plan : Mapping
-        :func:`api.services.queries.get_plan`.
+        :func:`api.services.read.plans.get_plan`.
     history : Mapping
-        :func:`api.services.queries.plan_history` of the same plan, every version.
+        :func:`api.services.read.history.plan_history` of the same plan, every version.
     parts : Sequence of Mapping
-        Every item of :func:`api.services.queries.parts` of the same plan, oldest first.
+        Every item of :func:`api.services.read.plan_parts.parts` of the same plan, oldest first.
     last : int, optional
         Plot and mark only the last ``last`` parts; the totals still count every part.
     """

@@ -1,6 +1,6 @@
 """The report's tables of what happened: setpoint versions (listed and summarised), tool changes.
 
-Both take the record of :func:`api.services.record.report_record` (or
+Both take the record of :func:`api.services.read.record.report_record` (or
 :func:`api.report.full_record.full_record`): the newest versions one by one, older ones as
 the summaries the database computed, and the tool changes the shown parts called for.
 """
@@ -13,7 +13,7 @@ from typing import Any
 from api.report.html_parts import escaped, row, tag, td, th, timestamp
 from api.report.marks import decision_mark
 from api.report.plots import number
-from api.services.record import HISTORY_ROWS, TOOL_CHANGE
+from api.services.read.record import HISTORY_ROWS, TOOL_CHANGE
 
 
 def _num(value: float | None, **attributes: object) -> str:

@@ -18,7 +18,7 @@ and for the plan :func:`cycle_figure`, the cycle time. The last point of every s
 markers) is the setpoint in force: what the next part will be made with.
 
 The ``*_figure`` functions turn the series of :mod:`api.report.series` (built from the JSON
-dicts of :mod:`api.services.queries`) into :class:`api.report.chart.Chart` s: what is drawn,
+dicts of :mod:`api.services.read`) into :class:`api.report.chart.Chart` s: what is drawn,
 as data; :func:`api.report.svg.render` draws one as SVG text for the HTML report. The labels
 and numbers printed on the axes are here too, and the HTML report's tables print theirs with
 the same functions.

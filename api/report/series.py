@@ -1,6 +1,6 @@
 """A plan's history as arrays for its plots: per operation, and the plan's cycle time.
 
-The data come as the JSON dicts of :mod:`api.services.queries` (``get_plan``, ``plan_history``
+The data come as the JSON dicts of :mod:`api.services.read` (``get_plan``, ``plan_history``
 and the items of ``parts``); :func:`operation_series` and :func:`cycle_series` turn them into
 frozen series whose rows are the parts, at the setpoint each was made with, then the setpoint in
 force (what the next part will be made with). :mod:`api.report.plots` draws them.
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from api.services.record import TOOL_CHANGE
+from api.services.read.record import TOOL_CHANGE
 from models import quantities
 from models.kinematics import PARAMETERS
 from models.quantities import PARTS_PER_EDGE
@@ -205,16 +205,16 @@ def operation_series(
     operation: str,
     first_part: int = 1,
 ) -> OperationSeries:
-    """The arrays the plots of ``operation`` show, from the :mod:`api.services.queries` dicts.
+    """The arrays the plots of ``operation`` show, from the :mod:`api.services.read` dicts.
 
     Parameters
     ----------
     plan : Mapping
-        :func:`api.services.queries.get_plan`: the operations with their limits and bounds.
+        :func:`api.services.read.plans.get_plan`: the operations with their limits and bounds.
     history : Mapping
-        :func:`api.services.queries.plan_history`: every setpoint version.
+        :func:`api.services.read.history.plan_history`: every setpoint version.
     parts : Sequence of Mapping
-        The items of :func:`api.services.queries.parts`, oldest first (all pages).
+        The items of :func:`api.services.read.plan_parts.parts`, oldest first (all pages).
     operation : str
         The operation's name.
     first_part : int

@@ -26,8 +26,10 @@ from starlette.concurrency import run_in_threadpool
 
 from api.report.html import render_record
 from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
-from api.services import auth, queries, record
+from api.services import auth
 from api.services.errors import NotFoundError
+from api.services.read import plans as read_plans
+from api.services.read import record
 from db.api_keys import Actor
 from db.tables import MAX_INT
 from models.errors import InputError
@@ -160,7 +162,7 @@ def _install_pages(app: FastAPI, engine: Engine) -> None:
             return _to_login()
         cursor = request.query_params.get("cursor")
         try:  # a scoped key's plans are filtered in the query: its page is full
-            listed = queries.list_plans(engine=engine, cursor=cursor, only=actor.plans)
+            listed = read_plans.list_plans(engine=engine, cursor=cursor, only=actor.plans)
         except InputError as err:
             return _page("Bad page", tag("p", escaped(str(err)), class_="error"), actor, 400)
         return _page("Plans", _plans_table(listed["plans"], listed["next_cursor"]), actor)

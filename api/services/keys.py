@@ -7,14 +7,14 @@ from typing import Any
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from api.services import sizes
+from api.services import request_limits
 from api.services.errors import NotFoundError
 from db import api_keys, audit
 from db.tables import MAX_INT
 from models.errors import InputError
 
 #: Largest page of ``rcb keys list``.
-MAX_PAGE = sizes.KEYS_PAGE
+MAX_PAGE = request_limits.KEYS_PAGE
 #: Most plans one key may be scoped to.
 MAX_PLANS = 1000
 

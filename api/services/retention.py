@@ -14,15 +14,15 @@ from typing import Any
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from api.services import sizes
+from api.services import request_limits
 from db import api_keys, audit
 from db import tables as t
 from models.errors import InputError
 
 #: The default retention of the audit log.
-AUDIT_DEFAULT = sizes.AUDIT_DEFAULT
+AUDIT_DEFAULT = request_limits.AUDIT_DEFAULT
 #: The default retention of idempotency records.
-IDEMPOTENCY_DEFAULT = sizes.IDEMPOTENCY_DEFAULT
+IDEMPOTENCY_DEFAULT = request_limits.IDEMPOTENCY_DEFAULT
 #: The shortest retention of idempotency records.
 IDEMPOTENCY_MIN = timedelta(hours=24)
 #: The longest duration accepted (100 years).

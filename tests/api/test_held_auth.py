@@ -14,7 +14,8 @@ import pytest
 from sqlalchemy import event, func, select
 from sqlalchemy.orm import Session
 
-from api.services import auth, queries
+from api.services import auth
+from api.services import read as queries
 from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, InFlightError, fingerprint
 from api.services.keys import create_key

@@ -12,7 +12,7 @@ from sqlalchemy import event, select
 from sqlalchemy.orm import Session
 from test_service import BODY
 
-from api.services import queries
+from api.services import read as queries
 from api.services.plans import create_plan
 from db import tables as t
 from db.engine import reader

@@ -8,7 +8,7 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
-from api.services import queries
+from api.services import read as queries
 from api.services.idempotency import Idempotency, InFlightError, KeyReuseError, fingerprint
 from api.services.keys import create_key
 from api.services.parts import report_part

@@ -208,7 +208,7 @@ MAX_FUNCTION_LINES = 60
 LONG_TODAY = {
     "api/services/parts.py::_report_part",  # 87
     "api/services/parts.py::_report_part.work",  # 62
-    "api/services/record.py::report_record",  # 67
+    "api/services/read/record.py::report_record",  # 67
     "db/parts.py::add_part",  # 84
     "supervisor/inputs/part_report.py::report_from_mapping",  # 67
     "supervisor/rcb/law.py::_apply_law",  # 134

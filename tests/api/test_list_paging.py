@@ -20,7 +20,7 @@ from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
 from api.cli.main import app
-from api.services import queries
+from api.services import read as queries
 from api.services.keys import create_key
 from api.services.parts import report_part
 from api.services.plans import create_plan

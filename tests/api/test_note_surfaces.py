@@ -31,9 +31,9 @@ from api.report.html import render_record
 from api.report.series import operation_series
 from api.rest.schemas.parts import PartCreated
 from api.services import parts as part_service
-from api.services import record
 from api.services.parts import report_part
 from api.services.plans import create_plan
+from api.services.read import record
 from db.engine import make_engine, upgrade
 from db.state_cache import CACHE
 from supervisor.rcb.decision import Decision

@@ -20,7 +20,7 @@ from api.cli.main import app
 from api.cli.tables import fmt
 from api.rest.schemas.plans import PlanIn
 from api.rest.schemas.setpoints import OperationSetpoint
-from api.services import queries
+from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade

@@ -12,7 +12,7 @@ from test_service import BODY, _reports
 
 from api.rest.rendering import page_response
 from api.rest.schemas.review import History
-from api.services import queries
+from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from api.services.writes_first import WritesFirst

@@ -21,7 +21,7 @@ import pytest
 from report_support import stored_demo
 
 from api.report.html import render_record
-from api.services.record import report_record
+from api.services.read.record import report_record
 
 PARTS = 30
 CHROMIUM = Path("/usr/bin/chromium")

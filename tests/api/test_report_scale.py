@@ -17,10 +17,10 @@ from api.report import full_record as full_module
 from api.report import html_history
 from api.report.full_record import full_record
 from api.report.html import render_record
-from api.services import queries
-from api.services import record as record_module
+from api.services import read as queries
 from api.services.plans import create_plan
-from api.services.record import report_record
+from api.services.read import record as record_module
+from api.services.read.record import report_record
 
 LAST = 5
 

@@ -22,7 +22,7 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
-from api.services import queries
+from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t

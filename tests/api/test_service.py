@@ -9,7 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 from sqlalchemy.orm import Session
 
-from api.services import queries
+from api.services import read as queries
 from api.services.errors import NotFoundError
 from api.services.parts import report_part
 from api.services.plans import create_plan

@@ -2,7 +2,7 @@
 
 rcb_decisions stores it field by field, a part report's ``updates`` show it as JSON
 (api.services.to_json.decision_json, the REST schema Update) and the history reads it back
-(api.services.queries): each is pinned here to the dataclass.
+(api.services.read): each is pinned here to the dataclass.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 
 from api.rest.schemas.parts import Update
-from api.services import queries
+from api.services import read as queries
 from api.services.to_json import decision_json
 from db import tables as t
 from db.parts import DECISION_COLUMNS

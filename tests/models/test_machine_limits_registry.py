@@ -19,7 +19,7 @@ from numpy.testing import assert_allclose
 from test_quantities import registered
 
 from api.services import plans as use_cases
-from api.services import queries
+from api.services import read as queries
 from models import quantities
 from models.errors import InputError
 from models.monomial import Monomial

@@ -20,7 +20,9 @@ from api.rest.routes.common import (
 from api.rest.schemas.parts import PartCreated, PartReportIn, PartsPage
 from api.rest.schemas.setpoints import Setpoints
 from api.services import parts as use_cases
-from api.services import queries
+from api.services.read import plan_parts as read_parts
+from api.services.read import setpoints as read_setpoints
+from api.services.read.common import MAX_PAGE
 
 router = resource_router("mes")
 
@@ -33,7 +35,7 @@ router = resource_router("mes")
 )
 def setpoints(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """The setpoints in force: what the next part is made with."""
-    return queries.current_setpoints(engine=engine, plan_id=plan_id)
+    return read_setpoints.current_setpoints(engine=engine, plan_id=plan_id)
 
 
 @router.post(
@@ -76,7 +78,7 @@ def parts(
         str | None,
         Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
     ] = None,
-    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = 50,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = 50,
 ) -> dict[str, Any]:
     """The plan's parts, oldest first, a page at a time."""
-    return queries.parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit)
+    return read_parts.parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit)

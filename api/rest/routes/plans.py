@@ -21,7 +21,8 @@ from api.rest.schemas.plans import PLAN_EXAMPLE, PlanCreated, PlanDetail, PlanIn
 from api.rest.schemas.rcb_settings import settings_in_query
 from api.rest.schemas.replan import ReplanIn, Replanned
 from api.services import plans as use_cases
-from api.services import queries
+from api.services.read import plans as read_plans
+from api.services.read.common import LIST_PAGE, MAX_PAGE
 from supervisor.rcb.state import plan_settings
 
 router = resource_router("plans")
@@ -105,13 +106,13 @@ def list_plans(
         str | None,
         Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
     ] = None,
-    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
 ) -> dict[str, Any]:
     """The plans by id, a page at a time (a key scoped to plans: those plans only)."""
-    return queries.list_plans(engine=engine, cursor=cursor, page_size=limit, only=actor.plans)
+    return read_plans.list_plans(engine=engine, cursor=cursor, page_size=limit, only=actor.plans)
 
 
 @router.get("/plans/{plan_id}", response_model=PlanDetail, operation_id="getPlan")
 def get_plan(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """One plan: machine limits, operations, and the structure it was created from."""
-    return queries.get_plan(engine=engine, plan_id=plan_id)
+    return read_plans.get_plan(engine=engine, plan_id=plan_id)

@@ -13,7 +13,9 @@ from api.rest.routes.common import PlanId, resource_router
 from api.rest.schemas.common import NO_NUL
 from api.rest.schemas.review import History, ModelVersions, PlanModels
 from api.rest.schemas.tools import TextCursor
-from api.services import queries
+from api.services.read import history as read_history
+from api.services.read import plan_models as read_models
+from api.services.read.common import LIST_PAGE, MAX_PAGE
 from api.services.writes_first import GATE
 from models.bounds import MAX_IDENTITY
 
@@ -29,7 +31,7 @@ def plan_history(
         str | None,
         Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
     ] = None,
-    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.HISTORY_PAGE,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = read_history.HISTORY_PAGE,
     order: Annotated[
         Literal["oldest", "newest"],
         Query(description="`oldest`: pages forward from version 1; `newest`: back from now"),
@@ -40,7 +42,7 @@ def plan_history(
     Each page lists its versions oldest first; ``next_cursor`` continues in ``order``.
     """
     with GATE.reading():  # one long read at a time, part reports first (api.services.writes_first)
-        data = queries.plan_history(
+        data = read_history.plan_history(
             engine=engine,
             plan_id=plan_id,
             cursor=cursor,
@@ -53,7 +55,7 @@ def plan_history(
 @router.get("/plans/{plan_id}/models", response_model=PlanModels, operation_id="getModels")
 def plan_models(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """Per operation and quantity the model in force."""
-    return queries.models_in_force(engine=engine, plan_id=plan_id)
+    return read_models.models_in_force(engine=engine, plan_id=plan_id)
 
 
 @router.get(
@@ -68,13 +70,13 @@ def model_versions(
     operation: Annotated[str | None, Query(max_length=MAX_IDENTITY, pattern=NO_NUL)] = None,
     quantity: Annotated[str | None, Query(max_length=50, pattern=NO_NUL)] = None,
     cursor: TextCursor = None,
-    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
 ) -> dict[str, Any]:
     """Model versions with their cause, optionally of one operation and quantity, by page.
 
     By version, then operation (plan order), then quantity.
     """
-    return queries.model_versions(
+    return read_models.model_versions(
         engine=engine,
         plan_id=plan_id,
         operation=operation,

@@ -11,8 +11,9 @@ from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
 from api.rest.schemas.common import NO_NUL
 from api.rest.schemas.tools import TextCursor, ToolIn, ToolList, ToolOut
-from api.services import queries
 from api.services import tools as use_cases
+from api.services.read import tools as read_tools
+from api.services.read.common import LIST_PAGE, MAX_PAGE
 from models.bounds import MAX_IDENTITY
 
 router = resource_router("tools")
@@ -23,10 +24,10 @@ def list_tools(
     engine: EngineDep,
     actor: Anyone,
     cursor: TextCursor = None,
-    limit: Annotated[int, Query(ge=1, le=queries.MAX_PAGE)] = queries.LIST_PAGE,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
 ) -> dict[str, Any]:
     """The packaged catalogue and the tools added by engineers, by name, a page at a time."""
-    return queries.list_tools(engine=engine, cursor=cursor, page_size=limit)
+    return read_tools.list_tools(engine=engine, cursor=cursor, page_size=limit)
 
 
 @router.get("/tools/{name}", response_model=ToolOut, operation_id="getTool")
@@ -36,7 +37,7 @@ def get_tool(
     actor: Anyone,
 ) -> dict[str, Any]:
     """One tool with its baseline models and their provenance."""
-    return queries.get_tool(engine=engine, name=name)
+    return read_tools.get_tool(engine=engine, name=name)
 
 
 @router.post(

@@ -11,7 +11,7 @@ from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive
 from api.rest.schemas.halts import HaltedOperationOut
 from api.rest.schemas.quantities import keyed_table
 from api.rest.schemas.setpoints import OperationSetpoint
-from api.services.record import TOOL_CHANGE
+from api.services.read.record import TOOL_CHANGE
 from models.bounds import LARGEST, MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST_MEASURED
 from models.quantities import MODEL_QUANTITIES, QUANTITIES
 from supervisor.rcb.decision import Action, Flag, Note
@@ -20,7 +20,7 @@ from supervisor.rcb.decision import Action, Flag, Note
 #: ``tool_wear`` (:func:`supervisor.rcb.update.update`; the operation's tool must model it).
 MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
 #: What a stored part's measurements may hold: the measurable quantities (a spindle reading as
-#: converted), and a constant-load operation's feed override (api.services.record.TOOL_CHANGE).
+#: converted), and a constant-load operation's feed override (api.services.read.record.TOOL_CHANGE).
 STORED = [*MEASURABLE, TOOL_CHANGE]
 _RAW = "the machine's calibration converts it to force_N"
 

@@ -1,129 +1,17 @@
-"""Read-only queries for review: plans, parts and setpoint history, page by page.
+"""A plan's setpoint history: versions with their setpoints, replan actors, models in force.
 
-Each returns plain rows or dicts; :mod:`api.services.queries` shapes them for JSON.
+Each reads a page's rows, never the plan's whole history; :mod:`api.services.read.history`
+shapes them for JSON.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
-from datetime import UTC, datetime
-from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.plan_state import settings_json, settings_of
-
-#: The settings a plan summary shows as fields of its own, not under ``settings``.
-_OWN_FIELDS = ("strategy", "alpha")
-
-
-def plans(
-    *, session: Session, after_id: int = 0, limit: int = 100, only: frozenset[int] | None = None
-) -> list[dict[str, Any]]:
-    """Up to ``limit`` plans with id > ``after_id``, by id: machine, setpoint version, parts.
-
-    ``only``: just these plan ids (a key scoped to plans), filtered in the query, so a page is
-    never short for it. One statement: the plans by primary key, each plan's part count an
-    index-only count of its own parts (``parts (plan_id, serial)``), never a whole-table read.
-    """
-    counted = (
-        select(func.count())
-        .select_from(t.Part)
-        .where(t.Part.plan_id == t.Plan.id)
-        .correlate(t.Plan)
-        .scalar_subquery()
-    )
-    query = (
-        select(t.Plan, t.Machine.name, counted)
-        .join(t.Machine, t.Plan.machine_id == t.Machine.id)
-        .where(t.Plan.id > after_id)
-    )
-    if only is not None:
-        query = query.where(t.Plan.id.in_(sorted(only)))
-    rows = session.execute(query.order_by(t.Plan.id).limit(limit)).all()
-    return [summary(plan, machine, n or 0) for plan, machine, n in rows]
-
-
-def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
-    """The fields a plan list shows (strategy and alpha beside the other settings)."""
-    settings = settings_of(plan.settings)
-    return {
-        "id": plan.id,
-        "name": plan.name,
-        "machine": machine,
-        "strategy": settings.strategy,
-        "alpha": settings.alpha,
-        "settings": {k: v for k, v in settings_json(settings).items() if k not in _OWN_FIELDS},
-        "status": "halted" if plan.halt is not None else "running",
-        "halt": plan.halt,
-        "setpoint_version": plan.current_setpoint_version,
-        "parts": parts,
-        "created_at": plan.created_at
-        if plan.created_at.tzinfo
-        else plan.created_at.replace(tzinfo=UTC),  # SQLite drops the zone; stored as UTC
-    }
-
-
-def operations(*, session: Session, plan_id: int) -> list[tuple[t.Operation, t.Tool]]:
-    """A plan's operations in order, with their tools."""
-    return [
-        (op, tool)
-        for op, tool in session.execute(
-            select(t.Operation, t.Tool)
-            .join(t.Tool, t.Operation.tool_id == t.Tool.id)
-            .where(t.Operation.plan_id == plan_id)
-            .order_by(t.Operation.position)
-        ).all()
-    ]
-
-
-def parts_page(
-    *,
-    session: Session,
-    plan_id: int,
-    after_id: int,
-    limit: int,
-    newest: bool = False,
-    since: datetime | None = None,
-) -> tuple[list[t.Part], dict[int, list[t.Measurement]], dict[int, list[t.RcbDecision]]]:
-    """Up to ``limit`` parts with id > ``after_id``, oldest first, with measurements, decisions.
-
-    ``newest``: the newest ``limit`` parts with id < ``after_id`` (0: the newest of all),
-    still returned oldest first. ``since``: only parts received at or after this time.
-    """
-    query = select(t.Part).where(t.Part.plan_id == plan_id)
-    if since is not None:
-        query = query.where(t.Part.received_at >= since.astimezone(UTC))
-    if newest:
-        if after_id:
-            query = query.where(t.Part.id < after_id)
-        parts = list(session.scalars(query.order_by(t.Part.id.desc()).limit(limit)))[::-1]
-    else:
-        query = query.where(t.Part.id > after_id)
-        parts = list(session.scalars(query.order_by(t.Part.id).limit(limit)))
-    ids = [p.id for p in parts]
-    measurements: dict[int, list[t.Measurement]] = defaultdict(list)
-    if ids:
-        for m in session.scalars(
-            select(t.Measurement).where(t.Measurement.part_id.in_(ids)).order_by(t.Measurement.id)
-        ):
-            measurements[m.part_id].append(m)
-    return parts, measurements, decisions_of(session=session, part_ids=ids)
-
-
-def decisions_of(*, session: Session, part_ids: list[int]) -> dict[int, list[t.RcbDecision]]:
-    """The RCB decisions of these parts, per part in the order made (an index seek each)."""
-    decisions: dict[int, list[t.RcbDecision]] = defaultdict(list)
-    if part_ids:
-        for d in session.scalars(
-            select(t.RcbDecision)
-            .where(t.RcbDecision.part_id.in_(part_ids))
-            .order_by(t.RcbDecision.id)
-        ):
-            decisions[d.part_id].append(d)
-    return decisions
 
 
 def setpoint_versions(

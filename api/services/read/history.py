@@ -1,7 +1,7 @@
 """A plan's setpoint history, a page at a time, with the models in force at each version.
 
 One read transaction per page; the cost grows with the page, not with the plan's life
-(:func:`db.history.models_at`).
+(:func:`db.read.history.models_at`).
 """
 
 from __future__ import annotations
@@ -10,10 +10,11 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.reading import MAX_PAGE, _cursor, _plan, _read, _utc
+from api.services.read.common import MAX_PAGE, _cursor, _plan, _read, _utc
 from api.services.writes_first import GATE
-from db import history
 from db import tables as t
+from db.read import history
+from db.read.plans import operations
 from models.errors import InputError
 
 #: Versions converted between two pauses for writes in flight (api.services.writes_first).
@@ -35,7 +36,7 @@ def plan_history(
     Versions come oldest first. ``newest``: the page is the newest ``page_size`` versions
     before ``cursor`` (the REST ``order=newest``); ``next_cursor`` then pages back in time.
     Otherwise the page follows ``cursor`` and ``next_cursor`` pages forward. The cost is
-    linear in the page, not in the plan's history (:func:`db.history.models_at`).
+    linear in the page, not in the plan's history (:func:`db.read.history.models_at`).
     """
     if not 1 <= page_size <= MAX_PAGE:
         raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
@@ -43,7 +44,7 @@ def plan_history(
     GATE.pause()  # the read transaction starts when no part report is in flight
     with _read(engine) as session, session.begin():
         halt = _plan(session, plan_id).halt
-        ops = history.operations(session=session, plan_id=plan_id)
+        ops = operations(session=session, plan_id=plan_id)
         # one more than the page: whether another page follows
         if newest:
             versions = history.setpoint_versions(

@@ -3,8 +3,8 @@
 Plain constants and no imports: the CLI's help states them (``rcb plans --limit``, ``rcb keys
 list --limit``, ``rcb report --last``, ``rcb db prune``) and reads them from here without
 loading SQLAlchemy, so that ``rcb --help`` starts in a fraction of a second (README, "Speed").
-The use cases that enforce them (:mod:`api.services.reading`, :mod:`api.services.keys`,
-:mod:`api.services.record`, :mod:`api.services.retention`) take them from here.
+The use cases that enforce them (:mod:`api.services.read.common`, :mod:`api.services.keys`,
+:mod:`api.services.read.record`, :mod:`api.services.retention`) take them from here.
 """
 
 #: Most parts (or setpoint versions) one page may hold.

@@ -3,7 +3,7 @@
 ``rcb report`` and the web view's plan page show the last ``last`` parts (plots and marks),
 the newest :data:`HISTORY_ROWS` setpoint versions one by one and older ones summarised per
 :data:`SUMMARY_GROUP` versions, and the plan's totals. :func:`report_record` reads exactly
-that: the totals and the summaries are SQL aggregates (:mod:`db.record`), so the statements
+that: the totals and the summaries are SQL aggregates (:mod:`db.read.record`), so the statements
 are the same and the rows grow with ``last`` and the summary rows, not with the plan's life.
 """
 
@@ -14,19 +14,22 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services import queries, sizes
-from api.services.reading import _read, _utc
-from db import history
-from db import record as db_record
+from api.services import request_limits
+from api.services.read.common import _read, _utc
+from api.services.read.plan_parts import decision_json, part_json
+from api.services.read.plans import get_plan
 from db import tables as t
+from db.read import record as db_record
+from db.read.parts import parts_page
+from db.read.plans import operations
 from models.errors import InputError
 
 #: The measurement that carries a reported feed override and the tool change it called for.
 TOOL_CHANGE = "feed_override_percent"
 #: Parts plotted and listed unless asked otherwise (``rcb report --last``).
-DEFAULT_LAST = sizes.REPORT_DEFAULT_LAST
+DEFAULT_LAST = request_limits.REPORT_DEFAULT_LAST
 #: Most parts a report may plot (``--last``).
-MAX_LAST = sizes.REPORT_MAX_LAST
+MAX_LAST = request_limits.REPORT_MAX_LAST
 #: Setpoint versions listed one by one (the newest); older ones are summarised.
 HISTORY_ROWS = 200
 #: Older setpoint versions per summary row, while there are at most :data:`SUMMARY_ROWS` rows.
@@ -47,21 +50,21 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
     Returns
     -------
     dict
-        ``plan`` (:func:`api.services.queries.get_plan`), ``history`` (``versions``: the newest
-        :data:`HISTORY_ROWS`, those the parts were made with, version 1 and the summaries'
-        first and last, oldest first), ``parts`` (the last ``last``, oldest first, as
-        :func:`api.services.queries.parts` items), ``totals`` (parts, last received, flagged,
-        breaches, notes, the first cycle time), ``summaries`` (per group of older versions),
-        ``last_decisions`` (per operation and quantity the newest decision with its part's
-        serial) and ``marks`` (part id -> flagged or noted decisions of the listed versions).
+        ``plan`` (:func:`api.services.read.plans.get_plan`), ``history`` (``versions``: the newest
+        :data:`HISTORY_ROWS`, those the parts were made with, version 1 and the summaries' first and
+        last, oldest first), ``parts`` (the last ``last``, oldest first, as
+        :func:`api.services.read.plan_parts.parts` items), ``totals`` (parts, last received,
+        flagged, breaches, notes, the first cycle time), ``summaries`` (per group of older
+        versions), ``last_decisions`` (per operation and quantity the newest decision with its
+        part's serial) and ``marks`` (part id -> flagged or noted decisions of the listed versions).
     """
     if not 1 <= last <= MAX_LAST:
         raise InputError("--last", last, f"must be between 1 and {MAX_LAST}")
-    plan = queries.get_plan(engine=engine, plan_id=plan_id)  # NotFoundError if none
+    plan = get_plan(engine=engine, plan_id=plan_id)  # NotFoundError if none
     with _read(engine) as session, session.begin():
-        ops = history.operations(session=session, plan_id=plan_id)
+        ops = operations(session=session, plan_id=plan_id)
         names = {op.id: op.name for op, _ in ops}
-        parts, measurements, decisions = history.parts_page(
+        parts, measurements, decisions = parts_page(
             session=session, plan_id=plan_id, after_id=0, limit=last, newest=True
         )
         count, received = db_record.part_totals(session=session, plan_id=plan_id)
@@ -93,7 +96,7 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
             "halt": plan["halt"],
             "versions": [by_number[n] for n in sorted(by_number)],
         },
-        "parts": [queries.part_json(p, measurements[p.id], decisions[p.id], names) for p in parts],
+        "parts": [part_json(p, measurements[p.id], decisions[p.id], names) for p in parts],
         "totals": {
             "parts": count,
             "last_received": _utc(received) if received is not None else None,
@@ -101,12 +104,8 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
             "first_cycle_time_min": by_number[min(by_number)]["cycle_time_min"],
         },
         "summaries": [_summary(by_number[first], by_number[end], n) for first, end, n in groups],
-        "last_decisions": [
-            {**queries.decision_json(d, names), "serial": serial} for d, serial in latest
-        ],
-        "marks": {
-            part: [queries.decision_json(d, names) for d in rows] for part, rows in marks.items()
-        },
+        "last_decisions": [{**decision_json(d, names), "serial": serial} for d, serial in latest],
+        "marks": {part: [decision_json(d, names) for d in rows] for part, rows in marks.items()},
     }
 
 
@@ -121,7 +120,7 @@ def _version(
     setpoints: list[t.Setpoint],
     ops: list[tuple[t.Operation, t.Tool]],
 ) -> dict[str, Any]:
-    """A setpoint version as :func:`api.services.queries.plan_history` gives it, no models."""
+    """A setpoint version as :func:`api.services.read.history.plan_history` gives it, no models."""
     position = {op.id: i for i, (op, _) in enumerate(ops)}
     names = {op.id: op.name for op, _ in ops}
     tools = {op.id: tool.name for op, tool in ops}

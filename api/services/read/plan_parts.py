@@ -1,6 +1,7 @@
-"""Use cases that only read: plans, setpoints, parts, history, models and tools, as JSON dicts.
+"""A plan's parts as reported: their measurements per operation and the RCB decisions made.
 
-Each runs in one read transaction (on SQLite a deferred one, so it never waits for writers).
+Each runs in one read transaction (on SQLite a deferred one, so it never waits for writers);
+a page reads only its own rows.
 """
 
 from __future__ import annotations
@@ -11,75 +12,11 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services import to_json
-from api.services.errors import NotFoundError, PlanHaltedError
-from api.services.history import HISTORY_PAGE as HISTORY_PAGE
-from api.services.history import full_history as full_history
-from api.services.history import plan_history as plan_history
-from api.services.lists import LIST_PAGE as LIST_PAGE
-from api.services.lists import list_plans as list_plans
-from api.services.lists import list_tools as list_tools
-from api.services.lists import model_versions as model_versions
-from api.services.lists import models_in_force as models_in_force
-from api.services.reading import MAX_PAGE as MAX_PAGE
-from api.services.reading import _cursor, _plan, _read, _utc
-from db import history, library
+from api.services.read.common import MAX_PAGE, _cursor, _plan, _read, _utc
 from db import tables as t
-from db.fleet import prior_answer
-from db.parts import count_parts
-from db.plans import current_body, setpoints_of
-from models import quantities
-from models.catalogue import catalogue
+from db.read.parts import decisions_of, parts_page
+from db.read.plans import operations
 from models.errors import InputError
-
-
-def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """One plan: summary, machine limits, operations (limits, bounds, volume), the plan body."""
-    with _read(engine) as session, session.begin():
-        row = _plan(session, plan_id)
-        machine = session.get(t.Machine, row.machine_id)
-        ops = history.operations(session=session, plan_id=plan_id)
-        parts = count_parts(session=session, plan_id=plan_id)
-        body = current_body(session=session, plan_row=row)
-        in_force = {o.get("name"): o for o in body.get("operations", [])}
-        return {
-            **history.summary(row, machine.name if machine else "", parts),
-            "machine_limits": {
-                key: machine.limits.get(name) if machine else None
-                for key, name in quantities.machine_fields().items()
-            },
-            **prior_answer(row.prior),
-            "operations": [
-                {
-                    "name": op.name,
-                    "tool": tool.name,
-                    "process": op.process,
-                    "volume_mm3": op.volume_mm3,
-                    # as in force: a replan may have changed them (plan_revisions)
-                    "limits": dict(in_force.get(op.name, {}).get("limits", op.limits)),
-                    "bounds": dict(in_force.get(op.name, {}).get("bounds", op.bounds)),
-                    "context": dict(op.context),
-                }
-                for op, tool in ops
-            ],
-            "body": body,
-        }
-
-
-def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """The setpoints in force; a halted plan has none (:class:`PlanHaltedError`)."""
-    with _read(engine) as session, session.begin():
-        row = _plan(session, plan_id)
-        if row.halt is not None:
-            raise PlanHaltedError(plan_id, row.halt)
-        version = row.current_setpoint_version
-        result = setpoints_of(session=session, plan_row=row, version=version)
-    return {
-        "plan_id": plan_id,
-        "setpoint_version": version,
-        **prior_answer(row.prior),
-        "operations": to_json.plan_json(result)["operations"],
-    }
 
 
 def parts(
@@ -102,8 +39,8 @@ def parts(
     after = _cursor(cursor)
     with _read(engine) as session, session.begin():
         _plan(session, plan_id)
-        names = {op.id: op.name for op, _ in history.operations(session=session, plan_id=plan_id)}
-        rows, measurements, decisions = history.parts_page(
+        names = {op.id: op.name for op, _ in operations(session=session, plan_id=plan_id)}
+        rows, measurements, decisions = parts_page(
             session=session,
             plan_id=plan_id,
             after_id=after,
@@ -120,8 +57,8 @@ def parts(
 def decisions(*, engine: Engine, plan_id: int, part_ids: list[int]) -> dict[int, list[Any]]:
     """The RCB decisions of these parts of a plan (``updates`` of :func:`parts`), per part id."""
     with _read(engine) as session, session.begin():
-        names = {op.id: op.name for op, _ in history.operations(session=session, plan_id=plan_id)}
-        found = history.decisions_of(session=session, part_ids=part_ids)
+        names = {op.id: op.name for op, _ in operations(session=session, plan_id=plan_id)}
+        found = decisions_of(session=session, part_ids=part_ids)
     return {part: [decision_json(d, names) for d in rows] for part, rows in found.items()}
 
 
@@ -142,16 +79,6 @@ def part_pages(
         cursor = page["next_cursor"]
         if cursor is None:
             return
-
-
-def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
-    """One tool with its baseline models and provenance."""
-    with _read(engine) as session, session.begin():
-        stored = library.load_tools(session=session, names=[name])
-    tool = stored.get(name) or catalogue().get(name)
-    if tool is None:
-        raise NotFoundError("name", name)
-    return to_json.tool_json(tool)
 
 
 def part_json(

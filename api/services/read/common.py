@@ -1,0 +1,89 @@
+"""What the read use cases share: a read session, page bounds, cursors, UTC times, a plan.
+
+A list's cursor is opaque (:func:`_token`): the ``next_cursor`` of the previous page, null on
+the last page; a page of parts or setpoint versions pages by id (:func:`_cursor`).
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+import re
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session
+
+from api.services import request_limits
+from api.services.errors import NotFoundError
+from db import tables as t
+from db.engine import reader
+from db.plans import get_plan_row
+from models.errors import InputError
+
+#: Most parts (or setpoint versions) one page may hold.
+MAX_PAGE = request_limits.READ_PAGE
+#: Plans, tools or model versions on a page unless asked otherwise.
+LIST_PAGE = 100
+#: Longest cursor of a list keyed by text (a tool's name is at most 200 characters).
+MAX_CURSOR = 1200
+
+
+def _read(engine: Engine) -> Session:
+    # rows are read after the transaction ends: keep their loaded attributes
+    return Session(reader(engine), expire_on_commit=False)
+
+
+def _utc(moment: datetime) -> datetime:
+    # SQLite returns naive datetimes; they were stored as UTC (db.tables.utcnow)
+    return moment if moment.tzinfo else moment.replace(tzinfo=UTC)
+
+
+def _cursor(cursor: str | None) -> int:
+    if cursor is None:
+        return 0
+    if re.fullmatch(r"[0-9]{1,10}", cursor) is None or int(cursor) > t.MAX_INT:
+        raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
+    return int(cursor)
+
+
+def _plan(session: Session, plan_id: int) -> t.Plan:
+    row = get_plan_row(session=session, plan_id=plan_id)
+    if row is None:
+        raise NotFoundError("plan_id", plan_id)
+    return row
+
+
+def _bounded(page_size: int) -> None:
+    if not 1 <= page_size <= MAX_PAGE:
+        raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
+
+
+def _token(values: list[Any]) -> str:
+    """An opaque cursor: the values as JSON, base64url without padding."""
+    text = json.dumps(values, separators=(",", ":"), ensure_ascii=False)
+    return base64.urlsafe_b64encode(text.encode("utf-8")).decode("ascii").rstrip("=")
+
+
+def _untoken(cursor: str, size: int) -> list[Any]:
+    """The values of a cursor of :func:`_token` (``size`` of them); else InputError on cursor."""
+    refused = InputError("cursor", cursor, "not a cursor returned by this endpoint")
+    if len(cursor) > MAX_CURSOR:
+        raise refused
+    try:
+        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
+        values = json.loads(raw.decode("utf-8"))
+    except (binascii.Error, ValueError, RecursionError):  # and the Unicode, JSON errors
+        raise refused from None
+    kinds = (int, int, str) if size == 3 else (str,)
+    if not isinstance(values, list) or len(values) != size:
+        raise refused
+    if not all(
+        isinstance(v, k) and not isinstance(v, bool) for v, k in zip(values, kinds, strict=True)
+    ):
+        raise refused
+    if size == 3 and not (0 <= values[0] <= t.MAX_INT and 0 <= values[1] <= t.MAX_INT):
+        raise refused
+    return values

@@ -1,0 +1,50 @@
+"""The tools: the packaged catalogue and the stored tools, one by name or a page at a time.
+
+A stored tool replaces a catalogue tool of its name.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sqlalchemy import Engine
+
+from api.services import to_json
+from api.services.errors import NotFoundError
+from api.services.read.common import LIST_PAGE, _bounded, _read, _token, _untoken
+from db import library
+from models.catalogue import catalogue
+
+
+def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
+    """One tool with its baseline models and provenance."""
+    with _read(engine) as session, session.begin():
+        stored = library.load_tools(session=session, names=[name])
+    tool = stored.get(name) or catalogue().get(name)
+    if tool is None:
+        raise NotFoundError("name", name)
+    return to_json.tool_json(tool)
+
+
+def list_tools(
+    *, engine: Engine, cursor: str | None = None, page_size: int = LIST_PAGE
+) -> dict[str, Any]:
+    """A page of the packaged catalogue and the stored tools, by name (code-point order).
+
+    A stored tool replaces a catalogue tool of its name. Only the page's stored tools are read.
+    """
+    _bounded(page_size)
+    after = str(_untoken(cursor, 1)[0]) if cursor is not None else ""  # names are not empty
+    with _read(engine) as session, session.begin():
+        stored = library.load_tools(session=session, after=after, limit=page_size + 1)
+    packaged = {n: tool for n, tool in catalogue().items() if n > after}
+    names = sorted({*packaged, *stored})
+    if len(stored) > page_size:  # stored names past the last one read might come before
+        names = [n for n in names if n <= max(stored)]
+    tools = {**packaged, **stored}
+    page = names[:page_size]
+    more = len(names) > page_size
+    return {
+        "tools": [to_json.tool_json(tools[n]) for n in page],
+        "next_cursor": _token([page[-1]]) if more else None,
+    }
