@@ -214,10 +214,7 @@ LONG_TODAY = {
     "api/collect/opcua.py::observations",  # 75
     "api/collect/runner.py::mtconnect_loop",  # 93
     "api/rest/problems.py::install",  # 100
-    "api/services/parts.py::_report_part",  # 87
-    "api/services/parts.py::_report_part.work",  # 62
     "api/services/record.py::report_record",  # 67
-    "db/parts.py::add_part",  # 84
     "models/sensors/convert.py::to_force",  # 132
     "models/sensors/ivester.py::ivester_force_N",  # 72
     "models/sensors/kim_jeon.py::fit_linear_calibration",  # 70
