@@ -7,10 +7,12 @@ Every function takes a session (keyword-only) and leaves the transaction to its 
 - :mod:`db.engine`: engines for SQLite and PostgreSQL, read-only variants, migrations.
 - :mod:`db.plans`: plans, their replans, operations and setpoint versions.
 - :mod:`db.model_versions`: the versions of each operation's models.
-- :mod:`db.state`: a plan's RCB state loaded from the tables; the band states a part adds.
+- :mod:`db.state`: a plan's RCB state loaded from the tables.
 - :mod:`db.state_cache`: loaded states kept in process, keyed on ``plans.state_token``.
 - :mod:`db.plan_state`: a plan's RCB settings and halt as the JSON of their columns.
-- :mod:`db.parts`: what a part report stores (measurements, decisions, changes).
+- :mod:`db.parts`: a part's record (measurements, decisions), parts counted.
+- :mod:`db.store_report`: an accepted part report stored: its record, band states, model
+  versions, setpoints and the plan's new pointers (the one place they are written).
 - :mod:`db.intake`: a part report's first step: the plan locked, the part's row, a stored answer.
 - :mod:`db.library`: tools and their baseline models.
 - :mod:`db.read`: what the read use cases read, by resource (plans, parts, history, record).

@@ -1,4 +1,4 @@
-"""A plan's RCB state in the tables: loading it, and the band-state rows a part adds.
+"""A plan's RCB state in the tables: loading it (a part's new state: :mod:`db.store_report`).
 
 The state is the models, band states and setpoints in force. Keyword-only functions given a
 session; the caller owns the transaction. Loaded states are cached under
@@ -6,9 +6,6 @@ session; the caller owns the transaction. Loaded states are cached under
 """
 
 from __future__ import annotations
-
-from collections.abc import Mapping
-from typing import Any
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
@@ -22,7 +19,6 @@ from db.state_cache import CACHE, database_key
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
-from supervisor.rcb.decision import Decision
 from supervisor.rcb.monitor import Monitor
 from supervisor.rcb.monitor import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
@@ -46,34 +42,6 @@ def load_state(*, session: Session, plan_row: PlanRow) -> RcbState:
     state = _load_state(session, plan_row)
     CACHE.put(database, plan_row.id, plan_row.state_token, state)
     return state
-
-
-def band_state_rows(
-    *,
-    operations: Mapping[str, int],
-    part_id: int,
-    decisions: tuple[Decision, ...],
-    after: RcbState,
-) -> list[dict[str, Any]]:
-    """The ``band_states`` rows of the bands a part's ``decisions`` touched, as in ``after``."""
-    return [
-        {
-            "operation_id": operations[d.operation],
-            "quantity": d.quantity,
-            "part_id": part_id,
-            "seen": after.seen[(d.operation, d.quantity)],
-            "sigma": after.sigma[(d.operation, d.quantity)],
-            "posterior": _json_or_none(after.posterior.get((d.operation, d.quantity))),
-            "wear": _json_or_none(after.wear.get((d.operation, d.quantity))),
-            "monitor": _json_or_none(after.monitors.get((d.operation, d.quantity))),
-        }
-        for d in decisions
-    ]
-
-
-def _json_or_none(belief: Posterior | WearRise | Monitor | None) -> dict[str, Any] | None:
-    """A belief as the JSON of its ``band_states`` column (None: no belief)."""
-    return None if belief is None else belief.to_json()
 
 
 def _load_state(session: Session, plan_row: PlanRow) -> RcbState:

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from functools import partial
 from typing import Any
 
 from sqlalchemy import Engine
@@ -13,20 +14,22 @@ from api.services.auth import Authenticated
 from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, Written, replay_of
 from api.services.plans import operations_json
-from api.services.transactions import audited, write
+from api.services.transactions import audited, transaction
 from db import api_keys
 from db.api_keys import Actor
 from db.errors import ConflictError
-from db.intake import open_report, serial_exists
-from db.parts import add_part
+from db.intake import Opening, PlanHead, open_report, serial_exists
 from db.plan_state import halt_json
 from db.plans import operation_ids, setpoints_of
 from db.state import load_state
 from db.state_cache import CACHE, database_key
+from db.store_report import store_report
 from models.errors import InputError
-from supervisor.constant_load.reported_tool_changes import tool_changes
-from supervisor.inputs.part_report import report_from_mapping
+from supervisor.constant_load.reported_tool_changes import ToolChange, tool_changes
+from supervisor.inputs.part_report import PartReport, report_from_mapping
 from supervisor.inputs.signals import resolve
+from supervisor.optimize.result import PlanResult
+from supervisor.rcb.decision import Decision
 from supervisor.rcb.state import RcbState
 from supervisor.rcb.update import update
 
@@ -59,44 +62,25 @@ def _report_part(
     held: Authenticated | None,
 ) -> Written:
     report = report_from_mapping(body)
-
-    def work(session: Session) -> tuple[int, dict[str, Any]] | Written:
-        # one statement on PostgreSQL: the plan's row lock, the answer stored under the key,
-        # and the part's row unless the serial is reported (db.intake)
-        opening = open_report(
-            session=session,
-            plan_id=plan_id,
-            serial=report.serial,
-            setpoint_version=report.setpoint_version,
-            idempotency=(actor.id, idempotency.key) if idempotency else None,
-        )
+    target = f"plan {plan_id} part {report.serial}"
+    with transaction(engine, actor, "report part", target, idempotency, held) as tx:
+        session = tx.session
+        opening = _open(session, plan_id, report, actor, idempotency)
         replay = replay_of(opening.stored, idempotency) if idempotency else None
         if replay is not None:
-            return replay
-        row, part_id = opening.plan, opening.part_id
-        if row is None:
+            return tx.replayed(replay)
+        if opening.plan is None:
             raise NotFoundError("plan_id", plan_id)
+        row = opening.plan
         state = load_state(session=session, plan_row=row)
-        known = 1 <= report.setpoint_version <= state.version
-        if part_id is None and (
-            known or serial_exists(session=session, plan_id=plan_id, serial=report.serial)
-        ):  # 409 before 422
-            raise ConflictError("serial", report.serial, "already reported for this plan")
-        if part_id is None:
-            raise InputError(
-                "setpoint_version",
-                report.setpoint_version,
-                f"unknown: the plan's versions are 1..{state.version}",
-            )
+        part_id = _accepted(session, opening.part_id, plan_id, report, state)
         operations = operation_ids(session=session, plan_row=row)
-        made_with = None
-        if report.setpoint_version != state.version:
-            made_with = setpoints_of(session=session, plan_row=row, version=report.setpoint_version)
+        made_with = _made_with(session, row, report.setpoint_version, state)
         # raw spindle readings become force measurements at the setpoint the part was made with
         measured, raw = resolve(report, state.plan, made_with or state.setpoints)
         changes = tool_changes(report, made_with or state.setpoints)
         new_state, decisions = update(state, measured, made_with)
-        add_part(
+        token = store_report(
             session=session,
             plan_row=row,
             part_id=part_id,
@@ -108,32 +92,79 @@ def _report_part(
             raw=raw,
             tool_changes=changes,
         )
-        written_state.append((database_key(session), row.state_token, new_state, operations))
-        updates = [to_json.decision_json(d) for d in decisions]
-        # a halted plan: the part is stored all the same, and the MES is told (DESIGN.md, RCB)
-        halt = halt_json(new_state.halt) if new_state.halt is not None else None
-        return 201, {
-            "part_id": part_id,
-            "serial": report.serial,
-            "setpoint_version": new_state.version,
-            "halted": halt is not None,
-            "conflicts": halt["conflicts"] if halt is not None else [],
-            "updates": updates,
-            "tool_changes": [to_json.tool_change_json(c) for c in changes],
-            **operations_json(new_state.setpoints),
-        }
+        # committed: the plan's next part starts from this state (db.state_cache)
+        tx.after_commit(
+            partial(CACHE.put, database_key(session), plan_id, token, new_state, operations)
+        )
+        return tx.answer(201, _answer(part_id, report.serial, new_state, decisions, changes))
 
-    written_state: list[tuple[str, str, RcbState, dict[str, int]]] = []
-    written = write(
-        engine,
-        actor=actor,
-        action="report part",
-        target=f"plan {plan_id} part {report.serial}",
-        idempotency=idempotency,
-        work=work,
-        held=held,
-        finds_replay=True,
+
+def _open(
+    session: Session,
+    plan_id: int,
+    report: PartReport,
+    actor: Actor,
+    idempotency: Idempotency | None,
+) -> Opening:
+    """The report's first statement (db.intake): the plan locked, the part's row, a stored answer.
+
+    One statement on PostgreSQL: the plan's row lock, the answer stored under the key, and the
+    part's row unless the serial is reported.
+    """
+    return open_report(
+        session=session,
+        plan_id=plan_id,
+        serial=report.serial,
+        setpoint_version=report.setpoint_version,
+        idempotency=(actor.id, idempotency.key) if idempotency else None,
     )
-    for database, token, new_state, operations in written_state:  # committed: the next part
-        CACHE.put(database, plan_id, token, new_state, operations)  # starts here
-    return written
+
+
+def _accepted(
+    session: Session, part_id: int | None, plan_id: int, report: PartReport, state: RcbState
+) -> int:
+    """The part's id; none stored: its serial was reported (409) or its version is unknown (422).
+
+    The conflict is told first: a serial reported at an unknown version is a 409.
+    """
+    if part_id is not None:
+        return part_id
+    known = 1 <= report.setpoint_version <= state.version
+    if known or serial_exists(session=session, plan_id=plan_id, serial=report.serial):
+        raise ConflictError("serial", report.serial, "already reported for this plan")
+    raise InputError(
+        "setpoint_version",
+        report.setpoint_version,
+        f"unknown: the plan's versions are 1..{state.version}",
+    )
+
+
+def _made_with(session: Session, row: PlanHead, version: int, state: RcbState) -> PlanResult | None:
+    """The setpoints the part was made with if not those in force (None: those in force)."""
+    if version == state.version:
+        return None
+    return setpoints_of(session=session, plan_row=row, version=version)
+
+
+def _answer(
+    part_id: int,
+    serial: str,
+    new_state: RcbState,
+    decisions: tuple[Decision, ...],
+    changes: Sequence[ToolChange],
+) -> dict[str, Any]:
+    """The 201 answer: the part, its decisions and tool changes, the setpoints in force.
+
+    A halted plan: the part is stored all the same, and the MES is told (DESIGN.md, RCB).
+    """
+    halt = halt_json(new_state.halt) if new_state.halt is not None else None
+    return {
+        "part_id": part_id,
+        "serial": serial,
+        "setpoint_version": new_state.version,
+        "halted": halt is not None,
+        "conflicts": halt["conflicts"] if halt is not None else [],
+        "updates": [to_json.decision_json(d) for d in decisions],
+        "tool_changes": [to_json.tool_change_json(c) for c in changes],
+        **operations_json(new_state.setpoints),
+    }

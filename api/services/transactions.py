@@ -1,8 +1,11 @@
 """The transaction every write runs in: idempotent, retried on unique-key races, audited.
 
-:func:`write` runs a use case's work in one transaction and stores, with its rows, the
-Idempotency-Key's record (:mod:`api.services.idempotency`) and the audit entry; :func:`audited`
-appends a refused write to the audit log.
+:func:`transaction` is a write's transaction (:class:`Tx`): the block stores its rows and ends
+with an answer, stored with the Idempotency-Key's record (:mod:`api.services.idempotency`) and
+the audit entry, or with the answer stored under the key; what the block leaves for after the
+commit (:meth:`Tx.after_commit`) runs once it has committed. :func:`write` runs a use case's work
+in one, retried on unique-key races (:func:`retried`); :func:`audited` appends a refused write
+to the audit log.
 """
 
 from __future__ import annotations
@@ -23,8 +26,72 @@ from db.errors import ConflictError
 from db.idempotency import IDEMPOTENCY, claim_key, idempotency_row
 from db.intake import stored_answer
 
-#: A write's work in its transaction: (status, body), or a replay found by the work itself.
-Work = Callable[[Session], "tuple[int, dict[str, Any]] | Written"]
+#: A write's work in its transaction: the answer's status and body.
+Work = Callable[[Session], "tuple[int, dict[str, Any]]"]
+
+
+class Tx:
+    """A write's open transaction, as the unit of work in it sees it.
+
+    ``session``: the transaction's session. The work ends with :meth:`answer` (a new answer:
+    the key's record and the audit entry are stored with its rows) or :meth:`replayed` (the
+    answer stored under the key, nothing new written). :meth:`after_commit` keeps what to do
+    once the rows are committed, such as caching the state they hold: it runs only after the
+    commit of an answer, never after a rollback, a replay or an attempt that was retried.
+    """
+
+    def __init__(
+        self,
+        session: Session,
+        actor: Actor,
+        action: str,
+        target: str,
+        idempotency: Idempotency | None,
+    ) -> None:
+        self.session = session
+        self._actor, self._action, self._target = actor, action, target
+        self._idempotency = idempotency
+        self._after: list[Callable[[], None]] = []
+        self._answered = False
+
+    def after_commit(self, callback: Callable[[], None]) -> None:
+        """Call ``callback`` once this transaction has committed its answer."""
+        self._after.append(callback)
+
+    def answer(self, status: int, body: dict[str, Any]) -> Written:
+        """The new answer, stored with the key's record and the audit entry (to be committed)."""
+        actor, idempotency = self._actor, self._idempotency
+        answer = bulk.Encoded.of(body)
+        # the key's record and the audit entry go out with the rows the work deferred
+        # (a part report's: one statement on PostgreSQL, db.bulk)
+        entry = audit.audit_row(actor.name, self._action, self._target, str(status))
+        rows = [(audit.AUDIT, [entry])]
+        if idempotency is not None:
+            record = idempotency_row(
+                actor.id, idempotency.key, idempotency.request_hash, status, answer
+            )
+            rows.insert(0, (IDEMPOTENCY, [record]))
+        bulk.write_deferred(self.session, rows)
+        self._answered = True
+        return Written(status, body, text=answer.text)
+
+    def replayed(self, stored: Written) -> Written:
+        """The answer stored under the key, audited as replayed; nothing to do after commit."""
+        audit.audit(
+            session=self.session,
+            actor=self._actor.name,
+            action=self._action,
+            target=self._target,
+            result=f"replayed {stored.status}",
+        )
+        self._answered = False
+        return stored
+
+    def _committed(self) -> None:
+        """Run the callbacks of a committed answer (once)."""
+        callbacks, self._after = (self._after if self._answered else []), []
+        for callback in callbacks:
+            callback()
 
 
 def write(
@@ -37,45 +104,64 @@ def write(
     work: Work,
     attempts: int = 1,
     held: Authenticated | None = None,
-    finds_replay: bool = False,
 ) -> Written:
     """Run ``work`` in one transaction, idempotently; ``attempts`` > 1 retries unique-key races.
 
     Creating a plan inserts its machine and tools if they are new: two plans for the same new
     machine at once race to insert it, and the loser's retry finds it stored. ``held``: the
     request's authentication, whose open transaction (if any) the first attempt goes on in.
-    ``finds_replay``: ``work`` looks the key's stored answer up itself (after the key's lock,
-    in its first statement) and returns it as a :class:`Written`.
     """
-    for attempt in range(1, attempts + 1):
+
+    def once(held: Authenticated | None) -> Written:
+        with transaction(engine, actor, action, target, idempotency, held) as tx:
+            stored = None
+            if idempotency is not None:
+                found = stored_answer(tx.session, actor.id, idempotency.key)
+                stored = replay_of(found, idempotency)
+            if stored is not None:
+                return tx.replayed(stored)
+            return tx.answer(*work(tx.session))
+
+    return retried(once, attempts, held)
+
+
+def retried(
+    attempt: Callable[[Authenticated | None], Written],
+    attempts: int,
+    held: Authenticated | None = None,
+) -> Written:
+    """``attempt(held)``, then up to ``attempts`` - 1 retries of it after a unique-key race.
+
+    A race is a :class:`ConflictError` caused by an :class:`IntegrityError` (:func:`transaction`
+    raises it); each retry is a new transaction (``held`` only goes to the first).
+    """
+    for number in range(1, attempts + 1):
         try:
-            return _write_once(
-                engine,
-                actor=actor,
-                action=action,
-                target=target,
-                idempotency=idempotency,
-                work=work,
-                held=held if attempt == 1 else None,
-                finds_replay=finds_replay,
-            )
+            return attempt(held if number == 1 else None)
         except ConflictError as err:
-            if attempt == attempts or not isinstance(err.__cause__, IntegrityError):
+            if number == attempts or not isinstance(err.__cause__, IntegrityError):
                 raise
     raise AssertionError("unreachable")
 
 
-def _write_once(
+@contextmanager
+def transaction(
     engine: Engine,
-    *,
     actor: Actor,
     action: str,
     target: str,
     idempotency: Idempotency | None,
-    work: Work,
-    held: Authenticated | None,
-    finds_replay: bool,
-) -> Written:
+    held: Authenticated | None = None,
+) -> Iterator[Tx]:
+    """A write's transaction (:class:`Tx`): committed if the block ends without an exception.
+
+    With an Idempotency-Key, the key must be free (not in flight) and is claimed in the
+    transaction; the block looks its stored answer up (:func:`db.intake.stored_answer`, or in
+    a statement of its own, as a part report does). ``held``: the request's authentication,
+    whose open transaction (if any) the block goes on in. A unique constraint a concurrent
+    write won is a :class:`ConflictError`. After the commit, the callbacks of
+    :meth:`Tx.after_commit` run if the block answered.
+    """
     scope = f"{actor.id}:{idempotency.key}" if idempotency else ""
     guard = keylock.in_flight(engine, scope) if idempotency else _free()
     try:
@@ -83,7 +169,6 @@ def _write_once(
             if not free:
                 raise InFlightError(idempotency.key if idempotency else "")
             with _transaction(engine, held) as (session, claimed):
-                stored = None
                 if idempotency is not None:
                     if claimed is None:
                         claimed = claim_key(
@@ -91,37 +176,14 @@ def _write_once(
                         )
                     if not claimed:
                         raise InFlightError(idempotency.key)
-                    if not finds_replay:
-                        stored = replay_of(
-                            stored_answer(session, actor.id, idempotency.key), idempotency
-                        )
-                done = stored or work(session)
-                if isinstance(done, Written):
-                    audit.audit(
-                        session=session,
-                        actor=actor.name,
-                        action=action,
-                        target=target,
-                        result=f"replayed {done.status}",
-                    )
-                    return done
-                status, body = done
-                answer = bulk.Encoded.of(body)
-                # the key's record and the audit entry go out with the rows the work deferred
-                # (a part report's: one statement on PostgreSQL, db.bulk)
-                rows = [(audit.AUDIT, [audit.audit_row(actor.name, action, target, str(status))])]
-                if idempotency is not None:
-                    record = idempotency_row(
-                        actor.id, idempotency.key, idempotency.request_hash, status, answer
-                    )
-                    rows.insert(0, (IDEMPOTENCY, [record]))
-                bulk.write_deferred(session, rows)
-                return Written(status, body, text=answer.text)
+                tx = Tx(session, actor, action, target, idempotency)
+                yield tx
     except IntegrityError as err:
         # a concurrent write won a unique constraint (same serial, same key): nothing was stored
         raise ConflictError(
             "request", target, "a concurrent request stored the same thing"
         ) from err
+    tx._committed()
 
 
 @contextmanager
