@@ -29,7 +29,7 @@ from models.errors import InputError
 from supervisor.fleet.document import read_item
 from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Operation, Plan
-from supervisor.rcb.monitor import from_json as monitor_from_json
+from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 from supervisor.rcb.state import RcbSettings

@@ -19,8 +19,8 @@ from db.state_cache import CACHE, database_key
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
-from supervisor.rcb.monitor import Monitor
-from supervisor.rcb.monitor import from_json as monitor_from_json
+from supervisor.rcb.monitor_state import Monitor
+from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 from supervisor.rcb.state import RcbState, prior_sigma

@@ -29,7 +29,7 @@ from db.plans import add_setpoints, new_token
 from supervisor.constant_load.reported_tool_changes import ToolChange
 from supervisor.inputs.part_report import PartReport
 from supervisor.rcb.decision import Decision
-from supervisor.rcb.monitor import Monitor
+from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.state import RcbState
 from supervisor.rcb.wear import WearRise

@@ -322,7 +322,7 @@ class BandState(Base):
     (:meth:`supervisor.rcb.posterior.Posterior.to_json`), NULL for other strategies; ``wear``:
     the rise per part an edge makes (:meth:`supervisor.rcb.wear.WearRise.to_json`), NULL for a
     quantity that does not wear; ``monitor``: what RCB watches in the readings (the noise scale,
-    the last reading learned from, a quarantined one: :meth:`supervisor.rcb.monitor.Monitor.
+    the last reading learned from, a quarantined one: :meth:`supervisor.rcb.monitor_state.Monitor.
     to_json`), NULL for rows stored before 0010. Appended per part; the newest row is in force.
     """
 

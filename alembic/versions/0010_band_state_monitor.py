@@ -1,6 +1,6 @@
 """What RCB watches in the readings per operation and quantity (issue 27)
 
-``band_states.monitor`` (:meth:`supervisor.rcb.monitor.Monitor.to_json`): the noise scale's
+``band_states.monitor`` (:meth:`supervisor.rcb.monitor_state.Monitor.to_json`): the noise scale's
 belief, the last reading learned from and a quarantined reading waiting for confirmation. NULL
 for rows stored before this revision (their plans start from the reported noise).
 

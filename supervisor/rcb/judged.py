@@ -16,7 +16,9 @@ from models.quantities import MODEL_QUANTITIES
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, PartReport
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
-from supervisor.rcb.monitor import Expected, Monitor, Watched, watch
+from supervisor.rcb.monitor import Watched, watch
+from supervisor.rcb.monitor_state import Expected, Monitor
+from supervisor.rcb.noise import pooled
 from supervisor.rcb.state import RcbState
 
 
@@ -75,7 +77,9 @@ def judge(
         age = report.edge_parts.get(op.name)
         judged.point = {**made.setpoint, **op.context}
         judged.exponents = exponents = state.tools[op.name].models[quantity].exponents
-        judged.expected = state.settings.rule.expects(state, op, made, quantity, age, monitor)
+        chain = pooled(m.chain_noise for (_, q), m in state.monitors.items() if q == quantity)
+        rule = state.settings.rule
+        judged.expected = rule.expects(state, op, made, quantity, age, monitor, chain)
         low, high = judged.expected
         sd = state.settings.exponent_sd
         judged.watched = watch(monitor, low, high, measurement, judged.point, exponents, sd)

@@ -26,6 +26,7 @@ References
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
@@ -37,7 +38,9 @@ from supervisor.rcb import posterior as post
 from supervisor.rcb.beliefs import Beliefs
 from supervisor.rcb.cone import Cone
 from supervisor.rcb.decision import Action, Decision
-from supervisor.rcb.monitor import Expected, Reading, Watched
+from supervisor.rcb.monitor import Watched
+from supervisor.rcb.monitor_state import Expected, Reading
+from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
 
 
@@ -68,14 +71,27 @@ def expects(
     result: OperationResult,
     quantity: str,
     age: int | None,
+    chain: NoiseScale | None = None,
 ) -> Expected:
-    """The posterior predictive of ``ln y`` at ``result``'s setpoint (without the noise)."""
+    """The posterior predictive of ``ln y`` at ``result``'s setpoint (without the noise).
+
+    ``chain``: the measuring chain's noise scale; the spread with the readings counted at its
+    estimate ``ŝ²`` (not the prudent quantile they are learned at) is what the noise update
+    takes out of an innovation: the prudent one, larger, would teach a noise scale too low.
+    """
     belief = belief_of(state, operation, quantity)
     point = {**result.setpoint, **operation.context}
     cone = Cone(belief, state.settings.z, state.settings.tau)
     n = belief.edge_age(age)
     mean = float(belief.features(point, n) @ belief.mean_array)
-    return Expected(mean, cone.spread(point, operation.setpoint_rel_uncertainty, n))
+    rel = operation.setpoint_rel_uncertainty
+    spread = cone.spread(point, rel, n)
+    estimate = None
+    if chain is not None and chain.scale**2 < belief.noise_scale2:
+        prior_belief = _prior_of(state, operation, quantity)
+        at_estimate = rescaled(belief, prior_belief, chain.scale**2)
+        estimate = Cone(at_estimate, state.settings.z, state.settings.tau).spread(point, rel, n)
+    return Expected(mean, spread, estimate_sd=estimate)
 
 
 def learn(
@@ -112,6 +128,30 @@ def learn(
         if law.flagged or watched.changed:
             after = _at_least(after, point, measurement, age)
     return after, _decision(state, operation, result, law, before, after)
+
+
+def settled(state: Beliefs, chains: Mapping[str, NoiseScale]) -> dict[tuple[str, str], Posterior]:
+    """The posteriors whose readings the report's end counts at another noise scale.
+
+    Each reading is learned at the chain's prudent scale as it stood with the readings of the
+    report before it (:func:`supervisor.rcb.update._reading`): the first operations of a report
+    would make the next part at a scale that the rest of the report has already shown to be
+    too low (a chain 3x noisier than it claims: its first report raises the prudent scale from
+    2.11 to about 3.5). Once every reading is in, each posterior is :func:`rescaled` to its
+    chain's :attr:`~supervisor.rcb.noise.NoiseScale.prudent_scale`, as its next reading would
+    do anyway; the setpoints of the next part then rest on all the report shows.
+    """
+    operations = {op.name: op for op in state.plan.operations}
+    out: dict[tuple[str, str], Posterior] = {}
+    for (name, quantity), belief in state.posterior.items():
+        chain = chains.get(quantity)
+        if chain is None:
+            continue
+        scale2 = chain.prudent_scale**2
+        if scale2 != belief.noise_scale2:
+            prior_belief = _prior_of(state, operations[name], quantity)
+            out[(name, quantity)] = rescaled(belief, prior_belief, scale2)
+    return out
 
 
 def cones(state: Beliefs) -> dict[str, dict[str, Cone]]:
@@ -205,14 +245,19 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
     quantile of the chain's noise, :mod:`supervisor.rcb.noise`) and comes down as readings
     show a quiet chain, and the readings then weigh what they are worth. ``ρ > 1`` extrapolates
     the combination; where discounts (a change's ``q``, the random walk ``τ``) have left less
-    precision than the prior's in some direction, ``P'`` can lose definiteness: then the belief
-    stays as it is (the more cautious of the two).
+    precision than the prior's in some direction (``P − P₀`` not positive semi-definite),
+    weighing the readings more takes precision away there and the mean runs off (a posterior
+    whose ``ln K`` overflowed, noise-scale 3, once the report's end rescaled every posterior):
+    then the belief stays as it is (the more cautious of the two), as where ``P'`` loses
+    definiteness.
     """
     if noise_scale2 == belief.noise_scale2:
         return belief
     rho = belief.noise_scale2 / noise_scale2
     p0 = np.linalg.inv(np.array(prior_belief.cov))
     p = np.linalg.inv(np.array(belief.cov))
+    if rho > 1.0 and not _readings_add_precision(p, p0):
+        return belief
     precision = (1.0 - rho) * p0 + rho * p
     weighted = (1.0 - rho) * p0 @ np.array(prior_belief.mean) + rho * p @ np.array(belief.mean)
     precision = 0.5 * (precision + precision.T)
@@ -227,6 +272,12 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
         cov=tuple(tuple(float(v) for v in row) for row in cov),
         noise_scale2=noise_scale2,
     )
+
+
+def _readings_add_precision(p: np.ndarray, p0: np.ndarray) -> bool:
+    """Whether ``P − P₀`` is positive semi-definite (to rounding): no discount took more."""
+    data = 0.5 * ((p - p0) + (p - p0).T)
+    return float(np.linalg.eigvalsh(data)[0]) >= -1e-9 * float(np.abs(np.linalg.eigvalsh(p)).max())
 
 
 def shifted(belief: Posterior, shift: float) -> Posterior:

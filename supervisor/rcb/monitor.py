@@ -60,10 +60,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import Literal
 
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
-from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale
+from supervisor.rcb.monitor_state import Expected, Monitor, Reading
 from supervisor.rcb.wear import setpoint_shift
 
 #: A reading this many σ under what the strategy expects is quarantined (``implausible_low``).
@@ -92,119 +92,6 @@ CONFIRM_SIGMA = 3.0
 #: never confirmed: no change of a process halves it; a sensor or a tool does.
 CONFIRMABLE = math.log(2.0)
 Verdict = Literal["accept", "quarantine", "confirm", "change"]
-
-
-@dataclass(frozen=True)
-class Expected:
-    """What a strategy expects of a reading: ``ln y ~ mean ± sd`` (without the reading's noise).
-
-    ``noise``: a part of the spread that is readings' noise (the chain's last reading), in
-    ``ln`` at the reported scale: it is counted at the measured scale ``ŝ``. ``shift``: how far
-    the exponents moved the chain's reading to this setpoint (``ln``); a difference whose
-    shift is larger than the pair's noise says more about the exponents than about the noise,
-    and the noise scale does not learn from it (successive differences at nearly one setpoint).
-    """
-
-    mean: float
-    sd: float
-    noise: float = 0.0
-    shift: float = 0.0
-
-
-@dataclass(frozen=True)
-class Reading:
-    """A reading kept by the monitor: ``ln y``, its reported noise ``s`` in ``ln``, ``ln x``."""
-
-    ln_y: float
-    noise: float
-    ln_x: Mapping[str, float]
-    age: int | None = None
-
-    def to_json(self) -> dict[str, Any]:
-        """A JSON-ready mapping."""
-        return {"ln_y": self.ln_y, "noise": self.noise, "ln_x": dict(self.ln_x), "age": self.age}
-
-
-def _reading(data: Mapping[str, Any] | None) -> Reading | None:
-    if data is None:
-        return None
-    ln_x = {str(k): float(v) for k, v in data["ln_x"].items()}
-    age = data.get("age")
-    return Reading(
-        float(data["ln_y"]), float(data["noise"]), ln_x, None if age is None else int(age)
-    )
-
-
-@dataclass(frozen=True)
-class Monitor:
-    """Per operation and quantity: the noise scale's belief, the last and the held reading.
-
-    Parameters
-    ----------
-    shape, rate : float
-        ``a`` and ``b`` of the inverse-gamma belief on the noise variance's scale ``λ`` from the
-        prior and this operation's readings (:func:`supervisor.rcb.noise.pooled` adds the
-        other operations').
-    last : Reading or None
-        The last reading learned from (the reference of the next successive difference).
-    held : Reading or None
-        A quarantined reading waiting for the next one to confirm or drop it.
-    quarantined, changes : int
-        Readings quarantined and changes detected so far.
-    cusum, drift_sum, drift_n : float, float, int
-        The upper CUSUM of the high side's ``r`` (:data:`CUSUM_K`, :data:`CUSUM_H`), and the
-        sum and count of the innovations ``e`` since it last stood at 0 (their mean is the
-        shift a CUSUM alarm discounts).
-    """
-
-    shape: float = NOISE_PRIOR
-    rate: float = NOISE_RATE
-    last: Reading | None = None
-    held: Reading | None = None
-    quarantined: int = 0
-    changes: int = 0
-    cusum: float = 0.0
-    drift_sum: float = 0.0
-    drift_n: int = 0
-
-    @property
-    def noise(self) -> NoiseScale:
-        """The monitor's own belief on the noise scale (the chain's: :func:`~.noise.pooled`)."""
-        return NoiseScale(self.shape, self.rate)
-
-    @property
-    def scale(self) -> float:
-        """``ŝ`` of this monitor's own belief (:attr:`NoiseScale.scale`)."""
-        return self.noise.scale
-
-    def to_json(self) -> dict[str, Any]:
-        """A JSON-ready mapping (:func:`from_json` reads it back)."""
-        return {
-            "shape": self.shape,
-            "rate": self.rate,
-            "last": None if self.last is None else self.last.to_json(),
-            "held": None if self.held is None else self.held.to_json(),
-            "quarantined": self.quarantined,
-            "changes": self.changes,
-            "cusum": self.cusum,
-            "drift_sum": self.drift_sum,
-            "drift_n": self.drift_n,
-        }
-
-
-def from_json(data: Mapping[str, Any]) -> Monitor:
-    """The :class:`Monitor` of :meth:`Monitor.to_json`."""
-    return Monitor(
-        float(data["shape"]),
-        float(data["rate"]),
-        _reading(data.get("last")),
-        _reading(data.get("held")),
-        int(data.get("quarantined", 0)),
-        int(data.get("changes", 0)),
-        float(data.get("cusum", 0.0)),
-        float(data.get("drift_sum", 0.0)),
-        int(data.get("drift_n", 0)),
-    )
 
 
 @dataclass(frozen=True)
@@ -287,16 +174,21 @@ def watch(
     # the noise scale learns from the innovation, by the share of it that is noise; a change
     # counts as a reading at the alarm's edge (it cannot be told from noise by itself)
     unit = high.noise**2 + reading.noise**2
-    weight = variance * unit / (high.sd**2 + variance * unit)
-    if high.shift**2 > unit:  # the setpoint moved too far to tell the noise from the model
-        weight = 0.0
-    if common is not None or (high.noise == 0.0 and monitor.cusum + r_high - CUSUM_K > DRIFTING):
-        weight = 0.0  # a drift in progress off a model's expectation: its innovations are not noise
+    model2 = (high.sd if high.estimate_sd is None else high.estimate_sd) ** 2
+    weight = variance * unit / (model2 + variance * unit)
+    if high.shift**2 > unit or common is not None:
+        weight = 0.0  # the setpoint moved too far to tell the noise from the model; a change
+    own = weight  # a drift in progress off a model's expectation: not noise to the alarm
+    if high.noise == 0.0 and monitor.cusum + r_high - CUSUM_K > DRIFTING:
+        own = 0.0
     e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
+    excess = max(e2 - model2, 0.0) / unit
     monitor = replace(
         monitor,
-        shape=monitor.shape + 0.5 * weight,
-        rate=monitor.rate + 0.5 * weight * max(e2 - high.sd**2, 0.0) / unit,
+        shape=monitor.shape + 0.5 * own,
+        rate=monitor.rate + 0.5 * own * excess,
+        chain_shape=monitor.chain_shape + 0.5 * weight,
+        chain_rate=monitor.chain_rate + 0.5 * weight * excess,
     )
     spread2 = _variance(high, reading.noise, variance)
     innovation = (e, spread2)

@@ -18,7 +18,7 @@ from supervisor.errors import Conflict
 from supervisor.inputs.plan import Plan
 from supervisor.optimize.result import PlanResult
 from supervisor.rcb import posterior as post
-from supervisor.rcb.monitor import Monitor
+from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.settings import DEFAULT_HALT_OVER as DEFAULT_HALT_OVER
 from supervisor.rcb.settings import SETTINGS, settings_from_table

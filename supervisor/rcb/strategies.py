@@ -12,7 +12,9 @@ through the same hooks, in this order, for each reading:
 2. :meth:`Strategy.forget`: a change discounts the old regime's evidence;
 3. :meth:`Strategy.adjust` and :meth:`Strategy.least_band`: inside the band law;
 4. :meth:`Strategy.learn`: what the strategy keeps beyond the band (``learn``: its posterior);
-5. :meth:`Strategy.cones`: the constraints it hands the optimiser beyond the band.
+5. :meth:`Strategy.settle`: once every reading of the report is in, what it keeps is counted at
+   the measuring chains' noise as the whole report shows it;
+6. :meth:`Strategy.cones`: the constraints it hands the optimiser beyond the band.
 
 The CLI's choices, the REST enum, the stored plan settings and the docs all come from
 :data:`REGISTRY`; a new strategy is one class here.
@@ -33,7 +35,9 @@ if TYPE_CHECKING:  # only named in signatures: the registry loads no NumPy (rcb 
     from supervisor.rcb.beliefs import Beliefs
     from supervisor.rcb.cone import Cone
     from supervisor.rcb.decision import Decision
-    from supervisor.rcb.monitor import Expected, Monitor, Watched
+    from supervisor.rcb.monitor import Watched
+    from supervisor.rcb.monitor_state import Expected, Monitor
+    from supervisor.rcb.noise import NoiseScale
     from supervisor.rcb.posterior import Posterior
 
 #: The ``learn`` strategy's random walk of the intercept per part [-]
@@ -65,6 +69,7 @@ class Strategy:
         quantity: str,
         age: int | None,
         monitor: Monitor,
+        chain: NoiseScale | None = None,
     ) -> tuple[Expected, Expected | None]:
         """What a reading at ``result``'s setpoint should be: ``(low side, high side)``.
 
@@ -75,12 +80,13 @@ class Strategy:
         (:func:`supervisor.rcb.monitor.chain`; None before the first).
         """
         from supervisor.rcb import monitor as watcher
+        from supervisor.rcb.monitor_state import Expected as Expecting
 
         settings = state.settings
         point = {**result.setpoint, **operation.context}
         rel = operation.setpoint_rel_uncertainty
         catalogue = state.plan.tools[operation.tool].models[quantity].predict(point, rel)
-        low = watcher.Expected(
+        low = Expecting(
             math.log(catalogue.value), (catalogue.band / catalogue.value) / settings.coverage_k
         )
         exponents = state.tools[operation.name].models[quantity].exponents
@@ -136,6 +142,16 @@ class Strategy:
         (:mod:`supervisor.rcb.common_cause`); here no posterior is kept.
         """
         return None
+
+    def settle(
+        self, state: Beliefs, chains: Mapping[str, NoiseScale]
+    ) -> dict[tuple[str, str], Posterior]:
+        """The posteriors the report's end changes, per operation and quantity (here none).
+
+        ``state``: the beliefs after every reading of the report; ``chains``: per quantity,
+        the measuring chain's noise scale with all of the report's readings in.
+        """
+        return {}
 
     def cones(self, state: Beliefs) -> dict[str, dict[str, Cone]]:
         """Per operation and quantity, the constraints beyond the band (here none)."""
@@ -201,11 +217,12 @@ class Learn(Strategy):
         quantity: str,
         age: int | None,
         monitor: Monitor,
+        chain: NoiseScale | None = None,
     ) -> tuple[Expected, Expected | None]:
         """The posterior predictive of ``ln y`` at the setpoint, on both sides."""
         from supervisor.rcb import learning
 
-        expected = learning.expects(state, operation, result, quantity, age)
+        expected = learning.expects(state, operation, result, quantity, age, chain)
         return expected, expected
 
     def learn(
@@ -231,6 +248,14 @@ class Learn(Strategy):
         from supervisor.rcb import learning
 
         return learning.moved(state, operation, quantity, shift, variance)
+
+    def settle(
+        self, state: Beliefs, chains: Mapping[str, NoiseScale]
+    ) -> dict[tuple[str, str], Posterior]:
+        """Every posterior counted at its chain's prudent scale after the whole report."""
+        from supervisor.rcb import learning
+
+        return learning.settled(state, chains)
 
     def cones(self, state: Beliefs) -> dict[str, dict[str, Cone]]:
         """The posterior's cone per operation and quantity (:mod:`supervisor.rcb.posterior`)."""

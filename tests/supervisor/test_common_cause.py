@@ -19,7 +19,7 @@ from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import common_cause as cc
 from supervisor.rcb import learning
-from supervisor.rcb.monitor import Monitor
+from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
 from supervisor.virtual.sampling import sample_machine

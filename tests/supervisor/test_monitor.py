@@ -19,6 +19,7 @@ from scipy.stats import invgamma
 
 from supervisor.inputs.part_report import Measurement
 from supervisor.rcb import monitor as m
+from supervisor.rcb import monitor_state as ms
 from supervisor.rcb import noise
 from supervisor.rcb.learning import rescaled
 from supervisor.rcb.posterior import Posterior
@@ -26,7 +27,7 @@ from supervisor.rcb.posterior import Posterior
 POINT = {"feed_mm_rev": 0.3}
 EXPONENTS = {"feed_mm_rev": 0.8}
 #: What a strategy expects: ln y ~ ln 100 ± 0.05 (a 5 % spread).
-NEAR = m.Expected(math.log(100.0), 0.05)
+NEAR = ms.Expected(math.log(100.0), 0.05)
 
 
 def _watch(monitor, y, u=1.0, low=NEAR, high=None, point=POINT):
@@ -35,25 +36,25 @@ def _watch(monitor, y, u=1.0, low=NEAR, high=None, point=POINT):
 
 def test_a_reading_six_sigma_under_the_expectation_is_quarantined():
     # 73 ± 1: e = ln 0.73 = −0.3147, s_n = 0.5/73 = 0.00685, σ = √(0.05² + 0.00685²) = 0.05047
-    low = _watch(m.Monitor(), 73.0)
+    low = _watch(ms.Monitor(), 73.0)
     assert low.verdict == "quarantine" and not low.learns
     assert_allclose(low.sigma, -0.31471 / 0.050467, rtol=1e-4)  # −6.236
     assert low.monitor.held is not None and low.monitor.quarantined == 1
     # 76 ± 1: e = −0.2744, r = −5.44: accepted, nothing held
-    near = _watch(m.Monitor(), 76.0)
+    near = _watch(ms.Monitor(), 76.0)
     assert near.verdict == "accept" and near.monitor.held is None
 
 
 def test_under_half_the_lower_edge_is_quarantined_however_wide_the_prior():
     # ln y ~ ln 100 ± 0.3: 30 ± 1 is r = −1.204 / 0.3005 = −4.0 (over −6) and e = −1.204 over
     # −(ln 2 + 2 · 0.3) = −1.293: accepted; 25 ± 1 (e = −1.386) is under half the lower edge
-    wide = m.Expected(math.log(100.0), 0.3)
-    assert _watch(m.Monitor(), 30.0, low=wide).verdict == "accept"
-    assert _watch(m.Monitor(), 25.0, low=wide).verdict == "quarantine"
+    wide = ms.Expected(math.log(100.0), 0.3)
+    assert _watch(ms.Monitor(), 30.0, low=wide).verdict == "accept"
+    assert _watch(ms.Monitor(), 25.0, low=wide).verdict == "quarantine"
 
 
 def test_the_next_consistent_reading_confirms_a_quarantined_one():
-    held = _watch(m.Monitor(), 73.0).monitor
+    held = _watch(ms.Monitor(), 73.0).monitor
     # 73.5 at the same point: d = ln(73.5/73) = 0.00683, joint noise √(0.00685² + 0.00680²)
     # = 0.00965, 3σ = 0.0290: consistent; the process moved down (regime change), and the old
     # regime is discounted by q = e² − (0.05² + 0.00685²) = 0.09904 − 0.00255 = 0.09650
@@ -69,29 +70,29 @@ def test_the_next_consistent_reading_confirms_a_quarantined_one():
 
 def test_a_reading_more_than_a_factor_two_low_is_never_confirmed():
     # 40 is e = −0.916 under the expectation: lower than ln 2; a second 40 is quarantined too
-    held = _watch(m.Monitor(), 40.0).monitor
+    held = _watch(ms.Monitor(), 40.0).monitor
     again = _watch(held, 40.0)
     assert again.verdict == "quarantine" and again.monitor.quarantined == 2
 
 
 def test_a_reading_four_sigma_over_a_tight_expectation_is_a_change():
-    tight = m.Expected(math.log(100.0), 0.01)
+    tight = ms.Expected(math.log(100.0), 0.01)
     # 105 ± 1: e = 0.04879, s_n = 0.5/105 = 0.004762, σ = √(1e-4 + 2.268e-5) = 0.011076,
     # r = 4.405 > 4; q = e² − σ² = 0.0023806 − 0.0001227 = 0.0022579
-    change = _watch(m.Monitor(), 105.0, low=tight, high=tight)
+    change = _watch(ms.Monitor(), 105.0, low=tight, high=tight)
     assert change.verdict == "change" and change.changed and change.monitor.changes == 1
     assert_allclose(change.sigma, 4.405, rtol=1e-3)
     assert_allclose(change.forget, 0.0022579, rtol=1e-4)
     # 104 ± 1: r = 0.03922 / 0.011071 = 3.54: no change
-    assert _watch(m.Monitor(), 104.0, low=tight, high=tight).verdict == "accept"
+    assert _watch(ms.Monitor(), 104.0, low=tight, high=tight).verdict == "accept"
 
 
 def test_the_noise_scale_learns_from_a_successive_difference():
     # the chain's last reading moved to the setpoint: mean ln 100, its own noise 0.005, no
     # model spread; 101 ± 1 (s_n = 0.00495): the whole innovation is noise (weight 1),
     # e² / (s_c² + s_n²) = 0.009950² / 4.950e-5 = 2.000: a = 1.5 + 0.5, b = 1 + 0.5 · 2.0
-    chain = m.Expected(math.log(100.0), 0.0, 0.005)
-    after = _watch(m.Monitor(), 101.0, high=chain).monitor
+    chain = ms.Expected(math.log(100.0), 0.0, 0.005)
+    after = _watch(ms.Monitor(), 101.0, high=chain).monitor
     assert_allclose(after.shape, 2.0)
     assert_allclose(after.rate, 1.0 + 0.5 * math.log(1.01) ** 2 / (0.005**2 + (0.5 / 101) ** 2))
     assert_allclose(after.scale, math.sqrt(max(after.rate / after.shape, 1.0)))
@@ -99,12 +100,12 @@ def test_the_noise_scale_learns_from_a_successive_difference():
     assert_allclose(after.noise.prudent_scale, math.sqrt(upper))
     # the same difference after a setpoint move the exponents explain by more than the noise
     # (shift 0.8 · ln 1.1 = 0.0762): it says more about the exponents, nothing is learned
-    moved = m.Expected(math.log(100.0), 0.0, 0.005, 0.8 * math.log(1.1))
-    assert _watch(m.Monitor(), 101.0, high=moved).monitor.shape == m.Monitor().shape
+    moved = ms.Expected(math.log(100.0), 0.0, 0.005, 0.8 * math.log(1.1))
+    assert _watch(ms.Monitor(), 101.0, high=moved).monitor.shape == ms.Monitor().shape
 
 
 def test_before_any_reading_the_law_takes_u_as_reported_and_learn_a_prudent_one():
-    fresh = m.Monitor()
+    fresh = ms.Monitor()
     assert fresh.scale == 1.0  # √max(1 / 1.5, 1)
     # the upper quantile of InvGamma(1.5, 1): 0.95 -> 5.6843 (u x 2.3842), 0.93 -> 4.4569
     # (x 2.1111), as scipy.stats.invgamma.ppf gives them
@@ -115,7 +116,7 @@ def test_before_any_reading_the_law_takes_u_as_reported_and_learn_a_prudent_one(
 def test_the_chains_noise_adds_every_operations_evidence():
     # two operations read by one chain: evidence (0.5, 0.5) and (1.0, 2.0) over the prior
     # (1.5, 1): the chain's belief is (3.0, 3.5), ŝ = √(3.5 / 3.0)
-    first, second = m.Monitor(2.0, 1.5), m.Monitor(2.5, 3.0)
+    first, second = ms.Monitor(2.0, 1.5), ms.Monitor(2.5, 3.0)
     chain = noise.pooled([first.noise, second.noise])
     assert (chain.shape, chain.rate) == (3.0, 3.5)
     assert_allclose(chain.scale, math.sqrt(3.5 / 3.0))
@@ -127,18 +128,18 @@ def test_the_noise_scale_finds_the_chains_noise(factor, low, high):
     # 400 readings of one setpoint whose noise is factor × the reported u/2, each judged
     # against the last (the chain of ivester and bayes): ŝ ends near the factor
     rng = np.random.default_rng(5)
-    monitor = m.Monitor()
+    monitor = ms.Monitor()
     u = 2.0
     for _ in range(400):
         y = 100.0 * math.exp(factor * 0.01 * rng.standard_normal())
         high_side = m.chain(monitor, POINT, EXPONENTS, 0.15)
-        watched = _watch(monitor, y, u=u, low=m.Expected(math.log(100.0), 0.5), high=high_side)
+        watched = _watch(monitor, y, u=u, low=ms.Expected(math.log(100.0), 0.5), high=high_side)
         monitor = m.learned(watched.monitor, Measurement(y, u), POINT, None)
     assert low <= monitor.scale <= high
 
 
 def test_the_chain_moves_the_last_reading_with_the_exponents_and_a_worn_edges_rise():
-    monitor = m.learned(m.Monitor(), Measurement(100.0, 1.0), POINT, 2)
+    monitor = m.learned(ms.Monitor(), Measurement(100.0, 1.0), POINT, 2)
     moved = {"feed_mm_rev": 0.33}
     # 0.8 · ln 1.1 = 0.07625 higher, misfit (0.15 · 0.07625)² = 1.308e-4; two parts of a rise
     # 0.01 ± 0.005 per part: + 0.02, variance + 4 · 2.5e-5
@@ -157,9 +158,9 @@ def test_the_chain_moves_the_last_reading_with_the_exponents_and_a_worn_edges_ri
     y=st.floats(1e-3, 1e4),
 )
 def test_a_monitor_survives_its_json(shape, rate, quarantined, y):
-    reading = m.Reading(math.log(y), 0.01, {"feed_mm_rev": -1.2}, 3)
-    monitor = m.Monitor(shape, rate, reading, reading, quarantined, 2)
-    assert m.from_json(monitor.to_json()) == monitor
+    reading = ms.Reading(math.log(y), 0.01, {"feed_mm_rev": -1.2}, 3)
+    monitor = ms.Monitor(shape, rate, reading, reading, quarantined, 2)
+    assert ms.from_json(monitor.to_json()) == monitor
     assert monitor.scale >= 1.0 and monitor.noise.prudent_scale >= monitor.scale
 
 
@@ -185,8 +186,8 @@ def test_readings_a_little_over_part_after_part_are_a_change_by_cusum():
     # r = 2.9559 each (under the one-reading threshold 4); S = max(0, S + r − 0.5): 2.456,
     # 4.912 (under h = 6), 7.368: the third reading is a change, its discount the mean shift²
     # less the variance of a mean of three, 0.029559² − 1e-4 / 3 = 8.4040e-4
-    tight = m.Expected(math.log(100.0), 0.01)
-    monitor = m.Monitor()
+    tight = ms.Expected(math.log(100.0), 0.01)
+    monitor = ms.Monitor()
     for expected_s in (2.4559, 4.9118):
         watched = _watch(monitor, 103.0, u=0.001, low=tight, high=tight)
         assert watched.verdict == "accept"
@@ -207,19 +208,19 @@ def test_a_drift_in_progress_off_the_model_teaches_the_noise_nothing():
     # ln y ~ ln 100 ± 0.01 (a model's expectation, no chain noise); 103 ± 1 has s_n =
     # 0.5/103 = 0.004854, r = ln 1.03 / hypot(0.01, 0.004854) = 2.6591; with the CUSUM at 0
     # it would stand at 2.159 after it, over 2: the reading is part of a drift, not noise
-    model = m.Expected(math.log(100.0), 0.01)
+    model = ms.Expected(math.log(100.0), 0.01)
     r = math.log(1.03) / math.hypot(0.01, 0.5 / 103)
     assert_allclose(r, 2.6591, rtol=1e-4)
-    gated = m.watch(m.Monitor(), NEAR, model, Measurement(103.0, 1.0), POINT, EXPONENTS, 0.15)
+    gated = m.watch(ms.Monitor(), NEAR, model, Measurement(103.0, 1.0), POINT, EXPONENTS, 0.15)
     assert_allclose(gated.monitor.cusum, r - 0.5)
-    assert (gated.monitor.shape, gated.monitor.rate) == (m.Monitor().shape, m.Monitor().rate)
+    assert (gated.monitor.shape, gated.monitor.rate) == (ms.Monitor().shape, ms.Monitor().rate)
     # 102 (r = 1.7783, the CUSUM at 1.278, under 2) teaches it: weight s_n² / (s² + s_n²),
     # s_n = 0.5/102: 0.19373
-    quiet = m.watch(m.Monitor(), NEAR, model, Measurement(102.0, 1.0), POINT, EXPONENTS, 0.15)
+    quiet = m.watch(ms.Monitor(), NEAR, model, Measurement(102.0, 1.0), POINT, EXPONENTS, 0.15)
     noise2 = (0.5 / 102) ** 2
     assert_allclose(quiet.monitor.shape, 1.5 + 0.5 * 0.19373, rtol=1e-4)
     assert_allclose(quiet.monitor.shape, 1.5 + 0.5 * noise2 / (1e-4 + noise2))
     # a successive difference (the chain's last reading, noise 0.005) is not gated
-    chain = m.Expected(math.log(100.0), 0.01, 0.005)
-    judged = m.watch(m.Monitor(), NEAR, chain, Measurement(103.0, 1.0), POINT, EXPONENTS, 0.15)
-    assert judged.monitor.shape > m.Monitor().shape
+    chain = ms.Expected(math.log(100.0), 0.01, 0.005)
+    judged = m.watch(ms.Monitor(), NEAR, chain, Measurement(103.0, 1.0), POINT, EXPONENTS, 0.15)
+    assert judged.monitor.shape > ms.Monitor().shape
