@@ -18,7 +18,7 @@ from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
 from supervisor.rcb.monitor import Watched, watch
 from supervisor.rcb.monitor_state import Expected, Monitor
-from supervisor.rcb.noise import pooled
+from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.state import RcbState
 
 
@@ -69,15 +69,18 @@ def judge(
     quantity: str,
     measurement: Measurement,
     report: PartReport,
+    chain: NoiseScale,
 ) -> Judged:
-    """What the strategy expects of a reading and how the monitor judges it."""
+    """What the strategy expects of a reading and how the monitor judges it.
+
+    ``chain``: the noise scale of the chain that reads ``quantity``, before the report.
+    """
     monitor = state.monitors.get((op.name, quantity)) or Monitor()
     judged = Judged(op, made, quantity, measurement, monitor, Watched("accept", monitor))
     if MODEL_QUANTITIES[quantity].sense == "max":  # a tool life too good to be true is rare
         age = report.edge_parts.get(op.name)
         judged.point = {**made.setpoint, **op.context}
         judged.exponents = exponents = state.tools[op.name].models[quantity].exponents
-        chain = pooled(m.chain_noise for (_, q), m in state.monitors.items() if q == quantity)
         rule = state.settings.rule
         judged.expected = rule.expects(state, op, made, quantity, age, monitor, chain)
         low, high = judged.expected

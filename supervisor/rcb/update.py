@@ -136,7 +136,14 @@ def update(
     gross: list[HaltedOperation] = []
     chains = _chains(state.monitors)
     judged = [
-        judge(state, *measured_at(operations[name], results[name], quantity), quantity, m, report)
+        judge(
+            state,
+            *measured_at(operations[name], results[name], quantity),
+            quantity,
+            m,
+            report,
+            chains.get(quantity, NoiseScale()),
+        )
         for name, quantity, m in measured_items  # measured_at: a pass's setpoint
     ]
     on_high = [j for j in judged if j.watched.innovation is not None]  # none when confirmed
