@@ -39,18 +39,19 @@ class Judged:
     exponents: Mapping[str, float] | None = None
     expected: tuple[Expected, Expected | None] | None = None  # what the strategy expected
 
-    def shifted(self, shift: float, variance: float) -> Measurement | None:
+    def shifted(self, shift: float, variance: float, scale: float = 1.0) -> Measurement | None:
         """What the strategy expected on the high side, moved by a common change (None: nothing).
 
         ``shift`` and ``variance``: the change [ln] and its variance, which with the
-        expectation's own (its readings' noise at the measured scale ``ŝ``) make the value's
-        expanded uncertainty (``k = 2``).
+        expectation's own (its readings' noise at ``scale``, at least the measured ``ŝ``)
+        make the value's expanded uncertainty (``k = 2``).
         """
         if self.expected is None or self.expected[1] is None:
             return None
         high = self.expected[1]
         value = math.exp(high.mean + shift)
-        spread2 = high.sd**2 + (self.monitor.scale * high.noise) ** 2 + variance
+        noise = max(self.monitor.scale, scale) * high.noise
+        spread2 = high.sd**2 + noise**2 + variance
         return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(spread2))
 
     def rejudged(self, exponent_sd: float, common: tuple[float, float]) -> Watched:

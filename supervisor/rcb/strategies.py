@@ -73,11 +73,18 @@ class Strategy:
     ) -> tuple[Expected, Expected | None]:
         """What a reading at ``result``'s setpoint should be: ``(low side, high side)``.
 
-        The low side is the catalogue model and its band read as ``k σ`` (the truth lies in
-        it, Ivester & Heigel: the band "encompasses all of the points"; the band in force is
-        one-sided and says nothing of how low a reading may be). The high side is the last
-        reading learned from, moved to this setpoint with the model's exponents
-        (:func:`supervisor.rcb.monitor.chain`; None before the first).
+        The high side is the last reading learned from, moved to this setpoint with the
+        model's exponents (:func:`supervisor.rcb.monitor.chain`; None before the first). The
+        low side is the same once there is one, else the catalogue model and its band read as
+        ``k σ`` (the truth lies in it, Ivester & Heigel: the band "encompasses all of the
+        points"; the band in force is one-sided and says nothing of how low a reading may
+        be). Against the catalogue's wide band a reading at 26 % of the truth escaped the
+        quarantine (``r = −4.5``), taught the noise scale a 3x noisier chain and shrank the
+        band; against the last reading it is ``r = −40``. Measured on
+        ``benchmarks/closed_loop.py``, ``ivester``, 1000 scenarios x 30 parts, all five
+        faults: 10 scenarios stopped with no safe setpoint and 15 avoidable crossings
+        against the catalogue, none stopped and 12 against the last reading; dropout alone,
+        1 stopped and none.
         """
         from supervisor.rcb import monitor as watcher
         from supervisor.rcb.monitor_state import Expected as Expecting
@@ -92,7 +99,8 @@ class Strategy:
         exponents = state.tools[operation.name].models[quantity].exponents
         worn = state.wear.get((operation.name, quantity))
         rise = None if worn is None else (worn.mean, worn.var)
-        return low, watcher.chain(monitor, point, exponents, settings.exponent_sd, age, rise)
+        high = watcher.chain(monitor, point, exponents, settings.exponent_sd, age, rise)
+        return (low if high is None else high), high
 
     def forget(self, sigma: float, variance: float) -> float:
         """σ of ``ln K`` after a change that discounts ``variance`` of evidence (here as is)."""

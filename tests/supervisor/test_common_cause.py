@@ -21,7 +21,7 @@ from supervisor.rcb import common_cause as cc
 from supervisor.rcb import learning
 from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.state import RcbSettings
-from supervisor.rcb.update import start, update
+from supervisor.rcb.update import _chains, start, update
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
@@ -148,8 +148,8 @@ def test_a_rise_over_the_pooled_level_under_the_one_reading_alarm_is_a_change():
 def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift():
     # ivester learns no K: the quarantined operation's band grows to cover what it expected
     # (its last reading moved to the setpoint) raised by the others' shift, at k = 2 of that
-    # value's spread (the expectation's, its last reading's noise at the measured scale, and
-    # the shift's)
+    # value's spread (the expectation's, its last reading's noise at the chain's prudent scale
+    # before the report, and the shift's)
     state = _learned_state("ivester")
     names = [op.name for op in state.plan.operations]
     unread, rest = names[0], names[1:]
@@ -167,7 +167,9 @@ def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift()
     monitor = state.monitors[(unread, "roughness_um")]
     _, high = state.settings.rule.expects(state, op, made, "roughness_um", None, monitor)
     value = math.exp(high.mean + shift)
-    spread2 = high.sd**2 + (monitor.scale * high.noise) ** 2 + variance  # its last reading's too
+    prudent = _chains(state.monitors)["roughness_um"].prudent_scale
+    assert prudent > monitor.scale  # the chain's noise is not known yet: more than ŝ
+    spread2 = high.sd**2 + (prudent * high.noise) ** 2 + variance  # its last reading's too
     covered = value * (1 + 2 * math.sqrt(spread2))
     point = {**made.setpoint, **op.context}
     before = state.tools[unread].models["roughness_um"].predict(point)

@@ -224,3 +224,29 @@ def test_a_drift_in_progress_off_the_model_teaches_the_noise_nothing():
     chain = ms.Expected(math.log(100.0), 0.01, 0.005)
     judged = m.watch(ms.Monitor(), NEAR, chain, Measurement(103.0, 1.0), POINT, EXPONENTS, 0.15)
     assert judged.monitor.shape > ms.Monitor().shape
+
+
+def test_the_paper_law_judges_a_low_reading_against_the_last_one_not_the_catalogue():
+    # ivester, rough-od Ra: the catalogue predicts 3.176 ± 0.8235 µm at the robust start
+    # (Ivester & Heigel Table 4), s = 0.8235 / 3.176 / 2 = 0.1296 in ln. A reading at 0.55 of
+    # it, e = ln 0.55 = −0.598, is r = −4.6 against the catalogue (not quarantined: −6) but,
+    # once one reading is in, is judged against that reading moved to the new setpoint:
+    # its noise 0.09 / 2 / 3.176 = 0.0142 and the move's exponent misfit make r ≪ −6
+    from rcb_support import _report, paper_start
+
+    from supervisor.rcb.update import update
+
+    state = paper_start()
+    ra = state.setpoints.operations[0].predicted["roughness_um"]
+    assert_allclose((ra.value, ra.band), (3.176, 0.8235), atol=0.001)
+    r_catalogue = math.log(0.55) / math.sqrt(
+        (ra.band / ra.value / 2) ** 2 + (0.09 / 2 / ra.value) ** 2
+    )
+    assert -6 < r_catalogue < -4.5
+    on_model = {"rough-od": {"roughness_um": Measurement(ra.value, 0.09)}}
+    state, _ = update(state, _report(state, on_model))
+    now = state.setpoints.operations[0].predicted["roughness_um"].value
+    low = {"rough-od": {"roughness_um": Measurement(0.55 * now, 0.09)}}
+    _, (d,) = update(state, _report(state, low))
+    assert d.note == "implausible_low" and d.action == "hold"
+    assert d.band_after == d.band_before  # nothing learned from it

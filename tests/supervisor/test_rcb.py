@@ -11,10 +11,20 @@ from rcb_support import _report, paper_start
 from supervisor.inputs.part_report import Measurement, ToolWear
 from supervisor.inputs.plan import load_plan
 from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.monitor_state import Monitor
+from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
 
 from conftest import DEMO_PLAN
+
+#: The chain's prudent noise scale before any reading has shown its noise (supervisor.rcb.noise:
+#: the inverse-gamma prior a = 1.5, b = 1 and its upper 93 % quantile, b / P⁻¹(a, 0.07)).
+PRUDENT = 2.1111458
+
+
+def test_the_prudent_scale_before_any_reading():
+    assert NoiseScale().prudent_scale == pytest.approx(PRUDENT, rel=1e-7)
 
 
 @pytest.fixture(scope="module")
@@ -71,13 +81,15 @@ def test_the_floor_holds(state):
 
 
 def test_a_violation_expands_and_never_shrinks(state):
-    # Ra 4.3 ± 0.05 µm is over the 4.0 µm limit: a breach; the band grows to cover it.
+    # Ra 4.3 ± 0.05 µm is over the 4.0 µm limit: a breach; the band grows to cover it, its u
+    # at the chain's prudent scale (no reading has shown the chain's noise yet: the prior's
+    # upper 93 % quantile, P = 2.1111, supervisor.rcb.noise)
     ra = _rough_od(state).predicted["roughness_um"]
     new, (d,) = update(
         state, _report(state, {"rough-od": {"roughness_um": Measurement(4.3, 0.05)}})
     )
     assert d.action == "expand" and d.flagged and d.flag == "breach" and d.note is None
-    assert_allclose(d.band_after, 4.3 + 0.05 - ra.value)  # y + u − Y
+    assert_allclose(d.band_after, 4.3 + PRUDENT * 0.05 - ra.value)  # y + P u − Y
     assert d.band_after > d.band_before and d.margin < 0
     assert new.setpoints.operations[0].mrr_cm3_min < _rough_od(state).mrr_cm3_min  # backs off
 
@@ -102,23 +114,33 @@ def test_one_sided_law_hand_computed(state):
     assert_allclose(low.margin, 615.0)
     assert_allclose(low.band_after, f.band - 153.75)
     # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.40: expand to cover
-    # it (765 − 578.35 = 186.65 N), flagged above_band, margin 235 N
+    # it (765 − 578.35 = 186.65 N), flagged above_band, margin 235 N; y + P u = 770.56 is
+    # under the limit, so the paper's y + u
     above = one(760.0, 5.0)
     assert above.action == "expand" and above.flagged and above.flag == "above_band"
     assert above.note is None
     assert_allclose(above.band_after, 765.0 - f.value)
     assert_allclose(above.margin, 235.0)
-    # measured over the limit: 1010 ± 5 → breach, the band covers 1015 N
+    # near the limit, before the chain has shown its noise, u counts at the prudent scale P
+    # where y + P u is past the limit: 990 ± 5 → 990 + 5 P = 1000.56 > 1000, the band covers
+    # it (1000.56 − 578.35 = 422.21 N); 985 ± 5 → 995.56 under it, the band covers y + u
+    near = one(990.0, 5.0)
+    assert near.flag == "above_band" and near.action == "expand"
+    assert_allclose(near.band_after, 990.0 + 5 * PRUDENT - f.value)
+    assert_allclose(near.band_after, 422.21, atol=0.01)
+    assert_allclose(near.margin, 5.0)  # the margin reads u as reported
+    assert_allclose(one(985.0, 5.0).band_after, 990.0 - f.value)
+    # measured over the limit: 1010 ± 5 → breach, the band covers 1010 + 5 P = 1020.56 N
     over = one(1010.0, 5.0)
     assert over.action == "expand" and over.flag == "breach"
-    assert_allclose(over.band_after, 1015.0 - f.value)
+    assert_allclose(over.band_after, 1010.0 + 5 * PRUDENT - f.value)
     assert_allclose(over.margin, -15.0)
     # past the limit by more than u but within the reading's 3σ (σ = u/2): 1006 ± 5 → y − u
     # = 1001 > 1000 (out of tolerance by ISO 14253-1: the note past_limit), y − 1.5u = 998.5
     # under it (no process alarm); a band setpoint still flags it above_band and backs off
     iso = one(1006.0, 5.0)
     assert iso.flag == "above_band" and iso.note == "past_limit" and iso.action == "expand"
-    assert_allclose(iso.band_after, 1011.0 - f.value)
+    assert_allclose(iso.band_after, 1006.0 + 5 * PRUDENT - f.value)
     assert_allclose(iso.margin, -11.0)
     # the 3σ alarm's edge: y − 1.5u = 1000.0 is not past the limit, 1000.15 is
     assert one(1007.5, 5.0).flag == "above_band"
@@ -173,6 +195,11 @@ def test_no_margin_holds():
     rough = plan.operations[0]
     rough = replace(rough, limits={**rough.limits, "roughness_um": edge})
     state = start(replace(plan, operations=(rough, *plan.operations[1:])), settings)
+    # a chain that has shown it is as quiet as it says (the evidence of 1000 half-readings at
+    # 0.6 of its u²): its prudent scale is 1, the alarm reads u as reported
+    quiet = Monitor(chain_shape=NoiseScale().shape + 500, chain_rate=NoiseScale().rate + 300)
+    assert quiet.chain_noise.prudent_scale == 1.0
+    state = replace(state, monitors={("rough-od", "roughness_um"): quiet})
     ra = _rough_od(state).predicted["roughness_um"]
     assert ra.upper == edge
     u = 0.0625  # a power of two: y + u is the edge to the last bit
