@@ -33,18 +33,28 @@ the limit matters. For a maximum:
 A maximum's reading whose ``y + P u`` is past the limit, ``P`` the measuring chain's *prudent*
 noise scale (:attr:`supervisor.rcb.noise.NoiseScale.prudent_scale`: 2.11 before any reading has
 shown the chain's noise, 1 once the chain has shown it is as quiet as it says), is checked
-against the band's edge at ``y + P u``, and a band it grows covers ``y + P u``; the margin, the
-floor and the ``breach`` alarm read ``u`` at the measured ``ŝ``, and a reading whose ``y + P
-u`` is under the limit is the paper's. The reported ``u`` is a prior on the noise, not its value
-(DESIGN.md): a chain 3x noisier than it claims (``σ = 1.5 u``) reads more than ``u`` under the
-truth once in 4 parts, and the paper's ``y + u`` then lets a band shrink whose edge the truth
-already crosses (a catalogue band does not cover a truth that is a power law only locally).
-Only near the limit: a band at its floor (``ΔY = u``) would otherwise flag every reading on the
-model before the chain's noise is known. A minimum (tool life) keeps its ``u``: no monitor
-learns its noise, so ``P`` would stay the prior's for ever. Measured on
-``benchmarks/closed_loop.py``, ``ivester``, 1000 scenarios x 30 parts, all five faults: 28
-avoidable crossings with ``y + u``, 11 with ``y + P u``; fault-free MRR/oracle after 10 parts
-0.9462 and 0.9460; ``learn`` fault-free unchanged (0.9801, p5 0.9729, 0.9925).
+against the band's edge at ``y + P u``, and a band it grows covers ``y + P u``; the floor and the
+``breach`` alarm read ``u`` at the measured ``ŝ``, and a reading whose ``y + P u`` is under the
+limit is the paper's. The reported ``u`` is a prior on the noise, not its value (DESIGN.md): a
+chain 3x noisier than it claims (``σ = 1.5 u``) reads more than ``u`` under the truth once in 4
+parts, and the paper's ``y + u`` then lets a band shrink whose edge the truth already crosses (a
+catalogue band does not cover a truth that is a power law only locally). Only near the limit: a
+band at its floor (``ΔY = u``) would otherwise flag every reading on the model before the
+chain's noise is known.
+
+The margin of a maximum's reading *over the prediction* at its setpoint reads the same ``u``,
+``M = Y_lim − (y + P u)``; under it the paper's ``M = Y_lim − (y + u)``. Why there: the next
+setpoint raises the truth by about ``α M``, so a reading ``e`` under a truth ``d`` under the
+limit is safe while ``e ≤ u + 3 d`` (α = 0.25). Under the prediction the band itself stands
+between the reading and the limit, ``d ≥ ΔY − e``, and every ``e ≤ (u + 3 ΔY)/4`` is safe; over
+it ``d`` may be near 0 (a truth the catalogue band barely covers), and then only the reading's
+noise decides. Ivester & Heigel's Table 5 readings lie under their predictions and keep the
+paper's figures. A minimum (tool life) keeps its ``u`` throughout: no monitor learns its noise,
+so ``P`` would stay the prior's for ever. Measured on ``benchmarks/closed_loop.py``, ``ivester``,
+1000 scenarios x 30 parts, all five faults: 28 avoidable crossings with the paper's ``y + u``,
+11 with ``y + P u`` at the alarm and the cover, 2 with the margin over the prediction too;
+fault-free MRR/oracle after 10 parts 0.9462, 0.9460, 0.9454; ``learn`` fault-free unchanged
+(0.9800, p5 0.9734, 0.9924 in 300 scenarios).
 
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + 3σ`` under
 the limit) or ``below_band`` (``y − u`` under the lower edge), the notes ``past_limit`` and
@@ -231,12 +241,14 @@ def _apply_law(
     if limit is None:
         hold = decision("hold", model, None, "no limit on this quantity")
         return hold, model, sigma, worst
-    # the side the alarm and a grown band read: u at the chain's prudent scale where that
-    # side is past the limit (module docstring), else the paper's y + u
-    wide = max(u, alarm_u) if is_max and y + alarm_u > limit else u
+    # u at the chain's prudent scale (module docstring): the alarm and a grown band read it
+    # where that side is past the limit, the margin where the reading is over the prediction
+    prudent_u = max(u, alarm_u)
+    wide = prudent_u if is_max and y + alarm_u > limit else u
     alarm = y + wide if is_max else guard
     # the margin the edge will still have at its last part (wear, supervisor.rcb.wear)
-    margin = limit - (y * projection + u) if is_max else guard - limit
+    margin_u = prudent_u if y > shown.value else u
+    margin = limit - (y * projection + margin_u) if is_max else guard - limit
     worn = is_max and projection > 1.0
     projected = f"reading projected {100 * (projection - 1):+.3g} % for wear" if worn else ""
     # the far side of the reading at the alarm's coverage: past the limit, the process crossed

@@ -281,7 +281,8 @@ def _unread_change(
     shift, variance = common.shift()
     virtual = item.shifted(shift, variance, scale)
     if virtual is not None:
-        law, model, sigma, seen = apply_law(state, op, item.made, quantity, virtual)
+        moved = state.settings.exponent_sd  # a change, as a flagged reading of one backs off
+        law, model, sigma, seen = apply_law(state, op, item.made, quantity, virtual, 1.0, moved)
         if law.action == "expand":
             new.tools[op.name] = _with_model(new.tools[op.name], model)
             new.sigma[key], new.seen[key] = sigma, seen

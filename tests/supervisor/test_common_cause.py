@@ -149,7 +149,8 @@ def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift()
     # ivester learns no K: the quarantined operation's band grows to cover what it expected
     # (its last reading moved to the setpoint) raised by the others' shift, at k = 2 of that
     # value's spread (the expectation's, its last reading's noise at the chain's prudent scale
-    # before the report, and the shift's)
+    # before the report, and the shift's); past the limit, as a flagged reading of a change
+    # does, it reaches (g / limit)^(k s) higher (the back-off's exponent error, law.py)
     state = _learned_state("ivester")
     names = [op.name for op in state.plan.operations]
     unread, rest = names[0], names[1:]
@@ -175,7 +176,11 @@ def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift()
     before = state.tools[unread].models["roughness_um"].predict(point)
     after = new.tools[unread].models["roughness_um"].predict(point)
     assert before.value + before.band < covered  # it did not cover the change before
-    assert after.value + after.band == pytest.approx(covered, rel=1e-6)
+    limit = op.limits["roughness_um"]
+    assert covered > limit
+    settings = state.settings
+    reach = covered * (covered / limit) ** (settings.coverage_k * settings.exponent_sd)
+    assert after.value + after.band == pytest.approx(reach, rel=1e-6)
 
 
 def test_a_failed_sensor_at_the_change_neither_hides_the_rise_nor_pulls_it_down():

@@ -114,13 +114,23 @@ def test_one_sided_law_hand_computed(state):
     assert_allclose(low.margin, 615.0)
     assert_allclose(low.band_after, f.band - 153.75)
     # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.40: expand to cover
-    # it (765 − 578.35 = 186.65 N), flagged above_band, margin 235 N; y + P u = 770.56 is
-    # under the limit, so the paper's y + u
+    # it (765 − 578.35 = 186.65 N), flagged above_band; y + P u = 770.56 is under the limit,
+    # so the band covers the paper's y + u; over the prediction, the margin reads y + P u:
+    # 1000 − 770.56 = 229.44 N (the paper's 235 N for a reading under the prediction: low)
     above = one(760.0, 5.0)
     assert above.action == "expand" and above.flagged and above.flag == "above_band"
     assert above.note is None
     assert_allclose(above.band_after, 765.0 - f.value)
-    assert_allclose(above.margin, 235.0)
+    assert_allclose(above.margin, 1000.0 - 760.0 - 5 * PRUDENT)
+    assert_allclose(above.margin, 229.44, atol=0.01)
+    # over the prediction, inside the band: 620 ± 5, margin 1000 − 630.56 = 369.44 N, the band
+    # shrinks by 92.36 N to 84.69 N (the paper's y + u: 375 N, 93.75 N; it still covers
+    # y + u = 625 N, 46.65 N over the prediction)
+    upper_half = one(620.0, 5.0)
+    assert upper_half.action == "shrink" and upper_half.flag is None
+    assert_allclose(upper_half.margin, 369.44, atol=0.01)
+    assert_allclose(upper_half.band_after, f.band - 0.25 * (1000.0 - 620.0 - 5 * PRUDENT))
+    assert_allclose(upper_half.band_after, 84.69, atol=0.01)
     # near the limit, before the chain has shown its noise, u counts at the prudent scale P
     # where y + P u is past the limit: 990 ± 5 → 990 + 5 P = 1000.56 > 1000, the band covers
     # it (1000.56 − 578.35 = 422.21 N); 985 ± 5 → 995.56 under it, the band covers y + u
@@ -128,20 +138,20 @@ def test_one_sided_law_hand_computed(state):
     assert near.flag == "above_band" and near.action == "expand"
     assert_allclose(near.band_after, 990.0 + 5 * PRUDENT - f.value)
     assert_allclose(near.band_after, 422.21, atol=0.01)
-    assert_allclose(near.margin, 5.0)  # the margin reads u as reported
+    assert_allclose(near.margin, 1000.0 - 990.0 - 5 * PRUDENT, atol=1e-6)  # −0.56 N: none
     assert_allclose(one(985.0, 5.0).band_after, 990.0 - f.value)
     # measured over the limit: 1010 ± 5 → breach, the band covers 1010 + 5 P = 1020.56 N
     over = one(1010.0, 5.0)
     assert over.action == "expand" and over.flag == "breach"
     assert_allclose(over.band_after, 1010.0 + 5 * PRUDENT - f.value)
-    assert_allclose(over.margin, -15.0)
+    assert_allclose(over.margin, -10.0 - 5 * PRUDENT)
     # past the limit by more than u but within the reading's 3σ (σ = u/2): 1006 ± 5 → y − u
     # = 1001 > 1000 (out of tolerance by ISO 14253-1: the note past_limit), y − 1.5u = 998.5
     # under it (no process alarm); a band setpoint still flags it above_band and backs off
     iso = one(1006.0, 5.0)
     assert iso.flag == "above_band" and iso.note == "past_limit" and iso.action == "expand"
     assert_allclose(iso.band_after, 1006.0 + 5 * PRUDENT - f.value)
-    assert_allclose(iso.margin, -11.0)
+    assert_allclose(iso.margin, -6.0 - 5 * PRUDENT)
     # the 3σ alarm's edge: y − 1.5u = 1000.0 is not past the limit, 1000.15 is
     assert one(1007.5, 5.0).flag == "above_band"
     assert one(1007.65, 5.0).flag == "breach" and one(1007.65, 5.0).note is None

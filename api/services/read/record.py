@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 from sqlalchemy import Engine
+from sqlalchemy.orm import Session
 
 from api.services import request_limits
 from api.services.read.common import _read, _utc
@@ -69,15 +70,7 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
         )
         count, received = db_record.part_totals(session=session, plan_id=plan_id)
         totals = db_record.decision_totals(session=session, plan_id=plan_id)
-        newest = session.get_one(t.Plan, plan_id).current_setpoint_version
-        cut = max(0, newest - HISTORY_ROWS)
-        groups = (
-            db_record.version_groups(
-                session=session, plan_id=plan_id, up_to=cut, size=group_size(cut)
-            )
-            if cut
-            else []
-        )
+        cut, groups = _older_groups(session, plan_id)
         wanted = {1, *(p.setpoint_version for p in parts), *db_record.summary_of(groups)}
         versions = db_record.versions(
             session=session, plan_id=plan_id, newer_than=cut, numbers=wanted
@@ -107,6 +100,17 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
         "last_decisions": [{**decision_json(d, names), "serial": serial} for d, serial in latest],
         "marks": {part: [decision_json(d, names) for d in rows] for part, rows in marks.items()},
     }
+
+
+def _older_groups(session: Session, plan_id: int) -> tuple[int, list[tuple[int, int, int]]]:
+    """The last version summarised (0: none) and the groups of versions up to it."""
+    newest = session.get_one(t.Plan, plan_id).current_setpoint_version
+    cut = max(0, newest - HISTORY_ROWS)
+    if not cut:
+        return 0, []
+    return cut, db_record.version_groups(
+        session=session, plan_id=plan_id, up_to=cut, size=group_size(cut)
+    )
 
 
 def _summary(first: dict[str, Any], last: dict[str, Any], count: int) -> dict[str, Any]:
