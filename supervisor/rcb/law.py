@@ -54,7 +54,10 @@ so ``P`` would stay the prior's for ever. Measured on ``benchmarks/closed_loop.p
 1000 scenarios x 30 parts, all five faults: 28 avoidable crossings with the paper's ``y + u``,
 11 with ``y + P u`` at the alarm and the cover, 2 with the margin over the prediction too;
 fault-free MRR/oracle after 10 parts 0.9462, 0.9460, 0.9454; ``learn`` fault-free unchanged
-(0.9800, p5 0.9734, 0.9924 in 300 scenarios).
+(0.9800, p5 0.9734, 0.9924 in 300 scenarios). ``P`` at the chain's ``Φ(2)`` quantile (3.15
+before any reading) gave 1 but is not used: the paper's Table 5 step 2 reading, rough-grooves
+Ra 1.82 ± 0.07 µm on its 2.0 µm limit, would then hold where the paper shrinks (``P`` must
+stay under 2.57 before any reading for it).
 
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + 3σ`` under
 the limit) or ``below_band`` (``y − u`` under the lower edge), the notes ``past_limit`` and
