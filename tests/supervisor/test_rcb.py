@@ -131,6 +131,12 @@ def test_one_sided_law_hand_computed(state):
     assert_allclose(upper_half.margin, 369.44, atol=0.01)
     assert_allclose(upper_half.band_after, f.band - 0.25 * (1000.0 - 620.0 - 5 * PRUDENT))
     assert_allclose(upper_half.band_after, 84.69, atol=0.01)
+    # just over the prediction: 580 ± 5, δ = 1.65 N under (P − 1) u = 5.56 N: the margin
+    # counts u + δ, 1000 − 586.65 = 413.35 N (the paper's 415 N); continuous at y = Y
+    just_over = one(580.0, 5.0)
+    assert just_over.action == "shrink" and just_over.flag is None
+    assert_allclose(just_over.margin, 1000.0 - 580.0 - 5.0 - (580.0 - f.value))
+    assert_allclose(just_over.margin, 413.35, atol=0.01)
     # near the limit, before the chain has shown its noise, u counts at the prudent scale P
     # where y + P u is past the limit: 990 ± 5 → 990 + 5 P = 1000.56 > 1000, the band covers
     # it (1000.56 − 578.35 = 422.21 N); 985 ± 5 → 995.56 under it, the band covers y + u
@@ -231,7 +237,13 @@ def test_quantities_and_operations_update_independently(state):
     # 1990 + 12 = 2002 is above the band's upper edge (the 2000 N limit): above_band
     assert by[("rough-od", "force_N")].action == "expand"
     assert by[("rough-od", "force_N")].flag == "above_band"
-    assert by[("rough-grooves", "roughness_um")].action == "shrink"
+    grooves = by[("rough-grooves", "roughness_um")]
+    assert grooves.action == "shrink"
+    # 1.82 is 0.10 µm over the 1.722 µm prediction, more than (P − 1) u = 0.078 µm: before any
+    # reading has shown the chain's noise the margin reads y + P u, 2.0 − 1.9678 = 0.0322 µm
+    # (the paper's y + u: 0.11 µm; supervisor.rcb.law)
+    assert grooves.predicted == pytest.approx(1.722, abs=5e-4)
+    assert_allclose(grooves.margin, 2.0 - 1.82 - PRUDENT * 0.07, rtol=1e-6)
     # steps 2 and 3 use the same insert (VCMR331) but keep separate bands
     assert new.tools["rough-contour"] == state.tools["rough-contour"]
     assert new.tools["rough-grooves"] != state.tools["rough-grooves"]
