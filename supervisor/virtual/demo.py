@@ -110,9 +110,34 @@ def run_demo(
     """
     machine = sample_machine(plan, seed, uncertainty=uncertainty)
     rng = np.random.default_rng(seed)
-    state = start(plan, settings)
+    initial = start(plan, settings)
     catalog = _catalog_rows(plan, machine, rng)
-    robust_setpoints = state.setpoints
+    state, first, violations, trail = _make_parts(plan, machine, initial, parts, seed, rng, on_part)
+    # one more part at the final setpoints shows what they make (measured, not applied)
+    check = run_part(machine, {op.name: op.setpoint for op in state.setpoints.operations}, rng)
+    violations += len(check.violations)
+    rows = _operation_rows(plan, machine, catalog, initial.setpoints, state, first, check, rng)
+    return DemoResult(
+        operations=rows,
+        cycle_time_min=_cycles(plan, machine, catalog, initial.setpoints, state.setpoints),
+        violations=violations,
+        parts=parts,
+        flagged=sum(d.flagged for ds in trail for d in ds),
+        final_state=state,
+        decisions=tuple(trail),
+    )
+
+
+def _make_parts(
+    plan: Plan,
+    machine: VirtualMachine,
+    state: RcbState,
+    parts: int,
+    seed: int,
+    rng: np.random.Generator,
+    on_part: Callable[[int], None] | None,
+) -> tuple[RcbState, Mapping[str, Mapping[str, Measurement]], int, list[tuple[Decision, ...]]]:
+    """``parts`` parts, each reported and applied: the state, part 1's readings, violations."""
     edge_life = {
         op.name: max(1, math.floor(op.limits[PARTS_PER_EDGE]))
         for op in plan.operations
@@ -135,9 +160,20 @@ def run_demo(
         trail.append(decisions)
         if on_part is not None:
             on_part(i + 1)
-    # one more part at the final setpoints shows what they make (measured, not applied)
-    check = run_part(machine, {op.name: op.setpoint for op in state.setpoints.operations}, rng)
-    violations += len(check.violations)
+    return state, first, violations, trail
+
+
+def _operation_rows(
+    plan: Plan,
+    machine: VirtualMachine,
+    catalog: Mapping[str, Row],
+    robust_setpoints: PlanResult,
+    state: RcbState,
+    first: Mapping[str, Mapping[str, Measurement]],
+    check: PartOutcome,
+    rng: np.random.Generator,
+) -> tuple[OperationRows, ...]:
+    """Per operation its catalogue, robust (with part 1's readings) and final rows."""
     rows = []
     for robust, final in zip(robust_setpoints.operations, state.setpoints.operations, strict=True):
         rows.append(
@@ -160,25 +196,27 @@ def run_demo(
                 ),
             )
         )
+    return tuple(rows)
+
+
+def _cycles(
+    plan: Plan,
+    machine: VirtualMachine,
+    catalog: Mapping[str, Row],
+    robust: PlanResult,
+    final: PlanResult,
+) -> dict[str, float | None]:
+    """Cycle times of the catalogue (None unless every operation has one), robust, final, oracle."""
     has_catalog = len(catalog) == len(plan.operations)
     # the oracle: the same plan optimised with the true models and no band, the fastest any
     # controller could run on this machine without crossing a true limit
     oracle = optimize_plan(plan, tools=oracle_tools(machine))
-    cycle = {
+    return {
         "catalog": sum(r.time_min for r in catalog.values()) if has_catalog else None,
-        "robust": robust_setpoints.cycle_time_min,
-        "final": state.setpoints.cycle_time_min,
+        "robust": robust.cycle_time_min,
+        "final": final.cycle_time_min,
         "oracle": oracle.cycle_time_min,
     }
-    return DemoResult(
-        operations=tuple(rows),
-        cycle_time_min=cycle,
-        violations=violations,
-        parts=parts,
-        flagged=sum(d.flagged for ds in trail for d in ds),
-        final_state=state,
-        decisions=tuple(trail),
-    )
 
 
 def _catalog_rows(plan: Plan, machine: VirtualMachine, rng: np.random.Generator) -> dict[str, Row]:

@@ -161,10 +161,8 @@ def _ln_functions(compiled: CompiledOperation, faults: PartFaults) -> dict[str, 
     return out
 
 
-def _curved(
-    op: Operation, compiled: CompiledOperation, faults: PartFaults, start: OperationResult
-) -> OperationResult:
-    """The curved-truth optimum of one operation, by SLSQP from ``start`` and the box middle."""
+def _check_curvable(op: Operation) -> None:
+    """Refuse an operation the curved oracle cannot solve (not MRR, a domain, passes)."""
     if op.objective != "mrr" or op.domain is not None or op.passes is not None:
         raise InputError(
             "--fault",
@@ -172,6 +170,13 @@ def _curved(
             f"operation {op.name!r}: the curved oracle takes an MRR objective without a "
             "Borangiu domain or passes",
         )
+
+
+def _curved(
+    op: Operation, compiled: CompiledOperation, faults: PartFaults, start: OperationResult
+) -> OperationResult:
+    """The curved-truth optimum of one operation, by SLSQP from ``start`` and the box middle."""
+    _check_curvable(op)
     params = compiled.parameters
     ln = _ln_functions(compiled, faults)
     rows = []

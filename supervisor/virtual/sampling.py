@@ -5,6 +5,24 @@ the nominal model over the operation's bounds (Ivester & Heigel Eqs. 5, 6, 8 and
 the measurements lay "consistently within the ranges predicted by their respective models");
 :func:`oracle_tools` hands the truth to the optimiser, the fastest any controller could run.
 
+:func:`sample_machine`: for every operation (in plan order, each with its own sub-stream of
+``numpy.random.default_rng(seed)``) and every model of its tool with ``dK > 0`` (in
+quantity-name order), the true model is
+
+.. math:: Y_\mathrm{true} = K (1 + \delta) \prod_i x_i^{e_i + \varepsilon_i},
+          \quad \varepsilon_i \sim N(0, (s_e e_i)^2),
+          \quad \delta \sim N(0, (s\,\Delta K / K)^2)
+          \text{ truncated so that }
+          1 - \frac{\Delta K}{K} \le (1 + \delta) \prod_i x_i^{\varepsilon_i}
+          \le 1 + \frac{\Delta K}{K}
+
+at every corner of the operation's bounds box (context inputs such as ``flank_wear_mm`` at the
+operation's value). The ratio true/nominal is log-linear in ``ln x``, so its extremes over the
+box are at the corners and the truth stays inside the band everywhere in the box (outside the
+bounds, e.g. a catalogue setpoint beyond them, it may leave the band). Where even ``δ = 0``
+leaves a corner outside, ``ε`` is shrunk toward 0 until it fits. Models with ``dK = 0`` stay
+exact.
+
 References
 ----------
 .. [1] Ivester & Heigel, Smart Machining Systems (NIST): Eqs. 5, 6 and 8, "Cutting Force
@@ -39,25 +57,9 @@ def sample_machine(
     uncertainty: Mapping[str, float] | None = None,
     wear_drift_per_edge_life: float = 0.0,
 ) -> VirtualMachine:
-    r"""A virtual machine whose true processes are drawn inside the plan's model bands.
+    """A virtual machine whose true processes are drawn inside the plan's model bands.
 
-    For every operation (in plan order, each with its own sub-stream of
-    ``numpy.random.default_rng(seed)``) and every model of its tool with ``dK > 0`` (in
-    quantity-name order), the true model is
-
-    .. math:: Y_\mathrm{true} = K (1 + \delta) \prod_i x_i^{e_i + \varepsilon_i},
-              \quad \varepsilon_i \sim N(0, (s_e e_i)^2),
-              \quad \delta \sim N(0, (s\,\Delta K / K)^2)
-              \text{ truncated so that }
-              1 - \frac{\Delta K}{K} \le (1 + \delta) \prod_i x_i^{\varepsilon_i}
-              \le 1 + \frac{\Delta K}{K}
-
-    at every corner of the operation's bounds box (context inputs such as ``flank_wear_mm`` at
-    the operation's value). The ratio true/nominal is log-linear in ``ln x``, so its extremes
-    over the box are at the corners and the truth stays inside the band everywhere in the box
-    (outside the bounds, e.g. a catalogue setpoint beyond them, it may leave the band).
-    Where even ``δ = 0`` leaves a corner outside, ``ε`` is shrunk toward 0 until it fits.
-    Models with ``dK = 0`` stay exact.
+    The model of the draw is in the module docstring.
 
     Parameters
     ----------
@@ -89,6 +91,22 @@ def sample_machine(
     VirtualMachine
         The machine, with :class:`supervisor.virtual.machine.TrueProcess` per operation.
     """
+    _check_sampling(plan, spread, exponent_spread)
+    streams = np.random.default_rng(seed).spawn(len(plan.operations))
+    processes: dict[str, TrueProcess] = {}
+    for op, rng in zip(plan.operations, streams, strict=True):
+        tool = _true_tool(plan, op, rng, seed, spread, exponent_spread, wear_drift_per_edge_life)
+        processes[op.name] = TrueProcess(op.name, tool)
+    return VirtualMachine(
+        plan=plan,
+        processes=processes,
+        uncertainty={**DEFAULT_UNCERTAINTY, **(uncertainty or {})},
+        wear_drift_per_edge_life=wear_drift_per_edge_life,
+    )
+
+
+def _check_sampling(plan: Plan, spread: float, exponent_spread: float) -> None:
+    """Refuse a spread that is not a number >= 0 and an operation with a finishing pass."""
     for name, value in (("spread", spread), ("exponent_spread", exponent_spread)):
         if not (math.isfinite(value) and value >= 0):
             raise InputError(name, value, "must be a number >= 0")
@@ -100,38 +118,38 @@ def sample_machine(
                 "the virtual machine makes an operation at one setpoint: a finishing pass is "
                 "not simulated (equal passes are; rcb optimize and the REST service take it)",
             )
-    streams = np.random.default_rng(seed).spawn(len(plan.operations))
-    processes: dict[str, TrueProcess] = {}
-    for op, rng in zip(plan.operations, streams, strict=True):
-        nominal = plan.tools[op.tool]
-        wears = wear_drift_per_edge_life > 0 and "tool_life_mm3" in nominal.models
-        true_models = {
-            q: true_model(
-                nominal.models[q],
-                op,
-                rng,
-                spread,
-                exponent_spread,
-                wear_drift_per_edge_life
-                if wears and quantities.quantity(q).drifts_with_wear
-                else 0.0,
-            )
-            for q in sorted(nominal.models)
-        }
-        tool = Tool(
-            name=nominal.name,
-            process=nominal.process,
-            models={q: true_models[q] for q in nominal.models},
-            description=f"true process of operation {op.name!r} (virtual machine, seed {seed})",
-            material=nominal.material,
-            source=f"sampled inside the bands of {nominal.source or nominal.name}",
+
+
+def _true_tool(
+    plan: Plan,
+    op: Operation,
+    rng: np.random.Generator,
+    seed: int,
+    spread: float,
+    exponent_spread: float,
+    drift: float,
+) -> Tool:
+    """The true tool of ``op``: every model drawn from ``rng`` in quantity-name order."""
+    nominal = plan.tools[op.tool]
+    wears = drift > 0 and "tool_life_mm3" in nominal.models
+    true_models = {
+        q: true_model(
+            nominal.models[q],
+            op,
+            rng,
+            spread,
+            exponent_spread,
+            drift if wears and quantities.quantity(q).drifts_with_wear else 0.0,
         )
-        processes[op.name] = TrueProcess(op.name, tool)
-    return VirtualMachine(
-        plan=plan,
-        processes=processes,
-        uncertainty={**DEFAULT_UNCERTAINTY, **(uncertainty or {})},
-        wear_drift_per_edge_life=wear_drift_per_edge_life,
+        for q in sorted(nominal.models)
+    }
+    return Tool(
+        name=nominal.name,
+        process=nominal.process,
+        models={q: true_models[q] for q in nominal.models},
+        description=f"true process of operation {op.name!r} (virtual machine, seed {seed})",
+        material=nominal.material,
+        source=f"sampled inside the bands of {nominal.source or nominal.name}",
     )
 
 

@@ -22,7 +22,7 @@ from supervisor.virtual.fault_log import FaultLog
 from supervisor.virtual.fault_oracle import truth_oracle
 from supervisor.virtual.fault_spec import Faults, with_wear
 from supervisor.virtual.faults import PartFaults, step_factor, unavoidable_parts
-from supervisor.virtual.machine import VirtualMachine
+from supervisor.virtual.machine import PartOutcome, VirtualMachine
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
@@ -104,22 +104,10 @@ def run_machine(
     plan = initial.plan
     faults = faults or Faults()
     log = FaultLog(faults, machine, seed) if faults else None
-    oracles: dict[float, PlanResult] = {}
-
-    def oracle_of(part: int) -> PlanResult:
-        """The oracle of the truth part ``part`` is made with (steps change it)."""
-        factor = step_factor(faults, part)
-        if factor not in oracles:
-            truth = PartFaults(factor, bends=log.bends) if log and faults.beyond_wear else None
-            oracles[factor] = truth_oracle(machine, truth)
-        return oracles[factor]
-
-    oracle = oracle_of(1)
-    changes: list[tuple[int, float]] = []
+    oracles = _Oracles(machine, faults, log)
     # the edges of operations with a parts_per_edge limit are changed after that many parts,
     # and the MES reports each one's age (edge_parts), as a control's tool-life counter does
     edge_life = _edge_life_parts(plan)
-    counted = {name: n for name, n in edge_life.items() if n is not None}
     state = initial
     rng = np.random.default_rng(seed if noise_seed is None else noise_seed)
     n_ops = len(plan.operations)
@@ -130,29 +118,22 @@ def run_machine(
     where: list[tuple[int, str, str]] = []
     stopped_at, stopped_op, made = 0, "", 0
     for k in range(1, parts + 1):
-        oracle = _oracle_row(oracle_of(k), oracle, k - 1, changes)
-        plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(state.setpoints, oracle)
-        setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
-        edge_parts = {name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()}
-        part_faults = log.for_part(k) if log else None
-        outcome = run_part(machine, setpoints, rng, edge_parts, faults=part_faults)
-        if log:
-            log.record(k, setpoints, outcome, edge_parts)
+        row = _record(state.setpoints, oracles.row(k - 1))
+        plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = row
+        outcome, report = _make_part(machine, state, k, seed, rng, edge_life, log)
         made = k
         violations[k - 1] = len(outcome.violations)
         where += [(k, v.operation, v.quantity) for v in outcome.violations]
-        ages = {name: edge_parts[name] for name in counted}
-        report = PartReport(f"{seed}-{k}", state.version, outcome.measurements, edge_parts=ages)
         state, _ = update(state, report)
         if state.halt is not None:
             stopped_at, stopped_op = k, _halted_operation(state.halt)
             break
     if not stopped_at:
-        oracle = _oracle_row(oracle_of(parts + 1), oracle, parts, changes)
-        plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(state.setpoints, oracle)
+        row = _record(state.setpoints, oracles.row(parts))
+        plan_ratio[parts], op_ratio[parts], cycle[parts] = row
     trace = ScenarioTrace(
         seed=seed,
-        oracle_cycle_min=oracle_of(1).cycle_time_min,
+        oracle_cycle_min=oracles.first.cycle_time_min,
         plan_ratio=plan_ratio,
         op_ratio=op_ratio,
         cycle_min=cycle,
@@ -163,15 +144,57 @@ def run_machine(
         parts_made=made,
         unavoidable_at=unavoidable_parts(faults, parts),
         tallies=log.tallies() if log else (),
-        oracle_changes=tuple(changes),
+        oracle_changes=tuple(oracles.changes),
     )
     return trace, state
 
 
-def _oracle_row(
-    oracle: PlanResult, before: PlanResult, row: int, changes: list[tuple[int, float]]
-) -> PlanResult:
-    """``oracle``, the one of row ``row``; noted in ``changes`` when it is not ``before``."""
-    if oracle is not before:
-        changes.append((row, oracle.cycle_time_min))
-    return oracle
+class _Oracles:
+    """The oracle of each truth a part is made with (a step changes it), solved once each."""
+
+    def __init__(self, machine: VirtualMachine, faults: Faults, log: FaultLog | None) -> None:
+        self._machine, self._faults, self._log = machine, faults, log
+        self._solved: dict[float, PlanResult] = {}
+        self.first = self._of(1)
+        self._current = self.first
+        #: ``(row, oracle cycle time)`` of every row whose oracle is not the row before's.
+        self.changes: list[tuple[int, float]] = []
+
+    def _of(self, part: int) -> PlanResult:
+        """The oracle of the truth part ``part`` is made with."""
+        factor = step_factor(self._faults, part)
+        if factor not in self._solved:
+            log = self._log
+            truth = (
+                PartFaults(factor, bends=log.bends) if log and self._faults.beyond_wear else None
+            )
+            self._solved[factor] = truth_oracle(self._machine, truth)
+        return self._solved[factor]
+
+    def row(self, row: int) -> PlanResult:
+        """The oracle of row ``row`` (the truth part ``row + 1`` is made with)."""
+        oracle = self._of(row + 1)
+        if oracle is not self._current:
+            self.changes.append((row, oracle.cycle_time_min))
+            self._current = oracle
+        return oracle
+
+
+def _make_part(
+    machine: VirtualMachine,
+    state: RcbState,
+    k: int,
+    seed: int,
+    rng: np.random.Generator,
+    edge_life: dict[str, int | None],
+    log: FaultLog | None,
+) -> tuple[PartOutcome, PartReport]:
+    """Part ``k`` at the setpoints in force, and its report with the counted edges' ages."""
+    setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
+    edge_parts = {name: (k - 1) if n is None else (k - 1) % n for name, n in edge_life.items()}
+    outcome = run_part(machine, setpoints, rng, edge_parts, faults=log.for_part(k) if log else None)
+    if log:
+        log.record(k, setpoints, outcome, edge_parts)
+    ages = {name: edge_parts[name] for name, n in edge_life.items() if n is not None}
+    report = PartReport(f"{seed}-{k}", state.version, outcome.measurements, edge_parts=ages)
+    return outcome, report

@@ -212,10 +212,6 @@ LONG_TODAY = {
     "supervisor/rcb/update.py::_reading",  # 70
     "supervisor/rcb/update.py::update",  # 84
     "supervisor/virtual/certify.py::simulate",  # 101
-    "supervisor/virtual/demo.py::run_demo",  # 99
-    "supervisor/virtual/fault_oracle.py::_curved",  # 64
-    "supervisor/virtual/sampling.py::sample_machine",  # 103
-    "supervisor/virtual/scenario.py::run_machine",  # 79
     "supervisor/virtual/simulate.py::run_part",  # 87
 }
 
