@@ -174,8 +174,7 @@ def simulate(
         The faults of the shop floor, e.g. ``parse_faults(["dropout:0.1", "step"])``
         (:mod:`supervisor.virtual.fault_spec`); none by default.
     jobs : int
-        Worker processes; 1 runs every scenario in this process. More than ``scenarios`` are
-        not started.
+        Worker processes (1: every scenario in this process; never more than ``scenarios``).
     progress : callable, optional
         Called with the number of scenarios finished so far (over all strategies).
 
@@ -193,55 +192,90 @@ def simulate(
     """
     _check(strategies, seed, scenarios, parts, wear_drift_per_edge_life, jobs)
     shop = with_wear(faults or Faults(), wear_drift_per_edge_life)
-    # checked above and by RcbSettings; Any: the strategy's type is the registry's business
-    starts = {s: start(plan, RcbSettings(strategy=cast(Any, s))) for s in strategies}
+    starts = _starts(plan, strategies)
     seeds = range(seed, seed + scenarios)
     jobs = min(jobs, scenarios)
-
-    def traces(strategy: str, pool: Executor | None) -> Iterator[ScenarioTrace]:
-        if pool is None:
-            for s in seeds:
-                yield run_scenario(starts[strategy], s, parts, faults=shop)
-            return
-        tasks = [(strategy, s, parts) for s in seeds]
-        done = pool.map(_worker_scenario, tasks, chunksize=_chunk(scenarios, jobs))
-        for s, trace in zip(seeds, done, strict=True):
-            if trace is None:
-                trace = run_scenario(starts[strategy], s, parts, faults=shop)
-            yield trace
-
-    pool = (
-        ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(starts, shop))
-        if jobs > 1
-        else None
-    )
-    results: list[Certificate] = []
-    done = 0
+    pool = _pool(jobs, starts, shop)
     try:
-        for strategy in strategies:
-            t0 = time.perf_counter()
-            made: list[ScenarioTrace] = []
-            for trace in traces(strategy, pool):
-                made.append(trace)
-                done += 1
-                if progress is not None:
-                    progress(done)
-            results.append(
-                Certificate(
-                    plan=plan.name,
-                    strategy=strategy,
-                    seed=seed,
-                    parts=parts,
-                    wear_drift_per_edge_life=shop.wear,
-                    scenarios=tuple(made),
-                    seconds=time.perf_counter() - t0,
-                    faults=shop,
-                )
-            )
+        return _certificates(plan, strategies, starts, seeds, parts, shop, pool, jobs, progress)
     finally:  # on an error or Ctrl-C, drop the scenarios not started instead of running them
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _starts(plan: Plan, strategies: Sequence[str]) -> dict[str, RcbState]:
+    """The robust start of each strategy, computed once and handed to the workers."""
+    # checked by _check and by RcbSettings; Any: the strategy's type is the registry's business
+    return {s: start(plan, RcbSettings(strategy=cast(Any, s))) for s in strategies}
+
+
+def _pool(jobs: int, starts: Mapping[str, RcbState], shop: Faults) -> Executor | None:
+    """A pool of ``jobs`` workers that know the starts and the faults; None for one job."""
+    if jobs <= 1:
+        return None
+    return ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(starts, shop))
+
+
+def _certificates(
+    plan: Plan,
+    strategies: Sequence[str],
+    starts: Mapping[str, RcbState],
+    seeds: range,
+    parts: int,
+    shop: Faults,
+    pool: Executor | None,
+    jobs: int,
+    progress: Progress | None,
+) -> tuple[Certificate, ...]:
+    """One certificate per strategy, in the order given (:func:`simulate`)."""
+    results: list[Certificate] = []
+    done = 0
+    for strategy in strategies:
+        t0 = time.perf_counter()
+        made: list[ScenarioTrace] = []
+        for trace in _traces(starts[strategy], strategy, seeds, parts, shop, pool, jobs):
+            made.append(trace)
+            done += 1
+            if progress is not None:
+                progress(done)
+        certificate = Certificate(
+            plan=plan.name,
+            strategy=strategy,
+            seed=seeds.start,
+            parts=parts,
+            wear_drift_per_edge_life=shop.wear,
+            scenarios=tuple(made),
+            seconds=time.perf_counter() - t0,
+            faults=shop,
+        )
+        results.append(certificate)
     return tuple(results)
+
+
+def _traces(
+    initial: RcbState,
+    strategy: str,
+    seeds: range,
+    parts: int,
+    shop: Faults,
+    pool: Executor | None,
+    jobs: int,
+) -> Iterator[ScenarioTrace]:
+    """The scenarios of ``seeds`` under ``strategy`` from ``initial``, in seed order.
+
+    In ``pool`` when there is one; a scenario that raised a domain error in a worker (None)
+    runs again here, to raise it in this process.
+    """
+    if pool is None:
+        for s in seeds:
+            yield run_scenario(initial, s, parts, faults=shop)
+        return
+    tasks = [(strategy, s, parts) for s in seeds]
+    done = pool.map(_worker_scenario, tasks, chunksize=_chunk(len(seeds), jobs))
+    for s, trace in zip(seeds, done, strict=True):
+        if trace is None:
+            trace = run_scenario(initial, s, parts, faults=shop)
+        yield trace
 
 
 def certify_plan(

@@ -15,7 +15,7 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -74,11 +74,7 @@ def run_part(
         and the machine's limits, with a relative tolerance of :data:`VIOLATION_RTOL`).
     """
     compiled = machine.compiled
-    if len(setpoints) != len(compiled) or any(c.name not in setpoints for c in compiled):
-        expected = [c.name for c in compiled]
-        raise InputError("setpoints", sorted(setpoints), f"need one per operation: {expected}")
-    drift = machine.wear_drift_per_edge_life
-    used_parts = edge_parts or {}
+    _check_setpoints(compiled, setpoints)
     noise = rng.standard_normal(sum(len(c.measured) for c in compiled)).tolist()
     k = 0
     measurements: dict[str, dict[str, Measurement]] = {}
@@ -87,37 +83,78 @@ def run_part(
     dropped: list[tuple[str, str]] = []
     for op in compiled:
         ln_x = _ln_setpoint(op, setpoints[op.name])
-        values = {q: m.at(ln_x) for q, m in op.models}
-        if faults is not None:
-            values = true_model_values(faults, op, values, ln_x)
-        used = used_parts.get(op.name, 0)
-        if drift and used and "tool_life_mm3" in values:
-            factor = 1.0 + drift * used * op.volume_mm3 / values["tool_life_mm3"]
-            for quantity in op.drifting:
-                values[quantity] *= factor
-        for name, base, per in op.derived:  # the registry's derived quantities
-            values[name] = per.at(ln_x) if base is None else values[base] * per.at(ln_x)
-        measured: dict[str, Measurement] = {}
-        for quantity, u, sigma in op.measured:
-            if faults is None:
-                measured[quantity] = Measurement(max(values[quantity] + sigma * noise[k], 0.0), u)
-            else:
-                value, lost = reading(faults, k, values[quantity], sigma, noise[k])
-                measured[quantity] = Measurement(value, u)
-                if lost:
-                    dropped.append((op.name, quantity))
-            k += 1
-        for lim in op.limits:
-            value = values[lim.value_of] / lim.scale
-            if lim.sense == "max":
-                crossed = value > lim.limit * (1.0 + VIOLATION_RTOL)
-            else:
-                crossed = value < lim.limit * (1.0 - VIOLATION_RTOL)
-            if crossed:
-                violations.append(Violation(op.name, lim.name, value, lim.limit))
-        measurements[op.name] = measured
+        used = (edge_parts or {}).get(op.name, 0)
+        values = _true_values(op, ln_x, faults, machine.wear_drift_per_edge_life, used)
+        measurements[op.name], lost = _readings(op, values, faults, noise, k)
+        k += len(op.measured)
+        dropped += [(op.name, quantity) for quantity in lost]
+        violations += _crossed(op, values)
         true_values[op.name] = values
     return PartOutcome(measurements, true_values, tuple(violations), tuple(dropped))
+
+
+def _check_setpoints(
+    compiled: Sequence[CompiledOperation], setpoints: Mapping[str, Mapping[str, float]]
+) -> None:
+    """Refuse setpoints that are not one per operation of the machine."""
+    if len(setpoints) != len(compiled) or any(c.name not in setpoints for c in compiled):
+        expected = [c.name for c in compiled]
+        raise InputError("setpoints", sorted(setpoints), f"need one per operation: {expected}")
+
+
+def _true_values(
+    op: CompiledOperation,
+    ln_x: list[float],
+    faults: PartFaults | None,
+    drift: float,
+    used: int,
+) -> dict[str, float]:
+    """The noise-free values of ``op`` at ``ln_x``: faulted, worn, with the derived ones."""
+    values = {q: m.at(ln_x) for q, m in op.models}
+    if faults is not None:
+        values = true_model_values(faults, op, values, ln_x)
+    if drift and used and "tool_life_mm3" in values:
+        factor = 1.0 + drift * used * op.volume_mm3 / values["tool_life_mm3"]
+        for quantity in op.drifting:
+            values[quantity] *= factor
+    for name, base, per in op.derived:  # the registry's derived quantities
+        values[name] = per.at(ln_x) if base is None else values[base] * per.at(ln_x)
+    return values
+
+
+def _readings(
+    op: CompiledOperation,
+    values: Mapping[str, float],
+    faults: PartFaults | None,
+    noise: list[float],
+    k: int,
+) -> tuple[dict[str, Measurement], list[str]]:
+    """The readings of ``op`` from ``noise[k:]``, and the quantities whose reading dropped out."""
+    measured: dict[str, Measurement] = {}
+    lost: list[str] = []
+    for i, (quantity, u, sigma) in enumerate(op.measured, start=k):
+        if faults is None:
+            measured[quantity] = Measurement(max(values[quantity] + sigma * noise[i], 0.0), u)
+        else:
+            value, dropped = reading(faults, i, values[quantity], sigma, noise[i])
+            measured[quantity] = Measurement(value, u)
+            if dropped:
+                lost.append(quantity)
+    return measured, lost
+
+
+def _crossed(op: CompiledOperation, values: Mapping[str, float]) -> list[Violation]:
+    """The true limits of ``op`` that ``values`` cross, beyond :data:`VIOLATION_RTOL`."""
+    violations = []
+    for lim in op.limits:
+        value = values[lim.value_of] / lim.scale
+        if lim.sense == "max":
+            crossed = value > lim.limit * (1.0 + VIOLATION_RTOL)
+        else:
+            crossed = value < lim.limit * (1.0 - VIOLATION_RTOL)
+        if crossed:
+            violations.append(Violation(op.name, lim.name, value, lim.limit))
+    return violations
 
 
 def _ln_setpoint(op: CompiledOperation, setpoint: Mapping[str, float]) -> list[float]:

@@ -211,8 +211,6 @@ LONG_TODAY = {
     "supervisor/rcb/monitor.py::watch",  # 78
     "supervisor/rcb/update.py::_reading",  # 70
     "supervisor/rcb/update.py::update",  # 84
-    "supervisor/virtual/certify.py::simulate",  # 101
-    "supervisor/virtual/simulate.py::run_part",  # 87
 }
 
 
