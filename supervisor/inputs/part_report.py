@@ -139,17 +139,8 @@ def report_from_mapping(data: object) -> PartReport:
     """
     table = fields.mapping(data, "report")
     fields.only_keys(table, _REPORT_KEYS, "")
-    version = table.get("setpoint_version")
-    if isinstance(version, bool) or not isinstance(version, int):
-        raise InputError("setpoint_version", version, "must be a whole number >= 1")
-    if not 1 <= version <= LARGEST_WHOLE:
-        raise InputError("setpoint_version", version, f"must be in 1..{LARGEST_WHOLE}")
-    operations = table.get("operations")
-    if not isinstance(operations, list):
-        raise InputError("operations", operations, "must be a list of operations")
-    if not 1 <= len(operations) <= MAX_OPERATIONS:
-        why = f"must list 1 to {MAX_OPERATIONS} operations (what was measured on the part)"
-        raise InputError("operations", operations, why)
+    version = _setpoint_version(table.get("setpoint_version"))
+    operations = _operation_list(table.get("operations"))
     measurements: dict[str, dict[str, Measurement]] = {}
     signals: dict[str, dict[str, Signal]] = {}
     wear: dict[str, ToolWear] = {}
@@ -175,26 +166,53 @@ def report_from_mapping(data: object) -> PartReport:
             given = op["feed_override_percent"]
             overrides[name] = _number(given, where, smallest=SMALLEST_MEASURED)
         if "edge_parts" in op:
-            where, n = f"{path}.edge_parts", op["edge_parts"]
-            if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_EDGE_PARTS:
-                raise InputError(where, n, f"must be a whole number in 0..{MAX_EDGE_PARTS}")
-            edges[name] = n
+            edges[name] = _edge_parts(op["edge_parts"], f"{path}.edge_parts")
         if "tool_wear" in op:
-            where = f"{path}.tool_wear"
-            w = fields.mapping(op["tool_wear"], where)
-            fields.only_keys(w, ("flank_wear_mm", "volume_mm3"), where)
-            if "volume_mm3" not in w:
-                raise InputError(f"{where}.volume_mm3", None, "required field missing")
-            wear[name] = ToolWear(
-                _measurement(w.get("flank_wear_mm"), f"{where}.flank_wear_mm"),
-                _number(w["volume_mm3"], f"{where}.volume_mm3", smallest=SMALLEST_MEASURED),
-            )
+            wear[name] = _tool_wear(op["tool_wear"], f"{path}.tool_wear")
         if not (measured or name in wear or name in overrides):
             why = "nothing measured: give a measurement, tool_wear or feed_override_percent"
             raise InputError(f"{path}.measurements", measured, why)
     signals = {name: raw for name, raw in signals.items() if raw}
     serial = _identifier(table, "serial", "")
     return PartReport(serial, version, measurements, wear, signals, overrides, edges)
+
+
+def _setpoint_version(version: object) -> int:
+    """The setpoint version a part was made with: a whole number in ``1..LARGEST_WHOLE``."""
+    if isinstance(version, bool) or not isinstance(version, int):
+        raise InputError("setpoint_version", version, "must be a whole number >= 1")
+    if not 1 <= version <= LARGEST_WHOLE:
+        raise InputError("setpoint_version", version, f"must be in 1..{LARGEST_WHOLE}")
+    return version
+
+
+def _operation_list(operations: object) -> list[object]:
+    """The report's operations: a list of 1 to :data:`MAX_OPERATIONS`."""
+    if not isinstance(operations, list):
+        raise InputError("operations", operations, "must be a list of operations")
+    if not 1 <= len(operations) <= MAX_OPERATIONS:
+        why = f"must list 1 to {MAX_OPERATIONS} operations (what was measured on the part)"
+        raise InputError("operations", operations, why)
+    return operations
+
+
+def _edge_parts(n: object, where: str) -> int:
+    """Parts the edge made before this one: a whole number in ``0..MAX_EDGE_PARTS``."""
+    if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_EDGE_PARTS:
+        raise InputError(where, n, f"must be a whole number in 0..{MAX_EDGE_PARTS}")
+    return n
+
+
+def _tool_wear(data: object, where: str) -> ToolWear:
+    """Flank wear measured after a volume: ``{"flank_wear_mm": reading, "volume_mm3"}``."""
+    w = fields.mapping(data, where)
+    fields.only_keys(w, ("flank_wear_mm", "volume_mm3"), where)
+    if "volume_mm3" not in w:
+        raise InputError(f"{where}.volume_mm3", None, "required field missing")
+    return ToolWear(
+        _measurement(w.get("flank_wear_mm"), f"{where}.flank_wear_mm"),
+        _number(w["volume_mm3"], f"{where}.volume_mm3", smallest=SMALLEST_MEASURED),
+    )
 
 
 def _identifier(data: Mapping[str, object], key: str, path: str) -> str:

@@ -37,6 +37,17 @@ Strategies (:mod:`supervisor.rcb.strategies`):
     ``ln y`` on ``(1, ln x)`` per operation and quantity (:mod:`supervisor.rcb.posterior`), whose
     second-order-cone constraint the optimiser uses where it allows more than the band.
 
+The noise scales a reading is read at (:mod:`supervisor.rcb.noise`): ``learn``'s likelihood
+reads the measuring chain's, pooled over the operations it reads; the band law and the alarm
+read the operation's own ``ŝ`` (pooled, one operation's model error, counted as the chain's
+noise, blinded every operation's alarm: all five faults, 10 944 avoidable crossings in 1000
+scenarios; per operation, 1104 in 200), and the chain's prudent scale ``P`` only where a
+reading's ``y + P u`` is past the limit and as far as a reading is over its prediction (the
+margin; ``alarm_u``, :mod:`supervisor.rcb.law`). Counting every reading at ``P`` took
+``ivester``'s avoidable crossings under all five faults from 34 to 5 (1000 scenarios) but
+changed the paper's law where the readings agree with their ``u`` (its Table 5 step 1) and
+cost ``ivester`` MRR/oracle 0.89 against 0.95.
+
 References
 ----------
 .. [1] Ivester & Heigel (NIST), "Adaptive Control Optimization" and Table 5.
@@ -47,10 +58,9 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
-from models.errors import InputError
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.errors import InfeasibleError
@@ -64,11 +74,12 @@ from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.common_cause import CommonShift, common_shifts
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.judged import Judged, judge
-from supervisor.rcb.law import apply_law, tool_life_measured
+from supervisor.rcb.law import apply_law
 from supervisor.rcb.monitor import learned
 from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.report_readings import report_readings, setpoints_of
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
 from supervisor.rcb.start import learned_cones as learned_cones  # callers import it from here
 from supervisor.rcb.start import optimize_state
@@ -105,33 +116,11 @@ def update(
         Unknown operation or quantity, or a setpoint version the state does not hold; nothing
         is applied.
     """
-    setpoints = _setpoints_of(state, report, made_with)
+    setpoints = setpoints_of(state, report, made_with)
     operations = {op.name: op for op in state.plan.operations}
     results = {r.name: r for r in setpoints.operations}
-    for name in [*report.measurements, *report.tool_wear]:
-        if name not in operations:
-            raise InputError(f"operations.{name}", name, f"not an operation of {state.plan.name!r}")
-    measured_items = [
-        (name, quantity, measurement)
-        for name, measured in report.measurements.items()
-        for quantity, measurement in measured.items()
-    ]
-    for name, wear in report.tool_wear.items():
-        _check_quantity(state.tools[name], name, "tool_life_mm3")
-        wear_measured = tool_life_measured(
-            state, *measured_at(operations[name], results[name], "tool_life_mm3"), wear
-        )
-        measured_items.append((name, "tool_life_mm3", wear_measured))
-    for name, quantity, _ in measured_items:  # check the whole report before applying any
-        _check_quantity(state.tools[name], name, quantity)
-    maps = _Maps(
-        dict(state.tools),
-        dict(state.sigma),
-        dict(state.seen),
-        dict(state.posterior),
-        dict(state.wear),
-        dict(state.monitors),
-    )
+    measured_items = report_readings(state, report, operations, results)
+    maps = _Maps.of(state)
     decisions: list[Decision] = []
     gross: list[HaltedOperation] = []
     chains = _chains(state.monitors)
@@ -146,31 +135,42 @@ def update(
         )
         for name, quantity, m in measured_items  # measured_at: a pass's setpoint
     ]
-    on_high = [j for j in judged if j.watched.innovation is not None]  # none when confirmed
-    common = common_shifts((j.quantity, i) for j in on_high if (i := j.watched.innovation))
-    for quantity, shift in common.items():
-        for index, j in enumerate(j for j in on_high if j.quantity == quantity):
-            j.watched = j.rejudged(state.settings.exponent_sd, shift.shift(without=index))
+    common = _common_changes(state, judged)
     for j in judged:
         noise = chains.get(j.quantity, NoiseScale())
         decision, over = _reading(state, maps, j, report, noise, common.get(j.quantity))
         decisions.append(decision)
         if over is not None:
             gross.append(over)
+    return _after(state, maps, gross), tuple(decisions)
+
+
+def _after(state: RcbState, maps: _Maps, gross: list[HaltedOperation]) -> RcbState:
+    """The state after the report: settled, halted, or re-optimised when a band moved."""
     new = replace(state, **vars(maps))
     settled = state.settings.rule.settle(new, _chains(maps.monitors))
     if settled:
         new = replace(new, posterior={**maps.posterior, **settled})
     if gross and state.halt is None:
-        return replace(new, halt=_gross_halt(state, new, gross)), tuple(decisions)
+        return replace(new, halt=_gross_halt(state, new, gross))
     unchanged = new.tools == state.tools and new.posterior == state.posterior
     if unchanged or state.halt is not None:
-        return new, tuple(decisions)
+        return new
     try:
         new_setpoints = optimize_state(state, new.tools, new.posterior)
     except InfeasibleError:
-        return replace(new, halt=_halt_of(state, new.tools, new.posterior)), tuple(decisions)
-    return replace(new, setpoints=new_setpoints, version=state.version + 1), tuple(decisions)
+        return replace(new, halt=_halt_of(state, new.tools, new.posterior))
+    return replace(new, setpoints=new_setpoints, version=state.version + 1)
+
+
+def _common_changes(state: RcbState, judged: Sequence[Judged]) -> dict[str, CommonShift]:
+    """Per quantity, a change the part's operations show together; each rejudged by the rest."""
+    on_high = [j for j in judged if j.watched.innovation is not None]  # none when confirmed
+    common = common_shifts((j.quantity, i) for j in on_high if (i := j.watched.innovation))
+    for quantity, shift in common.items():
+        for index, j in enumerate(j for j in on_high if j.quantity == quantity):
+            j.watched = j.rejudged(state.settings.exponent_sd, shift.shift(without=index))
+    return common
 
 
 @dataclass
@@ -183,6 +183,18 @@ class _Maps:
     posterior: dict[tuple[str, str], Posterior]
     wear: dict[tuple[str, str], WearRise]
     monitors: dict[tuple[str, str], Monitor]
+
+    @classmethod
+    def of(cls, state: RcbState) -> _Maps:
+        """Copies of ``state``'s maps."""
+        return cls(
+            dict(state.tools),
+            dict(state.sigma),
+            dict(state.seen),
+            dict(state.posterior),
+            dict(state.wear),
+            dict(state.monitors),
+        )
 
 
 def _reading(
@@ -198,20 +210,12 @@ def _reading(
     ``common``: the quantity's change in every operation of the part, when the report shows
     one (:mod:`supervisor.rcb.common_cause`); a quarantined reading's operation moves by it.
     ``noise``: the measuring chain's noise scale before the report (:func:`_chains`), which
-    ``learn``'s likelihood reads; the band law and the alarm read the operation's own ``ŝ``
-    (pooled, one operation's model error, counted as the chain's noise, blinded every
-    operation's alarm: all five faults, 10 944 avoidable crossings in 1000 scenarios; per
-    operation, 1104 in 200). The law reads the chain's prudent scale only where a reading's
-    ``y + P u`` is past the limit (``alarm_u``, :mod:`supervisor.rcb.law`): counting every
-    reading at it took ``ivester``'s avoidable crossings under all five faults from 34 to 5
-    (1000 scenarios) but changed the paper's law where the readings agree with their ``u``
-    (its Table 5 steps, the prior's quantile 2.11 before any evidence) and cost ``ivester``
-    MRR/oracle 0.89 against 0.95.
-    Returns the decision and, for a reading past its limit by more than ``halt_over``, what
-    halts the plan.
+    ``learn``'s likelihood reads; the band law and the alarm read the operation's own ``ŝ``,
+    and the chain's prudent scale only near the limit and over the prediction (``alarm_u``,
+    module docstring). Returns the decision and, for a reading past its limit by more than
+    ``halt_over``, what halts the plan.
     """
     settings = state.settings
-    rule = settings.rule
     op, made, quantity, measurement = item.op, item.made, item.quantity, item.measurement
     monitor, watched = item.monitor, item.watched
     key = (op.name, quantity)
@@ -219,18 +223,10 @@ def _reading(
     point = {**made.setpoint, **op.context}
     new.monitors[key] = watched.monitor
     if not watched.learns:  # quarantined: a decision to show, nothing learned
-        law, *_ = apply_law(state, op, made, quantity, measurement)
-        new.seen[key] = state.seen.get(key, 0.0)  # a maximum's: 0 covers nothing
-        if common is not None:  # the change it could not read: as the others showed it
-            _unread_change(state, new, item, common, noise.prudent_scale)
-        return quarantined(law, watched.sigma), None
+        return _quarantine(state, new, item, common, noise), None
     scaled = Measurement(measurement.value, measurement.uncertainty * monitor.scale)
     tools, sigma, seen, rises, posterior = new.tools, new.sigma, new.seen, new.wear, new.posterior
-    judged = state
-    if watched.forget > 0:  # the old regime's evidence weighs less
-        before = state.sigma.get(key, prior_sigma(state.tools[op.name].models[quantity], settings))
-        sigma[key] = rule.forget(before, watched.forget)
-        judged = replace(state, sigma=sigma)
+    judged = _forgotten(state, sigma, key, watched.forget)
     projection = 1.0
     rise = _wear_after(state, op, made, quantity, scaled, None if watched.changed else age)
     if rise is not None:
@@ -254,13 +250,37 @@ def _reading(
     if watched.changed:
         decision = changed(decision, watched, None if common is None else common.z)
     prudent = Measurement(measurement.value, measurement.uncertainty * gained.prudent_scale)
-    keep, belief, decision = rule.learn(state, op, made, decision, prudent, watched, age)
+    keep, belief, decision = settings.rule.learn(state, op, made, decision, prudent, watched, age)
     if keep:
         tools[op.name] = _with_model(tools[op.name], model)
     if belief is not None:
         posterior[key] = belief
     new.monitors[key] = learned(watched.monitor, measurement, point, age)
     return decision, gross_breach(op, quantity, scaled, settings.halt_over)
+
+
+def _quarantine(
+    state: RcbState, new: _Maps, item: Judged, common: CommonShift | None, noise: NoiseScale
+) -> Decision:
+    """A quarantined reading: a decision to show, nothing learned; an unread change moves."""
+    op, quantity = item.op, item.quantity
+    law, *_ = apply_law(state, op, item.made, quantity, item.measurement)
+    new.seen[(op.name, quantity)] = state.seen.get((op.name, quantity), 0.0)  # 0 covers nothing
+    if common is not None:  # the change it could not read: as the others showed it
+        _unread_change(state, new, item, common, noise.prudent_scale)
+    return quarantined(law, item.watched.sigma)
+
+
+def _forgotten(
+    state: RcbState, sigma: dict[tuple[str, str], float], key: tuple[str, str], forget: float
+) -> RcbState:
+    """``state`` with the old regime's evidence of ``key`` weighing less (``forget > 0``)."""
+    if forget <= 0:
+        return state
+    model = state.tools[key[0]].models[key[1]]
+    before = state.sigma.get(key, prior_sigma(model, state.settings))
+    sigma[key] = state.settings.rule.forget(before, forget)
+    return replace(state, sigma=sigma)
 
 
 def _upper(measurement: Measurement) -> float:
@@ -358,28 +378,6 @@ def _gross_halt(state: RcbState, new: RcbState, gross: list[HaltedOperation]) ->
         message = f"{over.message}; {also.message}"
         halted.append(replace(also, message=message))
     return Halt((*halted, *infeasible.values()))
-
-
-def _setpoints_of(state: RcbState, report: PartReport, made_with: PlanResult | None) -> PlanResult:
-    if report.setpoint_version == state.version:
-        return state.setpoints
-    if made_with is not None and 1 <= report.setpoint_version < state.version:
-        return made_with
-    raise InputError(
-        "setpoint_version",
-        report.setpoint_version,
-        f"unknown here: the current version is {state.version}",
-    )
-
-
-def _check_quantity(tool: Tool, operation: str, quantity: str) -> None:
-    if quantity not in tool.models:
-        known = ", ".join(q for q in tool.models if q != "tool_life_mm3") or "none"
-        raise InputError(
-            f"operations.{operation}.{quantity}",
-            quantity,
-            f"tool {tool.name!r} has no model of it; measurable: {known}",
-        )
 
 
 def _with_model(tool: Tool, model: PowerLawModel) -> Tool:

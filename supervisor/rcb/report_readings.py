@@ -1,0 +1,68 @@
+"""The readings of a part report and the setpoints they were made at, checked whole.
+
+:func:`supervisor.rcb.update.update` refuses a report before applying any of it: an unknown
+operation, a quantity its tool has no model of, a setpoint version the state does not hold.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from models.errors import InputError
+from models.tool import Tool
+from supervisor.inputs.part_report import Measurement, PartReport
+from supervisor.inputs.plan import Operation
+from supervisor.optimize.passes import measured_at
+from supervisor.optimize.result import OperationResult, PlanResult
+from supervisor.rcb.law import tool_life_measured
+from supervisor.rcb.state import RcbState
+
+
+def report_readings(
+    state: RcbState,
+    report: PartReport,
+    operations: Mapping[str, Operation],
+    results: Mapping[str, OperationResult],
+) -> list[tuple[str, str, Measurement]]:
+    """Every reading of the report (tool wear as tool life), the whole report checked first."""
+    for name in [*report.measurements, *report.tool_wear]:
+        if name not in operations:
+            raise InputError(f"operations.{name}", name, f"not an operation of {state.plan.name!r}")
+    measured_items = [
+        (name, quantity, measurement)
+        for name, measured in report.measurements.items()
+        for quantity, measurement in measured.items()
+    ]
+    for name, wear in report.tool_wear.items():
+        check_quantity(state.tools[name], name, "tool_life_mm3")
+        wear_measured = tool_life_measured(
+            state, *measured_at(operations[name], results[name], "tool_life_mm3"), wear
+        )
+        measured_items.append((name, "tool_life_mm3", wear_measured))
+    for name, quantity, _ in measured_items:  # check the whole report before applying any
+        check_quantity(state.tools[name], name, quantity)
+    return measured_items
+
+
+def setpoints_of(state: RcbState, report: PartReport, made_with: PlanResult | None) -> PlanResult:
+    """The setpoints of the report's version: the current ones, or ``made_with`` (older)."""
+    if report.setpoint_version == state.version:
+        return state.setpoints
+    if made_with is not None and 1 <= report.setpoint_version < state.version:
+        return made_with
+    raise InputError(
+        "setpoint_version",
+        report.setpoint_version,
+        f"unknown here: the current version is {state.version}",
+    )
+
+
+def check_quantity(tool: Tool, operation: str, quantity: str) -> None:
+    """Refuse a quantity ``tool`` has no model of, naming what it can measure."""
+    if quantity not in tool.models:
+        known = ", ".join(q for q in tool.models if q != "tool_life_mm3") or "none"
+        raise InputError(
+            f"operations.{operation}.{quantity}",
+            quantity,
+            f"tool {tool.name!r} has no model of it; measurable: {known}",
+        )
