@@ -125,6 +125,67 @@ class Watched:
         return self.verdict in ("change", "confirm")
 
 
+def _low_side(
+    monitor: Monitor,
+    low: Expected,
+    reading: Reading,
+    exponents: Mapping[str, float],
+    exponent_sd: float,
+) -> Watched | None:
+    """A held reading the new one confirms, or a reading too good to be true; else None."""
+    variance = monitor.scale**2
+    held = monitor.held
+    if (
+        held is not None
+        and held.ln_y - low.mean >= -CONFIRMABLE
+        and _consistent(held, reading, monitor.scale, exponents, exponent_sd)
+    ):
+        e = held.ln_y - low.mean
+        forget = max(e * e - _variance(low, held.noise, variance), 0.0)
+        counted = replace(monitor, held=None, changes=monitor.changes + 1)
+        return Watched("confirm", counted, _sigma(low, reading, variance), forget, held)
+    r_low = _sigma(low, reading, variance)
+    under_half = reading.ln_y - low.mean < -(CONFIRMABLE + COVERAGE_FACTOR * low.sd)
+    if r_low < -LOW_SIGMA or under_half:
+        kept = replace(monitor, held=reading, quarantined=monitor.quarantined + 1)
+        return Watched("quarantine", kept, r_low)
+    return None
+
+
+def _noise_learned(
+    monitor: Monitor,
+    high: Expected,
+    reading: Reading,
+    r_high: float,
+    variance: float,
+    common: bool,
+) -> Monitor:
+    """The noise scales learned from the innovation, by the share of it that is noise.
+
+    A change counts as a reading at the alarm's edge (it cannot be told from noise by
+    itself); a reading of a common change, or after the setpoint moved too far to tell the
+    noise from the model, teaches nothing.
+    """
+    e = reading.ln_y - high.mean
+    unit = high.noise**2 + reading.noise**2
+    model2 = (high.sd if high.estimate_sd is None else high.estimate_sd) ** 2
+    weight = variance * unit / (model2 + variance * unit)
+    if high.shift**2 > unit or common:
+        weight = 0.0  # the setpoint moved too far to tell the noise from the model; a change
+    own = weight  # a drift in progress off a model's expectation: not noise to the alarm
+    if high.noise == 0.0 and monitor.cusum + r_high - CUSUM_K > DRIFTING:
+        own = 0.0
+    e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
+    excess = max(e2 - model2, 0.0) / unit
+    return replace(
+        monitor,
+        shape=monitor.shape + 0.5 * own,
+        rate=monitor.rate + 0.5 * own * excess,
+        chain_shape=monitor.chain_shape + 0.5 * weight,
+        chain_rate=monitor.chain_rate + 0.5 * weight * excess,
+    )
+
+
 def watch(
     monitor: Monitor,
     low: Expected,
@@ -151,45 +212,15 @@ def watch(
         return Watched("accept", replace(monitor, held=None))
     reading = _reading_of(measurement, point)
     variance = monitor.scale**2
-    held = monitor.held
-    if (
-        held is not None
-        and held.ln_y - low.mean >= -CONFIRMABLE
-        and _consistent(held, reading, monitor.scale, exponents, exponent_sd)
-    ):
-        e = held.ln_y - low.mean
-        forget = max(e * e - _variance(low, held.noise, variance), 0.0)
-        counted = replace(monitor, held=None, changes=monitor.changes + 1)
-        return Watched("confirm", counted, _sigma(low, reading, variance), forget, held)
-    r_low = _sigma(low, reading, variance)
-    under_half = reading.ln_y - low.mean < -(CONFIRMABLE + COVERAGE_FACTOR * low.sd)
-    if r_low < -LOW_SIGMA or under_half:
-        kept = replace(monitor, held=reading, quarantined=monitor.quarantined + 1)
-        return Watched("quarantine", kept, r_low)
+    on_low = _low_side(monitor, low, reading, exponents, exponent_sd)
+    if on_low is not None:
+        return on_low
     monitor = replace(monitor, held=None)
     if high is None:
         return Watched("accept", monitor)
     e = reading.ln_y - high.mean
     r_high = _sigma(high, reading, variance)
-    # the noise scale learns from the innovation, by the share of it that is noise; a change
-    # counts as a reading at the alarm's edge (it cannot be told from noise by itself)
-    unit = high.noise**2 + reading.noise**2
-    model2 = (high.sd if high.estimate_sd is None else high.estimate_sd) ** 2
-    weight = variance * unit / (model2 + variance * unit)
-    if high.shift**2 > unit or common is not None:
-        weight = 0.0  # the setpoint moved too far to tell the noise from the model; a change
-    own = weight  # a drift in progress off a model's expectation: not noise to the alarm
-    if high.noise == 0.0 and monitor.cusum + r_high - CUSUM_K > DRIFTING:
-        own = 0.0
-    e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
-    excess = max(e2 - model2, 0.0) / unit
-    monitor = replace(
-        monitor,
-        shape=monitor.shape + 0.5 * own,
-        rate=monitor.rate + 0.5 * own * excess,
-        chain_shape=monitor.chain_shape + 0.5 * weight,
-        chain_rate=monitor.chain_rate + 0.5 * weight * excess,
-    )
+    monitor = _noise_learned(monitor, high, reading, r_high, variance, common is not None)
     spread2 = _variance(high, reading.noise, variance)
     innovation = (e, spread2)
     if common is not None or r_high > CHANGE_SIGMA:  # a change at once

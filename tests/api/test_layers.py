@@ -207,7 +207,6 @@ MAX_FUNCTION_LINES = 60
 #: no function may join, and one that is no longer long must leave.
 LONG_TODAY = {
     "supervisor/rcb/law.py::_apply_law",  # 134
-    "supervisor/rcb/monitor.py::watch",  # 78
 }
 
 
