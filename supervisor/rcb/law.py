@@ -56,15 +56,11 @@ Ra 1.82 ± 0.07 µm, 0.10 µm over its prediction, before any reading has shown 
 noise) takes 2.0 − (1.82 + 2.11 × 0.07) = 0.032 µm where the paper takes 0.11: its band
 shrinks by 0.008 µm, not 0.028, until the chain shows it is as quiet as it says. A minimum
 (tool life) keeps its ``u`` throughout: no monitor learns its noise, so ``P`` would stay the
-prior's for ever. Measured on ``benchmarks/closed_loop.py``, ``ivester``, 1000 scenarios x 30
-parts, all five faults: 28 avoidable crossings with the paper's ``y + u``, 11 with ``y + P u``
-at the alarm and the cover, 9 with an unread common change backing off by its exponent error,
-2 with the margin over the prediction too (the same 2 with ``P u`` at once over the
-prediction, discontinuous); fault-free MRR/oracle after 10 parts 0.9462, 0.9460, 0.9454;
-``learn`` fault-free unchanged (0.9801, p5 0.9729, 0.9925). ``P`` at the chain's ``Φ(2)``
-quantile (3.15 before any reading) gave 1 but is not used: Table 5's step 2 reading would
-then be flagged and back off where the paper shrinks (``y + P u`` stays under its 2.0 µm
-limit only for ``P`` under 2.57).
+prior's for ever. ``ivester`` on ``benchmarks/closed_loop.py``, 1000 scenarios x 30 parts,
+all five faults: 28 avoidable crossings with ``y + u``, 11 with ``y + P u`` at the alarm and
+the cover, 2 with this margin (fault-free MRR/oracle after 10 parts 0.9462, 0.9460, 0.9454;
+``learn``'s unchanged). ``P`` at the chain's ``Φ(2)`` quantile (3.15) gave 1, but Table 5's
+step 2 reading would then back off where the paper shrinks (it needs ``P`` under 2.57).
 
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + 3σ`` under
 the limit) or ``below_band`` (``y − u`` under the lower edge), the notes ``past_limit`` and
@@ -91,7 +87,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from models import quantities
 from models.errors import InputError
@@ -102,7 +98,7 @@ from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
 from supervisor.optimize.solve import RECHECK_RTOL
 from supervisor.rcb.decision import Action, Decision, Flag, Note
-from supervisor.rcb.state import RcbState, prior_sigma
+from supervisor.rcb.state import RcbSettings, RcbState, prior_sigma
 
 #: A measurement is past a band's edge only beyond this fraction of it: an optimum sits on
 #: its limit within the optimiser's re-check tolerance.
@@ -187,6 +183,53 @@ def apply_law(
         raise InputError(where, measurement.value, _OUT_OF_RANGE) from None
 
 
+@dataclass(frozen=True)
+class _Case:
+    """One reading of one quantity at the setpoint a part was made with, and its decision."""
+
+    operation: Operation
+    quantity: str
+    model: PowerLawModel  # before the reading
+    point: Mapping[str, float]
+    rel: Mapping[str, float]
+    predicted: Prediction  # the model's at the point
+    shown: Prediction  # the prediction the part was made with (a cone's for learn)
+    y: float
+    u: float
+    limit: float | None
+    is_max: bool
+
+    def decision(
+        self,
+        action: Action,
+        new: PowerLawModel,
+        margin: float | None,
+        why: str,
+        flag: Flag | None = None,
+        note: Note | None = None,
+    ) -> Decision:
+        return Decision(
+            operation=self.operation.name,
+            quantity=self.quantity,
+            action=action,
+            margin=margin,
+            band_before=self.predicted.band,
+            band_after=new.predict(self.point, self.rel).band,
+            dK_before=self.model.dK,
+            dK_after=new.dK,
+            K_before=self.model.K,
+            K_after=new.K,
+            predicted=self.shown.value,
+            measured=self.y,
+            uncertainty=self.u,
+            limit=self.limit,
+            flagged=flag is not None,
+            reason=why,
+            flag=flag,
+            note=note,
+        )
+
+
 def _apply_law(
     state: RcbState,
     operation: Operation,
@@ -209,48 +252,16 @@ def _apply_law(
     y, u = measurement.value, measurement.uncertainty
     limit = limit_of(operation, quantity)
     is_max = MODEL_QUANTITIES[quantity].sense == "max"
-    floor = settings.floors.get(quantity, u)
-
-    def decision(
-        action: Action,
-        new: PowerLawModel,
-        margin: float | None,
-        why: str,
-        flag: Flag | None = None,
-        note: Note | None = None,
-    ) -> Decision:
-        return Decision(
-            operation=operation.name,
-            quantity=quantity,
-            action=action,
-            margin=margin,
-            band_before=predicted.band,
-            band_after=new.predict(point, rel).band,
-            dK_before=model.dK,
-            dK_after=new.dK,
-            K_before=model.K,
-            K_after=new.K,
-            predicted=shown.value,
-            measured=y,
-            uncertainty=u,
-            limit=limit,
-            flagged=flag is not None,
-            reason=why,
-            flag=flag,
-            note=note,
-        )
-
+    case = _Case(operation, quantity, model, point, rel, predicted, shown, y, u, limit, is_max)
     # the side of the measurement that guards the limit, and the band's edges in that sense
     guard = y + u if is_max else max(y - u, 0.0)
-    # the side the alarm and a flagged band's cover read: ``u`` at the chain's prudent scale
     # the most demanding measurement so far, as a K-equivalent (RcbState.seen)
     shape = predicted.value / model.K  # Π x_i^e_i at the part's setpoint
     edge_now = guard / shape
     before = state.seen.get((operation.name, quantity), edge_now)
     worst = max(before, edge_now) if is_max else min(before, edge_now)
     if limit is None:
-        hold = decision("hold", model, None, "no limit on this quantity")
-        return hold, model, sigma, worst
+        return case.decision("hold", model, None, "no limit on this quantity"), model, sigma, worst
     # u at the chain's prudent scale (module docstring): the alarm and a grown band read it
     # where that side is past the limit, the margin as far as the reading is over the prediction
     prudent_u = max(u, alarm_u)
@@ -260,8 +271,32 @@ def _apply_law(
     # over the prediction by δ, u + δ up to the prudent P u (module docstring)
     margin_u = u + min(max(y - shown.value, 0.0), prudent_u - u)
     margin = limit - (y * projection + margin_u) if is_max else guard - limit
+    flag, note, fallback_only = _flags(case, result, limit, alarm, guard)
+    model, sigma = settings.rule.adjust(
+        model, point, measurement, sigma, settings.coverage_k, settings.tau
+    )
+    y_new = model.predict(point, rel).value
+    # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
+    cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new
+    if flag is not None or fallback_only:
+        reach = alarm - y_new if is_max else y_new - alarm
+        if moved > 0 and is_max and alarm > limit:  # a change: the back-off's exponent error
+            reach = alarm * (alarm / limit) ** (settings.coverage_k * moved) - y_new
+        new = _with_band(model, max(predicted.band, reach, cover), y_new, point, rel)
+        why = _grown_why(case, result, flag, wide)
+        action: Action = "expand" if new.predict(point, rel).band > predicted.band else "hold"
+        return case.decision(action, new, margin, why, flag, note), new, sigma, worst
     worn = is_max and projection > 1.0
     projected = f"reading projected {100 * (projection - 1):+.3g} % for wear" if worn else ""
+    decided, new = _shrunk(case, settings, model, sigma, y_new, margin, cover, projected, note)
+    return decided, new, sigma, worst
+
+
+def _flags(
+    case: _Case, result: OperationResult, limit: float, alarm: float, guard: float
+) -> tuple[Flag | None, Note | None, bool]:
+    """The reading's flag and note, and whether only a cone's fallback band must grow."""
+    y, u, is_max, shown = case.y, case.u, case.is_max, case.shown
     # the far side of the reading at the alarm's coverage: past the limit, the process crossed
     # it beyond what the reading's noise explains; at ±u only, the part is out of tolerance
     reach_u = ALARM_SIGMA / COVERAGE_FACTOR * u
@@ -273,7 +308,7 @@ def _apply_law(
         beyond_guard = _past(alarm, shown, is_max)
     beyond_other = guard < shown.lower if is_max else guard > shown.upper
     # the fallback band of a cone setpoint: past its edge it grows, but is not flagged
-    fallback_only = result.robust_by == "cone" and _past(alarm, predicted, is_max)
+    fallback_only = result.robust_by == "cone" and _past(alarm, case.predicted, is_max)
     flag: Flag | None = None
     if far_side > limit if is_max else far_side < limit:  # nonconformance proven
         flag = "breach"
@@ -284,53 +319,59 @@ def _apply_law(
         note = "past_limit"  # ISO 14253-1 nonconformance of the part, not a process alarm
     elif beyond_other and flag is None:
         note = "below_band" if is_max else "above_band"
+    return flag, note, fallback_only
 
-    rule = settings.rule
-    model, sigma = rule.adjust(model, point, measurement, sigma, settings.coverage_k, settings.tau)
-    y_new = model.predict(point, rel)
-    # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
-    cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new.value
-    if flag is not None or fallback_only:
-        reach = alarm - y_new.value if is_max else y_new.value - alarm
-        if moved > 0 and is_max and alarm > limit:  # a change: the back-off's exponent error
-            reach = alarm * (alarm / limit) ** (settings.coverage_k * moved) - y_new.value
-        new = _with_band(model, max(predicted.band, reach, cover), y_new.value, point, rel)
-        action: Action = "expand" if new.predict(point, rel).band > predicted.band else "hold"
-        if flag is None:
-            why = "inside the learned cone; the fallback band grows to cover it"
-            return decision(action, new, margin, why, note=note), new, sigma, worst
-        if flag == "breach":
-            where = f"measured {'−' if is_max else '+'} {ALARM_SIGMA:g}σ past the limit"
-        elif result.robust_by == "cone":
-            where = f"measured {'−' if is_max else '+'} {ALARM_SIGMA:g}σ past the cone"
-        else:
-            times = f"{wide / u:.3g} " if wide > u else ""  # the chain's prudent scale
-            where = f"measured {'+' if is_max else '−'} {times}u {flag}"
-        why = f"{where}: never shrink; band covers it"
-        return decision(action, new, margin, why, flag, note), new, sigma, worst
+
+def _grown_why(case: _Case, result: OperationResult, flag: Flag | None, wide: float) -> str:
+    """Why a band grows: its flag and the side of the reading it covers."""
+    if flag is None:
+        return "inside the learned cone; the fallback band grows to cover it"
+    is_max = case.is_max
+    if flag == "breach":
+        where = f"measured {'−' if is_max else '+'} {ALARM_SIGMA:g}σ past the limit"
+    elif result.robust_by == "cone":
+        where = f"measured {'−' if is_max else '+'} {ALARM_SIGMA:g}σ past the cone"
+    else:
+        times = f"{wide / case.u:.3g} " if wide > case.u else ""  # the chain's prudent scale
+        where = f"measured {'+' if is_max else '−'} {times}u {flag}"
+    return f"{where}: never shrink; band covers it"
+
+
+def _shrunk(
+    case: _Case,
+    settings: RcbSettings,
+    model: PowerLawModel,
+    sigma: float,
+    y_new: float,
+    margin: float,
+    cover: float,
+    projected: str,
+    note: Note | None,
+) -> tuple[Decision, PowerLawModel]:
+    """An unflagged reading: the margin law, the floor and the cover of every reading so far."""
+    point, rel, band_before = case.point, case.rel, case.predicted.band
+    floor = settings.floors.get(case.quantity, case.u)
     pessimistic = note in ("below_band", "above_band")
     below = " (note: past the band's other edge: the model is pessimistic)" if pessimistic else ""
     if margin <= 0:
-        new = _with_band(model, max(predicted.band, cover), y_new.value, point, rel)
+        new = _with_band(model, max(band_before, cover), y_new, point, rel)
         why = "no margin: measured + u at the limit"
         if projected:
             why = f"no margin left at the edge's last part ({projected})"
-        no_margin = decision("hold", new, margin, why, note=note)
-        return no_margin, new, sigma, worst
-    band = max(predicted.band - settings.alpha * margin, floor)
-    band = rule.least_band(band, sigma, y_new.value, settings.coverage_k, settings.tau)
+        return case.decision("hold", new, margin, why, note=note), new
+    band = max(band_before - settings.alpha * margin, floor)
+    band = settings.rule.least_band(band, sigma, y_new, settings.coverage_k, settings.tau)
     at = f" at the edge's last part ({projected})" if projected else ""
     why = f"margin {margin:.4g} > 0{at}: band shrinks by {settings.alpha:g} of it"
     why += f" (floor {floor:.4g})"
     if cover > band:
         band = cover
         why = "margin > 0, but the band keeps covering the most demanding measurement so far"
-    if band >= predicted.band or math.isclose(band, predicted.band, rel_tol=1e-12):
-        new = _with_band(model, predicted.band, y_new.value, point, rel)
-        held = decision("hold", new, margin, "band at its floor" + below, note=note)
-        return held, new, sigma, worst
-    new = _with_band(model, band, y_new.value, point, rel)
-    return decision("shrink", new, margin, why + below, note=note), new, sigma, worst
+    if band >= band_before or math.isclose(band, band_before, rel_tol=1e-12):
+        new = _with_band(model, band_before, y_new, point, rel)
+        return case.decision("hold", new, margin, "band at its floor" + below, note=note), new
+    new = _with_band(model, band, y_new, point, rel)
+    return case.decision("shrink", new, margin, why + below, note=note), new
 
 
 def _past(value: float, prediction: Prediction, is_max: bool) -> bool:

@@ -205,9 +205,7 @@ MAX_FUNCTION_LINES = 60
 #: The production functions longer than that today, as "path::qualname" (a nested function
 #: as ``parent.child``, a method as ``Class.method``) with their length when listed. A ratchet:
 #: no function may join, and one that is no longer long must leave.
-LONG_TODAY = {
-    "supervisor/rcb/law.py::_apply_law",  # 134
-}
+LONG_TODAY: frozenset[str] = frozenset()  # none since issue 31 item 7 (2026-11-29)
 
 
 def _function_lengths(source, prefix=""):
