@@ -15,6 +15,7 @@ A quantity no plan of the fleet measured with the tool keeps the catalogue prior
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
@@ -109,10 +110,22 @@ def fleet_priors(
             if not found:
                 continue
             catalogue = post.prior(model, op, coverage_k, exponent_sd, edge_sd)
+            if not _proper(catalogue):  # a parameter known exactly: the catalogue's stands
+                continue
             made = _prior(plan.machine.name, op, catalogue, found, default_spread, spread_weight)
             if made is not None:
                 out[(op.name, quantity)] = made
     return out
+
+
+def _proper(belief: post.Posterior) -> bool:
+    """Every parameter of ``belief`` uncertain (a variance > 0), as the information form needs.
+
+    ``exponent_sd = 0`` (or an exponent of 0, ``edge_sd = 0`` with an edge-life limit) makes a
+    prior that knows a parameter exactly: its inverse does not exist, and no evidence can move
+    that parameter.
+    """
+    return all(0.0 < belief.cov[i][i] < math.inf for i in range(len(belief.cov)))
 
 
 def _prior(
@@ -132,7 +145,7 @@ def _prior(
             item.exponent_sd,
             item.edge_sd,
         )
-        if item_prior.names != catalogue.names:
+        if item_prior.names != catalogue.names or not _proper(item_prior):
             continue
         seen = evidence(item.posterior, item_prior, item.operation.context)
         by_machine[item.machine] = (

@@ -140,6 +140,26 @@ def test_a_new_plan_starts_from_what_two_machines_learned() -> None:
     )
 
 
+def test_a_prior_that_knows_an_exponent_exactly_keeps_the_catalogue() -> None:
+    """exponent_sd = 0 (a setting the REST service takes) makes the catalogue prior singular:
+    no fleet prior can be formed in information form, so none is made (the catalogue's stands,
+    no error); learned evidence with such a prior is left out the same way. Found by the REST
+    schema fuzzing (POST /plans?exponent_sd=0.0 answered 500 once the fleet held evidence)."""
+    learned = _learned("m1", "p1", "rough-grooves", [1.1] * 6)
+    learned += _learned("m2", "p2", "rough-grooves", [1.1] * 6)
+    assert ("rough-contour", "force_N") in fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)
+    assert fleet_priors(PLAN, learned, 2.0, 0.0) == {}
+    exact = [replace(item, exponent_sd=0.0) for item in learned]
+    assert fleet_priors(PLAN, exact, 2.0, SETTINGS.exponent_sd) == {}
+    # rough-grooves has no edge-life limit, so no wear term: edge_sd = 0 changes nothing there
+    assert fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd, edge_sd=0.0).keys() == {
+        ("rough-grooves", "force_N"),
+        ("rough-grooves", "roughness_um"),
+        ("rough-contour", "force_N"),
+        ("rough-contour", "roughness_um"),
+    }
+
+
 def test_on_a_machine_of_the_fleet_its_own_readings_count_in_full() -> None:
     """The plan's own machine: its offset is known from its readings, so the prior is
     narrower than a new machine's (which adds the whole spread)."""
