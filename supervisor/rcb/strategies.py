@@ -87,13 +87,13 @@ class Strategy:
         1 stopped and none.
         """
         from supervisor.rcb import monitor as watcher
-        from supervisor.rcb.monitor_state import Expected as Expecting
+        from supervisor.rcb.monitor_state import Expected  # the module-level one is typing-only
 
         settings = state.settings
         point = {**result.setpoint, **operation.context}
         rel = operation.setpoint_rel_uncertainty
         catalogue = state.plan.tools[operation.tool].models[quantity].predict(point, rel)
-        low = Expecting(
+        low = Expected(
             math.log(catalogue.value), (catalogue.band / catalogue.value) / settings.coverage_k
         )
         exponents = state.tools[operation.name].models[quantity].exponents
