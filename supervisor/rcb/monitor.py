@@ -129,11 +129,11 @@ def _low_side(
     monitor: Monitor,
     low: Expected,
     reading: Reading,
+    variance: float,
     exponents: Mapping[str, float],
     exponent_sd: float,
 ) -> Watched | None:
     """A held reading the new one confirms, or a reading too good to be true; else None."""
-    variance = monitor.scale**2
     held = monitor.held
     if (
         held is not None
@@ -156,6 +156,7 @@ def _noise_learned(
     monitor: Monitor,
     high: Expected,
     reading: Reading,
+    e: float,
     r_high: float,
     variance: float,
     common: bool,
@@ -164,9 +165,8 @@ def _noise_learned(
 
     A change counts as a reading at the alarm's edge (it cannot be told from noise by
     itself); a reading of a common change, or after the setpoint moved too far to tell the
-    noise from the model, teaches nothing.
+    noise from the model, teaches nothing. ``e``: the innovation ``ln y`` less ``high``'s mean.
     """
-    e = reading.ln_y - high.mean
     unit = high.noise**2 + reading.noise**2
     model2 = (high.sd if high.estimate_sd is None else high.estimate_sd) ** 2
     weight = variance * unit / (model2 + variance * unit)
@@ -212,7 +212,7 @@ def watch(
         return Watched("accept", replace(monitor, held=None))
     reading = _reading_of(measurement, point)
     variance = monitor.scale**2
-    on_low = _low_side(monitor, low, reading, exponents, exponent_sd)
+    on_low = _low_side(monitor, low, reading, variance, exponents, exponent_sd)
     if on_low is not None:
         return on_low
     monitor = replace(monitor, held=None)
@@ -220,7 +220,7 @@ def watch(
         return Watched("accept", monitor)
     e = reading.ln_y - high.mean
     r_high = _sigma(high, reading, variance)
-    monitor = _noise_learned(monitor, high, reading, r_high, variance, common is not None)
+    monitor = _noise_learned(monitor, high, reading, e, r_high, variance, common is not None)
     spread2 = _variance(high, reading.noise, variance)
     innovation = (e, spread2)
     if common is not None or r_high > CHANGE_SIGMA:  # a change at once

@@ -242,14 +242,14 @@ def _reading(
         noise.shape + watched.monitor.chain_shape - monitor.chain_shape,
         noise.rate + watched.monitor.chain_rate - monitor.chain_rate,
     )
-    alarm_u = measurement.uncertainty * gained.prudent_scale
+    prudent_u = measurement.uncertainty * gained.prudent_scale  # the law's alarm_u too
     decision, model, sigma[key], seen[key] = apply_law(
-        judged, op, made, quantity, evidence, projection, moved, alarm_u
+        judged, op, made, quantity, evidence, projection, moved, prudent_u
     )
     decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
     if watched.changed:
         decision = changed(decision, watched, None if common is None else common.z)
-    prudent = Measurement(measurement.value, measurement.uncertainty * gained.prudent_scale)
+    prudent = Measurement(measurement.value, prudent_u)
     keep, belief, decision = settings.rule.learn(state, op, made, decision, prudent, watched, age)
     if keep:
         tools[op.name] = _with_model(tools[op.name], model)
