@@ -43,24 +43,32 @@ band at its floor (``ΔY = u``) would otherwise flag every reading on the model 
 chain's noise is known.
 
 The margin of a maximum's reading over the prediction ``Y`` at its setpoint counts its noise
-as ``u + δ``, ``δ = y − Y``, up to ``P u``: ``M = Y_lim − (y + u + min(δ, (P − 1) u))``; at or
-under the prediction the paper's ``M = Y_lim − (y + u)`` (continuous at ``y = Y``: a reading
-rounded a hair over its prediction keeps the paper's margin within that hair). Why: the next
-setpoint raises the truth by about ``α M``, so a reading ``e`` under a truth ``d`` under the
-limit is safe while ``e ≤ u + 3 d`` (α = 0.25). Under the prediction the band itself stands
-between the reading and the limit, ``d ≥ ΔY − e``, and every ``e ≤ (u + 3 ΔY)/4`` is safe; the
+as ``u + δ``, ``δ = y − Y``, up to ``Q u``: ``M = Y_lim − (y + u + min(δ, (Q − 1) u))``, ``Q``
+the chain's *bound* scale (:attr:`supervisor.rcb.noise.NoiseScale.bound_scale`, the upper
+``Φ(2)`` quantile of its noise: 3.15 before any reading, 1 once the chain has shown it is
+quiet; the ``k = 2`` of the paper's ``y + u`` with the noise not yet known); at or under the
+prediction the paper's ``M = Y_lim − (y + u)`` (continuous at ``y = Y``: a reading rounded a
+hair over its prediction keeps the paper's margin within that hair). Why: the next setpoint
+raises the truth by about ``α M``, so a reading ``e`` under a truth ``d`` under the limit is
+safe while ``e ≤ u + 3 d`` (α = 0.25). Under the prediction the band itself stands between
+the reading and the limit, ``d ≥ ΔY − e``, and every ``e ≤ (u + 3 ΔY)/4`` is safe; the
 further over it, the nearer ``d`` may be to 0 (a truth the catalogue band barely covers), and
 the more the reading's unknown noise decides. Ivester & Heigel's Table 5 step 1 (rough-od Ra
 3.06 ± 0.09 µm under its prediction) keeps the paper's margin, 0.85 µm; step 2 (rough-grooves
 Ra 1.82 ± 0.07 µm, 0.10 µm over its prediction, before any reading has shown the chain's
-noise) takes 2.0 − (1.82 + 2.11 × 0.07) = 0.032 µm where the paper takes 0.11: its band
-shrinks by 0.008 µm, not 0.028, until the chain shows it is as quiet as it says. A minimum
-(tool life) keeps its ``u`` throughout: no monitor learns its noise, so ``P`` would stay the
-prior's for ever. ``ivester`` on ``benchmarks/closed_loop.py``, 1000 scenarios x 30 parts,
-all five faults: 28 avoidable crossings with ``y + u``, 11 with ``y + P u`` at the alarm and
-the cover, 2 with this margin (fault-free MRR/oracle after 10 parts 0.9462, 0.9460, 0.9454;
-``learn``'s unchanged). ``P`` at the chain's ``Φ(2)`` quantile (3.15) gave 1, but Table 5's
-step 2 reading would then back off where the paper shrinks (it needs ``P`` under 2.57).
+noise) takes 2.0 − (1.82 + 0.07 + 0.098) = 0.012 µm where the paper takes 0.11: its band
+shrinks by 0.003 µm, not 0.028, until the chain shows it is as quiet as it says; it is not
+flagged (``y + P u`` = 1.97 µm is under the 2.0 µm limit, and ``y + u`` inside the band).
+A reading that shows the process changed (note ``regime_change``, ``moved > 0``) is read at
+``y + max(P, Q) u`` for the alarm and the band it grows: the band covered the old truth, not
+the new one, and one reading of a noisy chain may be ``Q u`` under it. A minimum (tool life)
+keeps its ``u`` throughout: no monitor learns its noise, so ``P`` would stay the prior's for
+ever. ``ivester`` on ``benchmarks/closed_loop.py``, 1000 scenarios x 30 parts, all five
+faults: 28 avoidable crossings with ``y + u``, 11 with ``y + P u`` at the alarm and the
+cover, 2 with the margin up to ``P u`` (a chain 3x noisier than it claims, a first reading
+1.86 u over its prediction and 2.3 of the true σ under a truth 0.6 % under the limit), 0 with
+``Q u`` and a change read at ``Q u``. ``Q`` at the alarm too backs off Table 5's step 2
+reading where the paper shrinks (it needs the alarm's scale under 2.57).
 
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + 3σ`` under
 the limit) or ``below_band`` (``y − u`` under the lower edge), the notes ``past_limit`` and
@@ -155,6 +163,7 @@ def apply_law(
     projection: float = 1.0,
     moved: float = 0.0,
     alarm_u: float = 0.0,
+    bound_u: float = 0.0,
 ) -> tuple[Decision, PowerLawModel, float, float]:
     """The one-sided law for one measured quantity: decision, model, σ of ln K, ``seen``.
 
@@ -167,6 +176,8 @@ def apply_law(
     setpoint backs off by ``ln(g/Y_lim)`` in the quantity, and exponents wrong by ``k s`` of
     themselves would carry the reading that much higher there (the band moves the reading
     to another setpoint with the model's exponents).
+    ``alarm_u`` and ``bound_u``: the reading's ``u`` at the chain's prudent scale ``P`` and at
+    its bound scale ``Q`` (module docstring; 0: the reading's own ``u``).
 
     Raises
     ------
@@ -176,7 +187,7 @@ def apply_law(
     """
     try:
         return _apply_law(
-            state, operation, result, quantity, measurement, projection, moved, alarm_u
+            state, operation, result, quantity, measurement, projection, moved, alarm_u, bound_u
         )
     except ArithmeticError:
         where = f"operations.{operation.name}.measurements.{quantity}"
@@ -239,6 +250,7 @@ def _apply_law(
     projection: float,
     moved: float,
     alarm_u: float,
+    bound_u: float,
 ) -> tuple[Decision, PowerLawModel, float, float]:
     settings = state.settings
     model = state.tools[operation.name].models[quantity]
@@ -265,11 +277,14 @@ def _apply_law(
     # u at the chain's prudent scale (module docstring): the alarm and a grown band read it
     # where that side is past the limit, the margin as far as the reading is over the prediction
     prudent_u = max(u, alarm_u)
+    bound_u = max(prudent_u, bound_u)
     wide = prudent_u if is_max and y + alarm_u > limit else u
+    if moved > 0 and is_max:  # a change: the band covered the old truth, not the new one
+        wide = bound_u
     alarm = y + wide if is_max else guard
     # the margin the edge will still have at its last part (wear, supervisor.rcb.wear)
-    # over the prediction by δ, u + δ up to the prudent P u (module docstring)
-    margin_u = u + min(max(y - shown.value, 0.0), prudent_u - u)
+    # over the prediction by δ, u + δ up to the bound Q u (module docstring)
+    margin_u = u + min(max(y - shown.value, 0.0), bound_u - u)
     margin = limit - (y * projection + margin_u) if is_max else guard - limit
     flag, note, fallback_only = _flags(case, result, limit, alarm, guard)
     model, sigma = settings.rule.adjust(

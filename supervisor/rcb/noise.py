@@ -40,6 +40,8 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import numpy as np
+
 #: ``a`` and ``b`` of the noise scale's inverse-gamma prior: ``b/a < 1`` (the law starts at the
 #: reported ``u``), three half-readings' weight; its upper 7 % quantile, ``λ = 4.46``, is what
 #: ``learn`` starts at (a chain 2.11 x noisier than it claims).
@@ -47,6 +49,10 @@ NOISE_PRIOR = 1.5
 NOISE_RATE = 1.0
 #: ``learn`` counts readings at this upper quantile of the chain's noise scale (module docstring).
 PRUDENT_QUANTILE = 0.93
+#: The band law bounds a truth over its prediction, or after a change, at this upper quantile:
+#: ``Φ(2)``, the ``k = 2`` of the paper's ``y + u`` (:mod:`supervisor.rcb.law`).
+BOUND_QUANTILE = 0.9772498680518208
+_TAILS = np.array([1.0 - PRUDENT_QUANTILE, 1.0 - BOUND_QUANTILE])
 
 
 @dataclass(frozen=True)
@@ -63,7 +69,16 @@ class NoiseScale:
 
     @property
     def prudent_scale(self) -> float:
-        """``√max(λ_q, 1)``, ``λ_q`` the upper :data:`PRUDENT_QUANTILE` quantile of ``λ``.
+        """``√max(λ_q, 1)``, ``λ_q`` the upper :data:`PRUDENT_QUANTILE` quantile of ``λ``."""
+        return self.scales()[0]
+
+    @property
+    def bound_scale(self) -> float:
+        """``√max(λ_q, 1)``, ``λ_q`` the upper :data:`BOUND_QUANTILE` quantile of ``λ``."""
+        return self.scales()[1]
+
+    def scales(self) -> tuple[float, float]:
+        """``(prudent, bound)`` scales: ``√max(λ_q, 1)`` at each quantile, in one call.
 
         ``P(λ > λ_q) = 1 − q`` is ``P(G < b/λ_q) = 1 − q`` for ``G ~ Gamma(a, 1)``, so ``λ_q =
         b / P⁻¹(a, 1 − q)`` (Gelman et al. §2.6; ``scipy.special.gammaincinv``).
@@ -72,8 +87,9 @@ class NoiseScale:
         # state (rcb report, the web view) paid at start without ever calling it
         from scipy.special import gammaincinv
 
-        quantile = self.rate / float(gammaincinv(self.shape, 1.0 - PRUDENT_QUANTILE))
-        return math.sqrt(max(quantile, 1.0))
+        tails = gammaincinv(self.shape, _TAILS)
+        prudent, bound = (math.sqrt(max(self.rate / float(t), 1.0)) for t in tails)
+        return prudent, bound
 
 
 def pooled(beliefs: Iterable[NoiseScale]) -> NoiseScale:

@@ -58,13 +58,14 @@ References
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.errors import InfeasibleError
-from supervisor.inputs.part_report import Measurement, PartReport
+from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement, PartReport
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.optimizer import optimize_operation
 from supervisor.optimize.passes import measured_at
@@ -233,18 +234,20 @@ def _reading(
         rises[key] = rise
         projection = rise.factor(age, settings.coverage_k)
     moved = settings.exponent_sd if watched.verdict == "change" else 0.0
-    evidence = scaled
-    if common is not None and watched.verdict == "change":  # at least what the others showed
-        floor = item.shifted(watched.shift, watched.forget, noise.prudent_scale)
-        if floor is not None and _upper(floor) > _upper(scaled):
-            evidence = floor
     gained = NoiseScale(  # the chain's belief with this reading's evidence
         noise.shape + watched.monitor.chain_shape - monitor.chain_shape,
         noise.rate + watched.monitor.chain_rate - monitor.chain_rate,
     )
-    prudent_u = measurement.uncertainty * gained.prudent_scale  # the law's alarm_u too
+    prudent_scale, bound_scale = gained.scales()
+    prudent_u = measurement.uncertainty * prudent_scale  # the law's alarm_u too
+    bound_u = measurement.uncertainty * bound_scale
+    evidence = scaled
+    if common is not None and watched.verdict == "change":  # at least what the others showed
+        floor = item.shifted(watched.shift, watched.forget, noise.prudent_scale)
+        if floor is not None and _upper(floor) > scaled.value + max(scaled.uncertainty, bound_u):
+            evidence = floor
     decision, model, sigma[key], seen[key] = apply_law(
-        judged, op, made, quantity, evidence, projection, moved, prudent_u
+        judged, op, made, quantity, evidence, projection, moved, prudent_u, bound_u
     )
     decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
     if watched.changed:
@@ -299,7 +302,7 @@ def _unread_change(
     op, quantity = item.op, item.quantity
     key = (op.name, quantity)
     shift, variance = common.shift()
-    virtual = item.shifted(shift, variance, scale)
+    virtual = _higher(item.shifted(shift, variance, scale), _edge_shifted(state, item, common))
     if virtual is not None:
         moved = state.settings.exponent_sd  # a change, as a flagged reading of one backs off
         law, model, sigma, seen = apply_law(state, op, item.made, quantity, virtual, 1.0, moved)
@@ -309,6 +312,28 @@ def _unread_change(
     belief = state.settings.rule.moved(state, op, quantity, shift, variance)
     if belief is not None:
         new.posterior[key] = belief
+
+
+def _edge_shifted(state: RcbState, item: Judged, common: CommonShift) -> Measurement:
+    """The band's guarding edge at the part's setpoint, moved by the others' change.
+
+    The band covers the truth before the change (Ivester & Heigel: it "encompasses all of
+    the points"), so ``(Y + ΔY)·exp(δ̂)``, with ``δ̂``'s spread as its uncertainty, is over the
+    truth after it whatever the last reading's noise was. The last reading moved by ``δ̂``
+    (:meth:`Judged.shifted`) alone came in under it: ``ivester`` under all five faults, a
+    reading 1.6σ low before a +12 % step whose reading dropped out, and the next part crossed.
+    """
+    model = state.tools[item.op.name].models[item.quantity]
+    point = {**item.made.setpoint, **item.op.context}
+    edge = model.predict(point, item.op.setpoint_rel_uncertainty)
+    shift, variance = common.shift()
+    value = (edge.value + edge.band) * math.exp(shift)
+    return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(variance))
+
+
+def _higher(a: Measurement | None, b: Measurement) -> Measurement:
+    """Of two readings of one quantity, the one whose upper side ``y + u`` is higher."""
+    return b if a is None or _upper(b) > _upper(a) else a
 
 
 def _chains(monitors: Mapping[tuple[str, str], Monitor]) -> dict[str, NoiseScale]:

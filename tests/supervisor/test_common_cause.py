@@ -146,11 +146,12 @@ def test_a_rise_over_the_pooled_level_under_the_one_reading_alarm_is_a_change():
 
 
 def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift():
-    # ivester learns no K: the quarantined operation's band grows to cover what it expected
-    # (its last reading moved to the setpoint) raised by the others' shift, at k = 2 of that
-    # value's spread (the expectation's, its last reading's noise at the chain's prudent scale
-    # before the report, and the shift's); past the limit, as a flagged reading of a change
-    # does, it reaches (g / limit)^(k s) higher (the back-off's exponent error, law.py)
+    # ivester learns no K: the quarantined operation's band grows to cover the higher of what
+    # it expected (its last reading moved to the setpoint) and its band's edge, each raised
+    # by the others' shift, at k = 2 of that value's spread (the expectation's, its last
+    # reading's noise at the chain's prudent scale before the report, and the shift's; the
+    # edge's: the shift's alone); past the limit, as a flagged reading of a change does, it
+    # reaches (g / limit)^(k s) higher (the back-off's exponent error, law.py)
     state = _learned_state("ivester")
     names = [op.name for op in state.plan.operations]
     unread, rest = names[0], names[1:]
@@ -171,9 +172,15 @@ def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift()
     prudent = _chains(state.monitors)["roughness_um"].prudent_scale
     assert prudent > monitor.scale  # the chain's noise is not known yet: more than ŝ
     spread2 = high.sd**2 + (prudent * high.noise) ** 2 + variance  # its last reading's too
-    covered = value * (1 + 2 * math.sqrt(spread2))
+    expected = value * (1 + 2 * math.sqrt(spread2))
     point = {**made.setpoint, **op.context}
     before = state.tools[unread].models["roughness_um"].predict(point)
+    edge = (before.value + before.band) * math.exp(shift)
+    from_edge = edge * (1 + 2 * math.sqrt(variance))
+    # here the band's edge is the higher: the last reading alone would cover 4.018 um, and
+    # a truth up to the band's edge before the change would cross at the next part
+    assert from_edge > expected
+    covered = from_edge
     after = new.tools[unread].models["roughness_um"].predict(point)
     assert before.value + before.band < covered  # it did not cover the change before
     limit = op.limits["roughness_um"]

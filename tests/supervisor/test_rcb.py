@@ -21,10 +21,15 @@ from conftest import DEMO_PLAN
 #: The chain's prudent noise scale before any reading has shown its noise (supervisor.rcb.noise:
 #: the inverse-gamma prior a = 1.5, b = 1 and its upper 93 % quantile, b / P⁻¹(a, 0.07)).
 PRUDENT = 2.1111458
+#: Its bound scale: the same prior's upper Φ(2) = 97.725 % quantile, b / P⁻¹(a, 0.02275),
+#: the k = 2 of the paper's y + u with the chain's noise not yet known (supervisor.rcb.law).
+BOUND = 3.1458193
 
 
 def test_the_prudent_scale_before_any_reading():
     assert NoiseScale().prudent_scale == pytest.approx(PRUDENT, rel=1e-7)
+    assert NoiseScale().bound_scale == pytest.approx(BOUND, rel=1e-7)
+    assert NoiseScale().scales() == (NoiseScale().prudent_scale, NoiseScale().bound_scale)
 
 
 @pytest.fixture(scope="module")
@@ -115,23 +120,23 @@ def test_one_sided_law_hand_computed(state):
     assert_allclose(low.band_after, f.band - 153.75)
     # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.40: expand to cover
     # it (765 − 578.35 = 186.65 N), flagged above_band; y + P u = 770.56 is under the limit,
-    # so the band covers the paper's y + u; over the prediction, the margin reads y + P u:
-    # 1000 − 770.56 = 229.44 N (the paper's 235 N for a reading under the prediction: low)
+    # so the band covers the paper's y + u; over the prediction by more than (Q − 1) u, the
+    # margin reads y + Q u: 1000 − 775.73 = 224.27 N (the paper's 235 N)
     above = one(760.0, 5.0)
     assert above.action == "expand" and above.flagged and above.flag == "above_band"
     assert above.note is None
     assert_allclose(above.band_after, 765.0 - f.value)
-    assert_allclose(above.margin, 1000.0 - 760.0 - 5 * PRUDENT)
-    assert_allclose(above.margin, 229.44, atol=0.01)
-    # over the prediction, inside the band: 620 ± 5, margin 1000 − 630.56 = 369.44 N, the band
-    # shrinks by 92.36 N to 84.69 N (the paper's y + u: 375 N, 93.75 N; it still covers
+    assert_allclose(above.margin, 1000.0 - 760.0 - 5 * BOUND)
+    assert_allclose(above.margin, 224.27, atol=0.01)
+    # over the prediction, inside the band: 620 ± 5, margin 1000 − 635.73 = 364.27 N, the band
+    # shrinks by 91.07 N to 85.98 N (the paper's y + u: 375 N, 93.75 N; it still covers
     # y + u = 625 N, 46.65 N over the prediction)
     upper_half = one(620.0, 5.0)
     assert upper_half.action == "shrink" and upper_half.flag is None
-    assert_allclose(upper_half.margin, 369.44, atol=0.01)
-    assert_allclose(upper_half.band_after, f.band - 0.25 * (1000.0 - 620.0 - 5 * PRUDENT))
-    assert_allclose(upper_half.band_after, 84.69, atol=0.01)
-    # just over the prediction: 580 ± 5, δ = 1.65 N under (P − 1) u = 5.56 N: the margin
+    assert_allclose(upper_half.margin, 364.27, atol=0.01)
+    assert_allclose(upper_half.band_after, f.band - 0.25 * (1000.0 - 620.0 - 5 * BOUND))
+    assert_allclose(upper_half.band_after, 85.98, atol=0.01)
+    # just over the prediction: 580 ± 5, δ = 1.65 N under (Q − 1) u = 10.73 N: the margin
     # counts u + δ, 1000 − 586.65 = 413.35 N (the paper's 415 N); continuous at y = Y
     just_over = one(580.0, 5.0)
     assert just_over.action == "shrink" and just_over.flag is None
@@ -144,20 +149,20 @@ def test_one_sided_law_hand_computed(state):
     assert near.flag == "above_band" and near.action == "expand"
     assert_allclose(near.band_after, 990.0 + 5 * PRUDENT - f.value)
     assert_allclose(near.band_after, 422.21, atol=0.01)
-    assert_allclose(near.margin, 1000.0 - 990.0 - 5 * PRUDENT, atol=1e-6)  # −0.56 N: none
+    assert_allclose(near.margin, 1000.0 - 990.0 - 5 * BOUND, atol=1e-6)  # −5.73 N: none
     assert_allclose(one(985.0, 5.0).band_after, 990.0 - f.value)
     # measured over the limit: 1010 ± 5 → breach, the band covers 1010 + 5 P = 1020.56 N
     over = one(1010.0, 5.0)
     assert over.action == "expand" and over.flag == "breach"
     assert_allclose(over.band_after, 1010.0 + 5 * PRUDENT - f.value)
-    assert_allclose(over.margin, -10.0 - 5 * PRUDENT)
+    assert_allclose(over.margin, -10.0 - 5 * BOUND)
     # past the limit by more than u but within the reading's 3σ (σ = u/2): 1006 ± 5 → y − u
     # = 1001 > 1000 (out of tolerance by ISO 14253-1: the note past_limit), y − 1.5u = 998.5
     # under it (no process alarm); a band setpoint still flags it above_band and backs off
     iso = one(1006.0, 5.0)
     assert iso.flag == "above_band" and iso.note == "past_limit" and iso.action == "expand"
     assert_allclose(iso.band_after, 1006.0 + 5 * PRUDENT - f.value)
-    assert_allclose(iso.margin, -6.0 - 5 * PRUDENT)
+    assert_allclose(iso.margin, -6.0 - 5 * BOUND)
     # the 3σ alarm's edge: y − 1.5u = 1000.0 is not past the limit, 1000.15 is
     assert one(1007.5, 5.0).flag == "above_band"
     assert one(1007.65, 5.0).flag == "breach" and one(1007.65, 5.0).note is None
@@ -239,11 +244,13 @@ def test_quantities_and_operations_update_independently(state):
     assert by[("rough-od", "force_N")].flag == "above_band"
     grooves = by[("rough-grooves", "roughness_um")]
     assert grooves.action == "shrink"
-    # 1.82 is 0.10 µm over the 1.722 µm prediction, more than (P − 1) u = 0.078 µm: before any
-    # reading has shown the chain's noise the margin reads y + P u, 2.0 − 1.9678 = 0.0322 µm
-    # (the paper's y + u: 0.11 µm; supervisor.rcb.law)
+    # 1.82 is δ = 0.098 µm over the 1.722 µm prediction, under (Q − 1) u = 0.150 µm: before
+    # any reading has shown the chain's noise the margin counts u + δ, 2.0 − 1.988 = 0.012 µm
+    # (the paper's y + u: 0.11 µm; supervisor.rcb.law); y + P u = 1.968 µm is under the limit,
+    # so it is not flagged and the band shrinks, as in the paper
     assert grooves.predicted == pytest.approx(1.722, abs=5e-4)
-    assert_allclose(grooves.margin, 2.0 - 1.82 - PRUDENT * 0.07, rtol=1e-6)
+    assert_allclose(grooves.margin, 2.0 - 1.82 - 0.07 - (1.82 - grooves.predicted), rtol=1e-6)
+    assert_allclose(grooves.margin, 0.012, atol=5e-4)
     # steps 2 and 3 use the same insert (VCMR331) but keep separate bands
     assert new.tools["rough-contour"] == state.tools["rough-contour"]
     assert new.tools["rough-grooves"] != state.tools["rough-grooves"]
