@@ -3,7 +3,7 @@ r"""The noise scale of a measuring chain: how much noisier its readings are than
 The reported ``u`` is a prior on the noise, not its value (DESIGN.md, RCB: "The shop floor
 misbehaves"). The variance of a reading is ``λ (u/k)²``, ``λ ~ InvGamma(a, b)``;
 :func:`supervisor.rcb.monitor.watch` updates ``a`` and ``b`` from each reading's innovation.
-Two scales are read off the belief, never under 1 (a chain quieter than it claims is not
+Three scales are read off the belief, never under 1 (a chain quieter than it claims is not
 trusted to be):
 
 - ``ŝ = √max(b/a, 1)`` (1 before any reading) of the operation's own evidence, the band law's
@@ -14,7 +14,11 @@ trusted to be):
   (2.11 before any reading), ``learn``'s likelihood and the scale its earlier readings are
   counted at (:func:`supervisor.rcb.learning.rescaled`, in both directions): a posterior is
   not narrowed by two or three readings of a chain whose noise is not yet known, and the
-  scale comes down as fast as the chain shows it is quiet.
+  scale comes down as fast as the chain shows it is quiet; the band law's alarm near the
+  limit (:mod:`supervisor.rcb.law`);
+- the same at the upper :data:`BOUND_QUANTILE` quantile, ``Φ(2)`` (3.15 before any reading):
+  the band law's bound on a truth over its prediction, or after a change (the ``k = 2`` of
+  the paper's ``y + u`` while the noise is not yet known).
 
 ``learn``'s belief is the *chain's*: one instrument (the dynamometer, the profilometer, the spindle
 drive) reads a quantity in every operation of a plan and misreports its ``u`` by one factor

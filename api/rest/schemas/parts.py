@@ -159,7 +159,7 @@ class Update(Out):
     margin: float | None = Field(
         description="limit - (measured + u) for a maximum, (measured - u) - limit for a "
         "minimum; a maximum's reading over its prediction counts u + (measured - predicted), "
-        "up to u at the measuring chain's prudent noise scale (2.11 u before its noise is "
+        "up to u at the measuring chain's bound noise scale (3.15 u before its noise is "
         "known); with edge_parts, a wearing quantity's reading projected to the edge's last "
         "part (reason gives the projection); null without a limit",
     )
