@@ -11,6 +11,7 @@ from rcb_support import _report, paper_start
 from supervisor.inputs.part_report import Measurement, ToolWear
 from supervisor.inputs.plan import load_plan
 from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.law import apply_law
 from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.state import RcbSettings
@@ -229,6 +230,29 @@ def test_no_margin_holds():
     )
     assert d.action == "hold" and not d.flagged and d.band_after == pytest.approx(ra.band)
     assert new.version == state.version  # nothing moved: no new setpoint version
+
+
+def test_a_change_is_read_at_the_chains_bound_scale(state):
+    # rough-grooves force at its robust start: Y = 578.35 N, band edge 755.40 N, limit 1000 N.
+    # 745 ± 5 N: y + u = 750 is inside the band; before any reading the chain's P = 2.1111
+    # and Q = 3.1458 (supervisor.rcb.noise). Read as a change (moved = s > 0), y + Q u =
+    # 760.73 N is past the band's edge: above_band, and the band grows to cover it, 182.38 N
+    # (under the limit: no exponent reach). The same reading with no change: the margin
+    # counts u + δ up to Q u, 1000 − (745 + 15.73) = 239.27 N, and the band shrinks, by
+    # 0.25 of it to 117.23 N but no further than covering y + u (171.65 N)
+    made = state.setpoints.operations[1]
+    op = state.plan.operations[1]
+    f = made.predicted["force_N"]
+    reading = Measurement(745.0, 5.0)
+    scales = (5.0 * PRUDENT, 5.0 * BOUND)
+    change, *_ = apply_law(state, op, made, "force_N", reading, 1.0, 0.15, *scales)
+    assert change.flag == "above_band" and change.action == "expand"
+    assert_allclose(change.band_after, 745.0 + 5.0 * BOUND - f.value)
+    assert_allclose(change.band_after, 182.38, atol=0.01)
+    quiet, *_ = apply_law(state, op, made, "force_N", reading, 1.0, 0.0, *scales)
+    assert quiet.flag is None and quiet.action == "shrink"
+    assert_allclose(quiet.margin, 239.27, atol=0.01)
+    assert_allclose(quiet.band_after, 750.0 - f.value)
 
 
 def test_quantities_and_operations_update_independently(state):
