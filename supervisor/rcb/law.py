@@ -19,65 +19,40 @@ the limit matters. For a maximum:
   points"). Either is flagged and the band grows to ``y + u − Y`` so it covers the measurement
   (action ``expand``); it never shrinks then.
 - ``y − u`` above the limit but ``y − 3σ`` under it: the note ``past_limit`` (the part is out
-  of tolerance by ISO 14253-1's decision rule [3]_, the quality department's call), not an
-  alarm. A process run at its limit gives such a reading once in 44 parts from noise alone
-  (DESIGN.md's ``y + u`` rule: once in 2), and 3σ once in 740. Under a band setpoint the
-  band's edge is at or under the limit, so such a reading is still ``above_band`` and backs off.
+  of tolerance by ISO 14253-1's decision rule [3]_), not an alarm (a process at its limit
+  gives one in 44 parts; 3σ, one in 740). Under a band setpoint it is still ``above_band``.
 - otherwise the margin law above; a reading whose ``y + u`` lies under the band's lower edge
   carries the note ``below_band`` (the model is pessimistic there), never a flag: a part that
   came out better than predicted is no reason to widen a band.
-- a ``learn`` setpoint held by a cone (which bounds the true value, not a measurement) is
-  ``above_band`` only when ``y − 3σ`` is past the cone's edge; its fallback band still grows
-  to cover ``y + u``, unflagged.
+- a ``learn`` setpoint held by a cone is ``above_band`` only when ``y − 3σ`` is past the
+  cone's edge; its fallback band still grows to cover ``y + u``, unflagged.
 
-A maximum's reading whose ``y + P u`` is past the limit, ``P`` the measuring chain's *prudent*
-noise scale (:attr:`supervisor.rcb.noise.NoiseScale.prudent_scale`: 2.11 before any reading has
-shown the chain's noise, 1 once the chain has shown it is as quiet as it says), is checked
-against the band's edge at ``y + P u``, and a band it grows covers ``y + P u``; the floor and the
-``breach`` alarm read ``u`` at the measured ``ŝ``, and a reading whose ``y + P u`` is under the
-limit is the paper's. The reported ``u`` is a prior on the noise, not its value (DESIGN.md): a
-chain 3x noisier than it claims (``σ = 1.5 u``) reads more than ``u`` under the truth once in 4
-parts, and the paper's ``y + u`` then lets a band shrink whose edge the truth already crosses (a
-catalogue band does not cover a truth that is a power law only locally). Only near the limit: a
-band at its floor (``ΔY = u``) would otherwise flag every reading on the model before the
-chain's noise is known.
+A maximum's reading is read at the measuring chain's noise scales (:mod:`supervisor.rcb.
+noise`; the reported ``u`` is a prior on the noise, not its value, DESIGN.md): where ``y + P u``
+is past the limit, ``P`` the *prudent* scale (2.11 before any reading has shown the chain's
+noise, 1 once it is as quiet as it says), the alarm and a grown band read ``y + P u``; a reading
+that shows the process changed (``moved > 0``) reads ``y + Q u``, ``Q`` the *bound* scale (the
+chain's upper ``Φ(2)`` quantile, 3.15 before any reading): the band covered the old truth, not
+the new one. The floor and the ``breach`` alarm read ``u`` at the measured ``ŝ``. A chain 3x
+noisier than it claims reads more than ``u`` under the truth once in 4 parts.
 
-The margin of a maximum's reading over the prediction ``Y`` at its setpoint counts its noise
-as ``u + δ``, ``δ = y − Y``, up to ``Q u``: ``M = Y_lim − (y + u + min(δ, (Q − 1) u))``, ``Q``
-the chain's *bound* scale (:attr:`supervisor.rcb.noise.NoiseScale.bound_scale`, the upper
-``Φ(2)`` quantile of its noise: 3.15 before any reading, 1 once the chain has shown it is
-quiet; the ``k = 2`` of the paper's ``y + u`` with the noise not yet known); at or under the
-prediction the paper's ``M = Y_lim − (y + u)`` (continuous at ``y = Y``: a reading rounded a
-hair over its prediction keeps the paper's margin within that hair). Why: the next setpoint
-raises the truth by about ``α M``, so a reading ``e`` under a truth ``d`` under the limit is
-safe while ``e ≤ u + 3 d`` (α = 0.25). Under the prediction the band itself stands between
-the reading and the limit, ``d ≥ ΔY − e``, and every ``e ≤ (u + 3 ΔY)/4`` is safe; the
-further over it, the nearer ``d`` may be to 0 (a truth the catalogue band barely covers), and
-the more the reading's unknown noise decides. Ivester & Heigel's Table 5 step 1 (rough-od Ra
-3.06 ± 0.09 µm under its prediction) keeps the paper's margin, 0.85 µm; step 2 (rough-grooves
-Ra 1.82 ± 0.07 µm, 0.10 µm over its prediction, before any reading has shown the chain's
-noise) takes 2.0 − (1.82 + 0.07 + 0.098) = 0.012 µm where the paper takes 0.11: its band
-shrinks by 0.003 µm, not 0.028, until the chain shows it is as quiet as it says; it is not
-flagged (``y + P u`` = 1.97 µm is under the 2.0 µm limit, and ``y + u`` inside the band).
-A reading that shows the process changed (note ``regime_change``, ``moved > 0``) is read at
-``y + max(P, Q) u`` for the alarm and the band it grows: the band covered the old truth, not
-the new one, and one reading of a noisy chain may be ``Q u`` under it. A minimum (tool life)
-keeps its ``u`` throughout: no monitor learns its noise, so ``P`` would stay the prior's for
-ever. ``ivester`` on ``benchmarks/closed_loop.py``, 1000 scenarios x 30 parts, all five
-faults: 28 avoidable crossings with ``y + u``, 11 with ``y + P u`` at the alarm and the
-cover, 2 with the margin up to ``P u`` (a chain 3x noisier than it claims, a first reading
-1.86 u over its prediction and 2.3 of the true σ under a truth 0.6 % under the limit), 0 with
-``Q u`` and a change read at ``Q u``. ``Q`` at the alarm too backs off Table 5's step 2
-reading where the paper shrinks (it needs the alarm's scale under 2.57).
+The margin of a reading over the prediction ``Y`` at its setpoint counts ``u + δ``, ``δ = y −
+Y``, up to ``Q u``: ``M = Y_lim − (y + u + min(δ, (Q − 1) u))``; at or under the prediction the
+paper's ``M = Y_lim − (y + u)`` (continuous at ``y = Y``). The next setpoint raises the truth by
+about ``α M``, so a reading ``e`` under a truth ``d`` under the limit is safe while ``e ≤ u +
+3 d``; under the prediction the band stands between the reading and the limit (``d ≥ ΔY −
+e``), over it ``d`` may be near 0 and the unknown noise decides. Table 5 step 1 (3.06 ± 0.09
+µm, under its prediction) keeps the paper's 0.85 µm; step 2 (1.82 ± 0.07 µm, 0.098 µm over,
+the chain's noise not yet known) takes 2.0 − (1.82 + 0.07 + 0.098) = 0.012 µm where the paper
+takes 0.11, still a shrink (``y + P u`` = 1.97 µm is under the limit; ``Q`` at the alarm
+would back it off). A minimum (tool life) keeps its ``u`` (no monitor learns its noise).
+``ivester``, all five faults, 1000 x 30 parts: 28 avoidable crossings with ``y + u``, 0 now.
 
-Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, a flag ``breach`` (``y + 3σ`` under
-the limit) or ``below_band`` (``y − u`` under the lower edge), the notes ``past_limit`` and
-``above_band``.
+Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, flags ``breach``, ``below_band``.
 With tool wear (an operation with a ``parts_per_edge`` limit, a report giving the edge's age),
-the margin of a rising quantity is taken from the reading projected to the edge's last part,
-``M = Y_lim − (y↑ + u)`` with ``y↑`` of :mod:`supervisor.rcb.wear` (the rise per part learned
-from the edge's readings): a new edge's margin is not the worn edge's. Flags, notes and the
-cover rule stay on the reading itself.
+a rising quantity's margin is taken from the reading projected to the edge's last part,
+``M = Y_lim − (y↑ + u)`` (:mod:`supervisor.rcb.wear`); flags, notes and the cover rule stay on
+the reading itself.
 ``ΔY'`` is stored as a new ``ΔK`` through the first-order law of
 :func:`models.powerlaw.relative_band`: ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
 
@@ -276,15 +251,10 @@ def _apply_law(
         return case.decision("hold", model, None, "no limit on this quantity"), model, sigma, worst
     # u at the chain's prudent scale (module docstring): the alarm and a grown band read it
     # where that side is past the limit, the margin as far as the reading is over the prediction
-    prudent_u = max(u, alarm_u)
-    bound_u = max(prudent_u, bound_u)
-    wide = prudent_u if is_max and y + alarm_u > limit else u
-    if moved > 0 and is_max:  # a change: the band covered the old truth, not the new one
-        wide = bound_u
+    read = _noise_read(y, u, shown.value, limit, alarm_u, bound_u, moved)
+    wide, margin_u = read if is_max else (u, u)
     alarm = y + wide if is_max else guard
     # the margin the edge will still have at its last part (wear, supervisor.rcb.wear)
-    # over the prediction by δ, u + δ up to the bound Q u (module docstring)
-    margin_u = u + min(max(y - shown.value, 0.0), bound_u - u)
     margin = limit - (y * projection + margin_u) if is_max else guard - limit
     flag, note, fallback_only = _flags(case, result, limit, alarm, guard)
     model, sigma = settings.rule.adjust(
@@ -305,6 +275,22 @@ def _apply_law(
     projected = f"reading projected {100 * (projection - 1):+.3g} % for wear" if worn else ""
     decided, new = _shrunk(case, settings, model, sigma, y_new, margin, cover, projected, note)
     return decided, new, sigma, worst
+
+
+def _noise_read(
+    y: float, u: float, y_hat: float, limit: float, alarm_u: float, bound_u: float, moved: float
+) -> tuple[float, float]:
+    """A maximum's ``u`` for the alarm and the cover, and for the margin (module docstring).
+
+    ``P u`` where ``y + P u`` is past the limit, ``Q u`` for a change; the margin's ``u + δ``
+    over the prediction ``y_hat`` up to ``Q u``.
+    """
+    prudent_u = max(u, alarm_u)
+    bound_u = max(prudent_u, bound_u)
+    wide = prudent_u if y + alarm_u > limit else u
+    if moved > 0:  # a change: the band covered the old truth, not the new one
+        wide = bound_u
+    return wide, u + min(max(y - y_hat, 0.0), bound_u - u)
 
 
 def _flags(

@@ -39,14 +39,8 @@ Strategies (:mod:`supervisor.rcb.strategies`):
 
 The noise scales a reading is read at (:mod:`supervisor.rcb.noise`): ``learn``'s likelihood
 reads the measuring chain's, pooled over the operations it reads; the band law and the alarm
-read the operation's own ``ŝ`` (pooled, one operation's model error, counted as the chain's
-noise, blinded every operation's alarm: all five faults, 10 944 avoidable crossings in 1000
-scenarios; per operation, 1104 in 200), and the chain's prudent scale ``P`` only where a
-reading's ``y + P u`` is past the limit and as far as a reading is over its prediction (the
-margin; ``alarm_u``, :mod:`supervisor.rcb.law`). Counting every reading at ``P`` took
-``ivester``'s avoidable crossings under all five faults from 34 to 5 (1000 scenarios) but
-changed the paper's law where the readings agree with their ``u`` (its Table 5 step 1) and
-cost ``ivester`` MRR/oracle 0.89 against 0.95.
+the operation's own ``ŝ`` (pooled, one operation's model error blinded every alarm), and the
+chain's prudent ``P`` and bound ``Q`` scales only as :mod:`supervisor.rcb.law` says.
 
 References
 ----------
@@ -234,13 +228,7 @@ def _reading(
         rises[key] = rise
         projection = rise.factor(age, settings.coverage_k)
     moved = settings.exponent_sd if watched.verdict == "change" else 0.0
-    gained = NoiseScale(  # the chain's belief with this reading's evidence
-        noise.shape + watched.monitor.chain_shape - monitor.chain_shape,
-        noise.rate + watched.monitor.chain_rate - monitor.chain_rate,
-    )
-    prudent_scale, bound_scale = gained.scales()
-    prudent_u = measurement.uncertainty * prudent_scale  # the law's alarm_u too
-    bound_u = measurement.uncertainty * bound_scale
+    prudent_u, bound_u = _scaled_u(noise, monitor, watched.monitor, measurement.uncertainty)
     evidence = scaled
     if common is not None and watched.verdict == "change":  # at least what the others showed
         floor = item.shifted(watched.shift, watched.forget, noise.prudent_scale)
@@ -260,6 +248,15 @@ def _reading(
         posterior[key] = belief
     new.monitors[key] = learned(watched.monitor, measurement, point, age)
     return decision, gross_breach(op, quantity, scaled, settings.halt_over)
+
+
+def _scaled_u(noise: NoiseScale, before: Monitor, after: Monitor, u: float) -> tuple[float, float]:
+    """``(P u, Q u)`` at the chain's belief with this reading's evidence (``after``'s)."""
+    shape = noise.shape + after.chain_shape - before.chain_shape
+    prudent_scale, bound_scale = NoiseScale(
+        shape, noise.rate + after.chain_rate - before.chain_rate
+    ).scales()
+    return u * prudent_scale, u * bound_scale
 
 
 def _quarantine(
@@ -302,7 +299,8 @@ def _unread_change(
     op, quantity = item.op, item.quantity
     key = (op.name, quantity)
     shift, variance = common.shift()
-    virtual = _higher(item.shifted(shift, variance, scale), _edge_shifted(state, item, common))
+    last, edge = item.shifted(shift, variance, scale), _edge_shifted(state, item, common)
+    virtual = edge if last is None or _upper(edge) > _upper(last) else last  # the higher
     if virtual is not None:
         moved = state.settings.exponent_sd  # a change, as a flagged reading of one backs off
         law, model, sigma, seen = apply_law(state, op, item.made, quantity, virtual, 1.0, moved)
@@ -315,13 +313,9 @@ def _unread_change(
 
 
 def _edge_shifted(state: RcbState, item: Judged, common: CommonShift) -> Measurement:
-    """The band's guarding edge at the part's setpoint, moved by the others' change.
+    """The band's edge moved by the others' change: ``(Y + ΔY)·exp(δ̂)``, over the new truth.
 
-    The band covers the truth before the change (Ivester & Heigel: it "encompasses all of
-    the points"), so ``(Y + ΔY)·exp(δ̂)``, with ``δ̂``'s spread as its uncertainty, is over the
-    truth after it whatever the last reading's noise was. The last reading moved by ``δ̂``
-    (:meth:`Judged.shifted`) alone came in under it: ``ivester`` under all five faults, a
-    reading 1.6σ low before a +12 % step whose reading dropped out, and the next part crossed.
+    The band covered the truth before the change, whatever the last reading's noise was.
     """
     model = state.tools[item.op.name].models[item.quantity]
     point = {**item.made.setpoint, **item.op.context}
@@ -329,11 +323,6 @@ def _edge_shifted(state: RcbState, item: Judged, common: CommonShift) -> Measure
     shift, variance = common.shift()
     value = (edge.value + edge.band) * math.exp(shift)
     return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(variance))
-
-
-def _higher(a: Measurement | None, b: Measurement) -> Measurement:
-    """Of two readings of one quantity, the one whose upper side ``y + u`` is higher."""
-    return b if a is None or _upper(b) > _upper(a) else a
 
 
 def _chains(monitors: Mapping[tuple[str, str], Monitor]) -> dict[str, NoiseScale]:

@@ -80,11 +80,11 @@ def test_milling_plan_and_current_report(server):
     update = updates[("slot", "force_N")]
     assert update["measured"] == pytest.approx(expected.value, rel=1e-12)
     # margin = limit − (measured + u) with the conversion's uncertainty (DESIGN.md, RCB), the
-    # reading over its prediction by δ counting u + δ up to P u, P = 2.1111458 before any
-    # reading has shown the chain's noise (supervisor.rcb.law)
+    # reading over its prediction by δ counting u + δ up to Q u, Q = 3.1458193 (the chain's
+    # bound scale) before any reading has shown the chain's noise (supervisor.rcb.law)
     over = expected.value - force["value"]
     assert over > 0
-    extra = min(over, (2.1111458 - 1.0) * expected.uncertainty)
+    extra = min(over, (3.1458193 - 1.0) * expected.uncertainty)
     assert update["margin"] == pytest.approx(
         230.0 - expected.value - expected.uncertainty - extra, rel=1e-7
     )
