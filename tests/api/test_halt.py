@@ -57,9 +57,9 @@ def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server
         breach = _force_update(one)
         assert breach["flag"] == "breach" and breach["flagged"] and breach["action"] == "expand"
         assert breach["note"] is None
-        # over the prediction, the margin reads y + P u, P = 2.1111458 before the chain's
-        # noise is known (supervisor.rcb.law): 2000 − (2300 + 21.11) = −321.11 N
-        assert breach["margin"] == pytest.approx(2000 - 2300 - 2.1111458 * U_N, rel=1e-8)
+        # far over the prediction, the margin reads y + Q u, Q = 3.1458193 (the chain's bound
+        # scale) before its noise is known (supervisor.rcb.law): 2000 − (2300 + 31.46) = −331.46 N
+        assert breach["margin"] == pytest.approx(2000 - 2300 - 3.1458193 * U_N, rel=1e-8)
 
         # 6000 N: past the limit by 200 % - 10 N, more than halt_over: the plan halts at once
         second = _post(mes, plan_id, _force_report("SN-6000", 2, 6000.0))
