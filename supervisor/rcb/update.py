@@ -299,20 +299,19 @@ def _unread_change(
     op, quantity = item.op, item.quantity
     key = (op.name, quantity)
     shift, variance = common.shift()
-    last, edge = item.shifted(shift, variance, scale), _edge_shifted(state, item, common)
+    last, edge = item.shifted(shift, variance, scale), _edge_shifted(state, item, shift, variance)
     virtual = edge if last is None or _upper(edge) > _upper(last) else last  # the higher
-    if virtual is not None:
-        moved = state.settings.exponent_sd  # a change, as a flagged reading of one backs off
-        law, model, sigma, seen = apply_law(state, op, item.made, quantity, virtual, 1.0, moved)
-        if law.action == "expand":
-            new.tools[op.name] = _with_model(new.tools[op.name], model)
-            new.sigma[key], new.seen[key] = sigma, seen
+    moved = state.settings.exponent_sd  # a change, as a flagged reading of one backs off
+    law, model, sigma, seen = apply_law(state, op, item.made, quantity, virtual, 1.0, moved)
+    if law.action == "expand":
+        new.tools[op.name] = _with_model(new.tools[op.name], model)
+        new.sigma[key], new.seen[key] = sigma, seen
     belief = state.settings.rule.moved(state, op, quantity, shift, variance)
     if belief is not None:
         new.posterior[key] = belief
 
 
-def _edge_shifted(state: RcbState, item: Judged, common: CommonShift) -> Measurement:
+def _edge_shifted(state: RcbState, item: Judged, shift: float, variance: float) -> Measurement:
     """The band's edge moved by the others' change: ``(Y + ΔY)·exp(δ̂)``, over the new truth.
 
     The band covered the truth before the change, whatever the last reading's noise was.
@@ -320,7 +319,6 @@ def _edge_shifted(state: RcbState, item: Judged, common: CommonShift) -> Measure
     model = state.tools[item.op.name].models[item.quantity]
     point = {**item.made.setpoint, **item.op.context}
     edge = model.predict(point, item.op.setpoint_rel_uncertainty)
-    shift, variance = common.shift()
     value = (edge.value + edge.band) * math.exp(shift)
     return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(variance))
 
