@@ -18,6 +18,9 @@ from models.powerlaw import PowerLawModel
 from models.quantities import MODEL_QUANTITIES
 from supervisor.rcb.posterior import Posterior
 
+#: The shown models a posterior keeps (a part needs two or three).
+_SHOWN_KEPT = 16
+
 
 @dataclass(frozen=True)
 class Cone:
@@ -46,8 +49,19 @@ class Cone:
         return replace(self, z=z)
 
     def shown(self, point: Mapping[str, float], rel: Mapping[str, float]) -> PowerLawModel:
-        """:func:`display_model` of this cone at ``point``."""
-        return display_model(self, point, rel)
+        """:func:`display_model` of this cone at ``point``.
+
+        Kept on the (immutable) posterior: a part's setpoint is shown when it is chosen and
+        again when its reading is judged.
+        """
+        cache: dict[tuple[object, ...], PowerLawModel]
+        cache = self.posterior.__dict__.setdefault("_shown", {})
+        key = (self.z, self.drift, tuple(point.items()), tuple(rel.items()))
+        if key not in cache:
+            if len(cache) >= _SHOWN_KEPT:
+                cache.clear()
+            cache[key] = display_model(self, point, rel)
+        return cache[key]
 
     @property
     def _chol(self) -> np.ndarray:

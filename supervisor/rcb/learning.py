@@ -56,13 +56,18 @@ def _prior_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
     if started is not None:
         return started
     settings = state.settings
-    return post.prior(
-        state.plan.tools[operation.tool].models[quantity],
-        operation,
-        settings.coverage_k,
-        settings.exponent_sd,
-        settings.edge_sd,
-    )
+    key = (operation.name, quantity, settings.coverage_k, settings.exponent_sd, settings.edge_sd)
+    # kept on the (immutable) plan: a part asks for it at every reading and re-check
+    cache: dict[tuple[object, ...], tuple[Operation, Posterior]]
+    cache = state.plan.__dict__.setdefault("_catalogue_priors", {})
+    kept = cache.get(key)
+    if kept is None or not (kept[0] is operation or kept[0] == operation):
+        model = state.plan.tools[operation.tool].models[quantity]
+        made = post.prior(
+            model, operation, settings.coverage_k, settings.exponent_sd, settings.edge_sd
+        )
+        kept = cache[key] = (operation, made)
+    return kept[1]
 
 
 def expects(
@@ -253,13 +258,22 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
     """
     if noise_scale2 == belief.noise_scale2:
         return belief
+    # kept on the (immutable) belief: a reading asks for it, then its learning and the report's end
+    cache: dict[float, tuple[Posterior, Posterior]] = belief.__dict__.setdefault("_rescaled", {})
+    kept = cache.get(noise_scale2)
+    if kept is None or not (kept[0] is prior_belief or kept[0] == prior_belief):
+        kept = cache[noise_scale2] = (prior_belief, _rescaled(belief, prior_belief, noise_scale2))
+    return kept[1]
+
+
+def _rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) -> Posterior:
     rho = belief.noise_scale2 / noise_scale2
-    p0 = np.linalg.inv(np.array(prior_belief.cov))
-    p = np.linalg.inv(np.array(belief.cov))
-    if rho > 1.0 and not _readings_add_precision(p, p0):
+    p0 = prior_belief.precision
+    p = belief.precision
+    if rho > 1.0 and not _readings_add_precision(belief, prior_belief):
         return belief
     precision = (1.0 - rho) * p0 + rho * p
-    weighted = (1.0 - rho) * p0 @ np.array(prior_belief.mean) + rho * p @ np.array(belief.mean)
+    weighted = (1.0 - rho) * p0 @ prior_belief.mean_array + rho * p @ belief.mean_array
     precision = 0.5 * (precision + precision.T)
     if float(np.linalg.eigvalsh(precision)[0]) <= 0.0:
         return belief
@@ -274,10 +288,11 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
     )
 
 
-def _readings_add_precision(p: np.ndarray, p0: np.ndarray) -> bool:
+def _readings_add_precision(belief: Posterior, prior_belief: Posterior) -> bool:
     """Whether ``P − P₀`` is positive semi-definite (to rounding): no discount took more."""
+    p, p0 = belief.precision, prior_belief.precision
     data = 0.5 * ((p - p0) + (p - p0).T)
-    return float(np.linalg.eigvalsh(data)[0]) >= -1e-9 * float(np.abs(np.linalg.eigvalsh(p)).max())
+    return float(np.linalg.eigvalsh(data)[0]) >= -1e-9 * belief.precision_norm
 
 
 def shifted(belief: Posterior, shift: float) -> Posterior:

@@ -145,6 +145,22 @@ class Posterior:
         return cache["mean"]
 
     @property
+    def precision(self) -> np.ndarray:
+        """``Σ⁻¹`` (kept on the object: it is immutable; callers must not write to it)."""
+        cache: dict[str, np.ndarray] = self.__dict__.setdefault("_arrays", {})
+        if "precision" not in cache:
+            cache["precision"] = np.linalg.inv(np.array(self.cov))
+        return cache["precision"]
+
+    @property
+    def precision_norm(self) -> float:
+        """The largest ``|eigenvalue|`` of ``Σ⁻¹`` (kept on the object)."""
+        cache: dict[str, float] = self.__dict__.setdefault("_numbers", {})
+        if "precision_norm" not in cache:
+            cache["precision_norm"] = float(np.abs(np.linalg.eigvalsh(self.precision)).max())
+        return cache["precision_norm"]
+
+    @property
     def edges(self) -> tuple[int, ...]:
         """The edge ages a cone is imposed at: 0 and ``n_max`` (only 0 without the feature)."""
         return (0, self.edge_max) if self.edge_max else (0,)

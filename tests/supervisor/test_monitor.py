@@ -181,6 +181,25 @@ def test_rescaled_counts_the_readings_at_the_new_noise_scale():
     assert rescaled(wider, prior, 4.0) is wider
 
 
+def test_rescaled_is_kept_per_scale_and_prior_not_per_belief_alone():
+    # the result is kept on the belief (a reading, its learning and the report's end ask for
+    # it); another prior at the same scale is another answer: against a tighter prior
+    # N(0, 0.05²) (precision 400) the readings are P − P₀ = 10100 − 400 = 9700, at λ = 4
+    # 2425: 400 + 2425 = 2825, not the 2600 of the first prior's
+    prior = Posterior("force_N", (), (), {}, (0.0,), ((0.01,),))
+    tight = Posterior("force_N", (), (), {}, (0.0,), ((0.0025,),))
+    posterior = Posterior("force_N", (), (), {}, (0.05 * 1e4 / 10100,), ((1 / 10100,),), 1)
+    first = rescaled(posterior, prior, 4.0)
+    assert rescaled(posterior, prior, 4.0) is first
+    assert rescaled(posterior, Posterior(*(getattr(prior, f) for f in _FIELDS)), 4.0) is first
+    other = rescaled(posterior, tight, 4.0)
+    assert_allclose(other.cov[0][0], 1 / 2825, rtol=1e-9)
+    assert_allclose(rescaled(posterior, prior, 4.0).cov[0][0], 1 / 2600, rtol=1e-9)
+
+
+_FIELDS = ("quantity", "names", "center", "context_exponents", "mean", "cov")
+
+
 def test_readings_a_little_over_part_after_part_are_a_change_by_cusum():
     # ln y ~ ln 100 ± 0.01, readings 103 ± 0.001 (noise negligible): e = ln 1.03 = 0.029559,
     # r = 2.9559 each (under the one-reading threshold 4); S = max(0, S + r − 0.5): 2.456,
