@@ -25,12 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from api.services.read import history as read_history
 from db.engine import make_engine, upgrade
 from db.state_cache import CACHE
-from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
@@ -69,7 +69,7 @@ class Lathe:
                 for name, measured in outcome.measurements.items()
             ],
         }
-        self.state, _ = update(self.state, report_from_mapping(body))
+        self.state, _ = update(self.state, parse_report(body))
         return body
 
 
@@ -98,7 +98,7 @@ def measure(engine: Any, url: str, plan_id: int, lathe: Lathe, work: Path) -> di
             if clear:
                 CACHE.clear()
             begin = time.perf_counter()
-            report_part(engine=engine, plan_id=plan_id, body=body)
+            report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
             timings.append(time.perf_counter() - begin)
     page = []
     for _ in range(3):
@@ -140,7 +140,7 @@ def main() -> None:
         begin = time.perf_counter()
         for size in sorted(args.sizes):
             while lathe.count < size:
-                report_part(engine=engine, plan_id=plan_id, body=lathe.next())
+                report_part(engine=engine, plan_id=plan_id, report=parse_report(lathe.next()))
             seeded = time.perf_counter() - begin
             print(f"# {lathe.count} parts seeded through report_part ({seeded:.0f} s)", flush=True)
             results[size] = measure(engine, url, plan_id, lathe, work)

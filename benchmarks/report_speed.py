@@ -35,6 +35,7 @@ from pathlib import Path
 import httpx
 from history_scale import Lathe
 
+from api.rest.schemas.parts import parse_report
 from api.services.keys import create_key
 from api.services.parts import report_part
 from api.services.plans import create_plan
@@ -62,7 +63,7 @@ def build(work: Path) -> tuple[str, int, str]:
     plan_id = int(create_plan(engine=engine, body=body, settings=settings).body["id"])
     lathe = Lathe(settings)
     while lathe.count < PARTS:
-        report_part(engine=engine, plan_id=plan_id, body=lathe.next())
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(lathe.next()))
     key = str(create_key(engine=engine, role="viewer", label="report_speed")["key"])
     engine.dispose()
     return url, plan_id, key

@@ -11,11 +11,11 @@ import numpy as np
 from sqlalchemy.engine import Engine
 
 from api.report.html import render_html_report as render_report
+from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
-from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.update import start, update
 from supervisor.virtual.sampling import sample_machine
@@ -50,7 +50,7 @@ def _reports(n, seed=3):
             "operations": [{"name": k, "measurements": v} for k, v in measured.items()],
         }
         bodies.append(body)
-        state, _ = update(state, report_from_mapping(body))
+        state, _ = update(state, parse_report(body))
     return bodies
 
 
@@ -62,7 +62,7 @@ def stored_demo(folder: Path, parts: int) -> tuple[str, Engine, int]:
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     for body in _reports(parts):
-        report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
     return url, engine, plan_id
 
 

@@ -29,6 +29,7 @@ from sqlalchemy import Engine, text
 from sqlalchemy.engine import make_url
 from test_service import BODY, _reports
 
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
@@ -83,7 +84,9 @@ def _build(folder: Path, strategy: str | None) -> None:
     done = 0
     for count in counts:
         for body in bodies[done:count]:
-            assert report_part(engine=engine, plan_id=PLAN_ID, body=body).status == 201
+            assert (
+                report_part(engine=engine, plan_id=PLAN_ID, report=parse_report(body)).status == 201
+            )
         done = count
         _copy(work, folder / f"{count}.db")
     engine.dispose()
@@ -132,7 +135,10 @@ def _build_postgres(folder: Path, server: str) -> None:
                 plan = create_plan(engine=engine, body=BODY, settings=settings).body
                 assert plan["id"] == PLAN_ID
             for body in bodies[done:count]:
-                assert report_part(engine=engine, plan_id=PLAN_ID, body=body).status == 201
+                assert (
+                    report_part(engine=engine, plan_id=PLAN_ID, report=parse_report(body)).status
+                    == 201
+                )
             done = count
             engine.dispose()  # and its read pool: a template has no one connected
             with admin.connect() as connection, names.open("a") as listed:

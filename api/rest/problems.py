@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-from collections.abc import Awaitable, Callable, Sequence
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -22,6 +22,7 @@ from sqlalchemy.exc import TimeoutError as PoolTimeoutError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
+from api.rest.schemas.common import field_path
 from api.rest.unavailable import RETRY_AFTER_S, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
@@ -165,17 +166,6 @@ def _valid_unicode(data: Any) -> Any:
     if isinstance(data, list | tuple):
         return [_valid_unicode(v) for v in data]
     return data
-
-
-def field_path(loc: Sequence[str | int]) -> str:
-    """``("body", "operations", 0, "name")`` → ``operations[0].name``."""
-    parts = list(loc)
-    if parts and parts[0] in ("body", "query", "path", "header"):
-        parts = parts[1:]
-    out = ""
-    for part in parts:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-    return out or "body"
 
 
 async def _problem(request: Request, err: ProblemError) -> JSONResponse:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from functools import partial
 from typing import Any
 
@@ -26,7 +26,7 @@ from db.state_cache import CACHE, database_key
 from db.store_report import store_report
 from models.errors import InputError
 from supervisor.constant_load.reported_tool_changes import ToolChange, tool_changes
-from supervisor.inputs.part_report import PartReport, report_from_mapping
+from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.signals import resolve
 from supervisor.optimize.result import PlanResult
 from supervisor.rcb.decision import Decision
@@ -38,30 +38,32 @@ def report_part(
     *,
     engine: Engine,
     plan_id: int,
-    body: Mapping[str, Any],
+    report: PartReport,
     actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
     held: Authenticated | None = None,
 ) -> Written:
     """Apply one part report: RCB at the version the part was made with, all or nothing.
 
+    ``report``: read and checked at the edge (the REST schema,
+    :func:`api.rest.schemas.parts.parse_report`); what it names is checked against the plan
+    here, before anything is stored.
     ``held``: the request's authentication (its actor is ``actor``), whose transaction the
     report goes on in (:class:`Authenticated`).
     """
-    target = f"plan {plan_id} part {body.get('serial', '')}"
+    target = f"plan {plan_id} part {report.serial}"
     with audited(engine, actor, "report part", target, held):
-        return _report_part(engine, plan_id, body, actor, idempotency, held)
+        return _report_part(engine, plan_id, report, actor, idempotency, held)
 
 
 def _report_part(
     engine: Engine,
     plan_id: int,
-    body: Mapping[str, Any],
+    report: PartReport,
     actor: Actor,
     idempotency: Idempotency | None,
     held: Authenticated | None,
 ) -> Written:
-    report = report_from_mapping(body)
     target = f"plan {plan_id} part {report.serial}"
     with transaction(engine, actor, "report part", target, idempotency, held) as tx:
         session = tx.session

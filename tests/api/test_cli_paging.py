@@ -11,6 +11,7 @@ from test_service import BODY, _reports
 
 from api.cli import parts_view
 from api.cli.main import app
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
@@ -29,7 +30,7 @@ def stored(tmp_path_factory):
     plan_id = create_plan(engine=engine, body=BODY, settings=bayes).body["id"]
     bodies, _ = _reports(30, settings=bayes)
     for body in bodies:
-        report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
     engine.dispose()
     return url, plan_id, bodies
 

@@ -22,6 +22,7 @@ from test_service import BODY, _reports
 
 from api.cli.tables import fmt
 from api.rest import problems
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
@@ -69,7 +70,7 @@ def db(tmp_path_factory) -> str:
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     for body in _reports(4)[0]:
-        report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
     engine.dispose()
     return url
 

@@ -17,6 +17,7 @@ from test_service import BODY, _reports
 
 from api.cli.main import app
 from api.report.export import FORMULA_STARTS, neutralised
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
@@ -45,7 +46,7 @@ def exported(tmp_path_factory):
     serials = [*HOSTILE, *(f"SN-RAW-{i}" for i in range(len(STORED_RAW)))]
     for body, serial in zip(bodies, serials, strict=True):
         body["serial"] = serial
-        report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
     with Session(engine) as session, session.begin():
         for i, raw in enumerate(STORED_RAW):
             session.execute(update(t.Part).where(t.Part.serial == f"SN-RAW-{i}").values(serial=raw))

@@ -14,6 +14,7 @@ import pytest
 from sqlalchemy import event, func, select
 from sqlalchemy.orm import Session
 
+from api.rest.schemas.parts import parse_report
 from api.services import auth
 from api.services import read as queries
 from api.services.errors import NotFoundError
@@ -85,7 +86,7 @@ def _report(engine, key, plan_id, body, idempotency_key):
         return report_part(
             engine=engine,
             plan_id=plan_id,
-            body=body,
+            report=parse_report(body),
             actor=held.actor,
             idempotency=idem,
             held=held,
@@ -161,7 +162,7 @@ def test_the_key_lock_is_taken_with_the_key_check_on_postgresql(pg_setup):
                 report_part(
                     engine=engine,
                     plan_id=plan_id,
-                    body=body,
+                    report=parse_report(body),
                     actor=second.actor,
                     idempotency=idem,
                     held=second,

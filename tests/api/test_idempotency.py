@@ -8,6 +8,7 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
+from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.idempotency import Idempotency, InFlightError, KeyReuseError, fingerprint
 from api.services.keys import create_key
@@ -45,7 +46,7 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
     first = report_part(
         engine=engine,
         plan_id=plan_id,
-        body=body,
+        report=parse_report(body),
         actor=actor,
         idempotency=_idem("k", plan_id, body),
     )
@@ -54,7 +55,7 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
     again = report_part(
         engine=engine,
         plan_id=plan_id,
-        body=body,
+        report=parse_report(body),
         actor=actor,
         idempotency=_idem("k", plan_id, body),
     )
@@ -65,7 +66,7 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
         report_part(
             engine=engine,
             plan_id=plan_id,
-            body=other,
+            report=parse_report(other),
             actor=actor,
             idempotency=_idem("k", plan_id, other),
         )
@@ -74,7 +75,7 @@ def test_a_completed_key_returns_the_stored_response_and_writes_nothing(engine):
     fresh = report_part(
         engine=engine,
         plan_id=plan_id,
-        body=other,
+        report=parse_report(other),
         actor=other_actor,
         idempotency=_idem("k", plan_id, other),
     )
@@ -107,7 +108,7 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
             report_part(
                 engine=engine,
                 plan_id=plan_id,
-                body=body,
+                report=parse_report(body),
                 actor=actor,
                 idempotency=_idem("busy", plan_id, body),
             )
@@ -117,7 +118,7 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
     done = report_part(
         engine=engine,
         plan_id=plan_id,
-        body=body,
+        report=parse_report(body),
         actor=actor,
         idempotency=_idem("busy", plan_id, body),
     )
@@ -126,13 +127,15 @@ def test_a_key_in_flight_is_refused_and_free_again_after(engine):
 
 def test_a_refused_report_stores_no_key_and_is_audited(engine):
     actor, plan_id, setpoints = _setup(engine)
+    # refused by the service (the plan has no such operation), not at the edge (the schema):
+    # the edge refuses before anything is opened, the service inside the audited transaction
     bad = report_at("B1", setpoints, {"force_N": 3.0})
-    bad["operations"][0]["measurements"]["force_N"]["value"] = -1.0
-    with pytest.raises(ValueError, match="force_N.value"):
+    bad["operations"][0]["name"] = "no-such-operation"
+    with pytest.raises(ValueError, match="not an operation of"):
         report_part(
             engine=engine,
             plan_id=plan_id,
-            body=bad,
+            report=parse_report(bad),
             actor=actor,
             idempotency=_idem("b", plan_id, bad),
         )
@@ -141,7 +144,7 @@ def test_a_refused_report_stores_no_key_and_is_audited(engine):
     fixed = report_part(
         engine=engine,
         plan_id=plan_id,
-        body=good,
+        report=parse_report(good),
         actor=actor,
         idempotency=_idem("b", plan_id, good),
     )

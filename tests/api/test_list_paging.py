@@ -20,6 +20,7 @@ from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
 from api.cli.main import app
+from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.keys import create_key
 from api.services.parts import report_part
@@ -109,7 +110,7 @@ def test_a_plans_page_costs_the_same_at_3_and_at_300_plans(engine):
     first = create_plan(engine=engine, body=BODY).body["id"]
     bodies, _ = _reports(3)
     for body in bodies:
-        assert report_part(engine=engine, plan_id=first, body=body).status == 201
+        assert report_part(engine=engine, plan_id=first, report=parse_report(body)).status == 201
     ids = [first, *_more_plans(engine, first, 2)]
     counter, costs = Counter(engine), {}
     for size in (3, 300):

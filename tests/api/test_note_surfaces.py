@@ -29,7 +29,7 @@ from api.cli.main import app
 from api.report import plots
 from api.report.html import render_record
 from api.report.series import operation_series
-from api.rest.schemas.parts import PartCreated
+from api.rest.schemas.parts import PartCreated, parse_report
 from api.services import parts as part_service
 from api.services.parts import report_part
 from api.services.plans import create_plan
@@ -107,14 +107,18 @@ def _stored_plan(url: str) -> dict[str, Any]:
             for serial, change in (("SN-LOW", _implausible), ("SN-REGIME", _regime)):
                 rewrite.append(change)
                 answers[serial] = report_part(
-                    engine=engine, plan_id=plan_id, body=report_at(serial, setpoints)
+                    engine=engine,
+                    plan_id=plan_id,
+                    report=parse_report(report_at(serial, setpoints)),
                 ).body
                 setpoints = answers[serial]
             rewrite.append(_gross)
             body = report_at("SN-GROSS", setpoints)
             rough = next(o for o in body["operations"] if o["name"] == "rough-od")
             rough["measurements"]["force_N"] = {"value": 6000.0, "uncertainty": 10.0}
-            answers["SN-GROSS"] = report_part(engine=engine, plan_id=plan_id, body=body).body
+            answers["SN-GROSS"] = report_part(
+                engine=engine, plan_id=plan_id, report=parse_report(body)
+            ).body
         state = stored_state(engine, plan_id)
         shown = record.report_record(engine=engine, plan_id=plan_id, last=100)
         page = render_record(shown)

@@ -18,6 +18,7 @@ from sqlalchemy.orm import Session
 
 from api.cli.main import app
 from api.cli.tables import fmt
+from api.rest.schemas.parts import parse_report
 from api.rest.schemas.plans import PlanIn
 from api.rest.schemas.setpoints import OperationSetpoint
 from api.services import read as queries
@@ -110,7 +111,7 @@ def test_passes_survive_the_database_and_match_the_rest_schema(tmp_path):
                 }
             ],
         }
-        report_part(engine=engine, plan_id=plan_id, body=part)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(part))
         current = queries.current_setpoints(engine=engine, plan_id=plan_id)
         od = current["operations"][0]
         OperationSetpoint.model_validate(od)

@@ -11,6 +11,7 @@ import pytest
 from test_service import BODY, _reports
 
 from api.rest.rendering import page_response
+from api.rest.schemas.parts import parse_report
 from api.rest.schemas.review import History
 from api.services import read as queries
 from api.services.parts import report_part
@@ -85,7 +86,7 @@ def test_a_history_page_renders_as_fastapi_renders_it(engine):
     bodies, _ = _reports(23)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     for body in bodies:
-        assert report_part(engine=engine, plan_id=plan_id, body=body).status == 201
+        assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
     data = queries.plan_history(engine=engine, plan_id=plan_id, page_size=15)
     assert len(data["versions"]) == 15  # more than one chunk of rendering
     response = page_response(History, data, "versions")

@@ -16,6 +16,7 @@ from sqlalchemy.orm import Session
 
 from api.cli.main import app
 from api.rest.app import create_app
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.api_keys import create_key
@@ -47,7 +48,9 @@ def _alpha_reached_the_law(engine, plan_id: int, alpha: float) -> None:
         ],
     }
     serial = f"SN-{state.version}"
-    answer = report_part(engine=engine, plan_id=plan_id, body=report_at(serial, setpoints)).body
+    answer = report_part(
+        engine=engine, plan_id=plan_id, report=parse_report(report_at(serial, setpoints))
+    ).body
     fractions = _shrink_fractions(answer)
     assert fractions, answer["updates"]
     assert fractions == pytest.approx([alpha] * len(fractions), rel=1e-9)

@@ -10,6 +10,7 @@ from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
 from api.cli.main import app
+from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
@@ -62,7 +63,7 @@ def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
     plan_id = create_plan(engine=engine, body=BODY, settings=ivester).body["id"]
     bodies, _ = _reports(4, settings=ivester)  # made at its own setpoints
     for body in bodies:
-        report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
     shrunk = _state(engine, plan_id)
     baseline = shrunk.plan.tools["CNMG432RN"].models["force_N"]
     assert shrunk.tools["rough-od"].models["force_N"].dK < baseline.dK  # RCB narrowed it
@@ -87,7 +88,7 @@ def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
     # RCB goes on from the reset state
     more, _ = _reports(6)
     late = {**more[5], "serial": "AFTER-RESET", "setpoint_version": reset.version}
-    answer = report_part(engine=engine, plan_id=plan_id, body=late).body
+    answer = report_part(engine=engine, plan_id=plan_id, report=parse_report(late)).body
     assert answer["setpoint_version"] >= reset.version
 
 

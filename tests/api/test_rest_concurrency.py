@@ -22,6 +22,7 @@ import pytest
 from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
+from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
@@ -175,7 +176,11 @@ def reference(tmp_path_factory) -> Reference:
         plan_id = create_plan(engine=engine, body=PLAN, settings=RcbSettings("ivester")).body["id"]
         setpoints = queries.current_setpoints(engine=engine, plan_id=plan_id)
         answers = [
-            report_part(engine=engine, plan_id=plan_id, body=report_at(f"REF-{i}", setpoints)).body
+            report_part(
+                engine=engine,
+                plan_id=plan_id,
+                report=parse_report(report_at(f"REF-{i}", setpoints)),
+            ).body
             for i in range(STREAM)
         ]
     finally:

@@ -9,6 +9,7 @@ import pytest
 from test_service import BODY, _reports
 
 from api.cli.main import app
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
@@ -21,7 +22,9 @@ def stored(tmp_path_factory):
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, state = _reports(4)
-    answers = [report_part(engine=engine, plan_id=plan_id, body=b).body for b in bodies]
+    answers = [
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(b)).body for b in bodies
+    ]
     engine.dispose()
     return url, plan_id, bodies, answers, state
 

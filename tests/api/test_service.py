@@ -9,6 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 from sqlalchemy.orm import Session
 
+from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.errors import NotFoundError
 from api.services.parts import report_part
@@ -20,7 +21,6 @@ from db.plans import get_plan_row
 from db.state import load_state
 from db.state_cache import CACHE
 from models.errors import InputError
-from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
@@ -69,7 +69,7 @@ def _reports(n, seed=3, settings=None):
             ],
         }
         bodies.append(body)
-        state, _ = update(state, report_from_mapping(body))
+        state, _ = update(state, parse_report(body))
     return bodies, state
 
 
@@ -83,7 +83,7 @@ def test_mes_loop_round_trips_through_the_database(engine):
     mrr = [created["operations"][0]["mrr_cm3_min"]]
     exact = 0
     for body in bodies:
-        answer = report_part(engine=engine, plan_id=plan_id, body=body).body
+        answer = report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).body
         for u in answer["updates"]:
             if u["action"] == "shrink":
                 # the law: 0.25 of the margin, or less where the floor or coverage stops it
@@ -110,16 +110,16 @@ def test_mes_loop_round_trips_through_the_database(engine):
 def test_duplicate_serial_and_bad_reports_store_nothing(engine):
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, _ = _reports(1)
-    report_part(engine=engine, plan_id=plan_id, body=bodies[0])
+    report_part(engine=engine, plan_id=plan_id, report=parse_report(bodies[0]))
     with pytest.raises(ConflictError) as err:
-        report_part(engine=engine, plan_id=plan_id, body=bodies[0])
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(bodies[0]))
     assert err.value.field == "serial"
     bad = {**bodies[0], "serial": "SN-9999"}
     bad["operations"] = [
         {"name": "rough-od", "measurements": {"forse_N": {"value": 1, "uncertainty": 1}}}
     ]
     with pytest.raises(InputError):
-        report_part(engine=engine, plan_id=plan_id, body=bad)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(bad))
     with pytest.raises(NotFoundError):
         queries.current_setpoints(engine=engine, plan_id=plan_id + 100)
     with Session(engine) as session:
@@ -131,10 +131,10 @@ def test_a_part_made_with_an_older_version_is_judged_at_that_version(engine):
     created = create_plan(engine=engine, body=BODY).body
     plan_id = created["id"]
     bodies, _ = _reports(1)
-    moved = report_part(engine=engine, plan_id=plan_id, body=bodies[0]).body
+    moved = report_part(engine=engine, plan_id=plan_id, report=parse_report(bodies[0])).body
     assert moved["setpoint_version"] == 2
     late = {**bodies[0], "serial": "SN-LATE"}  # made with version 1, reported after the move
-    answer = report_part(engine=engine, plan_id=plan_id, body=late).body
+    answer = report_part(engine=engine, plan_id=plan_id, report=parse_report(late)).body
     v1 = {op["name"]: op["predicted"] for op in created["operations"]}
     v2 = {op["name"]: op["predicted"] for op in moved["operations"]}
     for u in answer["updates"]:
@@ -149,7 +149,7 @@ def test_the_cached_state_is_the_stored_state(engine):
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, replayed = _reports(6, seed=5)
     for body in bodies:
-        report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
 
     def load():
         with Session(engine) as session, session.begin():

@@ -14,6 +14,7 @@ from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
 from api.cli.main import app
+from api.rest.schemas.parts import parse_report
 from api.services.fleet_models import export_tool, import_tool
 from api.services.parts import report_part
 from api.services.plans import create_plan
@@ -68,7 +69,7 @@ def _learned(  # type: ignore[no-untyped-def]
                 for op, measured in outcome.measurements.items()
             ],
         }
-        assert report_part(engine=engine, plan_id=plan_id, body=body).status == 201
+        assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
         state = stored_state(engine, plan_id)
     return plan_id
 
@@ -98,7 +99,10 @@ def test_a_new_plan_starts_from_two_machines_and_says_so(engine) -> None:
     }
     assert state.posterior == state.priors
     bodies, _ = _reports(1, seed=5, settings=LEARN)
-    assert report_part(engine=engine, plan_id=fleet["id"], body=bodies[0]).status == 201
+    assert (
+        report_part(engine=engine, plan_id=fleet["id"], report=parse_report(bodies[0])).status
+        == 201
+    )
 
 
 def test_the_fleet_is_read_in_the_same_statements_for_two_plans_as_for_four(engine) -> None:

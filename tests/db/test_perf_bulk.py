@@ -26,6 +26,7 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import Session
 
+from api.rest.schemas.parts import parse_report
 from api.services.idempotency import Idempotency
 from api.services.keys import create_key
 from api.services.parts import report_part
@@ -215,7 +216,7 @@ def test_a_part_report_writes_its_rows_key_audit_and_plan_in_one_statement(engin
     written = report_part(
         engine=engine,
         plan_id=plan["id"],
-        body=report,
+        report=parse_report(report),
         actor=actor,
         idempotency=Idempotency("k-1", "f" * 64),
     )

@@ -9,6 +9,7 @@ import pytest
 from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
@@ -84,7 +85,7 @@ def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):
     plan_id, setpoints = created["id"], created
     for i in range(3):
         body = report_at(f"L-{i}", setpoints)
-        answer = report_part(engine=engine, plan_id=plan_id, body=body).body
+        answer = report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).body
         setpoints = answer
     in_memory = cached_state(engine, plan_id)
     assert len(in_memory.posterior) == 2 * len(PLAN["operations"])

@@ -13,6 +13,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import state as db_state
@@ -67,7 +68,7 @@ def test_latest_models_are_the_highest_versions(engine):
     plan_id = create_plan(engine=engine, body=BODY, settings=RcbSettings("ivester")).body["id"]
     bodies, _ = _reports(5, settings=RcbSettings("ivester"))
     for body in bodies:
-        report_part(engine=engine, plan_id=plan_id, body=body)
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
     v = t.OperationModelVersion
     with Session(engine) as session:
         expected = {

@@ -23,9 +23,9 @@ from typing import Any
 import pytest
 from cli_errors_support import INPUT_ERROR, cli_error, dumps, one_line, run_rcb
 
+from api.rest.schemas.parts import parse_report
 from models import bounds
 from models.errors import InputError
-from supervisor.inputs.part_report import report_from_mapping
 
 from conftest import DEMO_PLAN, ROOT, report_at
 
@@ -239,7 +239,7 @@ def test_a_report_past_a_bound_is_refused_by_the_domain_reader(bound, case, edit
     report = report_at("SN-1", _SETPOINTS)
     edit(report)
     with pytest.raises(InputError) as err:
-        report_from_mapping(report)
+        parse_report(report)
     assert err.value.field == field
 
 

@@ -9,8 +9,9 @@ import math
 import pytest
 from rcb_support import _report, paper_start
 
+from api.rest.schemas.parts import parse_report
 from models.errors import InputError
-from supervisor.inputs.part_report import Measurement, report_from_mapping
+from supervisor.inputs.part_report import Measurement
 from supervisor.rcb.update import update
 
 
@@ -64,8 +65,8 @@ GOOD_REPORT = {
 }
 
 
-def test_report_from_mapping_round_trip(state):
-    report = report_from_mapping(GOOD_REPORT)
+def test_a_parsed_report_round_trips(state):
+    report = parse_report(GOOD_REPORT)
     assert report.measurements["rough-od"]["force_N"] == Measurement(1565.0, 12.0)
     assert report.tool_wear["rough-od"].volume_mm3 == 2e6
     _, decisions = update(state, report)
@@ -106,7 +107,7 @@ _M = ["operations", 0, "measurements", "force_N"]
 )
 def test_bad_report_fields_are_named(path, value, field):
     with pytest.raises(InputError) as err:
-        report_from_mapping(_bad(path, value))
+        parse_report(_bad(path, value))
     assert err.value.field == field
 
 
@@ -115,6 +116,6 @@ def test_a_report_with_one_bad_quantity_changes_nothing(state):
     data = json.loads(json.dumps(GOOD_REPORT))
     data["operations"][0]["measurements"]["forse_N"] = {"value": 1, "uncertainty": 0.5}
     with pytest.raises(InputError) as err:
-        update(state, report_from_mapping(data))
+        update(state, parse_report(data))
     assert err.value.field == "operations.rough-od.forse_N"
     assert state.tools["rough-od"].models["roughness_um"].dK == 14  # untouched

@@ -10,11 +10,11 @@ import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from api.rest.schemas.parts import parse_report
 from db import tables as t
 from db.engine import make_engine
 from models.errors import InputError
 from models.sensors import ivester_load_V, to_force
-from supervisor.inputs.part_report import report_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.inputs.signals import resolve
 from supervisor.optimize.optimizer import optimize_plan
@@ -168,7 +168,7 @@ def test_context_comes_from_the_setpoint_the_part_was_made_with():
     op = next(o for o in result.operations if o.name == "rough-od")
     rpm = 1000 * op.setpoint["speed_m_min"] / (math.pi * 60)
     load_V = ivester_load_V(1500.0, rpm, 60.0, idle_load_V=IDLE_V)
-    report = report_from_mapping(
+    report = parse_report(
         _load_report("C1", {"setpoint_version": 1}, load_V, 0.02) | {"setpoint_version": 1}
     )
     measured, raw = resolve(report, plan, result)
@@ -178,7 +178,7 @@ def test_context_comes_from_the_setpoint_the_part_was_made_with():
     assert context["spindle_speed_rpm"] == pytest.approx(rpm, rel=1e-12)
     assert context["feed_rate_mm_min"] == pytest.approx(op.setpoint["feed_mm_rev"] * rpm)
     # a speed the MES measured overrides the setpoint's
-    report = report_from_mapping(
+    report = parse_report(
         {
             "serial": "C2",
             "setpoint_version": 1,
@@ -203,7 +203,7 @@ def test_context_comes_from_the_setpoint_the_part_was_made_with():
 
 def test_a_bare_spindle_current_without_a_calibration_is_refused():
     plan = plan_from_mapping(PLAN)
-    report = report_from_mapping(
+    report = parse_report(
         {
             "serial": "I1",
             "setpoint_version": 1,

@@ -14,6 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
+from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from supervisor.inputs.part_report import Measurement, PartReport
@@ -200,7 +201,7 @@ def test_the_rise_survives_a_reload(engine):
                 }
             ],
         }
-        setpoints = report_part(engine=engine, plan_id=plan_id, body=body).body
+        setpoints = report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).body
     in_memory = cached_state(engine, plan_id)
     rise = in_memory.wear[("rough-od", "force_N")]
     assert rise.differences == 2 and rise.last.age == 2 and rise.mean > 0

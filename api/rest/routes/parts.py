@@ -59,7 +59,7 @@ def report_part(
         written = use_cases.report_part(
             engine=engine,
             plan_id=plan_id,
-            body=body,
+            report=report.to_report(),
             actor=held.actor,
             idempotency=idempotency_of(request, idempotency_key, body),
             held=held,

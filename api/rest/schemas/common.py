@@ -8,6 +8,7 @@ the CLI's readers apply too.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
@@ -104,3 +105,14 @@ class Band(Out):
 
     value: float
     band: float
+
+
+def field_path(loc: Sequence[str | int]) -> str:
+    """``("body", "operations", 0, "name")`` → ``operations[0].name``."""
+    parts = list(loc)
+    if parts and parts[0] in ("body", "query", "path", "header"):
+        parts = parts[1:]
+    out = ""
+    for part in parts:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "body"

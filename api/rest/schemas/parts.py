@@ -5,15 +5,23 @@ from __future__ import annotations
 from datetime import datetime
 from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
 
-from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive
+from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive, field_path
 from api.rest.schemas.halts import HaltedOperationOut
 from api.rest.schemas.quantities import keyed_table
 from api.rest.schemas.setpoints import OperationSetpoint
 from api.services.read.record import TOOL_CHANGE
 from models.bounds import LARGEST, MAX_EDGE_PARTS, MAX_OPERATIONS, SMALLEST_MEASURED
+from models.errors import InputError
 from models.quantities import MODEL_QUANTITIES, QUANTITIES
+from supervisor.inputs.part_report import (
+    SIGNAL_CONTEXT,
+    Measurement,
+    PartReport,
+    Signal,
+    ToolWear,
+)
 from supervisor.rcb.decision import Action, Flag, Note
 
 #: Quantities a part report may measure: every model quantity but tool life, which follows from
@@ -23,6 +31,8 @@ MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_l
 #: converted), and a constant-load operation's feed override (api.services.read.record.TOOL_CHANGE).
 STORED = [*MEASURABLE, TOOL_CHANGE]
 _RAW = "the machine's calibration converts it to force_N"
+#: The quantities a raw spindle reading (calibration, context) may be given for.
+RAW_READINGS = ("spindle_load_V", "spindle_current_A")
 
 
 def _measured(name: str) -> str:
@@ -116,17 +126,21 @@ class ToolWearIn(BaseModel):
     flank_wear_mm: MeasurementIn
     volume_mm3: Positive
 
+    def to_wear(self) -> ToolWear:
+        """The domain's :class:`~supervisor.inputs.part_report.ToolWear`."""
+        wear = self.flank_wear_mm
+        return ToolWear(Measurement(wear.value, wear.uncertainty), self.volume_mm3)
+
 
 class OperationReport(BaseModel):
     """What was measured on one operation of a part.
 
-    At least one measurement, a tool wear or a feed override (the reader refuses an operation
-    with nothing measured, naming its ``measurements``).
+    At least one measurement, a tool wear or a feed override (an operation with nothing
+    measured is refused, naming its ``measurements``).
     """
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     name: Name
-    measurements: Measurements = Field(default_factory=dict)
     tool_wear: ToolWearIn | None = None
     feed_override_percent: Positive | None = Field(
         None,
@@ -139,6 +153,23 @@ class OperationReport(BaseModel):
         "as the control's tool-life counter gives it; every strategy learns wear from it (the "
         "margin of a wearing quantity is then that of the edge's last part)",
     )
+    # last: its check reads the fields before it
+    measurements: Measurements = Field(default_factory=dict, validate_default=True)
+
+    @field_validator("measurements")
+    @classmethod
+    def _something_measured(cls, measured: Measurements, info: ValidationInfo) -> Measurements:
+        given = (info.data.get(k) is not None for k in ("tool_wear", "feed_override_percent"))
+        if not measured and not any(given):
+            raise ValueError(
+                "nothing measured: give a measurement, tool_wear or feed_override_percent"
+            )
+        for quantity, reading in measured.items():
+            extra = sorted(signal_context(reading)) + (["calibration"] * bool(reading.calibration))
+            if extra and quantity not in RAW_READINGS:
+                why = f"{quantity}: {', '.join(extra)} only with a raw spindle reading"
+                raise ValueError(f"{why} ({' or '.join(RAW_READINGS)})")
+        return measured
 
 
 class PartReportIn(BaseModel):
@@ -148,6 +179,64 @@ class PartReportIn(BaseModel):
     serial: Name
     setpoint_version: Count
     operations: list[OperationReport] = Field(min_length=1, max_length=MAX_OPERATIONS)
+
+    @field_validator("operations")
+    @classmethod
+    def _each_once(cls, operations: list[OperationReport]) -> list[OperationReport]:
+        seen: set[str] = set()
+        for op in operations:
+            if op.name in seen:
+                raise ValueError(f"operation {op.name!r} reported twice")
+            seen.add(op.name)
+        return operations
+
+    def to_report(self) -> PartReport:
+        """The domain's :class:`~supervisor.inputs.part_report.PartReport` (nothing to check)."""
+        measurements: dict[str, dict[str, Measurement]] = {}
+        signals: dict[str, dict[str, Signal]] = {}
+        for op in self.operations:
+            measurements[op.name], raw = {}, {}
+            for quantity, reading in op.measurements.items():
+                measured = Measurement(reading.value, reading.uncertainty)
+                context = signal_context(reading)
+                if quantity == "spindle_load_V" or context or reading.calibration is not None:
+                    raw[quantity] = Signal(quantity, measured, context, reading.calibration)
+                else:
+                    measurements[op.name][quantity] = measured
+            if raw:
+                signals[op.name] = raw
+        return PartReport(
+            self.serial,
+            self.setpoint_version,
+            measurements,
+            {op.name: op.tool_wear.to_wear() for op in self.operations if op.tool_wear},
+            signals,
+            {
+                op.name: op.feed_override_percent
+                for op in self.operations
+                if op.feed_override_percent is not None
+            },
+            {op.name: op.edge_parts for op in self.operations if op.edge_parts is not None},
+        )
+
+
+def signal_context(reading: ReadingIn) -> dict[str, float]:
+    """What a raw reading carries for its conversion (``SIGNAL_CONTEXT``), as given."""
+    given = ((k, getattr(reading, k)) for k in SIGNAL_CONTEXT)
+    return {k: v for k, v in given if v is not None}
+
+
+def parse_report(data: object) -> PartReport:
+    """A part report from JSON-like ``data``, checked as the REST service checks its body.
+
+    For the callers that are not the service (the benchmarks, the tests): the first error as an
+    :class:`~models.errors.InputError` naming its field (``operations[0].measurements``).
+    """
+    try:
+        return PartReportIn.model_validate(data).to_report()
+    except ValidationError as err:
+        first = err.errors()[0]
+        raise InputError(field_path(first["loc"]), first.get("input"), first["msg"]) from None
 
 
 class Update(Out):

@@ -39,11 +39,19 @@ def keyed_table(
     """A ``TypedDict`` ``name``: an optional ``value`` entry per name, none other.
 
     ``describe``: the description of a name's entry. ``extra="allow"`` (a request's table):
-    another name passes to the domain reader, whose message lists the names it knows
-    (``unknown quantity; known: ...``); the schema still declares no other property.
+    another name is validated as a ``value`` too and passes to the domain, which refuses it
+    naming what the operation's tool can measure
+    (:func:`supervisor.rcb.report_readings.check_quantity`); the schema still declares no
+    other property.
     """
     fields = {n: Annotated[value, Field(description=describe(n))] for n in names}
-    table: Any = TypedDict(name, fields, total=False)  # type: ignore[misc]
+    if extra == "allow":
+        table: Any = TypedDict(name, fields, total=False, extra_items=value)  # type: ignore[misc]
+    else:
+        table = TypedDict(name, fields, total=False)  # type: ignore[misc]
     table.__doc__ = doc
     table.__module__ = __name__
-    return with_config(ConfigDict(extra=extra, json_schema_extra=_closed))(table)
+    config = ConfigDict(json_schema_extra=_closed)
+    if extra == "forbid":
+        config["extra"] = "forbid"
+    return with_config(config)(table)

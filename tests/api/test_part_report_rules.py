@@ -1,7 +1,7 @@
-"""Issue 17, item 4, in the domain reader: a part report the physics cannot produce is refused.
+"""Issue 17, item 4: a part report the physics cannot produce is refused, naming the field.
 
-``supervisor.inputs.part_report.report_from_mapping`` holds the same rules as the REST schema,
-for every caller that is not the REST service; each error names the field.
+``api.rest.schemas.parts.parse_report`` reads JSON-like data with the REST body's schema, the one
+place a report is checked (issue 31, item 3).
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import copy
 
 import pytest
 
+from api.rest.schemas.parts import parse_report
 from models.errors import InputError
-from supervisor.inputs.part_report import report_from_mapping
 
 REPORT = {
     "serial": "P-0001",
@@ -61,17 +61,17 @@ def _with(path, value):
 )
 def test_a_report_the_physics_cannot_produce_is_refused_naming_the_field(path, value, field):
     with pytest.raises(InputError) as err:
-        report_from_mapping(_with(path, value))
+        parse_report(_with(path, value))
     assert err.value.field == field
 
 
 def test_a_feed_override_alone_is_something_measured():
     op = {"name": "slot", "feed_override_percent": 80.0}
-    report = report_from_mapping({**REPORT, "operations": [op]})
+    report = parse_report({**REPORT, "operations": [op]})
     assert report.feed_overrides == {"slot": 80.0}
 
 
 def test_the_example_report_is_read():
-    report = report_from_mapping(REPORT)
+    report = parse_report(REPORT)
     assert report.measurements["rough-od"]["force_N"].value == 1565.0
     assert report.tool_wear["rough-od"].flank_wear_mm.uncertainty == 0.01
