@@ -12,6 +12,7 @@ import pytest
 
 from api.rest.schemas.parts import parse_report
 from models.errors import InputError
+from supervisor.inputs.part_report import Measurement
 
 REPORT = {
     "serial": "P-0001",
@@ -57,12 +58,42 @@ def _with(path, value):
         (("serial",), "P\u202e1", "serial"),
         (("serial",), "P\ud800", "serial"),
         (("operations", 0, "name"), "rough\tod", "operations[0].name"),
+        # a quantity the registry does not know is still read as a reading (the plan's tool
+        # refuses it later, naming what it measures)
+        (
+            ("operations", 0, "measurements", "torque_Nm"),
+            {"value": "5", "uncertainty": 1},
+            "operations[0].measurements.torque_Nm.value",
+        ),
+        # a calibration is for a raw spindle reading only
+        ((*F, "calibration"), "spindle", "operations[0].measurements"),
     ],
 )
 def test_a_report_the_physics_cannot_produce_is_refused_naming_the_field(path, value, field):
     with pytest.raises(InputError) as err:
         parse_report(_with(path, value))
     assert err.value.field == field
+
+
+def test_an_operation_reported_twice_is_refused():
+    again = {"name": " rough-od", "feed_override_percent": 80.0}  # the same name, normalised
+    with pytest.raises(InputError, match="operation 'rough-od' reported twice") as err:
+        parse_report({**REPORT, "operations": [*REPORT["operations"], again]})
+    assert err.value.field == "operations"
+
+
+def test_a_raw_spindle_current_is_a_signal_and_a_bare_one_a_measurement():
+    raw = {"value": 12.0, "uncertainty": 0.2, "spindle_speed_rpm": 900.0}
+    bare = {"value": 12.0, "uncertainty": 0.2}
+    op = {"name": "slot", "measurements": {"spindle_current_A": raw}}
+    other = {"name": "face", "measurements": {"spindle_current_A": bare}}
+    report = parse_report({**REPORT, "operations": [op, other]})
+    signal = report.signals["slot"]["spindle_current_A"]
+    assert signal.context == {"spindle_speed_rpm": 900.0} and signal.calibration is None
+    assert report.measurements == {
+        "slot": {},
+        "face": {"spindle_current_A": Measurement(12.0, 0.2)},
+    }
 
 
 def test_a_feed_override_alone_is_something_measured():

@@ -45,10 +45,8 @@ def keyed_table(
     other property.
     """
     fields = {n: Annotated[value, Field(description=describe(n))] for n in names}
-    if extra == "allow":
-        table: Any = TypedDict(name, fields, total=False, extra_items=value)  # type: ignore[misc]
-    else:
-        table = TypedDict(name, fields, total=False)  # type: ignore[misc]
+    more: dict[str, Any] = {"extra_items": value} if extra == "allow" else {}
+    table: Any = TypedDict(name, fields, total=False, **more)  # type: ignore[misc]
     table.__doc__ = doc
     table.__module__ = __name__
     config = ConfigDict(json_schema_extra=_closed)
