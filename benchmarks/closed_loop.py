@@ -81,12 +81,14 @@ import time
 from collections import Counter
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from api.cli.cluster import cluster_executor
 from models import kinematics
 from models.errors import InputError
 from supervisor.inputs.plan import Plan, load_plan
@@ -348,6 +350,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--jobs", type=int, default=available_cpus(), help="worker processes (1: no pool)"
     )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="a Dask scheduler (tcp://HOST:8786) whose workers run the scenarios (the cluster "
+        "extra; --jobs then only sizes the tasks); the same digest as local workers",
+    )
     parser.add_argument("--seed-offset", type=int, default=0, help="scenario s uses seed s + N")
     parser.add_argument(
         "--wear-drift",
@@ -428,15 +437,23 @@ def main(argv: list[str] | None = None) -> int:
     jobs = min(args.jobs, args.scenarios)
 
     t0 = perf()
-    summaries = simulate_certificates(
-        plan,
-        strategies,
-        scenarios=args.scenarios,
-        parts=parts,
-        seed=args.seed_offset,
-        faults=faults,
-        jobs=jobs,
-    )
+    with ExitStack() as stack:
+        executor = None
+        if args.scheduler is not None:
+            try:
+                executor, jobs = stack.enter_context(cluster_executor(args.scheduler))
+            except InputError as err:
+                parser.error(str(err))
+        summaries = simulate_certificates(
+            plan,
+            strategies,
+            scenarios=args.scenarios,
+            parts=parts,
+            seed=args.seed_offset,
+            faults=faults,
+            jobs=jobs,
+            executor=executor,
+        )
     wall = perf() - t0
     made = sum(s.parts_made for s in summaries)
     rate = made / wall

@@ -13,6 +13,7 @@ input, 3 the plan has no robust start, 4 solver failure (:func:`api.cli.common.e
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -20,6 +21,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from api.cli.cluster import cluster_executor
 from api.cli.common import STRATEGY_HELP, JsonOption, emit, err_console, errors
 from api.cli.tables import new_table
 from models.errors import InputError
@@ -28,7 +30,11 @@ from supervisor.virtual.fault_spec import catalogue_help, parse_faults
 from supervisor.virtual.sizes import MAX_PARTS, MAX_SCENARIOS
 
 if TYPE_CHECKING:
-    from supervisor.virtual.certificate import CertificateSummary
+    from concurrent.futures import Executor
+
+    from supervisor.inputs.plan import Plan
+    from supervisor.virtual.certificate import Certificate, CertificateSummary
+    from supervisor.virtual.fault_spec import Faults
 
 #: Exit code when the certificate ran and some part crossed a true limit.
 VIOLATIONS_FOUND = 1
@@ -73,6 +79,15 @@ _JobsOption = Annotated[
         "--jobs", min=1, help="Worker processes (default: the CPUs available; 1: no pool)."
     ),
 ]
+_SchedulerOption = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="A Dask scheduler (tcp://HOST:8786) whose workers run the scenarios instead of "
+        "local processes; the same certificate (needs the cluster extra).",
+    ),
+]
 
 
 def certify(
@@ -84,6 +99,7 @@ def certify(
     wear_drift: _WearDriftOption = 0.0,
     fault: _FaultOption = None,
     jobs: _JobsOption = None,
+    scheduler: _SchedulerOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Monte Carlo certificate of a plan under an RCB strategy (violations, MRR).
@@ -112,6 +128,7 @@ def certify(
             wear_drift=wear_drift,
             fault=fault or [],
             jobs=jobs,
+            scheduler=scheduler,
             as_json=as_json,
         )
     if as_json:
@@ -132,16 +149,15 @@ def _certified(
     wear_drift: float,
     fault: list[str],
     jobs: int | None,
+    scheduler: str | None,
     as_json: bool,
 ) -> CertificateSummary:
     """The options checked, the plan loaded and certified (a progress bar on a terminal)."""
     # imported here (NumPy, SciPy, the solvers): rcb --help and the other commands do not load them
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
     from models import fields
     from supervisor.inputs.plan import load_plan
     from supervisor.virtual.certificate import summarize
-    from supervisor.virtual.certify import available_cpus, certify_plan
+    from supervisor.virtual.certify import available_cpus
 
     if strategy not in STRATEGY_NAMES:
         known = ", ".join(STRATEGY_NAMES)
@@ -149,7 +165,35 @@ def _certified(
     drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
     faults = parse_faults(fault, wear_drift=drift, wear_flag="--wear-drift")
     plan = load_plan(plan_file)
-    workers = jobs if jobs is not None else available_cpus()
+    if scheduler is not None and jobs is not None:
+        why = "not with --scheduler: the cluster's workers run the scenarios"
+        raise InputError("--jobs", jobs, why)
+    with ExitStack() as stack:
+        executor, workers = None, jobs if jobs is not None else available_cpus()
+        if scheduler is not None:
+            executor, workers = stack.enter_context(cluster_executor(scheduler))
+        certificate = _run(
+            plan, strategy, scenarios, parts, seed, faults, workers, executor, as_json
+        )
+    return summarize(certificate)
+
+
+def _run(
+    plan: Plan,
+    strategy: str,
+    scenarios: int,
+    parts: int,
+    seed: int,
+    faults: Faults,
+    workers: int,
+    executor: Executor | None,
+    as_json: bool,
+) -> Certificate:
+    """The certificate, with a progress bar on a terminal."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from supervisor.virtual.certify import certify_plan
+
     with Progress(
         TextColumn(f"certify {plan.name} ({strategy})"),
         BarColumn(),
@@ -170,8 +214,9 @@ def _certified(
             faults=faults,
             jobs=workers,
             progress=lambda done: progress.update(task, completed=done),
+            executor=executor,
         )
-    return summarize(certificate)
+    return certificate
 
 
 def _print_summary(summary: CertificateSummary) -> None:

@@ -59,6 +59,7 @@ import signal
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass
 from typing import Any, cast
 
 from models.errors import InputError
@@ -108,6 +109,20 @@ def _worker_scenario(task: tuple[str, int, int]) -> ScenarioTrace | None:
         return None
 
 
+def _scenarios_task(
+    task: tuple[RcbState, tuple[int, ...], int, Faults],
+) -> list[ScenarioTrace | None]:
+    """Some scenarios on an executor the caller gave (a cluster's): the start travels along."""
+    initial, seeds, parts, faults = task
+    out: list[ScenarioTrace | None] = []
+    for seed in seeds:
+        try:
+            out.append(run_scenario(initial, seed, parts, faults=faults))
+        except (InputError, SupervisorError):  # run again by the caller (_worker_scenario)
+            out.append(None)
+    return out
+
+
 def _chunk(scenarios: int, jobs: int) -> int:
     """Scenarios per task: about 8 tasks per worker, at most :data:`_MAX_CHUNK` each."""
     return min(_MAX_CHUNK, max(1, scenarios // (8 * jobs)))
@@ -152,21 +167,17 @@ def simulate(
     faults: Faults | None = None,
     jobs: int = 1,
     progress: Progress | None = None,
+    executor: Executor | None = None,
 ) -> tuple[Certificate, ...]:
     """Run the same scenarios under each strategy (one worker pool for all of them).
 
     Parameters
     ----------
-    plan : Plan
-        The plan.
-    strategies : Sequence[str]
-        Names of :data:`supervisor.rcb.strategies.STRATEGY_NAMES`, run in this order.
-    scenarios : int
-        Scenarios per strategy, ``1..MAX_SCENARIOS``; seeds ``seed .. seed + scenarios − 1``.
-    parts : int
-        Parts per scenario, ``1..MAX_PARTS``.
-    seed : int
-        The first seed (``>= 0``).
+    plan, strategies : Plan, Sequence[str]
+        The plan; names of :data:`supervisor.rcb.strategies.STRATEGY_NAMES`, in this order.
+    scenarios, parts, seed : int
+        Scenarios per strategy (``1..MAX_SCENARIOS``, seeds ``seed .. seed + scenarios − 1``),
+        parts per scenario (``1..MAX_PARTS``), the first seed (``>= 0``).
     wear_drift_per_edge_life : float
         Relative rise of force, roughness and spindle current over an edge's life [-]; the
         alias of the fault ``wear:D`` (an error beside another ``wear`` value).
@@ -177,27 +188,27 @@ def simulate(
         Worker processes (1: every scenario in this process; never more than ``scenarios``).
     progress : callable, optional
         Called with the number of scenarios finished so far (over all strategies).
+    executor : Executor, optional
+        Where the scenarios run instead of a pool of ``jobs`` processes (a Dask cluster's,
+        ``distributed.Client.get_executor()``: :func:`api.cli.cluster.cluster_executor`);
+        ``jobs`` then sizes the tasks (about 8 per worker). The caller owns and closes it.
 
-    Returns
-    -------
-    tuple[Certificate, ...]
-        One per strategy, in the order given; the same for any ``jobs``.
-
-    Raises
-    ------
-    InputError
-        An unknown strategy or a count out of range, naming the parameter.
-    InfeasibleError
-        The plan has no robust start.
+    Returns one certificate per strategy, in the order given, the same for any ``jobs`` or
+    ``executor``. Raises :class:`InputError` (an unknown strategy or a count out of range,
+    naming it) and :class:`InfeasibleError` (no robust start).
     """
     _check(strategies, seed, scenarios, parts, wear_drift_per_edge_life, jobs)
     shop = with_wear(faults or Faults(), wear_drift_per_edge_life)
     starts = _starts(plan, strategies)
     seeds = range(seed, seed + scenarios)
     jobs = min(jobs, scenarios)
+    if executor is not None:
+        run = _Run(seeds, parts, shop, executor, jobs, carried=True)
+        return _certificates(plan, strategies, starts, run, progress)
     pool = _pool(jobs, starts, shop)
     try:
-        return _certificates(plan, strategies, starts, seeds, parts, shop, pool, jobs, progress)
+        run = _Run(seeds, parts, shop, pool, jobs, carried=False)
+        return _certificates(plan, strategies, starts, run, progress)
     finally:  # on an error or Ctrl-C, drop the scenarios not started instead of running them
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
@@ -216,15 +227,27 @@ def _pool(jobs: int, starts: Mapping[str, RcbState], shop: Faults) -> Executor |
     return ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(starts, shop))
 
 
+@dataclass(frozen=True)
+class _Run:
+    """Where and how the scenarios run.
+
+    ``pool`` None: here; else a pool of ``jobs`` workers that hold the starts (``carried``
+    False), or a caller's executor whose tasks carry them (``carried`` True).
+    """
+
+    seeds: range
+    parts: int
+    shop: Faults
+    pool: Executor | None
+    jobs: int
+    carried: bool
+
+
 def _certificates(
     plan: Plan,
     strategies: Sequence[str],
     starts: Mapping[str, RcbState],
-    seeds: range,
-    parts: int,
-    shop: Faults,
-    pool: Executor | None,
-    jobs: int,
+    run: _Run,
     progress: Progress | None,
 ) -> tuple[Certificate, ...]:
     """One certificate per strategy, in the order given (:func:`simulate`)."""
@@ -233,7 +256,7 @@ def _certificates(
     for strategy in strategies:
         t0 = time.perf_counter()
         made: list[ScenarioTrace] = []
-        for trace in _traces(starts[strategy], strategy, seeds, parts, shop, pool, jobs):
+        for trace in _traces(starts[strategy], strategy, run):
             made.append(trace)
             done += 1
             if progress is not None:
@@ -241,41 +264,48 @@ def _certificates(
         certificate = Certificate(
             plan=plan.name,
             strategy=strategy,
-            seed=seeds.start,
-            parts=parts,
-            wear_drift_per_edge_life=shop.wear,
+            seed=run.seeds.start,
+            parts=run.parts,
+            wear_drift_per_edge_life=run.shop.wear,
             scenarios=tuple(made),
             seconds=time.perf_counter() - t0,
-            faults=shop,
+            faults=run.shop,
         )
         results.append(certificate)
     return tuple(results)
 
 
-def _traces(
-    initial: RcbState,
-    strategy: str,
-    seeds: range,
-    parts: int,
-    shop: Faults,
-    pool: Executor | None,
-    jobs: int,
-) -> Iterator[ScenarioTrace]:
-    """The scenarios of ``seeds`` under ``strategy`` from ``initial``, in seed order.
+def _traces(initial: RcbState, strategy: str, run: _Run) -> Iterator[ScenarioTrace]:
+    """The scenarios of ``run.seeds`` under ``strategy`` from ``initial``, in seed order.
 
-    In ``pool`` when there is one; a scenario that raised a domain error in a worker (None)
-    runs again here, to raise it in this process.
+    In ``run.pool`` when there is one; a scenario that raised a domain error in a worker
+    (None) runs again here, to raise it in this process.
     """
-    if pool is None:
+    seeds, parts, shop = run.seeds, run.parts, run.shop
+    if run.pool is None:
         for s in seeds:
             yield run_scenario(initial, s, parts, faults=shop)
         return
-    tasks = [(strategy, s, parts) for s in seeds]
-    done = pool.map(_worker_scenario, tasks, chunksize=_chunk(len(seeds), jobs))
+    done: Iterator[ScenarioTrace | None]
+    if run.carried:
+        done = _on_executor(initial, seeds, parts, shop, run.pool, run.jobs)
+    else:
+        tasks = [(strategy, s, parts) for s in seeds]
+        done = run.pool.map(_worker_scenario, tasks, chunksize=_chunk(len(seeds), run.jobs))
     for s, trace in zip(seeds, done, strict=True):
         if trace is None:
             trace = run_scenario(initial, s, parts, faults=shop)
         yield trace
+
+
+def _on_executor(
+    initial: RcbState, seeds: range, parts: int, shop: Faults, executor: Executor, jobs: int
+) -> Iterator[ScenarioTrace | None]:
+    """The scenarios of ``seeds`` on ``executor``, in seed order, a chunk per task."""
+    size = _chunk(len(seeds), jobs)
+    chunks = [tuple(seeds[i : i + size]) for i in range(0, len(seeds), size)]
+    for traces in executor.map(_scenarios_task, [(initial, c, parts, shop) for c in chunks]):
+        yield from traces
 
 
 def certify_plan(
@@ -289,6 +319,7 @@ def certify_plan(
     faults: Faults | None = None,
     jobs: int = 1,
     progress: Progress | None = None,
+    executor: Executor | None = None,
 ) -> Certificate:
     """The Monte Carlo certificate of ``plan`` under one RCB strategy (module docstring).
 
@@ -305,5 +336,6 @@ def certify_plan(
         faults=faults,
         jobs=jobs,
         progress=progress,
+        executor=executor,
     )
     return certificate
