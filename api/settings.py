@@ -8,10 +8,13 @@ the wrong API keys one client address may send at once before 429 (default 60).
 ``RCB_DB_POOL_SIZE``, ``RCB_DB_MAX_OVERFLOW``, ``RCB_DB_POOL_TIMEOUT``: each worker's database
 connections and how long a request waits for one before 503 (:class:`db.engine.Pool`).
 ``RCB_HTTP_*``: the HTTP connections' timeouts and caps (:class:`HttpLimits`).
+``RCB_FORWARDED_ALLOW_IPS``: the proxies whose ``X-Forwarded-For`` names the client
+(:func:`trusted_proxies`).
 """
 
 from __future__ import annotations
 
+import ipaddress
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -83,6 +86,44 @@ def auth_failure_burst(environ: Mapping[str, str] | None = None) -> int:
     before serving, so a worker never meets one).
     """
     return _whole(AUTH_FAILURE_BURST_VAR, 1, 10**6, AUTH_FAILURE_BURST, environ)
+
+
+#: The environment variable with the proxies trusted to name the client (rcb serve's option).
+FORWARDED_VAR = "RCB_FORWARDED_ALLOW_IPS"
+#: Its default, uvicorn's: a reverse proxy on this host.
+FORWARDED_DEFAULT = "127.0.0.1,::1"
+#: The most addresses and networks it may list.
+MAX_FORWARDED = 64
+
+
+def trusted_proxies(given: str | None = None, environ: Mapping[str, str] | None = None) -> str:
+    """The proxies whose ``X-Forwarded-For`` names the client, as uvicorn takes them.
+
+    ``given`` (``rcb serve --forwarded-allow-ips``), else ``$RCB_FORWARDED_ALLOW_IPS``, else
+    :data:`FORWARDED_DEFAULT`: comma-separated addresses and networks (``10.0.0.0/8``), ``*``
+    (every peer: only behind a proxy that is the sole way in) or ``none`` (the header is never
+    read: the peer is the client). The client address is what the wrong-key limit counts and
+    the audit log shows (:func:`api.rest.deps.client_of`). Uvicorn takes a malformed address
+    for a literal that never matches; here it is refused, naming the option and the value.
+    """
+    where = "--forwarded-allow-ips" if given is not None else FORWARDED_VAR
+    env = os.environ if environ is None else environ
+    text = given if given is not None else env.get(FORWARDED_VAR, FORWARDED_DEFAULT)
+    value = text.strip()
+    if value.lower() == "none":
+        return ""
+    if value == "*":
+        return value
+    items = [item.strip() for item in value.split(",")]
+    if not value or len(items) > MAX_FORWARDED:
+        why = f"1 to {MAX_FORWARDED} comma-separated addresses or networks, '*' or 'none'"
+        raise InputError(where, text, f"must be {why}")
+    for item in items:
+        try:
+            ipaddress.ip_network(item, strict=False)
+        except ValueError:
+            raise InputError(where, text, f"{item!r} is not an IP address or network") from None
+    return ",".join(items)
 
 
 #: The environment variables of a worker's connection pool, with their ranges.

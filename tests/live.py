@@ -43,8 +43,8 @@ def stop_group(process: subprocess.Popen[bytes]) -> None:
 class LiveServer:
     """``rcb serve --db URL`` in its own process group; ``keys`` holds one API key per role."""
 
-    def __init__(self, url: str, log: Path, workers: int = 1) -> None:
-        self.url, self.log, self.workers = url, log, workers
+    def __init__(self, url: str, log: Path, workers: int = 1, args: tuple[str, ...] = ()) -> None:
+        self.url, self.log, self.workers, self.args = url, log, workers, args
         self.port = free_port()
         self.base = f"http://127.0.0.1:{self.port}/api/v1"
         self.process: subprocess.Popen[bytes] | None = None
@@ -55,7 +55,7 @@ class LiveServer:
 
     def start(self, timeout_s: float = 60.0) -> None:
         command = [str(RCB), "serve", "--db", self.url, "--port", str(self.port)]
-        command += ["--workers", str(self.workers), "--no-access-log"]
+        command += ["--workers", str(self.workers), "--no-access-log", *self.args]
         with self.log.open("ab") as log:
             self.process = subprocess.Popen(
                 command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True

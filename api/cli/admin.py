@@ -24,6 +24,7 @@ from api.settings import (
     database_url,
     http_limits,
     pool,
+    trusted_proxies,
 )
 from models.errors import InputError
 
@@ -216,6 +217,15 @@ def serve(
     port: Annotated[int, typer.Option(min=1, max=65535, help="TCP port.")] = 8000,
     workers: Annotated[int, typer.Option(min=1, max=64, help="Worker processes.")] = 1,
     access_log: Annotated[bool, typer.Option(help="Log every request.")] = True,
+    forwarded_allow_ips: Annotated[
+        str | None,
+        typer.Option(
+            metavar="IPS",
+            help="Proxies whose X-Forwarded-For names the client (the wrong-key limit and "
+            "the audit log count it): addresses and networks, '*' or 'none' (default: "
+            "$RCB_FORWARDED_ALLOW_IPS, else 127.0.0.1,::1).",
+        ),
+    ] = None,
 ) -> None:
     """Serve the REST API (under /api/v1) with uvicorn; migrates the database first.
 
@@ -228,6 +238,7 @@ def serve(
         auth_failure_burst()  # a malformed RCB_AUTH_FAILURE_BURST is refused before serving
         pool()  # and a malformed RCB_DB_POOL_SIZE, RCB_DB_MAX_OVERFLOW or RCB_DB_POOL_TIMEOUT
         http_limits()  # and RCB_HTTP_*
+        forwarded = trusted_proxies(forwarded_allow_ips)
         _migrate(url, database_field(db))
         try:
             listener = serving.tcp_listener(host, port)
@@ -235,4 +246,4 @@ def serve(
             say(f"rcb: error: {err}")
             raise typer.Exit(serving.EXIT_PORT_IN_USE) from None
         say(f"rcb: serving {shown(url)} on http://{host}:{port}/api/v1 ({workers} worker(s))")
-        serving.run(listener, url, workers=workers, access_log=access_log)
+        serving.run(listener, url, workers=workers, access_log=access_log, forwarded=forwarded)

@@ -67,7 +67,9 @@ class PortInUseError(InputError):
     """The address and port to serve on are taken by another process."""
 
 
-def run(listener: socket.socket, url: str, *, workers: int, access_log: bool) -> None:
+def run(
+    listener: socket.socket, url: str, *, workers: int, access_log: bool, forwarded: str
+) -> None:
     """Serve the app on ``url`` through ``listener`` (:func:`tcp_listener`) until interrupted.
 
     Parameters
@@ -80,6 +82,9 @@ def run(listener: socket.socket, url: str, *, workers: int, access_log: bool) ->
         Worker processes; 1 serves in this process.
     access_log : bool
         Log every request.
+    forwarded : str
+        The proxies trusted to name the client (:func:`api.settings.trusted_proxies`;
+        empty: none, the peer is the client).
     """
     hand_to_workers(url)  # the workers' factory reads it
     raise_file_limit()  # inherited by the workers: room for the connections they may hold
@@ -97,6 +102,9 @@ def run(listener: socket.socket, url: str, *, workers: int, access_log: bool) ->
         # a worker imports cvxpy (about 2 s) before it answers; two starting at once on a
         # busy 2-core machine can miss uvicorn's default 5 s and be restarted
         "timeout_worker_healthcheck": 30,
+        # X-Forwarded-For read only from these peers (uvicorn's ProxyHeadersMiddleware)
+        "proxy_headers": bool(forwarded),
+        "forwarded_allow_ips": forwarded or None,
     }
     config = uvicorn.Config(APP, **options)
     try:

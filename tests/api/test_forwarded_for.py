@@ -1,0 +1,101 @@
+"""Issue 33, item 2: the client address from a trusted proxy's ``X-Forwarded-For``.
+
+Behind a reverse proxy every request comes from the proxy: without the header, one client's
+wrong keys would spend the burst of every MES behind it (429 for all). ``rcb serve
+--forwarded-allow-ips`` names the proxies whose header names the client (uvicorn's
+ProxyHeadersMiddleware); a peer not named cannot pick its address by sending the header.
+Real ``rcb serve`` processes; clients bind distinct loopback addresses (Linux routes all of
+127.0.0.0/8 to the loopback).
+"""
+
+from __future__ import annotations
+
+import subprocess
+
+import httpx
+import pytest
+
+from api.services import throttle
+
+from live import RCB, LiveServer
+
+PROXY = "127.0.0.7"
+OUTSIDER = "127.0.0.8"
+WRONG = {"Authorization": "Bearer rcb_not-a-key"}
+
+
+def _flood(server: LiveServer, peer: str, forwarded: list[str]) -> list[int]:
+    """One wrong-key request per ``forwarded`` value, from ``peer``: the statuses."""
+    transport = httpx.HTTPTransport(local_address=peer)
+    with httpx.Client(base_url=server.base, transport=transport, timeout=30.0) as client:
+        return [
+            client.get("/plans", headers={**WRONG, "X-Forwarded-For": f}).status_code
+            for f in forwarded
+        ]
+
+
+@pytest.fixture
+def behind_proxy(tmp_path):
+    server = LiveServer(
+        f"sqlite:///{tmp_path / 'rcb.db'}",
+        tmp_path / "serve.log",
+        args=("--forwarded-allow-ips", PROXY),
+    )
+    server.start()
+    yield server
+    server.stop()
+
+
+def test_a_trusted_proxy_names_each_client_and_each_has_its_own_burst(behind_proxy):
+    burst = throttle.BURST_FAILURES
+    first = _flood(behind_proxy, PROXY, ["10.1.1.1"] * (burst + 5))
+    assert first[:burst] == [401] * burst and set(first[burst:]) == {429}
+    # another MES behind the same proxy is not locked out by the first one's wrong keys
+    assert _flood(behind_proxy, PROXY, ["10.1.1.2"]) == [401]
+
+
+def test_a_peer_not_trusted_cannot_choose_its_address(behind_proxy):
+    burst = throttle.BURST_FAILURES
+    rotating = [f"10.2.{i // 250}.{i % 250 + 1}" for i in range(burst + 5)]
+    statuses = _flood(behind_proxy, OUTSIDER, rotating)
+    assert statuses[:burst] == [401] * burst and set(statuses[burst:]) == {429}
+
+
+def test_none_trusts_no_peer_not_even_this_host(tmp_path):
+    server = LiveServer(
+        f"sqlite:///{tmp_path / 'rcb.db'}",
+        tmp_path / "serve.log",
+        args=("--forwarded-allow-ips", "none"),
+    )
+    server.start()
+    try:
+        burst = throttle.BURST_FAILURES
+        rotating = [f"10.3.0.{i + 1}" for i in range(burst + 5)]
+        statuses = _flood(server, "127.0.0.1", rotating)  # uvicorn's default would trust it
+    finally:
+        server.stop()
+    assert statuses[:burst] == [401] * burst and set(statuses[burst:]) == {429}
+
+
+@pytest.mark.parametrize(
+    ("args", "env", "needles"),
+    [
+        (["--forwarded-allow-ips", "10.0.0.300"], {}, ["--forwarded-allow-ips", "'10.0.0.300'"]),
+        (["--forwarded-allow-ips", ""], {}, ["--forwarded-allow-ips", "'*' or 'none'"]),
+        (
+            [],
+            {"RCB_FORWARDED_ALLOW_IPS": "proxy.local"},
+            ["RCB_FORWARDED_ALLOW_IPS", "proxy.local"],
+        ),
+    ],
+)
+def test_a_malformed_proxy_list_is_refused_before_serving(tmp_path, args, env, needles):
+    command = [str(RCB), "serve", "--db", f"sqlite:///{tmp_path / 'rcb.db'}", "--port", "1", *args]
+    done = subprocess.run(
+        command, capture_output=True, text=True, timeout=60, env={"PATH": "/usr/bin:/bin", **env}
+    )
+    assert done.returncode == 2, (done.returncode, done.stdout, done.stderr)
+    line = done.stderr.strip()
+    assert "\n" not in line and "Traceback" not in line, done.stderr
+    for needle in needles:
+        assert needle in line, (needle, line)
