@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from alembic import context
 from db.engine import make_engine
+from db.migrate import lock_in
 from db.tables import Base
+from db.urls import revision
 
 config = context.config
 url = config.attributes.get("url") or config.get_main_option("sqlalchemy.url")
@@ -20,5 +22,9 @@ with engine.connect() as connection:
         compare_type=True,
     )
     with context.begin_transaction():
+        if connection.dialect.name == "postgresql":
+            # one instance migrates at a time; the lock ends with this transaction (db.migrate)
+            lock_in(connection)
+            config.attributes["before"] = revision(connection)
         context.run_migrations()
 engine.dispose()

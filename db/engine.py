@@ -29,6 +29,7 @@ from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import URL, make_url
 
 from db.bulk import hook_engine
+from db.urls import POOLER_PARAM, behind_pooler, without_pooler
 
 #: The embedded default database, in the directory rcb runs in.
 DEFAULT_URL = "sqlite:///./rcb.db"
@@ -43,6 +44,8 @@ _READ_ONLY = "rcb_read_only"
 MIGRATIONS = Path(__file__).resolve().parent.parent / "alembic"
 _readers: weakref.WeakKeyDictionary[Engine, Engine] = weakref.WeakKeyDictionary()
 _readers_lock = threading.Lock()
+#: The engines that reach PostgreSQL through PgBouncer (:func:`db.urls.behind_pooler`).
+_POOLED: weakref.WeakSet[Engine] = weakref.WeakSet()
 
 
 @dataclass(frozen=True)
@@ -91,7 +94,13 @@ def make_engine(url: str, pool: Pool = DEFAULT_POOL) -> Engine:
 
 def _engine(parsed: URL, *, read_pool: bool = False, **pool: Any) -> Engine:
     if parsed.get_backend_name() != "sqlite":
-        engine = create_engine(parsed, pool_pre_ping=True, **pool)
+        pooled = behind_pooler(parsed)
+        args = {"prepare_threshold": None} if pooled else {}
+        engine = create_engine(
+            without_pooler(parsed), pool_pre_ping=True, connect_args=args, **pool
+        )
+        if pooled:
+            _POOLED.add(engine)
         hook_engine(engine)
         return engine
     engine = create_engine(parsed, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000}, **pool)
@@ -127,8 +136,11 @@ def reader(engine: Engine) -> Engine:
     with _readers_lock:
         found = _readers.get(engine)
         if found is None:
+            url = engine.url
+            if engine in _POOLED:  # its URL lost the parameter to the driver
+                url = url.update_query_dict({POOLER_PARAM: "transaction"})
             found = _readers[engine] = _engine(
-                engine.url,
+                url,
                 read_pool=True,
                 pool_size=READ_POOL_SIZE,
                 max_overflow=0,
@@ -197,6 +209,10 @@ def upgrade(url: str, revision: str = "head") -> Migration:
     config = Config()
     config.set_main_option("script_location", str(MIGRATIONS))
     config.attributes["url"] = url
+    if make_url(url).get_backend_name() == "postgresql":
+        # the lock is taken, and the revision read, in the migrations' transaction (env.py)
+        command.upgrade(config, revision)
+        return Migration(before=config.attributes.get("before"), after=current_revision(url))
     with migration_lock(url):
         before = current_revision(url)
         command.upgrade(config, revision)
@@ -207,9 +223,9 @@ def current_revision(url: str) -> str | None:
     """The Alembic revision of the database at ``url``; None when it was never migrated."""
     from sqlalchemy.pool import NullPool
 
-    from db.urls import revision
+    from db.urls import revision, without_pooler
 
-    engine = create_engine(make_url(url), poolclass=NullPool)
+    engine = create_engine(without_pooler(make_url(url)), poolclass=NullPool)
     try:
         with engine.connect() as connection:
             return revision(connection)

@@ -9,10 +9,13 @@ The upgrade now runs under a lock held for the whole of it, so the second instan
 finds the database at head and has nothing to do (Alembic reads the revision only under the
 lock):
 
-- PostgreSQL: a session-level advisory lock, ``pg_advisory_lock`` (PostgreSQL docs, "Advisory
-  Locks"), on a connection of its own in autocommit, with :data:`MIGRATION_LOCK` as its key. It
-  is released by ``pg_advisory_unlock`` and by the server when the connection ends, so a
-  crashed instance never leaves it held.
+- PostgreSQL: a transaction-level advisory lock, ``pg_advisory_xact_lock`` (PostgreSQL docs,
+  "Advisory Locks"), with :data:`MIGRATION_LOCK` as its key, taken by the migrations' own
+  transaction first (``alembic/env.py``: :func:`lock_in`; PostgreSQL migrates in one
+  transaction) and released by its commit or rollback, or by the server when the connection
+  ends, so a crashed instance never leaves it held. It holds through PgBouncer in transaction
+  pooling too, where a session-level lock (this module's first form) would stay with whichever
+  server connection took it and never be released by the unlock, sent over another.
 - SQLite: an exclusive ``flock`` on ``<database>-migrate.lock`` beside the database file,
   dropped by the kernel when the process dies. The migration's own transaction starts with
   ``BEGIN IMMEDIATE`` (:mod:`db.engine`) too, but its wait is bounded by the busy timeout,
@@ -26,9 +29,11 @@ import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from sqlalchemy import create_engine, text
+from sqlalchemy import Connection, create_engine, text
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.pool import NullPool
+
+from db.urls import without_pooler
 
 #: The advisory lock's key on PostgreSQL (64 bits; "rcbmigr" in ASCII, so no other lock of
 #: this service, whose keys are hashes of idempotency keys, is likely to share it).
@@ -37,11 +42,20 @@ MIGRATION_LOCK = 0x7263626D69677200
 
 @contextmanager
 def migration_lock(url: str) -> Iterator[None]:
-    """Hold the database's migration lock for the duration of the block (waiting for it)."""
+    """Hold the database's migration lock for the duration of the block (waiting for it).
+
+    PostgreSQL: a transaction of its own holds it (an upgrade takes it in its migrations'
+    transaction instead, :func:`lock_in`); SQLite: the file lock.
+    """
     parsed = make_url(url)
     if parsed.get_backend_name() == "postgresql":
-        with _advisory_lock(parsed):
-            yield
+        engine = create_engine(without_pooler(parsed), poolclass=NullPool)
+        try:
+            with engine.begin() as connection:
+                lock_in(connection)
+                yield
+        finally:
+            engine.dispose()
         return
     path = _lock_path(parsed) if parsed.get_backend_name() == "sqlite" else None
     try:
@@ -58,18 +72,9 @@ def migration_lock(url: str) -> Iterator[None]:
         os.close(fd)  # releases the lock
 
 
-@contextmanager
-def _advisory_lock(parsed: URL) -> Iterator[None]:
-    engine = create_engine(parsed, poolclass=NullPool, isolation_level="AUTOCOMMIT")
-    try:
-        with engine.connect() as connection:
-            connection.execute(text("SELECT pg_advisory_lock(:key)"), {"key": MIGRATION_LOCK})
-            try:
-                yield
-            finally:
-                connection.execute(text("SELECT pg_advisory_unlock(:key)"), {"key": MIGRATION_LOCK})
-    finally:
-        engine.dispose()
+def lock_in(connection: Connection) -> None:
+    """Take the PostgreSQL migration lock in ``connection``'s transaction (waiting for it)."""
+    connection.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": MIGRATION_LOCK})
 
 
 def _lock_path(parsed: URL) -> str | None:

@@ -117,3 +117,28 @@ def revision(connection: Connection) -> str | None:
     from alembic.runtime.migration import MigrationContext
 
     return MigrationContext.configure(connection).get_current_revision()
+
+
+#: A query parameter of a PostgreSQL URL that is this service's, not libpq's:
+#: ``?pgbouncer=transaction`` says the server is reached through PgBouncer in transaction
+#: pooling. Its server connections change between transactions, so psycopg prepares no
+#: statement on the server (``prepare_threshold=None``: PgBouncer before 1.21, Debian 12's
+#: 1.18, does not track them) and every lock this service takes is a transaction's
+#: (:mod:`db.migrate`).
+POOLER_PARAM = "pgbouncer"
+
+
+def behind_pooler(url: URL) -> bool:
+    """Whether ``url`` says PgBouncer in transaction pooling (:data:`POOLER_PARAM`)."""
+    value = url.query.get(POOLER_PARAM)
+    if value is None:
+        return False
+    if value != "transaction" or url.get_backend_name() != "postgresql":
+        why = "only pgbouncer=transaction, on a postgresql URL (PgBouncer in transaction pooling)"
+        raise InputError(POOLER_PARAM, value, why)
+    return True
+
+
+def without_pooler(url: URL) -> URL:
+    """``url`` without :data:`POOLER_PARAM`, as the driver takes it."""
+    return url.difference_update_query([POOLER_PARAM])
