@@ -301,6 +301,18 @@ class IdempotencyRecord(Base):
     created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
 
 
+class AuthBucket(Base):
+    """A client address's wrong-key allowance, shared by every instance (db.auth_buckets).
+
+    ``tat_s``: the time [s, Unix] at which its bucket is full again plus one period (the
+    generic cell rate algorithm's theoretical arrival time).
+    """
+
+    __tablename__ = "auth_buckets"
+    client: Mapped[str] = mapped_column(String(64), primary_key=True)
+    tat_s: Mapped[float]
+
+
 class AuditEntry(Base):
     """Append-only audit log: who did what, when, with what result."""
 

@@ -23,6 +23,7 @@ import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from sqlalchemy import Engine
@@ -31,7 +32,7 @@ from sqlalchemy.orm import Session
 
 from api.services.throttle import FailureLimiter, FailureLog, Insert, RateLimitedError, Rewrite
 from api.settings import auth_failure_burst
-from db import api_keys, audit
+from db import api_keys, audit, auth_buckets
 from db import tables as t
 from db.api_keys import Actor
 from db.engine import one_statement_reader
@@ -205,9 +206,34 @@ def _audit_unauthenticated(
     with _touched_lock:
         failures = _failures.setdefault(engine, FailureLog())
     failures.record(client, action, reason, insert, rewrite)
-    wait_s = LIMITER.spend(client) if key else 0  # only a wrong key can guess, or costs a read
+    # only a wrong key can guess, or costs a read; the bucket is every instance's (db)
+    wait_s = LIMITER.spend(client, partial(_shared_spend, engine, session)) if key else 0
     if wait_s:
         raise RateLimitedError(client or "this client", wait_s)
+
+
+def _shared_spend(
+    engine: Engine,
+    session: Session | None,
+    client: str,
+    now_s: float,
+    period_s: float,
+    tolerance_s: float,
+) -> float | None:
+    """Spend ``client``'s failure in the bucket the database holds for every instance.
+
+    A database error leaves the decision to this process's copy (logged): a failing database
+    must not turn wrong keys into 500s, and the copy alone still limits this worker.
+    """
+    try:
+        with aside(engine, session) as held:
+            return auth_buckets.spend(
+                session=held, client=client[:64], now_s=now_s, period_s=period_s,
+                tolerance_s=tolerance_s,
+            )  # fmt: skip
+    except SQLAlchemyError as err:
+        _log.warning("shared wrong-key bucket not read: %s", err)
+        return None
 
 
 def _writers(engine: Engine, action: str, session: Session | None) -> tuple[Insert, Rewrite]:
@@ -237,10 +263,27 @@ def flush_failures(engine: Engine) -> int:
     if failures is None:
         return 0
     try:
+        _prune(engine)
         return failures.flush(lambda action: _writers(engine, action, None))
     except SQLAlchemyError as err:
         _log.warning("authentication failure counts not written yet: %s", err)
         return 0
+
+
+#: Shortest time between two prunes of the shared buckets by one process [s].
+PRUNE_S = 60.0
+_pruned_at: weakref.WeakKeyDictionary[Engine, float] = weakref.WeakKeyDictionary()
+
+
+def _prune(engine: Engine) -> None:
+    """Delete the full shared buckets, at most every :data:`PRUNE_S` (a year of addresses)."""
+    now = time.monotonic()
+    with _touched_lock:
+        if now - _pruned_at.get(engine, -PRUNE_S) < PRUNE_S:
+            return
+        _pruned_at[engine] = now
+    with Session(engine) as session, session.begin():
+        auth_buckets.prune(session=session, now_s=time.time())
 
 
 def audit_forbidden(

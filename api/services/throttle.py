@@ -1,10 +1,12 @@
 """Authentication failures: a token bucket per client address, and their coalesced audit rows.
 
-Both live in the memory of one worker process (``rcb serve --workers N`` has N of each), as
-a plant's service on one machine needs: a client that keeps sending wrong keys gets 429 with
-``Retry-After`` once its bucket is empty (a missing key spends nothing: it guesses nothing),
-and the audit log gets one row per client address, action, reason and window, whose
-``detail.count`` says how many failures it stands for, instead of one row per failure.
+The bucket (:class:`FailureLimiter`) is shared by every instance on the database
+(:mod:`db.auth_buckets`; issue 33: before, each worker process kept its own, so N instances
+allowed N bursts), with each process's copy answering a flood without asking: a client that
+keeps sending wrong keys gets 429 with ``Retry-After`` once its bucket is empty (a missing key
+spends nothing: it guesses nothing). The audit log (:class:`FailureLog`, per worker) gets one
+row per client address, action, reason and window, whose ``detail.count`` says how many
+failures it stands for, instead of one row per failure.
 """
 
 from __future__ import annotations
@@ -39,14 +41,24 @@ class RateLimitedError(Exception):
         )
 
 
-@dataclass
-class _Bucket:
-    tokens: float
-    at_s: float
+#: ``shared(client, now_s, period_s, tolerance_s)``: spend one failure of ``client`` in the
+#: bucket every instance shares (:func:`db.auth_buckets.spend`): None when it had one left,
+#: else the shared theoretical arrival time [s] that refused it.
+Shared = Callable[[str, float, float, float], "float | None"]
 
 
 class FailureLimiter:
     """A token bucket per client address, spent by authentication failures.
+
+    Kept as the generic cell rate algorithm (GCRA: one time per client instead of a count and
+    a time, ITU-T I.371; the same decisions as the bucket): with the period ``T = 1 /
+    refill_per_s`` and the tolerance ``τ = (burst − 1) T``, a failure at ``now`` is allowed
+    when ``max(tat, now) − now <= τ`` and then moves ``tat`` to ``max(tat, now) + T``; a
+    refused one waits ``max(tat, now) − τ − now``. ``burst`` failures pass at once, then one
+    per ``T``. With ``shared`` (several instances on one database) the time lives in the
+    database, and this process keeps the latest it saw: a failure its copy already refuses is
+    refused without asking (the shared time is never earlier), so a flood costs the database
+    one statement per period and client, not one per request.
 
     Parameters
     ----------
@@ -55,35 +67,39 @@ class FailureLimiter:
     refill_per_s : float
         Failures per second earned back [1/s].
     clock : callable
-        Monotonic time [s] (a test passes its own).
+        Time [s]: wall-clock, as every instance of a shared bucket must read the same (a test
+        passes its own).
     """
 
     def __init__(
         self,
         burst: int = BURST_FAILURES,
         refill_per_s: float = REFILL_PER_S,
-        clock: Callable[[], float] = time.monotonic,
+        clock: Callable[[], float] = time.time,
     ) -> None:
         self.burst, self.refill_per_s, self.clock = burst, refill_per_s, clock
-        self._buckets: OrderedDict[str, _Bucket] = OrderedDict()
+        self._tat: OrderedDict[str, float] = OrderedDict()
         self._lock = threading.Lock()
 
-    def spend(self, client: str) -> int:
+    def spend(self, client: str, shared: Shared | None = None) -> int:
         """Spend one failure of ``client``: 0 if it had one left, else the wait [s] (>= 1)."""
+        period = 1.0 / self.refill_per_s
+        tolerance = (self.burst - 1) * period
+        now = self.clock()
         with self._lock:
-            now = self.clock()
-            bucket = self._buckets.pop(client, None) or _Bucket(float(self.burst), now)
-            bucket.tokens = min(
-                float(self.burst), bucket.tokens + (now - bucket.at_s) * self.refill_per_s
-            )
-            bucket.at_s = now
-            self._buckets[client] = bucket  # most recent last
-            while len(self._buckets) > MAX_CLIENTS:
-                self._buckets.popitem(last=False)
-            if bucket.tokens >= 1.0:
-                bucket.tokens -= 1.0
+            start = max(self._tat.pop(client, now), now)
+            self._tat[client] = start  # most recent last
+            while len(self._tat) > MAX_CLIENTS:
+                self._tat.popitem(last=False)
+        if start - now > tolerance:
+            return max(1, math.ceil(start - tolerance - now))
+        refused = None if shared is None else shared(client, now, period, tolerance)
+        with self._lock:
+            if refused is None:  # allowed: at least this late now
+                self._tat[client] = max(self._tat.get(client, now), start + period)
                 return 0
-            return max(1, math.ceil((1.0 - bucket.tokens) / self.refill_per_s))
+            self._tat[client] = max(self._tat.get(client, now), refused)
+        return max(1, math.ceil(max(refused, now) - tolerance - now))
 
 
 @dataclass
