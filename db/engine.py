@@ -29,7 +29,7 @@ from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import URL, make_url
 
 from db.bulk import hook_engine
-from db.urls import POOLER_PARAM, behind_pooler, without_pooler
+from db.urls import POOLER_PARAM, behind_pooler
 
 #: The embedded default database, in the directory rcb runs in.
 DEFAULT_URL = "sqlite:///./rcb.db"
@@ -44,8 +44,6 @@ _READ_ONLY = "rcb_read_only"
 MIGRATIONS = Path(__file__).resolve().parent.parent / "alembic"
 _readers: weakref.WeakKeyDictionary[Engine, Engine] = weakref.WeakKeyDictionary()
 _readers_lock = threading.Lock()
-#: The engines that reach PostgreSQL through PgBouncer (:func:`db.urls.behind_pooler`).
-_POOLED: weakref.WeakSet[Engine] = weakref.WeakSet()
 
 
 @dataclass(frozen=True)
@@ -94,13 +92,9 @@ def make_engine(url: str, pool: Pool = DEFAULT_POOL) -> Engine:
 
 def _engine(parsed: URL, *, read_pool: bool = False, **pool: Any) -> Engine:
     if parsed.get_backend_name() != "sqlite":
-        pooled = behind_pooler(parsed)
-        args = {"prepare_threshold": None} if pooled else {}
-        engine = create_engine(
-            without_pooler(parsed), pool_pre_ping=True, connect_args=args, **pool
-        )
-        if pooled:
-            _POOLED.add(engine)
+        engine = create_engine(parsed, pool_pre_ping=True, **pool)
+        if behind_pooler(parsed):  # the URL keeps the parameter: the read engine sees it too
+            event.listen(engine, "do_connect", _through_pooler)
         hook_engine(engine)
         return engine
     engine = create_engine(parsed, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000}, **pool)
@@ -124,6 +118,15 @@ def _engine(parsed: URL, *, read_pool: bool = False, **pool: Any) -> Engine:
     return engine
 
 
+def _through_pooler(_dialect: Any, _record: Any, _args: Any, params: dict[str, Any]) -> None:
+    """The driver arguments through PgBouncer (:data:`db.urls.POOLER_PARAM`).
+
+    The URL's parameter is not libpq's, and no statement is prepared on the server.
+    """
+    params.pop(POOLER_PARAM, None)
+    params["prepare_threshold"] = None
+
+
 def reader(engine: Engine) -> Engine:
     """The read engine of ``engine`` (made by :func:`make_engine`): its own bounded pool.
 
@@ -136,11 +139,8 @@ def reader(engine: Engine) -> Engine:
     with _readers_lock:
         found = _readers.get(engine)
         if found is None:
-            url = engine.url
-            if engine in _POOLED:  # its URL lost the parameter to the driver
-                url = url.update_query_dict({POOLER_PARAM: "transaction"})
             found = _readers[engine] = _engine(
-                url,
+                engine.url,
                 read_pool=True,
                 pool_size=READ_POOL_SIZE,
                 max_overflow=0,
