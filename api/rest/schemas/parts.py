@@ -91,6 +91,15 @@ class ReadingIn(MeasurementIn):
     feed_rate_mm_min: Positive | None = None
     u_feed_rate_mm_min: NonNegative | None = None
 
+    def context(self) -> dict[str, float]:
+        """What a raw reading carries for its conversion (``SIGNAL_CONTEXT``), as given."""
+        given = ((k, getattr(self, k)) for k in SIGNAL_CONTEXT)
+        return {k: v for k, v in given if v is not None}
+
+    def raw_fields(self) -> list[str]:
+        """The fields given that only a raw spindle reading takes (empty: a measurement)."""
+        return [*sorted(self.context()), *(["calibration"] if self.calibration else [])]
+
 
 _MEASUREMENTS_DOC = (
     "Per quantity the operation's tool models (tool life: ``tool_wear``), what was measured; "
@@ -165,9 +174,9 @@ class OperationReport(BaseModel):
                 "nothing measured: give a measurement, tool_wear or feed_override_percent"
             )
         for quantity, reading in measured.items():
-            extra = sorted(signal_context(reading)) + (["calibration"] * bool(reading.calibration))
-            if extra and quantity not in RAW_READINGS:
-                why = f"{quantity}: {', '.join(extra)} only with a raw spindle reading"
+            raw = reading.raw_fields()
+            if raw and quantity not in RAW_READINGS:
+                why = f"{quantity}: {', '.join(raw)} only with a raw spindle reading"
                 raise ValueError(f"{why} ({' or '.join(RAW_READINGS)})")
         return measured
 
@@ -198,9 +207,10 @@ class PartReportIn(BaseModel):
             measurements[op.name], raw = {}, {}
             for quantity, reading in op.measurements.items():
                 measured = Measurement(reading.value, reading.uncertainty)
-                context = signal_context(reading)
-                if quantity == "spindle_load_V" or context or reading.calibration is not None:
-                    raw[quantity] = Signal(quantity, measured, context, reading.calibration)
+                if quantity == "spindle_load_V" or reading.raw_fields():
+                    raw[quantity] = Signal(
+                        quantity, measured, reading.context(), reading.calibration
+                    )
                 else:
                     measurements[op.name][quantity] = measured
             if raw:
@@ -218,12 +228,6 @@ class PartReportIn(BaseModel):
             },
             {op.name: op.edge_parts for op in self.operations if op.edge_parts is not None},
         )
-
-
-def signal_context(reading: ReadingIn) -> dict[str, float]:
-    """What a raw reading carries for its conversion (``SIGNAL_CONTEXT``), as given."""
-    given = ((k, getattr(reading, k)) for k in SIGNAL_CONTEXT)
-    return {k: v for k, v in given if v is not None}
 
 
 def parse_report(data: object) -> PartReport:
