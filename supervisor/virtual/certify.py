@@ -97,16 +97,9 @@ def _init_worker(starts: Mapping[str, RcbState], faults: Faults) -> None:
 
 
 def _worker_scenario(task: tuple[str, int, int]) -> ScenarioTrace | None:
-    """One scenario in a worker; None where it raised a domain error (see :func:`simulate`)."""
+    """One scenario in a worker (:func:`_in_worker`), its start the pool's."""
     strategy, seed, parts = task
-    initial: RcbState = _WORKER["starts"][strategy]
-    faults: Faults = _WORKER["faults"]
-    try:
-        return run_scenario(initial, seed, parts, faults=faults)
-    except (InputError, SupervisorError):
-        # these carry structured arguments and do not survive pickling back to the parent;
-        # the parent runs the (deterministic) scenario again and raises the error itself
-        return None
+    return _in_worker(_WORKER["starts"][strategy], seed, parts, _WORKER["faults"])
 
 
 def _scenarios_task(
@@ -114,13 +107,19 @@ def _scenarios_task(
 ) -> list[ScenarioTrace | None]:
     """Some scenarios on an executor the caller gave (a cluster's): the start travels along."""
     initial, seeds, parts, faults = task
-    out: list[ScenarioTrace | None] = []
-    for seed in seeds:
-        try:
-            out.append(run_scenario(initial, seed, parts, faults=faults))
-        except (InputError, SupervisorError):  # run again by the caller (_worker_scenario)
-            out.append(None)
-    return out
+    return [_in_worker(initial, seed, parts, faults) for seed in seeds]
+
+
+def _in_worker(initial: RcbState, seed: int, parts: int, faults: Faults) -> ScenarioTrace | None:
+    """One scenario away from the caller; None where it raised a domain error.
+
+    Those carry structured arguments and do not survive pickling back to the parent; the
+    parent runs the (deterministic) scenario again and raises the error itself.
+    """
+    try:
+        return run_scenario(initial, seed, parts, faults=faults)
+    except (InputError, SupervisorError):
+        return None
 
 
 def _chunk(scenarios: int, jobs: int) -> int:
