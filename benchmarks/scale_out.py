@@ -39,13 +39,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import httpx
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script
-from benchmarks.api_load.clients import MesConnection, View, plan_body  # noqa: E402
-from benchmarks.api_load.server import Postgres, free_port  # noqa: E402
+from benchmarks.api_load.clients import MesConnection, View, create_plans  # noqa: E402
+from benchmarks.api_load.server import Postgres, Server, create_key, free_port  # noqa: E402
 
 RCB = Path(sys.executable).with_name("rcb")
 PLANT_RATE = 83.0
@@ -108,16 +107,23 @@ def measure(args: argparse.Namespace, pgbouncer: str, instances: int, workers: i
     database.create()
     folder = Path(tempfile.mkdtemp(prefix="scale-out-"))
     folder.chmod(0o755)  # read by the unprivileged user PgBouncer runs as under root
-    processes: list[subprocess.Popen[bytes]] = []
+    pgbouncer_process: list[subprocess.Popen[bytes]] = []
+    servers: list[Server] = []
     try:
-        url = _pgbouncer(database.url, folder, args.server_pool, pgbouncer, processes)
+        url = _pgbouncer(database.url, folder, args.server_pool, pgbouncer, pgbouncer_process)
         subprocess.run([str(RCB), "db", "upgrade", "--db", url], check=True, capture_output=True)
-        keys = {r: _key(database.url, r) for r in ("engineer", "mes")}
-        bases = [_serve(url, workers, processes) for _ in range(instances)]
-        views = [_plan(bases[0], keys["engineer"], i) for i in range(args.clients)]
+        keys = {r: create_key(database.url, r) for r in ("engineer", "mes")}
+        for i in range(instances):
+            servers.append(Server(url, workers, folder / f"serve{i}.log"))
+            servers[-1].start()
+        bases = [server.base for server in servers]
+        created = create_plans(bases[0], keys["engineer"], args.clients, 6, "scale", threads=4)
+        views = [View.of(int(answer["id"]), answer) for answer in created]
         return _load(Run(instances, workers), database.url, bases, keys["mes"], views, args)
     finally:
-        for process in reversed(processes):
+        for server in servers:
+            server.stop()
+        for process in pgbouncer_process:
             os.killpg(process.pid, signal.SIGTERM)
             process.wait(60)
         shutil.rmtree(folder, ignore_errors=True)
@@ -141,45 +147,6 @@ def _pgbouncer(
     processes.append(subprocess.Popen(command, stderr=subprocess.DEVNULL, start_new_session=True))
     time.sleep(1.0)
     return f"postgresql+psycopg://{target.username}@127.0.0.1:{port}/rcb?pgbouncer=transaction"
-
-
-def _key(url: str, role: str) -> str:
-    command = [str(RCB), "keys", "create", "--role", role, "--db", url, "--json"]
-    done = subprocess.run(command, check=True, capture_output=True, text=True)
-    return str(json.loads(done.stdout)["key"])
-
-
-def _serve(url: str, workers: int, processes: list[subprocess.Popen[bytes]]) -> str:
-    port = free_port()
-    command = [str(RCB), "serve", "--db", url, "--port", str(port), "--workers", str(workers)]
-    processes.append(
-        subprocess.Popen(
-            [*command, "--no-access-log"],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
-        )
-    )
-    base = f"http://127.0.0.1:{port}/api/v1"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        try:
-            if httpx.get(f"{base}/health", timeout=1.0).status_code == 200:
-                return base
-        except httpx.HTTPError:
-            pass
-        time.sleep(0.2)
-    raise SystemExit(f"rcb serve on {port} did not answer in 120 s")
-
-
-def _plan(base: str, key: str, i: int) -> View:
-    headers = {"Authorization": f"Bearer {key}", "Idempotency-Key": f"plan-{i}"}
-    answer = httpx.post(
-        f"{base}/plans", json=plan_body(f"scale-{i}", 6), headers=headers, timeout=120
-    )
-    if answer.status_code != 201:
-        raise SystemExit(f"POST /plans answered {answer.status_code}: {answer.text[:300]}")
-    return View.of(int(answer.json()["id"]), answer.json())
 
 
 def _load(
