@@ -14,19 +14,12 @@ on PostgreSQL.
 
 from __future__ import annotations
 
-import os
-import shutil
-import socket
 import subprocess
-import tempfile
 import threading
-import time
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 from sqlalchemy import func, select
-from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
@@ -38,11 +31,11 @@ from db.engine import Pool, make_engine, upgrade
 from db.migrate import migration_lock
 from db.urls import revision
 
-from live import RCB, LiveServer, free_port
+from conftest import _fresh_postgres
+from live import RCB, LiveServer
+from pgbouncer_support import PGBOUNCER
+from pgbouncer_support import pgbouncer as run_pgbouncer
 
-PGBOUNCER = shutil.which("pgbouncer") or (
-    "/usr/sbin/pgbouncer" if Path("/usr/sbin/pgbouncer").exists() else None
-)
 #: Server connections PgBouncer keeps per database: one, shared by every client.
 SERVER_POOL = 1
 PARTS = 8
@@ -53,55 +46,13 @@ def pgbouncer(tmp_path) -> Iterator[str]:
     """A PgBouncer in transaction pooling before a fresh database: its URL for the service."""
     if PGBOUNCER is None:
         pytest.skip("no pgbouncer (Debian's package pgbouncer; .ci/run installs it as root)")
-    fresh = _fresh_database()
+    fresh = _fresh_postgres()
     direct = next(fresh)
-    folder = Path(tempfile.mkdtemp(prefix="pgbouncer-"))
-    folder.chmod(0o755)  # read by the unprivileged user it runs as under root
-    port = free_port()
-    target = make_url(direct)
-    (folder / "pgbouncer.ini").write_text(
-        "[databases]\n"
-        f"rcb = host={target.host} port={target.port} dbname={target.database} "
-        f"user={target.username}\n"
-        "[pgbouncer]\n"
-        f"listen_addr = 127.0.0.1\nlisten_port = {port}\nunix_socket_dir =\n"
-        "auth_type = any\npool_mode = transaction\n"
-        f"default_pool_size = {SERVER_POOL}\nmax_client_conn = 200\n"
-        "ignore_startup_parameters = extra_float_digits,options\n"
-    )
-    user = ["-u", "nobody"] if os.geteuid() == 0 else []
-    process = subprocess.Popen(
-        [PGBOUNCER, *user, str(folder / "pgbouncer.ini")],
-        stdout=subprocess.DEVNULL,
-        stderr=(tmp_path / "pgbouncer.log").open("wb"),
-    )
     try:
-        _wait_for(port, process, tmp_path / "pgbouncer.log")
-        yield f"postgresql+psycopg://{target.username}@127.0.0.1:{port}/rcb?pgbouncer=transaction"
+        with run_pgbouncer(direct, tmp_path / "pgbouncer.log", SERVER_POOL) as url:
+            yield url
     finally:
-        process.terminate()
-        process.wait(timeout=30)
-        shutil.rmtree(folder, ignore_errors=True)
         next(fresh, None)  # drops the database, PgBouncer's connections to it closed
-
-
-def _fresh_database() -> Iterator[str]:
-    from conftest import _fresh_postgres
-
-    yield from _fresh_postgres()
-
-
-def _wait_for(port: int, process: subprocess.Popen[bytes], log: Path) -> None:
-    deadline = time.monotonic() + 20
-    while time.monotonic() < deadline:
-        if process.poll() is not None:
-            raise RuntimeError(f"pgbouncer exited: {log.read_text()}")
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=1).close()
-            return
-        except OSError:
-            time.sleep(0.1)
-    raise RuntimeError(f"pgbouncer did not listen: {log.read_text()}")
 
 
 def test_two_instances_migrate_at_once_through_pgbouncer(pgbouncer):
