@@ -8,57 +8,26 @@ Units live in column names, as in the domain objects.
 
 from __future__ import annotations
 
-from datetime import UTC, datetime
-from typing import Any, cast
+from datetime import datetime
+from typing import Any
 
 from sqlalchemy import (
     JSON,
-    DateTime,
     ForeignKey,
     Index,
-    MetaData,
     String,
-    Table,
     Text,
     UniqueConstraint,
 )
-from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+from sqlalchemy.orm import Mapped, mapped_column
 
-from models.bounds import LARGEST_WHOLE
+from db.access_tables import ApiKey, AuditEntry, AuthBucket, AuthFailureWindow, IdempotencyRecord
+from db.table_base import MAX_INT, NAMING_CONVENTION, Base, core_table, utcnow
 
-#: Stable constraint names, so Alembic migrations name them the same on every database.
-NAMING_CONVENTION = {
-    "ix": "ix_%(column_0_label)s",
-    "uq": "uq_%(table_name)s_%(column_0_N_name)s",
-    "ck": "ck_%(table_name)s_%(constraint_name)s",
-    "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
-    "pk": "pk_%(table_name)s",
-}
-
-#: The largest value an integer column holds (PostgreSQL's ``integer``: 32 bits): every id,
-#: version and count the service takes is bounded by it (:data:`models.bounds.LARGEST_WHOLE`).
-MAX_INT = LARGEST_WHOLE
-
-
-def utcnow() -> datetime:
-    """Timezone-aware current time (stored as UTC)."""
-    return datetime.now(UTC)
-
-
-class Base(DeclarativeBase):
-    """Declarative base with the naming convention."""
-
-    metadata = MetaData(naming_convention=NAMING_CONVENTION)
-    type_annotation_map = {
-        dict[str, Any]: JSON,
-        list[Any]: JSON,
-        datetime: DateTime(timezone=True),
-    }
-
-
-def core_table(entity: type[Base]) -> Table:
-    """The Core table of a mapped class (for inserts without the ORM's unit of work)."""
-    return cast(Table, entity.__table__)
+__all__ = [
+    "MAX_INT", "NAMING_CONVENTION", "ApiKey", "AuditEntry", "AuthBucket", "AuthFailureWindow",
+    "Base", "IdempotencyRecord", "core_table", "utcnow",
+]  # fmt: skip
 
 
 class Machine(Base):
@@ -268,62 +237,6 @@ class RcbDecision(Base):
     #: information only (supervisor.rcb.state.Note): ``below_band`` (a maximum) or
     #: ``above_band`` (a minimum), ``past_limit``, ``implausible_low``, ``regime_change``
     note: Mapped[str | None] = mapped_column(String(20))
-
-
-class ApiKey(Base):
-    """An API key, stored only as a hash, with its role."""
-
-    __tablename__ = "api_keys"
-    id: Mapped[int] = mapped_column(primary_key=True)
-    key_hash: Mapped[str] = mapped_column(String(128), unique=True)
-    role: Mapped[str] = mapped_column(String(20))
-    label: Mapped[str] = mapped_column(Text, default="")
-    created_at: Mapped[datetime] = mapped_column(default=utcnow)
-    revoked_at: Mapped[datetime | None]
-    #: the plan ids the key may see (NULL: every plan, as before 0006)
-    plans: Mapped[list[int] | None] = mapped_column(JSON(none_as_null=True))
-    #: the last request the key authenticated, to the minute (NULL: never used)
-    last_used_at: Mapped[datetime | None]
-
-
-class IdempotencyRecord(Base):
-    """A POST's Idempotency-Key: its request hash and, once done, the stored response."""
-
-    __tablename__ = "idempotency_records"
-    __table_args__ = (UniqueConstraint("api_key_id", "key"),)
-    id: Mapped[int] = mapped_column(primary_key=True)
-    api_key_id: Mapped[int | None] = mapped_column(ForeignKey("api_keys.id"))
-    key: Mapped[str] = mapped_column(String(255))
-    request_hash: Mapped[str] = mapped_column(String(64))
-    state: Mapped[str] = mapped_column(String(20))
-    response_status: Mapped[int | None]
-    response_body: Mapped[dict[str, Any] | None]
-    created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
-
-
-class AuthBucket(Base):
-    """A client address's wrong-key allowance, shared by every instance (db.auth_buckets).
-
-    ``tat_s``: the time [s, Unix] at which its bucket is full again plus one period (the
-    generic cell rate algorithm's theoretical arrival time).
-    """
-
-    __tablename__ = "auth_buckets"
-    client: Mapped[str] = mapped_column(String(64), primary_key=True)
-    tat_s: Mapped[float]
-
-
-class AuditEntry(Base):
-    """Append-only audit log: who did what, when, with what result."""
-
-    __tablename__ = "audit_log"
-    id: Mapped[int] = mapped_column(primary_key=True)
-    at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
-    actor: Mapped[str] = mapped_column(String(200))
-    action: Mapped[str] = mapped_column(String(100))
-    target: Mapped[str] = mapped_column(Text, default="")
-    result: Mapped[str] = mapped_column(String(50))
-    detail: Mapped[dict[str, Any] | None]
 
 
 class BandState(Base):

@@ -12,13 +12,17 @@ import shutil
 import socket
 import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from sqlalchemy import text
 from sqlalchemy.engine import make_url
+
+from db.engine import make_engine
 
 from live import free_port
 
@@ -73,3 +77,39 @@ def _wait_for(port: int, process: subprocess.Popen[bytes], log: Path) -> None:
         except OSError:
             time.sleep(0.1)
     raise RuntimeError(f"pgbouncer did not listen: {log.read_text()}")
+
+
+class ConnectionPeak:
+    """The most connections PostgreSQL held to the database of ``direct`` at once, sampled
+    every 20 ms, in phases (:meth:`phase` starts the next); ``direct`` None: nothing."""
+
+    def __init__(self, direct: str | None) -> None:
+        self.direct, self.peaks = direct, [0]
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+
+    def phase(self) -> None:
+        self.peaks.append(0)
+
+    def __enter__(self) -> ConnectionPeak:
+        if self.direct is not None:
+            self._thread.start()
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(10)
+
+    def _sample(self) -> None:
+        engine = make_engine(str(self.direct))
+        query = text(
+            "SELECT count(*) FROM pg_stat_activity"
+            " WHERE datname = current_database() AND pid <> pg_backend_pid()"
+        )
+        with engine.connect() as connection:
+            while not self._stop.wait(0.02):
+                count = int(connection.execute(query).scalar_one())
+                self.peaks[-1] = max(self.peaks[-1], count)
+                connection.rollback()
+        engine.dispose()

@@ -7,9 +7,10 @@ Idempotency-Key, takes that key's in-flight lock in the same statement
 (:func:`db.api_keys.authenticate_claiming`); :func:`api.services.parts.report_part` continues it.
 Every failure (unknown or revoked key, a role that may not) is appended to the audit log,
 on the request's own connection when it holds one (:func:`aside`), coalesced per client
-address, action and window, and a failure with a wrong key from a client address that keeps
-failing is refused with :class:`api.services.throttle.RateLimitedError` (429 over REST) instead of
-401 (:mod:`api.services.throttle`); a valid key from that address still passes.
+address, action and window over every instance (:mod:`db.audit_windows`), and a failure with
+a wrong key from a client address that keeps failing is refused with
+:class:`api.services.throttle.RateLimitedError` (429 over REST) instead of 401
+(:mod:`api.services.throttle`); a valid key from that address still passes.
 A key's last use is recorded at most once a minute per process (for a read, in a thread of its
 own, so the read never waits for the write lock).
 """
@@ -24,15 +25,15 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
-from typing import Any
 
 from sqlalchemy import Engine
 from sqlalchemy.exc import OperationalError, SQLAlchemyError
 from sqlalchemy.orm import Session
 
-from api.services.throttle import FailureLimiter, FailureLog, Insert, RateLimitedError, Rewrite
+from api.services import throttle
+from api.services.throttle import FailureLimiter, FailureLog, RateLimitedError
 from api.settings import auth_failure_burst
-from db import api_keys, audit, auth_buckets
+from db import api_keys, audit, audit_windows, auth_buckets
 from db import tables as t
 from db.api_keys import Actor
 from db.engine import one_statement_reader
@@ -202,10 +203,9 @@ def _audit_unauthenticated(
 ) -> None:
     """Count the failure in its window's audit row; RateLimitedError if ``client`` failed often."""
     reason = "no key" if not key else "unknown or revoked key"
-    insert, rewrite = _writers(engine, action, session)
     with _touched_lock:
         failures = _failures.setdefault(engine, FailureLog())
-    failures.record(client, action, reason, insert, rewrite)
+    failures.record(client[:64], action[:100], reason, partial(_add_failures, engine, session))
     # only a wrong key can guess, or costs a read; the bucket is every instance's (db)
     wait_s = LIMITER.spend(client, partial(_shared_spend, engine, session)) if key else 0
     if wait_s:
@@ -236,19 +236,22 @@ def _shared_spend(
         return None
 
 
-def _writers(engine: Engine, action: str, session: Session | None) -> tuple[Insert, Rewrite]:
-    """The callbacks writing a coalesced failure row (``session``: see :func:`aside`)."""
-
-    def insert(detail: dict[str, Any]) -> int:
-        with aside(engine, session) as held:
-            row = audit.audit_row("anonymous", action, "", "unauthenticated", detail)
-            return audit.audit_returning_id(session=held, row=row)
-
-    def rewrite(entry_id: int, detail: dict[str, Any]) -> bool:
-        with aside(engine, session) as held:
-            return audit.set_audit_detail(session=held, entry_id=entry_id, detail=detail)
-
-    return insert, rewrite
+def _add_failures(
+    engine: Engine,
+    session: Session | None,
+    client: str,
+    action: str,
+    reason: str,
+    start_s: float,
+    window_s: float,
+    delta: int,
+) -> int:
+    """Add failures to their window's count over every instance (``session``: :func:`aside`)."""
+    with aside(engine, session) as held:
+        return audit_windows.add(
+            session=held, client=client, action=action, reason=reason, start_s=start_s,
+            window_s=window_s, delta=delta,
+        )  # fmt: skip
 
 
 def flush_failures(engine: Engine) -> int:
@@ -264,7 +267,7 @@ def flush_failures(engine: Engine) -> int:
         return 0
     try:
         _prune(engine)
-        return failures.flush(lambda action: _writers(engine, action, None))
+        return failures.flush(partial(_add_failures, engine, None))
     except SQLAlchemyError as err:
         _log.warning("authentication failure counts not written yet: %s", err)
         return 0
@@ -276,7 +279,7 @@ _pruned_at: weakref.WeakKeyDictionary[Engine, float] = weakref.WeakKeyDictionary
 
 
 def _prune(engine: Engine) -> None:
-    """Delete the full shared buckets, at most every :data:`PRUNE_S` (a year of addresses)."""
+    """Delete full shared buckets and ended audit windows, at most every :data:`PRUNE_S`."""
     now = time.monotonic()
     with _touched_lock:
         if now - _pruned_at.get(engine, -PRUNE_S) < PRUNE_S:
@@ -284,6 +287,8 @@ def _prune(engine: Engine) -> None:
         _pruned_at[engine] = now
     with Session(engine) as session, session.begin():
         auth_buckets.prune(session=session, now_s=time.time())
+        # a window no process still adds to (theirs ended): its audit entry stays
+        audit_windows.prune(session=session, before_s=time.time() - 2 * throttle.WINDOW_S)
 
 
 def audit_forbidden(

@@ -4,9 +4,10 @@ The bucket (:class:`FailureLimiter`) is shared by every instance on the database
 (:mod:`db.auth_buckets`; issue 33: before, each worker process kept its own, so N instances
 allowed N bursts), with each process's copy answering a flood without asking: a client that
 keeps sending wrong keys gets 429 with ``Retry-After`` once its bucket is empty (a missing key
-spends nothing: it guesses nothing). The audit log (:class:`FailureLog`, per worker) gets one
-row per client address, action, reason and window, whose ``detail.count`` says how many
-failures it stands for, instead of one row per failure.
+spends nothing: it guesses nothing). The audit log (:class:`FailureLog`, counted over every
+instance in :mod:`db.audit_windows`) gets one row per client address, action, reason and
+window, whose ``detail.count`` says how many failures it stands for, instead of one row per
+failure.
 """
 
 from __future__ import annotations
@@ -16,8 +17,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 #: Failures a client address may make at once before it is refused with 429.
 BURST_FAILURES = 60
@@ -105,37 +105,37 @@ class FailureLimiter:
 @dataclass
 class _Window:
     start_s: float
-    entry_id: int
-    count: int
-    written: int
+    count: int  # failures this process counted in the window
+    written: int  # of which added to the shared count
     written_at_s: float
-    detail: dict[str, Any] = field(default_factory=dict)
 
 
-#: Appends an audit row's detail and returns its id.
-Insert = Callable[[dict[str, Any]], int]
-#: Replaces the detail of the audit row with that id; False if the row is gone (pruned).
-Rewrite = Callable[[int, dict[str, Any]], bool]
+#: ``add(client, action, reason, start_s, window_s, delta)``: add ``delta`` failures to the
+#: count every instance shares for that window and write its audit row
+#: (:func:`db.audit_windows.add`).
+Add = Callable[[str, str, str, float, float, int], object]
 
 
 class FailureLog:
     """One audit row per (client, action, reason) and window, its ``count`` kept up to date.
 
-    The first failure of a window inserts the row (count 1); later ones count in memory and
-    rewrite the row's detail at most every ``flush_s`` seconds, and when the next window of
-    the same client starts. Counts still in memory are written by :meth:`flush`, which the
-    service calls every ``flush_s`` seconds and when it shuts down (:mod:`api.rest.lifespan`):
-    the end of a burst is counted even when no failure follows it. A process that is killed
-    loses at most ``flush_s`` seconds of counts.
+    The count is the database's, summed over every instance (:mod:`db.audit_windows`; before
+    issue 33 each worker had its own row). Each process counts in memory and adds what it
+    counted: at its first failure of a window at once (the row appears with the failure),
+    then at most every ``flush_s`` seconds, and when the next window of the same client
+    starts. Counts still in memory are added by :meth:`flush`, which the service calls every
+    ``flush_s`` seconds and when it shuts down (:mod:`api.rest.lifespan`): the end of a burst
+    is counted even when no failure follows it. A process that is killed loses at most
+    ``flush_s`` seconds of its counts. A failed add leaves the count pending.
 
     Parameters
     ----------
     window_s : float
         Length of a window [s].
     flush_s : float
-        Shortest time between two rewrites of one row [s].
+        Shortest time between two adds of one window by this process [s].
     clock : callable
-        Wall-clock time [s] (a test passes its own).
+        Wall-clock time [s]: every instance must read the same (a test passes its own).
     """
 
     def __init__(
@@ -148,50 +148,37 @@ class FailureLog:
         self._windows: OrderedDict[tuple[str, str, str], _Window] = OrderedDict()
         self._lock = threading.Lock()
 
-    def record(
-        self, client: str, action: str, reason: str, insert: Insert, rewrite: Rewrite
-    ) -> None:
-        """Count one failure, inserting or rewriting its window's row through the callbacks."""
+    def record(self, client: str, action: str, reason: str, add: Add) -> None:
+        """Count one failure, adding the pending count to the shared one when it is due."""
         with self._lock:  # the database calls too: one failure's row at a time
             now = self.clock()
             start = math.floor(now / self.window_s) * self.window_s
             key = (client, action, reason)
             window = self._windows.pop(key, None)
             if window is not None and window.start_s != start:
-                if window.count > window.written:
-                    rewrite(window.entry_id, self._detail(window))
+                self._add(key, window, add, now)  # the old window's last count
                 window = None
             if window is None:
-                detail = {"reason": reason, "client": client, "count": 1,
-                          "window_start_s": start, "window_s": self.window_s}  # fmt: skip
-                window = _Window(start, insert(detail), 1, 1, now, detail)
-            else:
-                window.count += 1
-                if now - window.written_at_s >= self.flush_s:
-                    if not rewrite(window.entry_id, self._detail(window)):
-                        window.entry_id = insert(self._detail(window))  # pruned meanwhile
-                    window.written, window.written_at_s = window.count, now
+                window = _Window(start, 0, 0, now - self.flush_s)
+            window.count += 1
             self._windows[key] = window
             while len(self._windows) > MAX_CLIENTS:
                 self._windows.popitem(last=False)
+            if now - window.written_at_s >= self.flush_s:
+                self._add(key, window, add, now)
 
-    def flush(self, writers: Callable[[str], tuple[Insert, Rewrite]]) -> int:
-        """Write every count not yet in its row; returns how many rows were written.
+    def flush(self, add: Add) -> int:
+        """Add every count not yet shared; returns how many windows were written.
 
-        ``writers(action)``: the callbacks writing a row of that action. A row pruned meanwhile
-        is inserted again. A callback's error propagates; the counts not written stay pending.
+        An error of ``add`` propagates; the counts not added stay pending.
         """
         with self._lock:  # a request's write keeps its own period (``written_at_s``)
-            written = 0
-            for (_client, action, _reason), window in self._windows.items():
-                if window.count > window.written:
-                    insert, rewrite = writers(action)
-                    if not rewrite(window.entry_id, self._detail(window)):
-                        window.entry_id = insert(self._detail(window))
-                    window.written = window.count
-                    written += 1
-            return written
+            pending = [(k, w) for k, w in self._windows.items() if w.count > w.written]
+            for key, window in pending:
+                self._add(key, window, add, self.clock())
+            return len(pending)
 
-    @staticmethod
-    def _detail(window: _Window) -> dict[str, Any]:
-        return {**window.detail, "count": window.count}
+    def _add(self, key: tuple[str, str, str], window: _Window, add: Add, now: float) -> None:
+        if window.count > window.written:
+            add(*key, window.start_s, self.window_s, window.count - window.written)
+            window.written, window.written_at_s = window.count, now

@@ -107,26 +107,23 @@ def test_failures_are_one_row_per_window_with_their_count():
     clock = Clock()
     clock.now_s = 600.0  # a window's start
     log = FailureLog(window_s=60.0, flush_s=2.0, clock=clock)
-    rows: dict[int, dict] = {}
+    rows: dict[tuple, int] = {}  # the shared counts (db.audit_windows), per window
 
-    def insert(detail: dict) -> int:
-        rows[len(rows) + 1] = dict(detail)
-        return len(rows)
+    def add(client, action, reason, start_s, window_s, delta) -> None:
+        assert window_s == 60.0
+        key = (client, action, reason, start_s)
+        rows[key] = rows.get(key, 0) + delta
 
-    def rewrite(entry_id: int, detail: dict) -> bool:
-        rows[entry_id] = dict(detail)
-        return True
-
+    first = ("10.0.0.9", "GET /plans", "no key", 600.0)
     for _ in range(100):  # 100 failures in 10 s: one row, its count written every 2 s
-        log.record("10.0.0.9", "GET /plans", "no key", insert, rewrite)
+        log.record("10.0.0.9", "GET /plans", "no key", add)
         clock.now_s += 0.1
-    assert len(rows) == 1 and 80 <= rows[1]["count"] < 100  # lags by at most 2 s of failures
-    log.record("10.0.0.9", "GET /plans", "unknown or revoked key", insert, rewrite)
-    assert len(rows) == 2  # another reason: its own row
+    assert list(rows) == [first] and 80 <= rows[first] < 100  # lags by at most 2 s
+    log.record("10.0.0.9", "GET /plans", "unknown or revoked key", add)
+    assert len(rows) == 2  # another reason: its own row, written at its first failure
     clock.now_s = 661.0  # the next window: the first row's count is completed, a new row
-    log.record("10.0.0.9", "GET /plans", "no key", insert, rewrite)
-    assert rows[1]["count"] == 100 and rows[3]["count"] == 1 and len(rows) == 3
-    assert (rows[1]["window_start_s"], rows[3]["window_start_s"]) == (600.0, 660.0)
+    log.record("10.0.0.9", "GET /plans", "no key", add)
+    assert rows[first] == 100 and rows[(*first[:3], 660.0)] == 1 and len(rows) == 3
 
 
 def test_a_pruned_window_row_is_written_again(engine):
