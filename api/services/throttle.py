@@ -175,10 +175,15 @@ class FailureLog:
         with self._lock:  # a request's write keeps its own period (``written_at_s``)
             pending = [(k, w) for k, w in self._windows.items() if w.count > w.written]
             for key, window in pending:
-                self._add(key, window, add, self.clock())
+                self._add(key, window, add)
             return len(pending)
 
-    def _add(self, key: tuple[str, str, str], window: _Window, add: Add, now: float) -> None:
+    def _add(
+        self, key: tuple[str, str, str], window: _Window, add: Add, now: float | None = None
+    ) -> None:
+        """Add the window's pending count; a request's add (``now``) restarts its period."""
         if window.count > window.written:
             add(*key, window.start_s, self.window_s, window.count - window.written)
-            window.written, window.written_at_s = window.count, now
+            window.written = window.count
+            if now is not None:
+                window.written_at_s = now
