@@ -342,8 +342,10 @@ def test_a_burst_spread_over_two_instances_is_limited_as_one(shared, tmp_path):
             )
             for s in servers
         ]
-        burst = throttle.BURST_FAILURES
-        statuses = [clients[i % 2].get("/plans").status_code for i in range(burst + 10)]
+        burst, sent = throttle.BURST_FAILURES, throttle.BURST_FAILURES + 30
+        started_s = time.monotonic()
+        statuses = [clients[i % 2].get("/plans").status_code for i in range(sent)]
+        earned = (time.monotonic() - started_s) * throttle.REFILL_PER_S  # while it lasted
         for client in clients:
             client.close()
         with servers[1].client(None, headers=WRONG) as other:
@@ -351,9 +353,9 @@ def test_a_burst_spread_over_two_instances_is_limited_as_one(shared, tmp_path):
     finally:
         for server in servers:
             server.stop()
-    # a second's refill may let one more through while the burst lasts
+    # one bucket: 60 and what it earned back meanwhile (each instance's own: all 90 pass)
     assert statuses[:burst] == [401] * burst
-    assert statuses[burst:].count(429) >= 9, statuses[burst:]
+    assert statuses.count(401) <= burst + earned + 1 and statuses.count(429) > 0, statuses
     engine = make_engine(shared.url)
     with Session(engine) as session:
         stored = session.scalars(select(t.AuthBucket.client)).all()
@@ -366,4 +368,4 @@ def test_a_burst_spread_over_two_instances_is_limited_as_one(shared, tmp_path):
     # the counts whole after a clean stop (a minute's edge may split the burst in two rows)
     mine = [d for d in audited if d["client"] == client_address]
     assert len({d["window_start_s"] for d in mine}) == len(mine) <= 2, mine
-    assert sum(d["count"] for d in mine) == burst + 10
+    assert sum(d["count"] for d in mine) == sent
