@@ -139,6 +139,8 @@ def _history_version(
         "part_id": version.part_id,
         "serial": serial,
         "created_at": _utc(version.created_at),
-        "cycle_time_min": sum(sp.time_min for sp in setpoints),
+        # in plan order, as the optimiser sums it: the rows' order is the database's whim, and
+        # another order may round the last bit otherwise (PostgreSQL against SQLite)
+        "cycle_time_min": sum(op["time_min"] for op in operations),
         "operations": operations,
     }

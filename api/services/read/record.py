@@ -128,13 +128,14 @@ def _version(
     position = {op.id: i for i, (op, _) in enumerate(ops)}
     names = {op.id: op.name for op, _ in ops}
     tools = {op.id: tool.name for op, tool in ops}
+    in_order = sorted(setpoints, key=lambda s: position[s.operation_id])
     return {
         "version": version.version,
         "cause": version.cause,
         "part_id": version.part_id,
         "serial": serial,
         "created_at": _utc(version.created_at),
-        "cycle_time_min": sum(sp.time_min for sp in setpoints),
+        "cycle_time_min": sum(sp.time_min for sp in in_order),  # plan order (history.py)
         "operations": [
             {
                 "name": names[sp.operation_id],
@@ -146,6 +147,6 @@ def _version(
                 "binding": list(sp.binding),
                 "extras": dict(sp.extras or {}),
             }
-            for sp in sorted(setpoints, key=lambda s: position[s.operation_id])
+            for sp in in_order
         ],
     }
