@@ -17,7 +17,7 @@ from supervisor.inputs.plan import plan_from_mapping
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.trace import TracedOperation, TraceSample, machine_trace, traced_operations
 
-from conftest import DEMO_PLAN, renamed
+from conftest import DEMO_PLAN, renamed, without_ids
 from live import RCB, LiveServer, kill_group, stop_group
 
 MACHINE, PROGRAM = "lathe-1", "O1001"
@@ -97,25 +97,13 @@ def post_directly(live: LiveServer, plan_id: int, reports: list[dict[str, Any]])
             assert answer.status_code == 201, answer.text
 
 
-_PER_PLAN = ("created_at", "received_at", "part_id", "plan_id")
-
-
-def _strip(data: Any) -> Any:
-    """``data`` without what differs between two plans of the same parts (ids, times)."""
-    if isinstance(data, dict):
-        return {k: _strip(v) for k, v in data.items() if k not in _PER_PLAN}
-    if isinstance(data, list):
-        return [_strip(v) for v in data]
-    return data
-
-
 def outcome(live: LiveServer, plan_id: int) -> dict[str, Any]:
     """Every part (serial, version, measurements, band updates), setpoint version and model."""
     with live.client("viewer") as c:
         parts = c.get(f"/plans/{plan_id}/parts", params={"limit": 500}).json()["items"]
         history = c.get(f"/plans/{plan_id}/history", params={"limit": 500}).json()["versions"]
         models = c.get(f"/plans/{plan_id}/models").json()["operations"]
-    return _strip({"parts": parts, "versions": history, "models": models})
+    return without_ids({"parts": parts, "versions": history, "models": models})
 
 
 def write_config(

@@ -115,6 +115,19 @@ def report_at(
     }
 
 
+#: What differs between two databases (or two plans) holding the same history: ids and times.
+UNSHARED = frozenset({"created_at", "received_at", "part_id", "plan_id"})
+
+
+def without_ids(data: Any) -> Any:
+    """``data`` (JSON) without :data:`UNSHARED` keys, at any depth."""
+    if isinstance(data, dict):
+        return {k: without_ids(v) for k, v in data.items() if k not in UNSHARED}
+    if isinstance(data, list):
+        return [without_ids(v) for v in data]
+    return data
+
+
 #: Numbers the plans :func:`renamed` makes (one count per test process).
 _PLAN_NAMES = itertools.count(1)
 

@@ -203,9 +203,10 @@ def _audit_unauthenticated(
 ) -> None:
     """Count the failure in its window's audit row; RateLimitedError if ``client`` failed often."""
     reason = "no key" if not key else "unknown or revoked key"
+    client = client[:64]  # as the shared rows hold it (auth_buckets, auth_failure_windows)
     with _touched_lock:
         failures = _failures.setdefault(engine, FailureLog())
-    failures.record(client[:64], action[:100], reason, partial(_add_failures, engine, session))
+    failures.record(client, action[:100], reason, partial(_add_failures, engine, session))
     # only a wrong key can guess, or costs a read; the bucket is every instance's (db)
     wait_s = LIMITER.spend(client, partial(_shared_spend, engine, session)) if key else 0
     if wait_s:
@@ -228,7 +229,7 @@ def _shared_spend(
     try:
         with aside(engine, session) as held:
             return auth_buckets.spend(
-                session=held, client=client[:64], now_s=now_s, period_s=period_s,
+                session=held, client=client, now_s=now_s, period_s=period_s,
                 tolerance_s=tolerance_s,
             )  # fmt: skip
     except SQLAlchemyError as err:

@@ -45,7 +45,7 @@ from db import tables as t
 from db.engine import make_engine, upgrade
 from supervisor.rcb.state import RcbSettings
 
-from conftest import DEMO_PLAN, _fresh_postgres, report_at, stored_state
+from conftest import DEMO_PLAN, _fresh_postgres, report_at, stored_state, without_ids
 from live import LiveServer
 from pgbouncer_support import ConnectionPeak, pgbouncer
 
@@ -108,6 +108,12 @@ class Group:
         self.servers = servers
         self.dead: set[int] = set()
 
+    def clients(self) -> list[httpx.Client]:
+        """One MES's clients, an address each, one API key for both (an idempotency key is
+        the API key's: with another key a fail-over is 409, not the stored answer)."""
+        mes = {"Authorization": f"Bearer {self.servers[0].keys['mes']}"}
+        return [httpx.Client(base_url=s.base, headers=mes, timeout=60.0) for s in self.servers]
+
     def send(self, clients: list[httpx.Client], first: int, path: str, r: Report) -> httpx.Response:
         headers = {"Idempotency-Key": r.key}
         for _ in range(IN_FLIGHT_RETRIES):
@@ -145,9 +151,7 @@ def _load(
     mutex, enough = threading.Lock(), threading.Event()
 
     def lane(index: int) -> None:
-        # one MES, one API key for both addresses (an idempotency key is the API key's)
-        mes = {"Authorization": f"Bearer {group.servers[0].keys['mes']}"}
-        clients = [httpx.Client(base_url=s.base, headers=mes, timeout=60.0) for s in group.servers]
+        clients = group.clients()
         try:
             for j, i in enumerate(range(index, len(reports), LANES)):
                 path = f"/plans/{plan_ids[reports[i].plan]}/parts"
@@ -170,10 +174,9 @@ def _load(
     return answered
 
 
-def _sent_again(servers: list[LiveServer], plan_ids: list[int], reports: list[Report]) -> list[Any]:
+def _sent_again(group: Group, plan_ids: list[int], reports: list[Report]) -> list[Any]:
     """Every report sent again, alternately to each instance: (status, replayed, body)."""
-    mes = {"Authorization": f"Bearer {servers[0].keys['mes']}"}
-    clients = [httpx.Client(base_url=s.base, headers=mes, timeout=60.0) for s in servers]
+    clients = group.clients()
 
     def send(i: int) -> tuple[int, str | None, Any]:
         r = reports[i]
@@ -212,19 +215,6 @@ def _stored(url: str, plan_id: int) -> tuple[dict[str, list[int]], list[int], li
         ).all()
     engine.dispose()
     return parts, list(versions), list(keys)
-
-
-#: What differs between two databases holding the same history: row ids and clock times.
-UNSHARED = frozenset({"part_id", "plan_id", "created_at", "received_at"})
-
-
-def _without_ids(value: Any) -> Any:
-    """``value`` (JSON) without :data:`UNSHARED` keys, at any depth."""
-    if isinstance(value, dict):
-        return {k: _without_ids(v) for k, v in value.items() if k not in UNSHARED}
-    if isinstance(value, list):
-        return [_without_ids(v) for v in value]
-    return value
 
 
 def _replayed(tmp_path, reports: list[list[Report]], order: list[list[int]]) -> Any:
@@ -279,7 +269,7 @@ def test_two_instances_one_killed_store_each_part_once_as_a_serial_replay(shared
                 with server.client("viewer") as client:
                     served.append(client.get(f"/plans/{plan_id}/setpoints").json())
             assert served[0] == served[1]
-        again = _sent_again(servers, plan_ids, mixed)
+        again = _sent_again(group, plan_ids, mixed)
         assert again == [(201, "true", answered[i].json()) for i in range(len(mixed))]
         for server in servers:
             log = server.log.read_text(encoding="utf-8", errors="replace")
@@ -313,12 +303,12 @@ def test_two_instances_one_killed_store_each_part_once_as_a_serial_replay(shared
                 (a.json() for i, a in answered.items() if mixed[i].plan == p),
                 key=lambda a: a["part_id"],
             )
-            assert [_without_ids(a) for a in got] == [_without_ids(a) for a in replayed[p]]
+            assert [without_ids(a) for a in got] == [without_ids(a) for a in replayed[p]]
             assert stored_state(engine, plan_id) == stored_state(serial, ids[p])
             for read in (queries.full_history, queries.models_in_force, queries.get_plan):
                 here = read(engine=engine, plan_id=plan_id)
                 there = read(engine=serial, plan_id=ids[p])
-                assert _without_ids(here) == _without_ids(there)
+                assert without_ids(here) == without_ids(there)
     finally:
         engine.dispose()
         serial.dispose()

@@ -33,7 +33,6 @@ from db.urls import revision
 
 from conftest import _fresh_postgres
 from live import RCB, LiveServer
-from pgbouncer_support import PGBOUNCER
 from pgbouncer_support import pgbouncer as run_pgbouncer
 
 #: Server connections PgBouncer keeps per database: one, shared by every client.
@@ -44,8 +43,6 @@ PARTS = 8
 @pytest.fixture
 def pgbouncer(tmp_path) -> Iterator[str]:
     """A PgBouncer in transaction pooling before a fresh database: its URL for the service."""
-    if PGBOUNCER is None:
-        pytest.skip("no pgbouncer (Debian's package pgbouncer; .ci/run installs it as root)")
     fresh = _fresh_postgres()
     direct = next(fresh)
     try:
