@@ -17,6 +17,8 @@ from db.idempotency import IDEMPOTENCY
 
 #: Core table of the audit log (inserted without the ORM's unit of work).
 AUDIT = t.core_table(t.AuditEntry)
+#: The most characters of an entry's target (a refused plan's name is logged as sent).
+MAX_TARGET = 300
 
 
 def prune(
@@ -73,7 +75,23 @@ def audit_row(
         "at": t.utcnow(),
         "actor": actor,
         "action": action,
-        "target": target,
+        "target": kept(target)[:MAX_TARGET],
         "result": result,
-        "detail": detail,
+        "detail": kept(detail),
     }
+
+
+def kept(value: Any) -> Any:
+    r"""``value`` with every string as a column holds it: a NUL or lone surrogate escaped.
+
+    A refused write is logged with what was sent (its plan's name, the field refused), which
+    may be text no database can store: ``\x00``, ``\ud800`` are written escaped, as typed here.
+    """
+    if isinstance(value, str):
+        text = value.encode("utf-8", "backslashreplace").decode("utf-8")
+        return text.replace("\x00", "\\x00")
+    if isinstance(value, dict):
+        return {kept(k): kept(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [kept(v) for v in value]
+    return value

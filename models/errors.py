@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import ParamSpec, TypeVar
+
+T = TypeVar("T")
+P = ParamSpec("P")
+
 #: The most characters of an offending value or field an error message echoes (as REST's).
 MAX_ECHO = 200
 
@@ -43,3 +49,48 @@ class InputError(ModelError, ValueError):
 
 class ModelDomainError(InputError):
     """A model was given or asked for a value outside its domain."""
+
+
+class InputErrors(InputError):
+    """Several independent errors of one input, refused together (``errors``, in input order).
+
+    ``field``, ``value`` and ``reason`` are the first error's, so a caller that shows one error
+    shows that; the message is one line per error.
+    """
+
+    def __init__(self, errors: Sequence[InputError]) -> None:
+        first = errors[0]
+        super().__init__(first.field, first.value, first.reason)
+        self.errors = tuple(errors)
+        self.args = ("\n".join(str(e) for e in self.errors),)
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+class Gathered:
+    """The errors of the independent parts of one input, read one after another.
+
+    :meth:`read` runs one part's reader and keeps its error (or errors) instead of raising;
+    :meth:`raise_any` then raises the one error as it was, or :class:`InputErrors` for several.
+    """
+
+    def __init__(self) -> None:
+        self.errors: list[InputError] = []
+
+    def read(self, reader: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T | None:
+        """``reader(*args, **kwargs)``, or None when it refused its part (the error kept)."""
+        try:
+            return reader(*args, **kwargs)
+        except InputErrors as err:
+            self.errors.extend(err.errors)
+        except InputError as err:
+            self.errors.append(err)
+        return None
+
+    def raise_any(self) -> None:
+        """Raise what was kept: nothing, the one error, or every one."""
+        if len(self.errors) == 1:
+            raise self.errors[0]
+        if self.errors:
+            raise InputErrors(self.errors)

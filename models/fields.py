@@ -61,6 +61,21 @@ def identity(value: str) -> str:
     return normal
 
 
+def storable(value: str) -> str:
+    r"""``value``, which any database column can hold: no NUL, no unpaired surrogate.
+
+    Refused (:class:`ValueError`), as JSON can spell both (``"\u0000"``, ``"\ud800"``) and
+    PostgreSQL stores neither: the REST schemas and :func:`text` apply this one rule.
+    """
+    if "\x00" in value:
+        raise ValueError("must not contain NUL characters")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ValueError("must be valid Unicode (an unpaired surrogate)") from None
+    return value
+
+
 def identity_field(data: Mapping[str, Any], key: str, path: str) -> str:
     """A serial or a name field, as :func:`identity` normalises it; errors name the field."""
     value = text(data, key, path)
@@ -68,6 +83,17 @@ def identity_field(data: Mapping[str, Any], key: str, path: str) -> str:
         return identity(value)
     except ValueError as err:
         raise InputError(f"{path}.{key}" if path else key, value, str(err)) from None
+
+
+def without_nulls(data: object) -> object:
+    """A JSON object with its ``null`` fields left out (as TOML, which has no null, says it).
+
+    For a table whose fields are optional: ``"description": null`` is no description. Anything
+    not an object is returned as it is, for its reader to refuse.
+    """
+    if not isinstance(data, Mapping):
+        return data
+    return {key: value for key, value in data.items() if value is not None}
 
 
 def mapping(value: object, path: str) -> Mapping[str, Any]:
@@ -131,7 +157,10 @@ def text(
         raise InputError(where, value, "must be a non-empty string")
     if len(value) > most:
         raise InputError(where, value, f"must be at most {most} characters")
-    return value
+    try:
+        return storable(value)
+    except ValueError as err:
+        raise InputError(where, value, str(err)) from None
 
 
 def text_within(

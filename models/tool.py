@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from models import fields, kinematics
-from models.bounds import LARGEST_EXPONENT, MAX_IDENTITY
+from models.bounds import LARGEST_EXPONENT
 from models.errors import InputError
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.powerlaw import PowerLawModel, Prediction
@@ -123,11 +123,22 @@ def tool_mapping(tool: Tool, stderr: bool = True) -> dict[str, Any]:
     }
 
 
+def tool_body(data: object) -> object:
+    """A JSON tool with every ``null`` field of it and of its models left out.
+
+    A null inside a model's ``exponents`` stays, for :func:`tool_from_mapping` to refuse.
+    """
+    tool = fields.without_nulls(data)
+    if isinstance(tool, dict) and isinstance(tool.get("models"), Mapping):
+        tool["models"] = {q: fields.without_nulls(m) for q, m in tool["models"].items()}
+    return tool
+
+
 def tool_from_mapping(data: object, path: str) -> Tool:
     """Read a tool ``{name, process, models: {quantity: model}, ...}`` as in a plan file."""
     table = fields.mapping(data, path)
     fields.only_keys(table, _TOOL_KEYS, path)
-    name = fields.text(table, "name", path, most=MAX_IDENTITY)
+    name = fields.identity_field(table, "name", path)
     process = process_of(table.get("process"), _at(path, "process"))
     source = fields.text(table, "source", path, default="plan file")
     models_table: Mapping[str, Any] = fields.mapping(table.get("models", {}), _at(path, "models"))

@@ -27,7 +27,7 @@ from rich.console import Console
 from api.services.errors import NotFoundError, PlanHaltedError
 from db.errors import ConflictError
 from models.bounds import LARGEST, MAX_DOCUMENT_BYTES
-from models.errors import InputError
+from models.errors import InputError, InputErrors
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.rcb.settings import SETTINGS
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
@@ -92,11 +92,12 @@ def say(text: str) -> None:
 
 @contextmanager
 def errors() -> Iterator[None]:
-    """Turn the domain's errors into one line on stderr and the exit code above."""
+    """Turn the domain's errors into one line each on stderr and the exit code above."""
     try:
         yield
     except (InputError, NotFoundError, ConflictError) as err:
-        say(f"rcb: error: {err}")
+        for each in err.errors if isinstance(err, InputErrors) else (err,):  # a plan's every one
+            say(f"rcb: error: {each}")
         raise typer.Exit(2) from None
     except InfeasibleError as err:
         say(f"rcb: infeasible: {err}")

@@ -11,7 +11,7 @@ from __future__ import annotations
 from fastapi import FastAPI
 
 from api.report import ui
-from api.rest import answers, content_type, problems
+from api.rest import answers, content_type, documented, problems
 from api.rest.lifespan import flushing
 from api.rest.limits import BodyLimit
 from api.rest.routes import health, parts, plans, review, tools
@@ -48,6 +48,7 @@ def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
         # log's action, api.rest.deps.action_of) and a 405 cannot list its methods (Allow)
         app.router.routes.extend(resource.router.routes)
     answers.declare(app)  # each route's problem statuses (api.rest.answers)
+    documented.install(app)  # the plan body's schema (api.rest.documented)
     return app
 
 

@@ -28,7 +28,7 @@ from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
 from db.errors import ConflictError, PlanNameTakenError
 from db.plan_state import halt_json
-from models.errors import InputError
+from models.errors import InputError, InputErrors
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.rcb.state import Halt, HaltedOperation
 
@@ -175,7 +175,15 @@ async def _problem(request: Request, err: ProblemError) -> JSONResponse:
 
 
 async def _input(request: Request, err: InputError) -> JSONResponse:
-    return problem(request, 422, "invalid", str(err), err.field, err.value)
+    """422 naming the field; ``errors``: every one (a plan's reader gathers several)."""
+    every = err.errors if isinstance(err, InputErrors) else (err,)
+    errors = [
+        {"field": clip(e.field or "body"), "message": e.reason, "value": echo(e.value)}
+        for e in every[:MAX_ERRORS]
+    ]
+    detail = str(err) if len(every) == 1 else f"{len(every)} errors; the first: {every[0]}"
+    field = err.field or "body"  # a key "" of the body (field_path's name for the whole body)
+    return problem(request, 422, "invalid", detail, field, err.value, errors=errors)
 
 
 async def _infeasible(request: Request, err: InfeasibleError) -> JSONResponse:

@@ -43,9 +43,15 @@ class Idempotency:
 
 
 def fingerprint(method: str, path: str, body: object) -> str:
-    """SHA-256 of the method, path and canonical JSON of the body."""
+    """SHA-256 of the method, path and canonical JSON of the body.
+
+    Taken before the body is read (a plan's reader refuses a lone surrogate later): such a
+    string is hashed as its code units (``surrogatepass``), every valid text as UTF-8.
+    """
     canonical = json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
-    return hashlib.sha256(f"{method} {path}\n{canonical}".encode()).hexdigest()
+    return hashlib.sha256(
+        f"{method} {path}\n{canonical}".encode("utf-8", "surrogatepass")
+    ).hexdigest()
 
 
 @dataclass(frozen=True)

@@ -20,31 +20,30 @@ from pathlib import Path
 from typing import Any
 
 from models import fields, quantities
-from models.borangiu_cost import CostData, productivity_from_mapping
-from models.borangiu_domain import Domain, domain_from_mapping
+from models.borangiu_cost import CostData
+from models.borangiu_domain import Domain
 from models.bounds import (
     MAX_FLUTES,
-    MAX_IDENTITY,
     MAX_OPERATIONS,
     MAX_TOOLS,
     check_count,
 )
 from models.catalogue import catalogue
-from models.errors import InputError
+from models.errors import Gathered, InputError
 from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS, Process
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
-from models.sensors import Calibration, TaiCurrentFeedCalibration, calibrations_from_mapping
-from models.tool import Tool, process_of, tool_from_mapping
-from supervisor.constant_load.setpoint import ConstantLoadConfig, config_from_mapping, setup_of
+from models.sensors import Calibration, calibrations_from_mapping
+from models.tool import Tool, process_of, tool_body, tool_from_mapping
+from supervisor.constant_load.setpoint import ConstantLoadConfig
 from supervisor.errors import PlanError
 from supervisor.inputs.files import read_toml
-from supervisor.inputs.objectives import OBJECTIVES, Objective
+from supervisor.inputs.milling_tables import borangiu_tables, constant_load_table
+from supervisor.inputs.objectives import Objective
 from supervisor.inputs.passes import PassSpec, pass_spec, with_depth_bound
 from supervisor.inputs.resolution import DEFAULT_RESOLUTION, check_bounds, resolution_from_mapping
 
 #: ``rcb``: the plan's RCB settings, read by :func:`supervisor.rcb.state.plan_settings` where a
 #: plan is stored (the settings are RCB's, not the plan's structure).
-#: ``rcb``: RCB settings, read by :func:`supervisor.rcb.state.plan_settings` (not the structure)
 _PLAN_KEYS = ("name", "machine", "tools", "operations", "description", "rcb")
 _OPERATION_KEYS = tuple(
     "name process tool description volume_mm3 limits bounds workpiece_diameter_mm"
@@ -155,36 +154,76 @@ def load_plan(path: Path) -> Plan:
     return plan_from_mapping(read_toml(path, "plan file"))
 
 
+def plan_body(data: Mapping[str, Any]) -> dict[str, Any]:
+    """A JSON plan as the reader and the database take it: a ``null`` field as one left out.
+
+    JSON may spell an optional field ``null`` where a TOML plan leaves it out. The fields of
+    the plan's tables are dropped so (the plan, its machine, each inline tool and its models,
+    each operation, ``rcb``); a null in a table of values (a limit, a bound) stays, for
+    :func:`plan_from_mapping` to refuse.
+    """
+    body = {key: value for key, value in data.items() if value is not None}
+    for key in ("machine", "rcb"):
+        if key in body:
+            body[key] = fields.without_nulls(body[key])
+    for key, read in (("tools", tool_body), ("operations", fields.without_nulls)):
+        if isinstance(body.get(key), list):
+            body[key] = [read(entry) for entry in body[key]]
+    return body
+
+
 def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -> Plan:
-    """Build and check a plan from its TOML/JSON structure.
+    """Build and check a plan from its TOML/JSON structure: the one reader of a plan.
 
     Tools are looked up inline first, then in ``library`` (e.g. the tools stored in the
-    database), then in the packaged catalogue.
+    database), then in the packaged catalogue. The name, the machine, each inline tool and
+    each operation are read apart and their errors gathered: a plan with several is refused
+    with every one (:class:`models.errors.InputErrors`, one line each). The operations are read
+    once the machine and the inline tools they use were.
     """
     table = fields.mapping(data, "plan")
-    fields.only_keys(table, _PLAN_KEYS, "")
+    if not table:  # one error, not one per missing part
+        raise InputError("plan", {}, "empty; required: name, machine, operations")
     ops_data = table.get("operations")
     if isinstance(ops_data, list):  # counted first: nothing of a plan too long is read
         check_count(len(ops_data), MAX_OPERATIONS, "operations", "operations in a plan")
-    machine = _machine(table.get("machine"))
-    inline = {**(library or {}), **_inline_tools(table.get("tools", []))}
+    found = Gathered()
+    found.read(fields.only_keys, table, _PLAN_KEYS, "")
+    name = found.read(fields.identity_field, table, "name", "")
+    description = found.read(fields.text, table, "description", "", default="")
+    machine = found.read(_machine, table.get("machine"))
+    inline = found.read(_inline_tools, table.get("tools", []))
+    known = {**(library or {}), **(inline or {})}
+    operations: tuple[Operation, ...] = ()
     if not isinstance(ops_data, list) or not ops_data:
-        raise InputError("operations", ops_data, "a plan needs a list of at least one operation")
-    operations: list[Operation] = []
-    tools: dict[str, Tool] = {}
-    for i, op_data in enumerate(ops_data):
-        op = _operation(op_data, f"operations[{i}]", inline, machine)
-        if any(o.name == op.name for o in operations):
-            raise PlanError(f"operations[{i}].name", op.name, "duplicate operation name")
-        operations.append(op)
-        tools[op.tool] = inline.get(op.tool) or catalogue()[op.tool]
+        why = "a plan needs a list of at least one operation"
+        found.errors.append(InputError("operations", ops_data, why))
+    elif machine is not None and inline is not None:
+        operations = _operations(ops_data, known, machine, found)
+    found.raise_any()
+    assert name is not None and description is not None and machine is not None
     return Plan(
-        name=fields.identity_field(table, "name", ""),
+        name=name,
         machine=machine,
-        tools=tools,
-        operations=tuple(operations),
-        description=fields.text(table, "description", "", default=""),
+        tools={op.tool: known.get(op.tool) or catalogue()[op.tool] for op in operations},
+        operations=operations,
+        description=description,
     )
+
+
+def _operations(
+    ops_data: list[object], inline: Mapping[str, Tool], machine: Machine, found: Gathered
+) -> tuple[Operation, ...]:
+    """Each operation read apart, its errors kept in ``found``; a name given twice refused."""
+    operations: list[Operation] = []
+    for i, op_data in enumerate(ops_data):
+        op = found.read(_operation, op_data, f"operations[{i}]", inline, machine)
+        if op is not None and any(o.name == op.name for o in operations):
+            where = f"operations[{i}].name"
+            found.errors.append(PlanError(where, op.name, "duplicate operation name"))
+        elif op is not None:
+            operations.append(op)
+    return tuple(operations)
 
 
 def _machine(data: object) -> Machine:
@@ -200,7 +239,7 @@ def _machine(data: object) -> Machine:
     }
     calibrations = calibrations_from_mapping(table.get("calibrations", {}), "machine.calibrations")
     return Machine(
-        name=fields.text(table, "name", "machine", most=MAX_IDENTITY),
+        name=fields.identity_field(table, "name", "machine"),
         limit_of=limits,
         calibrations=calibrations,
         resolution=resolution_from_mapping(table.get("resolution"), "machine.resolution"),
@@ -208,15 +247,19 @@ def _machine(data: object) -> Machine:
 
 
 def _inline_tools(data: object) -> dict[str, Tool]:
+    """The plan's ``[[tools]]``, each read apart (every tool's errors at once)."""
     if not isinstance(data, list):
         raise InputError("tools", data, "must be a list of tool tables")
     check_count(len(data), MAX_TOOLS, "tools", "inline tools in a plan")
+    found = Gathered()
     tools: dict[str, Tool] = {}
     for i, entry in enumerate(data):
-        tool = tool_from_mapping(entry, f"tools[{i}]")
-        if tool.name in tools:
-            raise PlanError(f"tools[{i}].name", tool.name, "duplicate tool name")
-        tools[tool.name] = tool
+        tool = found.read(tool_from_mapping, entry, f"tools[{i}]")
+        if tool is not None and tool.name in tools:
+            found.errors.append(PlanError(f"tools[{i}].name", tool.name, "duplicate tool name"))
+        elif tool is not None:
+            tools[tool.name] = tool
+    found.raise_any()
     return tools
 
 
@@ -224,7 +267,7 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
     table = fields.mapping(data, path)
     fields.only_keys(table, _OPERATION_KEYS, path)
     name = fields.identity_field(table, "name", path)
-    tool_name = fields.text(table, "tool", path, most=MAX_IDENTITY)
+    tool_name = fields.identity_field(table, "tool", path)
     tool = inline.get(tool_name) or catalogue().get(tool_name)
     if tool is None:
         known = ", ".join(sorted({*inline, *catalogue()}))
@@ -246,7 +289,7 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
                 tool.name,
                 f"{quantity.name} is limited but the tool has no {base} model",
             )
-    objective, cost, domain = _borangiu(table, path, process, tool)
+    objective, cost, domain = borangiu_tables(table, path, process, tool)
     rel = fields.number_table(
         table.get("setpoint_rel_uncertainty", {}),
         f"{path}.setpoint_rel_uncertainty",
@@ -271,69 +314,9 @@ def _operation(data: object, path: str, inline: Mapping[str, Tool], machine: Mac
         objective=objective,
         productivity=cost,
         domain=domain,
-        constant_load=_constant_load(table, path, process, machine),
+        constant_load=constant_load_table(table, path, process, machine.calibrations),
         passes=passes,
     )
-
-
-def _constant_load(
-    table: Mapping[str, Any], path: str, process: Process, machine: Machine
-) -> ConstantLoadConfig | None:
-    """``[operations.constant_load]``, checked against the machine's Tai calibration."""
-    if "constant_load" not in table:
-        return None
-    where = f"{path}.constant_load"
-    if process != "milling":
-        raise PlanError(where, table["constant_load"], "constant-load control is for milling")
-    config = config_from_mapping(table["constant_load"], where, machine.calibrations)
-    calibration = machine.calibrations[config.calibration]
-    assert isinstance(calibration, TaiCurrentFeedCalibration)  # config_from_mapping checks
-    try:
-        setup_of(config, calibration)  # refused now rather than at the first setpoint
-    except InputError as err:
-        raise PlanError(f"{where}.{err.field}", err.value, err.reason) from None
-    return config
-
-
-def _borangiu(
-    table: Mapping[str, Any], path: str, process: Process, tool: Tool
-) -> tuple[Objective, CostData | None, Domain | None]:
-    """The objective, cost data and domain of an operation (Borangiu et al., milling only)."""
-    given = table.get("objective", "mrr")
-    objective = next((o for o in OBJECTIVES if o == given), None)
-    if objective is None:
-        raise InputError(f"{path}.objective", given, f"expected one of: {', '.join(OBJECTIVES)}")
-    for key in ("productivity", "domain"):
-        if key in table and process != "milling":
-            raise PlanError(f"{path}.{key}", table[key], "Borangiu's model is for milling")
-    if objective == "productivity":
-        if process != "milling":
-            raise PlanError(f"{path}.objective", given, "the productivity cost is for milling")
-        if "productivity" not in table:
-            raise InputError(f"{path}.productivity", None, "required with this objective")
-    domain = domain_from_mapping(table["domain"], f"{path}.domain") if "domain" in table else None
-    cost = None
-    if "productivity" in table:
-        where = f"{path}.productivity"
-        raw = fields.mapping(table["productivity"], where)
-        coefficient = next((k for k in ("a", "b", "c", "q", "m", "yp") if k in raw), None)
-        given_cost = None if coefficient else productivity_from_mapping(raw, where)
-        if coefficient is not None or not isinstance(given_cost, CostData):
-            key = coefficient or "a"
-            raise InputError(
-                f"{where}.{key}",
-                raw.get(key),
-                "the coefficients a, b, c, q, m, yp hold for one depth and width; an "
-                "operation's depths vary: give the cost data",
-            )
-        if given_cost.energy_cost_per_kWh > 0 and "force_N" not in tool.models:
-            raise PlanError(
-                f"{where}.energy_cost_per_kWh",
-                given_cost.energy_cost_per_kWh,
-                f"the cutting power comes from the force model; tool {tool.name!r} has none",
-            )
-        cost = given_cost
-    return objective, cost, domain
 
 
 def _catalog_setpoint(data: object, path: str, process: Process) -> dict[str, float]:

@@ -24,6 +24,7 @@ from fit_support import (
 from typer.testing import CliRunner
 
 from api.cli.fit_tool import tool_table, tool_toml
+from models.errors import InputError
 from models.tool import tool_from_mapping
 from supervisor.inputs.plan import plan_from_mapping
 
@@ -137,10 +138,13 @@ def test_write_tool_round_trip(tmp_path: Path) -> None:
 def test_tool_toml_escapes_strings() -> None:
     result = turning_fit(ra("New"))
     awkward = 'P35 "new" \\ 12L14\tµm\x7f\n'
-    table = tool_table(result, awkward, "turning", "roughness_um", awkward, "ref")
+    name = 'P35 "new" \\ 12L14 µm'  # a name holds no control character (models.fields.identity)
+    table = tool_table(result, name, "turning", "roughness_um", awkward, "ref")
     entry = tomllib.loads(tool_toml(table))["tools"][0]
-    assert entry["name"] == awkward and entry["models"]["roughness_um"]["source"] == awkward
+    assert entry["name"] == name and entry["models"]["roughness_um"]["source"] == awkward
     assert entry["models"]["roughness_um"]["K"] == result.K
+    with pytest.raises(InputError, match=r"^--write-tool.name = .*control characters \(U\+0009"):
+        tool_toml(tool_table(result, awkward, "turning", "roughness_um", awkward, "ref"))
 
 
 # errors: exit 2, one line "rcb: error: FIELD = VALUE: reason", no traceback, nothing written

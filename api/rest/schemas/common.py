@@ -20,7 +20,7 @@ from models.bounds import (
     MAX_TEXT,
     SMALLEST_POSITIVE,
 )
-from models.fields import identity
+from models.fields import identity, storable
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
 #: What the docs say of each strategy: its name and summary from the registry.
@@ -42,17 +42,6 @@ Strategy = Annotated[
 ]
 
 
-def _storable(value: str) -> str:
-    """Refuse what no database column can hold: NUL, unpaired surrogates (JSON allows both)."""
-    if "\x00" in value:
-        raise ValueError("must not contain NUL characters")
-    try:
-        value.encode("utf-8")
-    except UnicodeEncodeError:
-        raise ValueError("must be valid Unicode (an unpaired surrogate)") from None
-    return value
-
-
 _FINITE = {"strict": True, "allow_inf_nan": False}
 #: A number: strict (JSON ``true`` or ``"5"`` is refused, an integer is taken), finite, and at
 #: most :data:`models.bounds.LARGEST` in magnitude.
@@ -65,7 +54,7 @@ NonNegative = Annotated[float, Field(ge=0, le=LARGEST, **_FINITE)]
 Count = Annotated[int, Field(strict=True, ge=1, le=LARGEST_WHOLE)]
 
 #: A string with something in it (the domain readers refuse blank text) that can be stored.
-Text = Annotated[str, Field(pattern=r"\S", max_length=MAX_TEXT), AfterValidator(_storable)]
+Text = Annotated[str, Field(pattern=r"\S", max_length=MAX_TEXT), AfterValidator(storable)]
 
 
 def _identifier(value: str) -> str:
@@ -78,7 +67,7 @@ def _identifier(value: str) -> str:
 Name = Annotated[
     str,
     Field(pattern=r"\S", max_length=MAX_IDENTITY),
-    AfterValidator(_storable),
+    AfterValidator(storable),
     AfterValidator(_identifier),
 ]
 #: A path or query value without NUL (PostgreSQL refuses it in a query).

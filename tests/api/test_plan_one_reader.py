@@ -1,0 +1,101 @@
+"""A plan over REST is read by the plan reader alone (issue 31, item 3): every error at once.
+
+``rcb serve`` as a real process on SQLite and PostgreSQL; the same file at the command line
+gives the same errors, one line each; a JSON null of an optional field is the field left out
+and the plan is stored without it; a refused plan's audit entry keeps what no column can hold
+escaped.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from api.cli.main import app
+from db import tables as t
+from db.engine import make_engine
+
+from conftest import step1_plan
+
+
+def _two_wrong_operations() -> dict:
+    plan = step1_plan()
+    second = copy.deepcopy(plan["operations"][0])
+    second["name"], second["volume_mm3"] = "finish-od", 0
+    plan["operations"][0]["bounds"]["feed_mm_rev"] = [0.6, 0.1]
+    plan["operations"].append(second)
+    return plan
+
+
+def test_every_error_of_a_plan_comes_at_once_over_rest_and_at_the_cli(server, runner, tmp_path):
+    plan = _two_wrong_operations()
+    with server.client("engineer") as c:
+        refused = c.post("/plans", json=plan)
+    assert refused.status_code == 422, refused.text
+    assert refused.headers["content-type"] == "application/problem+json"
+    problem = refused.json()
+    assert [(e["field"], e["value"]) for e in problem["errors"]] == [
+        ("operations[0].bounds.feed_mm_rev", [0.6, 0.1]),
+        ("operations[1].volume_mm3", 0),
+    ]
+    assert (problem["field"], problem["code"]) == ("operations[0].bounds.feed_mm_rev", "invalid")
+    assert problem["detail"].startswith("2 errors; the first: operations[0].bounds.feed_mm_rev")
+    assert problem["errors"][1]["message"] == "must be greater than 0"
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(plan), encoding="utf-8")
+    result = runner.invoke(app, ["plans", "create", str(path), "--db", server.url])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.splitlines() == [
+        "rcb: error: operations[0].bounds.feed_mm_rev = [0.6, 0.1]: low 0.6 is above high 0.1",
+        "rcb: error: operations[1].volume_mm3 = 0: must be greater than 0",
+    ]
+
+
+def test_a_null_optional_field_is_left_out_and_stored_so(server):
+    plan = step1_plan()
+    plan.update(name="nulls", description=None, tools=None, rcb=None)
+    plan["machine"]["calibrations"] = None
+    plan["operations"][0].update(catalog_setpoint=None, stock_mm=None, finish=None)
+    with server.client("engineer") as c:
+        created = c.post("/plans", json=plan)
+        assert created.status_code == 201, created.text
+        stored = c.get(f"/plans/{created.json()['id']}").json()["body"]
+        plan["operations"][0]["limits"]["force_N"] = None
+        refused = c.post("/plans", json={**plan, "name": "null-limit"})
+    assert stored == {**step1_plan(), "name": "nulls"}
+    assert refused.status_code == 422, refused.text
+    assert (refused.json()["field"], refused.json()["value"]) == (
+        "operations[0].limits.force_N",
+        None,
+    )
+
+
+def test_a_refused_plan_s_audit_entry_keeps_unstorable_text_escaped(server):
+    plan = {**step1_plan(), "name": "bad\ud800name"}
+    plan["operations"][0]["limits"]["bad\x00key"] = 1
+    with server.client("engineer") as c:
+        refused = c.post(
+            "/plans", content=json.dumps(plan), headers={"Content-Type": "application/json"}
+        )
+    assert refused.status_code == 422, refused.text
+    assert [e["field"] for e in refused.json()["errors"]] == [
+        "name",
+        "operations[0].limits.bad\x00key",
+    ]
+    engine = make_engine(server.url)
+    try:
+        with Session(engine) as session:
+            entry = session.scalars(
+                select(t.AuditEntry)
+                .where(t.AuditEntry.result == "refused")
+                .order_by(t.AuditEntry.id.desc())
+                .limit(1)  # fmt: skip
+            ).one()
+    finally:
+        engine.dispose()
+    assert entry.target == "plan bad\\ud800name"
+    assert entry.detail["field"] == "name"
+    assert entry.detail["error"] == "InputErrors"
