@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, overload
 
 from models import fields, kinematics
 from models.bounds import LARGEST_EXPONENT
@@ -123,6 +123,10 @@ def tool_mapping(tool: Tool, stderr: bool = True) -> dict[str, Any]:
     }
 
 
+@overload
+def tool_body(data: Mapping[str, Any]) -> dict[str, Any]: ...
+@overload
+def tool_body(data: object) -> object: ...
 def tool_body(data: object) -> object:
     """A JSON tool with every ``null`` field of it and of its models left out.
 

@@ -4,17 +4,18 @@
 
 from typing import Annotated, Any
 
-from fastapi import Path, Query, Request
+from fastapi import Body, Path, Query, Request
 from fastapi.responses import Response
 
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
 from api.rest.schemas.common import NO_NUL
-from api.rest.schemas.tools import TextCursor, ToolIn, ToolList, ToolOut
+from api.rest.schemas.tools import TextCursor, ToolList, ToolOut
 from api.services import tools as use_cases
 from api.services.read import tools as read_tools
 from api.services.read.common import LIST_PAGE, MAX_PAGE
 from models.bounds import MAX_IDENTITY
+from models.tool import tool_body
 
 router = resource_router("tools")
 
@@ -50,12 +51,12 @@ def get_tool(
 def add_tool(
     request: Request,
     engine: EngineDep,
-    tool: ToolIn,
+    tool: Annotated[dict[str, Any], Body()],
     actor: Engineer,
     idempotency_key: OptionalKey = None,
 ) -> Response:
     """Add a tool with its baseline models (a new name; stored tools never change)."""
-    body = tool.model_dump(mode="json", exclude_none=True)
+    body = tool_body(tool)  # read by the tool reader alone (ToolIn documents it)
     body.setdefault("source", "REST API")  # the reader's default would say "plan file"
     written = use_cases.add_tool(
         engine=engine,
