@@ -187,8 +187,8 @@ def plan_from_mapping(data: object, library: Mapping[str, Tool] | None = None) -
     ops_data = table.get("operations")
     if isinstance(ops_data, list):  # counted first: nothing of a plan too long is read
         check_count(len(ops_data), MAX_OPERATIONS, "operations", "operations in a plan")
+    fields.only_keys(table, _PLAN_KEYS, "")  # at once: a file of another kind is no plan
     found = Gathered()
-    found.read(fields.only_keys, table, _PLAN_KEYS, "")
     name = found.read(fields.identity_field, table, "name", "")
     description = found.read(fields.text, table, "description", "", default="")
     machine = found.read(_machine, table.get("machine"))

@@ -144,3 +144,11 @@ def _as_toml(plan: dict) -> str:
         lines += [f"\n[[{key}]]\n" + "\n".join(f"{k} = {value(v)}" for k, v in entry.items())
                   for entry in plan[key]]  # fmt: skip
     return "\n".join(lines) + "\n"
+
+
+def test_a_file_of_another_kind_is_refused_by_its_first_unknown_key_alone():
+    """A domain file given as a plan: its first key, not also every table a plan lacks."""
+    with pytest.raises(InputError) as caught:
+        plan_from_mapping({"cut": {"axial_depth_mm": 2}, "domain": {}})
+    assert type(caught.value) is InputError
+    assert (caught.value.field, caught.value.value) == ("cut", {"axial_depth_mm": 2})
