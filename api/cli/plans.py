@@ -88,7 +88,6 @@ def create(
     from api.services.plans import create_plan
     from api.settings import database_field, database_url
     from supervisor.rcb.settings import assignments
-    from supervisor.rcb.state import plan_settings
 
     with errors():
         actor = cli_actor(by)
@@ -97,9 +96,9 @@ def create(
         source = ctx.get_parameter_source("strategy")
         if source is not None and source.name != "DEFAULT":  # else the file's [rcb] strategy
             given["strategy"] = strategy
-        settings = plan_settings(body, given)  # the file's [rcb] table, the options over it
         engine = existing_engine(database_url(db), database_field(db))
-        written = create_plan(engine=engine, body=body, settings=settings, actor=actor, prior=prior)
+        # the file's [rcb] table, the options over it; its errors and the plan's together
+        written = create_plan(engine=engine, body=body, given=given, actor=actor, prior=prior)
     answer = written.body
     if as_json:
         emit(answer)

@@ -29,7 +29,7 @@ from db.plans import (
     plan_tools,
 )
 from db.state import load_state
-from models.errors import InputError
+from models.errors import Gathered, InputError
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.replan import replan as supervisor_replan
 from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
@@ -81,19 +81,25 @@ def create_plan(
     actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
     prior: str | None = None,
+    given: Mapping[str, object] | None = None,
 ) -> Written:
     """Check and optimise a plan, store it with setpoint version 1 (status 201).
 
-    ``settings``: the plan's RCB law, every setting stored (default: the body's ``rcb`` table,
-    :func:`supervisor.rcb.state.plan_settings`). ``prior``: ``fleet`` (what the stored plans
-    learned with its tools, :mod:`db.fleet`), ``catalogue``, or None: the fleet's where the
-    database holds evidence for a ``learn`` plan's tools, else the catalogue's.
+    ``settings``: the plan's RCB law, every setting stored (default: the body's ``rcb`` table
+    with ``given`` over it, :func:`supervisor.rcb.state.plan_settings`; its errors and the
+    plan's are refused together). ``prior``: ``fleet`` (what the stored plans learned with its
+    tools, :mod:`db.fleet`), ``catalogue``, or None: the fleet's where the database holds
+    evidence for a ``learn`` plan's tools, else the catalogue's.
     """
     with audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
-        settings = settings or plan_settings(body)  # else the plan's [rcb] table
+        found = Gathered()  # the [rcb] table's errors, then the plan's: all at once
+        chosen = settings or found.read(plan_settings, body, given)
         with Session(engine) as session:
             stored_tools = library.load_tools(session=session)
-            plan = plan_from_mapping(body, stored_tools)
+            read = found.read(plan_from_mapping, body, stored_tools)
+            found.raise_any()
+            assert chosen is not None and read is not None
+            settings, plan = chosen, read
             if _ID.fullmatch(plan.name.strip()):
                 raise InputError("name", plan.name, "must not be only digits (PLAN digits: an id)")
             priors = plan_priors(session=session, plan=plan, settings=settings, prior=prior)

@@ -54,6 +54,28 @@ def test_every_error_of_a_plan_comes_at_once_over_rest_and_at_the_cli(server, ru
     ]
 
 
+def test_the_rcb_table_s_errors_come_with_the_plan_s(server, runner, tmp_path):
+    plan = step1_plan()
+    plan["rcb"] = {"alpha": 2}
+    plan["operations"][0]["volume_mm3"] = "lots"
+    with server.client("engineer") as c:
+        refused = c.post("/plans", json=plan)
+    assert refused.status_code == 422, refused.text
+    assert [(e["field"], e["value"]) for e in refused.json()["errors"]] == [
+        ("rcb.alpha", 2),
+        ("operations[0].volume_mm3", "lots"),
+    ]
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(plan), encoding="utf-8")
+    result = runner.invoke(app, ["plans", "create", str(path), "--db", server.url])
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.splitlines()
+    assert [line.split(" = ")[0] for line in lines] == [
+        "rcb: error: rcb.alpha",
+        "rcb: error: operations[0].volume_mm3",
+    ]
+
+
 def test_a_null_optional_field_is_left_out_and_stored_so(server):
     plan = step1_plan()
     plan.update(name="nulls", description=None, tools=None, rcb=None)

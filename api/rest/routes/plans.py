@@ -24,7 +24,6 @@ from api.services import plans as use_cases
 from api.services.read import plans as read_plans
 from api.services.read.common import LIST_PAGE, MAX_PAGE
 from supervisor.inputs.plan import plan_body
-from supervisor.rcb.state import plan_settings
 
 router = resource_router("plans")
 
@@ -54,12 +53,10 @@ def create_plan(
     """Check and optimise a plan (the plan-file structure as JSON); setpoint version 1."""
     # read by the plan reader alone (PlanIn documents it: api.rest.documented)
     body = plan_body(plan)
-    # the plan's rcb table, the settings the query names over it
-    settings = plan_settings(body, given)
     written = use_cases.create_plan(
         engine=engine,
         body=body,
-        settings=settings,
+        given=given,  # over the plan's rcb table; its errors and the plan's together
         actor=actor,
         idempotency=idempotency_of(request, idempotency_key, {**body, "?prior": prior}),
         prior=prior,
