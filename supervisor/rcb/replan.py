@@ -100,7 +100,8 @@ def replan(
 def _changed_body(body: Mapping[str, Any], table: Mapping[str, Any]) -> dict[str, Any]:
     """``body`` with the ``limits`` and ``bounds`` of ``table`` set (a deep copy)."""
     new_body = copy.deepcopy(dict(body))
-    ops = {op["name"]: op for op in new_body["operations"]}
+    # by name as the reader reads it (a stored body keeps the spelling it was sent with)
+    ops = {fields.identity(op["name"]): op for op in new_body["operations"]}
     for key, value in fields.mapping(table.get("limits", {}), "limits").items():
         op, quantity = _split(key, "limits", ops)
         limits = ops[op].setdefault("limits", {})
@@ -125,11 +126,15 @@ def _forgotten(state: RcbState) -> RcbState:
 
 
 def _split(key: str, where: str, ops: Mapping[str, Any]) -> tuple[str, str]:
-    op, sep, name = key.rpartition(".")
-    if not sep or not op or not name:
+    given, sep, name = key.rpartition(".")
+    if not sep or not given or not name:
         raise InputError(f"{where}.{key}", key, "must be OPERATION.NAME")
+    try:
+        op = fields.identity(given)
+    except ValueError:
+        op = given  # no name of an operation: unknown
     if op not in ops:
-        raise InputError(f"{where}.{key}", op, f"unknown operation; known: {', '.join(ops)}")
+        raise InputError(f"{where}.{key}", given, f"unknown operation; known: {', '.join(ops)}")
     return op, name
 
 

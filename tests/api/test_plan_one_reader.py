@@ -95,6 +95,24 @@ def test_a_null_optional_field_is_left_out_and_stored_so(server):
     )
 
 
+def test_a_plan_stored_as_sent_is_replanned_by_its_names_as_read(server):
+    """The body keeps the spelling sent (``'rough-od '``); a replan names the operation as read."""
+    plan = {**step1_plan(), "name": "spelt"}
+    plan["operations"][0]["name"] = "rough-od "
+    with server.client("engineer") as c:
+        created = c.post("/plans", json=plan)
+        assert created.status_code == 201, created.text
+        plan_id = created.json()["id"]
+        assert [o["name"] for o in created.json()["operations"]] == ["rough-od"]
+        changed = c.post(
+            f"/plans/{plan_id}/replan", json={"limits": {"ｒｏｕｇｈ-ｏｄ.force_N": 1800}}
+        )
+        stored = c.get(f"/plans/{plan_id}").json()["body"]
+    assert changed.status_code == 201, changed.text
+    assert stored["operations"][0]["name"] == "rough-od "
+    assert stored["operations"][0]["limits"]["force_N"] == 1800
+
+
 def test_a_refused_plan_s_audit_entry_keeps_unstorable_text_escaped(server):
     plan = {**step1_plan(), "name": "bad\ud800name"}
     plan["operations"][0]["limits"]["bad\x00key"] = 1
