@@ -11,6 +11,7 @@ with it: every body it refuses, the reader refuses too).
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 from fastapi import FastAPI
@@ -46,6 +47,7 @@ def install(app: FastAPI) -> None:
     app.openapi = openapi  # type: ignore[method-assign]
 
 
+@functools.cache  # the document is asked for at every GET of openapi.json
 def _schemas(model: type[BaseModel]) -> dict[str, Any]:
     """The component schemas of ``model`` as FastAPI writes a body of that model's.
 

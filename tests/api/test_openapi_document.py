@@ -156,3 +156,25 @@ def test_an_unauthenticated_read_is_a_declared_401(sqlite_server):
     with sqlite_server.client(None) as c:
         answer = c.get("/plans")
     assert answer.status_code == 401 and answer.headers["WWW-Authenticate"] == "Bearer"
+
+
+@pytest.mark.parametrize(
+    ("operation_id", "model", "nested"),
+    [
+        ("createPlan", "PlanIn", {"MachineIn", "OperationIn", "ToolIn", "RcbSettingsIn"}),
+        ("addTool", "ToolIn", {"ModelIn"}),
+    ],
+)
+def test_a_body_a_reader_checks_is_documented_by_its_schema(document, operation_id, model, nested):
+    """Issue 31: the route takes the JSON object for its reader; the document names the schema."""
+    operation = next(o for o in _operations(document) if o["operationId"] == operation_id)
+    body = operation["requestBody"]
+    assert body["required"] is True
+    assert body["content"]["application/json"]["schema"] == {
+        "$ref": f"#/components/schemas/{model}"
+    }
+    schemas = document["components"]["schemas"]
+    assert {model, *nested} <= set(schemas)
+    assert schemas[model]["additionalProperties"] is False
+    if operation_id == "createPlan":  # the example stays
+        assert "one operation" in body["content"]["application/json"]["examples"]
