@@ -30,7 +30,7 @@ from db.plans import (
 )
 from db.state import load_state
 from models.errors import Gathered, InputError
-from supervisor.inputs.plan import plan_from_mapping
+from supervisor.inputs.plan import Plan, plan_from_mapping
 from supervisor.rcb.replan import replan as supervisor_replan
 from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
 from supervisor.rcb.update import start
@@ -92,16 +92,8 @@ def create_plan(
     evidence for a ``learn`` plan's tools, else the catalogue's.
     """
     with audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
-        found = Gathered()  # the [rcb] table's errors, then the plan's: all at once
-        chosen = settings or found.read(plan_settings, body, given)
         with Session(engine) as session:
-            stored_tools = library.load_tools(session=session)
-            read = found.read(plan_from_mapping, body, stored_tools)
-            found.raise_any()
-            assert chosen is not None and read is not None
-            settings, plan = chosen, read
-            if _ID.fullmatch(plan.name.strip()):
-                raise InputError("name", plan.name, "must not be only digits (PLAN digits: an id)")
+            settings, plan = _read(session, body, settings, given)
             priors = plan_priors(session=session, plan=plan, settings=settings, prior=prior)
         # outside the write transaction: it needs no lock
         result = start(plan, settings, {k: p.posterior for k, p in priors.items()}).setpoints
@@ -134,6 +126,23 @@ def create_plan(
             work=work,
             attempts=3,
         )
+
+
+def _read(
+    session: Session,
+    body: Mapping[str, Any],
+    settings: RcbSettings | None,
+    given: Mapping[str, object] | None,
+) -> tuple[RcbSettings, Plan]:
+    """The settings and the plan, their errors refused together (the ``[rcb]`` table's first)."""
+    found = Gathered()
+    chosen = settings or found.read(plan_settings, body, given)
+    plan = found.read(plan_from_mapping, body, library.load_tools(session=session))
+    found.raise_any()
+    assert chosen is not None and plan is not None
+    if _ID.fullmatch(plan.name.strip()):
+        raise InputError("name", plan.name, "must not be only digits (PLAN digits: an id)")
+    return chosen, plan
 
 
 def replan(
