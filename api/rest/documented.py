@@ -2,8 +2,9 @@
 
 A plan is read by one reader whichever way it comes (TOML, JSON, the stored body:
 :func:`supervisor.inputs.plan.plan_from_mapping`, issue 31), so ``POST /plans`` takes the JSON
-object as it is and hands it to the reader (and ``POST /tools`` to the tool reader,
-:func:`models.tool.tool_from_mapping`); FastAPI would document it as "any object". Its
+object as it is and hands it to the reader (``POST /tools`` to the tool reader,
+:func:`models.tool.tool_from_mapping`, a replan's changes to
+:func:`supervisor.rcb.replan.replan`); FastAPI would document it as "any object". Its
 OpenAPI document names the structure instead: :class:`api.rest.schemas.plans.PlanIn`, the
 schema a client generates its types from (``tests/api/test_rest_schema.py`` fuzzes the service
 with it: every body it refuses, the reader refuses too).
@@ -18,10 +19,15 @@ from fastapi import FastAPI
 from pydantic import BaseModel
 
 from api.rest.schemas.plans import PlanIn
+from api.rest.schemas.replan import ReplanIn
 from api.rest.schemas.tools import ToolIn
 
 #: Each operation whose body the reader checks, and the model that documents its body.
-DOCUMENTED_BY: dict[str, type[BaseModel]] = {"createPlan": PlanIn, "addTool": ToolIn}
+DOCUMENTED_BY: dict[str, type[BaseModel]] = {
+    "createPlan": PlanIn,
+    "addTool": ToolIn,
+    "replanPlan": ReplanIn,
+}
 _REF = "#/components/schemas/{model}"
 
 

@@ -45,6 +45,21 @@ class Replanned:
     reset_bands: bool
 
 
+def replan_body(data: Mapping[str, Any]) -> dict[str, Any]:
+    """JSON changes as :func:`replan` takes them: a ``null`` change is no change.
+
+    Left out: a null ``limits``, ``bounds``, ``models``, ``reset_bands`` or ``rcb``, and a null
+    setting of ``rcb`` or a null ``K``/``dK`` of a model change; a null limit stays (it removes
+    the limit).
+    """
+    body = {key: value for key, value in data.items() if value is not None}
+    if "rcb" in body:
+        body["rcb"] = fields.without_nulls(body["rcb"])
+    if isinstance(body.get("models"), Mapping):
+        body["models"] = {k: fields.without_nulls(v) for k, v in body["models"].items()}
+    return body
+
+
 def replan(
     state: RcbState,
     body: Mapping[str, Any],

@@ -139,3 +139,25 @@ def test_a_refused_plan_s_audit_entry_keeps_unstorable_text_escaped(server):
     assert entry.target == "plan bad\\ud800name"
     assert entry.detail["field"] == "name"
     assert entry.detail["error"] == "InputErrors"
+
+
+def test_a_replan_is_read_by_the_replan_alone_nulls_as_no_change(server):
+    """``ReplanIn`` documents the changes; ``supervisor.rcb.replan`` reads them."""
+    with server.client("engineer") as c:
+        created = c.post("/plans", json={**step1_plan(), "name": "replanned"})
+        assert created.status_code == 201, created.text
+        url = f"/plans/{created.json()['id']}/replan"
+        bad = c.post(url, json={"limits": {"rough-od.force_N": "abc"}})
+        unknown = c.post(url, json={"limits": {"rough-od.force_N": 1800}, "reset": True})
+        changed = c.post(url, json={"limits": {"rough-od.roughness_um": None,
+                                               "rough-od.force_N": 1800},
+                                    "reset_bands": None, "models": None,
+                                    "rcb": {"alpha": None}})  # fmt: skip
+        stored = c.get(f"/plans/{created.json()['id']}").json()
+    assert bad.status_code == 422, bad.text
+    assert (bad.json()["field"], bad.json()["value"]) == ("operations[0].limits.force_N", "abc")
+    assert unknown.status_code == 422, unknown.text
+    assert (unknown.json()["field"], unknown.json()["value"]) == ("reset", True)
+    assert changed.status_code == 201, changed.text
+    assert stored["body"]["operations"][0]["limits"] == {"force_N": 1800}
+    assert stored["alpha"] == 0.25  # a null setting changes nothing

@@ -19,11 +19,12 @@ from api.rest.routes.common import (
 )
 from api.rest.schemas.plans import PLAN_EXAMPLE, PlanCreated, PlanDetail, PlanList
 from api.rest.schemas.rcb_settings import settings_in_query
-from api.rest.schemas.replan import ReplanIn, Replanned
+from api.rest.schemas.replan import Replanned
 from api.services import plans as use_cases
 from api.services.read import plans as read_plans
 from api.services.read.common import LIST_PAGE, MAX_PAGE
 from supervisor.inputs.plan import plan_body
+from supervisor.rcb.replan import replan_body
 
 router = resource_router("plans")
 
@@ -79,13 +80,13 @@ def replan(
     request: Request,
     engine: EngineDep,
     plan_id: PlanId,
-    changes: ReplanIn,
+    changes: Annotated[dict[str, Any], Body()],
     actor: Engineer,
     dry_run: Annotated[bool, Query(description="show the result, store nothing")] = False,
     idempotency_key: OptionalKey = None,
 ) -> Response:
     """Change limits, bounds or models (or reset the bands) and re-optimise."""
-    body = changes.model_dump(mode="json", exclude_none=True)
+    body = replan_body(changes)  # read by the replan alone (ReplanIn documents it)
     written = use_cases.replan(
         engine=engine,
         plan_id=plan_id,
