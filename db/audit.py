@@ -14,6 +14,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.idempotency import IDEMPOTENCY
+from models.fields import escaped
 
 #: Core table of the audit log (inserted without the ORM's unit of work).
 AUDIT = t.core_table(t.AuditEntry)
@@ -75,23 +76,7 @@ def audit_row(
         "at": t.utcnow(),
         "actor": actor,
         "action": action,
-        "target": kept(target)[:MAX_TARGET],
+        "target": escaped(target, nul=True)[:MAX_TARGET],
         "result": result,
-        "detail": kept(detail),
+        "detail": escaped(detail, nul=True),  # what was sent, as a column holds it
     }
-
-
-def kept(value: Any) -> Any:
-    r"""``value`` with every string as a column holds it: a NUL or lone surrogate escaped.
-
-    A refused write is logged with what was sent (its plan's name, the field refused), which
-    may be text no database can store: ``\x00``, ``\ud800`` are written escaped, as typed here.
-    """
-    if isinstance(value, str):
-        text = value.encode("utf-8", "backslashreplace").decode("utf-8")
-        return text.replace("\x00", "\\x00")
-    if isinstance(value, dict):
-        return {kept(k): kept(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [kept(v) for v in value]
-    return value

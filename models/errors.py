@@ -62,10 +62,7 @@ class InputErrors(InputError):
         first = errors[0]
         super().__init__(first.field, first.value, first.reason)
         self.errors = tuple(errors)
-        self.args = ("\n".join(str(e) for e in self.errors),)
-
-    def __str__(self) -> str:
-        return str(self.args[0])
+        self.args = ("\n".join(str(e) for e in self.errors),)  # str(): one line each
 
 
 class Gathered:

@@ -18,7 +18,7 @@ import math
 import numbers
 import unicodedata
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -76,6 +76,26 @@ def storable(value: str) -> str:
     return value
 
 
+def escaped(data: Any, *, nul: bool = False) -> Any:
+    r"""``data`` (JSON-like) with every string valid Unicode: a lone surrogate as ``\ud800``.
+
+    JSON may spell one, UTF-8 cannot encode it; ``nul``: a NUL as the text ``\x00`` too (for a
+    database column, which holds neither; a JSON answer carries NUL as ``\u0000``). Keys too;
+    a tuple becomes a list; anything else is returned as it is.
+    """
+    if isinstance(data, str):
+        try:
+            data.encode("utf-8")
+        except UnicodeEncodeError:
+            data = data.encode("utf-8", "backslashreplace").decode("utf-8")
+        return data.replace("\x00", "\\x00") if nul else data
+    if isinstance(data, dict):
+        return {escaped(k, nul=nul): escaped(v, nul=nul) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return [escaped(v, nul=nul) for v in data]
+    return data
+
+
 def identity_field(data: Mapping[str, Any], key: str, path: str) -> str:
     """A serial or a name field, as :func:`identity` normalises it; errors name the field."""
     value = text(data, key, path)
@@ -85,6 +105,10 @@ def identity_field(data: Mapping[str, Any], key: str, path: str) -> str:
         raise InputError(f"{path}.{key}" if path else key, value, str(err)) from None
 
 
+@overload
+def without_nulls(data: Mapping[str, Any]) -> dict[str, Any]: ...
+@overload
+def without_nulls(data: object) -> object: ...
 def without_nulls(data: object) -> object:
     """A JSON object with its ``null`` fields left out (as TOML, which has no null, says it).
 

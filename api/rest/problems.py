@@ -29,6 +29,7 @@ from api.services.idempotency import InFlightError, KeyReuseError
 from db.errors import ConflictError, PlanNameTakenError
 from db.plan_state import halt_json
 from models.errors import InputError, InputErrors
+from models.fields import escaped
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.rcb.state import Halt, HaltedOperation
 
@@ -106,9 +107,7 @@ def problem(
     if conflicts is not None:
         body["conflicts"] = conflicts
     body.update(extensions or {})
-    return JSONResponse(
-        _valid_unicode(body), status_code=status, media_type=MEDIA_TYPE, headers=headers
-    )
+    return JSONResponse(escaped(body), status_code=status, media_type=MEDIA_TYPE, headers=headers)
 
 
 def clip(text: str, limit: int = MAX_ECHO) -> str:
@@ -148,24 +147,6 @@ def _detail(detail: str, value: object, field: str | None) -> str:
     if len(shown) > MAX_ECHO and shown in detail:
         detail = detail.replace(shown, clip(shown))
     return detail
-
-
-def _valid_unicode(data: Any) -> Any:
-    r"""``data`` with every string valid Unicode: a lone surrogate becomes the text ``\udXXX``.
-
-    JSON may spell one (``"\ud800"``), UTF-8 cannot encode it: sent raw, it fails the response.
-    """
-    if isinstance(data, str):
-        try:
-            data.encode("utf-8")
-        except UnicodeEncodeError:
-            return data.encode("utf-8", "backslashreplace").decode("utf-8")
-        return data
-    if isinstance(data, dict):
-        return {_valid_unicode(k): _valid_unicode(v) for k, v in data.items()}
-    if isinstance(data, list | tuple):
-        return [_valid_unicode(v) for v in data]
-    return data
 
 
 async def _problem(request: Request, err: ProblemError) -> JSONResponse:

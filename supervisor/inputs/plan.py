@@ -162,7 +162,7 @@ def plan_body(data: Mapping[str, Any]) -> dict[str, Any]:
     each operation, ``rcb``); a null in a table of values (a limit, a bound) stays, for
     :func:`plan_from_mapping` to refuse.
     """
-    body = {key: value for key, value in data.items() if value is not None}
+    body: dict[str, Any] = fields.without_nulls(data)
     for key in ("machine", "rcb"):
         if key in body:
             body[key] = fields.without_nulls(body[key])

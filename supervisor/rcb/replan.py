@@ -52,7 +52,7 @@ def replan_body(data: Mapping[str, Any]) -> dict[str, Any]:
     setting of ``rcb`` or a null ``K``/``dK`` of a model change; a null limit stays (it removes
     the limit).
     """
-    body = {key: value for key, value in data.items() if value is not None}
+    body: dict[str, Any] = fields.without_nulls(data)
     if "rcb" in body:
         body["rcb"] = fields.without_nulls(body["rcb"])
     if isinstance(body.get("models"), Mapping):
