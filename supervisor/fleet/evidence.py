@@ -10,8 +10,15 @@ exponents. Two operations of one tool share the tool's law ``ln y = ln K + Σ e_
    T = \begin{pmatrix} 1 & −c^\mathsf{T} \\ 0 & I \end{pmatrix}, \quad
    o = (−Σ_j e_j \ln x_j, 0 … 0)
 
-(the edge-age coefficient ``w`` of a wearing quantity is left out: its marginal is the
-sub-block). A Gaussian belief maps to ``N(T μ + o, T Σ T^\mathsf{T})``.
+A wearing quantity (:data:`~supervisor.rcb.posterior.WEARING`) has one more parameter, the
+rise of ``ln y`` over an edge's life, ``ω = n_max w`` (``w`` the learner's edge-age coefficient
+per part, ``n_max`` the parts an edge makes before its last, so ``T``'s last diagonal entry is
+``n_max``): an edge is changed at the plan's ``parts_per_edge``, set at the tool's wear
+criterion (ISO 3685's flank wear VB = 0.3 mm, say), so the rise it makes by then is the tool's
+on the material as its exponents are, whatever the operation's parts take. An operation without
+an edge limit says nothing of ``ω``: its belief gets ``ω ~ N(0, edge_sd²)``, the catalogue's
+(:data:`~supervisor.rcb.posterior.DEFAULT_EDGE_SD`), uncorrelated, and its evidence none.
+A Gaussian belief maps to ``N(T μ + o, T Σ T^\mathsf{T})``.
 
 The *evidence* of the readings is the posterior less the prior it started from, in
 information form (the product of Gaussians [1]_): ``J = P − P_0``, ``h = P m − P_0 m_0`` with
@@ -35,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior
 
 #: Eigenvalues of the evidence under this fraction of its largest are no evidence (round-off).
 _RELATIVE_FLOOR = 1e-9
@@ -64,29 +71,54 @@ class Evidence:
         )
 
 
+def size(belief: Posterior) -> int:
+    """The length of ``θ`` of ``belief``'s quantity: ``ln K``, exponents, a wearing one's ``ω``."""
+    return len(belief.names) + (2 if belief.quantity in WEARING else 1)
+
+
 def transform(belief: Posterior, context: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
-    """``T`` and ``o`` of ``belief`` (module docstring): ``θ = T β + o``."""
+    """``T`` and ``o`` of ``belief`` (module docstring): ``θ = T β + o``.
+
+    Over ``β``'s own length: ``ω`` only where ``belief`` has the edge feature.
+    """
     n = len(belief.names)
-    t = np.eye(n + 1)
-    t[0, 1:] = -np.array(belief.center)
-    offset = np.zeros(n + 1)
+    t = np.eye(n + 2 if belief.edge_max else n + 1)
+    t[0, 1 : n + 1] = -np.array(belief.center)
+    if belief.edge_max:
+        t[n + 1, n + 1] = belief.edge_max
+    offset = np.zeros(len(t))
     offset[0] = -sum(e * math.log(context[name]) for name, e in belief.context_exponents.items())
     return t, offset
 
 
-def in_tool_terms(belief: Posterior, context: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
-    """The mean and covariance of ``θ`` under ``belief`` (``w`` marginalised out)."""
-    n = len(belief.names)
+def in_tool_terms(
+    belief: Posterior, context: Mapping[str, float], edge_sd: float = DEFAULT_EDGE_SD
+) -> tuple[np.ndarray, np.ndarray]:
+    """The mean and covariance of ``θ`` under ``belief``.
+
+    ``ω`` is at ``N(0, edge_sd²)`` where the belief has no edge feature and the quantity wears;
+    at the default ``edge_sd`` where a plan set it to 0 (its own edges do not wear, other
+    plans' may, and ``θ``'s belief must be proper).
+    """
     t, offset = transform(belief, context)
-    mean = np.array(belief.mean[: n + 1])
-    cov = np.array(belief.cov)[: n + 1, : n + 1]
-    return t @ mean + offset, t @ cov @ t.T
+    k = len(t)
+    mean = t @ np.array(belief.mean[:k]) + offset
+    cov = t @ np.array(belief.cov)[:k, :k] @ t.T
+    full = size(belief)
+    if full > k:
+        mean = np.append(mean, 0.0)
+        cov = np.pad(cov, (0, 1))
+        cov[k, k] = (edge_sd if edge_sd > 0 else DEFAULT_EDGE_SD) ** 2
+    return mean, cov
 
 
 def evidence(posterior: Posterior, prior: Posterior, context: Mapping[str, float]) -> Evidence:
     """The readings' information about ``θ``: ``posterior`` less the ``prior`` it started from."""
-    if posterior.names != prior.names:
-        raise ValueError(f"posterior over {posterior.names}, prior over {prior.names}")
+    if posterior.names != prior.names or posterior.edge_max != prior.edge_max:
+        raise ValueError(
+            f"posterior over {posterior.names} (edge {posterior.edge_max}), "
+            f"prior over {prior.names} (edge {prior.edge_max})"
+        )
     m, s = in_tool_terms(posterior, context)
     m0, s0 = in_tool_terms(prior, context)
     p, p0 = np.linalg.inv(s), np.linalg.inv(s0)
@@ -98,9 +130,3 @@ def evidence(posterior: Posterior, prior: Posterior, context: Mapping[str, float
     j = (kept * values[keep]) @ kept.T
     h = kept @ (kept.T @ h)
     return Evidence(posterior.names, j, h, posterior.observations)
-
-
-def nothing(names: tuple[str, ...]) -> Evidence:
-    """No evidence over ``θ = (ln K, names…)``."""
-    n = len(names) + 1
-    return Evidence(names, np.zeros((n, n)), np.zeros(n), 0)

@@ -20,10 +20,14 @@ while its exponents count in full. With the catalogue prior ``(P_0, m_0)``:
 ``N(μ, P^{-1} + σ_b^2 e_0 e_0^\mathsf{T})``.
 
 **The spread.** Each machine's own posterior (the catalogue prior and its evidence alone)
-gives its ``ln Y`` at a reference point, ``y_m ± √v_m``; DerSimonian and Laird's moment
-estimate [2]_ of the spread between them, ``τ̂²``, is pooled with a default ``σ_0`` held as
-``ν_0`` machines' worth of evidence (the scaled inverse-χ² prior of a normal variance, [1]_
-§2.6):
+gives its ``ln Y`` at a reference point, ``y_m ± √v_m``. The point is where the machines'
+readings pin ``ln Y`` best, ``φ = (1, x, 0)`` minimising ``Σ_m φ^\mathsf{T} C_m φ``
+(:func:`best_determined`): at the centre of the bounds, where machines that learned near
+their optima never cut, every ``v_m`` holds the exponents' uncertainty (10 % and more), the
+machines' differences drown in it and the estimate is 0 whatever they are. DerSimonian and
+Laird's moment estimate [2]_ of the spread between them, ``τ̂²``, is pooled with a default
+``σ_0`` held as ``ν_0`` machines' worth of evidence (the scaled inverse-χ² prior of a
+normal variance, [1]_ §2.6):
 
 .. math:: σ_b^2 = \frac{ν_0 σ_0^2 + (M − 1) τ̂^2}{ν_0 + M − 1}
 
@@ -73,6 +77,26 @@ def marginal(evidence: Evidence, spread: float) -> tuple[np.ndarray, np.ndarray]
     j0 = j[:, 0]
     c = 1.0 / (spread**-2 + j[0, 0])
     return j - c * np.outer(j0, j0), h - c * h[0] * j0
+
+
+def best_determined(
+    machines: Sequence[Evidence], prior_information: np.ndarray, exponents: int
+) -> np.ndarray:
+    """``φ = (1, x, 0 …)`` where the machines' ``ln Y`` is best known (module docstring).
+
+    ``x`` (the ``exponents`` log-inputs) minimises ``Σ_m φ^T C_m φ``, ``C_m`` machine ``m``'s
+    covariance with the prior: ``x = −(Σ C_xx)^{-1} Σ C_x0``; a quantity's ``ω`` (if any) at
+    0, a new edge. With no machine, ``x = 0`` (the spread is then the default, at any point).
+    """
+    reference = np.zeros(len(prior_information))
+    reference[0] = 1.0
+    if not machines or exponents == 0:
+        return reference
+    covs = [np.linalg.inv(prior_information + m.information) for m in machines]
+    block = sum((c[1 : exponents + 1, 1 : exponents + 1] for c in covs), np.zeros((exponents,) * 2))
+    cross = sum((c[1 : exponents + 1, 0] for c in covs), np.zeros(exponents))
+    reference[1 : exponents + 1] = -np.linalg.solve(block, cross)
+    return reference
 
 
 def between_spread(

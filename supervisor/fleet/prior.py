@@ -4,10 +4,11 @@ For every operation and measured quantity of the new plan, the learned posterior
 tool (name, process and work material) and quantity in the fleet's plans are read as evidence
 about the tool's law (:mod:`.evidence`), grouped by machine and combined in the hierarchical
 model of :mod:`.hierarchy`. The result is mapped back to the operation's own parameters
-(``β = T^{-1}(θ − o)``, the inverse of :func:`.evidence.transform`), with the edge-age
-coefficient of a wearing quantity from the catalogue prior. On a machine the fleet already
-holds, that machine's own evidence is added to the fleet's belief about it (its offset ``δ_m``
-is then known as well as its readings show).
+(``β = T^{-1}(θ − o)``, the inverse of :func:`.evidence.transform`), a wearing quantity's
+edge-age coefficient included: the rise over an edge's life is the tool's, learned by the
+fleet as its exponents are (an operation with no edge limit drops it). On a machine the fleet
+already holds, that machine's own evidence is added to the fleet's belief about it (its
+offset ``δ_m`` is then known as well as its readings show).
 
 A quantity no plan of the fleet measured with the tool keeps the catalogue prior and says so
 (:class:`Provenance` with no plans).
@@ -23,7 +24,12 @@ import numpy as np
 
 from models.tool import Tool
 from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms, transform
-from supervisor.fleet.hierarchy import DEFAULT_SPREAD, SPREAD_WEIGHT, fleet_belief
+from supervisor.fleet.hierarchy import (
+    DEFAULT_SPREAD,
+    SPREAD_WEIGHT,
+    best_determined,
+    fleet_belief,
+)
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.posterior import Posterior
@@ -112,7 +118,9 @@ def fleet_priors(
             catalogue = post.prior(model, op, coverage_k, exponent_sd, edge_sd)
             if not _proper(catalogue):  # a parameter known exactly: the catalogue's stands
                 continue
-            made = _prior(plan.machine.name, op, catalogue, found, default_spread, spread_weight)
+            made = _prior(
+                plan.machine.name, op, catalogue, found, (default_spread, spread_weight, edge_sd)
+            )
             if made is not None:
                 out[(op.name, quantity)] = made
     return out
@@ -133,9 +141,10 @@ def _prior(
     op: Operation,
     catalogue: Posterior,
     found: Sequence[Learned],
-    default_spread: float,
-    spread_weight: float,
+    defaults: tuple[float, float, float],
 ) -> FleetPrior | None:
+    """``defaults``: the default spread, its weight and the edge's ``edge_sd``."""
+    default_spread, spread_weight, edge_sd = defaults
     by_machine: dict[str, Evidence] = {}
     for item in found:
         item_prior = item.start or post.prior(
@@ -154,11 +163,10 @@ def _prior(
     if not by_machine:
         return None
     own = by_machine.pop(machine, None)
-    prior_mean, prior_cov = in_tool_terms(catalogue, op.context)
-    reference = np.array([1.0, *catalogue.center])
-    belief = fleet_belief(
-        list(by_machine.values()), prior_mean, prior_cov, reference, default_spread, spread_weight
-    )
+    prior_mean, prior_cov = in_tool_terms(catalogue, op.context, edge_sd)
+    others = list(by_machine.values())
+    reference = best_determined(others, np.linalg.inv(prior_cov), len(catalogue.names))
+    belief = fleet_belief(others, prior_mean, prior_cov, reference, default_spread, spread_weight)
     mean, cov = belief.mean, belief.cov
     if own is not None:  # this machine's offset, as its own readings show it
         information = np.linalg.inv(cov) + own.information
@@ -175,20 +183,16 @@ def _prior(
 def _in_operation_terms(
     catalogue: Posterior, context: Mapping[str, float], mean: np.ndarray, cov: np.ndarray
 ) -> Posterior:
-    """``θ ~ N(mean, cov)`` as the operation's ``β`` (the edge coefficient as catalogued)."""
+    """``θ ~ N(mean, cov)`` as the operation's ``β`` (``ω`` left out where it has no edge)."""
     t, offset = transform(catalogue, context)
+    k = len(t)
     t_inv = np.linalg.inv(t)
-    beta = t_inv @ (mean - offset)
-    sigma = t_inv @ cov @ t_inv.T
-    size = len(catalogue.mean)
-    full_mean = np.array(catalogue.mean, dtype=float)
-    full_cov = np.array(catalogue.cov, dtype=float)
-    n = len(beta)
-    full_mean[:n] = beta
-    full_cov[:n, :n] = 0.5 * (sigma + sigma.T)
-    assert full_cov.shape == (size, size)
+    beta = t_inv @ (mean[:k] - offset)
+    sigma = t_inv @ cov[:k, :k] @ t_inv.T
+    sigma = 0.5 * (sigma + sigma.T)
+    assert len(beta) == len(catalogue.mean)
     return replace(
         catalogue,
-        mean=tuple(float(v) for v in full_mean),
-        cov=tuple(tuple(float(v) for v in row) for row in full_cov),
+        mean=tuple(float(v) for v in beta),
+        cov=tuple(tuple(float(v) for v in row) for row in sigma),
     )

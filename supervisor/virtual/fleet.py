@@ -22,12 +22,15 @@ DEFAULT_UNCERTAINTY`), drawn from ``numpy.random.default_rng([seed, m])``
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 from supervisor.inputs.plan import Plan
+from supervisor.rcb import posterior as post
+from supervisor.rcb.state import RcbSettings
 from supervisor.virtual.machine import DEFAULT_UNCERTAINTY, TrueProcess, VirtualMachine
 from supervisor.virtual.sampling import log_range, true_model
 
@@ -37,6 +40,9 @@ from supervisor.virtual.sampling import log_range, true_model
 DEFAULT_MACHINE_SPREAD = 0.03
 #: Where a machine drawn outside the fleet's spread sits, in multiples of the spread.
 OUTSIDE = 3.0
+#: The sd [-] a known prior (:func:`known_priors`) keeps on what it knows exactly (an exponent,
+#: the edge's rise): a belief in information form must be proper.
+KNOWN_SD = 1e-4
 #: The streams of the fleet's truths and of its machines' offsets, apart from every noise.
 _TRUTH_STREAM = 1_000_003
 _OFFSET_STREAM = 1_000_033
@@ -100,6 +106,33 @@ def fleet_truths(
                 inner, ops[0], rng, spread, exponent_spread, box=box
             )
     return truths
+
+
+def known_priors(
+    plan: Plan,
+    truths: dict[tuple[str, str], PowerLawModel],
+    machine_spread: float,
+    settings: RcbSettings,
+) -> dict[tuple[str, str], post.Posterior]:
+    """The prior of a controller that knows the fleet's law and spread and not the machine.
+
+    The bound of any fleet prior (``benchmarks/closed_loop.py --fleet``): ``ln Y(c)`` at the
+    fleet's truth with the true spread's variance, every exponent and the edge's rise (none:
+    the virtual fleet's edges do not wear) known to :data:`KNOWN_SD`.
+    """
+    out = {}
+    for op in plan.operations:
+        for quantity, model in plan.tools[op.tool].models.items():
+            if model.dK <= 0:
+                continue
+            truth = post.prior(truths[(op.tool, quantity)], op, 1.0, 0.0, settings.edge_sd)
+            size = len(truth.mean)
+            cov = [[0.0] * size for _ in range(size)]
+            for i in range(size):
+                cov[i][i] = KNOWN_SD**2
+            cov[0][0] = max(machine_spread, KNOWN_SD) ** 2
+            out[(op.name, quantity)] = replace(truth, cov=tuple(tuple(row) for row in cov))
+    return out
 
 
 def _inside(model: PowerLawModel, room: float) -> PowerLawModel:

@@ -8,7 +8,8 @@ scenario's new machine outside the spread); each of the first ``machines − 1``
 as the database leaves it out until an engineer puts it back); the last machine then makes
 ``parts`` parts twice with the same noise, once from the fleet prior and once from the
 catalogue, each scored against that machine's oracle (:func:`supervisor.virtual.scenario.
-run_machine`).
+run_machine`), and a third time from the prior of a controller that knows the fleet's law and
+spread (:func:`supervisor.virtual.fleet.known_priors`): what no fleet prior can better.
 """
 
 from __future__ import annotations
@@ -22,7 +23,13 @@ from supervisor.inputs.plan import Plan
 from supervisor.rcb.state import RcbSettings, RcbState
 from supervisor.rcb.update import start
 from supervisor.virtual.certificate import ScenarioTrace
-from supervisor.virtual.fleet import DEFAULT_MACHINE_SPREAD, noise_seed, sample_fleet
+from supervisor.virtual.fleet import (
+    DEFAULT_MACHINE_SPREAD,
+    fleet_truths,
+    known_priors,
+    noise_seed,
+    sample_fleet,
+)
 from supervisor.virtual.scenario import run_machine
 
 #: Every this many scenarios (seeds ``≡ OUTSIDE_EVERY − 1``), the new machine is drawn outside.
@@ -37,6 +44,7 @@ class FleetTrace:
     outside: bool
     fleet: ScenarioTrace
     catalogue: ScenarioTrace
+    known: ScenarioTrace
     learned_violations: int
     provenance: tuple[Provenance, ...]
 
@@ -85,12 +93,15 @@ def run_fleet_scenario(
         learned += learned_from(state, f"machine-{m}", f"plan-{m}")
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
     from_fleet = start(plan, settings, {k: p.posterior for k, p in priors.items()})
+    truths = fleet_truths(plan, seed, machine_spread)
+    known = start(plan, settings, known_priors(plan, truths, machine_spread, settings))
     new, last = fleet[-1], noise_seed(seed, machines - 1)
     return FleetTrace(
         seed,
         outside,
         run_machine(from_fleet, new, seed, parts, noise_seed=last)[0],
         run_machine(catalogue, new, seed, parts, noise_seed=last)[0],
+        run_machine(known, new, seed, parts, noise_seed=last)[0],
         violations,
         tuple(p.provenance for _, p in sorted(priors.items())),
     )

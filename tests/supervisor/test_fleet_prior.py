@@ -16,7 +16,7 @@ from numpy.testing import assert_allclose
 
 from models.errors import InputError
 from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms
-from supervisor.fleet.hierarchy import between_spread, fleet_belief, marginal
+from supervisor.fleet.hierarchy import best_determined, between_spread, fleet_belief, marginal
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
@@ -48,7 +48,9 @@ def test_one_reading_at_the_centre_is_its_precision_along_1_c() -> None:
     after = post.observe(prior, centre, Measurement(y, u), coverage_k=2.0, drift=0.0)
     seen = evidence(after, prior, op.context)
     sigma = (u / 2) / y
-    along = np.array([1.0, *prior.center])
+    # force wears, so θ ends with the edge's rise ω; rough-grooves has no edge limit: its
+    # reading says nothing of ω (a zero row and column)
+    along = np.array([1.0, *prior.center, 0.0])
     assert_allclose(seen.information, np.outer(along, along) / sigma**2, rtol=1e-6, atol=1e-3)
     context = sum(e * math.log(op.context[n]) for n, e in prior.context_exponents.items())
     assert_allclose(seen.vector, along * (math.log(y) - context) / sigma**2, rtol=1e-6)
@@ -56,12 +58,17 @@ def test_one_reading_at_the_centre_is_its_precision_along_1_c() -> None:
 
 
 def test_tool_terms_of_the_catalogue_prior_give_back_K_and_the_exponents() -> None:
-    """The catalogue prior's mean in the tool's terms is ``(ln K, e_i)`` of the tool's model."""
+    """The catalogue prior's mean in the tool's terms is ``(ln K, e_i, ω)`` of the tool's model,
+    ``ω`` (the rise over an edge's life of rough-od's 10 parts) at 0 ± ``edge_sd``: ``n_max w``
+    with ``w ~ N(0, (edge_sd / n_max)²)`` (posterior.prior)."""
     op = _op("rough-od")
     model = PLAN.tools[op.tool].models["force_N"]
-    mean, _ = in_tool_terms(_catalogue(op.name, "force_N"), op.context)
+    mean, cov = in_tool_terms(_catalogue(op.name, "force_N"), op.context)
     names = _catalogue(op.name, "force_N").names
-    assert_allclose(mean, [math.log(model.K), *(model.exponents[n] for n in names)], rtol=1e-12)
+    expected = [math.log(model.K), *(model.exponents[n] for n in names), 0.0]
+    assert_allclose(mean, expected, rtol=1e-12, atol=1e-15)
+    assert cov[-1, -1] == pytest.approx(SETTINGS.edge_sd**2, rel=1e-12)
+    assert_allclose(cov[-1, :-1], 0.0, atol=1e-15)
 
 
 def test_a_machine_says_at_most_the_spread_about_the_fleet() -> None:
@@ -86,6 +93,28 @@ def test_the_spread_pools_the_default_with_DerSimonian_Laird() -> None:
         math.sqrt(2 * 0.05**2 / 3)
     )
     assert between_spread(machines[:1], np.array([0.0]), flat, np.array([1.0])) == 0.05
+
+
+def test_machines_are_compared_where_their_readings_pin_ln_Y() -> None:
+    """Two machines, each two readings at ``ln x = 2 ± 0.1`` (σ² = 2e-4), one at ``ln y`` 0,
+    one at 0.1, a nearly flat prior: the best-known point is ``ln x = 2`` (the readings'
+    mean), where each ``ln Y`` is known to ``σ²/2 = 1e-4`` and the spread is the worked
+    ``(2 · 0.05² + 0.0049)/3`` above. At ``ln x = 0`` each is only known to ``σ² (1/2 +
+    2²/0.02) = 0.0401``: ``Q = 0.125 < 1``, ``τ̂ = 0``, the default's floor ``(2 · 0.05²)/3``."""
+    sigma2 = 2e-4
+    machines = []
+    for level in (0.0, 0.1):
+        points = [np.array([1.0, 2.0 - 0.1]), np.array([1.0, 2.0 + 0.1])]
+        j = sum(np.outer(p, p) for p in points) / sigma2
+        h = sum(p * level for p in points) / sigma2
+        machines.append(Evidence(("feed",), j, h, 2))
+    flat = np.eye(2) * 1e-9
+    best = best_determined(machines, flat, 1)
+    assert_allclose(best, [1.0, 2.0], atol=1e-6)
+    at_best = between_spread(machines, np.zeros(2), flat, best)
+    assert at_best == pytest.approx(math.sqrt((2 * 0.05**2 + 0.0049) / 3), rel=1e-4)
+    at_zero = between_spread(machines, np.zeros(2), flat, np.array([1.0, 0.0]))
+    assert at_zero == pytest.approx(math.sqrt(2 * 0.05**2 / 3), rel=1e-9)
 
 
 def test_a_new_machine_is_the_fleet_mean_plus_the_spread() -> None:

@@ -9,7 +9,16 @@ from pathlib import Path
 import pytest
 
 from supervisor.inputs.plan import load_plan
-from supervisor.virtual.fleet import DEFAULT_MACHINE_SPREAD, OUTSIDE, fleet_truths, sample_fleet
+from supervisor.rcb import posterior as post
+from supervisor.rcb.state import RcbSettings
+from supervisor.virtual.fleet import (
+    DEFAULT_MACHINE_SPREAD,
+    KNOWN_SD,
+    OUTSIDE,
+    fleet_truths,
+    known_priors,
+    sample_fleet,
+)
 from supervisor.virtual.fleet_scenario import run_fleet_scenario
 
 PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
@@ -65,9 +74,33 @@ def test_every_machine_lies_inside_the_catalogue_band_where_it_is_wide_enough() 
 
 def test_a_new_machine_starts_faster_from_the_fleet_and_crosses_nothing() -> None:
     """Seed 3: three machines learn 12 parts; the new one's first setpoints from the fleet are
-    faster than the catalogue's, and neither run crosses a true limit in 6 parts."""
+    faster than the catalogue's, those of a controller that knows the fleet's law faster
+    still, and no run crosses a true limit in 6 parts."""
     trace = run_fleet_scenario(PLAN, 3, 4, 6, 12)
     assert trace.fleet.plan_ratio[0] > trace.catalogue.plan_ratio[0] + 0.01
-    assert trace.fleet.where == () and trace.catalogue.where == ()
+    assert trace.known.plan_ratio[0] > trace.fleet.plan_ratio[0] + 0.01
+    assert trace.fleet.where == trace.catalogue.where == trace.known.where == ()
     assert {p.quantity for p in trace.provenance} == {"force_N", "roughness_um"}
     assert all(p.machines == ("machine-0", "machine-1", "machine-2") for p in trace.provenance)
+
+
+def test_the_known_prior_is_the_fleets_law_with_the_spread_on_ln_K() -> None:
+    """``known_priors``: ``ln Y(c)`` and the exponents of the fleet's truth (posterior.prior of
+    it), ``ln Y(c)``'s variance the true spread's, every other parameter known to KNOWN_SD."""
+    settings = RcbSettings(strategy="learn")
+    truths = fleet_truths(PLAN, 7, 0.02)
+    priors = known_priors(PLAN, truths, 0.02, settings)
+    op = next(o for o in PLAN.operations if o.name == "rough-od")
+    made = priors[("rough-od", "force_N")]
+    truth = truths[(op.tool, "force_N")]
+    point = {**op.context, **{n: math.exp(c) for n, c in zip(made.names, made.center, strict=True)}}
+    assert made.mean[0] == pytest.approx(math.log(truth.predict(point).value), rel=1e-12)
+    assert made.mean[1 : 1 + len(made.names)] == pytest.approx(
+        [truth.exponents[n] for n in made.names], rel=1e-12
+    )
+    assert (made.edge_max, made.mean[-1]) == (post.edge_max_of(op, "force_N"), 0.0)
+    variances = [made.cov[i][i] for i in range(len(made.mean))]
+    assert variances == pytest.approx([0.02**2] + [KNOWN_SD**2] * (len(made.mean) - 1))
+    assert set(priors) == {
+        (o.name, q) for o in PLAN.operations for q, m in PLAN.tools[o.tool].models.items() if m.dK
+    }
