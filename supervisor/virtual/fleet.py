@@ -69,6 +69,19 @@ def sample_fleet(
     :func:`~supervisor.virtual.sampling.sample_machine` takes them.
     """
     truths = fleet_truths(plan, seed, machine_spread, spread, exponent_spread)
+    return machines_of(plan, truths, seed, machines, machine_spread=machine_spread, outside=outside)
+
+
+def machines_of(
+    plan: Plan,
+    truths: dict[tuple[str, str], PowerLawModel],
+    seed: int,
+    machines: int,
+    *,
+    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    outside: bool = False,
+) -> tuple[VirtualMachine, ...]:
+    """:func:`sample_fleet`'s machines around ``truths`` (:func:`fleet_truths` of ``seed``)."""
     rng = np.random.default_rng([seed, _OFFSET_STREAM])
     fleet = []
     for m in range(machines):

@@ -27,8 +27,8 @@ from supervisor.virtual.fleet import (
     DEFAULT_MACHINE_SPREAD,
     fleet_truths,
     known_priors,
+    machines_of,
     noise_seed,
-    sample_fleet,
 )
 from supervisor.virtual.scenario import run_machine
 
@@ -80,7 +80,10 @@ def run_fleet_scenario(
 ) -> FleetTrace:
     """One scenario (module docstring); ``machine_spread``: the fleet's true spread."""
     outside = seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
-    fleet = sample_fleet(plan, seed, machines, machine_spread=machine_spread, outside=outside)
+    truths = fleet_truths(plan, seed, machine_spread)  # drawn once: the fleet's and the known's
+    fleet = machines_of(
+        plan, truths, seed, machines, machine_spread=machine_spread, outside=outside
+    )
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
     learned: list[Learned] = []
@@ -93,7 +96,6 @@ def run_fleet_scenario(
         learned += learned_from(state, f"machine-{m}", f"plan-{m}")
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
     from_fleet = start(plan, settings, {k: p.posterior for k, p in priors.items()})
-    truths = fleet_truths(plan, seed, machine_spread)
     known = start(plan, settings, known_priors(plan, truths, machine_spread, settings))
     new, last = fleet[-1], noise_seed(seed, machines - 1)
     return FleetTrace(
