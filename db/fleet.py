@@ -138,8 +138,39 @@ def provenance_json(p: Provenance) -> dict[str, Any]:
         "machines": list(p.machines),
         "between_machine_spread": p.spread,
         "readings": p.readings,
+        "widened_by_part": None,  # a part whose readings let the prior go (:func:`let_go`)
         "text": p.describe(),
     }
+
+
+def let_go(
+    stored: Mapping[str, Any] | None,
+    before: Mapping[tuple[str, str], Posterior],
+    after: Mapping[tuple[str, str], Posterior],
+    serial: str,
+) -> dict[str, Any] | None:
+    """``plans.prior`` with the fleet priors part ``serial`` let go marked (None: none).
+
+    A quantity whose readings showed the machine outside the fleet's spread
+    (:mod:`supervisor.rcb.prior_check`: ``before`` unwidened, ``after`` widened) keeps its
+    provenance, with the part that let it go (``widened_by_part``) and the line saying so.
+    """
+    out: dict[str, Any] | None = None
+    for (op, quantity), belief in sorted(after.items()):
+        key, old = f"{op}|{quantity}", before.get((op, quantity))
+        if not stored or key not in stored or belief.prior_widening <= 0:
+            continue
+        if old is not None and old.prior_widening > 0:
+            continue
+        out = dict(stored) if out is None else out
+        provenance = dict(out[key]["provenance"])
+        provenance["widened_by_part"] = serial
+        provenance["text"] = (
+            f"{provenance['text']}; let go by part {serial}: this machine lies outside the "
+            "fleet's spread (its ln K learned from the catalogue's band)"
+        )
+        out[key] = {**out[key], "provenance": provenance}
+    return out
 
 
 def priors_of(stored: Mapping[str, Any] | None) -> dict[tuple[str, str], Posterior]:

@@ -21,6 +21,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.bulk import defer
+from db.fleet import let_go
 from db.intake import PlanHead
 from db.model_versions import model_version_row, version_numbers
 from db.parts import decision_rows, measurement_rows
@@ -78,6 +79,9 @@ def store_report(
             part_id=part_id,
         )
     pointers = _pointers(plan_row, before, after)
+    prior = let_go(plan_row.prior, before.posterior, after.posterior, report.serial)
+    if prior is not None:  # a fleet prior this machine's readings rejected: every surface says
+        pointers["prior"] = plan_row.prior = prior
     # Core rows, no ORM bookkeeping; deferred, so they go out with the transaction's last rows
     defer(
         session,

@@ -166,7 +166,8 @@ def _say_prior(provenance: dict[str, list[dict[str, Any]]]) -> None:
     if not provenance:
         return
     table = new_table(title="learn's fleet prior (--json names the plans and machines)")
-    for column in ("operation", "quantity", "plans", "machines", "spread", "readings"):
+    columns = ("operation", "quantity", "plans", "machines", "spread", "readings", "let go by")
+    for column in columns:
         table.add_column(column, overflow="fold")
     for operation, lines in provenance.items():
         for i, line in enumerate(lines):
@@ -177,6 +178,7 @@ def _say_prior(provenance: dict[str, list[dict[str, Any]]]) -> None:
                 str(len(line["machines"])),
                 f"{100 * line['between_machine_spread']:.1f} %",
                 str(line["readings"]),
+                line.get("widened_by_part") or "",  # the part that showed it outside the spread
             )
     _out.print(table)
 

@@ -131,9 +131,21 @@ def _prior_line(plan: Mapping[str, Any]) -> str:
     plans = {name for p in lines for name in p["plans"]}
     machines = {name for p in lines for name in p["machines"]}
     spreads = [100 * p["between_machine_spread"] for p in lines]
+    let_go = [
+        f"{op} {p['quantity']} (part {p['widened_by_part']})"
+        for op, ps in plan.get("provenance", {}).items()
+        for p in ps
+        if p.get("widened_by_part")
+    ]
+    outside = (
+        f"; let go where this machine lies outside the fleet's spread: {', '.join(let_go)}"
+        if let_go
+        else ""
+    )
     return (
         f"the fleet: {len(plans)} plans on {len(machines)} machines, between-machine spread "
         f"{min(spreads):.1f}-{max(spreads):.1f} % (rcb plans show lists each quantity's)"
+        f"{outside}"
     )
 
 

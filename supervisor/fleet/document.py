@@ -130,6 +130,10 @@ def _posterior(data: object, path: str) -> Posterior:
         raise InputError(f"{path}.cov", size, "sizes of mean and cov do not match its names")
     if not all(math.isfinite(v) for v in (*belief.mean, *(x for r in belief.cov for x in r))):
         raise InputError(f"{path}.mean", "non-finite", "mean and cov must be finite numbers")
+    if not (math.isfinite(belief.noise_scale2) and belief.noise_scale2 > 0):
+        raise InputError(f"{path}.noise_scale2", belief.noise_scale2, "must be a number > 0")
+    if not (math.isfinite(belief.prior_widening) and belief.prior_widening >= 0):
+        raise InputError(f"{path}.prior_widening", belief.prior_widening, "must be a number >= 0")
     return belief
 
 

@@ -32,6 +32,7 @@ from supervisor.fleet.hierarchy import (
 )
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
+from supervisor.rcb.learning import discount
 from supervisor.rcb.posterior import Posterior
 
 
@@ -147,13 +148,7 @@ def _prior(
     default_spread, spread_weight, edge_sd = defaults
     by_machine: dict[str, Evidence] = {}
     for item in found:
-        item_prior = item.start or post.prior(
-            item.tool.models[catalogue.quantity],
-            item.operation,
-            item.coverage_k,
-            item.exponent_sd,
-            item.edge_sd,
-        )
+        item_prior = _start_of(item, catalogue.quantity)
         if item_prior.names != catalogue.names or not _proper(item_prior):
             continue
         seen = evidence(item.posterior, item_prior, item.operation.context)
@@ -178,6 +173,19 @@ def _prior(
     readings = sum(item.posterior.observations for item in found)
     provenance = Provenance(catalogue.quantity, plans, machines, belief.spread, readings)
     return FleetPrior(prior, provenance)
+
+
+def _start_of(item: Learned, quantity: str) -> Posterior:
+    """The prior ``item``'s plan started from: the catalogue's, or a fleet's as it stands.
+
+    A fleet prior its readings rejected was widened (:mod:`supervisor.rcb.prior_check`): the
+    plan's evidence is what it learned beyond the widened one.
+    """
+    if item.start is None:
+        model = item.tool.models[quantity]
+        return post.prior(model, item.operation, item.coverage_k, item.exponent_sd, item.edge_sd)
+    widening = item.posterior.prior_widening
+    return discount(item.start, widening) if widening > 0 else item.start
 
 
 def _in_operation_terms(

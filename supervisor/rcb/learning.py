@@ -51,10 +51,15 @@ def belief_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
 
 
 def _prior_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
-    """The prior of ``operation``'s ``quantity``: the plan's start (a fleet's) or the catalogue."""
+    """The prior of ``operation``'s ``quantity``: the plan's start (a fleet's) or the catalogue.
+
+    A fleet prior its readings rejected is read widened (:mod:`supervisor.rcb.prior_check`).
+    """
     started = state.priors.get((operation.name, quantity))
     if started is not None:
-        return started
+        found = state.posterior.get((operation.name, quantity))
+        widening = 0.0 if found is None else found.prior_widening
+        return discount(started, widening) if widening > 0 else started
     settings = state.settings
     key = (operation.name, quantity, settings.coverage_k, settings.exponent_sd, settings.edge_sd)
     # kept on the (immutable) plan: a part asks for it at every reading and re-check

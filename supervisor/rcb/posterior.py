@@ -114,6 +114,9 @@ class Posterior:
     noise_scale2 : float
         ``λ``, the noise variance's scale the readings' precision is counted at
         (:func:`supervisor.rcb.learning.rescaled`; 1: as reported).
+    prior_widening : float
+        The variance the start prior's intercept was grown by when the readings rejected a
+        fleet prior (:mod:`supervisor.rcb.prior_check`; 0: the prior as it started).
     """
 
     quantity: str
@@ -125,6 +128,7 @@ class Posterior:
     observations: int = 0
     edge_max: int = 0
     noise_scale2: float = 1.0
+    prior_widening: float = 0.0
 
     def cholesky(self, drift: float) -> np.ndarray:
         """The Cholesky factor of ``Σ + drift² e₀e₀ᵀ`` (kept on the object: it is immutable)."""
@@ -208,6 +212,7 @@ class Posterior:
 
     def to_json(self) -> dict[str, object]:
         """A JSON-able mapping (:func:`from_json` reads it back exactly)."""
+        widening = {"prior_widening": self.prior_widening} if self.prior_widening else {}
         return {
             "quantity": self.quantity,
             "names": list(self.names),
@@ -218,6 +223,7 @@ class Posterior:
             "observations": self.observations,
             "edge_max": self.edge_max,
             "noise_scale2": self.noise_scale2,
+            **widening,
         }
 
 
@@ -238,6 +244,7 @@ def from_json(data: Mapping[str, object]) -> Posterior:
         observations=int(data.get("observations", 0)),  # type: ignore[call-overload]
         edge_max=int(data.get("edge_max", 0)),  # type: ignore[call-overload]
         noise_scale2=float(data.get("noise_scale2", 1.0)),  # type: ignore[arg-type]
+        prior_widening=float(data.get("prior_widening", 0.0)),  # type: ignore[arg-type]
     )
 
 
@@ -316,4 +323,5 @@ def observe(
         belief.observations + 1,
         belief.edge_max,
         belief.noise_scale2,
+        belief.prior_widening,
     )

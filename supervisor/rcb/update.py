@@ -74,6 +74,7 @@ from supervisor.rcb.monitor import learned
 from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.prior_check import checked, let_go
 from supervisor.rcb.report_readings import report_readings, setpoints_of
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
 from supervisor.rcb.start import learned_cones as learned_cones  # callers import it from here
@@ -115,26 +116,21 @@ def update(
     operations = {op.name: op for op in state.plan.operations}
     results = {r.name: r for r in setpoints.operations}
     measured_items = report_readings(state, report, operations, results)
+    at = [(*measured_at(operations[n], results[n], q), q, m) for n, q, m in measured_items]
+    state, widened = checked(state, [(*a, report.edge_parts.get(a[0].name)) for a in at])
     maps = _Maps.of(state)
     decisions: list[Decision] = []
     gross: list[HaltedOperation] = []
     chains = _chains(state.monitors)
-    judged = [
-        judge(
-            state,
-            *measured_at(operations[name], results[name], quantity),
-            quantity,
-            m,
-            report,
-            chains.get(quantity, NoiseScale()),
-        )
-        for name, quantity, m in measured_items  # measured_at: a pass's setpoint
+    judged = [  # measured_at: a pass's setpoint
+        judge(state, op, made, quantity, m, report, chains.get(quantity, NoiseScale()))
+        for op, made, quantity, m in at
     ]
     common = _common_changes(state, judged)
     for j in judged:
         noise = chains.get(j.quantity, NoiseScale())
         decision, over = _reading(state, maps, j, report, noise, common.get(j.quantity))
-        decisions.append(decision)
+        decisions.append(let_go(decision, widened.get((j.op.name, j.quantity))))
         if over is not None:
             gross.append(over)
     return _after(state, maps, gross), tuple(decisions)

@@ -124,6 +124,12 @@ class PriorProvenance(Out):
         description="the learned spread of ln K between machines [-] (0.041: 4.1 %)"
     )
     readings: int
+    widened_by_part: str | None = Field(
+        None,
+        description="the serial of the part whose readings showed this machine outside the "
+        "fleet's spread: its ln K was then let go to the catalogue's band, the exponents kept "
+        "(absent: the fleet prior holds)",
+    )
     text: str = Field(description="the provenance as one line")
 
 

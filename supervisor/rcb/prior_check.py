@@ -1,0 +1,183 @@
+r"""Whether a fleet prior holds on this machine: its readings checked against it (issue 32).
+
+A plan started from a fleet prior (:mod:`supervisor.fleet.prior`) believes its machine's
+``ln K`` lies within the fleet's between-machine spread. A machine outside it (another spindle,
+another coolant, a fixture that rings) reads far from that belief, and ``learn`` would explain
+the readings the wrong way: the innovation, several σ of a narrow prior, teaches the measuring
+chain a noise scale ten times the one it claims (:mod:`supervisor.rcb.monitor`), its readings
+then weigh a hundredth of what they are worth and the cone stays where the fleet put it, past
+the limit for parts on end (``closed_loop.py --fleet 4 --fleet-spread 0.06``, seeds 49 and 99:
+finish-od's roughness crossed at parts 1-4 from the fleet prior, never from the catalogue).
+
+The check is the between-machine law made robust: the machine's offset is drawn from the
+fleet's normal spread, or, with probability :data:`OUTLIER_PROBABILITY`, from a law as wide as
+the catalogue's band (a two-component scale mixture, the heavy tail that lets data reject a
+conflicting prior: O'Hagan 1979 [1]_). Before each reading of a quantity whose prior is a
+fleet's and not yet widened, the Bayes factor of the two for every reading so far,
+this one included, is
+
+.. math::
+
+    \ln B = \ln p(y \mid S_w) − \ln p(y \mid S), \qquad
+    \ln p(y \mid N(m, P^{-1})) = \tfrac12\big(\ln|P| − \ln|P'| + b^T P'^{-1} b − m^T P m\big)
+    + c(y)
+
+(the Gaussian linear model's evidence [2]_; ``P' = P + J``, ``b = P m + h``, ``J`` and ``h``
+the readings' information, the posterior's less the start's), with ``S`` the fleet prior and
+``S_w`` the same with the intercept's variance grown by the catalogue prior's. When the
+posterior odds favour the wide law, ``B > (1 − ε)/ε``, the prior is widened for good: the
+belief becomes ``S_w`` with the earlier readings' information, and the reading is then learned
+and judged against it as usual. The exponents and the edge's rise stay the fleet's (the tool's,
+shared by every machine); only the machine's own ``ln K`` is let go. Widening only grows the
+cone: it can slow a plan, never make it less safe. Asymptotically a machine is let go when its
+offset lies beyond about three spreads of the fleet's.
+
+References
+----------
+.. [1] O'Hagan (1979), "On outlier rejection phenomena in Bayes inference", J. R. Statist.
+   Soc. B 41(3), 358-367; Evans & Moshonov (2006), "Checking for prior-data conflict",
+   Bayesian Analysis 1(4), 893-914.
+.. [2] Bishop, Pattern Recognition and Machine Learning (2006), §3.5.1 (the evidence of
+   Bayesian linear regression); Kass & Raftery (1995), "Bayes factors", JASA 90(430), §3.2.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import replace
+
+import numpy as np
+
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import Operation
+from supervisor.optimize.result import OperationResult
+from supervisor.rcb import posterior as post
+from supervisor.rcb.decision import Decision
+from supervisor.rcb.learning import discount
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.state import RcbState
+
+#: The prior probability that a new machine's ``ln K`` lies outside the fleet's spread: the
+#: odds ``(1 − ε)/ε = 19`` a Bayes factor must beat ("strong" evidence, Kass & Raftery 1995).
+OUTLIER_PROBABILITY = 0.05
+
+
+def checked(
+    state: RcbState,
+    readings: Iterable[tuple[Operation, OperationResult, str, Measurement, int | None]],
+) -> tuple[RcbState, dict[tuple[str, str], float]]:
+    """``state`` with the fleet priors its readings reject widened (module docstring).
+
+    ``readings``: per reading its operation (or pass), the setpoint it was made at, the
+    quantity, the measurement and the edge's age. Returns the state and, per widened
+    (operation, quantity), the Bayes factor that widened it.
+    """
+    widened: dict[tuple[str, str], Posterior] = {}
+    factors: dict[tuple[str, str], float] = {}
+    for op, made, quantity, measurement, age in readings:
+        key = (op.name, quantity)
+        start = state.priors.get(key)
+        before = state.posterior.get(key, start)
+        if start is None or before is None or before.prior_widening > 0 or key in widened:
+            continue
+        if not (measurement.value > 0 and measurement.uncertainty > 0):
+            continue
+        variance = _catalogue_variance(state, op, quantity)
+        point = {**made.setpoint, **op.context}
+        found = _widened(state, start, before, variance, point, measurement, age)
+        if found is not None:
+            widened[key], factors[key] = found
+    if not widened:
+        return state, {}
+    return replace(state, posterior={**state.posterior, **widened}), factors
+
+
+def _widened(
+    state: RcbState,
+    start: Posterior,
+    before: Posterior,
+    variance: float,
+    point: dict[str, float],
+    measurement: Measurement,
+    age: int | None,
+) -> tuple[Posterior, float] | None:
+    """The belief on the widened prior and its Bayes factor, or None (the fleet's holds)."""
+    settings = state.settings
+    after = post.observe(
+        before,
+        point,
+        Measurement(measurement.value, measurement.uncertainty * math.sqrt(before.noise_scale2)),
+        settings.coverage_k,
+        settings.tau,
+        age,
+    )
+    factor = log_bayes_factor(start, after, variance)
+    if factor is None or factor <= math.log((1 - OUTLIER_PROBABILITY) / OUTLIER_PROBABILITY):
+        return None
+    return rebased(before, start, variance), math.exp(min(factor, 700.0))
+
+
+def log_bayes_factor(start: Posterior, after: Posterior, variance: float) -> float | None:
+    """``ln B`` of the widened prior against ``start`` for the readings ``after`` holds.
+
+    ``after``: the belief from ``start`` with every reading so far (module docstring);
+    ``variance``: what the widened prior adds to the intercept's. None: a belief whose
+    readings' information is not proper under one of the two priors.
+    """
+    p_start, m = start.precision, start.mean_array
+    info = after.precision - p_start
+    h = after.precision @ after.mean_array - p_start @ m
+    fleet = _log_evidence(m, p_start, info, h)
+    widened = _log_evidence(m, discount(start, variance).precision, info, h)
+    return None if fleet is None or widened is None else widened - fleet
+
+
+def _log_evidence(
+    m: np.ndarray, precision: np.ndarray, info: np.ndarray, h: np.ndarray
+) -> float | None:
+    """``ln p(y)`` less the terms every prior shares (module docstring); None: not proper."""
+    after = precision + info
+    sign0, logdet0 = np.linalg.slogdet(precision)
+    sign1, logdet1 = np.linalg.slogdet(after)
+    if sign0 <= 0 or sign1 <= 0:
+        return None
+    b = precision @ m + h
+    return float(0.5 * (logdet0 - logdet1 + b @ np.linalg.solve(after, b) - m @ precision @ m))
+
+
+def rebased(before: Posterior, start: Posterior, variance: float) -> Posterior:
+    """``before``'s readings on ``start`` widened by ``variance`` (its intercept let go)."""
+    wide = discount(start, variance)
+    information = wide.precision + (before.precision - start.precision)
+    weighted = wide.precision @ wide.mean_array + (
+        before.precision @ before.mean_array - start.precision @ start.mean_array
+    )
+    if float(np.linalg.eigvalsh(0.5 * (information + information.T))[0]) <= 0.0:
+        rebased = discount(before, variance)  # the earlier readings' discounts took more
+    else:
+        cov = np.linalg.inv(information)
+        cov = 0.5 * (cov + cov.T)
+        rebased = replace(
+            before,
+            mean=tuple(float(v) for v in cov @ weighted),
+            cov=tuple(tuple(float(v) for v in row) for row in cov),
+        )
+    return replace(rebased, prior_widening=variance)
+
+
+def _catalogue_variance(state: RcbState, op: Operation, quantity: str) -> float:
+    """The catalogue prior's variance of ``ln K``: ``((ΔK/K)/k)²`` (:func:`.posterior.prior`)."""
+    model = state.plan.tools[op.tool].models[quantity]
+    return ((model.dK / model.K) / state.settings.coverage_k) ** 2
+
+
+def let_go(decision: Decision, factor: float | None) -> Decision:
+    """``decision`` saying that its reading widened the fleet prior (``factor``: its B)."""
+    if factor is None:
+        return decision
+    why = (
+        f"the fleet prior does not hold on this machine (Bayes factor {factor:.3g} for an "
+        "ln K outside the fleet's spread): its ln K is learned from the catalogue's band"
+    )
+    return replace(decision, reason=f"{decision.reason}; {why}")

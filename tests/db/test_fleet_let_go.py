@@ -1,0 +1,89 @@
+"""A fleet prior its machine's readings reject is let go, and every surface says so (issue 32,
+:mod:`supervisor.rcb.prior_check`), on SQLite and PostgreSQL."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+from test_fleet_db import FLEET, LEARN, _body, _learned
+
+from api.cli.main import app
+from api.rest.schemas.parts import parse_report
+from api.services.parts import report_part
+from api.services.plans import create_plan
+from api.services.read import current_setpoints, get_plan
+from db.fleet import fleet_evidence
+from supervisor.fleet.prior import fleet_priors
+from supervisor.inputs.plan import plan_from_mapping
+from supervisor.virtual.fleet import noise_seed
+from supervisor.virtual.simulate import run_part
+
+from conftest import stored_state
+
+PLAN = plan_from_mapping(_body("fleet-d", "lathe-4"))
+
+
+def _report(engine: Any, plan_id: int, serial: str, roughness_factor: float) -> None:
+    """A part of machine 3 of the fleet, its roughness readings times ``roughness_factor``."""
+    state = stored_state(engine, plan_id)
+    rng = np.random.default_rng(noise_seed(11, 3))
+    outcome = run_part(FLEET[3], {op.name: op.setpoint for op in state.setpoints.operations}, rng)
+    operations = []
+    for op, measured in outcome.measurements.items():
+        readings = {}
+        for q, m in measured.items():
+            factor = roughness_factor if q == "roughness_um" else 1.0
+            readings[q] = {"value": m.value * factor, "uncertainty": m.uncertainty * factor}
+        operations.append({"name": op, "measurements": readings})
+    body = {"serial": serial, "setpoint_version": state.version, "operations": operations}
+    assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
+
+
+def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
+    engine, runner, tmp_path
+) -> None:
+    """Roughness at 0.7 x what machine 3 makes (far beyond a 3-5 % spread): the fleet
+    prior of every roughness is let go by that part, force keeps the fleet's; the plan, its
+    setpoints and ``rcb plans show`` say which part let it go; a second part changes nothing
+    more; and the plan's learning still enters the fleet."""
+    _learned(engine, "fleet-a", 0, 12)
+    _learned(engine, "fleet-b", 1, 12)
+    plan_id = int(
+        create_plan(engine=engine, body=_body("fleet-c", "lathe-3"), settings=LEARN).body["id"]
+    )
+    _report(engine, plan_id, "c-1", 0.7)
+    state = stored_state(engine, plan_id)
+    widened = {k for k, b in state.posterior.items() if b.prior_widening > 0}
+    assert widened and {q for _, q in widened} == {"roughness_um"}
+    answers = [
+        get_plan(engine=engine, plan_id=plan_id),
+        current_setpoints(engine=engine, plan_id=plan_id),
+    ]
+    for answer in answers:
+        lines = {(op, p["quantity"]): p for op, ps in answer["provenance"].items() for p in ps}
+        assert {k for k, p in lines.items() if p.get("widened_by_part") == "c-1"} == widened
+        for key in widened:
+            assert (
+                "; let go by part c-1: this machine lies outside the fleet's spread"
+                in lines[key]["text"]
+            )
+    _report(engine, plan_id, "c-2", 0.7)
+    again = get_plan(engine=engine, plan_id=plan_id)
+    assert again["provenance"] == answers[0]["provenance"]  # said once, by the part that did it
+    url = engine.url.render_as_string(hide_password=False)
+    shown = runner.invoke(app, ["plans", "show", "fleet-c", "--db", url], env={"COLUMNS": "80"})
+    assert shown.exit_code == 0, shown.output
+    assert "let go by" in shown.output and "c-1" in shown.output
+    page = tmp_path / "fleet-c.html"
+    done = runner.invoke(app, ["report", "fleet-c", "--db", url, "--out", str(page)])
+    assert done.exit_code == 0, done.output
+    said = "let go where this machine lies outside the fleet&#x27;s spread: "
+    assert said in page.read_text(encoding="utf-8")
+    assert "finish-od roughness_um (part c-1)" in page.read_text(encoding="utf-8")
+    with Session(engine) as session:
+        learned = fleet_evidence(session=session, tool_names=PLAN.tools)
+    assert any(item.plan == "fleet-c" and item.posterior.prior_widening > 0 for item in learned)
+    made = fleet_priors(PLAN, learned, LEARN.coverage_k, LEARN.exponent_sd)
+    assert all("fleet-c" in p.provenance.plans for p in made.values())

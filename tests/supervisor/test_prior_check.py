@@ -1,0 +1,158 @@
+"""A fleet prior its readings reject is widened (issue 32, :mod:`supervisor.rcb.prior_check`).
+
+The Bayes factor is checked against the closed form of a one-parameter model; the learner
+against a virtual machine outside the spread its prior believes in (where the fleet prior,
+unwidened, crossed a roughness limit for parts on end) and one inside it (never widened).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from models.errors import InputError
+from supervisor.fleet.document import item_json, read_item
+from supervisor.fleet.prior import Learned
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import load_plan
+from supervisor.rcb import posterior as post
+from supervisor.rcb.learning import belief_of
+from supervisor.rcb.prior_check import OUTLIER_PROBABILITY, log_bayes_factor, rebased
+from supervisor.rcb.state import RcbSettings, RcbState
+from supervisor.rcb.update import start
+from supervisor.virtual.certificate import ScenarioTrace
+from supervisor.virtual.fleet import fleet_truths, known_priors, machines_of
+from supervisor.virtual.scenario import run_machine
+
+PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
+SETTINGS = RcbSettings(strategy="learn")
+
+
+def _intercept(mean: float, variance: float) -> post.Posterior:
+    """A law with only ``ln Y``: ``ln y = β₀ + ε``."""
+    return post.Posterior("force_N", (), (), {}, (mean,), ((variance,),))
+
+
+def _normal_log_pdf(x: float, variance: float) -> float:
+    return -0.5 * (math.log(2 * math.pi * variance) + x * x / variance)
+
+
+@given(
+    st.floats(-0.5, 0.5),
+    st.floats(1e-4, 1e-2),
+    st.floats(1e-3, 0.1),
+    st.floats(1e-5, 1e-3),
+)
+@settings(max_examples=60, deadline=None)
+def test_the_bayes_factor_is_the_ratio_of_the_two_predictive_densities(
+    reading: float, prior_var: float, widening: float, noise_var: float
+) -> None:
+    """One reading ``z`` of ``β₀ ~ N(0, s²)``: ``B = N(z; 0, s² + v + σ²) / N(z; 0, s² + σ²)``
+    (the evidence of a normal mean with known variance, Gelman et al. §2.5)."""
+    prior = _intercept(0.0, prior_var)
+    y = math.exp(reading)
+    u = 2.0 * math.sqrt(noise_var) * y  # k = 2, relative σ = √noise_var
+    after = post.observe(prior, {}, Measurement(y, u), 2.0, 0.0)
+    factor = log_bayes_factor(prior, after, widening)
+    wide = _normal_log_pdf(reading, prior_var + widening + noise_var)
+    fleet = _normal_log_pdf(reading, prior_var + noise_var)
+    assert factor == pytest.approx(wide - fleet, rel=1e-6, abs=1e-8)
+
+
+def test_a_reading_far_from_the_fleet_widens_and_one_near_it_does_not() -> None:
+    """A fleet prior 2 % wide, the widening 10 %, the reading's noise 1 %: the predictive
+    variances are 5e-4 and 1.05e-2, so a reading ``k`` predictive σ off gives
+    ``ln B = ½ ln(5e-4/1.05e-2) + ½ k² 5e-4 (1/5e-4 − 1/1.05e-2) = −1.522 + 0.4762 k²``
+    (by hand): 0.383 at 2σ (the fleet's holds), and past the odds 19 of
+    :data:`OUTLIER_PROBABILITY` from ``k = 3.06`` on, on either side."""
+    prior, widening, noise = _intercept(0.0, 0.02**2), 0.1**2, 0.01
+    odds = math.log((1 - OUTLIER_PROBABILITY) / OUTLIER_PROBABILITY)
+    sd = math.hypot(0.02, noise)
+
+    def factor(sigmas: float) -> float:
+        y = math.exp(sigmas * sd)
+        after = post.observe(prior, {}, Measurement(y, 2 * noise * y), 2.0, 0.0)
+        found = log_bayes_factor(prior, after, widening)
+        assert found is not None
+        return found
+
+    assert odds == pytest.approx(math.log(19))
+    assert factor(2.0) == pytest.approx(0.3825, abs=1e-3)
+    assert factor(3.0) < odds < factor(3.1)
+    assert factor(-3.1) == pytest.approx(factor(3.1))  # a machine below the fleet too
+
+
+def test_rebased_keeps_the_readings_and_lets_the_intercept_go() -> None:
+    """Readings learned on the fleet prior, moved onto the widened one, give the posterior a
+    learner started on the widened one would have: the same precision from the readings."""
+    prior, widening = _intercept(0.0, 0.02**2), 0.1**2
+    readings = [Measurement(1.2, 0.024), Measurement(1.21, 0.0242)]
+    on_fleet, on_wide = prior, _intercept(0.0, 0.02**2 + widening)
+    for m in readings:
+        on_fleet = post.observe(on_fleet, {}, m, 2.0, 0.0)
+        on_wide = post.observe(on_wide, {}, m, 2.0, 0.0)
+    moved = rebased(on_fleet, prior, widening)
+    assert moved.mean[0] == pytest.approx(on_wide.mean[0], rel=1e-9)
+    assert moved.cov[0][0] == pytest.approx(on_wide.cov[0][0], rel=1e-9)
+    assert moved.prior_widening == widening
+    assert post.from_json(moved.to_json()) == moved  # it is stored with the belief
+
+
+def _run(outside: bool, believed_spread: float, parts: int) -> tuple[ScenarioTrace, RcbState]:
+    """A new machine (6 % spread, ``outside``: at 3 spreads) from the prior of a controller
+    that knows the fleet's law and believes its spread is ``believed_spread``."""
+    seed = 59
+    truths = fleet_truths(PLAN, seed, 0.06)
+    machine = machines_of(PLAN, truths, seed, 1, machine_spread=0.06, outside=outside)[-1]
+    priors = known_priors(PLAN, truths, believed_spread, SETTINGS)
+    return run_machine(start(PLAN, SETTINGS, priors), machine, seed, parts)
+
+
+def test_a_machine_outside_the_believed_spread_crosses_no_limit_after_its_first_part() -> None:
+    """18 % from the fleet where its prior believes 4 %: before the check, finish-grooves'
+    and finish-contour's roughness crossed at parts 2-4 (the innovation taught the chain a
+    noise scale that froze the belief); now only the first part crosses, and the belief
+    carries the widening, the catalogue's ln K variance."""
+    trace, state = _run(outside=True, believed_spread=0.04, parts=8)
+    assert all(part == 1 for part, _, _ in trace.where), trace.where
+    assert trace.where  # the first part: no controller knows the machine before it
+    widened = {k: b.prior_widening for k, b in state.posterior.items() if b.prior_widening > 0}
+    for name in ("finish-grooves", "finish-contour"):
+        op = next(o for o in PLAN.operations if o.name == name)
+        model = PLAN.tools[op.tool].models["roughness_um"]
+        variance = ((model.dK / model.K) / SETTINGS.coverage_k) ** 2
+        assert widened[(name, "roughness_um")] == pytest.approx(variance)
+        assert belief_of(state, op, "roughness_um").observations == 8
+
+
+def test_a_machine_inside_the_spread_keeps_its_fleet_prior() -> None:
+    """The same fleet with a machine inside the spread its prior believes: nothing widens."""
+    _, state = _run(outside=False, believed_spread=0.06, parts=10)
+    assert state.posterior  # every (operation, quantity) learned
+    assert all(b.prior_widening == 0 for b in state.posterior.values())
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "says"),
+    [("prior_widening", -0.01, "must be a number >= 0"), ("noise_scale2", 0.0, "> 0")],
+)
+def test_an_imported_posterior_with_an_impossible_widening_is_refused(
+    field: str, value: float, says: str
+) -> None:
+    """``rcb models import`` reads a plan's belief with its widening: a negative one would
+    make a prior variance negative, a noise scale of 0 readings of infinite weight."""
+    op = next(o for o in PLAN.operations if o.name == "finish-od")
+    tool = PLAN.tools[op.tool]
+    belief = post.prior(tool.models["roughness_um"], op, 2.0, SETTINGS.exponent_sd)
+    item = Learned("m1", "p1", op, tool, belief, 2.0, SETTINGS.exponent_sd)
+    data = item_json(item)
+    data["posterior"][field] = value
+    with pytest.raises(InputError) as raised:
+        read_item(data, "document.learned[0]")
+    assert raised.value.field == f"document.learned[0].posterior.{field}"
+    assert says in str(raised.value)
+    assert read_item(item_json(item), "document.learned[0]").posterior == belief
