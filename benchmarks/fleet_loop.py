@@ -9,7 +9,9 @@ catalogue, and once from the prior of a controller that knows the fleet's law an
 (``known``: the bound of any fleet prior). MRR/oracle is against the new machine's oracle,
 column ``k`` the setpoints in force after ``k`` part reports (``k = 0``: the first part's).
 Every tenth scenario's new machine lies outside the spread the fleet has seen (``δ = ±3 s``);
-its violations are counted apart, and only those at its first part are allowed.
+its violations are counted apart, and only those at its first part are allowed. The new
+machines whose readings let the fleet prior go (:mod:`supervisor.rcb.prior_check`) are
+counted, inside and outside the spread.
 
 Usage (from the repository root)::
 
@@ -67,6 +69,12 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
         out.append(
             f"{which + ' violations':<20} inside: {first_in} at part 1, {later_in} later; "
             f"outside: {first_out}, {later_out}"
+        )
+    for label, chosen in (("inside", inside), ("outside", [t for t in traces if t.outside])):
+        let_go = [t.let_go for t in chosen if t.let_go]
+        out.append(
+            f"fleet prior let go ({label}): {len(let_go)} of {len(chosen)} new machines, "
+            f"{sum(let_go)} quantities"
         )
     learned = sum(t.learned_violations for t in traces)
     out.append(f"learning machines (catalogue start): {learned} violations")

@@ -30,7 +30,10 @@ belief becomes ``S_w`` with the earlier readings' information, and the reading i
 and judged against it as usual. The exponents and the edge's rise stay the fleet's (the tool's,
 shared by every machine); only the machine's own ``ln K`` is let go. Widening only grows the
 cone: it can slow a plan, never make it less safe. Asymptotically a machine is let go when its
-offset lies beyond about three spreads of the fleet's.
+offset lies beyond about three spreads of the fleet's. A reading the monitor will quarantine as
+too good to be true (``LOW_SIGMA`` under the prediction: a loose cable, an air cut) is not
+weighed: a glitch must not throw away what the fleet learned; a fall the next reading
+confirms is a change, whose discount lets ``ln K`` go as the monitor sizes it.
 
 References
 ----------
@@ -55,6 +58,7 @@ from supervisor.optimize.result import OperationResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.learning import discount
+from supervisor.rcb.monitor import LOW_SIGMA
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.state import RcbState
 
@@ -104,18 +108,37 @@ def _widened(
 ) -> tuple[Posterior, float] | None:
     """The belief on the widened prior and its Bayes factor, or None (the fleet's holds)."""
     settings = state.settings
-    after = post.observe(
-        before,
-        point,
-        Measurement(measurement.value, measurement.uncertainty * math.sqrt(before.noise_scale2)),
-        settings.coverage_k,
-        settings.tau,
-        age,
+    counted = Measurement(
+        measurement.value, measurement.uncertainty * math.sqrt(before.noise_scale2)
     )
+    if _implausibly_low(before, point, counted, settings.coverage_k, settings.tau, age):
+        return None  # the monitor's to judge: a glitch must not throw the fleet away
+    after = post.observe(before, point, counted, settings.coverage_k, settings.tau, age)
     factor = log_bayes_factor(start, after, variance)
     if factor is None or factor <= math.log((1 - OUTLIER_PROBABILITY) / OUTLIER_PROBABILITY):
         return None
     return rebased(before, start, variance), math.exp(min(factor, 700.0))
+
+
+def _implausibly_low(
+    belief: Posterior,
+    point: dict[str, float],
+    measurement: Measurement,
+    coverage_k: float,
+    tau: float,
+    age: int | None,
+) -> bool:
+    """A reading :data:`~supervisor.rcb.monitor.LOW_SIGMA` under what ``belief`` predicts.
+
+    The monitor quarantines such a reading (a loose cable, an air cut) until the next one
+    confirms it; a machine truly that far below the fleet is let go once the confirmed
+    readings are in the belief.
+    """
+    phi = belief.features(point, belief.edge_age(age))
+    noise = (measurement.uncertainty / coverage_k) / measurement.value
+    spread = math.sqrt(float(phi @ np.array(belief.cov) @ phi) + tau**2 + noise**2)
+    innovation = math.log(measurement.value) - float(phi @ belief.mean_array)
+    return innovation < -LOW_SIGMA * spread
 
 
 def log_bayes_factor(start: Posterior, after: Posterior, variance: float) -> float | None:

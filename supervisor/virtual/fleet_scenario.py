@@ -47,6 +47,7 @@ class FleetTrace:
     known: ScenarioTrace
     learned_violations: int
     provenance: tuple[Provenance, ...]
+    let_go: int = 0  # the new machine's quantities whose fleet prior its readings let go
 
 
 def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
@@ -98,14 +99,16 @@ def run_fleet_scenario(
     from_fleet = start(plan, settings, {k: p.posterior for k, p in priors.items()})
     known = start(plan, settings, known_priors(plan, truths, machine_spread, settings))
     new, last = fleet[-1], noise_seed(seed, machines - 1)
+    trace, state = run_machine(from_fleet, new, seed, parts, noise_seed=last)
     return FleetTrace(
         seed,
         outside,
-        run_machine(from_fleet, new, seed, parts, noise_seed=last)[0],
+        trace,
         run_machine(catalogue, new, seed, parts, noise_seed=last)[0],
         run_machine(known, new, seed, parts, noise_seed=last)[0],
         violations,
         tuple(p.provenance for _, p in sorted(priors.items())),
+        sum(b.prior_widening > 0 for b in state.posterior.values()),
     )
 
 

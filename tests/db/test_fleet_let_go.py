@@ -44,16 +44,16 @@ def _report(engine: Any, plan_id: int, serial: str, roughness_factor: float) -> 
 def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
     engine, runner, tmp_path
 ) -> None:
-    """Roughness at 0.7 x what machine 3 makes (far beyond a 3-5 % spread): the fleet
-    prior of every roughness is let go by that part, force keeps the fleet's; the plan, its
-    setpoints and ``rcb plans show`` say which part let it go; a second part changes nothing
-    more; and the plan's learning still enters the fleet."""
+    """Roughness at 0.8 x what machine 3 makes (beyond a 3-5 % spread, short of a glitch):
+    the fleet prior of every roughness is let go by that part, force keeps the fleet's; the
+    plan, its setpoints, ``rcb plans show`` and the report say which part let it go; a second
+    part changes nothing more; and the plan's learning still enters the fleet."""
     _learned(engine, "fleet-a", 0, 12)
     _learned(engine, "fleet-b", 1, 12)
     plan_id = int(
         create_plan(engine=engine, body=_body("fleet-c", "lathe-3"), settings=LEARN).body["id"]
     )
-    _report(engine, plan_id, "c-1", 0.7)
+    _report(engine, plan_id, "c-1", 0.8)
     state = stored_state(engine, plan_id)
     widened = {k for k, b in state.posterior.items() if b.prior_widening > 0}
     assert widened and {q for _, q in widened} == {"roughness_um"}
@@ -69,7 +69,7 @@ def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
                 "; let go by part c-1: this machine lies outside the fleet's spread"
                 in lines[key]["text"]
             )
-    _report(engine, plan_id, "c-2", 0.7)
+    _report(engine, plan_id, "c-2", 0.8)
     again = get_plan(engine=engine, plan_id=plan_id)
     assert again["provenance"] == answers[0]["provenance"]  # said once, by the part that did it
     url = engine.url.render_as_string(hide_password=False)

@@ -10,10 +10,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from api.rest.schemas.parts import parse_report
 from models.errors import InputError
 from supervisor.fleet.document import item_json, read_item
 from supervisor.fleet.prior import Learned
@@ -23,10 +25,11 @@ from supervisor.rcb import posterior as post
 from supervisor.rcb.learning import belief_of
 from supervisor.rcb.prior_check import OUTLIER_PROBABILITY, log_bayes_factor, rebased
 from supervisor.rcb.state import RcbSettings, RcbState
-from supervisor.rcb.update import start
+from supervisor.rcb.update import start, update
 from supervisor.virtual.certificate import ScenarioTrace
 from supervisor.virtual.fleet import fleet_truths, known_priors, machines_of
 from supervisor.virtual.scenario import run_machine
+from supervisor.virtual.simulate import run_part
 
 PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
 SETTINGS = RcbSettings(strategy="learn")
@@ -156,3 +159,39 @@ def test_an_imported_posterior_with_an_impossible_widening_is_refused(
     assert raised.value.field == f"document.learned[0].posterior.{field}"
     assert says in str(raised.value)
     assert read_item(item_json(item), "document.learned[0]").posterior == belief
+
+
+def test_a_glitch_far_below_the_fleet_is_quarantined_and_does_not_let_it_go() -> None:
+    """A roughness reading at a tenth of what the machine makes (an air cut) is the monitor's
+    to quarantine, not evidence that the machine is unlike the fleet: every prior holds; a
+    reading at 0.8 x (a machine better than the fleet) lets it go."""
+    seed = 59
+    truths = fleet_truths(PLAN, seed, 0.06)
+    machine = machines_of(PLAN, truths, seed, 1, machine_spread=0.06)[-1]
+    initial = start(PLAN, SETTINGS, known_priors(PLAN, truths, 0.04, SETTINGS))
+    setpoints = {op.name: op.setpoint for op in initial.setpoints.operations}
+    outcome = run_part(machine, setpoints, np.random.default_rng(seed))
+
+    def reported(factor: float) -> RcbState:
+        operations = [
+            {
+                "name": op,
+                "measurements": {
+                    q: {
+                        "value": m.value * (factor if q == "roughness_um" else 1.0),
+                        "uncertainty": m.uncertainty * (factor if q == "roughness_um" else 1.0),
+                    }
+                    for q, m in measured.items()
+                },
+            }
+            for op, measured in outcome.measurements.items()
+        ]
+        body = {"serial": "p-1", "setpoint_version": 1, "operations": operations}
+        state, decisions = update(initial, parse_report(body))
+        notes = {d.note for d in decisions if d.quantity == "roughness_um"}
+        assert (notes == {"implausible_low"}) == (factor < 0.5), notes
+        return state
+
+    glitch, lower = reported(0.1), reported(0.8)
+    assert all(b.prior_widening == 0 for b in glitch.posterior.values())
+    assert {q for (_, q), b in lower.posterior.items() if b.prior_widening > 0} == {"roughness_um"}

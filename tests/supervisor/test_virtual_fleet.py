@@ -104,3 +104,16 @@ def test_the_known_prior_is_the_fleets_law_with_the_spread_on_ln_K() -> None:
     assert set(priors) == {
         (o.name, q) for o in PLAN.operations for q, m in PLAN.tools[o.tool].models.items() if m.dK
     }
+
+
+def test_a_new_machine_far_outside_a_wide_fleet_lets_its_prior_go() -> None:
+    """Scenario 49 at a true spread of 6 %: the new machine, 18 % from the fleet, crossed
+    finish-od's roughness at parts 1-4 from the fleet prior before the prior check (its first
+    reading taught the chain a noise scale ten times its own); now only at part 1, the part
+    no controller can know, and its roughness prior is let go."""
+    trace = run_fleet_scenario(PLAN, 49, 4, parts=6, learn_parts=30, machine_spread=0.06)
+    assert trace.outside
+    assert ("finish-od", "roughness_um") in {(op, q) for _, op, q in trace.fleet.where}
+    assert {part for part, _, _ in trace.fleet.where} == {1}
+    assert trace.let_go >= 1
+    assert not trace.catalogue.where  # the catalogue's wide roughness band never crossed
