@@ -195,7 +195,7 @@ def _catalogue_variance(state: RcbState, op: Operation, quantity: str) -> float:
     return ((model.dK / model.K) / state.settings.coverage_k) ** 2
 
 
-def let_go(decision: Decision, factor: float | None) -> Decision:
+def with_let_go(decision: Decision, factor: float | None) -> Decision:
     """``decision`` saying that its reading widened the fleet prior (``factor``: its B)."""
     if factor is None:
         return decision

@@ -74,7 +74,7 @@ from supervisor.rcb.monitor import learned
 from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.posterior import Posterior
-from supervisor.rcb.prior_check import checked, let_go
+from supervisor.rcb.prior_check import checked, with_let_go
 from supervisor.rcb.report_readings import report_readings, setpoints_of
 from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
 from supervisor.rcb.start import learned_cones as learned_cones  # callers import it from here
@@ -130,7 +130,7 @@ def update(
     for j in judged:
         noise = chains.get(j.quantity, NoiseScale())
         decision, over = _reading(state, maps, j, report, noise, common.get(j.quantity))
-        decisions.append(let_go(decision, widened.get((j.op.name, j.quantity))))
+        decisions.append(with_let_go(decision, widened.get((j.op.name, j.quantity))))
         if over is not None:
             gross.append(over)
     return _after(state, maps, gross), tuple(decisions)

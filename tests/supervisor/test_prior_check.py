@@ -190,6 +190,9 @@ def test_a_glitch_far_below_the_fleet_is_quarantined_and_does_not_let_it_go() ->
         state, decisions = update(initial, parse_report(body))
         notes = {d.note for d in decisions if d.quantity == "roughness_um"}
         assert (notes == {"implausible_low"}) == (factor < 0.5), notes
+        said = "the fleet prior does not hold on this machine (Bayes factor "
+        saying = {(d.operation, d.quantity) for d in decisions if said in d.reason}
+        assert saying == {k for k, b in state.posterior.items() if b.prior_widening > 0}
         return state
 
     glitch, lower = reported(0.1), reported(0.8)
