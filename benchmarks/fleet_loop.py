@@ -53,6 +53,7 @@ def _met(flag: bool) -> str:
 def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str]:
     """The printed lines (module docstring)."""
     inside = [t for t in traces if not t.outside]
+    outside = [t for t in traces if t.outside]
     rows = [k for k in ROWS if k <= parts]
     out: list[str] = []
     for title, cell in (("mean", np.mean), ("p5", lambda r: np.percentile(r, 5))):
@@ -65,12 +66,12 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
     out.append("  (k: part reports the setpoints follow; inside: new machines inside the spread)")
     for which in ("fleet", "catalogue", "known"):
         first_in, later_in = _violations(inside, which)
-        first_out, later_out = _violations([t for t in traces if t.outside], which)
+        first_out, later_out = _violations(outside, which)
         out.append(
             f"{which + ' violations':<20} inside: {first_in} at part 1, {later_in} later; "
             f"outside: {first_out}, {later_out}"
         )
-    for label, chosen in (("inside", inside), ("outside", [t for t in traces if t.outside])):
+    for label, chosen in (("inside", inside), ("outside", outside)):
         let_go = [t.let_go for t in chosen if t.let_go]
         out.append(
             f"fleet prior let go ({label}): {len(let_go)} of {len(chosen)} new machines, "
@@ -88,7 +89,7 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
     r = _ratios(inside, "fleet")
     first, after3 = float(r[:, 0].mean()), float(r[:, min(3, parts)].mean())
     first_in, later_in = _violations(inside, "fleet")
-    later_out = _violations([t for t in traces if t.outside], "fleet")[1]
+    later_out = _violations(outside, "fleet")[1]
     avoidable = first_in + later_in + later_out
     out += [
         f"target first part >= {TARGET_FIRST}: {first:.3f} {_met(first >= TARGET_FIRST)}",

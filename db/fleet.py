@@ -155,10 +155,12 @@ def let_go(
     (:mod:`supervisor.rcb.prior_check`: ``before`` unwidened, ``after`` widened) keeps its
     provenance, with the part that let it go (``widened_by_part``) and the line saying so.
     """
+    if not stored:
+        return None
     out: dict[str, Any] | None = None
     for (op, quantity), belief in sorted(after.items()):
         key, old = f"{op}|{quantity}", before.get((op, quantity))
-        if not stored or key not in stored or belief.prior_widening <= 0:
+        if key not in stored or belief.prior_widening <= 0:
             continue
         if old is not None and old.prior_widening > 0:
             continue

@@ -32,7 +32,7 @@ from supervisor.fleet.hierarchy import (
 )
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
-from supervisor.rcb.learning import discount
+from supervisor.rcb.learning import as_started
 from supervisor.rcb.posterior import Posterior
 
 
@@ -184,8 +184,7 @@ def _start_of(item: Learned, quantity: str) -> Posterior:
     if item.start is None:
         model = item.tool.models[quantity]
         return post.prior(model, item.operation, item.coverage_k, item.exponent_sd, item.edge_sd)
-    widening = item.posterior.prior_widening
-    return discount(item.start, widening) if widening > 0 else item.start
+    return as_started(item.start, item.posterior)
 
 
 def _in_operation_terms(

@@ -57,9 +57,7 @@ def _prior_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
     """
     started = state.priors.get((operation.name, quantity))
     if started is not None:
-        found = state.posterior.get((operation.name, quantity))
-        widening = 0.0 if found is None else found.prior_widening
-        return discount(started, widening) if widening > 0 else started
+        return as_started(started, state.posterior.get((operation.name, quantity)))
     settings = state.settings
     key = (operation.name, quantity, settings.coverage_k, settings.exponent_sd, settings.edge_sd)
     # kept on the (immutable) plan: a part asks for it at every reading and re-check
@@ -313,6 +311,15 @@ def moved(
 ) -> Posterior:
     """The belief of an operation that could not read a common change: moved by it, discounted."""
     return shifted(discount(belief_of(state, operation, quantity), variance), shift)
+
+
+def as_started(start: Posterior, belief: Posterior | None) -> Posterior:
+    """The prior ``belief`` learned from: ``start``, widened if its readings rejected it.
+
+    (:attr:`~supervisor.rcb.posterior.Posterior.prior_widening`, :mod:`.prior_check`.)
+    """
+    widening = 0.0 if belief is None else belief.prior_widening
+    return discount(start, widening) if widening > 0 else start
 
 
 def discount(belief: Posterior, variance: float) -> Posterior:

@@ -30,10 +30,11 @@ belief becomes ``S_w`` with the earlier readings' information, and the reading i
 and judged against it as usual. The exponents and the edge's rise stay the fleet's (the tool's,
 shared by every machine); only the machine's own ``ln K`` is let go. Widening only grows the
 cone: it can slow a plan, never make it less safe. Asymptotically a machine is let go when its
-offset lies beyond about three spreads of the fleet's. A reading the monitor will quarantine as
-too good to be true (``LOW_SIGMA`` under the prediction: a loose cable, an air cut) is not
-weighed: a glitch must not throw away what the fleet learned; a fall the next reading
-confirms is a change, whose discount lets ``ln K`` go as the monitor sizes it.
+offset lies beyond about three spreads of the fleet's. A reading the monitor quarantines
+against the fleet's belief as too good to be true (:mod:`supervisor.rcb.monitor`: a loose
+cable, an air cut) is not weighed: a glitch must not throw away what the fleet learned; a
+fall the next reading confirms is a change, whose discount lets ``ln K`` go as the monitor
+sizes it. A reading that lets the prior go is judged again, against the widened belief.
 
 References
 ----------
@@ -47,20 +48,19 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
 
-from supervisor.inputs.part_report import Measurement
-from supervisor.inputs.plan import Operation
-from supervisor.optimize.result import OperationResult
+from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.rcb import posterior as post
 from supervisor.rcb.decision import Decision
+from supervisor.rcb.judged import Judged, judge
 from supervisor.rcb.learning import discount
-from supervisor.rcb.monitor import LOW_SIGMA
+from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
-from supervisor.rcb.state import RcbState
+from supervisor.rcb.state import RcbState, prior_sigma
 
 #: The prior probability that a new machine's ``ln K`` lies outside the fleet's spread: the
 #: odds ``(1 − ε)/ε = 19`` a Bayes factor must beat ("strong" evidence, Kass & Raftery 1995).
@@ -69,32 +69,52 @@ OUTLIER_PROBABILITY = 0.05
 
 def checked(
     state: RcbState,
-    readings: Iterable[tuple[Operation, OperationResult, str, Measurement, int | None]],
-) -> tuple[RcbState, dict[tuple[str, str], float]]:
+    judged: Sequence[Judged],
+    report: PartReport,
+    chains: Mapping[str, NoiseScale],
+) -> tuple[RcbState, list[Judged], dict[tuple[str, str], float]]:
     """``state`` with the fleet priors its readings reject widened (module docstring).
 
-    ``readings``: per reading its operation (or pass), the setpoint it was made at, the
-    quantity, the measurement and the edge's age. Returns the state and, per widened
-    (operation, quantity), the Bayes factor that widened it.
+    ``judged``: the report's readings as the monitor judged them against the beliefs before
+    (a quarantined one is not weighed); ``chains``: the measuring chains' noise scales
+    (:func:`.judged.judge`), which judge a widened quantity's reading again. Returns the state,
+    the readings as judged against it, and per widened (operation, quantity) the Bayes factor
+    that widened it.
     """
     widened: dict[tuple[str, str], Posterior] = {}
     factors: dict[tuple[str, str], float] = {}
-    for op, made, quantity, measurement, age in readings:
-        key = (op.name, quantity)
+    for j in judged:
+        key = (j.op.name, j.quantity)
         start = state.priors.get(key)
         before = state.posterior.get(key, start)
         if start is None or before is None or before.prior_widening > 0 or key in widened:
             continue
-        if not (measurement.value > 0 and measurement.uncertainty > 0):
-            continue
-        variance = _catalogue_variance(state, op, quantity)
-        point = {**made.setpoint, **op.context}
-        found = _widened(state, start, before, variance, point, measurement, age)
+        if not (j.watched.learns and j.measurement.value > 0 and j.measurement.uncertainty > 0):
+            continue  # a quarantined reading is the monitor's: a glitch must not throw the fleet
+        variance = prior_sigma(state.plan.tools[j.op.tool].models[j.quantity], state.settings) ** 2
+        point = {**j.made.setpoint, **j.op.context}
+        age = report.edge_parts.get(j.op.name)
+        found = _widened(state, start, before, variance, point, j.measurement, age)
         if found is not None:
             widened[key], factors[key] = found
     if not widened:
-        return state, {}
-    return replace(state, posterior={**state.posterior, **widened}), factors
+        return state, list(judged), {}
+    state = replace(state, posterior={**state.posterior, **widened})
+    again = [
+        judge(
+            state,
+            j.op,
+            j.made,
+            j.quantity,
+            j.measurement,
+            report,
+            chains.get(j.quantity, NoiseScale()),
+        )
+        if (j.op.name, j.quantity) in widened
+        else j
+        for j in judged
+    ]
+    return state, again, factors
 
 
 def _widened(
@@ -111,34 +131,11 @@ def _widened(
     counted = Measurement(
         measurement.value, measurement.uncertainty * math.sqrt(before.noise_scale2)
     )
-    if _implausibly_low(before, point, counted, settings.coverage_k, settings.tau, age):
-        return None  # the monitor's to judge: a glitch must not throw the fleet away
     after = post.observe(before, point, counted, settings.coverage_k, settings.tau, age)
     factor = log_bayes_factor(start, after, variance)
     if factor is None or factor <= math.log((1 - OUTLIER_PROBABILITY) / OUTLIER_PROBABILITY):
         return None
     return rebased(before, start, variance), math.exp(min(factor, 700.0))
-
-
-def _implausibly_low(
-    belief: Posterior,
-    point: dict[str, float],
-    measurement: Measurement,
-    coverage_k: float,
-    tau: float,
-    age: int | None,
-) -> bool:
-    """A reading :data:`~supervisor.rcb.monitor.LOW_SIGMA` under what ``belief`` predicts.
-
-    The monitor quarantines such a reading (a loose cable, an air cut) until the next one
-    confirms it; a machine truly that far below the fleet is let go once the confirmed
-    readings are in the belief.
-    """
-    phi = belief.features(point, belief.edge_age(age))
-    noise = (measurement.uncertainty / coverage_k) / measurement.value
-    spread = math.sqrt(float(phi @ np.array(belief.cov) @ phi) + tau**2 + noise**2)
-    innovation = math.log(measurement.value) - float(phi @ belief.mean_array)
-    return innovation < -LOW_SIGMA * spread
 
 
 def log_bayes_factor(start: Posterior, after: Posterior, variance: float) -> float | None:
@@ -187,12 +184,6 @@ def rebased(before: Posterior, start: Posterior, variance: float) -> Posterior:
             cov=tuple(tuple(float(v) for v in row) for row in cov),
         )
     return replace(rebased, prior_widening=variance)
-
-
-def _catalogue_variance(state: RcbState, op: Operation, quantity: str) -> float:
-    """The catalogue prior's variance of ``ln K``: ``((ΔK/K)/k)²`` (:func:`.posterior.prior`)."""
-    model = state.plan.tools[op.tool].models[quantity]
-    return ((model.dK / model.K) / state.settings.coverage_k) ** 2
 
 
 def with_let_go(decision: Decision, factor: float | None) -> Decision:

@@ -116,16 +116,14 @@ def update(
     operations = {op.name: op for op in state.plan.operations}
     results = {r.name: r for r in setpoints.operations}
     measured_items = report_readings(state, report, operations, results)
-    at = [(*measured_at(operations[n], results[n], q), q, m) for n, q, m in measured_items]
-    state, widened = checked(state, [(*a, report.edge_parts.get(a[0].name)) for a in at])
-    maps = _Maps.of(state)
     decisions: list[Decision] = []
     gross: list[HaltedOperation] = []
     chains = _chains(state.monitors)
-    judged = [  # measured_at: a pass's setpoint
-        judge(state, op, made, quantity, m, report, chains.get(quantity, NoiseScale()))
-        for op, made, quantity, m in at
-    ]
+    # measured_at: a pass's setpoint; then (op, made, quantity, measurement)
+    at = [(*measured_at(operations[n], results[n], q), q, m) for n, q, m in measured_items]
+    judged = [judge(state, *a, report, chains.get(a[2], NoiseScale())) for a in at]
+    state, judged, widened = checked(state, judged, report, chains)  # a fleet prior let go
+    maps = _Maps.of(state)
     common = _common_changes(state, judged)
     for j in judged:
         noise = chains.get(j.quantity, NoiseScale())
