@@ -175,13 +175,34 @@ def let_go(
     return out
 
 
+def restarted_json(
+    stored: Mapping[str, Any] | None, priors: Mapping[tuple[str, str], Posterior]
+) -> dict[str, Any] | None:
+    """``plans.prior`` with the starts a reset of the bands goes back to (None: no change).
+
+    A prior the machine let go is stored widened (:func:`supervisor.rcb.learning.restarted`);
+    its provenance, the part that let it go included, stays.
+    """
+    if not stored:
+        return None
+    out = {
+        key: {**value, "posterior": priors[_pair(key)].to_json()}
+        for key, value in stored.items()
+        if _pair(key) in priors
+    }
+    changed = {k: v for k, v in out.items() if v != stored[k]}
+    return {**stored, **changed} if changed else None
+
+
+def _pair(key: str) -> tuple[str, str]:
+    """``(operation, quantity)`` of a ``plans.prior`` key ``OP|QUANTITY``."""
+    op, _, quantity = key.rpartition("|")
+    return op, quantity
+
+
 def priors_of(stored: Mapping[str, Any] | None) -> dict[tuple[str, str], Posterior]:
     """The priors of ``plans.prior`` per (operation, quantity) (empty: the catalogue's)."""
-    out = {}
-    for key, value in (stored or {}).items():
-        op, _, quantity = key.rpartition("|")
-        out[(op, quantity)] = posterior_from_json(value["posterior"])
-    return out
+    return {_pair(key): posterior_from_json(v["posterior"]) for key, v in (stored or {}).items()}
 
 
 def prior_answer(stored: Mapping[str, Any] | None) -> dict[str, Any]:

@@ -16,6 +16,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.errors import ConflictError, PlanNameTakenError
+from db.fleet import restarted_json
 from db.intake import PlanHead
 from db.library import ensure_tool, load_tools
 from db.model_versions import model_version_row, version_numbers
@@ -186,6 +187,9 @@ def add_replan(
     )
     plan_row.current_setpoint_version = after.version
     plan_row.halt = None  # a replan resumes a halted plan
+    prior = restarted_json(plan_row.prior, after.priors)
+    if prior is not None:  # reset bands: a fleet prior the machine let go stays let go
+        plan_row.prior = prior
     if after.settings != before.settings:  # rcb replan --rcb NAME=VALUE
         plan_row.settings = settings_json(after.settings)
     plan_row.state_token = new_token()

@@ -316,10 +316,24 @@ def moved(
 def as_started(start: Posterior, belief: Posterior | None) -> Posterior:
     """The prior ``belief`` learned from: ``start``, widened if its readings rejected it.
 
-    (:attr:`~supervisor.rcb.posterior.Posterior.prior_widening`, :mod:`.prior_check`.)
+    (:attr:`~supervisor.rcb.posterior.Posterior.prior_widening`, :mod:`.prior_check`.) A
+    start that carries a widening of its own (:func:`restarted`) holds it in its variance
+    already: only what ``belief`` was widened beyond it is added.
     """
-    widening = 0.0 if belief is None else belief.prior_widening
+    widening = 0.0 if belief is None else belief.prior_widening - start.prior_widening
     return discount(start, widening) if widening > 0 else start
+
+
+def restarted(start: Posterior, belief: Posterior | None) -> Posterior:
+    """The start a plan goes back to when its bands are reset: ``start`` as it stands.
+
+    A fleet prior the machine's readings let go stays let go (widened, and marked so that
+    :mod:`.prior_check` does not judge it again): an engineer's reset forgets what the plan
+    learned of its process, not that the machine lies outside the fleet.
+    """
+    if belief is None or belief.prior_widening <= start.prior_widening:
+        return start
+    return replace(as_started(start, belief), prior_widening=belief.prior_widening)
 
 
 def discount(belief: Posterior, variance: float) -> Posterior:

@@ -11,7 +11,8 @@ Changes, each keyed by a dotted name and checked like the plan file:
 - ``reset_bands``: every operation's models go back to the tool's baseline (K and ΔK) and RCB
   forgets what it has seen, the rise per part of a worn edge and what it watched in the
   readings (:mod:`supervisor.rcb.monitor`), the ``learn`` strategy its
-  posterior too (Ivester & Heigel: the uncertainty is earned again, part by part).
+  posterior too, back to the prior it started from (Ivester & Heigel: the uncertainty is
+  earned again, part by part); a fleet prior the machine let go stays let go.
 
 The result is a new state (plan, models in force, setpoints); :mod:`api.services.plans` stores it
 as a setpoint version with cause ``replan``.
@@ -29,6 +30,7 @@ from models.errors import InputError
 from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan
+from supervisor.rcb.learning import restarted
 from supervisor.rcb.settings import settings_from_table
 from supervisor.rcb.start import learned_cones
 from supervisor.rcb.state import RcbState, prior_sigma
@@ -131,13 +133,20 @@ def _changed_body(body: Mapping[str, Any], table: Mapping[str, Any]) -> dict[str
 
 
 def _forgotten(state: RcbState) -> RcbState:
-    """``state`` with fresh bands: what RCB saw, the wear, monitors and posteriors forgotten."""
+    """``state`` with fresh bands: what RCB saw, the wear, monitors and posteriors forgotten.
+
+    ``learn`` goes back to the priors it started from, a fleet prior the machine let go still
+    let go (:func:`~supervisor.rcb.learning.restarted`), as a stored plan loads them.
+    """
     sigma = {
         (op, q): prior_sigma(m, state.settings)
         for op, tool in state.tools.items()
         for q, m in tool.models.items()
     }
-    return replace(state, sigma=sigma, seen={}, posterior={}, wear={}, monitors={})
+    priors = {key: restarted(p, state.posterior.get(key)) for key, p in state.priors.items()}
+    return replace(
+        state, sigma=sigma, seen={}, posterior=dict(priors), priors=priors, wear={}, monitors={}
+    )
 
 
 def _split(key: str, where: str, ops: Mapping[str, Any]) -> tuple[str, str]:

@@ -12,7 +12,7 @@ from test_fleet_db import FLEET, LEARN, _body, _learned
 from api.cli.main import app
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
-from api.services.plans import create_plan
+from api.services.plans import create_plan, replan
 from api.services.read import current_setpoints, get_plan
 from db.fleet import fleet_evidence
 from supervisor.fleet.prior import fleet_priors
@@ -87,3 +87,30 @@ def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
     assert any(item.plan == "fleet-c" and item.posterior.prior_widening > 0 for item in learned)
     made = fleet_priors(PLAN, learned, LEARN.coverage_k, LEARN.exponent_sd)
     assert all("fleet-c" in p.provenance.plans for p in made.values())
+
+
+def test_a_reset_of_the_bands_keeps_the_prior_let_go(engine) -> None:
+    """``rcb replan --reset-bands`` after a part let a prior go: the stored plan starts again
+    from the widened prior (its stored start carries the widening), a later part does not let
+    it go a second time, and the provenance still names the part that did."""
+    _learned(engine, "fleet-a", 0, 12)
+    _learned(engine, "fleet-b", 1, 12)
+    plan_id = int(
+        create_plan(engine=engine, body=_body("fleet-c", "lathe-3"), settings=LEARN).body["id"]
+    )
+    _report(engine, plan_id, "c-1", 0.8)
+    let_go = stored_state(engine, plan_id)
+    widened = {k: b.prior_widening for k, b in let_go.posterior.items() if b.prior_widening > 0}
+    said = get_plan(engine=engine, plan_id=plan_id)["provenance"]
+    changes = {"reset_bands": True}
+    assert replan(engine=engine, plan_id=plan_id, changes=changes).status == 201
+    state = stored_state(engine, plan_id)
+    assert {k: p.prior_widening for k, p in state.priors.items() if p.prior_widening} == widened
+    assert all(b.observations == 0 for b in state.posterior.values())
+    assert state.posterior == state.priors
+    _report(engine, plan_id, "c-2", 0.8)
+    after = stored_state(engine, plan_id)
+    assert {k: b.prior_widening for k, b in after.posterior.items() if b.prior_widening} == (
+        widened
+    )
+    assert get_plan(engine=engine, plan_id=plan_id)["provenance"] == said

@@ -8,6 +8,7 @@ unwidened, crossed a roughness limit for parts on end) and one inside it (never 
 from __future__ import annotations
 
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +23,9 @@ from supervisor.fleet.prior import Learned
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
-from supervisor.rcb.learning import belief_of
+from supervisor.rcb.learning import as_started, belief_of
 from supervisor.rcb.prior_check import OUTLIER_PROBABILITY, log_bayes_factor, rebased
+from supervisor.rcb.replan import replan
 from supervisor.rcb.state import RcbSettings, RcbState
 from supervisor.rcb.update import start, update
 from supervisor.virtual.certificate import ScenarioTrace
@@ -31,7 +33,8 @@ from supervisor.virtual.fleet import fleet_truths, known_priors, machines_of
 from supervisor.virtual.scenario import run_machine
 from supervisor.virtual.simulate import run_part
 
-PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
+PLAN_FILE = Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml"
+PLAN = load_plan(PLAN_FILE)
 SETTINGS = RcbSettings(strategy="learn")
 
 
@@ -198,3 +201,30 @@ def test_a_glitch_far_below_the_fleet_is_quarantined_and_does_not_let_it_go() ->
     glitch, lower = reported(0.1), reported(0.8)
     assert all(b.prior_widening == 0 for b in glitch.posterior.values())
     assert {q for (_, q), b in lower.posterior.items() if b.prior_widening > 0} == {"roughness_um"}
+
+
+def test_a_reset_of_the_bands_keeps_a_prior_that_was_let_go_let_go() -> None:
+    """An engineer's ``reset_bands`` forgets what the plan learned, not that the machine lies
+    outside the fleet: ``learn`` goes back to its start, widened where it was let go, and the
+    check does not judge it again. (A start from the fleet's prior unwidened crossed
+    finish-grooves' and finish-contour's roughness at the next part, seeds 60-65.)"""
+    _, state = _run(outside=True, believed_spread=0.04, parts=3)
+    widened = {k: b.prior_widening for k, b in state.posterior.items() if b.prior_widening > 0}
+    assert widened
+    body = tomllib.loads(PLAN_FILE.read_text(encoding="utf-8"))
+    again = replan(state, body, {"reset_bands": True}).state
+    assert {k: b.prior_widening for k, b in again.posterior.items() if b.prior_widening} == widened
+    operations = {op.name: op for op in PLAN.operations}
+    for (name, quantity), belief in again.posterior.items():
+        assert belief.observations == 0  # what was learned is forgotten
+        assert again.priors[(name, quantity)] == belief  # the start, as a stored plan loads it
+        assert belief_of(again, operations[name], quantity) == belief
+        assert as_started(again.priors[(name, quantity)], belief) == belief  # not widened twice
+    truths = fleet_truths(PLAN, 59, 0.06)
+    machine = machines_of(PLAN, truths, 59, 1, machine_spread=0.06, outside=True)[-1]
+    for seed in (60, 63):
+        after, ended = run_machine(again, machine, seed, 4)
+        assert after.where == (), after.where
+        assert {k: b.prior_widening for k, b in ended.posterior.items() if b.prior_widening} == (
+            widened
+        )
