@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from sqlalchemy import exists, or_, select
+from sqlalchemy import ScalarSelect, exists, func, or_, select
 from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
@@ -41,14 +41,7 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     if not names:
         return []
     tools = load_tools(session=session, names=names)
-    b, newest = t.BandState, aliased(t.BandState)
-    latest = (
-        select(newest.id)
-        .where(newest.operation_id == t.Operation.id, newest.quantity == t.ToolModel.quantity)
-        .order_by(newest.part_id.desc())
-        .limit(1)
-        .scalar_subquery()
-    )
+    b = t.BandState
     rows = session.execute(
         select(
             t.Operation,
@@ -64,15 +57,15 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
         .join(t.Plan, t.Operation.plan_id == t.Plan.id)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
-        .join(b, b.id == latest)
+        .join(b, b.id == newest_state())
         .where(t.Tool.name.in_(names), t.Plan.halt.is_(None), b.posterior.is_not(None))
         .where(~exists().where(_excluded))
         .order_by(t.Plan.id, t.Operation.position, b.quantity)
     ).all()
-    changes: dict[str, int] = {}
-    for _, _, plan, _, _, state, _, _ in rows:
-        changes[plan] = changes.get(plan, 0) + _changes(state.monitor)
-    changed = {plan for _, _, plan, _, _, _, _, accepted in rows if changes[plan] > accepted}
+    changes = plan_changes(session=session, plan_ids={op.plan_id for op, *_ in rows})
+    changed = {
+        plan for op, _, plan, _, _, _, _, accepted in rows if changes.get(op.plan_id, 0) > accepted
+    }
     out = []
     for op, tool, plan, stored, machine, state, started, _ in rows:
         settings = settings_of(stored)
@@ -99,9 +92,51 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
 _excluded = or_(t.FleetExclusion.plan_id == t.Plan.id, t.FleetExclusion.machine == t.Machine.name)
 
 
-def _changes(monitor: dict[str, object] | None) -> int:
-    """The changes of its process a quantity's monitor counted."""
-    return 0 if monitor is None else monitor_from_json(monitor).changes
+def newest_state() -> ScalarSelect[int]:
+    """The id of the newest band state of the outer query's operation and tool quantity.
+
+    Correlated with ``operations`` and ``tool_models``; an index seek on ``band_states
+    (operation_id, quantity, part_id)``. States of parts a replan's ``reset_bands`` forgot are
+    left out (as :func:`db.state.load_state` leaves them): none until a part after it.
+    """
+    newest, revision = aliased(t.BandState), aliased(t.PlanRevision)
+    reset = (
+        select(func.coalesce(func.max(revision.bands_reset_after_part), 0))
+        .where(revision.plan_id == t.Operation.plan_id, revision.reset_bands.is_(True))
+        .correlate(t.Operation)
+        .scalar_subquery()
+    )
+    return (
+        select(newest.id)
+        .where(newest.operation_id == t.Operation.id, newest.quantity == t.ToolModel.quantity)
+        .where(newest.part_id > reset)
+        .order_by(newest.part_id.desc())
+        .limit(1)
+        .scalar_subquery()
+    )
+
+
+def plan_changes(*, session: Session, plan_ids: Iterable[int]) -> dict[int, int]:
+    """Per plan, the changes of its process its monitors counted (every quantity, one statement).
+
+    What ``rcb fleet include`` accepts (``plans.fleet_changes_accepted``) and what takes a plan
+    out of the fleet when it grows beyond that: counted the same way for both, over the whole
+    plan whichever tools a new plan asks for, since the last reset of its bands.
+    """
+    ids = sorted(set(plan_ids))
+    if not ids:
+        return {}
+    b = t.BandState
+    rows = session.execute(
+        select(t.Operation.plan_id, b.monitor)
+        .join(t.ToolModel, t.ToolModel.tool_id == t.Operation.tool_id)
+        .join(b, b.id == newest_state())
+        .where(t.Operation.plan_id.in_(ids), b.monitor.is_not(None))
+    ).all()
+    out = dict.fromkeys(ids, 0)
+    for plan_id, monitor in rows:
+        out[plan_id] += monitor_from_json(monitor).changes
+    return out
 
 
 def _operation(row: t.Operation, tool: str) -> Operation:

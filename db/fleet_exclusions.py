@@ -11,8 +11,8 @@ from sqlalchemy import delete, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.fleet import plan_changes
 from db.plans import get_plan_row
-from db.state import load_state
 from models.errors import InputError
 
 
@@ -39,7 +39,7 @@ def include(*, session: Session, plan_id: int | None, machine: str | None) -> in
     if row is None:
         raise InputError("PLAN", plan_id, "no such plan")
     session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.plan_id == plan_id))
-    changes = sum(m.changes for m in load_state(session=session, plan_row=row).monitors.values())
+    changes = plan_changes(session=session, plan_ids=[row.id])[row.id]
     row.fleet_changes_accepted = changes
     return changes
 

@@ -187,6 +187,8 @@ def add_replan(
     )
     plan_row.current_setpoint_version = after.version
     plan_row.halt = None  # a replan resumes a halted plan
+    if reset_bands:  # the monitors start again: so does the count of changes (db.fleet)
+        plan_row.fleet_changes_accepted = 0
     prior = restarted_json(plan_row.prior, after.priors)
     if prior is not None:  # reset bands: a fleet prior the machine let go stays let go
         plan_row.prior = prior

@@ -49,6 +49,12 @@ def _learned(  # type: ignore[no-untyped-def]
     """A plan on machine ``machine`` of :data:`FLEET` that made ``parts`` parts with learn."""
     body = _body(name, f"lathe-{machine}")
     plan_id = int(create_plan(engine=engine, body=body, settings=LEARN, prior=prior).body["id"])
+    _made(engine, plan_id, machine, name, parts)
+    return plan_id
+
+
+def _made(engine, plan_id: int, machine: int, name: str, parts: int) -> None:  # type: ignore[no-untyped-def]
+    """``parts`` parts of plan ``plan_id`` on machine ``machine``, serials ``name-1`` …"""
     state = stored_state(engine, plan_id)
     rng = np.random.default_rng(noise_seed(11, machine))
     for i in range(parts):
@@ -71,7 +77,6 @@ def _learned(  # type: ignore[no-untyped-def]
         }
         assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
         state = stored_state(engine, plan_id)
-    return plan_id
 
 
 def test_a_new_plan_starts_from_two_machines_and_says_so(engine) -> None:

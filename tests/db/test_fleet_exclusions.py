@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
-from test_fleet_db import LEARN, _body, _learned
+from test_fleet_db import LEARN, _body, _learned, _made
 
 from api.cli.main import app
 from api.services.fleet_models import exclude_from_fleet, include_in_fleet
-from api.services.plans import create_plan
+from api.services.plans import create_plan, replan
 from db import tables as t
+from db.fleet import fleet_evidence
 
 
 def _plans_behind(engine, name: str) -> list[str]:  # type: ignore[no-untyped-def]
@@ -69,3 +70,51 @@ def test_rcb_fleet_at_the_cli_names_what_is_wrong(engine, runner) -> None:
     assert done.exit_code == 2 and "--machine = 'nope'" in done.output
     done = runner.invoke(app, ["fleet", "include", "--plan", "fleet-a", "--db", url])
     assert done.exit_code == 0 and "plan 1 is back in the fleet" in done.output
+
+
+def _count_changes(engine, plan_id: int, op: str, changes: int) -> None:  # type: ignore[no-untyped-def]
+    """The newest monitor of ``op``'s first quantity has counted ``changes``."""
+    with Session(engine) as session, session.begin():
+        newest = session.scalars(
+            select(t.BandState)
+            .join(t.Operation, t.BandState.operation_id == t.Operation.id)
+            .where(t.Operation.plan_id == plan_id, t.Operation.name == op)
+            .order_by(t.BandState.id.desc())
+        ).first()
+        assert newest is not None and newest.monitor is not None
+        newest.monitor = {**newest.monitor, "changes": changes}
+
+
+def _in_fleet(engine, tool: str) -> set[str]:  # type: ignore[no-untyped-def]
+    with Session(engine) as session:
+        return {item.plan for item in fleet_evidence(session=session, tool_names=[tool])}
+
+
+def test_a_change_after_those_accepted_takes_the_plan_out_whatever_tool_asks(engine) -> None:
+    """Changes are counted over the whole plan, as an engineer accepts them: with one change
+    on rough-od's insert and one on rough-grooves' accepted, a second on rough-od's is not
+    (before, a plan asking only for CNMG432RN counted 2 changes against 2 accepted)."""
+    a = _learned(engine, "fleet-a", 0, 3)
+    _count_changes(engine, a, "rough-od", 1)
+    _count_changes(engine, a, "rough-grooves", 1)
+    assert _in_fleet(engine, "CNMG432RN") == _in_fleet(engine, "VCMR331") == set()
+    assert include_in_fleet(engine=engine, plan_id=a, machine=None).body["changes_accepted"] == 2
+    assert _in_fleet(engine, "CNMG432RN") == {"fleet-a"}
+    _count_changes(engine, a, "rough-od", 2)
+    assert _in_fleet(engine, "CNMG432RN") == _in_fleet(engine, "VCMR331") == set()
+
+
+def test_a_reset_of_the_bands_starts_the_count_of_changes_again(engine) -> None:
+    """``rcb replan --reset-bands`` forgets the monitors and what the plan learned: the plan's
+    models are out of the fleet until a part after it (nothing learned since), its accepted
+    changes count from 0 again, and a change after it takes the plan out."""
+    a = _learned(engine, "fleet-a", 0, 3)
+    _count_changes(engine, a, "rough-od", 1)
+    include_in_fleet(engine=engine, plan_id=a, machine=None)
+    assert _in_fleet(engine, "CNMG432RN") == {"fleet-a"}
+    assert replan(engine=engine, plan_id=a, changes={"reset_bands": True}).status == 201
+    assert _in_fleet(engine, "CNMG432RN") == set()  # nothing learned since the reset
+    _made(engine, a, 0, "fleet-a-r", 2)
+    assert _in_fleet(engine, "CNMG432RN") == {"fleet-a"}
+    _count_changes(engine, a, "rough-od", 1)
+    assert _in_fleet(engine, "CNMG432RN") == set()
