@@ -1,4 +1,4 @@
-"""``rcb fleet exclude`` and ``rcb fleet include``: which plans make new plans' fleet priors.
+"""``rcb fleet show``, ``exclude`` and ``include``: which plans make new plans' fleet priors.
 
 A plan or a machine an engineer takes out no longer counts in any new plan's prior (a machine
 with a loose spindle, a plan cut on the wrong material); a plan whose process changed is out
@@ -7,12 +7,16 @@ by itself until an engineer puts it back, which accepts the changes it counted s
 
 from __future__ import annotations
 
-from typing import Annotated
+import json
+from typing import Annotated, Any
 
 import typer
+from rich.console import Console
 
-from api.cli.common import DbOption, errors, existing_engine, plan_of, say
+from api.cli.common import DbOption, JsonOption, errors, existing_engine, plan_of, say
+from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
+from api.services import request_limits
 
 fleet_app = typer.Typer(
     help="Which plans and machines make new plans' fleet priors (learn's start).",
@@ -25,6 +29,56 @@ PlanOption = Annotated[
 MachineOption = Annotated[
     str | None, typer.Option("--machine", help="A machine, by name.", show_default=False)
 ]
+
+
+@fleet_app.command("show")
+def show(
+    tool: Annotated[str, typer.Argument(help="The tool, by name.", show_default=False)],
+    limit: Annotated[
+        int, typer.Option(help=f"Plans on the page (1-{request_limits.READ_PAGE}).")
+    ] = 100,
+    cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """The plans using TOOL: in the fleet or why not, readings, priors let go."""
+    from api.services.errors import NotFoundError
+    from api.services.read.fleet import fleet_members
+    from api.settings import database_field, database_url
+    from models.errors import InputError
+
+    with errors():
+        engine = existing_engine(database_url(db), database_field(db))
+        try:
+            page = fleet_members(engine=engine, tool=tool, cursor=cursor, page_size=limit)
+        except InputError as err:  # limit, cursor: the options' names
+            raise InputError(f"--{err.field}", err.value, err.reason) from None
+        except NotFoundError:
+            raise InputError(
+                "TOOL", tool, "no such tool in the catalogue or the database"
+            ) from None
+    if as_json:
+        say(json.dumps(page))
+        return
+    _print_members(page, first=cursor is None)
+    if page["next_cursor"] is not None:
+        say(f"rcb: next page: rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}")
+
+
+def _print_members(page: dict[str, Any], first: bool) -> None:
+    table = new_table(title=f"{page['tool']}: the plans using it")
+    for column in ("id", "plan", "machine", "readings", "in the fleet"):
+        table.add_column(column, justify="right" if column in ("id", "readings") else "left")
+    for m in page["plans"]:
+        fleet = "yes" if not m["out"] else f"no: {m['out']}"
+        if m["let_go"]:
+            fleet += f"; prior let go: {', '.join(m['let_go'])}"
+        table.add_row(str(m["plan_id"]), m["plan"], m["machine"], str(m["readings"]), fleet)
+    Console().print(table)
+    if page["imported"]:
+        say(f"rcb: and {page['imported']} learned models imported from other databases")
+    if first and not page["plans"]:
+        say(f"rcb: no stored plan uses {page['tool']}: new plans start from the catalogue")
 
 
 @fleet_app.command("exclude")

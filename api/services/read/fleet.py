@@ -1,0 +1,45 @@
+"""A tool's fleet: the stored plans that use it, in the fleet or why not (``rcb fleet show``).
+
+A page of plans by id (:func:`db.fleet_members.members`); the cursor is the last plan's id.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from typing import Any
+
+from sqlalchemy import Engine, func, select
+
+from api.services.errors import NotFoundError
+from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read
+from db import tables as t
+from db.fleet_members import members
+from models.catalogue import catalogue
+
+
+def fleet_members(
+    *, engine: Engine, tool: str, cursor: str | None = None, page_size: int = LIST_PAGE
+) -> dict[str, Any]:
+    """A page of the plans using ``tool``: each in the fleet (``out`` empty) or why not.
+
+    ``imported``: the learned models of the tool other databases exported and this one
+    imported (``rcb models import``), in every new plan's fleet.
+    """
+    _bounded(page_size)
+    after = _cursor(cursor)
+    with _read(engine) as session, session.begin():
+        known = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
+        if known is None and tool not in catalogue():
+            raise NotFoundError("tool", tool)
+        rows = members(session=session, tool=tool, after_id=after, limit=page_size + 1)
+        imported = session.scalar(
+            select(func.count()).select_from(t.ImportedModel).where(t.ImportedModel.tool == tool)
+        )
+    more = len(rows) > page_size
+    rows = rows[:page_size]
+    return {
+        "tool": tool,
+        "plans": [asdict(m) for m in rows],
+        "imported": int(imported or 0),
+        "next_cursor": str(rows[-1].plan_id) if more else None,
+    }

@@ -1,0 +1,152 @@
+"""Which stored plans using a tool make new plans' fleet priors, and why the others do not.
+
+``rcb fleet show TOOL``: the plans whose operations use the tool, a page at a time by id,
+each with its machine and whether its learned models are in the fleet (what
+:func:`db.fleet.fleet_evidence` reads) or why not: an engineer took the plan or its machine
+out, its process changed beyond what an engineer accepted, it is halted, its strategy learns
+no posterior, or no part was reported since its bands were last reset. Four statements a
+page, however many plans use the tool and however many parts they made.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from sqlalchemy import or_, select
+from sqlalchemy.orm import Session
+
+from db import tables as t
+from db.fleet import newest_state, plan_changes, priors_of
+from db.plan_state import settings_of
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.posterior import from_json as posterior_from_json
+
+
+@dataclass(frozen=True)
+class Member:
+    """A plan using the tool: in the fleet (``out`` empty) or why not; what it learned."""
+
+    plan_id: int
+    plan: str
+    machine: str
+    operations: tuple[str, ...]
+    readings: int
+    out: str
+    let_go: tuple[str, ...]
+
+
+def members(*, session: Session, tool: str, after_id: int, limit: int) -> list[Member]:
+    """Up to ``limit`` plans using ``tool`` with id above ``after_id``, by id (module doc)."""
+    plans = session.execute(
+        select(t.Plan, t.Machine.name)
+        .join(t.Machine, t.Plan.machine_id == t.Machine.id)
+        .where(
+            t.Plan.id > after_id,
+            t.Plan.id.in_(
+                select(t.Operation.plan_id)
+                .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+                .where(t.Tool.name == tool)
+            ),
+        )
+        .order_by(t.Plan.id)
+        .limit(limit)
+    ).all()
+    if not plans:
+        return []
+    ids = [row.id for row, _ in plans]
+    states = _states(session, tool, ids)
+    changes = plan_changes(session=session, plan_ids=ids)
+    exclusions = session.scalars(
+        select(t.FleetExclusion)
+        .where(
+            or_(
+                t.FleetExclusion.plan_id.in_(ids),
+                t.FleetExclusion.machine.in_({machine for _, machine in plans}),
+            )
+        )
+        .order_by(t.FleetExclusion.id)
+    ).all()
+    return [
+        _member(row, machine, states.get(row.id, []), exclusions, changes[row.id])
+        for row, machine in plans
+    ]
+
+
+def _states(
+    session: Session, tool: str, plan_ids: Sequence[int]
+) -> dict[int, list[tuple[str, t.BandState | None]]]:
+    """Per plan, its operations on ``tool`` with the newest band state of each quantity."""
+    b = t.BandState
+    rows = session.execute(
+        select(t.Operation.plan_id, t.Operation.name, b)
+        .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+        .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
+        .outerjoin(b, b.id == newest_state())
+        .where(t.Tool.name == tool, t.Operation.plan_id.in_(plan_ids))
+        .order_by(t.Operation.plan_id, t.Operation.position, t.ToolModel.quantity)
+    ).all()
+    out: dict[int, list[tuple[str, t.BandState | None]]] = {}
+    for plan_id, operation, state in rows:
+        out.setdefault(plan_id, []).append((operation, state))
+    return out
+
+
+def _member(
+    row: t.Plan,
+    machine: str,
+    states: Sequence[tuple[str, t.BandState | None]],
+    exclusions: Sequence[t.FleetExclusion],
+    changes: int,
+) -> Member:
+    operations = tuple(dict.fromkeys(op for op, _ in states))
+    beliefs = {
+        (op, s.quantity): posterior_from_json(s.posterior)
+        for op, s in states
+        if s is not None and s.posterior is not None
+    }
+    starts = {k: p for k, p in priors_of(row.prior).items() if k[0] in operations}
+    let_go = tuple(
+        f"{op} {q}"
+        for (op, q), start in starts.items()
+        if max(start.prior_widening, _widening(beliefs.get((op, q)))) > 0
+    )
+    return Member(
+        row.id,
+        row.name,
+        machine,
+        operations,
+        sum(b.observations for b in beliefs.values()),
+        _why_out(row, machine, bool(beliefs), changes, exclusions),
+        let_go,
+    )
+
+
+def _widening(belief: Posterior | None) -> float:
+    return 0.0 if belief is None else belief.prior_widening
+
+
+def _why_out(
+    row: t.Plan,
+    machine: str,
+    learned: bool,
+    changes: int,
+    exclusions: Sequence[t.FleetExclusion],
+) -> str:
+    """Why the plan's models are not in the fleet ("" where they are): the first that holds."""
+    for e in exclusions:
+        if e.plan_id == row.id:
+            return f"taken out by {e.actor}: {e.reason}"
+        if e.machine == machine:
+            return f"machine {machine} taken out by {e.actor}: {e.reason}"
+    if row.halt is not None:
+        return "halted"
+    strategy = settings_of(row.settings).strategy
+    if strategy != "learn":
+        return f"strategy {strategy} learns no posterior"
+    if changes > row.fleet_changes_accepted:
+        unaccepted = changes - row.fleet_changes_accepted
+        return f"its process changed ({unaccepted} not accepted: rcb fleet include)"
+    if not learned:
+        return "no part reported yet"
+    return ""

@@ -1,0 +1,106 @@
+"""``rcb fleet show TOOL``: which plans make new plans' fleet priors and why the others do not
+(issue 32), a page at a time, in the same statements for any count (SQLite and PostgreSQL)."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from sqlalchemy import event
+from sqlalchemy.orm import Session
+from test_fleet_db import LEARN, _body, _learned
+
+from api.cli.main import app
+from api.services.fleet_models import exclude_from_fleet
+from api.services.plans import create_plan
+from db.fleet_members import members
+from supervisor.rcb.state import RcbSettings
+
+
+def _show(runner, url: str, *args: str) -> Any:  # type: ignore[no-untyped-def]
+    return runner.invoke(app, ["fleet", "show", *args, "--db", url], env={"COLUMNS": "80"})
+
+
+def test_the_fleet_of_a_tool_says_who_is_in_and_why_the_others_are_not(engine, runner) -> None:
+    """fleet-a learned and is in; fleet-b learned but its machine was taken out; fleet-c runs
+    RCB's band law (no posterior); fleet-d is new (no part yet); what each learned."""
+    _learned(engine, "fleet-a", 0, 2)
+    _learned(engine, "fleet-b", 1, 2)
+    exclude_from_fleet(engine=engine, plan_id=None, machine="lathe-1", reason="loose spindle")
+    create_plan(
+        engine=engine, body=_body("fleet-c", "lathe-2"), settings=RcbSettings(strategy="ivester")
+    )
+    create_plan(engine=engine, body=_body("fleet-d", "lathe-3"), settings=LEARN)
+    url = engine.url.render_as_string(hide_password=False)
+    shown = _show(runner, url, "VCMR331")
+    assert shown.exit_code == 0, shown.output
+    assert max(len(line) for line in shown.output.splitlines()) <= 80
+    text = " ".join(shown.output.split())
+    for said in (
+        "1 fleet-a lathe-0 8 yes",  # 2 operations x 2 quantities x 2 parts
+        "no: machine lathe-1 taken out by",
+        "loose spindle",
+        "no: strategy",
+        "no: no part reported",
+    ):
+        assert said in text, said
+    page = json.loads(_show(runner, url, "VCMR331", "--json").output)
+    assert [(m["plan"], m["readings"], bool(m["out"])) for m in page["plans"]] == [
+        ("fleet-a", 8, False),
+        ("fleet-b", 8, True),
+        ("fleet-c", 0, True),
+        ("fleet-d", 0, True),
+    ]
+    assert page["plans"][0]["operations"] == ["rough-grooves", "rough-contour"]
+    first = json.loads(_show(runner, url, "VCMR331", "--json", "--limit", "3").output)
+    assert [m["plan"] for m in first["plans"]] == ["fleet-a", "fleet-b", "fleet-c"]
+    rest = _show(runner, url, "VCMR331", "--json", "--cursor", first["next_cursor"])
+    assert [m["plan"] for m in json.loads(rest.output)["plans"]] == ["fleet-d"]
+    assert (
+        "rcb fleet show VCMR331 --cursor 3 --limit 3"
+        in _show(runner, url, "VCMR331", "--limit", "3").output
+    )
+
+
+def test_rcb_fleet_show_names_what_is_wrong(engine, runner) -> None:
+    url = engine.url.render_as_string(hide_password=False)
+    unused = _show(runner, url, "CNMG432RN")
+    assert unused.exit_code == 0 and "no stored plan uses CNMG432RN" in unused.output
+    _learned(engine, "fleet-a", 0, 1)
+    for args, said in (
+        (["NOPE"], "TOOL = 'NOPE'"),
+        (["VCMR331", "--limit", "0"], "--limit = 0"),
+        (["VCMR331", "--cursor", "x"], "--cursor = 'x'"),
+    ):
+        done = _show(runner, url, *args)
+        assert done.exit_code != 0 and said in done.output, done.output
+        assert "Traceback" not in done.output
+    last = _show(runner, url, "VCMR331", "--cursor", "1")  # past the last plan: an empty page
+    assert last.exit_code == 0 and "no stored plan uses" not in last.output
+
+
+def test_a_page_of_the_fleet_is_read_in_the_same_statements_for_two_plans_as_for_four(
+    engine,
+) -> None:
+    counted: list[str] = []
+
+    def count(*args: Any) -> None:
+        counted.append(args[2])
+
+    def statements() -> int:
+        counted.clear()
+        event.listen(engine, "before_cursor_execute", count)
+        try:
+            with Session(engine) as session:
+                found = members(session=session, tool="CNMG432RN", after_id=0, limit=100)
+        finally:
+            event.remove(engine, "before_cursor_execute", count)
+        assert found
+        return len(counted)
+
+    _learned(engine, "n-a", 0, 2)
+    _learned(engine, "n-b", 1, 2)
+    two = statements()
+    _learned(engine, "n-c", 2, 2)
+    _learned(engine, "n-d", 3, 2)
+    assert statements() == two
