@@ -36,9 +36,19 @@ class Member:
     let_go: tuple[str, ...]
 
 
-def members(*, session: Session, tool: str, after_id: int, limit: int) -> list[Member]:
-    """Up to ``limit`` plans using ``tool`` with id above ``after_id``, by id (module doc)."""
-    plans = session.execute(
+def members(
+    *,
+    session: Session,
+    tool: str,
+    after_id: int,
+    limit: int,
+    only: frozenset[int] | None = None,
+) -> list[Member]:
+    """Up to ``limit`` plans using ``tool`` with id above ``after_id``, by id (module doc).
+
+    ``only``: just these plan ids (a REST key scoped to plans), filtered in the query.
+    """
+    query = (
         select(t.Plan, t.Machine.name)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .where(
@@ -51,7 +61,10 @@ def members(*, session: Session, tool: str, after_id: int, limit: int) -> list[M
         )
         .order_by(t.Plan.id)
         .limit(limit)
-    ).all()
+    )
+    if only is not None:
+        query = query.where(t.Plan.id.in_(sorted(only)))
+    plans = session.execute(query).all()
     if not plans:
         return []
     ids = [row.id for row, _ in plans]

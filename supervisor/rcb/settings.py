@@ -36,6 +36,10 @@ from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY
 #: A reading past its limit by more than this fraction of the limit halts the plan [-] (TMAC's
 #: extreme limit, Heidenhain AFC's overload reaction).
 DEFAULT_HALT_OVER = 0.25
+#: The least ``coverage_k``: a catalogue band of ±ΔK is at least half its scatter's standard
+#: deviation. Below it the prior's ln K variance ``((ΔK/K)/k)²`` was astronomically wide (at
+#: ``k = 10⁻³`` a learn plan's first report overflowed: a 500 where the input was wrong).
+COVERAGE_K_LOW = 0.5
 
 #: ``number``: a float in a range; ``choice``: one of :attr:`Setting.choices`; ``floors``: a
 #: table of numbers >= 0 keyed by model quantity.
@@ -137,7 +141,7 @@ SETTINGS: Mapping[str, Setting] = {
         Setting("strategy", "RCB strategy", DEFAULT_STRATEGY, "choice", among=REGISTRY),
         Setting("alpha", "fraction of the margin", DEFAULT_ALPHA, low=0, high=1, open_low=True),
         Setting("floors", "least band per quantity; default: the u", {}, "floors", low=0),
-        Setting("coverage_k", "the band as k σ", 2.0, low=0, high=100, open_low=True),
+        Setting("coverage_k", "the band as k σ", 2.0, low=COVERAGE_K_LOW, high=100),
         Setting("discrepancy", "τ; default: the strategy's", None, low=0, high=10),
         Setting(
             "z", "learn: the cone's z", _posterior("DEFAULT_Z"), low=0, high=100, open_low=True

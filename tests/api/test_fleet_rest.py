@@ -4,12 +4,15 @@ fleet learn over REST, a third starts from them, faster than the catalogue, and 
 from __future__ import annotations
 
 import copy
+import json
 import uuid
 from typing import Any
 
+import httpx
 import numpy as np
 from test_service import BODY
 
+from api.cli.main import app
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.virtual.fleet import noise_seed, sample_fleet
@@ -83,3 +86,57 @@ def test_a_prior_that_is_not_one_is_a_problem_naming_it(server) -> None:
     assert r.status_code == 422
     assert r.headers["content-type"].startswith("application/problem+json")
     assert "prior" in r.text and "flet" in r.text
+
+
+def _fleet_of(client, tool: str, limit: int) -> list[dict[str, Any]]:  # type: ignore[no-untyped-def]
+    """Every plan of GET /tools/{tool}/fleet, a page of ``limit`` at a time (at most 50)."""
+    found, cursor = [], None
+    for _ in range(50):
+        params = {"limit": limit, **({"cursor": cursor} if cursor else {})}
+        r = client.get(f"/tools/{tool}/fleet", params=params)
+        assert r.status_code == 200, r.text
+        found += r.json()["plans"]
+        cursor = r.json()["next_cursor"]
+        if cursor is None:
+            return found
+    raise AssertionError("more than 50 pages")
+
+
+def test_the_fleet_of_a_tool_over_rest_says_who_is_in_and_a_scoped_key_sees_its_own(
+    server, runner
+) -> None:
+    """GET /tools/{name}/fleet pages the plans using a tool: a learned plan is in, one whose
+    machine an engineer took out is not and says why; a key scoped to one plan sees only it;
+    an unknown tool is a 404 problem naming it."""
+    tag = uuid.uuid4().hex[:8]
+    with server.client("engineer") as eng, server.client("mes") as mes:
+        _learn(eng, mes, f"{tag}-a", 0, 2)
+        _learn(eng, mes, f"{tag}-b", 1, 2)
+        listed = {p["plan"]: p for p in _fleet_of(mes, "VCMR331", 2)}
+        missing = eng.get("/tools/NO-SUCH-TOOL/fleet")
+    a, b = listed[f"fleet-{tag}-a"], listed[f"fleet-{tag}-b"]
+    assert a["in_fleet"] and a["out"] == "" and a["readings"] == 8
+    assert a["operations"] == ["rough-grooves", "rough-contour"]
+    assert missing.status_code == 404
+    assert missing.headers["content-type"].startswith("application/problem+json")
+    assert "NO-SUCH-TOOL" in missing.text
+    out = runner.invoke(
+        app,
+        ["fleet", "exclude", "--machine", b["machine"], "--reason", "loose spindle"]
+        + ["--db", server.url],
+    )
+    assert out.exit_code == 0, out.output
+    with server.client("viewer") as viewer:
+        again = {p["plan"]: p for p in _fleet_of(viewer, "VCMR331", 100)}
+    assert not again[b["plan"]]["in_fleet"]
+    assert "loose spindle" in again[b["plan"]]["out"]
+    key = runner.invoke(
+        app,
+        ["keys", "create", "--role", "viewer", "--plan", str(a["plan_id"]), "--json"]
+        + ["--db", server.url],
+    )
+    assert key.exit_code == 0, key.output
+    secret = json.loads(key.stdout)["key"]
+    headers = {"Authorization": f"Bearer {secret}"}
+    with httpx.Client(base_url=server.base, headers=headers, timeout=60.0) as scoped:
+        assert [p["plan"] for p in _fleet_of(scoped, "VCMR331", 100)] == [a["plan"]]

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
+from api.services.read import current_setpoints
 from db import tables as t
 from db.plan_state import settings_json, settings_of
 from models.errors import InputError
@@ -94,3 +95,26 @@ def test_the_learn_posterior_survives_a_reload_after_three_parts(engine):
     assert loaded.posterior == in_memory.posterior
     assert loaded.settings == in_memory.settings == settings
     assert loaded.halt is None and loaded.version == in_memory.version
+
+
+@pytest.mark.parametrize("value", [1e-3, 0.49, 4.7e-294])
+def test_a_coverage_k_below_a_half_is_refused_naming_it(value):
+    """A band narrower than half a standard deviation: the prior's ln K variance
+    ((ΔK/K)/k)² was so wide that a learn plan's first report overflowed (a 500 from
+    ``POST /plans?coverage_k=4.7e-294`` then a part, found by schemathesis)."""
+    with pytest.raises(InputError) as refused:
+        RcbSettings(strategy="learn", coverage_k=value)
+    assert refused.value.field == "coverage_k"
+
+
+def test_a_coverage_k_of_a_half_learns_from_a_report(engine):
+    """The least k taken: the demo plan's first part is learned, its prior finite."""
+    plan_id = create_plan(
+        engine=engine, body=PLAN, settings=RcbSettings(strategy="learn", coverage_k=0.5)
+    ).body["id"]
+    body = report_at("k-1", current_setpoints(engine=engine, plan_id=plan_id))
+    assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
+    state = stored_state(engine, plan_id)
+    assert state.posterior and all(
+        math.isfinite(v) for b in state.posterior.values() for row in b.cov for v in row
+    )

@@ -10,10 +10,11 @@ from fastapi.responses import Response
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
 from api.rest.schemas.common import NO_NUL
-from api.rest.schemas.tools import TextCursor, ToolList, ToolOut
+from api.rest.schemas.tools import FleetList, TextCursor, ToolList, ToolOut
 from api.services import tools as use_cases
 from api.services.read import tools as read_tools
 from api.services.read.common import LIST_PAGE, MAX_PAGE
+from api.services.read.fleet import fleet_members
 from models.bounds import MAX_IDENTITY
 from models.tool import tool_body
 
@@ -39,6 +40,24 @@ def get_tool(
 ) -> dict[str, Any]:
     """One tool with its baseline models and their provenance."""
     return read_tools.get_tool(engine=engine, name=name)
+
+
+@router.get("/tools/{name}/fleet", response_model=FleetList, operation_id="getToolFleet")
+def get_tool_fleet(
+    engine: EngineDep,
+    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
+    actor: Anyone,
+    cursor: Annotated[
+        str | None,
+        Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
+    ] = None,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
+) -> dict[str, Any]:
+    """The stored plans using the tool, by id: each in the fleet or why not.
+
+    New plans' fleet priors come from those in it. A key scoped to plans: those plans only.
+    """
+    return fleet_members(engine=engine, tool=name, cursor=cursor, page_size=limit, only=actor.plans)
 
 
 @router.post(

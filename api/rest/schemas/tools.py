@@ -108,6 +108,33 @@ class ToolList(Out):
     next_cursor: str | None
 
 
+class FleetMember(Out):
+    """A stored plan using the tool: in the fleet (new plans' priors) or why not."""
+
+    plan_id: int
+    plan: str
+    machine: str
+    operations: list[str] = Field(description="the plan's operations using the tool")
+    readings: int = Field(description="readings its learned models of the tool rest on")
+    in_fleet: bool
+    out: str = Field(description="why not in the fleet (empty when it is)")
+    let_go: list[str] = Field(
+        description="'OPERATION QUANTITY' whose fleet prior this plan's machine let go"
+    )
+
+
+class FleetList(Out):
+    """A page of the stored plans using a tool, by id: which make new plans' fleet priors.
+
+    Pass ``next_cursor`` as ``cursor`` for the next page; null: no more.
+    """
+
+    tool: str
+    plans: list[FleetMember]
+    imported: int = Field(description="learned models imported from other databases")
+    next_cursor: str | None
+
+
 #: The ``cursor`` of a list keyed by text (tools, model versions): an opaque token.
 TextCursor = Annotated[
     str | None,

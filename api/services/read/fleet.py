@@ -18,9 +18,16 @@ from models.catalogue import catalogue
 
 
 def fleet_members(
-    *, engine: Engine, tool: str, cursor: str | None = None, page_size: int = LIST_PAGE
+    *,
+    engine: Engine,
+    tool: str,
+    cursor: str | None = None,
+    page_size: int = LIST_PAGE,
+    only: frozenset[int] | None = None,
 ) -> dict[str, Any]:
     """A page of the plans using ``tool``: each in the fleet (``out`` empty) or why not.
+
+    ``only``: just these plans (a key scoped to plans sees no other plan's name).
 
     ``imported``: the learned models of the tool other databases exported and this one
     imported (``rcb models import``), in every new plan's fleet.
@@ -31,7 +38,7 @@ def fleet_members(
         known = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
         if known is None and tool not in catalogue():
             raise NotFoundError("tool", tool)
-        rows = members(session=session, tool=tool, after_id=after, limit=page_size + 1)
+        rows = members(session=session, tool=tool, after_id=after, limit=page_size + 1, only=only)
         imported = session.scalar(
             select(func.count()).select_from(t.ImportedModel).where(t.ImportedModel.tool == tool)
         )
@@ -39,7 +46,7 @@ def fleet_members(
     rows = rows[:page_size]
     return {
         "tool": tool,
-        "plans": [asdict(m) for m in rows],
+        "plans": [{**asdict(m), "in_fleet": not m.out} for m in rows],
         "imported": int(imported or 0),
         "next_cursor": str(rows[-1].plan_id) if more else None,
     }
