@@ -1,17 +1,18 @@
 """What the stored plans learned with a set of tools: the fleet's evidence (issue 32).
 
 One statement reads, for every operation that uses one of the tools in a ``learn`` plan, the
-newest band state of each of its tool's quantities (an index seek per pair on
-``band_states (operation_id, quantity, part_id)``, the operations by ``ix_operations_tool``):
-the number of statements is the same for 10 plans as for 1000, and no cost grows with the
-parts they made. The tools' models come from one more statement (:func:`db.library.
-load_tools`), and the models other databases exported and this one imported from a third
-(``imported_models``, by ``ix_imported_models_tool``).
+newest band state of each of its tool's quantities since the plan's bands were last reset
+(an index seek per pair on ``band_states (operation_id, quantity, part_id)``, the operations
+by ``ix_operations_tool``): the number of statements is the same for 10 plans as for 1000, and
+no cost grows with the parts they made. The tools' models come from one more statement
+(:func:`db.library.load_tools`), the plans' changes of their process from one more
+(:func:`plan_changes`), and the models other databases exported and this one imported from a
+fourth (``imported_models``, by ``ix_imported_models_tool``).
 
 Left out: a plan that is halted; a plan or machine an engineer took out (``rcb fleet
-exclude``, ``fleet_exclusions``); and a plan whose quantities saw a change of their process
-(a ``regime_change``: their monitors counted one) beyond those an engineer accepted putting it
-back (``rcb fleet include``, ``plans.fleet_changes_accepted``).
+exclude``, ``fleet_exclusions``); and a plan whose quantities, any of them, saw a change of
+their process (a ``regime_change``: their monitors counted one) beyond those an engineer
+accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted``).
 """
 
 from __future__ import annotations

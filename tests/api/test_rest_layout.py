@@ -34,6 +34,7 @@ OPERATIONS = {
     ("get", "/api/v1/plans/{plan_id}/models/versions", "listModelVersions"),
     ("get", "/api/v1/tools", "listTools"),
     ("get", "/api/v1/tools/{name}", "getTool"),
+    ("get", "/api/v1/tools/{name}/fleet", "getToolFleet"),
     ("post", "/api/v1/tools", "addTool"),
 }
 
