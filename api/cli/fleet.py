@@ -8,6 +8,7 @@ by itself until an engineer puts it back, which accepts the changes it counted s
 from __future__ import annotations
 
 import json
+import sys
 from typing import Annotated, Any
 
 import typer
@@ -57,8 +58,8 @@ def show(
             raise InputError(
                 "TOOL", tool, "no such tool in the catalogue or the database"
             ) from None
-    if as_json:
-        say(json.dumps(page))
+    if as_json:  # on stdout, the messages on stderr: a pipe reads the JSON alone
+        sys.stdout.write(json.dumps(page) + "\n")
         return
     _print_members(page, first=cursor is None)
     if page["next_cursor"] is not None:

@@ -84,7 +84,7 @@ def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
     assert said in page.read_text(encoding="utf-8")
     assert "finish-od roughness_um (part c-1)" in page.read_text(encoding="utf-8")
     listed = runner.invoke(app, ["fleet", "show", "CPGM32505", "--db", url, "--json"])
-    fleet_c = next(m for m in json.loads(listed.output)["plans"] if m["plan"] == "fleet-c")
+    fleet_c = next(m for m in json.loads(listed.stdout)["plans"] if m["plan"] == "fleet-c")
     assert fleet_c["let_go"] == ["finish-od roughness_um"] and fleet_c["out"] == ""
     with Session(engine) as session:
         learned = fleet_evidence(session=session, tool_names=PLAN.tools)

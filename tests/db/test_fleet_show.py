@@ -44,7 +44,7 @@ def test_the_fleet_of_a_tool_says_who_is_in_and_why_the_others_are_not(engine, r
         "no: no part reported",
     ):
         assert said in text, said
-    page = json.loads(_show(runner, url, "VCMR331", "--json").output)
+    page = json.loads(_show(runner, url, "VCMR331", "--json").stdout)
     assert [(m["plan"], m["readings"], bool(m["out"])) for m in page["plans"]] == [
         ("fleet-a", 8, False),
         ("fleet-b", 8, True),
@@ -52,10 +52,10 @@ def test_the_fleet_of_a_tool_says_who_is_in_and_why_the_others_are_not(engine, r
         ("fleet-d", 0, True),
     ]
     assert page["plans"][0]["operations"] == ["rough-grooves", "rough-contour"]
-    first = json.loads(_show(runner, url, "VCMR331", "--json", "--limit", "3").output)
+    first = json.loads(_show(runner, url, "VCMR331", "--json", "--limit", "3").stdout)
     assert [m["plan"] for m in first["plans"]] == ["fleet-a", "fleet-b", "fleet-c"]
     rest = _show(runner, url, "VCMR331", "--json", "--cursor", first["next_cursor"])
-    assert [m["plan"] for m in json.loads(rest.output)["plans"]] == ["fleet-d"]
+    assert [m["plan"] for m in json.loads(rest.stdout)["plans"]] == ["fleet-d"]
     assert (
         "rcb fleet show VCMR331 --cursor 3 --limit 3"
         in _show(runner, url, "VCMR331", "--limit", "3").output
