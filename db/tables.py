@@ -284,6 +284,10 @@ class FleetExclusion(Base):
     """A plan or a machine an engineer took out of the fleet (``rcb fleet exclude``)."""
 
     __tablename__ = "fleet_exclusions"
+    __table_args__ = (  # what the fleet's reads look up per row (db.fleet, alembic 0018)
+        Index("ix_fleet_exclusions_plan", "plan_id"),
+        Index("ix_fleet_exclusions_machine", "machine"),
+    )
     id: Mapped[int] = mapped_column(primary_key=True)
     plan_id: Mapped[int | None] = mapped_column(ForeignKey("plans.id"))
     machine: Mapped[str | None] = mapped_column(String(200))

@@ -13,6 +13,8 @@ from test_fleet_db import LEARN, _body, _learned
 from api.cli.main import app
 from api.services.fleet_models import exclude_from_fleet
 from api.services.plans import create_plan
+from db.engine import make_engine, upgrade
+from db.fleet import fleet_evidence
 from db.fleet_members import members
 from supervisor.rcb.state import RcbSettings
 
@@ -104,3 +106,36 @@ def test_a_page_of_the_fleet_is_read_in_the_same_statements_for_two_plans_as_for
     _learned(engine, "n-c", 2, 2)
     _learned(engine, "n-d", 3, 2)
     assert statements() == two
+
+
+def test_the_fleet_is_read_by_index_seeks_alone(tmp_path) -> None:
+    """SQLite's query plan of every statement the fleet's reads make (a new plan's evidence,
+    the plans' changes, a page of ``rcb fleet show``): no table is scanned whole, so no cost
+    grows with the plans, parts or exclusions a plant has made (before alembic 0018, every
+    operation row scanned ``fleet_exclusions``)."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    _learned(engine, "fleet-a", 0, 2)
+    _learned(engine, "fleet-b", 1, 2)
+    exclude_from_fleet(engine=engine, plan_id=None, machine="lathe-1", reason="loose spindle")
+    statements: list[tuple[str, Any]] = []
+
+    def seen(*args: Any) -> None:
+        statements.append((args[2], args[3]))
+
+    event.listen(engine, "before_cursor_execute", seen)
+    try:
+        with Session(engine) as session:
+            assert fleet_evidence(session=session, tool_names=["CNMG432RN", "VCMR331"])
+            assert members(session=session, tool="VCMR331", after_id=0, limit=10)
+    finally:
+        event.remove(engine, "before_cursor_execute", seen)
+    plans = []
+    with engine.connect() as connection:
+        raw = connection.connection.driver_connection
+        for statement, parameters in statements:
+            plans += [row[-1] for row in raw.execute("EXPLAIN QUERY PLAN " + statement, parameters)]
+    engine.dispose()
+    assert any("fleet_exclusions" in line for line in plans)
+    assert [line for line in plans if line.startswith("SCAN")] == []
