@@ -17,6 +17,7 @@ from api.rest.routes.common import (
     idempotency_of,
     resource_router,
 )
+from api.rest.schemas.common import IdCursor
 from api.rest.schemas.parts import PartCreated, PartReportIn, PartsPage
 from api.rest.schemas.setpoints import Setpoints
 from api.services import parts as use_cases
@@ -74,10 +75,7 @@ def parts(
     engine: EngineDep,
     plan_id: PlanId,
     actor: Anyone,
-    cursor: Annotated[
-        str | None,
-        Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
-    ] = None,
+    cursor: IdCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = 50,
 ) -> dict[str, Any]:
     """The plan's parts, oldest first, a page at a time."""

@@ -17,6 +17,7 @@ from api.rest.routes.common import (
     idempotency_of,
     resource_router,
 )
+from api.rest.schemas.common import IdCursor
 from api.rest.schemas.plans import PLAN_EXAMPLE, PlanCreated, PlanDetail, PlanList
 from api.rest.schemas.rcb_settings import settings_in_query
 from api.rest.schemas.replan import Replanned
@@ -102,10 +103,7 @@ def replan(
 def list_plans(
     engine: EngineDep,
     actor: Anyone,
-    cursor: Annotated[
-        str | None,
-        Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
-    ] = None,
+    cursor: IdCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
 ) -> dict[str, Any]:
     """The plans by id, a page at a time (a key scoped to plans: those plans only)."""

@@ -9,7 +9,7 @@ from fastapi.responses import Response
 
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
-from api.rest.schemas.common import NO_NUL
+from api.rest.schemas.common import NO_NUL, IdCursor
 from api.rest.schemas.tools import FleetList, TextCursor, ToolList, ToolOut
 from api.services import tools as use_cases
 from api.services.read import tools as read_tools
@@ -47,10 +47,7 @@ def get_tool_fleet(
     engine: EngineDep,
     name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
     actor: Anyone,
-    cursor: Annotated[
-        str | None,
-        Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
-    ] = None,
+    cursor: IdCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
 ) -> dict[str, Any]:
     """The stored plans using the tool, by id: each in the fleet or why not.

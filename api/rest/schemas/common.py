@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Annotated, Any
 
+from fastapi import Query
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
 
 from models.bounds import (
@@ -72,6 +73,12 @@ Name = Annotated[
 ]
 #: A path or query value without NUL (PostgreSQL refuses it in a query).
 NO_NUL = r"^[^\x00]*$"
+
+#: The ``cursor`` of a list keyed by id (plans, parts, setpoint versions, a tool's fleet).
+IdCursor = Annotated[
+    str | None,
+    Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
+]
 
 
 def keys_schema(names: list[str]) -> dict[str, Any]:
