@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,7 @@ from api.services.plans import create_plan
 from db import tables as t
 from db.engine import make_engine, upgrade
 from db.fleet import fleet_evidence
+from db.fleet_members import members
 from models.errors import InputError
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.state import RcbSettings
@@ -110,29 +112,39 @@ def test_a_new_plan_starts_from_two_machines_and_says_so(engine) -> None:
     )
 
 
-def test_the_fleet_is_read_in_the_same_statements_for_two_plans_as_for_four(engine) -> None:
-    counted: list[str] = []
+#: The fleet's reads: a new plan's evidence, and a page of ``rcb fleet show``.
+READS: dict[str, Callable[[Session], Sequence[object]]] = {
+    "evidence": lambda s: fleet_evidence(session=s, tool_names=["CNMG432RN", "VCMR331"]),
+    "members": lambda s: members(session=s, tool="CNMG432RN", after_id=0, limit=100),
+}
 
-    def count(*args: Any) -> None:
-        counted.append(args[2])
 
-    def statements() -> int:
-        counted.clear()
-        event.listen(engine, "before_cursor_execute", count)
-        try:
-            with Session(engine) as session:
-                found = fleet_evidence(session=session, tool_names=["CNMG432RN", "VCMR331"])
-        finally:
-            event.remove(engine, "before_cursor_execute", count)
-        assert found
-        return len(counted)
+def _executed(engine, read: Callable[[Session], Sequence[object]]) -> list[tuple[str, Any]]:  # type: ignore[no-untyped-def]
+    """The statements, with their parameters, that ``read`` sends (it must find something)."""
+    sent: list[tuple[str, Any]] = []
 
+    def seen(*args: Any) -> None:
+        sent.append((args[2], args[3]))
+
+    event.listen(engine, "before_cursor_execute", seen)
+    try:
+        with Session(engine) as session:
+            assert read(session)
+    finally:
+        event.remove(engine, "before_cursor_execute", seen)
+    return sent
+
+
+@pytest.mark.parametrize("read", sorted(READS))
+def test_the_fleet_is_read_in_the_same_statements_for_two_plans_as_for_four(
+    engine, read: str
+) -> None:
     _learned(engine, "n-a", 0, 2)
     _learned(engine, "n-b", 1, 2)
-    two = statements()
+    two = len(_executed(engine, READS[read]))
     _learned(engine, "n-c", 2, 2)
     _learned(engine, "n-d", 3, 2)
-    assert statements() == two
+    assert len(_executed(engine, READS[read])) == two
 
 
 def test_a_fleet_prior_needs_a_fleet_and_learn(engine) -> None:

@@ -42,6 +42,17 @@ def _report(engine: Any, plan_id: int, serial: str, roughness_factor: float) -> 
     assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
 
 
+def _let_go(engine: Any) -> int:
+    """Plan fleet-c on machine 3 after two plans learned 12 parts each on machines 0 and 1,
+    and its part c-1 reported with roughness at 0.8 x: its id."""
+    _learned(engine, "fleet-a", 0, 12)
+    _learned(engine, "fleet-b", 1, 12)
+    made = create_plan(engine=engine, body=_body("fleet-c", "lathe-3"), settings=LEARN)
+    plan_id = int(made.body["id"])
+    _report(engine, plan_id, "c-1", 0.8)
+    return plan_id
+
+
 def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
     engine, runner, tmp_path
 ) -> None:
@@ -49,12 +60,7 @@ def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
     the fleet prior of every roughness is let go by that part, force keeps the fleet's; the
     plan, its setpoints, ``rcb plans show`` and the report say which part let it go; a second
     part changes nothing more; and the plan's learning still enters the fleet."""
-    _learned(engine, "fleet-a", 0, 12)
-    _learned(engine, "fleet-b", 1, 12)
-    plan_id = int(
-        create_plan(engine=engine, body=_body("fleet-c", "lathe-3"), settings=LEARN).body["id"]
-    )
-    _report(engine, plan_id, "c-1", 0.8)
+    plan_id = _let_go(engine)
     state = stored_state(engine, plan_id)
     widened = {k for k, b in state.posterior.items() if b.prior_widening > 0}
     assert widened and {q for _, q in widened} == {"roughness_um"}
@@ -97,12 +103,7 @@ def test_a_reset_of_the_bands_keeps_the_prior_let_go(engine) -> None:
     """``rcb replan --reset-bands`` after a part let a prior go: the stored plan starts again
     from the widened prior (its stored start carries the widening), a later part does not let
     it go a second time, and the provenance still names the part that did."""
-    _learned(engine, "fleet-a", 0, 12)
-    _learned(engine, "fleet-b", 1, 12)
-    plan_id = int(
-        create_plan(engine=engine, body=_body("fleet-c", "lathe-3"), settings=LEARN).body["id"]
-    )
-    _report(engine, plan_id, "c-1", 0.8)
+    plan_id = _let_go(engine)
     let_go = stored_state(engine, plan_id)
     widened = {k: b.prior_widening for k, b in let_go.posterior.items() if b.prior_widening > 0}
     said = get_plan(engine=engine, plan_id=plan_id)["provenance"]

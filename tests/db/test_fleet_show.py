@@ -1,21 +1,20 @@
 """``rcb fleet show TOOL``: which plans make new plans' fleet priors and why the others do not
-(issue 32), a page at a time, in the same statements for any count (SQLite and PostgreSQL)."""
+(issue 32), a page at a time, by index seeks (SQLite and PostgreSQL; the same statements for
+any count: ``test_fleet_db``)."""
 
 from __future__ import annotations
 
 import json
 from typing import Any
 
-from sqlalchemy import event
 from sqlalchemy.orm import Session
-from test_fleet_db import LEARN, _body, _learned
+from test_fleet_db import LEARN, READS, _body, _executed, _learned
 
 from api.cli.main import app
 from api.services.fleet_models import exclude_from_fleet
 from api.services.plans import create_plan
 from db.engine import make_engine, upgrade
 from db.fleet import fleet_evidence
-from db.fleet_members import members
 from supervisor.rcb.state import RcbSettings
 
 
@@ -54,6 +53,9 @@ def test_the_fleet_of_a_tool_says_who_is_in_and_why_the_others_are_not(engine, r
         ("fleet-d", 0, True),
     ]
     assert page["plans"][0]["operations"] == ["rough-grooves", "rough-contour"]
+    with Session(engine) as session:  # the list and the prior agree on who is in the fleet
+        behind = {item.plan for item in fleet_evidence(session=session, tool_names=["VCMR331"])}
+    assert behind == {m["plan"] for m in page["plans"] if m["in_fleet"]} == {"fleet-a"}
     first = json.loads(_show(runner, url, "VCMR331", "--json", "--limit", "3").stdout)
     assert [m["plan"] for m in first["plans"]] == ["fleet-a", "fleet-b", "fleet-c"]
     rest = _show(runner, url, "VCMR331", "--json", "--cursor", first["next_cursor"])
@@ -81,33 +83,6 @@ def test_rcb_fleet_show_names_what_is_wrong(engine, runner) -> None:
     assert last.exit_code == 0 and "no stored plan uses" not in last.output
 
 
-def test_a_page_of_the_fleet_is_read_in_the_same_statements_for_two_plans_as_for_four(
-    engine,
-) -> None:
-    counted: list[str] = []
-
-    def count(*args: Any) -> None:
-        counted.append(args[2])
-
-    def statements() -> int:
-        counted.clear()
-        event.listen(engine, "before_cursor_execute", count)
-        try:
-            with Session(engine) as session:
-                found = members(session=session, tool="CNMG432RN", after_id=0, limit=100)
-        finally:
-            event.remove(engine, "before_cursor_execute", count)
-        assert found
-        return len(counted)
-
-    _learned(engine, "n-a", 0, 2)
-    _learned(engine, "n-b", 1, 2)
-    two = statements()
-    _learned(engine, "n-c", 2, 2)
-    _learned(engine, "n-d", 3, 2)
-    assert statements() == two
-
-
 def test_the_fleet_is_read_by_index_seeks_alone(tmp_path) -> None:
     """SQLite's query plan of every statement the fleet's reads make (a new plan's evidence,
     the plans' changes, a page of ``rcb fleet show``): no table is scanned whole, so no cost
@@ -119,18 +94,7 @@ def test_the_fleet_is_read_by_index_seeks_alone(tmp_path) -> None:
     _learned(engine, "fleet-a", 0, 2)
     _learned(engine, "fleet-b", 1, 2)
     exclude_from_fleet(engine=engine, plan_id=None, machine="lathe-1", reason="loose spindle")
-    statements: list[tuple[str, Any]] = []
-
-    def seen(*args: Any) -> None:
-        statements.append((args[2], args[3]))
-
-    event.listen(engine, "before_cursor_execute", seen)
-    try:
-        with Session(engine) as session:
-            assert fleet_evidence(session=session, tool_names=["CNMG432RN", "VCMR331"])
-            assert members(session=session, tool="VCMR331", after_id=0, limit=10)
-    finally:
-        event.remove(engine, "before_cursor_execute", seen)
+    statements = [sent for read in READS.values() for sent in _executed(engine, read)]
     plans = []
     with engine.connect() as connection:
         raw = connection.connection.driver_connection
