@@ -429,7 +429,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.path.insert(0, str(Path(__file__).parent))
         import fleet_loop  # type: ignore[import-not-found]
 
-        return int(fleet_loop.run(load_plan(args.plan), args))
+        return int(fleet_loop.run(load_plan(args.plan), args, faults))
     strategies = list(STRATEGY_NAMES) if args.strategy == "all" else [args.strategy]
     plan = load_plan(args.plan)
     parts = args.parts

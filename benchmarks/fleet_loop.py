@@ -11,12 +11,15 @@ column ``k`` the setpoints in force after ``k`` part reports (``k = 0``: the fir
 Every tenth scenario's new machine lies outside the spread the fleet has seen (``δ = ±3 s``);
 its violations are counted apart, and only those at its first part are allowed. The new
 machines whose readings let the fleet prior go (:mod:`supervisor.rcb.prior_check`) are
-counted, inside and outside the spread.
+counted, inside and outside the spread, and those whose chains let the fleet's noise prior go
+(:mod:`supervisor.rcb.noise_check`). ``--fault`` applies to the new machine alone (its three
+runs): ``--fault noise-scale:3`` is a new machine whose instruments are not the fleet's kind.
 
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/closed_loop.py --fleet 4 [--scenarios 1000] [--parts 30]
-        [--learn-parts 30] [--fleet-spread 0.03] [--jobs N] [--seed-offset 0]
+        [--learn-parts 30] [--fleet-spread 0.03] [--fault KIND[:ARGS]] [--jobs N]
+        [--seed-offset 0]
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from supervisor.inputs.plan import Plan
+from supervisor.virtual.fault_spec import Faults
 from supervisor.virtual.fleet_scenario import FleetTrace, simulate_fleet
 
 #: The rows printed: MRR/oracle after k parts.
@@ -77,6 +81,12 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
             f"fleet prior let go ({label}): {len(let_go)} of {len(chosen)} new machines, "
             f"{sum(let_go)} quantities"
         )
+    for label, chosen in (("inside", inside), ("outside", outside)):
+        noise = [t.noise_let_go for t in chosen if t.noise_let_go]
+        out.append(
+            f"noise prior let go ({label}): {len(noise)} of {len(chosen)} new machines, "
+            f"{sum(noise)} chains"
+        )
     learned = sum(t.learned_violations for t in traces)
     out.append(f"learning machines (catalogue start): {learned} violations")
     spreads = [p.spread for t in traces for p in t.provenance]
@@ -100,8 +110,8 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
     return out
 
 
-def run(plan: Plan, args: argparse.Namespace) -> int:
-    """Simulate and print (``closed_loop.py`` parsed the arguments)."""
+def run(plan: Plan, args: argparse.Namespace, faults: Faults | None = None) -> int:
+    """Simulate and print (``closed_loop.py`` parsed the arguments; ``--fault``: ``faults``)."""
     seeds = range(args.seed_offset, args.seed_offset + args.scenarios)
     t0 = time.perf_counter()
     traces = simulate_fleet(
@@ -112,12 +122,15 @@ def run(plan: Plan, args: argparse.Namespace) -> int:
         args.learn_parts,
         min(args.jobs, args.scenarios),
         args.fleet_spread,
+        faults,
     )
     print(
         f"Fleet prior: {plan.name!r}, {args.scenarios} scenarios: {args.fleet - 1} machines\n"
         f"learn {args.learn_parts} parts each, then a new machine makes {args.parts}; "
         f"true spread {100 * args.fleet_spread:.1f} %"
     )
+    if faults:
+        print(f"the new machine's faults: {', '.join(faults.specs)}")
     for line in report(traces, args.parts, time.perf_counter() - t0):
         print(line)
     return 0

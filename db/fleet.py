@@ -24,10 +24,13 @@ from sqlalchemy import ScalarSelect, exists, func, or_, select
 from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
+from db.fleet_noise import noise_provenance
+from db.let_go_mark import marked
 from db.library import load_tools
 from db.plan_state import settings_of
 from models.errors import InputError
 from supervisor.fleet.document import read_item
+from supervisor.fleet.noise import NoisePrior, noise_priors
 from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
@@ -83,6 +86,7 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
                 settings.exponent_sd,
                 settings.edge_sd,
                 priors_of(started).get((op.name, state.quantity)),
+                None if state.monitor is None else monitor_from_json(state.monitor).chain_noise,
             )
         )
     imported = select(t.ImportedModel.body).where(t.ImportedModel.tool.in_(names))
@@ -201,14 +205,13 @@ def let_go(
         if old is not None and old.prior_widening > 0:
             continue
         out = dict(stored) if out is None else out
-        provenance = dict(out[key]["provenance"])
-        provenance["widened_by_part"] = serial
-        provenance["text"] = (
-            f"{provenance['text']}; let go by part {serial}: this machine lies outside the "
-            "fleet's spread (its ln K learned from the catalogue's band)"
-        )
-        out[key] = {**out[key], "provenance": provenance}
+        out[key] = marked(out[key], "widened_by_part", serial, _OUTSIDE)
     return out
+
+
+_OUTSIDE = (
+    "this machine lies outside the fleet's spread (its ln K learned from the catalogue's band)"
+)
 
 
 def restarted_json(
@@ -241,9 +244,18 @@ def priors_of(stored: Mapping[str, Any] | None) -> dict[tuple[str, str], Posteri
     return {_pair(key): posterior_from_json(v["posterior"]) for key, v in (stored or {}).items()}
 
 
-def prior_answer(stored: Mapping[str, Any] | None) -> dict[str, Any]:
-    """``prior`` and ``provenance`` of a plan's answers (REST, ``--json``)."""
-    return {"prior": "fleet" if stored else "catalogue", "provenance": provenance_of(stored)}
+def prior_answer(
+    stored: Mapping[str, Any] | None, noise: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
+    """``prior``, ``provenance`` and ``noise_provenance`` of a plan's answers (REST, ``--json``).
+
+    ``noise``: ``plans.noise_prior`` (:mod:`db.fleet_noise`).
+    """
+    return {
+        "prior": "fleet" if stored else "catalogue",
+        "provenance": provenance_of(stored),
+        "noise_provenance": noise_provenance(noise),
+    }
 
 
 def provenance_of(stored: Mapping[str, Any] | None) -> dict[str, list[dict[str, Any]]]:
@@ -261,8 +273,11 @@ PRIORS = ("fleet", "catalogue")
 
 def plan_priors(
     *, session: Session, plan: Plan, settings: RcbSettings, prior: str | None
-) -> dict[tuple[str, str], FleetPrior]:
-    """The fleet priors a new plan starts from (empty: the catalogue's).
+) -> tuple[dict[tuple[str, str], FleetPrior], dict[str, NoisePrior]]:
+    """The fleet priors a new plan starts from (empty: the catalogue's), and its chains'.
+
+    The chains' noise priors (:mod:`supervisor.fleet.noise`) come with the fleet's priors of
+    the models, from the same plans' monitors; none with the catalogue's.
 
     ``prior``: ``fleet``, ``catalogue`` or None (the fleet's where the database holds evidence
     for the plan's tools and the plan learns, else the catalogue's).
@@ -276,7 +291,7 @@ def plan_priors(
     if prior is not None and prior not in PRIORS:
         raise InputError("prior", prior, f"must be one of {', '.join(PRIORS)}")
     if prior == "catalogue" or (prior is None and settings.strategy != "learn"):
-        return {}
+        return {}, {}
     if settings.strategy != "learn":
         raise InputError(
             "prior", prior, f"only learn starts from a fleet prior, not {settings.strategy}"
@@ -289,4 +304,4 @@ def plan_priors(
         raise InputError(
             "prior", prior, "no stored learn plan has measured this plan's tools: use catalogue"
         )
-    return priors
+    return priors, noise_priors(learned) if priors else {}

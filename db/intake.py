@@ -52,6 +52,7 @@ class PlanHead:
     settings: dict[str, Any] | None
     halt: dict[str, Any] | None
     prior: dict[str, Any] | None
+    noise_prior: dict[str, Any] | None
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,7 @@ _HEAD = (
     "settings",
     "halt",
     "prior",
+    "noise_prior",
 )
 _PLANS = t.core_table(t.Plan)
 _PARTS = t.core_table(t.Part)
@@ -126,6 +128,7 @@ _STATEMENTS = {
         settings=JSON,
         halt=JSON,
         prior=JSON,
+        noise_prior=JSON,
         part_id=Integer,
         request_hash=String,
         response_status=Integer,

@@ -41,8 +41,9 @@ def add_plan(
     result: PlanResult,
     settings: RcbSettings,
     prior: dict[str, Any] | None = None,
+    noise_prior: dict[str, Any] | None = None,
 ) -> int:
-    """Store a plan of a new name, its machine, tools (if new), version 1 and its ``prior``."""
+    """Store a plan of a new name, its machine, tools (if new), version 1 and its priors."""
     _refuse_taken(session, plan.name)  # a name names one plan
     machine = _machine(session, plan)
     plan_row = t.Plan(
@@ -51,6 +52,7 @@ def add_plan(
         body=dict(body),
         settings=settings_json(settings),
         prior=prior,
+        noise_prior=noise_prior,
         current_setpoint_version=1,
         state_token=new_token(),
     )
@@ -59,7 +61,7 @@ def add_plan(
     ops: dict[str, t.Operation] = {}
     for position, op in enumerate(plan.operations):
         tool = ensure_tool(session=session, tool=plan.tools[op.tool])
-        row = t.Operation(
+        ops[op.name] = t.Operation(
             plan_id=plan_row.id,
             position=position,
             name=op.name,
@@ -70,8 +72,7 @@ def add_plan(
             bounds={k: list(v) for k, v in op.bounds.items()},
             context=dict(op.context),
         )
-        session.add(row)
-        ops[op.name] = row
+    session.add_all(ops.values())
     session.flush()
     ids = {name: row.id for name, row in ops.items()}
     session.execute(

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet import priors_of
+from db.fleet_noise import noise_priors_of
 from db.model_versions import latest_models
 from db.plan_state import halt_of, settings_of
 from db.plans import PlanRow, current_body, operation_rows, plan_tools, setpoints_of
@@ -102,6 +103,7 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
         wear,
         monitors,
         priors,
+        noise_priors_of(plan_row.noise_prior),  # a chain's fleet noise prior (db.fleet_noise)
     )
 
 

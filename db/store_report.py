@@ -22,6 +22,7 @@ from sqlalchemy.orm import Session
 from db import tables as t
 from db.bulk import defer
 from db.fleet import let_go
+from db.fleet_noise import noise_let_go
 from db.intake import PlanHead
 from db.model_versions import model_version_row, version_numbers
 from db.parts import decision_rows, measurement_rows
@@ -79,9 +80,7 @@ def store_report(
             part_id=part_id,
         )
     pointers = _pointers(plan_row, before, after)
-    prior = let_go(plan_row.prior, before.posterior, after.posterior, report.serial)
-    if prior is not None:  # a fleet prior this machine's readings rejected: every surface says
-        pointers["prior"] = plan_row.prior = prior
+    pointers.update(_let_go(plan_row, before, after, report.serial))
     # Core rows, no ORM bookkeeping; deferred, so they go out with the transaction's last rows
     defer(
         session,
@@ -93,6 +92,21 @@ def store_report(
     if "halt" in pointers:
         plan_row.halt = pointers["halt"]
     return plan_row.state_token
+
+
+def _let_go(plan_row: PlanHead, before: RcbState, after: RcbState, serial: str) -> dict[str, Any]:
+    """The fleet priors the part's readings let go, marked: every surface says which part did.
+
+    ``plans.prior`` and ``plans.noise_prior`` (:mod:`db.fleet`, :mod:`db.fleet_noise`).
+    """
+    out: dict[str, Any] = {}
+    prior = let_go(plan_row.prior, before.posterior, after.posterior, serial)
+    if prior is not None:
+        out["prior"] = plan_row.prior = prior
+    noise = noise_let_go(plan_row.noise_prior, before.noise_priors, after.noise_priors, serial)
+    if noise is not None:
+        out["noise_prior"] = plan_row.noise_prior = noise
+    return out
 
 
 def band_state_rows(

@@ -91,6 +91,9 @@ class Plan(Base):
     #: The priors the plan started from where not the catalogue's, per "operation|quantity":
     #: ``posterior`` and ``provenance`` (db.fleet_prior, alembic 0014); NULL: the catalogue.
     prior: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
+    #: Per quantity, the noise prior of the chain that reads it where the fleet's: ``shape``,
+    #: ``rate`` and ``provenance`` (db.fleet_noise, alembic 0019); NULL: the default's.
+    noise_prior: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     #: The changes of its process an engineer accepted putting it back in the fleet (db.fleet).
     fleet_changes_accepted: Mapped[int] = mapped_column(default=0, server_default="0")
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.

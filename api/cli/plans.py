@@ -105,7 +105,7 @@ def create(
         return
     title = f"plan {answer['id']} {answer['name']}: stored, setpoint version 1"
     _out.print(_setpoint_table(title, answer["operations"]))
-    _say_prior(answer["provenance"])
+    _say_prior(answer["provenance"], answer["noise_provenance"])
     say(
         f"rcb: plan {answer['id']} {answer['name']}: setpoint version "
         f"{answer['setpoint_version']}, cycle time {answer['cycle_time_min']:.4g} min"
@@ -151,7 +151,7 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
         return
     for table in _show_tables(data, current):
         _out.print(table)
-    _say_prior(data["provenance"])
+    _say_prior(data["provenance"], data["noise_provenance"])
     settings = ", ".join(f"{k}={v}" for k, v in data["settings"].items())
     state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
     say(
@@ -161,8 +161,11 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     )
 
 
-def _say_prior(provenance: dict[str, list[dict[str, Any]]]) -> None:
-    """Where each fleet prior came from, a row per operation and quantity (none: catalogue)."""
+def _say_prior(provenance: dict[str, list[dict[str, Any]]], noise: list[dict[str, Any]]) -> None:
+    """Where each fleet prior came from, a row per operation and quantity (none: catalogue).
+
+    ``noise``: where each chain's noise prior came from (a row per quantity).
+    """
     if not provenance:
         return
     table = new_table(title="learn's fleet prior (--json names the plans and machines)")
@@ -181,6 +184,20 @@ def _say_prior(provenance: dict[str, list[dict[str, Any]]]) -> None:
                 line.get("widened_by_part") or "",  # the part that showed it outside the spread
             )
     _out.print(table)
+    if noise:
+        table = new_table(title="learn's noise prior of each measuring chain, from the fleet")
+        for column in ("quantity", "noise", "machines", "spread", "readings", "let go by"):
+            table.add_column(column, overflow="fold")
+        for line in noise:
+            table.add_row(
+                line["quantity"],
+                f"{line['noise_scale']:.2f} x u",
+                str(len(line["machines"])),
+                f"{100 * line['between_chain_spread']:.0f} %",
+                str(line["readings"]),
+                line.get("let_go_by_part") or "",  # the part that showed it noisier
+            )
+        _out.print(table)
 
 
 def _show_tables(data: dict[str, Any], current: dict[str, Any] | None) -> list[Table]:

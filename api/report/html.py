@@ -145,8 +145,20 @@ def _prior_line(plan: Mapping[str, Any]) -> str:
     return (
         f"the fleet: {len(plans)} plans on {len(machines)} machines, between-machine spread "
         f"{min(spreads):.1f}-{max(spreads):.1f} % (rcb plans show lists each quantity's)"
-        f"{outside}"
+        f"{outside}{_noise_line(plan.get('noise_provenance', []))}"
     )
+
+
+def _noise_line(noise: list[Mapping[str, Any]]) -> str:
+    """The measuring chains' noise priors from the fleet, and those let go (none: nothing)."""
+    if not noise:
+        return ""
+    chains = ", ".join(
+        f"{p['quantity']} {p['noise_scale']:.2f} x u"
+        + (f" (let go by part {p['let_go_by_part']})" if p.get("let_go_by_part") else "")
+        for p in noise
+    )
+    return f"; measuring chains' noise from the fleet: {chains}"
 
 
 def _halt_section(plan: Mapping[str, Any]) -> str:

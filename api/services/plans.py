@@ -20,6 +20,7 @@ from api.services.transactions import audited, write
 from db import api_keys, library
 from db.api_keys import Actor
 from db.fleet import plan_priors, prior_answer, prior_json
+from db.fleet_noise import noise_prior_json
 from db.plans import (
     add_plan,
     add_replan,
@@ -94,10 +95,10 @@ def create_plan(
     with audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
         with Session(engine) as session:
             settings, plan = _read(session, body, settings, given)
-            priors = plan_priors(session=session, plan=plan, settings=settings, prior=prior)
+            priors, noise = plan_priors(session=session, plan=plan, settings=settings, prior=prior)
         # outside the write transaction: it needs no lock
         result = start(plan, settings, {k: p.posterior for k, p in priors.items()}).setpoints
-        stored_prior = prior_json(priors)
+        stored_prior, stored_noise = prior_json(priors), noise_prior_json(noise)
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             plan_id = add_plan(
@@ -107,13 +108,14 @@ def create_plan(
                 result=result,
                 settings=settings,
                 prior=stored_prior,
+                noise_prior=stored_noise,
             )
             return 201, {
                 "id": plan_id,
                 "name": plan.name,
                 "setpoint_version": 1,
                 "cycle_time_min": result.cycle_time_min,
-                **prior_answer(stored_prior),
+                **prior_answer(stored_prior, stored_noise),
                 **operations_json(result),
             }
 

@@ -5,13 +5,17 @@
     {"format": "rcb-fleet-models/1", "tool": "CNMG432RN", "material": "AISI 1045",
      "learned": [{"machine": ..., "plan": ..., "operation": {...}, "tool": {...},
                   "posterior": {...}, "start": {...} | null,
-                  "coverage_k": 2.0, "exponent_sd": 0.15, "edge_sd": 0.1}, ...]}
+                  "coverage_k": 2.0, "exponent_sd": 0.15, "edge_sd": 0.1,
+                  "chain": {"readings": 29.4, "excess": 31.0} | null}, ...]}
 
 one item per operation and quantity a ``learn`` plan measured (:class:`~supervisor.fleet.prior.
 Learned`): where it was learned, the operation's bounds and context and its catalogue tool (to
 rebuild the prior its evidence is counted against), the posterior, and the fleet prior it
-started from. Nothing else of the database travels (no parts, no keys). Reading checks every
-field and names the offending one (``learned[3].posterior.mean``).
+started from, and the operation's evidence on its measuring chain's noise (``chain``: readings'
+worth and their excess squares, :mod:`supervisor.fleet.noise`; absent in documents written
+before it, which then give no noise prior). Nothing else of the database travels (no parts,
+no keys). Reading checks every field and names the offending one
+(``learned[3].posterior.mean``).
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from models.errors import InputError
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.prior import Learned
 from supervisor.inputs.plan import Operation
+from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 
@@ -41,7 +46,10 @@ _ITEM_KEYS = (
     "coverage_k",
     "exponent_sd",
     "edge_sd",
+    "chain",
 )
+#: The most readings' worth a chain's evidence may claim in a document.
+MAX_CHAIN_READINGS = 1e7
 
 
 def document(tool: str, material: str, learned: Sequence[Learned]) -> dict[str, Any]:
@@ -74,7 +82,27 @@ def item_json(item: Learned) -> dict[str, Any]:
         "coverage_k": item.coverage_k,
         "exponent_sd": item.exponent_sd,
         "edge_sd": item.edge_sd,
+        "chain": None if item.chain is None else _chain_json(item.chain),
     }
+
+
+def _chain_json(chain: NoiseScale) -> dict[str, float]:
+    """A chain's evidence as readings' worth and excess squares (beyond the default prior)."""
+    return {
+        "readings": 2.0 * (chain.shape - NOISE_PRIOR),
+        "excess": 2.0 * (chain.rate - NOISE_RATE),
+    }
+
+
+def _chain(data: object, path: str) -> NoiseScale | None:
+    """:func:`_chain_json` read back; None for none."""
+    if data is None:
+        return None
+    table = fields.mapping(data, path)
+    fields.only_keys(table, ("readings", "excess"), path)
+    readings = fields.number_within(table, "readings", path, low=0.0, high=MAX_CHAIN_READINGS)
+    excess = fields.number_within(table, "excess", path, low=0.0, high=1e3 * MAX_CHAIN_READINGS)
+    return NoiseScale(NOISE_PRIOR + readings / 2, NOISE_RATE + excess / 2)
 
 
 def read_document(data: object, path: str = "document") -> tuple[str, list[Learned]]:
@@ -113,6 +141,7 @@ def read_item(data: object, path: str) -> Learned:
         fields.number(table.get("exponent_sd"), f"{path}.exponent_sd", minimum=0.0),
         fields.number(table.get("edge_sd"), f"{path}.edge_sd", minimum=0.0),
         None if start is None else _posterior(start, f"{path}.start"),
+        _chain(table.get("chain"), f"{path}.chain"),
     )
 
 

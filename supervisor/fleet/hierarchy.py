@@ -116,6 +116,13 @@ def between_spread(
         cov = np.linalg.inv(prior_information + m.information)
         mean = cov @ (prior_information @ prior_mean + m.vector)
         estimates.append((float(reference @ mean), float(reference @ cov @ reference)))
+    return pooled_spread(estimates, default, weight)
+
+
+def pooled_spread(
+    estimates: Sequence[tuple[float, float]], default: float, weight: float = SPREAD_WEIGHT
+) -> float:
+    """``σ_b`` of estimates ``(y_m, v_m)``: the default pooled with their ``τ̂²`` (module doc)."""
     if len(estimates) < 2:
         return default
     weights = [1.0 / v for _, v in estimates]

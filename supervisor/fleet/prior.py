@@ -33,6 +33,7 @@ from supervisor.fleet.hierarchy import (
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.learning import as_started
+from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
 
 
@@ -43,7 +44,8 @@ class Learned:
     ``tool``: the operation's catalogue tool (its prior is rebuilt from it, ``coverage_k``,
     ``exponent_sd`` and ``edge_sd`` of the plan's settings); ``start``: the prior the plan
     started from where not the catalogue's (a fleet prior: its evidence is the fleet's, not
-    this plan's, and is taken out so that it is not counted twice).
+    this plan's, and is taken out so that it is not counted twice); ``chain``: the operation's
+    evidence on its measuring chain's noise (its monitor's, :mod:`.noise`), where known.
     """
 
     machine: str
@@ -55,6 +57,7 @@ class Learned:
     exponent_sd: float
     edge_sd: float = post.DEFAULT_EDGE_SD
     start: Posterior | None = None
+    chain: NoiseScale | None = None
 
 
 @dataclass(frozen=True)

@@ -96,9 +96,13 @@ class NoiseScale:
         return prudent, bound
 
 
-def pooled(beliefs: Iterable[NoiseScale]) -> NoiseScale:
-    """The chain's belief: the prior and each operation's evidence (``a − a₀``, ``b − b₀``)."""
-    shape, rate = NOISE_PRIOR, NOISE_RATE
+def pooled(beliefs: Iterable[NoiseScale], prior: NoiseScale | None = None) -> NoiseScale:
+    """The chain's belief: the prior and each operation's evidence (``a − a₀``, ``b − b₀``).
+
+    ``prior``: the chain's prior where it is not :data:`NOISE_PRIOR`, :data:`NOISE_RATE` (the
+    fleet's, :mod:`supervisor.fleet.noise`).
+    """
+    shape, rate = (NOISE_PRIOR, NOISE_RATE) if prior is None else (prior.shape, prior.rate)
     for belief in beliefs:
         shape += belief.shape - NOISE_PRIOR
         rate += belief.rate - NOISE_RATE

@@ -19,6 +19,7 @@ from supervisor.inputs.plan import Plan
 from supervisor.optimize.result import PlanResult
 from supervisor.rcb import posterior as post
 from supervisor.rcb.monitor_state import Monitor
+from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.settings import DEFAULT_HALT_OVER as DEFAULT_HALT_OVER
 from supervisor.rcb.settings import SETTINGS, settings_from_table
@@ -165,6 +166,10 @@ class RcbState:
     priors : Mapping[tuple[str, str], Posterior]
         ``learn``: per (operation, quantity), the prior the posterior started from where it is
         not the catalogue's (a fleet prior, :mod:`supervisor.fleet.prior`).
+    noise_priors : Mapping[str, NoiseScale]
+        ``learn``: per quantity, the prior of the noise scale of the chain that reads it where
+        it is a fleet's (:mod:`supervisor.fleet.noise`) and its readings have not let it go
+        (:mod:`supervisor.rcb.noise_check`); else the default.
     """
 
     plan: Plan
@@ -179,6 +184,7 @@ class RcbState:
     wear: Mapping[tuple[str, str], WearRise] = field(default_factory=dict)
     monitors: Mapping[tuple[str, str], Monitor] = field(default_factory=dict)
     priors: Mapping[tuple[str, str], Posterior] = field(default_factory=dict)
+    noise_priors: Mapping[str, NoiseScale] = field(default_factory=dict)
 
 
 def prior_sigma(model: PowerLawModel, settings: RcbSettings) -> float:

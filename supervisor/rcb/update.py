@@ -72,7 +72,8 @@ from supervisor.rcb.judged import Judged, judge
 from supervisor.rcb.law import apply_law
 from supervisor.rcb.monitor import learned
 from supervisor.rcb.monitor_state import Monitor
-from supervisor.rcb.noise import NoiseScale, pooled
+from supervisor.rcb.noise import NoiseScale
+from supervisor.rcb.noise_check import chains_of, kept
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.prior_check import checked, with_let_go
 from supervisor.rcb.report_readings import report_readings, setpoints_of
@@ -118,10 +119,15 @@ def update(
     measured_items = report_readings(state, report, operations, results)
     decisions: list[Decision] = []
     gross: list[HaltedOperation] = []
-    chains = _chains(state.monitors)
+    chains = chains_of(state.monitors, state.noise_priors)
     # measured_at: a pass's setpoint; then (op, made, quantity, measurement)
     at = [(*measured_at(operations[n], results[n], q), q, m) for n, q, m in measured_items]
     judged = [judge(state, *a, report, chains.get(a[2], NoiseScale())) for a in at]
+    noise_priors = kept(state.noise_priors, chains_of(state.monitors), judged)
+    if noise_priors != state.noise_priors:  # a fleet's noise prior let go: judged again
+        state = replace(state, noise_priors=noise_priors)
+        chains = chains_of(state.monitors, noise_priors)
+        judged = [judge(state, *a, report, chains.get(a[2], NoiseScale())) for a in at]
     state, judged, widened = checked(state, judged, report, chains)  # a fleet prior let go
     maps = _Maps.of(state)
     common = _common_changes(state, judged)
@@ -137,7 +143,7 @@ def update(
 def _after(state: RcbState, maps: _Maps, gross: list[HaltedOperation]) -> RcbState:
     """The state after the report: settled, halted, or re-optimised when a band moved."""
     new = replace(state, **vars(maps))
-    settled = state.settings.rule.settle(new, _chains(maps.monitors))
+    settled = state.settings.rule.settle(new, chains_of(maps.monitors, state.noise_priors))
     if settled:
         new = replace(new, posterior={**maps.posterior, **settled})
     if gross and state.halt is None:
@@ -198,11 +204,11 @@ def _reading(
 
     ``common``: the quantity's change in every operation of the part, when the report shows
     one (:mod:`supervisor.rcb.common_cause`); a quarantined reading's operation moves by it.
-    ``noise``: the measuring chain's noise scale before the report (:func:`_chains`), which
-    ``learn``'s likelihood reads; the band law and the alarm read the operation's own ``ŝ``,
-    and the chain's prudent scale only near the limit and over the prediction (``alarm_u``,
-    module docstring). Returns the decision and, for a reading past its limit by more than
-    ``halt_over``, what halts the plan.
+    ``noise``: the measuring chain's noise scale before the report
+    (:func:`~.noise_check.chains_of`), which ``learn``'s likelihood reads; the band law and
+    the alarm read the operation's own ``ŝ``, and the chain's prudent scale only near the
+    limit and over the prediction (``alarm_u``, module docstring). Returns the decision and,
+    for a reading past its limit by more than ``halt_over``, what halts the plan.
     """
     settings = state.settings
     op, made, quantity, measurement = item.op, item.made, item.quantity, item.measurement
@@ -315,18 +321,6 @@ def _edge_shifted(state: RcbState, item: Judged, shift: float, variance: float) 
     edge = model.predict(point, item.op.setpoint_rel_uncertainty)
     value = (edge.value + edge.band) * math.exp(shift)
     return Measurement(value, COVERAGE_FACTOR * value * math.sqrt(variance))
-
-
-def _chains(monitors: Mapping[tuple[str, str], Monitor]) -> dict[str, NoiseScale]:
-    """Per quantity, the noise scale of the chain that reads it in every operation.
-
-    :func:`supervisor.rcb.noise.pooled`: one instrument measures a quantity in every operation
-    of a plan and misreports its ``u`` by one factor.
-    """
-    by_quantity: dict[str, list[NoiseScale]] = {}
-    for (_, quantity), monitor in monitors.items():
-        by_quantity.setdefault(quantity, []).append(monitor.chain_noise)
-    return {quantity: pooled(group) for quantity, group in by_quantity.items()}
 
 
 def _wear_after(

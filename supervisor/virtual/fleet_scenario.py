@@ -16,13 +16,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+from supervisor.fleet.noise import noise_priors
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Plan
 from supervisor.rcb.state import RcbSettings, RcbState
 from supervisor.rcb.update import start
 from supervisor.virtual.certificate import ScenarioTrace
+from supervisor.virtual.fault_spec import Faults
 from supervisor.virtual.fleet import (
     DEFAULT_MACHINE_SPREAD,
     fleet_truths,
@@ -48,27 +50,36 @@ class FleetTrace:
     learned_violations: int
     provenance: tuple[Provenance, ...]
     let_go: int = 0  # the new machine's quantities whose fleet prior its readings let go
+    noise_let_go: int = 0  # its chains whose fleet noise prior their readings let go
 
 
 def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
-    """What one plan's state gives the fleet: nothing after a halt or a change of the process."""
+    """What one plan's state gives the fleet: nothing after a halt or a change of the process.
+
+    Each operation's posterior, and its evidence on its measuring chain's noise (its
+    monitor's, :mod:`supervisor.fleet.noise`).
+    """
     if state.halt is not None or any(m.changes for m in state.monitors.values()):
         return []
     settings = state.settings
     ops = {op.name: op for op in state.plan.operations}
-    return [
-        Learned(
-            machine,
-            plan,
-            ops[name],
-            state.plan.tools[ops[name].tool],
-            belief,
-            settings.coverage_k,
-            settings.exponent_sd,
-            settings.edge_sd,
+    out = []
+    for (name, quantity), belief in sorted(state.posterior.items()):
+        monitor = state.monitors.get((name, quantity))
+        out.append(
+            Learned(
+                machine,
+                plan,
+                ops[name],
+                state.plan.tools[ops[name].tool],
+                belief,
+                settings.coverage_k,
+                settings.exponent_sd,
+                settings.edge_sd,
+                chain=None if monitor is None else monitor.chain_noise,
+            )
         )
-        for (name, _), belief in sorted(state.posterior.items())
-    ]
+    return out
 
 
 def run_fleet_scenario(
@@ -78,8 +89,12 @@ def run_fleet_scenario(
     parts: int,
     learn_parts: int,
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    faults: Faults | None = None,
 ) -> FleetTrace:
-    """One scenario (module docstring); ``machine_spread``: the fleet's true spread."""
+    """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
+
+    ``faults``: the new machine's (its three runs'); the fleet's machines run clean.
+    """
     outside = seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
     truths = fleet_truths(plan, seed, machine_spread)  # drawn once: the fleet's and the known's
     fleet = machines_of(
@@ -96,23 +111,27 @@ def run_fleet_scenario(
         violations += int(trace.violations.sum())
         learned += learned_from(state, f"machine-{m}", f"plan-{m}")
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
-    from_fleet = start(plan, settings, {k: p.posterior for k, p in priors.items()})
+    chains = {q: p.belief for q, p in noise_priors(learned).items()}
+    from_fleet = replace(
+        start(plan, settings, {k: p.posterior for k, p in priors.items()}), noise_priors=chains
+    )
     known = start(plan, settings, known_priors(plan, truths, machine_spread, settings))
     new, last = fleet[-1], noise_seed(seed, machines - 1)
-    trace, state = run_machine(from_fleet, new, seed, parts, noise_seed=last)
+    trace, state = run_machine(from_fleet, new, seed, parts, faults=faults, noise_seed=last)
     return FleetTrace(
         seed,
         outside,
         trace,
-        run_machine(catalogue, new, seed, parts, noise_seed=last)[0],
-        run_machine(known, new, seed, parts, noise_seed=last)[0],
+        run_machine(catalogue, new, seed, parts, faults=faults, noise_seed=last)[0],
+        run_machine(known, new, seed, parts, faults=faults, noise_seed=last)[0],
         violations,
         tuple(p.provenance for _, p in sorted(priors.items())),
         sum(b.prior_widening > 0 for b in state.posterior.values()),
+        len(chains) - len(state.noise_priors),
     )
 
 
-def _one(task: tuple[Plan, int, int, int, int, float]) -> FleetTrace:
+def _one(task: tuple[Plan, int, int, int, int, float, Faults | None]) -> FleetTrace:
     return run_fleet_scenario(*task)
 
 
@@ -124,9 +143,10 @@ def simulate_fleet(
     learn_parts: int,
     jobs: int = 1,
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    faults: Faults | None = None,
 ) -> list[FleetTrace]:
     """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
-    tasks = [(plan, s, machines, parts, learn_parts, machine_spread) for s in seeds]
+    tasks = [(plan, s, machines, parts, learn_parts, machine_spread, faults) for s in seeds]
     if jobs <= 1:
         return [_one(t) for t in tasks]
     with ProcessPoolExecutor(max_workers=jobs) as pool:

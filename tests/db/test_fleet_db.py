@@ -185,7 +185,13 @@ def test_exported_models_imported_into_a_fresh_database_give_the_same_prior(
     assert there["prior"] == "fleet"
     assert there["operations"] == here["operations"]
     assert there["provenance"] == here["provenance"]
+    # the chains' evidence travels too: the same noise prior (supervisor.fleet.noise)
+    assert there["noise_provenance"] == here["noise_provenance"] != []
     assert stored_state(second, there["id"]).priors == stored_state(engine, here["id"]).priors
+    assert (
+        stored_state(second, there["id"]).noise_priors
+        == stored_state(engine, here["id"]).noise_priors
+    )
     second.dispose()
 
 

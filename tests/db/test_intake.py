@@ -74,6 +74,7 @@ def test_a_new_serial_stores_the_part_and_returns_the_plan_head(stored):
             row.settings,
             row.halt,
             row.prior,
+            row.noise_prior,
         )
         part_id = session.scalar(select(t.Part.id).where(t.Part.serial == "S-1"))
     assert opening.plan == expected

@@ -20,8 +20,9 @@ from supervisor.inputs.plan import load_plan
 from supervisor.rcb import common_cause as cc
 from supervisor.rcb import learning
 from supervisor.rcb.monitor_state import Monitor
+from supervisor.rcb.noise_check import chains_of
 from supervisor.rcb.state import RcbSettings
-from supervisor.rcb.update import _chains, start, update
+from supervisor.rcb.update import start, update
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
@@ -169,7 +170,7 @@ def test_under_the_paper_law_the_unread_operation_band_covers_the_others_shift()
     monitor = state.monitors[(unread, "roughness_um")]
     _, high = state.settings.rule.expects(state, op, made, "roughness_um", None, monitor)
     value = math.exp(high.mean + shift)
-    prudent = _chains(state.monitors)["roughness_um"].prudent_scale
+    prudent = chains_of(state.monitors)["roughness_um"].prudent_scale
     assert prudent > monitor.scale  # the chain's noise is not known yet: more than ŝ
     spread2 = high.sd**2 + (prudent * high.noise) ** 2 + variance  # its last reading's too
     expected = value * (1 + 2 * math.sqrt(spread2))

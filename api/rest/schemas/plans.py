@@ -10,7 +10,12 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from api.rest.schemas.common import Name, Number, Out, Positive, Strategy, Text, keys_schema
 from api.rest.schemas.halts import HaltOut
 from api.rest.schemas.rcb_settings import RcbSettingsIn, RcbSettingsOut
-from api.rest.schemas.setpoints import OperationSetpoint, PriorSource, Provenances
+from api.rest.schemas.setpoints import (
+    NoiseProvenances,
+    OperationSetpoint,
+    PriorSource,
+    Provenances,
+)
 from api.rest.schemas.tools import ToolIn
 from models.bounds import (
     MAX_CALIBRATIONS,
@@ -33,6 +38,7 @@ class PlanCreated(Out):
     cycle_time_min: float = Field(description="the machining time of one part at version 1")
     prior: PriorSource
     provenance: Provenances
+    noise_provenance: NoiseProvenances
     operations: list[OperationSetpoint]
 
 
@@ -80,6 +86,7 @@ class PlanDetail(PlanSummary):
     machine_limits: dict[str, float | None]
     prior: PriorSource
     provenance: Provenances
+    noise_provenance: NoiseProvenances
     operations: list[PlanOperation]
     body: dict[str, Any]
 

@@ -133,6 +133,38 @@ class PriorProvenance(Out):
     text: str = Field(description="the provenance as one line")
 
 
+class NoiseProvenance(Out):
+    """Where a measuring chain's noise prior came from (supervisor.fleet.noise)."""
+
+    quantity: str
+    machines: list[str] = Field(description="the machines whose chains' readings it holds")
+    readings: int
+    noise_scale: float = Field(
+        description="the fleet's chains' noise as a multiple of the reported u [-]"
+    )
+    between_chain_spread: float = Field(
+        description="the learned spread of the noise variance's ln between chains [-]"
+    )
+    let_go_by_part: str | None = Field(
+        None,
+        description="the serial of the part whose readings showed this machine's chain "
+        "noisier than the fleet's: its noise was then learned from the default (absent: the "
+        "fleet's noise prior holds)",
+    )
+    text: str = Field(description="the provenance as one line")
+
+
+#: Where each chain's noise prior came from.
+NoiseProvenances = Annotated[
+    list[NoiseProvenance],
+    Field(
+        description="per measured quantity, where its chain's noise prior came from (empty: "
+        "the default's, a chain 2.11 x noisier than it claims until its readings show "
+        "otherwise)"
+    ),
+]
+
+
 #: What ``learn`` started from.
 PriorSource = Annotated[
     Literal["fleet", "catalogue"],
@@ -158,4 +190,5 @@ class Setpoints(Out):
     setpoint_version: int
     prior: PriorSource
     provenance: Provenances
+    noise_provenance: NoiseProvenances
     operations: list[OperationSetpoint]

@@ -33,7 +33,7 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
                 key: machine.limits.get(name) if machine else None
                 for key, name in quantities.machine_fields().items()
             },
-            **prior_answer(row.prior),
+            **prior_answer(row.prior, row.noise_prior),
             "operations": [
                 {
                     "name": op.name,

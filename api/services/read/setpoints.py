@@ -24,6 +24,6 @@ def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
     return {
         "plan_id": plan_id,
         "setpoint_version": version,
-        **prior_answer(row.prior),
+        **prior_answer(row.prior, row.noise_prior),
         "operations": to_json.plan_json(result)["operations"],
     }

@@ -1,0 +1,105 @@
+r"""A new plan's noise prior from what the fleet's measuring chains showed (issue 32).
+
+``learn`` counts a reading at an upper quantile of its chain's noise scale ``λ``
+(:mod:`supervisor.rcb.noise`), which starts at 4.46 (a chain 2.11 x noisier than it claims)
+and comes down only as the plan's own readings show the chain is quiet: after three parts of
+six operations, 1.62. That, not the machine's offset, is most of what a new plan from the
+fleet prior still lacks after its first parts: with ``λ`` known, ``closed_loop.py --fleet 4
+--scenarios 200`` reaches 0.970 of the oracle after one part and 0.983 after three, against
+0.943 and 0.973 (docs/benchmarks.md).
+
+Every machine has its own instruments, but of the kinds the plant uses: a chain's ``ln λ`` is
+drawn from a between-chain spread, learned as the machines' ``ln K`` spread is
+(:mod:`.hierarchy`). Machine ``m``'s chain of a quantity gives ``n_m`` readings' worth of
+evidence with excess squares ``S_m`` (its plans' monitors: :attr:`supervisor.rcb.monitor_state.
+Monitor.chain_noise`, less the default prior), so ``y_m = ln(S_m / n_m)`` with ``v_m ≈ 2/n_m``
+(the variance of the log of a ``χ²_n / n``). DerSimonian and Laird's ``τ̂²`` between them is
+pooled with a default spread :data:`DEFAULT_CHAIN_SPREAD` held as :data:`~.hierarchy.
+SPREAD_WEIGHT` machines (``σ_c² = (ν_0 σ_0² + (M − 1) τ̂²) / (ν_0 + M − 1)``); a new chain's
+``ln λ`` is then ``N(μ, σ_c² + var μ)``, ``μ`` the precision-weighted mean, and the prior is the
+inverse gamma of that log-normal's mean and coefficient of variation ``c``: shape ``a = 2 +
+1/c²`` (the inverse gamma's ``CV² = 1/(a − 2)``), rate ``(a − 1) λ̄``, ``λ̄`` never under 1 (a
+chain quieter than it claims is not trusted to be, as :mod:`supervisor.rcb.noise` says).
+
+A chain that is not the fleet's kind reads otherwise from its first part, and
+:mod:`supervisor.rcb.noise_check` lets the fleet's noise prior go.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from supervisor.fleet.hierarchy import pooled_spread
+from supervisor.fleet.prior import Learned
+from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale
+
+#: ``σ_0``: the default between-chain spread of ``ln λ`` [-]: two instruments of one kind differ
+#: in their noise variance by 30 % (their noise by 15 %) (``closed_loop.py --fleet``).
+DEFAULT_CHAIN_SPREAD = 0.3
+#: A chain whose evidence is worth fewer readings than this is not compared (``v_m`` is then
+#: no longer ``2/n_m``).
+MIN_READINGS = 6.0
+
+
+@dataclass(frozen=True)
+class NoisePrior:
+    """A quantity's chain prior from the fleet and where it came from."""
+
+    quantity: str
+    belief: NoiseScale
+    machines: tuple[str, ...]
+    readings: int
+    spread: float
+
+    @property
+    def scale(self) -> float:
+        """``√λ̄``: the fleet's chains' noise as a multiple of the reported one."""
+        return math.sqrt(self.belief.rate / (self.belief.shape - 1.0))
+
+    def describe(self) -> str:
+        """``roughness_um noise: 1.00 x the reported u from 540 readings on 3 machines, …``."""
+        machines = "machine" if len(self.machines) == 1 else "machines"
+        return (
+            f"{self.quantity} noise: {self.scale:.2f} x the reported u from {self.readings} "
+            f"readings on {len(self.machines)} {machines}, between-chain spread "
+            f"{100 * self.spread:.0f} %"
+        )
+
+
+def noise_priors(
+    learned: Sequence[Learned], default_spread: float = DEFAULT_CHAIN_SPREAD
+) -> dict[str, NoisePrior]:
+    """Per quantity the fleet's chains read, a new chain's prior (module docstring)."""
+    sums: dict[str, dict[str, tuple[float, float]]] = {}
+    for item in learned:
+        if item.chain is None:
+            continue
+        quantity = item.posterior.quantity
+        n, s = sums.setdefault(quantity, {}).get(item.machine, (0.0, 0.0))
+        n += 2.0 * (item.chain.shape - NOISE_PRIOR)
+        s += 2.0 * (item.chain.rate - NOISE_RATE)
+        sums[quantity][item.machine] = (n, s)
+    out = {}
+    for quantity, chains in sorted(sums.items()):
+        kept = {m: ns for m, ns in chains.items() if ns[0] >= MIN_READINGS}
+        if kept:
+            out[quantity] = _prior(quantity, kept, default_spread)
+    return out
+
+
+def _prior(
+    quantity: str, chains: dict[str, tuple[float, float]], default_spread: float
+) -> NoisePrior:
+    ys = [math.log(max(s / n, 1e-6)) for n, s in chains.values()]
+    vs = [2.0 / n for n, _ in chains.values()]
+    spread2 = pooled_spread(list(zip(ys, vs, strict=True)), default_spread) ** 2
+    weights = [1.0 / (v + spread2) for v in vs]
+    mu = sum(w * y for w, y in zip(weights, ys, strict=True)) / sum(weights)
+    total = spread2 + 1.0 / sum(weights)
+    mean = max(math.exp(mu + 0.5 * total), 1.0)
+    shape = 2.0 + 1.0 / math.expm1(total)
+    readings = int(round(sum(n for n, _ in chains.values())))
+    belief = NoiseScale(shape, (shape - 1.0) * mean)
+    return NoisePrior(quantity, belief, tuple(sorted(chains)), readings, math.sqrt(spread2))
