@@ -78,6 +78,11 @@ def test_a_third_machine_starts_from_two_and_the_setpoints_say_so(server) -> Non
     assert line["plans"] == [f"fleet-{tag}-a", f"fleet-{tag}-b"]
     assert line["readings"] == 20
     assert line["text"].startswith("force_N: prior from 2 plans on 2 machines")
+    # the measuring chains' noise priors, from the same two machines (supervisor.fleet.noise)
+    noise = setpoints["noise_provenance"]
+    assert noise == shown["noise_provenance"] == fleet.json()["noise_provenance"] != []
+    assert all(p["machines"] == sorted(p["machines"]) and len(p["machines"]) == 2 for p in noise)
+    assert all(p["let_go_by_part"] is None and " noise: " in p["text"] for p in noise)
 
 
 def test_a_prior_that_is_not_one_is_a_problem_naming_it(server) -> None:
