@@ -29,7 +29,7 @@ from models.errors import InputError
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.prior import Learned
 from supervisor.inputs.plan import Operation
-from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale
+from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 
@@ -88,10 +88,7 @@ def item_json(item: Learned) -> dict[str, Any]:
 
 def _chain_json(chain: NoiseScale) -> dict[str, float]:
     """A chain's evidence as readings' worth and excess squares (beyond the default prior)."""
-    return {
-        "readings": 2.0 * (chain.shape - NOISE_PRIOR),
-        "excess": 2.0 * (chain.rate - NOISE_RATE),
-    }
+    return {"readings": chain.readings, "excess": chain.excess}
 
 
 def _chain(data: object, path: str) -> NoiseScale | None:
@@ -102,7 +99,7 @@ def _chain(data: object, path: str) -> NoiseScale | None:
     fields.only_keys(table, ("readings", "excess"), path)
     readings = fields.number_within(table, "readings", path, low=0.0, high=MAX_CHAIN_READINGS)
     excess = fields.number_within(table, "excess", path, low=0.0, high=1e3 * MAX_CHAIN_READINGS)
-    return NoiseScale(NOISE_PRIOR + readings / 2, NOISE_RATE + excess / 2)
+    return NoiseScale.of_evidence(readings, excess)
 
 
 def read_document(data: object, path: str = "document") -> tuple[str, list[Learned]]:

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 from supervisor.fleet.hierarchy import pooled_spread
 from supervisor.fleet.prior import Learned
-from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale
+from supervisor.rcb.noise import NoiseScale
 
 #: ``σ_0``: the default between-chain spread of ``ln λ`` [-]: two instruments of one kind differ
 #: in their noise variance by 30 % (their noise by 15 %) (``closed_loop.py --fleet``).
@@ -78,9 +78,7 @@ def noise_priors(
             continue
         quantity = item.posterior.quantity
         n, s = sums.setdefault(quantity, {}).get(item.machine, (0.0, 0.0))
-        n += 2.0 * (item.chain.shape - NOISE_PRIOR)
-        s += 2.0 * (item.chain.rate - NOISE_RATE)
-        sums[quantity][item.machine] = (n, s)
+        sums[quantity][item.machine] = (n + item.chain.readings, s + item.chain.excess)
     out = {}
     for quantity, chains in sorted(sums.items()):
         kept = {m: ns for m, ns in chains.items() if ns[0] >= MIN_READINGS}

@@ -66,6 +66,24 @@ class NoiseScale:
     shape: float = NOISE_PRIOR
     rate: float = NOISE_RATE
 
+    @classmethod
+    def of_evidence(cls, readings: float, excess: float) -> NoiseScale:
+        """The default prior and ``readings`` readings' worth of excess squares ``excess``.
+
+        The inverse of :attr:`readings` and :attr:`excess`.
+        """
+        return cls(NOISE_PRIOR + 0.5 * readings, NOISE_RATE + 0.5 * excess)
+
+    @property
+    def readings(self) -> float:
+        """``2(a − a₀)``: the readings' worth of evidence beyond the default prior."""
+        return 2.0 * (self.shape - NOISE_PRIOR)
+
+    @property
+    def excess(self) -> float:
+        """``2(b − b₀)``: the sum of those readings' excess squares (in ``u²``)."""
+        return 2.0 * (self.rate - NOISE_RATE)
+
     @property
     def scale(self) -> float:
         """``ŝ = √max(b/a, 1)``: the noise in force as a multiple of the reported one."""

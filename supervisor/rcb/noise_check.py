@@ -51,7 +51,7 @@ import numpy as np
 from supervisor.inputs.part_report import COVERAGE_FACTOR
 from supervisor.rcb.judged import Judged
 from supervisor.rcb.monitor_state import Monitor
-from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale, pooled
+from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.prior_check import OUTLIER_PROBABILITY
 
 #: ``ln`` of the odds a Bayes factor must beat to let a fleet's noise prior go.
@@ -80,7 +80,7 @@ def in_force(prior: NoiseScale | None, evidence: Sequence[NoiseScale]) -> NoiseS
     """``prior`` once the chain's own ``evidence`` can tell its noise from the model, else None."""
     if prior is None:
         return None
-    readings = sum(2.0 * (e.shape - NOISE_PRIOR) for e in evidence)
+    readings = sum(e.readings for e in evidence)
     return prior if readings >= IN_FORCE_READINGS else None
 
 
@@ -121,8 +121,7 @@ def log_marginal(prior: NoiseScale, own: NoiseScale, items: Sequence[Innovation]
 def _log_likelihood(own: NoiseScale, items: Sequence[Innovation]) -> np.ndarray:
     """``ln`` of the readings' likelihood at every ``λ`` of the grid."""
     lam = np.exp(_LN_GRID)
-    readings, excess = 2.0 * (own.shape - NOISE_PRIOR), 2.0 * (own.rate - NOISE_RATE)
-    out = -0.5 * readings * _LN_GRID - 0.5 * excess / lam
+    out = -0.5 * own.readings * _LN_GRID - 0.5 * own.excess / lam
     if items:
         e2 = np.array([i.e**2 for i in items])[:, None]
         variance = np.array([i.model for i in items])[:, None] + np.outer(
@@ -146,9 +145,8 @@ def rejects(prior: NoiseScale, own: NoiseScale, items: Sequence[Innovation]) -> 
 
     ``own``: its earlier evidence, on the default prior; ``items``: this report's innovations.
     """
-    readings = 2.0 * (own.shape - NOISE_PRIOR) + len(items)
-    excess = 2.0 * (own.rate - NOISE_RATE)
-    excess += sum(max(i.e**2 - i.model, 0.0) / i.noise for i in items if i.noise > 0)
+    readings = own.readings + len(items)
+    excess = own.excess + sum(max(i.e**2 - i.model, 0.0) / i.noise for i in items if i.noise > 0)
     if readings <= 0.0 or excess <= readings * prior.rate / (prior.shape - 1.0):
         return False  # no reading yet, or a chain no noisier than the fleet's prior says
     log_likelihood = _log_likelihood(own, items)
@@ -158,17 +156,18 @@ def rejects(prior: NoiseScale, own: NoiseScale, items: Sequence[Innovation]) -> 
 
 def kept(
     priors: Mapping[str, NoiseScale],
-    own: Mapping[str, NoiseScale],
+    monitors: Mapping[tuple[str, str], Monitor],
     judged: Sequence[Judged],
 ) -> dict[str, NoiseScale]:
     """The fleet's noise priors per quantity that the chains' evidence keeps.
 
-    ``own``: per quantity, the chain's earlier evidence on the default prior; ``judged``: the
-    report's readings as the monitor judged them against the fleet's prior.
+    ``monitors``: the plan's, whose chains' earlier evidence (on the default prior) is
+    weighed; ``judged``: the report's readings as the monitor judged them against the fleet's
+    prior. A plan with no fleet noise prior (most) pays nothing.
     """
     if not priors:
         return {}
-    found = innovations(judged)
+    own, found = chains_of(monitors), innovations(judged)
     return {
         q: p
         for q, p in priors.items()
@@ -183,7 +182,7 @@ def chains_of(
 
     :func:`supervisor.rcb.noise.pooled`: one instrument measures a quantity in every operation
     of a plan and misreports its ``u`` by one factor. ``priors``: a chain's prior where it is
-    a fleet's (:mod:`supervisor.rcb.noise_check`), else the default.
+    a fleet's, once in force (:func:`in_force`); else the default.
     """
     priors = priors or {}
     by_quantity: dict[str, list[NoiseScale]] = {q: [] for q in priors}

@@ -123,7 +123,7 @@ def update(
     # measured_at: a pass's setpoint; then (op, made, quantity, measurement)
     at = [(*measured_at(operations[n], results[n], q), q, m) for n, q, m in measured_items]
     judged = [judge(state, *a, report, chains.get(a[2], NoiseScale())) for a in at]
-    noise_priors = kept(state.noise_priors, chains_of(state.monitors), judged)
+    noise_priors = kept(state.noise_priors, state.monitors, judged)
     if noise_priors != state.noise_priors:  # a fleet's noise prior let go: judged again
         state = replace(state, noise_priors=noise_priors)
         chains = chains_of(state.monitors, noise_priors)

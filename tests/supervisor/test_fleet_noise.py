@@ -23,7 +23,8 @@ from supervisor.fleet.prior import Learned
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.judged import Judged
-from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE, NoiseScale, pooled
+from supervisor.rcb.monitor_state import Monitor
+from supervisor.rcb.noise import NoiseScale, pooled
 from supervisor.rcb.noise_check import (
     IN_FORCE_READINGS,
     Innovation,
@@ -41,7 +42,7 @@ PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_dem
 
 def _evidence(readings: float, noise: float) -> NoiseScale:
     """A chain's evidence of ``readings`` readings whose mean excess square is ``noise``."""
-    return NoiseScale(NOISE_PRIOR + readings / 2, NOISE_RATE + readings * noise / 2)
+    return NoiseScale.of_evidence(readings, readings * noise)
 
 
 def _learned(machine: str, readings: float, noise: float, quantity: str = "force_N") -> Learned:
@@ -109,8 +110,12 @@ def test_the_marginal_is_the_conjugate_one_when_the_model_is_known_and_a_part_ca
     assert rejects(fleet, NoiseScale(), _innovations(1e-5, 9.0))
     assert not rejects(fleet, NoiseScale(), _innovations(1e-5, 1.0))
     judged: list[Judged] = []
-    assert kept({"force_N": fleet}, {"force_N": _evidence(60, 9.0)}, judged) == {}
-    assert kept({"force_N": fleet}, {"force_N": _evidence(60, 1.0)}, judged) == {"force_N": fleet}
+    for noise, left in ((9.0, {}), (1.0, {"force_N": fleet})):
+        chain = _evidence(60, noise)
+        monitors = {
+            ("rough-od", "force_N"): Monitor(chain_shape=chain.shape, chain_rate=chain.rate)
+        }
+        assert kept({"force_N": fleet}, monitors, judged) == left
 
 
 def test_the_fleets_noise_prior_is_in_force_once_the_chain_can_tell_its_noise() -> None:
