@@ -61,7 +61,6 @@ from supervisor.rcb.learning import discount
 from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.state import RcbState, prior_sigma
-from supervisor.rcb.tool_terms import log_evidence
 
 #: The prior probability that a new machine's ``ln K`` lies outside the fleet's spread: the
 #: odds ``(1 − ε)/ε = 19`` a Bayes factor must beat ("strong" evidence, Kass & Raftery 1995).
@@ -149,9 +148,22 @@ def log_bayes_factor(start: Posterior, after: Posterior, variance: float) -> flo
     p_start, m = start.precision, start.mean_array
     info = after.precision - p_start
     h = after.precision @ after.mean_array - p_start @ m
-    fleet = log_evidence(m, p_start, info, h)
-    widened = log_evidence(m, discount(start, variance).precision, info, h)
+    fleet = _log_evidence(m, p_start, info, h)
+    widened = _log_evidence(m, discount(start, variance).precision, info, h)
     return None if fleet is None or widened is None else widened - fleet
+
+
+def _log_evidence(
+    m: np.ndarray, precision: np.ndarray, info: np.ndarray, h: np.ndarray
+) -> float | None:
+    """``ln p(y)`` less the terms every prior shares (module docstring); None: not proper."""
+    after = precision + info
+    sign0, logdet0 = np.linalg.slogdet(precision)
+    sign1, logdet1 = np.linalg.slogdet(after)
+    if sign0 <= 0 or sign1 <= 0:
+        return None
+    b = precision @ m + h
+    return float(0.5 * (logdet0 - logdet1 + b @ np.linalg.solve(after, b) - m @ precision @ m))
 
 
 def rebased(before: Posterior, start: Posterior, variance: float) -> Posterior:

@@ -148,21 +148,3 @@ def in_operation_terms(
         mean=tuple(float(v) for v in beta),
         cov=tuple(tuple(float(v) for v in row) for row in sigma),
     )
-
-
-def log_evidence(
-    m: np.ndarray, precision: np.ndarray, info: np.ndarray, h: np.ndarray
-) -> float | None:
-    r"""``ln p(y)`` of readings with information ``(info, h)`` under the prior ``N(m, P^{-1})``.
-
-    Less the terms every prior shares (the Gaussian linear model's evidence, Bishop §3.5.1):
-    ``½(ln|P| − ln|P'| + bᵀP'^{-1}b − mᵀPm)`` with ``P' = P + J``, ``b = Pm + h``. None: a
-    prior or posterior that is not proper.
-    """
-    after = precision + info
-    sign0, logdet0 = np.linalg.slogdet(precision)
-    sign1, logdet1 = np.linalg.slogdet(after)
-    if sign0 <= 0 or sign1 <= 0:
-        return None
-    b = precision @ m + h
-    return float(0.5 * (logdet0 - logdet1 + b @ np.linalg.solve(after, b) - m @ precision @ m))
