@@ -7,9 +7,9 @@ between-machine spread that is itself learned (a normal hierarchical model, Gelm
 
 .. math:: θ_m = θ + δ_m e_0, \qquad δ_m \sim N(0, σ_b^2)
 
-**The fleet's belief.** Machine ``m``'s evidence ``(J_m, h_m)``
-(:mod:`supervisor.rcb.tool_terms`, summed over its operations on the tool) is about ``θ_m``;
-integrating ``δ_m`` out gives its evidence about ``θ`` (a rank-one update, Sherman-Morrison):
+**The fleet's belief.** Machine ``m``'s evidence ``(J_m, h_m)`` (:mod:`.evidence`, summed
+over its operations on the tool) is about ``θ_m``; integrating ``δ_m`` out gives its evidence
+about ``θ`` (a rank-one update, Sherman-Morrison):
 
 .. math:: J'_m = J_m − c\, J_m e_0 e_0^\mathsf{T} J_m, \quad
    h'_m = h_m − c\, (e_0^\mathsf{T} h_m) J_m e_0, \quad c = (σ_b^{-2} + e_0^\mathsf{T} J_m e_0)^{-1}
@@ -51,7 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from supervisor.rcb.tool_terms import Evidence
+from supervisor.fleet.evidence import Evidence
 
 #: ``σ_0``: the default between-machine spread of ``ln K`` [-], 5 %: the machines' share of a
 #: tool's scatter (benchmarks/closed_loop.py --fleet; the module docstring).

@@ -2,12 +2,11 @@ r"""A new plan's ``learn`` prior from what plans on other machines learned with 
 
 For every operation and measured quantity of the new plan, the learned posteriors of the same
 tool (name, process and work material) and quantity in the fleet's plans are read as evidence
-about the tool's law (:mod:`supervisor.rcb.tool_terms`), grouped by machine and combined in
-the hierarchical model of :mod:`.hierarchy`. The result is mapped back to the operation's own
-parameters (``β = T^{-1}(θ − o)``, the inverse of :func:`~supervisor.rcb.tool_terms.
-transform`), a wearing quantity's edge-age coefficient included: the rise over an edge's life
-is the tool's, learned by the fleet as its exponents are (an operation with no edge limit
-drops it). On a machine the fleet
+about the tool's law (:mod:`.evidence`), grouped by machine and combined in the hierarchical
+model of :mod:`.hierarchy`. The result is mapped back to the operation's own parameters
+(``β = T^{-1}(θ − o)``, the inverse of :func:`.evidence.transform`), a wearing quantity's
+edge-age coefficient included: the rise over an edge's life is the tool's, learned by the
+fleet as its exponents are (an operation with no edge limit drops it). On a machine the fleet
 already holds, that machine's own evidence is added to the fleet's belief about it (its
 offset ``δ_m`` is then known as well as its readings show).
 
@@ -18,12 +17,13 @@ A quantity no plan of the fleet measured with the tool keeps the catalogue prior
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from models.tool import Tool
+from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms, transform
 from supervisor.fleet.hierarchy import (
     DEFAULT_SPREAD,
     SPREAD_WEIGHT,
@@ -35,7 +35,6 @@ from supervisor.rcb import posterior as post
 from supervisor.rcb.learning import as_started
 from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
-from supervisor.rcb.tool_terms import Evidence, evidence, in_operation_terms, in_tool_terms
 
 
 @dataclass(frozen=True)
@@ -171,7 +170,7 @@ def _prior(
         information = np.linalg.inv(cov) + own.information
         cov = np.linalg.inv(information)
         mean = cov @ (np.linalg.inv(belief.cov) @ belief.mean + own.vector)
-    prior = in_operation_terms(catalogue, op.context, mean, cov)
+    prior = _in_operation_terms(catalogue, op.context, mean, cov)
     plans = tuple(sorted({item.plan for item in found}))
     machines = tuple(sorted({item.machine for item in found}))
     readings = sum(item.posterior.observations for item in found)
@@ -190,3 +189,20 @@ def _start_of(item: Learned, quantity: str) -> Posterior:
         return post.prior(model, item.operation, item.coverage_k, item.exponent_sd, item.edge_sd)
     return as_started(item.start, item.posterior)
 
+
+def _in_operation_terms(
+    catalogue: Posterior, context: Mapping[str, float], mean: np.ndarray, cov: np.ndarray
+) -> Posterior:
+    """``θ ~ N(mean, cov)`` as the operation's ``β`` (``ω`` left out where it has no edge)."""
+    t, offset = transform(catalogue, context)
+    k = len(t)
+    t_inv = np.linalg.inv(t)
+    beta = t_inv @ (mean[:k] - offset)
+    sigma = t_inv @ cov[:k, :k] @ t_inv.T
+    sigma = 0.5 * (sigma + sigma.T)
+    assert len(beta) == len(catalogue.mean)
+    return replace(
+        catalogue,
+        mean=tuple(float(v) for v in beta),
+        cov=tuple(tuple(float(v) for v in row) for row in sigma),
+    )

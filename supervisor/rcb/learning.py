@@ -34,7 +34,6 @@ import numpy as np
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
-from supervisor.rcb import pooling
 from supervisor.rcb import posterior as post
 from supervisor.rcb.beliefs import Beliefs
 from supervisor.rcb.cone import Cone
@@ -164,15 +163,9 @@ def settled(state: Beliefs, chains: Mapping[str, NoiseScale]) -> dict[tuple[str,
 
 
 def cones(state: Beliefs) -> dict[str, dict[str, Cone]]:
-    """The cone constraints of a ``learn`` state, per operation and quantity.
-
-    A quantity from a fleet prior pools the readings of its tool's operations
-    (:mod:`.pooling`).
-    """
+    """The cone constraints of a ``learn`` state, per operation and quantity."""
     out: dict[str, dict[str, Cone]] = {}
-    pooled = pooling.pooled(state, _prior_of)  # a fleet prior's operations of one tool
     for (name, quantity), belief in state.posterior.items():
-        belief = pooled.get((name, quantity), belief)
         out.setdefault(name, {})[quantity] = Cone(belief, state.settings.z, state.settings.tau)
     return out
 

@@ -1,7 +1,7 @@
 """The fleet prior carries the edge's rise over its life (issue 32), learned by other
 machines, and beside the catalogue band it keeps the band's rule: vetoed by a mean, not a cone.
 
-Numbers from :mod:`supervisor.rcb.tool_terms` (``ω = n_max w``) and
+Numbers from :mod:`supervisor.fleet.evidence` (``ω = n_max w``) and
 :func:`supervisor.optimize.optimizer._agrees`.
 """
 

@@ -1,6 +1,6 @@
 """The fleet prior (issue 32): evidence in the tool's terms, the hierarchy, a new plan's prior.
 
-Numbers are worked by hand from the formulas in :mod:`supervisor.rcb.tool_terms` and
+Numbers are worked by hand from the formulas in :mod:`supervisor.fleet.evidence` and
 :mod:`supervisor.fleet.hierarchy` (cited per test).
 """
 
@@ -15,7 +15,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from models.errors import InputError
-from supervisor.rcb.tool_terms import Evidence, evidence, in_tool_terms
+from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms
 from supervisor.fleet.hierarchy import best_determined, between_spread, fleet_belief, marginal
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.part_report import Measurement

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -130,21 +130,3 @@ def evidence(posterior: Posterior, prior: Posterior, context: Mapping[str, float
     j = (kept * values[keep]) @ kept.T
     h = kept @ (kept.T @ h)
     return Evidence(posterior.names, j, h, posterior.observations)
-
-
-def in_operation_terms(
-    catalogue: Posterior, context: Mapping[str, float], mean: np.ndarray, cov: np.ndarray
-) -> Posterior:
-    """``θ ~ N(mean, cov)`` as the operation's ``β`` (``ω`` left out where it has no edge)."""
-    t, offset = transform(catalogue, context)
-    k = len(t)
-    t_inv = np.linalg.inv(t)
-    beta = t_inv @ (mean[:k] - offset)
-    sigma = t_inv @ cov[:k, :k] @ t_inv.T
-    sigma = 0.5 * (sigma + sigma.T)
-    assert len(beta) == len(catalogue.mean)
-    return replace(
-        catalogue,
-        mean=tuple(float(v) for v in beta),
-        cov=tuple(tuple(float(v) for v in row) for row in sigma),
-    )
