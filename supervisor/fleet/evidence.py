@@ -42,10 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior
-
-#: Eigenvalues of the evidence under this fraction of its largest are no evidence (round-off).
-_RELATIVE_FLOOR = 1e-9
+from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior, positive_part
 
 
 @dataclass(frozen=True)
@@ -122,11 +119,5 @@ def evidence(posterior: Posterior, prior: Posterior, context: Mapping[str, float
     m, s = in_tool_terms(posterior, context)
     m0, s0 = in_tool_terms(prior, context)
     p, p0 = np.linalg.inv(s), np.linalg.inv(s0)
-    j = 0.5 * ((p - p0) + (p - p0).T)
-    h = p @ m - p0 @ m0
-    values, vectors = np.linalg.eigh(j)
-    keep = values > _RELATIVE_FLOOR * max(float(values.max()), 0.0)
-    kept = vectors[:, keep]
-    j = (kept * values[keep]) @ kept.T
-    h = kept @ (kept.T @ h)
+    j, h = positive_part(p - p0, p @ m - p0 @ m0)
     return Evidence(posterior.names, j, h, posterior.observations)

@@ -85,6 +85,8 @@ DEFAULT_EXPONENT_SD = 0.15
 DEFAULT_EDGE_SD = 0.1
 #: Quantities that rise as an edge wears, and so get the edge-age feature.
 WEARING = ("force_N", "roughness_um", "spindle_current_A")
+#: Eigenvalues of readings' information under this fraction of its largest are round-off.
+EVIDENCE_FLOOR = 1e-9
 #: Relative jitter of the covariance's Cholesky factor (numerical safety only).
 _JITTER = 1e-12
 
@@ -325,3 +327,20 @@ def observe(
         belief.noise_scale2,
         belief.prior_widening,
     )
+
+
+def positive_part(information: np.ndarray, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Readings' information ``(J, h)`` with what is not evidence dropped.
+
+    ``J = P − P₀`` (a posterior's precision less its prior's) is not positive semidefinite
+    where the learner's forgetting (the random walk ``τ``, a change's discount) left less
+    precision than the prior's: that direction carries no evidence. ``J`` is projected on the
+    eigenvectors of positive eigenvalue (those under :data:`EVIDENCE_FLOOR` of the largest
+    are round-off) and ``h`` with it, so a process that changed shows only what its readings
+    since do.
+    """
+    j = 0.5 * (information + information.T)
+    values, vectors = np.linalg.eigh(j)
+    keep = values > EVIDENCE_FLOOR * max(float(values.max()), 0.0)
+    kept = vectors[:, keep]
+    return (kept * values[keep]) @ kept.T, kept @ (kept.T @ vector)

@@ -167,14 +167,24 @@ def _log_evidence(
 
 
 def rebased(before: Posterior, start: Posterior, variance: float) -> Posterior:
-    """``before``'s readings on ``start`` widened by ``variance`` (its intercept let go)."""
+    """``before``'s readings on ``start`` widened by ``variance`` (its intercept let go).
+
+    The readings' information is what ``before`` holds beyond ``start`` where it is evidence
+    (:func:`~supervisor.rcb.posterior.positive_part`, as the fleet reads a plan's). Where a
+    change's discount left less precision than the start's, adding the whole difference to
+    the widened start extrapolated the combination and ran the mean off (the known prior
+    under ``--fault curvature``, seed 139: ``ln Ra`` from 0.87 to 4.4 at part 8 after a
+    change, ``K`` past a float's range at part 12); there the widened start stands.
+    """
     wide = discount(start, variance)
-    information = wide.precision + (before.precision - start.precision)
-    weighted = wide.precision @ wide.mean_array + (
-        before.precision @ before.mean_array - start.precision @ start.mean_array
+    readings, vector = post.positive_part(
+        before.precision - start.precision,
+        before.precision @ before.mean_array - start.precision @ start.mean_array,
     )
+    information = wide.precision + readings
+    weighted = wide.precision @ wide.mean_array + vector
     if float(np.linalg.eigvalsh(0.5 * (information + information.T))[0]) <= 0.0:
-        rebased = discount(before, variance)  # the earlier readings' discounts took more
+        rebased = discount(before, variance)  # round-off of a near-singular start
     else:
         cov = np.linalg.inv(information)
         cov = 0.5 * (cov + cov.T)

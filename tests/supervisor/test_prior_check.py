@@ -23,13 +23,19 @@ from supervisor.fleet.prior import Learned
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
-from supervisor.rcb.learning import as_started, belief_of
+from supervisor.rcb.learning import as_started, belief_of, discount
 from supervisor.rcb.prior_check import OUTLIER_PROBABILITY, log_bayes_factor, rebased
 from supervisor.rcb.replan import replan
 from supervisor.rcb.state import RcbSettings, RcbState
 from supervisor.rcb.update import start, update
 from supervisor.virtual.certificate import ScenarioTrace
-from supervisor.virtual.fleet import fleet_truths, known_priors, machines_of
+from supervisor.virtual.fault_spec import parse_faults
+from supervisor.virtual.fleet import (
+    DEFAULT_MACHINE_SPREAD,
+    fleet_truths,
+    known_priors,
+    machines_of,
+)
 from supervisor.virtual.scenario import run_machine
 from supervisor.virtual.simulate import run_part
 
@@ -106,6 +112,42 @@ def test_rebased_keeps_the_readings_and_lets_the_intercept_go() -> None:
     assert moved.cov[0][0] == pytest.approx(on_wide.cov[0][0], rel=1e-9)
     assert moved.prior_widening == widening
     assert post.from_json(moved.to_json()) == moved  # it is stored with the belief
+
+
+def test_a_belief_a_change_discounted_below_its_start_is_rebased_on_the_widened_start() -> None:
+    """After a change's discount the belief holds less precision than the fleet prior it
+    started from (``1/(4.4e-5 + 0.05²) < 1/0.02²``): its readings no longer count as evidence
+    beyond the start (``positive_part``), so the widened start stands, ``N(0, 0.02² + 0.1²)``
+    (before: the discounted belief widened, at 0.17, in one dimension; an extrapolation of
+    the two in more, the next test)."""
+    prior, widening = _intercept(0.0, 0.02**2), 0.1**2
+    before = prior
+    for m in (Measurement(1.2, 0.024), Measurement(1.21, 0.0242)):
+        before = post.observe(before, {}, m, 2.0, 0.0)
+    before = discount(before, 0.05**2)
+    assert before.cov[0][0] > prior.cov[0][0]
+    moved = rebased(before, prior, widening)
+    assert moved.mean[0] == pytest.approx(0.0, abs=1e-12)
+    assert moved.cov[0][0] == pytest.approx(0.02**2 + widening, rel=1e-9)
+
+
+def test_a_known_prior_on_a_curved_truth_keeps_its_belief_finite() -> None:
+    """``closed_loop.py --fleet 4 --fault curvature``, seed 139: the known prior's belief of
+    finish-grooves' roughness, discounted by a change at part 8 and let go in the same
+    report, was rebased to ``ln Ra`` 4.4 (from 0.87) and its ``K`` overflowed a float at part
+    12 (``OverflowError`` out of the optimiser). It now makes its 12 parts, every belief's
+    intercept within 1 (in ln) of where it stood at the start."""
+    seed = 139
+    truths = fleet_truths(PLAN, seed, DEFAULT_MACHINE_SPREAD)
+    machine = machines_of(
+        PLAN, truths, seed, 4, machine_spread=DEFAULT_MACHINE_SPREAD, outside=True
+    )[-1]
+    known = start(PLAN, SETTINGS, known_priors(PLAN, truths, DEFAULT_MACHINE_SPREAD, SETTINGS))
+    faults = parse_faults(["curvature"])
+    trace, state = run_machine(known, machine, seed, 12, faults=faults, noise_seed=[seed, 3])
+    assert trace.parts_made == 12
+    for key, belief in state.posterior.items():
+        assert abs(belief.mean[0] - known.posterior[key].mean[0]) < 1.0, key
 
 
 def _run(outside: bool, believed_spread: float, parts: int) -> tuple[ScenarioTrace, RcbState]:
