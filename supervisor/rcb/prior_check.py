@@ -181,19 +181,15 @@ def rebased(before: Posterior, start: Posterior, variance: float) -> Posterior:
         before.precision - start.precision,
         before.precision @ before.mean_array - start.precision @ start.mean_array,
     )
-    information = wide.precision + readings
-    weighted = wide.precision @ wide.mean_array + vector
-    if float(np.linalg.eigvalsh(0.5 * (information + information.T))[0]) <= 0.0:
-        rebased = discount(before, variance)  # round-off of a near-singular start
-    else:
-        cov = np.linalg.inv(information)
-        cov = 0.5 * (cov + cov.T)
-        rebased = replace(
-            before,
-            mean=tuple(float(v) for v in cov @ weighted),
-            cov=tuple(tuple(float(v) for v in row) for row in cov),
-        )
-    return replace(rebased, prior_widening=variance)
+    # the widened start is proper and the readings' part semidefinite: their sum inverts
+    cov = np.linalg.inv(wide.precision + readings)
+    cov = 0.5 * (cov + cov.T)
+    return replace(
+        before,
+        mean=tuple(float(v) for v in cov @ (wide.precision @ wide.mean_array + vector)),
+        cov=tuple(tuple(float(v) for v in row) for row in cov),
+        prior_widening=variance,
+    )
 
 
 def with_let_go(decision: Decision, factor: float | None) -> Decision:
