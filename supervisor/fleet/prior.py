@@ -163,8 +163,13 @@ def _prior(
     own = by_machine.pop(machine, None)
     prior_mean, prior_cov = in_tool_terms(catalogue, op.context, edge_sd)
     others = list(by_machine.values())
-    reference = best_determined(others, np.linalg.inv(prior_cov), len(catalogue.names))
-    belief = fleet_belief(others, prior_mean, prior_cov, reference, default_spread, spread_weight)
+    exponents = len(catalogue.names)
+    reference = best_determined(others, np.linalg.inv(prior_cov), exponents)
+    if not others:  # the exponents pivot about the operation's own centre
+        reference[1 : exponents + 1] = catalogue.center
+    belief = fleet_belief(
+        others, prior_mean, prior_cov, reference, exponents, default_spread, spread_weight
+    )
     mean, cov = belief.mean, belief.cov
     if own is not None:  # this machine's offset, as its own readings show it
         information = np.linalg.inv(cov) + own.information

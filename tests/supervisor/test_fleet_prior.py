@@ -16,7 +16,13 @@ from numpy.testing import assert_allclose
 
 from models.errors import InputError
 from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms
-from supervisor.fleet.hierarchy import best_determined, between_spread, fleet_belief, marginal
+from supervisor.fleet.hierarchy import (
+    best_determined,
+    between,
+    between_spread,
+    fleet_belief,
+    marginal,
+)
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
@@ -74,11 +80,46 @@ def test_tool_terms_of_the_catalogue_prior_give_back_K_and_the_exponents() -> No
 def test_a_machine_says_at_most_the_spread_about_the_fleet() -> None:
     """One dimension: ``J' = J − J²/(σ_b⁻² + J) = 1/(1/J + σ_b²)``: 100 and 0.05 give 80."""
     one = Evidence((), np.array([[100.0]]), np.array([100.0 * 0.3]), 5)
-    j, h = marginal(one, 0.05)
+    j, h = marginal(one, np.array([[0.05]]))
     assert_allclose(j, [[80.0]])
     assert_allclose(h, [80.0 * 0.3])
     huge = Evidence((), np.array([[1e12]]), np.array([0.0]), 10**6)
-    assert_allclose(marginal(huge, 0.05)[0], [[1 / 0.05**2]], rtol=1e-6)
+    assert_allclose(marginal(huge, np.array([[0.05]]))[0], [[1 / 0.05**2]], rtol=1e-6)
+
+
+def test_a_machine_says_at_most_the_exponents_spread_about_them() -> None:
+    """``J = [[100, 40], [40, 400]]``, ``h = J (0.3, 0.7)``, the exponent ``0.7 ± 2 %``
+    pivoting at ``ln x = 1.5``: ``L = [[0.05, −1.5 · 0.014], [0, 0.014]]``, ``J' = (J⁻¹ +
+    L Lᵀ)⁻¹`` and ``h' = J' (0.3, 0.7)`` (Woodbury; worked with the inverses). With no
+    exponent spread it is the rank-one update of ``ln K`` alone: ``c = 1/(400 + 100)``,
+    ``J' = J − c (100, 40)(100, 40)ᵀ``."""
+    j = np.array([[100.0, 40.0], [40.0, 400.0]])
+    theta = np.array([0.3, 0.7])
+    one = Evidence(("feed",), j, j @ theta, 5)
+    factor = between(np.array([1.0, 1.5]), 0.05, np.array([0.02 * 0.7]))
+    assert_allclose(factor, [[0.05, -1.5 * 0.014], [0.0, 0.014]])
+    expected = np.linalg.inv(np.linalg.inv(j) + factor @ factor.T)
+    j_marginal, h_marginal = marginal(one, factor)
+    assert_allclose(j_marginal, expected, rtol=1e-12)
+    assert_allclose(h_marginal, expected @ theta, rtol=1e-12)
+    j_lnk, _ = marginal(one, between(np.array([1.0, 1.5]), 0.05, np.array([0.0])))
+    assert_allclose(j_lnk, j - np.outer([100.0, 40.0], [100.0, 40.0]) / 500.0, rtol=1e-12)
+
+
+def test_a_new_machine_varies_least_where_the_fleet_cut() -> None:
+    """Two exponents known exactly at ``(0.7, 1.0)``, ``ln K`` too: a new machine's ``ln Y``
+    varies about the reference ``x_r = (1, 2)`` by ``σ_b² + Σ (σ_e e_i (x_i − x_ri))²``, at
+    the reference by ``σ_b²`` alone, wherever it lies."""
+    mean = np.array([0.0, 0.7, 1.0])
+    exact = np.diag([1e-14] * 3)
+    reference = np.array([1.0, 1.0, 2.0])
+    belief = fleet_belief([], mean, exact, reference, 2, exponent_spread=0.02)
+    for x in ([1.0, 2.0], [0.0, 0.0], [1.5, 2.5]):
+        phi = np.array([1.0, *x])
+        spread = 0.05**2 + sum(
+            (0.02 * e * (xi - r)) ** 2 for e, xi, r in zip(mean[1:], x, reference[1:], strict=True)
+        )
+        assert phi @ belief.cov @ phi == pytest.approx(spread, rel=1e-6)
 
 
 def test_the_spread_pools_the_default_with_DerSimonian_Laird() -> None:
@@ -121,7 +162,7 @@ def test_a_new_machine_is_the_fleet_mean_plus_the_spread() -> None:
     """Prior ``N(0, 1)``, one machine ``J = 100, h = 100 · 0.2``: ``J' = 80, h' = 16``,
     ``P = 81``, mean ``16/81``, variance ``1/81 + 0.05²`` (hierarchy module docstring)."""
     one = Evidence((), np.array([[100.0]]), np.array([20.0]), 7)
-    belief = fleet_belief([one], np.array([0.0]), np.array([[1.0]]), np.array([1.0]))
+    belief = fleet_belief([one], np.array([0.0]), np.array([[1.0]]), np.array([1.0]), 0)
     assert_allclose(belief.mean, [16 / 81])
     assert_allclose(belief.cov, [[1 / 81 + 0.05**2]])
     assert (belief.machines, belief.readings, belief.spread) == (1, 7, 0.05)
