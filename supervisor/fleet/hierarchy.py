@@ -122,17 +122,24 @@ def marginal(evidence: Evidence, factor: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 def best_determined(
-    machines: Sequence[Evidence], prior_information: np.ndarray, exponents: int
+    machines: Sequence[Evidence],
+    prior_information: np.ndarray,
+    exponents: int,
+    centre: Sequence[float],
 ) -> np.ndarray:
     """``φ = (1, x, 0 …)`` where the machines' ``ln Y`` is best known (module docstring).
 
     ``x`` (the ``exponents`` log-inputs) minimises ``Σ_m φ^T C_m φ``, ``C_m`` machine ``m``'s
     covariance with the prior: ``x = −(Σ C_xx)^{-1} Σ C_x0``; a quantity's ``ω`` (if any) at
-    0, a new edge. With no machine, ``x = 0`` (the spread is then the default, at any point).
+    0, a new edge. With no machine, ``x`` is ``centre``, the new operation's log-centre: the
+    spread is then the default at any point, and the exponents pivot where it cuts.
     """
     reference = np.zeros(len(prior_information))
     reference[0] = 1.0
-    if not machines or exponents == 0:
+    if exponents == 0:
+        return reference
+    if not machines:
+        reference[1 : exponents + 1] = centre
         return reference
     covs = [np.linalg.inv(prior_information + m.information) for m in machines]
     block = sum((c[1 : exponents + 1, 1 : exponents + 1] for c in covs), np.zeros((exponents,) * 2))

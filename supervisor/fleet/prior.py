@@ -164,9 +164,7 @@ def _prior(
     prior_mean, prior_cov = in_tool_terms(catalogue, op.context, edge_sd)
     others = list(by_machine.values())
     exponents = len(catalogue.names)
-    reference = best_determined(others, np.linalg.inv(prior_cov), exponents)
-    if not others:  # the exponents pivot about the operation's own centre
-        reference[1 : exponents + 1] = catalogue.center
+    reference = best_determined(others, np.linalg.inv(prior_cov), exponents, catalogue.center)
     belief = fleet_belief(
         others, prior_mean, prior_cov, reference, exponents, default_spread, spread_weight
     )

@@ -150,7 +150,7 @@ def test_machines_are_compared_where_their_readings_pin_ln_Y() -> None:
         h = sum(p * level for p in points) / sigma2
         machines.append(Evidence(("feed",), j, h, 2))
     flat = np.eye(2) * 1e-9
-    best = best_determined(machines, flat, 1)
+    best = best_determined(machines, flat, 1, (0.0,))
     assert_allclose(best, [1.0, 2.0], atol=1e-6)
     at_best = between_spread(machines, np.zeros(2), flat, best)
     assert at_best == pytest.approx(math.sqrt((2 * 0.05**2 + 0.0049) / 3), rel=1e-4)
