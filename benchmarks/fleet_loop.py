@@ -44,10 +44,23 @@ def _ratios(traces: Sequence[FleetTrace], which: str) -> np.ndarray:
     return np.array([getattr(t, which).plan_ratio for t in traces])
 
 
-def _violations(traces: Sequence[FleetTrace], which: str) -> tuple[int, int]:
-    """(at the first part, later) over ``traces``."""
-    parts = [p for t in traces for p, _, _ in getattr(t, which).where]
-    return sum(1 for p in parts if p == 1), sum(1 for p in parts if p > 1)
+def _violations(traces: Sequence[FleetTrace], which: str) -> tuple[int, int, int]:
+    """(at the first part, at the first part after a step, later) over ``traces``.
+
+    The first part after a step of the truth (``--fault step``) is unavoidable: no reading
+    has shown the step yet (``ScenarioTrace.unavoidable_at``).
+    """
+    first = at_step = later = 0
+    for t in traces:
+        trace = getattr(t, which)
+        for p, _, _ in trace.where:
+            if p == 1:
+                first += 1
+            elif p in trace.unavoidable_at:
+                at_step += 1
+            else:
+                later += 1
+    return first, at_step, later
 
 
 def _met(flag: bool) -> str:
@@ -68,12 +81,16 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
                 cells = "".join(f"{float(cell(r[:, k])):>7.3f}" for k in rows)
                 out.append(f"{which + ' ' + label:<18}{cells}")
     out.append("  (k: part reports the setpoints follow; inside: new machines inside the spread)")
+    if any(t.fleet.unavoidable_at != (1,) for t in traces):
+        out.append("  (violations: at part 1, at the first part after a step, later)")
     for which in ("fleet", "catalogue", "known"):
-        first_in, later_in = _violations(inside, which)
-        first_out, later_out = _violations(outside, which)
+        first_in, step_in, later_in = _violations(inside, which)
+        first_out, step_out, later_out = _violations(outside, which)
+        steps_in = f"{step_in} at a step, " if step_in else ""
+        steps_out = f"{step_out}, " if step_out else ""
         out.append(
-            f"{which + ' violations':<20} inside: {first_in} at part 1, {later_in} later; "
-            f"outside: {first_out}, {later_out}"
+            f"{which + ' violations':<20} inside: {first_in} at part 1, {steps_in}{later_in} "
+            f"later; outside: {first_out}, {steps_out}{later_out}"
         )
     for label, chosen in (("inside", inside), ("outside", outside)):
         let_go = [t.let_go for t in chosen if t.let_go]
@@ -98,8 +115,8 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
         )
     r = _ratios(inside, "fleet")
     first, after3 = float(r[:, 0].mean()), float(r[:, min(3, parts)].mean())
-    first_in, later_in = _violations(inside, "fleet")
-    later_out = _violations(outside, "fleet")[1]
+    first_in, _, later_in = _violations(inside, "fleet")
+    later_out = _violations(outside, "fleet")[2]
     avoidable = first_in + later_in + later_out
     out += [
         f"target first part >= {TARGET_FIRST}: {first:.3f} {_met(first >= TARGET_FIRST)}",

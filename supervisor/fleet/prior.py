@@ -170,9 +170,9 @@ def _prior(
     )
     mean, cov = belief.mean, belief.cov
     if own is not None:  # this machine's offset, as its own readings show it
-        information = np.linalg.inv(cov) + own.information
-        cov = np.linalg.inv(information)
-        mean = cov @ (np.linalg.inv(belief.cov) @ belief.mean + own.vector)
+        fleet_information = np.linalg.inv(belief.cov)
+        cov = np.linalg.inv(fleet_information + own.information)
+        mean = cov @ (fleet_information @ belief.mean + own.vector)
     prior = _in_operation_terms(catalogue, op.context, mean, cov)
     plans = tuple(sorted({item.plan for item in found}))
     machines = tuple(sorted({item.machine for item in found}))
