@@ -23,7 +23,10 @@ this one included, is
     + c(y)
 
 (the Gaussian linear model's evidence [2]_; ``P' = P + J``, ``b = P m + h``, ``J`` and ``h``
-the readings' information, the posterior's less the start's), with ``S`` the fleet prior and
+the readings' information, the posterior's less the start's where it is evidence:
+:func:`~supervisor.rcb.posterior.positive_part`, as :func:`rebased` and the fleet read it; a
+change's discount or the random walk ``τ`` leaves less precision than the start's in some
+direction, which no reading showed), with ``S`` the fleet prior and
 ``S_w`` the same with the intercept's variance grown by the catalogue prior's. When the
 posterior odds favour the wide law, ``B > (1 − ε)/ε``, the prior is widened for good: the
 belief becomes ``S_w`` with the earlier readings' information, and the reading is then learned
@@ -143,11 +146,13 @@ def log_bayes_factor(start: Posterior, after: Posterior, variance: float) -> flo
 
     ``after``: the belief from ``start`` with every reading so far (module docstring);
     ``variance``: what the widened prior adds to the intercept's. None: a belief whose
-    readings' information is not proper under one of the two priors.
+    readings' information is not proper under one of the two priors (round-off: the
+    information is projected on its evidence, positive semidefinite).
     """
     p_start, m = start.precision, start.mean_array
-    info = after.precision - p_start
-    h = after.precision @ after.mean_array - p_start @ m
+    info, h = post.positive_part(
+        after.precision - p_start, after.precision @ after.mean_array - p_start @ m
+    )
     fleet = _log_evidence(m, p_start, info, h)
     widened = _log_evidence(m, discount(start, variance).precision, info, h)
     return None if fleet is None or widened is None else widened - fleet

@@ -75,6 +75,23 @@ def test_the_bayes_factor_is_the_ratio_of_the_two_predictive_densities(
     assert factor == pytest.approx(wide - fleet, rel=1e-6, abs=1e-8)
 
 
+def test_what_a_change_discounted_is_not_evidence_for_the_factor() -> None:
+    """A fleet prior 2 % wide (precision 2500), a reading of 1 % noise (10 000) 4 σ off, then a
+    change's discount of 1e-3: the belief's precision, 1/(8e-5 + 1e-3) = 926, is under the
+    prior's, so nothing the reading showed is left as evidence (by hand) and ``B = 1``. The
+    unprojected difference, −1574, made the widened law's "posterior" precision 96 − 1574
+    negative: no factor at all, and such a plan was never checked again."""
+    prior = _intercept(0.0, 0.02**2)
+    y = math.exp(4.0 * math.hypot(0.02, 0.01))
+    after = post.observe(prior, {}, Measurement(y, 2 * 0.01 * y), 2.0, 0.0)
+    assert after.cov[0][0] == pytest.approx(8e-5)
+    assert log_bayes_factor(prior, discount(after, 1e-3), 0.1**2) == pytest.approx(0.0, abs=1e-12)
+    # a smaller discount leaves part of the reading: the factor is that part's, still past 19
+    kept = discount(after, 1e-4)  # precision 1/1.8e-4 = 5556: 3056 of the reading's 10 000
+    found = log_bayes_factor(prior, kept, 0.1**2)
+    assert found is not None and found > math.log(19)
+
+
 def test_a_reading_far_from_the_fleet_widens_and_one_near_it_does_not() -> None:
     """A fleet prior 2 % wide, the widening 10 %, the reading's noise 1 %: the predictive
     variances are 5e-4 and 1.05e-2, so a reading ``k`` predictive σ off gives
