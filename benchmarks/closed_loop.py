@@ -400,6 +400,14 @@ def main(argv: list[str] | None = None) -> int:
         default=DEFAULT_MACHINE_SPREAD,
         help="--fleet: the true between-machine spread of ln K",
     )
+    parser.add_argument(
+        "--fleet-fault",
+        action="append",
+        default=[],
+        metavar="KIND[:ARGS]",
+        help="--fleet: a fault of the learning machines (as --fault, which is the new "
+        "machine's), repeatable",
+    )
     args = parser.parse_args(argv)
     if args.scenarios < 1 or args.parts < 1 or args.jobs < 1 or args.gp_scenarios < 1:
         parser.error("--scenarios, --parts, --jobs and --gp-scenarios must be >= 1")
@@ -426,10 +434,14 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--fleet must be 2..{MAX_FLEET} and --learn-parts 1..{MAX_PARTS}")
         if not (np.isfinite(args.fleet_spread) and 0 <= args.fleet_spread <= 1):
             parser.error("--fleet-spread must be a number in [0, 1]")
+        try:
+            fleet_faults = parse_faults(args.fleet_fault)
+        except InputError as err:
+            parser.error(f"--fleet-fault: {err}")
         sys.path.insert(0, str(Path(__file__).parent))
         import fleet_loop  # type: ignore[import-not-found]
 
-        return int(fleet_loop.run(load_plan(args.plan), args, faults))
+        return int(fleet_loop.run(load_plan(args.plan), args, faults, fleet_faults))
     strategies = list(STRATEGY_NAMES) if args.strategy == "all" else [args.strategy]
     plan = load_plan(args.plan)
     parts = args.parts

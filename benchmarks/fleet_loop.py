@@ -14,12 +14,15 @@ machines whose readings let the fleet prior go (:mod:`supervisor.rcb.prior_check
 counted, inside and outside the spread, and those whose chains let the fleet's noise prior go
 (:mod:`supervisor.rcb.noise_check`). ``--fault`` applies to the new machine alone (its three
 runs): ``--fault noise-scale:3`` is a new machine whose instruments are not the fleet's kind.
+``--fleet-fault`` applies to the learning machines (the fleet's own shop floor misbehaves: its
+readings drop out, its instruments misreport their noise, its process steps or is not a power
+law); a plan that halted or saw a change is left out of the fleet, and those are counted.
 
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/closed_loop.py --fleet 4 [--scenarios 1000] [--parts 30]
-        [--learn-parts 30] [--fleet-spread 0.03] [--fault KIND[:ARGS]] [--jobs N]
-        [--seed-offset 0]
+        [--learn-parts 30] [--fleet-spread 0.03] [--fault KIND[:ARGS]]
+        [--fleet-fault KIND[:ARGS]] [--jobs N] [--seed-offset 0]
 """
 
 from __future__ import annotations
@@ -106,6 +109,9 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
         )
     learned = sum(t.learned_violations for t in traces)
     out.append(f"learning machines (catalogue start): {learned} violations")
+    left_out = sum(t.left_out for t in traces)
+    if left_out:
+        out.append(f"learning plans left out of the fleet (a halt, a change): {left_out}")
     spreads = [p.spread for t in traces for p in t.provenance]
     if spreads:
         out.append(
@@ -127,8 +133,14 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
     return out
 
 
-def run(plan: Plan, args: argparse.Namespace, faults: Faults | None = None) -> int:
-    """Simulate and print (``closed_loop.py`` parsed the arguments; ``--fault``: ``faults``)."""
+def run(
+    plan: Plan,
+    args: argparse.Namespace,
+    faults: Faults | None = None,
+    fleet_faults: Faults | None = None,
+) -> int:
+    """Simulate and print (``closed_loop.py`` parsed the arguments; ``--fault``: ``faults``,
+    ``--fleet-fault``: ``fleet_faults``)."""
     seeds = range(args.seed_offset, args.seed_offset + args.scenarios)
     t0 = time.perf_counter()
     traces = simulate_fleet(
@@ -140,6 +152,7 @@ def run(plan: Plan, args: argparse.Namespace, faults: Faults | None = None) -> i
         min(args.jobs, args.scenarios),
         args.fleet_spread,
         faults,
+        fleet_faults or None,
     )
     print(
         f"Fleet prior: {plan.name!r}, {args.scenarios} scenarios: {args.fleet - 1} machines\n"
@@ -148,6 +161,8 @@ def run(plan: Plan, args: argparse.Namespace, faults: Faults | None = None) -> i
     )
     if faults:
         print(f"the new machine's faults: {', '.join(faults.specs)}")
+    if fleet_faults:
+        print(f"the learning machines' faults: {', '.join(fleet_faults.specs)}")
     for line in report(traces, args.parts, time.perf_counter() - t0):
         print(line)
     return 0

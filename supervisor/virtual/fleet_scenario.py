@@ -51,6 +51,7 @@ class FleetTrace:
     provenance: tuple[Provenance, ...]
     let_go: int = 0  # the new machine's quantities whose fleet prior its readings let go
     noise_let_go: int = 0  # its chains whose fleet noise prior their readings let go
+    left_out: int = 0  # the learning machines' plans left out of the fleet (a halt, a change)
 
 
 def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
@@ -90,10 +91,12 @@ def run_fleet_scenario(
     learn_parts: int,
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
     faults: Faults | None = None,
+    fleet_faults: Faults | None = None,
 ) -> FleetTrace:
     """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
 
-    ``faults``: the new machine's (its three runs'); the fleet's machines run clean.
+    ``faults``: the new machine's (its three runs'); ``fleet_faults``: the learning machines'
+    (None: they run clean), whose plans a halt or a change leaves out of the fleet.
     """
     outside = seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
     truths = fleet_truths(plan, seed, machine_spread)  # drawn once: the fleet's and the known's
@@ -103,13 +106,20 @@ def run_fleet_scenario(
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
     learned: list[Learned] = []
-    violations = 0
+    violations = left_out = 0
     for m, machine in enumerate(fleet[:-1]):
         trace, state = run_machine(
-            catalogue, machine, seed, learn_parts, noise_seed=noise_seed(seed, m)
+            catalogue,
+            machine,
+            seed,
+            learn_parts,
+            faults=fleet_faults,
+            noise_seed=noise_seed(seed, m),
         )
         violations += int(trace.violations.sum())
-        learned += learned_from(state, f"machine-{m}", f"plan-{m}")
+        found = learned_from(state, f"machine-{m}", f"plan-{m}")
+        left_out += not found
+        learned += found
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
     chains = {q: p.belief for q, p in noise_priors(learned).items()}
     from_fleet = replace(
@@ -128,10 +138,13 @@ def run_fleet_scenario(
         tuple(p.provenance for _, p in sorted(priors.items())),
         sum(b.prior_widening > 0 for b in state.posterior.values()),
         len(chains) - len(state.noise_priors),
+        left_out,
     )
 
 
-def _one(task: tuple[Plan, int, int, int, int, float, Faults | None]) -> FleetTrace:
+def _one(
+    task: tuple[Plan, int, int, int, int, float, Faults | None, Faults | None],
+) -> FleetTrace:
     return run_fleet_scenario(*task)
 
 
@@ -144,9 +157,12 @@ def simulate_fleet(
     jobs: int = 1,
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
     faults: Faults | None = None,
+    fleet_faults: Faults | None = None,
 ) -> list[FleetTrace]:
     """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
-    tasks = [(plan, s, machines, parts, learn_parts, machine_spread, faults) for s in seeds]
+    tasks = [
+        (plan, s, machines, parts, learn_parts, machine_spread, faults, fleet_faults) for s in seeds
+    ]
     if jobs <= 1:
         return [_one(t) for t in tasks]
     with ProcessPoolExecutor(max_workers=jobs) as pool:

@@ -130,3 +130,17 @@ def test_a_new_machine_whose_law_bends_crosses_nothing_after_its_first_part() ->
     trace = run_fleet_scenario(PLAN, 135, 4, parts=4, learn_parts=30, faults=faults)
     assert not trace.outside
     assert trace.fleet.where == trace.catalogue.where == ()
+
+
+def test_a_fleet_whose_process_stepped_is_left_out_and_the_plan_starts_from_the_catalogue() -> None:
+    """``--fleet-fault step:10:1.12``: every learning machine's process rises 12 % at part 10,
+    its monitor sees a change, and a plan that saw one gives the fleet nothing (as the database
+    leaves it out until an engineer puts it back): the new machine's plan from the "fleet" is
+    the catalogue's, part for part."""
+    clean = run_fleet_scenario(PLAN, 3, 4, parts=3, learn_parts=20)
+    assert clean.left_out == 0 and clean.provenance
+    stepped = parse_faults(["step:10:1.12"])
+    trace = run_fleet_scenario(PLAN, 3, 4, parts=3, learn_parts=20, fleet_faults=stepped)
+    assert trace.left_out == 3 and trace.provenance == ()
+    assert trace.fleet.plan_ratio.tolist() == trace.catalogue.plan_ratio.tolist()
+    assert trace.fleet.plan_ratio[0] < clean.fleet.plan_ratio[0]  # the clean fleet's start
