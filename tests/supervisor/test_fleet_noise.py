@@ -70,13 +70,22 @@ def test_the_evidence_is_the_integral_over_the_noise_scale(
     )
 
 
-def test_a_chain_three_times_noisier_lets_the_fleets_prior_go_and_an_honest_one_keeps_it() -> None:
+def test_a_chain_unlike_the_fleets_lets_its_noise_prior_go_and_one_like_them_keeps_it() -> None:
     fleet = NoiseScale(18.0, 17.0)  # λ̄ 1, spread 25 %
     # one part of six operations, 3 x noisier than reported: λ = 9
     assert rejects(fleet, _evidence(6, 9.0), [])
     assert not rejects(fleet, _evidence(6, 1.0), [])  # as the fleet's
-    assert not rejects(fleet, _evidence(60, 0.3), [])  # quieter: the fleet's prior is prudent
     assert not rejects(fleet, NoiseScale(), [])  # no reading yet
+    # quieter than the fleet's prior says, by enough: let go too (ln B 6.05; λ 0.5: 1.22)
+    assert rejects(fleet, _evidence(60, 0.3), [])
+    assert not rejects(fleet, _evidence(60, 0.5), [])
+    # a fleet whose instruments were 3 x noisier than they claimed (λ̄ 9) and an honest chain:
+    # one part of six operations cannot tell (ln B 1.44 at 3 readings), two can (6.07 at 12);
+    # kept, the fleet's prior would count its readings at 9 x their variance for good
+    noisy = NoiseScale(18.0, 9 * 17.0)
+    assert not rejects(noisy, _evidence(3, 1.0), [])
+    assert rejects(noisy, _evidence(12, 1.0), [])
+    assert not rejects(noisy, _evidence(60, 9.0), [])  # the fleet's kind
     # 1.7 x noisier (λ 3): one part's readings cannot tell, ten parts' can; 1.5 x (λ 2.25)
     # not even thirty's against a default this vague (ln B 2.67 < ln 19): the chain's own
     # readings then outweigh the fleet's prior by five to one (pooled: λ̂ 2.0)
