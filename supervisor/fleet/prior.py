@@ -25,10 +25,12 @@ import numpy as np
 from models.tool import Tool
 from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms, transform
 from supervisor.fleet.hierarchy import (
+    DEFAULT_OPERATION_SPREAD,
     DEFAULT_SPREAD,
     SPREAD_WEIGHT,
     best_determined,
     fleet_belief,
+    of_operation,
 )
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
@@ -154,7 +156,7 @@ def _prior(
         item_prior = _start_of(item, catalogue.quantity)
         if item_prior.names != catalogue.names or not _proper(item_prior):
             continue
-        seen = evidence(item.posterior, item_prior, item.operation.context)
+        seen = of_operation(evidence(item.posterior, item_prior, item.operation.context))
         by_machine[item.machine] = (
             by_machine[item.machine] + seen if item.machine in by_machine else seen
         )
@@ -173,6 +175,8 @@ def _prior(
         fleet_information = np.linalg.inv(belief.cov)
         cov = np.linalg.inv(fleet_information + own.information)
         mean = cov @ (fleet_information @ belief.mean + own.vector)
+    cov = cov.copy()
+    cov[0, 0] += DEFAULT_OPERATION_SPREAD**2  # the new operation's own offset (hierarchy)
     prior = _in_operation_terms(catalogue, op.context, mean, cov)
     plans = tuple(sorted({item.plan for item in found}))
     machines = tuple(sorted({item.machine for item in found}))

@@ -22,6 +22,7 @@ from supervisor.fleet.hierarchy import (
     between_spread,
     fleet_belief,
     marginal,
+    of_operation,
 )
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.part_report import Measurement
@@ -104,6 +105,40 @@ def test_a_machine_says_at_most_the_exponents_spread_about_them() -> None:
     assert_allclose(h_marginal, expected @ theta, rtol=1e-12)
     j_lnk, _ = marginal(one, between(np.array([1.0, 1.5]), 0.05, np.array([0.0])))
     assert_allclose(j_lnk, j - np.outer([100.0, 40.0], [100.0, 40.0]) / 500.0, rtol=1e-12)
+
+
+def test_an_operation_says_at_most_its_own_offset_about_its_machine() -> None:
+    """``J = [[100, 40], [40, 400]]``, ``σ_o = 0.02``: integrating ``γ`` out is the rank-one
+    update of ``ln K``, ``J' = J − c J e₀ e₀ᵀ J``, ``c = σ_o²/(1 + σ_o² J₀₀) = 4e-4/1.04``
+    (by hand); ``h`` the same way. Two operations of one machine, each read at two feeds
+    (ln feed 0 and 0.2; 1 and 1.2) on a law of slope 1, their ``ln K`` 4 % apart, the slope
+    known to ±0.1 beforehand: summed as one law their difference is read as a slope of 1.038;
+    each integrated over its own ``γ``, part of it is theirs and the slope moves less."""
+    j = np.array([[100.0, 40.0], [40.0, 400.0]])
+    one = Evidence(("feed",), j, j @ np.array([0.3, 0.7]), 5)
+    c = 4e-4 / 1.04
+    made = of_operation(one, 0.02)
+    assert_allclose(made.information, j - c * np.outer(j[0], j[0]), rtol=1e-12)
+    assert_allclose(made.vector, one.vector - c * j[0] * one.vector[0], rtol=1e-12)
+    assert (made.names, made.readings) == (("feed",), 5)
+
+    def operation(ln_feeds: tuple[float, float], ln_k: float) -> Evidence:  # 1e4 a reading
+        phis = np.array([[1.0, x] for x in ln_feeds])
+        ln_y = ln_k + phis[:, 1]
+        information: np.ndarray = 1e4 * (phis.T @ phis)
+        vector: np.ndarray = 1e4 * (phis.T @ ln_y)
+        return Evidence(("feed",), information, vector, 2)
+
+    prior = np.diag([1.0, 1 / 0.1**2])
+    first, second = operation((0.0, 0.2), 0.0), operation((1.0, 1.2), 0.04)
+    raw = first + second
+    kept = of_operation(first, 0.02) + of_operation(second, 0.02)
+    slopes = [
+        np.linalg.solve(prior + e.information, prior @ [0.0, 1.0] + e.vector)[1]
+        for e in (raw, kept)
+    ]
+    assert slopes[0] == pytest.approx(1.038, abs=1e-3)
+    assert 1.0 < slopes[1] < slopes[0] - 0.005
 
 
 def test_a_new_machine_varies_least_where_the_fleet_cut() -> None:
