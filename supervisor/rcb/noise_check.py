@@ -34,9 +34,10 @@ readings at the fleet's noise for good and learn slower than from the catalogue
 (``closed_loop.py --fleet 4 --fleet-fault noise-scale:3``: 0.966 of the oracle after five
 parts against the catalogue start's 0.969, 0.978 against 0.980 after ten); letting go only
 returns the chain to the default, the catalogue start's own, so it is as safe as that. A
-reading the monitor quarantines (a loose
-cable, an air cut) is not weighed: a glitch must not throw away what the fleet learned.
-Letting go raises the chain's scale: it only widens the cones.
+reading the monitor quarantines (a loose cable, an air cut) is not weighed: a glitch must not
+throw away what the fleet learned. Letting a noisy chain go raises its scale and widens its
+cones; letting a quiet one go gives it the default's scale and its own readings', which only
+come down to what they show.
 
 References
 ----------
