@@ -152,7 +152,7 @@ def run(
         min(args.jobs, args.scenarios),
         args.fleet_spread,
         faults,
-        fleet_faults or None,
+        fleet_faults,
     )
     print(
         f"Fleet prior: {plan.name!r}, {args.scenarios} scenarios: {args.fleet - 1} machines\n"
