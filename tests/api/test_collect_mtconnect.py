@@ -112,9 +112,12 @@ def test_kill_9_collector_mid_part_and_service_mid_post_twice_each_store_every_p
             collector.kill()
             collector.start()
         for done in (4, 6):  # kill -9 the service while the collector posts, twice
-            agent.release(done * per_part + per_part // 2)
+            # the part `done` ends only after the kill, so its post meets the dead service
+            # (ending it before could let the post land first: the kill then met no post)
+            agent.release((done - 1) * per_part + per_part // 2)
             collector.wait(lambda c, n=done: c.get("sent", 0) >= n - 1, what="posts")
             sqlite_server.kill()
+            agent.release(done * per_part + per_part // 2)
             collector.wait(queued(done), what=f"{done} parts queued")
             sqlite_server.start()
         agent.release(len(obs))
