@@ -142,9 +142,9 @@ def of_operation(seen: Evidence, spread: float = DEFAULT_OPERATION_SPREAD) -> Ev
     """An operation's evidence about its machine's ``θ_m`` (the module docstring).
 
     Its own ``ln K`` offset ``γ ~ N(0, spread²)`` integrated out: :func:`marginal` with
-    ``L = spread e_0 e_0^T``.
+    the one column ``L = spread e_0`` (``D = L L^T``).
     """
-    factor = np.zeros((len(seen.vector), len(seen.vector)))
+    factor = np.zeros((len(seen.vector), 1))
     factor[0, 0] = spread
     information, vector = marginal(seen, factor)
     return replace(seen, information=information, vector=vector)
