@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -99,10 +100,13 @@ def run_machine(
     """:func:`run_scenario` on a given ``machine``; also the state after the last report.
 
     ``noise_seed``: the seed of the measurement noise (``seed`` when not given): the machines
-    of a fleet (:mod:`supervisor.virtual.fleet`) each draw their own.
+    of a fleet (:mod:`supervisor.virtual.fleet`) each draw their own. A ``wear`` fault wears
+    ``machine``'s edges by its rise (a machine drawn without wear, as a fleet's are, too).
     """
     plan = initial.plan
     faults = faults or Faults()
+    if faults.wear:
+        machine = replace(machine, wear_drift_per_edge_life=faults.wear)
     log = FaultLog(faults, machine, seed) if faults else None
     oracles = _Oracles(machine, faults, log)
     # the edges of operations with a parts_per_edge limit are changed after that many parts,

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from supervisor.fleet.hierarchy import DEFAULT_EDGE_SPREAD
 from supervisor.fleet.prior import Learned, fleet_priors
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
@@ -60,16 +61,20 @@ def test_the_edge_rise_two_machines_learned_is_a_new_machines_prior() -> None:
     assert catalogue.cov[-1][-1] == pytest.approx((0.1 / N_MAX) ** 2)
     assert w * N_MAX == pytest.approx(0.08, abs=0.01)
     assert w_var < 0.05 * catalogue.cov[-1][-1]
+    # however many edges the fleet saw, a new machine's own rise may differ by sigma_omega
+    assert w_var > (DEFAULT_EDGE_SPREAD / N_MAX) ** 2
     assert len(made.posterior.mean) == len(catalogue.mean)  # (ln Y(c), f, v, w)
 
 
 def test_an_edge_that_does_not_wear_is_learned_as_such() -> None:
     """The same with no rise: ``w`` stays at 0 and narrows (a catalogue-wide cone at the
-    edge's end would cost the new machine's speed for nothing)."""
+    edge's end would cost the new machine's speed for nothing), to the between-machine
+    spread of the rise, not below (a new machine's edges may wear as the fleet's did not)."""
     learned = [_wearing("m1", 0.0), _wearing("m2", 0.0)]
     made = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)[("rough-od", "force_N")]
     assert made.posterior.mean[-1] * N_MAX == pytest.approx(0.0, abs=0.01)
     assert made.posterior.cov[-1][-1] < 0.05 * _catalogue("force_N").cov[-1][-1]
+    assert made.posterior.cov[-1][-1] > (DEFAULT_EDGE_SPREAD / N_MAX) ** 2
 
 
 def _fleet(shift: float, sd: float) -> post.Posterior:
