@@ -15,7 +15,8 @@ rise of ``ln y`` over an edge's life, ``ω = n_max w`` (``w`` the learner's edge
 per part, ``n_max`` the parts an edge makes before its last, so ``T``'s last diagonal entry is
 ``n_max``): an edge is changed at the plan's ``parts_per_edge``, set at the tool's wear
 criterion (ISO 3685's flank wear VB = 0.3 mm, say), so the rise it makes by then is the tool's
-on the material as its exponents are, whatever the operation's parts take. An operation without
+on the material as its exponents are, whatever the operation's parts take, up to a machine's
+own (:data:`~supervisor.fleet.hierarchy.DEFAULT_EDGE_SPREAD`). An operation without
 an edge limit says nothing of ``ω``: its belief gets ``ω ~ N(0, edge_sd²)``, the catalogue's
 (:data:`~supervisor.rcb.posterior.DEFAULT_EDGE_SD`), uncorrelated, and its evidence none.
 A Gaussian belief maps to ``N(T μ + o, T Σ T^\mathsf{T})``.

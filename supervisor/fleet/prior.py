@@ -6,9 +6,9 @@ about the tool's law (:mod:`.evidence`), grouped by machine and combined in the 
 model of :mod:`.hierarchy`. The result is mapped back to the operation's own parameters
 (``β = T^{-1}(θ − o)``, the inverse of :func:`.evidence.transform`), a wearing quantity's
 edge-age coefficient included: the rise over an edge's life is the tool's, learned by the
-fleet as its exponents are (an operation with no edge limit drops it). On a machine the fleet
-already holds, that machine's own evidence is added to the fleet's belief about it (its
-offset ``δ_m`` is then known as well as its readings show).
+fleet as its exponents are, each machine's about it (an operation with no edge limit drops
+it). On a machine the fleet already holds, that machine's own evidence is added to the
+fleet's belief about it (its offset ``δ_m`` is then known as well as its readings show).
 
 A quantity no plan of the fleet measured with the tool keeps the catalogue prior and says so
 (:class:`Provenance` with no plans).

@@ -31,7 +31,8 @@ direction, which no reading showed), with ``S`` the fleet prior and
 posterior odds favour the wide law, ``B > (1 − ε)/ε``, the prior is widened for good: the
 belief becomes ``S_w`` with the earlier readings' information, and the reading is then learned
 and judged against it as usual. The exponents and the edge's rise stay the fleet's (the tool's,
-shared by every machine); only the machine's own ``ln K`` is let go. Widening only grows the
+with a machine's small spread about each: :mod:`supervisor.fleet.hierarchy`); only the
+machine's own ``ln K`` is let go. Widening only grows the
 cone: it can slow a plan, never make it less safe. Asymptotically a machine is let go when its
 offset lies beyond about three spreads of the fleet's. A reading the monitor quarantines
 against the fleet's belief as too good to be true (:mod:`supervisor.rcb.monitor`: a loose

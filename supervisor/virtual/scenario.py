@@ -88,6 +88,17 @@ def run_scenario(
     return run_machine(initial, machine, seed, parts, faults=faults)[0]
 
 
+def _worn(machine: VirtualMachine, faults: Faults) -> VirtualMachine:
+    """``machine`` whose edges wear by ``faults``' rise, if it has one.
+
+    A machine drawn without wear (a fleet's, :mod:`supervisor.virtual.fleet`) as well as one
+    drawn with it.
+    """
+    if not faults.wear:
+        return machine
+    return replace(machine, wear_drift_per_edge_life=faults.wear)
+
+
 def run_machine(
     initial: RcbState,
     machine: VirtualMachine,
@@ -100,13 +111,10 @@ def run_machine(
     """:func:`run_scenario` on a given ``machine``; also the state after the last report.
 
     ``noise_seed``: the seed of the measurement noise (``seed`` when not given): the machines
-    of a fleet (:mod:`supervisor.virtual.fleet`) each draw their own. A ``wear`` fault wears
-    ``machine``'s edges by its rise (a machine drawn without wear, as a fleet's are, too).
+    of a fleet (:mod:`supervisor.virtual.fleet`) each draw their own. ``faults`` wear it too.
     """
-    plan = initial.plan
-    faults = faults or Faults()
-    if faults.wear:
-        machine = replace(machine, wear_drift_per_edge_life=faults.wear)
+    plan, faults = initial.plan, faults or Faults()
+    machine = _worn(machine, faults)
     log = FaultLog(faults, machine, seed) if faults else None
     oracles = _Oracles(machine, faults, log)
     # the edges of operations with a parts_per_edge limit are changed after that many parts,
