@@ -107,6 +107,20 @@ def test_a_machine_says_at_most_the_exponents_spread_about_them() -> None:
     assert_allclose(j_lnk, j - np.outer([100.0, 40.0], [100.0, 40.0]) / 500.0, rtol=1e-12)
 
 
+def test_a_machine_says_at_most_the_edge_spread_about_the_fleets_rise() -> None:
+    """A wearing quantity's ``θ = (ln K, e, ω)``: ``L`` gains ``σ_ω`` in its last diagonal
+    entry and nothing else (the rise's offset is about a new edge, ``φ``'s ``ω`` at 0). Evidence
+    ``J = diag(100, 400, 1e6)`` (the rise known to 0.1 %): by hand, the rise's information
+    after integrating the offset out is ``1/(1e-6 + 0.01²) = 9900.99`` (the diagonal stays
+    uncoupled), so 90 parts on one machine say at most ``σ_ω`` about the fleet's rise."""
+    factor = between(np.array([1.0, 1.5, 0.0]), 0.05, np.array([0.014]), 0.01)
+    assert_allclose(factor, [[0.05, -1.5 * 0.014, 0.0], [0.0, 0.014, 0.0], [0.0, 0.0, 0.01]])
+    j = np.diag([100.0, 400.0, 1e6])
+    j_marginal, _ = marginal(Evidence(("feed",), j, np.zeros(3), 90), factor)
+    assert j_marginal[2, 2] == pytest.approx(1.0 / (1e-6 + 1e-4), rel=1e-9)
+    assert_allclose(j_marginal[2, :2], 0.0, atol=1e-9)
+
+
 def test_an_operation_says_at_most_its_own_offset_about_its_machine() -> None:
     """``J = [[100, 40], [40, 400]]``, ``σ_o = 0.02``: integrating ``γ`` out is the rank-one
     update of ``ln K``, ``J' = J − c J e₀ e₀ᵀ J``, ``c = σ_o²/(1 + σ_o² J₀₀) = 4e-4/1.04``
