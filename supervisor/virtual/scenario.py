@@ -91,10 +91,10 @@ def run_scenario(
 def _worn(machine: VirtualMachine, faults: Faults) -> VirtualMachine:
     """``machine`` whose edges wear by ``faults``' rise, if it has one.
 
-    A machine drawn without wear (a fleet's, :mod:`supervisor.virtual.fleet`) as well as one
-    drawn with it.
+    A machine drawn without wear (a fleet's, :mod:`supervisor.virtual.fleet`); one drawn with
+    it (:func:`run_scenario`'s) is returned as it is, not compiled again.
     """
-    if not faults.wear:
+    if faults.wear in (0.0, machine.wear_drift_per_edge_life):
         return machine
     return replace(machine, wear_drift_per_edge_life=faults.wear)
 
