@@ -185,7 +185,7 @@ def _say_prior(provenance: dict[str, list[dict[str, Any]]], noise: list[dict[str
             )
     _out.print(table)
     if noise:
-        table = new_table(title="learn's noise prior of each measuring chain, from the fleet")
+        table = new_table(title="learn's noise prior of each measuring chain (fleet)")
         for column in ("quantity", "noise", "machines", "spread", "readings", "let go by"):
             table.add_column(column, overflow="fold")
         for line in noise:

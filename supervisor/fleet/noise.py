@@ -12,10 +12,19 @@ Every machine has its own instruments, but of the kinds the plant uses: a chain'
 drawn from a between-chain spread, learned as the machines' ``ln K`` spread is
 (:mod:`.hierarchy`). Machine ``m``'s chain of a quantity gives ``n_m`` readings' worth of
 evidence with excess squares ``S_m`` (its plans' monitors: :attr:`supervisor.rcb.monitor_state.
-Monitor.chain_noise`, less the default prior), so ``y_m = ln(S_m / n_m)`` with ``v_m ≈ 2/n_m``
-(the variance of the log of a ``χ²_n / n``). DerSimonian and Laird's ``τ̂²`` between them is
-pooled with a default spread :data:`DEFAULT_CHAIN_SPREAD` held as :data:`~.hierarchy.
-SPREAD_WEIGHT` machines (``σ_c² = (ν_0 σ_0² + (M − 1) τ̂²) / (ν_0 + M − 1)``); a new chain's
+Monitor.chain_noise`, less the default prior); its belief is the default prior updated by them,
+``λ_m ~ InvGamma(a_m, b_m)``, ``a_m = a₀ + n_m/2``, ``b_m = b₀ + S_m/2``, so ``y_m = E ln λ_m =
+ln b_m − ψ(a_m)`` with ``v_m = Var ln λ_m = ψ′(a_m)`` (the log of an inverse-gamma variate: minus
+the log of a gamma one, whose mean is ``ψ(a) − ln b`` and variance ``ψ′(a)``; Johnson, Kotz and
+Balakrishnan, *Continuous Univariate Distributions* vol. 1, ch. 17). For many readings that is
+``ln(S_m/n_m)`` and ``2/n_m``; but a chain whose every innovation lay within its model's
+uncertainty has ``S_m = 0`` (a spindle load whose ``u`` is mostly its calibration's, the same
+from part to part), whose ``ln(S_m/n_m)`` is minus infinity, while its belief's is finite. The
+default prior is the one every plan's chain starts from (:mod:`supervisor.rcb.noise`, three
+half-readings' weight): it leans each machine's ``λ`` a little towards noisier, the safe side.
+DerSimonian and Laird's ``τ̂²`` between them is pooled with a default spread
+:data:`DEFAULT_CHAIN_SPREAD` held as :data:`~.hierarchy.SPREAD_WEIGHT` machines
+(``σ_c² = (ν_0 σ_0² + (M − 1) τ̂²) / (ν_0 + M − 1)``); a new chain's
 ``ln λ`` is then ``N(μ, σ_c² + var μ)``, ``μ`` the precision-weighted mean, and the prior is the
 inverse gamma of that log-normal's mean and coefficient of variation ``c``: shape ``a = 2 +
 1/c²`` (the inverse gamma's ``CV² = 1/(a − 2)``), rate ``(a − 1) λ̄``, ``λ̄`` never under 1 (a
@@ -31,6 +40,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from scipy import special
+
 from supervisor.fleet.hierarchy import pooled_spread
 from supervisor.fleet.prior import Learned
 from supervisor.rcb.noise import NoiseScale
@@ -38,8 +49,8 @@ from supervisor.rcb.noise import NoiseScale
 #: ``σ_0``: the default between-chain spread of ``ln λ`` [-]: two instruments of one kind differ
 #: in their noise variance by 30 % (their noise by 15 %) (``closed_loop.py --fleet``).
 DEFAULT_CHAIN_SPREAD = 0.3
-#: A chain whose evidence is worth fewer readings than this is not compared (``v_m`` is then
-#: no longer ``2/n_m``).
+#: A chain whose evidence is worth fewer readings than this is not compared (its belief is then
+#: mostly the default prior's, counted once for every machine).
 MIN_READINGS = 6.0
 
 
@@ -90,8 +101,9 @@ def noise_priors(
 def _prior(
     quantity: str, chains: dict[str, tuple[float, float]], default_spread: float
 ) -> NoisePrior:
-    ys = [math.log(max(s / n, 1e-6)) for n, s in chains.values()]
-    vs = [2.0 / n for n, _ in chains.values()]
+    beliefs = [NoiseScale.of_evidence(n, s) for n, s in chains.values()]
+    ys = [math.log(b.rate) - float(special.digamma(b.shape)) for b in beliefs]
+    vs = [float(special.polygamma(1, b.shape)) for b in beliefs]
     spread2 = pooled_spread(list(zip(ys, vs, strict=True)), default_spread) ** 2
     weights = [1.0 / (v + spread2) for v in vs]
     mu = sum(w * y for w, y in zip(weights, ys, strict=True)) / sum(weights)

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy import integrate
+from scipy import integrate, special
 
 from supervisor.fleet.noise import DEFAULT_CHAIN_SPREAD, MIN_READINGS, noise_priors
 from supervisor.fleet.prior import Learned
@@ -148,9 +148,12 @@ def test_the_prior_of_three_honest_chains_and_of_one() -> None:
     three = noise_priors([_learned(f"m{i}", 180, 1.0) for i in range(3)])["force_N"]
     # three chains that agree: the default spread held as 2 machines, pooled with τ̂² = 0
     assert three.spread == pytest.approx(DEFAULT_CHAIN_SPREAD / math.sqrt(2), rel=1e-9)
-    total = three.spread**2 + 1 / (3 / (2 / 180 + three.spread**2))
+    # each chain's belief InvGamma(1.5 + 90, 1 + 90): E ln λ = ln 91 − ψ(91.5), Var = ψ′(91.5)
+    mean_ln, var_ln = math.log(91.0) - special.digamma(91.5), special.polygamma(1, 91.5)
+    assert var_ln == pytest.approx(2 / 180, rel=0.02)  # the χ²-log variance of many readings
+    total = three.spread**2 + 1 / (3 / (var_ln + three.spread**2))
     assert three.belief.shape == pytest.approx(2 + 1 / math.expm1(total), rel=1e-9)
-    assert three.scale**2 == pytest.approx(math.exp(0.5 * total), rel=1e-9)
+    assert three.scale**2 == pytest.approx(math.exp(mean_ln + 0.5 * total), rel=1e-9)
     assert (three.machines, three.readings) == (("m0", "m1", "m2"), 540)
     assert three.describe() == (
         f"force_N noise: {three.scale:.2f} x the reported u from 540 readings on 3 machines, "
@@ -172,6 +175,29 @@ def test_chains_that_disagree_widen_and_quiet_or_thin_ones_do_not_lower_the_floo
     thin = [_learned("m0", MIN_READINGS - 1, 1.0)]
     assert noise_priors(thin) == {}
     assert noise_priors([replace(_learned("m0", 180, 1.0), chain=None)]) == {}  # none known
+
+
+def test_chains_whose_innovations_all_lay_within_the_model_compare_by_their_beliefs() -> None:
+    """Two virtual lathes' spindle loads (``docs/try-a-machine.md``, seeds 7 and 9, 10 parts
+    each): ``u`` is mostly the calibration's, so every innovation lay within the model's
+    uncertainty and one chain's excess squares are exactly 0. Compared through ``ln(S/n)``
+    with a floor of ``10⁻⁶`` they were 361 % apart; their beliefs are 7 % apart."""
+    quiet = [_learned("lathe-b", 21.68, 0.0), _learned("lathe-22kW", 21.65, 0.149 / 21.65)]
+    prior = noise_priors(quiet)["force_N"]
+    # ln(1.0745 / 1.0) − (ψ(12.325) − ψ(12.34)) apart, each ψ′ ≈ 0.085: Q 0.03 < 1, τ̂² = 0
+    assert prior.spread == pytest.approx(DEFAULT_CHAIN_SPREAD * math.sqrt(2 / 3), rel=1e-12)
+    assert prior.scale == 1.0  # quieter than reported: not trusted to be
+    assert prior.describe().endswith("on 2 machines, between-chain spread 24 %")
+    # a quiet chain beside an honest one does differ, by what the two beliefs say (DL by hand)
+    honest = _learned("lathe-c", 21.68, 1.0)
+    apart = noise_priors([quiet[0], honest])["force_N"]
+    a = 1.5 + 21.68 / 2
+    d, v = math.log(1.0 + 21.68 / 2), special.polygamma(1, a)
+    tau2 = d * d / 2 - v
+    assert apart.spread == pytest.approx(
+        math.sqrt((2 * DEFAULT_CHAIN_SPREAD**2 + tau2) / 3), rel=1e-9
+    )
+    assert 1.0 < apart.spread < 2.0
 
 
 @given(st.lists(st.tuples(st.floats(6.0, 1000.0), st.floats(0.05, 20.0)), min_size=1, max_size=6))
