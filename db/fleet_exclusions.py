@@ -15,18 +15,37 @@ from db.fleet import plan_changes
 from db.plans import get_plan_row
 from models.errors import InputError
 
+#: The longest reason an exclusion keeps [characters]: a sentence or two, on every surface.
+MAX_REASON = 500
+
 
 def exclude(
     *, session: Session, plan_id: int | None, machine: str | None, reason: str, actor: str
 ) -> None:
-    """Take ``plan_id`` or ``machine`` (one of them) out of the fleet."""
+    """Take ``plan_id`` or ``machine`` (one of them) out of the fleet.
+
+    ``reason`` is kept with the exclusion and shown wherever it is: it must say something, in
+    at most :data:`MAX_REASON` characters. Excluding what is already out changes nothing but
+    the reason shown.
+    """
     _one(plan_id, machine)
+    text = reason.strip()
+    if not text or len(text) > MAX_REASON:
+        raise InputError("--reason", reason, f"give why, in 1 to {MAX_REASON} characters")
     if (
         machine is not None
         and session.scalar(select(t.Machine.id).where(t.Machine.name == machine)) is None
     ):
         raise InputError("--machine", machine, "no stored plan runs on this machine")
-    session.add(t.FleetExclusion(plan_id=plan_id, machine=machine, reason=reason, actor=actor))
+    if plan_id is not None and get_plan_row(session=session, plan_id=plan_id) is None:
+        raise InputError("PLAN", plan_id, "no such plan")
+    same = (
+        t.FleetExclusion.plan_id == plan_id
+        if machine is None
+        else t.FleetExclusion.machine == machine
+    )
+    session.execute(delete(t.FleetExclusion).where(same))
+    session.add(t.FleetExclusion(plan_id=plan_id, machine=machine, reason=text, actor=actor))
 
 
 def include(*, session: Session, plan_id: int | None, machine: str | None) -> int:

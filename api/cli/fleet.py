@@ -101,7 +101,7 @@ def exclude(
         done = exclude_from_fleet(
             engine=engine, plan_id=plan_id, machine=machine, reason=reason, actor=actor
         )
-    say(f"rcb: {done.body['excluded']} is out of the fleet ({reason})")
+    say(f"rcb: {done.body['excluded']} is out of the fleet ({done.body['reason']})")
 
 
 @fleet_app.command("include")

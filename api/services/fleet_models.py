@@ -52,7 +52,7 @@ def exclude_from_fleet(
             exclude(
                 session=session, plan_id=plan_id, machine=machine, reason=reason, actor=actor.name
             )
-            return 200, {"excluded": target, "reason": reason}
+            return 200, {"excluded": target, "reason": reason.strip()}
 
         return write(
             engine, actor=actor, action="fleet exclude", target=target, idempotency=None, work=work

@@ -68,6 +68,23 @@ def test_rcb_fleet_at_the_cli_names_what_is_wrong(engine, runner) -> None:
         app, ["fleet", "exclude", "--machine", "nope", "--reason", "r", "--db", url]
     )
     assert done.exit_code == 2 and "--machine = 'nope'" in done.output
+    done = runner.invoke(app, ["fleet", "exclude", "--plan", "99", "--reason", "r", "--db", url])
+    assert done.exit_code == 2 and "PLAN = 99: no such plan" in done.output  # not "concurrent"
+    for blank in ("", "  "):
+        done = runner.invoke(
+            app, ["fleet", "exclude", "--plan", "fleet-a", "--reason", blank, "--db", url]
+        )
+        assert done.exit_code == 2 and "--reason" in done.output and "give why" in done.output
+    done = runner.invoke(
+        app, ["fleet", "exclude", "--plan", "fleet-a", "--reason", "x" * 501, "--db", url]
+    )
+    assert done.exit_code == 2 and "1 to 500 characters" in done.output
+    done = runner.invoke(
+        app, ["fleet", "exclude", "--plan", "fleet-a", "--reason", " chipped ", "--db", url]
+    )  # again: one exclusion, its reason the newest
+    assert done.exit_code == 0 and "plan 1 is out of the fleet (chipped)" in done.output
+    with Session(engine) as session:
+        assert list(session.scalars(select(t.FleetExclusion.reason))) == ["chipped"]
     done = runner.invoke(app, ["fleet", "include", "--plan", "fleet-a", "--db", url])
     assert done.exit_code == 0 and "plan 1 is back in the fleet" in done.output
 
