@@ -42,6 +42,27 @@ from supervisor.rcb.state import RcbSettings
 def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learned]:
     """Every stored ``learn`` posterior of the named tools' quantities (module docstring)."""
     names = sorted(set(tool_names))
+    imported = imported_evidence(session=session, tool_names=names)
+    return local_evidence(session=session, tool_names=names) + [item for _, item in imported]
+
+
+def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tuple[str, Learned]]:
+    """The models of the named tools other databases exported, each with its ``origin``."""
+    names = sorted(set(tool_names))
+    imported = (
+        select(t.ImportedModel.origin, t.ImportedModel.body)
+        .where(t.ImportedModel.tool.in_(names))
+        .order_by(t.ImportedModel.id)
+    )
+    return [
+        (origin, read_item(body, "imported_models.body"))
+        for origin, body in session.execute(imported)
+    ]
+
+
+def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learned]:
+    """The ``learn`` posteriors of the named tools in this database's plans (module docstring)."""
+    names = sorted(set(tool_names))
     if not names:
         return []
     tools = load_tools(session=session, names=names)
@@ -89,8 +110,7 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
                 None if state.monitor is None else monitor_from_json(state.monitor).chain_noise,
             )
         )
-    imported = select(t.ImportedModel.body).where(t.ImportedModel.tool.in_(names))
-    return out + [read_item(body, "imported_models.body") for body in session.scalars(imported)]
+    return out
 
 
 #: An engineer took the row's plan or its machine out of the fleet (``fleet_exclusions``).

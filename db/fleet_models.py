@@ -1,23 +1,35 @@
 """``rcb models export`` and ``import``: a tool's learned models from one database to another.
 
 Export reads the fleet of one tool (:func:`db.fleet.fleet_evidence`: the plans of this database
-and what it imported) into the document of :mod:`supervisor.fleet.document`; import checks the
-whole document first and then stores each item in ``imported_models`` in one transaction, so a
-bad document stores nothing. A second plant's new plan with the tool then starts where the
-first one is (``rcb plans create --prior fleet``).
+and what it imported) into the document of :mod:`supervisor.fleet.document`, each model with
+the database that learned it (``origin``: this one's :func:`db.identity.database_id` for its own
+plans). Import checks the whole document first and then stores its items in ``imported_models``
+in one transaction, so a bad document stores nothing, and counts each model once:
+
+- a model whose origin is this database is skipped (its plan already counts here: a model
+  that went to a second plant and came back);
+- a model already imported (the same origin, machine, plan, operation and quantity) is
+  replaced by the document's if that one has at least as many readings (a newer export of
+  the same plans), else kept (an older file imported after a newer one).
+
+Imported twice, the same document thus changes nothing. A second plant's new plan with the tool
+then starts where the first one is (``rcb plans create --prior fleet``).
 """
 
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
 from typing import Any
 
-from sqlalchemy import insert
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet import fleet_evidence
+from db.fleet import imported_evidence, local_evidence
+from db.identity import database_id
 from models.errors import InputError
 from supervisor.fleet.document import document, item_json, read_document
+from supervisor.fleet.prior import Learned
 
 
 def export_models(*, session: Session, tool: str, material: str | None = None) -> dict[str, Any]:
@@ -28,31 +40,89 @@ def export_models(*, session: Session, tool: str, material: str | None = None) -
     InputError
         Nothing learned with the tool (on that material).
     """
+    own = database_id(session=session)
     learned = [
-        item
-        for item in fleet_evidence(session=session, tool_names=[tool])
+        (origin, item)
+        for origin, item in [
+            *((own, x) for x in local_evidence(session=session, tool_names=[tool])),
+            *imported_evidence(session=session, tool_names=[tool]),
+        ]
         if material is None or item.tool.material == material
     ]
     if not learned:
         on = "" if material is None else f" on {material!r}"
         raise InputError("TOOL", tool, f"no learn plan of this database measured it{on}")
-    return document(tool, learned[0].tool.material, learned)
+    return document(tool, learned[0][1].tool.material, learned)
 
 
-def import_models(*, session: Session, data: object, source: str) -> int:
-    """Store a document's learned models (checked whole first); the number stored."""
+@dataclass(frozen=True)
+class Imported:
+    """What an import did with a document's models (each counted in one of these)."""
+
+    new: int
+    replaced: int
+    kept: int  # already held, the same or with more readings
+    own: int  # learned by this database's own plans
+
+    def to_json(self) -> dict[str, int]:
+        """``{"stored": new + replaced, "new": …, "replaced": …, "kept": …, "own": …}``."""
+        return {"stored": self.new + self.replaced, **asdict(self)}
+
+
+def import_models(*, session: Session, data: object, source: str) -> Imported:
+    """Store a document's learned models (checked whole first; module docstring)."""
     tool, learned = read_document(data)
-    rows = [
-        {
+    if any(item.tool.name != tool for _, item in learned):
+        raise InputError("document.learned", tool, "holds models of another tool")
+    own = database_id(session=session)
+    rows = _rows(tool, [(o, item) for o, item in learned if o != own], source)
+    held = _held(session, tool, {key[1] for key in rows})
+    new = replaced = 0
+    for key, row in rows.items():
+        if key not in held:
+            session.add(t.ImportedModel(**row))
+            new += 1
+        elif (held[key].observations, held[key].body) != (row["observations"], row["body"]) and (
+            held[key].observations <= row["observations"]
+        ):  # a newer export of the model (the same one again is kept as it is)
+            for name in ("body", "source", "observations"):
+                setattr(held[key], name, row[name])
+            held[key].imported_at = t.utcnow()
+            replaced += 1
+    session.flush()
+    own_count = sum(1 for origin, _ in learned if origin == own)
+    return Imported(new, replaced, len(learned) - own_count - new - replaced, own_count)
+
+
+def _rows(
+    tool: str, learned: list[tuple[str, Learned]], source: str
+) -> dict[tuple[str, ...], dict[str, Any]]:
+    """The rows of ``learned`` by key; of a key given twice, the one with more readings."""
+    rows: dict[tuple[str, ...], dict[str, Any]] = {}
+    for origin, item in learned:
+        row: dict[str, Any] = {
             "tool": tool,
+            "origin": origin,
+            "machine": item.machine,
+            "plan": item.plan,
+            "operation": item.operation.name,
+            "quantity": item.posterior.quantity,
+            "observations": item.posterior.observations,
             "body": item_json(item),
             "source": f"{source}: {item.plan} on {item.machine}",
         }
-        for item in learned
-        if item.tool.name == tool
-    ]
-    if len(rows) != len(learned):
-        raise InputError("document.learned", tool, "holds models of another tool")
-    if rows:
-        session.execute(insert(t.core_table(t.ImportedModel)), rows)
-    return len(rows)
+        key = tuple(str(row[name]) for name in _KEY)
+        if key not in rows or rows[key]["observations"] <= row["observations"]:
+            rows[key] = row
+    return rows
+
+
+#: What makes two imported rows one learned model (``uq_imported_models_key``).
+_KEY = ("tool", "origin", "machine", "plan", "operation", "quantity")
+
+
+def _held(session: Session, tool: str, origins: set[str]) -> dict[tuple[str, ...], t.ImportedModel]:
+    """The tool's imported rows from ``origins``, by key (one statement, the key's index)."""
+    m = t.ImportedModel
+    found = session.scalars(select(m).where(m.tool == tool, m.origin.in_(sorted(origins))))
+    return {tuple(getattr(row, name) for name in _KEY): row for row in found}

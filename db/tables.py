@@ -271,16 +271,51 @@ class ImportedModel(Base):
     """A learned model another database exported (``rcb models import``, :mod:`db.fleet`).
 
     ``body``: one item of the document (:func:`supervisor.fleet.document.item_json`);
-    ``source``: where it came from (the file's name and the exporting plan).
+    ``source``: where it came from (the file's name and the exporting plan). One row per
+    learned model (``uq_imported_models_key``: the database that learned it, ``origin``, ""
+    where a document did not say, its machine, plan, operation and quantity), so a document
+    imported twice, or a newer export of the same plans, counts each model once (alembic 0020).
     """
 
     __tablename__ = "imported_models"
-    __table_args__ = (Index("ix_imported_models_tool", "tool"),)
+    __table_args__ = (
+        Index("ix_imported_models_tool", "tool"),
+        Index(
+            "uq_imported_models_key",
+            "tool",
+            "origin",
+            "machine",
+            "plan",
+            "operation",
+            "quantity",
+            unique=True,
+        ),  # fmt: skip
+    )
     id: Mapped[int] = mapped_column(primary_key=True)
     tool: Mapped[str] = mapped_column(String(200))
     body: Mapped[dict[str, Any]]
     source: Mapped[str] = mapped_column(Text)
     imported_at: Mapped[datetime] = mapped_column(default=utcnow)
+    origin: Mapped[str] = mapped_column(String(36), server_default="")
+    machine: Mapped[str] = mapped_column(String(200), server_default="")
+    plan: Mapped[str] = mapped_column(String(200), server_default="")
+    operation: Mapped[str] = mapped_column(String(200), server_default="")
+    quantity: Mapped[str] = mapped_column(String(50), server_default="")
+    #: The posterior's readings: of two exports of one model, the one with more is kept.
+    observations: Mapped[int] = mapped_column(server_default="0")
+
+
+class DatabaseIdentity(Base):
+    """The database's identity, one row: what its exports say they came from (alembic 0020).
+
+    An export names each learned model's ``origin``; an import skips the models whose origin
+    is the importing database itself (its own plans already count), so a model that travels
+    there and back is not counted twice.
+    """
+
+    __tablename__ = "database_identity"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    uuid: Mapped[str] = mapped_column(String(36), unique=True)
 
 
 class FleetExclusion(Base):

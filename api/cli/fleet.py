@@ -79,7 +79,8 @@ def _print_members(page: dict[str, Any], first: bool) -> None:
     if page["imported"]:
         say(f"rcb: and {page['imported']} learned models imported from other databases")
     if first and not page["plans"]:
-        say(f"rcb: no stored plan uses {page['tool']}: new plans start from the catalogue")
+        start = "the imported models" if page["imported"] else "the catalogue"
+        say(f"rcb: no stored plan uses {page['tool']}: new plans start from {start}")
 
 
 @fleet_app.command("exclude")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -60,4 +60,17 @@ def import_(
         data = read_json_file(file)
         engine = existing_engine(database_url(db), database_field(db))
         written = import_tool(engine=engine, data=data, source=file.name, actor=actor)
-    say(f"rcb: {written.body['stored']} learned models stored from {file.name}")
+    say(imported_line(written.body, file.name))
+
+
+def imported_line(body: dict[str, Any], name: str) -> str:
+    """``rcb: 4 learned models stored from f.json (4 new)``, and what was not stored and why."""
+    told = [f"{body['new']} new"] if body["new"] else []
+    if body["replaced"]:
+        told.append(f"{body['replaced']} replacing older exports of the same models")
+    if body["kept"]:
+        told.append(f"{body['kept']} already held, the same or with more readings")
+    if body["own"]:
+        told.append(f"{body['own']} learned by this database's own plans, skipped")
+    said = "; ".join(told) or "none in it"
+    return f"rcb: {body['stored']} learned models stored from {name} ({said})"

@@ -28,8 +28,8 @@ def import_tool(
     with audited(engine, actor, "import models", source):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
-            stored = import_models(session=session, data=data, source=source)
-            return 201, {"stored": stored, "source": source}
+            done = import_models(session=session, data=data, source=source)
+            return 201, {**done.to_json(), "source": source}
 
         return write(
             engine, actor=actor, action="import models", target=source, idempotency=None, work=work

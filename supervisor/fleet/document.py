@@ -2,8 +2,8 @@
 
 ``rcb models export TOOL`` writes, and ``rcb models import FILE`` reads, a JSON document::
 
-    {"format": "rcb-fleet-models/1", "tool": "CNMG432RN", "material": "AISI 1045",
-     "learned": [{"machine": ..., "plan": ..., "operation": {...}, "tool": {...},
+    {"format": "rcb-fleet-models/2", "tool": "CNMG432RN", "material": "AISI 1045",
+     "learned": [{"origin": "6f1c…", "machine": ..., "plan": ..., "operation": {...}, "tool": {...},
                   "posterior": {...}, "start": {...} | null,
                   "coverage_k": 2.0, "exponent_sd": 0.15, "edge_sd": 0.1,
                   "chain": {"readings": 29.4, "excess": 31.0} | null}, ...]}
@@ -13,9 +13,11 @@ Learned`): where it was learned, the operation's bounds and context and its cata
 rebuild the prior its evidence is counted against), the posterior, and the fleet prior it
 started from, and the operation's evidence on its measuring chain's noise (``chain``: readings'
 worth and their excess squares, :mod:`supervisor.fleet.noise`; absent in documents written
-before it, which then give no noise prior). Nothing else of the database travels (no parts,
-no keys). Reading checks every field and names the offending one
-(``learned[3].posterior.mean``).
+before it, which then give no noise prior). ``origin`` names the database that learned the
+model (:mod:`db.identity`; a model imported there keeps its own), so that an import counts
+each model once however often it travels (:mod:`db.fleet_models`); version 1 documents have
+none (read as ""). Nothing else of the database travels (no parts, no keys). Reading checks
+every field and names the offending one (``learned[3].posterior.mean``).
 """
 
 from __future__ import annotations
@@ -33,10 +35,15 @@ from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 
-FORMAT = "rcb-fleet-models/1"
+FORMAT = "rcb-fleet-models/2"
+#: The formats :func:`read_document` reads: version 1 is version 2 without ``origin``.
+FORMATS = ("rcb-fleet-models/1", FORMAT)
+#: The longest ``origin`` (a UUID's 36 characters).
+MAX_ORIGIN = 36
 #: The most items a document holds (a plant's year of plans on one tool is far fewer).
 MAX_ITEMS = 100_000
 _ITEM_KEYS = (
+    "origin",
     "machine",
     "plan",
     "operation",
@@ -52,13 +59,13 @@ _ITEM_KEYS = (
 MAX_CHAIN_READINGS = 1e7
 
 
-def document(tool: str, material: str, learned: Sequence[Learned]) -> dict[str, Any]:
-    """The document of ``learned`` (module docstring)."""
+def document(tool: str, material: str, learned: Sequence[tuple[str, Learned]]) -> dict[str, Any]:
+    """The document of ``learned``, each with its origin (module docstring)."""
     return {
         "format": FORMAT,
         "tool": tool,
         "material": material,
-        "learned": [item_json(item) for item in learned],
+        "learned": [{"origin": origin, **item_json(item)} for origin, item in learned],
     }
 
 
@@ -102,19 +109,38 @@ def _chain(data: object, path: str) -> NoiseScale | None:
     return NoiseScale.of_evidence(readings, excess)
 
 
-def read_document(data: object, path: str = "document") -> tuple[str, list[Learned]]:
-    """The tool and the learned models of a document; refuses anything it does not hold."""
+def read_document(data: object, path: str = "document") -> tuple[str, list[tuple[str, Learned]]]:
+    """The tool and the learned models of a document, each with its origin ("" for none).
+
+    Refuses anything the document does not hold.
+    """
     table = fields.mapping(data, path)
     fields.only_keys(table, ("format", "tool", "material", "learned"), path)
-    if table.get("format") != FORMAT:
-        raise InputError(f"{path}.format", table.get("format"), f"must be {FORMAT!r}")
+    if table.get("format") not in FORMATS:
+        raise InputError(
+            f"{path}.format", table.get("format"), f"must be one of {', '.join(FORMATS)}"
+        )
     tool = fields.text(table, "tool", path)
     items = table.get("learned")
     if not isinstance(items, list) or len(items) > MAX_ITEMS:
         raise InputError(
             f"{path}.learned", type(items).__name__, f"must be a list of <= {MAX_ITEMS}"
         )
-    return tool, [read_item(item, f"{path}.learned[{i}]") for i, item in enumerate(items)]
+    version_1 = table.get("format") == FORMATS[0]
+    return tool, [
+        (_origin(item, f"{path}.learned[{i}]", version_1), read_item(item, f"{path}.learned[{i}]"))
+        for i, item in enumerate(items)
+    ]
+
+
+def _origin(data: object, path: str, version_1: bool) -> str:
+    """An item's ``origin``: required from version 2, absent from version 1."""
+    table = fields.mapping(data, path)
+    if version_1:
+        if "origin" in table:
+            raise InputError(f"{path}.origin", table["origin"], "version 1 documents have none")
+        return ""
+    return fields.text(table, "origin", path, most=MAX_ORIGIN)
 
 
 def read_item(data: object, path: str) -> Learned:

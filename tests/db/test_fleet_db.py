@@ -218,11 +218,20 @@ def test_rcb_models_export_and_import_at_the_cli(engine, tmp_path, runner) -> No
     second = f"sqlite:///{tmp_path / 'second.db'}"
     upgrade(second)
     done = runner.invoke(app, ["models", "import", str(out), "--db", second])
-    assert done.exit_code == 0 and "4 learned models stored from vcmr331.json" in done.output
+    assert done.exit_code == 0
+    assert "rcb: 4 learned models stored from vcmr331.json (4 new)" in done.output
+    done = runner.invoke(app, ["models", "import", str(out), "--db", second])  # again
+    assert done.exit_code == 0 and (
+        "0 learned models stored from vcmr331.json (4 already held, the same or with more"
+        " readings)" in done.output
+    )
     (tmp_path / "bad.json").write_text('{"format": "x"}', encoding="utf-8")
     done = runner.invoke(app, ["models", "import", str(tmp_path / "bad.json"), "--db", second])
     assert done.exit_code == 2
-    assert "document.format = 'x': must be 'rcb-fleet-models/1'" in done.output
+    assert (
+        "document.format = 'x': must be one of rcb-fleet-models/1, rcb-fleet-models/2"
+        in done.output
+    )
     assert "Traceback" not in done.output
 
 

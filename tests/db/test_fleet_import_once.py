@@ -1,0 +1,172 @@
+"""Each imported learned model counts once (issue 32, ``rcb models import``; alembic 0020).
+
+Before, every import stored every item again: the same file imported twice, a newer export of
+the same plans, or a plant's own models sent back by a second plant were counted two or three
+times in each new plan's fleet prior, which then claimed readings it did not have.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import uuid
+
+from sqlalchemy import func, select, text
+from sqlalchemy.orm import Session
+from test_fleet_db import LEARN, _body, _learned, _made
+from test_migration_0012 import _downgrade
+from test_migrations import _no_difference
+
+from api.cli.main import app
+from api.services.fleet_models import export_tool, import_tool
+from api.services.plans import create_plan
+from db import tables as t
+from db.engine import make_engine, upgrade
+from db.identity import database_id
+from db.tables import utcnow
+from models.errors import InputError
+
+
+def _second(tmp_path, name: str = "second"):  # type: ignore[no-untyped-def]
+    url = f"sqlite:///{tmp_path / f'{name}.db'}"
+    upgrade(url)
+    return make_engine(url)
+
+
+def _rows(engine) -> int:  # type: ignore[no-untyped-def]
+    with Session(engine) as session:
+        return int(session.scalar(select(func.count()).select_from(t.ImportedModel)) or 0)
+
+
+def _prior(engine, name: str) -> dict:  # type: ignore[no-untyped-def,type-arg]
+    made = create_plan(engine=engine, body=_body(name, "lathe-9"), settings=LEARN).body
+    return {"provenance": made["provenance"], "operations": made["operations"]}
+
+
+def test_a_document_imported_twice_counts_once(engine, tmp_path, runner) -> None:
+    _learned(engine, "fleet-a", 0, 3)
+    _learned(engine, "fleet-b", 1, 3)
+    document = export_tool(engine=engine, tool="CNMG432RN")
+    once, twice = _second(tmp_path, "once"), _second(tmp_path, "twice")
+    first = import_tool(engine=once, data=document, source="a.json").body
+    assert (first["stored"], first["new"], first["kept"]) == (4, 4, 0)  # 2 plans x 2 quantities
+    for _ in range(2):
+        import_tool(engine=twice, data=document, source="a.json")
+    again = import_tool(engine=twice, data=document, source="a.json").body
+    assert (again["stored"], again["kept"]) == (0, 4)
+    assert _rows(twice) == _rows(once) == 4
+    shown = runner.invoke(app, ["fleet", "show", "CNMG432RN", "--db", str(twice.url)])
+    assert shown.exit_code == 0
+    assert "and 4 learned models imported from other databases" in shown.output
+    assert "no stored plan uses CNMG432RN: new plans start from the imported models" in (
+        shown.output
+    )
+    assert _prior(twice, "new-plan") == _prior(once, "new-plan")  # 12 readings, not 36
+    once.dispose()
+    twice.dispose()
+
+
+def test_a_newer_export_replaces_the_older_and_an_older_one_does_not(engine, tmp_path) -> None:
+    a = _learned(engine, "fleet-a", 0, 2)
+    _learned(engine, "fleet-b", 1, 2)
+    older = export_tool(engine=engine, tool="CNMG432RN")
+    _made(engine, a, 0, "fleet-a-more", 3)  # plan a learns on
+    newer = export_tool(engine=engine, tool="CNMG432RN")
+    both, only = _second(tmp_path, "both"), _second(tmp_path, "only")
+    import_tool(engine=both, data=older, source="older.json")
+    done = import_tool(engine=both, data=newer, source="newer.json").body
+    assert (done["new"], done["replaced"], done["kept"]) == (0, 2, 2)  # plan a's 2 quantities
+    done = import_tool(engine=both, data=older, source="older.json").body  # late, and older
+    assert (done["stored"], done["kept"]) == (0, 4)
+    import_tool(engine=only, data=newer, source="newer.json")
+    assert _rows(both) == 4
+    assert _prior(both, "new-plan") == _prior(only, "new-plan")
+    both.dispose()
+    only.dispose()
+
+
+def test_a_plants_own_models_sent_back_are_skipped(engine, tmp_path) -> None:
+    _learned(engine, "fleet-a", 0, 2)
+    before = _prior(engine, "before")
+    second = _second(tmp_path)
+    import_tool(engine=second, data=export_tool(engine=engine, tool="CNMG432RN"), source="1.json")
+    back = export_tool(engine=second, tool="CNMG432RN")  # only what it imported
+    with Session(engine) as session:  # the first plant's identity, kept by the second
+        assert {item["origin"] for item in back["learned"]} == {database_id(session=session)}
+    done = import_tool(engine=engine, data=back, source="2.json").body
+    assert (done["stored"], done["own"]) == (0, 2)
+    assert _rows(engine) == 0
+    assert _prior(engine, "after") == before
+    second.dispose()
+
+
+def test_a_version_1_document_imports_once_and_a_version_2_needs_its_origin(
+    engine, tmp_path
+) -> None:
+    _learned(engine, "fleet-a", 0, 2)
+    document = export_tool(engine=engine, tool="CNMG432RN")
+    old = copy.deepcopy(document)
+    old["format"] = "rcb-fleet-models/1"
+    for item in old["learned"]:
+        del item["origin"]
+    second = _second(tmp_path)
+    assert import_tool(engine=second, data=old, source="v1.json").body["new"] == 2
+    assert import_tool(engine=second, data=old, source="v1.json").body["kept"] == 2
+    with Session(second) as session:
+        assert set(session.scalars(select(t.ImportedModel.origin))) == {""}
+    del document["learned"][1]["origin"]
+    try:
+        import_tool(engine=second, data=document, source="bad.json")
+        raise AssertionError("a version 2 item without its origin was stored")
+    except InputError as err:
+        assert err.field == "document.learned[1].origin"
+    assert _rows(second) == 2
+    second.dispose()
+
+
+#: imported_models rows as 0019 stored them: (machine, plan, operation, quantity, readings)
+OLD = (
+    ("lathe-1", "a", "rough-od", "force_N", 6),
+    ("lathe-1", "a", "rough-od", "force_N", 9),  # the same model, a newer export: kept
+    ("lathe-1", "a", "rough-od", "force_N", 3),
+    ("lathe-2", "b", "rough-od", "force_N", 6),
+)
+
+
+def test_0020_keeps_one_row_per_model_and_names_the_database(backend_url) -> None:
+    upgrade(backend_url, "0019")
+    engine = make_engine(backend_url)
+    with engine.begin() as connection:
+        for machine, plan, op, quantity, readings in OLD:
+            body = {
+                "machine": machine,
+                "plan": plan,
+                "operation": {"name": op},
+                "posterior": {"quantity": quantity, "observations": readings},
+            }
+            connection.execute(
+                text(
+                    "INSERT INTO imported_models (tool, body, source, imported_at)"
+                    " VALUES ('CNMG432RN', :body, 'f.json', :now)"
+                ),
+                {"body": json.dumps(body), "now": utcnow()},
+            )
+    engine.dispose()
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    with engine.connect() as connection:
+        kept = connection.execute(
+            text(
+                "SELECT origin, machine, plan, operation, quantity, observations"
+                " FROM imported_models ORDER BY machine"
+            )
+        ).all()
+        identity = connection.execute(text("SELECT id, uuid FROM database_identity")).all()
+    engine.dispose()
+    assert [tuple(row) for row in kept] == [
+        ("", "lathe-1", "a", "rough-od", "force_N", 9),
+        ("", "lathe-2", "b", "rough-od", "force_N", 6),
+    ]
+    assert len(identity) == 1 and identity[0][0] == 1 and uuid.UUID(identity[0][1])
+    _no_difference(backend_url)
+    _downgrade(backend_url, "0019")
