@@ -18,6 +18,7 @@ accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted`
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from dataclasses import replace
 from typing import Any
 
 from sqlalchemy import ScalarSelect, exists, func, or_, select
@@ -43,7 +44,20 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     """Every stored ``learn`` posterior of the named tools' quantities (module docstring)."""
     names = sorted(set(tool_names))
     imported = imported_evidence(session=session, tool_names=names)
-    return local_evidence(session=session, tool_names=names) + [item for _, item in imported]
+    return local_evidence(session=session, tool_names=names) + [
+        replace(item, machine=abroad(item.machine, origin)) for origin, item in imported
+    ]
+
+
+def abroad(machine: str, origin: str) -> str:
+    """An imported model's machine as the fleet tells it apart: ``lathe-1@6f1c2a3b``.
+
+    Two plants may both have a ``lathe-1``; merged by name, a new plan on this plant's would
+    take the other's readings for its own machine's, which the between-machine spread does not
+    limit. The first 8 characters of the origin's UUID (``imported`` where a version 1
+    document did not say) keep them apart, and say where each machine is.
+    """
+    return f"{machine}@{origin[:8] or 'imported'}"
 
 
 def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tuple[str, Learned]]:

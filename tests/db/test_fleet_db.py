@@ -23,6 +23,7 @@ from db import tables as t
 from db.engine import make_engine, upgrade
 from db.fleet import fleet_evidence
 from db.fleet_members import members
+from db.identity import database_id
 from models.errors import InputError
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.state import RcbSettings
@@ -184,15 +185,30 @@ def test_exported_models_imported_into_a_fresh_database_give_the_same_prior(
     there = create_plan(engine=second, body=_body("fleet-c", "lathe-2"), settings=LEARN).body
     assert there["prior"] == "fleet"
     assert there["operations"] == here["operations"]
-    assert there["provenance"] == here["provenance"]
+    # the same, but for the machines: there, each is named with the database it is in
+    with Session(engine) as session:
+        suffix = "@" + database_id(session=session)[:8]
+    assert _named_as_here(there["provenance"], suffix) == here["provenance"]
     # the chains' evidence travels too: the same noise prior (supervisor.fleet.noise)
-    assert there["noise_provenance"] == here["noise_provenance"] != []
+    assert _named_as_here(there["noise_provenance"], suffix) == here["noise_provenance"] != []
     assert stored_state(second, there["id"]).priors == stored_state(engine, here["id"]).priors
     assert (
         stored_state(second, there["id"]).noise_priors
         == stored_state(engine, here["id"]).noise_priors
     )
     second.dispose()
+
+
+def _named_as_here(provenance: Any, suffix: str) -> Any:
+    """``provenance`` with every machine's ``suffix`` (which each must carry) taken off."""
+    if isinstance(provenance, dict):
+        return {k: _named_as_here(v, suffix) for k, v in provenance.items()}
+    if isinstance(provenance, list):
+        return [_named_as_here(v, suffix) for v in provenance]
+    if isinstance(provenance, str) and provenance.startswith("lathe-"):
+        assert provenance.endswith(suffix), provenance
+        return provenance.removesuffix(suffix)
+    return provenance
 
 
 def test_a_document_that_is_not_one_stores_nothing(engine) -> None:

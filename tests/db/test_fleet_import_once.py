@@ -170,3 +170,22 @@ def test_0020_keeps_one_row_per_model_and_names_the_database(backend_url) -> Non
     assert len(identity) == 1 and identity[0][0] == 1 and uuid.UUID(identity[0][1])
     _no_difference(backend_url)
     _downgrade(backend_url, "0019")
+
+
+def test_a_machine_of_the_same_name_in_another_plant_is_another_machine(engine, tmp_path) -> None:
+    """Plant 1's lathe-0 and plant 2's lathe-0: a new plan on plant 2's starts as on any new
+    machine (before, it took plant 1's readings for its own machine's, unbounded by the
+    spread), and the prior names plant 1's machines with their database."""
+    _learned(engine, "fleet-a", 0, 3)
+    _learned(engine, "fleet-b", 1, 3)
+    second = _second(tmp_path)
+    import_tool(engine=second, data=export_tool(engine=engine, tool="CNMG432RN"), source="1.json")
+    same_name = create_plan(engine=second, body=_body("here", "lathe-0"), settings=LEARN).body
+    other = create_plan(engine=second, body=_body("there", "lathe-7"), settings=LEARN).body
+    assert same_name["operations"] == other["operations"]
+    assert same_name["provenance"] == other["provenance"]
+    with Session(engine) as session:
+        origin = database_id(session=session)[:8]
+    machines = same_name["provenance"]["rough-od"][0]["machines"]
+    assert machines == [f"lathe-0@{origin}", f"lathe-1@{origin}"]
+    second.dispose()
