@@ -61,17 +61,36 @@ def abroad(machine: str, origin: str) -> str:
 
 
 def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tuple[str, Learned]]:
-    """The models of the named tools other databases exported, each with its ``origin``."""
+    """The models of the named tools other databases exported, each with its ``origin``.
+
+    Left out: those of a machine an engineer took out by its name here (``rcb fleet exclude
+    --machine lathe-1@6f1c2a3b``, :func:`abroad`).
+    """
     names = sorted(set(tool_names))
     imported = (
-        select(t.ImportedModel.origin, t.ImportedModel.body)
+        select(t.ImportedModel.origin, t.ImportedModel.machine, t.ImportedModel.body)
         .where(t.ImportedModel.tool.in_(names))
         .order_by(t.ImportedModel.id)
     )
+    out = set(
+        session.scalars(
+            select(t.FleetExclusion.machine).where(t.FleetExclusion.machine.contains("@"))
+        )
+    )
     return [
         (origin, read_item(body, "imported_models.body"))
-        for origin, body in session.execute(imported)
+        for origin, machine, body in session.execute(imported)
+        if abroad(machine, origin) not in out
     ]
+
+
+def imported_machine(*, session: Session, name: str) -> bool:
+    """Whether ``name`` is an imported model's machine as :func:`abroad` names it."""
+    machine, _, short = name.rpartition("@")
+    m = t.ImportedModel
+    origin = m.origin == "" if short == "imported" else m.origin.startswith(short)
+    found = select(m.id).where(m.machine == machine, origin).limit(1)
+    return bool(machine and short) and session.scalar(found) is not None
 
 
 def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learned]:

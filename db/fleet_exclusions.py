@@ -11,7 +11,7 @@ from sqlalchemy import delete, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet import plan_changes
+from db.fleet import imported_machine, plan_changes
 from db.plans import get_plan_row
 from models.errors import InputError
 
@@ -35,8 +35,11 @@ def exclude(
     if (
         machine is not None
         and session.scalar(select(t.Machine.id).where(t.Machine.name == machine)) is None
+        and not imported_machine(session=session, name=machine)
     ):
-        raise InputError("--machine", machine, "no stored plan runs on this machine")
+        raise InputError(
+            "--machine", machine, "no stored plan or imported model is of this machine"
+        )
     if plan_id is not None and get_plan_row(session=session, plan_id=plan_id) is None:
         raise InputError("PLAN", plan_id, "no such plan")
     same = (

@@ -189,3 +189,36 @@ def test_a_machine_of_the_same_name_in_another_plant_is_another_machine(engine, 
     machines = same_name["provenance"]["rough-od"][0]["machines"]
     assert machines == [f"lathe-0@{origin}", f"lathe-1@{origin}"]
     second.dispose()
+
+
+def test_an_imported_machine_is_taken_out_and_put_back_by_its_name_here(
+    engine, tmp_path, runner
+) -> None:
+    _learned(engine, "fleet-a", 0, 2)
+    _learned(engine, "fleet-b", 1, 2)
+    second = _second(tmp_path)
+    import_tool(engine=second, data=export_tool(engine=engine, tool="CNMG432RN"), source="1.json")
+    with Session(engine) as session:
+        origin = database_id(session=session)[:8]
+    url = str(second.url)
+    done = runner.invoke(
+        app, ["fleet", "exclude", "--machine", f"lathe-0@{origin}", "--reason", "r", "--db", url]
+    )
+    assert done.exit_code == 0, done.output
+    made = create_plan(engine=second, body=_body("c1", "lathe-9"), settings=LEARN).body
+    assert made["provenance"]["rough-od"][0]["machines"] == [f"lathe-1@{origin}"]
+    assert {i["machine"] for i in export_tool(engine=second, tool="CNMG432RN")["learned"]} == {
+        "lathe-1"
+    }  # what is out here is not sent on
+    for wrong in (f"lathe-7@{origin}", "lathe-0@00000000", "lathe-0", "@"):
+        done = runner.invoke(
+            app, ["fleet", "exclude", "--machine", wrong, "--reason", "r", "--db", url]
+        )
+        assert done.exit_code == 2 and "no stored plan or imported model" in done.output
+    runner.invoke(app, ["fleet", "include", "--machine", f"lathe-0@{origin}", "--db", url])
+    made = create_plan(engine=second, body=_body("c2", "lathe-9"), settings=LEARN).body
+    assert made["provenance"]["rough-od"][0]["machines"] == [
+        f"lathe-0@{origin}",
+        f"lathe-1@{origin}",
+    ]
+    second.dispose()
