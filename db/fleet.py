@@ -72,15 +72,17 @@ def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tu
         .where(t.ImportedModel.tool.in_(names))
         .order_by(t.ImportedModel.id)
     )
-    out = set(
-        session.scalars(
-            select(t.FleetExclusion.machine).where(t.FleetExclusion.machine.contains("@"))
-        )
-    )
+    rows = [
+        (abroad(machine, origin), origin, body)
+        for origin, machine, body in session.execute(imported)
+    ]
+    named = sorted({name for name, _, _ in rows})
+    exclusions = select(t.FleetExclusion.machine).where(t.FleetExclusion.machine.in_(named))
+    out = set(session.scalars(exclusions)) if named else set()
     return [
         (origin, read_item(body, "imported_models.body"))
-        for origin, machine, body in session.execute(imported)
-        if abroad(machine, origin) not in out
+        for name, origin, body in rows
+        if name not in out
     ]
 
 
