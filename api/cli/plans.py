@@ -106,10 +106,31 @@ def create(
     title = f"plan {answer['id']} {answer['name']}: stored, setpoint version 1"
     _out.print(_setpoint_table(title, answer["operations"]))
     _say_prior(answer["provenance"], answer["noise_provenance"])
+    _say_band_held(answer)
     say(
         f"rcb: plan {answer['id']} {answer['name']}: setpoint version "
         f"{answer['setpoint_version']}, cycle time {answer['cycle_time_min']:.4g} min"
     )
+
+
+def _say_band_held(answer: dict[str, Any]) -> None:
+    """Which operations with a fleet prior start at the catalogue's setpoint, and why.
+
+    A setpoint is the faster of the band's and the learned cone's (``optimize_operation``):
+    where the fleet's prior is no narrower than the catalogue's band (few machines, or
+    machines that differ), the band's holds, and a prior asked for seems to do nothing.
+    """
+    held = [
+        op["name"]
+        for op in answer["operations"]
+        if op["name"] in answer["provenance"] and op.get("robust_by") != "cone"
+    ]
+    if held:
+        say(
+            f"rcb: {', '.join(held)}: the first setpoint is the catalogue band's, the "
+            "faster: the fleet's prior is not narrower there yet (more machines behind it "
+            "narrow it)"
+        )
 
 
 def read_plan_file(path: Path) -> dict[str, Any]:

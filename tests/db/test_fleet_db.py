@@ -264,3 +264,23 @@ def test_the_report_says_what_the_models_started_from(engine, tmp_path, runner) 
         pages[plan] = out.read_text(encoding="utf-8")
     assert "<dd>the tools&#x27; catalogue models</dd>" in pages["fleet-a"]
     assert "<dd>the fleet: 2 plans on 2 machines, between-machine spread" in pages["fleet-c"]
+
+
+def test_plans_create_says_where_the_catalogue_band_still_holds_the_start(capsys) -> None:
+    """A fleet prior no narrower than the band (two machines at the default spread, a 7 %
+    band: ``docs/try-a-machine.md``'s lathes) starts at the catalogue's setpoint, since the
+    faster holds; ``rcb plans create`` says so instead of seeming to ignore the prior."""
+    from api.cli.plans import _say_band_held
+
+    ops = [
+        {"name": "rough-od", "robust_by": "band"},
+        {"name": "rough-grooves", "robust_by": "cone"},
+        {"name": "finish-od", "robust_by": "band"},  # no fleet prior: nothing to say
+    ]
+    _say_band_held({"operations": ops, "provenance": {"rough-od": [], "rough-grooves": []}})
+    assert capsys.readouterr().err == (
+        "rcb: rough-od: the first setpoint is the catalogue band's, the faster: the fleet's"
+        " prior is not narrower there yet (more machines behind it narrow it)\n"
+    )
+    _say_band_held({"operations": ops[1:2], "provenance": {"rough-grooves": []}})
+    assert capsys.readouterr().err == ""
