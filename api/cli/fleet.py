@@ -76,8 +76,8 @@ def _print_members(page: dict[str, Any], first: bool) -> None:
             fleet += f"; prior let go: {', '.join(m['let_go'])}"
         table.add_row(str(m["plan_id"]), m["plan"], m["machine"], str(m["readings"]), fleet)
     Console().print(table)
-    if page["imported"]:
-        say(f"rcb: and {page['imported']} learned models imported from other databases")
+    if page["imported"] and first:
+        _print_imported(page)
     if first and not page["plans"]:
         start = "the imported models" if page["imported"] else "the catalogue"
         say(f"rcb: no stored plan uses {page['tool']}: new plans start from {start}")
@@ -124,3 +124,16 @@ def include(
     accepted = done.body["changes_accepted"]
     extra = f"; {accepted} changes of its process accepted" if accepted else ""
     say(f"rcb: {done.body['included']} is back in the fleet{extra}")
+
+
+def _print_imported(page: dict[str, Any]) -> None:
+    """The machines of the models imported from other databases, by their names here."""
+    table = new_table(title="imported from other databases (by their names here)")
+    for column in ("machine", "models", "readings", "in the fleet"):
+        table.add_column(column, justify="right" if column in ("models", "readings") else "left")
+    for m in page["imported_machines"]:
+        fleet = "yes" if m["in_fleet"] else f"no: {m['out']}"
+        table.add_row(m["machine"], str(m["models"]), str(m["readings"]), fleet)
+    Console().print(table)
+    more = "; more machines than shown" if page["imported_machines_more"] else ""
+    say(f"rcb: and {page['imported']} learned models imported from other databases{more}")

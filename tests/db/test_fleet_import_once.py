@@ -205,6 +205,19 @@ def test_an_imported_machine_is_taken_out_and_put_back_by_its_name_here(
         app, ["fleet", "exclude", "--machine", f"lathe-0@{origin}", "--reason", "r", "--db", url]
     )
     assert done.exit_code == 0, done.output
+    shown = runner.invoke(app, ["fleet", "show", "CNMG432RN", "--db", url, "--json"])
+    page = json.loads(shown.stdout)
+    actor = page["imported_machines"][0]["out"].removeprefix("taken out by ").split(":")[:2]
+    assert actor[0] == "cli" and actor[1]  # the engineer's login, as every exclusion says
+    assert page["imported_machines"] == [
+        {"machine": f"lathe-0@{origin}", "models": 2, "readings": 4, "in_fleet": False,
+         "out": f"taken out by cli:{actor[1]}: r"},
+        {"machine": f"lathe-1@{origin}", "models": 2, "readings": 4, "in_fleet": True,
+         "out": ""},
+    ]  # fmt: skip
+    assert page["imported_machines_more"] is False
+    shown = runner.invoke(app, ["fleet", "show", "CNMG432RN", "--db", url])
+    assert f"lathe-0@{origin}" in shown.output and "no: taken out by" in shown.output
     made = create_plan(engine=second, body=_body("c1", "lathe-9"), settings=LEARN).body
     assert made["provenance"]["rough-od"][0]["machines"] == [f"lathe-1@{origin}"]
     assert {i["machine"] for i in export_tool(engine=second, tool="CNMG432RN")["learned"]} == {

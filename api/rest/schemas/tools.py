@@ -123,6 +123,16 @@ class FleetMember(Out):
     )
 
 
+class ImportedFleetMachine(Out):
+    """A machine whose models of the tool this database imported: in the fleet or not."""
+
+    machine: str = Field(description="as the fleet names it: NAME@ORIGIN (rcb fleet exclude)")
+    models: int = Field(description="its learned models of the tool")
+    readings: int = Field(description="readings they rest on")
+    in_fleet: bool
+    out: str = Field(description="why not in the fleet (empty when it is)")
+
+
 class FleetList(Out):
     """A page of the stored plans using a tool, by id: which make new plans' fleet priors.
 
@@ -132,6 +142,10 @@ class FleetList(Out):
     tool: str
     plans: list[FleetMember]
     imported: int = Field(description="learned models imported from other databases")
+    imported_machines: list[ImportedFleetMachine] = Field(
+        description="their machines, by name (the first 100; none for a key scoped to plans)"
+    )
+    imported_machines_more: bool = Field(description="more imported machines than named")
     next_cursor: str | None
 
 

@@ -13,6 +13,7 @@ from sqlalchemy import Engine, func, select
 from api.services.errors import NotFoundError
 from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read
 from db import tables as t
+from db.fleet_imported import imported_machines
 from db.fleet_members import members
 from models.catalogue import catalogue
 
@@ -30,7 +31,9 @@ def fleet_members(
     ``only``: just these plans (a key scoped to plans sees no other plan's name).
 
     ``imported``: the learned models of the tool other databases exported and this one
-    imported (``rcb models import``), in every new plan's fleet.
+    imported (``rcb models import``); ``imported_machines``: their machines, by the names an
+    engineer takes one out by (:mod:`db.fleet_imported`; none for a key scoped to plans),
+    ``imported_machines_more`` where there are more than it names.
     """
     _bounded(page_size)
     after = _cursor(cursor)
@@ -42,11 +45,16 @@ def fleet_members(
         imported = session.scalar(
             select(func.count()).select_from(t.ImportedModel).where(t.ImportedModel.tool == tool)
         )
+        machines, more_machines = (
+            imported_machines(session=session, tool=tool) if only is None else ([], False)
+        )
     more = len(rows) > page_size
     rows = rows[:page_size]
     return {
         "tool": tool,
         "plans": [{**asdict(m), "in_fleet": not m.out} for m in rows],
         "imported": int(imported or 0),
+        "imported_machines": [{**asdict(m), "in_fleet": not m.out} for m in machines],
+        "imported_machines_more": more_machines,
         "next_cursor": str(rows[-1].plan_id) if more else None,
     }
