@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from models import fields
+from models.bounds import MAX_IDENTITY
 from models.errors import InputError
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.prior import Learned
@@ -155,8 +156,8 @@ def read_item(data: object, path: str) -> Learned:
             f"{path}.posterior.quantity", posterior.quantity, "not a model of the tool"
         )
     return Learned(
-        fields.text(table, "machine", path),
-        fields.text(table, "plan", path),
+        fields.text(table, "machine", path, most=MAX_IDENTITY),
+        fields.text(table, "plan", path, most=MAX_IDENTITY),
         _operation(table.get("operation"), tool.name, f"{path}.operation"),
         tool,
         posterior,
@@ -194,7 +195,7 @@ def _operation(data: object, tool: str, path: str) -> Operation:
     fields.only_keys(table, ("name", "process", "volume_mm3", "limits", "bounds", "context"), path)
     bounds = fields.mapping(table.get("bounds", {}), f"{path}.bounds")
     return Operation(
-        name=fields.text(table, "name", path),
+        name=fields.text(table, "name", path, most=MAX_IDENTITY),
         process=process_of(table.get("process"), f"{path}.process"),
         tool=tool,
         volume_mm3=fields.number(table.get("volume_mm3"), f"{path}.volume_mm3", positive=True),

@@ -121,6 +121,17 @@ def test_a_version_1_document_imports_once_and_a_version_2_needs_its_origin(
     except InputError as err:
         assert err.field == "document.learned[1].origin"
     assert _rows(second) == 2
+    document["learned"][1]["origin"] = "x"
+    document["learned"][0]["machine"] = "m" * 201  # more than its column holds
+    try:
+        import_tool(engine=second, data=document, source="long.json")
+        raise AssertionError("a machine name longer than 200 characters was stored")
+    except InputError as err:
+        assert (err.field, err.reason) == (
+            "document.learned[0].machine",
+            "must be at most 200 characters",
+        )
+    assert _rows(second) == 2
     second.dispose()
 
 
