@@ -357,6 +357,9 @@ def plan_priors(
     )
     if prior == "fleet" and not priors:
         raise InputError(
-            "prior", prior, "no stored learn plan has measured this plan's tools: use catalogue"
+            "prior",
+            prior,
+            "no learn plan in the fleet has measured this plan's tools (rcb fleet show TOOL:"
+            " which plans are out, and why): use catalogue",
         )
     return priors, noise_priors(learned) if priors else {}

@@ -98,7 +98,8 @@ def create(
             given["strategy"] = strategy
         engine = existing_engine(database_url(db), database_field(db))
         # the file's [rcb] table, the options over it; its errors and the plan's together
-        written = create_plan(engine=engine, body=body, given=given, actor=actor, prior=prior)
+        chosen = None if prior is None else prior.value
+        written = create_plan(engine=engine, body=body, given=given, actor=actor, prior=chosen)
     answer = written.body
     if as_json:
         emit(answer)

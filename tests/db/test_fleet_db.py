@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import json
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -164,6 +165,16 @@ def test_a_fleet_prior_needs_a_fleet_and_learn(engine) -> None:
         engine=engine, body=_body("z", "lathe-z"), settings=RcbSettings(strategy="ivester")
     ).body
     assert ivester["prior"] == "catalogue"  # the default for a strategy that does not learn
+
+
+def test_rcb_plans_create_prior_fleet_without_a_fleet_says_so_plainly(engine, runner) -> None:
+    """The option's value, not its enum's repr (``prior = <Prior.fleet: 'fleet'>`` before)."""
+    example = Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml"
+    url = engine.url.render_as_string(hide_password=False)
+    done = runner.invoke(app, ["plans", "create", str(example), "--prior", "fleet", "--db", url])
+    assert done.exit_code == 2
+    assert "rcb: error: prior = 'fleet': no learn plan in the fleet has measured" in done.output
+    assert "rcb fleet show TOOL" in done.output and "Traceback" not in done.output
 
 
 def test_exported_models_imported_into_a_fresh_database_give_the_same_prior(
