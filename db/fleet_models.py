@@ -18,10 +18,11 @@ then starts where the first one is (``rcb plans create --prior fleet``).
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import insert, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -76,21 +77,23 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
         raise InputError("document.learned", tool, "holds models of another tool")
     own = database_id(session=session)
     rows = _rows(tool, [(o, item) for o, item in learned if o != own], source)
-    held = _held(session, tool, {key[1] for key in rows})
-    new = replaced = 0
-    for key, row in rows.items():
-        if key not in held:
-            session.add(t.ImportedModel(**row))
-            new += 1
-        elif (held[key].observations, held[key].body) != (row["observations"], row["body"]) and (
-            held[key].observations <= row["observations"]
+    held = _held(session, tool, rows.keys())
+    fresh = [row for key, row in rows.items() if key not in held]
+    if fresh:  # one statement for them all (a document holds up to 100 000)
+        session.execute(insert(t.core_table(t.ImportedModel)), fresh)
+    replaced = 0
+    for key, old in held.items():
+        row = rows[key]
+        if (old.observations, old.body) != (row["observations"], row["body"]) and (
+            old.observations <= row["observations"]
         ):  # a newer export of the model (the same one again is kept as it is)
             for name in ("body", "source", "observations"):
-                setattr(held[key], name, row[name])
-            held[key].imported_at = t.utcnow()
+                setattr(old, name, row[name])
+            old.imported_at = t.utcnow()
             replaced += 1
     session.flush()
     own_count = sum(1 for origin, _ in learned if origin == own)
+    new = len(fresh)
     return Imported(new, replaced, len(learned) - own_count - new - replaced, own_count)
 
 
@@ -121,8 +124,12 @@ def _rows(
 _KEY = ("tool", "origin", "machine", "plan", "operation", "quantity")
 
 
-def _held(session: Session, tool: str, origins: set[str]) -> dict[tuple[str, ...], t.ImportedModel]:
-    """The tool's imported rows from ``origins``, by key (one statement, the key's index)."""
+def _held(
+    session: Session, tool: str, keys: Collection[tuple[str, ...]]
+) -> dict[tuple[str, ...], t.ImportedModel]:
+    """The tool's imported rows of ``keys``, by key (one statement, the key's index)."""
     m = t.ImportedModel
-    found = session.scalars(select(m).where(m.tool == tool, m.origin.in_(sorted(origins))))
-    return {tuple(getattr(row, name) for name in _KEY): row for row in found}
+    origins = sorted({key[1] for key in keys})
+    found = session.scalars(select(m).where(m.tool == tool, m.origin.in_(origins)))
+    by_key = {tuple(str(getattr(row, name)) for name in _KEY): row for row in found}
+    return {key: row for key, row in by_key.items() if key in keys}

@@ -80,6 +80,10 @@ def test_a_newer_export_replaces_the_older_and_an_older_one_does_not(engine, tmp
     assert (done["stored"], done["kept"]) == (0, 4)
     import_tool(engine=only, data=newer, source="newer.json")
     assert _rows(both) == 4
+    # a document of plan a alone, the same origin: b's rows are left as they are
+    alone = {**newer, "learned": [i for i in newer["learned"] if i["plan"] == "fleet-a"]}
+    done = import_tool(engine=both, data=alone, source="alone.json").body
+    assert (done["stored"], done["kept"]) == (0, 2) and _rows(both) == 4
     assert _prior(both, "new-plan") == _prior(only, "new-plan")
     both.dispose()
     only.dispose()
