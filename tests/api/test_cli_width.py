@@ -122,6 +122,16 @@ def test_review_tables_fit_the_console(db, command, columns):
     fits(done.stdout, columns)
 
 
+def test_plans_show_says_the_plans_settings_within_80_columns(db):
+    """Its closing message was one line of 190 characters (the settings after the state)."""
+    done = rcb("plans", "show", "ivester-demo-part", "--db", db)
+    assert done.returncode == 0, done.stderr
+    lines = done.stderr.splitlines()
+    assert any(line.startswith("rcb: RCB learn alpha=0.25") for line in lines)
+    assert "z=4.0" in done.stderr and "setpoint version" in done.stderr
+    assert all(cell_len(line) <= 80 for line in lines), lines
+
+
 @pytest.mark.parametrize("milling", [False, True])
 def test_demo_tables_show_every_number_whole(milling):
     args = ["demo", "--parts", "3", *(["--milling"] if milling else [])]
