@@ -1,24 +1,21 @@
 """The machines whose models this database imported, by the names the fleet gives them.
 
-``rcb fleet show TOOL`` lists them beside the plans here, each in the fleet or taken out (and
-by whom, why), under the name an engineer takes one out by (``rcb fleet exclude --machine
-lathe-1@6f1c2a3b``, :func:`db.fleet.abroad`). One grouped statement on ``imported_models`` (by
-``ix_imported_models_tool``) and one seek per name on ``fleet_exclusions``; at most
-:data:`MAX_SHOWN` machines.
+``rcb fleet imported TOOL`` (``GET /tools/{name}/fleet/imported``) lists them a page at a time,
+each in the fleet or taken out (and by whom, why), under the name an engineer takes one out by
+(``rcb fleet exclude --machine lathe-1@6f1c2a3b``, :func:`db.fleet.abroad`). One grouped
+statement on ``imported_models`` (by ``ix_imported_models_tool``, from the page's key on) and
+one seek per name on ``fleet_exclusions``: no cost grows with the pages before.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sqlalchemy import func, select
+from sqlalchemy import and_, func, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet import abroad
-
-#: The most imported machines a page names (a plant's whole fleet of one tool is far fewer).
-MAX_SHOWN = 100
 
 
 @dataclass(frozen=True)
@@ -31,20 +28,25 @@ class ImportedMachine:
     out: str  # why not in the fleet ("" where it is)
 
 
-def imported_machines(*, session: Session, tool: str) -> tuple[list[ImportedMachine], bool]:
-    """The first :data:`MAX_SHOWN` imported machines of ``tool`` by name, and whether more."""
+def imported_machines(
+    *, session: Session, tool: str, after: tuple[str, str] | None, limit: int
+) -> list[tuple[tuple[str, str], ImportedMachine]]:
+    """Up to ``limit`` imported machines of ``tool`` after the key ``after``, each by its key.
+
+    The key is the machine's stored (name, origin); the page's order is the keys'.
+    """
     m = t.ImportedModel
+    query = select(m.machine, m.origin, func.count(), func.sum(m.observations)).where(
+        m.tool == tool
+    )
+    if after is not None:
+        query = query.where(
+            or_(m.machine > after[0], and_(m.machine == after[0], m.origin > after[1]))
+        )
     groups = session.execute(
-        select(m.machine, m.origin, func.count(), func.sum(m.observations))
-        .where(m.tool == tool)
-        .group_by(m.machine, m.origin)
-        .order_by(m.machine, m.origin)
-        .limit(MAX_SHOWN + 1)
+        query.group_by(m.machine, m.origin).order_by(m.machine, m.origin).limit(limit)
     ).all()
-    named = [
-        (abroad(machine, origin), count, readings) for machine, origin, count, readings in groups
-    ]
-    names = sorted({name for name, _, _ in named[:MAX_SHOWN]})
+    names = sorted({abroad(machine, origin) for machine, origin, _, _ in groups})
     why: dict[str, str] = {}
     if names:
         e = t.FleetExclusion
@@ -52,8 +54,15 @@ def imported_machines(*, session: Session, tool: str) -> tuple[list[ImportedMach
             select(e.machine, e.actor, e.reason).where(e.machine.in_(names)).order_by(e.id)
         ):
             why[str(machine)] = f"taken out by {actor}: {reason}"
-    shown = [
-        ImportedMachine(name, int(count), int(readings or 0), why.get(name, ""))
-        for name, count, readings in named[:MAX_SHOWN]
+    return [
+        (
+            (machine, origin),
+            ImportedMachine(
+                abroad(machine, origin),
+                int(count),
+                int(readings or 0),
+                why.get(abroad(machine, origin), ""),
+            ),
+        )  # fmt: skip
+        for machine, origin, count, readings in groups
     ]
-    return shown, len(groups) > MAX_SHOWN

@@ -1,4 +1,4 @@
-"""``rcb fleet show``, ``exclude`` and ``include``: which plans make new plans' fleet priors.
+"""``rcb fleet show``, ``imported``, ``exclude``, ``include``: what makes new plans' priors.
 
 A plan or a machine an engineer takes out no longer counts in any new plan's prior (a machine
 with a loose spindle, a plan cut on the wrong material); a plan whose process changed is out
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Callable
 from typing import Annotated, Any
 
 import typer
@@ -43,27 +44,69 @@ def show(
     as_json: JsonOption = False,
 ) -> None:
     """The plans using TOOL: in the fleet or why not, readings, priors let go."""
-    from api.services.errors import NotFoundError
     from api.services.read.fleet import fleet_members
-    from api.settings import database_field, database_url
-    from models.errors import InputError
 
-    with errors():
-        engine = existing_engine(database_url(db), database_field(db))
-        try:
-            page = fleet_members(engine=engine, tool=tool, cursor=cursor, page_size=limit)
-        except InputError as err:  # limit, cursor: the options' names
-            raise InputError(f"--{err.field}", err.value, err.reason) from None
-        except NotFoundError:
-            raise InputError(
-                "TOOL", tool, "no such tool in the catalogue or the database"
-            ) from None
+    page = _page(fleet_members, tool, cursor, limit, db)
     if as_json:  # on stdout, the messages on stderr: a pipe reads the JSON alone
         sys.stdout.write(json.dumps(page) + "\n")
         return
     _print_members(page, first=cursor is None)
     if page["next_cursor"] is not None:
         say(f"rcb: next page: rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}")
+
+
+@fleet_app.command("imported")
+def imported(
+    tool: Annotated[str, typer.Argument(help="The tool, by name.", show_default=False)],
+    limit: Annotated[
+        int, typer.Option(help=f"Machines on the page (1-{request_limits.READ_PAGE}).")
+    ] = 100,
+    cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """The machines of TOOL's imported models, by the names to take them out by."""
+    from api.services.read.fleet import imported_fleet
+
+    page = _page(imported_fleet, tool, cursor, limit, db)
+    if as_json:
+        sys.stdout.write(json.dumps(page) + "\n")
+        return
+    table = new_table(title=f"{tool}: machines of the models imported from other databases")
+    for column in ("machine", "models", "readings", "in the fleet"):
+        table.add_column(column, justify="right" if column in ("models", "readings") else "left")
+    for m in page["machines"]:
+        fleet = "yes" if m["in_fleet"] else f"no: {m['out']}"
+        table.add_row(m["machine"], str(m["models"]), str(m["readings"]), fleet)
+    Console().print(table)
+    if cursor is None and not page["machines"]:
+        say(f"rcb: no model of {tool} was imported (rcb models import FILE)")
+    if page["next_cursor"] is not None:
+        say(
+            f"rcb: next page: rcb fleet imported {tool} --cursor {page['next_cursor']} "
+            f"--limit {limit}"
+        )
+
+
+def _page(
+    fetch: Callable[..., dict[str, Any]], tool: str, cursor: str | None, limit: int, db: str | None
+) -> dict[str, Any]:
+    """A page of ``fetch``: the options' names in its errors, an unknown tool named."""
+    from api.services.errors import NotFoundError
+    from api.settings import database_field, database_url
+    from models.errors import InputError
+
+    with errors():
+        engine = existing_engine(database_url(db), database_field(db))
+        try:
+            page = fetch(engine=engine, tool=tool, cursor=cursor, page_size=limit)
+        except InputError as err:  # limit, cursor: the options' names
+            raise InputError(f"--{err.field}", err.value, err.reason) from None
+        except NotFoundError:
+            raise InputError(
+                "TOOL", tool, "no such tool in the catalogue or the database"
+            ) from None
+    return page
 
 
 def _print_members(page: dict[str, Any], first: bool) -> None:
@@ -77,7 +120,10 @@ def _print_members(page: dict[str, Any], first: bool) -> None:
         table.add_row(str(m["plan_id"]), m["plan"], m["machine"], str(m["readings"]), fleet)
     Console().print(table)
     if page["imported"] and first:
-        _print_imported(page)
+        say(
+            f"rcb: and {page['imported']} learned models imported from other databases "
+            f"(rcb fleet imported {page['tool']} names their machines)"
+        )
     if first and not page["plans"]:
         start = "the imported models" if page["imported"] else "the catalogue"
         say(f"rcb: no stored plan uses {page['tool']}: new plans start from {start}")
@@ -124,16 +170,3 @@ def include(
     accepted = done.body["changes_accepted"]
     extra = f"; {accepted} changes of its process accepted" if accepted else ""
     say(f"rcb: {done.body['included']} is back in the fleet{extra}")
-
-
-def _print_imported(page: dict[str, Any]) -> None:
-    """The machines of the models imported from other databases, by their names here."""
-    table = new_table(title="imported from other databases (by their names here)")
-    for column in ("machine", "models", "readings", "in the fleet"):
-        table.add_column(column, justify="right" if column in ("models", "readings") else "left")
-    for m in page["imported_machines"]:
-        fleet = "yes" if m["in_fleet"] else f"no: {m['out']}"
-        table.add_row(m["machine"], str(m["models"]), str(m["readings"]), fleet)
-    Console().print(table)
-    more = "; more machines than shown" if page["imported_machines_more"] else ""
-    say(f"rcb: and {page['imported']} learned models imported from other databases{more}")

@@ -177,13 +177,12 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     _say_prior(data["provenance"], data["noise_provenance"])
     settings = ", ".join(f"{k}={v}" for k, v in data["settings"].items())
     state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
-    where = (
-        f"rcb: plan {data['id']} {data['name']} on {data['machine']}: {state}, setpoint version "
-        f"{data['setpoint_version']}, {data['parts']} parts"
-    )
-    rule = f"rcb: RCB {data['strategy']} alpha={data['alpha']:g} ({settings})"
-    for text in (where, rule):  # within 80 columns, as a terminal shows them
-        say(textwrap.fill(text, width=80, subsequent_indent="  ", break_on_hyphens=False))
+    say(f"rcb: plan {data['id']} {data['name']} on {data['machine']}: {state}")
+    rule = (
+        f"rcb: setpoint version {data['setpoint_version']}, {data['parts']} parts; "
+        f"RCB {data['strategy']} alpha={data['alpha']:g} ({settings})"
+    )  # within 80 columns, as a terminal shows it
+    say(textwrap.fill(rule, width=80, subsequent_indent="  ", break_on_hyphens=False))
 
 
 def _say_prior(provenance: dict[str, list[dict[str, Any]]], noise: list[dict[str, Any]]) -> None:

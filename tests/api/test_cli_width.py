@@ -127,8 +127,9 @@ def test_plans_show_says_the_plans_settings_within_80_columns(db):
     done = rcb("plans", "show", "ivester-demo-part", "--db", db)
     assert done.returncode == 0, done.stderr
     lines = done.stderr.splitlines()
-    assert any(line.startswith("rcb: RCB learn alpha=0.25") for line in lines)
-    assert "z=4.0" in done.stderr and "setpoint version" in done.stderr
+    assert "rcb: plan 1 ivester-demo-part on lathe-22kW: running" in lines
+    assert any(line.startswith("rcb: setpoint version 5, 4 parts; RCB learn") for line in lines)
+    assert "z=4.0" in done.stderr
     assert all(cell_len(line) <= 80 for line in lines), lines
 
 

@@ -35,6 +35,7 @@ OPERATIONS = {
     ("get", "/api/v1/tools", "listTools"),
     ("get", "/api/v1/tools/{name}", "getTool"),
     ("get", "/api/v1/tools/{name}/fleet", "getToolFleet"),
+    ("get", "/api/v1/tools/{name}/fleet/imported", "getToolFleetImported"),
     ("post", "/api/v1/tools", "addTool"),
 }
 

@@ -57,7 +57,7 @@ def test_a_document_imported_twice_counts_once(engine, tmp_path, runner) -> None
     assert _rows(twice) == _rows(once) == 4
     shown = runner.invoke(app, ["fleet", "show", "CNMG432RN", "--db", str(twice.url)])
     assert shown.exit_code == 0
-    assert "and 4 learned models imported from other databases" in shown.output
+    assert "and 4 learned models imported from other databases" in " ".join(shown.output.split())
     assert "no stored plan uses CNMG432RN: new plans start from the imported models" in (
         shown.output
     )
@@ -220,19 +220,29 @@ def test_an_imported_machine_is_taken_out_and_put_back_by_its_name_here(
         app, ["fleet", "exclude", "--machine", f"lathe-0@{origin}", "--reason", "r", "--db", url]
     )
     assert done.exit_code == 0, done.output
-    shown = runner.invoke(app, ["fleet", "show", "CNMG432RN", "--db", url, "--json"])
+    shown = runner.invoke(app, ["fleet", "imported", "CNMG432RN", "--db", url, "--json"])
     page = json.loads(shown.stdout)
-    actor = page["imported_machines"][0]["out"].removeprefix("taken out by ").split(":")[:2]
+    actor = page["machines"][0]["out"].removeprefix("taken out by ").split(":")[:2]
     assert actor[0] == "cli" and actor[1]  # the engineer's login, as every exclusion says
-    assert page["imported_machines"] == [
+    assert page["machines"] == [
         {"machine": f"lathe-0@{origin}", "models": 2, "readings": 4, "in_fleet": False,
          "out": f"taken out by cli:{actor[1]}: r"},
         {"machine": f"lathe-1@{origin}", "models": 2, "readings": 4, "in_fleet": True,
          "out": ""},
     ]  # fmt: skip
-    assert page["imported_machines_more"] is False
+    assert page["next_cursor"] is None
+    # a page of one at a time, as printed: the same two, in order
+    shown = runner.invoke(app, ["fleet", "imported", "CNMG432RN", "--db", url, "--limit", "1"])
+    assert f"lathe-0@{origin}" in shown.output and f"lathe-1@{origin}" not in shown.output
+    cursor = shown.output.split("--cursor ")[1].split()[0]
+    shown = runner.invoke(
+        app, ["fleet", "imported", "CNMG432RN", "--db", url, "--limit", "1", "--cursor", cursor]
+    )
+    assert f"lathe-1@{origin}" in shown.output and "next page" not in shown.output
+    bad = runner.invoke(app, ["fleet", "imported", "CNMG432RN", "--db", url, "--cursor", "x!"])
+    assert bad.exit_code == 2 and "--cursor = 'x!'" in bad.output
     shown = runner.invoke(app, ["fleet", "show", "CNMG432RN", "--db", url])
-    assert f"lathe-0@{origin}" in shown.output and "no: taken out by" in shown.output
+    assert "rcb fleet imported CNMG432RN names their machines" in shown.output
     made = create_plan(engine=second, body=_body("c1", "lathe-9"), settings=LEARN).body
     assert made["provenance"]["rough-od"][0]["machines"] == [f"lathe-1@{origin}"]
     assert {i["machine"] for i in export_tool(engine=second, tool="CNMG432RN")["learned"]} == {

@@ -10,11 +10,17 @@ from fastapi.responses import Response
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
 from api.rest.schemas.common import NO_NUL, IdCursor
-from api.rest.schemas.tools import FleetList, TextCursor, ToolList, ToolOut
+from api.rest.schemas.tools import (
+    FleetList,
+    ImportedFleetList,
+    TextCursor,
+    ToolList,
+    ToolOut,
+)
 from api.services import tools as use_cases
 from api.services.read import tools as read_tools
 from api.services.read.common import LIST_PAGE, MAX_PAGE
-from api.services.read.fleet import fleet_members
+from api.services.read.fleet import fleet_members, imported_fleet
 from models.bounds import MAX_IDENTITY
 from models.tool import tool_body
 
@@ -55,6 +61,28 @@ def get_tool_fleet(
     New plans' fleet priors come from those in it. A key scoped to plans: those plans only.
     """
     return fleet_members(engine=engine, tool=name, cursor=cursor, page_size=limit, only=actor.plans)
+
+
+@router.get(
+    "/tools/{name}/fleet/imported",
+    response_model=ImportedFleetList,
+    operation_id="getToolFleetImported",
+)
+def get_tool_fleet_imported(
+    engine: EngineDep,
+    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
+    actor: Anyone,
+    cursor: TextCursor = None,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
+) -> dict[str, Any]:
+    """The machines of the tool's models imported from other databases, a page at a time.
+
+    Each by the name the fleet gives it (NAME@ORIGIN), in the fleet or taken out (``rcb fleet
+    exclude --machine``) and why. A key scoped to plans sees none.
+    """
+    return imported_fleet(
+        engine=engine, tool=name, cursor=cursor, page_size=limit, only=actor.plans
+    )
 
 
 @router.post(

@@ -133,6 +133,17 @@ class ImportedFleetMachine(Out):
     out: str = Field(description="why not in the fleet (empty when it is)")
 
 
+class ImportedFleetList(Out):
+    """A page of the machines of a tool's imported models, by name: in the fleet or not.
+
+    Pass ``next_cursor`` as ``cursor`` for the next page; null: no more.
+    """
+
+    tool: str
+    machines: list[ImportedFleetMachine] = Field(description="none for a key scoped to plans")
+    next_cursor: str | None
+
+
 class FleetList(Out):
     """A page of the stored plans using a tool, by id: which make new plans' fleet priors.
 
@@ -141,11 +152,10 @@ class FleetList(Out):
 
     tool: str
     plans: list[FleetMember]
-    imported: int = Field(description="learned models imported from other databases")
-    imported_machines: list[ImportedFleetMachine] = Field(
-        description="their machines, by name (the first 100; none for a key scoped to plans)"
+    imported: int = Field(
+        description="learned models imported from other databases (their machines: "
+        "GET /tools/{name}/fleet/imported)"
     )
-    imported_machines_more: bool = Field(description="more imported machines than named")
     next_cursor: str | None
 
 

@@ -77,7 +77,7 @@ def _untoken(cursor: str, size: int) -> list[Any]:
         values = json.loads(raw.decode("utf-8"))
     except (binascii.Error, ValueError, RecursionError):  # and the Unicode, JSON errors
         raise refused from None
-    kinds = (int, int, str) if size == 3 else (str,)
+    kinds = {3: (int, int, str), 2: (str, str)}.get(size, (str,))
     if not isinstance(values, list) or len(values) != size:
         raise refused
     if not all(

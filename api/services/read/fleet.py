@@ -11,7 +11,7 @@ from typing import Any
 from sqlalchemy import Engine, func, select
 
 from api.services.errors import NotFoundError
-from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read
+from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read, _token, _untoken
 from db import tables as t
 from db.fleet_imported import imported_machines
 from db.fleet_members import members
@@ -31,9 +31,7 @@ def fleet_members(
     ``only``: just these plans (a key scoped to plans sees no other plan's name).
 
     ``imported``: the learned models of the tool other databases exported and this one
-    imported (``rcb models import``); ``imported_machines``: their machines, by the names an
-    engineer takes one out by (:mod:`db.fleet_imported`; none for a key scoped to plans),
-    ``imported_machines_more`` where there are more than it names.
+    imported (``rcb models import``); :func:`imported_fleet` names their machines.
     """
     _bounded(page_size)
     after = _cursor(cursor)
@@ -45,16 +43,49 @@ def fleet_members(
         imported = session.scalar(
             select(func.count()).select_from(t.ImportedModel).where(t.ImportedModel.tool == tool)
         )
-        machines, more_machines = (
-            imported_machines(session=session, tool=tool) if only is None else ([], False)
-        )
     more = len(rows) > page_size
     rows = rows[:page_size]
     return {
         "tool": tool,
         "plans": [{**asdict(m), "in_fleet": not m.out} for m in rows],
         "imported": int(imported or 0),
-        "imported_machines": [{**asdict(m), "in_fleet": not m.out} for m in machines],
-        "imported_machines_more": more_machines,
         "next_cursor": str(rows[-1].plan_id) if more else None,
+    }
+
+
+def imported_fleet(
+    *,
+    engine: Engine,
+    tool: str,
+    cursor: str | None = None,
+    page_size: int = LIST_PAGE,
+    only: frozenset[int] | None = None,
+) -> dict[str, Any]:
+    """A page of the machines of ``tool``'s imported models, by the names the fleet gives them.
+
+    Each in the fleet (``out`` empty) or taken out, by whom and why (:mod:`db.fleet_imported`).
+    A key scoped to plans sees none: they are no plans of this database.
+    """
+    _bounded(page_size)
+    after = None if cursor is None else tuple(str(v) for v in _untoken(cursor, 2))
+    with _read(engine) as session, session.begin():
+        known = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
+        if known is None and tool not in catalogue():
+            raise NotFoundError("tool", tool)
+        rows = (
+            []
+            if only is not None
+            else imported_machines(
+                session=session,
+                tool=tool,
+                after=(after[0], after[1]) if after else None,
+                limit=page_size + 1,
+            )
+        )
+    more = len(rows) > page_size
+    rows = rows[:page_size]
+    return {
+        "tool": tool,
+        "machines": [{**asdict(m), "in_fleet": not m.out} for _, m in rows],
+        "next_cursor": _token(list(rows[-1][0])) if more else None,
     }
