@@ -76,14 +76,25 @@ def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tu
         (abroad(machine, origin), origin, body)
         for origin, machine, body in session.execute(imported)
     ]
-    named = sorted({name for name, _, _ in rows})
-    exclusions = select(t.FleetExclusion.machine).where(t.FleetExclusion.machine.in_(named))
-    out = set(session.scalars(exclusions)) if named else set()
+    out = taken_out(session=session, names={name for name, _, _ in rows})
     return [
         (origin, read_item(body, "imported_models.body"))
         for name, origin, body in rows
         if name not in out
     ]
+
+
+def taken_out(*, session: Session, names: Iterable[str]) -> dict[str, str]:
+    """Of the named imported machines (:func:`abroad`), those an engineer took out, and why.
+
+    One seek per name on ``fleet_exclusions``: ``taken out by ACTOR: REASON``.
+    """
+    wanted = sorted(set(names))
+    if not wanted:
+        return {}
+    e = t.FleetExclusion
+    found = select(e.machine, e.actor, e.reason).where(e.machine.in_(wanted)).order_by(e.id)
+    return {str(m): f"taken out by {actor}: {why}" for m, actor, why in session.execute(found)}
 
 
 def imported_machine(*, session: Session, name: str) -> bool:

@@ -15,7 +15,7 @@ from sqlalchemy import and_, func, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet import abroad
+from db.fleet import abroad, taken_out
 
 
 @dataclass(frozen=True)
@@ -46,23 +46,12 @@ def imported_machines(
     groups = session.execute(
         query.group_by(m.machine, m.origin).order_by(m.machine, m.origin).limit(limit)
     ).all()
-    names = sorted({abroad(machine, origin) for machine, origin, _, _ in groups})
-    why: dict[str, str] = {}
-    if names:
-        e = t.FleetExclusion
-        for machine, actor, reason in session.execute(
-            select(e.machine, e.actor, e.reason).where(e.machine.in_(names)).order_by(e.id)
-        ):
-            why[str(machine)] = f"taken out by {actor}: {reason}"
+    named = [(abroad(machine, origin), machine, origin, n, r) for machine, origin, n, r in groups]
+    out = taken_out(session=session, names=[name for name, *_ in named])
     return [
         (
             (machine, origin),
-            ImportedMachine(
-                abroad(machine, origin),
-                int(count),
-                int(readings or 0),
-                why.get(abroad(machine, origin), ""),
-            ),
-        )  # fmt: skip
-        for machine, origin, count, readings in groups
+            ImportedMachine(name, int(count), int(readings or 0), out.get(name, "")),
+        )
+        for name, machine, origin, count, readings in named
     ]

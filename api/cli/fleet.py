@@ -28,6 +28,9 @@ fleet_app = typer.Typer(
 PlanOption = Annotated[
     str | None, typer.Option("--plan", help="A plan, by id or name.", show_default=False)
 ]
+CursorOption = Annotated[
+    str | None, typer.Option(help="Where the page starts (as printed).", show_default=False)
+]
 MachineOption = Annotated[
     str | None, typer.Option("--machine", help="A machine, by name.", show_default=False)
 ]
@@ -39,7 +42,7 @@ def show(
     limit: Annotated[
         int, typer.Option(help=f"Plans on the page (1-{request_limits.READ_PAGE}).")
     ] = 100,
-    cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
+    cursor: CursorOption = None,
     db: DbOption = None,
     as_json: JsonOption = False,
 ) -> None:
@@ -61,7 +64,7 @@ def imported(
     limit: Annotated[
         int, typer.Option(help=f"Machines on the page (1-{request_limits.READ_PAGE}).")
     ] = 100,
-    cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
+    cursor: CursorOption = None,
     db: DbOption = None,
     as_json: JsonOption = False,
 ) -> None:

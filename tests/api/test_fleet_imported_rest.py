@@ -8,22 +8,13 @@ import uuid
 from typing import Any
 
 import httpx
-from test_fleet_rest import _learn
+from test_fleet_rest import _learn, pages
 
 from api.cli.main import app
 
 
 def _pages(client, tool: str, limit: int) -> list[dict[str, Any]]:  # type: ignore[no-untyped-def]
-    found, cursor = [], None
-    for _ in range(20):
-        params = {"limit": limit, **({"cursor": cursor} if cursor else {})}
-        r = client.get(f"/tools/{tool}/fleet/imported", params=params)
-        assert r.status_code == 200, r.text
-        found += r.json()["machines"]
-        cursor = r.json()["next_cursor"]
-        if cursor is None:
-            return found
-    raise AssertionError("more than 20 pages")
+    return pages(client, f"/tools/{tool}/fleet/imported", "machines", limit)
 
 
 def test_imported_machines_page_by_name_and_show_who_took_one_out(server, runner, tmp_path) -> None:

@@ -95,12 +95,17 @@ def test_a_prior_that_is_not_one_is_a_problem_naming_it(server) -> None:
 
 def _fleet_of(client, tool: str, limit: int) -> list[dict[str, Any]]:  # type: ignore[no-untyped-def]
     """Every plan of GET /tools/{tool}/fleet, a page of ``limit`` at a time (at most 50)."""
+    return pages(client, f"/tools/{tool}/fleet", "plans", limit)
+
+
+def pages(client, path: str, key: str, limit: int) -> list[dict[str, Any]]:  # type: ignore[no-untyped-def]
+    """Every ``key`` item of GET ``path``, a page of ``limit`` at a time (at most 50 pages)."""
     found, cursor = [], None
     for _ in range(50):
         params = {"limit": limit, **({"cursor": cursor} if cursor else {})}
-        r = client.get(f"/tools/{tool}/fleet", params=params)
+        r = client.get(path, params=params)
         assert r.status_code == 200, r.text
-        found += r.json()["plans"]
+        found += r.json()[key]
         cursor = r.json()["next_cursor"]
         if cursor is None:
             return found

@@ -9,6 +9,7 @@ from dataclasses import asdict
 from typing import Any
 
 from sqlalchemy import Engine, func, select
+from sqlalchemy.orm import Session
 
 from api.services.errors import NotFoundError
 from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read, _token, _untoken
@@ -36,9 +37,7 @@ def fleet_members(
     _bounded(page_size)
     after = _cursor(cursor)
     with _read(engine) as session, session.begin():
-        known = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
-        if known is None and tool not in catalogue():
-            raise NotFoundError("tool", tool)
+        _known(session, tool)
         rows = members(session=session, tool=tool, after_id=after, limit=page_size + 1, only=only)
         imported = session.scalar(
             select(func.count()).select_from(t.ImportedModel).where(t.ImportedModel.tool == tool)
@@ -69,9 +68,7 @@ def imported_fleet(
     _bounded(page_size)
     after = None if cursor is None else tuple(str(v) for v in _untoken(cursor, 2))
     with _read(engine) as session, session.begin():
-        known = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
-        if known is None and tool not in catalogue():
-            raise NotFoundError("tool", tool)
+        _known(session, tool)
         rows = (
             []
             if only is not None
@@ -89,3 +86,10 @@ def imported_fleet(
         "machines": [{**asdict(m), "in_fleet": not m.out} for _, m in rows],
         "next_cursor": _token(list(rows[-1][0])) if more else None,
     }
+
+
+def _known(session: Session, tool: str) -> None:
+    """NotFoundError unless ``tool`` is stored or in the packaged catalogue."""
+    known = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
+    if known is None and tool not in catalogue():
+        raise NotFoundError("tool", tool)
