@@ -2,18 +2,22 @@
 
 Export reads the fleet of one tool (:func:`db.fleet.fleet_evidence`: the plans of this database
 and what it imported) into the document of :mod:`supervisor.fleet.document`, each model with
-the database that learned it (``origin``: this one's :func:`db.identity.database_id` for its own
-plans). Import checks the whole document first and then stores its items in ``imported_models``
-in one transaction, so a bad document stores nothing, and counts each model once:
+the database that learned it (``origin``: for this one's plans, the identity they were created
+under, :func:`db.identity.plan_origins`). Import checks the whole document first and then
+stores its items in ``imported_models`` in one transaction, so a bad document stores nothing,
+and counts each model once:
 
-- a model whose origin is this database is skipped (its plan already counts here: a model
-  that went to a second plant and came back);
+- a model whose plan this database holds under the model's origin is skipped (it already
+  counts here: a model that went to a second plant and came back, or one of the plans a
+  copied database was copied with);
 - a model already imported (the same origin, machine, plan, operation and quantity) is
   replaced by the document's if that one has at least as many readings (a newer export of
   the same plans), else kept (an older file imported after a newer one).
 
 Imported twice, the same document thus changes nothing. A second plant's new plan with the tool
-then starts where the first one is (``rcb plans create --prior fleet``).
+then starts where the first one is (``rcb plans create --prior fleet``). A model that carries
+this database's identity and a plan it does not hold comes from a copy of this database that
+kept its identity: it is stored, and counted apart (``copied``) so that the import can say so.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet import imported_evidence, local_evidence
-from db.identity import database_id
+from db.identity import database_id, plan_origins
 from models.errors import InputError
 from supervisor.fleet.document import document, item_json, read_document
 from supervisor.fleet.prior import Learned
@@ -41,11 +45,12 @@ def export_models(*, session: Session, tool: str, material: str | None = None) -
     InputError
         Nothing learned with the tool (on that material).
     """
-    own = database_id(session=session)
+    local = local_evidence(session=session, tool_names=[tool])
+    origins = plan_origins(session=session, names=(item.plan for item in local))
     learned = [
         (origin, item)
         for origin, item in [
-            *((own, x) for x in local_evidence(session=session, tool_names=[tool])),
+            *((origins[x.plan], x) for x in local),
             *imported_evidence(session=session, tool_names=[tool]),
         ]
         if material is None or item.tool.material == material
@@ -63,10 +68,11 @@ class Imported:
     new: int
     replaced: int
     kept: int  # already held, the same or with more readings
-    own: int  # learned by this database's own plans
+    own: int  # learned by plans this database holds
+    copied: int = 0  # of new, replaced and kept: this database's identity, a plan not held
 
     def to_json(self) -> dict[str, int]:
-        """``{"stored": new + replaced, "new": …, "replaced": …, "kept": …, "own": …}``."""
+        """``{"stored": new + replaced, "new": …, "replaced": …, "kept": …, "own": …, …}``."""
         return {"stored": self.new + self.replaced, **asdict(self)}
 
 
@@ -75,14 +81,15 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
     tool, learned = read_document(data)
     if any(item.tool.name != tool for _, item in learned):
         raise InputError("document.learned", tool, "holds models of another tool")
-    own = database_id(session=session)
-    rows = _rows(tool, [(o, item) for o, item in learned if o != own], source)
-    held = _held(session, tool, rows.keys())
-    fresh = [row for key, row in rows.items() if key not in held]
+    held = plan_origins(session=session, names=(item.plan for _, item in learned))
+    foreign = [(o, item) for o, item in learned if held.get(item.plan) != o]
+    rows = _rows(tool, foreign, source)
+    stored = _held(session, tool, rows.keys())
+    fresh = [row for key, row in rows.items() if key not in stored]
     if fresh:  # one statement for them all (a document holds up to 100 000)
         session.execute(insert(t.core_table(t.ImportedModel)), fresh)
     replaced = 0
-    for key, old in held.items():
+    for key, old in stored.items():
         row = rows[key]
         if (old.observations, old.body) != (row["observations"], row["body"]) and (
             old.observations <= row["observations"]
@@ -92,9 +99,10 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
             old.imported_at = t.utcnow()
             replaced += 1
     session.flush()
-    own_count = sum(1 for origin, _ in learned if origin == own)
-    new = len(fresh)
-    return Imported(new, replaced, len(learned) - own_count - new - replaced, own_count)
+    own = database_id(session=session)
+    copied = sum(1 for origin, _ in foreign if origin == own)
+    new, own_count = len(fresh), len(learned) - len(foreign)
+    return Imported(new, replaced, len(foreign) - new - replaced, own_count, copied)
 
 
 def _rows(

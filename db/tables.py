@@ -99,6 +99,11 @@ class Plan(Base):
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     current_setpoint_version: Mapped[int] = mapped_column(default=1)
+    #: The identity of the database the plan was created in where not this one's (alembic
+    #: 0021): a copied database's plans keep the original's when the copy takes a new one
+    #: (``rcb fleet identity --renew``), so their models travel as learned there. NULL: this
+    #: database's (:mod:`db.identity`).
+    origin: Mapped[str | None] = mapped_column(String(36))
     #: A new random value with every write to the plan's RCB state (a part, a replan): what
     #: an in-process cache of the loaded state is keyed on (db.state_cache).
     state_token: Mapped[str] = mapped_column(String(32), default="", server_default="")
@@ -308,9 +313,9 @@ class ImportedModel(Base):
 class DatabaseIdentity(Base):
     """The database's identity, one row: what its exports say they came from (alembic 0020).
 
-    An export names each learned model's ``origin``; an import skips the models whose origin
-    is the importing database itself (its own plans already count), so a model that travels
-    there and back is not counted twice.
+    An export names each learned model's ``origin``; an import skips the models whose plan the
+    importing database holds under that origin (its own plans already count), so a model that
+    travels there and back is not counted twice (:mod:`db.fleet_models`).
     """
 
     __tablename__ = "database_identity"

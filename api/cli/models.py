@@ -12,7 +12,15 @@ from typing import Annotated, Any
 
 import typer
 
-from api.cli.common import DbOption, errors, existing_engine, read_json_file, say
+from api.cli.common import (
+    DbOption,
+    JsonOption,
+    emit,
+    errors,
+    existing_engine,
+    read_json_file,
+    say,
+)
 from api.cli.who import ByOption, cli_actor
 from models.errors import InputError
 
@@ -63,6 +71,42 @@ def import_(
     say(imported_line(written.body, file.name))
 
 
+@models_app.command("identity")
+def identity(
+    renew: Annotated[
+        bool,
+        typer.Option(
+            "--renew",
+            help="Give this database a new identity (a copy of another database's; its plans"
+            " keep the old one).",
+        ),
+    ] = False,
+    db: DbOption = None,
+    by: ByOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """The identity this database's exports name as their models' origin."""
+    from api.services import fleet_models
+    from api.settings import database_field, database_url
+
+    with errors():
+        actor = cli_actor(by)
+        engine = existing_engine(database_url(db), database_field(db))
+        if renew:
+            body = fleet_models.renew_identity(engine=engine, actor=actor).body
+        else:
+            body = fleet_models.identity(engine=engine)
+    if as_json:
+        emit(body)
+    elif renew:
+        say(f"rcb: this database's identity is now {body['identity']}")
+        say(f"rcb: (was {body['was']}, which its {body['plans_keeping_it']} plans keep)")
+    else:
+        say(f"rcb: this database's identity is {body['identity']}")
+        for origin, count in body["inherited"].items():
+            say(f"rcb: {count} of its plans were created under {origin}")
+
+
 def imported_line(body: dict[str, Any], name: str) -> str:
     """``rcb: 4 learned models stored from f.json (4 new)``, and what was not stored and why."""
     told = [f"{body['new']} new"] if body["new"] else []
@@ -71,6 +115,13 @@ def imported_line(body: dict[str, Any], name: str) -> str:
     if body["kept"]:
         told.append(f"{body['kept']} already held, the same or with more readings")
     if body["own"]:
-        told.append(f"{body['own']} learned by this database's own plans, skipped")
+        told.append(f"{body['own']} learned by plans this database holds, skipped")
     said = "; ".join(told) or "none in it"
-    return f"rcb: {body['stored']} learned models stored from {name} ({said})"
+    line = f"rcb: {body['stored']} learned models stored from {name} ({said})"
+    if body.get("copied"):
+        line += (
+            f"\nrcb: {body['copied']} of them carry this database's identity but plans it does"
+            f" not hold:\nrcb: one of {name}'s database and this one is a copy of the other;"
+            "\nrcb: give the copy an identity of its own: rcb models identity --renew"
+        )
+    return line

@@ -13,6 +13,7 @@ from db import api_keys
 from db.api_keys import Actor
 from db.fleet_exclusions import exclude, include
 from db.fleet_models import export_models, import_models
+from db.identity import database_id, inherited, renew
 
 
 def export_tool(*, engine: Engine, tool: str, material: str | None = None) -> dict[str, Any]:
@@ -33,6 +34,30 @@ def import_tool(
 
         return write(
             engine, actor=actor, action="import models", target=source, idempotency=None, work=work
+        )
+
+
+def identity(*, engine: Engine) -> dict[str, Any]:
+    """The database's identity and the plans it holds from another's, counted by origin."""
+    with Session(engine) as session, session.begin():
+        return {"identity": database_id(session=session), "inherited": inherited(session=session)}
+
+
+def renew_identity(*, engine: Engine, actor: Actor = api_keys.CLI_ACTOR) -> Written:
+    """Give a copied database an identity of its own; its plans keep the old (audited)."""
+    with audited(engine, actor, "renew identity", "database"):
+
+        def work(session: Session) -> tuple[int, dict[str, Any]]:
+            old, new, kept = renew(session=session)
+            return 200, {"identity": new, "was": old, "plans_keeping_it": kept}
+
+        return write(
+            engine,
+            actor=actor,
+            action="renew identity",
+            target="database",
+            idempotency=None,
+            work=work,
         )
 
 
