@@ -128,11 +128,12 @@ def _say_band_held(answer: dict[str, Any]) -> None:
         if op["name"] in answer["provenance"] and op.get("robust_by") != "cone"
     ]
     if held:
-        say(
+        told = (
             f"rcb: {', '.join(held)}: the first setpoint is the catalogue band's, the "
             "faster: the fleet's prior is not narrower there yet (more machines behind it "
             "narrow it)"
-        )
+        )  # within 80 columns, as a terminal shows it
+        say(textwrap.fill(told, width=80, subsequent_indent="  ", break_on_hyphens=False))
 
 
 def read_plan_file(path: Path) -> dict[str, Any]:

@@ -289,9 +289,9 @@ def test_plans_create_says_where_the_catalogue_band_still_holds_the_start(capsys
         {"name": "finish-od", "robust_by": "band"},  # no fleet prior: nothing to say
     ]
     _say_band_held({"operations": ops, "provenance": {"rough-od": [], "rough-grooves": []}})
-    assert capsys.readouterr().err == (
-        "rcb: rough-od: the first setpoint is the catalogue band's, the faster: the fleet's"
-        " prior is not narrower there yet (more machines behind it narrow it)\n"
+    assert capsys.readouterr().err == (  # within 80 columns
+        "rcb: rough-od: the first setpoint is the catalogue band's, the faster: the\n"
+        "  fleet's prior is not narrower there yet (more machines behind it narrow it)\n"
     )
     _say_band_held({"operations": ops[1:2], "provenance": {"rough-grooves": []}})
     assert capsys.readouterr().err == ""
