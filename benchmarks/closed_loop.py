@@ -401,6 +401,19 @@ def main(argv: list[str] | None = None) -> int:
         help="--fleet: the true between-machine spread of ln K",
     )
     parser.add_argument(
+        "--operation-spread",
+        type=float,
+        default=0.0,
+        help="--fleet: the true spread of each operation's ln K about its machine's (0: none)",
+    )
+    parser.add_argument(
+        "--new-plan-on",
+        choices=["new", "known"],
+        default="new",
+        help="--fleet: the new plan's machine: a new one, or the first learning machine (a new "
+        "part program on a machine the fleet knows: its operations' offsets drawn anew)",
+    )
+    parser.add_argument(
         "--fleet-fault",
         action="append",
         default=[],
@@ -434,6 +447,8 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--fleet must be 2..{MAX_FLEET} and --learn-parts 1..{MAX_PARTS}")
         if not (np.isfinite(args.fleet_spread) and 0 <= args.fleet_spread <= 1):
             parser.error("--fleet-spread must be a number in [0, 1]")
+        if not (np.isfinite(args.operation_spread) and 0 <= args.operation_spread <= 1):
+            parser.error("--operation-spread must be a number in [0, 1]")
         try:
             fleet_faults = parse_faults(args.fleet_fault)
         except InputError as err:

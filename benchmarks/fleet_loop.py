@@ -17,12 +17,18 @@ runs): ``--fault noise-scale:3`` is a new machine whose instruments are not the 
 ``--fleet-fault`` applies to the learning machines (the fleet's own shop floor misbehaves: its
 readings drop out, its instruments misreport their noise, its process steps or is not a power
 law); a plan that halted or saw a change is left out of the fleet, and those are counted.
+``--operation-spread S`` gives each operation of every machine an offset of its own about its
+machine's ``ln K`` (its workholding, its overhang), which the fleet learns the spread of where
+a machine ran two operations with a tool; ``--new-plan-on known`` starts the new plan on the
+first learning machine, with its operations' offsets drawn anew (a new part program on a
+machine the fleet knows: its own readings count, its operations are new).
 
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/closed_loop.py --fleet 4 [--scenarios 1000] [--parts 30]
-        [--learn-parts 30] [--fleet-spread 0.03] [--fault KIND[:ARGS]]
-        [--fleet-fault KIND[:ARGS]] [--jobs N] [--seed-offset 0]
+        [--learn-parts 30] [--fleet-spread 0.03] [--operation-spread 0]
+        [--new-plan-on new|known] [--fault KIND[:ARGS]] [--fleet-fault KIND[:ARGS]]
+        [--jobs N] [--seed-offset 0]
 """
 
 from __future__ import annotations
@@ -153,11 +159,15 @@ def run(
         args.fleet_spread,
         faults,
         fleet_faults,
+        args.operation_spread,
+        args.new_plan_on == "known",
     )
+    where = "a new machine" if args.new_plan_on == "new" else "a new plan on machine 0"
     print(
         f"Fleet prior: {plan.name!r}, {args.scenarios} scenarios: {args.fleet - 1} machines\n"
-        f"learn {args.learn_parts} parts each, then a new machine makes {args.parts}; "
+        f"learn {args.learn_parts} parts each, then {where} makes {args.parts}; "
         f"true spread {100 * args.fleet_spread:.1f} %"
+        + (f", operations {100 * args.operation_spread:.1f} %" if args.operation_spread else "")
     )
     if faults:
         print(f"the new machine's faults: {', '.join(faults.specs)}")

@@ -243,6 +243,7 @@ def provenance_json(p: Provenance) -> dict[str, Any]:
         "plans": list(p.plans),
         "machines": list(p.machines),
         "between_machine_spread": p.spread,
+        "operation_spread": p.operation_spread,
         "readings": p.readings,
         "widened_by_part": None,  # a part whose readings let the prior go (:func:`let_go`)
         "text": p.describe(),

@@ -186,6 +186,13 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     say(textwrap.fill(rule, width=80, subsequent_indent="  ", break_on_hyphens=False))
 
 
+def _spreads(line: dict[str, Any]) -> str:
+    """``4.1/2.0``: between machines and between a machine's operations, in per cent."""
+    machines = f"{100 * line['between_machine_spread']:.1f}"
+    operations = line.get("operation_spread")  # none in a prior stored before it was learned
+    return machines if operations is None else f"{machines}/{100 * operations:.1f}"
+
+
 def _say_prior(provenance: dict[str, list[dict[str, Any]]], noise: list[dict[str, Any]]) -> None:
     """Where each fleet prior came from, a row per operation and quantity (none: catalogue).
 
@@ -193,8 +200,11 @@ def _say_prior(provenance: dict[str, list[dict[str, Any]]], noise: list[dict[str
     """
     if not provenance:
         return
-    table = new_table(title="learn's fleet prior (--json names the plans and machines)")
-    columns = ("operation", "quantity", "plans", "machines", "spread", "readings", "let go by")
+    table = new_table(
+        title="learn's fleet prior (spread: between machines/between a machine's "
+        "operations; --json names the plans and machines)"
+    )
+    columns = ("operation", "quantity", "plans", "machines", "spread %", "readings", "let go by")
     for column in columns:
         table.add_column(column, overflow="fold")
     for operation, lines in provenance.items():
@@ -204,7 +214,7 @@ def _say_prior(provenance: dict[str, list[dict[str, Any]]], noise: list[dict[str
                 line["quantity"],
                 str(len(line["plans"])),
                 str(len(line["machines"])),
-                f"{100 * line['between_machine_spread']:.1f} %",
+                _spreads(line),
                 str(line["readings"]),
                 line.get("widened_by_part") or "",  # the part that showed it outside the spread
             )

@@ -131,6 +131,8 @@ def _prior_line(plan: Mapping[str, Any]) -> str:
     plans = {name for p in lines for name in p["plans"]}
     machines = {name for p in lines for name in p["machines"]}
     spreads = [100 * p["between_machine_spread"] for p in lines]
+    ops = [100 * p["operation_spread"] for p in lines if p.get("operation_spread") is not None]
+    between_ops = f", between a machine's operations {min(ops):.1f}-{max(ops):.1f} %" if ops else ""
     let_go = [
         f"{op} {p['quantity']} (part {p['widened_by_part']})"
         for op, ps in plan.get("provenance", {}).items()
@@ -144,7 +146,8 @@ def _prior_line(plan: Mapping[str, Any]) -> str:
     )
     return (
         f"the fleet: {len(plans)} plans on {len(machines)} machines, between-machine spread "
-        f"{min(spreads):.1f}-{max(spreads):.1f} % (rcb plans show lists each quantity's)"
+        f"{min(spreads):.1f}-{max(spreads):.1f} %{between_ops} (rcb plans show lists each "
+        "quantity's)"
         f"{outside}{_noise_line(plan.get('noise_provenance', []))}"
     )
 

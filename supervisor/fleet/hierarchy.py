@@ -49,6 +49,17 @@ plan's operation has its own ``γ``: its ``ln K`` variance is ``σ_b^2 + σ_o^2`
 fleet's. At ``σ_o`` 2 % nothing crosses there after the first part; a clean fleet loses 0.004
 of MRR at the first part and nothing from the second (200 scenarios).
 
+**The operations' spread.** ``σ_o`` is learned as ``σ_b`` is, where the fleet shows it: on
+each machine that ran the tool in two operations or more (two plans, or one plan's grooving
+and contouring), the operations' ``ln Y`` are compared where they pin it best, and their
+DerSimonian-Laird ``τ̂²`` is pooled over the machines with the default 2 % held as
+``ν_0`` operations' worth (:func:`operation_spread`). It matters most to a new plan on a
+machine the fleet knows, whose own readings leave its operation's ``γ`` the whole of its
+first part's uncertainty: with operations 6 % apart (``closed_loop.py --fleet 4
+--operation-spread 0.06 --new-plan-on known``, 100 scenarios) the fixed 2 % crossed the
+shared insert's roughness at 30 first parts, the learned spread at 8 (the catalogue 4). A tool
+each machine ran in one operation only says nothing of it, and keeps the default.
+
 **The fleet's belief.** Machine ``m``'s evidence ``(J_m, h_m)`` (:mod:`.evidence`, summed
 over its operations on the tool, each integrated over its ``γ``) is about ``θ_m``;
 integrating ``u_m`` out gives its evidence about ``θ`` (Woodbury's identity in ``L``, so that
@@ -109,7 +120,8 @@ DEFAULT_EXPONENT_SPREAD = 0.02
 #: ``σ_ω``: the between-machine spread of a wearing quantity's rise over an edge's life, in
 #: ``ln`` [-] (the module docstring; benchmarks/closed_loop.py --fleet 4 --fault wear).
 DEFAULT_EDGE_SPREAD = 0.01
-#: ``σ_o``: the spread of an operation's ``ln K`` about its machine's [-] (the module
+#: ``σ_o``: the default spread of an operation's ``ln K`` about its machine's [-], learned
+#: from the fleet's operations where a machine ran two (:func:`operation_spread`; the module
 #: docstring; benchmarks/closed_loop.py --fleet 4 --fleet-fault curvature).
 DEFAULT_OPERATION_SPREAD = 0.02
 
@@ -211,27 +223,66 @@ def between_spread(
 
     ``reference``: ``φ`` of the point the machines' ``ln Y`` are compared at.
     """
-    estimates = []
-    for m in machines:
-        cov = np.linalg.inv(prior_information + m.information)
-        mean = cov @ (prior_information @ prior_mean + m.vector)
-        estimates.append((float(reference @ mean), float(reference @ cov @ reference)))
+    estimates = [_at(reference, m, prior_mean, prior_information) for m in machines]
     return pooled_spread(estimates, default, weight)
 
 
-def pooled_spread(
-    estimates: Sequence[tuple[float, float]], default: float, weight: float = SPREAD_WEIGHT
+def operation_spread(
+    machines: Sequence[Sequence[Evidence]],
+    prior_mean: np.ndarray,
+    prior_information: np.ndarray,
+    exponents: int,
+    default: float = DEFAULT_OPERATION_SPREAD,
+    weight: float = SPREAD_WEIGHT,
 ) -> float:
-    """``σ_b`` of estimates ``(y_m, v_m)``: the default pooled with their ``τ̂²`` (module doc)."""
+    """``σ_o``: the default pooled with how far operations on one machine differ (module doc).
+
+    ``machines``: per machine, the evidence of each of its operations with the tool (its
+    plans' operations). On each machine of two or more, the operations' ``ln Y`` are compared
+    where they pin it best (:func:`best_determined`) by DerSimonian and Laird's ``τ̂²``, and
+    the machines' estimates pooled with the default by their degrees of freedom.
+    """
+    found = []
+    for ops in machines:
+        if len(ops) < 2:
+            continue
+        centre = (0.0,) * exponents  # unused: two or more operations fix the point
+        reference = best_determined(ops, prior_information, exponents, centre)
+        found.append(
+            dersimonian_laird([_at(reference, o, prior_mean, prior_information) for o in ops])
+        )
+    dof = sum(d for _, d in found)
+    tau2 = sum(d * t2 for t2, d in found)
+    return math.sqrt((weight * default**2 + tau2) / (weight + dof))
+
+
+def _at(
+    reference: np.ndarray, seen: Evidence, prior_mean: np.ndarray, prior_information: np.ndarray
+) -> tuple[float, float]:
+    """``(y, v)``: ``ln Y`` at ``reference`` from the prior and ``seen`` alone, its variance."""
+    cov = np.linalg.inv(prior_information + seen.information)
+    mean = cov @ (prior_information @ prior_mean + seen.vector)
+    return float(reference @ mean), float(reference @ cov @ reference)
+
+
+def dersimonian_laird(estimates: Sequence[tuple[float, float]]) -> tuple[float, int]:
+    """``(τ̂², k − 1)`` of ``k`` estimates ``(y, v)``: their moment estimate of the spread [2]_."""
     if len(estimates) < 2:
-        return default
+        return 0.0, 0
     weights = [1.0 / v for _, v in estimates]
     total = sum(weights)
     centre = sum(w * y for w, (y, _) in zip(weights, estimates, strict=True)) / total
     q = sum(w * (y - centre) ** 2 for w, (y, _) in zip(weights, estimates, strict=True))
     scale = total - sum(w * w for w in weights) / total
     tau2 = max(0.0, (q - (len(estimates) - 1)) / scale) if scale > 0 else 0.0
-    dof = len(estimates) - 1
+    return tau2, len(estimates) - 1
+
+
+def pooled_spread(
+    estimates: Sequence[tuple[float, float]], default: float, weight: float = SPREAD_WEIGHT
+) -> float:
+    """``σ_b`` of estimates ``(y_m, v_m)``: the default pooled with their ``τ̂²`` (module doc)."""
+    tau2, dof = dersimonian_laird(estimates)
     return math.sqrt((weight * default**2 + dof * tau2) / (weight + dof))
 
 

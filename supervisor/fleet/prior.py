@@ -31,6 +31,7 @@ from supervisor.fleet.hierarchy import (
     best_determined,
     fleet_belief,
     of_operation,
+    operation_spread,
 )
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
@@ -71,17 +72,22 @@ class Provenance:
     machines: tuple[str, ...]
     spread: float
     readings: int
+    #: ``σ_o``, learned where a machine ran the tool in two operations (hierarchy).
+    operation_spread: float = DEFAULT_OPERATION_SPREAD
 
     def describe(self) -> str:
-        """``force_N: prior from 3 plans on 2 machines, between-machine spread 4.1 %, 96 …``."""
+        """One line: ``force_N: prior from 3 plans on 2 machines, …, 96 readings``.
+
+        Between them the spreads: ``between-machine spread 4.1 %, between operations 2.0 %``.
+        """
         if not self.plans:
             return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
         plans = "plan" if len(self.plans) == 1 else "plans"
         machines = "machine" if len(self.machines) == 1 else "machines"
         return (
             f"{self.quantity}: prior from {len(self.plans)} {plans} on {len(self.machines)} "
-            f"{machines}, between-machine spread {100 * self.spread:.1f} %, "
-            f"{self.readings} readings"
+            f"{machines}, between-machine spread {100 * self.spread:.1f} %, between operations "
+            f"{100 * self.operation_spread:.1f} %, {self.readings} readings"
         )
 
 
@@ -151,22 +157,23 @@ def _prior(
 ) -> FleetPrior | None:
     """``defaults``: the default spread, its weight and the edge's ``edge_sd``."""
     default_spread, spread_weight, edge_sd = defaults
-    by_machine: dict[str, Evidence] = {}
+    operations: dict[str, list[Evidence]] = {}
     for item in found:
         item_prior = _start_of(item, catalogue.quantity)
         if item_prior.names != catalogue.names or not _proper(item_prior):
             continue
-        seen = of_operation(evidence(item.posterior, item_prior, item.operation.context))
-        by_machine[item.machine] = (
-            by_machine[item.machine] + seen if item.machine in by_machine else seen
-        )
-    if not by_machine:
+        seen = evidence(item.posterior, item_prior, item.operation.context)
+        operations.setdefault(item.machine, []).append(seen)
+    if not operations:
         return None
-    own = by_machine.pop(machine, None)
     prior_mean, prior_cov = in_tool_terms(catalogue, op.context, edge_sd)
-    others = list(by_machine.values())
     exponents = len(catalogue.names)
-    reference = best_determined(others, np.linalg.inv(prior_cov), exponents, catalogue.center)
+    p0 = np.linalg.inv(prior_cov)
+    op_spread = operation_spread(list(operations.values()), prior_mean, p0, exponents)
+    by_machine = {m: _summed(seen, op_spread) for m, seen in operations.items()}
+    own = by_machine.pop(machine, None)
+    others = list(by_machine.values())
+    reference = best_determined(others, p0, exponents, catalogue.center)
     belief = fleet_belief(
         others, prior_mean, prior_cov, reference, exponents, default_spread, spread_weight
     )
@@ -176,13 +183,21 @@ def _prior(
         cov = np.linalg.inv(fleet_information + own.information)
         mean = cov @ (fleet_information @ belief.mean + own.vector)
     cov = cov.copy()
-    cov[0, 0] += DEFAULT_OPERATION_SPREAD**2  # the new operation's own offset (hierarchy)
+    cov[0, 0] += op_spread**2  # the new operation's own offset (hierarchy)
     prior = _in_operation_terms(catalogue, op.context, mean, cov)
     plans = tuple(sorted({item.plan for item in found}))
     machines = tuple(sorted({item.machine for item in found}))
     readings = sum(item.posterior.observations for item in found)
-    provenance = Provenance(catalogue.quantity, plans, machines, belief.spread, readings)
+    provenance = Provenance(catalogue.quantity, plans, machines, belief.spread, readings, op_spread)
     return FleetPrior(prior, provenance)
+
+
+def _summed(operations: Sequence[Evidence], op_spread: float) -> Evidence:
+    """A machine's evidence: its operations', each integrated over its own offset."""
+    total = of_operation(operations[0], op_spread)
+    for seen in operations[1:]:
+        total = total + of_operation(seen, op_spread)
+    return total
 
 
 def _start_of(item: Learned, quantity: str) -> Posterior:

@@ -14,6 +14,13 @@ is that wide; a narrower band (the 7 % of CNMG432RN's force in Ivester & Heigel'
 one machine's scatter) holds the tool's law, and other machines may lie outside it by up to
 their offset.
 
+With ``operation_spread`` ``s_o`` > 0, each operation ``o`` of machine ``m`` multiplies its
+tools' truths by ``exp(γ_{m,o})`` more, ``γ_{m,o} ~ N(0, s_o²)`` per quantity: the operation's
+context (its workholding, overhang, coolant) that the fleet models as an offset about its
+machine's ``ln K`` and learns the spread of (:func:`supervisor.fleet.hierarchy.
+operation_spread`). ``plan_draw`` numbers a plan: another plan on the same machines draws
+other operation offsets about the same machine offsets.
+
 The noise of each machine's readings is the plan's ``u`` (:data:`~supervisor.virtual.machine.
 DEFAULT_UNCERTAINTY`), drawn from ``numpy.random.default_rng([seed, m])``
 (:func:`noise_seed`).
@@ -46,6 +53,7 @@ KNOWN_SD = 1e-4
 #: The streams of the fleet's truths and of its machines' offsets, apart from every noise.
 _TRUTH_STREAM = 1_000_003
 _OFFSET_STREAM = 1_000_033
+_OPERATION_STREAM = 1_000_037
 
 
 def noise_seed(seed: int, machine: int) -> list[int]:
@@ -80,9 +88,16 @@ def machines_of(
     *,
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
     outside: bool = False,
+    operation_spread: float = 0.0,
+    plan_draw: int = 0,
 ) -> tuple[VirtualMachine, ...]:
-    """:func:`sample_fleet`'s machines around ``truths`` (:func:`fleet_truths` of ``seed``)."""
+    """:func:`sample_fleet`'s machines around ``truths`` (:func:`fleet_truths` of ``seed``).
+
+    ``operation_spread``, ``plan_draw``: each operation's offset about its machine, and which
+    plan's (module docstring).
+    """
     rng = np.random.default_rng([seed, _OFFSET_STREAM])
+    contexts = np.random.default_rng([seed, _OPERATION_STREAM, plan_draw])
     fleet = []
     for m in range(machines):
         offsets = {}
@@ -92,7 +107,14 @@ def machines_of(
             delta = math.copysign(OUTSIDE, draw) if last_outside else draw
             exact = plan.tools[key[0]].models[key[1]].dK == 0  # a model without a band
             offsets[key] = 0.0 if exact else delta * machine_spread
-        fleet.append(_machine(plan, truths, offsets, f"fleet machine {m} of scenario {seed}"))
+        each = {
+            (op.name, q): 0.0 if model.dK == 0 else float(contexts.standard_normal())
+            for op in plan.operations
+            for q, model in sorted(plan.tools[op.tool].models.items())
+        }
+        gammas = {key: g * operation_spread for key, g in each.items()}
+        label = f"fleet machine {m} of scenario {seed}"
+        fleet.append(_machine(plan, truths, offsets, label, gammas))
     return tuple(fleet)
 
 
@@ -173,11 +195,15 @@ def _machine(
     truths: dict[tuple[str, str], PowerLawModel],
     offsets: dict[tuple[str, str], float],
     label: str,
+    gammas: dict[tuple[str, str], float],
 ) -> VirtualMachine:
     processes = {}
     for op in plan.operations:
         nominal = plan.tools[op.tool]
-        models = {q: _offset(truths[(op.tool, q)], offsets[(op.tool, q)]) for q in nominal.models}
+        models = {
+            q: _offset(truths[(op.tool, q)], offsets[(op.tool, q)] + gammas[(op.name, q)])
+            for q in nominal.models
+        }
         tool = Tool(
             name=nominal.name,
             process=nominal.process,

@@ -10,10 +10,16 @@ as the database leaves it out until an engineer puts it back); the last machine 
 catalogue, each scored against that machine's oracle (:func:`supervisor.virtual.scenario.
 run_machine`), and a third time from the prior of a controller that knows the fleet's law and
 spread (:func:`supervisor.virtual.fleet.known_priors`): what no fleet prior can better.
+
+``operation_spread`` > 0 gives every operation an offset of its own about its machine
+(:func:`~supervisor.virtual.fleet.machines_of`); ``on_known`` runs the new plan on the first
+learning machine instead (its own readings in the fleet, the plan's operation offsets drawn
+anew: a new part program on a machine the fleet knows), never outside.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
@@ -32,6 +38,7 @@ from supervisor.virtual.fleet import (
     machines_of,
     noise_seed,
 )
+from supervisor.virtual.machine import VirtualMachine
 from supervisor.virtual.scenario import run_machine
 
 #: Every this many scenarios (seeds ``≡ OUTSIDE_EVERY − 1``), the new machine is drawn outside.
@@ -92,41 +99,38 @@ def run_fleet_scenario(
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
     faults: Faults | None = None,
     fleet_faults: Faults | None = None,
+    operation_spread: float = 0.0,
+    on_known: bool = False,
 ) -> FleetTrace:
     """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
 
     ``faults``: the new machine's (its three runs'); ``fleet_faults``: the learning machines'
     (None: they run clean), whose plans a halt or a change leaves out of the fleet.
     """
-    outside = seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
+    outside = not on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
     truths = fleet_truths(plan, seed, machine_spread)  # drawn once: the fleet's and the known's
-    fleet = machines_of(
-        plan, truths, seed, machines, machine_spread=machine_spread, outside=outside
+    world = functools.partial(
+        machines_of,
+        plan,
+        truths,
+        seed,
+        machine_spread=machine_spread,
+        operation_spread=operation_spread,
     )
+    fleet = world(machines, outside=outside)
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
-    learned: list[Learned] = []
-    violations = left_out = 0
-    for m, machine in enumerate(fleet[:-1]):
-        trace, state = run_machine(
-            catalogue,
-            machine,
-            seed,
-            learn_parts,
-            faults=fleet_faults,
-            noise_seed=noise_seed(seed, m),
-        )
-        violations += int(trace.violations.sum())
-        found = learned_from(state, f"machine-{m}", f"plan-{m}")
-        left_out += not found
-        learned += found
+    learned, violations, left_out = _learn(catalogue, fleet[:-1], seed, learn_parts, fleet_faults)
+    new, last = fleet[-1], noise_seed(seed, machines - 1)
+    if on_known:  # machine 0 again, a new plan's operations
+        new = world(1, plan_draw=1)[0]
+        plan = replace(plan, machine=replace(plan.machine, name="machine-0"))
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
     chains = {q: p.belief for q, p in noise_priors(learned).items()}
     from_fleet = replace(
         start(plan, settings, {k: p.posterior for k, p in priors.items()}), noise_priors=chains
     )
     known = start(plan, settings, known_priors(plan, truths, machine_spread, settings))
-    new, last = fleet[-1], noise_seed(seed, machines - 1)
     trace, state = run_machine(from_fleet, new, seed, parts, faults=faults, noise_seed=last)
     return FleetTrace(
         seed,
@@ -142,8 +146,33 @@ def run_fleet_scenario(
     )
 
 
+def _learn(
+    catalogue: RcbState,
+    machines: Sequence[VirtualMachine],
+    seed: int,
+    parts: int,
+    faults: Faults | None,
+) -> tuple[list[Learned], int, int]:
+    """The learning machines' plans from the catalogue: ``(learned, violations, left out)``.
+
+    What the fleet learned from them, their violations, and how many plans a halt or a change
+    left out.
+    """
+    learned: list[Learned] = []
+    violations = left_out = 0
+    for m, machine in enumerate(machines):
+        trace, state = run_machine(
+            catalogue, machine, seed, parts, faults=faults, noise_seed=noise_seed(seed, m)
+        )
+        violations += int(trace.violations.sum())
+        found = learned_from(state, f"machine-{m}", f"plan-{m}")
+        left_out += not found
+        learned += found
+    return learned, violations, left_out
+
+
 def _one(
-    task: tuple[Plan, int, int, int, int, float, Faults | None, Faults | None],
+    task: tuple[Plan, int, int, int, int, float, Faults | None, Faults | None, float, bool],
 ) -> FleetTrace:
     return run_fleet_scenario(*task)
 
@@ -158,11 +187,12 @@ def simulate_fleet(
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
     faults: Faults | None = None,
     fleet_faults: Faults | None = None,
+    operation_spread: float = 0.0,
+    on_known: bool = False,
 ) -> list[FleetTrace]:
     """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
-    tasks = [
-        (plan, s, machines, parts, learn_parts, machine_spread, faults, fleet_faults) for s in seeds
-    ]
+    world = (faults, fleet_faults, operation_spread, on_known)
+    tasks = [(plan, s, machines, parts, learn_parts, machine_spread, *world) for s in seeds]
     if jobs <= 1:
         return [_one(t) for t in tasks]
     with ProcessPoolExecutor(max_workers=jobs) as pool:

@@ -23,6 +23,7 @@ from supervisor.fleet.hierarchy import (
     fleet_belief,
     marginal,
     of_operation,
+    operation_spread,
 )
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.part_report import Measurement
@@ -185,6 +186,24 @@ def test_the_spread_pools_the_default_with_DerSimonian_Laird() -> None:
     assert between_spread(machines[:1], np.array([0.0]), flat, np.array([1.0])) == 0.05
 
 
+def test_the_operations_spread_pools_the_default_with_each_machines_operations() -> None:
+    """Machine A's two operations at ``ln Y`` 0 and 0.1 (variance 1e-4 each, a flat prior):
+    ``τ̂² = 0.0049`` on 1 degree of freedom (the worked case above); machine B's two at 0 and
+    0: ``τ̂² = 0``, 1 more; machine C's one operation says nothing of the spread. ``σ_o² =
+    (2 · 0.02² + 0.0049 + 0)/(2 + 2)`` (hierarchy.operation_spread): 3.77 %, where the fixed
+    2 % had held it."""
+    flat = np.array([[1e-12]])
+
+    def at(y: float) -> Evidence:
+        return Evidence((), np.array([[1e4]]), np.array([1e4 * y]), 30)
+
+    machines = [[at(0.0), at(0.1)], [at(0.0), at(0.0)], [at(0.3)]]
+    spread = operation_spread(machines, np.array([0.0]), flat, 0)
+    assert spread == pytest.approx(math.sqrt((2 * 0.02**2 + 0.0049) / 4), rel=1e-6)
+    assert spread == pytest.approx(0.0377, abs=1e-4)
+    assert operation_spread([[at(0.0)], [at(0.5)]], np.array([0.0]), flat, 0) == 0.02
+
+
 def test_machines_are_compared_where_their_readings_pin_ln_Y() -> None:
     """Two machines, each two readings at ``ln x = 2 ± 0.1`` (σ² = 2e-4), one at ``ln y`` 0,
     one at 0.1, a nearly flat prior: the best-known point is ``ln x = 2`` (the readings'
@@ -251,11 +270,11 @@ def test_a_new_plan_starts_from_what_two_machines_learned() -> None:
     assert made.provenance.spread**2 < made.posterior.cov[0][0] < 0.2 * catalogue.cov[0][0]
     assert ("rough-od", "force_N") not in priors  # another tool (CNMG432RN): no evidence
     assert made.provenance == Provenance(
-        "force_N", ("p1", "p2"), ("m1", "m2"), made.provenance.spread, 12
-    )
+        "force_N", ("p1", "p2"), ("m1", "m2"), made.provenance.spread, 12, 0.02
+    )  # each machine ran VCMR331 in one operation: the operations' spread is the default's
     assert made.provenance.describe() == (
         "force_N: prior from 2 plans on 2 machines, between-machine spread "
-        f"{100 * made.provenance.spread:.1f} %, 12 readings"
+        f"{100 * made.provenance.spread:.1f} %, between operations 2.0 %, 12 readings"
     )
 
 

@@ -20,6 +20,7 @@ from supervisor.virtual.fleet import (
     OUTSIDE,
     fleet_truths,
     known_priors,
+    machines_of,
     sample_fleet,
 )
 from supervisor.virtual.fleet_scenario import run_fleet_scenario
@@ -190,3 +191,36 @@ def test_a_new_machine_whose_edges_wear_where_the_fleets_did_not_crosses_nothing
     assert not trace.outside
     assert trace.fleet.where == trace.catalogue.where == ()
     assert all(trace.fleet.plan_ratio[:4] > trace.catalogue.plan_ratio[:4])
+
+
+def test_a_new_plan_on_a_known_machine_takes_the_operations_spread_the_fleet_showed() -> None:
+    """``--operation-spread 0.06 --new-plan-on known``, seed 6: every operation sits 6 % (sd)
+    about its machine's ``ln K`` (its workholding, its overhang), and a new plan runs on a
+    machine the fleet knows. With the operations' spread fixed at the default's 2 %, its
+    first part crossed finish-grooves' and finish-contour's roughness (VPGR3305, which each
+    learning machine ran in both); learned from how those two differed on each machine
+    (hierarchy.operation_spread) neither crosses."""
+    trace = run_fleet_scenario(
+        PLAN, 6, 4, parts=1, learn_parts=30, operation_spread=0.06, on_known=True
+    )
+    assert not trace.outside
+    shared = {"rough-grooves", "rough-contour", "finish-grooves", "finish-contour"}
+    assert [w for w in trace.fleet.where if w[1] in shared] == []
+    assert trace.fleet.plan_ratio[0] > trace.catalogue.plan_ratio[0]
+
+
+def test_operation_offsets_leave_a_fleet_without_them_as_it_was() -> None:
+    """``operation_spread`` 0 draws the machines of before, to the bit; a new plan on a known
+    machine runs that machine's laws again (its offsets of ``ln K``), with its own readings'
+    noise."""
+    truths = fleet_truths(PLAN, 7)
+    plain = machines_of(PLAN, truths, 7, 2)
+    assert machines_of(PLAN, truths, 7, 2, operation_spread=0.0) == plain
+    again = machines_of(PLAN, truths, 7, 1, plan_draw=1)[0]
+    assert again == plain[0]
+    other = machines_of(PLAN, truths, 7, 1, plan_draw=1, operation_spread=0.06)[0]
+    first = machines_of(PLAN, truths, 7, 1, operation_spread=0.06)[0]
+    k = {n: p.tool.models["roughness_um"].K for n, p in other.processes.items()}
+    k_first = {n: p.tool.models["roughness_um"].K for n, p in first.processes.items()}
+    assert k != k_first  # another plan's operations, about the same machine
+    assert 0.8 < min(k[n] / k_first[n] for n in k) and max(k[n] / k_first[n] for n in k) < 1.25

@@ -123,6 +123,11 @@ class PriorProvenance(Out):
     between_machine_spread: float = Field(
         description="the learned spread of ln K between machines [-] (0.041: 4.1 %)"
     )
+    operation_spread: float | None = Field(
+        None,
+        description="the learned spread of an operation's ln K about its machine's [-] "
+        "(absent: a prior made before it was learned, at the default 0.02)",
+    )
     readings: int
     widened_by_part: str | None = Field(
         None,
