@@ -116,6 +116,8 @@ PERCENTILE = 5.0
 GP_SCENARIOS = 50
 #: The most machines of ``--fleet``.
 MAX_FLEET = 32
+#: At most this many plans per learning machine (--learn-plans).
+MAX_LEARN_PLANS = 8
 
 perf = time.perf_counter
 
@@ -407,6 +409,12 @@ def main(argv: list[str] | None = None) -> int:
         help="--fleet: the true spread of each operation's ln K about its machine's (0: none)",
     )
     parser.add_argument(
+        "--learn-plans",
+        type=int,
+        default=1,
+        help="--fleet: plans each learning machine runs (each its own operations' offsets)",
+    )
+    parser.add_argument(
         "--new-plan-on",
         choices=["new", "known"],
         default="new",
@@ -447,6 +455,8 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--fleet must be 2..{MAX_FLEET} and --learn-parts 1..{MAX_PARTS}")
         if not (np.isfinite(args.fleet_spread) and 0 <= args.fleet_spread <= 1):
             parser.error("--fleet-spread must be a number in [0, 1]")
+        if not 1 <= args.learn_plans <= MAX_LEARN_PLANS:
+            parser.error(f"--learn-plans must be 1..{MAX_LEARN_PLANS}")
         if not (np.isfinite(args.operation_spread) and 0 <= args.operation_spread <= 1):
             parser.error("--operation-spread must be a number in [0, 1]")
         try:

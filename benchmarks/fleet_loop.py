@@ -21,14 +21,15 @@ law); a plan that halted or saw a change is left out of the fleet, and those are
 machine's ``ln K`` (its workholding, its overhang), which the fleet learns the spread of where
 a machine ran two operations with a tool; ``--new-plan-on known`` starts the new plan on the
 first learning machine, with its operations' offsets drawn anew (a new part program on a
-machine the fleet knows: its own readings count, its operations are new).
+machine the fleet knows: its own readings count, its operations are new); ``--learn-plans N``
+has each learning machine run N plans, each with its own operations' offsets.
 
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/closed_loop.py --fleet 4 [--scenarios 1000] [--parts 30]
         [--learn-parts 30] [--fleet-spread 0.03] [--operation-spread 0]
-        [--new-plan-on new|known] [--fault KIND[:ARGS]] [--fleet-fault KIND[:ARGS]]
-        [--jobs N] [--seed-offset 0]
+        [--new-plan-on new|known] [--learn-plans 1] [--fault KIND[:ARGS]]
+        [--fleet-fault KIND[:ARGS]] [--jobs N] [--seed-offset 0]
 """
 
 from __future__ import annotations
@@ -161,11 +162,13 @@ def run(
         fleet_faults,
         args.operation_spread,
         args.new_plan_on == "known",
+        args.learn_plans,
     )
     where = "a new machine" if args.new_plan_on == "new" else "a new plan on machine 0"
     print(
         f"Fleet prior: {plan.name!r}, {args.scenarios} scenarios: {args.fleet - 1} machines\n"
-        f"learn {args.learn_parts} parts each, then {where} makes {args.parts}; "
+        f"learn {args.learn_parts} parts in each of {args.learn_plans} plan(s), then {where} "
+        f"makes {args.parts}; "
         f"true spread {100 * args.fleet_spread:.1f} %"
         + (f", operations {100 * args.operation_spread:.1f} %" if args.operation_spread else "")
     )

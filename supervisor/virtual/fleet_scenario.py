@@ -14,7 +14,8 @@ spread (:func:`supervisor.virtual.fleet.known_priors`): what no fleet prior can 
 ``operation_spread`` > 0 gives every operation an offset of its own about its machine
 (:func:`~supervisor.virtual.fleet.machines_of`); ``on_known`` runs the new plan on the first
 learning machine instead (its own readings in the fleet, the plan's operation offsets drawn
-anew: a new part program on a machine the fleet knows), never outside.
+anew: a new part program on a machine the fleet knows), never outside; ``learn_plans`` is how
+many plans each learning machine runs (each its own operation offsets and noise).
 """
 
 from __future__ import annotations
@@ -101,6 +102,7 @@ def run_fleet_scenario(
     fleet_faults: Faults | None = None,
     operation_spread: float = 0.0,
     on_known: bool = False,
+    learn_plans: int = 1,
 ) -> FleetTrace:
     """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
 
@@ -120,10 +122,16 @@ def run_fleet_scenario(
     fleet = world(machines, outside=outside)
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
-    learned, violations, left_out = _learn(catalogue, fleet[:-1], seed, learn_parts, fleet_faults)
+    learned, violations, left_out = _learn(
+        catalogue,
+        [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, learn_plans))],
+        seed,
+        learn_parts,
+        fleet_faults,
+    )
     new, last = fleet[-1], noise_seed(seed, machines - 1)
     if on_known:  # machine 0 again, a new plan's operations
-        new = world(1, plan_draw=1)[0]
+        new = world(1, plan_draw=learn_plans)[0]
         plan = replace(plan, machine=replace(plan.machine, name="machine-0"))
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
     chains = {q: p.belief for q, p in noise_priors(learned).items()}
@@ -148,31 +156,34 @@ def run_fleet_scenario(
 
 def _learn(
     catalogue: RcbState,
-    machines: Sequence[VirtualMachine],
+    plans: Sequence[Sequence[VirtualMachine]],
     seed: int,
     parts: int,
     faults: Faults | None,
 ) -> tuple[list[Learned], int, int]:
     """The learning machines' plans from the catalogue: ``(learned, violations, left out)``.
 
-    What the fleet learned from them, their violations, and how many plans a halt or a change
-    left out.
+    ``plans[p][m]``: machine ``m`` as plan ``p``'s operations meet it (plan 0 with the noise
+    of :func:`noise_seed`). What the fleet learned from them, their violations, and how many
+    plans a halt or a change left out.
     """
     learned: list[Learned] = []
     violations = left_out = 0
-    for m, machine in enumerate(machines):
-        trace, state = run_machine(
-            catalogue, machine, seed, parts, faults=faults, noise_seed=noise_seed(seed, m)
-        )
-        violations += int(trace.violations.sum())
-        found = learned_from(state, f"machine-{m}", f"plan-{m}")
-        left_out += not found
-        learned += found
+    for p, machines in enumerate(plans):
+        for m, machine in enumerate(machines):
+            noise = noise_seed(seed, m) if p == 0 else [*noise_seed(seed, m), p]
+            trace, state = run_machine(
+                catalogue, machine, seed, parts, faults=faults, noise_seed=noise
+            )
+            violations += int(trace.violations.sum())
+            found = learned_from(state, f"machine-{m}", f"plan-{m}" if p == 0 else f"plan-{m}-{p}")
+            left_out += not found
+            learned += found
     return learned, violations, left_out
 
 
 def _one(
-    task: tuple[Plan, int, int, int, int, float, Faults | None, Faults | None, float, bool],
+    task: tuple[Plan, int, int, int, int, float, Faults | None, Faults | None, float, bool, int],
 ) -> FleetTrace:
     return run_fleet_scenario(*task)
 
@@ -189,9 +200,10 @@ def simulate_fleet(
     fleet_faults: Faults | None = None,
     operation_spread: float = 0.0,
     on_known: bool = False,
+    learn_plans: int = 1,
 ) -> list[FleetTrace]:
     """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
-    world = (faults, fleet_faults, operation_spread, on_known)
+    world = (faults, fleet_faults, operation_spread, on_known, learn_plans)
     tasks = [(plan, s, machines, parts, learn_parts, machine_spread, *world) for s in seeds]
     if jobs <= 1:
         return [_one(t) for t in tasks]
