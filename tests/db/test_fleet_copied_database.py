@@ -10,6 +10,7 @@ third database that imports from both counts them once.
 
 from __future__ import annotations
 
+import json
 import shutil
 import uuid
 from collections.abc import Iterator
@@ -87,7 +88,7 @@ def test_a_copy_that_kept_its_identity_still_trades_its_new_plans(
     _learned(engine, "fleet-c", 2, 2)  # the original's, after the copy
     assert identity(engine=engine)["identity"] == identity(engine=second)["identity"]
     path = tmp_path / "second.json"
-    path.write_text(__import__("json").dumps(export_tool(engine=second, tool=TOOL)))
+    path.write_text(json.dumps(export_tool(engine=second, tool=TOOL)))
     told = runner.invoke(app, ["models", "import", str(path), "--db", str(engine.url)])
     assert told.exit_code == 0, told.output
     said = " ".join(told.output.split())
@@ -126,6 +127,6 @@ def test_a_renewed_copy_keeps_the_plans_it_was_copied_with_as_the_originals(
     done = import_tool(engine=engine, data=exported, source="2").body  # back at the first site
     assert (done["new"], done["own"], done["copied"]) == (2, 2, 0)
     again = runner.invoke(app, ["models", "identity", "--renew", "--json", "--db", str(second.url)])
-    assert __import__("json").loads(again.stdout)["plans_keeping_it"] == 1  # fleet-b
+    assert json.loads(again.stdout)["plans_keeping_it"] == 1  # fleet-b
     assert identity(engine=second)["inherited"] == {first_id: 1, second_id: 1}
     third.dispose()
