@@ -21,10 +21,11 @@ many plans each learning machine runs (each its own operation offsets and noise)
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
+from models.powerlaw import PowerLawModel
 from supervisor.fleet.noise import noise_priors
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Plan
@@ -111,24 +112,12 @@ def run_fleet_scenario(
     """
     outside = not on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
     truths = fleet_truths(plan, seed, machine_spread)  # drawn once: the fleet's and the known's
-    world = functools.partial(
-        machines_of,
-        plan,
-        truths,
-        seed,
-        machine_spread=machine_spread,
-        operation_spread=operation_spread,
-    )
+    world = _world(plan, truths, seed, machine_spread, operation_spread)
     fleet = world(machines, outside=outside)
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
-    learned, violations, left_out = _learn(
-        catalogue,
-        [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, learn_plans))],
-        seed,
-        learn_parts,
-        fleet_faults,
-    )
+    plans = [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, learn_plans))]
+    learned, violations, left_out = _learn(catalogue, plans, seed, learn_parts, fleet_faults)
     new, last = fleet[-1], noise_seed(seed, machines - 1)
     if on_known:  # machine 0 again, a new plan's operations
         new = world(1, plan_draw=learn_plans)[0]
@@ -151,6 +140,24 @@ def run_fleet_scenario(
         sum(b.prior_widening > 0 for b in state.posterior.values()),
         len(chains) - len(state.noise_priors),
         left_out,
+    )
+
+
+def _world(
+    plan: Plan,
+    truths: dict[tuple[str, str], PowerLawModel],
+    seed: int,
+    machine_spread: float,
+    operation_spread: float,
+) -> Callable[..., tuple[VirtualMachine, ...]]:
+    """``world(machines, outside=…, plan_draw=…)``: the scenario's machines (``machines_of``)."""
+    return functools.partial(
+        machines_of,
+        plan,
+        truths,
+        seed,
+        machine_spread=machine_spread,
+        operation_spread=operation_spread,
     )
 
 
