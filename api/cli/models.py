@@ -7,6 +7,7 @@ from the first plant's learned models (``rcb plans create --prior fleet``) and i
 from __future__ import annotations
 
 import json
+import textwrap
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -118,6 +119,7 @@ def imported_line(body: dict[str, Any], name: str) -> str:
         told.append(f"{body['own']} learned by plans this database holds, skipped")
     said = "; ".join(told) or "none in it"
     line = f"rcb: {body['stored']} learned models stored from {name} ({said})"
+    line = textwrap.fill(line, width=80, subsequent_indent="  ", break_on_hyphens=False)
     if body.get("copied"):
         line += (
             f"\nrcb: {body['copied']} of them carry this database's identity but plans it does"

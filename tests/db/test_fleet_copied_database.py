@@ -92,6 +92,7 @@ def test_a_copy_that_kept_its_identity_still_trades_its_new_plans(
     told = runner.invoke(app, ["models", "import", str(path), "--db", str(engine.url)])
     assert told.exit_code == 0, told.output
     said = " ".join(told.output.split())
+    assert max(len(line) for line in told.output.splitlines()) <= 80  # a terminal's width
     assert "2 learned models stored from second.json (2 new; 2 learned by plans this" in said
     assert "2 of them carry this database's identity but plans it does not hold:" in said
     assert "one of second.json's database and this one is a copy of the other" in said

@@ -250,8 +250,9 @@ def test_rcb_models_export_and_import_at_the_cli(engine, tmp_path, runner) -> No
     done = runner.invoke(app, ["models", "import", str(out), "--db", second])  # again
     assert done.exit_code == 0 and (
         "0 learned models stored from vcmr331.json (4 already held, the same or with more"
-        " readings)" in done.output
+        " readings)" in " ".join(done.output.split())
     )
+    assert max(len(line) for line in done.output.splitlines()) <= 80
     (tmp_path / "bad.json").write_text('{"format": "x"}', encoding="utf-8")
     done = runner.invoke(app, ["models", "import", str(tmp_path / "bad.json"), "--db", second])
     assert done.exit_code == 2
