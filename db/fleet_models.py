@@ -46,7 +46,8 @@ def export_models(*, session: Session, tool: str, material: str | None = None) -
         Nothing learned with the tool (on that material).
     """
     local = local_evidence(session=session, tool_names=[tool])
-    origins = plan_origins(session=session, names=(item.plan for item in local))
+    own = database_id(session=session)
+    origins = plan_origins(session=session, names=(item.plan for item in local), own=own)
     learned = [
         (origin, item)
         for origin, item in [
@@ -81,7 +82,8 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
     tool, learned = read_document(data)
     if any(item.tool.name != tool for _, item in learned):
         raise InputError("document.learned", tool, "holds models of another tool")
-    held = plan_origins(session=session, names=(item.plan for _, item in learned))
+    own = database_id(session=session)
+    held = plan_origins(session=session, names=(item.plan for _, item in learned), own=own)
     foreign = [(o, item) for o, item in learned if held.get(item.plan) != o]
     rows = _rows(tool, foreign, source)
     stored = _held(session, tool, rows.keys())
@@ -99,7 +101,6 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
             old.imported_at = t.utcnow()
             replaced += 1
     session.flush()
-    own = database_id(session=session)
     copied = sum(1 for origin, _ in foreign if origin == own)
     new, own_count = len(fresh), len(learned) - len(foreign)
     return Imported(new, replaced, len(foreign) - new - replaced, own_count, copied)

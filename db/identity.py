@@ -48,9 +48,8 @@ def renew(*, session: Session) -> tuple[str, str, int]:
     return old, new, int(getattr(done, "rowcount", 0) or 0)
 
 
-def plan_origins(*, session: Session, names: Iterable[str]) -> dict[str, str]:
-    """The origin of each named plan this database holds (its own identity where NULL)."""
-    own = database_id(session=session)
+def plan_origins(*, session: Session, names: Iterable[str], own: str) -> dict[str, str]:
+    """The origin of each named plan this database holds (``own``, its identity, where NULL)."""
     wanted = sorted(set(names))
     found: dict[str, str] = {}
     for start in range(0, len(wanted), _CHUNK):

@@ -251,6 +251,11 @@ def operation_spread(
         found.append(
             dersimonian_laird([_at(reference, o, prior_mean, prior_information) for o in ops])
         )
+    return _pooled(default, weight, found)
+
+
+def _pooled(default: float, weight: float, found: Sequence[tuple[float, int]]) -> float:
+    """``√((ν_0 σ_0² + Σ dof τ̂²)/(ν_0 + Σ dof))`` of estimates ``(τ̂², dof)`` (module doc)."""
     dof = sum(d for _, d in found)
     tau2 = sum(d * t2 for t2, d in found)
     return math.sqrt((weight * default**2 + tau2) / (weight + dof))
@@ -282,8 +287,7 @@ def pooled_spread(
     estimates: Sequence[tuple[float, float]], default: float, weight: float = SPREAD_WEIGHT
 ) -> float:
     """``σ_b`` of estimates ``(y_m, v_m)``: the default pooled with their ``τ̂²`` (module doc)."""
-    tau2, dof = dersimonian_laird(estimates)
-    return math.sqrt((weight * default**2 + dof * tau2) / (weight + dof))
+    return _pooled(default, weight, [dersimonian_laird(estimates)])
 
 
 def fleet_belief(
