@@ -107,12 +107,13 @@ def machines_of(
             delta = math.copysign(OUTSIDE, draw) if last_outside else draw
             exact = plan.tools[key[0]].models[key[1]].dK == 0  # a model without a band
             offsets[key] = 0.0 if exact else delta * machine_spread
-        each = {
-            (op.name, q): 0.0 if model.dK == 0 else float(contexts.standard_normal())
+        gammas = {
+            (op.name, q): 0.0
+            if model.dK == 0
+            else float(contexts.standard_normal()) * operation_spread
             for op in plan.operations
             for q, model in sorted(plan.tools[op.tool].models.items())
         }
-        gammas = {key: g * operation_spread for key, g in each.items()}
         label = f"fleet machine {m} of scenario {seed}"
         fleet.append(_machine(plan, truths, offsets, label, gammas))
     return tuple(fleet)
