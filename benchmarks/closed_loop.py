@@ -409,6 +409,13 @@ def main(argv: list[str] | None = None) -> int:
         help="--fleet: the true spread of each operation's ln K about its machine's (0: none)",
     )
     parser.add_argument(
+        "--spread-mix",
+        type=float,
+        default=0.0,
+        help="--fleet: each tool and quantity's true spread is the fleet's x exp(M z), z ~ "
+        "N(0, 1) (0: one spread for all)",
+    )
+    parser.add_argument(
         "--learn-plans",
         type=int,
         default=1,
@@ -459,6 +466,8 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--learn-plans must be 1..{MAX_LEARN_PLANS}")
         if not (np.isfinite(args.operation_spread) and 0 <= args.operation_spread <= 1):
             parser.error("--operation-spread must be a number in [0, 1]")
+        if not (np.isfinite(args.spread_mix) and 0 <= args.spread_mix <= 2):
+            parser.error("--spread-mix must be a number in [0, 2]")
         try:
             fleet_faults = parse_faults(args.fleet_fault)
         except InputError as err:

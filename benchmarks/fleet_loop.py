@@ -163,6 +163,7 @@ def run(
         args.operation_spread,
         args.new_plan_on == "known",
         args.learn_plans,
+        args.spread_mix,
     )
     where = "a new machine" if args.new_plan_on == "new" else "a new plan on machine 0"
     print(
@@ -171,6 +172,7 @@ def run(
         f"makes {args.parts}; "
         f"true spread {100 * args.fleet_spread:.1f} %"
         + (f", operations {100 * args.operation_spread:.1f} %" if args.operation_spread else "")
+        + (f", each tool's x exp({args.spread_mix:g} z)" if args.spread_mix else "")
     )
     if faults:
         print(f"the new machine's faults: {', '.join(faults.specs)}")

@@ -17,7 +17,7 @@ A quantity no plan of the fleet measured with the tool keeps the catalogue prior
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -29,9 +29,11 @@ from supervisor.fleet.hierarchy import (
     DEFAULT_SPREAD,
     SPREAD_WEIGHT,
     best_determined,
+    between_estimate,
     fleet_belief,
     of_operation,
-    operation_spread,
+    operation_estimates,
+    pooled,
 )
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
@@ -113,8 +115,11 @@ def fleet_priors(
     default_spread: float = DEFAULT_SPREAD,
     spread_weight: float = SPREAD_WEIGHT,
 ) -> dict[tuple[str, str], FleetPrior]:
-    """Per (operation, quantity) of ``plan`` with fleet evidence, its prior (module docstring)."""
-    out: dict[tuple[str, str], FleetPrior] = {}
+    """Per (operation, quantity) of ``plan`` with fleet evidence, its prior (module docstring).
+
+    Each tool's spreads start from those of the plan's other tools (:func:`_spreads`).
+    """
+    pairs: dict[tuple[str, str], _Pair] = {}
     for op in plan.operations:
         tool = plan.tools[op.tool]
         for quantity, model in tool.models.items():
@@ -130,12 +135,14 @@ def fleet_priors(
             catalogue = post.prior(model, op, coverage_k, exponent_sd, edge_sd)
             if not _proper(catalogue):  # a parameter known exactly: the catalogue's stands
                 continue
-            made = _prior(
-                plan.machine.name, op, catalogue, found, (default_spread, spread_weight, edge_sd)
-            )
-            if made is not None:
-                out[(op.name, quantity)] = made
-    return out
+            pair = _pair(tool, op, catalogue, found, edge_sd)
+            if pair is not None:
+                pairs[(op.name, quantity)] = pair
+    spreads = _spreads(plan.machine.name, pairs.values(), default_spread, spread_weight)
+    return {
+        key: _prior(plan.machine.name, pair, spreads[pair.key], spread_weight)
+        for key, pair in pairs.items()
+    }
 
 
 def _proper(belief: post.Posterior) -> bool:
@@ -148,15 +155,50 @@ def _proper(belief: post.Posterior) -> bool:
     return all(0.0 < belief.cov[i][i] < math.inf for i in range(len(belief.cov)))
 
 
-def _prior(
-    machine: str,
-    op: Operation,
-    catalogue: Posterior,
-    found: Sequence[Learned],
-    defaults: tuple[float, float, float],
-) -> FleetPrior | None:
-    """``defaults``: the default spread, its weight and the edge's ``edge_sd``."""
-    default_spread, spread_weight, edge_sd = defaults
+@dataclass(frozen=True, eq=False)
+class _Pair:
+    """One operation's quantity: its catalogue prior and the fleet's evidence, by machine."""
+
+    key: tuple[str, str, str, str]
+    op: Operation
+    catalogue: Posterior
+    found: tuple[Learned, ...]
+    operations: dict[str, list[Evidence]]
+    prior_mean: np.ndarray
+    prior_cov: np.ndarray
+    prior_information: np.ndarray
+
+    def operation_estimates(self) -> list[tuple[float, int]]:
+        """``σ_o``'s estimates: one per machine that ran the tool in two operations or more."""
+        n = len(self.catalogue.names)
+        ops = list(self.operations.values())
+        return operation_estimates(ops, self.prior_mean, self.prior_information, n)
+
+    def machines(
+        self, machine: str, op_spread: float
+    ) -> tuple[Evidence | None, list[Evidence], np.ndarray]:
+        """``machine``'s evidence (None: none), the others', and where they pin ``ln Y``.
+
+        Each machine's operations integrated over ``op_spread`` (``σ_o``); the point is
+        :func:`~supervisor.fleet.hierarchy.best_determined` of the others.
+        """
+        by_machine = {m: _summed(seen, op_spread) for m, seen in self.operations.items()}
+        own = by_machine.pop(machine, None)
+        others = list(by_machine.values())
+        n = len(self.catalogue.names)
+        reference = best_determined(others, self.prior_information, n, self.catalogue.center)
+        return own, others, reference
+
+    def between_estimate(self, machine: str, op_spread: float) -> tuple[float, int]:
+        """``σ_b``'s estimate from the machines but ``machine``, their operations' ``σ_o``."""
+        _, others, reference = self.machines(machine, op_spread)
+        return between_estimate(others, self.prior_mean, self.prior_information, reference)
+
+
+def _pair(
+    tool: Tool, op: Operation, catalogue: Posterior, found: Sequence[Learned], edge_sd: float
+) -> _Pair | None:
+    """``found``'s evidence about the tool's law, by machine (None: none usable)."""
     operations: dict[str, list[Evidence]] = {}
     for item in found:
         item_prior = _start_of(item, catalogue.quantity)
@@ -167,16 +209,69 @@ def _prior(
     if not operations:
         return None
     prior_mean, prior_cov = in_tool_terms(catalogue, op.context, edge_sd)
-    exponents = len(catalogue.names)
+    key = (tool.name, tool.process, tool.material, catalogue.quantity)
     p0 = np.linalg.inv(prior_cov)
-    op_spread = operation_spread(list(operations.values()), prior_mean, p0, exponents)
-    by_machine = {m: _summed(seen, op_spread) for m, seen in operations.items()}
-    own = by_machine.pop(machine, None)
-    others = list(by_machine.values())
-    reference = best_determined(others, p0, exponents, catalogue.center)
-    belief = fleet_belief(
-        others, prior_mean, prior_cov, reference, exponents, default_spread, spread_weight
-    )
+    return _Pair(key, op, catalogue, tuple(found), operations, prior_mean, prior_cov, p0)
+
+
+#: Tool and quantity: the tool's name, process and work material, and the quantity.
+_Key = tuple[str, str, str, str]
+#: A spread's default for one tool and quantity, and the floor its own estimates keep it above.
+_Default = tuple[float, float]
+
+
+def _spreads(
+    machine: str, pairs: Iterable[_Pair], default_spread: float, weight: float
+) -> dict[_Key, tuple[_Default, _Default]]:
+    """Per tool and quantity, the defaults of ``(σ_b, σ_o)`` its own estimates pool with.
+
+    ``σ_o``'s first (:func:`_moderated`), then ``σ_b``'s, from the estimates each tool's
+    machines give with its own ``σ_o`` (hierarchy, "a plan's tools").
+    """
+    first = {pair.key: pair for pair in pairs}  # one tool's operations share its evidence
+    per_op = {key: pair.operation_estimates() for key, pair in first.items()}
+    op_defaults = _moderated(per_op, DEFAULT_OPERATION_SPREAD, weight)
+    per_machine = {
+        key: [pair.between_estimate(machine, _at_least(op_defaults[key], weight, per_op[key]))]
+        for key, pair in first.items()
+    }
+    defaults = _moderated(per_machine, default_spread, weight)
+    return {key: (defaults[key], op_defaults[key]) for key in first}
+
+
+def _moderated(
+    found: Mapping[_Key, Sequence[tuple[float, int]]], default: float, weight: float
+) -> dict[_Key, _Default]:
+    """Each key's default: ``default`` held as ``weight`` with the other keys' estimates.
+
+    ``found``: per tool and quantity, its estimates ``(τ̂², dof)``. The default is what each
+    one's own estimates are pooled with (:func:`supervisor.fleet.hierarchy.pooled`); where the
+    others had any degree of freedom it is also the floor, else the floor is 0.
+    """
+    out = {}
+    for key in found:
+        others = [est for k, ests in found.items() if k != key for est in ests]
+        value = pooled(default, weight, others)
+        out[key] = (value, value if sum(dof for _, dof in others) else 0.0)
+    return out
+
+
+def _prior(
+    machine: str, pair: _Pair, defaults: tuple[_Default, _Default], weight: float
+) -> FleetPrior:
+    """``pair``'s prior for a new operation on ``machine``.
+
+    ``defaults``: those of ``(σ_b, σ_o)``, each held as ``weight`` against ``pair``'s own
+    estimates (:func:`_spreads`).
+    """
+    default_spread, op_default = defaults
+    catalogue = pair.catalogue
+    op_spread = _at_least(op_default, weight, pair.operation_estimates())
+    own, others, reference = pair.machines(machine, op_spread)
+    exponents = len(catalogue.names)
+    found = [between_estimate(others, pair.prior_mean, pair.prior_information, reference)]
+    spread = _at_least(default_spread, weight, found)
+    belief = fleet_belief(others, pair.prior_mean, pair.prior_cov, reference, exponents, spread)
     mean, cov = belief.mean, belief.cov
     if own is not None:  # this machine's offset, as its own readings show it
         fleet_information = np.linalg.inv(belief.cov)
@@ -184,12 +279,22 @@ def _prior(
         mean = cov @ (fleet_information @ belief.mean + own.vector)
     cov = cov.copy()
     cov[0, 0] += op_spread**2  # the new operation's own offset (hierarchy)
-    prior = _in_operation_terms(catalogue, op.context, mean, cov)
-    plans = tuple(sorted({item.plan for item in found}))
-    machines = tuple(sorted({item.machine for item in found}))
-    readings = sum(item.posterior.observations for item in found)
+    prior = _in_operation_terms(catalogue, pair.op.context, mean, cov)
+    plans = tuple(sorted({item.plan for item in pair.found}))
+    machines = tuple(sorted({item.machine for item in pair.found}))
+    readings = sum(item.posterior.observations for item in pair.found)
     provenance = Provenance(catalogue.quantity, plans, machines, belief.spread, readings, op_spread)
     return FleetPrior(prior, provenance)
+
+
+def _at_least(default: _Default, weight: float, own: Sequence[tuple[float, int]]) -> float:
+    """A tool's spread: the default pooled with its own estimates, never under the floor.
+
+    A tool's own machines can show that they differ more than the plan's other tools' do,
+    never less (hierarchy, "a plan's tools").
+    """
+    value, floor = default
+    return max(floor, pooled(value, weight, own))
 
 
 def _summed(operations: Sequence[Evidence], op_spread: float) -> Evidence:

@@ -21,6 +21,11 @@ machine's ``ln K`` and learns the spread of (:func:`supervisor.fleet.hierarchy.
 operation_spread`). ``plan_draw`` numbers a plan: another plan on the same machines draws
 other operation offsets about the same machine offsets.
 
+With ``spread_mix`` ``M`` > 0 (:func:`tool_spreads`), each tool and quantity has a spread of
+its own, ``s · exp(M z)``, ``z ~ N(0, 1)``: a fleet whose machines differ more for one insert
+(a long boring bar, a thin wall) than for another, which a learner that pools its tools'
+spreads (:func:`supervisor.fleet.prior.fleet_priors`) does not assume.
+
 The noise of each machine's readings is the plan's ``u`` (:data:`~supervisor.virtual.machine.
 DEFAULT_UNCERTAINTY`), drawn from ``numpy.random.default_rng([seed, m])``
 (:func:`noise_seed`).
@@ -29,6 +34,7 @@ DEFAULT_UNCERTAINTY`), drawn from ``numpy.random.default_rng([seed, m])``
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
@@ -54,11 +60,31 @@ KNOWN_SD = 1e-4
 _TRUTH_STREAM = 1_000_003
 _OFFSET_STREAM = 1_000_033
 _OPERATION_STREAM = 1_000_037
+_SPREAD_STREAM = 1_000_039
+
+#: The true between-machine spread: one for every tool and quantity, or each its own.
+Spreads = float | Mapping[tuple[str, str], float]
 
 
 def noise_seed(seed: int, machine: int) -> list[int]:
     """The seed of machine ``machine``'s measurement noise in scenario ``seed``."""
     return [seed, machine]
+
+
+def tool_spreads(plan: Plan, seed: int, machine_spread: float, spread_mix: float = 0.0) -> Spreads:
+    """Per tool and quantity, its true spread ``s · exp(M z)`` (module docstring); 0: ``s``."""
+    if spread_mix == 0:
+        return machine_spread
+    rng = np.random.default_rng([seed, _SPREAD_STREAM])
+    return {
+        (name, q): machine_spread * math.exp(spread_mix * float(rng.standard_normal()))
+        for name in sorted({op.tool for op in plan.operations})
+        for q in sorted(plan.tools[name].models)
+    }
+
+
+def _of(spreads: Spreads, key: tuple[str, str]) -> float:
+    return spreads if isinstance(spreads, float | int) else spreads[key]
 
 
 def sample_fleet(
@@ -86,7 +112,7 @@ def machines_of(
     seed: int,
     machines: int,
     *,
-    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    machine_spread: Spreads = DEFAULT_MACHINE_SPREAD,
     outside: bool = False,
     operation_spread: float = 0.0,
     plan_draw: int = 0,
@@ -106,7 +132,7 @@ def machines_of(
             last_outside = outside and m == machines - 1
             delta = math.copysign(OUTSIDE, draw) if last_outside else draw
             exact = plan.tools[key[0]].models[key[1]].dK == 0  # a model without a band
-            offsets[key] = 0.0 if exact else delta * machine_spread
+            offsets[key] = 0.0 if exact else delta * _of(machine_spread, key)
         gammas = {
             (op.name, q): 0.0
             if model.dK == 0
@@ -122,7 +148,7 @@ def machines_of(
 def fleet_truths(
     plan: Plan,
     seed: int,
-    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    machine_spread: Spreads = DEFAULT_MACHINE_SPREAD,
     spread: float = 1 / 3,
     exponent_spread: float = 0.05,
 ) -> dict[tuple[str, str], PowerLawModel]:
@@ -137,7 +163,7 @@ def fleet_truths(
             names = sorted(model.exponents)
             ranges = [log_range(names, op) for op in ops]
             box = (np.min([r[0] for r in ranges], 0), np.max([r[1] for r in ranges], 0))
-            inner = _inside(model, OUTSIDE * machine_spread)
+            inner = _inside(model, OUTSIDE * _of(machine_spread, (tool_name, quantity)))
             truths[(tool_name, quantity)] = true_model(
                 inner, ops[0], rng, spread, exponent_spread, box=box
             )
@@ -147,7 +173,7 @@ def fleet_truths(
 def known_priors(
     plan: Plan,
     truths: dict[tuple[str, str], PowerLawModel],
-    machine_spread: float,
+    machine_spread: Spreads,
     settings: RcbSettings,
 ) -> dict[tuple[str, str], post.Posterior]:
     """The prior of a controller that knows the fleet's law and spread and not the machine.
@@ -166,7 +192,7 @@ def known_priors(
             cov = [[0.0] * size for _ in range(size)]
             for i in range(size):
                 cov[i][i] = KNOWN_SD**2
-            cov[0][0] = max(machine_spread, KNOWN_SD) ** 2
+            cov[0][0] = max(_of(machine_spread, (op.tool, quantity)), KNOWN_SD) ** 2
             out[(op.name, quantity)] = replace(truth, cov=tuple(tuple(row) for row in cov))
     return out
 

@@ -35,10 +35,12 @@ from supervisor.virtual.certificate import ScenarioTrace
 from supervisor.virtual.fault_spec import Faults
 from supervisor.virtual.fleet import (
     DEFAULT_MACHINE_SPREAD,
+    Spreads,
     fleet_truths,
     known_priors,
     machines_of,
     noise_seed,
+    tool_spreads,
 )
 from supervisor.virtual.machine import VirtualMachine
 from supervisor.virtual.scenario import run_machine
@@ -104,15 +106,18 @@ def run_fleet_scenario(
     operation_spread: float = 0.0,
     on_known: bool = False,
     learn_plans: int = 1,
+    spread_mix: float = 0.0,
 ) -> FleetTrace:
     """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
 
     ``faults``: the new machine's (its three runs'); ``fleet_faults``: the learning machines'
-    (None: they run clean), whose plans a halt or a change leaves out of the fleet.
+    (None: they run clean), whose plans a halt or a change leaves out of the fleet;
+    ``spread_mix``: each tool's spread its own (:func:`~supervisor.virtual.fleet.tool_spreads`).
     """
     outside = not on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
-    truths = fleet_truths(plan, seed, machine_spread)  # drawn once: the fleet's and the known's
-    world = _world(plan, truths, seed, machine_spread, operation_spread)
+    spreads = tool_spreads(plan, seed, machine_spread, spread_mix)
+    truths = fleet_truths(plan, seed, spreads)  # drawn once: the fleet's and the known's
+    world = _world(plan, truths, seed, spreads, operation_spread)
     fleet = world(machines, outside=outside)
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
@@ -127,7 +132,7 @@ def run_fleet_scenario(
     from_fleet = replace(
         start(plan, settings, {k: p.posterior for k, p in priors.items()}), noise_priors=chains
     )
-    known = start(plan, settings, known_priors(plan, truths, machine_spread, settings))
+    known = start(plan, settings, known_priors(plan, truths, spreads, settings))
     trace, state = run_machine(from_fleet, new, seed, parts, faults=faults, noise_seed=last)
     return FleetTrace(
         seed,
@@ -147,7 +152,7 @@ def _world(
     plan: Plan,
     truths: dict[tuple[str, str], PowerLawModel],
     seed: int,
-    machine_spread: float,
+    machine_spread: Spreads,
     operation_spread: float,
 ) -> Callable[..., tuple[VirtualMachine, ...]]:
     """``world(machines, outside=…, plan_draw=…)``: the scenario's machines (``machines_of``)."""
@@ -190,7 +195,9 @@ def _learn(
 
 
 def _one(
-    task: tuple[Plan, int, int, int, int, float, Faults | None, Faults | None, float, bool, int],
+    task: tuple[
+        Plan, int, int, int, int, float, Faults | None, Faults | None, float, bool, int, float
+    ],
 ) -> FleetTrace:
     return run_fleet_scenario(*task)
 
@@ -208,9 +215,10 @@ def simulate_fleet(
     operation_spread: float = 0.0,
     on_known: bool = False,
     learn_plans: int = 1,
+    spread_mix: float = 0.0,
 ) -> list[FleetTrace]:
     """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
-    world = (faults, fleet_faults, operation_spread, on_known, learn_plans)
+    world = (faults, fleet_faults, operation_spread, on_known, learn_plans, spread_mix)
     tasks = [(plan, s, machines, parts, learn_parts, machine_spread, *world) for s in seeds]
     if jobs <= 1:
         return [_one(t) for t in tasks]

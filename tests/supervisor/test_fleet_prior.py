@@ -163,7 +163,7 @@ def test_a_new_machine_varies_least_where_the_fleet_cut() -> None:
     mean = np.array([0.0, 0.7, 1.0])
     exact = np.diag([1e-14] * 3)
     reference = np.array([1.0, 1.0, 2.0])
-    belief = fleet_belief([], mean, exact, reference, 2, exponent_spread=0.02)
+    belief = fleet_belief([], mean, exact, reference, 2, 0.05, exponent_spread=0.02)
     for x in ([1.0, 2.0], [0.0, 0.0], [1.5, 2.5]):
         phi = np.array([1.0, *x])
         spread = 0.05**2 + sum(
@@ -230,7 +230,7 @@ def test_a_new_machine_is_the_fleet_mean_plus_the_spread() -> None:
     """Prior ``N(0, 1)``, one machine ``J = 100, h = 100 · 0.2``: ``J' = 80, h' = 16``,
     ``P = 81``, mean ``16/81``, variance ``1/81 + 0.05²`` (hierarchy module docstring)."""
     one = Evidence((), np.array([[100.0]]), np.array([20.0]), 7)
-    belief = fleet_belief([one], np.array([0.0]), np.array([[1.0]]), np.array([1.0]), 0)
+    belief = fleet_belief([one], np.array([0.0]), np.array([[1.0]]), np.array([1.0]), 0, 0.05)
     assert_allclose(belief.mean, [16 / 81])
     assert_allclose(belief.cov, [[1 / 81 + 0.05**2]])
     assert (belief.machines, belief.readings, belief.spread) == (1, 7, 0.05)
@@ -330,3 +330,36 @@ def test_only_learn_starts_from_a_fleet_prior() -> None:
     assert caught.value.field == "prior"
     with pytest.raises(InputError, match="not .operation, quantity. pairs"):
         start(PLAN, SETTINGS, {("nowhere", "force_N"): prior[("rough-od", "force_N")]})
+
+
+def test_a_tools_spread_starts_from_the_plans_other_tools() -> None:
+    """Two machines that read the catalogue's value with every tool of four operations: each
+    of the 6 tool-quantity pairs (CNMG432RN, VCMR331, CPGM32505 x force, roughness) shows a
+    DerSimonian-Laird spread of 0 on 1 degree of freedom, so each one's default is the 5 %
+    pooled with the 5 others': ``σ_b = 0.05 √(2/7)`` = 2.7 % (each tool alone: ``0.05 √(2/3)``
+    = 4.1 %, the floor of 2 agreeing machines before). A pair learned alone keeps that rule;
+    a tool whose machines differ by 20 % (ln: 0.18, ``τ̂²`` about 0.0166 on 1 degree of
+    freedom, roughness too) is pooled to 8 %, over the others', which its estimates raise
+    over the 5 % default (7.2 %)."""
+    learned: list[Learned] = []
+    for name in ("rough-od", "rough-grooves", "rough-contour", "finish-od"):
+        learned += _learned("m1", "p1", name, [1.0] * 16) + _learned("m2", "p2", name, [1.0] * 16)
+    priors = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)
+    assert len({(PLAN.tools[_op(op).tool].name, q) for op, q in priors}) == 6
+    for made in priors.values():
+        assert made.provenance.spread == pytest.approx(0.05 * math.sqrt(2 / 7), rel=1e-6)
+    alone = [item for item in learned if item.posterior.quantity == "force_N"]
+    alone = [item for item in alone if item.operation.name == "rough-od"]
+    made = fleet_priors(PLAN, alone, 2.0, SETTINGS.exponent_sd)[("rough-od", "force_N")]
+    assert made.provenance.spread == pytest.approx(0.05 * math.sqrt(2 / 3), rel=1e-6)
+    apart = [
+        item
+        for item in learned
+        if not (item.machine == "m2" and item.operation.name == "finish-od")
+    ]
+    apart += _learned("m2", "p2", "finish-od", [1.2] * 16)
+    priors = fleet_priors(PLAN, apart, 2.0, SETTINGS.exponent_sd)
+    spreads = {key: p.provenance.spread for key, p in priors.items()}
+    assert spreads[("finish-od", "force_N")] > 0.08
+    others = [s for (op, _), s in spreads.items() if op != "finish-od"]
+    assert all(0.05 < s < spreads[("finish-od", "force_N")] for s in others)

@@ -79,11 +79,14 @@ def test_every_machine_lies_inside_the_catalogue_band_where_it_is_wide_enough() 
 
 def test_a_new_machine_starts_faster_from_the_fleet_and_crosses_nothing() -> None:
     """Seed 3: three machines learn 12 parts; the new one's first setpoints from the fleet are
-    faster than the catalogue's, those of a controller that knows the fleet's law faster
-    still, and no run crosses a true limit in 6 parts."""
+    faster than the catalogue's (0.847 of the oracle), those of a controller that knows the
+    fleet's law faster still (0.912), and no run crosses a true limit in 6 parts. The fleet's
+    0.907 is that of spreads pooled over the plan's tools; each tool's spread learned from its
+    three machines alone gave 0.881 (spreads of 3.9-4.0 % for the true 3 %)."""
     trace = run_fleet_scenario(PLAN, 3, 4, 6, 12)
 
-    assert trace.known.plan_ratio[0] > trace.fleet.plan_ratio[0] + 0.01
+    assert trace.catalogue.plan_ratio[0] < 0.85 < 0.9 < trace.fleet.plan_ratio[0]
+    assert trace.known.plan_ratio[0] > trace.fleet.plan_ratio[0]
     assert trace.fleet.where == trace.catalogue.where == trace.known.where == ()
     assert {p.quantity for p in trace.provenance} == {"force_N", "roughness_um"}
     assert all(p.machines == ("machine-0", "machine-1", "machine-2") for p in trace.provenance)
