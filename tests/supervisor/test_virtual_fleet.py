@@ -22,6 +22,7 @@ from supervisor.virtual.fleet import (
     known_priors,
     machines_of,
     sample_fleet,
+    tool_spreads,
 )
 from supervisor.virtual.fleet_scenario import run_fleet_scenario
 from supervisor.virtual.scenario import run_machine
@@ -227,3 +228,32 @@ def test_operation_offsets_leave_a_fleet_without_them_as_it_was() -> None:
     k_first = {n: p.tool.models["roughness_um"].K for n, p in first.processes.items()}
     assert k != k_first  # another plan's operations, about the same machine
     assert 0.8 < min(k[n] / k_first[n] for n in k) and max(k[n] / k_first[n] for n in k) < 1.25
+
+
+def test_a_spread_mix_gives_each_tool_and_quantity_a_spread_of_its_own() -> None:
+    """``--spread-mix 0``: the one spread (the fleet as before, to the bit); 0.5: each tool and
+    quantity ``s · exp(0.5 z)``, its machines' offsets scaled by it and the known prior's
+    variance its square."""
+    assert tool_spreads(PLAN, 5, 0.03) == 0.03
+    mixed = tool_spreads(PLAN, 5, 0.03, 0.5)
+    assert isinstance(mixed, dict)
+    assert set(mixed) == {
+        (op.tool, q) for op in PLAN.operations for q in PLAN.tools[op.tool].models
+    }
+    assert len(set(mixed.values())) == len(mixed)
+    assert all(abs(math.log(s / 0.03) / 0.5) < 4 for s in mixed.values())
+    truths = fleet_truths(PLAN, 5, mixed)
+    one = machines_of(PLAN, truths, 5, 2, machine_spread=0.03)[1]
+    apart = machines_of(PLAN, truths, 5, 2, machine_spread=mixed)[1]
+    for op in PLAN.operations:
+        for q, model in PLAN.tools[op.tool].models.items():
+            if model.dK == 0:
+                continue
+            truth = truths[(op.tool, q)].K
+            alike = math.log(one.processes[op.name].tool.models[q].K / truth)
+            own = math.log(apart.processes[op.name].tool.models[q].K / truth)
+            assert own == pytest.approx(alike * mixed[(op.tool, q)] / 0.03, rel=1e-9)
+    known = known_priors(PLAN, truths, mixed, RcbSettings(strategy="learn"))
+    for (name, q), prior in known.items():
+        tool = next(op.tool for op in PLAN.operations if op.name == name)
+        assert prior.cov[0][0] == pytest.approx(mixed[(tool, q)] ** 2)
