@@ -10,6 +10,10 @@ fleet as its exponents are, each machine's about it (an operation with no edge l
 it). On a machine the fleet already holds, that machine's own evidence is added to the
 fleet's belief about it (its offset ``δ_m`` is then known as well as its readings show).
 
+Each tool and quantity's spreads (between machines, between a machine's operations) start
+from what the plan's other tools and quantities show, and its own machines may raise them
+(:func:`_spreads`; :mod:`.hierarchy`, "A plan's tools").
+
 A quantity no plan of the fleet measured with the tool keeps the catalogue prior and says so
 (:class:`Provenance` with no plans).
 """
@@ -155,11 +159,15 @@ def _proper(belief: post.Posterior) -> bool:
     return all(0.0 < belief.cov[i][i] < math.inf for i in range(len(belief.cov)))
 
 
+#: Tool and quantity: the tool's name, process and work material, and the quantity.
+_Key = tuple[str, str, str, str]
+
+
 @dataclass(frozen=True, eq=False)
 class _Pair:
     """One operation's quantity: its catalogue prior and the fleet's evidence, by machine."""
 
-    key: tuple[str, str, str, str]
+    key: _Key
     op: Operation
     catalogue: Posterior
     found: tuple[Learned, ...]
@@ -214,8 +222,6 @@ def _pair(
     return _Pair(key, op, catalogue, tuple(found), operations, prior_mean, prior_cov, p0)
 
 
-#: Tool and quantity: the tool's name, process and work material, and the quantity.
-_Key = tuple[str, str, str, str]
 #: A spread's default for one tool and quantity, and the floor its own estimates keep it above.
 _Default = tuple[float, float]
 
@@ -228,15 +234,16 @@ def _spreads(
     ``σ_o``'s first (:func:`_moderated`), then ``σ_b``'s, from the estimates each tool's
     machines give with its own ``σ_o`` (hierarchy, "a plan's tools").
     """
-    first = {pair.key: pair for pair in pairs}  # one tool's operations share its evidence
-    per_op = {key: pair.operation_estimates() for key, pair in first.items()}
+    # one per tool and quantity: the operations of one tool share its evidence
+    one = {pair.key: pair for pair in pairs}
+    per_op = {key: pair.operation_estimates() for key, pair in one.items()}
     op_defaults = _moderated(per_op, DEFAULT_OPERATION_SPREAD, weight)
     per_machine = {
         key: [pair.between_estimate(machine, _at_least(op_defaults[key], weight, per_op[key]))]
-        for key, pair in first.items()
+        for key, pair in one.items()
     }
     defaults = _moderated(per_machine, default_spread, weight)
-    return {key: (defaults[key], op_defaults[key]) for key in first}
+    return {key: (defaults[key], op_defaults[key]) for key in one}
 
 
 def _moderated(
