@@ -149,6 +149,13 @@ def shown(url: str) -> str:
         return url
 
 
+def engine_of(db: str | None) -> Engine:
+    """:func:`existing_engine` of a command's ``--db`` (or ``RCB_DATABASE_URL`` without it)."""
+    from api.settings import database_field, database_url
+
+    return existing_engine(database_url(db), database_field(db))
+
+
 def existing_engine(url: str, field: str = "--db") -> Engine:
     """An engine for an existing database migrated to this rcb's newest revision.
 

@@ -15,7 +15,7 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from api.cli.common import DbOption, JsonOption, errors, existing_engine, plan_of, say
+from api.cli.common import DbOption, JsonOption, engine_of, errors, plan_of, say
 from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
@@ -96,11 +96,10 @@ def _page(
 ) -> dict[str, Any]:
     """A page of ``fetch``: the options' names in its errors, an unknown tool named."""
     from api.services.errors import NotFoundError
-    from api.settings import database_field, database_url
     from models.errors import InputError
 
     with errors():
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         try:
             page = fetch(engine=engine, tool=tool, cursor=cursor, page_size=limit)
         except InputError as err:  # limit, cursor: the options' names
@@ -142,11 +141,10 @@ def exclude(
 ) -> None:
     """Take a plan (--plan) or every plan of a machine (--machine) out of the fleet."""
     from api.services.fleet_models import exclude_from_fleet
-    from api.settings import database_field, database_url
 
     with errors():
         actor = cli_actor(by)
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         plan_id = None if plan is None else plan_of(engine, plan)
         done = exclude_from_fleet(
             engine=engine, plan_id=plan_id, machine=machine, reason=reason, actor=actor
@@ -163,11 +161,10 @@ def include(
 ) -> None:
     """Put a plan or a machine back in the fleet (a plan's changes so far accepted)."""
     from api.services.fleet_models import include_in_fleet
-    from api.settings import database_field, database_url
 
     with errors():
         actor = cli_actor(by)
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         plan_id = None if plan is None else plan_of(engine, plan)
         done = include_in_fleet(engine=engine, plan_id=plan_id, machine=machine, actor=actor)
     accepted = done.body["changes_accepted"]

@@ -37,14 +37,13 @@ from api.cli.common import (
     PlanArg,
     check_target,
     emit,
+    engine_of,
     errors,
-    existing_engine,
     plan_of,
     say,
 )
 from api.cli.tables import new_table
 from api.services.errors import NotFoundError
-from api.settings import database_field, database_url
 from models.errors import InputError
 
 if TYPE_CHECKING:
@@ -97,7 +96,7 @@ def gcode(
         ranges = [_range(item) for item in mapping]
         with _opened(program) as source:
             target = _target(out, program)
-            engine = existing_engine(database_url(db), database_field(db))
+            engine = engine_of(db)
             plan_key = plan_of(engine, plan)
             version, setpoints = _setpoints(engine, plan_key, ranges, mapping)
             report = _rewrite(source, program, target, setpoints, ranges)

@@ -17,8 +17,8 @@ from api.cli.common import (
     DbOption,
     JsonOption,
     emit,
+    engine_of,
     errors,
-    existing_engine,
     read_json_file,
     say,
 )
@@ -42,10 +42,9 @@ def export(
 ) -> None:
     """Write TOOL's learned models (every learn plan's posterior, where it was learned)."""
     from api.services.fleet_models import export_tool
-    from api.settings import database_field, database_url
 
     with errors():
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         data = export_tool(engine=engine, tool=tool, material=material)
         try:
             out.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
@@ -62,12 +61,11 @@ def import_(
 ) -> None:
     """Store the learned models of FILE (all or none): new plans with the tool start from them."""
     from api.services.fleet_models import import_tool
-    from api.settings import database_field, database_url
 
     with errors():
         actor = cli_actor(by)
         data = read_json_file(file)
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         written = import_tool(engine=engine, data=data, source=file.name, actor=actor)
     say(imported_line(written.body, file.name))
 
@@ -88,11 +86,10 @@ def identity(
 ) -> None:
     """The identity this database's exports name as their models' origin."""
     from api.services import fleet_models
-    from api.settings import database_field, database_url
 
     with errors():
         actor = cli_actor(by)
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         if renew:
             body = fleet_models.renew_identity(engine=engine, actor=actor).body
         else:

@@ -24,8 +24,8 @@ from api.cli.common import (
     RcbOption,
     StrategyOption,
     emit,
+    engine_of,
     errors,
-    existing_engine,
     plan_of,
     read_json_file,
     say,
@@ -87,7 +87,6 @@ def create(
     database holds it) or from the tools' catalogue models (``--prior catalogue``).
     """
     from api.services.plans import create_plan
-    from api.settings import database_field, database_url
     from supervisor.rcb.settings import assignments
 
     with errors():
@@ -97,7 +96,7 @@ def create(
         source = ctx.get_parameter_source("strategy")
         if source is not None and source.name != "DEFAULT":  # else the file's [rcb] strategy
             given["strategy"] = strategy
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         # the file's [rcb] table, the options over it; its errors and the plan's together
         chosen = None if prior is None else prior.value
         written = create_plan(engine=engine, body=body, given=given, actor=actor, prior=chosen)
@@ -157,10 +156,9 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     from api.services.errors import PlanHaltedError
     from api.services.read import plans as read_plans
     from api.services.read import setpoints as read_setpoints
-    from api.settings import database_field, database_url
 
     with errors():
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         data = read_plans.get_plan(engine=engine, plan_id=plan_key)
         try:

@@ -17,14 +17,13 @@ from api.cli.common import (
     PlanArg,
     RcbOption,
     emit,
+    engine_of,
     errors,
-    existing_engine,
     plan_of,
     say,
 )
 from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
-from api.settings import database_field, database_url
 from models.errors import InputError
 
 _out = Console()
@@ -62,7 +61,7 @@ def replan(
         changes = _changes(limit or [], bound or [], model or [], reset_bands)
         if rcb:
             changes["rcb"] = assignments(rcb, "--rcb")
-        engine = existing_engine(database_url(db), database_field(db))
+        engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         written = replan(
             engine=engine,

@@ -24,8 +24,8 @@ from api.cli.common import (
     DbOption,
     PlanArg,
     emit,
+    engine_of,
     errors,
-    existing_engine,
     plan_of,
     say,
     write_atomically,
@@ -46,12 +46,6 @@ _out = Console()
 
 #: ``--json`` of the review commands (their help says less than :data:`api.cli.common.JsonOption`).
 _JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
-
-
-def _engine(db: str | None) -> Engine:
-    from api.settings import database_field, database_url
-
-    return existing_engine(database_url(db), database_field(db))
 
 
 def plans(
@@ -78,7 +72,7 @@ def plans(
     from api.services.read.common import LIST_PAGE
 
     with errors():
-        engine = _engine(db)
+        engine = engine_of(db)
         size = _bounded("--limit", LIST_PAGE if limit is None else limit)
         try:
             page = read_plans.list_plans(engine=engine, cursor=cursor, page_size=size)
@@ -160,7 +154,7 @@ def history(
     from api.services.read import plan_parts as read_parts
 
     with errors():
-        engine = _engine(db)
+        engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         data = read_history.plan_history(
             engine=engine, plan_id=plan_key, page_size=_bounded("--last", last), newest=True
@@ -304,7 +298,7 @@ def parts(
 
     with errors():
         after = _since(since)
-        engine = _engine(db)
+        engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         if last is not None:
             newest = read_parts.parts(
@@ -351,7 +345,7 @@ def export(
     with errors():
         if fmt not in ("csv", "parquet"):
             raise InputError("--format", fmt, "expected csv or parquet")
-        engine = _engine(db)
+        engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         tables = tidy.tables(
             read_history.full_history(engine=engine, plan_id=plan_key), _all_parts(engine, plan_key)
