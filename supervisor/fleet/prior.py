@@ -21,8 +21,9 @@ A quantity no plan of the fleet measured with the tool keeps the catalogue prior
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -142,11 +143,8 @@ def fleet_priors(
             pair = _pair(tool, op, catalogue, found, edge_sd)
             if pair is not None:
                 pairs[(op.name, quantity)] = pair
-    spreads = _spreads(plan.machine.name, pairs.values(), default_spread, spread_weight)
-    return {
-        key: _prior(plan.machine.name, pair, spreads[pair.key], spread_weight)
-        for key, pair in pairs.items()
-    }
+    seen = _spreads(plan.machine.name, pairs, default_spread, spread_weight)
+    return {key: _prior(pair, seen[key]) for key, pair in pairs.items()}
 
 
 def _proper(belief: post.Posterior) -> bool:
@@ -161,6 +159,14 @@ def _proper(belief: post.Posterior) -> bool:
 
 #: Tool and quantity: the tool's name, process and work material, and the quantity.
 _Key = tuple[str, str, str, str]
+
+
+class _Machines(NamedTuple):
+    """A new operation's machine's evidence (None: none), the others', where they pin ``ln Y``."""
+
+    own: Evidence | None
+    others: list[Evidence]
+    reference: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,9 +188,7 @@ class _Pair:
         ops = list(self.operations.values())
         return operation_estimates(ops, self.prior_mean, self.prior_information, n)
 
-    def machines(
-        self, machine: str, op_spread: float
-    ) -> tuple[Evidence | None, list[Evidence], np.ndarray]:
+    def machines(self, machine: str, op_spread: float) -> _Machines:
         """``machine``'s evidence (None: none), the others', and where they pin ``ln Y``.
 
         Each machine's operations integrated over ``op_spread`` (``σ_o``); the point is
@@ -195,12 +199,7 @@ class _Pair:
         others = list(by_machine.values())
         n = len(self.catalogue.names)
         reference = best_determined(others, self.prior_information, n, self.catalogue.center)
-        return own, others, reference
-
-    def between_estimate(self, machine: str, op_spread: float) -> tuple[float, int]:
-        """``σ_b``'s estimate from the machines but ``machine``, their operations' ``σ_o``."""
-        _, others, reference = self.machines(machine, op_spread)
-        return between_estimate(others, self.prior_mean, self.prior_information, reference)
+        return _Machines(own, others, reference)
 
 
 def _pair(
@@ -226,24 +225,44 @@ def _pair(
 _Default = tuple[float, float]
 
 
-def _spreads(
-    machine: str, pairs: Iterable[_Pair], default_spread: float, weight: float
-) -> dict[_Key, tuple[_Default, _Default]]:
-    """Per tool and quantity, the defaults of ``(σ_b, σ_o)`` its own estimates pool with.
+class _Seen(NamedTuple):
+    """A pair's spreads ``σ_b`` and ``σ_o``, and its machines, each integrated over ``σ_o``."""
 
-    ``σ_o``'s first (:func:`_moderated`), then ``σ_b``'s, from the estimates each tool's
-    machines give with its own ``σ_o`` (hierarchy, "a plan's tools").
+    spread: float
+    operation_spread: float
+    machines: _Machines
+
+
+def _spreads(
+    machine: str, pairs: Mapping[tuple[str, str], _Pair], default_spread: float, weight: float
+) -> dict[tuple[str, str], _Seen]:
+    """Per pair, ``σ_b`` and ``σ_o``: its own estimates pooled with its tool's defaults.
+
+    ``σ_o``'s first (:func:`_moderated`), then ``σ_b``'s, from the estimates each pair's
+    machines give with its own ``σ_o`` (hierarchy, "a plan's tools"). Each pair's estimates
+    are made once.
     """
-    # one per tool and quantity: the operations of one tool share its evidence
-    one = {pair.key: pair for pair in pairs}
-    per_op = {key: pair.operation_estimates() for key, pair in one.items()}
-    op_defaults = _moderated(per_op, DEFAULT_OPERATION_SPREAD, weight)
-    per_machine = {
-        key: [pair.between_estimate(machine, _at_least(op_defaults[key], weight, per_op[key]))]
-        for key, pair in one.items()
+    # the last operation of a tool speaks for its quantity: a tool's operations share evidence
+    speaks = {pair.key: key for key, pair in pairs.items()}
+    per_op = {key: pair.operation_estimates() for key, pair in pairs.items()}
+    op_defaults = _moderated(
+        {tool: per_op[key] for tool, key in speaks.items()}, DEFAULT_OPERATION_SPREAD, weight
+    )
+    op_spread = {k: _at_least(op_defaults[p.key], weight, per_op[k]) for k, p in pairs.items()}
+    seen = {key: pair.machines(machine, op_spread[key]) for key, pair in pairs.items()}
+    found = {
+        key: between_estimate(
+            seen[key].others, pair.prior_mean, pair.prior_information, seen[key].reference
+        )
+        for key, pair in pairs.items()
     }
-    defaults = _moderated(per_machine, default_spread, weight)
-    return {key: (defaults[key], op_defaults[key]) for key in one}
+    defaults = _moderated(
+        {tool: [found[key]] for tool, key in speaks.items()}, default_spread, weight
+    )
+    return {
+        key: _Seen(_at_least(defaults[pair.key], weight, [found[key]]), op_spread[key], seen[key])
+        for key, pair in pairs.items()
+    }
 
 
 def _moderated(
@@ -263,34 +282,28 @@ def _moderated(
     return out
 
 
-def _prior(
-    machine: str, pair: _Pair, defaults: tuple[_Default, _Default], weight: float
-) -> FleetPrior:
-    """``pair``'s prior for a new operation on ``machine``.
-
-    ``defaults``: those of ``(σ_b, σ_o)``, each held as ``weight`` against ``pair``'s own
-    estimates (:func:`_spreads`).
-    """
-    default_spread, op_default = defaults
+def _prior(pair: _Pair, seen: _Seen) -> FleetPrior:
+    """``pair``'s prior for a new operation on the plan's machine, ``seen`` its spreads."""
     catalogue = pair.catalogue
-    op_spread = _at_least(op_default, weight, pair.operation_estimates())
-    own, others, reference = pair.machines(machine, op_spread)
+    own, others, reference = seen.machines
     exponents = len(catalogue.names)
-    found = [between_estimate(others, pair.prior_mean, pair.prior_information, reference)]
-    spread = _at_least(default_spread, weight, found)
-    belief = fleet_belief(others, pair.prior_mean, pair.prior_cov, reference, exponents, spread)
+    belief = fleet_belief(
+        others, pair.prior_mean, pair.prior_cov, reference, exponents, seen.spread
+    )
     mean, cov = belief.mean, belief.cov
     if own is not None:  # this machine's offset, as its own readings show it
         fleet_information = np.linalg.inv(belief.cov)
         cov = np.linalg.inv(fleet_information + own.information)
         mean = cov @ (fleet_information @ belief.mean + own.vector)
     cov = cov.copy()
-    cov[0, 0] += op_spread**2  # the new operation's own offset (hierarchy)
+    cov[0, 0] += seen.operation_spread**2  # the new operation's own offset (hierarchy)
     prior = _in_operation_terms(catalogue, pair.op.context, mean, cov)
     plans = tuple(sorted({item.plan for item in pair.found}))
     machines = tuple(sorted({item.machine for item in pair.found}))
     readings = sum(item.posterior.observations for item in pair.found)
-    provenance = Provenance(catalogue.quantity, plans, machines, belief.spread, readings, op_spread)
+    provenance = Provenance(
+        catalogue.quantity, plans, machines, belief.spread, readings, seen.operation_spread
+    )
     return FleetPrior(prior, provenance)
 
 
