@@ -53,9 +53,9 @@ of MRR at the first part and nothing from the second (200 scenarios).
 each machine that ran the tool in two operations or more (two plans, or one plan's grooving
 and contouring), the operations' ``ln Y`` are compared where they pin it best, and their
 DerSimonian-Laird ``τ̂²`` is pooled over the machines with the default 2 % held as
-``ν_0`` operations' worth (:func:`operation_spread`). It matters most to a new plan on a
-machine the fleet knows, whose own readings leave its operation's ``γ`` the whole of its
-first part's uncertainty: with operations 6 % apart (``closed_loop.py --fleet 4
+``ν_0`` operations' worth (:func:`operation_estimates`, :func:`pooled`). It matters most to
+a new plan on a machine the fleet knows, whose own readings leave its operation's ``γ`` the
+whole of its first part's uncertainty: with operations 6 % apart (``closed_loop.py --fleet 4
 --operation-spread 0.06 --new-plan-on known``, 100 scenarios) the fixed 2 % crossed the
 shared insert's roughness at 30 first parts, the learned spread at 8 (the catalogue 4). A tool
 each machine ran in one operation only says nothing of it itself, and takes what the plan's
@@ -149,7 +149,7 @@ DEFAULT_EXPONENT_SPREAD = 0.02
 #: ``ln`` [-] (the module docstring; benchmarks/closed_loop.py --fleet 4 --fault wear).
 DEFAULT_EDGE_SPREAD = 0.01
 #: ``σ_o``: the default spread of an operation's ``ln K`` about its machine's [-], learned
-#: from the fleet's operations where a machine ran two (:func:`operation_spread`; the module
+#: from the fleet's operations where a machine ran two (:func:`operation_estimates`; the module
 #: docstring; benchmarks/closed_loop.py --fleet 4 --fleet-fault curvature).
 DEFAULT_OPERATION_SPREAD = 0.02
 
@@ -239,22 +239,6 @@ def best_determined(
     return reference
 
 
-def between_spread(
-    machines: Sequence[Evidence],
-    prior_mean: np.ndarray,
-    prior_information: np.ndarray,
-    reference: np.ndarray,
-    default: float = DEFAULT_SPREAD,
-    weight: float = SPREAD_WEIGHT,
-) -> float:
-    """``σ_b``: the default pooled with the machines' DerSimonian-Laird spread (module docstring).
-
-    ``reference``: ``φ`` of the point the machines' ``ln Y`` are compared at.
-    """
-    found = between_estimate(machines, prior_mean, prior_information, reference)
-    return pooled(default, weight, [found])
-
-
 def between_estimate(
     machines: Sequence[Evidence],
     prior_mean: np.ndarray,
@@ -264,24 +248,6 @@ def between_estimate(
     """``(τ̂², M − 1)``: the machines' DerSimonian-Laird spread at ``reference`` (module doc)."""
     estimates = [_at(reference, m, prior_mean, prior_information) for m in machines]
     return dersimonian_laird(estimates)
-
-
-def operation_spread(
-    machines: Sequence[Sequence[Evidence]],
-    prior_mean: np.ndarray,
-    prior_information: np.ndarray,
-    exponents: int,
-    default: float = DEFAULT_OPERATION_SPREAD,
-    weight: float = SPREAD_WEIGHT,
-) -> float:
-    """``σ_o``: the default pooled with how far operations on one machine differ (module doc).
-
-    ``machines``: per machine, the evidence of each of its operations with the tool (its
-    plans' operations); :func:`operation_estimates`, pooled with the default by their degrees
-    of freedom.
-    """
-    found = operation_estimates(machines, prior_mean, prior_information, exponents)
-    return pooled(default, weight, found)
 
 
 def operation_estimates(
@@ -357,7 +323,7 @@ def fleet_belief(
     ``reference``: ``φ``, where the machines' ``ln Y`` are compared and their exponents pivot;
     ``exponents``: how many of ``θ``'s parameters after ``ln K`` are exponents (the rest, the
     edge's rise, has no between-machine spread); ``spread``: ``σ_b``
-    (:func:`between_spread`).
+    (:func:`between_estimate` pooled, :func:`supervisor.fleet.prior.fleet_priors`).
     """
     p0 = np.linalg.inv(prior_cov)
     scales = exponent_spread * np.abs(prior_mean[1 : exponents + 1])

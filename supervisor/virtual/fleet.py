@@ -18,7 +18,7 @@ With ``operation_spread`` ``s_o`` > 0, each operation ``o`` of machine ``m`` mul
 tools' truths by ``exp(γ_{m,o})`` more, ``γ_{m,o} ~ N(0, s_o²)`` per quantity: the operation's
 context (its workholding, overhang, coolant) that the fleet models as an offset about its
 machine's ``ln K`` and learns the spread of (:func:`supervisor.fleet.hierarchy.
-operation_spread`). ``plan_draw`` numbers a plan: another plan on the same machines draws
+operation_estimates`). ``plan_draw`` numbers a plan: another plan on the same machines draws
 other operation offsets about the same machine offsets.
 
 With ``spread_mix`` ``M`` > 0 (:func:`tool_spreads`), each tool and quantity has a spread of

@@ -17,13 +17,17 @@ from numpy.testing import assert_allclose
 from models.errors import InputError
 from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms
 from supervisor.fleet.hierarchy import (
+    DEFAULT_OPERATION_SPREAD,
+    DEFAULT_SPREAD,
+    SPREAD_WEIGHT,
     best_determined,
     between,
-    between_spread,
+    between_estimate,
     fleet_belief,
     marginal,
     of_operation,
-    operation_spread,
+    operation_estimates,
+    pooled,
 )
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.part_report import Measurement
@@ -31,6 +35,23 @@ from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start
+
+
+def between_spread(
+    machines: list[Evidence], mean: np.ndarray, information: np.ndarray, reference: np.ndarray
+) -> float:
+    """``σ_b`` of one tool alone: the 5 % default held as 2 machines, with the estimate."""
+    found = between_estimate(machines, mean, information, reference)
+    return pooled(DEFAULT_SPREAD, SPREAD_WEIGHT, [found])
+
+
+def operation_spread(
+    machines: list[list[Evidence]], mean: np.ndarray, information: np.ndarray, exponents: int
+) -> float:
+    """``σ_o`` of one tool alone: the 2 % default held as 2 operations, with the estimates."""
+    found = operation_estimates(machines, mean, information, exponents)
+    return pooled(DEFAULT_OPERATION_SPREAD, SPREAD_WEIGHT, found)
+
 
 PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
 SETTINGS = RcbSettings(strategy="learn")
@@ -190,8 +211,8 @@ def test_the_operations_spread_pools_the_default_with_each_machines_operations()
     """Machine A's two operations at ``ln Y`` 0 and 0.1 (variance 1e-4 each, a flat prior):
     ``τ̂² = 0.0049`` on 1 degree of freedom (the worked case above); machine B's two at 0 and
     0: ``τ̂² = 0``, 1 more; machine C's one operation says nothing of the spread. ``σ_o² =
-    (2 · 0.02² + 0.0049 + 0)/(2 + 2)`` (hierarchy.operation_spread): 3.77 %, where the fixed
-    2 % had held it."""
+    (2 · 0.02² + 0.0049 + 0)/(2 + 2)`` (hierarchy.operation_estimates, pooled): 3.77 %, where
+    the fixed 2 % had held it."""
     flat = np.array([[1e-12]])
 
     def at(y: float) -> Evidence:
