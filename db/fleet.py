@@ -10,9 +10,14 @@ no cost grows with the parts they made. The tools' models come from one more sta
 fourth (``imported_models``, by ``ix_imported_models_tool``).
 
 Left out: a plan that is halted; a plan or machine an engineer took out (``rcb fleet
-exclude``, ``fleet_exclusions``); and a plan whose quantities, any of them, saw a change of
-their process (a ``regime_change``: their monitors counted one) beyond those an engineer
-accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted``).
+exclude``, ``fleet_exclusions``); and what a plan learned since its quantities, any of them,
+saw a change of their process (a ``regime_change``: their monitors counted one) beyond those an
+engineer accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted``).
+Such a plan gives the fleet its band states from before the part the change was counted at
+(``plans.fleet_evidence_before_part``, :mod:`db.fleet_changes`): what it learned of the process
+as it was. Most changes counted on a steady process are the monitors' false alarms (one in
+about 2 600 readings per quantity), which over a year of parts took nearly every plan out
+whole; a real change still keeps what was learned after it out.
 """
 
 from __future__ import annotations
@@ -123,22 +128,25 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
             b,
             t.Plan.prior,
             t.Plan.fleet_changes_accepted,
+            t.Plan.fleet_evidence_before_part,
         )
         .join(t.Tool, t.Operation.tool_id == t.Tool.id)
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
         .join(t.Plan, t.Operation.plan_id == t.Plan.id)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
-        .join(b, b.id == newest_state())
+        .join(b, b.id == newest_state(before_change=True))
         .where(t.Tool.name.in_(names), t.Plan.halt.is_(None), b.posterior.is_not(None))
         .where(~exists().where(_excluded))
         .order_by(t.Plan.id, t.Operation.position, b.quantity)
     ).all()
     changes = plan_changes(session=session, plan_ids={op.plan_id for op, *_ in rows})
-    changed = {
-        plan for op, _, plan, _, _, _, _, accepted in rows if changes.get(op.plan_id, 0) > accepted
+    changed = {  # and stored before alembic 0022, so where it changed is not known: out whole
+        plan
+        for op, _, plan, _, _, _, _, accepted, cut in rows
+        if changes.get(op.plan_id, 0) > accepted and cut is None
     }
     out = []
-    for op, tool, plan, stored, machine, state, started, _ in rows:
+    for op, tool, plan, stored, machine, state, started, _, _ in rows:
         settings = settings_of(stored)
         if plan in changed or settings.strategy != "learn":
             continue
@@ -163,12 +171,14 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
 _excluded = or_(t.FleetExclusion.plan_id == t.Plan.id, t.FleetExclusion.machine == t.Machine.name)
 
 
-def newest_state() -> ScalarSelect[int]:
+def newest_state(*, before_change: bool = False) -> ScalarSelect[int]:
     """The id of the newest band state of the outer query's operation and tool quantity.
 
     Correlated with ``operations`` and ``tool_models``; an index seek on ``band_states
     (operation_id, quantity, part_id)``. States of parts a replan's ``reset_bands`` forgot are
     left out (as :func:`db.state.load_state` leaves them): none until a part after it.
+    ``before_change``: the newest before the part the plan's process changed at, where one is
+    pending (``plans.fleet_evidence_before_part``; correlated with ``plans`` too).
     """
     newest, revision = aliased(t.BandState), aliased(t.PlanRevision)
     reset = (
@@ -177,14 +187,15 @@ def newest_state() -> ScalarSelect[int]:
         .correlate(t.Operation)
         .scalar_subquery()
     )
-    return (
+    query = (
         select(newest.id)
         .where(newest.operation_id == t.Operation.id, newest.quantity == t.ToolModel.quantity)
         .where(newest.part_id > reset)
-        .order_by(newest.part_id.desc())
-        .limit(1)
-        .scalar_subquery()
     )
+    if before_change:
+        cut = t.Plan.fleet_evidence_before_part
+        query = query.where(or_(cut.is_(None), newest.part_id < cut))
+    return query.order_by(newest.part_id.desc()).limit(1).scalar_subquery()
 
 
 def plan_changes(*, session: Session, plan_ids: Iterable[int]) -> dict[int, int]:

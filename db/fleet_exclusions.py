@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet import imported_machine, plan_changes
+from db.fleet_changes import clear_fleet_change
 from db.plans import get_plan_row
 from models.errors import InputError
 
@@ -63,6 +64,7 @@ def include(*, session: Session, plan_id: int | None, machine: str | None) -> in
     session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.plan_id == plan_id))
     changes = plan_changes(session=session, plan_ids=[row.id])[row.id]
     row.fleet_changes_accepted = changes
+    clear_fleet_change(row)
     return changes
 
 

@@ -3,9 +3,11 @@
 ``rcb fleet show TOOL``: the plans whose operations use the tool, a page at a time by id,
 each with its machine and whether its learned models are in the fleet (what
 :func:`db.fleet.fleet_evidence` reads) or why not: an engineer took the plan or its machine
-out, its process changed beyond what an engineer accepted, it is halted, its strategy learns
-no posterior, or no part was reported since its bands were last reset. Four statements a
-page, however many plans use the tool and however many parts they made.
+out, it is halted, its strategy learns no posterior, or no part was reported since its bands
+were last reset; a plan whose process changed beyond what an engineer accepted is in with
+what it learned before (``until``: the part it changed at; :mod:`db.fleet_changes`), and out
+where it changed before it learned anything. Four statements a page, however many plans use
+the tool and however many parts they made.
 """
 
 from __future__ import annotations
@@ -34,6 +36,9 @@ class Member:
     readings: int
     out: str
     let_go: tuple[str, ...]
+    #: Where its models in the fleet stop ("" at its newest part): before the part its process
+    #: changed at, until an engineer accepts the change (:mod:`db.fleet_changes`).
+    until: str = ""
 
 
 def members(
@@ -49,8 +54,9 @@ def members(
     ``only``: just these plan ids (a REST key scoped to plans), filtered in the query.
     """
     query = (
-        select(t.Plan, t.Machine.name)
+        select(t.Plan, t.Machine.name, t.Part.serial)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
+        .outerjoin(t.Part, t.Part.id == t.Plan.fleet_evidence_before_part)
         .where(
             t.Plan.id > after_id,
             t.Plan.id.in_(
@@ -67,7 +73,7 @@ def members(
     plans = session.execute(query).all()
     if not plans:
         return []
-    ids = [row.id for row, _ in plans]
+    ids = [row.id for row, _, _ in plans]
     states = _states(session, tool, ids)
     changes = plan_changes(session=session, plan_ids=ids)
     exclusions = session.scalars(
@@ -75,27 +81,31 @@ def members(
         .where(
             or_(
                 t.FleetExclusion.plan_id.in_(ids),
-                t.FleetExclusion.machine.in_({machine for _, machine in plans}),
+                t.FleetExclusion.machine.in_({machine for _, machine, _ in plans}),
             )
         )
         .order_by(t.FleetExclusion.id)
     ).all()
     return [
-        _member(row, machine, states.get(row.id, []), exclusions, changes[row.id])
-        for row, machine in plans
+        _member(row, machine, states.get(row.id, []), exclusions, (changes[row.id], cut))
+        for row, machine, cut in plans
     ]
 
 
 def _states(
     session: Session, tool: str, plan_ids: Sequence[int]
 ) -> dict[int, list[tuple[str, t.BandState | None]]]:
-    """Per plan, its operations on ``tool`` with the newest band state of each quantity."""
+    """Per plan, its operations on ``tool`` with the band state of each quantity in the fleet.
+
+    The newest, or where the plan's process changed the newest before it (:mod:`db.fleet`).
+    """
     b = t.BandState
     rows = session.execute(
         select(t.Operation.plan_id, t.Operation.name, b)
+        .join(t.Plan, t.Operation.plan_id == t.Plan.id)
         .join(t.Tool, t.Operation.tool_id == t.Tool.id)
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
-        .outerjoin(b, b.id == newest_state())
+        .outerjoin(b, b.id == newest_state(before_change=True))
         .where(t.Tool.name == tool, t.Operation.plan_id.in_(plan_ids))
         .order_by(t.Operation.plan_id, t.Operation.position, t.ToolModel.quantity)
     ).all()
@@ -110,8 +120,10 @@ def _member(
     machine: str,
     states: Sequence[tuple[str, t.BandState | None]],
     exclusions: Sequence[t.FleetExclusion],
-    changes: int,
+    changed: tuple[int, str | None],
 ) -> Member:
+    """``changed``: the plan's changes counted, and the part its evidence stops before."""
+    changes, cut = changed
     operations = tuple(dict.fromkeys(op for op, _ in states))
     beliefs = {
         (op, s.quantity): posterior_from_json(s.posterior)
@@ -124,15 +136,29 @@ def _member(
         for (op, q), start in starts.items()
         if max(start.prior_widening, _widening(beliefs.get((op, q)))) > 0
     )
+    out = _why_out(row, machine, bool(beliefs), changes if cut is None else 0, exclusions)
     return Member(
         row.id,
         row.name,
         machine,
         operations,
         sum(b.observations for b in beliefs.values()),
-        _why_out(row, machine, bool(beliefs), changes, exclusions),
+        out,
         let_go,
+        "" if out else _until(row, changes, cut),
     )
+
+
+def _until(row: t.Plan, changes: int, cut: str | None) -> str:
+    """Where the plan's models in the fleet stop, where its process changed ("": its newest)."""
+    if cut is None or changes <= row.fleet_changes_accepted:
+        return ""
+    unaccepted = changes - row.fleet_changes_accepted
+    return f"before part {cut}: its process changed ({unaccepted} not accepted: rcb fleet include)"
+
+
+#: A plan whose process changed at its first part since its bands were last reset.
+_NOTHING = "its process changed before it learned anything (rcb fleet include)"
 
 
 def _widening(belief: Posterior | None) -> float:
@@ -161,5 +187,5 @@ def _why_out(
         unaccepted = changes - row.fleet_changes_accepted
         return f"its process changed ({unaccepted} not accepted: rcb fleet include)"
     if not learned:
-        return "no part reported yet"
+        return "no part reported yet" if not row.fleet_evidence_before_part else _NOTHING
     return ""

@@ -17,6 +17,7 @@ from sqlalchemy.orm import Session
 from db import tables as t
 from db.errors import ConflictError, PlanNameTakenError
 from db.fleet import restarted_json
+from db.fleet_changes import clear_fleet_change
 from db.intake import PlanHead
 from db.library import ensure_tool, load_tools
 from db.model_versions import model_version_row, version_numbers
@@ -190,6 +191,7 @@ def add_replan(
     plan_row.halt = None  # a replan resumes a halted plan
     if reset_bands:  # the monitors start again: so does the count of changes (db.fleet)
         plan_row.fleet_changes_accepted = 0
+        clear_fleet_change(plan_row)
     prior = restarted_json(plan_row.prior, after.priors)
     if prior is not None:  # reset bands: a fleet prior the machine let go stays let go
         plan_row.prior = prior

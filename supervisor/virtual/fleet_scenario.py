@@ -4,8 +4,9 @@ For a scenario ``seed`` (:func:`run_fleet_scenario`): the fleet of ``machines`` 
 machines (:func:`supervisor.virtual.fleet.sample_fleet`; every :data:`OUTSIDE_EVERY`-th
 scenario's new machine outside the spread); each of the first ``machines − 1`` makes
 ``learn_parts`` parts with ``learn`` from the catalogue; their posteriors are the fleet
-(:mod:`supervisor.fleet.prior`: a plan that halted or saw a change of its process is left out,
-as the database leaves it out until an engineer puts it back); the last machine then makes
+(:mod:`supervisor.fleet.prior`: a plan that halted is left out, and a plan that saw a change of
+its process gives what it learned before it, as the database does until an engineer accepts
+the change: :mod:`db.fleet_changes`); the last machine then makes
 ``parts`` parts twice with the same noise, once from the fleet prior and once from the
 catalogue, each scored against that machine's oracle (:func:`supervisor.virtual.scenario.
 run_machine`), and a third time from the prior of a controller that knows the fleet's law and
@@ -63,13 +64,16 @@ class FleetTrace:
     let_go: int = 0  # the new machine's quantities whose fleet prior its readings let go
     noise_let_go: int = 0  # its chains whose fleet noise prior their readings let go
     left_out: int = 0  # the learning machines' plans left out of the fleet (a halt, a change)
+    #: the learning machines' plans whose evidence stops before a change of their process
+    cut_short: int = 0
 
 
 def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
     """What one plan's state gives the fleet: nothing after a halt or a change of the process.
 
     Each operation's posterior, and its evidence on its measuring chain's noise (its
-    monitor's, :mod:`supervisor.fleet.noise`).
+    monitor's, :mod:`supervisor.fleet.noise`). :func:`_learn` gives a plan whose process
+    changed as its state before the change, as the database does (:mod:`db.fleet_changes`).
     """
     if state.halt is not None or any(m.changes for m in state.monitors.values()):
         return []
@@ -122,7 +126,9 @@ def run_fleet_scenario(
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
     plans = [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, learn_plans))]
-    learned, violations, left_out = _learn(catalogue, plans, seed, learn_parts, fleet_faults)
+    learned, violations, (left_out, cut_short) = _learn(
+        catalogue, plans, seed, learn_parts, fleet_faults
+    )
     new, last = fleet[-1], noise_seed(seed, machines - 1)
     if on_known:  # machine 0 again, a new plan's operations
         new = world(1, plan_draw=learn_plans)[0]
@@ -145,6 +151,7 @@ def run_fleet_scenario(
         sum(b.prior_widening > 0 for b in state.posterior.values()),
         len(chains) - len(state.noise_priors),
         left_out,
+        cut_short,
     )
 
 
@@ -172,26 +179,50 @@ def _learn(
     seed: int,
     parts: int,
     faults: Faults | None,
-) -> tuple[list[Learned], int, int]:
-    """The learning machines' plans from the catalogue: ``(learned, violations, left out)``.
+) -> tuple[list[Learned], int, tuple[int, int]]:
+    """The learning machines' plans from the catalogue: what the fleet learned from them.
 
     ``plans[p][m]``: machine ``m`` as plan ``p``'s operations meet it (plan 0 with the noise
-    of :func:`noise_seed`). What the fleet learned from them, their violations, and how many
-    plans a halt or a change left out.
+    of :func:`noise_seed`). Returns ``(learned, violations, (left out, cut short))``: their
+    violations, how many plans a halt (or a change at the first part) left out, and how many
+    gave what they learned before a change of their process.
     """
     learned: list[Learned] = []
-    violations = left_out = 0
+    violations = left_out = cut_short = 0
     for p, machines in enumerate(plans):
         for m, machine in enumerate(machines):
             noise = noise_seed(seed, m) if p == 0 else [*noise_seed(seed, m), p]
+            kept = _BeforeChange()
             trace, state = run_machine(
-                catalogue, machine, seed, parts, faults=faults, noise_seed=noise
+                catalogue, machine, seed, parts, faults=faults, noise_seed=noise, on_report=kept
             )
             violations += int(trace.violations.sum())
-            found = learned_from(state, f"machine-{m}", f"plan-{m}" if p == 0 else f"plan-{m}-{p}")
+            name = f"plan-{m}" if p == 0 else f"plan-{m}-{p}"
+            evidence = kept.state or state
+            nothing = state.halt is not None or evidence is catalogue  # changed at part 1
+            found = [] if nothing else learned_from(evidence, f"machine-{m}", name)
             left_out += not found
+            cut_short += bool(found and kept.state)
             learned += found
-    return learned, violations, left_out
+    return learned, violations, (left_out, cut_short)
+
+
+class _BeforeChange:
+    """The state before the first report whose readings counted a change of the process.
+
+    ``None`` while none did; the catalogue start (nothing learned) where the first one did.
+    """
+
+    def __init__(self) -> None:
+        self.state: RcbState | None = None
+
+    def __call__(self, before: RcbState, after: RcbState) -> None:
+        if self.state is None and _changes(after) > _changes(before):
+            self.state = before
+
+
+def _changes(state: RcbState) -> int:
+    return sum(m.changes for m in state.monitors.values())
 
 
 def _one(

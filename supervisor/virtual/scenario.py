@@ -7,7 +7,7 @@ many of them.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -107,11 +107,13 @@ def run_machine(
     *,
     faults: Faults | None = None,
     noise_seed: int | Sequence[int] | None = None,
+    on_report: Callable[[RcbState, RcbState], None] | None = None,
 ) -> tuple[ScenarioTrace, RcbState]:
     """:func:`run_scenario` on a given ``machine``; also the state after the last report.
 
     ``noise_seed``: the seed of the measurement noise (``seed`` when not given): the machines
     of a fleet (:mod:`supervisor.virtual.fleet`) each draw their own. ``faults`` wear it too.
+    ``on_report(before, after)``: called with the states around each report.
     """
     plan, faults = initial.plan, faults or Faults()
     machine = _worn(machine, faults)
@@ -136,7 +138,9 @@ def run_machine(
         made = k
         violations[k - 1] = len(outcome.violations)
         where += [(k, v.operation, v.quantity) for v in outcome.violations]
-        state, _ = update(state, report)
+        before, (state, _) = state, update(state, report)
+        if on_report is not None:
+            on_report(before, state)
         if state.halt is not None:
             stopped_at, stopped_op = k, _halted_operation(state.halt)
             break

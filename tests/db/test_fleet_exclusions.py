@@ -1,5 +1,9 @@
 """Which plans make the fleet (issue 32): an engineer takes a plan or a machine out and puts it
-back; a plan whose process changed is out by itself until then (SQLite and PostgreSQL)."""
+back; a plan whose process changed is out by itself until then (SQLite and PostgreSQL).
+
+The changes here are written into the monitors' stored state, with no part at which they were
+counted: a plan stored before alembic 0022, which is out whole. A change counted by a part
+report stops the plan's evidence before that part instead (tests/db/test_fleet_changes.py)."""
 
 from __future__ import annotations
 

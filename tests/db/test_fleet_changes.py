@@ -1,0 +1,126 @@
+"""A change of a plan's process stops its evidence for the fleet at the part before it (issue 32;
+db/fleet_changes.py, alembic 0022), through real part reports, on SQLite and PostgreSQL.
+
+Before, a change took the plan out of the fleet whole; the monitors' false alarms (one in about
+2 600 readings a quantity) then took 57 of 90 plans out after 300 parts on a steady fleet
+(benchmarks/closed_loop.py --fleet 4 --learn-parts 300). Now the fleet keeps what the plan
+learned before the change, leaves out what it learned since, and an engineer's ``rcb fleet
+include`` (or a reset of the bands) gives it all back.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+from test_fleet_db import FLEET, LEARN, _body
+
+from api.rest.schemas.parts import parse_report
+from api.services.fleet_models import include_in_fleet
+from api.services.parts import report_part
+from api.services.plans import create_plan, replan
+from db import tables as t
+from db.fleet import fleet_evidence
+from db.fleet_members import members
+from supervisor.virtual.fleet import noise_seed
+from supervisor.virtual.simulate import run_part
+
+from conftest import stored_state
+
+
+def _parts(engine, plan_id: int, serials: range, scale: float = 1.0) -> None:  # type: ignore[no-untyped-def]
+    """Parts of ``plan_id`` on machine 0 of the fleet, rough-od's force read ``scale`` x."""
+    rng = np.random.default_rng(noise_seed(11, 0))
+    for i in serials:
+        state = stored_state(engine, plan_id)
+        outcome = run_part(
+            FLEET[0], {op.name: op.setpoint for op in state.setpoints.operations}, rng
+        )
+        operations: list[dict[str, Any]] = []
+        for op, measured in outcome.measurements.items():
+            values = {
+                q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in measured.items()
+            }
+            if op == "rough-od":
+                values["force_N"]["value"] *= scale
+            operations.append({"name": op, "measurements": values})
+        body = {"serial": f"a-{i}", "setpoint_version": state.version, "operations": operations}
+        assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
+
+
+def _rough_od_readings(engine) -> int:  # type: ignore[no-untyped-def]
+    """The readings of plan a's rough-od force the fleet reads."""
+    with Session(engine) as session:
+        found = fleet_evidence(session=session, tool_names=["CNMG432RN"])
+    (item,) = [
+        i for i in found if i.operation.name == "rough-od" and i.posterior.quantity == "force_N"
+    ]
+    return item.posterior.observations
+
+
+def _cut(engine, plan_id: int) -> str | None:  # type: ignore[no-untyped-def]
+    with Session(engine) as session:
+        row = session.get(t.Plan, plan_id)
+        assert row is not None
+        part = row.fleet_evidence_before_part
+        return (
+            None if part is None else session.scalar(select(t.Part.serial).where(t.Part.id == part))
+        )
+
+
+def test_a_change_keeps_what_the_plan_learned_before_it_until_an_engineer_accepts(engine) -> None:
+    a = int(create_plan(engine=engine, body=_body("fleet-a", "lathe-0"), settings=LEARN).body["id"])
+    _parts(engine, a, range(1, 7))
+    assert _cut(engine, a) is None and _rough_od_readings(engine) == 6
+    _parts(engine, a, range(7, 8), scale=1.15)  # rough-od's force: a change of the process
+    assert stored_state(engine, a).monitors[("rough-od", "force_N")].changes == 1
+    assert _cut(engine, a) == "a-7"
+    _parts(engine, a, range(8, 11), scale=1.15)
+    assert _rough_od_readings(engine) == 6  # parts 1-6: what it learned before the change
+    with Session(engine) as session:
+        (member,) = members(session=session, tool="CNMG432RN", after_id=0, limit=10)
+    assert member.out == ""
+    counted = sum(m.changes for m in stored_state(engine, a).monitors.values())
+    assert counted >= 1  # the step goes on: its monitors may count it more than once
+    assert member.until == (
+        f"before part a-7: its process changed ({counted} not accepted: rcb fleet include)"
+    )
+    assert member.readings == 12  # parts 1-6, force and roughness
+    include_in_fleet(engine=engine, plan_id=a, machine=None)
+    assert _cut(engine, a) is None
+    assert _rough_od_readings(engine) == 10  # accepted: everything it learned
+    _parts(engine, a, range(11, 12), scale=1.0)  # back down: a second change
+    if stored_state(engine, a).monitors[("rough-od", "force_N")].changes == 2:
+        assert _cut(engine, a) == "a-11" and _rough_od_readings(engine) == 10
+
+
+def test_a_reset_of_the_bands_forgets_where_the_evidence_stopped(engine) -> None:
+    a = int(create_plan(engine=engine, body=_body("fleet-a", "lathe-0"), settings=LEARN).body["id"])
+    _parts(engine, a, range(1, 4))
+    _parts(engine, a, range(4, 5), scale=1.15)
+    assert _cut(engine, a) == "a-4"
+    assert replan(engine=engine, plan_id=a, changes={"reset_bands": True}).status == 201
+    assert _cut(engine, a) is None
+    _parts(engine, a, range(5, 7), scale=1.15)
+    assert _rough_od_readings(engine) == 2  # learned since the reset, its process as it is now
+
+
+def test_a_change_at_the_first_part_leaves_nothing_to_keep(engine) -> None:
+    """The first part since a reset counted the change: nothing was learned before it."""
+    a = int(create_plan(engine=engine, body=_body("fleet-a", "lathe-0"), settings=LEARN).body["id"])
+    _parts(engine, a, range(1, 3))
+    with Session(engine) as session, session.begin():  # as a change counted at part a-1
+        first = session.scalar(select(t.Part.id).where(t.Part.serial == "a-1"))
+        row = session.get(t.Plan, a)
+        assert row is not None and first is not None
+        row.fleet_evidence_before_part = first
+        newest = session.scalars(select(t.BandState).order_by(t.BandState.id.desc())).first()
+        assert newest is not None and newest.monitor is not None
+        newest.monitor = {**newest.monitor, "changes": 1}
+    with Session(engine) as session:
+        assert fleet_evidence(session=session, tool_names=["CNMG432RN"]) == []
+        (member,) = members(session=session, tool="CNMG432RN", after_id=0, limit=10)
+    assert member.out == "its process changed before it learned anything (rcb fleet include)"
+    assert (member.readings, member.until) == (0, "")
