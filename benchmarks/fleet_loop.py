@@ -16,8 +16,8 @@ counted, inside and outside the spread, and those whose chains let the fleet's n
 runs): ``--fault noise-scale:3`` is a new machine whose instruments are not the fleet's kind.
 ``--fleet-fault`` applies to the learning machines (the fleet's own shop floor misbehaves: its
 readings drop out, its instruments misreport their noise, its process steps or is not a power
-law); a plan that halted is left out of the fleet, one that saw a change of its process counts
-with what it learned before it, and both are counted.
+law); a plan that halted or saw a change of its process its readings since confirm is left
+out of the fleet, one whose change they do not confirm counts, and both are counted.
 ``--operation-spread S`` gives each operation of every machine an offset of its own about its
 machine's ``ln K`` (its workholding, its overhang), which the fleet learns the spread of where
 a machine ran two operations with a tool; ``--new-plan-on known`` starts the new plan on the
@@ -120,9 +120,9 @@ def report(traces: Sequence[FleetTrace], parts: int, seconds: float) -> list[str
     left_out = sum(t.left_out for t in traces)
     if left_out:
         out.append(f"learning plans left out of the fleet (a halt, a change): {left_out}")
-    cut_short = sum(t.cut_short for t in traces)
-    if cut_short:
-        out.append(f"learning plans in up to a change of their process: {cut_short}")
+    unconfirmed = sum(t.unconfirmed for t in traces)
+    if unconfirmed:
+        out.append(f"learning plans in, a change their readings do not confirm: {unconfirmed}")
     spreads = [p.spread for t in traces for p in t.provenance]
     if spreads:
         out.append(

@@ -10,14 +10,12 @@ no cost grows with the parts they made. The tools' models come from one more sta
 fourth (``imported_models``, by ``ix_imported_models_tool``).
 
 Left out: a plan that is halted; a plan or machine an engineer took out (``rcb fleet
-exclude``, ``fleet_exclusions``); and what a plan learned since its quantities, any of them,
-saw a change of their process (a ``regime_change``: their monitors counted one) beyond those an
-engineer accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted``).
-Such a plan gives the fleet its band states from before the part the change was counted at
-(``plans.fleet_evidence_before_part``, :mod:`db.fleet_changes`): what it learned of the process
-as it was. Most changes counted on a steady process are the monitors' false alarms (one in
-about 2 600 readings per quantity), which over a year of parts took nearly every plan out
-whole; a real change still keeps what was learned after it out.
+exclude``, ``fleet_exclusions``); and a plan whose quantities, any of them, saw a change of
+their process (a ``regime_change``: their monitors counted one) beyond those an engineer
+accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted``), where what
+it learned since confirms the change (:mod:`db.fleet_changes`): most changes counted on a
+steady process are the monitors' false alarms, which over a year of parts took nearly every
+plan out (:mod:`supervisor.fleet.changes`).
 """
 
 from __future__ import annotations
@@ -26,11 +24,13 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any
 
-from sqlalchemy import ScalarSelect, exists, func, or_, select
-from sqlalchemy.orm import Session, aliased
+from sqlalchemy import exists, or_, select
+from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.fleet_changes import confirmed_changes
 from db.fleet_noise import noise_provenance
+from db.fleet_states import newest_state
 from db.let_go_mark import marked
 from db.library import load_tools
 from db.plan_state import settings_of
@@ -134,16 +134,18 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
         .join(t.Plan, t.Operation.plan_id == t.Plan.id)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
-        .join(b, b.id == newest_state(before_change=True))
+        .join(b, b.id == newest_state())
         .where(t.Tool.name.in_(names), t.Plan.halt.is_(None), b.posterior.is_not(None))
         .where(~exists().where(_excluded))
         .order_by(t.Plan.id, t.Operation.position, b.quantity)
     ).all()
     changes = plan_changes(session=session, plan_ids={op.plan_id for op, *_ in rows})
-    changed = {  # and stored before alembic 0022, so where it changed is not known: out whole
+    pending = {op.plan_id for op, *_, accepted, _ in rows if changes.get(op.plan_id, 0) > accepted}
+    confirmed = confirmed_changes(session=session, plan_ids=pending)
+    changed = {  # confirmed, or counted before alembic 0022 (where, not known): out whole
         plan
-        for op, _, plan, _, _, _, _, accepted, cut in rows
-        if changes.get(op.plan_id, 0) > accepted and cut is None
+        for op, _, plan, *_, cut in rows
+        if op.plan_id in pending and (cut is None or op.plan_id in confirmed)
     }
     out = []
     for op, tool, plan, stored, machine, state, started, _, _ in rows:
@@ -169,33 +171,6 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
 
 #: An engineer took the row's plan or its machine out of the fleet (``fleet_exclusions``).
 _excluded = or_(t.FleetExclusion.plan_id == t.Plan.id, t.FleetExclusion.machine == t.Machine.name)
-
-
-def newest_state(*, before_change: bool = False) -> ScalarSelect[int]:
-    """The id of the newest band state of the outer query's operation and tool quantity.
-
-    Correlated with ``operations`` and ``tool_models``; an index seek on ``band_states
-    (operation_id, quantity, part_id)``. States of parts a replan's ``reset_bands`` forgot are
-    left out (as :func:`db.state.load_state` leaves them): none until a part after it.
-    ``before_change``: the newest before the part the plan's process changed at, where one is
-    pending (``plans.fleet_evidence_before_part``; correlated with ``plans`` too).
-    """
-    newest, revision = aliased(t.BandState), aliased(t.PlanRevision)
-    reset = (
-        select(func.coalesce(func.max(revision.bands_reset_after_part), 0))
-        .where(revision.plan_id == t.Operation.plan_id, revision.reset_bands.is_(True))
-        .correlate(t.Operation)
-        .scalar_subquery()
-    )
-    query = (
-        select(newest.id)
-        .where(newest.operation_id == t.Operation.id, newest.quantity == t.ToolModel.quantity)
-        .where(newest.part_id > reset)
-    )
-    if before_change:
-        cut = t.Plan.fleet_evidence_before_part
-        query = query.where(or_(cut.is_(None), newest.part_id < cut))
-    return query.order_by(newest.part_id.desc()).limit(1).scalar_subquery()
 
 
 def plan_changes(*, session: Session, plan_ids: Iterable[int]) -> dict[int, int]:

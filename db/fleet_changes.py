@@ -1,27 +1,35 @@
-"""Where a plan's evidence for the fleet stops when its process changes (issue 32).
+"""Whether a change of a plan's process its monitors counted keeps it out of the fleet (issue 32).
 
 A part whose readings made the plan's monitors count a change of its process (a
 ``regime_change``) while none was pending sets ``plans.fleet_evidence_before_part`` to that
-part (alembic 0022): the fleet (:func:`db.fleet.local_evidence`) then reads the plan's band
-states from before it, what the plan learned of the process as it was, and leaves out what
-it learned since. ``rcb fleet include`` accepts the changes (``plans.fleet_changes_accepted``)
-and clears it, so everything the plan learned is back; ``rcb replan --reset-bands`` clears it
-with the count of changes. Why not out whole: in :mod:`db.fleet`'s docstring.
+part (alembic 0022). The plan's band states before it are what it had learned of the process
+as it was; :func:`confirmed_changes` compares them with its newest
+(:func:`supervisor.fleet.changes.confirmed`): a change its readings since confirm keeps the
+plan out of the fleet (:func:`db.fleet.local_evidence`), one they do not (a monitor's false
+alarm) leaves it in with everything it learned. ``rcb fleet include`` accepts the changes
+(``plans.fleet_changes_accepted``) and clears the part; ``rcb replan --reset-bands`` clears
+it with the count of changes.
 """
 
 from __future__ import annotations
 
-from sqlalchemy import update
-from sqlalchemy.orm import Session
+from collections.abc import Iterable
+
+from sqlalchemy import select, update
+from sqlalchemy.orm import Session, aliased
 
 from db import tables as t
+from db.fleet_states import newest_state
+from supervisor.fleet.changes import confirmed
+from supervisor.rcb.posterior import Posterior
+from supervisor.rcb.posterior import from_json as posterior_from_json
 
 
 def freeze_fleet_evidence(*, session: Session, plan_id: int, part_id: int) -> None:
     """Part ``part_id`` counted a change: the plan's fleet evidence stops before it.
 
-    A change already pending keeps its part (the evidence stops at the first change not
-    accepted). One statement, only for a part that counted a change.
+    A change already pending keeps its part (the beliefs before the first change not
+    accepted are the ones compared). One statement, only for a part that counted a change.
     """
     cut = t.Plan.fleet_evidence_before_part
     session.execute(
@@ -30,5 +38,34 @@ def freeze_fleet_evidence(*, session: Session, plan_id: int, part_id: int) -> No
 
 
 def clear_fleet_change(row: t.Plan) -> None:
-    """The plan's changes are accepted or forgotten: its fleet evidence runs to its newest."""
+    """The plan's changes are accepted or forgotten: none is pending."""
     row.fleet_evidence_before_part = None
+
+
+def confirmed_changes(*, session: Session, plan_ids: Iterable[int]) -> set[int]:
+    """The plans among ``plan_ids`` whose pending change their readings since confirm.
+
+    One statement for any number of plans: per operation and tool quantity the newest band
+    state and the newest before the change's part (index seeks, :func:`db.fleet.newest_state`).
+    A plan with no change pending is not among them.
+    """
+    ids = sorted(set(plan_ids))
+    if not ids:
+        return set()
+    now, before = aliased(t.BandState), aliased(t.BandState)
+    rows = session.execute(
+        select(t.Operation.plan_id, before.posterior, now.posterior)
+        .join(t.Plan, t.Operation.plan_id == t.Plan.id)
+        .join(t.ToolModel, t.ToolModel.tool_id == t.Operation.tool_id)
+        .join(now, now.id == newest_state())
+        .outerjoin(before, before.id == newest_state(before_change=True))
+        .where(t.Operation.plan_id.in_(ids), t.Plan.fleet_evidence_before_part.is_not(None))
+    ).all()
+    pairs: dict[int, list[tuple[Posterior | None, Posterior | None]]] = {}
+    for plan_id, old, new in rows:
+        pairs.setdefault(plan_id, []).append((_belief(old), _belief(new)))
+    return {plan_id for plan_id, found in pairs.items() if confirmed(found)}
+
+
+def _belief(stored: dict[str, object] | None) -> Posterior | None:
+    return None if stored is None else posterior_from_json(stored)

@@ -4,10 +4,10 @@
 each with its machine and whether its learned models are in the fleet (what
 :func:`db.fleet.fleet_evidence` reads) or why not: an engineer took the plan or its machine
 out, it is halted, its strategy learns no posterior, or no part was reported since its bands
-were last reset; a plan whose process changed beyond what an engineer accepted is in with
-what it learned before (``until``: the part it changed at; :mod:`db.fleet_changes`), and out
-where it changed before it learned anything. Four statements a page, however many plans use
-the tool and however many parts they made.
+were last reset; a plan whose process changed beyond what an engineer accepted is out where
+its readings since confirm the change, and in where they do not (``change`` says so;
+:mod:`db.fleet_changes`). Five statements a page, however many plans use the tool and however
+many parts they made.
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ from sqlalchemy import or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet import newest_state, plan_changes, priors_of
+from db.fleet import plan_changes, priors_of
+from db.fleet_changes import confirmed_changes
+from db.fleet_states import newest_state
 from db.plan_state import settings_of
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
@@ -36,9 +38,9 @@ class Member:
     readings: int
     out: str
     let_go: tuple[str, ...]
-    #: Where its models in the fleet stop ("" at its newest part): before the part its process
-    #: changed at, until an engineer accepts the change (:mod:`db.fleet_changes`).
-    until: str = ""
+    #: A change of its process its monitors counted that its readings since do not confirm
+    #: (in the fleet all the same: :mod:`db.fleet_changes`); "": none.
+    change: str = ""
 
 
 def members(
@@ -76,6 +78,7 @@ def members(
     ids = [row.id for row, _, _ in plans]
     states = _states(session, tool, ids)
     changes = plan_changes(session=session, plan_ids=ids)
+    confirmed = confirmed_changes(session=session, plan_ids=ids)
     exclusions = session.scalars(
         select(t.FleetExclusion)
         .where(
@@ -87,7 +90,7 @@ def members(
         .order_by(t.FleetExclusion.id)
     ).all()
     return [
-        _member(row, machine, states.get(row.id, []), exclusions, (changes[row.id], cut))
+        _member(row, machine, states.get(row.id, []), exclusions, (changes[row.id], cut, confirmed))
         for row, machine, cut in plans
     ]
 
@@ -95,17 +98,13 @@ def members(
 def _states(
     session: Session, tool: str, plan_ids: Sequence[int]
 ) -> dict[int, list[tuple[str, t.BandState | None]]]:
-    """Per plan, its operations on ``tool`` with the band state of each quantity in the fleet.
-
-    The newest, or where the plan's process changed the newest before it (:mod:`db.fleet`).
-    """
+    """Per plan, its operations on ``tool`` with the newest band state of each quantity."""
     b = t.BandState
     rows = session.execute(
         select(t.Operation.plan_id, t.Operation.name, b)
-        .join(t.Plan, t.Operation.plan_id == t.Plan.id)
         .join(t.Tool, t.Operation.tool_id == t.Tool.id)
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
-        .outerjoin(b, b.id == newest_state(before_change=True))
+        .outerjoin(b, b.id == newest_state())
         .where(t.Tool.name == tool, t.Operation.plan_id.in_(plan_ids))
         .order_by(t.Operation.plan_id, t.Operation.position, t.ToolModel.quantity)
     ).all()
@@ -120,10 +119,11 @@ def _member(
     machine: str,
     states: Sequence[tuple[str, t.BandState | None]],
     exclusions: Sequence[t.FleetExclusion],
-    changed: tuple[int, str | None],
+    changed: tuple[int, str | None, set[int]],
 ) -> Member:
-    """``changed``: the plan's changes counted, and the part its evidence stops before."""
-    changes, cut = changed
+    """``changed``: its changes counted, the part of the first pending, the plans confirmed."""
+    changes, cut, confirmed = changed
+    unconfirmed = cut is not None and row.id not in confirmed
     operations = tuple(dict.fromkeys(op for op, _ in states))
     beliefs = {
         (op, s.quantity): posterior_from_json(s.posterior)
@@ -136,7 +136,7 @@ def _member(
         for (op, q), start in starts.items()
         if max(start.prior_widening, _widening(beliefs.get((op, q)))) > 0
     )
-    out = _why_out(row, machine, bool(beliefs), changes if cut is None else 0, exclusions)
+    out = _why_out(row, machine, bool(beliefs), 0 if unconfirmed else changes, exclusions)
     return Member(
         row.id,
         row.name,
@@ -145,20 +145,10 @@ def _member(
         sum(b.observations for b in beliefs.values()),
         out,
         let_go,
-        "" if out else _until(row, changes, cut),
+        f"a change counted at part {cut} its readings since do not confirm"
+        if unconfirmed and not out
+        else "",
     )
-
-
-def _until(row: t.Plan, changes: int, cut: str | None) -> str:
-    """Where the plan's models in the fleet stop, where its process changed ("": its newest)."""
-    if cut is None or changes <= row.fleet_changes_accepted:
-        return ""
-    unaccepted = changes - row.fleet_changes_accepted
-    return f"before part {cut}: its process changed ({unaccepted} not accepted: rcb fleet include)"
-
-
-#: A plan whose process changed at its first part since its bands were last reset.
-_NOTHING = "its process changed before it learned anything (rcb fleet include)"
 
 
 def _widening(belief: Posterior | None) -> float:
@@ -187,5 +177,5 @@ def _why_out(
         unaccepted = changes - row.fleet_changes_accepted
         return f"its process changed ({unaccepted} not accepted: rcb fleet include)"
     if not learned:
-        return "no part reported yet" if not row.fleet_evidence_before_part else _NOTHING
+        return "no part reported yet"
     return ""

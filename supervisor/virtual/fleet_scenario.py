@@ -5,8 +5,8 @@ machines (:func:`supervisor.virtual.fleet.sample_fleet`; every :data:`OUTSIDE_EV
 scenario's new machine outside the spread); each of the first ``machines − 1`` makes
 ``learn_parts`` parts with ``learn`` from the catalogue; their posteriors are the fleet
 (:mod:`supervisor.fleet.prior`: a plan that halted is left out, and a plan that saw a change of
-its process gives what it learned before it, as the database does until an engineer accepts
-the change: :mod:`db.fleet_changes`); the last machine then makes
+its process its readings since confirm, as the database leaves it out until an engineer puts it
+back: :mod:`supervisor.fleet.changes`); the last machine then makes
 ``parts`` parts twice with the same noise, once from the fleet prior and once from the
 catalogue, each scored against that machine's oracle (:func:`supervisor.virtual.scenario.
 run_machine`), and a third time from the prior of a controller that knows the fleet's law and
@@ -27,6 +27,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 from models.powerlaw import PowerLawModel
+from supervisor.fleet.changes import confirmed
 from supervisor.fleet.noise import noise_priors
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Plan
@@ -64,18 +65,18 @@ class FleetTrace:
     let_go: int = 0  # the new machine's quantities whose fleet prior its readings let go
     noise_let_go: int = 0  # its chains whose fleet noise prior their readings let go
     left_out: int = 0  # the learning machines' plans left out of the fleet (a halt, a change)
-    #: the learning machines' plans whose evidence stops before a change of their process
-    cut_short: int = 0
+    #: the learning machines' plans in the fleet despite a change their readings do not confirm
+    unconfirmed: int = 0
 
 
 def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
     """What one plan's state gives the fleet: nothing after a halt or a change of the process.
 
     Each operation's posterior, and its evidence on its measuring chain's noise (its
-    monitor's, :mod:`supervisor.fleet.noise`). :func:`_learn` gives a plan whose process
-    changed as its state before the change, as the database does (:mod:`db.fleet_changes`).
+    monitor's, :mod:`supervisor.fleet.noise`). :func:`_learn` decides whether a change its
+    monitors counted leaves it out (:mod:`supervisor.fleet.changes`).
     """
-    if state.halt is not None or any(m.changes for m in state.monitors.values()):
+    if state.halt is not None:
         return []
     settings = state.settings
     ops = {op.name: op for op in state.plan.operations}
@@ -126,7 +127,7 @@ def run_fleet_scenario(
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
     plans = [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, learn_plans))]
-    learned, violations, (left_out, cut_short) = _learn(
+    learned, violations, (left_out, unconfirmed) = _learn(
         catalogue, plans, seed, learn_parts, fleet_faults
     )
     new, last = fleet[-1], noise_seed(seed, machines - 1)
@@ -151,7 +152,7 @@ def run_fleet_scenario(
         sum(b.prior_widening > 0 for b in state.posterior.values()),
         len(chains) - len(state.noise_priors),
         left_out,
-        cut_short,
+        unconfirmed,
     )
 
 
@@ -183,12 +184,12 @@ def _learn(
     """The learning machines' plans from the catalogue: what the fleet learned from them.
 
     ``plans[p][m]``: machine ``m`` as plan ``p``'s operations meet it (plan 0 with the noise
-    of :func:`noise_seed`). Returns ``(learned, violations, (left out, cut short))``: their
-    violations, how many plans a halt (or a change at the first part) left out, and how many
-    gave what they learned before a change of their process.
+    of :func:`noise_seed`). Returns ``(learned, violations, (left out, unconfirmed))``: their
+    violations, how many plans a halt or a confirmed change of their process left out, and how
+    many counted a change their readings since do not confirm.
     """
     learned: list[Learned] = []
-    violations = left_out = cut_short = 0
+    violations = left_out = unconfirmed = 0
     for p, machines in enumerate(plans):
         for m, machine in enumerate(machines):
             noise = noise_seed(seed, m) if p == 0 else [*noise_seed(seed, m), p]
@@ -198,13 +199,12 @@ def _learn(
             )
             violations += int(trace.violations.sum())
             name = f"plan-{m}" if p == 0 else f"plan-{m}-{p}"
-            evidence = kept.state or state
-            nothing = state.halt is not None or evidence is catalogue  # changed at part 1
-            found = [] if nothing else learned_from(evidence, f"machine-{m}", name)
+            changed = kept.state is not None and _confirmed(kept.state, state, catalogue)
+            found = [] if changed else learned_from(state, f"machine-{m}", name)
             left_out += not found
-            cut_short += bool(found and kept.state)
+            unconfirmed += bool(found and kept.state)
             learned += found
-    return learned, violations, (left_out, cut_short)
+    return learned, violations, (left_out, unconfirmed)
 
 
 class _BeforeChange:
@@ -223,6 +223,13 @@ class _BeforeChange:
 
 def _changes(state: RcbState) -> int:
     return sum(m.changes for m in state.monitors.values())
+
+
+def _confirmed(before: RcbState, now: RcbState, catalogue: RcbState) -> bool:
+    """Whether ``now`` confirms the change counted after ``before`` (nothing learned: yes)."""
+    if before is catalogue:
+        return True
+    return confirmed((before.posterior.get(k), p) for k, p in now.posterior.items())
 
 
 def _one(

@@ -142,21 +142,29 @@ def test_a_new_machine_whose_law_bends_crosses_nothing_after_its_first_part() ->
     assert trace.fleet.where == trace.catalogue.where == ()
 
 
-def test_a_fleet_whose_process_stepped_gives_what_it_learned_before_the_step() -> None:
-    """``--fleet-fault step:10:1.12``: every learning machine's process rises 12 % at part 10
-    and its monitor sees a change. The fleet keeps what each plan learned before it (as the
-    database does, db/fleet_changes.py), so the new machine starts exactly as from a fleet that
-    stopped at part 9. Until 2026-12-01 a change left the plan out whole, and the new plan ran
-    the catalogue's setpoints part for part; the monitors' false alarms then left out 57 of 90
-    plans after 300 parts on a steady fleet."""
-    before_step = run_fleet_scenario(PLAN, 3, 4, parts=3, learn_parts=9)
-    assert before_step.left_out == before_step.cut_short == 0 and before_step.provenance
+def test_a_fleet_whose_process_stepped_is_left_out_and_the_plan_starts_from_the_catalogue() -> None:
+    """``--fleet-fault step:10:1.12``: every learning machine's process rises 12 % at part 10,
+    its monitor sees a change and its readings since confirm it (supervisor/fleet/changes.py),
+    and a plan whose change is confirmed gives the fleet nothing (as the database leaves it
+    out until an engineer puts it back): the new machine's plan from the "fleet" is the
+    catalogue's, part for part."""
+    clean = run_fleet_scenario(PLAN, 3, 4, parts=3, learn_parts=20)
+    assert clean.left_out == clean.unconfirmed == 0 and clean.provenance
     stepped = parse_faults(["step:10:1.12"])
     trace = run_fleet_scenario(PLAN, 3, 4, parts=3, learn_parts=20, fleet_faults=stepped)
-    assert (trace.left_out, trace.cut_short) == (0, 3)
-    assert trace.provenance == before_step.provenance
-    assert trace.fleet.plan_ratio.tolist() == before_step.fleet.plan_ratio.tolist()
-    assert trace.fleet.plan_ratio[0] > trace.catalogue.plan_ratio[0]
+    assert (trace.left_out, trace.unconfirmed) == (3, 0) and trace.provenance == ()
+    assert trace.fleet.plan_ratio.tolist() == trace.catalogue.plan_ratio.tolist()
+    assert trace.fleet.plan_ratio[0] < clean.fleet.plan_ratio[0]  # the clean fleet's start
+
+
+def test_a_false_alarm_on_a_steady_fleet_leaves_the_plan_in() -> None:
+    """Seed 21, clean: two learning plans' monitors count a change of a steady process (the
+    CUSUM's false alarms) and the readings since do not confirm it: they stay in the fleet.
+    Until 2026-12-01 every counted change left its plan out; after 300 parts 57 of 90 were
+    out and a new machine's first part fell from 0.888 to 0.863 of its oracle."""
+    trace = run_fleet_scenario(PLAN, 21, 4, parts=1, learn_parts=30)
+    assert (trace.left_out, trace.unconfirmed) == (0, 2)
+    assert all(len(p.machines) == 3 for p in trace.provenance)
 
 
 def test_a_fleet_whose_operations_bend_apart_teaches_no_false_slope() -> None:

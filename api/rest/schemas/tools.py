@@ -121,9 +121,9 @@ class FleetMember(Out):
     let_go: list[str] = Field(
         description="'OPERATION QUANTITY' whose fleet prior this plan's machine let go"
     )
-    until: str = Field(
-        description="where its models in the fleet stop: before the part its process changed "
-        "at, until an engineer accepts the change (empty: at its newest part)"
+    change: str = Field(
+        description="a change of its process its monitors counted that its readings since do "
+        "not confirm: in the fleet all the same (empty: none)"
     )
 
 
