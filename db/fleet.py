@@ -128,7 +128,7 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
             b,
             t.Plan.prior,
             t.Plan.fleet_changes_accepted,
-            t.Plan.fleet_evidence_before_part,
+            t.Plan.fleet_change_part,
         )
         .join(t.Tool, t.Operation.tool_id == t.Tool.id)
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)

@@ -1,7 +1,7 @@
 """Whether a change of a plan's process its monitors counted keeps it out of the fleet (issue 32).
 
 A part whose readings made the plan's monitors count a change of its process (a
-``regime_change``) while none was pending sets ``plans.fleet_evidence_before_part`` to that
+``regime_change``) while none was pending sets ``plans.fleet_change_part`` to that
 part (alembic 0022). The plan's band states before it are what it had learned of the process
 as it was; :func:`confirmed_changes` compares them with its newest
 (:func:`supervisor.fleet.changes.confirmed`): a change its readings since confirm keeps the
@@ -25,13 +25,13 @@ from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 
 
-def freeze_fleet_evidence(*, session: Session, plan_id: int, part_id: int) -> None:
-    """Part ``part_id`` counted a change: the plan's fleet evidence stops before it.
+def mark_fleet_change(*, session: Session, plan_id: int, part_id: int) -> None:
+    """Part ``part_id`` counted a change: what the plan learned before it is the reference.
 
     A change already pending keeps its part (the beliefs before the first change not
     accepted are the ones compared). One statement, only for a part that counted a change.
     """
-    cut = t.Plan.fleet_evidence_before_part
+    cut = t.Plan.fleet_change_part
     session.execute(
         update(t.Plan).where(t.Plan.id == plan_id, cut.is_(None)).values({cut: part_id})
     )
@@ -39,7 +39,7 @@ def freeze_fleet_evidence(*, session: Session, plan_id: int, part_id: int) -> No
 
 def clear_fleet_change(row: t.Plan) -> None:
     """The plan's changes are accepted or forgotten: none is pending."""
-    row.fleet_evidence_before_part = None
+    row.fleet_change_part = None
 
 
 def confirmed_changes(*, session: Session, plan_ids: Iterable[int]) -> set[int]:
@@ -59,7 +59,7 @@ def confirmed_changes(*, session: Session, plan_ids: Iterable[int]) -> set[int]:
         .join(t.ToolModel, t.ToolModel.tool_id == t.Operation.tool_id)
         .join(now, now.id == newest_state())
         .outerjoin(before, before.id == newest_state(before_change=True))
-        .where(t.Operation.plan_id.in_(ids), t.Plan.fleet_evidence_before_part.is_not(None))
+        .where(t.Operation.plan_id.in_(ids), t.Plan.fleet_change_part.is_not(None))
     ).all()
     pairs: dict[int, list[tuple[Posterior | None, Posterior | None]]] = {}
     for plan_id, old, new in rows:

@@ -58,7 +58,7 @@ def members(
     query = (
         select(t.Plan, t.Machine.name, t.Part.serial)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
-        .outerjoin(t.Part, t.Part.id == t.Plan.fleet_evidence_before_part)
+        .outerjoin(t.Part, t.Part.id == t.Plan.fleet_change_part)
         .where(
             t.Plan.id > after_id,
             t.Plan.id.in_(

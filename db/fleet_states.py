@@ -15,7 +15,7 @@ def newest_state(*, before_change: bool = False) -> ScalarSelect[int]:
     (operation_id, quantity, part_id)``. States of parts a replan's ``reset_bands`` forgot are
     left out (as :func:`db.state.load_state` leaves them): none until a part after it.
     ``before_change``: the newest before the part the plan's process changed at, where one is
-    pending (``plans.fleet_evidence_before_part``; correlated with ``plans`` too).
+    pending (``plans.fleet_change_part``; correlated with ``plans`` too).
     """
     newest, revision = aliased(t.BandState), aliased(t.PlanRevision)
     reset = (
@@ -30,6 +30,6 @@ def newest_state(*, before_change: bool = False) -> ScalarSelect[int]:
         .where(newest.part_id > reset)
     )
     if before_change:
-        cut = t.Plan.fleet_evidence_before_part
+        cut = t.Plan.fleet_change_part
         query = query.where(or_(cut.is_(None), newest.part_id < cut))
     return query.order_by(newest.part_id.desc()).limit(1).scalar_subquery()

@@ -22,7 +22,7 @@ from sqlalchemy.orm import Session
 from db import tables as t
 from db.bulk import defer
 from db.fleet import let_go
-from db.fleet_changes import freeze_fleet_evidence
+from db.fleet_changes import mark_fleet_change
 from db.fleet_noise import noise_let_go
 from db.intake import PlanHead
 from db.model_versions import model_version_row, version_numbers
@@ -82,7 +82,7 @@ def store_report(
         )
     pointers = _pointers(plan_row, before, after)
     if _changes(after) > _changes(before):
-        freeze_fleet_evidence(session=session, plan_id=plan_row.id, part_id=part_id)
+        mark_fleet_change(session=session, plan_id=plan_row.id, part_id=part_id)
     pointers.update(_let_go(plan_row, before, after, report.serial))
     # Core rows, no ORM bookkeeping; deferred, so they go out with the transaction's last rows
     defer(

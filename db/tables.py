@@ -96,9 +96,9 @@ class Plan(Base):
     noise_prior: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     #: The changes of its process an engineer accepted putting it back in the fleet (db.fleet).
     fleet_changes_accepted: Mapped[int] = mapped_column(default=0, server_default="0")
-    #: The part at which the plan's process changed beyond those accepted: the fleet keeps what
-    #: it learned before it (db.fleet, alembic 0022); NULL: no change pending.
-    fleet_evidence_before_part: Mapped[int | None]
+    #: The part its monitors counted a change of its process at beyond those accepted: what it
+    #: learned before is compared with what it learned since (db.fleet_changes, alembic 0022).
+    fleet_change_part: Mapped[int | None]
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     current_setpoint_version: Mapped[int] = mapped_column(default=1)

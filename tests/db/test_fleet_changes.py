@@ -65,7 +65,7 @@ def _cut(engine, plan_id: int) -> str | None:  # type: ignore[no-untyped-def]
     with Session(engine) as session:
         row = session.get(t.Plan, plan_id)
         assert row is not None
-        part = row.fleet_evidence_before_part
+        part = row.fleet_change_part
         return (
             None if part is None else session.scalar(select(t.Part.serial).where(t.Part.id == part))
         )
@@ -140,7 +140,7 @@ def test_a_change_before_anything_was_learned_is_confirmed(engine) -> None:
         first = session.scalar(select(t.Part.id).where(t.Part.serial == "a-1"))
         row = session.get(t.Plan, a)
         assert row is not None and first is not None
-        row.fleet_evidence_before_part = first
+        row.fleet_change_part = first
         newest = session.scalars(select(t.BandState).order_by(t.BandState.id.desc())).first()
         assert newest is not None and newest.monitor is not None
         newest.monitor = {**newest.monitor, "changes": 1}
