@@ -12,10 +12,9 @@ fourth (``imported_models``, by ``ix_imported_models_tool``).
 Left out: a plan that is halted; a plan or machine an engineer took out (``rcb fleet
 exclude``, ``fleet_exclusions``); and a plan whose quantities, any of them, saw a change of
 their process (a ``regime_change``: their monitors counted one) beyond those an engineer
-accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted``), where what
-it learned since confirms the change (:mod:`db.fleet_changes`): most changes counted on a
-steady process are the monitors' false alarms, which over a year of parts took nearly every
-plan out (:mod:`supervisor.fleet.changes`).
+accepted putting it back (``rcb fleet include``, ``plans.fleet_changes_accepted``). A change the
+plan's readings did not confirm five parts after it (a monitor's false alarm) is accepted by
+itself (:mod:`db.fleet_changes`, :mod:`supervisor.fleet.changes`).
 """
 
 from __future__ import annotations
@@ -28,7 +27,6 @@ from sqlalchemy import exists, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet_changes import confirmed_changes
 from db.fleet_noise import noise_provenance
 from db.fleet_states import newest_state
 from db.let_go_mark import marked
@@ -128,7 +126,6 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
             b,
             t.Plan.prior,
             t.Plan.fleet_changes_accepted,
-            t.Plan.fleet_change_part,
         )
         .join(t.Tool, t.Operation.tool_id == t.Tool.id)
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
@@ -140,15 +137,9 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         .order_by(t.Plan.id, t.Operation.position, b.quantity)
     ).all()
     changes = plan_changes(session=session, plan_ids={op.plan_id for op, *_ in rows})
-    pending = {op.plan_id for op, *_, accepted, _ in rows if changes.get(op.plan_id, 0) > accepted}
-    confirmed = confirmed_changes(session=session, plan_ids=pending)
-    changed = {  # confirmed, or counted before alembic 0022 (where, not known): out whole
-        plan
-        for op, _, plan, *_, cut in rows
-        if op.plan_id in pending and (cut is None or op.plan_id in confirmed)
-    }
+    changed = {plan for op, _, plan, *_, accepted in rows if changes.get(op.plan_id, 0) > accepted}
     out = []
-    for op, tool, plan, stored, machine, state, started, _, _ in rows:
+    for op, tool, plan, stored, machine, state, started, _ in rows:
         settings = settings_of(stored)
         if plan in changed or settings.strategy != "learn":
             continue

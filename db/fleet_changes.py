@@ -1,71 +1,78 @@
 """Whether a change of a plan's process its monitors counted keeps it out of the fleet (issue 32).
 
 A part whose readings made the plan's monitors count a change of its process (a
-``regime_change``) while none was pending sets ``plans.fleet_change_part`` to that
-part (alembic 0022). The plan's band states before it are what it had learned of the process
-as it was; :func:`confirmed_changes` compares them with its newest
-(:func:`supervisor.fleet.changes.confirmed`): a change its readings since confirm keeps the
-plan out of the fleet (:func:`db.fleet.local_evidence`), one they do not (a monitor's false
-alarm) leaves it in with everything it learned. ``rcb fleet include`` accepts the changes
-(``plans.fleet_changes_accepted``) and clears the part; ``rcb replan --reset-bands`` clears
-it with the count of changes.
+``regime_change``) beyond those accepted, while none was pending, stores that part in
+``plans.fleet_change_part`` (alembic 0022); the plan is out of the fleet from then
+(:func:`db.fleet.local_evidence`: its changes exceed those accepted). The
+:data:`~supervisor.fleet.changes.JUDGED_AFTER`-th part after it compares what the plan had
+learned before that part with what it has learned since
+(:func:`supervisor.fleet.changes.confirmed`): a change the readings do not confirm (a
+monitor's false alarm) is accepted by itself, as ``rcb fleet include`` would accept it, and the
+audit log says so (actor ``rcb``, action ``fleet change not confirmed``); a confirmed one stays
+until an engineer accepts it. ``rcb fleet include`` and ``rcb replan --reset-bands`` clear the
+part. Cost: nothing on a part while no change is pending; while one is, a count of at most
+``JUDGED_AFTER + 1`` of the plan's parts, and once the band states before it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from typing import Any
 
-from sqlalchemy import select, update
-from sqlalchemy.orm import Session, aliased
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.audit import audit
 from db.fleet_states import newest_state
-from supervisor.fleet.changes import confirmed
-from supervisor.rcb.posterior import Posterior
+from db.intake import PlanHead
+from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted
 from supervisor.rcb.posterior import from_json as posterior_from_json
+from supervisor.rcb.state import RcbState
 
 
-def mark_fleet_change(*, session: Session, plan_id: int, part_id: int) -> None:
-    """Part ``part_id`` counted a change: what the plan learned before it is the reference.
-
-    A change already pending keeps its part (the beliefs before the first change not
-    accepted are the ones compared). One statement, only for a part that counted a change.
-    """
-    cut = t.Plan.fleet_change_part
-    session.execute(
-        update(t.Plan).where(t.Plan.id == plan_id, cut.is_(None)).values({cut: part_id})
+def fleet_change(
+    *, session: Session, plan: PlanHead, part_id: int, before: RcbState, after: RcbState
+) -> dict[str, Any]:
+    """The plan row's update for the fleet after part ``part_id`` (module docstring); {}: none."""
+    now = counted(after)
+    if plan.fleet_change_part is None:
+        if now > max(counted(before), plan.fleet_changes_accepted):
+            return {"fleet_change_part": part_id}
+        return {}
+    parts = (
+        select(t.Part.id)
+        .where(t.Part.plan_id == plan.id, t.Part.id >= plan.fleet_change_part)
+        .limit(JUDGED_AFTER + 2)
+        .subquery()
     )
+    if session.scalar(select(func.count()).select_from(parts)) != JUDGED_AFTER + 1:
+        return {}  # not yet, or judged (confirmed) already
+    if confirmed(_pairs(session, plan.id, after)):
+        return {}
+    audit(
+        session=session,
+        actor="rcb",
+        action="fleet change not confirmed",
+        target=f"plan {plan.id}",
+        result="accepted",
+        detail={"part_id": plan.fleet_change_part, "changes_accepted": now},
+    )
+    return {"fleet_change_part": None, "fleet_changes_accepted": now}
+
+
+def _pairs(session: Session, plan_id: int, after: RcbState) -> list[tuple[Any, Any]]:
+    """Per operation and tool quantity, the belief before the change's part and now."""
+    rows = session.execute(
+        select(t.Operation.name, t.ToolModel.quantity, t.BandState.posterior)
+        .join(t.Plan, t.Operation.plan_id == t.Plan.id)
+        .join(t.ToolModel, t.ToolModel.tool_id == t.Operation.tool_id)
+        .outerjoin(t.BandState, t.BandState.id == newest_state(before_change=True))
+        .where(t.Operation.plan_id == plan_id)
+    ).all()
+    before = {(name, q): None if p is None else posterior_from_json(p) for name, q, p in rows}
+    return [(before.get(key), belief) for key, belief in after.posterior.items()]
 
 
 def clear_fleet_change(row: t.Plan) -> None:
     """The plan's changes are accepted or forgotten: none is pending."""
     row.fleet_change_part = None
-
-
-def confirmed_changes(*, session: Session, plan_ids: Iterable[int]) -> set[int]:
-    """The plans among ``plan_ids`` whose pending change their readings since confirm.
-
-    One statement for any number of plans: per operation and tool quantity the newest band
-    state and the newest before the change's part (index seeks, :func:`db.fleet.newest_state`).
-    A plan with no change pending is not among them.
-    """
-    ids = sorted(set(plan_ids))
-    if not ids:
-        return set()
-    now, before = aliased(t.BandState), aliased(t.BandState)
-    rows = session.execute(
-        select(t.Operation.plan_id, before.posterior, now.posterior)
-        .join(t.Plan, t.Operation.plan_id == t.Plan.id)
-        .join(t.ToolModel, t.ToolModel.tool_id == t.Operation.tool_id)
-        .join(now, now.id == newest_state())
-        .outerjoin(before, before.id == newest_state(before_change=True))
-        .where(t.Operation.plan_id.in_(ids), t.Plan.fleet_change_part.is_not(None))
-    ).all()
-    pairs: dict[int, list[tuple[Posterior | None, Posterior | None]]] = {}
-    for plan_id, old, new in rows:
-        pairs.setdefault(plan_id, []).append((_belief(old), _belief(new)))
-    return {plan_id for plan_id, found in pairs.items() if confirmed(found)}
-
-
-def _belief(stored: dict[str, object] | None) -> Posterior | None:
-    return None if stored is None else posterior_from_json(stored)

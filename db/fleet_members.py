@@ -3,11 +3,9 @@
 ``rcb fleet show TOOL``: the plans whose operations use the tool, a page at a time by id,
 each with its machine and whether its learned models are in the fleet (what
 :func:`db.fleet.fleet_evidence` reads) or why not: an engineer took the plan or its machine
-out, it is halted, its strategy learns no posterior, or no part was reported since its bands
-were last reset; a plan whose process changed beyond what an engineer accepted is out where
-its readings since confirm the change, and in where they do not (``change`` says so;
-:mod:`db.fleet_changes`). Five statements a page, however many plans use the tool and however
-many parts they made.
+out, its process changed beyond what an engineer accepted, it is halted, its strategy learns
+no posterior, or no part was reported since its bands were last reset. Four statements a
+page, however many plans use the tool and however many parts they made.
 """
 
 from __future__ import annotations
@@ -20,7 +18,6 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet import plan_changes, priors_of
-from db.fleet_changes import confirmed_changes
 from db.fleet_states import newest_state
 from db.plan_state import settings_of
 from supervisor.rcb.posterior import Posterior
@@ -38,9 +35,6 @@ class Member:
     readings: int
     out: str
     let_go: tuple[str, ...]
-    #: A change of its process its monitors counted that its readings since do not confirm
-    #: (in the fleet all the same: :mod:`db.fleet_changes`); "": none.
-    change: str = ""
 
 
 def members(
@@ -56,9 +50,8 @@ def members(
     ``only``: just these plan ids (a REST key scoped to plans), filtered in the query.
     """
     query = (
-        select(t.Plan, t.Machine.name, t.Part.serial)
+        select(t.Plan, t.Machine.name)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
-        .outerjoin(t.Part, t.Part.id == t.Plan.fleet_change_part)
         .where(
             t.Plan.id > after_id,
             t.Plan.id.in_(
@@ -75,23 +68,22 @@ def members(
     plans = session.execute(query).all()
     if not plans:
         return []
-    ids = [row.id for row, _, _ in plans]
+    ids = [row.id for row, _ in plans]
     states = _states(session, tool, ids)
     changes = plan_changes(session=session, plan_ids=ids)
-    confirmed = confirmed_changes(session=session, plan_ids=ids)
     exclusions = session.scalars(
         select(t.FleetExclusion)
         .where(
             or_(
                 t.FleetExclusion.plan_id.in_(ids),
-                t.FleetExclusion.machine.in_({machine for _, machine, _ in plans}),
+                t.FleetExclusion.machine.in_({machine for _, machine in plans}),
             )
         )
         .order_by(t.FleetExclusion.id)
     ).all()
     return [
-        _member(row, machine, states.get(row.id, []), exclusions, (changes[row.id], cut, confirmed))
-        for row, machine, cut in plans
+        _member(row, machine, states.get(row.id, []), exclusions, changes[row.id])
+        for row, machine in plans
     ]
 
 
@@ -119,11 +111,8 @@ def _member(
     machine: str,
     states: Sequence[tuple[str, t.BandState | None]],
     exclusions: Sequence[t.FleetExclusion],
-    changed: tuple[int, str | None, set[int]],
+    changes: int,
 ) -> Member:
-    """``changed``: its changes counted, the part of the first pending, the plans confirmed."""
-    changes, cut, confirmed = changed
-    unconfirmed = cut is not None and row.id not in confirmed
     operations = tuple(dict.fromkeys(op for op, _ in states))
     beliefs = {
         (op, s.quantity): posterior_from_json(s.posterior)
@@ -136,18 +125,14 @@ def _member(
         for (op, q), start in starts.items()
         if max(start.prior_widening, _widening(beliefs.get((op, q)))) > 0
     )
-    out = _why_out(row, machine, bool(beliefs), 0 if unconfirmed else changes, exclusions)
     return Member(
         row.id,
         row.name,
         machine,
         operations,
         sum(b.observations for b in beliefs.values()),
-        out,
+        _why_out(row, machine, bool(beliefs), changes, exclusions),
         let_go,
-        f"a change counted at part {cut} its readings since do not confirm"
-        if unconfirmed and not out
-        else "",
     )
 
 

@@ -53,6 +53,8 @@ class PlanHead:
     halt: dict[str, Any] | None
     prior: dict[str, Any] | None
     noise_prior: dict[str, Any] | None
+    fleet_changes_accepted: int = 0
+    fleet_change_part: int | None = None
 
 
 @dataclass(frozen=True)
@@ -83,6 +85,8 @@ _HEAD = (
     "halt",
     "prior",
     "noise_prior",
+    "fleet_changes_accepted",
+    "fleet_change_part",
 )
 _PLANS = t.core_table(t.Plan)
 _PARTS = t.core_table(t.Part)
@@ -129,6 +133,8 @@ _STATEMENTS = {
         halt=JSON,
         prior=JSON,
         noise_prior=JSON,
+        fleet_changes_accepted=Integer,
+        fleet_change_part=Integer,
         part_id=Integer,
         request_hash=String,
         response_status=Integer,

@@ -22,7 +22,7 @@ from sqlalchemy.orm import Session
 from db import tables as t
 from db.bulk import defer
 from db.fleet import let_go
-from db.fleet_changes import mark_fleet_change
+from db.fleet_changes import fleet_change
 from db.fleet_noise import noise_let_go
 from db.intake import PlanHead
 from db.model_versions import model_version_row, version_numbers
@@ -81,8 +81,9 @@ def store_report(
             part_id=part_id,
         )
     pointers = _pointers(plan_row, before, after)
-    if _changes(after) > _changes(before):
-        mark_fleet_change(session=session, plan_id=plan_row.id, part_id=part_id)
+    pointers.update(
+        fleet_change(session=session, plan=plan_row, part_id=part_id, before=before, after=after)
+    )
     pointers.update(_let_go(plan_row, before, after, report.serial))
     # Core rows, no ORM bookkeeping; deferred, so they go out with the transaction's last rows
     defer(
@@ -95,11 +96,6 @@ def store_report(
     if "halt" in pointers:
         plan_row.halt = pointers["halt"]
     return plan_row.state_token
-
-
-def _changes(state: RcbState) -> int:
-    """The changes of its process the plan's monitors counted (as :func:`db.fleet.plan_changes`)."""
-    return sum(m.changes for m in state.monitors.values())
 
 
 def _let_go(plan_row: PlanHead, before: RcbState, after: RcbState, serial: str) -> dict[str, Any]:

@@ -117,8 +117,6 @@ def _print_members(page: dict[str, Any], first: bool) -> None:
         table.add_column(column, justify="right" if column in ("id", "readings") else "left")
     for m in page["plans"]:
         fleet = "yes" if not m["out"] else f"no: {m['out']}"
-        if m["change"]:
-            fleet += f": {m['change']}"
         if m["let_go"]:
             fleet += f"; prior let go: {', '.join(m['let_go'])}"
         table.add_row(str(m["plan_id"]), m["plan"], m["machine"], str(m["readings"]), fleet)

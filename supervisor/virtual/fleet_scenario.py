@@ -5,8 +5,8 @@ machines (:func:`supervisor.virtual.fleet.sample_fleet`; every :data:`OUTSIDE_EV
 scenario's new machine outside the spread); each of the first ``machines − 1`` makes
 ``learn_parts`` parts with ``learn`` from the catalogue; their posteriors are the fleet
 (:mod:`supervisor.fleet.prior`: a plan that halted is left out, and a plan that saw a change of
-its process its readings since confirm, as the database leaves it out until an engineer puts it
-back: :mod:`supervisor.fleet.changes`); the last machine then makes
+its process unless its readings judged it a false alarm, :mod:`supervisor.fleet.changes`, as
+the database leaves it out until an engineer puts it back); the last machine then makes
 ``parts`` parts twice with the same noise, once from the fleet prior and once from the
 catalogue, each scored against that machine's oracle (:func:`supervisor.virtual.scenario.
 run_machine`), and a third time from the prior of a controller that knows the fleet's law and
@@ -27,7 +27,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 from models.powerlaw import PowerLawModel
-from supervisor.fleet.changes import confirmed
+from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted
 from supervisor.fleet.noise import noise_priors
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Plan
@@ -74,7 +74,7 @@ def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
 
     Each operation's posterior, and its evidence on its measuring chain's noise (its
     monitor's, :mod:`supervisor.fleet.noise`). :func:`_learn` decides whether a change its
-    monitors counted leaves it out (:mod:`supervisor.fleet.changes`).
+    monitors counted leaves it out (:class:`_Judged`).
     """
     if state.halt is not None:
         return []
@@ -185,44 +185,51 @@ def _learn(
 
     ``plans[p][m]``: machine ``m`` as plan ``p``'s operations meet it (plan 0 with the noise
     of :func:`noise_seed`). Returns ``(learned, violations, (left out, unconfirmed))``: their
-    violations, how many plans a halt or a confirmed change of their process left out, and how
-    many counted a change their readings since do not confirm.
+    violations, how many plans a halt or a change of their process not judged a false alarm
+    left out, and how many are in after a change their readings did not confirm.
     """
     learned: list[Learned] = []
     violations = left_out = unconfirmed = 0
     for p, machines in enumerate(plans):
         for m, machine in enumerate(machines):
             noise = noise_seed(seed, m) if p == 0 else [*noise_seed(seed, m), p]
-            kept = _BeforeChange()
+            judged = _Judged(catalogue)
             trace, state = run_machine(
-                catalogue, machine, seed, parts, faults=faults, noise_seed=noise, on_report=kept
+                catalogue, machine, seed, parts, faults=faults, noise_seed=noise, on_report=judged
             )
             violations += int(trace.violations.sum())
             name = f"plan-{m}" if p == 0 else f"plan-{m}-{p}"
-            changed = kept.state is not None and _confirmed(kept.state, state, catalogue)
-            found = [] if changed else learned_from(state, f"machine-{m}", name)
+            out = judged.pending is not None
+            found = [] if out else learned_from(state, f"machine-{m}", name)
             left_out += not found
-            unconfirmed += bool(found and kept.state)
+            unconfirmed += bool(found and judged.unconfirmed)
             learned += found
     return learned, violations, (left_out, unconfirmed)
 
 
-class _BeforeChange:
-    """The state before the first report whose readings counted a change of the process.
+class _Judged:
+    """A learning plan's changes as :mod:`db.fleet_changes` judges them.
 
-    ``None`` while none did; the catalogue start (nothing learned) where the first one did.
+    A change beyond those accepted is pending from the report that counted it; the
+    :data:`~supervisor.fleet.changes.JUDGED_AFTER`-th report after it accepts it unless the
+    readings confirm it. ``pending``: the state before the change, while one is pending.
     """
 
-    def __init__(self) -> None:
-        self.state: RcbState | None = None
+    def __init__(self, catalogue: RcbState) -> None:
+        self.catalogue = catalogue
+        self.pending: RcbState | None = None
+        self.accepted = self.since = 0
+        self.unconfirmed = False
 
     def __call__(self, before: RcbState, after: RcbState) -> None:
-        if self.state is None and _changes(after) > _changes(before):
-            self.state = before
-
-
-def _changes(state: RcbState) -> int:
-    return sum(m.changes for m in state.monitors.values())
+        now = counted(after)
+        if self.pending is None:
+            if now > max(counted(before), self.accepted):
+                self.pending, self.since = before, 0
+            return
+        self.since += 1
+        if self.since == JUDGED_AFTER and not _confirmed(self.pending, after, self.catalogue):
+            self.pending, self.accepted, self.unconfirmed = None, now, True
 
 
 def _confirmed(before: RcbState, now: RcbState, catalogue: RcbState) -> bool:

@@ -93,32 +93,42 @@ def test_a_change_the_readings_confirm_keeps_the_plan_out_until_an_engineer_acce
     a = _plan(engine)
     _parts(engine, a, range(1, 7))
     assert _cut(engine, a) is None and _rough_od_readings(engine) == 6
-    _parts(engine, a, range(7, 11), scale=1.15)  # rough-od's force 15 % up for good
+    _parts(engine, a, range(7, 13), scale=1.15)  # rough-od's force 15 % up for good
     assert _cut(engine, a) == "a-7" and _counted(engine, a) >= 1
-    assert _rough_od_readings(engine) is None  # out
+    assert _rough_od_readings(engine) is None  # judged at a-12: confirmed, out
     member = _member(engine)
     assert (
         member.out == f"its process changed ({_counted(engine, a)} not accepted: rcb fleet include)"
     )
-    assert (member.change, member.readings) == ("", 20)  # parts 1-10, force and roughness
     include_in_fleet(engine=engine, plan_id=a, machine=None)
     assert _cut(engine, a) is None
-    assert _rough_od_readings(engine) == 10  # accepted: everything it learned
+    assert _rough_od_readings(engine) == 12  # accepted: everything it learned
+    with Session(engine) as session:
+        actions = list(session.scalars(select(t.AuditEntry.action)))
+    assert "fleet change not confirmed" not in actions
 
 
-def test_a_change_the_readings_since_do_not_confirm_leaves_the_plan_in(engine) -> None:
-    """One reading 15 % high, then the process as before: the monitor counts a change and the
-    readings since show the law where it was (a false alarm, as the CUSUM's on a steady
-    process): the plan stays in the fleet, with everything it learned."""
+def test_a_change_the_readings_do_not_confirm_is_accepted_five_parts_on(engine) -> None:
+    """One reading 15 % high, then the process as before: the monitor counts a change, the
+    plan is out, and five parts on its readings show the law where it was (a false alarm, as
+    the CUSUM's on a steady process): the change is accepted by itself and said so in the
+    audit log, and the plan is back with everything it learned."""
     a = _plan(engine)
     _parts(engine, a, range(1, 7))
     _parts(engine, a, range(7, 8), scale=1.15)
     assert _cut(engine, a) == "a-7" and _counted(engine, a) == 1
-    _parts(engine, a, range(8, 21))
-    assert _rough_od_readings(engine) == 20
-    member = _member(engine)
-    assert (member.out, member.readings) == ("", 40)
-    assert member.change == "a change counted at part a-7 its readings since do not confirm"
+    _parts(engine, a, range(8, 12))
+    assert _rough_od_readings(engine) is None  # four parts on: not judged yet
+    _parts(engine, a, range(12, 13))
+    assert _cut(engine, a) is None and _rough_od_readings(engine) == 12
+    with Session(engine) as session:
+        row = session.get(t.Plan, a)
+        assert row is not None and row.fleet_changes_accepted == 1
+        entry = session.scalars(
+            select(t.AuditEntry).where(t.AuditEntry.action == "fleet change not confirmed")
+        ).one()
+    assert (entry.actor, entry.target, entry.result) == ("rcb", f"plan {a}", "accepted")
+    assert _member(engine).out == ""
 
 
 def test_a_reset_of_the_bands_forgets_the_change(engine) -> None:
@@ -130,19 +140,3 @@ def test_a_reset_of_the_bands_forgets_the_change(engine) -> None:
     assert _cut(engine, a) is None
     _parts(engine, a, range(6, 8), scale=1.15)
     assert _rough_od_readings(engine) == 2  # learned since the reset, its process as it is now
-
-
-def test_a_change_before_anything_was_learned_is_confirmed(engine) -> None:
-    """The first part since a reset counted the change: nothing to compare with, out."""
-    a = _plan(engine)
-    _parts(engine, a, range(1, 3))
-    with Session(engine) as session, session.begin():  # as a change counted at part a-1
-        first = session.scalar(select(t.Part.id).where(t.Part.serial == "a-1"))
-        row = session.get(t.Plan, a)
-        assert row is not None and first is not None
-        row.fleet_change_part = first
-        newest = session.scalars(select(t.BandState).order_by(t.BandState.id.desc())).first()
-        assert newest is not None and newest.monitor is not None
-        newest.monitor = {**newest.monitor, "changes": 1}
-    assert _rough_od_readings(engine) is None
-    assert _member(engine).out == "its process changed (1 not accepted: rcb fleet include)"

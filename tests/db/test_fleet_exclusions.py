@@ -2,8 +2,8 @@
 back; a plan whose process changed is out by itself until then (SQLite and PostgreSQL).
 
 The changes here are written into the monitors' stored state, with no part at which they were
-counted: a plan stored before alembic 0022, which is out whole. A change counted by a part
-report stops the plan's evidence before that part instead (tests/db/test_fleet_changes.py)."""
+counted, so none is judged; a change counted by a part report is judged five parts on, and
+accepted by itself where the readings show a false alarm (tests/db/test_fleet_changes.py)."""
 
 from __future__ import annotations
 

@@ -121,10 +121,6 @@ class FleetMember(Out):
     let_go: list[str] = Field(
         description="'OPERATION QUANTITY' whose fleet prior this plan's machine let go"
     )
-    change: str = Field(
-        description="a change of its process its monitors counted that its readings since do "
-        "not confirm: in the fleet all the same (empty: none)"
-    )
 
 
 class ImportedFleetMachine(Out):
