@@ -37,7 +37,11 @@ def _record(result: PlanResult, oracle: PlanResult) -> tuple[float, FloatArray, 
 
 
 def _edge_life_parts(plan: Plan) -> dict[str, int | None]:
-    """Parts an edge makes before it is changed, per operation (None: never in a run)."""
+    """Parts an edge makes before it is changed, per operation (None: never in a run).
+
+    The edges of operations with a ``parts_per_edge`` limit are changed after that many parts,
+    and the MES reports each one's age (``edge_parts``), as a control's tool-life counter does.
+    """
     out: dict[str, int | None] = {}
     for op in plan.operations:
         limit = op.limits.get(PARTS_PER_EDGE)
@@ -107,7 +111,7 @@ def run_machine(
     *,
     faults: Faults | None = None,
     noise_seed: int | Sequence[int] | None = None,
-    on_report: Callable[[RcbState, RcbState], None] | None = None,
+    on_report: Callable[[RcbState, RcbState], None] = lambda before, after: None,
 ) -> tuple[ScenarioTrace, RcbState]:
     """:func:`run_scenario` on a given ``machine``; also the state after the last report.
 
@@ -119,34 +123,30 @@ def run_machine(
     machine = _worn(machine, faults)
     log = FaultLog(faults, machine, seed) if faults else None
     oracles = _Oracles(machine, faults, log)
-    # the edges of operations with a parts_per_edge limit are changed after that many parts,
-    # and the MES reports each one's age (edge_parts), as a control's tool-life counter does
     edge_life = _edge_life_parts(plan)
     state = initial
     rng = np.random.default_rng(seed if noise_seed is None else noise_seed)
-    n_ops = len(plan.operations)
-    plan_ratio = np.zeros(parts + 1)
-    op_ratio = np.zeros((parts + 1, n_ops))
-    cycle = np.full(parts + 1, np.nan)
+    plan_ratio, cycle = np.zeros(parts + 1), np.full(parts + 1, np.nan)
+    op_ratio = np.zeros((parts + 1, len(plan.operations)))
     violations = np.zeros(parts, dtype=np.int64)
     where: list[tuple[int, str, str]] = []
     stopped_at, stopped_op, made = 0, "", 0
     for k in range(1, parts + 1):
-        row = _record(state.setpoints, oracles.row(k - 1))
-        plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = row
+        plan_ratio[k - 1], op_ratio[k - 1], cycle[k - 1] = _record(
+            state.setpoints, oracles.row(k - 1)
+        )
         outcome, report = _make_part(machine, state, k, seed, rng, edge_life, log)
-        made = k
-        violations[k - 1] = len(outcome.violations)
+        made, violations[k - 1] = k, len(outcome.violations)
         where += [(k, v.operation, v.quantity) for v in outcome.violations]
         before, (state, _) = state, update(state, report)
-        if on_report is not None:
-            on_report(before, state)
+        on_report(before, state)
         if state.halt is not None:
             stopped_at, stopped_op = k, _halted_operation(state.halt)
             break
     if not stopped_at:
-        row = _record(state.setpoints, oracles.row(parts))
-        plan_ratio[parts], op_ratio[parts], cycle[parts] = row
+        plan_ratio[parts], op_ratio[parts], cycle[parts] = _record(
+            state.setpoints, oracles.row(parts)
+        )
     trace = ScenarioTrace(
         seed=seed,
         oracle_cycle_min=oracles.first.cycle_time_min,
