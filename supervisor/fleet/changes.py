@@ -40,9 +40,9 @@ from supervisor.rcb.state import RcbState
 JUDGED_AFTER = 5
 #: A shift of the learned law past this many standard deviations confirms a change. Measured
 #: (``z`` with the sum of variances, which overstates the difference's): the CUSUM's false
-#: alarms of a steady virtual fleet read 0.8-1.5 after 30 parts; a 12 % step of every quantity
-#: at part 15, 63-172 at part 30; one quantity 15 % up after 12 parts, 2.8-2.95 over the next
-#: eight (tests/db/test_fleet_changes.py), which 3 would miss.
+#: alarms of a steady virtual fleet read 0.8-1.5 at the end of 30-part runs; a 12 % step of
+#: every quantity at part 15, 63-172 at part 30; one quantity 15 % up after 6 parts, 2.8
+#: five parts on (2.1 at once; tests/db/test_fleet_changes.py), which 3 would miss.
 CONFIRM_Z = 2.5
 
 
