@@ -16,8 +16,8 @@ counted, inside and outside the spread, and those whose chains let the fleet's n
 runs): ``--fault noise-scale:3`` is a new machine whose instruments are not the fleet's kind.
 ``--fleet-fault`` applies to the learning machines (the fleet's own shop floor misbehaves: its
 readings drop out, its instruments misreport their noise, its process steps or is not a power
-law); a plan that halted or saw a change of its process its readings since confirm is left
-out of the fleet, one whose change they do not confirm counts, and both are counted.
+law); a plan that halted, or saw a change of its process its readings did not show five
+parts on to be a false alarm, is left out of the fleet; both kinds are counted.
 ``--operation-spread S`` gives each operation of every machine an offset of its own about its
 machine's ``ln K`` (its workholding, its overhang), which the fleet learns the spread of where
 a machine ran two operations with a tool; ``--new-plan-on known`` starts the new plan on the

@@ -25,7 +25,7 @@ from db import tables as t
 from db.audit import audit
 from db.fleet_states import newest_state
 from db.intake import PlanHead
-from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted
+from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted, opens_change
 from supervisor.rcb.posterior import from_json as posterior_from_json
 from supervisor.rcb.state import RcbState
 
@@ -34,9 +34,8 @@ def fleet_change(
     *, session: Session, plan: PlanHead, part_id: int, before: RcbState, after: RcbState
 ) -> dict[str, Any]:
     """The plan row's update for the fleet after part ``part_id`` (module docstring); {}: none."""
-    now = counted(after)
     if plan.fleet_change_part is None:
-        if now > max(counted(before), plan.fleet_changes_accepted):
+        if opens_change(before, after, plan.fleet_changes_accepted):
             return {"fleet_change_part": part_id}
         return {}
     parts = (
@@ -49,6 +48,7 @@ def fleet_change(
         return {}  # not yet, or judged (confirmed) already
     if confirmed(_pairs(session, plan.id, after)):
         return {}
+    now = counted(after)
     audit(
         session=session,
         actor="rcb",

@@ -74,3 +74,8 @@ def confirmed(pairs: Iterable[tuple[Posterior | None, Posterior | None]]) -> boo
 def counted(state: RcbState) -> int:
     """The changes of its process a plan's monitors counted, over all its quantities."""
     return sum(m.changes for m in state.monitors.values())
+
+
+def opens_change(before: RcbState, after: RcbState, accepted: int) -> bool:
+    """Whether the report from ``before`` to ``after`` counted a change beyond ``accepted``."""
+    return counted(after) > max(counted(before), accepted)

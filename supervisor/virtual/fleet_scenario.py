@@ -27,7 +27,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 from models.powerlaw import PowerLawModel
-from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted
+from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted, opens_change
 from supervisor.fleet.noise import noise_priors
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Plan
@@ -70,7 +70,7 @@ class FleetTrace:
 
 
 def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
-    """What one plan's state gives the fleet: nothing after a halt or a change of the process.
+    """What one plan's state gives the fleet: nothing after a halt.
 
     Each operation's posterior, and its evidence on its measuring chain's noise (its
     monitor's, :mod:`supervisor.fleet.noise`). :func:`_learn` decides whether a change its
@@ -222,14 +222,13 @@ class _Judged:
         self.unconfirmed = False
 
     def __call__(self, before: RcbState, after: RcbState) -> None:
-        now = counted(after)
         if self.pending is None:
-            if now > max(counted(before), self.accepted):
+            if opens_change(before, after, self.accepted):
                 self.pending, self.since = before, 0
             return
         self.since += 1
         if self.since == JUDGED_AFTER and not _confirmed(self.pending, after, self.catalogue):
-            self.pending, self.accepted, self.unconfirmed = None, now, True
+            self.pending, self.accepted, self.unconfirmed = None, counted(after), True
 
 
 def _confirmed(before: RcbState, now: RcbState, catalogue: RcbState) -> bool:
