@@ -9,9 +9,11 @@ learned before that part with what it has learned since
 (:func:`supervisor.fleet.changes.confirmed`): a change the readings do not confirm (a
 monitor's false alarm) is accepted by itself, as ``rcb fleet include`` would accept it, and the
 audit log says so (actor ``rcb``, action ``fleet change not confirmed``); a confirmed one stays
-until an engineer accepts it. ``rcb fleet include`` and ``rcb replan --reset-bands`` clear the
-part. Cost: nothing on a part while no change is pending; while one is, a count of at most
-``JUDGED_AFTER + 1`` of the plan's parts, and once the band states before it.
+until an engineer accepts it (``plans.fleet_change_confirmed``, alembic 0023; audit action
+``fleet change confirmed``, with the quantity whose law moved most and its ``z``).
+``rcb fleet include`` and ``rcb replan --reset-bands`` clear the part. Cost: nothing on a part
+while no change is pending or a confirmed one waits; while one waits to be judged, a count of
+at most ``JUDGED_AFTER + 2`` of the plan's parts, and once the band states before it.
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from db import tables as t
 from db.audit import audit
 from db.fleet_states import newest_state
 from db.intake import PlanHead
-from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted, opens_change
+from supervisor.fleet.changes import JUDGED_AFTER, counted, largest_shift, opens_change
+from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 from supervisor.rcb.state import RcbState
 
@@ -38,6 +41,8 @@ def fleet_change(
         if opens_change(before, after, plan.fleet_changes_accepted):
             return {"fleet_change_part": part_id}
         return {}
+    if plan.fleet_change_confirmed:
+        return {}  # waits for an engineer
     parts = (
         select(t.Part.id)
         .where(t.Part.plan_id == plan.id, t.Part.id >= plan.fleet_change_part)
@@ -45,9 +50,23 @@ def fleet_change(
         .subquery()
     )
     if session.scalar(select(func.count()).select_from(parts)) != JUDGED_AFTER + 1:
-        return {}  # not yet, or judged (confirmed) already
-    if confirmed(_pairs(session, plan.id, after)):
-        return {}
+        return {}  # not yet
+    shift = largest_shift(_pairs(session, plan.id, after))
+    detail = {
+        "part_id": plan.fleet_change_part,
+        "largest_shift": None if shift is None else shift.where,
+        "z": None if shift is None or shift.z is None else round(shift.z, 3),
+    }
+    if shift is not None and shift.confirms:
+        audit(
+            session=session,
+            actor="rcb",
+            action="fleet change confirmed",
+            target=f"plan {plan.id}",
+            result="out of the fleet until rcb fleet include",
+            detail=detail,
+        )
+        return {"fleet_change_confirmed": True}
     now = counted(after)
     audit(
         session=session,
@@ -55,13 +74,15 @@ def fleet_change(
         action="fleet change not confirmed",
         target=f"plan {plan.id}",
         result="accepted",
-        detail={"part_id": plan.fleet_change_part, "changes_accepted": now},
+        detail={**detail, "changes_accepted": now},
     )
     return {"fleet_change_part": None, "fleet_changes_accepted": now}
 
 
-def _pairs(session: Session, plan_id: int, after: RcbState) -> list[tuple[Any, Any]]:
-    """Per operation and tool quantity, the belief before the change's part and now."""
+def _pairs(
+    session: Session, plan_id: int, after: RcbState
+) -> list[tuple[str, Posterior | None, Posterior | None]]:
+    """Per operation and tool quantity, its label, the belief before the change's part and now."""
     rows = session.execute(
         select(t.Operation.name, t.ToolModel.quantity, t.BandState.posterior)
         .join(t.Plan, t.Operation.plan_id == t.Plan.id)
@@ -70,9 +91,10 @@ def _pairs(session: Session, plan_id: int, after: RcbState) -> list[tuple[Any, A
         .where(t.Operation.plan_id == plan_id)
     ).all()
     before = {(name, q): None if p is None else posterior_from_json(p) for name, q, p in rows}
-    return [(before.get(key), belief) for key, belief in after.posterior.items()]
+    return [(" ".join(key), before.get(key), belief) for key, belief in after.posterior.items()]
 
 
 def clear_fleet_change(row: t.Plan) -> None:
     """The plan's changes are accepted or forgotten: none is pending."""
     row.fleet_change_part = None
+    row.fleet_change_confirmed = False

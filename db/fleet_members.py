@@ -3,9 +3,10 @@
 ``rcb fleet show TOOL``: the plans whose operations use the tool, a page at a time by id,
 each with its machine and whether its learned models are in the fleet (what
 :func:`db.fleet.fleet_evidence` reads) or why not: an engineer took the plan or its machine
-out, its process changed beyond what an engineer accepted, it is halted, its strategy learns
-no posterior, or no part was reported since its bands were last reset. Four statements a
-page, however many plans use the tool and however many parts they made.
+out, its process changed beyond what an engineer accepted (at which part, and whether its
+readings since confirmed it or it is still to be judged: :mod:`db.fleet_changes`), it is
+halted, its strategy learns no posterior, or no part was reported since its bands were last
+reset. Four statements a page, however many plans use the tool and however many parts they made.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from db import tables as t
 from db.fleet import plan_changes, priors_of
 from db.fleet_states import newest_state
 from db.plan_state import settings_of
+from supervisor.fleet.changes import JUDGED_AFTER
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 
@@ -50,8 +52,9 @@ def members(
     ``only``: just these plan ids (a REST key scoped to plans), filtered in the query.
     """
     query = (
-        select(t.Plan, t.Machine.name)
+        select(t.Plan, t.Machine.name, t.Part.serial)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
+        .outerjoin(t.Part, t.Part.id == t.Plan.fleet_change_part)
         .where(
             t.Plan.id > after_id,
             t.Plan.id.in_(
@@ -68,7 +71,7 @@ def members(
     plans = session.execute(query).all()
     if not plans:
         return []
-    ids = [row.id for row, _ in plans]
+    ids = [row.id for row, _, _ in plans]
     states = _states(session, tool, ids)
     changes = plan_changes(session=session, plan_ids=ids)
     exclusions = session.scalars(
@@ -76,14 +79,14 @@ def members(
         .where(
             or_(
                 t.FleetExclusion.plan_id.in_(ids),
-                t.FleetExclusion.machine.in_({machine for _, machine in plans}),
+                t.FleetExclusion.machine.in_({machine for _, machine, _ in plans}),
             )
         )
         .order_by(t.FleetExclusion.id)
     ).all()
     return [
-        _member(row, machine, states.get(row.id, []), exclusions, changes[row.id])
-        for row, machine in plans
+        _member(row, machine, states.get(row.id, []), exclusions, (changes[row.id], serial))
+        for row, machine, serial in plans
     ]
 
 
@@ -111,7 +114,7 @@ def _member(
     machine: str,
     states: Sequence[tuple[str, t.BandState | None]],
     exclusions: Sequence[t.FleetExclusion],
-    changes: int,
+    changes: tuple[int, str | None],
 ) -> Member:
     operations = tuple(dict.fromkeys(op for op, _ in states))
     beliefs = {
@@ -144,7 +147,7 @@ def _why_out(
     row: t.Plan,
     machine: str,
     learned: bool,
-    changes: int,
+    changes: tuple[int, str | None],
     exclusions: Sequence[t.FleetExclusion],
 ) -> str:
     """Why the plan's models are not in the fleet ("" where they are): the first that holds."""
@@ -158,9 +161,19 @@ def _why_out(
     strategy = settings_of(row.settings).strategy
     if strategy != "learn":
         return f"strategy {strategy} learns no posterior"
-    if changes > row.fleet_changes_accepted:
-        unaccepted = changes - row.fleet_changes_accepted
-        return f"its process changed ({unaccepted} not accepted: rcb fleet include)"
+    count, serial = changes
+    if count > row.fleet_changes_accepted:
+        return _changed(row, count - row.fleet_changes_accepted, serial)
     if not learned:
         return "no part reported yet"
     return ""
+
+
+def _changed(row: t.Plan, unaccepted: int, serial: str | None) -> str:
+    """A change not accepted: where it was counted, and judged yet or not (db.fleet_changes)."""
+    accept = f"{unaccepted} not accepted: rcb fleet include"
+    if row.fleet_change_part is None or serial is None:  # counted before alembic 0022
+        return f"its process changed ({accept})"
+    if row.fleet_change_confirmed:
+        return f"its process changed at part {serial}, confirmed by its readings ({accept})"
+    return f"its process changed at part {serial}, to be judged {JUDGED_AFTER} parts on ({accept})"

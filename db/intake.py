@@ -33,7 +33,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from sqlalchemy import JSON, Float, Integer, String, select, text
+from sqlalchemy import JSON, Boolean, Float, Integer, String, select, text
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 
@@ -55,6 +55,7 @@ class PlanHead:
     noise_prior: dict[str, Any] | None
     fleet_changes_accepted: int = 0
     fleet_change_part: int | None = None
+    fleet_change_confirmed: bool = False
 
 
 @dataclass(frozen=True)
@@ -87,6 +88,7 @@ _HEAD = (
     "noise_prior",
     "fleet_changes_accepted",
     "fleet_change_part",
+    "fleet_change_confirmed",
 )
 _PLANS = t.core_table(t.Plan)
 _PARTS = t.core_table(t.Part)
@@ -135,6 +137,7 @@ _STATEMENTS = {
         noise_prior=JSON,
         fleet_changes_accepted=Integer,
         fleet_change_part=Integer,
+        fleet_change_confirmed=Boolean,
         part_id=Integer,
         request_hash=String,
         response_status=Integer,

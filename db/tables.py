@@ -18,6 +18,7 @@ from sqlalchemy import (
     String,
     Text,
     UniqueConstraint,
+    false,
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
@@ -99,6 +100,9 @@ class Plan(Base):
     #: The part its monitors counted a change of its process at beyond those accepted: what it
     #: learned before is compared with what it learned since (db.fleet_changes, alembic 0022).
     fleet_change_part: Mapped[int | None]
+    #: Whether the readings since ``fleet_change_part`` confirmed its change: the plan waits
+    #: for an engineer (db.fleet_changes, alembic 0023); false while none is or it is judged.
+    fleet_change_confirmed: Mapped[bool] = mapped_column(default=False, server_default=false())
     #: The conflicts of a halted plan (db.plan_state); NULL while it runs.
     halt: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
     current_setpoint_version: Mapped[int] = mapped_column(default=1)

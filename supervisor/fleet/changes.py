@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -59,16 +60,45 @@ def shift_z(before: Posterior, now: Posterior) -> float:
     return abs(shift) / math.sqrt(max(variance, 1e-300))
 
 
-def confirmed(pairs: Iterable[tuple[Posterior | None, Posterior | None]]) -> bool:
-    """Whether the plan's beliefs ``(before the change, now)`` per quantity confirm a change."""
-    for before, now in pairs:
+@dataclass(frozen=True)
+class Shift:
+    """The largest shift of a plan's laws since a change: where and how many deviations."""
+
+    #: The quantity it is in (as labelled by the caller: "rough-od force_N").
+    where: str
+    #: ``z`` (module docstring); None: nothing was learned before the change to compare with.
+    z: float | None
+
+    @property
+    def confirms(self) -> bool:
+        """Whether it confirms the change (:data:`CONFIRM_Z`; nothing to compare with: yes)."""
+        return self.z is None or self.z > CONFIRM_Z
+
+
+def largest_shift(
+    pairs: Iterable[tuple[str, Posterior | None, Posterior | None]],
+) -> Shift | None:
+    """The largest shift over ``(label, before the change, now)`` per quantity.
+
+    None: nothing learned since, so no evidence either way. A quantity with nothing learned
+    before the change to compare with comes first, with no ``z``.
+    """
+    largest: Shift | None = None
+    for where, before, now in pairs:
         if now is None:
             continue
         if before is None or len(before.mean) != len(now.mean):
-            return True
-        if shift_z(before, now) > CONFIRM_Z:
-            return True
-    return False
+            return Shift(where, None)
+        z = shift_z(before, now)
+        if largest is None or (largest.z is not None and z > largest.z):
+            largest = Shift(where, z)
+    return largest
+
+
+def confirmed(pairs: Iterable[tuple[str, Posterior | None, Posterior | None]]) -> bool:
+    """Whether the plan's beliefs ``(label, before the change, now)`` confirm a change."""
+    shift = largest_shift(pairs)
+    return shift is not None and shift.confirms
 
 
 def counted(state: RcbState) -> int:

@@ -1,5 +1,5 @@
 """A change of a plan's process keeps it out of the fleet where its readings since confirm it
-(issue 32; db/fleet_changes.py, supervisor/fleet/changes.py, alembic 0022), through real part
+(issue 32; db/fleet_changes.py, supervisor/fleet/changes.py, alembic 0022-0023), through real part
 reports, on SQLite and PostgreSQL.
 
 Before, every change its monitors counted took the plan out until an engineer put it back; the
@@ -15,14 +15,18 @@ import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 from test_fleet_db import FLEET, LEARN, _body
+from test_migration_0012 import _downgrade
+from test_migrations import _no_difference
 
 from api.rest.schemas.parts import parse_report
 from api.services.fleet_models import include_in_fleet
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
 from db import tables as t
+from db.engine import upgrade
 from db.fleet import fleet_evidence
 from db.fleet_members import members
+from supervisor.fleet.changes import CONFIRM_Z
 from supervisor.virtual.fleet import noise_seed
 from supervisor.virtual.simulate import run_part
 
@@ -81,6 +85,11 @@ def _counted(engine, plan_id: int) -> int:  # type: ignore[no-untyped-def]
     return sum(m.changes for m in stored_state(engine, plan_id).monitors.values())
 
 
+def _entry(engine, action: str) -> t.AuditEntry:  # type: ignore[no-untyped-def]
+    with Session(engine) as session:
+        return session.scalars(select(t.AuditEntry).where(t.AuditEntry.action == action)).one()
+
+
 def _plan(engine) -> int:  # type: ignore[no-untyped-def]
     return int(
         create_plan(engine=engine, body=_body("fleet-a", "lathe-0"), settings=LEARN).body["id"]
@@ -96,13 +105,20 @@ def test_a_change_the_readings_confirm_keeps_the_plan_out_until_an_engineer_acce
     _parts(engine, a, range(7, 13), scale=1.15)  # rough-od's force 15 % up for good
     assert _cut(engine, a) == "a-7" and _counted(engine, a) >= 1
     assert _rough_od_readings(engine) is None  # judged at a-12: confirmed, out
-    member = _member(engine)
-    assert (
-        member.out == f"its process changed ({_counted(engine, a)} not accepted: rcb fleet include)"
+    assert _member(engine).out == (
+        "its process changed at part a-7, confirmed by its readings "
+        f"({_counted(engine, a)} not accepted: rcb fleet include)"
     )
+    entry = _entry(engine, "fleet change confirmed")
+    assert (entry.actor, entry.target) == ("rcb", f"plan {a}")
+    assert entry.result == "out of the fleet until rcb fleet include"
+    assert entry.detail is not None and entry.detail["largest_shift"] == "rough-od force_N"
+    assert entry.detail["z"] > CONFIRM_Z
+    _parts(engine, a, range(13, 15), scale=1.15)  # judged once: no second verdict
+    assert _entry(engine, "fleet change confirmed").id == entry.id
     include_in_fleet(engine=engine, plan_id=a, machine=None)
     assert _cut(engine, a) is None
-    assert _rough_od_readings(engine) == 12  # accepted: everything it learned
+    assert _rough_od_readings(engine) == 14  # accepted: everything it learned
     with Session(engine) as session:
         actions = list(session.scalars(select(t.AuditEntry.action)))
     assert "fleet change not confirmed" not in actions
@@ -119,15 +135,18 @@ def test_a_change_the_readings_do_not_confirm_is_accepted_five_parts_on(engine) 
     assert _cut(engine, a) == "a-7" and _counted(engine, a) == 1
     _parts(engine, a, range(8, 12))
     assert _rough_od_readings(engine) is None  # four parts on: not judged yet
+    assert _member(engine).out == (
+        "its process changed at part a-7, to be judged 5 parts on "
+        "(1 not accepted: rcb fleet include)"
+    )
     _parts(engine, a, range(12, 13))
     assert _cut(engine, a) is None and _rough_od_readings(engine) == 12
     with Session(engine) as session:
         row = session.get(t.Plan, a)
         assert row is not None and row.fleet_changes_accepted == 1
-        entry = session.scalars(
-            select(t.AuditEntry).where(t.AuditEntry.action == "fleet change not confirmed")
-        ).one()
+    entry = _entry(engine, "fleet change not confirmed")
     assert (entry.actor, entry.target, entry.result) == ("rcb", f"plan {a}", "accepted")
+    assert entry.detail is not None and 0 <= entry.detail["z"] <= CONFIRM_Z
     assert _member(engine).out == ""
 
 
@@ -140,3 +159,29 @@ def test_a_reset_of_the_bands_forgets_the_change(engine) -> None:
     assert _cut(engine, a) is None
     _parts(engine, a, range(6, 8), scale=1.15)
     assert _rough_od_readings(engine) == 2  # learned since the reset, its process as it is now
+
+
+def _confirmed_flags(engine) -> dict[str, bool]:  # type: ignore[no-untyped-def]
+    with Session(engine) as session:
+        rows = session.execute(select(t.Plan.name, t.Plan.fleet_change_confirmed)).all()
+    return {name: bool(flag) for name, flag in rows}
+
+
+def test_0023_marks_the_changes_0022_had_judged_confirmed(engine) -> None:
+    """Under 0022 a change not confirmed was cleared at its sixth part: one still marked after
+    more parts was confirmed, one with fewer is still to be judged. Down to 0022 and up again,
+    the upgrade tells them apart from the parts alone."""
+    a = _plan(engine)
+    _parts(engine, a, range(1, 7))
+    _parts(engine, a, range(7, 15), scale=1.15)  # change at a-7, confirmed at a-12
+    b = int(create_plan(engine=engine, body=_body("b", "lathe-1"), settings=LEARN).body["id"])
+    _parts(engine, b, range(1, 7))
+    _parts(engine, b, range(7, 10), scale=1.15)  # change at b-7, judged at b-12: not yet
+    assert _cut(engine, b) is not None
+    assert _confirmed_flags(engine) == {"fleet-a": True, "b": False}
+    url = engine.url.render_as_string(hide_password=False)
+    engine.dispose()
+    _downgrade(url, "0022")
+    upgrade(url)
+    assert _confirmed_flags(engine) == {"fleet-a": True, "b": False}
+    _no_difference(url)
