@@ -51,7 +51,7 @@ def fleet_change(
     )
     if session.scalar(select(func.count()).select_from(parts)) != JUDGED_AFTER + 1:
         return {}  # not yet
-    shift = largest_shift(_pairs(session, plan.id, after))
+    shift = largest_shift(_before(session, plan.id), after.posterior)
     detail = {
         "part_id": plan.fleet_change_part,
         "largest_shift": None if shift is None else shift.where,
@@ -79,10 +79,8 @@ def fleet_change(
     return {"fleet_change_part": None, "fleet_changes_accepted": now}
 
 
-def _pairs(
-    session: Session, plan_id: int, after: RcbState
-) -> list[tuple[str, Posterior | None, Posterior | None]]:
-    """Per operation and tool quantity, its label, the belief before the change's part and now."""
+def _before(session: Session, plan_id: int) -> dict[tuple[str, str], Posterior | None]:
+    """Per operation and tool quantity, the belief before the change's part."""
     rows = session.execute(
         select(t.Operation.name, t.ToolModel.quantity, t.BandState.posterior)
         .join(t.Plan, t.Operation.plan_id == t.Plan.id)
@@ -90,8 +88,7 @@ def _pairs(
         .outerjoin(t.BandState, t.BandState.id == newest_state(before_change=True))
         .where(t.Operation.plan_id == plan_id)
     ).all()
-    before = {(name, q): None if p is None else posterior_from_json(p) for name, q, p in rows}
-    return [(" ".join(key), before.get(key), belief) for key, belief in after.posterior.items()]
+    return {(name, q): None if p is None else posterior_from_json(p) for name, q, p in rows}
 
 
 def clear_fleet_change(row: t.Plan) -> None:

@@ -29,7 +29,7 @@ the law is best known at), which would confirm nearly every false alarm.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,7 +64,7 @@ def shift_z(before: Posterior, now: Posterior) -> float:
 class Shift:
     """The largest shift of a plan's laws since a change: where and how many deviations."""
 
-    #: The quantity it is in (as labelled by the caller: "rough-od force_N").
+    #: The quantity it is in: "rough-od force_N".
     where: str
     #: ``z`` (module docstring); None: nothing was learned before the change to compare with.
     z: float | None
@@ -75,29 +75,32 @@ class Shift:
         return self.z is None or self.z > CONFIRM_Z
 
 
-def largest_shift(
-    pairs: Iterable[tuple[str, Posterior | None, Posterior | None]],
-) -> Shift | None:
-    """The largest shift over ``(label, before the change, now)`` per quantity.
+#: A plan's beliefs per (operation, quantity), as :attr:`RcbState.posterior` keeps them.
+Beliefs = Mapping[tuple[str, str], Posterior | None]
 
-    None: nothing learned since, so no evidence either way. A quantity with nothing learned
-    before the change to compare with comes first, with no ``z``.
+
+def largest_shift(before: Beliefs, now: Beliefs) -> Shift | None:
+    """The largest shift of each quantity's law ``now`` from ``before`` the change.
+
+    Named "operation quantity". None: nothing learned since, so no evidence either way. A
+    quantity with nothing learned before the change to compare with comes first, with no ``z``.
     """
     largest: Shift | None = None
-    for where, before, now in pairs:
-        if now is None:
+    for key, belief in now.items():
+        if belief is None:
             continue
-        if before is None or len(before.mean) != len(now.mean):
+        where, old = " ".join(key), before.get(key)
+        if old is None or len(old.mean) != len(belief.mean):
             return Shift(where, None)
-        z = shift_z(before, now)
+        z = shift_z(old, belief)
         if largest is None or (largest.z is not None and z > largest.z):
             largest = Shift(where, z)
     return largest
 
 
-def confirmed(pairs: Iterable[tuple[str, Posterior | None, Posterior | None]]) -> bool:
-    """Whether the plan's beliefs ``(label, before the change, now)`` confirm a change."""
-    shift = largest_shift(pairs)
+def confirmed(before: Beliefs, now: Beliefs) -> bool:
+    """Whether the plan's beliefs ``now`` confirm a change counted after ``before``."""
+    shift = largest_shift(before, now)
     return shift is not None and shift.confirms
 
 

@@ -235,7 +235,7 @@ def _confirmed(before: RcbState, now: RcbState, catalogue: RcbState) -> bool:
     """Whether ``now`` confirms the change counted after ``before`` (nothing learned: yes)."""
     if before is catalogue:
         return True
-    return confirmed((" ".join(k), before.posterior.get(k), p) for k, p in now.posterior.items())
+    return confirmed(before.posterior, now.posterior)
 
 
 def _one(

@@ -36,17 +36,20 @@ def test_the_shift_is_read_where_the_newer_belief_is_best_known() -> None:
 
 
 def _labelled(*pairs):  # type: ignore[no-untyped-def]
-    return [(f"op {i}", before, now) for i, (before, now) in enumerate(pairs)]
+    """``(before, now)`` beliefs per quantity "op i", i counting the pairs."""
+    keys = [("op", str(i)) for i in range(len(pairs))]
+    before = {key: old for key, (old, _) in zip(keys, pairs, strict=True)}
+    return before, {key: now for key, (_, now) in zip(keys, pairs, strict=True)}
 
 
 def test_a_change_is_confirmed_by_any_quantity_and_by_nothing_to_compare() -> None:
     steady = (_belief((0.0,), ((1e-4,),)), _belief((0.005,), ((1e-4,),)))  # z 0.35
     moved = (_belief((0.0,), ((1e-4,),)), _belief((0.05,), ((1e-4,),)))  # z 3.54
     assert shift_z(*moved) > CONFIRM_Z > shift_z(*steady)
-    assert not confirmed(_labelled(steady, steady))
-    assert confirmed(_labelled(steady, moved))
-    assert confirmed(_labelled((None, steady[1])))  # nothing learned before the change
-    assert not confirmed(_labelled((steady[0], None)))  # nothing learned since: no evidence
+    assert not confirmed(*_labelled(steady, steady))
+    assert confirmed(*_labelled(steady, moved))
+    assert confirmed(*_labelled((None, steady[1])))  # nothing learned before the change
+    assert not confirmed(*_labelled((steady[0], None)))  # nothing learned since: no evidence
 
 
 def test_the_largest_shift_names_its_quantity() -> None:
@@ -54,11 +57,11 @@ def test_the_largest_shift_names_its_quantity() -> None:
     nothing learned before it is named with no ``z``, whatever the others read."""
     steady = (_belief((0.0,), ((1e-4,),)), _belief((0.005,), ((1e-4,),)))
     moved = (_belief((0.0,), ((1e-4,),)), _belief((0.05,), ((1e-4,),)))
-    shift = largest_shift(_labelled(steady, moved, steady))
+    shift = largest_shift(*_labelled(steady, moved, steady))
     assert shift is not None and shift.where == "op 1"
     assert shift.z == pytest.approx(0.05 / math.sqrt(2e-4)) and shift.confirms
-    shift = largest_shift(_labelled(steady, steady))
+    shift = largest_shift(*_labelled(steady, steady))
     assert shift is not None and shift.z == pytest.approx(0.005 / math.sqrt(2e-4))
     assert not shift.confirms
-    assert largest_shift(_labelled(moved, (None, steady[1]))) == Shift("op 1", None)
-    assert largest_shift(_labelled((steady[0], None))) is None
+    assert largest_shift(*_labelled(moved, (None, steady[1]))) == Shift("op 1", None)
+    assert largest_shift(*_labelled((steady[0], None))) is None
