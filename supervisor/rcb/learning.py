@@ -11,9 +11,14 @@ Per operation and quantity ``learn`` keeps a posterior of the whole power law
 3. *evidence against the model wins at once*: after a reading past the band (``above_band``,
    ``breach``) or a change, the posterior mean at the setpoint that made it is at least
    ``ln(y − ŝ u)``, the reading less its scatter as measured; where the update left it under
-   that (a posterior that many earlier readings hold in place), its intercept is raised to it.
-   The raise moves every prediction up by the same factor: it only ever makes the cone more
-   cautious.
+   that (a posterior that many earlier readings hold in place), its intercept is raised to it
+   by ``d`` and its variance grows by ``d²``: the raise is a level the readings so far did not
+   show, held with its own uncertainty. The raise moves every prediction up by the same
+   factor and widens the cone: it only ever makes the cone more cautious. Held at the earlier
+   readings' full weight (the mean moved, the precision kept), it would read as if every
+   earlier reading had been ``d`` higher, and the next readings, at a setpoint the raise
+   itself moved, would teach a slope the truth does not have (a feed exponent of 1.07 learned
+   as 1.44 over 150 parts: docs/benchmarks.md, *A year of parts*).
 
 References
 ----------
@@ -183,7 +188,10 @@ def _held_measurement(held: Reading, scale: float) -> Measurement:
 def _at_least(
     belief: Posterior, point: dict[str, float], measurement: Measurement, age: int | None
 ) -> Posterior:
-    """The posterior whose mean at ``point`` is at least ``ln(y − u)`` (module docstring)."""
+    """The posterior whose mean at ``point`` is at least ``ln(y − u)`` (module docstring).
+
+    Raised by ``d``, the intercept's variance grows by ``d²`` (:func:`discount`).
+    """
     y, u = measurement.value, measurement.uncertainty
     if y <= u:
         return belief
@@ -191,7 +199,8 @@ def _at_least(
     deficit = math.log(y - u) - float(at @ belief.mean_array)
     if deficit <= 0:
         return belief
-    return replace(belief, mean=(belief.mean[0] + deficit, *belief.mean[1:]))
+    raised = replace(belief, mean=(belief.mean[0] + deficit, *belief.mean[1:]))
+    return discount(raised, deficit * deficit)
 
 
 def _decision(
