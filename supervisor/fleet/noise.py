@@ -83,16 +83,23 @@ def noise_priors(
     learned: Sequence[Learned], default_spread: float = DEFAULT_CHAIN_SPREAD
 ) -> dict[str, NoisePrior]:
     """Per quantity the fleet's chains read, a new chain's prior (module docstring)."""
-    sums: dict[str, dict[str, tuple[float, float]]] = {}
+    terms: dict[str, dict[str, tuple[list[float], list[float]]]] = {}
     for item in learned:
         if item.chain is None:
             continue
         quantity = item.posterior.quantity
-        n, s = sums.setdefault(quantity, {}).get(item.machine, (0.0, 0.0))
-        sums[quantity][item.machine] = (n + item.chain.readings, s + item.chain.excess)
+        n, s = terms.setdefault(quantity, {}).setdefault(item.machine, ([], []))
+        n.append(item.chain.readings)
+        s.append(item.chain.excess)
+    # fsum: the same prior whatever order the plans come in (a forgetting chain's evidence
+    # is not a sum of halves, and an imported model's plans come in another order)
+    sums = {
+        q: {m: (math.fsum(n), math.fsum(s)) for m, (n, s) in chains.items()}
+        for q, chains in terms.items()
+    }
     out = {}
     for quantity, chains in sorted(sums.items()):
-        kept = {m: ns for m, ns in chains.items() if ns[0] >= MIN_READINGS}
+        kept = {m: ns for m, ns in sorted(chains.items()) if ns[0] >= MIN_READINGS}
         if kept:
             out[quantity] = _prior(quantity, kept, default_spread)
     return out

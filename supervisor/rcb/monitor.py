@@ -64,6 +64,7 @@ from typing import Literal
 
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
 from supervisor.rcb.monitor_state import Expected, Monitor, Reading
+from supervisor.rcb.noise import NOISE_MEMORY, NOISE_PRIOR, NOISE_RATE
 from supervisor.rcb.wear import setpoint_shift
 
 #: A reading this many σ under what the strategy expects is quarantined (``implausible_low``).
@@ -91,6 +92,9 @@ CONFIRM_SIGMA = 3.0
 #: A quarantined reading more than this (in ``ln``: a factor 2) under what was expected is
 #: never confirmed: no change of a process halves it; a sensor or a tool does.
 CONFIRMABLE = math.log(2.0)
+#: Each reading keeps this share of the chain's earlier noise evidence: ``1 − 1/M``, a memory
+#: of ``M`` = :data:`~supervisor.rcb.noise.NOISE_MEMORY` readings per operation.
+NOISE_KEEP = 1.0 - 1.0 / NOISE_MEMORY
 Verdict = Literal["accept", "quarantine", "confirm", "change"]
 
 
@@ -177,12 +181,13 @@ def _noise_learned(
         own = 0.0
     e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
     excess = max(e2 - model2, 0.0) / unit
+    keep = NOISE_KEEP**weight
     return replace(
         monitor,
         shape=monitor.shape + 0.5 * own,
         rate=monitor.rate + 0.5 * own * excess,
-        chain_shape=monitor.chain_shape + 0.5 * weight,
-        chain_rate=monitor.chain_rate + 0.5 * weight * excess,
+        chain_shape=NOISE_PRIOR + keep * (monitor.chain_shape - NOISE_PRIOR) + 0.5 * weight,
+        chain_rate=NOISE_RATE + keep * (monitor.chain_rate - NOISE_RATE) + 0.5 * weight * excess,
     )
 
 

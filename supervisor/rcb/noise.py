@@ -20,6 +20,14 @@ trusted to be):
   the band law's bound on a truth over its prediction, or after a change (the ``k = 2`` of
   the paper's ``y + u`` while the noise is not yet known).
 
+The chain's evidence forgets: each reading keeps ``1 − 1/M`` of the evidence before it
+(:data:`NOISE_MEMORY`, ``M`` = 20 readings per operation; variance discounting, West &
+Harrison §10.8 [2]_). Without it a chain that turned 3x noisier after 500 quiet parts was
+still read at a scale of about 1.3 sixty readings later, and ``learn`` counted its readings
+three times too precise: 417 crossings in 30 scenarios x 1000 parts; with ``M`` = 50, 35;
+with 20, 6 (docs/benchmarks.md, *A year of parts*). Its cost is the quantile: a quiet chain
+stays at a prudent scale of about 1.15-1.3 instead of coming down to 1.
+
 ``learn``'s belief is the *chain's*: one instrument (the dynamometer, the profilometer, the spindle
 drive) reads a quantity in every operation of a plan and misreports its ``u`` by one factor
 in each. Each operation's monitor keeps its own evidence and :func:`pooled` adds them up: six
@@ -36,13 +44,15 @@ References
 ----------
 .. [1] Gelman et al., Bayesian Data Analysis, 3rd ed., §2.6 (normal variance, conjugate
    inverse-gamma prior) and §14.8.
+.. [2] West & Harrison, Bayesian Forecasting and Dynamic Models, 2nd ed. (1997), §10.8:
+   variance discounting, an observational variance that may change over time.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -51,6 +61,11 @@ import numpy as np
 #: ``learn`` starts at (a chain 2.11 x noisier than it claims).
 NOISE_PRIOR = 1.5
 NOISE_RATE = 1.0
+#: The chain's evidence of its noise is worth at most this many readings per operation: each
+#: reading keeps ``1 − 1/M`` of the evidence before it (variance discounting, West & Harrison,
+#: *Bayesian Forecasting and Dynamic Models*, 2nd ed., §10.8), so a chain that turns noisier
+#: after hundreds of quiet parts is believed within tens of parts (module docstring).
+NOISE_MEMORY = 20.0
 #: ``learn`` counts readings at this upper quantile of the chain's noise scale (module docstring).
 PRUDENT_QUANTILE = 0.93
 #: The band law bounds a truth over its prediction, or after a change, at this upper quantile:
@@ -65,6 +80,9 @@ class NoiseScale:
 
     shape: float = NOISE_PRIOR
     rate: float = NOISE_RATE
+    #: ``(readings, excess)`` as :meth:`of_evidence` was given them: read back exactly (an
+    #: exported model's chain imported gives the same fleet prior to the last bit).
+    evidence: tuple[float, float] | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def of_evidence(cls, readings: float, excess: float) -> NoiseScale:
@@ -72,17 +90,17 @@ class NoiseScale:
 
         The inverse of :attr:`readings` and :attr:`excess`.
         """
-        return cls(NOISE_PRIOR + 0.5 * readings, NOISE_RATE + 0.5 * excess)
+        return cls(NOISE_PRIOR + 0.5 * readings, NOISE_RATE + 0.5 * excess, (readings, excess))
 
     @property
     def readings(self) -> float:
         """``2(a − a₀)``: the readings' worth of evidence beyond the default prior."""
-        return 2.0 * (self.shape - NOISE_PRIOR)
+        return self.evidence[0] if self.evidence else 2.0 * (self.shape - NOISE_PRIOR)
 
     @property
     def excess(self) -> float:
         """``2(b − b₀)``: the sum of those readings' excess squares (in ``u²``)."""
-        return 2.0 * (self.rate - NOISE_RATE)
+        return self.evidence[1] if self.evidence else 2.0 * (self.rate - NOISE_RATE)
 
     @property
     def scale(self) -> float:

@@ -85,6 +85,7 @@ class FaultLog:
         self.parts = 0
         self.dropped = 0
         self.after_step: dict[int, int] = {p: 0 for p, _ in faults.steps}
+        self.noisier = 0
         self.max_bend = 0.0
         self.max_rise = 0.0
 
@@ -106,6 +107,8 @@ class FaultLog:
         self.dropped += len(outcome.dropped)
         for first in self.after_step:
             self.after_step[first] += part >= first
+        noise_step = self.faults.noise_step
+        self.noisier += noise_step is not None and part >= noise_step[0]
         drift = self.machine.wear_drift_per_edge_life
         for compiled in self.machine.compiled:
             ln_x = [math.log(setpoints[compiled.name][p]) for p in compiled.parameters]
@@ -127,6 +130,9 @@ class FaultLog:
         if fault.kind == "step":
             made = float(self.after_step[int(fault.arguments[0])])
             return Tally(spec, "parts made with the step in force", made, self.parts, "sum")
+        if fault.kind == "noise-step":
+            what = "parts made with the noisier chain"
+            return Tally(spec, what, float(self.noisier), self.parts, "sum")
         if fault.kind == "curvature":
             what = "max |ln bend| at the parts made / over the box"
             return Tally(spec, what, self.max_bend, fault.arguments[0], "max")

@@ -94,6 +94,15 @@ KINDS: dict[str, Kind] = {
             (0.05,),
             "force, roughness and current rise by D over an edge's life (--wear-drift D)",
         ),
+        Kind(
+            "noise-step",
+            (
+                Argument("PART", True, _part, "a part number >= 1"),
+                Argument("S", False, _positive, "a number > 0"),
+            ),
+            (500.0, 3.0),
+            "from part PART on, the true measurement noise is S times more (a chain degrades)",
+        ),
     )
 }
 
@@ -173,6 +182,18 @@ class Faults:
     def wear(self) -> float:
         """Rise of force, roughness and current over an edge's life [-]."""
         return self.value("wear", 0.0)
+
+    @property
+    def noise_step(self) -> tuple[int, float] | None:
+        """``(PART, S)`` of the noise step, None without one."""
+        found = next((f.arguments for f in self.faults if f.kind == "noise-step"), None)
+        return None if found is None else (int(found[0]), found[1])
+
+    def noise_scale_at(self, part: int) -> float:
+        """True noise over the noise the reported u says at part ``part`` (1-based) [-]."""
+        step = self.noise_step
+        more = step[1] if step is not None and part >= step[0] else 1.0
+        return self.noise_scale * more
 
     @property
     def steps(self) -> tuple[tuple[int, float], ...]:

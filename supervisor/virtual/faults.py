@@ -9,6 +9,8 @@ for one part, built by :func:`part_faults`:
   roughness, spindle current; so power and torque, which follow force) is × FACTOR; tool
   life is not stepped (the closed loop does not measure it);
 - *noise-scale* ``S``: the measurement noise is ``N(0, (S·U/2)²)`` for a reported ``U``;
+- *noise-step* ``PART:S``: from part ``PART`` on the noise is ``S`` times that (a measuring
+  chain that degrades late in a plan's life: a worn stylus, a loose dynamometer mount);
 - *dropout* ``P``: a reading, with probability ``P``, is ``F·y_true`` with ``F ~ U(0.05, 0.30)``
   (a loose cable, an air cut, a broken insert), reported with the usual ``U``.
 
@@ -193,7 +195,7 @@ def part_faults(
         dropouts = {j: float(fraction[j]) for j in range(readings) if hit[j] < faults.dropout}
     return PartFaults(
         step_factor=step_factor(faults, part),
-        noise_scale=faults.noise_scale,
+        noise_scale=faults.noise_scale_at(part),
         bends=bends,
         dropouts=dropouts,
     )

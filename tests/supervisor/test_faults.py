@@ -43,6 +43,7 @@ SETPOINTS = {op.name: op.setpoint for op in optimize_plan(PLAN).operations}
         ("step:20:0.9", "step", (20.0, 0.9)),
         ("curvature:0.1", "curvature", (0.1,)),
         ("wear:0.2", "wear", (0.2,)),
+        ("noise-step:300:2.5", "noise-step", (300.0, 2.5)),
         (" dropout:1 ", "dropout", (1.0,)),
     ],
 )
@@ -60,6 +61,7 @@ def test_parse_a_good_fault(text, kind, arguments):
         ("step", "step:15:1.12"),
         ("curvature", "curvature:0.06"),
         ("wear", "wear:0.05"),
+        ("noise-step", "noise-step:500:3"),
     ],
 )
 def test_a_kind_alone_is_its_catalogue_default(text, spec):
@@ -83,6 +85,9 @@ def test_a_kind_alone_is_its_catalogue_default(text, spec):
         "curvature:-0.1",
         "wear:nan",
         "wear:inf",
+        "noise-step:500",
+        "noise-step:0:3",
+        "noise-step:500:0",
     ],
 )
 def test_parse_a_bad_fault_names_the_flag_and_the_value(text):
@@ -187,6 +192,18 @@ def test_noise_scale_multiplies_the_noise_not_the_reported_u():
         for _ in range(3000)
     ]
     assert_allclose(np.std(errors, ddof=1), 4.5, rtol=0.05)  # sd of a sd: 1.3 % here
+
+
+def test_a_noise_step_multiplies_the_noise_from_its_part_on_with_noise_scale():
+    faults = parse_faults(["noise-scale:2", "noise-step:500:3"])
+    assert faults.noise_step == (500, 3.0)
+    rng = np.random.default_rng(0)
+    assert part_faults(faults, {}, 499, rng, READINGS).noise_scale == 2.0
+    assert part_faults(faults, {}, 500, rng, READINGS).noise_scale == 6.0
+    assert parse_faults(["noise-step:7:3"]).noise_scale_at(6) == 1.0
+    assert parse_faults([]).noise_step is None
+    with pytest.raises(InputError, match="noise-step given twice"):
+        parse_faults(["noise-step", "noise-step:9:2"])
 
 
 def test_a_step_multiplies_force_roughness_and_what_follows_force_from_its_part_on():

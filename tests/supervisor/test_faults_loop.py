@@ -44,16 +44,17 @@ def test_fault_free_results_are_those_from_before_the_catalogue():
     # reading over the prediction at the chain's prudent scale and an unread change backing
     # off by its exponent error; then 0162b3ee15d5 / 7369ac20a3e2 with that margin's u rising
     # with the reading's excess over the prediction, u + δ up to P u; then ebfebdef14c9 /
-    # b85724fe872d with it up to the chain's bound Q u and a change read at y + Q u), and these
-    # are today's:
+    # b85724fe872d with it up to the chain's bound Q u and a change read at y + Q u; then
+    # fa897c612b31 / a9057698ec01 with the chain's noise evidence worth at most 20 readings
+    # per operation, noise.NOISE_MEMORY), and these are today's:
     # without a fault, the catalogue changes nothing, and wear:0.05 is --wear-drift 0.05
-    assert digest(simulate(PLAN, ["ivester", "learn"], scenarios=3, parts=12)) == "ebfebdef14c9"
+    assert digest(simulate(PLAN, ["ivester", "learn"], scenarios=3, parts=12)) == "fa897c612b31"
     wear = simulate(PLAN, ["ivester"], scenarios=2, parts=12, seed=4, wear_drift_per_edge_life=0.05)
-    assert digest(wear) == "b85724fe872d"
+    assert digest(wear) == "a9057698ec01"
     worn = simulate(
         PLAN, ["ivester"], scenarios=2, parts=12, seed=4, faults=parse_faults(["wear:0.05"])
     )
-    assert digest(worn) == "b85724fe872d"
+    assert digest(worn) == "a9057698ec01"
 
 
 def test_neutral_faults_leave_the_noise_stream_alone():
