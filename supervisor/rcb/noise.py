@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -80,9 +80,6 @@ class NoiseScale:
 
     shape: float = NOISE_PRIOR
     rate: float = NOISE_RATE
-    #: ``(readings, excess)`` as :meth:`of_evidence` was given them: read back exactly (an
-    #: exported model's chain imported gives the same fleet prior to the last bit).
-    evidence: tuple[float, float] | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def of_evidence(cls, readings: float, excess: float) -> NoiseScale:
@@ -90,17 +87,17 @@ class NoiseScale:
 
         The inverse of :attr:`readings` and :attr:`excess`.
         """
-        return cls(NOISE_PRIOR + 0.5 * readings, NOISE_RATE + 0.5 * excess, (readings, excess))
+        return cls(NOISE_PRIOR + 0.5 * readings, NOISE_RATE + 0.5 * excess)
 
     @property
     def readings(self) -> float:
         """``2(a − a₀)``: the readings' worth of evidence beyond the default prior."""
-        return self.evidence[0] if self.evidence else 2.0 * (self.shape - NOISE_PRIOR)
+        return 2.0 * (self.shape - NOISE_PRIOR)
 
     @property
     def excess(self) -> float:
         """``2(b − b₀)``: the sum of those readings' excess squares (in ``u²``)."""
-        return self.evidence[1] if self.evidence else 2.0 * (self.rate - NOISE_RATE)
+        return 2.0 * (self.rate - NOISE_RATE)
 
     @property
     def scale(self) -> float:

@@ -56,6 +56,9 @@ class Kind:
     does: str
 
 
+#: The part a fault starts at (``step``, ``noise-step``).
+FROM_PART = Argument("PART", True, _part, "a part number >= 1")
+
 #: The catalogue, in the order the faults are applied and listed. The RNG stream of a fault
 #: that draws is ``numpy.random.default_rng([seed, 1 + its index here])``.
 KINDS: dict[str, Kind] = {
@@ -76,7 +79,7 @@ KINDS: dict[str, Kind] = {
         Kind(
             "step",
             (
-                Argument("PART", True, _part, "a part number >= 1"),
+                FROM_PART,
                 Argument("FACTOR", False, _positive, "a number > 0"),
             ),
             (15.0, 1.12),
@@ -97,7 +100,7 @@ KINDS: dict[str, Kind] = {
         Kind(
             "noise-step",
             (
-                Argument("PART", True, _part, "a part number >= 1"),
+                FROM_PART,
                 Argument("S", False, _positive, "a number > 0"),
             ),
             (500.0, 3.0),
