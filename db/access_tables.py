@@ -11,7 +11,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import JSON, ForeignKey, String, Text, UniqueConstraint
+from sqlalchemy import JSON, ForeignKey, Index, String, Text, UniqueConstraint
 from sqlalchemy.orm import Mapped, mapped_column
 
 from db.table_base import Base, utcnow
@@ -61,9 +61,13 @@ class AuthBucket(Base):
 
 
 class AuditEntry(Base):
-    """Append-only audit log: who did what, when, with what result."""
+    """Append-only audit log: who did what, when, with what result (``rcb audit`` reads it)."""
 
     __tablename__ = "audit_log"
+    __table_args__ = (  # rcb audit --action / --actor, newest first (db.audit_read, alembic 0024)
+        Index("ix_audit_log_action_at", "action", "at"),
+        Index("ix_audit_log_actor_at", "actor", "at"),
+    )
     id: Mapped[int] = mapped_column(primary_key=True)
     at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
     actor: Mapped[str] = mapped_column(String(200))

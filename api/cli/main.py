@@ -22,6 +22,7 @@ from api.cli import plans as cli_plans
 from api.cli import replan as cli_replan
 from api.cli import review as cli_review
 from api.cli.admin import db_app, keys_app, serve
+from api.cli.audit import audit
 from api.cli.cam import cam_app
 from api.cli.certify import certify
 from api.cli.collect import collect
@@ -113,6 +114,7 @@ for _review in (
     app.command()(_review)  # api/cli/review.py, api/cli/replan.py
 app.add_typer(db_app, name="db")  # rcb db upgrade: api/cli/admin.py
 app.add_typer(keys_app, name="keys")  # rcb keys create|revoke: api/cli/admin.py
+app.command()(audit)  # rcb audit: api/cli/audit.py
 #: ``rcb milling``: its commands' modules load NumPy for their options' defaults and choices, so
 #: they are imported only when ``rcb milling ...`` runs (api/cli/lazy.py).
 milling_app = typer.Typer(

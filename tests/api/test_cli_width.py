@@ -100,6 +100,7 @@ DB_COMMANDS = {
     "parts": ["parts", "1"],
     "replan": ["replan", "1", "--limit", "rough-od.force_N=1900", "--dry-run"],
     "keys": ["keys", "list"],
+    "audit": ["audit"],
 }
 
 

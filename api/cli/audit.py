@@ -1,0 +1,78 @@
+"""``rcb audit``: who did what to the database, and when, newest first.
+
+Every write over REST or at the CLI, every refused key, every fleet verdict (actor ``rcb``)
+and every pruning is in the audit log (``audit_log``). This is its reader: a page at a time,
+optionally of one action, one actor, from a time on (api/services/audit_log.py).
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.text import Text
+
+from api.cli.common import DbOption, emit, engine_of, errors, say
+from api.cli.tables import new_table
+from api.services import request_limits
+
+_out = Console()
+
+
+def audit(
+    action: Annotated[
+        str | None,
+        typer.Option(help="Only this action, e.g. 'replan', 'fleet exclude', 'report part'."),
+    ] = None,
+    actor: Annotated[
+        str | None,
+        typer.Option(help="Only this actor, e.g. 'cli:ana', 'key:3', 'rcb', 'anonymous'."),
+    ] = None,
+    since: Annotated[
+        str | None,
+        typer.Option(help="Only entries this recent (7d, 24h, 90m) or at or after an ISO time."),
+    ] = None,
+    limit: Annotated[
+        int, typer.Option(help=f"Entries per page (1 to {request_limits.READ_PAGE}).")
+    ] = 50,
+    cursor: Annotated[str | None, typer.Option(help="Where the page starts (as printed).")] = None,
+    db: DbOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """The audit log, newest first: when, who, what, on what, the result and its detail.
+
+    A page, and how to get the next (older) one with the same filters.
+    """
+    from api.services.audit_log import audit_page, query_of
+
+    with errors():
+        query = query_of(action, actor, since)
+        page = audit_page(engine=engine_of(db), query=query, cursor=cursor, limit=limit)
+    if as_json:
+        emit(page)
+    else:
+        _out.print(_table(page["entries"]))
+    if page["next_cursor"] is not None:
+        # not --db: it may hold a password
+        again = [("--action", action), ("--actor", actor), ("--since", since)]
+        kept = "".join(f" {name} {shlex.quote(value)}" for name, value in again if value)
+        say(f"rcb: older entries: rcb audit{kept} --cursor {page['next_cursor']} --limit {limit}")
+
+
+def _table(entries: list[dict[str, Any]]) -> Any:
+    """The entries as a table (detail as compact JSON; text as stored, never markup)."""
+    table = new_table("at (UTC)", "actor", "action", "target", "result", "detail", title="audit")
+    for entry in entries:
+        detail = entry["detail"]
+        table.add_row(
+            entry["at"].strftime("%Y-%m-%d %H:%M:%S"),
+            Text(entry["actor"]),
+            Text(entry["action"]),
+            Text(entry["target"]),
+            Text(entry["result"]),
+            Text("" if detail is None else json.dumps(detail, separators=(",", ":"))),
+        )
+    return table

@@ -1,0 +1,58 @@
+"""Reading the audit log newest first, a page at a time: ``rcb audit``.
+
+A page is ordered by time, then id, both descending, and continues below the last entry of
+the previous page (keyset paging: the same rows read on the first page as after a year).
+Its filters are served by an index each (alembic 0024): one action (``action, at``), one
+actor (``actor, at``), from a time on (``at``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import or_, select
+from sqlalchemy.orm import Session
+
+from db.audit import AUDIT
+
+
+@dataclass(frozen=True)
+class AuditQuery:
+    """Which entries: ``action`` and ``actor`` exactly (None: any), ``since`` on or after."""
+
+    action: str | None = None
+    actor: str | None = None
+    since: datetime | None = None
+
+
+def utc(moment: datetime) -> datetime:
+    """A stored time as UTC (SQLite returns it naive; it was stored as UTC)."""
+    return moment.astimezone(UTC) if moment.tzinfo else moment.replace(tzinfo=UTC)
+
+
+def entries(
+    *,
+    session: Session,
+    query: AuditQuery,
+    below: tuple[datetime, int] | None,
+    limit: int,
+) -> list[dict[str, Any]]:
+    """Up to ``limit`` entries, newest first, older than ``below`` (its time and id).
+
+    Each: ``id, at`` (UTC), ``actor, action, target, result, detail``.
+    """
+    table = AUDIT
+    statement = select(table).order_by(table.c.at.desc(), table.c.id.desc()).limit(limit)
+    if query.action is not None:
+        statement = statement.where(table.c.action == query.action)
+    if query.actor is not None:
+        statement = statement.where(table.c.actor == query.actor)
+    if query.since is not None:
+        statement = statement.where(table.c.at >= query.since.astimezone(UTC))
+    if below is not None:
+        at, entry_id = below[0].astimezone(UTC), below[1]
+        # at <= at' bounds the index's range (a deep page seeks, as the first page does)
+        statement = statement.where(table.c.at <= at, or_(table.c.at < at, table.c.id < entry_id))
+    return [{**row._asdict(), "at": utc(row.at)} for row in session.execute(statement).all()]
