@@ -422,6 +422,13 @@ def main(argv: list[str] | None = None) -> int:
         help="--fleet: plans each learning machine runs (each its own operations' offsets)",
     )
     parser.add_argument(
+        "--new-z",
+        type=float,
+        default=None,
+        help="--fleet: the cone's z of the new machine's three starts, 1 to 100 (default: the "
+        "plan's, 4; the learning machines keep it)",
+    )
+    parser.add_argument(
         "--new-plan-on",
         choices=["new", "known"],
         default="new",
@@ -468,6 +475,8 @@ def main(argv: list[str] | None = None) -> int:
             parser.error("--operation-spread must be a number in [0, 1]")
         if not (np.isfinite(args.spread_mix) and 0 <= args.spread_mix <= 2):
             parser.error("--spread-mix must be a number in [0, 2]")
+        if args.new_z is not None and not (np.isfinite(args.new_z) and 1 <= args.new_z <= 100):
+            parser.error("--new-z must be a number in [1, 100] (a plan's z)")
         try:
             fleet_faults = parse_faults(args.fleet_fault)
         except InputError as err:

@@ -29,7 +29,7 @@ Usage (from the repository root)::
 
     .venv/bin/python benchmarks/closed_loop.py --fleet 4 [--scenarios 1000] [--parts 30]
         [--learn-parts 30] [--fleet-spread 0.03] [--operation-spread 0]
-        [--new-plan-on new|known] [--learn-plans 1] [--fault KIND[:ARGS]]
+        [--new-plan-on new|known] [--learn-plans 1] [--new-z Z] [--fault KIND[:ARGS]]
         [--fleet-fault KIND[:ARGS]] [--jobs N] [--seed-offset 0]
 """
 
@@ -168,6 +168,7 @@ def run(
         args.new_plan_on == "known",
         args.learn_plans,
         args.spread_mix,
+        args.new_z,
     )
     where = "a new machine" if args.new_plan_on == "new" else "a new plan on machine 0"
     print(
@@ -177,6 +178,7 @@ def run(
         f"true spread {100 * args.fleet_spread:.1f} %"
         + (f", operations {100 * args.operation_spread:.1f} %" if args.operation_spread else "")
         + (f", each tool's x exp({args.spread_mix:g} z)" if args.spread_mix else "")
+        + (f"; the new machine's plans at z = {args.new_z:g}" if args.new_z is not None else "")
     )
     if faults:
         print(f"the new machine's faults: {', '.join(faults.specs)}")

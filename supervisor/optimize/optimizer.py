@@ -58,6 +58,11 @@ Cones = Mapping[str, Mapping[str, LearnedCone]]
 #: parts x 6), against 157 at 0.5, 5 at 1.5; at 3 the kept setpoints ran so near the limit
 #: that 3 readings in 14400 raised the 3σ alarm (issue 15; README, "Strategies").
 KEEP_SLACK_Z = 2.0
+#: ... but never under ``z`` = 1 (the least ``z`` a plan takes): a setpoint kept at a smaller
+#: multiple would sit nearer its limit than the setpoint's own uncertainty (at ``z − 2 <= 0``,
+#: for a plan at ``z`` = 2, on the posterior mean), and its band could not be shown
+#: (:func:`supervisor.rcb.cone.display_model`): the re-check refused it with a SolverError.
+KEEP_Z_FLOOR = 1.0
 #: The points of "the largest feed rate" are those within this (in ln w) of the LP's optimum.
 TIE_TOL = 1e-9
 
@@ -75,7 +80,7 @@ def optimize_operation(
     the faster of the two optima is taken: the band program is the proven-safe fallback, so
     a setpoint is never worse than the band optimum, and the plan runs while either holds.
     ``last``: the setpoint in force; where it still meets every learned row at ``z −``
-    :data:`KEEP_SLACK_Z` and is faster than the new cone optimum (a posterior mean moves with
+    :func:`keep_slack_z` and is faster than the new cone optimum (a posterior mean moves with
     noise), it is kept, so a setpoint backs off only when what was learned says it must.
 
     Raises
@@ -154,17 +159,18 @@ def _learned(
     bounds, resolution = operation.bounds, machine.resolution
     slack_z = 0.0
     found = grid.machine_point(lp, x, bounds, resolution, grid.cone_optimum)
+    keep_slack = keep_slack_z(min(c.z for c in usable.values()))
     if last is not None and last.robust_by == "cone":
         kept = np.array([math.log(last.setpoint[p]) for p in lp.parameters])
-        kept_values = grid.on_grid(lp, kept, bounds, resolution, KEEP_SLACK_Z)
+        kept_values = grid.on_grid(lp, kept, bounds, resolution, keep_slack)
         faster = kept_values is not None and (
             found is None or _ln_mrr(lp, kept_values) > _ln_mrr(lp, found[2])
         )
-        if faster and kept_values is not None and socp.meets(lp, kept, KEEP_SLACK_Z):
+        if faster and kept_values is not None and socp.meets(lp, kept, keep_slack):
             # shown, and re-checked, at the confidence that keeps it
             found = (lp, kept, kept_values)
-            usable = {q: c.at_z(c.z - KEEP_SLACK_Z) for q, c in usable.items()}
-            slack_z = KEEP_SLACK_Z
+            usable = {q: c.at_z(c.z - keep_slack) for q, c in usable.items()}
+            slack_z = keep_slack
     if found is None:  # no learned grid point is proven safe: the band program's holds
         return None
     held_lp, x_held, values = found
@@ -177,6 +183,11 @@ def _learned(
     )
     held = binding(held_lp, x_held, slack_z)
     return replace(_result(operation, shown, lp, values, held, machine), robust_by="cone")
+
+
+def keep_slack_z(z: float) -> float:
+    """How far under ``z`` a setpoint in force is kept: :data:`KEEP_SLACK_Z`, to ``z`` = 1."""
+    return max(min(KEEP_SLACK_Z, z - KEEP_Z_FLOOR), 0.0)
 
 
 def _ln_mrr(lp: LogLinearProgram, values: np.ndarray[Any, Any]) -> float:

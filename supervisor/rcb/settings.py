@@ -143,9 +143,9 @@ SETTINGS: Mapping[str, Setting] = {
         Setting("floors", "least band per quantity; default: the u", {}, "floors", low=0),
         Setting("coverage_k", "the band as k σ", 2.0, low=COVERAGE_K_LOW, high=100),
         Setting("discrepancy", "τ; default: the strategy's", None, low=0, high=10),
-        Setting(
-            "z", "learn: the cone's z", _posterior("DEFAULT_Z"), low=0, high=100, open_low=True
-        ),
+        # at least 1: a cone narrower than 1 σ would sit nearer its limit than the setpoint's own
+        # uncertainty (supervisor.optimize.optimizer.KEEP_Z_FLOOR)
+        Setting("z", "learn: the cone's z", _posterior("DEFAULT_Z"), low=1, high=100),
         Setting(
             "exponent_sd", "learn: exponent prior sd", _posterior("DEFAULT_EXPONENT_SD"), high=10
         ),

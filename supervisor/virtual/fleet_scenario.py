@@ -112,12 +112,14 @@ def run_fleet_scenario(
     on_known: bool = False,
     learn_plans: int = 1,
     spread_mix: float = 0.0,
+    new_z: float | None = None,
 ) -> FleetTrace:
     """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
 
     ``faults``: the new machine's (its three runs'); ``fleet_faults``: the learning machines'
     (None: they run clean), whose plans a halt or a change leaves out of the fleet;
-    ``spread_mix``: each tool's spread its own (:func:`~supervisor.virtual.fleet.tool_spreads`).
+    ``spread_mix``: each tool's spread its own (:func:`~supervisor.virtual.fleet.tool_spreads`);
+    ``new_z``: the cone's ``z`` of the new machine's three starts (None: the default's).
     """
     outside = not on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
     spreads = tool_spreads(plan, seed, machine_spread, spread_mix)
@@ -136,6 +138,9 @@ def run_fleet_scenario(
         plan = replace(plan, machine=replace(plan.machine, name="machine-0"))
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
     chains = {q: p.belief for q, p in noise_priors(learned).items()}
+    if new_z is not None:  # the new machine's plans only: the fleet learned at the default
+        settings = replace(settings, z=new_z)
+        catalogue = start(plan, settings)
     from_fleet = replace(
         start(plan, settings, {k: p.posterior for k, p in priors.items()}), noise_priors=chains
     )
@@ -240,7 +245,19 @@ def _confirmed(before: RcbState, now: RcbState, catalogue: RcbState) -> bool:
 
 def _one(
     task: tuple[
-        Plan, int, int, int, int, float, Faults | None, Faults | None, float, bool, int, float
+        Plan,
+        int,
+        int,
+        int,
+        int,
+        float,
+        Faults | None,
+        Faults | None,
+        float,
+        bool,
+        int,
+        float,
+        float | None,
     ],
 ) -> FleetTrace:
     return run_fleet_scenario(*task)
@@ -260,9 +277,10 @@ def simulate_fleet(
     on_known: bool = False,
     learn_plans: int = 1,
     spread_mix: float = 0.0,
+    new_z: float | None = None,
 ) -> list[FleetTrace]:
     """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
-    world = (faults, fleet_faults, operation_spread, on_known, learn_plans, spread_mix)
+    world = (faults, fleet_faults, operation_spread, on_known, learn_plans, spread_mix, new_z)
     tasks = [(plan, s, machines, parts, learn_parts, machine_spread, *world) for s in seeds]
     if jobs <= 1:
         return [_one(t) for t in tasks]
