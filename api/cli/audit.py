@@ -63,7 +63,7 @@ def audit(
 
 
 def _table(entries: list[dict[str, Any]]) -> Any:
-    """The entries as a table (detail as compact JSON; text as stored, never markup)."""
+    """The entries as a table (text as stored, never markup)."""
     table = new_table("at (UTC)", "actor", "action", "target", "result", "detail", title="audit")
     for entry in entries:
         detail = entry["detail"]
@@ -73,6 +73,18 @@ def _table(entries: list[dict[str, Any]]) -> Any:
             Text(entry["action"]),
             Text(entry["target"]),
             Text(entry["result"]),
-            Text("" if detail is None else json.dumps(detail, separators=(",", ":"))),
+            Text(_detail(detail)),
         )
     return table
+
+
+def _detail(detail: Any) -> str:
+    """``key: value, ...`` (a table wraps it between pairs); a value not text as JSON."""
+    if detail is None:
+        return ""
+    if not isinstance(detail, dict):
+        return json.dumps(detail, ensure_ascii=False)
+    return ", ".join(
+        f"{key}: {value if isinstance(value, str) else json.dumps(value, ensure_ascii=False)}"
+        for key, value in detail.items()
+    )

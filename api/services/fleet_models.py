@@ -80,7 +80,13 @@ def exclude_from_fleet(
             return 200, {"excluded": target, "reason": reason.strip()}
 
         return write(
-            engine, actor=actor, action="fleet exclude", target=target, idempotency=None, work=work
+            engine,
+            actor=actor,
+            action="fleet exclude",
+            target=target,
+            idempotency=None,
+            work=work,
+            detail={"reason": reason.strip()},
         )
 
 

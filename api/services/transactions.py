@@ -47,9 +47,11 @@ class Tx:
         action: str,
         target: str,
         idempotency: Idempotency | None,
+        detail: dict[str, Any] | None = None,
     ) -> None:
         self.session = session
         self._actor, self._action, self._target = actor, action, target
+        self._detail = detail
         self._idempotency = idempotency
         self._after: list[Callable[[], None]] = []
         self._answered = False
@@ -64,7 +66,7 @@ class Tx:
         answer = bulk.Encoded.of(body)
         # the key's record and the audit entry go out with the rows the work deferred
         # (a part report's: one statement on PostgreSQL, db.bulk)
-        entry = audit.audit_row(actor.name, self._action, self._target, str(status))
+        entry = audit.audit_row(actor.name, self._action, self._target, str(status), self._detail)
         rows = [(audit.AUDIT, [entry])]
         if idempotency is not None:
             record = idempotency_row(
@@ -104,8 +106,11 @@ def write(
     work: Work,
     attempts: int = 1,
     held: Authenticated | None = None,
+    detail: dict[str, Any] | None = None,
 ) -> Written:
     """Run ``work`` in one transaction, idempotently; ``attempts`` > 1 retries unique-key races.
+
+    ``detail``: what the audit entry keeps besides its action and target (an exclusion's reason).
 
     Creating a plan inserts its machine and tools if they are new: two plans for the same new
     machine at once race to insert it, and the loser's retry finds it stored. ``held``: the
@@ -113,7 +118,7 @@ def write(
     """
 
     def once(held: Authenticated | None) -> Written:
-        with transaction(engine, actor, action, target, idempotency, held) as tx:
+        with transaction(engine, actor, action, target, idempotency, held, detail) as tx:
             stored = None
             if idempotency is not None:
                 found = stored_answer(tx.session, actor.id, idempotency.key)
@@ -152,6 +157,7 @@ def transaction(
     target: str,
     idempotency: Idempotency | None,
     held: Authenticated | None = None,
+    detail: dict[str, Any] | None = None,
 ) -> Iterator[Tx]:
     """A write's transaction (:class:`Tx`): committed if the block ends without an exception.
 
@@ -176,7 +182,7 @@ def transaction(
                         )
                     if not claimed:
                         raise InFlightError(idempotency.key)
-                tx = Tx(session, actor, action, target, idempotency)
+                tx = Tx(session, actor, action, target, idempotency, detail)
                 yield tx
     except IntegrityError as err:
         # a concurrent write won a unique constraint (same serial, same key): nothing was stored

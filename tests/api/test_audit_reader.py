@@ -65,6 +65,7 @@ def test_real_commands_are_read_back_newest_first_and_by_filter(runner, engine):
         ("cli:ana", "create plan", "plan ivester-demo-part"),
     ]
     assert [e["result"] for e in listed] == ["200", "201", "mes", "201"]
+    assert listed[0]["detail"] == {"reason": "wrong bar stock"}  # why, as the engineer said
     only = _json(runner, url, "--action", "replan")["entries"]
     assert [(e["actor"], e["target"]) for e in only] == [("cli:bo", "plan 1")]
     by_ana = _json(runner, url, "--actor", "cli:ana")["entries"]
@@ -72,7 +73,10 @@ def test_real_commands_are_read_back_newest_first_and_by_filter(runner, engine):
     assert _json(runner, url, "--actor", "cli:nobody") == {"entries": [], "next_cursor": None}
 
     table = _run(runner, "audit", "--db", url, "--limit", "3")
-    assert table.exit_code == 0 and "cli:bo" in table.stdout and "fleet exclude" in table.stdout
+    assert table.exit_code == 0
+    shown = table.stdout.split()  # words: a narrow column wraps between them
+    assert {"cli:bo", "fleet", "exclude", "replan", "mes"} <= set(shown)
+    assert {"reason:", "wrong", "bar", "stock"} <= set(shown)  # the detail as key: value
     assert "ivester-demo-part" not in table.stdout  # the fourth entry is on the next page
     hint = table.stderr.split()
     assert hint[:5] == ["rcb:", "older", "entries:", "rcb", "audit"]
