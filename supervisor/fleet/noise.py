@@ -70,11 +70,14 @@ class NoisePrior:
         return math.sqrt(self.belief.rate / (self.belief.shape - 1.0))
 
     def describe(self) -> str:
-        """``roughness_um noise: 1.00 x the reported u from 540 readings on 3 machines, …``."""
+        """``force_N noise: 1.00 x the reported u from 540 readings' worth on 3 machines, …``.
+
+        Worth: a chain's evidence forgets (:data:`supervisor.rcb.noise.NOISE_MEMORY`).
+        """
         machines = "machine" if len(self.machines) == 1 else "machines"
         return (
             f"{self.quantity} noise: {self.scale:.2f} x the reported u from {self.readings} "
-            f"readings on {len(self.machines)} {machines}, between-chain spread "
+            f"readings' worth on {len(self.machines)} {machines}, between-chain spread "
             f"{100 * self.spread:.0f} %"
         )
 

@@ -156,8 +156,8 @@ def test_the_prior_of_three_honest_chains_and_of_one() -> None:
     assert three.scale**2 == pytest.approx(math.exp(mean_ln + 0.5 * total), rel=1e-9)
     assert (three.machines, three.readings) == (("m0", "m1", "m2"), 540)
     assert three.describe() == (
-        f"force_N noise: {three.scale:.2f} x the reported u from 540 readings on 3 machines, "
-        "between-chain spread 21 %"
+        f"force_N noise: {three.scale:.2f} x the reported u from 540 readings' worth on 3 "
+        "machines, between-chain spread 21 %"
     )
     one = noise_priors([_learned("m0", 180, 1.0)])["force_N"]
     assert one.spread == DEFAULT_CHAIN_SPREAD
