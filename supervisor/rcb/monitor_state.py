@@ -88,6 +88,10 @@ class Monitor:
         The upper CUSUM of the high side's ``r`` (``monitor.CUSUM_K``, ``CUSUM_H``), and the
         sum and count of the innovations ``e`` since it last stood at 0 (their mean is the
         shift a CUSUM alarm discounts).
+    noise_llr, chain_alarm : float
+        This part's reading's log-likelihood ratio of a chain noisier than its evidence says,
+        and the chain's CUSUM of them, the same in each of its operations' monitors
+        (:mod:`supervisor.rcb.noise_watch`).
     """
 
     shape: float = NOISE_PRIOR
@@ -101,6 +105,8 @@ class Monitor:
     drift_n: int = 0
     chain_shape: float = NOISE_PRIOR
     chain_rate: float = NOISE_RATE
+    noise_llr: float = 0.0
+    chain_alarm: float = 0.0
 
     @property
     def noise(self) -> NoiseScale:
@@ -131,6 +137,8 @@ class Monitor:
             "drift_n": self.drift_n,
             "chain_shape": self.chain_shape,
             "chain_rate": self.chain_rate,
+            "noise_llr": self.noise_llr,
+            "chain_alarm": self.chain_alarm,
         }
 
 
@@ -152,4 +160,6 @@ def from_json(data: Mapping[str, Any]) -> Monitor:
         int(data.get("drift_n", 0)),
         float(data.get("chain_shape", shape)),
         float(data.get("chain_rate", rate)),
+        float(data.get("noise_llr", 0.0)),
+        float(data.get("chain_alarm", 0.0)),
     )

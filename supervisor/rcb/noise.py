@@ -26,7 +26,9 @@ Harrison §10.8 [2]_). Without it a chain that turned 3x noisier after 500 quiet
 still read at a scale of about 1.3 sixty readings later, and ``learn`` counted its readings
 three times too precise: 417 crossings in 30 scenarios x 1000 parts; with ``M`` = 50, 35;
 with 20, 6 (docs/benchmarks.md, *A year of parts*). Its cost is the quantile: a quiet chain
-stays at a prudent scale of about 1.15-1.3 instead of coming down to 1.
+stays at a prudent scale of about 1.15-1.3 instead of coming down to 1. A sudden change is
+also tested for (:mod:`supervisor.rcb.noise_watch`, a CUSUM per chain that cuts the old
+evidence back): 2 crossings there, from 6.
 
 ``learn``'s belief is the *chain's*: one instrument (the dynamometer, the profilometer, the spindle
 drive) reads a quantity in every operation of a plan and misreports its ``u`` by one factor

@@ -64,6 +64,7 @@ from supervisor.inputs.plan import Operation
 from supervisor.optimize.optimizer import optimize_operation
 from supervisor.optimize.passes import measured_at
 from supervisor.optimize.result import OperationResult, PlanResult
+from supervisor.rcb import noise_watch
 from supervisor.rcb import posterior as post
 from supervisor.rcb import wear as wear_rise
 from supervisor.rcb.common_cause import CommonShift, common_shifts
@@ -137,6 +138,7 @@ def update(
         decisions.append(with_let_go(decision, widened.get((j.op.name, j.quantity))))
         if over is not None:
             gross.append(over)
+    noise_watch.watched(maps.monitors, (j.quantity for j in judged))  # a chain turned noisier
     return _after(state, maps, gross), tuple(decisions)
 
 

@@ -9,6 +9,7 @@ lower 2σ edge, a change over ``r > 4``, and the noise scale ``λ ~ InvGamma(a, 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -156,11 +157,14 @@ def test_the_chain_moves_the_last_reading_with_the_exponents_and_a_worn_edges_ri
     rate=st.floats(0.01, 500),
     quarantined=st.integers(0, 1000),
     y=st.floats(1e-3, 1e4),
+    alarm=st.floats(0, 20),
 )
-def test_a_monitor_survives_its_json(shape, rate, quarantined, y):
+def test_a_monitor_survives_its_json(shape, rate, quarantined, y, alarm):
     reading = ms.Reading(math.log(y), 0.01, {"feed_mm_rev": -1.2}, 3)
     monitor = ms.Monitor(shape, rate, reading, reading, quarantined, 2)
     assert ms.from_json(monitor.to_json()) == monitor
+    watched = replace(monitor, noise_llr=-alarm / 3, chain_alarm=alarm)  # noise_watch's
+    assert ms.from_json(watched.to_json()) == watched
     assert monitor.scale >= 1.0 and monitor.noise.prudent_scale >= monitor.scale
 
 
