@@ -65,7 +65,7 @@ from typing import Literal
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
 from supervisor.rcb import noise_watch
 from supervisor.rcb.monitor_state import Expected, Monitor, Reading
-from supervisor.rcb.noise import NOISE_MEMORY, NOISE_PRIOR, NOISE_RATE
+from supervisor.rcb.noise import NOISE_MEMORY
 from supervisor.rcb.wear import setpoint_shift
 
 #: A reading this many σ under what the strategy expects is quarantined (``implausible_low``).
@@ -182,17 +182,16 @@ def _noise_learned(
         own = 0.0
     e2 = min(e * e, CHANGE_SIGMA**2 * _variance(high, reading.noise, variance))
     excess = max(e2 - model2, 0.0) / unit
-    keep = NOISE_KEEP**weight
-    believed = max(monitor.chain_rate / monitor.chain_shape, 1.0)  # λ of the chain's evidence
-    test = (
-        weight * noise_watch.llr(excess / believed) if noise_watch.watched_monitor(monitor) else 0.0
-    )
+    test = 0.0
+    if noise_watch.watched_monitor(monitor):  # against λ of the chain's evidence
+        test = weight * noise_watch.llr(excess / max(monitor.chain_rate / monitor.chain_shape, 1.0))
+    kept_shape, kept_rate = monitor.chain_kept(NOISE_KEEP**weight)
     return replace(
         monitor,
         shape=monitor.shape + 0.5 * own,
         rate=monitor.rate + 0.5 * own * excess,
-        chain_shape=NOISE_PRIOR + keep * (monitor.chain_shape - NOISE_PRIOR) + 0.5 * weight,
-        chain_rate=NOISE_RATE + keep * (monitor.chain_rate - NOISE_RATE) + 0.5 * weight * excess,
+        chain_shape=kept_shape + 0.5 * weight,
+        chain_rate=kept_rate + 0.5 * weight * excess,
         noise_llr=test,
     )
 

@@ -113,6 +113,17 @@ class Monitor:
         """The monitor's own belief on the noise scale, gated by ``monitor.DRIFTING``."""
         return NoiseScale(self.shape, self.rate)
 
+    def chain_kept(self, keep: float) -> tuple[float, float]:
+        """``(a, b)`` of the chain's evidence with ``keep`` of it kept over the prior's.
+
+        Variance discounting (West & Harrison §10.8): each reading's memory
+        (``monitor.NOISE_KEEP``) and an alarm's cut (``noise_watch.INTERVENTION``).
+        """
+        return (
+            NOISE_PRIOR + keep * (self.chain_shape - NOISE_PRIOR),
+            NOISE_RATE + keep * (self.chain_rate - NOISE_RATE),
+        )
+
     @property
     def chain_noise(self) -> NoiseScale:
         """The operation's evidence on its chain's noise (the chain's: :func:`~.noise.pooled`)."""

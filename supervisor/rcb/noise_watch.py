@@ -24,7 +24,7 @@ from collections.abc import Iterable, MutableMapping
 from dataclasses import replace
 
 from supervisor.rcb.monitor_state import Monitor
-from supervisor.rcb.noise import NOISE_PRIOR, NOISE_RATE
+from supervisor.rcb.noise import NOISE_PRIOR
 
 #: The variance ratio the test looks for.
 ALARM_K = 2.0
@@ -52,15 +52,12 @@ def watched(monitors: MutableMapping[tuple[str, str], Monitor], read: Iterable[s
     """After a part: each chain of ``read`` (a quantity) with its CUSUM, cut back on an alarm."""
     for quantity in sorted(set(read)):
         keys = [key for key in monitors if key[1] == quantity]
-        chain = max(0.0, max(monitors[k].chain_alarm for k in keys))
-        chain = max(0.0, chain + math.fsum(monitors[k].noise_llr for k in keys))
+        before = max(monitors[k].chain_alarm for k in keys)  # each holds it; never under 0
+        chain = max(0.0, before + math.fsum(monitors[k].noise_llr for k in keys))
         alarm = chain > ALARM_H
         for key in keys:
             monitor = monitors[key]
             if alarm:
-                monitor = replace(
-                    monitor,
-                    chain_shape=NOISE_PRIOR + INTERVENTION * (monitor.chain_shape - NOISE_PRIOR),
-                    chain_rate=NOISE_RATE + INTERVENTION * (monitor.chain_rate - NOISE_RATE),
-                )
+                shape, rate = monitor.chain_kept(INTERVENTION)
+                monitor = replace(monitor, chain_shape=shape, chain_rate=rate)
             monitors[key] = replace(monitor, noise_llr=0.0, chain_alarm=0.0 if alarm else chain)
