@@ -16,6 +16,7 @@ from sqlalchemy import or_, select
 from sqlalchemy.orm import Session
 
 from db.audit import AUDIT
+from db.table_base import as_utc
 
 
 @dataclass(frozen=True)
@@ -25,11 +26,6 @@ class AuditQuery:
     action: str | None = None
     actor: str | None = None
     since: datetime | None = None
-
-
-def utc(moment: datetime) -> datetime:
-    """A stored time as UTC (SQLite returns it naive; it was stored as UTC)."""
-    return moment.astimezone(UTC) if moment.tzinfo else moment.replace(tzinfo=UTC)
 
 
 def entries(
@@ -55,4 +51,4 @@ def entries(
         at, entry_id = below[0].astimezone(UTC), below[1]
         # at <= at' bounds the index's range (a deep page seeks, as the first page does)
         statement = statement.where(table.c.at <= at, or_(table.c.at < at, table.c.id < entry_id))
-    return [{**row._asdict(), "at": utc(row.at)} for row in session.execute(statement).all()]
+    return [{**row._asdict(), "at": as_utc(row.at)} for row in session.execute(statement).all()]

@@ -33,6 +33,14 @@ def utcnow() -> datetime:
     return datetime.now(UTC)
 
 
+def as_utc(moment: datetime) -> datetime:
+    """A time as UTC: a naive one is taken as UTC, an aware one is converted.
+
+    SQLite returns stored times naive; they were stored as UTC (:func:`utcnow`).
+    """
+    return moment.astimezone(UTC) if moment.tzinfo else moment.replace(tzinfo=UTC)
+
+
 class Base(DeclarativeBase):
     """Declarative base with the naming convention."""
 

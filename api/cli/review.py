@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import sys
 from collections.abc import Iterable
-from datetime import UTC, datetime
+from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -281,7 +281,8 @@ def _all_parts(engine: Engine, plan_id: int) -> list[dict[str, Any]]:
 def parts(
     plan: PlanArg,
     since: Annotated[
-        str | None, typer.Option(help="Only parts received at or after this ISO 8601 time (UTC).")
+        str | None,
+        typer.Option(help="Only parts received since an age (7d, 24h, 90m) or an ISO 8601 time."),
     ] = None,
     last: Annotated[
         int | None, typer.Option(help=f"Only the newest N parts (1-{request_limits.READ_PAGE}).")
@@ -295,9 +296,10 @@ def parts(
     """
     from api.services.read import plan_parts as read_parts
     from api.services.read import plans as read_plans
+    from api.services.since import since_of
 
     with errors():
-        after = _since(since)
+        after = since_of(since)
         engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         if last is not None:
@@ -320,16 +322,6 @@ def parts(
         title = f"plan {plan_key}: parts" + (f" since {since}" if since else "")
         for page in pages:
             _out.print(parts_view.parts_table(title, page, short_number, _mark))
-
-
-def _since(text: str | None) -> datetime | None:
-    if text is None:
-        return None
-    try:
-        moment = datetime.fromisoformat(text)
-    except ValueError:
-        raise InputError("--since", text, "must be an ISO 8601 date or time") from None
-    return moment if moment.tzinfo else moment.replace(tzinfo=UTC)
 
 
 def export(

@@ -8,14 +8,14 @@ whoever holds the database, not over REST. Errors name the command's options.
 from __future__ import annotations
 
 import re
-from datetime import UTC, datetime
+from datetime import datetime
 from typing import Any
 
 from sqlalchemy import Engine
 
 from api.services.read.common import _read, _token, _untoken
 from api.services.request_limits import READ_PAGE
-from api.services.retention import parse_duration
+from api.services.since import since_of
 from db import tables as t
 from db.audit_read import AuditQuery, entries
 from models.errors import InputError
@@ -24,24 +24,6 @@ from models.errors import InputError
 AUDIT_PAGE = 50
 #: Longest ``--action`` (the column's width) and ``--actor`` (its column's).
 MAX_ACTION, MAX_ACTOR = 100, 200
-
-
-def since_of(text: str | None, now: datetime | None = None) -> datetime | None:
-    """``--since``: an age (``7d``, ``24h``, ``90m``) before ``now``, or an ISO 8601 time.
-
-    A time without an offset is UTC. InputError naming ``--since`` otherwise.
-    """
-    if text is None:
-        return None
-    if re.fullmatch(r"\s*[0-9]+[dhm]\s*", text):
-        return (now or t.utcnow()) - parse_duration("--since", text)
-    try:
-        moment = datetime.fromisoformat(text)
-    except ValueError:
-        raise InputError(
-            "--since", text, "expected an age (7d, 24h, 90m) or an ISO 8601 date or time"
-        ) from None
-    return moment.astimezone(UTC) if moment.tzinfo else moment.replace(tzinfo=UTC)
 
 
 def query_of(action: str | None, actor: str | None, since: str | None) -> AuditQuery:

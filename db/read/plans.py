@@ -5,7 +5,6 @@ Each returns plain rows or dicts; :mod:`api.services.read.plans` shapes them for
 
 from __future__ import annotations
 
-from datetime import UTC
 from typing import Any
 
 from sqlalchemy import func, select
@@ -13,6 +12,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.plan_state import settings_json, settings_of
+from db.table_base import as_utc
 
 #: The settings a plan summary shows as fields of its own, not under ``settings``.
 _OWN_FIELDS = ("strategy", "alpha")
@@ -59,9 +59,7 @@ def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
         "halt": plan.halt,
         "setpoint_version": plan.current_setpoint_version,
         "parts": parts,
-        "created_at": plan.created_at
-        if plan.created_at.tzinfo
-        else plan.created_at.replace(tzinfo=UTC),  # SQLite drops the zone; stored as UTC
+        "created_at": as_utc(plan.created_at),
     }
 
 

@@ -19,7 +19,8 @@ from sqlalchemy import delete, event, insert
 from sqlalchemy.orm import Session
 
 from api.cli.main import app
-from api.services.audit_log import audit_page, query_of, since_of
+from api.services.audit_log import audit_page, query_of
+from api.services.since import since_of
 from db import audit
 from db.audit_read import AuditQuery
 from db.engine import make_engine, reader, upgrade

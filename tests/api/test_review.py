@@ -64,6 +64,9 @@ def test_parts_and_export_round_trip(runner, stored, tmp_path):
     assert (got["value"], got["uncertainty"]) == (sent["value"], sent["uncertainty"])
     future = _json(runner, "parts", str(plan_id), "--since", "2999-01-01", "--db", url)
     assert future["parts"] == []
+    # an age, as rcb audit --since takes: the parts just stored are within the last hour
+    recent = _json(runner, "parts", str(plan_id), "--since", "60m", "--db", url)["parts"]
+    assert [p["serial"] for p in recent] == [b["serial"] for b in bodies]
     for fmt in ("csv", "parquet"):
         out = tmp_path / fmt
         result = runner.invoke(
@@ -86,7 +89,8 @@ def test_parts_and_export_round_trip(runner, stored, tmp_path):
     ("args", "message"),
     [
         (["history", "99"], "plan_id = 99: not found"),
-        (["parts", "1", "--since", "yesterday"], "--since = 'yesterday'"),
+        (["parts", "1", "--since", "yesterday"], "--since = 'yesterday': expected an age"),
+        (["parts", "1", "--since", "0d"], "--since = '0d': more than 0"),
         (["history", "1", "--operation", "nope"], "--operation = 'nope'"),
         (["export", "1", "--format", "xlsx", "--out", "x"], "--format = 'xlsx'"),
     ],

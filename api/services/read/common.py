@@ -10,7 +10,6 @@ import base64
 import binascii
 import json
 import re
-from datetime import UTC, datetime
 from typing import Any
 
 from sqlalchemy import Engine
@@ -34,11 +33,6 @@ MAX_CURSOR = 1200
 def _read(engine: Engine) -> Session:
     # rows are read after the transaction ends: keep their loaded attributes
     return Session(reader(engine), expire_on_commit=False)
-
-
-def _utc(moment: datetime) -> datetime:
-    # SQLite returns naive datetimes; they were stored as UTC (db.tables.utcnow)
-    return moment if moment.tzinfo else moment.replace(tzinfo=UTC)
 
 
 def _cursor(cursor: str | None) -> int:

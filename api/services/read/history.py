@@ -10,11 +10,12 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.read.common import MAX_PAGE, _cursor, _plan, _read, _utc
+from api.services.read.common import MAX_PAGE, _cursor, _plan, _read
 from api.services.writes_first import GATE
 from db import tables as t
 from db.read import history
 from db.read.plans import operations
+from db.table_base import as_utc
 from models.errors import InputError
 
 #: Versions converted between two pauses for writes in flight (api.services.writes_first).
@@ -138,7 +139,7 @@ def _history_version(
         "actor": actor,
         "part_id": version.part_id,
         "serial": serial,
-        "created_at": _utc(version.created_at),
+        "created_at": as_utc(version.created_at),
         # in plan order, as the optimiser sums it: the rows' order is the database's whim, and
         # another order may round the last bit otherwise (PostgreSQL against SQLite)
         "cycle_time_min": sum(op["time_min"] for op in operations),

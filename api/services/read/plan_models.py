@@ -11,10 +11,11 @@ from typing import Any
 from sqlalchemy import Engine
 
 from api.services.errors import NotFoundError
-from api.services.read.common import LIST_PAGE, _bounded, _plan, _read, _token, _untoken, _utc
+from api.services.read.common import LIST_PAGE, _bounded, _plan, _read, _token, _untoken
 from db import model_versions as versions
 from db import tables as t
 from db.read.plans import operations
+from db.table_base import as_utc
 
 
 def models_in_force(*, engine: Engine, plan_id: int) -> dict[str, Any]:
@@ -101,5 +102,5 @@ def _model_version(model: t.OperationModelVersion, serial: str | None) -> dict[s
         "exponents": dict(model.exponents),
         "cause": model.cause,
         "serial": serial,
-        "created_at": _utc(model.created_at),
+        "created_at": as_utc(model.created_at),
     }

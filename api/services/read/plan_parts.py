@@ -12,10 +12,11 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.read.common import MAX_PAGE, _cursor, _plan, _read, _utc
+from api.services.read.common import MAX_PAGE, _cursor, _plan, _read
 from db import tables as t
 from db.read.parts import decisions_of, parts_page
 from db.read.plans import operations
+from db.table_base import as_utc
 from models.errors import InputError
 
 
@@ -106,7 +107,7 @@ def part_json(
         "part_id": part.id,
         "serial": part.serial,
         "setpoint_version": part.setpoint_version,
-        "received_at": _utc(part.received_at),
+        "received_at": as_utc(part.received_at),
         "operations": [{"name": name, **entry} for name, entry in per_op.items()],
         "updates": [decision_json(d, names) for d in decisions],
     }

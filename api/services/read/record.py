@@ -16,13 +16,14 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from api.services import request_limits
-from api.services.read.common import _read, _utc
+from api.services.read.common import _read
 from api.services.read.plan_parts import decision_json, part_json
 from api.services.read.plans import get_plan
 from db import tables as t
 from db.read import record as db_record
 from db.read.parts import parts_page
 from db.read.plans import operations
+from db.table_base import as_utc
 from models.errors import InputError
 
 #: The measurement that carries a reported feed override and the tool change it called for.
@@ -92,7 +93,7 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
         "parts": [part_json(p, measurements[p.id], decisions[p.id], names) for p in parts],
         "totals": {
             "parts": count,
-            "last_received": _utc(received) if received is not None else None,
+            "last_received": as_utc(received) if received is not None else None,
             **totals,
             "first_cycle_time_min": by_number[min(by_number)]["cycle_time_min"],
         },
@@ -134,7 +135,7 @@ def _version(
         "cause": version.cause,
         "part_id": version.part_id,
         "serial": serial,
-        "created_at": _utc(version.created_at),
+        "created_at": as_utc(version.created_at),
         "cycle_time_min": sum(sp.time_min for sp in in_order),  # plan order (history.py)
         "operations": [
             {
