@@ -1,11 +1,12 @@
-"""What ``rcb audit``'s two indexes cost a part report (alembic 0024).
+"""What ``rcb audit``'s three indexes cost a part report (alembic 0024 and 0026).
 
-Every part report appends an audit entry, so ``ix_audit_log_action_at`` and
-``ix_audit_log_actor_at`` are written once per report. Two databases of one backend, each with a
-year's log behind it (``--log`` entries) and the demonstration plan, one with the indexes and
-one without; the same ``--reports`` part reports (a virtual lathe's) go through the real use
-case (``api.services.parts.report_part``) into both, alternating which goes first, and the
-script prints the median latency of each and the ratio. Run (PostgreSQL: the URL of a server
+Every part report appends an audit entry, so ``ix_audit_log_action_at``,
+``ix_audit_log_actor_at`` and ``ix_audit_log_plan_id_at`` are written once per report. Two
+databases of one backend, each with a year's log behind it (``--log`` entries) and the
+demonstration plan, one with the indexes and one without; the same ``--reports`` part reports
+(a virtual lathe's) go through the real use case (``api.services.parts.report_part``) into
+both, alternating which goes first, and the script prints the median latency of each and the
+ratio. Run (PostgreSQL: the URL of a server
 where it may create and drop ``rcb_audit_cost_*`` databases)::
 
     .venv/bin/python benchmarks/audit_index_cost.py [--reports 100] [--log 200000]
@@ -32,8 +33,8 @@ from supervisor.rcb.state import RcbSettings
 
 #: The log written before the reports: ``n`` rows of the kind a year of reports leaves.
 FILL = (
-    "INSERT INTO audit_log (at, actor, action, target, result) "
-    "SELECT CURRENT_TIMESTAMP, 'key:1', 'report part', 'plan 9 part x', '201' FROM "
+    "INSERT INTO audit_log (at, actor, action, target, result, plan_id) "
+    "SELECT CURRENT_TIMESTAMP, 'key:1', 'report part', 'plan 9 part x', '201', 9 FROM "
     "(WITH RECURSIVE n(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM n WHERE i < :n) "
     "SELECT i FROM n) AS s"
 )
@@ -47,6 +48,7 @@ def database(url: str, indexed: bool, log: int) -> tuple[Engine, int]:
         if not indexed:
             connection.execute(text("DROP INDEX ix_audit_log_action_at"))
             connection.execute(text("DROP INDEX ix_audit_log_actor_at"))
+            connection.execute(text("DROP INDEX ix_audit_log_plan_id_at"))
         connection.execute(text(FILL), {"n": log})
     return engine, int(create_plan(engine=engine, body=BODY).body["id"])
 

@@ -64,9 +64,11 @@ class AuditEntry(Base):
     """Append-only audit log: who did what, when, with what result (``rcb audit`` reads it)."""
 
     __tablename__ = "audit_log"
-    __table_args__ = (  # rcb audit --action / --actor, newest first (db.audit_read, alembic 0024)
+    __table_args__ = (  # rcb audit --action / --actor / --plan, newest first (db.audit_read,
+        # alembic 0024 and 0026)
         Index("ix_audit_log_action_at", "action", "at"),
         Index("ix_audit_log_actor_at", "actor", "at"),
+        Index("ix_audit_log_plan_id_at", "plan_id", "at"),
     )
     id: Mapped[int] = mapped_column(primary_key=True)
     at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
@@ -75,6 +77,9 @@ class AuditEntry(Base):
     target: Mapped[str] = mapped_column(Text, default="")
     result: Mapped[str] = mapped_column(String(50))
     detail: Mapped[dict[str, Any] | None]
+    #: The plan the entry is about (its creation, a part report, a replan, a fleet verdict);
+    #: None for the rest. No foreign key: the log is append-only and outlives what it names.
+    plan_id: Mapped[int | None] = mapped_column(default=None)
 
 
 class AuthFailureWindow(Base):

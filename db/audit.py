@@ -49,9 +49,13 @@ def audit(
     target: str,
     result: str,
     detail: dict[str, Any] | None = None,
+    plan_id: int | None = None,
 ) -> None:
-    """Append one entry to the audit log (an insert now, in the session's transaction)."""
-    session.execute(insert(AUDIT), audit_row(actor, action, target, result, detail))
+    """Append one entry to the audit log (an insert now, in the session's transaction).
+
+    ``plan_id``: the plan the entry is about, if any (``rcb audit --plan``).
+    """
+    session.execute(insert(AUDIT), audit_row(actor, action, target, result, detail, plan_id))
 
 
 def audit_returning_id(*, session: Session, row: dict[str, Any]) -> int:
@@ -69,7 +73,12 @@ def set_audit_detail(*, session: Session, entry_id: int, detail: dict[str, Any])
 
 
 def audit_row(
-    actor: str, action: str, target: str, result: str, detail: dict[str, Any] | None = None
+    actor: str,
+    action: str,
+    target: str,
+    result: str,
+    detail: dict[str, Any] | None = None,
+    plan_id: int | None = None,
 ) -> dict[str, Any]:
     """The row of an audit entry, every column given (for :func:`db.bulk.write_rows`)."""
     return {
@@ -79,4 +88,5 @@ def audit_row(
         "target": escaped(target, nul=True)[:MAX_TARGET],
         "result": result,
         "detail": escaped(detail, nul=True),  # what was sent, as a column holds it
+        "plan_id": plan_id,
     }

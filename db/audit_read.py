@@ -2,8 +2,8 @@
 
 A page is ordered by time, then id, both descending, and continues below the last entry of
 the previous page (keyset paging: the same rows read on the first page as after a year).
-Its filters are served by an index each (alembic 0024): one action (``action, at``), one
-actor (``actor, at``), from a time on (``at``).
+Its filters are served by an index each: one action (``action, at``) and one actor (``actor,
+at``, alembic 0024), one plan (``plan_id, at``, alembic 0026), from a time on (``at``).
 """
 
 from __future__ import annotations
@@ -21,11 +21,15 @@ from db.table_base import as_utc
 
 @dataclass(frozen=True)
 class AuditQuery:
-    """Which entries: ``action`` and ``actor`` exactly (None: any), ``since`` on or after."""
+    """Which entries: ``action``, ``actor``, ``plan_id`` exactly (None: any), ``since`` on.
+
+    ``since``: at or after that time.
+    """
 
     action: str | None = None
     actor: str | None = None
     since: datetime | None = None
+    plan_id: int | None = None
 
 
 def entries(
@@ -37,7 +41,7 @@ def entries(
 ) -> list[dict[str, Any]]:
     """Up to ``limit`` entries, newest first, older than ``below`` (its time and id).
 
-    Each: ``id, at`` (UTC), ``actor, action, target, result, detail``.
+    Each: ``id, at`` (UTC), ``actor, action, target, result, detail, plan_id``.
     """
     table = AUDIT
     statement = select(table).order_by(table.c.at.desc(), table.c.id.desc()).limit(limit)
@@ -45,6 +49,8 @@ def entries(
         statement = statement.where(table.c.action == query.action)
     if query.actor is not None:
         statement = statement.where(table.c.actor == query.actor)
+    if query.plan_id is not None:
+        statement = statement.where(table.c.plan_id == query.plan_id)
     if query.since is not None:
         statement = statement.where(table.c.at >= query.since.astimezone(UTC))
     if below is not None:

@@ -65,6 +65,7 @@ def fleet_change(
             target=f"plan {plan.id}",
             result="out of the fleet until rcb fleet include",
             detail=detail,
+            plan_id=plan.id,
         )
         return {"fleet_change_confirmed": True}
     now = counted(after)
@@ -75,6 +76,7 @@ def fleet_change(
         target=f"plan {plan.id}",
         result="accepted",
         detail={**detail, "changes_accepted": now},
+        plan_id=plan.id,
     )
     return {"fleet_change_part": None, "fleet_changes_accepted": now}
 

@@ -2,7 +2,7 @@
 
 Every write over REST or at the CLI, every refused key, every fleet verdict (actor ``rcb``)
 and every pruning is in the audit log (``audit_log``). This is its reader: a page at a time,
-optionally of one action, one actor, from a time on (api/services/audit_log.py).
+optionally of one action, one actor, one plan, from a time on (api/services/audit_log.py).
 """
 
 from __future__ import annotations
@@ -15,9 +15,10 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from api.cli.common import DbOption, emit, engine_of, errors, say
+from api.cli.common import DbOption, emit, engine_of, errors, plan_of, say
 from api.cli.tables import new_table
 from api.services import request_limits
+from models.errors import InputError
 
 _out = Console()
 
@@ -35,6 +36,13 @@ def audit(
         str | None,
         typer.Option(help="Only entries this recent (7d, 24h, 90m) or at or after an ISO time."),
     ] = None,
+    plan: Annotated[
+        str | None,
+        typer.Option(
+            help="Only entries about this plan (id or name): its creation, part reports, "
+            "replans, fleet exclusions and verdicts."
+        ),
+    ] = None,
     limit: Annotated[
         int, typer.Option(help=f"Entries per page (1 to {request_limits.READ_PAGE}).")
     ] = 50,
@@ -49,17 +57,27 @@ def audit(
     from api.services.audit_log import audit_page, query_of
 
     with errors():
-        query = query_of(action, actor, since)
-        page = audit_page(engine=engine_of(db), query=query, cursor=cursor, limit=limit)
+        engine = engine_of(db)
+        plan_id = None if plan is None else _plan(engine, plan)
+        query = query_of(action, actor, since, plan_id)
+        page = audit_page(engine=engine, query=query, cursor=cursor, limit=limit)
     if as_json:
         emit(page)
     else:
         _out.print(_table(page["entries"]))
     if page["next_cursor"] is not None:
         # not --db: it may hold a password
-        again = [("--action", action), ("--actor", actor), ("--since", since)]
+        again = [("--action", action), ("--actor", actor), ("--since", since), ("--plan", plan)]
         kept = "".join(f" {name} {shlex.quote(value)}" for name, value in again if value)
         say(f"rcb: older entries: rcb audit{kept} --cursor {page['next_cursor']} --limit {limit}")
+
+
+def _plan(engine: Any, plan: str) -> int:
+    """``--plan``'s id (digits) or the id of the plan of that name; errors name ``--plan``."""
+    try:
+        return plan_of(engine, plan)
+    except InputError as err:
+        raise InputError("--plan", plan, err.reason) from None
 
 
 def _table(entries: list[dict[str, Any]]) -> Any:

@@ -26,14 +26,21 @@ AUDIT_PAGE = 50
 MAX_ACTION, MAX_ACTOR = 100, 200
 
 
-def query_of(action: str | None, actor: str | None, since: str | None) -> AuditQuery:
-    """The filters of ``rcb audit``, each checked (InputError naming its option)."""
+def query_of(
+    action: str | None, actor: str | None, since: str | None, plan_id: int | None = None
+) -> AuditQuery:
+    """The filters of ``rcb audit``, each checked (InputError naming its option).
+
+    ``plan_id``: the plan ``--plan`` named, resolved (its id or its name).
+    """
     for option, value, most in (("--action", action, MAX_ACTION), ("--actor", actor, MAX_ACTOR)):
         if value is None:
             continue
         if not 1 <= len(value) <= most or "\x00" in value:
             raise InputError(option, value, f"1 to {most} characters, no NUL")
-    return AuditQuery(action=action, actor=actor, since=since_of(since))
+    if plan_id is not None and not 1 <= plan_id <= t.MAX_INT:
+        raise InputError("--plan", plan_id, f"a plan's id is 1 to {t.MAX_INT}")
+    return AuditQuery(action=action, actor=actor, since=since_of(since), plan_id=plan_id)
 
 
 def _below(cursor: str | None) -> tuple[datetime, int] | None:

@@ -71,7 +71,8 @@ def exclude_from_fleet(
 ) -> Written:
     """Take a plan or a machine out of the fleet (audited)."""
     target = f"plan {plan_id}" if machine is None else f"machine {machine}"
-    with audited(engine, actor, "fleet exclude", target):
+    plan = plan_id if machine is None else None
+    with audited(engine, actor, "fleet exclude", target, plan_id=plan):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             exclude(
@@ -87,6 +88,7 @@ def exclude_from_fleet(
             idempotency=None,
             work=work,
             detail={"reason": reason.strip()},
+            plan=plan,
         )
 
 
@@ -95,12 +97,19 @@ def include_in_fleet(
 ) -> Written:
     """Put a plan or a machine back in the fleet; a plan's changes so far accepted (audited)."""
     target = f"plan {plan_id}" if machine is None else f"machine {machine}"
-    with audited(engine, actor, "fleet include", target):
+    plan = plan_id if machine is None else None
+    with audited(engine, actor, "fleet include", target, plan_id=plan):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             accepted = include(session=session, plan_id=plan_id, machine=machine)
             return 200, {"included": target, "changes_accepted": accepted}
 
         return write(
-            engine, actor=actor, action="fleet include", target=target, idempotency=None, work=work
+            engine,
+            actor=actor,
+            action="fleet include",
+            target=target,
+            idempotency=None,
+            work=work,
+            plan=plan,
         )

@@ -52,7 +52,7 @@ def report_part(
     report goes on in (:class:`Authenticated`).
     """
     target = f"plan {plan_id} part {report.serial}"
-    with audited(engine, actor, "report part", target, held):
+    with audited(engine, actor, "report part", target, held, plan_id):
         return _report_part(engine, plan_id, report, actor, idempotency, held)
 
 
@@ -65,7 +65,7 @@ def _report_part(
     held: Authenticated | None,
 ) -> Written:
     target = f"plan {plan_id} part {report.serial}"
-    with transaction(engine, actor, "report part", target, idempotency, held) as tx:
+    with transaction(engine, actor, "report part", target, idempotency, held, plan=plan_id) as tx:
         session = tx.session
         opening = _open(session, plan_id, report, actor, idempotency)
         replay = replay_of(opening.stored, idempotency) if idempotency else None

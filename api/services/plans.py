@@ -127,6 +127,7 @@ def create_plan(
             idempotency=idempotency,
             work=work,
             attempts=3,
+            plan="id",  # the new plan's, in the answer
         )
 
 
@@ -161,7 +162,7 @@ def replan(
     The new setpoint version has cause ``replan``; the answer shows the difference to the
     setpoints in force (:mod:`supervisor.rcb.replan`).
     """
-    with audited(engine, actor, "replan", f"plan {plan_id}"):
+    with audited(engine, actor, "replan", f"plan {plan_id}", plan_id=plan_id):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             row = _plan(session, plan_id, lock=True)
@@ -199,6 +200,7 @@ def replan(
             target=f"plan {plan_id}",
             idempotency=idempotency,
             work=work,
+            plan=plan_id,
         )
 
 

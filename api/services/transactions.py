@@ -28,6 +28,9 @@ from db.intake import stored_answer
 
 #: A write's work in its transaction: the answer's status and body.
 Work = Callable[[Session], "tuple[int, dict[str, Any]]"]
+#: The plan a write is about, for its audit entry (``rcb audit --plan``): its id, the key of
+#: the answer that holds it (a new plan's ``"id"``), or None.
+AuditPlan = int | str | None
 
 
 class Tx:
@@ -48,10 +51,11 @@ class Tx:
         target: str,
         idempotency: Idempotency | None,
         detail: dict[str, Any] | None = None,
+        plan: AuditPlan = None,
     ) -> None:
         self.session = session
         self._actor, self._action, self._target = actor, action, target
-        self._detail = detail
+        self._detail, self._plan = detail, plan
         self._idempotency = idempotency
         self._after: list[Callable[[], None]] = []
         self._answered = False
@@ -66,7 +70,9 @@ class Tx:
         answer = bulk.Encoded.of(body)
         # the key's record and the audit entry go out with the rows the work deferred
         # (a part report's: one statement on PostgreSQL, db.bulk)
-        entry = audit.audit_row(actor.name, self._action, self._target, str(status), self._detail)
+        entry = audit.audit_row(
+            actor.name, self._action, self._target, str(status), self._detail, self._plan_in(body)
+        )
         rows = [(audit.AUDIT, [entry])]
         if idempotency is not None:
             record = idempotency_row(
@@ -85,9 +91,17 @@ class Tx:
             action=self._action,
             target=self._target,
             result=f"replayed {stored.status}",
+            plan_id=self._plan_in(stored.body),
         )
         self._answered = False
         return stored
+
+    def _plan_in(self, body: Any) -> int | None:
+        """The plan of the audit entry: given, or the answer's field of that name."""
+        if not isinstance(self._plan, str):
+            return self._plan
+        found = body.get(self._plan) if isinstance(body, dict) else None
+        return found if isinstance(found, int) else None
 
     def _committed(self) -> None:
         """Run the callbacks of a committed answer (once)."""
@@ -107,10 +121,12 @@ def write(
     attempts: int = 1,
     held: Authenticated | None = None,
     detail: dict[str, Any] | None = None,
+    plan: AuditPlan = None,
 ) -> Written:
     """Run ``work`` in one transaction, idempotently; ``attempts`` > 1 retries unique-key races.
 
     ``detail``: what the audit entry keeps besides its action and target (an exclusion's reason).
+    ``plan``: the plan the entry is about (:data:`AuditPlan`).
 
     Creating a plan inserts its machine and tools if they are new: two plans for the same new
     machine at once race to insert it, and the loser's retry finds it stored. ``held``: the
@@ -118,7 +134,7 @@ def write(
     """
 
     def once(held: Authenticated | None) -> Written:
-        with transaction(engine, actor, action, target, idempotency, held, detail) as tx:
+        with transaction(engine, actor, action, target, idempotency, held, detail, plan) as tx:
             stored = None
             if idempotency is not None:
                 found = stored_answer(tx.session, actor.id, idempotency.key)
@@ -158,6 +174,7 @@ def transaction(
     idempotency: Idempotency | None,
     held: Authenticated | None = None,
     detail: dict[str, Any] | None = None,
+    plan: AuditPlan = None,
 ) -> Iterator[Tx]:
     """A write's transaction (:class:`Tx`): committed if the block ends without an exception.
 
@@ -182,7 +199,7 @@ def transaction(
                         )
                     if not claimed:
                         raise InFlightError(idempotency.key)
-                tx = Tx(session, actor, action, target, idempotency, detail)
+                tx = Tx(session, actor, action, target, idempotency, detail, plan)
                 yield tx
     except IntegrityError as err:
         # a concurrent write won a unique constraint (same serial, same key): nothing was stored
@@ -228,9 +245,17 @@ class _free:
 
 @contextmanager
 def audited(
-    engine: Engine, actor: Actor, action: str, target: str, held: Authenticated | None = None
+    engine: Engine,
+    actor: Actor,
+    action: str,
+    target: str,
+    held: Authenticated | None = None,
+    plan_id: int | None = None,
 ) -> Iterator[None]:
-    """Append a refused write (any exception) to the audit log, then let it propagate."""
+    """Append a refused write (any exception) to the audit log, then let it propagate.
+
+    ``plan_id``: the plan the write was about, if known before it ran.
+    """
     try:
         yield
     except Exception as err:
@@ -247,5 +272,6 @@ def audited(
                 target=target,
                 result="refused",
                 detail=detail,
+                plan_id=plan_id,
             )
         raise

@@ -227,10 +227,12 @@ def test_a_filtered_page_reads_through_its_index(sqlite_engine):
             "action": AuditQuery(action="a"),
             "actor": AuditQuery(actor="cli:test"),
             "since": AuditQuery(since=T0),
+            "plan": AuditQuery(plan_id=1),
             "none": AuditQuery(),
         }.items()
     }
     assert "ix_audit_log_action_at" in plans["action"], plans
+    assert "ix_audit_log_plan_id_at" in plans["plan"], plans
     assert "ix_audit_log_actor_at" in plans["actor"], plans
     assert "ix_audit_log_at" in plans["since"] and "ix_audit_log_at" in plans["none"], plans
     # a deeper page seeks below its cursor's time: it reads no more than the first

@@ -27,14 +27,15 @@ OLD = (
 )
 
 
-def _store(url: str) -> None:
+def _store(url: str, plans: tuple[tuple[str, dict], ...] = OLD) -> None:
+    """A machine and ``plans`` (name, settings) stored as 0024 and 0025 store them."""
     engine = make_engine(url)
     with engine.begin() as connection:
         connection.execute(
             text("INSERT INTO machines (name, limits, created_at) VALUES ('m', '{}', :now)"),
             {"now": utcnow()},
         )
-        for name, settings in OLD:
+        for name, settings in plans:
             connection.execute(
                 text(
                     "INSERT INTO plans (name, machine_id, body, settings, current_setpoint_version,"

@@ -1,0 +1,82 @@
+"""``rcb audit --plan``: one plan's history in the audit log, by its id or its name.
+
+On SQLite and PostgreSQL, from real writes: a plan's creation (its id known only once it is
+stored), its part reports (answered, replayed and refused), a replan and a fleet exclusion
+are the plan's; another plan's and a machine's are not; the entries carry ``plan_id``.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from test_service import BODY, _reports
+
+from api.cli.main import app
+from api.rest.schemas.parts import parse_report
+from api.services.idempotency import Idempotency
+from api.services.parts import report_part
+from api.services.plans import create_plan
+from db.engine import make_engine, upgrade
+from db.errors import ConflictError
+
+#: The machine of the example plan.
+MACHINE = BODY["machine"]["name"]
+
+
+def _json(runner, url: str, *args: str) -> dict:
+    done = runner.invoke(app, ["audit", "--db", url, "--json", *args])
+    assert done.exit_code == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+def _seen(entries: list[dict]) -> list[tuple]:
+    return [(e["action"], e["target"], e["result"], e["plan_id"]) for e in entries]
+
+
+def test_a_plans_history_by_id_and_by_name(runner, backend_url):
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    first = create_plan(engine=engine, body=BODY).body["id"]
+    second = create_plan(engine=engine, body={**BODY, "name": "second-bar"}).body["id"]
+    bodies, _ = _reports(2)
+    key = Idempotency("part-1", "hash-1")
+    report_part(engine=engine, plan_id=first, report=parse_report(bodies[0]), idempotency=key)
+    report_part(engine=engine, plan_id=first, report=parse_report(bodies[0]), idempotency=key)
+    with pytest.raises(ConflictError):  # the same serial again, without its key: refused
+        report_part(engine=engine, plan_id=first, report=parse_report(bodies[0]))
+    engine.dispose()
+    for step in (
+        ("replan", str(first), "--limit", "rough-od.force_N=1900", "--by", "bo"),
+        ("fleet", "exclude", "--plan", str(second), "--reason", "wrong stock", "--by", "bo"),
+        ("fleet", "exclude", "--machine", MACHINE, "--reason", "spindle", "--by", "bo"),
+    ):
+        done = runner.invoke(app, [*step, "--db", backend_url])
+        assert done.exit_code == 0, done.stderr
+    serial = bodies[0]["serial"]
+    mine = [
+        ("replan", f"plan {first}", "201", first),
+        ("report part", f"plan {first} part {serial}", "refused", first),
+        ("report part", f"plan {first} part {serial}", "replayed 201", first),
+        ("report part", f"plan {first} part {serial}", "201", first),
+        ("create plan", f"plan {BODY['name']}", "201", first),
+    ]
+    assert _seen(_json(runner, backend_url, "--plan", str(first))["entries"]) == mine
+    assert _seen(_json(runner, backend_url, "--plan", BODY["name"])["entries"]) == mine
+    theirs = _json(runner, backend_url, "--plan", "second-bar")["entries"]
+    assert _seen(theirs) == [
+        ("fleet exclude", f"plan {second}", "200", second),
+        ("create plan", "plan second-bar", "201", second),
+    ]
+    whole = _json(runner, backend_url)["entries"]
+    assert [e["plan_id"] for e in whole if e["target"] == f"machine {MACHINE}"] == [None]
+    assert _json(runner, backend_url, "--plan", "999")["entries"] == []  # no such plan: none
+
+
+def test_an_unknown_plan_name_is_one_line_naming_the_option(runner, tmp_path):
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    done = runner.invoke(app, ["audit", "--db", url, "--plan", "no-such-plan"])
+    assert done.exit_code == 2
+    assert done.stderr.startswith("rcb: error: --plan = 'no-such-plan': no plan named")
+    assert len(done.stderr.strip().splitlines()) == 1
