@@ -24,15 +24,15 @@ OLD = (
 )
 
 
-def test_0017_raises_a_coverage_k_below_a_half_and_keeps_the_rest(backend_url):
-    upgrade(backend_url, "0016")
-    engine = make_engine(backend_url)
+def store_plans(url: str, plans: tuple[tuple[str, dict], ...]) -> None:
+    """A machine and ``plans`` (name, settings JSON) stored as 0016 to 0025 store them."""
+    engine = make_engine(url)
     with engine.begin() as connection:
         connection.execute(
             text("INSERT INTO machines (name, limits, created_at) VALUES ('m', '{}', :now)"),
             {"now": utcnow()},
         )
-        for name, settings in OLD:
+        for name, settings in plans:
             connection.execute(
                 text(
                     "INSERT INTO plans (name, machine_id, body, settings, current_setpoint_version,"
@@ -42,6 +42,11 @@ def test_0017_raises_a_coverage_k_below_a_half_and_keeps_the_rest(backend_url):
                 {"name": name, "settings": json.dumps(settings), "now": utcnow()},
             )
     engine.dispose()
+
+
+def test_0017_raises_a_coverage_k_below_a_half_and_keeps_the_rest(backend_url):
+    upgrade(backend_url, "0016")
+    store_plans(backend_url, OLD)
     upgrade(backend_url)
     stored = {name: row[0] for name, row in _plans(backend_url, "settings").items()}
     assert stored == {

@@ -10,11 +10,11 @@ import pytest
 from sqlalchemy import text
 from test_migration_0012 import _downgrade
 from test_migration_0013 import _plans
+from test_migration_0017 import store_plans
 from test_migrations import _no_difference
 
 from db.engine import make_engine, upgrade
 from db.plan_state import settings_of
-from db.tables import utcnow
 from models.errors import InputError
 from supervisor.rcb.state import RcbSettings
 
@@ -25,26 +25,6 @@ OLD = (
     ("usual", {"strategy": "learn", "alpha": 0.4, "z": 4.0}),
     ("defaults", {"strategy": "ivester", "alpha": 0.25}),
 )
-
-
-def _store(url: str, plans: tuple[tuple[str, dict], ...] = OLD) -> None:
-    """A machine and ``plans`` (name, settings) stored as 0024 and 0025 store them."""
-    engine = make_engine(url)
-    with engine.begin() as connection:
-        connection.execute(
-            text("INSERT INTO machines (name, limits, created_at) VALUES ('m', '{}', :now)"),
-            {"now": utcnow()},
-        )
-        for name, settings in plans:
-            connection.execute(
-                text(
-                    "INSERT INTO plans (name, machine_id, body, settings, current_setpoint_version,"
-                    " state_token, fleet_changes_accepted, created_at) VALUES (:name,"
-                    " (SELECT id FROM machines), '{}', :settings, 1, '', 0, :now)"
-                ),
-                {"name": name, "settings": json.dumps(settings), "now": utcnow()},
-            )
-    engine.dispose()
 
 
 def _audit(url: str) -> list[tuple]:
@@ -59,7 +39,7 @@ def _audit(url: str) -> list[tuple]:
 
 def test_0025_raises_a_z_below_one_and_keeps_the_rest(backend_url):
     upgrade(backend_url, "0024")
-    _store(backend_url)
+    store_plans(backend_url, OLD)
     with pytest.raises(InputError, match="z = 0.5"):  # unreadable before: a plan locked out
         settings_of(OLD[0][1])
     upgrade(backend_url)

@@ -8,7 +8,7 @@ import json
 
 from sqlalchemy import text
 from test_migration_0012 import _downgrade
-from test_migration_0025 import _store as store_plans
+from test_migration_0017 import store_plans
 from test_migrations import _no_difference
 
 from db.engine import make_engine, upgrade
