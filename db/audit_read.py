@@ -9,7 +9,7 @@ at``, alembic 0024), one plan (``plan_id, at``, alembic 0026), from a time on (`
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import datetime
 from typing import Any
 
 from sqlalchemy import or_, select
@@ -52,9 +52,9 @@ def entries(
     if query.plan_id is not None:
         statement = statement.where(table.c.plan_id == query.plan_id)
     if query.since is not None:
-        statement = statement.where(table.c.at >= query.since.astimezone(UTC))
+        statement = statement.where(table.c.at >= as_utc(query.since))
     if below is not None:
-        at, entry_id = below[0].astimezone(UTC), below[1]
+        at, entry_id = as_utc(below[0]), below[1]
         # at <= at' bounds the index's range (a deep page seeks, as the first page does)
         statement = statement.where(table.c.at <= at, or_(table.c.at < at, table.c.id < entry_id))
     return [{**row._asdict(), "at": as_utc(row.at)} for row in session.execute(statement).all()]

@@ -18,7 +18,6 @@ from rich.text import Text
 from api.cli.common import DbOption, emit, engine_of, errors, plan_of, say
 from api.cli.tables import new_table
 from api.services import request_limits
-from models.errors import InputError
 
 _out = Console()
 
@@ -58,7 +57,7 @@ def audit(
 
     with errors():
         engine = engine_of(db)
-        plan_id = None if plan is None else _plan(engine, plan)
+        plan_id = None if plan is None else plan_of(engine, plan, "--plan")
         query = query_of(action, actor, since, plan_id)
         page = audit_page(engine=engine, query=query, cursor=cursor, limit=limit)
     if as_json:
@@ -70,14 +69,6 @@ def audit(
         again = [("--action", action), ("--actor", actor), ("--since", since), ("--plan", plan)]
         kept = "".join(f" {name} {shlex.quote(value)}" for name, value in again if value)
         say(f"rcb: older entries: rcb audit{kept} --cursor {page['next_cursor']} --limit {limit}")
-
-
-def _plan(engine: Any, plan: str) -> int:
-    """``--plan``'s id (digits) or the id of the plan of that name; errors name ``--plan``."""
-    try:
-        return plan_of(engine, plan)
-    except InputError as err:
-        raise InputError("--plan", plan, err.reason) from None
 
 
 def _table(entries: list[dict[str, Any]]) -> Any:

@@ -213,14 +213,18 @@ def _upgrade(url: str, field: str) -> str:
     return "rcb db upgrade" if field != "--db" else f"rcb db upgrade --db {shown(url)}"
 
 
-def plan_of(engine: Engine, plan: str) -> int:
+def plan_of(engine: Engine, plan: str, option: str = "PLAN") -> int:
     """The id of a PLAN argument: digits are the id, anything else the plan's name.
 
-    An unknown name: :class:`models.errors.InputError` (one line, exit 2 in :func:`errors`).
+    An unknown name: :class:`models.errors.InputError` naming ``option`` (the argument, or an
+    option such as ``--plan``; one line, exit 2 in :func:`errors`).
     """
     from api.services.plans import resolve_plan
 
-    return resolve_plan(engine=engine, plan=plan)
+    try:
+        return resolve_plan(engine=engine, plan=plan)
+    except InputError as err:
+        raise InputError(option, plan, err.reason) from None
 
 
 def check_target(path: Path, field: str = "--out") -> None:

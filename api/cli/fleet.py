@@ -145,7 +145,7 @@ def exclude(
     with errors():
         actor = cli_actor(by)
         engine = engine_of(db)
-        plan_id = None if plan is None else plan_of(engine, plan)
+        plan_id = None if plan is None else plan_of(engine, plan, "--plan")
         done = exclude_from_fleet(
             engine=engine, plan_id=plan_id, machine=machine, reason=reason, actor=actor
         )
@@ -165,7 +165,7 @@ def include(
     with errors():
         actor = cli_actor(by)
         engine = engine_of(db)
-        plan_id = None if plan is None else plan_of(engine, plan)
+        plan_id = None if plan is None else plan_of(engine, plan, "--plan")
         done = include_in_fleet(engine=engine, plan_id=plan_id, machine=machine, actor=actor)
     accepted = done.body["changes_accepted"]
     extra = f"; {accepted} changes of its process accepted" if accepted else ""

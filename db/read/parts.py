@@ -6,12 +6,13 @@ Each returns rows; :mod:`api.services.read.plan_parts` shapes them for JSON.
 from __future__ import annotations
 
 from collections import defaultdict
-from datetime import UTC, datetime
+from datetime import datetime
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.table_base import as_utc
 
 
 def parts_page(
@@ -30,7 +31,7 @@ def parts_page(
     """
     query = select(t.Part).where(t.Part.plan_id == plan_id)
     if since is not None:
-        query = query.where(t.Part.received_at >= since.astimezone(UTC))
+        query = query.where(t.Part.received_at >= as_utc(since))
     if newest:
         if after_id:
             query = query.where(t.Part.id < after_id)

@@ -73,10 +73,18 @@ def test_a_plans_history_by_id_and_by_name(runner, backend_url):
     assert _json(runner, backend_url, "--plan", "999")["entries"] == []  # no such plan: none
 
 
-def test_an_unknown_plan_name_is_one_line_naming_the_option(runner, tmp_path):
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["audit"],
+        ["fleet", "exclude", "--reason", "wrong stock"],  # the same option, the same words
+        ["fleet", "include"],
+    ],
+)
+def test_an_unknown_plan_name_is_one_line_naming_the_option(runner, tmp_path, command):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
     upgrade(url)
-    done = runner.invoke(app, ["audit", "--db", url, "--plan", "no-such-plan"])
+    done = runner.invoke(app, [*command, "--db", url, "--plan", "no-such-plan"])
     assert done.exit_code == 2
     assert done.stderr.startswith("rcb: error: --plan = 'no-such-plan': no plan named")
     assert len(done.stderr.strip().splitlines()) == 1
