@@ -153,6 +153,14 @@ def test_demo_tables_show_every_number_whole(milling):
     # before: Ra measured printed as 0.61…, and the MRR heading as cm³/m…
     assert expected <= words(shown.stdout), expected - words(shown.stdout)
     assert "cm³/min" in shown.stdout
+    # the summary's counts each on one line with their nouns (before: the cycle table's
+    # caption, 39 cells wide, ended a line with "0 " and began the next "true-limit …")
+    gain = result["gain_captured"]
+    share = "" if gain is None else f"{100 * gain:.0f} % of the oracle's gain, "
+    lines = shown.stdout.splitlines()
+    assert f"3 parts, {share}setpoint version {result['setpoint_version']}" in lines
+    violations, flagged = result["violations"], result["flagged"]
+    assert f"{violations} true-limit violations, {flagged} flagged measurements" in lines
 
 
 def test_plans_and_history_keep_names_dates_and_numbers_whole(db):
