@@ -210,8 +210,10 @@ def optimize(
     _out.print(tables.plan_table(result))
     for op in result.operations:
         table = tables.predictions_table(f"{op.name} ({op.tool})", op.predicted)
-        table.caption = tables.setpoint_caption(op)
         _out.print(table)
+        caption = tables.setpoint_caption(op)
+        if caption is not None:
+            _out.print(caption, highlight=False, markup=False)
         if op.passes is not None:
             _out.print(passes_table(op))
 

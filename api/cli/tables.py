@@ -138,7 +138,12 @@ def plan_table(result: PlanResult) -> Table:
 
 
 def setpoint_caption(op: OperationResult) -> str | None:
-    """Productivity cost and constant-load limits of a setpoint, where it has them."""
+    """Productivity cost and constant-load limits of a setpoint, where it has them.
+
+    The constant load takes two lines, each a whole phrase. Printed under the table, not as
+    its caption: a caption wraps at the table's width (58 cells for an end-mill), which split
+    "(upper set / by the setpoint)".
+    """
     lines = []
     if op.objective != "mrr" or op.cost_per_kg is not None:
         lines.append(f"objective {op.objective}; J = {fmt(op.cost_per_kg or 0.0)} /kg")
@@ -146,7 +151,9 @@ def setpoint_caption(op: OperationResult) -> str | None:
     if c is not None:
         lines.append(
             f"constant load: {fmt(c.reference_current_A)} A, feed "
-            f"{fmt(c.feed_rate_lower_mm_min)}-{fmt(c.feed_rate_upper_mm_min)} mm/min "
+            f"{fmt(c.feed_rate_lower_mm_min)}-{fmt(c.feed_rate_upper_mm_min)} mm/min"
+        )
+        lines.append(
             f"(upper set by the {c.upper_governed_by}); change tool at the lower limit"
             + ("" if c.tool_change_by_feed else ": not by feed here, by count")
         )

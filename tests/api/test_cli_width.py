@@ -182,6 +182,17 @@ def test_plans_and_history_keep_names_dates_and_numbers_whole(db):
     assert moved and moved <= words(history)
 
 
+def test_optimize_says_the_constant_load_in_whole_lines():
+    """Under the end-mill's table, not its caption: that wrapped at the table's 58 cells and
+    split "(upper set / by the setpoint)" (the figures: test_constant_load_setpoint.py)."""
+    shown = rcb("optimize", str(EXAMPLES / "tai_constant_load_part.toml"))
+    assert shown.returncode == 0, shown.stderr
+    fits(shown.stdout)
+    lines = [line.rstrip() for line in shown.stdout.splitlines()]
+    assert "constant load: 0.238 A, feed 621.6-868 mm/min" in lines
+    assert "(upper set by the setpoint); change tool at the lower limit" in lines
+
+
 def test_optimize_json_on_an_infeasible_plan_is_a_problem_document(tmp_path):
     text = (EXAMPLES / "ivester_demo_part.toml").read_text(encoding="utf-8")
     assert text.count("{ force_N = 2000,") == 1
