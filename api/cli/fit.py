@@ -100,7 +100,10 @@ def fit(
         texts = (source, reference, written)
         emit(_payload(result, response, quantity, tool_name, options, chosen, *texts))
     else:
-        _out.print(_table(result, response, quantity, options.columns, source))
+        _out.print(_table(result, response, quantity, options.columns))
+        # under the table, not its caption: a caption wraps at the table's width (52 cells),
+        # which split "(8 points, / material=1, …)"
+        _out.print(source, highlight=False, markup=False)
     for warning in fit_warnings(result, quantity or response):
         say(f"rcb: warning: {warning}")
     if chosen.never:
@@ -312,10 +315,9 @@ def _table(
     response: str,
     quantity: str | None,
     columns: Mapping[str, str],
-    source: str,
 ) -> Table:
     title = f"{quantity or response} = (K ± ΔK) · Π x^e"
-    table = new_table(title=title, title_justify="left", caption=source, caption_justify="left")
+    table = new_table(title=title, title_justify="left")
     table.add_column("parameter")
     table.add_column("column")
     table.add_column("value", justify="right")

@@ -182,6 +182,15 @@ def test_plans_and_history_keep_names_dates_and_numbers_whole(db):
     assert moved and moved <= words(history)
 
 
+def test_fit_says_its_source_in_one_line():
+    """Under the table, not its caption: that wrapped at the table's 52 cells mid-phrase."""
+    shown = rcb(*TABLE_COMMANDS["fit"], "--where", "VB=New")
+    assert shown.returncode == 0, shown.stderr
+    fits(shown.stdout)
+    source = "fit of aisi12l14_turning_roughness.csv (1224 points, VB=New)"  # test_fit_command
+    assert source in [line.rstrip() for line in shown.stdout.splitlines()]
+
+
 def test_optimize_says_the_constant_load_in_whole_lines():
     """Under the end-mill's table, not its caption: that wrapped at the table's 58 cells and
     split "(upper set / by the setpoint)" (the figures: test_constant_load_setpoint.py)."""
