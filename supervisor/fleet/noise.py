@@ -40,8 +40,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from scipy import special
-
 from supervisor.fleet.hierarchy import pooled_spread
 from supervisor.fleet.prior import Learned
 from supervisor.rcb.noise import NoiseScale
@@ -111,6 +109,10 @@ def noise_priors(
 def _prior(
     quantity: str, chains: dict[str, tuple[float, float]], default_spread: float
 ) -> NoisePrior:
+    # imported here, as supervisor/rcb/noise.py does: scipy takes 0.2-0.5 s to import, which
+    # every reader of a plan (rcb plans, rcb history) paid at start through db.fleet
+    from scipy import special
+
     beliefs = [NoiseScale.of_evidence(n, s) for n, s in chains.values()]
     ys = [math.log(b.rate) - float(special.digamma(b.shape)) for b in beliefs]
     vs = [float(special.polygamma(1, b.shape)) for b in beliefs]

@@ -29,7 +29,6 @@ from typing import Any, Literal
 
 import clarabel
 import numpy as np
-from scipy import sparse
 
 from supervisor.optimize.program import LogLinearProgram
 
@@ -59,6 +58,8 @@ def _settings() -> Any:
 @functools.cache
 def _zeros(n: int) -> Any:
     """The (empty) quadratic term of an ``n``-variable linear objective, made once."""
+    from scipy import sparse  # imported where used: see _solver
+
     return sparse.csc_matrix((n, n))
 
 
@@ -84,6 +85,10 @@ def _solver(n: int, dense: Any, b: Any, cones: list[Any], q: Any) -> Any:
     if solver is not None:
         solver.update(q=q, A=values, b=b)
         return solver
+    # imported here: scipy takes 0.2-0.5 s to import, which every reader of a plan (rcb
+    # plans, rcb history) paid at start through the optimizer's imports, never solving
+    from scipy import sparse
+
     indices = np.tile(np.arange(rows, dtype=np.int32), n)
     indptr = np.arange(0, rows * n + 1, rows, dtype=np.int32)
     A = sparse.csc_matrix((values, indices, indptr), shape=dense.shape)

@@ -12,10 +12,14 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import tomllib
 
 import pytest
 
-from conftest import ROOT
+from api.services.plans import create_plan
+from db.engine import make_engine, upgrade
+
+from conftest import DEMO_PLAN, ROOT
 
 #: What ``rcb --help`` must not load: the solvers, the numerics, the database and web stacks.
 LAZY = (
@@ -88,3 +92,30 @@ def test_demo_still_imports_what_it_uses():
     assert json.loads(out)["parts"] == 2
     assert {"numpy", "highspy"} <= set(loaded)
     assert "sqlalchemy" not in loaded  # the demo keeps everything in memory
+
+
+@pytest.fixture(scope="module")
+def one_plan(tmp_path_factory) -> str:
+    """A migrated SQLite database holding the demonstration plan (id 1), as a URL."""
+    url = f"sqlite:///{tmp_path_factory.mktemp('startup') / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    create_plan(engine=engine, body=tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8")))
+    engine.dispose()
+    return url
+
+
+@pytest.mark.parametrize(
+    ("args", "solvers"),
+    [(["plans"], False), (["history", "1"], True), (["parts", "1"], True)],
+)
+def test_a_reader_of_the_database_loads_no_scipy(one_plan, args, solvers):
+    """The readers of a plan never solve: SciPy (0.2-0.5 s) came in through the fleet's noise
+    prior and the cone solver's sparse matrices, both now imported where they are used;
+    ``rcb plans`` loads no solver at all (docs/benchmarks.md, "Start-up of rcb")."""
+    code, loaded, _ = _probe(*args, "--db", one_plan)
+    assert code == 0
+    assert {"scipy", "cvxpy", "pandas", "matplotlib", "fastapi", "uvicorn"}.isdisjoint(loaded)
+    assert {"sqlalchemy", "numpy"} <= set(loaded)
+    if not solvers:
+        assert {"highspy", "clarabel"}.isdisjoint(loaded)
