@@ -219,7 +219,7 @@ def plan_of(engine: Engine, plan: str, option: str = "PLAN") -> int:
     An unknown name: :class:`models.errors.InputError` naming ``option`` (the argument, or an
     option such as ``--plan``; one line, exit 2 in :func:`errors`).
     """
-    from api.services.plans import resolve_plan
+    from api.services.read.common import resolve_plan
 
     try:
         return resolve_plan(engine=engine, plan=plan)

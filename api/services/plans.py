@@ -6,7 +6,6 @@ Idempotency-Key, and audited, refused or not.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -16,6 +15,7 @@ from sqlalchemy.orm import Session
 from api.services import to_json
 from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, Written
+from api.services.read.common import PLAN_ID
 from api.services.transactions import audited, write
 from db import api_keys, library
 from db.api_keys import Actor
@@ -26,7 +26,6 @@ from db.plans import (
     add_replan,
     current_body,
     get_plan_row,
-    plan_id_by_name,
     plan_tools,
 )
 from db.state import load_state
@@ -52,26 +51,6 @@ def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
             raise InputError(field, item, f"{name.strip()} is given twice; give each floor once")
         floors[name.strip()] = number
     return floors
-
-
-#: A PLAN argument of only these characters is a plan's id; any other, its name.
-_ID = re.compile(r"[0-9]+")
-
-
-def resolve_plan(*, engine: Engine, plan: str) -> int:
-    """The id of the plan that ``plan`` names: its id (digits), else its name.
-
-    Names are unique (:class:`db.errors.PlanNameTakenError`); an id is not checked here (the
-    use case that reads the plan says so when there is none).
-    """
-    text = plan.strip()
-    if _ID.fullmatch(text):
-        return int(text)
-    with Session(engine) as session:
-        plan_id = plan_id_by_name(session=session, name=plan)
-    if plan_id is None:
-        raise InputError("PLAN", plan, f"no plan named {plan!r} (rcb plans lists them)")
-    return plan_id
 
 
 def create_plan(
@@ -143,7 +122,7 @@ def _read(
     plan = found.read(plan_from_mapping, body, library.load_tools(session=session))
     found.raise_any()
     assert chosen is not None and plan is not None
-    if _ID.fullmatch(plan.name.strip()):
+    if PLAN_ID.fullmatch(plan.name.strip()):
         raise InputError("name", plan.name, "must not be only digits (PLAN digits: an id)")
     return chosen, plan
 

@@ -19,7 +19,7 @@ from api.services import request_limits
 from api.services.errors import NotFoundError
 from db import tables as t
 from db.engine import reader
-from db.plans import get_plan_row
+from db.plans import get_plan_row, plan_id_by_name
 from models.errors import InputError
 
 #: Most parts (or setpoint versions) one page may hold.
@@ -28,6 +28,24 @@ MAX_PAGE = request_limits.READ_PAGE
 LIST_PAGE = 100
 #: Longest cursor of a list keyed by text (a tool's name is at most 200 characters).
 MAX_CURSOR = 1200
+#: A PLAN argument of only these characters is a plan's id; any other, its name.
+PLAN_ID = re.compile(r"[0-9]+")
+
+
+def resolve_plan(*, engine: Engine, plan: str) -> int:
+    """The id of the plan that ``plan`` names: its id (digits), else its name.
+
+    Names are unique (:class:`db.errors.PlanNameTakenError`); an id is not checked here (the
+    use case that reads the plan says so when there is none).
+    """
+    text = plan.strip()
+    if PLAN_ID.fullmatch(text):
+        return int(text)
+    with Session(engine) as session:
+        plan_id = plan_id_by_name(session=session, name=plan)
+    if plan_id is None:
+        raise InputError("PLAN", plan, f"no plan named {plan!r} (rcb plans lists them)")
+    return plan_id
 
 
 def _read(engine: Engine) -> Session:
