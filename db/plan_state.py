@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from models.errors import InputError
 from supervisor.errors import Conflict
 from supervisor.rcb.settings import SETTINGS
 from supervisor.rcb.settings import settings_json as settings_json
@@ -21,10 +22,28 @@ from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings
 
 def settings_of(stored: Mapping[str, Any] | None) -> RcbSettings:
     """The :class:`RcbSettings` of a plan's ``settings`` column."""
-    given = {k: v for k, v in (stored or {}).items() if k in SETTINGS and v is not None}
+    given = _given(stored)
     if "floors" in given:
         given["floors"] = {str(q): float(v) for q, v in given["floors"].items()}
     return RcbSettings(**given)
+
+
+def settings_shown(stored: Mapping[str, Any] | None) -> dict[str, Any]:
+    """A plan's ``settings`` column as a list shows it: checked, or else as stored.
+
+    A stored value that fails this version's check (one tightened since it was stored) would
+    otherwise keep every plan from the list: the stored values are shown over the defaults as
+    they are, and the surfaces that use the settings say which value fails.
+    """
+    try:
+        return settings_json(settings_of(stored))
+    except InputError:
+        return {**settings_json(RcbSettings()), **_given(stored)}
+
+
+def _given(stored: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The settings a ``settings`` column holds (NULL, a key missing or unknown: none)."""
+    return {k: v for k, v in (stored or {}).items() if k in SETTINGS and v is not None}
 
 
 def halt_json(halt: Halt) -> dict[str, Any]:

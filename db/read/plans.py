@@ -11,11 +11,8 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.plan_state import settings_json, settings_of
+from db.plan_state import settings_shown
 from db.table_base import as_utc
-from models.errors import InputError
-from supervisor.rcb.settings import SETTINGS
-from supervisor.rcb.state import RcbSettings
 
 #: The settings a plan summary shows as fields of its own, not under ``settings``.
 _OWN_FIELDS = ("strategy", "alpha")
@@ -50,7 +47,7 @@ def plans(
 
 def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
     """The fields a plan list shows (strategy and alpha beside the other settings)."""
-    settings = _shown(plan.settings)
+    settings = settings_shown(plan.settings)
     return {
         "id": plan.id,
         "name": plan.name,
@@ -64,20 +61,6 @@ def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
         "parts": parts,
         "created_at": as_utc(plan.created_at),
     }
-
-
-def _shown(stored: dict[str, Any] | None) -> dict[str, Any]:
-    """A plan's settings as a list shows them: checked, or else as stored.
-
-    A stored value that fails this version's check (one tightened since it was stored) would
-    otherwise keep every plan from the list: the stored values are shown over the defaults as
-    they are, and the surfaces that use the settings say which value fails.
-    """
-    try:
-        return settings_json(settings_of(stored))
-    except InputError:
-        given = {k: v for k, v in (stored or {}).items() if k in SETTINGS and v is not None}
-        return {**settings_json(RcbSettings()), **given}
 
 
 def operations(*, session: Session, plan_id: int) -> list[tuple[t.Operation, t.Tool]]:
