@@ -32,3 +32,24 @@ class PlanNameTakenError(ConflictError):
             f"plan {plan_id} has this name; give the new plan another name, or change plan "
             f"{plan_id} with rcb replan {plan_id} (POST /plans/{plan_id}/replan)",
         )
+
+
+class StoredSettingsError(ConflictError):
+    """A plan's stored RCB setting fails this version's check (one tightened since it was stored).
+
+    The plan cannot learn or be read by the fleet until an engineer sets the value anew:
+    ``rcb replan PLAN --rcb NAME=VALUE`` (``POST /plans/{id}/replan``), which checks the stored
+    settings with the given ones over them. ``plan_id``: the plan; ``code``: the REST problem's.
+    """
+
+    code = "stored_settings_refused"
+
+    def __init__(self, plan_id: int, plan: str, name: str, value: object, reason: str) -> None:
+        self.plan_id, self.setting, self.check = plan_id, name, reason
+        super().__init__(
+            f"settings.{name}",
+            value,
+            f"{reason}; plan {plan_id} ({plan}) stored it under an earlier version's check; "
+            f"set it anew: rcb replan {plan_id} --rcb {name}=VALUE "
+            f'(POST /plans/{plan_id}/replan {{"rcb": {{"{name}": VALUE}}}})',
+        )

@@ -140,7 +140,10 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     changed = {plan for op, _, plan, *_, accepted in rows if changes.get(op.plan_id, 0) > accepted}
     out = []
     for op, tool, plan, stored, machine, state, started, _ in rows:
-        settings = settings_of(stored)
+        try:
+            settings = settings_of(stored)
+        except InputError:  # a stored value this version refuses: out (rcb fleet show: why)
+            continue
         if plan in changed or settings.strategy != "learn":
             continue
         out.append(

@@ -18,9 +18,10 @@ from sqlalchemy import or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.errors import StoredSettingsError
 from db.fleet import plan_changes, priors_of
 from db.fleet_states import newest_state
-from db.plan_state import settings_of
+from db.plan_state import plan_settings
 from supervisor.fleet.changes import JUDGED_AFTER
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
@@ -158,7 +159,13 @@ def _why_out(
             return f"machine {machine} taken out by {e.actor}: {e.reason}"
     if row.halt is not None:
         return "halted"
-    strategy = settings_of(row.settings).strategy
+    try:
+        strategy = plan_settings(row).strategy
+    except StoredSettingsError as err:  # out until an engineer sets it anew
+        return (
+            f"stored {err.setting} = {err.value!r} fails this version's check ({err.check}): "
+            f"rcb replan {row.id} --rcb {err.setting}=VALUE"
+        )
     if strategy != "learn":
         return f"strategy {strategy} learns no posterior"
     count, serial = changes

@@ -11,8 +11,9 @@ no conflicts and nothing holding it: its ``message`` says which reading).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Protocol
 
+from db.errors import StoredSettingsError
 from models.errors import InputError
 from supervisor.errors import Conflict
 from supervisor.rcb.settings import SETTINGS
@@ -26,6 +27,31 @@ def settings_of(stored: Mapping[str, Any] | None) -> RcbSettings:
     if "floors" in given:
         given["floors"] = {str(q): float(v) for q, v in given["floors"].items()}
     return RcbSettings(**given)
+
+
+class _Plan(Protocol):
+    id: int
+    name: str
+    settings: dict[str, Any] | None
+
+
+def plan_settings(row: _Plan, over: Mapping[str, Any] | None = None) -> RcbSettings:
+    """A plan's settings as stored, with ``over`` (settings a replan gives, checked) over them.
+
+    Raises
+    ------
+    StoredSettingsError
+        A stored value (not one of ``over``) fails this version's check: names the plan, the
+        setting and how to set it anew.
+    """
+    given = {**_given(row.settings), **(over or {})}
+    try:
+        return settings_of(given)
+    except InputError as err:
+        name = err.field.removeprefix("--")  # e.g. alpha, floors.force_N
+        if over and name.partition(".")[0] in over:
+            raise
+        raise StoredSettingsError(row.id, row.name, name, err.value, err.reason) from None
 
 
 def settings_shown(stored: Mapping[str, Any] | None) -> dict[str, Any]:

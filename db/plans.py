@@ -21,7 +21,7 @@ from db.fleet_changes import clear_fleet_change
 from db.intake import PlanHead
 from db.library import ensure_tool, load_tools
 from db.model_versions import model_version_row, version_numbers
-from db.plan_state import settings_json
+from db.plan_state import settings_json, settings_shown
 from db.state_cache import CACHE, database_key
 from models.powerlaw import Prediction
 from models.tool import Tool
@@ -195,8 +195,9 @@ def add_replan(
     prior = restarted_json(plan_row.prior, after.priors)
     if prior is not None:  # reset bands: a fleet prior the machine let go stays let go
         plan_row.prior = prior
-    if after.settings != before.settings:  # rcb replan --rcb NAME=VALUE
-        plan_row.settings = settings_json(after.settings)
+    settings = settings_json(after.settings)
+    if settings != settings_shown(plan_row.settings):  # rcb replan --rcb NAME=VALUE
+        plan_row.settings = settings  # (against the stored: before's may hold a repair's)
     plan_row.state_token = new_token()
     session.flush()
 

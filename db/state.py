@@ -7,14 +7,18 @@ session; the caller owns the transaction. Loaded states are cached under
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.errors import StoredSettingsError
 from db.fleet import priors_of
 from db.fleet_noise import noise_priors_of
 from db.model_versions import latest_models
-from db.plan_state import halt_of, settings_of
+from db.plan_state import halt_of, plan_settings
 from db.plans import PlanRow, current_body, operation_rows, plan_tools, setpoints_of
 from db.state_cache import CACHE, database_key
 from models.powerlaw import PowerLawModel
@@ -24,28 +28,39 @@ from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
-from supervisor.rcb.state import RcbState, prior_sigma
+from supervisor.rcb.state import RcbSettings, RcbState, prior_sigma
 from supervisor.rcb.wear import WearRise
 from supervisor.rcb.wear import from_json as wear_from_json
 
 
-def load_state(*, session: Session, plan_row: PlanRow) -> RcbState:
+def load_state(
+    *, session: Session, plan_row: PlanRow, repair: Mapping[str, Any] | None = None
+) -> RcbState:
     """The RCB state of a plan as stored: models, band states and setpoints in force.
 
     Call it with the plan row locked (``get_plan_row(lock=True)``, :mod:`db.plans`): the state
     is then the committed one of ``plan_row.state_token`` and is cached under it
-    (:mod:`db.state_cache`).
+    (:mod:`db.state_cache`). ``repair``: RCB settings a replan gives (checked); where a stored
+    setting fails this version's check (:class:`~db.errors.StoredSettingsError` otherwise),
+    the state is loaded with them over the stored ones, and not cached: it is not what is
+    stored until the replan commits.
     """
     database = database_key(session)
     cached = CACHE.get(database, plan_row.id, plan_row.state_token)
     if cached is not None:
         return cached
-    state = _load_state(session, plan_row)
+    try:
+        settings = plan_settings(plan_row)
+    except StoredSettingsError:
+        if not repair:
+            raise
+        return _load_state(session, plan_row, plan_settings(plan_row, repair))
+    state = _load_state(session, plan_row, settings)
     CACHE.put(database, plan_row.id, plan_row.state_token, state)
     return state
 
 
-def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
+def _load_state(session: Session, plan_row: PlanRow, settings: RcbSettings) -> RcbState:
     ops = operation_rows(session=session, plan_id=plan_row.id)
     body = current_body(session=session, plan_row=plan_row)
     plan = plan_from_mapping(body, plan_tools(session=session, plan_id=plan_row.id))
@@ -54,7 +69,6 @@ def _load_state(session: Session, plan_row: PlanRow) -> RcbState:
     seen: dict[tuple[str, str], float] = {}
     wear: dict[tuple[str, str], WearRise] = {}
     monitors: dict[tuple[str, str], Monitor] = {}
-    settings = settings_of(plan_row.settings)
     models_in_force = latest_models(session=session, plan_id=plan_row.id)
     pairs = sorted(
         (ops[op.name].id, quantity)

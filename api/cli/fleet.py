@@ -103,6 +103,8 @@ def _page(
         try:
             page = fetch(engine=engine, tool=tool, cursor=cursor, page_size=limit)
         except InputError as err:  # limit, cursor: the options' names
+            if err.field not in ("limit", "cursor"):  # not an option's: as it is
+                raise
             raise InputError(f"--{err.field}", err.value, err.reason) from None
         except NotFoundError:
             raise InputError(

@@ -77,6 +77,8 @@ def plans(
         try:
             page = read_plans.list_plans(engine=engine, cursor=cursor, page_size=size)
         except InputError as err:  # the option's name: --cursor
+            if err.field not in ("limit", "cursor"):  # not an option's: as it is
+                raise
             raise InputError(f"--{err.field}", err.value, err.reason) from None
         if as_json:
             sys.stdout.write('{"plans": [')

@@ -19,6 +19,7 @@ from api.services.plans import create_plan
 from db import state as db_state
 from db import tables as t
 from db.model_versions import latest_models, version_numbers
+from db.plan_state import plan_settings
 from db.plans import get_plan_row
 from supervisor.rcb.state import RcbSettings
 
@@ -36,7 +37,7 @@ def _steps(engine, plan_id):
         raw.set_progress_handler(tick, 1)
         try:
             row = get_plan_row(session=session, plan_id=plan_id)
-            state = db_state._load_state(session, row)
+            state = db_state._load_state(session, row, plan_settings(row))
             numbers = version_numbers(session=session, plan_id=plan_id)
         finally:
             raw.set_progress_handler(None, 1)
