@@ -53,3 +53,24 @@ class StoredSettingsError(ConflictError):
             f"set it anew: rcb replan {plan_id} --rcb {name}=VALUE "
             f'(POST /plans/{plan_id}/replan {{"rcb": {{"{name}": VALUE}}}})',
         )
+
+
+class StoredPlanError(ConflictError):
+    """A plan's stored structure (its plan file as stored) fails this version's check.
+
+    ``repair`` says how to set the value anew: a replan (``--limit``, ``--bound``) where it
+    can change the field, else the plan created anew from its file. ``plan_id``: the plan.
+    """
+
+    code = "stored_plan_refused"
+
+    def __init__(
+        self, plan_id: int, plan: str, field: str, value: object, reason: str, repair: str
+    ) -> None:
+        self.plan_id = plan_id
+        super().__init__(
+            field,
+            value,
+            f"{reason}; plan {plan_id} ({plan}) stored it under an earlier version's check; "
+            f"{repair}",
+        )

@@ -67,6 +67,15 @@ def settings_shown(stored: Mapping[str, Any] | None) -> dict[str, Any]:
         return {**settings_json(RcbSettings()), **_given(stored)}
 
 
+def settings_refused(row: _Plan) -> str | None:
+    """Why this version refuses a plan's stored settings, and the repair (None: it does not)."""
+    try:
+        plan_settings(row)
+    except StoredSettingsError as err:
+        return str(err)
+    return None
+
+
 def _given(stored: Mapping[str, Any] | None) -> dict[str, Any]:
     """The settings a ``settings`` column holds (NULL, a key missing or unknown: none)."""
     return {k: v for k, v in (stored or {}).items() if k in SETTINGS and v is not None}

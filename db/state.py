@@ -14,16 +14,17 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.errors import StoredSettingsError
+from db.errors import StoredPlanError, StoredSettingsError
 from db.fleet import priors_of
 from db.fleet_noise import noise_priors_of
 from db.model_versions import latest_models
 from db.plan_state import halt_of, plan_settings
-from db.plans import PlanRow, current_body, operation_rows, plan_tools, setpoints_of
+from db.plans import PlanRow, operation_rows, setpoints_of
+from db.refused import repaired, stored_plan
 from db.state_cache import CACHE, database_key
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
-from supervisor.inputs.plan import plan_from_mapping
+from supervisor.inputs.plan import Plan
 from supervisor.rcb.monitor_state import Monitor
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
@@ -40,10 +41,10 @@ def load_state(
 
     Call it with the plan row locked (``get_plan_row(lock=True)``, :mod:`db.plans`): the state
     is then the committed one of ``plan_row.state_token`` and is cached under it
-    (:mod:`db.state_cache`). ``repair``: RCB settings a replan gives (checked); where a stored
-    setting fails this version's check (:class:`~db.errors.StoredSettingsError` otherwise),
-    the state is loaded with them over the stored ones, and not cached: it is not what is
-    stored until the replan commits.
+    (:mod:`db.state_cache`). A stored setting or plan this version's check refuses raises
+    :class:`~db.errors.StoredSettingsError` or :class:`~db.errors.StoredPlanError`, unless
+    ``repair`` (a replan's changes) sets it anew: the state is then read with the changes
+    applied (:func:`db.refused.repaired`), and not cached, as it is not what is stored.
     """
     database = database_key(session)
     cached = CACHE.get(database, plan_row.id, plan_row.state_token)
@@ -51,19 +52,19 @@ def load_state(
         return cached
     try:
         settings = plan_settings(plan_row)
-    except StoredSettingsError:
+        plan = stored_plan(session=session, plan_row=plan_row)
+    except (StoredSettingsError, StoredPlanError):
         if not repair:
             raise
-        return _load_state(session, plan_row, plan_settings(plan_row, repair))
-    state = _load_state(session, plan_row, settings)
+        settings, plan = repaired(session=session, plan_row=plan_row, changes=repair)
+        return _load_state(session, plan_row, settings, plan)
+    state = _load_state(session, plan_row, settings, plan)
     CACHE.put(database, plan_row.id, plan_row.state_token, state)
     return state
 
 
-def _load_state(session: Session, plan_row: PlanRow, settings: RcbSettings) -> RcbState:
+def _load_state(session: Session, plan_row: PlanRow, settings: RcbSettings, plan: Plan) -> RcbState:
     ops = operation_rows(session=session, plan_id=plan_row.id)
-    body = current_body(session=session, plan_row=plan_row)
-    plan = plan_from_mapping(body, plan_tools(session=session, plan_id=plan_row.id))
     tools: dict[str, Tool] = {}
     sigma: dict[tuple[str, str], float] = {}
     seen: dict[tuple[str, str], float] = {}

@@ -15,6 +15,7 @@ import math
 import os
 import sys
 import tempfile
+import textwrap
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from datetime import datetime
@@ -88,6 +89,15 @@ DbOption = Annotated[
 def say(text: str) -> None:
     """One message on stderr, as written (no markup, no wrapping)."""
     err_console.print(text, markup=False, highlight=False, soft_wrap=True)
+
+
+def refused_line(plan_id: int, why: str) -> str:
+    """A plan whose stored settings this version refuses (``settings_refused``).
+
+    One message, filled to 80 columns, as ``rcb plans`` and ``rcb plans show`` print it.
+    """
+    text = f"rcb: plan {plan_id} REFUSED: {why}"
+    return textwrap.fill(text, width=80, subsequent_indent="  ", break_on_hyphens=False)
 
 
 @contextmanager

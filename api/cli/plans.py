@@ -28,6 +28,7 @@ from api.cli.common import (
     errors,
     plan_of,
     read_json_file,
+    refused_line,
     say,
 )
 from api.cli.tables import new_table, short_number
@@ -176,12 +177,16 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     _say_prior(data["provenance"], data["noise_provenance"])
     settings = ", ".join(f"{k}={v}" for k, v in data["settings"].items())
     state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
+    if data["status"] != "halted" and data.get("settings_refused"):
+        state = "REFUSED (below)"
     say(f"rcb: plan {data['id']} {data['name']} on {data['machine']}: {state}")
     rule = (
         f"rcb: setpoint version {data['setpoint_version']}, {data['parts']} parts; "
         f"RCB {data['strategy']} alpha={data['alpha']:g} ({settings})"
     )  # within 80 columns, as a terminal shows it
     say(textwrap.fill(rule, width=80, subsequent_indent="  ", break_on_hyphens=False))
+    if data.get("settings_refused"):
+        say(refused_line(data["id"], data["settings_refused"]))
 
 
 def _spreads(line: dict[str, Any]) -> str:

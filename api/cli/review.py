@@ -27,6 +27,7 @@ from api.cli.common import (
     engine_of,
     errors,
     plan_of,
+    refused_line,
     say,
     write_atomically,
 )
@@ -111,13 +112,20 @@ def _print_plans(listed: list[dict[str, Any]]) -> None:
             f"{p['strategy']} α={p['alpha']:g}",
             str(p["setpoint_version"]),
             str(p["parts"]),
-            "[bold red]HALTED[/]" if halted else "running",
+            "[bold red]HALTED[/]" if halted else _running(p),
             p["created_at"].strftime("%Y-%m-%d %H:%M"),
         )
     _out.print(table)
     for p in listed:
         if p["status"] == "halted":
             _print_halt(p["id"], p["halt"])
+        if p.get("settings_refused"):
+            say(refused_line(p["id"], p["settings_refused"]))
+
+
+def _running(plan: dict[str, Any]) -> str:
+    """A running plan's status: ``REFUSED`` when this version refuses its stored settings."""
+    return "[bold yellow]REFUSED[/]" if plan.get("settings_refused") else "running"
 
 
 def _refuse_before(command: str, **options: object) -> None:

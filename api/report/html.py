@@ -92,6 +92,13 @@ def _num(value: float | None, **attributes: object) -> str:
 # sections
 
 
+def _status(plan: Mapping[str, Any]) -> str:
+    if plan.get("status") == "halted":
+        return "HALTED"
+    refused = plan.get("settings_refused")  # its reports are refused until a replan
+    return f"REFUSED: {refused}" if refused else "running"
+
+
 def _overview(record: Mapping[str, Any]) -> str:
     plan, totals, plotted = record["plan"], record["totals"], record["parts"]
     newest = record["history"]["versions"][-1]
@@ -100,7 +107,7 @@ def _overview(record: Mapping[str, Any]) -> str:
     count = totals["parts"]
     received = totals["last_received"]
     items = [
-        ("Status", "HALTED" if plan.get("status") == "halted" else "running"),
+        ("Status", _status(plan)),
         ("Machine", plan["machine"]),
         ("RCB", f"{plan['strategy']}, α = {plan['alpha']:g}"),
         ("Models started from", _prior_line(plan)),

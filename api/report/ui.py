@@ -292,4 +292,6 @@ def _plans_table(plans: list[dict[str, Any]], next_cursor: str | None = None) ->
 def _status_cell(plan: dict[str, Any]) -> str:
     if plan["status"] == "halted":
         return tag("td", tag("strong", escaped("HALTED")), class_="halted")
+    if plan.get("settings_refused"):  # its reports are refused until a replan sets it anew
+        return tag("td", tag("strong", escaped("REFUSED")), title=plan["settings_refused"])
     return td("running")

@@ -32,7 +32,6 @@ from db.state import load_state
 from models.errors import Gathered, InputError
 from supervisor.inputs.plan import Plan, plan_from_mapping
 from supervisor.rcb.replan import replan as supervisor_replan
-from supervisor.rcb.settings import settings_from_table
 from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
 from supervisor.rcb.update import start
 
@@ -146,7 +145,7 @@ def replan(
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             row = _plan(session, plan_id, lock=True)
-            before = load_state(session=session, plan_row=row, repair=_rcb_given(changes))
+            before = load_state(session=session, plan_row=row, repair=changes)
             body = current_body(session=session, plan_row=row)
             library = plan_tools(session=session, plan_id=plan_id)
             library.update(library_tools(session))
@@ -182,16 +181,6 @@ def replan(
             work=work,
             plan=plan_id,
         )
-
-
-def _rcb_given(changes: Mapping[str, Any]) -> dict[str, object] | None:
-    """The RCB settings a replan gives, checked (None: none).
-
-    They may set anew a stored value this version refuses (db.errors.StoredSettingsError); a
-    malformed change is named later, by the replan.
-    """
-    table = changes.get("rcb") if isinstance(changes, Mapping) else None
-    return settings_from_table(table) if isinstance(table, Mapping) and table else None
 
 
 def library_tools(session: Session) -> dict[str, Any]:

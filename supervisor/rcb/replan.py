@@ -82,7 +82,7 @@ def replan(
     fields.only_keys(table, _CHANGE_KEYS, "")
     if not any(table.get(k) for k in _CHANGE_KEYS):
         raise InputError("changes", dict(table), "nothing to change")
-    new_body = _changed_body(body, table)
+    new_body = changed_body(body, table)
     plan = plan_from_mapping(new_body, library)  # names the field of a bad limit or bound
     settings = state.settings
     if table.get("rcb"):
@@ -114,8 +114,12 @@ def replan(
     return Replanned(new_state, new_body, reset)
 
 
-def _changed_body(body: Mapping[str, Any], table: Mapping[str, Any]) -> dict[str, Any]:
-    """``body`` with the ``limits`` and ``bounds`` of ``table`` set (a deep copy)."""
+def changed_body(body: Mapping[str, Any], table: Mapping[str, Any]) -> dict[str, Any]:
+    """``body`` with the ``limits`` and ``bounds`` of ``table`` set (a deep copy).
+
+    Also what a stored plan refused by this version's check is read as by the replan that
+    repairs it (:mod:`db.refused`).
+    """
     new_body = copy.deepcopy(dict(body))
     # by name as the reader reads it (a stored body keeps the spelling it was sent with)
     ops = {fields.identity(op["name"]): op for op in new_body["operations"]}

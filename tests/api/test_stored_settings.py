@@ -22,7 +22,9 @@ from sqlalchemy import create_engine, update
 from sqlalchemy.orm import Session
 from test_fleet_db import LEARN, _body, _learned
 from test_service import BODY
+from typer.testing import CliRunner
 
+from api.cli.main import app
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
@@ -67,6 +69,8 @@ def test_the_list_shows_the_stored_values_and_every_other_plan(engine):
     assert shown["settings"]["coverage_k"] == stored["coverage_k"]
     assert (fine["alpha"], fine["settings"]["z"]) == (0.25, 4.0)  # the defaults
     assert get_plan(engine=engine, plan_id=first)["alpha"] == 5.0  # a read, as listed
+    assert f"rcb replan {first} --rcb alpha=VALUE" in shown["settings_refused"]
+    assert fine["settings_refused"] is None
     # the learner refuses them, naming the plan, the value and the repair
     with pytest.raises(StoredSettingsError) as refused:
         _report(engine, first, "SN-1")
@@ -92,6 +96,22 @@ def test_a_replan_that_sets_the_refused_values_anew_frees_the_plan(engine):
     assert (shown["alpha"], shown["settings"]["z"]) == (0.3, 3.0)
     assert shown["settings"]["coverage_k"] == stored["coverage_k"]  # the rest as stored
     assert _report(engine, plan_id, "SN-1").status == 201  # it learns again
+
+
+def test_rcb_plans_and_plans_show_say_refused_and_the_repair_within_80_columns(engine):
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
+    _store(engine, plan_id, {"alpha": 5.0})
+    url = engine.url.render_as_string(hide_password=False)
+    runner = CliRunner()
+    for args in (["plans"], ["plans", "show", str(plan_id)]):
+        done = runner.invoke(app, [*args, "--db", url], env={"COLUMNS": "80"})
+        assert done.exit_code == 0, done.output
+        assert "REFUSED" in done.stdout + done.stderr
+        said = [line for line in done.stderr.splitlines() if line]
+        assert all(len(line) <= 80 for line in said), said
+        told = " ".join(line.strip() for line in said)
+        assert f"rcb: plan {plan_id} REFUSED: settings.alpha = 5.0" in told
+        assert f"set it anew: rcb replan {plan_id} --rcb alpha=VALUE" in told
 
 
 def _fleet_reasons(engine, tool: str) -> dict[str, str]:  # type: ignore[no-untyped-def]
@@ -137,8 +157,10 @@ def test_over_rest_a_refused_report_is_a_409_naming_the_repair_and_a_replan_free
             5.0,
         )
         assert f'POST /plans/{plan_id}/replan {{"rcb": {{"alpha": VALUE}}}}' in problem["detail"]
+        assert "rcb replan" in eng.get(f"/plans/{plan_id}").json()["settings_refused"]
         freed = eng.post(f"/plans/{plan_id}/replan", json={"rcb": {"alpha": 0.25}})
         assert freed.status_code == 201, freed.text
+        assert eng.get(f"/plans/{plan_id}").json()["settings_refused"] is None
         report = report_at("SN-1", mes.get(f"/plans/{plan_id}/setpoints").json())
         again = mes.post(f"/plans/{plan_id}/parts", json=report, headers=key)
         assert again.status_code == 201, again.text  # the key held no answer: nothing stored

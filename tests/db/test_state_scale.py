@@ -21,6 +21,7 @@ from db import tables as t
 from db.model_versions import latest_models, version_numbers
 from db.plan_state import plan_settings
 from db.plans import get_plan_row
+from db.refused import stored_plan
 from supervisor.rcb.state import RcbSettings
 
 
@@ -37,7 +38,9 @@ def _steps(engine, plan_id):
         raw.set_progress_handler(tick, 1)
         try:
             row = get_plan_row(session=session, plan_id=plan_id)
-            state = db_state._load_state(session, row, plan_settings(row))
+            state = db_state._load_state(
+                session, row, plan_settings(row), stored_plan(session=session, plan_row=row)
+            )
             numbers = version_numbers(session=session, plan_id=plan_id)
         finally:
             raw.set_progress_handler(None, 1)

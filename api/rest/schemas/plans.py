@@ -53,6 +53,12 @@ class PlanSummary(Out):
     settings: RcbSettingsOut
     status: Literal["running", "halted"]
     halt: HaltOut | None = None
+    settings_refused: str | None = Field(
+        None,
+        description="a stored setting this version's check refuses (stored under an earlier "
+        "one): which, and the replan that sets it anew; its part reports are 409 "
+        "stored_settings_refused until then (null: none)",
+    )
     setpoint_version: int
     parts: int
     created_at: datetime

@@ -1,0 +1,97 @@
+"""A plan whose stored structure fails this version's check is refused by name and repaired by
+a replan (SQLite and PostgreSQL).
+
+A release that tightens a check of the plan file (as migration 0025 did for ``z``) leaves stored
+plans that fail it. Before, such a plan's part reports were 422 naming a plan-file field the
+report never held (``operations[0].limits.force_N = -5.0``), and ``rcb replan PLAN --limit
+rough-od.force_N=2000``, the repair, was refused on the stored value before the change applied:
+only a hand-written migration freed the plan. Now the reports are 409
+``stored_plan_refused`` naming the plan, the field and the replan that sets it anew; that
+replan reads the plan with its change applied.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import pytest
+from sqlalchemy import select, update
+from test_service import BODY
+
+from api.rest.schemas.parts import parse_report
+from api.services.parts import report_part
+from api.services.plans import create_plan, replan
+from api.services.read.setpoints import current_setpoints
+from db import tables as t
+from db.errors import StoredPlanError
+from models.errors import InputError
+
+from conftest import report_at
+
+
+def _stored_with(engine, change, name: str = BODY["name"]) -> int:  # type: ignore[no-untyped-def]
+    """A plan whose stored body ``change`` then altered in place (what an older check let by)."""
+    plan_id = int(create_plan(engine=engine, body={**BODY, "name": name}).body["id"])
+    with engine.begin() as c:
+        body: dict[str, Any] = copy.deepcopy(
+            c.execute(select(t.Plan.body).where(t.Plan.id == plan_id)).scalar_one()
+        )
+        change(body)
+        c.execute(update(t.Plan).where(t.Plan.id == plan_id).values(body=body))
+    return plan_id
+
+
+def _report(engine, plan_id: int, serial: str):  # type: ignore[no-untyped-def]
+    setpoints = current_setpoints(engine=engine, plan_id=plan_id)
+    report = parse_report(report_at(serial, setpoints))
+    return report_part(engine=engine, plan_id=plan_id, report=report)
+
+
+def _negative_limit(body: dict[str, Any]) -> None:
+    body["operations"][0]["limits"]["force_N"] = -5.0  # rough-od; a limit must be above 0
+
+
+def test_a_refused_limit_names_the_repair_which_frees_the_plan(engine) -> None:
+    plan_id = _stored_with(engine, _negative_limit)
+    with pytest.raises(StoredPlanError) as refused:
+        _report(engine, plan_id, "SN-1")
+    assert (refused.value.field, refused.value.value) == ("operations[0].limits.force_N", -5.0)
+    assert f"rcb replan {plan_id} --limit rough-od.force_N=VALUE" in str(refused.value)
+    other = {"limits": {"rough-grooves.force_N": 2000}}  # changes another limit: still refused
+    with pytest.raises(StoredPlanError, match="rough-od.force_N=VALUE"):
+        replan(engine=engine, plan_id=plan_id, changes=other)
+    with pytest.raises(InputError, match=r"force_N = -3: must be greater than 0"):  # its own error
+        replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.force_N": -3}})
+    repair = {"limits": {"rough-od.force_N": 2000}}
+    assert replan(engine=engine, plan_id=plan_id, changes=repair, dry_run=True).status == 200
+    with pytest.raises(StoredPlanError):  # a dry run stored nothing and cached nothing
+        _report(engine, plan_id, "SN-1")
+    assert replan(engine=engine, plan_id=plan_id, changes=repair).status == 201
+    assert _report(engine, plan_id, "SN-1").status == 201  # it learns again
+    with engine.connect() as c:
+        newest = c.execute(
+            select(t.PlanRevision.body).where(t.PlanRevision.plan_id == plan_id)
+        ).scalar_one()
+    assert newest["operations"][0]["limits"]["force_N"] == 2000
+
+
+def test_a_refused_bound_names_the_bound_and_a_field_no_replan_changes_says_so(engine) -> None:
+    def swapped(body: dict[str, Any]) -> None:
+        body["operations"][1]["bounds"]["feed_mm_rev"] = [0.3, 0.05]  # rough-grooves
+
+    def unknown(body: dict[str, Any]) -> None:
+        body["machine"]["power_kW"] = 22  # a field this version does not know
+
+    bound = _stored_with(engine, swapped)
+    with pytest.raises(StoredPlanError) as refused:
+        _report(engine, bound, "SN-1")
+    text = str(refused.value)
+    assert f"rcb replan {bound} --bound rough-grooves.feed_mm_rev=LO:HI" in text
+    assert '{"bounds": {"rough-grooves.feed_mm_rev": [LO, HI]}}' in text
+    changes = {"bounds": {"rough-grooves.feed_mm_rev": [0.05, 0.4]}}
+    assert replan(engine=engine, plan_id=bound, changes=changes).status == 201
+    assert _report(engine, bound, "SN-1").status == 201
+    machine = _stored_with(engine, unknown, "machine-field")
+    with pytest.raises(StoredPlanError, match="a replan cannot change machine.power_kW"):
+        _report(engine, machine, "SN-2")
