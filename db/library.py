@@ -9,6 +9,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.errors import ConflictError
+from models.errors import InputError
 from models.powerlaw import PowerLawModel
 from models.tool import Tool, process_of
 
@@ -57,6 +58,20 @@ def add_tool(*, session: Session, tool: Tool) -> t.Tool:
     return row
 
 
+def _model(tool: str, m: t.ToolModel) -> PowerLawModel:
+    """A stored model; one a later version's check refuses names the stored tool."""
+    try:
+        return PowerLawModel(m.quantity, m.K, m.dK, dict(m.exponents), m.source, m.reference)
+    except InputError as err:
+        raise ConflictError(
+            f"tools.{tool}.models.{err.field}",
+            err.value,
+            f"{err.reason}; tool {tool} was stored under an earlier version's check, and this "
+            "one refuses the plans that use it: define it anew under another name (a plan "
+            "file's tools, or POST /tools) and create those plans with it",
+        ) from None
+
+
 def load_tools(
     *,
     session: Session,
@@ -78,10 +93,9 @@ def load_tools(
     rows = list(session.scalars(query.limit(limit)))
     models: dict[int, dict[str, PowerLawModel]] = {row.id: {} for row in rows}
     if rows:
+        named = {row.id: row.name for row in rows}
         for m in session.scalars(select(t.ToolModel).where(t.ToolModel.tool_id.in_(models))):
-            models[m.tool_id][m.quantity] = PowerLawModel(
-                m.quantity, m.K, m.dK, dict(m.exponents), m.source, m.reference
-            )
+            models[m.tool_id][m.quantity] = _model(named[m.tool_id], m)
     return {
         row.name: Tool(
             row.name,

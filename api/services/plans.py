@@ -7,6 +7,7 @@ Idempotency-Key, and audited, refused or not.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from contextlib import suppress
 from typing import Any
 
 from sqlalchemy import Engine
@@ -30,6 +31,7 @@ from db.plans import (
 )
 from db.state import load_state
 from models.errors import Gathered, InputError
+from models.fields import identity
 from supervisor.inputs.plan import Plan, plan_from_mapping
 from supervisor.rcb.replan import replan as supervisor_replan
 from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
@@ -119,7 +121,7 @@ def _read(
     """The settings and the plan, their errors refused together (the ``[rcb]`` table's first)."""
     found = Gathered()
     chosen = settings or found.read(plan_settings, body, given)
-    plan = found.read(plan_from_mapping, body, library.load_tools(session=session))
+    plan = found.read(plan_from_mapping, body, named_tools(session, body))
     found.raise_any()
     assert chosen is not None and plan is not None
     if PLAN_ID.fullmatch(plan.name.strip()):
@@ -147,8 +149,7 @@ def replan(
             row = _plan(session, plan_id, lock=True)
             before = load_state(session=session, plan_row=row, repair=changes)
             body = current_body(session=session, plan_row=row)
-            library = plan_tools(session=session, plan_id=plan_id)
-            library.update(library_tools(session))
+            library = plan_tools(session=session, plan_id=plan_id)  # its tools, no other
             done = supervisor_replan(before, body, changes, library)
             if not dry_run:
                 add_replan(
@@ -183,9 +184,19 @@ def replan(
         )
 
 
-def library_tools(session: Session) -> dict[str, Any]:
-    """Every stored tool (a replan may name a tool added over REST)."""
-    return library.load_tools(session=session)
+def named_tools(session: Session, body: Mapping[str, Any]) -> dict[str, Any]:
+    """The stored tools a plan file's operations name, as its reader looks them up.
+
+    Not every stored tool: a plant's library grows with the years, and a stored tool a later
+    version's check refuses must refuse the plans that use it, not every new plan.
+    """
+    ops = body.get("operations") if isinstance(body, Mapping) else None
+    names = set()
+    for op in ops if isinstance(ops, list) else ():
+        tool = op.get("tool") if isinstance(op, Mapping) else None
+        with suppress(ValueError):  # a name no tool has: the reader names the field
+            names.add(identity(tool) if isinstance(tool, str) else "")
+    return library.load_tools(session=session, names=sorted(names - {""}))
 
 
 def _replan_answer(plan_id: int, before: RcbState, done: Any, dry_run: bool) -> dict[str, Any]:

@@ -17,15 +17,19 @@ from typing import Any
 
 import pytest
 from sqlalchemy import select, update
+from sqlalchemy.orm import Session
 from test_service import BODY
 
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
 from api.services.read.setpoints import current_setpoints
+from db import library
 from db import tables as t
-from db.errors import StoredPlanError
+from db.errors import ConflictError, StoredPlanError
 from models.errors import InputError
+from models.powerlaw import PowerLawModel
+from models.tool import Tool
 
 from conftest import report_at
 
@@ -95,3 +99,23 @@ def test_a_refused_bound_names_the_bound_and_a_field_no_replan_changes_says_so(e
     machine = _stored_with(engine, unknown, "machine-field")
     with pytest.raises(StoredPlanError, match="a replan cannot change machine.power_kW"):
         _report(engine, machine, "SN-2")
+
+
+def test_a_stored_tool_a_later_check_refuses_refuses_no_plan_that_does_not_use_it(engine) -> None:
+    model = PowerLawModel("force_N", 1000.0, 100.0, {"feed_mm_rev": 0.8}, "test", "")
+    with Session(engine) as session, session.begin():
+        library.add_tool(session=session, tool=Tool("OLD-1", "turning", {"force_N": model}))
+    with engine.begin() as c:  # what an older check let by: K must be above 0
+        c.execute(update(t.ToolModel).values(K=-1.0).where(t.ToolModel.tool_id == _tool_id(c)))
+    # before, every plan read every stored tool: this one refused every new plan
+    assert create_plan(engine=engine, body=BODY).status == 201
+    body = copy.deepcopy(BODY)
+    body["name"], body["operations"][0]["tool"] = "uses-old-1", "OLD-1"
+    with pytest.raises(ConflictError) as refused:  # the plan that names it: refused by name
+        create_plan(engine=engine, body=body)
+    assert (refused.value.field, refused.value.value) == ("tools.OLD-1.models.force_N.K", -1.0)
+    assert "define it anew under another name" in str(refused.value)
+
+
+def _tool_id(connection) -> int:  # type: ignore[no-untyped-def]
+    return int(connection.execute(select(t.Tool.id).where(t.Tool.name == "OLD-1")).scalar_one())
