@@ -194,7 +194,7 @@ def named_tools(session: Session, body: Mapping[str, Any]) -> dict[str, Any]:
     names = set()
     for op in ops if isinstance(ops, list) else ():
         tool = op.get("tool") if isinstance(op, Mapping) else None
-        with suppress(ValueError):  # a name no tool has: the reader names the field
+        with suppress(ValueError):  # a name identity refuses: the reader names the field
             names.add(identity(tool) if isinstance(tool, str) else "")
     return library.load_tools(session=session, names=sorted(names - {""}))
 
