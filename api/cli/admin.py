@@ -39,7 +39,7 @@ db_app = typer.Typer(help="The database: migrations, pruning.", no_args_is_help=
 _out = Console()
 
 
-def _migrate(url: str, field: str = "--db") -> Migration:
+def migrate(url: str, field: str = "--db") -> Migration:
     """Migrate the database at ``url`` (named by ``field``) to the newest revision.
 
     A URL rcb cannot keep data at, or a database it cannot reach, is an InputError with the
@@ -66,7 +66,7 @@ def db_upgrade(db: DbOption = None) -> None:
     """Create or migrate the database to the newest schema; says which revisions it applied."""
     url = database_url(db)
     with errors():
-        done = _migrate(url, database_field(db))
+        done = migrate(url, database_field(db))
     if done.before is None:
         say(f"rcb: database {shown(url)} migrated from empty to revision {done.after}")
     elif done.changed():
@@ -94,7 +94,7 @@ def db_prune(
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
-        _migrate(url, database_field(db))
+        migrate(url, database_field(db))
         pruned = retention.prune(
             engine=make_engine(url),
             audit_older_than=audit_older_than,
@@ -134,7 +134,7 @@ def keys_create(
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
-        _migrate(url, database_field(db))
+        migrate(url, database_field(db))
         created = create_key(
             engine=make_engine(url), role=role, label=label, plans=plan, actor=actor
         )
@@ -161,7 +161,7 @@ def keys_list(
 
     url = database_url(db)
     with errors():
-        _migrate(url, database_field(db))
+        migrate(url, database_field(db))
         page = list_keys(engine=make_engine(url), after=after, limit=limit)
     if as_json:
         emit(page)
@@ -203,7 +203,7 @@ def keys_revoke(
     url = database_url(db)
     with errors():
         actor = cli_actor(by)
-        _migrate(url, database_field(db))
+        migrate(url, database_field(db))
         try:
             revoked = revoke_key(engine=make_engine(url), key_id=key_id, actor=actor)
         except NotFoundError as err:
@@ -239,7 +239,7 @@ def serve(
         pool()  # and a malformed RCB_DB_POOL_SIZE, RCB_DB_MAX_OVERFLOW or RCB_DB_POOL_TIMEOUT
         http_limits()  # and RCB_HTTP_*
         forwarded = trusted_proxies(forwarded_allow_ips)
-        _migrate(url, database_field(db))
+        migrate(url, database_field(db))
         try:
             listener = serving.tcp_listener(host, port)
         except serving.PortInUseError as err:

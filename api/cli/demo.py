@@ -1,21 +1,36 @@
 """``rcb demo``: the paper's demonstration part, RCB part by part on a virtual lathe (or mill).
 
-Writes nothing: the parts are simulated in memory; :mod:`api.cli.demo_view` prints the result.
+The parts are simulated; the plan and every part are stored in an embedded SQLite database
+(``rcb-demo.db`` here unless ``--db``) as a plant's are (:mod:`api.services.demo`), for ``rcb
+history``, ``rcb report`` and ``rcb serve`` to show; :mod:`api.cli.demo_view` prints the result.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 
 from api.cli import examples
-from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors
+from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors, say
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 
+if TYPE_CHECKING:
+    from supervisor.inputs.plan import Plan
+    from supervisor.rcb.state import RcbSettings
+    from supervisor.virtual.demo import Apply, DemoResult
+
 _out = Console()
+
+#: Where the demonstration is stored unless ``--db``: a file of its own in the working
+#: directory, never ``RCB_DATABASE_URL`` (a plant's database gets no demonstration plans, and
+#: its fleet no virtual machine's evidence).
+DEMO_DATABASE = "sqlite:///rcb-demo.db"
 
 #: The paper's demonstration part: an example installed with the package (rcb examples).
 DEMO_PLAN = "ivester_demo_part"
@@ -28,6 +43,14 @@ _PlanOption = Annotated[
         "--plan",
         help="The plan (default: the installed example ivester_demo_part, or "
         "milling_demo_part with --milling; rcb examples).",
+    ),
+]
+_DemoDbOption = Annotated[
+    str | None,
+    typer.Option(
+        "--db",
+        help="Database URL the demonstration is stored in (default: ./rcb-demo.db; never "
+        "$RCB_DATABASE_URL); migrated first.",
     ),
 ]
 _MillingOption = Annotated[
@@ -49,45 +72,83 @@ def demo(
     ] = DEFAULT_ALPHA,
     plan_file: _PlanOption = None,
     milling: _MillingOption = False,
+    db: _DemoDbOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """The paper's demonstration: catalogue, robust start, then RCB part by part on a virtual lathe.
 
     With --milling: a slot and a side-finish pass on a virtual mill whose force is measured by
-    the spindle current (Kim & Jeon). Writes nothing: the parts are simulated in memory.
+    the spindle current (Kim & Jeon). The plan and its parts are stored in an embedded
+    database (./rcb-demo.db unless --db) as a plant's are: rcb history, rcb report and rcb
+    serve show them afterwards.
     """
     # imported here (NumPy, SciPy, the solvers): rcb --help and the other commands do not load them
-    from rich.progress import Progress
-
     from api.cli import demo_view
+    from api.cli.admin import migrate
+    from api.cli.plans import read_plan_file
+    from api.services.demo import demo_plan
+    from api.services.demo import stored as store_parts
+    from db.engine import make_engine
     from supervisor.inputs.plan import load_plan
     from supervisor.rcb.state import RcbSettings
-    from supervisor.virtual.demo import MILLING_DEMO_UNCERTAINTY, run_demo
 
     with errors():
         settings = RcbSettings(strategy=strategy, alpha=alpha)
-        if plan_file is None:
-            with examples.example_path(MILLING_DEMO_PLAN if milling else DEMO_PLAN) as path:
-                plan = load_plan(path)
-        else:
-            plan = load_plan(plan_file)
-        u = MILLING_DEMO_UNCERTAINTY if milling else None
-        if as_json:
-            result = run_demo(plan, parts, seed, settings, uncertainty=u)
-        else:
-            where = "mill" if milling else "lathe"
-            with Progress(console=err_console, transient=True) as progress:
-                task = progress.add_task(f"RCB ({strategy}) on the virtual {where}", total=parts)
-                result = run_demo(
-                    plan,
-                    parts,
-                    seed,
-                    settings,
-                    lambda n: progress.update(task, completed=n),
-                    uncertainty=u,
-                )
+        with _plan_path(plan_file, milling) as path:
+            plan, body = load_plan(path), read_plan_file(path)
+        url = db or DEMO_DATABASE
+        migrate(url)
+        engine = make_engine(url)
+        try:
+            stored = demo_plan(engine=engine, body=body, settings=settings)
+            run = partial(_run, plan, parts, seed, settings, milling)
+            result = run(store_parts(engine, stored["id"]), progress=not as_json)
+        finally:
+            engine.dispose()
     if as_json:
-        emit(demo_view.demo_json(result, strategy, seed))
+        emit({**demo_view.demo_json(result, strategy, seed), "stored": _stored(stored, url)})
         return
     for table in demo_view.demo_tables(result):
         _out.print(table)
+    say(demo_view.stored_line(stored["id"], stored["name"], url))
+
+
+def _run(
+    plan: Plan,
+    parts: int,
+    seed: int,
+    settings: RcbSettings,
+    milling: bool,
+    apply: Apply,
+    progress: bool,
+) -> DemoResult:
+    """The demonstration's parts, each applied by ``apply``; a progress bar on stderr."""
+    from rich.progress import Progress
+
+    from supervisor.virtual.demo import MILLING_DEMO_UNCERTAINTY, run_demo
+
+    u = MILLING_DEMO_UNCERTAINTY if milling else None
+    if not progress:
+        return run_demo(plan, parts, seed, settings, uncertainty=u, apply=apply)
+    where = "mill" if milling else "lathe"
+    with Progress(console=err_console, transient=True) as bar:
+        task = bar.add_task(f"RCB ({settings.strategy}) on the virtual {where}", total=parts)
+        done = partial(bar.update, task)
+        return run_demo(
+            plan, parts, seed, settings, lambda n: done(completed=n), uncertainty=u, apply=apply
+        )
+
+
+def _stored(answer: dict[str, Any], url: str) -> dict[str, Any]:
+    """Where the demonstration is stored (``--json``)."""
+    return {"plan_id": answer["id"], "name": answer["name"], "database": url}
+
+
+@contextmanager
+def _plan_path(plan_file: Path | None, milling: bool) -> Iterator[Path]:
+    """The plan file: ``--plan``, or the installed example of the demonstration."""
+    if plan_file is not None:
+        yield plan_file
+        return
+    with examples.example_path(MILLING_DEMO_PLAN if milling else DEMO_PLAN) as path:
+        yield path

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping
 from typing import Any
 
@@ -118,3 +119,13 @@ def demo_tables(result: DemoResult) -> list[Table | str]:
 
 def _change(value: float, reference: float | None) -> str:
     return "" if not reference else f"{100 * (value / reference - 1):+.1f} %"
+
+
+def stored_line(plan_id: int, name: str, url: str) -> str:
+    """Where the demonstration is stored and how to see it, filled to 80 columns."""
+    db = f"--db {url}"
+    text = (
+        f"rcb: stored in {url} as plan {plan_id} ({name}): rcb history {plan_id} {db}, "
+        f"or rcb serve {db} and its web view at /ui/"
+    )
+    return textwrap.fill(text, width=80, subsequent_indent="  ", break_on_hyphens=False)

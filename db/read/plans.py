@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import func, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -75,3 +75,15 @@ def operations(*, session: Session, plan_id: int) -> list[tuple[t.Operation, t.T
             .order_by(t.Operation.position)
         ).all()
     ]
+
+
+def numbered_names(*, session: Session, name: str) -> set[str]:
+    """The stored plan names ``name`` and ``name-N`` (what a new ``name-N`` must not repeat)."""
+    escaped = name.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
+    return set(
+        session.scalars(
+            select(t.Plan.name).where(
+                or_(t.Plan.name == name, t.Plan.name.like(f"{escaped}-%", escape="\\"))
+            )
+        )
+    )

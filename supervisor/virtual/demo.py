@@ -11,6 +11,9 @@ limits it is reported as that reading, made by a :mod:`virtual sensor <superviso
 from the true force, and converted back by :func:`supervisor.inputs.signals.resolve` exactly as a
 part report from the MES would be: the band then shrinks against the conversion's
 uncertainty, not the dynamometer's.
+
+Each report is applied by an :data:`Apply`: in memory by default, or stored as the MES's
+would be (``rcb demo`` stores its plan and parts in an embedded database: api.services.demo).
 """
 
 from __future__ import annotations
@@ -32,7 +35,6 @@ from supervisor.inputs.plan import Plan
 from supervisor.inputs.signals import operating_point, resolve
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.optimize.result import PlanResult
-from supervisor.rcb.decision import Decision
 from supervisor.rcb.state import RcbSettings, RcbState
 from supervisor.rcb.update import start, update
 from supervisor.virtual.machine import DEFAULT_UNCERTAINTY, PartOutcome, VirtualMachine
@@ -44,6 +46,17 @@ from supervisor.virtual.simulate import run_part
 #: the 4 A Kim & Jeon's spindle draws near its force limit (§6.2.3), the relative accuracy
 #: :data:`supervisor.virtual.machine.DEFAULT_UNCERTAINTY` assumes for a current transducer.
 MILLING_DEMO_UNCERTAINTY: Mapping[str, float] = {"spindle_current_A": 0.02}
+
+
+#: Applies a part's report to the state it was made with: the next state and the number of
+#: measurements flagged (:func:`in_memory`, or the database's: api.services.demo).
+Apply = Callable[[RcbState, PartReport], tuple[RcbState, int]]
+
+
+def in_memory(state: RcbState, report: PartReport) -> tuple[RcbState, int]:
+    """:func:`supervisor.rcb.update.update`, nothing stored."""
+    new_state, decisions = update(state, report)
+    return new_state, sum(d.flagged for d in decisions)
 
 
 @dataclass(frozen=True)
@@ -77,7 +90,6 @@ class DemoResult:
     parts: int
     flagged: int
     final_state: RcbState
-    decisions: tuple[tuple[Decision, ...], ...]
 
 
 def run_demo(
@@ -87,6 +99,7 @@ def run_demo(
     settings: RcbSettings | None = None,
     on_part: Callable[[int], None] | None = None,
     uncertainty: Mapping[str, float] | None = None,
+    apply: Apply = in_memory,
 ) -> DemoResult:
     """Make ``parts`` parts with RCB on a virtual machine drawn with ``seed``.
 
@@ -107,12 +120,15 @@ def run_demo(
         Expanded measurement uncertainty per quantity, over
         :data:`supervisor.virtual.machine.DEFAULT_UNCERTAINTY` (``spindle_current_A`` and
         ``spindle_load_V`` for the virtual spindle sensor).
+    apply : Apply, optional
+        What applies each part's report (:func:`in_memory`: nothing stored).
     """
     machine = sample_machine(plan, seed, uncertainty=uncertainty)
     rng = np.random.default_rng(seed)
     initial = start(plan, settings)
     catalog = _catalog_rows(plan, machine, rng)
-    state, first, violations, trail = _make_parts(plan, machine, initial, parts, seed, rng, on_part)
+    made = _make_parts(plan, machine, initial, parts, (seed, rng), on_part, apply)
+    state, first, violations, flagged = made
     # one more part at the final setpoints shows what they make (measured, not applied)
     check = run_part(machine, {op.name: op.setpoint for op in state.setpoints.operations}, rng)
     violations += len(check.violations)
@@ -122,9 +138,8 @@ def run_demo(
         cycle_time_min=_cycles(plan, machine, catalog, initial.setpoints, state.setpoints),
         violations=violations,
         parts=parts,
-        flagged=sum(d.flagged for ds in trail for d in ds),
+        flagged=flagged,
         final_state=state,
-        decisions=tuple(trail),
     )
 
 
@@ -133,19 +148,22 @@ def _make_parts(
     machine: VirtualMachine,
     state: RcbState,
     parts: int,
-    seed: int,
-    rng: np.random.Generator,
+    seeded: tuple[int, np.random.Generator],
     on_part: Callable[[int], None] | None,
-) -> tuple[RcbState, Mapping[str, Mapping[str, Measurement]], int, list[tuple[Decision, ...]]]:
-    """``parts`` parts, each reported and applied: the state, part 1's readings, violations."""
+    apply: Apply,
+) -> tuple[RcbState, Mapping[str, Mapping[str, Measurement]], int, int]:
+    """``parts`` parts, each reported and applied.
+
+    Returns the state, part 1's readings, the violations and the measurements flagged.
+    """
+    seed, rng = seeded
     edge_life = {
         op.name: max(1, math.floor(op.limits[PARTS_PER_EDGE]))
         for op in plan.operations
         if PARTS_PER_EDGE in op.limits
     }
     first: Mapping[str, Mapping[str, Measurement]] = {}
-    violations = 0
-    trail: list[tuple[Decision, ...]] = []
+    violations = flagged = 0
     for i in range(parts):
         setpoints = {op.name: op.setpoint for op in state.setpoints.operations}
         outcome = run_part(machine, setpoints, rng)
@@ -156,11 +174,11 @@ def _make_parts(
         )
         if i == 0:
             first = report.measurements
-        state, decisions = update(state, report)
-        trail.append(decisions)
+        state, count = apply(state, report)
+        flagged += count
         if on_part is not None:
             on_part(i + 1)
-    return state, first, violations, trail
+    return state, first, violations, flagged
 
 
 def _operation_rows(

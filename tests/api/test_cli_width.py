@@ -135,8 +135,9 @@ def test_plans_show_says_the_plans_settings_within_80_columns(db):
 
 
 @pytest.mark.parametrize("milling", [False, True])
-def test_demo_tables_show_every_number_whole(milling):
-    args = ["demo", "--parts", "3", *(["--milling"] if milling else [])]
+def test_demo_tables_show_every_number_whole(milling, tmp_path):
+    db = ["--db", f"sqlite:///{tmp_path / 'demo.db'}"]
+    args = ["demo", "--parts", "3", *(["--milling"] if milling else []), *db]
     shown = rcb(*args)
     assert shown.returncode == 0, shown.stderr
     fits(shown.stdout)

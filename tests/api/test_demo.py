@@ -7,6 +7,9 @@ import json
 import pytest
 
 from api.cli.main import app
+from api.services.read.plans import list_plans
+from api.services.read.setpoints import current_setpoints
+from db.engine import make_engine
 from supervisor.inputs.plan import load_plan
 from supervisor.optimize.optimizer import optimize_plan
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
@@ -15,11 +18,17 @@ from supervisor.virtual.sampling import oracle_tools, sample_machine
 from conftest import DEMO_PLAN
 
 
+def _db(folder) -> list[str]:  # type: ignore[no-untyped-def]
+    """``--db`` of a demonstration database in ``folder`` (not ./rcb-demo.db in the checkout)."""
+    return ["--db", f"sqlite:///{folder / 'demo.db'}"]
+
+
 @pytest.fixture(scope="module")
-def demo_json():
+def demo_json(tmp_path_factory):
     from typer.testing import CliRunner
 
-    result = CliRunner().invoke(app, ["demo", "--json", "--plan", str(DEMO_PLAN)])
+    db = _db(tmp_path_factory.mktemp("demo"))
+    result = CliRunner().invoke(app, ["demo", "--json", "--plan", str(DEMO_PLAN), *db])
     assert result.exit_code == 0, result.output
     return json.loads(result.stdout)
 
@@ -69,15 +78,19 @@ def test_no_safe_controller_beats_the_oracle(demo_json):
     assert demo_json["cycle_time_min"]["final"] >= oracle.cycle_time_min * (1 - 1e-6)
 
 
-def test_demo_is_repeatable_and_seeded(runner):
-    a = runner.invoke(app, ["demo", "--json", "--parts", "3", "--seed", "7"]).stdout
-    b = runner.invoke(app, ["demo", "--json", "--parts", "3", "--seed", "7"]).stdout
-    c = runner.invoke(app, ["demo", "--json", "--parts", "3", "--seed", "8"]).stdout
+def test_demo_is_repeatable_and_seeded(runner, tmp_path):
+    def run(seed: str) -> dict:  # type: ignore[type-arg]
+        args = ["demo", "--json", "--parts", "3", "--seed", seed, *_db(tmp_path)]
+        done = json.loads(runner.invoke(app, args).stdout)
+        del done["stored"]  # a plan of its own each time: ivester-demo-part, -2, -3
+        return done
+
+    a, b, c = run("7"), run("7"), run("8")
     assert a == b and a != c
 
 
-def test_demo_table_output(runner):
-    result = runner.invoke(app, ["demo", "--parts", "2"], env={"COLUMNS": "140"})
+def test_demo_table_output(runner, tmp_path):
+    result = runner.invoke(app, ["demo", "--parts", "2", *_db(tmp_path)], env={"COLUMNS": "140"})
     assert result.exit_code == 0, result.output
     assert "rough-od" in result.stdout and "cycle time" in result.stdout
     assert "vs catalogue" in result.stdout
@@ -95,3 +108,33 @@ def test_demo_bad_arguments(runner, args, needle):
     result = runner.invoke(app, ["demo", *args])
     assert result.exit_code == 2
     assert needle in result.stderr and "Traceback" not in result.stderr
+
+
+def test_the_demo_is_stored_as_plans_are_and_a_second_run_beside_the_first(runner, tmp_path):
+    db = _db(tmp_path)
+    first = json.loads(runner.invoke(app, ["demo", "--json", "--parts", "3", *db]).stdout)
+    second = json.loads(runner.invoke(app, ["demo", "--json", "--parts", "2", *db]).stdout)
+    names = [first["stored"]["name"], second["stored"]["name"]]
+    assert names == ["ivester-demo-part", "ivester-demo-part-2"]
+    engine = make_engine(db[1])
+    try:
+        listed = list_plans(engine=engine)["plans"]
+        assert [(p["name"], p["parts"]) for p in listed] == [(names[0], 3), (names[1], 2)]
+        in_force = current_setpoints(engine=engine, plan_id=first["stored"]["plan_id"])
+    finally:
+        engine.dispose()
+    # what the demonstration ends on is what the database holds in force for the next part
+    assert in_force["setpoint_version"] == first["setpoint_version"]
+    shown = {op["name"]: op["final"]["setpoint"] for op in first["operations"]}
+    assert {op["name"]: op["setpoint"] for op in in_force["operations"]} == shown
+
+
+def test_the_demo_never_writes_to_the_plants_database(runner, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    plant = f"sqlite:///{tmp_path / 'plant.db'}"
+    done = runner.invoke(app, ["demo", "--parts", "1"], env={"RCB_DATABASE_URL": plant})
+    assert done.exit_code == 0, done.output
+    assert (tmp_path / "rcb-demo.db").is_file() and not (tmp_path / "plant.db").exists()
+    told = " ".join(line.strip() for line in done.stderr.splitlines())
+    assert "rcb: stored in sqlite:///rcb-demo.db as plan 1 (ivester-demo-part)" in told
+    assert all(len(line) <= 80 for line in done.stderr.splitlines())

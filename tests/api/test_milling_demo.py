@@ -33,8 +33,10 @@ def _derive():
 
 
 @pytest.fixture(scope="module")
-def milling_json():
-    result = CliRunner().invoke(app, ["demo", "--milling", "--json", "--plan", str(PLAN)])
+def milling_json(tmp_path_factory):
+    db = f"sqlite:///{tmp_path_factory.mktemp('demo') / 'demo.db'}"
+    args = ["demo", "--milling", "--json", "--plan", str(PLAN), "--db", db]
+    result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     return json.loads(result.stdout)
 
@@ -43,9 +45,10 @@ def _op(data, name):
     return next(op for op in data["operations"] if op["name"] == name)
 
 
-def test_default_plan_is_the_milling_part(monkeypatch):
+def test_default_plan_is_the_milling_part(monkeypatch, tmp_path):
     monkeypatch.chdir(ROOT)  # the default plans are relative to the repository, as in README
-    result = CliRunner().invoke(app, ["demo", "--milling", "--json", "--parts", "2"])
+    db = f"sqlite:///{tmp_path / 'demo.db'}"
+    result = CliRunner().invoke(app, ["demo", "--milling", "--json", "--parts", "2", "--db", db])
     assert result.exit_code == 0, result.output
     assert [op["name"] for op in json.loads(result.stdout)["operations"]] == ["slot", "side-finish"]
 
