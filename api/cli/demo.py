@@ -79,8 +79,8 @@ def demo(
 
     With --milling: a slot and a side-finish pass on a virtual mill whose force is measured by
     the spindle current (Kim & Jeon). The plan and its parts are stored in an embedded
-    database (./rcb-demo.db unless --db) as a plant's are: rcb history, rcb report and rcb
-    serve show them afterwards.
+    database (./rcb-demo.db unless --db) as a plant's are: rcb history and rcb report show
+    them afterwards.
     """
     # imported here (NumPy, SciPy, the solvers): rcb --help and the other commands do not load them
     from api.cli import demo_view

@@ -126,6 +126,6 @@ def stored_line(plan_id: int, name: str, url: str) -> str:
     db = f"--db {url}"
     text = (
         f"rcb: stored in {url} as plan {plan_id} ({name}): rcb history {plan_id} {db}, "
-        f"or rcb serve {db} and its web view at /ui/"
+        f"or one page to open: rcb report {plan_id} {db} --out demo.html"
     )
     return textwrap.fill(text, width=80, subsequent_indent="  ", break_on_hyphens=False)
