@@ -48,14 +48,20 @@ from supervisor.virtual.simulate import run_part
 MILLING_DEMO_UNCERTAINTY: Mapping[str, float] = {"spindle_current_A": 0.02}
 
 
-#: Applies a part's report to the state it was made with: the next state and the number of
-#: measurements flagged (:func:`in_memory`, or the database's: api.services.demo).
+#: Applies a part's report, as the MES sends it (spindle readings as read), to the state it was
+#: made with: the next state and the number of measurements flagged (:func:`in_memory`, or
+#: the database's: api.services.demo).
 Apply = Callable[[RcbState, PartReport], tuple[RcbState, int]]
 
 
 def in_memory(state: RcbState, report: PartReport) -> tuple[RcbState, int]:
-    """:func:`supervisor.rcb.update.update`, nothing stored."""
-    new_state, decisions = update(state, report)
+    """:func:`supervisor.rcb.update.update`, nothing stored.
+
+    The report as the MES sends it: its spindle readings are resolved to force at the
+    setpoints the part was made with first, as the service does.
+    """
+    resolved, _ = resolve(report, state.plan, state.setpoints)
+    new_state, decisions = update(state, resolved)
     return new_state, sum(d.flagged for d in decisions)
 
 
@@ -173,7 +179,7 @@ def _make_parts(
             plan, machine, state.setpoints, outcome, f"{seed}-{i + 1}", state.version, rng, ages
         )
         if i == 0:
-            first = report.measurements
+            first = resolve(report, plan, state.setpoints)[0].measurements
         state, count = apply(state, report)
         flagged += count
         if on_part is not None:
@@ -278,9 +284,8 @@ def _report(
     """The part report the MES sends: forces as spindle readings where the machine has a sensor.
 
     ``edge_parts``: each counted edge's age, as the control's tool-life counter gives it.
-
-    Returns the report after :func:`supervisor.inputs.signals.resolve`, i.e. with every reading
-    converted to ``force_N`` with the conversion's uncertainty.
+    :func:`supervisor.inputs.signals.resolve` converts its readings to ``force_N`` with the
+    conversion's uncertainty, as the service does.
     """
     sensor = _force_sensor(plan)
     ages = dict(edge_parts or {})
@@ -301,9 +306,7 @@ def _report(
         force = outcome.true_values[op.name]["force_N"]
         reading = noisy_reading(calibration, force, point, u, rng)
         signals[op.name] = {raw: Signal(raw, Measurement(reading, u), calibration=name)}
-    report = PartReport(serial, version, measurements, signals=signals, edge_parts=ages)
-    resolved, _ = resolve(report, plan, made_with)
-    return resolved
+    return PartReport(serial, version, measurements, signals=signals, edge_parts=ages)
 
 
 def _sensed(
@@ -314,4 +317,5 @@ def _sensed(
     rng: np.random.Generator,
 ) -> Mapping[str, Mapping[str, Measurement]]:
     """The measurements of a part as the supervisor sees them (see :func:`_report`)."""
-    return _report(plan, machine, made_with, outcome, "", 0, rng).measurements
+    report = _report(plan, machine, made_with, outcome, "", 0, rng)
+    return resolve(report, plan, made_with)[0].measurements

@@ -13,6 +13,8 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from api.cli.main import app
+from api.services.read.plan_parts import parts
+from db.engine import make_engine
 from models.sensors import to_force
 from models.sensors.kim_jeon import LinearCurrentCalibration
 from models.sensors.kim_jeon_feed import KIM_JEON_SPINDLE_FMAX_4500RPM
@@ -43,6 +45,24 @@ def milling_json(tmp_path_factory):
 
 def _op(data, name):
     return next(op for op in data["operations"] if op["name"] == name)
+
+
+def test_the_stored_parts_hold_the_spindle_current_as_read(tmp_path):
+    """The demo's MES reports the slot's force as the spindle current it read, and the service
+    converts it (as a plant's would): the stored part keeps the reading beside the force."""
+    db = f"sqlite:///{tmp_path / 'demo.db'}"
+    done = CliRunner().invoke(app, ["demo", "--milling", "--parts", "2", "--db", db, "--json"])
+    assert done.exit_code == 0, done.output
+    engine = make_engine(db)
+    try:
+        first = parts(engine=engine, plan_id=1)["items"][0]
+    finally:
+        engine.dispose()
+    slot = next(op for op in first["operations"] if op["name"] == "slot")
+    force = slot["measurements"]["force_N"]
+    assert force["raw"]["quantity"] == "spindle_current_A"
+    assert force["raw"]["uncertainty"] == 0.02  # MILLING_DEMO_UNCERTAINTY, as read
+    assert 3.0 < force["raw"]["value"] < 6.0 and force["uncertainty"] > 1.0  # A in, N out
 
 
 def test_default_plan_is_the_milling_part(monkeypatch, tmp_path):
