@@ -22,6 +22,7 @@ from sqlalchemy import create_engine, update
 from sqlalchemy.orm import Session
 from test_fleet_db import LEARN, _body, _learned
 from test_service import BODY
+from test_ui import _browser, _login, _text, _xml
 from typer.testing import CliRunner
 
 from api.cli.main import app
@@ -158,6 +159,13 @@ def test_over_rest_a_refused_report_is_a_409_naming_the_repair_and_a_replan_free
         )
         assert f'POST /plans/{plan_id}/replan {{"rcb": {{"alpha": VALUE}}}}' in problem["detail"]
         assert "rcb replan" in eng.get(f"/plans/{plan_id}").json()["settings_refused"]
+        with _browser(server) as page:  # the web view's list says so, the reason on hover
+            _login(page, server.keys["viewer"])
+            root = _xml(page.get("/").text)
+        row = root.find(f".//table[@id='plans']/tbody/tr[@data-plan='{plan_id}']")
+        assert row is not None
+        status = row.findall("td")[6]
+        assert _text(status) == "REFUSED" and "rcb replan" in (status.get("title") or "")
         freed = eng.post(f"/plans/{plan_id}/replan", json={"rcb": {"alpha": 0.25}})
         assert freed.status_code == 201, freed.text
         assert eng.get(f"/plans/{plan_id}").json()["settings_refused"] is None
