@@ -16,12 +16,11 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
-from db.errors import StoredPlanError
+from db.errors import ConflictError, StoredPlanError
 from db.plan_state import plan_settings
 from db.plans import PlanRow, current_body, plan_tools
 from models.errors import InputError
 from supervisor.inputs.plan import Plan, plan_from_mapping
-from supervisor.rcb.replan import changed_body
 from supervisor.rcb.settings import settings_from_table
 from supervisor.rcb.state import RcbSettings
 
@@ -38,6 +37,18 @@ def stored_plan(*, session: Session, plan_row: PlanRow) -> Plan:
         raise _refused(plan_row, body, err) from None
 
 
+def plan_refused(*, session: Session, plan_row: PlanRow) -> str | None:
+    """Why this version refuses a plan's stored structure or a stored tool it uses, if it does.
+
+    The message names the repair (None: nothing refused); one plan's check, for its own page.
+    """
+    try:
+        stored_plan(session=session, plan_row=plan_row)
+    except ConflictError as err:  # StoredPlanError, or a stored tool refused (db.library)
+        return str(err)
+    return None
+
+
 def repaired(
     *, session: Session, plan_row: PlanRow, changes: Mapping[str, Any]
 ) -> tuple[RcbSettings, Plan]:
@@ -46,6 +57,8 @@ def repaired(
     A stored value the changes do not set anew is refused as stored (naming the repair); a
     changed value that fails is refused as the replan names it.
     """
+    from supervisor.rcb.replan import changed_body  # the optimizer's: not for a plan's page
+
     settings = plan_settings(plan_row, rcb_given(changes))
     body = current_body(session=session, plan_row=plan_row)
     tools = plan_tools(session=session, plan_id=plan_row.id)

@@ -177,7 +177,8 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     _say_prior(data["provenance"], data["noise_provenance"])
     settings = ", ".join(f"{k}={v}" for k, v in data["settings"].items())
     state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
-    if data["status"] != "halted" and data.get("settings_refused"):
+    refused = [data[k] for k in ("settings_refused", "plan_refused") if data.get(k)]
+    if data["status"] != "halted" and refused:
         state = "REFUSED (below)"
     say(f"rcb: plan {data['id']} {data['name']} on {data['machine']}: {state}")
     rule = (
@@ -185,8 +186,8 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
         f"RCB {data['strategy']} alpha={data['alpha']:g} ({settings})"
     )  # within 80 columns, as a terminal shows it
     say(textwrap.fill(rule, width=80, subsequent_indent="  ", break_on_hyphens=False))
-    if data.get("settings_refused"):
-        say(refused_line(data["id"], data["settings_refused"]))
+    for why in refused:  # its reports are refused until a replan sets it anew
+        say(refused_line(data["id"], why))
 
 
 def _spreads(line: dict[str, Any]) -> str:

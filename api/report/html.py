@@ -95,7 +95,8 @@ def _num(value: float | None, **attributes: object) -> str:
 def _status(plan: Mapping[str, Any]) -> str:
     if plan.get("status") == "halted":
         return "HALTED"
-    refused = plan.get("settings_refused")  # its reports are refused until a replan
+    # its reports are refused until a replan sets it anew (the plan page: the structure too)
+    refused = plan.get("settings_refused") or plan.get("plan_refused")
     return f"REFUSED: {refused}" if refused else "running"
 
 

@@ -19,10 +19,13 @@ import pytest
 from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 from test_service import BODY
+from typer.testing import CliRunner
 
+from api.cli.main import app
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
+from api.services.read.plans import get_plan
 from api.services.read.setpoints import current_setpoints
 from db import library
 from db import tables as t
@@ -62,6 +65,12 @@ def test_a_refused_limit_names_the_repair_which_frees_the_plan(engine) -> None:
         _report(engine, plan_id, "SN-1")
     assert (refused.value.field, refused.value.value) == ("operations[0].limits.force_N", -5.0)
     assert f"rcb replan {plan_id} --limit rough-od.force_N=VALUE" in str(refused.value)
+    assert get_plan(engine=engine, plan_id=plan_id)["plan_refused"] == str(refused.value)
+    url = engine.url.render_as_string(hide_password=False)
+    shown = CliRunner().invoke(app, ["plans", "show", str(plan_id), "--db", url])
+    told = " ".join(line.strip() for line in shown.stderr.splitlines())
+    assert shown.exit_code == 0 and f"{BODY['name']} on lathe-22kW: REFUSED (below)" in told
+    assert f"rcb replan {plan_id} --limit rough-od.force_N=VALUE" in told
     other = {"limits": {"rough-grooves.force_N": 2000}}  # changes another limit: still refused
     with pytest.raises(StoredPlanError, match="rough-od.force_N=VALUE"):
         replan(engine=engine, plan_id=plan_id, changes=other)
@@ -78,6 +87,7 @@ def test_a_refused_limit_names_the_repair_which_frees_the_plan(engine) -> None:
             select(t.PlanRevision.body).where(t.PlanRevision.plan_id == plan_id)
         ).scalar_one()
     assert newest["operations"][0]["limits"]["force_N"] == 2000
+    assert get_plan(engine=engine, plan_id=plan_id)["plan_refused"] is None
 
 
 def test_a_refused_bound_names_the_bound_and_a_field_no_replan_changes_says_so(engine) -> None:

@@ -95,6 +95,12 @@ class PlanDetail(PlanSummary):
     noise_provenance: NoiseProvenances
     operations: list[PlanOperation]
     body: dict[str, Any]
+    plan_refused: str | None = Field(
+        None,
+        description="a stored field of the plan, or a model of a stored tool it uses, that this "
+        "version's check refuses (stored under an earlier one): which, and the way to set it "
+        "anew; its part reports are 409 until then (null: none)",
+    )
 
 
 #: What an operation's ``limits`` may name (the quantity registry, models.quantities): maxima

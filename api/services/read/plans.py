@@ -15,6 +15,7 @@ from db.fleet import prior_answer
 from db.parts import count_parts
 from db.plans import current_body
 from db.read import plans as plan_rows
+from db.refused import plan_refused
 from models import quantities
 
 
@@ -48,6 +49,7 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
                 for op, tool in ops
             ],
             "body": body,
+            "plan_refused": plan_refused(session=session, plan_row=row),
         }
 
 
