@@ -17,7 +17,15 @@ import typer
 from rich.console import Console
 
 from api.cli import examples
-from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors, say
+from api.cli.common import (
+    JsonOption,
+    StrategyOption,
+    emit,
+    err_console,
+    errors,
+    say,
+    shown,
+)
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 
 if TYPE_CHECKING:
@@ -106,11 +114,12 @@ def demo(
         finally:
             engine.dispose()
     if as_json:
-        emit({**demo_view.demo_json(result, strategy, seed), "stored": _stored(stored, url)})
+        where = shown(url)  # a password is never printed
+        emit({**demo_view.demo_json(result, strategy, seed), "stored": _stored(stored, where)})
         return
     for table in demo_view.demo_tables(result):
         _out.print(table)
-    say(demo_view.stored_line(stored["id"], stored["name"], url))
+    say(demo_view.stored_line(stored["id"], stored["name"], shown(url)))
 
 
 def _run(

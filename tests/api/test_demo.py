@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from sqlalchemy.engine import make_url
 
 from api.cli.main import app
 from api.services.read.plans import list_plans
@@ -138,3 +139,14 @@ def test_the_demo_never_writes_to_the_plants_database(runner, tmp_path, monkeypa
     told = " ".join(line.strip() for line in done.stderr.splitlines())
     assert "rcb: stored in sqlite:///rcb-demo.db as plan 1 (ivester-demo-part)" in told
     assert all(len(line) <= 80 for line in done.stderr.splitlines())
+
+
+def test_the_demo_never_prints_a_databases_password(runner, empty_postgres):
+    # the local server trusts every connection: a password in the URL is accepted, and ignored
+    url = make_url(empty_postgres).set(password="s3cret").render_as_string(hide_password=False)
+    done = runner.invoke(app, ["demo", "--parts", "1", "--db", url, "--json"])
+    assert done.exit_code == 0, done.output
+    assert "s3cret" not in done.stdout + done.stderr
+    assert ":***@" in json.loads(done.stdout)["stored"]["database"]
+    shown = runner.invoke(app, ["demo", "--parts", "1", "--db", url])
+    assert shown.exit_code == 0 and "s3cret" not in shown.stdout + shown.stderr
