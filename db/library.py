@@ -63,13 +63,27 @@ def _model(tool: str, m: t.ToolModel) -> PowerLawModel:
     try:
         return PowerLawModel(m.quantity, m.K, m.dK, dict(m.exponents), m.source, m.reference)
     except InputError as err:
-        raise ConflictError(
-            f"tools.{tool}.models.{err.field}",
-            err.value,
-            f"{err.reason}; tool {tool} was stored under an earlier version's check, and this "
-            "one refuses the plans that use it: define it anew under another name (a plan "
-            "file's tools, or POST /tools) and create those plans with it",
-        ) from None
+        raise _refused(tool, f"models.{err.field}", err) from None
+
+
+def _tool(row: t.Tool, models: dict[str, PowerLawModel]) -> Tool:
+    """A stored tool; one a later version's check refuses is named (:func:`_refused`)."""
+    try:
+        process = process_of(row.process, "process")
+        return Tool(row.name, process, models, row.description, row.material, row.source)
+    except InputError as err:
+        raise _refused(row.name, err.field, err) from None
+
+
+def _refused(tool: str, field: str, err: InputError) -> ConflictError:
+    """A stored tool's value this version's check refuses, and the way out."""
+    return ConflictError(
+        f"tools.{tool}.{field}",
+        err.value,
+        f"{err.reason}; tool {tool} was stored under an earlier version's check, and this "
+        "one refuses the plans that use it: define it anew under another name (a plan "
+        "file's tools, or POST /tools) and create those plans with it",
+    )
 
 
 def load_tools(
@@ -96,14 +110,4 @@ def load_tools(
         named = {row.id: row.name for row in rows}
         for m in session.scalars(select(t.ToolModel).where(t.ToolModel.tool_id.in_(models))):
             models[m.tool_id][m.quantity] = _model(named[m.tool_id], m)
-    return {
-        row.name: Tool(
-            row.name,
-            process_of(row.process, "tool.process"),
-            models[row.id],
-            row.description,
-            row.material,
-            row.source,
-        )
-        for row in rows
-    }
+    return {row.name: _tool(row, models[row.id]) for row in rows}

@@ -125,6 +125,13 @@ def test_a_stored_tool_a_later_check_refuses_refuses_no_plan_that_does_not_use_i
         create_plan(engine=engine, body=body)
     assert (refused.value.field, refused.value.value) == ("tools.OLD-1.models.force_N.K", -1.0)
     assert "define it anew under another name" in str(refused.value)
+    with engine.begin() as c:  # a process this version does not know: named the same way
+        tool_id = _tool_id(c)
+        c.execute(update(t.ToolModel).values(K=1000.0).where(t.ToolModel.tool_id == tool_id))
+        c.execute(update(t.Tool).values(process="planing").where(t.Tool.id == tool_id))
+    with Session(engine) as session, pytest.raises(ConflictError) as unknown:
+        library.load_tools(session=session, names=["OLD-1"])
+    assert (unknown.value.field, unknown.value.value) == ("tools.OLD-1.process", "planing")
 
 
 def _tool_id(connection) -> int:  # type: ignore[no-untyped-def]
