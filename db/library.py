@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -11,7 +12,7 @@ from db import tables as t
 from db.errors import ConflictError
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
-from models.tool import Tool, process_of
+from models.tool import Tool, process_of, tool_mapping
 
 
 def ensure_tool(*, session: Session, tool: Tool) -> t.Tool:
@@ -97,17 +98,66 @@ def load_tools(
 
     ``after``, ``limit``: a page, the first ``limit`` names above ``after`` in code-point
     order (``tools.name`` is so collated, :mod:`db.tables`): an index range read of
-    ``tools (name)`` and of the page's models.
+    ``tools (name)`` and of the page's models. A tool this version's check refuses:
+    :class:`~db.errors.ConflictError` naming it (:func:`tools_shown` lists it as stored).
     """
+    return {
+        row.name: _tool(row, {m.quantity: _model(row.name, m) for m in models})
+        for row, models in _stored(session, names, after, limit)
+    }
+
+
+def tools_shown(
+    *,
+    session: Session,
+    names: Iterable[str] | None = None,
+    after: str | None = None,
+    limit: int | None = None,
+) -> dict[str, dict[str, Any]]:
+    """Stored tools as a list or a page shows them: :func:`load_tools`'s in the plan-file form.
+
+    A tool this version's check refuses keeps no other from the list: it is shown as stored,
+    with ``refused`` saying which value fails and the way out.
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for row, models in _stored(session, names, after, limit):
+        try:
+            tool = _tool(row, {m.quantity: _model(row.name, m) for m in models})
+            out[row.name] = tool_mapping(tool, stderr=False)
+        except ConflictError as err:
+            out[row.name] = {
+                "name": row.name,
+                "process": row.process,
+                "description": row.description,
+                "material": row.material,
+                "source": row.source,
+                "models": {
+                    m.quantity: {
+                        "K": m.K,
+                        "dK": m.dK,
+                        "exponents": dict(m.exponents),
+                        "source": m.source,
+                        "reference": m.reference,
+                    }
+                    for m in models
+                },
+                "refused": str(err),
+            }
+    return out
+
+
+def _stored(
+    session: Session, names: Iterable[str] | None, after: str | None, limit: int | None
+) -> list[tuple[t.Tool, list[t.ToolModel]]]:
+    """The tool rows (a page, or those named) by name, each with its model rows."""
     query = select(t.Tool).order_by(t.Tool.name)
     if names is not None:
         query = query.where(t.Tool.name.in_(list(names)))
     if after is not None:
         query = query.where(t.Tool.name > after)
     rows = list(session.scalars(query.limit(limit)))
-    models: dict[int, dict[str, PowerLawModel]] = {row.id: {} for row in rows}
+    models: dict[int, list[t.ToolModel]] = {row.id: [] for row in rows}
     if rows:
-        named = {row.id: row.name for row in rows}
         for m in session.scalars(select(t.ToolModel).where(t.ToolModel.tool_id.in_(models))):
-            models[m.tool_id][m.quantity] = _model(named[m.tool_id], m)
-    return {row.name: _tool(row, models[row.id]) for row in rows}
+            models[m.tool_id].append(m)
+    return [(row, models[row.id]) for row in rows]

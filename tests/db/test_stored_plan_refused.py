@@ -27,6 +27,7 @@ from api.services.parts import report_part
 from api.services.plans import create_plan, replan
 from api.services.read.plans import get_plan
 from api.services.read.setpoints import current_setpoints
+from api.services.read.tools import get_tool, list_tools
 from db import library
 from db import tables as t
 from db.errors import ConflictError, StoredPlanError
@@ -125,6 +126,11 @@ def test_a_stored_tool_a_later_check_refuses_refuses_no_plan_that_does_not_use_i
         create_plan(engine=engine, body=body)
     assert (refused.value.field, refused.value.value) == ("tools.OLD-1.models.force_N.K", -1.0)
     assert "define it anew under another name" in str(refused.value)
+    listed = {t["name"]: t for t in list_tools(engine=engine, page_size=500)["tools"]}
+    assert listed["OLD-1"]["refused"] == str(refused.value)  # shown as stored, K = -1.0
+    assert listed["OLD-1"]["models"]["force_N"]["K"] == -1.0
+    assert listed["CNMG432RN"].get("refused") is None  # and every other tool beside it
+    assert get_tool(engine=engine, name="OLD-1")["refused"] == str(refused.value)
     with engine.begin() as c:  # a process this version does not know: named the same way
         tool_id = _tool_id(c)
         c.execute(update(t.ToolModel).values(K=1000.0).where(t.ToolModel.tool_id == tool_id))

@@ -96,6 +96,12 @@ class ToolOut(Out):
     material: str
     source: str
     models: dict[str, ModelOut]
+    refused: str | None = Field(
+        None,
+        description="a stored value this version's check refuses (stored under an earlier "
+        "one): which, and the way out; the plans that use the tool are refused until then "
+        "(null: none)",
+    )
 
 
 class ToolList(Out):

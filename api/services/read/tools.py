@@ -1,6 +1,8 @@
 """The tools: the packaged catalogue and the stored tools, one by name or a page at a time.
 
-A stored tool replaces a catalogue tool of its name.
+A stored tool replaces a catalogue tool of its name. A stored tool this version's check refuses
+is shown as stored, with ``refused`` (:func:`db.library.tools_shown`): it keeps no other from
+the list.
 """
 
 from __future__ import annotations
@@ -19,8 +21,10 @@ from models.catalogue import catalogue
 def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
     """One tool with its baseline models and provenance."""
     with _read(engine) as session, session.begin():
-        stored = library.load_tools(session=session, names=[name])
-    tool = stored.get(name) or catalogue().get(name)
+        stored = library.tools_shown(session=session, names=[name])
+    if name in stored:  # as stored, with why this version refuses it if it does
+        return stored[name]
+    tool = catalogue().get(name)
     if tool is None:
         raise NotFoundError("name", name)
     return to_json.tool_json(tool)
@@ -36,15 +40,15 @@ def list_tools(
     _bounded(page_size)
     after = str(_untoken(cursor, 1)[0]) if cursor is not None else ""  # names are not empty
     with _read(engine) as session, session.begin():
-        stored = library.load_tools(session=session, after=after, limit=page_size + 1)
+        stored = library.tools_shown(session=session, after=after, limit=page_size + 1)
     packaged = {n: tool for n, tool in catalogue().items() if n > after}
     names = sorted({*packaged, *stored})
     if len(stored) > page_size:  # stored names past the last one read might come before
         names = [n for n in names if n <= max(stored)]
-    tools = {**packaged, **stored}
+    tools = {**{n: to_json.tool_json(tool) for n, tool in packaged.items()}, **stored}
     page = names[:page_size]
     more = len(names) > page_size
     return {
-        "tools": [to_json.tool_json(tools[n]) for n in page],
+        "tools": [tools[n] for n in page],
         "next_cursor": _token([page[-1]]) if more else None,
     }
