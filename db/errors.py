@@ -34,32 +34,12 @@ class PlanNameTakenError(ConflictError):
         )
 
 
-class StoredSettingsError(ConflictError):
-    """A plan's stored RCB setting fails this version's check (one tightened since it was stored).
-
-    The plan cannot learn or be read by the fleet until an engineer sets the value anew:
-    ``rcb replan PLAN --rcb NAME=VALUE`` (``POST /plans/{id}/replan``), which checks the stored
-    settings with the given ones over them. ``plan_id``: the plan; ``code``: the REST problem's.
-    """
-
-    code = "stored_settings_refused"
-
-    def __init__(self, plan_id: int, plan: str, name: str, value: object, reason: str) -> None:
-        self.plan_id, self.setting, self.check = plan_id, name, reason
-        super().__init__(
-            f"settings.{name}",
-            value,
-            f"{reason}; plan {plan_id} ({plan}) stored it under an earlier version's check; "
-            f"set it anew: rcb replan {plan_id} --rcb {name}=VALUE "
-            f'(POST /plans/{plan_id}/replan {{"rcb": {{"{name}": VALUE}}}})',
-        )
-
-
 class StoredPlanError(ConflictError):
-    """A plan's stored structure (its plan file as stored) fails this version's check.
+    """A plan's stored value (a setting, a field of its structure) fails this version's check.
 
-    ``repair`` says how to set the value anew: a replan (``--limit``, ``--bound``) where it
-    can change the field, else the plan created anew from its file. ``plan_id``: the plan.
+    The check was tightened since the value was stored. ``repair`` says how to set the value
+    anew: a replan (``--rcb``, ``--limit``, ``--bound``) where it can change the field, else the
+    plan created anew from its file. ``plan_id``: the plan; ``code``: the REST problem's.
     """
 
     code = "stored_plan_refused"
@@ -73,4 +53,27 @@ class StoredPlanError(ConflictError):
             value,
             f"{reason}; plan {plan_id} ({plan}) stored it under an earlier version's check; "
             f"{repair}",
+        )
+
+
+class StoredSettingsError(StoredPlanError):
+    """A plan's stored RCB setting fails this version's check.
+
+    The plan cannot learn or be read by the fleet until an engineer sets the value anew:
+    ``rcb replan PLAN --rcb NAME=VALUE`` (``POST /plans/{id}/replan``), which checks the stored
+    settings with the given ones over them.
+    """
+
+    code = "stored_settings_refused"
+
+    def __init__(self, plan_id: int, plan: str, name: str, value: object, reason: str) -> None:
+        self.setting, self.check = name, reason
+        super().__init__(
+            plan_id,
+            plan,
+            f"settings.{name}",
+            value,
+            reason,
+            f"set it anew: rcb replan {plan_id} --rcb {name}=VALUE "
+            f'(POST /plans/{plan_id}/replan {{"rcb": {{"{name}": VALUE}}}})',
         )

@@ -47,11 +47,10 @@ def plan_settings(row: _Plan, over: Mapping[str, Any] | None = None) -> RcbSetti
     given = {**_given(row.settings), **(over or {})}
     try:
         return settings_of(given)
-    except InputError as err:
-        name = err.field.removeprefix("--")  # e.g. alpha, floors.force_N
-        if over and name.partition(".")[0] in over:
+    except InputError as err:  # err.field: alpha, floors.force_N ...
+        if over and err.field.partition(".")[0] in over:
             raise
-        raise StoredSettingsError(row.id, row.name, name, err.value, err.reason) from None
+        raise StoredSettingsError(row.id, row.name, err.field, err.value, err.reason) from None
 
 
 def settings_shown(stored: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -64,16 +63,23 @@ def settings_shown(stored: Mapping[str, Any] | None) -> dict[str, Any]:
     try:
         return settings_json(settings_of(stored))
     except InputError:
-        return {**settings_json(RcbSettings()), **_given(stored)}
+        return _as_stored(stored)
 
 
-def settings_refused(row: _Plan) -> str | None:
-    """Why this version refuses a plan's stored settings, and the repair (None: it does not)."""
+def settings_listed(row: _Plan) -> tuple[dict[str, Any], str | None]:
+    """A plan's settings as :func:`settings_shown` shows them, and why this version refuses them.
+
+    The reason names the repair (None: nothing refused); the stored column is read once.
+    """
     try:
-        plan_settings(row)
+        return settings_json(plan_settings(row)), None
     except StoredSettingsError as err:
-        return str(err)
-    return None
+        return _as_stored(row.settings), str(err)
+
+
+def _as_stored(stored: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The stored settings over the defaults, unchecked (a value this version refuses too)."""
+    return {**settings_json(RcbSettings()), **_given(stored)}
 
 
 def _given(stored: Mapping[str, Any] | None) -> dict[str, Any]:

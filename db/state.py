@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.errors import StoredPlanError, StoredSettingsError
+from db.errors import StoredPlanError
 from db.fleet import priors_of
 from db.fleet_noise import noise_priors_of
 from db.model_versions import latest_models
@@ -53,7 +53,7 @@ def load_state(
     try:
         settings = plan_settings(plan_row)
         plan = stored_plan(session=session, plan_row=plan_row)
-    except (StoredSettingsError, StoredPlanError):
+    except StoredPlanError:  # a stored setting too (StoredSettingsError)
         if not repair:
             raise
         settings, plan = repaired(session=session, plan_row=plan_row, changes=repair)

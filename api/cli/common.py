@@ -91,6 +91,16 @@ def say(text: str) -> None:
     err_console.print(text, markup=False, highlight=False, soft_wrap=True)
 
 
+def as_option(err: InputError) -> InputError:
+    """A paging input's error naming its option (``--limit``, ``--cursor``).
+
+    Any other error (a stored value's, say) as it is.
+    """
+    if err.field not in ("limit", "cursor"):
+        return err
+    return InputError(f"--{err.field}", err.value, err.reason)
+
+
 def refused_line(plan_id: int, why: str) -> str:
     """A plan whose stored settings this version refuses (``settings_refused``).
 

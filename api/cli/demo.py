@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
-from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -109,8 +108,8 @@ def demo(
         engine = make_engine(url)
         try:
             stored = demo_plan(engine=engine, body=body, settings=settings)
-            run = partial(_run, plan, parts, seed, settings, milling)
-            result = run(store_parts(engine, stored["id"]), progress=not as_json)
+            apply = store_parts(engine, stored["id"])
+            result = _run(plan, parts, seed, settings, milling, apply, progress=not as_json)
         finally:
             engine.dispose()
     if as_json:
@@ -142,9 +141,14 @@ def _run(
     where = "mill" if milling else "lathe"
     with Progress(console=err_console, transient=True) as bar:
         task = bar.add_task(f"RCB ({settings.strategy}) on the virtual {where}", total=parts)
-        done = partial(bar.update, task)
         return run_demo(
-            plan, parts, seed, settings, lambda n: done(completed=n), uncertainty=u, apply=apply
+            plan,
+            parts,
+            seed,
+            settings,
+            lambda n: bar.update(task, completed=n),
+            uncertainty=u,
+            apply=apply,
         )
 
 

@@ -15,7 +15,7 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from api.cli.common import DbOption, JsonOption, engine_of, errors, plan_of, say
+from api.cli.common import DbOption, JsonOption, as_option, engine_of, errors, plan_of, say
 from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
@@ -103,9 +103,7 @@ def _page(
         try:
             page = fetch(engine=engine, tool=tool, cursor=cursor, page_size=limit)
         except InputError as err:  # limit, cursor: the options' names
-            if err.field not in ("limit", "cursor"):  # not an option's: as it is
-                raise
-            raise InputError(f"--{err.field}", err.value, err.reason) from None
+            raise as_option(err) from None
         except NotFoundError:
             raise InputError(
                 "TOOL", tool, "no such tool in the catalogue or the database"

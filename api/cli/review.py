@@ -23,6 +23,7 @@ from api.cli import parts_view
 from api.cli.common import (
     DbOption,
     PlanArg,
+    as_option,
     emit,
     engine_of,
     errors,
@@ -78,9 +79,7 @@ def plans(
         try:
             page = read_plans.list_plans(engine=engine, cursor=cursor, page_size=size)
         except InputError as err:  # the option's name: --cursor
-            if err.field not in ("limit", "cursor"):  # not an option's: as it is
-                raise
-            raise InputError(f"--{err.field}", err.value, err.reason) from None
+            raise as_option(err) from None
         if as_json:
             sys.stdout.write('{"plans": [')
             for n, p in enumerate(page["plans"]):

@@ -194,9 +194,10 @@ def named_tools(session: Session, body: Mapping[str, Any]) -> dict[str, Any]:
     names = set()
     for op in ops if isinstance(ops, list) else ():
         tool = op.get("tool") if isinstance(op, Mapping) else None
-        with suppress(ValueError):  # a name identity refuses: the reader names the field
-            names.add(identity(tool) if isinstance(tool, str) else "")
-    return library.load_tools(session=session, names=sorted(names - {""}))
+        if isinstance(tool, str):
+            with suppress(ValueError):  # a name identity refuses: the reader names the field
+                names.add(identity(tool))
+    return library.load_tools(session=session, names=sorted(names))
 
 
 def _replan_answer(plan_id: int, before: RcbState, done: Any, dry_run: bool) -> dict[str, Any]:

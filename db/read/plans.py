@@ -11,7 +11,7 @@ from sqlalchemy import func, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.plan_state import settings_refused, settings_shown
+from db.plan_state import settings_listed
 from db.table_base import as_utc
 
 #: The settings a plan summary shows as fields of its own, not under ``settings``.
@@ -47,7 +47,7 @@ def plans(
 
 def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
     """The fields a plan list shows (strategy and alpha beside the other settings)."""
-    settings = settings_shown(plan.settings)
+    settings, refused = settings_listed(plan)
     return {
         "id": plan.id,
         "name": plan.name,
@@ -57,7 +57,7 @@ def summary(plan: t.Plan, machine: str, parts: int) -> dict[str, Any]:
         "settings": {k: v for k, v in settings.items() if k not in _OWN_FIELDS},
         "status": "halted" if plan.halt is not None else "running",
         "halt": plan.halt,
-        "settings_refused": settings_refused(plan),  # a stored value a later check refuses
+        "settings_refused": refused,  # a stored value a later check refuses
         "setpoint_version": plan.current_setpoint_version,
         "parts": parts,
         "created_at": as_utc(plan.created_at),

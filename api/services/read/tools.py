@@ -45,10 +45,9 @@ def list_tools(
     names = sorted({*packaged, *stored})
     if len(stored) > page_size:  # stored names past the last one read might come before
         names = [n for n in names if n <= max(stored)]
-    tools = {**{n: to_json.tool_json(tool) for n, tool in packaged.items()}, **stored}
     page = names[:page_size]
     more = len(names) > page_size
     return {
-        "tools": [tools[n] for n in page],
+        "tools": [stored[n] if n in stored else to_json.tool_json(packaged[n]) for n in page],
         "next_cursor": _token([page[-1]]) if more else None,
     }
