@@ -12,7 +12,7 @@ from db import tables as t
 from db.errors import ConflictError
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
-from models.tool import Tool, process_of, tool_mapping
+from models.tool import Tool, fields_mapping, process_of, tool_mapping
 
 
 def ensure_tool(*, session: Session, tool: Tool) -> t.Tool:
@@ -125,24 +125,8 @@ def tools_shown(
             tool = _tool(row, {m.quantity: _model(row.name, m) for m in models})
             out[row.name] = tool_mapping(tool, stderr=False)
         except ConflictError as err:
-            out[row.name] = {
-                "name": row.name,
-                "process": row.process,
-                "description": row.description,
-                "material": row.material,
-                "source": row.source,
-                "models": {
-                    m.quantity: {
-                        "K": m.K,
-                        "dK": m.dK,
-                        "exponents": dict(m.exponents),
-                        "source": m.source,
-                        "reference": m.reference,
-                    }
-                    for m in models
-                },
-                "refused": str(err),
-            }
+            stored = {m.quantity: m for m in models}
+            out[row.name] = fields_mapping(row, stored, stderr=False) | {"refused": str(err)}
     return out
 
 

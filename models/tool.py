@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, overload
+from typing import Any, Protocol, overload
 
 from models import fields, kinematics
 from models.bounds import LARGEST_EXPONENT
@@ -97,8 +97,69 @@ def _stderr(data: object, exponents: Mapping[str, float], path: str) -> dict[str
     )
 
 
-def model_mapping(model: PowerLawModel, stderr: bool = True) -> dict[str, Any]:
-    """``model`` as :func:`model_from_mapping` reads it (``exponent_stderr`` when it has any)."""
+class ModelFields(Protocol):
+    """What a model's mapping shows: a :class:`PowerLawModel`, or a stored row of one."""
+
+    @property
+    def K(self) -> float:  # noqa: N802 (the papers' symbol)
+        """Coefficient [unit of the quantity]."""
+        ...
+
+    @property
+    def dK(self) -> float:  # noqa: N802
+        """Half-width of the band on K [unit of the quantity]."""
+        ...
+
+    @property
+    def exponents(self) -> Mapping[str, float]:
+        """Exponent per input variable [-]."""
+        ...
+
+    @property
+    def source(self) -> str:
+        """Where the model comes from."""
+        ...
+
+    @property
+    def reference(self) -> str:
+        """The paper, table or dataset it cites."""
+        ...
+
+
+class ToolFields(Protocol):
+    """What a tool's mapping shows besides its models: a :class:`Tool`, or its stored row."""
+
+    @property
+    def name(self) -> str:
+        """Catalogue designation."""
+        ...
+
+    @property
+    def process(self) -> str:
+        """``turning`` or ``milling``."""
+        ...
+
+    @property
+    def description(self) -> str:
+        """What the tool is."""
+        ...
+
+    @property
+    def material(self) -> str:
+        """The work material its models hold for."""
+        ...
+
+    @property
+    def source(self) -> str:
+        """Where its models come from."""
+        ...
+
+
+def model_mapping(model: ModelFields, stderr: bool = True) -> dict[str, Any]:
+    """``model`` as :func:`model_from_mapping` reads it (``exponent_stderr`` when it has any).
+
+    ``stderr=False``, or a stored row (which has none): without ``exponent_stderr``.
+    """
     out: dict[str, Any] = {
         "K": model.K,
         "dK": model.dK,
@@ -106,20 +167,28 @@ def model_mapping(model: PowerLawModel, stderr: bool = True) -> dict[str, Any]:
         "source": model.source,
         "reference": model.reference,
     }
-    if stderr and model.exponent_stderr:
-        out["exponent_stderr"] = dict(model.exponent_stderr)
+    standard_errors = getattr(model, "exponent_stderr", None)
+    if stderr and standard_errors:
+        out["exponent_stderr"] = dict(standard_errors)
     return out
 
 
 def tool_mapping(tool: Tool, stderr: bool = True) -> dict[str, Any]:
     """``tool`` as :func:`tool_from_mapping` reads it (a plan file's tool table)."""
+    return fields_mapping(tool, tool.models, stderr)
+
+
+def fields_mapping(
+    tool: ToolFields, models: Mapping[str, ModelFields], stderr: bool = True
+) -> dict[str, Any]:
+    """A tool's fields and its models by quantity as :func:`tool_from_mapping` reads them."""
     return {
         "name": tool.name,
         "process": tool.process,
         "description": tool.description,
         "material": tool.material,
         "source": tool.source,
-        "models": {q: model_mapping(m, stderr) for q, m in tool.models.items()},
+        "models": {q: model_mapping(m, stderr) for q, m in models.items()},
     }
 
 
