@@ -82,8 +82,8 @@ def _refused(tool: str, field: str, err: InputError) -> ConflictError:
         f"tools.{tool}.{field}",
         err.value,
         f"{err.reason}; tool {tool} was stored under an earlier version's check, and this "
-        "one refuses the plans that use it: define it anew under another name (a plan "
-        "file's tools, or POST /tools) and create those plans with it",
+        "one refuses the plans that use it: define it anew under another name (rcb tools "
+        "add FILE, POST /tools or a plan file's tools) and create those plans with it",
     )
 
 

@@ -36,6 +36,7 @@ from api.cli.html_report import html_report
 from api.cli.lazy import lazy_group
 from api.cli.models import models_app
 from api.cli.optimize import optimize, predict
+from api.cli.tools import tools_app
 from api.cli.virtual import virtual_app
 
 
@@ -105,6 +106,7 @@ plans_app.command("show")(cli_plans.show)
 app.add_typer(plans_app, name="plans")  # api/cli/review.py, api/cli/plans.py
 app.add_typer(models_app, name="models")  # rcb models export|import: api/cli/models.py
 app.add_typer(fleet_app, name="fleet")  # rcb fleet exclude|include: api/cli/fleet.py
+app.add_typer(tools_app, name="tools")  # rcb tools list|show|add: api/cli/tools.py
 for _review in (
     cli_review.history,
     cli_review.parts,

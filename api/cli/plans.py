@@ -136,8 +136,13 @@ def _say_band_held(answer: dict[str, Any]) -> None:
         say(textwrap.fill(told, width=80, subsequent_indent="  ", break_on_hyphens=False))
 
 
-def read_plan_file(path: Path) -> dict[str, Any]:
-    """A plan file's structure: ``.json`` as JSON, anything else as TOML (errors name FILE)."""
+def read_plan_file(
+    path: Path, holds: str = "a plan (a table of name, machine ...)"
+) -> dict[str, Any]:
+    """A plan file's structure: ``.json`` as JSON, anything else as TOML (errors name FILE).
+
+    ``holds``: what the file must hold, as the error says (a tool file: ``rcb tools add``).
+    """
     from supervisor.inputs.files import read_toml
 
     if path.suffix.lower() != ".json":
@@ -145,7 +150,7 @@ def read_plan_file(path: Path) -> dict[str, Any]:
     else:
         data = read_json_file(path)
     if not isinstance(data, dict):
-        raise InputError("FILE", str(path), "must hold a plan (a table of name, machine ...)")
+        raise InputError("FILE", str(path), f"must hold {holds}")
     return data
 
 

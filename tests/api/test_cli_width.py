@@ -101,6 +101,8 @@ DB_COMMANDS = {
     "replan": ["replan", "1", "--limit", "rough-od.force_N=1900", "--dry-run"],
     "keys": ["keys", "list"],
     "audit": ["audit"],
+    "tools": ["tools", "list"],
+    "tools-show": ["tools", "show", "CNMG432RN"],
 }
 
 

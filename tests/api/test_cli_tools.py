@@ -1,0 +1,152 @@
+"""``rcb tools list``, ``show`` and ``add``: the tool library at the CLI, on SQLite and PostgreSQL.
+
+Before, the CLI had no reader of the tools a plan may name, and a stored tool a later check
+refuses could be defined anew under another name only through a plan file or ``POST /tools``.
+The library's figures are Ivester & Heigel's (Table 2: CNMG432RN's force K = 2130 N, dK = 150
+N, a 7.0 % band); the JSON is the REST service's (``GET /tools``), the same use cases.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+
+from sqlalchemy import select, update
+
+from api.cli.main import app
+from api.services.read.tools import get_tool, list_tools
+from db import tables as t
+
+from conftest import DEMO_PLAN
+
+TOOL_TOML = """\
+name = "CNMG432-PLANT2"
+process = "turning"
+description = "CNMG432RN as plant 2's dynamometer measured it"
+material = "AISI 1045 steel, cold rolled"
+[models.force_N]
+K = 2200
+dK = 120
+exponents = { depth_mm = 0.888, feed_mm_rev = 0.783, speed_m_min = -0.0395 }
+reference = "plant 2 dynamometer, 2026-11"
+"""
+
+
+def _url(engine) -> str:
+    return engine.url.render_as_string(hide_password=False)
+
+
+def _run(runner, *args: str):
+    done = runner.invoke(app, list(args))
+    assert "Traceback" not in done.output + done.stderr
+    return done
+
+
+def _names(runner, url: str, limit: int) -> list[str]:
+    """Every tool's name, page after page as ``rcb tools list --json`` chains them."""
+    names: list[str] = []
+    cursor: list[str] = []
+    for _ in range(20):  # bounded: a few tools
+        done = _run(runner, "tools", "list", "--json", "--limit", str(limit), *cursor, "--db", url)
+        assert done.exit_code == 0, done.stderr
+        page = json.loads(done.stdout)
+        assert len(page["tools"]) <= limit
+        names += [tool["name"] for tool in page["tools"]]
+        if page["next_cursor"] is None:
+            return names
+        cursor = ["--cursor", page["next_cursor"]]
+    raise AssertionError("the pages did not end")
+
+
+def test_a_tool_added_from_a_file_is_listed_shown_and_named_by_a_plan(runner, engine, tmp_path):
+    url = _url(engine)
+    catalogue = _names(runner, url, 100)
+    assert catalogue == ["CNMG432RN", "CPGM32505", "VCMR331", "VPGR3305"]
+    file = tmp_path / "plant2.toml"
+    file.write_text(TOOL_TOML, encoding="utf-8")
+    done = _run(runner, "tools", "add", str(file), "--by", "ana", "--db", url)
+    assert done.exit_code == 0, done.stderr
+    assert "rcb: tool CNMG432-PLANT2 stored with its models of force_N" in done.stderr
+    assert _names(runner, url, 2) == ["CNMG432-PLANT2", *catalogue]  # pages chain, code-point order
+    done = _run(runner, "tools", "show", "CNMG432-PLANT2", "--json", "--db", url)
+    shown = json.loads(done.stdout)
+    assert shown == get_tool(engine=engine, name="CNMG432-PLANT2")  # the REST service's JSON
+    assert shown["models"]["force_N"]["K"] == 2200.0
+    assert shown["source"] == "plant2.toml"  # where the models came from, unless the file says
+    plan = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+    plan["name"], plan["operations"][0]["tool"] = "plant2-part", "CNMG432-PLANT2"
+    plan["operations"][0]["limits"] = {"force_N": 2000.0}  # plant 2 modelled the force alone
+    plan_file = tmp_path / "plan.json"
+    plan_file.write_text(json.dumps(plan), encoding="utf-8")
+    done = _run(runner, "plans", "create", str(plan_file), "--json", "--db", url)
+    assert done.exit_code == 0, done.stderr
+    history = json.loads(_run(runner, "audit", "--json", "--db", url).stdout)["entries"]
+    added = [(e["actor"], e["target"], e["result"]) for e in history if e["action"] == "add tool"]
+    assert added == [("cli:ana", "tool CNMG432-PLANT2", "201")]
+
+
+def test_show_prints_the_catalogue_models_and_their_bands(runner, engine):
+    done = _run(runner, "tools", "show", "CNMG432RN", "--db", _url(engine))
+    assert done.exit_code == 0, done.stderr
+    force = next(line for line in done.stdout.splitlines() if line.startswith("force_N"))
+    # Ivester & Heigel Table 2: K 2130 N, dK 150 N, so a band of 7.0 %; depth exponent 0.888
+    assert force.split()[:5] == ["force_N", "2130", "150", "7.0", "depth_mm=0.888"]
+    assert "rcb: material: AISI 1045 steel, cold rolled" in done.stderr
+
+
+def test_every_bad_add_is_one_line_naming_the_field_and_stores_nothing(runner, engine, tmp_path):
+    url = _url(engine)
+    cases = {
+        "K = -1": ("K = 2200", "K = -1", "models.force_N.K = -1: must be greater than 0"),
+        "catalogue name": (
+            'name = "CNMG432-PLANT2"',
+            'name = "CNMG432RN"',
+            "name = 'CNMG432RN': a catalogue tool has this name",
+        ),
+        "unknown key": ("dK = 120", "dK = 120\nKK = 3", "models.force_N.KK"),
+        "not TOML": ("[models.force_N]", "[models.force_N", "is not valid TOML"),
+    }
+    for old, new, said in cases.values():
+        file = tmp_path / "bad.toml"
+        file.write_text(TOOL_TOML.replace(old, new), encoding="utf-8")
+        done = _run(runner, "tools", "add", str(file), "--db", url)
+        assert done.exit_code == 2 and said in done.stderr, done.stderr
+        assert len(done.stderr.splitlines()) == 1, done.stderr
+    (tmp_path / "list.json").write_text("[1]", encoding="utf-8")
+    done = _run(runner, "tools", "add", str(tmp_path / "list.json"), "--db", url)
+    assert done.exit_code == 2
+    assert "FILE = " in done.stderr and "must hold a tool" in done.stderr
+    assert len(list_tools(engine=engine)["tools"]) == 4  # the catalogue's alone: nothing stored
+    good = tmp_path / "good.toml"
+    good.write_text(TOOL_TOML, encoding="utf-8")
+    assert _run(runner, "tools", "add", str(good), "--db", url).exit_code == 0
+    again = _run(runner, "tools", "add", str(good), "--db", url)  # stored tools never change
+    assert again.exit_code == 2
+    assert "name = 'CNMG432-PLANT2': a tool of this name is already stored" in again.stderr
+    for args in (["show", "NOPE"], ["list", "--limit", "0"], ["list", "--cursor", "zzz"]):
+        done = _run(runner, "tools", *args, "--db", url)
+        assert done.exit_code == 2 and len(done.stderr.splitlines()) == 1, done.stderr
+        assert done.stderr.startswith(("rcb: error: NAME = 'NOPE'", "rcb: error: --")), done.stderr
+
+
+def test_a_stored_tool_a_later_check_refuses_is_listed_marked_with_the_way_out(
+    runner, engine, tmp_path
+):
+    url = _url(engine)
+    file = tmp_path / "plant2.toml"
+    file.write_text(TOOL_TOML, encoding="utf-8")
+    assert _run(runner, "tools", "add", str(file), "--db", url).exit_code == 0
+    with engine.begin() as c:  # what an older check let by: K must be above 0
+        tool_id = c.execute(select(t.Tool.id).where(t.Tool.name == "CNMG432-PLANT2")).scalar_one()
+        c.execute(update(t.ToolModel).values(K=-1.0).where(t.ToolModel.tool_id == tool_id))
+    listed = _run(runner, "tools", "list", "--db", url)
+    assert listed.exit_code == 0, listed.stderr  # every other tool is still listed
+    rows = [line.split() for line in listed.stdout.splitlines()]
+    at = rows.index(next(row for row in rows if row and row[0] == "CNMG432-PLANT2"))
+    assert rows[at + 1][0] == "REFUSED" and any(row and row[0] == "VPGR3305" for row in rows)
+    shown = _run(runner, "tools", "show", "CNMG432-PLANT2", "--db", url)
+    assert shown.exit_code == 0, shown.stderr
+    said = " ".join(shown.stderr.split())
+    assert "rcb: REFUSED: tools.CNMG432-PLANT2.models.force_N.K = -1.0" in said
+    assert "define it anew under another name" in said
+    assert shown.stdout.splitlines()[3].split()[:2] == ["force_N", "-1"]  # as stored
