@@ -74,6 +74,15 @@ _RelOption = Annotated[
 _PlanOption = Annotated[
     Path | None, typer.Option("--plan", help="Take the tool from this plan file.")
 ]
+_ToolDbOption = Annotated[
+    str | None,
+    typer.Option(
+        "--db",
+        help="Take a stored tool from this database (rcb tools list; default:"
+        " $RCB_DATABASE_URL when set, else the catalogue alone).",
+        show_default=False,
+    ),
+]
 
 
 def predict(
@@ -90,6 +99,7 @@ def predict(
     flank_wear_mm: _FlankWearOption = DEFAULT_FLANK_WEAR_MM,
     rel_uncertainty: _RelOption = None,
     plan: _PlanOption = None,
+    db: _ToolDbOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Predict every model of a tool, with its band, at one set of cutting parameters."""
@@ -110,7 +120,7 @@ def predict(
         "flank_wear_mm": flank_wear_mm,
     }
     with errors():
-        found = _tool(tool, plan)
+        found = _tool(tool, plan, db)
         point = _point(found, tool, given)
         rel = _rel_uncertainties(found, rel_uncertainty or [])
         try:
@@ -172,16 +182,30 @@ _OPTIONS = {
 }
 
 
-def _tool(name: str, plan: Path | None) -> Tool:
+def _tool(name: str, plan: Path | None, db: str | None) -> Tool:
+    """``--tool``: a plan file's (``--plan``), else a stored one (``--db``), else the catalogue's.
+
+    Without ``--db`` and ``RCB_DATABASE_URL`` no database is read (nor ``./rcb.db`` created).
+    """
+    import os
+
+    from api.settings import DATABASE_URL_VAR
     from models.catalogue import get_tool
     from supervisor.inputs.plan import load_plan
 
-    if plan is None:
-        return get_tool(name, "--tool")
-    tools = load_plan(plan).tools
-    if name in tools:
+    if plan is not None and name in (tools := load_plan(plan).tools):
         return tools[name]
-    return get_tool(name, "--tool")
+    if db is None and not os.environ.get(DATABASE_URL_VAR):
+        try:
+            return get_tool(name, "--tool")
+        except InputError as err:
+            hint = f"{err.reason}; a stored tool: --db URL (rcb tools list)"
+            raise InputError(err.field, err.value, hint) from None
+    from api.cli.common import engine_of
+    from api.services.read.tools import stored_tool
+
+    stored = stored_tool(engine=engine_of(db), name=name)
+    return stored if stored is not None else get_tool(name, "--tool")
 
 
 def optimize(

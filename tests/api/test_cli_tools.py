@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import tomllib
 
+import pytest
 from sqlalchemy import select, update
 
 from api.cli.main import app
@@ -150,3 +151,33 @@ def test_a_stored_tool_a_later_check_refuses_is_listed_marked_with_the_way_out(
     assert "rcb: REFUSED: tools.CNMG432-PLANT2.models.force_N.K = -1.0" in said
     assert "define it anew under another name" in said
     assert shown.stdout.splitlines()[3].split()[:2] == ["force_N", "-1"]  # as stored
+
+
+def test_predict_takes_a_stored_tool_from_the_database_and_else_reads_none(
+    runner, engine, tmp_path, monkeypatch
+):
+    url = _url(engine)
+    file = tmp_path / "plant2.toml"
+    file.write_text(TOOL_TOML, encoding="utf-8")
+    assert _run(runner, "tools", "add", str(file), "--db", url).exit_code == 0
+    point = ["--depth-mm", "3", "--feed-mm-rev", "0.32", "--speed-m-min", "200"]
+    args = ["predict", "--tool", "CNMG432-PLANT2", *point, "--json"]
+    # Ivester & Heigel Eq. 5 with plant 2's K: F = 2200 · 3^0.888 · 0.32^0.783 · 200^-0.0395
+    force_N = 2200 * 3**0.888 * 0.32**0.783 * 200**-0.0395
+    for given, env in (([*args, "--db", url], {}), (args, {"RCB_DATABASE_URL": url})):
+        done = runner.invoke(app, given, env=env)
+        assert done.exit_code == 0, done.stderr
+        predicted = json.loads(done.stdout)["predicted"]["force_N"]
+        assert predicted["value"] == pytest.approx(force_N, rel=1e-12)
+        assert predicted["band"] == pytest.approx(force_N * 120 / 2200, rel=1e-12)
+    (elsewhere := tmp_path / "elsewhere").mkdir()  # the SQLite backend's file is tmp_path's
+    monkeypatch.chdir(elsewhere)
+    monkeypatch.delenv("RCB_DATABASE_URL", raising=False)
+    done = _run(runner, *args)  # no database named: the catalogue alone, no ./rcb.db made
+    assert done.exit_code == 2
+    assert "unknown tool" in done.stderr and "a stored tool: --db URL" in done.stderr
+    assert list(elsewhere.iterdir()) == []
+    catalogue = _run(runner, "predict", "--tool", "CNMG432RN", *point, "--json")
+    assert catalogue.exit_code == 0, catalogue.stderr  # Ivester & Heigel Table 2's K = 2130
+    expected = 2130 * 3**0.888 * 0.32**0.783 * 200**-0.0395
+    assert json.loads(catalogue.stdout)["predicted"]["force_N"]["value"] == pytest.approx(expected)

@@ -16,6 +16,7 @@ from api.services.errors import NotFoundError
 from api.services.read.common import LIST_PAGE, _bounded, _read, _token, _untoken
 from db import library
 from models.catalogue import catalogue
+from models.tool import Tool
 
 
 def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
@@ -28,6 +29,15 @@ def get_tool(*, engine: Engine, name: str) -> dict[str, Any]:
     if tool is None:
         raise NotFoundError("name", name)
     return to_json.tool_json(tool)
+
+
+def stored_tool(*, engine: Engine, name: str) -> Tool | None:
+    """The stored tool ``name`` as plans use it, or None when the database holds none.
+
+    One this version's check refuses: :class:`~db.errors.ConflictError` naming the value.
+    """
+    with _read(engine) as session, session.begin():
+        return library.load_tools(session=session, names=[name]).get(name)
 
 
 def list_tools(
