@@ -143,6 +143,20 @@ def runner() -> CliRunner:
     return CliRunner()
 
 
+def engine_url(engine: Engine) -> str:
+    """The URL of ``engine``'s database, its password shown (as ``--db`` takes it)."""
+    return engine.url.render_as_string(hide_password=False)
+
+
+def invoke(runner: CliRunner, *args: str) -> Any:
+    """``rcb ARGS`` in process; whatever its exit code, never a traceback."""
+    from api.cli.main import app
+
+    done = runner.invoke(app, list(args))
+    assert "Traceback" not in done.output + done.stderr
+    return done
+
+
 @pytest.fixture
 def empty_postgres() -> Iterator[str]:
     yield from _fresh_postgres()

@@ -18,38 +18,27 @@ from hypothesis import strategies as st
 from sqlalchemy import delete, event, insert
 from sqlalchemy.orm import Session
 
-from api.cli.main import app
 from api.services.audit_log import audit_page, query_of
 from api.services.since import since_of
 from db import audit
 from db.audit_read import AuditQuery
 from db.engine import make_engine, reader, upgrade
 
-from conftest import ROOT
+from conftest import ROOT, engine_url, invoke
 
 PLAN = ROOT / "examples" / "ivester_demo_part.toml"
 #: A fixed moment the seeded entries are dated from.
 T0 = datetime(2026, 11, 30, 8, 0, tzinfo=UTC)
 
 
-def _url(engine) -> str:
-    return engine.url.render_as_string(hide_password=False)
-
-
-def _run(runner, *args: str):
-    done = runner.invoke(app, list(args))
-    assert "Traceback" not in done.output + done.stderr
-    return done
-
-
 def _json(runner, url: str, *args: str) -> dict:
-    done = _run(runner, "audit", "--db", url, "--json", *args)
+    done = invoke(runner, "audit", "--db", url, "--json", *args)
     assert done.exit_code == 0, done.stderr
     return json.loads(done.stdout)
 
 
 def test_real_commands_are_read_back_newest_first_and_by_filter(runner, engine):
-    url = _url(engine)
+    url = engine_url(engine)
     steps = [
         ("plans", "create", str(PLAN), "--by", "ana"),
         ("keys", "create", "--role", "mes", "--by", "ana"),
@@ -57,7 +46,7 @@ def test_real_commands_are_read_back_newest_first_and_by_filter(runner, engine):
         ("fleet", "exclude", "--plan", "1", "--reason", "wrong bar stock", "--by", "bo"),
     ]
     for step in steps:
-        assert _run(runner, *step, "--db", url).exit_code == 0
+        assert invoke(runner, *step, "--db", url).exit_code == 0
     listed = _json(runner, url)["entries"]
     assert [(e["actor"], e["action"], e["target"]) for e in listed] == [
         ("cli:bo", "fleet exclude", "plan 1"),
@@ -73,7 +62,7 @@ def test_real_commands_are_read_back_newest_first_and_by_filter(runner, engine):
     assert [e["action"] for e in by_ana] == ["create key", "create plan"]
     assert _json(runner, url, "--actor", "cli:nobody") == {"entries": [], "next_cursor": None}
 
-    table = _run(runner, "audit", "--db", url, "--limit", "3")
+    table = invoke(runner, "audit", "--db", url, "--limit", "3")
     assert table.exit_code == 0
     shown = table.stdout.split()  # words: a narrow column wraps between them
     assert {"cli:bo", "fleet", "exclude", "replan", "mes"} <= set(shown)
@@ -190,7 +179,7 @@ def test_since_with_an_offset_selects_by_the_utc_time(engine):
 def test_bad_options_are_one_line_naming_the_option(runner, tmp_path, args, named):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
     upgrade(url)
-    done = _run(runner, "audit", "--db", url, *args)
+    done = invoke(runner, "audit", "--db", url, *args)
     assert done.exit_code == 2
     assert named in done.stderr and len(done.stderr.strip().splitlines()) == 1
 

@@ -18,7 +18,7 @@ from api.cli.main import app
 from api.services.read.tools import get_tool, list_tools
 from db import tables as t
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, engine_url, invoke
 
 TOOL_TOML = """\
 name = "CNMG432-PLANT2"
@@ -33,22 +33,14 @@ reference = "plant 2 dynamometer, 2026-11"
 """
 
 
-def _url(engine) -> str:
-    return engine.url.render_as_string(hide_password=False)
-
-
-def _run(runner, *args: str):
-    done = runner.invoke(app, list(args))
-    assert "Traceback" not in done.output + done.stderr
-    return done
-
-
 def _names(runner, url: str, limit: int) -> list[str]:
     """Every tool's name, page after page as ``rcb tools list --json`` chains them."""
     names: list[str] = []
     cursor: list[str] = []
     for _ in range(20):  # bounded: a few tools
-        done = _run(runner, "tools", "list", "--json", "--limit", str(limit), *cursor, "--db", url)
+        done = invoke(
+            runner, "tools", "list", "--json", "--limit", str(limit), *cursor, "--db", url
+        )
         assert done.exit_code == 0, done.stderr
         page = json.loads(done.stdout)
         assert len(page["tools"]) <= limit
@@ -60,16 +52,16 @@ def _names(runner, url: str, limit: int) -> list[str]:
 
 
 def test_a_tool_added_from_a_file_is_listed_shown_and_named_by_a_plan(runner, engine, tmp_path):
-    url = _url(engine)
+    url = engine_url(engine)
     catalogue = _names(runner, url, 100)
     assert catalogue == ["CNMG432RN", "CPGM32505", "VCMR331", "VPGR3305"]
     file = tmp_path / "plant2.toml"
     file.write_text(TOOL_TOML, encoding="utf-8")
-    done = _run(runner, "tools", "add", str(file), "--by", "ana", "--db", url)
+    done = invoke(runner, "tools", "add", str(file), "--by", "ana", "--db", url)
     assert done.exit_code == 0, done.stderr
     assert "rcb: tool CNMG432-PLANT2 stored with its models of force_N" in done.stderr
     assert _names(runner, url, 2) == ["CNMG432-PLANT2", *catalogue]  # pages chain, code-point order
-    done = _run(runner, "tools", "show", "CNMG432-PLANT2", "--json", "--db", url)
+    done = invoke(runner, "tools", "show", "CNMG432-PLANT2", "--json", "--db", url)
     shown = json.loads(done.stdout)
     assert shown == get_tool(engine=engine, name="CNMG432-PLANT2")  # the REST service's JSON
     assert shown["models"]["force_N"]["K"] == 2200.0
@@ -79,15 +71,15 @@ def test_a_tool_added_from_a_file_is_listed_shown_and_named_by_a_plan(runner, en
     plan["operations"][0]["limits"] = {"force_N": 2000.0}  # plant 2 modelled the force alone
     plan_file = tmp_path / "plan.json"
     plan_file.write_text(json.dumps(plan), encoding="utf-8")
-    done = _run(runner, "plans", "create", str(plan_file), "--json", "--db", url)
+    done = invoke(runner, "plans", "create", str(plan_file), "--json", "--db", url)
     assert done.exit_code == 0, done.stderr
-    history = json.loads(_run(runner, "audit", "--json", "--db", url).stdout)["entries"]
+    history = json.loads(invoke(runner, "audit", "--json", "--db", url).stdout)["entries"]
     added = [(e["actor"], e["target"], e["result"]) for e in history if e["action"] == "add tool"]
     assert added == [("cli:ana", "tool CNMG432-PLANT2", "201")]
 
 
 def test_show_prints_the_catalogue_models_and_their_bands(runner, engine):
-    done = _run(runner, "tools", "show", "CNMG432RN", "--db", _url(engine))
+    done = invoke(runner, "tools", "show", "CNMG432RN", "--db", engine_url(engine))
     assert done.exit_code == 0, done.stderr
     force = next(line for line in done.stdout.splitlines() if line.startswith("force_N"))
     # Ivester & Heigel Table 2: K 2130 N, dK 150 N, so a band of 7.0 %; depth exponent 0.888
@@ -96,7 +88,7 @@ def test_show_prints_the_catalogue_models_and_their_bands(runner, engine):
 
 
 def test_every_bad_add_is_one_line_naming_the_field_and_stores_nothing(runner, engine, tmp_path):
-    url = _url(engine)
+    url = engine_url(engine)
     cases = {
         "K = -1": ("K = 2200", "K = -1", "models.force_N.K = -1: must be greater than 0"),
         "catalogue name": (
@@ -110,22 +102,22 @@ def test_every_bad_add_is_one_line_naming_the_field_and_stores_nothing(runner, e
     for old, new, said in cases.values():
         file = tmp_path / "bad.toml"
         file.write_text(TOOL_TOML.replace(old, new), encoding="utf-8")
-        done = _run(runner, "tools", "add", str(file), "--db", url)
+        done = invoke(runner, "tools", "add", str(file), "--db", url)
         assert done.exit_code == 2 and said in done.stderr, done.stderr
         assert len(done.stderr.splitlines()) == 1, done.stderr
     (tmp_path / "list.json").write_text("[1]", encoding="utf-8")
-    done = _run(runner, "tools", "add", str(tmp_path / "list.json"), "--db", url)
+    done = invoke(runner, "tools", "add", str(tmp_path / "list.json"), "--db", url)
     assert done.exit_code == 2
     assert "FILE = " in done.stderr and "must hold a tool" in done.stderr
     assert len(list_tools(engine=engine)["tools"]) == 4  # the catalogue's alone: nothing stored
     good = tmp_path / "good.toml"
     good.write_text(TOOL_TOML, encoding="utf-8")
-    assert _run(runner, "tools", "add", str(good), "--db", url).exit_code == 0
-    again = _run(runner, "tools", "add", str(good), "--db", url)  # stored tools never change
+    assert invoke(runner, "tools", "add", str(good), "--db", url).exit_code == 0
+    again = invoke(runner, "tools", "add", str(good), "--db", url)  # stored tools never change
     assert again.exit_code == 2
     assert "name = 'CNMG432-PLANT2': a tool of this name is already stored" in again.stderr
     for args in (["show", "NOPE"], ["list", "--limit", "0"], ["list", "--cursor", "zzz"]):
-        done = _run(runner, "tools", *args, "--db", url)
+        done = invoke(runner, "tools", *args, "--db", url)
         assert done.exit_code == 2 and len(done.stderr.splitlines()) == 1, done.stderr
         assert done.stderr.startswith(("rcb: error: NAME = 'NOPE'", "rcb: error: --")), done.stderr
 
@@ -133,19 +125,19 @@ def test_every_bad_add_is_one_line_naming_the_field_and_stores_nothing(runner, e
 def test_a_stored_tool_a_later_check_refuses_is_listed_marked_with_the_way_out(
     runner, engine, tmp_path
 ):
-    url = _url(engine)
+    url = engine_url(engine)
     file = tmp_path / "plant2.toml"
     file.write_text(TOOL_TOML, encoding="utf-8")
-    assert _run(runner, "tools", "add", str(file), "--db", url).exit_code == 0
+    assert invoke(runner, "tools", "add", str(file), "--db", url).exit_code == 0
     with engine.begin() as c:  # what an older check let by: K must be above 0
         tool_id = c.execute(select(t.Tool.id).where(t.Tool.name == "CNMG432-PLANT2")).scalar_one()
         c.execute(update(t.ToolModel).values(K=-1.0).where(t.ToolModel.tool_id == tool_id))
-    listed = _run(runner, "tools", "list", "--db", url)
+    listed = invoke(runner, "tools", "list", "--db", url)
     assert listed.exit_code == 0, listed.stderr  # every other tool is still listed
     rows = [line.split() for line in listed.stdout.splitlines()]
     at = rows.index(next(row for row in rows if row and row[0] == "CNMG432-PLANT2"))
     assert rows[at + 1][0] == "REFUSED" and any(row and row[0] == "VPGR3305" for row in rows)
-    shown = _run(runner, "tools", "show", "CNMG432-PLANT2", "--db", url)
+    shown = invoke(runner, "tools", "show", "CNMG432-PLANT2", "--db", url)
     assert shown.exit_code == 0, shown.stderr
     said = " ".join(shown.stderr.split())
     assert "rcb: REFUSED: tools.CNMG432-PLANT2.models.force_N.K = -1.0" in said
@@ -156,10 +148,10 @@ def test_a_stored_tool_a_later_check_refuses_is_listed_marked_with_the_way_out(
 def test_predict_takes_a_stored_tool_from_the_database_and_else_reads_none(
     runner, engine, tmp_path, monkeypatch
 ):
-    url = _url(engine)
+    url = engine_url(engine)
     file = tmp_path / "plant2.toml"
     file.write_text(TOOL_TOML, encoding="utf-8")
-    assert _run(runner, "tools", "add", str(file), "--db", url).exit_code == 0
+    assert invoke(runner, "tools", "add", str(file), "--db", url).exit_code == 0
     point = ["--depth-mm", "3", "--feed-mm-rev", "0.32", "--speed-m-min", "200"]
     args = ["predict", "--tool", "CNMG432-PLANT2", *point, "--json"]
     # Ivester & Heigel Eq. 5 with plant 2's K: F = 2200 · 3^0.888 · 0.32^0.783 · 200^-0.0395
@@ -173,11 +165,11 @@ def test_predict_takes_a_stored_tool_from_the_database_and_else_reads_none(
     (elsewhere := tmp_path / "elsewhere").mkdir()  # the SQLite backend's file is tmp_path's
     monkeypatch.chdir(elsewhere)
     monkeypatch.delenv("RCB_DATABASE_URL", raising=False)
-    done = _run(runner, *args)  # no database named: the catalogue alone, no ./rcb.db made
+    done = invoke(runner, *args)  # no database named: the catalogue alone, no ./rcb.db made
     assert done.exit_code == 2
     assert "unknown tool" in done.stderr and "a stored tool: --db URL" in done.stderr
     assert list(elsewhere.iterdir()) == []
-    catalogue = _run(runner, "predict", "--tool", "CNMG432RN", *point, "--json")
+    catalogue = invoke(runner, "predict", "--tool", "CNMG432RN", *point, "--json")
     assert catalogue.exit_code == 0, catalogue.stderr  # Ivester & Heigel Table 2's K = 2130
     expected = 2130 * 3**0.888 * 0.32**0.783 * 200**-0.0395
     assert json.loads(catalogue.stdout)["predicted"]["force_N"]["value"] == pytest.approx(expected)
