@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 
-from sqlalchemy import Connection, inspect
+from sqlalchemy import Connection, inspect, text
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError
 
@@ -114,7 +114,10 @@ def revision(connection: Connection) -> str | None:
     """The database's Alembic revision; None when it was never migrated (no version table)."""
     if not inspect(connection).has_table(VERSION_TABLE):
         return None
-    from alembic.runtime.migration import MigrationContext
+    rows = connection.execute(text(f"SELECT version_num FROM {VERSION_TABLE}")).all()
+    if len(rows) <= 1:  # read without Alembic: a command's start does not load it
+        return None if not rows else str(rows[0][0])
+    from alembic.runtime.migration import MigrationContext  # several heads: Alembic says so
 
     return MigrationContext.configure(connection).get_current_revision()
 

@@ -205,7 +205,7 @@ def _check_revision(engine: Engine, url: str, field: str) -> None:
     """Refuse a database not at this rcb's newest revision, naming the command that fixes it."""
     from sqlalchemy.exc import DBAPIError
 
-    from db.engine import revisions
+    from db.engine import HEAD_REVISION, revisions
     from db.urls import explain, revision
 
     try:
@@ -216,6 +216,8 @@ def _check_revision(engine: Engine, url: str, field: str) -> None:
         if reason is None:
             raise
         raise InputError(field, shown(url), reason) from None
+    if found == HEAD_REVISION:  # the usual case, without Alembic
+        return
     known = revisions()
     if found is None:
         reason = f"the database is not migrated; run {_upgrade(url, field)}"

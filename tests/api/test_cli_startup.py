@@ -120,3 +120,5 @@ def test_a_reader_of_the_database_loads_no_scipy_and_no_solver(one_plan, args):
     assert {"sqlalchemy", "numpy"} <= set(loaded)
     heavy = {"scipy", "cvxpy", "highspy", "clarabel", "pandas", "matplotlib", "fastapi"}
     assert heavy.isdisjoint(loaded), loaded
+    # the database's revision is checked against db.engine.HEAD_REVISION (Alembic: 0.12 s)
+    assert "alembic" not in loaded

@@ -10,7 +10,7 @@ from alembic.migration import MigrationContext
 from sqlalchemy import inspect, text
 
 from api.cli.main import app
-from db.engine import make_engine, revisions, upgrade
+from db.engine import HEAD_REVISION, make_engine, revisions, upgrade
 from db.plan_state import settings_of
 from db.tables import Base, utcnow
 from supervisor.rcb.state import RcbSettings
@@ -26,6 +26,11 @@ def _no_difference(url: str) -> None:
         assert tables == {*Base.metadata.tables, "alembic_version"}
     finally:
         engine.dispose()
+
+
+def test_the_head_a_command_checks_without_alembic_is_alembics():
+    """db.engine.HEAD_REVISION: a new migration is written there too, or this fails."""
+    assert revisions()[-1] == HEAD_REVISION
 
 
 def test_sqlite_upgrade_head_then_no_difference(tmp_path):
