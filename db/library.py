@@ -12,7 +12,7 @@ from db import tables as t
 from db.errors import ConflictError
 from models.errors import InputError
 from models.powerlaw import PowerLawModel
-from models.tool import Tool, fields_mapping, process_of, tool_mapping
+from models.tool import Tool, fields_mapping, model_fields, process_of
 
 
 def ensure_tool(*, session: Session, tool: Tool) -> t.Tool:
@@ -121,12 +121,11 @@ def tools_shown(
     """
     out: dict[str, dict[str, Any]] = {}
     for row, models in _stored(session, names, after, limit):
-        try:
-            tool = _tool(row, {m.quantity: _model(row.name, m) for m in models})
-            out[row.name] = tool_mapping(tool, stderr=False)
+        out[row.name] = fields_mapping(row, {m.quantity: model_fields(m) for m in models})
+        try:  # the stored values are shown either way; the check adds why it refuses them
+            _tool(row, {m.quantity: _model(row.name, m) for m in models})
         except ConflictError as err:
-            stored = {m.quantity: m for m in models}
-            out[row.name] = fields_mapping(row, stored, stderr=False) | {"refused": str(err)}
+            out[row.name]["refused"] = str(err)
     return out
 
 

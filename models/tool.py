@@ -155,40 +155,39 @@ class ToolFields(Protocol):
         ...
 
 
-def model_mapping(model: ModelFields, stderr: bool = True) -> dict[str, Any]:
-    """``model`` as :func:`model_from_mapping` reads it (``exponent_stderr`` when it has any).
-
-    ``stderr=False``, or a stored row (which has none): without ``exponent_stderr``.
-    """
-    out: dict[str, Any] = {
+def model_fields(model: ModelFields) -> dict[str, Any]:
+    """A model's fields as :func:`model_from_mapping` reads them (a stored row's too)."""
+    return {
         "K": model.K,
         "dK": model.dK,
         "exponents": dict(model.exponents),
         "source": model.source,
         "reference": model.reference,
     }
-    standard_errors = getattr(model, "exponent_stderr", None)
-    if stderr and standard_errors:
-        out["exponent_stderr"] = dict(standard_errors)
+
+
+def model_mapping(model: PowerLawModel, stderr: bool = True) -> dict[str, Any]:
+    """``model`` as :func:`model_from_mapping` reads it (``exponent_stderr`` when it has any)."""
+    out = model_fields(model)
+    if stderr and model.exponent_stderr:
+        out["exponent_stderr"] = dict(model.exponent_stderr)
     return out
 
 
 def tool_mapping(tool: Tool, stderr: bool = True) -> dict[str, Any]:
     """``tool`` as :func:`tool_from_mapping` reads it (a plan file's tool table)."""
-    return fields_mapping(tool, tool.models, stderr)
+    return fields_mapping(tool, {q: model_mapping(m, stderr) for q, m in tool.models.items()})
 
 
-def fields_mapping(
-    tool: ToolFields, models: Mapping[str, ModelFields], stderr: bool = True
-) -> dict[str, Any]:
-    """A tool's fields and its models by quantity as :func:`tool_from_mapping` reads them."""
+def fields_mapping(tool: ToolFields, models: Mapping[str, dict[str, Any]]) -> dict[str, Any]:
+    """A tool's fields (a :class:`Tool`'s or its stored row's) with its models' mappings."""
     return {
         "name": tool.name,
         "process": tool.process,
         "description": tool.description,
         "material": tool.material,
         "source": tool.source,
-        "models": {q: model_mapping(m, stderr) for q, m in models.items()},
+        "models": dict(models),
     }
 
 
