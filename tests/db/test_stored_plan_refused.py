@@ -21,7 +21,6 @@ from sqlalchemy.orm import Session
 from test_service import BODY
 from typer.testing import CliRunner
 
-from api.cli.main import app
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
@@ -35,7 +34,7 @@ from models.errors import InputError
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
 
-from conftest import report_at
+from conftest import engine_url, invoke, report_at
 
 
 def _stored_with(engine, change, name: str = BODY["name"]) -> int:  # type: ignore[no-untyped-def]
@@ -67,8 +66,7 @@ def test_a_refused_limit_names_the_repair_which_frees_the_plan(engine) -> None:
     assert (refused.value.field, refused.value.value) == ("operations[0].limits.force_N", -5.0)
     assert f"rcb replan {plan_id} --limit rough-od.force_N=VALUE" in str(refused.value)
     assert get_plan(engine=engine, plan_id=plan_id)["plan_refused"] == str(refused.value)
-    url = engine.url.render_as_string(hide_password=False)
-    shown = CliRunner().invoke(app, ["plans", "show", str(plan_id), "--db", url])
+    shown = invoke(CliRunner(), "plans", "show", str(plan_id), "--db", engine_url(engine))
     told = " ".join(line.strip() for line in shown.stderr.splitlines())
     assert shown.exit_code == 0 and f"{BODY['name']} on lathe-22kW: REFUSED (below)" in told
     assert f"rcb replan {plan_id} --limit rough-od.force_N=VALUE" in told
