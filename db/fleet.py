@@ -34,8 +34,9 @@ from db.library import load_tools
 from db.plan_state import settings_of
 from models.errors import InputError
 from supervisor.fleet.document import read_item
+from supervisor.fleet.law import FleetLaw, fleet_law
 from supervisor.fleet.noise import NoisePrior, noise_priors
-from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors
+from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors, tool_beliefs
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
@@ -50,6 +51,24 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     return local_evidence(session=session, tool_names=names) + [
         replace(item, machine=abroad(item.machine, origin)) for origin, item in imported
     ]
+
+
+def tool_law(*, session: Session, tool: str) -> list[FleetLaw]:
+    """What the fleet learned of ``tool``'s law, per quantity (``rcb fleet law``).
+
+    From the evidence a new plan's fleet prior reads, at a new plan's default settings, the
+    spreads from the tool's own quantities (:func:`supervisor.fleet.prior.tool_beliefs`).
+    Empty: no plan in the fleet measured the tool.
+    """
+    learned = fleet_evidence(session=session, tool_names=[tool])
+    if not learned:
+        return []
+    stored = load_tools(session=session, names=[tool]).get(tool, learned[0].tool)
+    defaults = RcbSettings()
+    beliefs = tool_beliefs(
+        stored, learned, defaults.coverage_k, defaults.exponent_sd, defaults.edge_sd
+    )
+    return [fleet_law(belief) for belief in beliefs.values()]
 
 
 def abroad(machine: str, origin: str) -> str:

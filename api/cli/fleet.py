@@ -1,4 +1,4 @@
-"""``rcb fleet show``, ``imported``, ``exclude``, ``include``: what makes new plans' priors.
+"""``rcb fleet show``, ``law``, ``imported``, ``exclude``, ``include``: new plans' priors.
 
 A plan or a machine an engineer takes out no longer counts in any new plan's prior (a machine
 with a loose spindle, a plan cut on the wrong material); a plan whose process changed is out
@@ -16,7 +16,7 @@ import typer
 from rich.console import Console
 
 from api.cli.common import DbOption, JsonOption, as_option, engine_of, errors, plan_of, say
-from api.cli.tables import new_table
+from api.cli.tables import fmt, new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
 
@@ -56,6 +56,58 @@ def show(
     _print_members(page, first=cursor is None)
     if page["next_cursor"] is not None:
         say(f"rcb: next page: rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}")
+
+
+@fleet_app.command("law")
+def law(
+    tool: Annotated[str, typer.Argument(help="The tool, by name.", show_default=False)],
+    db: DbOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """What the fleet learned of TOOL's law: K, exponents and spreads beside the catalogue."""
+    from api.services.errors import NotFoundError
+    from api.services.read.fleet import fleet_law
+    from models.errors import InputError
+
+    with errors():
+        engine = engine_of(db)
+        try:
+            found = fleet_law(engine=engine, tool=tool)
+        except NotFoundError:
+            raise InputError(
+                "TOOL", tool, "no such tool in the catalogue or the database"
+            ) from None
+    if as_json:
+        sys.stdout.write(json.dumps(found) + "\n")
+        return
+    for quantity in found["quantities"]:
+        _print_law(tool, quantity)
+    if not found["quantities"]:
+        say(f"rcb: no plan in the fleet measured {tool}: new plans start from the catalogue")
+
+
+def _print_law(tool: str, q: dict[str, Any]) -> None:
+    """One quantity's law: the fleet's and the catalogue's parameters, then where it cut."""
+    console = Console()
+    console.print(f"{tool} {q['text']}", markup=False, highlight=False)
+    table = new_table("parameter", "fleet", "catalogue")  # a value and its sd: words that wrap
+    table.add_row("K", fmt(q["K"]), fmt(q["catalogue_K"]))
+    for p in q["parameters"]:
+        row = ((p["fleet"], p["fleet_sd"]), (p["catalogue"], p["catalogue_sd"]))
+        if p["name"] == "edge_rise":  # of ln Y over an edge's life: a fraction of Y
+            cells = [f"{100 * v:.1f} % ± {100 * sd:.1f} %" for v, sd in row]
+            table.add_row("rise over an edge", *cells)
+        else:
+            table.add_row(p["name"], *(f"{fmt(v)} ± {sd:.2g}" for v, sd in row))
+    console.print(table)
+    where = ", ".join(f"{name} {fmt(value)}" for name, value in q["reference"].items())
+    console.print(
+        f"Where the fleet cut ({where}), on a new edge, Y is known to ± "
+        f"{100 * q['law_sd']:.1f} %, a new machine's to ± {100 * q['new_machine_sd']:.1f} %, "
+        f"the catalogue's to ± {100 * q['catalogue_sd']:.1f} % (1 sd).\n",
+        markup=False,
+        highlight=False,
+    )
 
 
 @fleet_app.command("imported")

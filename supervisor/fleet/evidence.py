@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -122,3 +122,24 @@ def evidence(posterior: Posterior, prior: Posterior, context: Mapping[str, float
     p, p0 = np.linalg.inv(s), np.linalg.inv(s0)
     j, h = positive_part(p - p0, p @ m - p0 @ m0)
     return Evidence(posterior.names, j, h, posterior.observations)
+
+
+def in_operation_terms(
+    catalogue: Posterior, context: Mapping[str, float], mean: np.ndarray, cov: np.ndarray
+) -> Posterior:
+    """``θ ~ N(mean, cov)`` as ``catalogue``'s ``β``, :func:`in_tool_terms`' inverse.
+
+    ``ω`` is left out where ``catalogue`` has no edge feature.
+    """
+    t, offset = transform(catalogue, context)
+    k = len(t)
+    t_inv = np.linalg.inv(t)
+    beta = t_inv @ (mean[:k] - offset)
+    sigma = t_inv @ cov[:k, :k] @ t_inv.T
+    sigma = 0.5 * (sigma + sigma.T)
+    assert len(beta) == len(catalogue.mean)
+    return replace(
+        catalogue,
+        mean=tuple(float(v) for v in beta),
+        cov=tuple(tuple(float(v) for v in row) for row in sigma),
+    )

@@ -156,13 +156,17 @@ DEFAULT_OPERATION_SPREAD = 0.02
 
 @dataclass(frozen=True)
 class FleetBelief:
-    """``θ ~ N(mean, cov)`` of a new machine, the spread ``σ_b`` and what it came from."""
+    """``θ ~ N(mean, cov)`` of a new machine, the spread ``σ_b`` and what it came from.
+
+    ``law_cov``: the fleet's law's own covariance, ``cov`` without a new machine's ``D``.
+    """
 
     mean: np.ndarray
     cov: np.ndarray
     spread: float
     machines: int
     readings: int
+    law_cov: np.ndarray
 
 
 def between(
@@ -210,6 +214,14 @@ def of_operation(seen: Evidence, spread: float = DEFAULT_OPERATION_SPREAD) -> Ev
     factor[0, 0] = spread
     information, vector = marginal(seen, factor)
     return replace(seen, information=information, vector=vector)
+
+
+def summed(operations: Sequence[Evidence], op_spread: float) -> Evidence:
+    """A machine's evidence: its operations', each integrated over its own offset ``σ_o``."""
+    total = of_operation(operations[0], op_spread)
+    for seen in operations[1:]:
+        total = total + of_operation(seen, op_spread)
+    return total
 
 
 def best_determined(
@@ -332,8 +344,9 @@ def fleet_belief(
     for m in machines:
         j, h = marginal(m, factor)
         information, vector = information + j, vector + h
-    cov = np.linalg.inv(information)
-    mean = cov @ vector
-    cov = cov + factor @ factor.T
+    law_cov = np.linalg.inv(information)
+    mean = law_cov @ vector
+    cov = law_cov + factor @ factor.T
     cov = 0.5 * (cov + cov.T)
-    return FleetBelief(mean, cov, spread, len(machines), sum(m.readings for m in machines))
+    readings = sum(m.readings for m in machines)
+    return FleetBelief(mean, cov, spread, len(machines), readings, 0.5 * (law_cov + law_cov.T))

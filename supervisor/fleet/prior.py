@@ -22,23 +22,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from models.tool import Tool
-from supervisor.fleet.evidence import Evidence, evidence, in_tool_terms, transform
+from supervisor.fleet.evidence import Evidence, evidence, in_operation_terms, in_tool_terms
 from supervisor.fleet.hierarchy import (
     DEFAULT_OPERATION_SPREAD,
     DEFAULT_SPREAD,
     SPREAD_WEIGHT,
+    FleetBelief,
     best_determined,
     between_estimate,
     fleet_belief,
-    of_operation,
     operation_estimates,
     pooled,
+    summed,
 )
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
@@ -124,27 +125,73 @@ def fleet_priors(
 
     Each tool's spreads start from those of the plan's other tools (:func:`_spreads`).
     """
+    settings = _Settings(coverage_k, exponent_sd, edge_sd)
     pairs: dict[tuple[str, str], _Pair] = {}
     for op in plan.operations:
         tool = plan.tools[op.tool]
-        for quantity, model in tool.models.items():
-            if model.dK <= 0:
-                continue
-            found = [
-                item
-                for item in learned
-                if same_tool(item.tool, tool) and item.posterior.quantity == quantity
-            ]
-            if not found:
-                continue
-            catalogue = post.prior(model, op, coverage_k, exponent_sd, edge_sd)
-            if not _proper(catalogue):  # a parameter known exactly: the catalogue's stands
-                continue
-            pair = _pair(tool, op, catalogue, found, edge_sd)
+        for quantity in tool.models:
+            pair = _pair(tool, quantity, op, learned, settings)
             if pair is not None:
                 pairs[(op.name, quantity)] = pair
     seen = _spreads(plan.machine.name, pairs, default_spread, spread_weight)
     return {key: _prior(pair, seen[key]) for key, pair in pairs.items()}
+
+
+@dataclass(frozen=True)
+class ToolBelief:
+    """What the fleet learned of a tool's quantity, in the tool's terms ``θ`` (``rcb fleet law``).
+
+    ``names``: the exponents' inputs; ``catalogue``: ``θ``'s mean and covariance under the
+    catalogue prior; ``reference``: ``φ``, where the machines' readings pin ``ln Y`` best;
+    ``edge_seen``: whether an operation of the fleet had an edge limit (else ``ω`` is the
+    catalogue's, untouched).
+    """
+
+    names: tuple[str, ...]
+    catalogue: tuple[np.ndarray, np.ndarray]
+    belief: FleetBelief
+    reference: np.ndarray
+    provenance: Provenance
+    edge_seen: bool
+
+
+def tool_beliefs(
+    tool: Tool,
+    learned: Sequence[Learned],
+    coverage_k: float,
+    exponent_sd: float,
+    edge_sd: float = post.DEFAULT_EDGE_SD,
+    default_spread: float = DEFAULT_SPREAD,
+) -> dict[str, ToolBelief]:
+    """Per quantity of ``tool`` with fleet evidence, the fleet's belief about its law.
+
+    What :func:`fleet_priors` gives a plan of ``tool`` alone on a machine the fleet has not
+    seen, before the frame of the plan's operation: its spreads from the tool's quantities.
+    """
+    settings = _Settings(coverage_k, exponent_sd, edge_sd)
+    pairs = {}
+    for quantity in tool.models:
+        pair = _pair(tool, quantity, None, learned, settings)
+        if pair is not None:
+            pairs[("", quantity)] = pair
+    seen = _spreads("", pairs, default_spread, SPREAD_WEIGHT)  # "": no machine of the fleet
+    out = {}
+    for key, pair in pairs.items():
+        belief, provenance = _fleet(pair, seen[key])
+        catalogue = (pair.prior_mean, pair.prior_cov)
+        reference = seen[key].machines.reference
+        edge_seen = any(item.posterior.edge_max for item in pair.found)
+        names = pair.catalogue.names
+        out[key[1]] = ToolBelief(names, catalogue, belief, reference, provenance, edge_seen)
+    return out
+
+
+class _Settings(NamedTuple):
+    """The catalogue prior's settings (:func:`supervisor.rcb.posterior.prior`)."""
+
+    coverage_k: float
+    exponent_sd: float
+    edge_sd: float
 
 
 def _proper(belief: post.Posterior) -> bool:
@@ -194,7 +241,7 @@ class _Pair:
         Each machine's operations integrated over ``op_spread`` (``σ_o``); the point is
         :func:`~supervisor.fleet.hierarchy.best_determined` of the others.
         """
-        by_machine = {m: _summed(seen, op_spread) for m, seen in self.operations.items()}
+        by_machine = {m: summed(seen, op_spread) for m, seen in self.operations.items()}
         own = by_machine.pop(machine, None)
         others = list(by_machine.values())
         n = len(self.catalogue.names)
@@ -203,9 +250,21 @@ class _Pair:
 
 
 def _pair(
-    tool: Tool, op: Operation, catalogue: Posterior, found: Sequence[Learned], edge_sd: float
+    tool: Tool, quantity: str, op: Operation | None, learned: Sequence[Learned], settings: _Settings
 ) -> _Pair | None:
-    """``found``'s evidence about the tool's law, by machine (None: none usable)."""
+    """The fleet's evidence about ``tool``'s law of ``quantity``, by machine (None: none usable).
+
+    ``op``: the operation whose frame the catalogue prior is in (None: the first learned one's).
+    """
+    model = tool.models[quantity]
+    found = [i for i in learned if same_tool(i.tool, tool) and i.posterior.quantity == quantity]
+    if model.dK <= 0 or not found:
+        return None
+    frame = found[0].operation if op is None else op
+    coverage_k, exponent_sd, edge_sd = settings
+    catalogue = post.prior(model, frame, coverage_k, exponent_sd, edge_sd)
+    if not _proper(catalogue):  # a parameter known exactly: the catalogue's stands
+        return None
     operations: dict[str, list[Evidence]] = {}
     for item in found:
         item_prior = _start_of(item, catalogue.quantity)
@@ -215,10 +274,10 @@ def _pair(
         operations.setdefault(item.machine, []).append(seen)
     if not operations:
         return None
-    prior_mean, prior_cov = in_tool_terms(catalogue, op.context, edge_sd)
+    prior_mean, prior_cov = in_tool_terms(catalogue, frame.context, edge_sd)
     key = (tool.name, tool.process, tool.material, catalogue.quantity)
     p0 = np.linalg.inv(prior_cov)
-    return _Pair(key, op, catalogue, tuple(found), operations, prior_mean, prior_cov, p0)
+    return _Pair(key, frame, catalogue, tuple(found), operations, prior_mean, prior_cov, p0)
 
 
 #: A spread's default for one tool and quantity, and the floor its own estimates keep it above.
@@ -284,27 +343,38 @@ def _moderated(
 
 def _prior(pair: _Pair, seen: _Seen) -> FleetPrior:
     """``pair``'s prior for a new operation on the plan's machine, ``seen`` its spreads."""
-    catalogue = pair.catalogue
-    own, others, reference = seen.machines
-    exponents = len(catalogue.names)
-    belief = fleet_belief(
-        others, pair.prior_mean, pair.prior_cov, reference, exponents, seen.spread
-    )
+    belief, provenance = _fleet(pair, seen)
     mean, cov = belief.mean, belief.cov
+    own = seen.machines.own
     if own is not None:  # this machine's offset, as its own readings show it
         fleet_information = np.linalg.inv(belief.cov)
         cov = np.linalg.inv(fleet_information + own.information)
         mean = cov @ (fleet_information @ belief.mean + own.vector)
     cov = cov.copy()
     cov[0, 0] += seen.operation_spread**2  # the new operation's own offset (hierarchy)
-    prior = _in_operation_terms(catalogue, pair.op.context, mean, cov)
-    plans = tuple(sorted({item.plan for item in pair.found}))
-    machines = tuple(sorted({item.machine for item in pair.found}))
-    readings = sum(item.posterior.observations for item in pair.found)
-    provenance = Provenance(
-        catalogue.quantity, plans, machines, belief.spread, readings, seen.operation_spread
-    )
+    prior = in_operation_terms(pair.catalogue, pair.op.context, mean, cov)
     return FleetPrior(prior, provenance)
+
+
+def _fleet(pair: _Pair, seen: _Seen) -> tuple[FleetBelief, Provenance]:
+    """A new machine's ``θ`` from the other machines' evidence, and where it came from."""
+    belief = fleet_belief(
+        seen.machines.others,
+        pair.prior_mean,
+        pair.prior_cov,
+        seen.machines.reference,
+        len(pair.catalogue.names),
+        seen.spread,
+    )
+    provenance = Provenance(
+        pair.catalogue.quantity,
+        tuple(sorted({item.plan for item in pair.found})),
+        tuple(sorted({item.machine for item in pair.found})),
+        belief.spread,
+        sum(item.posterior.observations for item in pair.found),
+        seen.operation_spread,
+    )
+    return belief, provenance
 
 
 def _at_least(default: _Default, weight: float, own: Sequence[tuple[float, int]]) -> float:
@@ -317,14 +387,6 @@ def _at_least(default: _Default, weight: float, own: Sequence[tuple[float, int]]
     return max(floor, pooled(value, weight, own))
 
 
-def _summed(operations: Sequence[Evidence], op_spread: float) -> Evidence:
-    """A machine's evidence: its operations', each integrated over its own offset."""
-    total = of_operation(operations[0], op_spread)
-    for seen in operations[1:]:
-        total = total + of_operation(seen, op_spread)
-    return total
-
-
 def _start_of(item: Learned, quantity: str) -> Posterior:
     """The prior ``item``'s plan started from: the catalogue's, or a fleet's as it stands.
 
@@ -335,21 +397,3 @@ def _start_of(item: Learned, quantity: str) -> Posterior:
         model = item.tool.models[quantity]
         return post.prior(model, item.operation, item.coverage_k, item.exponent_sd, item.edge_sd)
     return as_started(item.start, item.posterior)
-
-
-def _in_operation_terms(
-    catalogue: Posterior, context: Mapping[str, float], mean: np.ndarray, cov: np.ndarray
-) -> Posterior:
-    """``θ ~ N(mean, cov)`` as the operation's ``β`` (``ω`` left out where it has no edge)."""
-    t, offset = transform(catalogue, context)
-    k = len(t)
-    t_inv = np.linalg.inv(t)
-    beta = t_inv @ (mean[:k] - offset)
-    sigma = t_inv @ cov[:k, :k] @ t_inv.T
-    sigma = 0.5 * (sigma + sigma.T)
-    assert len(beta) == len(catalogue.mean)
-    return replace(
-        catalogue,
-        mean=tuple(float(v) for v in beta),
-        cov=tuple(tuple(float(v) for v in row) for row in sigma),
-    )

@@ -107,8 +107,14 @@ def one_plan(tmp_path_factory) -> str:
 
 @pytest.mark.parametrize(
     "args",
-    [["plans"], ["history", "1"], ["history", "ivester-demo-part"], ["parts", "1"]],
-    ids=["plans", "history", "history-by-name", "parts"],
+    [
+        ["plans"],
+        ["history", "1"],
+        ["history", "ivester-demo-part"],
+        ["parts", "1"],
+        ["fleet", "law", "CNMG432RN"],
+    ],
+    ids=["plans", "history", "history-by-name", "parts", "fleet-law"],
 )
 def test_a_reader_of_the_database_loads_no_scipy_and_no_solver(one_plan, args):
     """The readers of a plan never solve. SciPy (0.2-0.5 s) came in through the fleet's noise

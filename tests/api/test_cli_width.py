@@ -103,6 +103,7 @@ DB_COMMANDS = {
     "audit": ["audit"],
     "tools": ["tools", "list"],
     "tools-show": ["tools", "show", "CNMG432RN"],
+    "fleet-law": ["fleet", "law", "CNMG432RN"],
 }
 
 

@@ -40,7 +40,8 @@ def _measured(outcome: dict[str, dict[str, Measurement]]) -> list[dict[str, Any]
     ]
 
 
-def _learn(eng, mes, tag: str, machine: int, parts: int) -> None:  # type: ignore[no-untyped-def]
+def _learn(eng, mes, tag: str, machine: int, parts: int) -> int:  # type: ignore[no-untyped-def]
+    """A plan on ``machine`` of the fleet, from the catalogue, after ``parts`` parts: its id."""
     created = eng.post("/plans", json=_body(tag, machine), params={"prior": "catalogue"})
     assert created.status_code == 201, created.text
     plan_id = created.json()["id"]
@@ -58,6 +59,7 @@ def _learn(eng, mes, tag: str, machine: int, parts: int) -> None:  # type: ignor
             f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": body["serial"]}
         )
         assert r.status_code == 201, r.text
+    return int(plan_id)
 
 
 def test_a_third_machine_starts_from_two_and_the_setpoints_say_so(server) -> None:

@@ -38,6 +38,7 @@ STATUSES = {
     "getTool": {200, 401, 404, 413, 422, 429, 503},
     "getToolFleet": {200, 400, 401, 404, 413, 422, 429, 503},
     "getToolFleetImported": {200, 400, 401, 404, 413, 422, 429, 503},
+    "getToolFleetLaw": {200, 401, 404, 409, 413, 422, 429, 503},
     "addTool": {201, 400, 401, 403, 409, 413, 415, 422, 429, 503},
 }
 PROBLEM = {"$ref": "#/components/schemas/Problem"}

@@ -36,6 +36,7 @@ OPERATIONS = {
     ("get", "/api/v1/tools/{name}", "getTool"),
     ("get", "/api/v1/tools/{name}/fleet", "getToolFleet"),
     ("get", "/api/v1/tools/{name}/fleet/imported", "getToolFleetImported"),
+    ("get", "/api/v1/tools/{name}/fleet/law", "getToolFleetLaw"),
     ("post", "/api/v1/tools", "addTool"),
 }
 

@@ -22,7 +22,7 @@ from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
 from db.engine import make_engine, upgrade
-from db.fleet import fleet_evidence
+from db.fleet import fleet_evidence, tool_law
 from db.fleet_members import members
 from db.identity import database_id
 from models.errors import InputError
@@ -118,6 +118,7 @@ def test_a_new_plan_starts_from_two_machines_and_says_so(engine) -> None:
 READS: dict[str, Callable[[Session], Sequence[object]]] = {
     "evidence": lambda s: fleet_evidence(session=s, tool_names=["CNMG432RN", "VCMR331"]),
     "members": lambda s: members(session=s, tool="CNMG432RN", after_id=0, limit=100),
+    "law": lambda s: tool_law(session=s, tool="CNMG432RN"),
 }
 
 

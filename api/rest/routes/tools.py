@@ -7,10 +7,12 @@ from typing import Annotated, Any
 from fastapi import Body, Path, Query, Request
 from fastapi.responses import Response
 
+from api.rest.answers import problems_at
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
 from api.rest.schemas.common import NO_NUL, IdCursor
 from api.rest.schemas.tools import (
+    FleetLawOut,
     FleetList,
     ImportedFleetList,
     TextCursor,
@@ -20,7 +22,7 @@ from api.rest.schemas.tools import (
 from api.services import tools as use_cases
 from api.services.read import tools as read_tools
 from api.services.read.common import LIST_PAGE, MAX_PAGE
-from api.services.read.fleet import fleet_members, imported_fleet
+from api.services.read.fleet import fleet_law, fleet_members, imported_fleet
 from models.bounds import MAX_IDENTITY
 from models.tool import tool_body
 
@@ -83,6 +85,25 @@ def get_tool_fleet_imported(
     return imported_fleet(
         engine=engine, tool=name, cursor=cursor, page_size=limit, only=actor.plans
     )
+
+
+@router.get(
+    "/tools/{name}/fleet/law",
+    response_model=FleetLawOut,
+    operation_id="getToolFleetLaw",
+    responses=problems_at(409),  # a stored tool this version's check refuses (GET /tools)
+)
+def get_tool_fleet_law(
+    engine: EngineDep,
+    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
+    actor: Anyone,
+) -> dict[str, Any]:
+    """What the fleet learned of the tool's law: K, exponents and spreads beside the catalogue.
+
+    Per measured quantity, from the plans in the fleet, as a new plan's fleet prior starts;
+    counts only, no plan's name (a key scoped to plans sees it too).
+    """
+    return fleet_law(engine=engine, tool=name)
 
 
 @router.post(

@@ -165,6 +165,54 @@ class FleetList(Out):
     next_cursor: str | None
 
 
+class LawParameter(Out):
+    """One parameter of a tool's law after K: the fleet's belief and the catalogue prior's."""
+
+    name: str = Field(
+        description="an exponent's input (feed_mm_rev), or edge_rise: the rise "
+        "of ln Y over an edge's life"
+    )
+    fleet: float
+    fleet_sd: float = Field(description="a new machine's standard deviation of it")
+    catalogue: float
+    catalogue_sd: float
+
+
+class QuantityLaw(Out):
+    """What the fleet learned of one quantity's law (supervisor.fleet.law)."""
+
+    quantity: str
+    K: float = Field(description="the fleet's K (every input at 1 in its unit)")
+    catalogue_K: float
+    parameters: list[LawParameter]
+    reference: dict[str, float] = Field(
+        description="the inputs, in their units, where the machines' readings pin the law best"
+    )
+    law_sd: float = Field(description="sd of the fleet law's ln Y at reference [-]")
+    new_machine_sd: float = Field(
+        description="sd of ln Y at reference for a new machine's operation: the law, the "
+        "between-machine and the between-operation spreads [-]"
+    )
+    catalogue_sd: float = Field(description="sd of the catalogue prior's ln Y at reference [-]")
+    between_machine_spread: float = Field(description="learned spread of ln K between machines")
+    operation_spread: float = Field(description="learned spread of an operation's ln K")
+    plans: int
+    machines: int
+    readings: int
+    text: str = Field(description="the provenance as one line, as a new plan's prior shows it")
+
+
+class FleetLawOut(Out):
+    """What the fleet learned of a tool's law, per measured quantity, beside the catalogue.
+
+    From the plans in the fleet (GET /tools/{name}/fleet), at a new plan's default settings;
+    counts only, no plan's or machine's name. Empty: new plans start from the catalogue.
+    """
+
+    tool: str
+    quantities: list[QuantityLaw]
+
+
 #: The ``cursor`` of a list keyed by text (tools, model versions): an opaque token.
 TextCursor = Annotated[
     str | None,

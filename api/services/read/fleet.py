@@ -1,6 +1,7 @@
-"""A tool's fleet: the stored plans that use it, in the fleet or why not (``rcb fleet show``).
+"""A tool's fleet: its plans, in the fleet or why not, and what they learned of its law.
 
-A page of plans by id (:func:`db.fleet_members.members`); the cursor is the last plan's id.
+``rcb fleet show`` and ``rcb fleet law``. A page of plans by id
+(:func:`db.fleet_members.members`); the cursor is the last plan's id.
 """
 
 from __future__ import annotations
@@ -14,9 +15,11 @@ from sqlalchemy.orm import Session
 from api.services.errors import NotFoundError
 from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read, _token, _untoken
 from db import tables as t
+from db.fleet import tool_law
 from db.fleet_imported import imported_machines
 from db.fleet_members import members
 from models.catalogue import catalogue
+from supervisor.fleet.law import FleetLaw
 
 
 def fleet_members(
@@ -85,6 +88,39 @@ def imported_fleet(
         "tool": tool,
         "machines": [{**asdict(m), "in_fleet": not m.out} for _, m in rows],
         "next_cursor": _token(list(rows[-1][0])) if more else None,
+    }
+
+
+def fleet_law(*, engine: Engine, tool: str) -> dict[str, Any]:
+    """What the fleet learned of ``tool``'s law, per quantity, beside the catalogue's.
+
+    From the evidence new plans' fleet priors read (:func:`db.fleet.tool_law`); counts, no
+    plan's or machine's name. ``quantities`` empty: no plan in the fleet measured the tool,
+    and new plans start from the catalogue.
+    """
+    with _read(engine) as session, session.begin():
+        _known(session, tool)
+        laws = tool_law(session=session, tool=tool)
+    return {"tool": tool, "quantities": [_law_json(law) for law in laws]}
+
+
+def _law_json(law: FleetLaw) -> dict[str, Any]:
+    p = law.provenance
+    return {
+        "quantity": law.quantity,
+        "K": law.K,
+        "catalogue_K": law.catalogue_K,
+        "parameters": [asdict(parameter) for parameter in law.parameters],
+        "reference": law.reference,
+        "law_sd": law.law_sd,
+        "new_machine_sd": law.new_machine_sd,
+        "catalogue_sd": law.catalogue_sd,
+        "between_machine_spread": p.spread,
+        "operation_spread": p.operation_spread,
+        "plans": len(p.plans),
+        "machines": len(p.machines),
+        "readings": p.readings,
+        "text": p.describe(),
     }
 
 
