@@ -13,7 +13,7 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from api.cli.common import DbOption, emit, errors, say, shown
+from api.cli.common import DbOption, emit, errors, plan_of, say, shown
 from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
@@ -120,8 +120,8 @@ def keys_create(
     role: Annotated[str, typer.Option(help="mes, engineer or viewer.")],
     label: Annotated[str, typer.Option(help="Who or what the key is for.")] = "",
     plan: Annotated[
-        list[int] | None,
-        typer.Option(help="A plan id the key may see (repeat; none: every plan)."),
+        list[str] | None,
+        typer.Option(help="A plan the key may see, by id or name (repeat; none: every plan)."),
     ] = None,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
@@ -135,9 +135,9 @@ def keys_create(
     with errors():
         actor = cli_actor(by)
         migrate(url, database_field(db))
-        created = create_key(
-            engine=make_engine(url), role=role, label=label, plans=plan, actor=actor
-        )
+        engine = make_engine(url)
+        plans = None if plan is None else [plan_of(engine, p, "--plan") for p in plan]
+        created = create_key(engine=engine, role=role, label=label, plans=plans, actor=actor)
     if as_json:
         emit(created)
         return

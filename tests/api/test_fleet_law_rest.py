@@ -76,11 +76,13 @@ def test_a_key_scoped_to_a_plan_sees_the_law_without_names(server, runner) -> No
     any viewer does (its plans' own fleet priors show the same counts)."""
     tag = uuid.uuid4().hex[:8]
     with server.client("engineer") as eng, server.client("mes") as mes:
-        plan = str(_learn(eng, mes, f"{tag}-s", 2, 1))
+        plan_id = _learn(eng, mes, f"{tag}-s", 2, 1)
+    plan = f"fleet-{tag}-s"  # rcb keys create --plan takes a name too
     key = invoke(
         runner, "keys", "create", "--role", "viewer", "--plan", plan, "--json", "--db", server.url
     )
     assert key.exit_code == 0, key.output
+    assert json.loads(key.stdout)["plans"] == [plan_id]
     headers = {"Authorization": f"Bearer {json.loads(key.stdout)['key']}"}
     with httpx.Client(base_url=server.base, headers=headers, timeout=60.0) as scoped:
         seen = scoped.get("/tools/VCMR331/fleet/law")

@@ -195,6 +195,11 @@ def test_a_plan_that_does_not_exist_cannot_be_a_scope(server, runner):
     )
     assert r.exit_code == 2 and "--plan = 999999: no such plan" in r.stderr
     assert "Traceback" not in r.stderr
+    named = runner.invoke(
+        app, ["keys", "create", "--role", "mes", "--plan", "no-such-plan", "--db", server.url]
+    )
+    assert named.exit_code == 2, named.output
+    assert "--plan = 'no-such-plan': no plan named 'no-such-plan'" in named.stderr
     bad = runner.invoke(app, ["keys", "list", "--limit", "0", "--db", server.url])
     assert bad.exit_code == 2 and "--limit = 0" in bad.stderr
 
