@@ -65,18 +65,9 @@ def law(
     as_json: JsonOption = False,
 ) -> None:
     """What the fleet learned of TOOL's law: K, exponents and spreads beside the catalogue."""
-    from api.services.errors import NotFoundError
     from api.services.read.fleet import fleet_law
-    from models.errors import InputError
 
-    with errors():
-        engine = engine_of(db)
-        try:
-            found = fleet_law(engine=engine, tool=tool)
-        except NotFoundError:
-            raise InputError(
-                "TOOL", tool, "no such tool in the catalogue or the database"
-            ) from None
+    found = _read(fleet_law, tool, db)
     if as_json:
         sys.stdout.write(json.dumps(found) + "\n")
         return
@@ -147,20 +138,27 @@ def _page(
     fetch: Callable[..., dict[str, Any]], tool: str, cursor: str | None, limit: int, db: str | None
 ) -> dict[str, Any]:
     """A page of ``fetch``: the options' names in its errors, an unknown tool named."""
+    return _read(fetch, tool, db, cursor=cursor, page_size=limit)
+
+
+def _read(
+    fetch: Callable[..., dict[str, Any]], tool: str, db: str | None, **options: Any
+) -> dict[str, Any]:
+    """``fetch`` of ``tool``: its options named in its errors, an unknown tool named."""
     from api.services.errors import NotFoundError
     from models.errors import InputError
 
     with errors():
         engine = engine_of(db)
         try:
-            page = fetch(engine=engine, tool=tool, cursor=cursor, page_size=limit)
+            found = fetch(engine=engine, tool=tool, **options)
         except InputError as err:  # limit, cursor: the options' names
             raise as_option(err) from None
         except NotFoundError:
             raise InputError(
                 "TOOL", tool, "no such tool in the catalogue or the database"
             ) from None
-    return page
+    return found
 
 
 def _print_members(page: dict[str, Any], first: bool) -> None:
