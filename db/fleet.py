@@ -23,12 +23,13 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any
 
-from sqlalchemy import exists, or_, select
+from sqlalchemy import and_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet_noise import noise_provenance
 from db.fleet_states import newest_state
+from db.fleet_window import newest_imported, newest_local
 from db.let_go_mark import marked
 from db.library import load_tools
 from db.plan_state import settings_of
@@ -89,10 +90,21 @@ def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tu
     --machine lathe-1@6f1c2a3b``, :func:`abroad`).
     """
     names = sorted(set(tool_names))
+    m, window = t.ImportedModel, newest_imported(names)  # each machine's newest plans
+    kept = window.c
     imported = (
-        select(t.ImportedModel.origin, t.ImportedModel.machine, t.ImportedModel.body)
-        .where(t.ImportedModel.tool.in_(names))
-        .order_by(t.ImportedModel.id)
+        select(m.origin, m.machine, m.body)
+        .join(
+            window,
+            and_(
+                kept.tool == m.tool,
+                kept.origin == m.origin,
+                kept.machine == m.machine,
+                kept.plan == m.plan,
+            ),
+        )
+        .where(m.tool.in_(names))
+        .order_by(m.id)
     )
     rows = [
         (abroad(machine, origin), origin, body)
@@ -135,6 +147,7 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         return []
     tools = load_tools(session=session, names=names)
     b = t.BandState
+    window = newest_local(names)  # each machine's newest plans, not halted nor taken out
     rows = session.execute(
         select(
             t.Operation,
@@ -151,8 +164,8 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         .join(t.Plan, t.Operation.plan_id == t.Plan.id)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .join(b, b.id == newest_state())
-        .where(t.Tool.name.in_(names), t.Plan.halt.is_(None), b.posterior.is_not(None))
-        .where(~exists().where(_excluded))
+        .join(window, and_(window.c.plan_id == t.Plan.id, window.c.tool_id == t.Tool.id))
+        .where(b.posterior.is_not(None))
         .order_by(t.Plan.id, t.Operation.position, b.quantity)
     ).all()
     changes = plan_changes(session=session, plan_ids={op.plan_id for op, *_ in rows})
@@ -180,10 +193,6 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
             )
         )
     return out
-
-
-#: An engineer took the row's plan or its machine out of the fleet (``fleet_exclusions``).
-_excluded = or_(t.FleetExclusion.plan_id == t.Plan.id, t.FleetExclusion.machine == t.Machine.name)
 
 
 def plan_changes(*, session: Session, plan_ids: Iterable[int]) -> dict[int, int]:

@@ -6,7 +6,9 @@ each with its machine and whether its learned models are in the fleet (what
 out, its process changed beyond what an engineer accepted (at which part, and whether its
 readings since confirmed it or it is still to be judged: :mod:`db.fleet_changes`), it is
 halted, its strategy learns no posterior, or no part was reported since its bands were last
-reset. Four statements a page, however many plans use the tool and however many parts they made.
+reset, or it is older than its machine's newest plans with the tool
+(:mod:`supervisor.fleet.window`). Five statements a page, however many plans use the tool and
+however many parts they made.
 """
 
 from __future__ import annotations
@@ -21,8 +23,10 @@ from db import tables as t
 from db.errors import StoredSettingsError
 from db.fleet import plan_changes, priors_of
 from db.fleet_states import newest_state
+from db.fleet_window import newest_local
 from db.plan_state import plan_settings
 from supervisor.fleet.changes import JUDGED_AFTER
+from supervisor.fleet.window import PLANS_PER_MACHINE
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.posterior import from_json as posterior_from_json
 
@@ -74,6 +78,8 @@ def members(
         return []
     ids = [row.id for row, _, _ in plans]
     states = _states(session, tool, ids)
+    window = newest_local([tool])
+    newest = set(session.scalars(select(window.c.plan_id).where(window.c.plan_id.in_(ids))))
     changes = plan_changes(session=session, plan_ids=ids)
     exclusions = session.scalars(
         select(t.FleetExclusion)
@@ -86,7 +92,14 @@ def members(
         .order_by(t.FleetExclusion.id)
     ).all()
     return [
-        _member(row, machine, states.get(row.id, []), exclusions, (changes[row.id], serial))
+        _member(
+            row,
+            machine,
+            states.get(row.id, []),
+            exclusions,
+            (changes[row.id], serial),
+            row.id in newest,
+        )
         for row, machine, serial in plans
     ]
 
@@ -116,6 +129,7 @@ def _member(
     states: Sequence[tuple[str, t.BandState | None]],
     exclusions: Sequence[t.FleetExclusion],
     changes: tuple[int, str | None],
+    newest: bool,
 ) -> Member:
     operations = tuple(dict.fromkeys(op for op, _ in states))
     beliefs = {
@@ -135,9 +149,14 @@ def _member(
         machine,
         operations,
         sum(b.observations for b in beliefs.values()),
-        _why_out(row, machine, bool(beliefs), changes, exclusions),
+        _why_out(row, machine, bool(beliefs), changes, exclusions) or _older(machine, newest),
         let_go,
     )
+
+
+def _older(machine: str, newest: bool) -> str:
+    """Why a plan otherwise in is out: older than its machine's newest (fleet.window)."""
+    return "" if newest else f"older than {machine}'s {PLANS_PER_MACHINE} newest plans with it"
 
 
 def _widening(belief: Posterior | None) -> float:

@@ -30,6 +30,7 @@ from models.powerlaw import PowerLawModel
 from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted, opens_change
 from supervisor.fleet.noise import noise_priors
 from supervisor.fleet.prior import Learned, Provenance, fleet_priors
+from supervisor.fleet.window import newest_plans
 from supervisor.inputs.plan import Plan
 from supervisor.rcb.state import RcbSettings, RcbState
 from supervisor.rcb.update import start
@@ -209,7 +210,8 @@ def _learn(
             left_out += not found
             unconfirmed += bool(found and judged.unconfirmed)
             learned += found
-    return learned, violations, (left_out, unconfirmed)
+    # each machine's newest plans, as the database reads them (supervisor.fleet.window)
+    return newest_plans(learned), violations, (left_out, unconfirmed)
 
 
 class _Judged:
