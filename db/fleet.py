@@ -35,9 +35,8 @@ from db.library import load_tools
 from db.plan_state import settings_of
 from models.errors import InputError
 from supervisor.fleet.document import read_item
-from supervisor.fleet.law import FleetLaw, fleet_law
 from supervisor.fleet.noise import NoisePrior, noise_priors
-from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors, tool_beliefs
+from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
@@ -52,24 +51,6 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     return local_evidence(session=session, tool_names=names) + [
         replace(item, machine=abroad(item.machine, origin)) for origin, item in imported
     ]
-
-
-def tool_law(*, session: Session, tool: str) -> list[FleetLaw]:
-    """What the fleet learned of ``tool``'s law, per quantity (``rcb fleet law``).
-
-    From the evidence a new plan's fleet prior reads, at a new plan's default settings, the
-    spreads from the tool's own quantities (:func:`supervisor.fleet.prior.tool_beliefs`).
-    Empty: no plan in the fleet measured the tool.
-    """
-    learned = fleet_evidence(session=session, tool_names=[tool])
-    if not learned:
-        return []
-    stored = load_tools(session=session, names=[tool]).get(tool, learned[0].tool)
-    defaults = RcbSettings()
-    beliefs = tool_beliefs(
-        stored, learned, defaults.coverage_k, defaults.exponent_sd, defaults.edge_sd
-    )
-    return [fleet_law(belief) for belief in beliefs.values()]
 
 
 def abroad(machine: str, origin: str) -> str:
@@ -141,7 +122,11 @@ def imported_machine(*, session: Session, name: str) -> bool:
 
 
 def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learned]:
-    """The ``learn`` posteriors of the named tools in this database's plans (module docstring)."""
+    """The ``learn`` posteriors of the named tools in this database's plans (module docstring).
+
+    The plans' settings and stored priors are read once a plan (not once a model), and of the
+    band states only what the fleet reads.
+    """
     names = sorted(set(tool_names))
     if not names:
         return []
@@ -153,10 +138,10 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
             t.Operation,
             t.Tool.name,
             t.Plan.name,
-            t.Plan.settings,
             t.Machine.name,
-            b,
-            t.Plan.prior,
+            b.quantity,
+            b.posterior,
+            b.monitor,
             t.Plan.fleet_changes_accepted,
         )
         .join(t.Tool, t.Operation.tool_id == t.Tool.id)
@@ -168,15 +153,13 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         .where(b.posterior.is_not(None))
         .order_by(t.Plan.id, t.Operation.position, b.quantity)
     ).all()
-    changes = plan_changes(session=session, plan_ids={op.plan_id for op, *_ in rows})
-    changed = {plan for op, _, plan, *_, accepted in rows if changes.get(op.plan_id, 0) > accepted}
+    ids = {op.plan_id for op, *_ in rows}
+    changes = plan_changes(session=session, plan_ids=ids)
+    plans = _plans_read(session, ids)
     out = []
-    for op, tool, plan, stored, machine, state, started, _ in rows:
-        try:
-            settings = settings_of(stored)
-        except InputError:  # a stored value this version refuses: out (rcb fleet show: why)
-            continue
-        if plan in changed or settings.strategy != "learn":
+    for op, tool, plan, machine, quantity, posterior, monitor, accepted in rows:
+        settings, started = plans[op.plan_id]
+        if settings is None or changes.get(op.plan_id, 0) > accepted:
             continue
         out.append(
             Learned(
@@ -184,14 +167,38 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
                 plan,
                 _operation(op, tool),
                 tools[tool],
-                posterior_from_json(state.posterior),
+                posterior_from_json(posterior),
                 settings.coverage_k,
                 settings.exponent_sd,
                 settings.edge_sd,
-                priors_of(started).get((op.name, state.quantity)),
-                None if state.monitor is None else monitor_from_json(state.monitor).chain_noise,
+                started.get((op.name, quantity)),
+                None if monitor is None else monitor_from_json(monitor).chain_noise,
             )
         )
+    return out
+
+
+def _plans_read(
+    session: Session, plan_ids: Iterable[int]
+) -> dict[int, tuple[RcbSettings | None, dict[tuple[str, str], Posterior]]]:
+    """Per plan, its settings and the fleet priors it started from.
+
+    Settings None: not ``learn``, or a value this version refuses (out: ``rcb fleet show``
+    says why).
+    """
+    ids = sorted(set(plan_ids))
+    rows = session.execute(
+        select(t.Plan.id, t.Plan.settings, t.Plan.prior).where(t.Plan.id.in_(ids))
+    ).all()
+    out: dict[int, tuple[RcbSettings | None, dict[tuple[str, str], Posterior]]] = {}
+    for plan_id, stored, started in rows:
+        try:
+            settings: RcbSettings | None = settings_of(stored)
+        except InputError:
+            settings = None
+        if settings is not None and settings.strategy != "learn":
+            settings = None
+        out[plan_id] = (settings, priors_of(started))
     return out
 
 

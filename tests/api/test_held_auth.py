@@ -25,7 +25,7 @@ from api.services.plans import create_plan
 from db import tables as t
 from db.engine import make_engine, upgrade
 
-from conftest import DEMO_PLAN, report_at
+from conftest import DEMO_PLAN, engine_url, report_at
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
@@ -179,7 +179,7 @@ def test_every_answer_gives_the_connection_back(pg_setup):
     from api.rest.app import create_app
 
     engine, key, viewer, plan_id = pg_setup
-    app = create_app(engine.url.render_as_string(hide_password=False))
+    app = create_app(engine_url(engine))
     pool = app.state.engine.pool
     body = _body(engine, plan_id, "H-app")
     calls = [

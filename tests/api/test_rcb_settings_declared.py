@@ -23,7 +23,7 @@ from db.api_keys import create_key
 from supervisor.rcb.settings import SETTINGS
 from supervisor.rcb.state import RcbSettings
 
-from conftest import DEMO_PLAN, renamed, report_at, stored_state
+from conftest import DEMO_PLAN, engine_url, renamed, report_at, stored_state
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
@@ -60,7 +60,7 @@ def test_alpha_from_a_plan_file_reaches_the_law(engine, runner, tmp_path):
     text = DEMO_PLAN.read_text(encoding="utf-8").replace('name = "', 'name = "rcb-file-', 1)
     plan_file = tmp_path / "plan.toml"
     plan_file.write_text(text + '\n[rcb]\nstrategy = "ivester"\nalpha = 0.5\n', encoding="utf-8")
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     done = runner.invoke(app, ["plans", "create", str(plan_file), "--db", url, "--json"])
     assert done.exit_code == 0, done.output
     _alpha_reached_the_law(engine, json.loads(done.stdout)["id"], 0.5)
@@ -70,7 +70,7 @@ def test_alpha_from_rcb_replan_reaches_the_law(engine, runner):
     plan_id = create_plan(engine=engine, body=renamed(PLAN), settings=RcbSettings("ivester")).body[
         "id"
     ]
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     done = runner.invoke(app, ["replan", str(plan_id), "--rcb", "alpha=0.3", "--db", url])
     assert done.exit_code == 0, done.output
     state = stored_state(engine, plan_id)
@@ -81,7 +81,7 @@ def test_alpha_from_rcb_replan_reaches_the_law(engine, runner):
 def _client(engine) -> TestClient:
     with Session(engine) as session, session.begin():
         _, key = create_key(session=session, role="engineer")
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     return TestClient(create_app(url), headers={"Authorization": f"Bearer {key}"})
 
 
@@ -109,7 +109,7 @@ def test_bad_settings_are_named_with_their_value(engine, runner, tmp_path):
         assert refused.status_code == 422, refused.text
         assert refused.headers["content-type"].startswith("application/problem+json")
         assert refused.json()["field"] == field
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     plan_file = tmp_path / "plan.toml"
     for table, words in (
         ("alpha = 1.5", ["rcb.alpha", "1.5", "(0, 1]"]),
@@ -135,7 +135,7 @@ def test_the_settings_and_their_defaults_are_declared_once():
 
 
 def test_strategy_on_the_command_line_takes_precedence_over_the_file(engine, runner, tmp_path):
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     text = DEMO_PLAN.read_text(encoding="utf-8")
     for n, (options, strategy) in enumerate(
         (([], "bayes"), (["--strategy", "ivester"], "ivester"), (["--rcb", "z=5"], "bayes"))

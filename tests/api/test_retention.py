@@ -15,6 +15,8 @@ from api.services.throttle import FailureLimiter, FailureLog
 from db import audit, idempotency
 from db import tables as t
 
+from conftest import engine_url
+
 #: Ages of the stored rows.
 AUDIT_AGES = {"older than a year": timedelta(days=400), "a quarter": timedelta(days=90)}
 IDEMPOTENCY_AGES = {
@@ -47,7 +49,7 @@ def _left(engine) -> tuple[set[str], set[str]]:
 def test_prune_deletes_what_is_older_and_keeps_a_day_of_idempotency(runner, engine):
     """Before: no ``rcb db prune``; audit_log and idempotency_records grew for ever."""
     _seed(engine)
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     refused = runner.invoke(app, ["db", "prune", "--idempotency-older-than", "23h", "--db", url])
     assert refused.exit_code == 2 and "Traceback" not in refused.stderr
     assert "--idempotency-older-than = '23h'" in refused.stderr

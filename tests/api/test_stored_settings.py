@@ -36,7 +36,7 @@ from db.errors import StoredSettingsError
 from db.fleet_members import members
 from models.errors import InputError
 
-from conftest import report_at
+from conftest import engine_url, report_at
 
 #: Values this version refuses: ``alpha`` in (0, 1], ``z`` at least 1 (migration 0025).
 FAILING = {"alpha": 5.0, "z": 0.5}
@@ -102,7 +102,7 @@ def test_a_replan_that_sets_the_refused_values_anew_frees_the_plan(engine):
 def test_rcb_plans_and_plans_show_say_refused_and_the_repair_within_80_columns(engine):
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     _store(engine, plan_id, {"alpha": 5.0})
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     runner = CliRunner()
     for args in (["plans"], ["plans", "show", str(plan_id)]):
         done = runner.invoke(app, [*args, "--db", url], env={"COLUMNS": "80"})

@@ -30,7 +30,7 @@ from supervisor.fleet.changes import CONFIRM_Z
 from supervisor.virtual.fleet import noise_seed
 from supervisor.virtual.simulate import run_part
 
-from conftest import stored_state
+from conftest import engine_url, stored_state
 
 
 def _parts(engine, plan_id: int, serials: range, scale: float = 1.0) -> None:  # type: ignore[no-untyped-def]
@@ -179,7 +179,7 @@ def test_0023_marks_the_changes_0022_had_judged_confirmed(engine) -> None:
     _parts(engine, b, range(7, 10), scale=1.15)  # change at b-7, judged at b-12: not yet
     assert _cut(engine, b) is not None
     assert _confirmed_flags(engine) == {"fleet-a": True, "b": False}
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     engine.dispose()
     _downgrade(url, "0022")
     upgrade(url)

@@ -22,7 +22,8 @@ from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
 from db.engine import make_engine, upgrade
-from db.fleet import fleet_evidence, tool_law
+from db.fleet import fleet_evidence
+from db.fleet_law import tool_law
 from db.fleet_members import members
 from db.identity import database_id
 from models.errors import InputError
@@ -31,7 +32,7 @@ from supervisor.rcb.state import RcbSettings
 from supervisor.virtual.fleet import noise_seed, sample_fleet
 from supervisor.virtual.simulate import run_part
 
-from conftest import stored_state
+from conftest import engine_url, stored_state
 
 LEARN = RcbSettings(strategy="learn")
 
@@ -171,7 +172,7 @@ def test_a_fleet_prior_needs_a_fleet_and_learn(engine) -> None:
 def test_rcb_plans_create_prior_fleet_without_a_fleet_says_so_plainly(engine, runner) -> None:
     """The option's value, not its enum's repr (``prior = <Prior.fleet: 'fleet'>`` before)."""
     example = Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml"
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     done = runner.invoke(app, ["plans", "create", str(example), "--prior", "fleet", "--db", url])
     assert done.exit_code == 2
     assert "rcb: error: prior = 'fleet': no learn plan in the fleet has measured" in done.output
@@ -236,7 +237,7 @@ def test_a_document_that_is_not_one_stores_nothing(engine) -> None:
 
 def test_rcb_models_export_and_import_at_the_cli(engine, tmp_path, runner) -> None:
     _learned(engine, "fleet-a", 0, 2)
-    backend_url = engine.url.render_as_string(hide_password=False)
+    backend_url = engine_url(engine)
     out = tmp_path / "vcmr331.json"
     done = runner.invoke(
         app, ["models", "export", "VCMR331", "--out", str(out), "--db", backend_url]
@@ -268,7 +269,7 @@ def test_the_report_says_what_the_models_started_from(engine, tmp_path, runner) 
     _learned(engine, "fleet-a", 0, 2)
     _learned(engine, "fleet-b", 1, 2)
     create_plan(engine=engine, body=_body("fleet-c", "lathe-2"), settings=LEARN)
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     pages = {}
     for plan in ("fleet-a", "fleet-c"):
         out = tmp_path / f"{plan}.html"

@@ -17,6 +17,8 @@ from api.services.plans import create_plan, replan
 from db import tables as t
 from db.fleet import fleet_evidence
 
+from conftest import engine_url
+
 
 def _plans_behind(engine, name: str) -> list[str]:  # type: ignore[no-untyped-def]
     made = create_plan(engine=engine, body=_body(name, f"lathe-{name}"), settings=LEARN).body
@@ -61,7 +63,7 @@ def test_a_plan_whose_process_changed_is_out_until_an_engineer_accepts_it(engine
 
 def test_rcb_fleet_at_the_cli_names_what_is_wrong(engine, runner) -> None:
     _learned(engine, "fleet-a", 0, 2)
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     done = runner.invoke(
         app, ["fleet", "exclude", "--plan", "fleet-a", "--reason", "r", "--db", url]
     )

@@ -21,7 +21,7 @@ from supervisor.inputs.plan import plan_from_mapping
 from supervisor.virtual.fleet import noise_seed
 from supervisor.virtual.simulate import run_part
 
-from conftest import stored_state
+from conftest import engine_url, stored_state
 
 PLAN = plan_from_mapping(_body("fleet-d", "lathe-4"))
 
@@ -79,7 +79,7 @@ def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
     _report(engine, plan_id, "c-2", 0.85)
     again = get_plan(engine=engine, plan_id=plan_id)
     assert again["provenance"] == answers[0]["provenance"]  # said once, by the part that did it
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     shown = runner.invoke(app, ["plans", "show", "fleet-c", "--db", url], env={"COLUMNS": "80"})
     assert shown.exit_code == 0, shown.output
     assert "let go by" in shown.output and "c-1" in shown.output

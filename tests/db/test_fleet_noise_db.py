@@ -21,7 +21,7 @@ from supervisor.inputs.plan import plan_from_mapping
 from supervisor.virtual.fleet import noise_seed
 from supervisor.virtual.simulate import run_part
 
-from conftest import stored_state
+from conftest import engine_url, stored_state
 
 PLAN = plan_from_mapping(_body("fleet-n", "lathe-3"))
 
@@ -79,7 +79,7 @@ def test_a_plan_from_the_fleet_starts_its_chains_from_the_fleets_noise(engine, r
     for i in range(3):
         _report(engine, plan_id, f"c-{i + 1}", rng, 0.0)
     assert stored_state(engine, plan_id).noise_priors == state.noise_priors
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     shown = runner.invoke(app, ["plans", "show", "fleet-c", "--db", url], env={"COLUMNS": "80"})
     assert shown.exit_code == 0, shown.output
     assert "noise prior of each measuring chain" in shown.output

@@ -18,6 +18,8 @@ from db.engine import make_engine, upgrade
 from db.fleet import fleet_evidence
 from supervisor.rcb.state import RcbSettings
 
+from conftest import engine_url
+
 
 def _show(runner, url: str, *args: str) -> Any:  # type: ignore[no-untyped-def]
     return runner.invoke(app, ["fleet", "show", *args, "--db", url], env={"COLUMNS": "80"})
@@ -33,7 +35,7 @@ def test_the_fleet_of_a_tool_says_who_is_in_and_why_the_others_are_not(engine, r
         engine=engine, body=_body("fleet-c", "lathe-2"), settings=RcbSettings(strategy="ivester")
     )
     create_plan(engine=engine, body=_body("fleet-d", "lathe-3"), settings=LEARN)
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     shown = _show(runner, url, "VCMR331")
     assert shown.exit_code == 0, shown.output
     assert max(len(line) for line in shown.output.splitlines()) <= 80
@@ -68,7 +70,7 @@ def test_the_fleet_of_a_tool_says_who_is_in_and_why_the_others_are_not(engine, r
 
 
 def test_rcb_fleet_show_names_what_is_wrong(engine, runner) -> None:
-    url = engine.url.render_as_string(hide_password=False)
+    url = engine_url(engine)
     unused = _show(runner, url, "CNMG432RN")
     assert unused.exit_code == 0 and "no stored plan uses CNMG432RN" in unused.output
     _learned(engine, "fleet-a", 0, 1)

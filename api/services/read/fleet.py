@@ -15,8 +15,8 @@ from sqlalchemy.orm import Session
 from api.services.errors import NotFoundError
 from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read, _token, _untoken
 from db import tables as t
-from db.fleet import tool_law
 from db.fleet_imported import imported_machines
+from db.fleet_law import tool_law
 from db.fleet_members import members
 from models.catalogue import catalogue
 from supervisor.fleet.law import FleetLaw
