@@ -1,8 +1,8 @@
 """A machine speaks for a tool by its newest plans: the fleet's evidence is bounded by the plant.
 
 A new plan's fleet prior reads every learned model of its tools (:mod:`.prior`), so without a
-bound its cost grows with the plant's history: on SQLite, 2.5 s for 300 plans of the
-demonstration program on 3 machines (0.24 s with the bound, 2026-12-02), and a plan created
+bound its cost grows with the plant's history: on SQLite, 4.3 s for 300 plans of the
+demonstration program on 3 machines (0.19 s with the bound, 2026-12-02), and a plan created
 after a year of daily plans with a common insert waited many seconds. What one machine says
 about the fleet is bounded anyway: integrated over its offset, its evidence says at most
 ``σ_b`` about the fleet's ``ln K`` and ``σ_e e_i`` about each exponent (:mod:`.hierarchy`),
