@@ -179,6 +179,8 @@ def _print_members(page: dict[str, Any], first: bool) -> None:
     if first and not page["plans"]:
         start = "the imported models" if page["imported"] else "the catalogue"
         say(f"rcb: no stored plan uses {page['tool']}: new plans start from {start}")
+    elif first and any(not m["out"] for m in page["plans"]):
+        say(f"rcb: what they learned of its law: rcb fleet law {page['tool']}")
 
 
 @fleet_app.command("exclude")

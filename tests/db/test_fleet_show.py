@@ -46,6 +46,7 @@ def test_the_fleet_of_a_tool_says_who_is_in_and_why_the_others_are_not(engine, r
         "loose spindle",
         "no: strategy",
         "no: no part reported",
+        "rcb: what they learned of its law: rcb fleet law VCMR331",
     ):
         assert said in text, said
     page = json.loads(_show(runner, url, "VCMR331", "--json").stdout)
