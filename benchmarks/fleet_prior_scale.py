@@ -60,19 +60,7 @@ def _make(engine: Engine, fleet: Any, index: int, machines: int, parts: int) -> 
         current = current_setpoints(engine=engine, plan_id=plan_id)
         setpoints = {op["name"]: op["setpoint"] for op in current["operations"]}
         outcome = run_part(fleet[machine], setpoints, rng)
-        body = {
-            "serial": f"p{index}-{i}",
-            "setpoint_version": current["setpoint_version"],
-            "operations": [
-                {
-                    "name": op,
-                    "measurements": {
-                        q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in ms.items()
-                    },
-                }
-                for op, ms in outcome.measurements.items()
-            ],
-        }
+        body = outcome.report(f"p{index}-{i}", current["setpoint_version"])
         report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
 
 

@@ -55,20 +55,7 @@ class Lathe:
         setpoints = {op.name: op.setpoint for op in self.state.setpoints.operations}
         outcome = run_part(self.machine, setpoints, self.rng)
         self.count += 1
-        body = {
-            "serial": f"SN-{self.count:05d}",
-            "setpoint_version": self.state.version,
-            "operations": [
-                {
-                    "name": name,
-                    "measurements": {
-                        q: {"value": m.value, "uncertainty": m.uncertainty}
-                        for q, m in measured.items()
-                    },
-                }
-                for name, measured in outcome.measurements.items()
-            ],
-        }
+        body = outcome.report(f"SN-{self.count:05d}", self.state.version)
         self.state, _ = update(self.state, parse_report(body))
         return body
 

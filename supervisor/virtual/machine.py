@@ -31,7 +31,7 @@ import math
 import statistics
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from models import kinematics, quantities
 from models.errors import InputError
@@ -139,6 +139,19 @@ class PartOutcome:
     true_values: Mapping[str, Mapping[str, float]]
     violations: tuple[Violation, ...]
     dropped: tuple[tuple[str, str], ...] = ()
+
+    def report(self, serial: str, setpoint_version: int) -> dict[str, Any]:
+        """The part's report as the MES posts it (``POST /plans/{id}/parts``): its readings."""
+        operations = [
+            {
+                "name": op,
+                "measurements": {
+                    q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in ms.items()
+                },
+            }
+            for op, ms in self.measurements.items()
+        ]
+        return {"serial": serial, "setpoint_version": setpoint_version, "operations": operations}
 
 
 class Mono(NamedTuple):

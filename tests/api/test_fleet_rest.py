@@ -13,7 +13,6 @@ import numpy as np
 from test_service import BODY
 
 from api.cli.main import app
-from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.virtual.fleet import noise_seed, sample_fleet
 from supervisor.virtual.simulate import run_part
@@ -28,18 +27,6 @@ def _body(tag: str, machine: int) -> dict[str, Any]:
     return body
 
 
-def _measured(outcome: dict[str, dict[str, Measurement]]) -> list[dict[str, Any]]:
-    return [
-        {
-            "name": op,
-            "measurements": {
-                q: {"value": m.value, "uncertainty": m.uncertainty} for q, m in ms.items()
-            },
-        }
-        for op, ms in outcome.items()
-    ]
-
-
 def _learn(eng, mes, tag: str, machine: int, parts: int) -> int:  # type: ignore[no-untyped-def]
     """A plan on ``machine`` of the fleet, from the catalogue, after ``parts`` parts: its id."""
     created = eng.post("/plans", json=_body(tag, machine), params={"prior": "catalogue"})
@@ -50,11 +37,7 @@ def _learn(eng, mes, tag: str, machine: int, parts: int) -> int:  # type: ignore
         current = mes.get(f"/plans/{plan_id}/setpoints").json()
         setpoints = {op["name"]: op["setpoint"] for op in current["operations"]}
         outcome = run_part(FLEET[machine], setpoints, rng)
-        body = {
-            "serial": f"{tag}-{machine}-{i}",
-            "setpoint_version": current["setpoint_version"],
-            "operations": _measured(outcome.measurements),
-        }
+        body = outcome.report(f"{tag}-{machine}-{i}", current["setpoint_version"])
         r = mes.post(
             f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": body["serial"]}
         )

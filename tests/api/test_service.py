@@ -54,20 +54,7 @@ def _reports(n, seed=3, settings=None):
         outcome = run_part(
             machine, {op.name: op.setpoint for op in state.setpoints.operations}, rng
         )
-        body = {
-            "serial": f"SN-{i + 1:04d}",
-            "setpoint_version": state.version,
-            "operations": [
-                {
-                    "name": name,
-                    "measurements": {
-                        q: {"value": m.value, "uncertainty": m.uncertainty}
-                        for q, m in measured.items()
-                    },
-                }
-                for name, measured in outcome.measurements.items()
-            ],
-        }
+        body = outcome.report(f"SN-{i + 1:04d}", state.version)
         bodies.append(body)
         state, _ = update(state, parse_report(body))
     return bodies, state

@@ -66,20 +66,7 @@ def _made(engine, plan_id: int, machine: int, name: str, parts: int) -> None:  #
         outcome = run_part(
             FLEET[machine], {op.name: op.setpoint for op in state.setpoints.operations}, rng
         )
-        body = {
-            "serial": f"{name}-{i + 1}",
-            "setpoint_version": state.version,
-            "operations": [
-                {
-                    "name": op,
-                    "measurements": {
-                        q: {"value": m.value, "uncertainty": m.uncertainty}
-                        for q, m in measured.items()
-                    },
-                }
-                for op, measured in outcome.measurements.items()
-            ],
-        }
+        body = outcome.report(f"{name}-{i + 1}", state.version)
         assert report_part(engine=engine, plan_id=plan_id, report=parse_report(body)).status == 201
         state = stored_state(engine, plan_id)
 
