@@ -23,16 +23,15 @@ def _plans(engine) -> set[str]:  # type: ignore[no-untyped-def]
         return {item.plan for item in local_evidence(session=session, tool_names=["VCMR331"])}
 
 
-def _lathe_0(engine, plans: int) -> list[str]:  # type: ignore[no-untyped-def]
-    names = [f"w-{i}" for i in range(plans)]
-    for name in names:
-        _learned(engine, name, 0, 1)
-    return names
+def _lathe_0(engine, plans: int) -> dict[str, int]:  # type: ignore[no-untyped-def]
+    """``plans`` plans of lathe-0, one part each: their ids by name, oldest first."""
+    return {name: _learned(engine, name, 0, 1) for name in (f"w-{i}" for i in range(plans))}
 
 
 def test_a_machine_speaks_by_its_newest_plans_and_one_taken_out_lets_an_older_in(engine) -> None:
     assert PLANS_PER_MACHINE == 10
-    names = _lathe_0(engine, 12)
+    ids = _lathe_0(engine, 12)
+    names = list(ids)
     _learned(engine, "other", 1, 1)
     assert _plans(engine) == {*names[2:], "other"}
     page = fleet_members(engine=engine, tool="VCMR331")["plans"]
@@ -42,7 +41,7 @@ def test_a_machine_speaks_by_its_newest_plans_and_one_taken_out_lets_an_older_in
     with Session(engine) as session:  # the rule in memory picks the same plans
         learned = fleet_evidence(session=session, tool_names=["VCMR331"])
     assert newest_plans(learned) == learned
-    exclude_from_fleet(engine=engine, plan_id=12, machine=None, reason="wrong bar stock")
+    exclude_from_fleet(engine=engine, plan_id=ids["w-11"], machine=None, reason="wrong bar stock")
     assert _plans(engine) == {*names[1:11], "other"}  # w-11 out, w-1 back in
     page = fleet_members(engine=engine, tool="VCMR331")["plans"]
     out = {p["plan"]: p["out"] for p in page}
@@ -54,7 +53,7 @@ def test_an_export_carries_the_newest_plans_and_an_import_keeps_the_newest(engin
     """An export reads what a new plan reads. Imported first with w-0 … w-9 and then with w-2 …
     w-11, another database holds twelve plans of lathe-0 and speaks by the ten it imported
     last."""
-    names = _lathe_0(engine, 10)
+    names = list(_lathe_0(engine, 10))
     with Session(engine) as session:
         first = export_models(session=session, tool="VCMR331")
     names += [f"w-{i}" for i in (10, 11)]

@@ -94,7 +94,7 @@ def imported_fleet(
 def fleet_law(*, engine: Engine, tool: str) -> dict[str, Any]:
     """What the fleet learned of ``tool``'s law, per quantity, beside the catalogue's.
 
-    From the evidence new plans' fleet priors read (:func:`db.fleet.tool_law`); counts, no
+    From the evidence new plans' fleet priors read (:func:`db.fleet_law.tool_law`); counts, no
     plan's or machine's name. ``quantities`` empty: no plan in the fleet measured the tool,
     and new plans start from the catalogue.
     """
