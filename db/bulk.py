@@ -12,7 +12,8 @@ all in one statement, with data-modifying CTEs::
 The stored values are the same: floats travel as their shortest repr (``json.dumps``), which
 PostgreSQL's ``float8`` input reads back exactly; ``json`` columns keep the text
 ``json.dumps`` gives them (SQLAlchemy's serialiser), and a Python ``None`` in one is stored as
-JSON ``null``, as SQLAlchemy's ``JSON`` type does. Rows that this cannot carry exactly (not
+JSON ``null``, as SQLAlchemy's ``JSON`` type does (SQL NULL in a column ``JSON(none_as_null=
+True)``). Rows that this cannot carry exactly (not
 every column given, different keys per row, non-finite floats, values ``json`` cannot
 encode) and other databases go through ``executemany``. An update is the same: each
 row gives the primary key and the columns to set, and ``UPDATE ... FROM json_to_recordset``
@@ -240,7 +241,7 @@ def _statement(
     for i, ((is_update, table, _), shape) in enumerate(zip(work, shapes, strict=True)):
         value = {
             c: f"COALESCE(x.{quote(c)}, CAST('null' AS json))"
-            if isinstance(table.c[c].type, JSON)
+            if _null_is_json(table.c[c].type)
             else f"x.{quote(c)}"
             for c in shape
         }
@@ -261,3 +262,8 @@ def _statement(
     with _statements_lock:
         _statements[key] = statement
     return statement
+
+
+def _null_is_json(column_type: Any) -> bool:
+    """Whether a column stores Python's None as JSON ``null`` (a ``JSON`` column's default)."""
+    return isinstance(column_type, JSON) and not column_type.none_as_null

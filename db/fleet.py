@@ -1,11 +1,12 @@
 """What the stored plans learned with a set of tools: the fleet's evidence (issue 32).
 
-One statement reads, for every operation that uses one of the tools in a ``learn`` plan, the
-newest band state of each of its tool's quantities since the plan's bands were last reset
-(an index seek per pair on ``band_states (operation_id, quantity, part_id)``, the operations
-by ``ix_operations_tool``): the number of statements is the same for 10 plans as for 1000, and
-no cost grows with the parts they made. The tools' models come from one more statement
-(:func:`db.library.load_tools`), the plans' changes of their process from one more
+One statement reads, for every operation that uses one of the tools in a ``learn`` plan of
+each machine's newest plans with it (:mod:`db.fleet_window`), the newest band state of each of
+its tool's quantities since the plan's bands were last reset (an index seek per pair on
+``band_states (operation_id, quantity, part_id)``, the operations by
+``ix_operations_tool_machine_plan``): the number of statements is the same for 10 plans as for
+1000, and no cost grows with the plans and parts they made. The tools' models come from one
+more statement (:func:`db.library.load_tools`), the plans' changes of their process from one more
 (:func:`plan_changes`), and the models other databases exported and this one imported from a
 fourth (``imported_models``, by ``ix_imported_models_tool``).
 
@@ -132,10 +133,12 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         return []
     tools = load_tools(session=session, names=names)
     b = t.BandState
-    window = newest_local(names)  # each machine's newest plans, not halted nor taken out
+    # each machine's newest plans, not halted nor taken out: their operations, by id
+    window = newest_local(names, session.get_bind().dialect.name)
+    o = t.Operation
     rows = session.execute(
         select(
-            t.Operation,
+            o,
             t.Tool.name,
             t.Plan.name,
             t.Machine.name,
@@ -144,14 +147,13 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
             b.monitor,
             t.Plan.fleet_changes_accepted,
         )
-        .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+        .join(t.Tool, o.tool_id == t.Tool.id)
         .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
-        .join(t.Plan, t.Operation.plan_id == t.Plan.id)
+        .join(t.Plan, o.plan_id == t.Plan.id)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .join(b, b.id == newest_state())
-        .join(window, and_(window.c.plan_id == t.Plan.id, window.c.tool_id == t.Tool.id))
-        .where(b.posterior.is_not(None))
-        .order_by(t.Plan.id, t.Operation.position, b.quantity)
+        .where(o.id.in_(select(window.c.operation_id)), b.posterior.is_not(None))
+        .order_by(o.plan_id, o.position, b.quantity)
     ).all()
     ids = {op.plan_id for op, *_ in rows}
     changes = plan_changes(session=session, plan_ids=ids)

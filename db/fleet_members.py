@@ -56,29 +56,29 @@ def members(
 
     ``only``: just these plan ids (a REST key scoped to plans), filtered in the query.
     """
+    page = (  # the tool's plans after the cursor, on ix_operations_tool_plan
+        select(t.Operation.plan_id)
+        .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+        .where(t.Tool.name == tool, t.Operation.plan_id > after_id)
+        .distinct()
+        .order_by(t.Operation.plan_id)
+        .limit(limit)
+    )
+    if only is not None:
+        page = page.where(t.Operation.plan_id.in_(sorted(only)))
     query = (
         select(t.Plan, t.Machine.name, t.Part.serial)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .outerjoin(t.Part, t.Part.id == t.Plan.fleet_change_part)
-        .where(
-            t.Plan.id > after_id,
-            t.Plan.id.in_(
-                select(t.Operation.plan_id)
-                .join(t.Tool, t.Operation.tool_id == t.Tool.id)
-                .where(t.Tool.name == tool)
-            ),
-        )
+        .where(t.Plan.id.in_(page))
         .order_by(t.Plan.id)
-        .limit(limit)
     )
-    if only is not None:
-        query = query.where(t.Plan.id.in_(sorted(only)))
     plans = session.execute(query).all()
     if not plans:
         return []
     ids = [row.id for row, _, _ in plans]
     states = _states(session, tool, ids)
-    window = newest_local([tool])
+    window = newest_local([tool], session.get_bind().dialect.name)
     newest = set(session.scalars(select(window.c.plan_id).where(window.c.plan_id.in_(ids))))
     changes = plan_changes(session=session, plan_ids=ids)
     exclusions = session.scalars(

@@ -64,6 +64,7 @@ def add_plan(
         tool = ensure_tool(session=session, tool=plan.tools[op.tool])
         ops[op.name] = t.Operation(
             plan_id=plan_row.id,
+            machine_id=machine.id,
             position=position,
             name=op.name,
             process=op.process,

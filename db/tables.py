@@ -124,10 +124,14 @@ class Operation(Base):
     __table_args__ = (
         UniqueConstraint("plan_id", "name"),
         UniqueConstraint("plan_id", "position"),
-        Index("ix_operations_tool", "tool_id"),  # the fleet of a tool (db.fleet, alembic 0014)
+        # the fleet of a tool: its plans by id, each machine's newest first (alembic 0027)
+        Index("ix_operations_tool_plan", "tool_id", "plan_id"),  # db.fleet_members
+        Index("ix_operations_tool_machine_plan", "tool_id", "machine_id", "plan_id"),  # window
     )
     id: Mapped[int] = mapped_column(primary_key=True)
     plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))
+    #: The plan's machine (a plan keeps it for life), beside the tool for the fleet's window.
+    machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"))
     position: Mapped[int]
     name: Mapped[str] = mapped_column(String(200))
     process: Mapped[str] = mapped_column(String(20))
@@ -274,9 +278,10 @@ class BandState(Base):
     part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"))
     seen: Mapped[float]
     sigma: Mapped[float]
-    posterior: Mapped[dict[str, Any] | None]
-    wear: Mapped[dict[str, Any] | None]
-    monitor: Mapped[dict[str, Any] | None]
+    # None is SQL NULL (alembic 0027), so that ``IS NOT NULL`` finds the states with a belief
+    posterior: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
+    wear: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
+    monitor: Mapped[dict[str, Any] | None] = mapped_column(JSON(none_as_null=True))
 
 
 class ImportedModel(Base):
