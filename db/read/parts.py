@@ -23,11 +23,14 @@ def parts_page(
     limit: int,
     newest: bool = False,
     since: datetime | None = None,
-) -> tuple[list[t.Part], dict[int, list[t.Measurement]], dict[int, list[t.RcbDecision]]]:
-    """Up to ``limit`` parts with id > ``after_id``, oldest first, with measurements, decisions.
+) -> tuple[list[t.Part], dict[int, list[t.Measurement]], dict[int, list[t.RcbDecision]], bool]:
+    """Up to ``limit`` parts with id > ``after_id``, oldest first, and whether more follow.
+
+    With each part its measurements and decisions; one row more is read to tell what follows.
 
     ``newest``: the newest ``limit`` parts with id < ``after_id`` (0: the newest of all),
-    still returned oldest first. ``since``: only parts received at or after this time.
+    still returned oldest first (more: older ones). ``since``: only parts received at or
+    after this time.
     """
     query = select(t.Part).where(t.Part.plan_id == plan_id)
     if since is not None:
@@ -35,10 +38,12 @@ def parts_page(
     if newest:
         if after_id:
             query = query.where(t.Part.id < after_id)
-        parts = list(session.scalars(query.order_by(t.Part.id.desc()).limit(limit)))[::-1]
+        parts = list(session.scalars(query.order_by(t.Part.id.desc()).limit(limit + 1)))
+        more, parts = len(parts) > limit, parts[:limit][::-1]
     else:
         query = query.where(t.Part.id > after_id)
-        parts = list(session.scalars(query.order_by(t.Part.id).limit(limit)))
+        parts = list(session.scalars(query.order_by(t.Part.id).limit(limit + 1)))
+        more, parts = len(parts) > limit, parts[:limit]
     ids = [p.id for p in parts]
     measurements: dict[int, list[t.Measurement]] = defaultdict(list)
     if ids:
@@ -46,7 +51,7 @@ def parts_page(
             select(t.Measurement).where(t.Measurement.part_id.in_(ids)).order_by(t.Measurement.id)
         ):
             measurements[m.part_id].append(m)
-    return parts, measurements, decisions_of(session=session, part_ids=ids)
+    return parts, measurements, decisions_of(session=session, part_ids=ids), more
 
 
 def decisions_of(*, session: Session, part_ids: list[int]) -> dict[int, list[t.RcbDecision]]:

@@ -133,3 +133,24 @@ def test_parts_json_is_written_page_by_page(capsys):
 
     parts_view.stream_json(7, pages())
     assert capsys.readouterr().out.endswith('{"serial": "C"}\n]}\n')
+
+
+@pytest.mark.parametrize(
+    "args", [(), ("--last", "3"), ("--since", "1m"), ("--last", "3", "--json")]
+)
+def test_parts_of_a_plan_without_parts_say_so(runner, tmp_path, args):
+    """``rcb parts`` of a plan no part was reported to: a line saying so (it printed nothing,
+    and with ``--last`` a traceback: a new user's and an integrator's review, 2026-12-02)."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    create_plan(engine=engine, body=BODY)
+    engine.dispose()
+    result, _ = _run(runner, url, "parts", BODY["name"], *args)
+    assert result.exit_code == 0 and "Traceback" not in result.output, result.output
+    if "--json" in args:
+        assert json.loads(result.stdout)["parts"] == []
+    elif "--since" in args:
+        assert result.stdout.strip() == "plan 1: parts since 1m: none"
+    else:
+        assert result.stdout.strip() == "plan 1: parts: none reported yet"

@@ -114,6 +114,9 @@ def test_parts_pages_cover_every_part_once_in_order(server):
             if cursor is None:
                 break
         assert serials == [f"P{i}" for i in range(7)]
+        # a full last page ends the list: no cursor to an empty page (an integrator's review)
+        whole = c.get(f"/plans/{plan_id}/parts", params={"limit": 7}).json()
+        assert len(whole["items"]) == 7 and whole["next_cursor"] is None
         first = c.get(f"/plans/{plan_id}/parts", params={"limit": 1}).json()["items"][0]
         assert first["setpoint_version"] == 1
         assert first["operations"][0]["measurements"]["force_N"]["uncertainty"] == 3.0

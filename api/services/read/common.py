@@ -98,4 +98,15 @@ def _untoken(cursor: str, size: int) -> list[Any]:
         raise refused
     if size == 3 and not (0 <= values[0] <= t.MAX_INT and 0 <= values[1] <= t.MAX_INT):
         raise refused
+    if not all(_text(v) for v in values if isinstance(v, str)):  # "\ud800": no database holds it
+        raise refused
     return values
+
+
+def _text(value: str) -> bool:
+    """Whether ``value`` is text a database can hold: no lone surrogate (UTF-8 encodes it)."""
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True

@@ -41,7 +41,7 @@ def parts(
     with _read(engine) as session, session.begin():
         _plan(session, plan_id)
         names = {op.id: op.name for op, _ in operations(session=session, plan_id=plan_id)}
-        rows, measurements, decisions = parts_page(
+        rows, measurements, decisions, more = parts_page(
             session=session,
             plan_id=plan_id,
             after_id=after,
@@ -50,9 +50,8 @@ def parts(
             since=since,
         )
         items = [part_json(part, measurements[part.id], decisions[part.id], names) for part in rows]
-    more = len(rows) == page_size
-    edge = rows[0] if newest else rows[-1] if rows else None
-    return {"items": items, "next_cursor": str(edge.id) if edge is not None and more else None}
+    edge = (rows[0] if newest else rows[-1]) if rows and more else None
+    return {"items": items, "next_cursor": None if edge is None else str(edge.id)}
 
 
 def decisions(*, engine: Engine, plan_id: int, part_ids: list[int]) -> dict[int, list[Any]]:

@@ -66,7 +66,7 @@ def report_record(*, engine: Engine, plan_id: int, last: int = DEFAULT_LAST) -> 
     with _read(engine) as session, session.begin():
         ops = operations(session=session, plan_id=plan_id)
         names = {op.id: op.name for op, _ in ops}
-        parts, measurements, decisions = parts_page(
+        parts, measurements, decisions, _ = parts_page(
             session=session, plan_id=plan_id, after_id=0, limit=last, newest=True
         )
         count, received = db_record.part_totals(session=session, plan_id=plan_id)
