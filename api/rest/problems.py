@@ -97,7 +97,7 @@ def problem(
         "title": _TITLES.get(status, "Error"),
         "status": status,
         "detail": _detail(detail, value, field),
-        "instance": request.url.path,
+        "instance": clip(request.url.path),  # a path of a long name is not echoed whole
         "code": code,
         "field": None if field is None else clip(field),
         "value": echo(value),
@@ -150,8 +150,21 @@ def _detail(detail: str, value: object, field: str | None) -> str:
 
 
 async def _problem(request: Request, err: ProblemError) -> JSONResponse:
+    """``err`` as raised; an ``invalid`` one with its ``errors`` list, as every 422 has."""
+    errors = None
+    if err.code == "invalid":
+        errors = [
+            {"field": clip(err.field or "body"), "message": err.detail, "value": echo(err.value)}
+        ]
     return problem(
-        request, err.status, err.code, err.detail, err.field, err.value, headers=err.headers
+        request,
+        err.status,
+        err.code,
+        err.detail,
+        err.field,
+        err.value,
+        errors=errors,
+        headers=err.headers,
     )
 
 

@@ -161,6 +161,11 @@ def test_history_and_model_versions_record_every_change_with_its_cause(server):
         assert grooves["models"]["force_N"]["dK"] != contour["models"]["force_N"]["dK"]
         missing = c.get(f"/plans/{plan_id}/models/versions", params={"operation": "nope"})
         assert missing.status_code == 404 and missing.json()["field"] == "operation"
+        # a quantity no model of the plan has is named, not an empty list (a review, 12-02)
+        missing = c.get(f"/plans/{plan_id}/models/versions", params={"quantity": "bogus"})
+        assert missing.status_code == 404 and missing.json()["value"] == "bogus"
+        power = c.get(f"/plans/{plan_id}/models/versions", params={"quantity": "force_N"})
+        assert power.status_code == 200 and power.json()["versions"]
 
 
 def test_tools_can_be_added_read_back_and_used_by_a_plan(server):
@@ -367,3 +372,20 @@ def test_the_listener_of_several_workers_is_a_tcp_socket():
         assert err.value.field == "--port"
     finally:
         listener.close()
+
+
+def test_a_name_in_a_path_or_query_is_compared_as_a_body_gives_it(server):
+    """NFKC, no white space around it, as a name in a body (issue 29): full-width letters and
+    a trailing space found nothing before (404; an integrator's review, 2026-12-02)."""
+    with server.client("engineer") as c:
+        plain = c.get("/tools/CNMG432RN").json()
+        for spelled in ("ＣＮＭＧ432RN", "CNMG432RN ", " CNMG432RN"):
+            answer = c.get(f"/tools/{spelled}")
+            assert answer.status_code == 200 and answer.json() == plain, spelled
+            assert c.get(f"/tools/{spelled}/fleet/law").status_code == 200
+        hidden = c.get("/tools/CNMG\u200b432RN")  # a zero-width space: refused by name
+        assert hidden.status_code == 422 and hidden.json()["field"] == "name"
+        plan_id = c.post("/plans", json=renamed(PLAN), params={"strategy": "ivester"}).json()["id"]
+        url = f"/plans/{plan_id}/models/versions"
+        plain = c.get(url, params={"operation": "rough-od"}).json()
+        assert c.get(url, params={"operation": "rough-od "}).json() == plain

@@ -172,6 +172,10 @@ class Sweep:
                 self.failures.append("not problem+json: " + what)
             elif not r.json().get("field"):
                 self.failures.append("no field: " + what)
+            elif len(r.json()["instance"]) > 200:  # an error body echoes at most 200 characters
+                self.failures.append("instance echoed whole: " + what)
+            elif r.json()["code"] == "invalid" and not r.json().get("errors"):
+                self.failures.append("a 422 invalid without errors: " + what)
             elif r.status_code == 422 and r.json()["code"] != "infeasible":
                 if not names(r.json()["field"], where):
                     self.failures.append("another field: " + what)

@@ -6,10 +6,14 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Header, Path, Request
 from fastapi.responses import JSONResponse, Response
+from pydantic import AfterValidator
 
+from api.rest.schemas.common import NO_NUL
 from api.rest.strict import StrictRoute
 from api.services.idempotency import Idempotency, Written, fingerprint
 from db.tables import MAX_INT
+from models.bounds import MAX_IDENTITY
+from models.fields import identity
 
 #: Where the service lives (the web view is at /ui, api.report.ui).
 PREFIX = "/api/v1"
@@ -23,6 +27,20 @@ _KEY_DOC = (
 )
 
 PlanId = Annotated[int, Path(ge=1, le=MAX_ID)]
+
+
+def _named(value: str | None) -> str | None:
+    """A name in a path or a query, compared as a body's is (:func:`models.fields.identity`).
+
+    NFKC, no white space around it; None: not given.
+    """
+    return None if value is None else identity(value)
+
+
+#: A name as a path or query parameter gives it: ``/tools/ＣＮＭＧ432RN%20`` is CNMG432RN's.
+Named = AfterValidator(_named)
+#: A tool's name in a path (``/tools/{name}``).
+ToolName = Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL), Named]
 #: The Idempotency-Key header of a write that may go without one.
 OptionalKey = Annotated[str | None, Header(pattern=KEY_PATTERN, description=_KEY_DOC)]
 #: The Idempotency-Key header of a write that needs one (a part report).

@@ -9,7 +9,7 @@ from fastapi.responses import Response
 
 from api.rest.deps import Anyone, EngineDep
 from api.rest.rendering import page_response
-from api.rest.routes.common import PlanId, resource_router
+from api.rest.routes.common import Named, PlanId, resource_router
 from api.rest.schemas.common import NO_NUL, IdCursor
 from api.rest.schemas.review import History, ModelVersions, PlanModels
 from api.rest.schemas.tools import TextCursor
@@ -64,8 +64,8 @@ def model_versions(
     engine: EngineDep,
     plan_id: PlanId,
     actor: Anyone,
-    operation: Annotated[str | None, Query(max_length=MAX_IDENTITY, pattern=NO_NUL)] = None,
-    quantity: Annotated[str | None, Query(max_length=50, pattern=NO_NUL)] = None,
+    operation: Annotated[str | None, Query(max_length=MAX_IDENTITY, pattern=NO_NUL), Named] = None,
+    quantity: Annotated[str | None, Query(max_length=50, pattern=NO_NUL), Named] = None,
     cursor: TextCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
 ) -> dict[str, Any]:

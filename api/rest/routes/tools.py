@@ -4,13 +4,20 @@
 
 from typing import Annotated, Any
 
-from fastapi import Body, Path, Query, Request
+from fastapi import Body, Query, Request
 from fastapi.responses import Response
 
 from api.rest.answers import problems_at
 from api.rest.deps import Anyone, EngineDep, Engineer
-from api.rest.routes.common import REPLAYED, OptionalKey, answer, idempotency_of, resource_router
-from api.rest.schemas.common import NO_NUL, IdCursor
+from api.rest.routes.common import (
+    REPLAYED,
+    OptionalKey,
+    ToolName,
+    answer,
+    idempotency_of,
+    resource_router,
+)
+from api.rest.schemas.common import IdCursor
 from api.rest.schemas.tools import (
     FleetLawOut,
     FleetList,
@@ -23,7 +30,6 @@ from api.services import tools as use_cases
 from api.services.read import tools as read_tools
 from api.services.read.common import LIST_PAGE, MAX_PAGE
 from api.services.read.fleet import fleet_law, fleet_members, imported_fleet
-from models.bounds import MAX_IDENTITY
 from models.tool import tool_body
 
 router = resource_router("tools")
@@ -43,7 +49,7 @@ def list_tools(
 @router.get("/tools/{name}", response_model=ToolOut, operation_id="getTool")
 def get_tool(
     engine: EngineDep,
-    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
+    name: ToolName,
     actor: Anyone,
 ) -> dict[str, Any]:
     """One tool with its baseline models and their provenance."""
@@ -53,7 +59,7 @@ def get_tool(
 @router.get("/tools/{name}/fleet", response_model=FleetList, operation_id="getToolFleet")
 def get_tool_fleet(
     engine: EngineDep,
-    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
+    name: ToolName,
     actor: Anyone,
     cursor: IdCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
@@ -72,7 +78,7 @@ def get_tool_fleet(
 )
 def get_tool_fleet_imported(
     engine: EngineDep,
-    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
+    name: ToolName,
     actor: Anyone,
     cursor: TextCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
@@ -95,7 +101,7 @@ def get_tool_fleet_imported(
 )
 def get_tool_fleet_law(
     engine: EngineDep,
-    name: Annotated[str, Path(max_length=MAX_IDENTITY, pattern=NO_NUL)],
+    name: ToolName,
     actor: Anyone,
 ) -> dict[str, Any]:
     """What the fleet learned of the tool's law: K, exponents and spreads beside the catalogue.

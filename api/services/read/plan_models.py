@@ -64,6 +64,8 @@ def model_versions(
         position = {op.id: op.position for op, _ in ops if operation in (None, op.name)}
         names = {op.id: op.name for op, _ in ops}
         found = versions.pairs(session=session, operation_ids=sorted(position))
+        if quantity is not None and quantity not in {q for _, q in found}:
+            raise NotFoundError("quantity", quantity)  # as an unknown operation is
         listed = sorted(
             ((position[o], q, o) for o, q in found if quantity in (None, q)),
         )
