@@ -34,7 +34,7 @@ def report_readings(
         for quantity, measurement in measured.items()
     ]
     for name, wear in report.tool_wear.items():
-        check_quantity(state.tools[name], name, "tool_life_mm3")
+        check_quantity(state.tools[name], name, "tool_life_mm3", f"operations.{name}.tool_wear")
         wear_measured = tool_life_measured(
             state, *measured_at(operations[name], results[name], "tool_life_mm3"), wear
         )
@@ -57,12 +57,15 @@ def setpoints_of(state: RcbState, report: PartReport, made_with: PlanResult | No
     )
 
 
-def check_quantity(tool: Tool, operation: str, quantity: str) -> None:
-    """Refuse a quantity ``tool`` has no model of, naming what it can measure."""
+def check_quantity(tool: Tool, operation: str, quantity: str, where: str | None = None) -> None:
+    """Refuse a quantity ``tool`` has no model of, naming what it can measure.
+
+    ``where``: the report's field (default: the operation's measurement of ``quantity``).
+    """
     if quantity not in tool.models:
         known = ", ".join(q for q in tool.models if q != "tool_life_mm3") or "none"
         raise InputError(
-            f"operations.{operation}.{quantity}",
+            where or f"operations.{operation}.measurements.{quantity}",
             quantity,
             f"tool {tool.name!r} has no model of it; measurable: {known}",
         )

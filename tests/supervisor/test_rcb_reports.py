@@ -24,8 +24,14 @@ def state():
     ("measurements", "field"),
     [
         ({"nope": {"force_N": Measurement(1, 1)}}, "operations.nope"),
-        ({"rough-od": {"power_kW": Measurement(1, 1)}}, "operations.rough-od.power_kW"),
-        ({"finish-od": {"tool_life_mm3": Measurement(1, 1)}}, "operations.finish-od.tool_life_mm3"),
+        (
+            {"rough-od": {"power_kW": Measurement(1, 1)}},
+            "operations.rough-od.measurements.power_kW",
+        ),
+        (
+            {"finish-od": {"tool_life_mm3": Measurement(1, 1)}},
+            "operations.finish-od.measurements.tool_life_mm3",
+        ),
     ],
 )
 def test_bad_reports_are_refused_and_change_nothing(state, measurements, field):
@@ -117,5 +123,5 @@ def test_a_report_with_one_bad_quantity_changes_nothing(state):
     data["operations"][0]["measurements"]["forse_N"] = {"value": 1, "uncertainty": 0.5}
     with pytest.raises(InputError) as err:
         update(state, parse_report(data))
-    assert err.value.field == "operations.rough-od.forse_N"
+    assert err.value.field == "operations.rough-od.measurements.forse_N"
     assert state.tools["rough-od"].models["roughness_um"].dK == 14  # untouched
