@@ -221,7 +221,8 @@ async def _validation(request: Request, err: RequestValidationError) -> JSONResp
         {
             "field": clip(field_path(e.get("loc", ()))),
             "message": e.get("msg", ""),
-            "value": echo(e.get("input")),
+            # a missing field's "input" is the object it is missing from: no value to echo
+            "value": None if e.get("type") == "missing" else echo(e.get("input")),
         }
         for e in err.errors()[:MAX_ERRORS]
     ]
@@ -237,7 +238,9 @@ async def _validation(request: Request, err: RequestValidationError) -> JSONResp
             detail = "Idempotency-Key must be 1 to 255 visible ASCII characters"
             value = e.get("input")
             return problem(request, 400, "idempotency_key_invalid", detail, KEY_HEADER, value)
-    detail = f"{first['field']} = {first['value']!r}: {first['message']}"
+    missing = bool(err.errors()) and err.errors()[0].get("type") == "missing"
+    named = first["field"] if missing else f"{first['field']} = {first['value']!r}"
+    detail = f"{named}: {first['message']}"
     return problem(request, 422, "invalid", detail, first["field"], first["value"], errors=errors)
 
 

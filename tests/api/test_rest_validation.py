@@ -236,3 +236,17 @@ def test_a_body_of_1_mib_is_still_read(server, plan):
     assert len(padded.encode()) == MIB
     r = _post(server, plan, content=padded)
     assert r.status_code == 201, r.text
+
+
+@pytest.mark.parametrize("missing", ["serial", "setpoint_version"])
+def test_a_missing_field_is_named_without_echoing_the_body(server, plan, missing):
+    """The value of a missing field is null: it echoed the whole object the field was missing
+    from, in ``value`` and ``detail`` (an integrator's review, 2026-12-02)."""
+    body = _good(plan, f"MISSING-{next(_keys)}")
+    del body[missing]
+    r = _post(server, plan, body)
+    assert r.status_code == 422, r.text
+    problem = r.json()
+    assert (problem["field"], problem["value"]) == (missing, None)
+    assert problem["detail"] == f"{missing}: Field required"
+    assert problem["errors"][0] == {"field": missing, "message": "Field required", "value": None}
