@@ -122,10 +122,18 @@ def _change(value: float, reference: float | None) -> str:
 
 
 def stored_line(plan_id: int, name: str, url: str) -> str:
-    """Where the demonstration is stored and how to see it, filled to 80 columns."""
+    """Where the demonstration is stored, then each command that shows it on a line of its own.
+
+    The sentence is filled to 80 columns; a command is never broken (one longer than 80
+    columns stays one line), so it can be copied whole.
+    """
     db = f"--db {url}"
-    text = (
-        f"rcb: stored in {url} as plan {plan_id} ({name}): rcb history {plan_id} {db}, "
-        f"or one page to open: rcb report {plan_id} {db} --out demo.html"
+    told = textwrap.fill(
+        f"rcb: stored in {url} as plan {plan_id} ({name}); to see it:",
+        width=80,
+        subsequent_indent="  ",
+        break_on_hyphens=False,
+        break_long_words=False,
     )
-    return textwrap.fill(text, width=80, subsequent_indent="  ", break_on_hyphens=False)
+    commands = (f"rcb history {plan_id} {db}", f"rcb report {plan_id} {db} --out demo.html")
+    return "\n".join([told, *(f"  {command}" for command in commands)])

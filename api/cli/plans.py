@@ -31,7 +31,7 @@ from api.cli.common import (
     refused_line,
     say,
 )
-from api.cli.tables import new_table, short_number
+from api.cli.tables import PARAMETER_HEADINGS, new_table, short_number
 from api.cli.who import ByOption, cli_actor
 from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
@@ -264,13 +264,17 @@ def _show_tables(data: dict[str, Any], current: dict[str, Any] | None) -> list[T
 
 
 def _setpoint_table(title: str, operations: list[dict[str, Any]]) -> Table:
-    """One row per operation: tool, each cutting parameter, MRR."""
+    """One row per operation: tool, each cutting parameter, MRR.
+
+    A parameter's heading is the short one of ``rcb optimize`` (``ae`` over ``mm``): a name
+    such as ``radial_depth_mm`` would be folded mid-word at 80 columns.
+    """
     table = new_table(title=title)
     params = list(dict.fromkeys(k for op in operations for k in op["setpoint"]))
     table.add_column("operation", overflow="fold")
     table.add_column("tool", overflow="fold")
     for p in params:
-        table.add_column(p, justify="right")
+        table.add_column(PARAMETER_HEADINGS.get(p, p), justify="right")
     table.add_column("MRR\ncm³/min", justify="right")
     for op in operations:
         table.add_row(

@@ -195,17 +195,24 @@ def _bounded(option: str, count: int) -> int:
 
 
 def _history_table(data: dict[str, Any], operation: str | None) -> Table:
+    """A row per setpoint version; with ``operation`` its setpoint, predictions and binding.
+
+    One operation's table fits 80 columns with every word whole (a milling one too): the
+    version heads its cause, the setpoint's names are short (``feed=0.3557``) and so are the
+    parameters among the binding constraints (``feed``), a decision per line.
+    """
     title = f"plan {data['plan_id']}: setpoint versions" + (f", {operation}" if operation else "")
     table = new_table(title=title)
-    table.add_column("ver", justify="right")
-    table.add_column("cause, when")
     if operation is None:
+        table.add_column("ver", justify="right")
+        table.add_column("cause, when")
         table.add_column("cycle\nmin", justify="right")
         table.add_column("MRR cm³/min\nper operation")
     else:
+        table.add_column("version,\ncause, when")
         table.add_column("setpoint")
-        table.add_column("force N\n± band", justify="right")
-        table.add_column("roughness\nµm ± band", justify="right")
+        table.add_column("F N\n± band", justify="right")
+        table.add_column("Ra µm\n± band", justify="right")
         table.add_column("MRR\ncm³/min", justify="right")
         table.add_column("binding")
     table.add_column("decisions")
@@ -216,33 +223,36 @@ def _history_table(data: dict[str, Any], operation: str | None) -> Table:
         if operation is None:
             mrr = " ".join(short_number(o["mrr_cm3_min"]) for o in v["operations"])
             table.add_row(str(v["version"]), when, short_number(v["cycle_time_min"]), mrr, moved)
-            continue
-        op = v["operations"][0]
-        setpoint = "\n".join(
-            f"{k.split('_')[0]}={short_number(x)}" for k, x in op["setpoint"].items()
-        )
-        bands = [
-            f"{short_number(op['predicted'][q]['value'])}\n±{short_number(op['predicted'][q]['band'])}"
-            if q in op["predicted"]
-            else "-"
-            for q in ("force_N", "roughness_um")
-        ]
-        table.add_row(
-            str(v["version"]),
-            when,
-            setpoint,
-            *bands,
-            short_number(op["mrr_cm3_min"]),
-            "\n".join(op["binding"]),
-            moved,
-        )
+        else:
+            cells = _operation_cells(v["operations"][0])
+            table.add_row(f"ver {v['version']}\n{when}", *cells, moved)
     return table
+
+
+def _operation_cells(op: dict[str, Any]) -> list[str]:
+    """One operation's setpoint, force and roughness with their bands, MRR, binding constraints.
+
+    A cutting parameter is named by its first word (``feed=0.3557``, a binding ``feed``).
+    """
+    short = {k: k.split("_")[0] for k in op["setpoint"]}
+    bands = [
+        f"{short_number(op['predicted'][q]['value'])}\n±{short_number(op['predicted'][q]['band'])}"
+        if q in op["predicted"]
+        else "-"
+        for q in ("force_N", "roughness_um")
+    ]
+    return [
+        "\n".join(f"{short[k]}={short_number(x)}" for k, x in op["setpoint"].items()),
+        *bands,
+        short_number(op["mrr_cm3_min"]),
+        "\n".join(short.get(b, b) for b in op["binding"]),
+    ]
 
 
 def _decisions(decisions: list[dict[str, Any]], operation: str | None) -> str:
     """The decisions that moved a band or carry a mark: a line per operation (``op: q action``).
 
-    With ``operation`` only its own, without the operation's name.
+    With ``operation`` only its own, a line each, without the operation's name.
     """
     lines: dict[str, list[str]] = {}
     for d in decisions:
@@ -253,7 +263,7 @@ def _decisions(decisions: list[dict[str, Any]], operation: str | None) -> str:
                 f"{d['quantity']} {d['action']}{_marked(d)}"
             )
     if operation is not None:
-        return ", ".join(lines.get(operation, []))
+        return "\n".join(lines.get(operation, []))
     return "\n".join(f"{op}: {', '.join(moved)}" for op, moved in lines.items())
 
 
@@ -329,8 +339,12 @@ def parts(
             parts_view.stream_json(plan_key, pages)
             return
         title = f"plan {plan_key}: parts" + (f" since {since}" if since else "")
-        for page in pages:
+        shown = False
+        for page in filter(None, pages):
+            shown = True
             _out.print(parts_view.parts_table(title, page, short_number, _mark))
+        if not shown:  # an empty table says nothing: say why the list is empty
+            _out.print(f"{title}: none" + ("" if since else " reported yet"))
 
 
 def export(

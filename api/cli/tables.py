@@ -2,24 +2,32 @@
 
 Every table of every command is made by :func:`new_table` and fits the console (80 columns in
 a pipe, a log or a default terminal): cells wrap between words and a word wider than its
-column is folded onto the next line, never cut with an ellipsis, so no number is ever lost.
+column is folded onto the next line, never cut with an ellipsis, so no number is ever lost. A
+word holding a digit (``0.3557``, ``feed=0.3557``, a serial) is the last to be folded: only
+where the numbers alone are wider than the console.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from rich import box
-from rich.console import Console, ConsoleOptions, RenderResult
+from rich.cells import cell_len
+from rich.console import Console, ConsoleOptions, RenderableType, RenderResult
 from rich.measure import Measurement
-from rich.table import Table
+from rich.table import Column, Table
+from rich.text import Text
 
 from models.powerlaw import Prediction
 from models.quantities import DERIVED_QUANTITIES, MODEL_QUANTITIES
 
 if TYPE_CHECKING:  # only in signatures: the tables load no NumPy (rcb --help imports them)
     from supervisor.optimize.result import OperationResult, PlanResult
+
+#: A word holding a digit: a number, ``name=value``, a date, a serial (never folded).
+_DIGIT = re.compile(r"[0-9]")
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
 
@@ -63,24 +71,60 @@ class _FoldingTable(Table):
 def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> list[int] | None:
     """Column widths for a table wider than the console, or None (it fits, or only folding does).
 
-    Each column gets its longest word (a number is one word) or its ``min_width``, the rest of
-    the width goes to the columns in proportion to what they lack of their natural width.
+    Each column has five widths, each at least the one before (:func:`_levels`): its widest
+    word holding a digit (a number, ``feed=0.3557``, a date, a serial: never folded), its
+    heading's widest word, its ``min_width`` (a phrase kept on one line), its widest word, its
+    natural width. Every column gets the widest level the console holds for all of them, and
+    the rest of the width goes to the columns short of the next level, the widest cut first:
+    a narrow console folds a long name (``roughness_um``) before a heading, and a heading
+    before a number.
     """
     if any(column.width is not None for column in table.columns):
         return None
     wide = options.update(max_width=10**6)
-    ranges = []
-    for column in table.columns:
-        cells = [Measurement.get(console, wide, c) for c in (column.header, *column.cells)]
-        low, high = max(m.minimum for m in cells), max(m.maximum for m in cells)
-        low = max(low, min(column.min_width or 0, high))  # a phrase kept on one line
-        ranges.append((low, high))
-    least, most = sum(r[0] for r in ranges), sum(r[1] for r in ranges)
-    room = options.max_width - (Measurement.get(console, wide, table).maximum - most)
-    if most <= room or least > room:
+    levels = [_levels(console, wide, column) for column in table.columns]
+    natural = sum(level[-1] for level in levels)
+    room = options.max_width - (Measurement.get(console, wide, table).maximum - natural)
+    totals = [sum(level[k] for level in levels) for k in range(len(levels[0]))]
+    if totals[-1] <= room or totals[0] > room:
         return None
-    share = (room - least) / (most - least)
-    return [low + int(share * (high - low)) for low, high in ranges]
+    k = next(k for k, total in enumerate(totals) if total > room)
+    widths = [level[k] for level in levels]
+    while sum(widths) > room:  # one cell off the widest column still above its lower level
+        cut = max(
+            (i for i, level in enumerate(levels) if widths[i] > level[k - 1]),
+            key=lambda i: (widths[i], i),
+        )
+        widths[cut] -= 1
+    return widths
+
+
+def _levels(console: Console, wide: ConsoleOptions, column: Column) -> tuple[int, ...]:
+    """A column's widths: numbers whole, heading's words, min_width, words, natural width."""
+    cells = [Measurement.get(console, wide, c) for c in (column.header, *column.cells)]
+    natural = max([column.min_width or 0, *(m.maximum for m in cells)])  # as rich measures it
+    heading = _word_widths(console, wide, column.header)
+    body = [_word_widths(console, wide, c) for c in column.cells]
+    numbers = max([heading[0], *(b[0] for b in body)])
+    head = max(numbers, heading[1])
+    phrase = max(head, column.min_width or 0)
+    words = max([phrase, *(m.minimum for m in cells)])
+    return numbers, head, phrase, words, natural
+
+
+def _word_widths(console: Console, wide: ConsoleOptions, cell: RenderableType) -> tuple[int, int]:
+    """The widest word of a cell holding a digit, and its widest word (0 if none).
+
+    A cell that is not text (a nested table, a padding) is kept whole: both its minimum width.
+    """
+    if isinstance(cell, str):
+        cell = console.render_str(cell)
+    if not isinstance(cell, Text):
+        least = Measurement.get(console, wide, cell).minimum
+        return least, least
+    words = cell.plain.split()
+    numbers = max((cell_len(w) for w in words if _DIGIT.search(w)), default=0)
+    return numbers, max((cell_len(w) for w in words), default=0)
 
 
 def new_table(*headings: str, **options: Any) -> Table:

@@ -230,3 +230,76 @@ def test_optimize_json_on_an_infeasible_plan_is_a_problem_document(tmp_path):
     # the detail and the one line on stderr say the same, with the required limit
     assert done.stderr.strip() == f"rcb: infeasible: {body['detail']}"
     assert f"needs a limit of at least {conflict['required']:.4g}" in body["detail"]
+
+
+#: A ``name=value`` word of a table (``feed=0.3557``); its value up to the next blank.
+PAIR = re.compile(r"(?<!\S)([a-z]+)=(\S*)")
+
+
+@pytest.fixture(scope="module")
+def demos(tmp_path_factory) -> dict[str, subprocess.CompletedProcess[str]]:
+    """``rcb demo --parts 3`` of the lathe and of the end mill, each in a database of its own."""
+    where = tmp_path_factory.mktemp("demos")
+    runs = {}
+    for kind in ("turning", "milling"):
+        milling = ["--milling"] if kind == "milling" else []
+        runs[kind] = rcb("demo", "--parts", "3", *milling, "--db", f"sqlite:///{where / kind}.db")
+        assert runs[kind].returncode == 0, runs[kind].stderr
+    return runs
+
+
+def _url(run: subprocess.CompletedProcess[str]) -> str:
+    return run.args[run.args.index("--db") + 1]
+
+
+@pytest.mark.parametrize(
+    ("kind", "operation"),
+    [("turning", "rough-od"), ("turning", "finish-grooves"), ("milling", "slot")],
+)
+def test_one_operations_history_keeps_every_number_whole(demos, kind, operation):
+    """Before: ``feed=0.355`` then ``7`` on the next line (0.3557), ``axial=2.84`` then ``6``."""
+    args = ["history", "1", "--operation", operation, "--db", _url(demos[kind])]
+    shown = rcb(*args)
+    assert shown.returncode == 0, shown.stderr
+    fits(shown.stdout)
+    data = json.loads(rcb(*args, "--json").stdout)
+    expected = [
+        (name.split("_")[0], value)
+        for version in data["versions"]
+        for name, value in version["operations"][0]["setpoint"].items()
+    ]
+    pairs = PAIR.findall(shown.stdout)
+    assert [name for name, _ in pairs] == [name for name, _ in expected]
+    for (name, text), (_, value) in zip(pairs, expected, strict=True):
+        assert float(text) == pytest.approx(value, rel=5e-4), (name, text, value)
+    told = words(shown.stdout)
+    assert {f"{v['serial']}" for v in data["versions"] if v["serial"]} <= told
+    whole = {"version", "cause", "setpoint", "band", "Ra", "µm", "cm³/min", "binding"}
+    whole |= {"decisions", "roughness_um", "force_N"}  # headings, a binding, a decision
+    assert whole <= told, whole - told
+
+
+def test_plans_show_keeps_the_milling_headings_and_numbers_whole(demos):
+    """Before: the headings ``radial_depth_mm`` ... folded as ``radial_dept`` / ``h_mm``."""
+    args = ["plans", "show", "1", "--db", _url(demos["milling"])]
+    shown = rcb(*args)
+    assert shown.returncode == 0, shown.stderr
+    fits(shown.stdout)
+    data = json.loads(rcb(*args, "--json").stdout)
+    numbers = {fmt(x) for op in data["setpoints"]["operations"] for x in op["setpoint"].values()}
+    assert numbers <= words(shown.stdout), numbers - words(shown.stdout)
+    assert {"ap", "ae", "fz", "v", "m/min", "cm³/min"} <= words(shown.stdout)
+
+
+@pytest.mark.parametrize("kind", ["turning", "milling"])
+def test_demo_ends_on_its_commands_each_whole_on_a_line(demos, kind):
+    """Before: ``... rcb history`` / ``  1 --db sqlite:///rcb-demo.db ...`` (not copyable)."""
+    url = _url(demos[kind])
+    lines = demos[kind].stderr.splitlines()
+    assert lines[-2:] == [
+        f"  rcb history 1 --db {url}",
+        f"  rcb report 1 --db {url} --out demo.html",
+    ]
+    first = max(i for i, line in enumerate(lines) if line.startswith("rcb: stored in"))
+    told = " ".join(line.strip() for line in lines[first:-2])  # the sentence, filled
+    assert told.startswith(f"rcb: stored in {url} as plan 1 ") and told.endswith("to see it:")

@@ -20,6 +20,7 @@ that it is there, unchanged, and that its test command is the one ``.ci/run`` ru
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import signal
@@ -27,10 +28,12 @@ import socket
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 import pytest
 
+from conftest import invoke
 from docs_console import Command, commands, script
 from live import free_port
 
@@ -43,6 +46,15 @@ INSTALL = (
     'python3 -m venv .venv && .venv/bin/pip install -q -e ".[test]" && .venv/bin/python -m pytest',
 )
 SERVE = re.compile(r"^<!-- docs-test: serve -->$", re.MULTILINE)
+#: A ``toml`` block of a page: its text.
+TOML_BLOCK = re.compile(r"^```toml\n(.*?)^```", re.S | re.M)
+#: Each whole plan file a page shows (a ``toml`` block with a name and operations), by page.
+PLAN_BLOCKS = [
+    (page.relative_to(ROOT).as_posix(), text)
+    for page in PAGES
+    for text in TOML_BLOCK.findall(page.read_text(encoding="utf-8"))
+    if {"name", "operations"} <= set(tomllib.loads(text))
+]
 #: A hang guard on a page's whole run, server start included: try-a-machine takes 23 s on a quiet
 #: host and passed 150 s once with both cores oversubscribed (issue 30 point 8: no failure
 #: that is only the host's speed).
@@ -126,6 +138,21 @@ def test_every_command_of_the_page_runs_and_prints_what_it_shows(page, tmp_path)
         out = file.read_text(errors="replace") if file.exists() else ""
         missing = cmd.expects_in(out)
         assert not missing, f"{cmd.page}:{cmd.line}: $ {cmd.text}\nmissing {missing}\n{out[-3000:]}"
+
+
+def test_the_plan_file_guide_shows_a_plan_file_that_runs():
+    assert "docs/guide/plan-files.md" in [page for page, _ in PLAN_BLOCKS]
+
+
+@pytest.mark.parametrize(("page", "text"), PLAN_BLOCKS, ids=[p for p, _ in PLAN_BLOCKS])
+def test_every_plan_file_of_the_docs_is_optimized(runner, tmp_path, page, text):
+    """Before: plan-files.md's limited roughness_um with no roughness model for its tool."""
+    plan = tmp_path / "snippet.toml"
+    plan.write_text(text, encoding="utf-8")
+    done = invoke(runner, "optimize", str(plan), "--json")
+    assert done.exit_code == 0, f"{page}: {done.stderr}"
+    name = tomllib.loads(text)["name"]
+    assert json.loads(done.stdout)["plan"] == name
 
 
 def test_readme_opens_with_the_two_install_commands_ci_runs():
