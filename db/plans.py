@@ -59,24 +59,7 @@ def add_plan(
     )
     session.add(plan_row)
     session.flush()
-    ops: dict[str, t.Operation] = {}
-    for position, op in enumerate(plan.operations):
-        tool = ensure_tool(session=session, tool=plan.tools[op.tool])
-        ops[op.name] = t.Operation(
-            plan_id=plan_row.id,
-            machine_id=machine.id,
-            position=position,
-            name=op.name,
-            process=op.process,
-            tool_id=tool.id,
-            volume_mm3=op.volume_mm3,
-            limits=dict(op.limits),
-            bounds={k: list(v) for k, v in op.bounds.items()},
-            context=dict(op.context),
-        )
-    session.add_all(ops.values())
-    session.flush()
-    ids = {name: row.id for name, row in ops.items()}
+    ids = _add_operations(session, plan, plan_row.id, machine.id)
     session.execute(
         insert(t.OperationModelVersion),
         [
@@ -95,6 +78,28 @@ def add_plan(
         part_id=None,
     )
     return plan_row.id
+
+
+def _add_operations(session: Session, plan: Plan, plan_id: int, machine_id: int) -> dict[str, int]:
+    """Store the plan's operations (their tools if new); the id of each by name."""
+    ops: dict[str, t.Operation] = {}
+    for position, op in enumerate(plan.operations):
+        tool = ensure_tool(session=session, tool=plan.tools[op.tool])
+        ops[op.name] = t.Operation(
+            plan_id=plan_id,
+            machine_id=machine_id,
+            position=position,
+            name=op.name,
+            process=op.process,
+            tool_id=tool.id,
+            volume_mm3=op.volume_mm3,
+            limits=dict(op.limits),
+            bounds={k: list(v) for k, v in op.bounds.items()},
+            context=dict(op.context),
+        )
+    session.add_all(ops.values())
+    session.flush()
+    return {name: row.id for name, row in ops.items()}
 
 
 def new_token() -> str:

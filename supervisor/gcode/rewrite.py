@@ -220,9 +220,11 @@ def _edit(
     quantity: Quantity,
     mode: str,
 ) -> None:
-    run.edits.append((word.number_start, word.end, number))
     old = block.text[word.start : word.end]  # whole: a change says exactly what it replaced
     new = block.text[word.start : word.number_start] + number
+    if new == old:  # the setpoint's number as written already: nothing to change or count
+        return
+    run.edits.append((word.number_start, word.end, number))
     change = Change(block.line, word.start + 1, op.name, old, new, quantity, mode)
     run.changes.add(block.line, change)
     run.by_operation[op.name] = run.by_operation.get(op.name, 0) + 1

@@ -1,25 +1,20 @@
 """``rcb gcode`` counts a word as changed only where its text changes (new-user review, item 3).
 
 The demonstration program's finish-od block holds ``S190`` and the plan's finish-od speed is
-190 m/min: it printed ``S190 → S190`` and ``6 words changed`` where 5 differ. The count is made
-in ``supervisor/gcode/rewrite.py`` (``_edit``), which this change may not edit: the test is
-expected to fail until it counts (and lists) only a word whose text differs; then the
-``xfail`` goes, and ``tests/supervisor/test_gcode_cli.py`` expects ``5 words changed``.
+190 m/min: it printed ``S190 → S190`` and ``6 words changed`` where 5 differ. A word whose
+text the setpoint leaves as it is is neither rewritten, listed nor counted
+(``supervisor/gcode/rewrite.py``, ``_edit``).
 """
 
 from __future__ import annotations
 
 import json
 
-import pytest
 from gcode_support import cli_args, store_demo_plan
 
 from conftest import invoke
 
 
-@pytest.mark.xfail(
-    strict=True, reason="supervisor/gcode/rewrite.py _edit counts S190 -> S190 as a change"
-)
 def test_a_word_that_keeps_its_text_is_not_counted_as_changed(runner, tmp_path_factory):
     url, plan_id, _ = store_demo_plan(tmp_path_factory)
     out = tmp_path_factory.mktemp("out") / "OUT.nc"
