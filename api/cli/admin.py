@@ -13,7 +13,7 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from api.cli.common import DbOption, emit, errors, plan_of, say, shown
+from api.cli.common import DbOption, emit, errors, plan_of, say, say_filled, shown
 from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
@@ -104,7 +104,7 @@ def db_prune(
     if as_json:
         emit(pruned)
         return
-    say(
+    say_filled(
         f"rcb: deleted {pruned['audit_log']} audit entries older than {audit_older_than} and "
         f"{pruned['idempotency_records']} idempotency records older than "
         f"{idempotency_older_than}"

@@ -15,7 +15,7 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from api.cli.common import DbOption, emit, engine_of, errors, plan_of, say
+from api.cli.common import DbOption, emit, engine_of, errors, plan_of, say_command
 from api.cli.tables import new_table
 from api.services import request_limits
 
@@ -68,7 +68,8 @@ def audit(
         # not --db: it may hold a password
         again = [("--action", action), ("--actor", actor), ("--since", since), ("--plan", plan)]
         kept = "".join(f" {name} {shlex.quote(value)}" for name, value in again if value)
-        say(f"rcb: older entries: rcb audit{kept} --cursor {page['next_cursor']} --limit {limit}")
+        again_command = f"rcb audit{kept} --cursor {page['next_cursor']} --limit {limit}"
+        say_command("rcb: older entries:", again_command)
 
 
 def _table(entries: list[dict[str, Any]]) -> Any:

@@ -20,7 +20,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -38,15 +38,33 @@ err_console = Console(stderr=True)
 if TYPE_CHECKING:
     from sqlalchemy import Engine
 
-    StrategyName = str
-else:  # the choices typer offers and checks, from the registry (never restated)
-    StrategyName = Literal[STRATEGY_NAMES]
 #: The help of every ``--strategy``: each registered strategy with its summary.
 STRATEGY_HELP = (
     "RCB strategy: " + "; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values()) + "."
 )
+
+
+def _strategy(value: str) -> str:
+    """``--strategy``: a name of the registry, read when the option is (a plug-in may add one).
+
+    Checked here, not by a ``Literal`` of typer: typer's message was its own and pydantic's
+    (``Value error, 'foo' is not one of 'learn', ...``); this is one line of ``rcb``'s.
+    """
+    if value not in REGISTRY:
+        raise InputError("--strategy", value, f"must be one of {', '.join(REGISTRY)}")
+    return value
+
+
 #: ``--strategy``: a name of :data:`supervisor.rcb.strategies.REGISTRY`, its summary in the help.
-StrategyOption = Annotated[StrategyName, typer.Option("--strategy", help=STRATEGY_HELP)]
+StrategyOption = Annotated[
+    str,
+    typer.Option(
+        "--strategy",
+        metavar=f"<{'|'.join(STRATEGY_NAMES)}>",
+        help=STRATEGY_HELP,
+        callback=_strategy,
+    ),
+]
 
 
 def _setting_help() -> str:
@@ -86,9 +104,50 @@ DbOption = Annotated[
 ]
 
 
+class MissingOptionError(InputError):
+    """An option the command needs here was not given (``--feed-mm-rev: required for ...``).
+
+    There is no value to echo: the message names the option alone, not ``= None``.
+    """
+
+    def __init__(self, option: str, reason: str) -> None:
+        super().__init__(option, None, reason)
+        self.args = (f"{option}: {reason}",)
+
+
 def say(text: str) -> None:
     """One message on stderr, as written (no markup, no wrapping)."""
     err_console.print(text, markup=False, highlight=False, soft_wrap=True)
+
+
+#: The width a message is filled to: an 80-column terminal's.
+WIDTH = 80
+
+
+def say_filled(text: str) -> None:
+    """One message filled to :data:`WIDTH` columns, its later lines indented by two.
+
+    A word is never broken (a path or URL longer than a line keeps a line of its own).
+    """
+    say(
+        textwrap.fill(
+            text,
+            width=WIDTH,
+            subsequent_indent="  ",
+            break_on_hyphens=False,
+            break_long_words=False,
+        )
+    )
+
+
+def say_command(intro: str, command: str) -> None:
+    """``intro command`` on one line when it fits :data:`WIDTH`; else the command alone below.
+
+    The command is never broken, so it can be copied whole (one longer than a line stays one
+    line, as ``rcb demo``'s are: :func:`api.cli.demo_view.stored_line`).
+    """
+    line = f"{intro} {command}"
+    say(line if len(line) <= WIDTH else f"{intro}\n  {command}")
 
 
 def as_option(err: InputError) -> InputError:
@@ -117,7 +176,7 @@ def errors() -> Iterator[None]:
         yield
     except (InputError, NotFoundError, ConflictError) as err:
         for each in err.errors if isinstance(err, InputErrors) else (err,):  # a plan's every one
-            say(f"rcb: error: {each}")
+            say(f"rcb: error: {told(each)}")
         raise typer.Exit(2) from None
     except InfeasibleError as err:
         say(f"rcb: infeasible: {err}")
@@ -134,6 +193,20 @@ def errors() -> Iterator[None]:
         first = str(err).splitlines()[0] if str(err).strip() else err.__class__.__name__
         say(f"rcb: error: --db: cannot use this database ({first})")
         raise typer.Exit(2) from None
+
+
+def told(err: Exception) -> str:
+    """An error of the input as ``rcb`` says it: mostly as it is.
+
+    A plan id the database does not hold is the service's ``plan_id = 99: not found`` (REST's
+    field and value); on the command line it is said as an unknown name is
+    (:func:`plan_of`): the PLAN argument, and where to find the plans. The commands whose
+    use cases raise it take the plan as PLAN (``plans show``, ``history``, ``parts``,
+    ``replan``, ``export``, ``gcode``); those with a ``--plan`` option say their own.
+    """
+    if isinstance(err, NotFoundError) and err.field == "plan_id":
+        return f"PLAN = {err.value!r}: no plan with id {err.value!r} (rcb plans lists them)"
+    return str(err)
 
 
 def _database_error(err: Exception) -> bool:

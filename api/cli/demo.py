@@ -96,13 +96,14 @@ def demo(
     from api.services.demo import demo_plan
     from api.services.demo import stored as store_parts
     from db.engine import make_engine
-    from supervisor.inputs.plan import load_plan
+    from supervisor.inputs.plan import plan_from_mapping
     from supervisor.rcb.state import RcbSettings
 
     with errors():
         settings = RcbSettings(strategy=strategy, alpha=alpha)
         with _plan_path(plan_file, milling) as path:
-            plan, body = load_plan(path), read_plan_file(path)
+            body = read_plan_file(path, "plan file")  # read once, JSON or TOML
+        plan = plan_from_mapping(body)
         url = db or DEMO_DATABASE
         migrate(url)
         engine = make_engine(url)

@@ -15,7 +15,16 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from api.cli.common import DbOption, JsonOption, as_option, engine_of, errors, plan_of, say
+from api.cli.common import (
+    DbOption,
+    JsonOption,
+    as_option,
+    engine_of,
+    errors,
+    plan_of,
+    say,
+    say_command,
+)
 from api.cli.tables import fmt, new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
@@ -55,7 +64,8 @@ def show(
         return
     _print_members(page, first=cursor is None)
     if page["next_cursor"] is not None:
-        say(f"rcb: next page: rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}")
+        again = f"rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}"
+        say_command("rcb: next page:", again)
 
 
 @fleet_app.command("law")
@@ -128,10 +138,8 @@ def imported(
     if cursor is None and not page["machines"]:
         say(f"rcb: no model of {tool} was imported (rcb models import FILE)")
     if page["next_cursor"] is not None:
-        say(
-            f"rcb: next page: rcb fleet imported {tool} --cursor {page['next_cursor']} "
-            f"--limit {limit}"
-        )
+        again = f"rcb fleet imported {tool} --cursor {page['next_cursor']} --limit {limit}"
+        say_command("rcb: next page:", again)
 
 
 def _page(

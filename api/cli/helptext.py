@@ -12,6 +12,12 @@ source line wrapped again on its own and the help read ragged (``rcb plans creat
 ``id, which`` alone on a line). Each paragraph is joined into one line here (:func:`reflowed`) and
 Rich wraps it to the terminal; a list item (``- ``, ``1. ``) keeps its own line, and a
 paragraph that starts with a backspace (Click's mark for "as written") is kept as written.
+
+A docstring marks a literal with double backquotes, as reStructuredText does; the terminal
+showed them as written (``rcb replan --help``: two backquotes either side of ``--rcb
+NAME=VALUE``), so the help shows the literal alone (:func:`unquoted`). The generated CLI
+reference (``docs/hooks/cli_reference.py``) reads the docstring itself, where Markdown makes
+the same marks code.
 """
 
 from __future__ import annotations
@@ -22,8 +28,15 @@ from typing import Any
 from rich.markup import escape
 
 _ESCAPED = "_rcb_help_escaped"
+#: A reStructuredText literal (double backquotes either side): its text is what the help shows.
+_LITERAL = re.compile(r"``(.+?)``", re.DOTALL)
 #: A line that starts a list item keeps its own line: ``- item``, ``* item``, ``1. item``.
 _ITEM = re.compile(r"\s*(?:[-*•]|\d+[.)])\s")
+
+
+def unquoted(text: str) -> str:
+    """``text`` with each reStructuredText literal's backticks off."""
+    return _LITERAL.sub(r"\1", text)
 
 
 def reflowed(text: str) -> str:
@@ -51,11 +64,11 @@ def escape_tree(command: Any) -> None:
     for name in ("help", "short_help", "epilog"):
         text = getattr(command, name, None)
         if isinstance(text, str):
-            setattr(command, name, escape(reflowed(text)))
+            setattr(command, name, escape(unquoted(reflowed(text))))
     for param in getattr(command, "params", ()):
         text = getattr(param, "help", None)
         if isinstance(text, str) and not getattr(param, _ESCAPED, False):
-            param.help = escape(reflowed(text))
+            param.help = escape(unquoted(reflowed(text)))
             setattr(param, _ESCAPED, True)
     for sub in getattr(command, "commands", {}).values():
         escape_tree(sub)

@@ -28,7 +28,7 @@ from api.cli.common import (
     errors,
     existing_engine,
     plan_of,
-    say,
+    say_filled,
     shown,
     write_atomically,
 )
@@ -97,7 +97,7 @@ def html_report(
         page = render_record(data)
         write_atomically(out, page.encode("utf-8"))
     size = len(page.encode("utf-8"))
-    say(
+    say_filled(
         f"rcb: wrote {out}: plan {plan_key} {data['plan']['name']}, {data['totals']['parts']} "
         f"parts ({len(data['parts'])} plotted), setpoint version "
         f"{data['history']['versions'][-1]['version']}, {size / 1000:.0f} kB"

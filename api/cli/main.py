@@ -38,6 +38,7 @@ from api.cli.models import models_app
 from api.cli.optimize import optimize, predict
 from api.cli.tools import tools_app
 from api.cli.virtual import virtual_app
+from models.errors import InputError
 
 
 class _OneLineErrors(TyperGroup):
@@ -74,6 +75,9 @@ class _OneLineErrors(TyperGroup):
                 message = f"{message} (got {given})"
             typer.echo(f"rcb: error: {message}", err=True)
             sys.exit(err.exit_code)
+        except InputError as err:  # an option's own check as it is read (--strategy)
+            typer.echo(f"rcb: error: {err}", err=True)
+            sys.exit(2)
         except typer.Abort:
             typer.echo("rcb: aborted", err=True)
             sys.exit(1)

@@ -30,7 +30,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from api.cli.common import emit, errors, number_cell
+from api.cli.common import MissingOptionError, emit, errors, number_cell
 from api.cli.tables import new_table
 from models.errors import InputError
 from models.sensors import calibration_to_mapping, linear_current_calibration_from_mapping
@@ -163,9 +163,9 @@ def _strength(force_N: float | None, path: Path | None) -> ForceLimit | None:
     if force_N is None and path is None:
         return None
     if path is None:
-        raise InputError("--force-calibration", None, "required with --strength-force-N")
+        raise MissingOptionError("--force-calibration", "required with --strength-force-N")
     if force_N is None:
-        raise InputError("--strength-force-N", None, "required with --force-calibration")
+        raise MissingOptionError("--strength-force-N", "required with --force-calibration")
     if not (math.isfinite(force_N) and force_N > 0):
         raise InputError("--strength-force-N", force_N, "must be a force > 0")
     data = _read_mapping(path)

@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from api.cli import tables
-from api.cli.common import JsonOption, emit, errors
+from api.cli.common import JsonOption, MissingOptionError, emit, errors
 from models.errors import InputError, ModelDomainError
 from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS
 from supervisor.errors import InfeasibleError
@@ -151,7 +151,7 @@ def _point(found: Tool, tool: str, given: dict[str, float | None]) -> dict[str, 
         option = _OPTIONS[name]
         if value is None:
             if name in PARAMETERS[found.process]:
-                raise InputError(option, None, f"required for {found.process} tool {tool!r}")
+                raise MissingOptionError(option, f"required for {found.process} tool {tool!r}")
             continue
         if name not in allowed:
             raise InputError(option, value, f"not used by {found.process} tool {tool!r}")

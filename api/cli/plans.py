@@ -9,7 +9,6 @@ setpoint version 1 exactly as over REST, and a name already stored is refused th
 
 from __future__ import annotations
 
-import textwrap
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -27,9 +26,9 @@ from api.cli.common import (
     engine_of,
     errors,
     plan_of,
-    read_json_file,
     refused_line,
     say,
+    say_filled,
 )
 from api.cli.tables import PARAMETER_HEADINGS, new_table, short_number
 from api.cli.who import ByOption, cli_actor
@@ -133,24 +132,20 @@ def _say_band_held(answer: dict[str, Any]) -> None:
             "faster: the fleet's prior is not narrower there yet (more machines behind it "
             "narrow it)"
         )  # within 80 columns, as a terminal shows it
-        say(textwrap.fill(told, width=80, subsequent_indent="  ", break_on_hyphens=False))
+        say_filled(told)
 
 
-def read_plan_file(
-    path: Path, holds: str = "a plan (a table of name, machine ...)"
-) -> dict[str, Any]:
-    """A plan file's structure: ``.json`` as JSON, anything else as TOML (errors name FILE).
+def read_plan_file(path: Path, label: str = "FILE") -> dict[str, Any]:
+    """A plan file's structure as every command reads it (errors name ``label``).
 
-    ``holds``: what the file must hold, as the error says (a tool file: ``rcb tools add``).
+    :func:`supervisor.inputs.plan.read_plan`: ``.json`` as JSON (a ``null`` as the field left
+    out, as ``POST /plans`` takes it), anything else as TOML.
     """
-    from supervisor.inputs.files import read_toml
+    from supervisor.inputs.plan import read_plan
 
-    if path.suffix.lower() != ".json":
-        data = read_toml(path, "FILE")
-    else:
-        data = read_json_file(path)
+    data = read_plan(path, label)
     if not isinstance(data, dict):
-        raise InputError("FILE", str(path), f"must hold {holds}")
+        raise InputError(label, str(path), "must hold a plan (a table of name, machine ...)")
     return data
 
 
@@ -180,7 +175,7 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     for table in _show_tables(data, current):
         _out.print(table)
     _say_prior(data["provenance"], data["noise_provenance"])
-    settings = ", ".join(f"{k}={v}" for k, v in data["settings"].items())
+    settings = settings_text(data["settings"])
     state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
     refused = [data[k] for k in ("settings_refused", "plan_refused") if data.get(k)]
     if data["status"] != "halted" and refused:
@@ -189,10 +184,30 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     rule = (
         f"rcb: setpoint version {data['setpoint_version']}, {data['parts']} parts; "
         f"RCB {data['strategy']} alpha={data['alpha']:g} ({settings})"
-    )  # within 80 columns, as a terminal shows it
-    say(textwrap.fill(rule, width=80, subsequent_indent="  ", break_on_hyphens=False))
+    )
+    say_filled(rule)
     for why in refused:  # its reports are refused until a replan sets it anew
         say(refused_line(data["id"], why))
+
+
+def settings_text(settings: dict[str, Any]) -> str:
+    """The RCB settings as ``--rcb`` takes them: ``coverage_k=2, floors.force_N=50, z=4``.
+
+    Not Python's forms (``floors={}``, ``z=4.0``, ``None``): each floor as ``floors.QUANTITY``
+    (none: not named, the default), a number in its shortest form to 12 digits (``4``, not
+    ``4.0``; a value given as 2.3456789 stays so), no value as ``none``.
+    """
+    told = []
+    for name, value in settings.items():
+        if isinstance(value, dict):
+            told += [f"{name}.{q}={v:.12g}" for q, v in value.items()]
+        elif value is None:
+            told.append(f"{name}=none")
+        elif isinstance(value, int | float) and not isinstance(value, bool):
+            told.append(f"{name}={value:.12g}")
+        else:
+            told.append(f"{name}={value}")
+    return ", ".join(told)
 
 
 def _spreads(line: dict[str, Any]) -> str:

@@ -14,6 +14,7 @@ from rich.console import Console
 
 from api.cli.common import (
     DbOption,
+    MissingOptionError,
     PlanArg,
     RcbOption,
     emit,
@@ -27,6 +28,8 @@ from api.cli.who import ByOption, cli_actor
 from models.errors import InputError
 
 _out = Console()
+#: The options of which a replan needs one (each makes a change; ``--dry-run`` alone does not).
+CHANGE_OPTIONS = "--limit/--bound/--model/--rcb/--reset-bands"
 
 
 def replan(
@@ -61,6 +64,8 @@ def replan(
         changes = _changes(limit or [], bound or [], model or [], reset_bands)
         if rcb:
             changes["rcb"] = assignments(rcb, "--rcb")
+        if not changes:  # the options that make one, not the change document's {}
+            raise MissingOptionError(CHANGE_OPTIONS, "none given: nothing to change")
         engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         written = replan(

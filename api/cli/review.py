@@ -30,6 +30,7 @@ from api.cli.common import (
     plan_of,
     refused_line,
     say,
+    say_command,
     write_atomically,
 )
 from api.cli.tables import new_table, short_number
@@ -94,7 +95,7 @@ def plans(
     if not as_json:
         _print_plans(page["plans"])
     if page["next_cursor"] is not None:
-        say(f"rcb: next page: rcb plans --cursor {page['next_cursor']} --limit {size}")
+        say_command("rcb: next page:", f"rcb plans --cursor {page['next_cursor']} --limit {size}")
 
 
 def _print_plans(listed: list[dict[str, Any]]) -> None:

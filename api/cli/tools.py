@@ -17,7 +17,16 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-from api.cli.common import DbOption, JsonOption, as_option, emit, engine_of, errors, say
+from api.cli.common import (
+    DbOption,
+    JsonOption,
+    as_option,
+    emit,
+    engine_of,
+    errors,
+    say,
+    say_command,
+)
 from api.cli.tables import fmt, new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
@@ -64,7 +73,8 @@ def list_(
     if any(tool.get("refused") for tool in page["tools"]):
         say("rcb: REFUSED: this version's check refuses a stored value (rcb tools show NAME)")
     if page["next_cursor"] is not None:
-        say(f"rcb: next page: rcb tools list --cursor {page['next_cursor']} --limit {limit}")
+        again = f"rcb tools list --cursor {page['next_cursor']} --limit {limit}"
+        say_command("rcb: next page:", again)
 
 
 @tools_app.command("show")
@@ -115,21 +125,45 @@ def add(
         Path,
         typer.Argument(
             metavar="FILE",
-            help="One tool: name, process, models (TOML, or JSON as POST /tools takes).",
+            help="One tool: name, process, models (TOML, or JSON as POST /tools takes); a "
+            "plan file's [[tools]] block of one tool is taken as that tool.",
         ),
     ],
     db: DbOption = None,
     by: ByOption = None,
 ) -> None:
     """Store a new tool with its baseline models; plans then name it (stored tools never change)."""
-    from api.cli.plans import read_plan_file
     from api.services.tools import add_tool
 
     with errors():
         actor = cli_actor(by)
-        body = read_plan_file(file, "a tool (a table of name, process, models)")
+        body = read_tool_file(file)
         body.setdefault("source", file.name)
         engine = engine_of(db)
         written = add_tool(engine=engine, body=body, actor=actor)
     models = ", ".join(written.body["models"])
     say(f"rcb: tool {written.body['name']} stored with its models of {models}")
+
+
+def read_tool_file(path: Path) -> dict[str, Any]:
+    """A tool file's table: TOML, or ``.json`` as ``POST /tools`` takes it (errors name FILE).
+
+    A plan file's ``[[tools]]`` block of one tool, copied whole, is taken as that tool: the same
+    table, one level down. Several tools (a file each), or a whole plan file, are refused in
+    one short line (before: the whole list echoed as an unknown field of a tool).
+    """
+    from supervisor.inputs.files import read_document
+
+    data = read_document(path, "FILE")
+    if not isinstance(data, dict):
+        raise InputError("FILE", str(path), "must hold a tool (a table of name, process, models)")
+    tools = data.get("tools")
+    if not isinstance(tools, list):
+        return data
+    if set(data) == {"tools"} and len(tools) == 1 and isinstance(tools[0], dict):
+        return tools[0]
+    if set(data) != {"tools"}:  # a whole plan file
+        raise InputError("FILE", str(path), "is a plan file, not a tool (name, process, models)")
+    raise InputError(
+        "FILE", str(path), f"holds {len(tools)} tools; a tool file holds one (a file each)"
+    )

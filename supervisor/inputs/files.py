@@ -1,7 +1,14 @@
-"""Reading the TOML files the supervisor takes (plan files, domain files); errors name the file."""
+"""Reading the files the supervisor takes (plan files, domain files); errors name the file.
+
+A plan file is TOML or, named ``*.json``, JSON (the structure ``POST /api/v1/plans`` takes):
+:func:`read_document` reads either. Every command that reads a plan file reads it so, through
+:func:`supervisor.inputs.plan.read_plan` (``rcb optimize``, ``demo --plan``, ``certify``,
+``plans create``); ``rcb tools add`` reads a tool file with it too.
+"""
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 
@@ -19,6 +26,33 @@ def read_toml(path: Path, label: str) -> object:
         bound: checked before the file is parsed), or not UTF-8 TOML; the field is ``label``,
         the value the path.
     """
+    raw = _read(path, label)
+    try:
+        return tomllib.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+        raise InputError(label, str(path), f"is not valid TOML ({err})") from None
+
+
+def read_document(path: Path, label: str) -> object:
+    """The parsed file at ``path``: ``.json`` (any case) as JSON, anything else as TOML.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_toml`; a ``.json`` file that is not UTF-8 JSON, naming ``label`` and
+        the path.
+    """
+    if path.suffix.lower() != ".json":
+        return read_toml(path, label)
+    raw = _read(path, label)
+    try:
+        return json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as err:
+        raise InputError(label, str(path), f"is not valid JSON ({err})") from None
+
+
+def _read(path: Path, label: str) -> bytes:
+    """The bytes of ``path``, at most :data:`models.bounds.MAX_DOCUMENT_BYTES` of them."""
     try:
         with path.open("rb") as file:
             raw = file.read(MAX_DOCUMENT_BYTES + 1)
@@ -29,7 +63,4 @@ def read_toml(path: Path, label: str) -> object:
     if len(raw) > MAX_DOCUMENT_BYTES:
         why = f"is larger than {MAX_DOCUMENT_BYTES} bytes (a REST body's bound too)"
         raise InputError(label, str(path), why)
-    try:
-        return tomllib.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
-        raise InputError(label, str(path), f"is not valid TOML ({err})") from None
+    return raw

@@ -36,7 +36,7 @@ from models.sensors import Calibration, calibrations_from_mapping
 from models.tool import Tool, process_of, tool_body, tool_from_mapping
 from supervisor.constant_load.setpoint import ConstantLoadConfig
 from supervisor.errors import PlanError
-from supervisor.inputs.files import read_toml
+from supervisor.inputs.files import read_document
 from supervisor.inputs.milling_tables import borangiu_tables, constant_load_table
 from supervisor.inputs.objectives import Objective
 from supervisor.inputs.passes import PassSpec, pass_spec, with_depth_bound
@@ -149,9 +149,19 @@ class Plan:
     description: str = ""
 
 
-def load_plan(path: Path) -> Plan:
-    """Read a TOML plan file; errors name the file and the field."""
-    return plan_from_mapping(read_toml(path, "plan file"))
+def load_plan(path: Path, label: str = "plan file") -> Plan:
+    """Read a plan file (:func:`read_plan`); errors name the file (``label``) and the field."""
+    return plan_from_mapping(read_plan(path, label))
+
+
+def read_plan(path: Path, label: str = "plan file") -> object:
+    """A plan file's structure: ``*.json`` as JSON, else TOML, a JSON ``null`` as left out.
+
+    The one reader of a plan file (``rcb optimize``, ``demo --plan``, ``certify``, ``plans
+    create``), so a JSON plan that ``POST /plans`` takes is taken by each (:func:`plan_body`).
+    """
+    data = read_document(path, label)
+    return plan_body(data) if isinstance(data, Mapping) else data
 
 
 def plan_body(data: Mapping[str, Any]) -> dict[str, Any]:

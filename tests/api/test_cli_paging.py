@@ -113,8 +113,8 @@ def test_parts_last_and_since_read_only_what_they_show(runner, stored):
     [
         (["history", "1", "--last", "0"], "--last = 0"),
         (["parts", "1", "--last", "501"], "--last = 501"),
-        (["parts", "99"], "plan_id = 99: not found"),
-        (["parts", "99", "--json"], "plan_id = 99: not found"),
+        (["parts", "99"], "PLAN = 99: no plan with id 99 (rcb plans lists them)"),
+        (["parts", "99", "--json"], "PLAN = 99: no plan with id 99 (rcb plans lists them)"),
     ],
 )
 def test_paging_options_out_of_bounds_are_one_line(runner, stored, args, message):

@@ -173,3 +173,32 @@ def test_predict_takes_a_stored_tool_from_the_database_and_else_reads_none(
     assert catalogue.exit_code == 0, catalogue.stderr  # Ivester & Heigel Table 2's K = 2130
     expected = 2130 * 3**0.888 * 0.32**0.783 * 200**-0.0395
     assert json.loads(catalogue.stdout)["predicted"]["force_N"]["value"] == pytest.approx(expected)
+
+
+def test_a_plan_files_tools_block_of_one_tool_is_that_tool_and_more_are_one_short_line(
+    runner, engine, tmp_path
+):
+    """Before: ``tools = [{...the whole dict...}]: unknown field; ...`` (270 columns)."""
+    url = engine_url(engine)
+    wrapped = tmp_path / "wrapped.toml"  # the block as a plan file has it, copied whole
+    block = TOOL_TOML.replace("[models.", "[tools.models.")
+    wrapped.write_text("[[tools]]\n" + block, encoding="utf-8")
+    done = invoke(runner, "tools", "add", str(wrapped), "--db", url)
+    assert done.exit_code == 0, done.stderr
+    assert "rcb: tool CNMG432-PLANT2 stored with its models of force_N" in done.stderr
+    as_json = tmp_path / "wrapped.json"
+    tool = tomllib.loads(TOOL_TOML) | {"name": "CNMG432-PLANT3"}
+    as_json.write_text(json.dumps({"tools": [tool]}), encoding="utf-8")
+    assert invoke(runner, "tools", "add", str(as_json), "--db", url).exit_code == 0
+    two = tmp_path / "two.toml"
+    two.write_text(f"[[tools]]\n{block}\n[[tools]]\n{block.replace('PLANT2', 'P4')}", "utf-8")
+    plan = tmp_path / "plan.toml"
+    plan.write_text(DEMO_PLAN.read_text(encoding="utf-8") + "\n[[tools]]\n" + block, "utf-8")
+    for file, said in (
+        (two, f"FILE = '{two}': holds 2 tools; a tool file holds one (a file each)"),
+        (plan, f"FILE = '{plan}': is a plan file, not a tool (name, process, models)"),
+    ):
+        done = invoke(runner, "tools", "add", str(file), "--db", url)
+        assert done.exit_code == 2 and done.stderr == f"rcb: error: {said}\n", done.stderr
+    names = [tool["name"] for tool in list_tools(engine=engine)["tools"]]
+    assert "CNMG432-P4" not in names and {"CNMG432-PLANT2", "CNMG432-PLANT3"} <= set(names)

@@ -133,7 +133,8 @@ def test_plans_show_says_the_plans_settings_within_80_columns(db):
     lines = done.stderr.splitlines()
     assert "rcb: plan 1 ivester-demo-part on lathe-22kW: running" in lines
     assert any(line.startswith("rcb: setpoint version 5, 4 parts; RCB learn") for line in lines)
-    assert "z=4.0" in done.stderr
+    assert "z=4," in done.stderr  # as --rcb takes it: not Python's 4.0, nor floors={}
+    assert "floors=" not in done.stderr and "4.0" not in done.stderr
     assert all(cell_len(line) <= 80 for line in lines), lines
 
 
@@ -303,3 +304,55 @@ def test_demo_ends_on_its_commands_each_whole_on_a_line(demos, kind):
     first = max(i for i, line in enumerate(lines) if line.startswith("rcb: stored in"))
     told = " ".join(line.strip() for line in lines[first:-2])  # the sentence, filled
     assert told.startswith(f"rcb: stored in {url} as plan 1 ") and told.endswith("to see it:")
+
+
+def _within(stderr: str, columns: int = 80) -> list[str]:
+    """The lines of ``stderr``, each checked within ``columns`` cells."""
+    lines = stderr.splitlines()
+    assert lines, "no message"
+    for line in lines:
+        assert cell_len(line) <= columns, line
+    return lines
+
+
+def test_report_says_what_it_wrote_within_80_columns(db, tmp_path):
+    """Before: one line of 95 columns (``..., setpoint version 5, 163 kB``)."""
+    done = rcb("report", "1", "--db", db, "--out", "demo.html", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    told = " ".join(line.strip() for line in _within(done.stderr))
+    assert told.startswith("rcb: wrote demo.html: plan 1 ivester-demo-part, 4 parts (4 plotted)")
+    assert re.search(r", setpoint version 5, \d+ kB$", told), told
+
+
+def test_db_prune_says_what_it_deleted_within_80_columns(tmp_path):
+    """Before: one line of 84 columns."""
+    url = f"sqlite:///{tmp_path / 'prune.db'}"
+    upgrade(url)
+    done = rcb("db", "prune", "--db", url)
+    assert done.returncode == 0, done.stderr
+    told = " ".join(line.strip() for line in _within(done.stderr))
+    assert told.endswith(
+        "rcb: deleted 0 audit entries older than 365d and 0 idempotency records older than 7d"
+    )
+
+
+def test_audit_says_how_to_get_older_entries_with_the_command_whole(db):
+    """Before: ``rcb: older entries: rcb audit --cursor ... --limit 3`` on one line of 104
+    columns. Now the sentence, then the command alone on its line (longer than 80 columns: a
+    cursor is not broken), which run as printed gives the next page."""
+    done = rcb("audit", "--limit", "3", "--db", db)
+    assert done.returncode == 0, done.stderr
+    fits(done.stdout)
+    hint, command = done.stderr.splitlines()
+    assert hint == "rcb: older entries:"
+    assert re.fullmatch(r"  rcb audit --cursor \S+ --limit 3", command), command
+    older = rcb(*command.split()[1:], "--db", db)
+    assert older.returncode == 0, older.stderr
+    fits(older.stdout)
+
+
+def test_a_next_page_hint_that_fits_stays_one_line(db):
+    done = rcb("tools", "list", "--limit", "1", "--db", db)
+    assert done.returncode == 0, done.stderr
+    [hint] = _within(done.stderr)
+    assert re.fullmatch(r"rcb: next page: rcb tools list --cursor \S+ --limit 1", hint), hint

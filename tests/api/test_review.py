@@ -88,7 +88,7 @@ def test_parts_and_export_round_trip(runner, stored, tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["history", "99"], "plan_id = 99: not found"),
+        (["history", "99"], "PLAN = 99: no plan with id 99 (rcb plans lists them)"),
         (["parts", "1", "--since", "yesterday"], "--since = 'yesterday': expected an age"),
         (["parts", "1", "--since", "0d"], "--since = '0d': more than 0"),
         (["history", "1", "--operation", "nope"], "--operation = 'nope'"),

@@ -8,6 +8,7 @@ out; text no database column can hold is refused here, not by a schema in front 
 from __future__ import annotations
 
 import copy
+import json
 import tomllib
 
 import pytest
@@ -85,6 +86,17 @@ def test_the_same_plan_reads_the_same_from_toml_and_json(tmp_path):
     with pytest.raises(InputErrors) as from_toml:
         load_plan(toml)
     assert [str(e) for e in from_toml.value.errors] == [str(e) for e in from_json.value.errors]
+
+
+def test_load_plan_reads_a_json_file_by_its_extension_as_plans_create_does(tmp_path):
+    """``rcb optimize plan.json`` said "is not valid TOML": load_plan read every file as TOML."""
+    plan = step1_plan()
+    as_json = tmp_path / "plan.JSON"
+    as_json.write_text(json.dumps({**plan, "description": None}), encoding="utf-8")  # null: out
+    assert load_plan(as_json) == plan_from_mapping(plan)
+    as_json.write_text("{not json", encoding="utf-8")
+    with pytest.raises(InputError, match=r"^plan file = '.*plan.JSON': is not valid JSON \("):
+        load_plan(as_json)
 
 
 def test_a_null_optional_field_is_one_left_out_and_a_null_value_is_refused():
