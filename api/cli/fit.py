@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 from rich.console import Console
 from rich.table import Table
 
-from api.cli.common import JsonOption, emit, errors, say
+from api.cli.common import JsonOption, MissingOptionError, emit, errors, say
 from api.cli.fit_options import (
     BandOption,
     DataArgument,
@@ -156,8 +156,10 @@ def _check_tool_options(
         raise InputError("--quantity", quantity, f"unknown model quantity; known: {known}")
     if write_tool is not None:
         if quantity is None:
-            raise InputError("--quantity", None, "required with --write-tool")
-        if tool_name is None or not tool_name.strip():
+            raise MissingOptionError("--quantity", "required with --write-tool")
+        if tool_name is None:
+            raise MissingOptionError("--tool-name", "required with --write-tool")
+        if not tool_name.strip():
             raise InputError("--tool-name", tool_name, "a non-empty name is required")
 
 

@@ -257,10 +257,11 @@ def test_write_tool_errors_leave_an_existing_file_alone(tmp_path: Path) -> None:
     out_file.write_text("# mine\n", encoding="utf-8")
     args = [ROUGHNESS_CSV, "--response=Ra", *VAR_ARGS, "--quantity=roughness_um"]
     _one_line(*run([*args, "--where=VB=Old", "--tool-name=T", f"--write-tool={out_file}"]))
-    _one_line(*run([*args, f"--write-tool={out_file}"]), "--tool-name = None")
+    required = "required with --write-tool"
+    _one_line(*run([*args, f"--write-tool={out_file}"]), f"--tool-name: {required}")
     _one_line(
         *run([ROUGHNESS_CSV, "--response=Ra", "--tool-name=T", f"--write-tool={out_file}"]),
-        "--quantity = None",
+        f"--quantity: {required}",
     )
     missing_dir = tmp_path / "no-such-dir" / "tool.toml"
     _one_line(*run([*args, "--tool-name=T", f"--write-tool={missing_dir}"]), "does not exist")
