@@ -40,7 +40,8 @@ def test_cli_writes_the_page(runner, cli, stored, page, tmp_path):
     assert result.exit_code == 0, result.output
     assert out.read_text(encoding="utf-8") == page  # the same data, the same page
     assert [p.name for p in tmp_path.iterdir()] == ["report.html"]  # no temporary file left
-    assert result.stdout == "" and f"rcb: wrote {out}" in result.stderr
+    assert result.stdout == "" and f"rcb: wrote {out}" in " ".join(result.stderr.split())
+    assert str(out) in result.stderr  # wrapped at 80 columns, the path kept whole
     size = out.stat().st_size
     assert 150_000 < size < 250_000  # about 190 kB for 6 operations and 10 parts (docs)
 
