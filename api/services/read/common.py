@@ -21,6 +21,7 @@ from db import tables as t
 from db.engine import reader
 from db.plans import get_plan_row, plan_id_by_name
 from models.errors import InputError
+from models.fields import storable
 
 #: Most parts (or setpoint versions) one page may hold.
 MAX_PAGE = request_limits.READ_PAGE
@@ -98,15 +99,10 @@ def _untoken(cursor: str, size: int) -> list[Any]:
         raise refused
     if size == 3 and not (0 <= values[0] <= t.MAX_INT and 0 <= values[1] <= t.MAX_INT):
         raise refused
-    if not all(_text(v) for v in values if isinstance(v, str)):  # "\ud800": no database holds it
-        raise refused
+    try:  # "\ud800" or a NUL: text no database holds (models.fields.storable's rule)
+        for value in values:
+            if isinstance(value, str):
+                storable(value)
+    except ValueError:
+        raise refused from None
     return values
-
-
-def _text(value: str) -> bool:
-    """Whether ``value`` is text a database can hold: no lone surrogate (UTF-8 encodes it)."""
-    try:
-        value.encode("utf-8")
-    except UnicodeEncodeError:
-        return False
-    return True
