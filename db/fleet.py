@@ -5,10 +5,12 @@ each machine's newest plans with it (:mod:`db.fleet_window`), the newest band st
 its tool's quantities since the plan's bands were last reset (an index seek per pair on
 ``band_states (operation_id, quantity, part_id)``, the operations by
 ``ix_operations_tool_machine_plan``): the number of statements is the same for 10 plans as for
-1000, and no cost grows with the plans and parts they made. The tools' models come from one
-more statement (:func:`db.library.load_tools`), the plans' changes of their process from one more
-(:func:`plan_changes`), and the models other databases exported and this one imported from a
-fourth (``imported_models``, by ``ix_imported_models_tool``).
+1000, and no cost grows with the plans and parts they made. The operations picked come from
+one more (each read once, not once a quantity), the tools' models from one more
+(:func:`db.library.load_tools`), the plans' changes of their process from one more
+(:func:`db.fleet_changes.plan_changes`, summed in the database), and the models other
+databases exported and this one imported from one more (``imported_models``, by
+``ix_imported_models_tool``).
 
 Left out: a plan that is halted; a plan or machine an engineer took out (``rcb fleet
 exclude``, ``fleet_exclusions``); and a plan whose quantities, any of them, saw a change of
@@ -24,10 +26,11 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any
 
-from sqlalchemy import and_, select
+from sqlalchemy import ColumnElement, and_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.fleet_changes import plan_changes
 from db.fleet_noise import noise_provenance
 from db.fleet_states import newest_state
 from db.fleet_window import newest_imported, newest_local
@@ -36,8 +39,9 @@ from db.library import load_tools
 from db.plan_state import settings_of
 from models.errors import InputError
 from supervisor.fleet.document import read_item
+from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import NoisePrior, noise_priors
-from supervisor.fleet.prior import FleetPrior, Learned, Provenance, fleet_priors
+from supervisor.fleet.prior import FleetPrior, Provenance, fleet_priors
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
@@ -136,10 +140,12 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     # each machine's newest plans, not halted nor taken out: their operations, by id
     window = newest_local(names, session.get_bind().dialect.name)
     o = t.Operation
+    picked = o.id.in_(select(window.c.operation_id))
+    operations = _operations(session, picked)
     rows = session.execute(
         select(
-            o,
-            t.Tool.name,
+            o.id,
+            o.plan_id,
             t.Plan.name,
             t.Machine.name,
             b.quantity,
@@ -147,33 +153,33 @@ def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
             b.monitor,
             t.Plan.fleet_changes_accepted,
         )
-        .join(t.Tool, o.tool_id == t.Tool.id)
-        .join(t.ToolModel, t.ToolModel.tool_id == t.Tool.id)
+        .join(t.ToolModel, t.ToolModel.tool_id == o.tool_id)
         .join(t.Plan, o.plan_id == t.Plan.id)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .join(b, b.id == newest_state())
-        .where(o.id.in_(select(window.c.operation_id)), b.posterior.is_not(None))
+        .where(picked, b.posterior.is_not(None))
         .order_by(o.plan_id, o.position, b.quantity)
     ).all()
-    ids = {op.plan_id for op, *_ in rows}
+    ids = {plan_id for _, plan_id, *_ in rows}
     changes = plan_changes(session=session, plan_ids=ids)
     plans = _plans_read(session, ids)
     out = []
-    for op, tool, plan, machine, quantity, posterior, monitor, accepted in rows:
-        settings, started = plans[op.plan_id]
-        if settings is None or changes.get(op.plan_id, 0) > accepted:
+    for op_id, plan_id, plan, machine, quantity, posterior, monitor, accepted in rows:
+        settings, started = plans[plan_id]
+        if settings is None or changes.get(plan_id, 0) > accepted or op_id not in operations:
             continue
+        tool, operation = operations[op_id]
         out.append(
             Learned(
                 machine,
                 plan,
-                _operation(op, tool),
+                operation,
                 tools[tool],
                 posterior_from_json(posterior),
                 settings.coverage_k,
                 settings.exponent_sd,
                 settings.edge_sd,
-                started.get((op.name, quantity)),
+                started.get((operation.name, quantity)),
                 None if monitor is None else monitor_from_json(monitor).chain_noise,
             )
         )
@@ -204,27 +210,13 @@ def _plans_read(
     return out
 
 
-def plan_changes(*, session: Session, plan_ids: Iterable[int]) -> dict[int, int]:
-    """Per plan, the changes of its process its monitors counted (every quantity, one statement).
-
-    What ``rcb fleet include`` accepts (``plans.fleet_changes_accepted``) and what takes a plan
-    out of the fleet when it grows beyond that: counted the same way for both, over the whole
-    plan whichever tools a new plan asks for, since the last reset of its bands.
-    """
-    ids = sorted(set(plan_ids))
-    if not ids:
-        return {}
-    b = t.BandState
+def _operations(session: Session, picked: ColumnElement[bool]) -> dict[int, tuple[str, Operation]]:
+    """The ``picked`` operations by id, each with its tool's name, read once (not a quantity)."""
+    o = t.Operation
     rows = session.execute(
-        select(t.Operation.plan_id, b.monitor)
-        .join(t.ToolModel, t.ToolModel.tool_id == t.Operation.tool_id)
-        .join(b, b.id == newest_state())
-        .where(t.Operation.plan_id.in_(ids), b.monitor.is_not(None))
-    ).all()
-    out = dict.fromkeys(ids, 0)
-    for plan_id, monitor in rows:
-        out[plan_id] += monitor_from_json(monitor).changes
-    return out
+        select(o, t.Tool.name).join(t.Tool, o.tool_id == t.Tool.id).where(picked)
+    )
+    return {row.id: (tool, _operation(row, tool)) for row, tool in rows}
 
 
 def _operation(row: t.Operation, tool: str) -> Operation:

@@ -18,6 +18,7 @@ at most ``JUDGED_AFTER + 2`` of the plan's parts, and once the band states befor
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 from sqlalchemy import func, select
@@ -97,3 +98,29 @@ def clear_fleet_change(row: t.Plan) -> None:
     """The plan's changes are accepted or forgotten: none is pending."""
     row.fleet_change_part = None
     row.fleet_change_confirmed = False
+
+
+def plan_changes(*, session: Session, plan_ids: Iterable[int]) -> dict[int, int]:
+    """Per plan, the changes of its process its monitors counted (every quantity, one statement).
+
+    What ``rcb fleet include`` accepts (``plans.fleet_changes_accepted``) and what takes a plan
+    out of the fleet when it grows beyond that: counted the same way for both, over the whole
+    plan whichever tools a new plan asks for, since the last reset of its bands.
+    """
+    ids = sorted(set(plan_ids))
+    if not ids:
+        return {}
+    b = t.BandState
+    # a monitor's ``changes`` (:func:`supervisor.rcb.monitor_state.from_json`: 0 if absent),
+    # summed in the database: the monitors are not decoded
+    counted = func.coalesce(b.monitor["changes"].as_integer(), 0)
+    rows = session.execute(
+        select(t.Operation.plan_id, func.sum(counted))
+        .join(t.ToolModel, t.ToolModel.tool_id == t.Operation.tool_id)
+        .join(b, b.id == newest_state())
+        .where(t.Operation.plan_id.in_(ids), b.monitor.is_not(None))
+        .group_by(t.Operation.plan_id)
+    ).all()
+    out = dict.fromkeys(ids, 0)
+    out.update({plan_id: int(total or 0) for plan_id, total in rows})
+    return out

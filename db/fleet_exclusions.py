@@ -11,7 +11,8 @@ from sqlalchemy import delete, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet import imported_machine, plan_changes
+from db.fleet import imported_machine
+from db.fleet_changes import plan_changes
 from db.fleet_changes import clear_fleet_change
 from db.plans import get_plan_row
 from models.errors import InputError

@@ -21,7 +21,8 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.errors import StoredSettingsError
-from db.fleet import plan_changes, priors_of
+from db.fleet import priors_of
+from db.fleet_changes import plan_changes
 from db.fleet_states import newest_state
 from db.fleet_window import newest_local
 from db.plan_state import plan_settings

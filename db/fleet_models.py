@@ -34,7 +34,7 @@ from db.fleet import imported_evidence, local_evidence
 from db.identity import database_id, plan_origins
 from models.errors import InputError
 from supervisor.fleet.document import document, item_json, read_document
-from supervisor.fleet.prior import Learned
+from supervisor.fleet.learned import Learned
 
 
 def export_models(*, session: Session, tool: str, material: str | None = None) -> dict[str, Any]:

@@ -30,7 +30,7 @@ from models import fields
 from models.bounds import MAX_IDENTITY
 from models.errors import InputError
 from models.tool import process_of, tool_from_mapping, tool_mapping
-from supervisor.fleet.prior import Learned
+from supervisor.fleet.learned import Learned
 from supervisor.inputs.plan import Operation
 from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior

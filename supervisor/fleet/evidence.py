@@ -38,12 +38,12 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior, positive_part
+from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior, positive_parts
 
 
 @dataclass(frozen=True)
@@ -98,30 +98,61 @@ def in_tool_terms(
     at the default ``edge_sd`` where a plan set it to 0 (its own edges do not wear, other
     plans' may, and ``θ``'s belief must be proper).
     """
-    t, offset = transform(belief, context)
-    k = len(t)
-    mean = t @ np.array(belief.mean[:k]) + offset
-    cov = t @ np.array(belief.cov)[:k, :k] @ t.T
-    full = size(belief)
-    if full > k:
-        mean = np.append(mean, 0.0)
-        cov = np.pad(cov, (0, 1))
-        cov[k, k] = (edge_sd if edge_sd > 0 else DEFAULT_EDGE_SD) ** 2
-    return mean, cov
+    mean, cov = _stacked([(belief, context)], edge_sd)
+    return mean[0], cov[0]
 
 
 def evidence(posterior: Posterior, prior: Posterior, context: Mapping[str, float]) -> Evidence:
     """The readings' information about ``θ``: ``posterior`` less the ``prior`` it started from."""
-    if posterior.names != prior.names or posterior.edge_max != prior.edge_max:
-        raise ValueError(
-            f"posterior over {posterior.names} (edge {posterior.edge_max}), "
-            f"prior over {prior.names} (edge {prior.edge_max})"
-        )
-    m, s = in_tool_terms(posterior, context)
-    m0, s0 = in_tool_terms(prior, context)
-    p, p0 = np.linalg.inv(s), np.linalg.inv(s0)
-    j, h = positive_part(p - p0, p @ m - p0 @ m0)
-    return Evidence(posterior.names, j, h, posterior.observations)
+    return evidences([(posterior, prior, context)])[0]
+
+
+def evidences(
+    beliefs: Sequence[tuple[Posterior, Posterior, Mapping[str, float]]],
+) -> list[Evidence]:
+    """:func:`evidence` of each ``(posterior, prior, context)``, in order.
+
+    Beliefs of one shape are stacked and go through numpy's stacked inverse and
+    eigendecomposition at once (a new plan's fleet prior reads thousands).
+    """
+    groups: dict[tuple[int, bool, int], list[int]] = {}
+    for index, (posterior, prior, _) in enumerate(beliefs):
+        if posterior.names != prior.names or posterior.edge_max != prior.edge_max:
+            raise ValueError(
+                f"posterior over {posterior.names} (edge {posterior.edge_max}), "
+                f"prior over {prior.names} (edge {prior.edge_max})"
+            )
+        shape = (len(posterior.names), bool(posterior.edge_max), size(posterior))
+        groups.setdefault(shape, []).append(index)
+    out: list[Evidence | None] = [None] * len(beliefs)
+    for indices in groups.values():
+        chosen = [beliefs[i] for i in indices]
+        m, s = _stacked([(b[0], b[2]) for b in chosen])
+        m0, s0 = _stacked([(b[1], b[2]) for b in chosen])
+        p, p0 = np.linalg.inv(s), np.linalg.inv(s0)
+        vector = (p @ m[..., np.newaxis] - p0 @ m0[..., np.newaxis])[..., 0]
+        j, h = positive_parts(p - p0, vector)
+        for row, (index, (posterior, _, _)) in enumerate(zip(indices, chosen, strict=True)):
+            out[index] = Evidence(posterior.names, j[row], h[row], posterior.observations)
+    return [e for e in out if e is not None]
+
+
+def _stacked(
+    beliefs: Sequence[tuple[Posterior, Mapping[str, float]]], edge_sd: float = DEFAULT_EDGE_SD
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`in_tool_terms` of beliefs of one shape, stacked: means ``(N, k)``, covariances."""
+    frames = [transform(belief, context) for belief, context in beliefs]
+    t = np.array([frame for frame, _ in frames])
+    k = t.shape[-1]
+    means = np.array([belief.mean[:k] for belief, _ in beliefs])
+    covs = np.array([belief.cov for belief, _ in beliefs])[:, :k, :k]
+    mean = (t @ means[..., np.newaxis])[..., 0] + np.array([offset for _, offset in frames])
+    cov = t @ covs @ np.swapaxes(t, -1, -2)
+    if size(beliefs[0][0]) > k:
+        mean = np.concatenate([mean, np.zeros((len(beliefs), 1))], axis=1)
+        cov = np.pad(cov, ((0, 0), (0, 1), (0, 1)))
+        cov[:, k, k] = (edge_sd if edge_sd > 0 else DEFAULT_EDGE_SD) ** 2
+    return mean, cov
 
 
 def in_operation_terms(

@@ -131,7 +131,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -197,11 +197,18 @@ def marginal(evidence: Evidence, factor: np.ndarray) -> tuple[np.ndarray, np.nda
     ``factor``: ``L`` with ``D = L L^T``, the between-machine law of the offsets
     (:func:`between`).
     """
-    j, h = evidence.information, evidence.vector
-    js = j @ factor
+    return _marginals(evidence.information, evidence.vector, factor)
+
+
+def _marginals(
+    information: np.ndarray, vector: np.ndarray, factor: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`marginal` of ``J`` ``(…, k, k)`` and ``h`` ``(…, k)``, stacked or not."""
+    js = information @ factor
     inner = np.eye(factor.shape[1]) + factor.T @ js
-    j_marginal = j - js @ np.linalg.solve(inner, js.T)
-    return 0.5 * (j_marginal + j_marginal.T), h - js @ np.linalg.solve(inner, factor.T @ h)
+    j_marginal = information - js @ np.linalg.solve(inner, np.swapaxes(js, -1, -2))
+    shifted = js @ np.linalg.solve(inner, (factor.T @ vector[..., np.newaxis]))
+    return 0.5 * (j_marginal + np.swapaxes(j_marginal, -1, -2)), vector - shifted[..., 0]
 
 
 def of_operation(seen: Evidence, spread: float = DEFAULT_OPERATION_SPREAD) -> Evidence:
@@ -210,18 +217,26 @@ def of_operation(seen: Evidence, spread: float = DEFAULT_OPERATION_SPREAD) -> Ev
     Its own ``ln K`` offset ``γ ~ N(0, spread²)`` integrated out: :func:`marginal` with
     the one column ``L = spread e_0`` (``D = L L^T``).
     """
-    factor = np.zeros((len(seen.vector), 1))
-    factor[0, 0] = spread
-    information, vector = marginal(seen, factor)
-    return replace(seen, information=information, vector=vector)
+    return summed([seen], spread)
 
 
 def summed(operations: Sequence[Evidence], op_spread: float) -> Evidence:
-    """A machine's evidence: its operations', each integrated over its own offset ``σ_o``."""
-    total = of_operation(operations[0], op_spread)
-    for seen in operations[1:]:
-        total = total + of_operation(seen, op_spread)
-    return total
+    """A machine's evidence: its operations', each integrated over its own offset ``σ_o``.
+
+    The operations go through :func:`marginal` stacked, at once.
+    """
+    factor = np.zeros((len(operations[0].vector), 1))
+    factor[0, 0] = op_spread
+    information, vector = _marginals(
+        np.array([o.information for o in operations]),
+        np.array([o.vector for o in operations]),
+        factor,
+    )
+    first = operations[0]
+    if any(o.names != first.names for o in operations):
+        raise ValueError(f"evidence over {first.names} summed with evidence over other inputs")
+    readings = sum(o.readings for o in operations)
+    return Evidence(first.names, information.sum(axis=0), vector.sum(axis=0), readings)
 
 
 def best_determined(
@@ -244,9 +259,9 @@ def best_determined(
     if not machines:
         reference[1 : exponents + 1] = centre
         return reference
-    covs = [np.linalg.inv(prior_information + m.information) for m in machines]
-    block = sum((c[1 : exponents + 1, 1 : exponents + 1] for c in covs), np.zeros((exponents,) * 2))
-    cross = sum((c[1 : exponents + 1, 0] for c in covs), np.zeros(exponents))
+    covs = np.linalg.inv(prior_information + np.array([m.information for m in machines]))
+    block = covs[:, 1 : exponents + 1, 1 : exponents + 1].sum(axis=0)
+    cross = covs[:, 1 : exponents + 1, 0].sum(axis=0)
     reference[1 : exponents + 1] = -np.linalg.solve(block, cross)
     return reference
 
@@ -258,8 +273,9 @@ def between_estimate(
     reference: np.ndarray,
 ) -> tuple[float, int]:
     """``(τ̂², M − 1)``: the machines' DerSimonian-Laird spread at ``reference`` (module doc)."""
-    estimates = [_at(reference, m, prior_mean, prior_information) for m in machines]
-    return dersimonian_laird(estimates)
+    if not machines:
+        return dersimonian_laird([])
+    return dersimonian_laird(_at_each(reference, machines, prior_mean, prior_information))
 
 
 def operation_estimates(
@@ -278,9 +294,7 @@ def operation_estimates(
             continue
         centre = (0.0,) * exponents  # unused: two or more operations fix the point
         reference = best_determined(ops, prior_information, exponents, centre)
-        found.append(
-            dersimonian_laird([_at(reference, o, prior_mean, prior_information) for o in ops])
-        )
+        found.append(dersimonian_laird(_at_each(reference, ops, prior_mean, prior_information)))
     return found
 
 
@@ -291,13 +305,22 @@ def pooled(default: float, weight: float, found: Sequence[tuple[float, int]]) ->
     return math.sqrt((weight * default**2 + tau2) / (weight + dof))
 
 
-def _at(
-    reference: np.ndarray, seen: Evidence, prior_mean: np.ndarray, prior_information: np.ndarray
-) -> tuple[float, float]:
-    """``(y, v)``: ``ln Y`` at ``reference`` from the prior and ``seen`` alone, its variance."""
-    cov = np.linalg.inv(prior_information + seen.information)
-    mean = cov @ (prior_information @ prior_mean + seen.vector)
-    return float(reference @ mean), float(reference @ cov @ reference)
+def _at_each(
+    reference: np.ndarray,
+    seen: Sequence[Evidence],
+    prior_mean: np.ndarray,
+    prior_information: np.ndarray,
+) -> list[tuple[float, float]]:
+    """Per evidence of ``seen``, ``(y, v)``: ``ln Y`` at ``reference``, and its variance.
+
+    From the prior and that evidence alone; stacked, at once.
+    """
+    cov = np.linalg.inv(prior_information + np.array([s.information for s in seen]))
+    vector = prior_information @ prior_mean + np.array([s.vector for s in seen])
+    mean = (cov @ vector[..., np.newaxis])[..., 0]
+    values = mean @ reference
+    variances = (reference @ cov) @ reference
+    return [(float(y), float(v)) for y, v in zip(values, variances, strict=True)]
 
 
 def dersimonian_laird(estimates: Sequence[tuple[float, float]]) -> tuple[float, int]:

@@ -41,7 +41,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from supervisor.fleet.hierarchy import pooled_spread
-from supervisor.fleet.prior import Learned
+from supervisor.fleet.learned import Learned
 from supervisor.rcb.noise import NoiseScale
 
 #: ``σ_0``: the default between-chain spread of ``ln λ`` [-]: two instruments of one kind differ

@@ -20,7 +20,6 @@ A quantity no plan of the fleet measured with the tool keeps the catalogue prior
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -28,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from models.tool import Tool
-from supervisor.fleet.evidence import Evidence, evidence, in_operation_terms, in_tool_terms
+from supervisor.fleet.evidence import Evidence, in_operation_terms, in_tool_terms
 from supervisor.fleet.hierarchy import (
     DEFAULT_OPERATION_SPREAD,
     DEFAULT_SPREAD,
@@ -41,34 +40,10 @@ from supervisor.fleet.hierarchy import (
     pooled,
     summed,
 )
+from supervisor.fleet.learned import Learned, proper, readings_of
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
-from supervisor.rcb.learning import as_started
-from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
-
-
-@dataclass(frozen=True)
-class Learned:
-    """One operation's learned model in the fleet: where it was learned and what it knows.
-
-    ``tool``: the operation's catalogue tool (its prior is rebuilt from it, ``coverage_k``,
-    ``exponent_sd`` and ``edge_sd`` of the plan's settings); ``start``: the prior the plan
-    started from where not the catalogue's (a fleet prior: its evidence is the fleet's, not
-    this plan's, and is taken out so that it is not counted twice); ``chain``: the operation's
-    evidence on its measuring chain's noise (its monitor's, :mod:`.noise`), where known.
-    """
-
-    machine: str
-    plan: str
-    operation: Operation
-    tool: Tool
-    posterior: Posterior
-    coverage_k: float
-    exponent_sd: float
-    edge_sd: float = post.DEFAULT_EDGE_SD
-    start: Posterior | None = None
-    chain: NoiseScale | None = None
 
 
 @dataclass(frozen=True)
@@ -126,11 +101,12 @@ def fleet_priors(
     Each tool's spreads start from those of the plan's other tools (:func:`_spreads`).
     """
     settings = _Settings(coverage_k, exponent_sd, edge_sd)
+    readings = readings_of(learned)
     pairs: dict[tuple[str, str], _Pair] = {}
     for op in plan.operations:
         tool = plan.tools[op.tool]
         for quantity in tool.models:
-            pair = _pair(tool, quantity, op, learned, settings)
+            pair = _pair(tool, quantity, op, readings, settings)
             if pair is not None:
                 pairs[(op.name, quantity)] = pair
     seen = _spreads(plan.machine.name, pairs, default_spread, spread_weight)
@@ -170,8 +146,9 @@ def tool_beliefs(
     """
     settings = _Settings(coverage_k, exponent_sd, edge_sd)
     pairs = {}
+    readings = readings_of(learned)
     for quantity in tool.models:
-        pair = _pair(tool, quantity, None, learned, settings)
+        pair = _pair(tool, quantity, None, readings, settings)
         if pair is not None:
             pairs[("", quantity)] = pair
     seen = _spreads("", pairs, default_spread, SPREAD_WEIGHT)  # "": no machine of the fleet
@@ -192,16 +169,6 @@ class _Settings(NamedTuple):
     coverage_k: float
     exponent_sd: float
     edge_sd: float
-
-
-def _proper(belief: post.Posterior) -> bool:
-    """Every parameter of ``belief`` uncertain (a variance > 0), as the information form needs.
-
-    ``exponent_sd = 0`` (or an exponent of 0, ``edge_sd = 0`` with an edge-life limit) makes a
-    prior that knows a parameter exactly: its inverse does not exist, and no evidence can move
-    that parameter.
-    """
-    return all(0.0 < belief.cov[i][i] < math.inf for i in range(len(belief.cov)))
 
 
 #: Tool and quantity: the tool's name, process and work material, and the quantity.
@@ -250,27 +217,35 @@ class _Pair:
 
 
 def _pair(
-    tool: Tool, quantity: str, op: Operation | None, learned: Sequence[Learned], settings: _Settings
+    tool: Tool,
+    quantity: str,
+    op: Operation | None,
+    readings: Sequence[tuple[Learned, Evidence | None]],
+    settings: _Settings,
 ) -> _Pair | None:
     """The fleet's evidence about ``tool``'s law of ``quantity``, by machine (None: none usable).
 
-    ``op``: the operation whose frame the catalogue prior is in (None: the first learned one's).
+    ``op``: the operation whose frame the catalogue prior is in (None: the first learned one's);
+    ``readings``: each learned model with its evidence (:func:`_evidence`).
     """
     model = tool.models[quantity]
-    found = [i for i in learned if same_tool(i.tool, tool) and i.posterior.quantity == quantity]
+    matched = [
+        (i, seen)
+        for i, seen in readings
+        if same_tool(i.tool, tool) and i.posterior.quantity == quantity
+    ]
+    found = [i for i, _ in matched]
     if model.dK <= 0 or not found:
         return None
     frame = found[0].operation if op is None else op
     coverage_k, exponent_sd, edge_sd = settings
     catalogue = post.prior(model, frame, coverage_k, exponent_sd, edge_sd)
-    if not _proper(catalogue):  # a parameter known exactly: the catalogue's stands
+    if not proper(catalogue):  # a parameter known exactly: the catalogue's stands
         return None
     operations: dict[str, list[Evidence]] = {}
-    for item in found:
-        item_prior = _start_of(item, catalogue.quantity)
-        if item_prior.names != catalogue.names or not _proper(item_prior):
+    for item, seen in matched:
+        if seen is None or item.posterior.names != catalogue.names:
             continue
-        seen = evidence(item.posterior, item_prior, item.operation.context)
         operations.setdefault(item.machine, []).append(seen)
     if not operations:
         return None
@@ -385,15 +360,3 @@ def _at_least(default: _Default, weight: float, own: Sequence[tuple[float, int]]
     """
     value, floor = default
     return max(floor, pooled(value, weight, own))
-
-
-def _start_of(item: Learned, quantity: str) -> Posterior:
-    """The prior ``item``'s plan started from: the catalogue's, or a fleet's as it stands.
-
-    A fleet prior its readings rejected was widened (:mod:`supervisor.rcb.prior_check`): the
-    plan's evidence is what it learned beyond the widened one.
-    """
-    if item.start is None:
-        model = item.tool.models[quantity]
-        return post.prior(model, item.operation, item.coverage_k, item.exponent_sd, item.edge_sd)
-    return as_started(item.start, item.posterior)

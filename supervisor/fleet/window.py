@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from supervisor.fleet.prior import Learned
+from supervisor.fleet.learned import Learned
 
 #: The plans of one machine that speak for one tool in the fleet: the newest, by creation.
 PLANS_PER_MACHINE = 10

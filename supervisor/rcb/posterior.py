@@ -339,8 +339,21 @@ def positive_part(information: np.ndarray, vector: np.ndarray) -> tuple[np.ndarr
     are round-off) and ``h`` with it, so a process that changed shows only what its readings
     since do.
     """
-    j = 0.5 * (information + information.T)
+    j, h = positive_parts(information[np.newaxis], vector[np.newaxis])
+    return j[0], h[0]
+
+
+def positive_parts(information: np.ndarray, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`positive_part` of a stack: ``information`` ``(N, k, k)``, ``vector`` ``(N, k)``.
+
+    One call of numpy's stacked eigendecomposition for the stack, not one a belief: the
+    fleet reads thousands of beliefs for a new plan's prior.
+    """
+    j = 0.5 * (information + np.swapaxes(information, -1, -2))
     values, vectors = np.linalg.eigh(j)
-    keep = values > EVIDENCE_FLOOR * max(float(values.max()), 0.0)
-    kept = vectors[:, keep]
-    return (kept * values[keep]) @ kept.T, kept @ (kept.T @ vector)
+    top = np.maximum(values.max(axis=-1, keepdims=True), 0.0)
+    keep = values > EVIDENCE_FLOOR * top
+    kept = vectors * keep[:, np.newaxis, :]  # the dropped eigenvectors' columns are 0
+    kept_t = np.swapaxes(kept, -1, -2)
+    projected = kept @ (kept_t @ vector[..., np.newaxis])
+    return (kept * np.where(keep, values, 0.0)[:, np.newaxis, :]) @ kept_t, projected[..., 0]

@@ -28,8 +28,9 @@ from dataclasses import dataclass, replace
 
 from models.powerlaw import PowerLawModel
 from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted, opens_change
+from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import noise_priors
-from supervisor.fleet.prior import Learned, Provenance, fleet_priors
+from supervisor.fleet.prior import Provenance, fleet_priors
 from supervisor.fleet.window import newest_plans
 from supervisor.inputs.plan import Plan
 from supervisor.rcb.state import RcbSettings, RcbState

@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 
 from supervisor.fleet.hierarchy import DEFAULT_EDGE_SPREAD
-from supervisor.fleet.prior import Learned, fleet_priors
+from supervisor.fleet.learned import Learned
+from supervisor.fleet.prior import fleet_priors
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post

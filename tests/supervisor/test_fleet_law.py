@@ -16,7 +16,8 @@ from models.tool import Tool
 from supervisor.fleet.evidence import in_tool_terms
 from supervisor.fleet.hierarchy import DEFAULT_EXPONENT_SPREAD
 from supervisor.fleet.law import FleetLaw, fleet_law
-from supervisor.fleet.prior import Learned, fleet_priors, tool_beliefs
+from supervisor.fleet.learned import Learned
+from supervisor.fleet.prior import fleet_priors, tool_beliefs
 from supervisor.inputs.part_report import Measurement
 from supervisor.rcb import posterior as post
 

@@ -18,8 +18,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate, special
 
+from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import DEFAULT_CHAIN_SPREAD, MIN_READINGS, noise_priors
-from supervisor.fleet.prior import Learned
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.judged import Judged

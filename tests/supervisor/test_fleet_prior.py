@@ -29,7 +29,8 @@ from supervisor.fleet.hierarchy import (
     operation_estimates,
     pooled,
 )
-from supervisor.fleet.prior import Learned, Provenance, fleet_priors
+from supervisor.fleet.learned import Learned
+from supervisor.fleet.prior import Provenance, fleet_priors
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from api.rest.schemas.parts import parse_report
 from models.errors import InputError
 from supervisor.fleet.document import item_json, read_item
-from supervisor.fleet.prior import Learned
+from supervisor.fleet.learned import Learned
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
