@@ -39,7 +39,12 @@ def replan(
     ] = None,
     bound: Annotated[list[str] | None, typer.Option("--bound", help="OP.PARAM=LO:HI")] = None,
     model: Annotated[
-        list[str] | None, typer.Option("--model", help="TOOL.QUANTITY:K=..,dK=.. (either or both).")
+        list[str] | None,
+        typer.Option(
+            "--model",
+            help="TOOL.QUANTITY:K=..,dK=.. (either or both; a model a learn plan has readings"
+            " of: with --reset-bands).",
+        ),
     ] = None,
     reset_bands: Annotated[
         bool, typer.Option("--reset-bands", help="Back to the tools' baseline bands.")

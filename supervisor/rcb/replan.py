@@ -100,6 +100,8 @@ def replan(
     }
     for key, value in fields.mapping(table.get("models", {}), "models").items():
         tools = _set_model(tools, plan.operations, key, value)
+        if not reset:
+            _not_learned(state, plan.operations, key, value)
     kept = replace(state, plan=plan, tools=tools, settings=settings)
     if reset:
         kept = _forgotten(kept)
@@ -172,6 +174,33 @@ def _carried(in_force: Tool, baseline: Tool) -> Tool:
         baseline,
         models={q: in_force.models.get(q, m) for q, m in baseline.models.items()},
     )
+
+
+def _not_learned(state: RcbState, operations: Any, key: str, value: object) -> None:
+    """Refuse a model change that ``learn``'s readings would hide (kept bands only).
+
+    Where a ``learn`` posterior holds readings, the setpoint follows what they taught (its
+    cone, :mod:`supervisor.optimize.learned`), and the band only where it is the faster and
+    the readings agree: a changed ``K`` or ``ΔK`` would be stored and change nothing.
+    """
+    tool_name, _, quantity = key.rpartition(".")
+    readings = max(
+        (
+            belief.observations
+            for op in operations
+            if op.tool == tool_name
+            and (belief := state.posterior.get((op.name, quantity))) is not None
+        ),
+        default=0,
+    )
+    if readings > 0:
+        raise InputError(
+            f"models.{key}",
+            value,
+            f"the plan learns: its {readings} readings govern this model, not K and dK; a limit"
+            " still binds (limits), and reset_bands (rcb replan --reset-bands) starts learning"
+            " again from the new model",
+        )
 
 
 def _set_model(

@@ -92,6 +92,33 @@ def test_a_model_change_and_a_band_reset_are_new_model_versions(engine):
     assert answer["setpoint_version"] >= reset.version
 
 
+def test_a_model_change_that_learns_readings_would_hide_is_refused_and_a_reset_takes_it(engine):
+    """A learn plan's setpoints follow what its readings taught: a new K for a model it has
+    readings of would be stored and change nothing (a reviewer's K=2600 on rough-od's force
+    left every setpoint as it was). It is refused, naming the model and the way to apply it;
+    with reset_bands it is the new start."""
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]  # learn, the default
+    bodies, _ = _reports(3)
+    for body in bodies:
+        report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
+    change = {"models": {"CNMG432RN.force_N": {"K": 2600.0}}}
+    with pytest.raises(ValueError, match=r"models\.CNMG432RN\.force_N.*its 3 readings govern"):
+        replan(engine=engine, plan_id=plan_id, changes=change)
+    assert _count(engine, t.PlanRevision) == 0  # nothing stored
+    before = _state(engine, plan_id).setpoints.cycle_time_min
+    done = replan(engine=engine, plan_id=plan_id, changes={**change, "reset_bands": True})
+    after = _state(engine, plan_id)
+    assert after.tools["rough-od"].models["force_N"].K == 2600.0
+    assert ("rough-od", "force_N") not in after.posterior  # learning starts again
+    # a larger K (more force predicted) at the same limit: a slower plan
+    assert done.body["cycle_time_min"] == [pytest.approx(before), after.setpoints.cycle_time_min]
+    assert after.setpoints.cycle_time_min > before
+    # a model no reading taught yet (a fresh plan) takes the change as before
+    fresh = create_plan(engine=engine, body={**BODY, "name": "fresh"}).body["id"]
+    taken = replan(engine=engine, plan_id=fresh, changes=change).body
+    assert taken["cycle_time_min"][1] > taken["cycle_time_min"][0]
+
+
 def test_bad_changes_are_refused_and_nothing_is_stored(engine):
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     with pytest.raises(ValueError, match="limits.rough-odd.force_N"):
