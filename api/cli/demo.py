@@ -26,6 +26,7 @@ from api.cli.common import (
     shown,
 )
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
+from supervisor.virtual.sizes import MAX_PARTS
 
 if TYPE_CHECKING:
     from supervisor.inputs.plan import Plan
@@ -71,7 +72,10 @@ _MillingOption = Annotated[
 
 
 def demo(
-    parts: Annotated[int, typer.Option("--parts", help="Parts made with RCB.", min=1)] = 20,
+    parts: Annotated[
+        int,
+        typer.Option("--parts", help=f"Parts made with RCB (1-{MAX_PARTS}).", min=1, max=MAX_PARTS),
+    ] = 20,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the virtual lathe.")] = 1,
     strategy: StrategyOption = DEFAULT_STRATEGY,
     alpha: Annotated[

@@ -100,6 +100,21 @@ def test_an_unknown_plan_id_is_said_as_an_unknown_name_is(runner, url):
     assert named == "PLAN = 'nosuch': no plan named 'nosuch' (rcb plans lists them)"
 
 
+def test_a_plan_id_out_of_range_or_a_name_too_long_is_refused_before_the_database(runner, url):
+    """A year's review: an id of 2^63 or more was a traceback on SQLite (OverflowError), and
+    on PostgreSQL from 2^31 (NumericValueOutOfRange); a 100 000-character name was echoed
+    whole. The id's range is the database's integer (2^31 - 1), a name's length 200."""
+    for command in (["plans", "show"], ["history"], ["parts"]):
+        for given in ("99999999999999999999999", "2147483648", "0"):
+            done = invoke(runner, *command, given, "--db", url)
+            assert done.exit_code == 2, (command, given, done.output)
+            assert _error(done) == f"PLAN = '{given}': a plan's id is 1 to 2147483647", command
+    long = "x" * 100_000
+    done = invoke(runner, "history", long, "--db", url)
+    assert done.exit_code == 2 and "a plan's name is at most 200 characters" in done.stderr
+    assert len(done.stderr) < 400  # the value is shown clipped, once
+
+
 def test_rest_keeps_its_own_field_and_value_for_an_unknown_plan(url):
     engine = make_engine(url)
     with Session(engine) as session, session.begin():

@@ -20,6 +20,7 @@ from api.services.errors import NotFoundError
 from db import tables as t
 from db.engine import reader
 from db.plans import get_plan_row, plan_id_by_name
+from models.bounds import MAX_IDENTITY
 from models.errors import InputError
 from models.fields import storable
 
@@ -36,12 +37,17 @@ PLAN_ID = re.compile(r"[0-9]+")
 def resolve_plan(*, engine: Engine, plan: str) -> int:
     """The id of the plan that ``plan`` names: its id (digits), else its name.
 
-    Names are unique (:class:`db.errors.PlanNameTakenError`); an id is not checked here (the
-    use case that reads the plan says so when there is none).
+    Names are unique (:class:`db.errors.PlanNameTakenError`). An id is checked against the
+    range the database holds (the use case that reads the plan says so when there is none);
+    a name longer than any plan's is refused before the database is asked.
     """
     text = plan.strip()
     if PLAN_ID.fullmatch(text):
+        if not 1 <= int(text) <= t.MAX_INT:
+            raise InputError("PLAN", plan, f"a plan's id is 1 to {t.MAX_INT}")
         return int(text)
+    if len(plan) > MAX_IDENTITY:
+        raise InputError("PLAN", plan, f"a plan's name is at most {MAX_IDENTITY} characters")
     with Session(engine) as session:
         plan_id = plan_id_by_name(session=session, name=plan)
     if plan_id is None:
