@@ -19,6 +19,7 @@ from sqlalchemy import (
     Text,
     UniqueConstraint,
     false,
+    text,
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
@@ -227,6 +228,12 @@ class Measurement(Base):
     raw: Mapped[dict[str, Any] | None]
 
 
+#: The RCB decisions ``ix_rcb_decisions_marked`` holds: flagged, or with a note (alembic
+#: 0028), in the words each dialect renders ``or_(flagged, note.is_not(None))`` with: SQLite
+#: uses a partial index only where a query's terms are its words (db.read.record).
+MARKED = {"postgresql": "flagged OR note IS NOT NULL", "sqlite": "flagged = 1 OR note IS NOT NULL"}
+
+
 class RcbDecision(Base):
     """What one measurement did to one band (supervisor.rcb.state.Decision).
 
@@ -237,6 +244,17 @@ class RcbDecision(Base):
     """
 
     __tablename__ = "rcb_decisions"
+    __table_args__ = (
+        # the newest decision of an operation's quantity (db.read.record.last_decisions)
+        Index("ix_rcb_decisions_operation_quantity_part", "operation_id", "quantity", "part_id"),
+        # the flagged or noted decisions alone (db.read.record.decision_totals)
+        Index(
+            "ix_rcb_decisions_marked",
+            *("operation_id", "flagged", "flag", "note"),  # covering: the totals read no row
+            postgresql_where=text(MARKED["postgresql"]),
+            sqlite_where=text(MARKED["sqlite"]),
+        ),
+    )
     id: Mapped[int] = mapped_column(primary_key=True)
     part_id: Mapped[int] = mapped_column(ForeignKey("parts.id"), index=True)  # a page's parts
     operation_id: Mapped[int] = mapped_column(ForeignKey("operations.id"))

@@ -32,6 +32,7 @@ def decision_totals(*, session: Session, plan_id: int) -> dict[str, int]:
     good to be true: the operator checks the sensor and the tool); they count as notes too.
     """
     d = t.RcbDecision
+    operations = select(t.Operation.id).where(t.Operation.plan_id == plan_id)
     flagged, breaches, notes, checks = session.execute(
         select(
             func.sum(case((d.flagged, 1), else_=0)),
@@ -39,8 +40,9 @@ def decision_totals(*, session: Session, plan_id: int) -> dict[str, int]:
             func.sum(case((d.note.is_not(None), 1), else_=0)),
             func.sum(case((d.note == "implausible_low", 1), else_=0)),
         )
-        .join(t.Part, t.Part.id == d.part_id)
-        .where(t.Part.plan_id == plan_id)
+        # the marked decisions alone (ix_rcb_decisions_marked): a flag is set only when
+        # flagged, so the others count 0 in every sum
+        .where(d.operation_id.in_(operations), or_(d.flagged, d.note.is_not(None)))
     ).one()
     return {
         "flagged": int(flagged or 0),
@@ -91,12 +93,18 @@ def versions(
 
 def last_decisions(*, session: Session, plan_id: int) -> list[tuple[t.RcbDecision, str]]:
     """Per operation and quantity the newest RCB decision of the plan, with its part's serial."""
-    d, p = t.RcbDecision, t.Part
+    d, p, o = t.RcbDecision, t.Part, t.Operation
+    # per operation and its tool's quantity, the end of ix_rcb_decisions_operation_quantity_part
+    newest_part = (
+        select(func.max(d.part_id))
+        .where(d.operation_id == o.id, d.quantity == t.ToolModel.quantity)
+        .scalar_subquery()
+    )
     newest = (
-        select(d.operation_id, d.quantity, func.max(d.part_id).label("part_id"))
-        .join(p, p.id == d.part_id)
-        .where(p.plan_id == plan_id)
-        .group_by(d.operation_id, d.quantity)
+        select(o.id.label("operation_id"), t.ToolModel.quantity, newest_part.label("part_id"))
+        .join(t.ToolModel, t.ToolModel.tool_id == o.tool_id)
+        .where(o.plan_id == plan_id)
+        .distinct()  # read first, each row once (SQLite would flatten it into a walk)
         .subquery()
     )
     rows = session.execute(
