@@ -66,7 +66,7 @@ def html_report(
 ) -> None:
     """Write a plan's record as one self-contained HTML page to mail (tables and plots).
 
-    About 125 kB for the six operations of the demonstration part with no part, 240 kB with
+    About 115 kB for the six operations of the demonstration part with no part, 250 kB with
     the default 100 parts plotted, whatever the plan's age (docs/report.md).
     """
     # imported here (SQLAlchemy, NumPy): rcb --help and the other commands do not load them

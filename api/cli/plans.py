@@ -9,6 +9,7 @@ setpoint version 1 exactly as over REST, and a name already stored is refused th
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -32,6 +33,7 @@ from api.cli.common import (
 )
 from api.cli.tables import PARAMETER_HEADINGS, new_table, short_number
 from api.cli.who import ByOption, cli_actor
+from api.report.provenance import CATALOGUE, in_plan_order, let_go_groups, let_go_text
 from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
@@ -106,7 +108,7 @@ def create(
         return
     title = f"plan {answer['id']} {answer['name']}: stored, setpoint version 1"
     _out.print(_setpoint_table(title, answer["operations"]))
-    _say_prior(answer["provenance"], answer["noise_provenance"])
+    _say_prior(answer)
     _say_band_held(answer)
     say(
         f"rcb: plan {answer['id']} {answer['name']}: setpoint version "
@@ -174,7 +176,9 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
         return
     for table in _show_tables(data, current):
         _out.print(table)
-    _say_prior(data["provenance"], data["noise_provenance"])
+    _say_prior(data)
+    if not data["provenance"]:  # the report's "Models started from", in the same words
+        say(f"rcb: models started from {CATALOGUE}")
     settings = settings_text(data["settings"])
     state = "HALTED (rcb history shows why)" if data["status"] == "halted" else "running"
     refused = [data[k] for k in ("settings_refused", "plan_refused") if data.get(k)]
@@ -210,53 +214,75 @@ def settings_text(settings: dict[str, Any]) -> str:
     return ", ".join(told)
 
 
-def _spreads(line: dict[str, Any]) -> str:
+def _spreads(line: Mapping[str, Any]) -> str:
     """``4.1/2.0``: between machines and between a machine's operations, in per cent."""
     machines = f"{100 * line['between_machine_spread']:.1f}"
     operations = line.get("operation_spread")  # none in a prior stored before it was learned
     return machines if operations is None else f"{machines}/{100 * operations:.1f}"
 
 
-def _say_prior(provenance: dict[str, list[dict[str, Any]]], noise: list[dict[str, Any]]) -> None:
+def _say_prior(answer: dict[str, Any]) -> None:
     """Where each fleet prior came from, a row per operation and quantity (none: catalogue).
 
-    ``noise``: where each chain's noise prior came from (a row per quantity).
+    ``answer``: a plan's (``rcb plans create``, ``show``); its operations in the plan's
+    order, then where each chain's noise prior came from (a row per quantity). Under each
+    table, why each part that let a prior go did so (:mod:`api.report.provenance`).
     """
-    if not provenance:
+    if not answer["provenance"]:
         return
+    order = [op["name"] for op in answer["operations"]]
+    provenance = in_plan_order(answer["provenance"], order)
+    lines = [(op, line) for op, ps in provenance for line in ps]
     table = new_table(
         title="learn's fleet prior (spread: between machines/between a machine's "
-        "operations; --json names the plans and machines)"
+        "operations; --json names the plans and machines)",
+        caption=_let_go_caption(lines, "widened_by_part"),
+        caption_justify="left",
     )
     columns = ("operation", "quantity", "plans", "machines", "spread %", "readings", "let go by")
     for column in columns:
         table.add_column(column, overflow="fold")
-    for operation, lines in provenance.items():
-        for i, line in enumerate(lines):
-            table.add_row(
-                operation if i == 0 else "",
-                line["quantity"],
-                str(len(line["plans"])),
-                str(len(line["machines"])),
-                _spreads(line),
-                str(line["readings"]),
-                line.get("widened_by_part") or "",  # the part that showed it outside the spread
-            )
+    for i, (operation, line) in enumerate(lines):
+        table.add_row(
+            operation if i == 0 or lines[i - 1][0] != operation else "",
+            line["quantity"],
+            str(len(line["plans"])),
+            str(len(line["machines"])),
+            _spreads(line),
+            str(line["readings"]),
+            line.get("widened_by_part") or "",  # the part that showed it outside the spread
+        )
     _out.print(table)
-    if noise:
-        table = new_table(title="learn's noise prior of each measuring chain (fleet)")
-        for column in ("quantity", "noise", "machines", "spread", "readings", "let go by"):
-            table.add_column(column, overflow="fold")
-        for line in noise:
-            table.add_row(
-                line["quantity"],
-                f"{line['noise_scale']:.2f} x u",
-                str(len(line["machines"])),
-                f"{100 * line['between_chain_spread']:.0f} %",
-                str(line["readings"]),
-                line.get("let_go_by_part") or "",  # the part that showed it noisier
-            )
-        _out.print(table)
+    if answer["noise_provenance"]:
+        _out.print(_noise_table(answer["noise_provenance"]))
+
+
+def _let_go_caption(lines: list[tuple[str, Mapping[str, Any]]], field: str) -> str | None:
+    """``let go by part c-1: REASON``, a line per part and reason (None: nothing let go)."""
+    groups = let_go_groups(lines, field)
+    return "\n".join(let_go_text(serial, reason) for serial, reason, _ in groups) or None
+
+
+def _noise_table(noise: list[dict[str, Any]]) -> Table:
+    """Where each chain's noise prior came from, a row per quantity."""
+    caption = _let_go_caption([(line["quantity"], line) for line in noise], "let_go_by_part")
+    table = new_table(
+        title="learn's noise prior of each measuring chain (fleet)",
+        caption=caption,
+        caption_justify="left",
+    )
+    for column in ("quantity", "noise", "machines", "spread", "readings", "let go by"):
+        table.add_column(column, overflow="fold")
+    for line in noise:
+        table.add_row(
+            line["quantity"],
+            f"{line['noise_scale']:.2f} x u",
+            str(len(line["machines"])),
+            f"{100 * line['between_chain_spread']:.0f} %",
+            str(line["readings"]),
+            line.get("let_go_by_part") or "",  # the part that showed it noisier
+        )
+    return table
 
 
 def _show_tables(data: dict[str, Any], current: dict[str, Any] | None) -> list[Table]:

@@ -17,6 +17,7 @@ also well-formed XML, so XML tools can read it.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -26,6 +27,7 @@ from api.report.html_history import history_table, mark, tool_change_table
 from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
 from api.report.marks import halt_cause, halt_lines
 from api.report.plots import number
+from api.report.provenance import prior_line
 from api.report.series import OperationSeries, Output, cycle_series, operation_series
 from api.report.svg import render
 
@@ -67,7 +69,8 @@ _CAPTIONS = {
     "parameters": "Cutting parameters of each part (the setpoint it was made with) and of the "
     "next part (open markers); dotted: the bounds. After Ivester & Heigel Fig. 4a.",
     "outputs": "Constrained outputs: prediction ± band at the setpoint each part was made with "
-    "(shaded), measured value ± its uncertainty (error bars), limit (dashed), flagged RCB "
+    "(shaded) and at the next part's (open marker, blue bar), measured value ± its "
+    "uncertainty (black error bars), limit (dashed), flagged RCB "
     "decisions (crosses), readings quarantined as implausibly low (yellow diamonds: check the "
     "sensor and the tool). After Ivester & Heigel Fig. 4b.",
     "bands": "Uncertainty band ΔY of each output. Line: the band in force at the setpoint each "
@@ -111,7 +114,7 @@ def _overview(record: Mapping[str, Any]) -> str:
         ("Status", _status(plan)),
         ("Machine", plan["machine"]),
         ("RCB", f"{plan['strategy']}, α = {plan['alpha']:g}"),
-        ("Models started from", _prior_line(plan)),
+        ("Models started from", prior_line(plan)),
         ("Plan created", timestamp(plan["created_at"])),
         ("Parts reported", f"{count}, last {timestamp(received)}" if count else 0),
         ("Setpoint version in force", newest["version"]),
@@ -122,7 +125,8 @@ def _overview(record: Mapping[str, Any]) -> str:
     if len(plotted) < count:
         shown = f"the last {len(plotted)} parts, from {plotted[0]['serial']}" if plotted else "none"
         items.append(("Plotted", shown))
-    listed = "".join(tag("dt", escaped(k)) + tag("dd", escaped(v)) for k, v in items)
+    names = _names(plan)
+    listed = "".join(tag("dt", escaped(k)) + tag("dd", _unbroken(v, names)) for k, v in items)
     if totals.get("checks"):  # implausibly low readings: the operator checks sensor and tool
         text = escaped(f"{totals['checks']}: check the sensor and the tool")
         listed += tag("dt", escaped("CHECK SENSOR: implausibly low readings")) + tag(
@@ -131,45 +135,23 @@ def _overview(record: Mapping[str, Any]) -> str:
     return tag("dl", listed)
 
 
-def _prior_line(plan: Mapping[str, Any]) -> str:
-    """The catalogue, or the fleet: how many plans and machines, the spread learned."""
+def _names(plan: Mapping[str, Any]) -> list[str]:
+    """The plan's operations and the parts that let a prior go: names kept on one line."""
     lines = [p for ps in plan.get("provenance", {}).values() for p in ps]
-    if plan.get("prior") != "fleet" or not lines:
-        return "the tools' catalogue models"
-    plans = {name for p in lines for name in p["plans"]}
-    machines = {name for p in lines for name in p["machines"]}
-    spreads = [100 * p["between_machine_spread"] for p in lines]
-    ops = [100 * p["operation_spread"] for p in lines if p.get("operation_spread") is not None]
-    between_ops = f", between a machine's operations {min(ops):.1f}-{max(ops):.1f} %" if ops else ""
-    let_go = [
-        f"{op} {p['quantity']} (part {p['widened_by_part']})"
-        for op, ps in plan.get("provenance", {}).items()
-        for p in ps
-        if p.get("widened_by_part")
-    ]
-    outside = (
-        f"; let go where this machine lies outside the fleet's spread: {', '.join(let_go)}"
-        if let_go
-        else ""
-    )
-    return (
-        f"the fleet: {len(plans)} plans on {len(machines)} machines, between-machine spread "
-        f"{min(spreads):.1f}-{max(spreads):.1f} %{between_ops} (rcb plans show lists each "
-        "quantity's)"
-        f"{outside}{_noise_line(plan.get('noise_provenance', []))}"
-    )
+    lines += plan.get("noise_provenance", [])
+    serials = {p.get(k) for p in lines for k in ("widened_by_part", "let_go_by_part")}
+    return [op["name"] for op in plan.get("operations", [])] + sorted(s for s in serials if s)
 
 
-def _noise_line(noise: list[Mapping[str, Any]]) -> str:
-    """The measuring chains' noise priors from the fleet, and those let go (none: nothing)."""
-    if not noise:
-        return ""
-    chains = ", ".join(
-        f"{p['quantity']} {p['noise_scale']:.2f} x u"
-        + (f" (let go by part {p['let_go_by_part']})" if p.get("let_go_by_part") else "")
-        for p in noise
+def _unbroken(value: object, names: Sequence[str]) -> str:
+    """``value`` escaped, each of ``names`` in it whole on one line (``finish-contour``)."""
+    text = escaped(value)
+    if not names:
+        return text
+    words = "|".join(re.escape(escaped(n)) for n in sorted(names, key=len, reverse=True))
+    return re.sub(
+        f"(?<![\\w-])(?:{words})(?![\\w-])", lambda m: tag("span", m[0], class_="nw"), text
     )
-    return f"; measuring chains' noise from the fleet: {chains}"
 
 
 def _halt_section(plan: Mapping[str, Any]) -> str:

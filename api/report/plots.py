@@ -44,6 +44,8 @@ MARKERS_UP_TO = 40
 PART_AXIS = "part (in the order received; the last point: next part)"
 #: Colours: the setpoint (blue), the RCB update (green), limits and flags (red), bounds (grey).
 SETPOINT, UPDATE, ALARM, BOUND, CHECK = "#1f77b4", "#2ca02c", "#d62728", "#666666", "#ffdd00"
+#: The legend entry of the next part's open marker; in the outputs, with its band's bar.
+NEXT, NEXT_BAND = "next part", "next part: predicted ± band"
 #: How a limit's sense is written: "min" next to a time in minutes would read as minutes.
 SENSE_WORDS = {"max": "maximum", "min": "minimum"}
 
@@ -110,12 +112,15 @@ def _x(series: OperationSeries | CycleSeries) -> Array:
 
 
 def _setpoint_line(x: Array, y: Array, label: str) -> tuple[Mark, ...]:
-    """Values per part (steps; markers up to :data:`MARKERS_UP_TO` parts), next part (open)."""
+    """Values per part (steps; markers up to :data:`MARKERS_UP_TO` parts), next part (open).
+
+    With no part yet only the next part's marker is drawn, and only it is in the legend.
+    """
     steps = Mark("steps", x, y, SETPOINT, label if len(x) > MARKERS_UP_TO else None)
     marks = [steps]
-    if len(x) <= MARKERS_UP_TO:
+    if 1 < len(x) <= MARKERS_UP_TO:
         marks.append(Mark("points", x[:-1], y[:-1], SETPOINT, label))
-    marks.append(Mark("points", x[-1:], y[-1:], SETPOINT, "next part", marker="open"))
+    marks.append(Mark("points", x[-1:], y[-1:], SETPOINT, NEXT, marker="open"))
     return tuple(marks)
 
 
@@ -148,10 +153,22 @@ def limit_label(output: Output) -> str:
 
 
 def _output_marks(x: Array, output: Output) -> tuple[Mark, ...]:
+    """The prediction ± band per part (the next part's: an open marker with a bar), readings.
+
+    The shaded band and the line step from part to part: with no part yet they would have
+    no width, so they are left out; the next part's prediction and band are drawn as a
+    marker and a bar, as the other plots draw the next part.
+    """
     low, high = output.predicted - output.band, output.predicted + output.band
-    marks = [
-        Mark("band", x, low, SETPOINT, "predicted ± band", y2=high),
-        Mark("steps", x, output.predicted, SETPOINT, "predicted"),
+    marks = []
+    if len(x) > 1:
+        marks += [
+            Mark("band", x, low, SETPOINT, "predicted ± band", y2=high),
+            Mark("steps", x, output.predicted, SETPOINT, "predicted"),
+        ]
+    marks += [
+        Mark("bars", x[-1:], low[-1:], SETPOINT, None, y2=high[-1:]),
+        Mark("points", x[-1:], output.predicted[-1:], SETPOINT, NEXT_BAND, marker="open"),
     ]
     if np.isfinite(output.measured).any():
         marks += _error_bars(x, output.measured, output.uncertainty)

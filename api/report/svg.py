@@ -182,12 +182,11 @@ def _swatch(mark: Mark, x: float, y: float, prefix: str) -> str:
             f'<rect x="{px(x)}" y="{px(y - 4)}" width="20" height="8" fill="{mark.color}" '
             f'fill-opacity="0.2"/>'
         )
-    color = "#000" if mark.kind == "bars" else mark.color
     dash = ' stroke-dasharray="5 3"' if mark.dashed else ""
     dash = ' stroke-dasharray="1.5 2"' if mark.dotted else dash
     if mark.kind == "bars":
-        return f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{color}"/>'
-    return f'<path d="M{px(x)} {px(y)}h20" stroke="{color}" stroke-width="1.2"{dash}/>'
+        return f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}"/>'
+    return f'<path d="M{px(x)} {px(y)}h20" stroke="{mark.color}" stroke-width="1.2"{dash}/>'
 
 
 def _legend(panel: Panel, x: float, top: float, prefix: str) -> str:

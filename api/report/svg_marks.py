@@ -167,7 +167,9 @@ def mark_svg(mark: Mark, scale: Scale, prefix: str) -> str:
         if mark.y2 is None:
             raise ValueError(f"mark kind = {mark.kind!r}: needs y2, the other edge")
         y2 = [scale.y(float(v)) if math.isfinite(v) else math.nan for v in mark.y2]
-        return _band(mark, xs, ys, y2, gid) if mark.kind == "band" else _bars(xs, ys, y2, gid)
+        if mark.kind == "band":
+            return _band(mark, xs, ys, y2, gid)
+        return _bars(xs, ys, y2, gid, mark.color)
     runs = [[(xs[i], ys[i]) for i in run] for run in _runs(ys)]
     if not runs:
         return ""
@@ -195,10 +197,10 @@ def _band(mark: Mark, xs: list[float], low: list[float], high: list[float], gid:
     return f'<path{gid} d="{d}" fill="{mark.color}" fill-opacity="0.2" stroke="none"/>'
 
 
-def _bars(xs: list[float], low: list[float], high: list[float], gid: str) -> str:
+def _bars(xs: list[float], low: list[float], high: list[float], gid: str, color: str) -> str:
     d = "".join(
         f"M{px(x)} {px(lo)}V{px(hi)}"
         for x, lo, hi in zip(xs, low, high, strict=True)
         if math.isfinite(lo) and math.isfinite(hi)
     )
-    return f'<path{gid} d="{d}" stroke="#000" stroke-width="1"/>' if d else ""
+    return f'<path{gid} d="{d}" stroke="{color}" stroke-width="1"/>' if d else ""

@@ -86,9 +86,10 @@ def test_a_machine_far_below_the_fleet_lets_its_roughness_prior_go(
     page = tmp_path / "fleet-c.html"
     done = runner.invoke(app, ["report", "fleet-c", "--db", url, "--out", str(page)])
     assert done.exit_code == 0, done.output
-    said = "let go where this machine lies outside the fleet&#x27;s spread: "
-    assert said in page.read_text(encoding="utf-8")
-    assert "finish-od roughness_um (part c-1)" in page.read_text(encoding="utf-8")
+    text = page.read_text(encoding="utf-8")
+    said = 'roughness_um let go by part <span class="nw">c-1</span>: this machine lies outside'
+    assert said + " the fleet&#x27;s spread" in text  # the reason REST's text gives
+    assert '<span class="nw">finish-od</span> roughness_um' in text
     listed = runner.invoke(app, ["fleet", "show", "CPGM32505", "--db", url, "--json"])
     fleet_c = next(m for m in json.loads(listed.stdout)["plans"] if m["plan"] == "fleet-c")
     assert fleet_c["let_go"] == ["finish-od roughness_um"] and fleet_c["out"] == ""

@@ -1,0 +1,111 @@
+"""Where a plan's models started from, in words: the report's overview and ``rcb plans show``.
+
+A plan's answer (:func:`api.services.read.plans.get_plan`) carries ``prior`` (``fleet`` or
+``catalogue``), ``provenance`` (per operation, a line per quantity, by operation name) and
+``noise_provenance`` (a line per measuring chain). Both the report (:func:`prior_line`) and
+``rcb plans show`` read them through this module, so they say the same, in the plan's order
+of operations, and with the reason a part let a prior go taken from the provenance's own
+text: the line REST answers, written once where the part let it go
+(:func:`db.let_go_mark.marked`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from db.let_go_mark import marked
+
+#: What a plan's models start from without a fleet prior.
+CATALOGUE = "the tools' catalogue models"
+
+
+def span(values: Iterable[float]) -> str:
+    """Per-cent values at one decimal: ``4.1`` when they all read so, else ``2.9-3.2``."""
+    shown = sorted(set(values))
+    low, high = f"{shown[0]:.1f}", f"{shown[-1]:.1f}"
+    return low if low == high else f"{low}-{high}"
+
+
+def _counted(count: int, noun: str) -> str:
+    return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
+
+
+def in_plan_order(
+    provenance: Mapping[str, Sequence[Mapping[str, Any]]], operations: Sequence[str]
+) -> list[tuple[str, Sequence[Mapping[str, Any]]]]:
+    """``provenance``'s operations in the plan's order (``operations``: its names)."""
+    rank = {name: i for i, name in enumerate(operations)}
+    return sorted(provenance.items(), key=lambda item: rank.get(item[0], len(rank)))
+
+
+def let_go_reason(line: Mapping[str, Any], field: str) -> str | None:
+    """Why the part named by ``line[field]`` let the prior go, as its text says (None: kept).
+
+    ``field``: ``widened_by_part`` (a model's prior) or ``let_go_by_part`` (a chain's noise).
+    The reason is what follows ``; let go by part SERIAL:`` in ``line["text"]``, the text
+    :func:`db.let_go_mark.marked` wrote; a text without it gives ``""``.
+    """
+    serial = line.get(field)
+    if not serial:
+        return None
+    said = marked({"provenance": {"text": ""}}, field, serial, "")["provenance"]["text"]
+    return str(line.get("text", "")).partition(said)[2].strip()
+
+
+def let_go_groups(
+    items: Iterable[tuple[str, Mapping[str, Any]]], field: str
+) -> list[tuple[str, str, list[str]]]:
+    """``(serial, reason, names)`` per part and reason that let a prior go, in first order.
+
+    ``items``: ``(name, line)`` pairs; a line no part let go is left out.
+    """
+    groups: dict[tuple[str, str], list[str]] = {}
+    for name, line in items:
+        reason = let_go_reason(line, field)
+        if reason is not None:
+            groups.setdefault((str(line[field]), reason), []).append(name)
+    return [(serial, reason, names) for (serial, reason), names in groups.items()]
+
+
+def let_go_text(serial: str, reason: str) -> str:
+    """``let go by part c-1: this machine lies …`` (the reason left out when none is stored)."""
+    return f"let go by part {serial}: {reason}" if reason else f"let go by part {serial}"
+
+
+def prior_line(plan: Mapping[str, Any]) -> str:
+    """The catalogue, or the fleet: how many plans and machines, the spreads, what was let go."""
+    order = [op["name"] for op in plan.get("operations", [])]
+    by_operation = in_plan_order(plan.get("provenance", {}), order)
+    lines = [(f"{op} {p['quantity']}", p) for op, ps in by_operation for p in ps]
+    if plan.get("prior") != "fleet" or not lines:
+        return CATALOGUE
+    plans = {name for _, p in lines for name in p["plans"]}
+    machines = {name for _, p in lines for name in p["machines"]}
+    spreads = [100 * p["between_machine_spread"] for _, p in lines]
+    ops = [100 * p["operation_spread"] for _, p in lines if p.get("operation_spread") is not None]
+    between_ops = f", between a machine's operations {span(ops)} %" if ops else ""
+    outside = "".join(
+        f"; {', '.join(names)} {let_go_text(serial, reason)}"
+        for serial, reason, names in let_go_groups(lines, "widened_by_part")
+    )
+    return (
+        f"the fleet: {_counted(len(plans), 'plan')} on {_counted(len(machines), 'machine')}, "
+        f"between-machine spread {span(spreads)} %{between_ops} (rcb plans show lists each "
+        "quantity's)"
+        f"{outside}{noise_line(plan.get('noise_provenance', []))}"
+    )
+
+
+def noise_line(noise: Sequence[Mapping[str, Any]]) -> str:
+    """The measuring chains' noise priors from the fleet, and those let go (none: nothing)."""
+    if not noise:
+        return ""
+    chains = ", ".join(f"{p['quantity']} {p['noise_scale']:.2f} x u" for p in noise)
+    let_go = "".join(
+        f"; {', '.join(names)} noise {let_go_text(serial, reason)}"
+        for serial, reason, names in let_go_groups(
+            ((p["quantity"], p) for p in noise), "let_go_by_part"
+        )
+    )
+    return f"; measuring chains' noise from the fleet: {chains}{let_go}"
