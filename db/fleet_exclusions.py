@@ -2,23 +2,54 @@
 
 Excluded, a plan's (or every plan of a machine's) learned models no longer make any new
 plan's prior (:func:`db.fleet.fleet_evidence`); a plan whose process changed is out by
-itself until an engineer puts it back, accepting the changes it counted so far.
+itself until an engineer puts it back, accepting the changes it counted so far. Putting back
+what is not out (a plan never excluded and with no change to accept, a machine never
+excluded) changes nothing, and says so (:attr:`Included.put_back`).
 """
 
 from __future__ import annotations
 
-from sqlalchemy import delete, select
+from dataclasses import dataclass
+
+from sqlalchemy import delete, func, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.errors import StoredSettingsError
 from db.fleet import imported_machine
-from db.fleet_changes import plan_changes
-from db.fleet_changes import clear_fleet_change
+from db.fleet_changes import clear_fleet_change, plan_changes
+from db.plan_state import plan_settings
 from db.plans import get_plan_row
 from models.errors import InputError
 
 #: The longest reason an exclusion keeps [characters]: a sentence or two, on every surface.
 MAX_REASON = 500
+
+
+class OneOfError(InputError):
+    """Both or neither of two options given: ``--plan/--machine: name exactly one ...``.
+
+    There is no one value to echo, so the message is the options and what to do.
+    """
+
+    def __init__(self, field: str, reason: str) -> None:
+        super().__init__(field, None, reason)
+        self.args = (f"{field}: {reason}",)
+
+
+@dataclass(frozen=True)
+class Included:
+    """What ``rcb fleet include`` did.
+
+    ``put_back``: something was out and is back (False: nothing to put back, nothing
+    changed). ``changes_accepted``: the plan's changes of its process counted so far, now
+    accepted (0 for a machine, or where none was put back). ``still_out``: why the plan stays
+    out all the same ("" if nothing keeps it: its machine is taken out, it is halted).
+    """
+
+    put_back: bool
+    changes_accepted: int
+    still_out: str
 
 
 def exclude(
@@ -30,20 +61,14 @@ def exclude(
     at most :data:`MAX_REASON` characters. Excluding what is already out changes nothing but
     the reason shown.
     """
-    _one(plan_id, machine)
+    one_of(plan_id, machine)
     text = reason.strip()
     if not text or len(text) > MAX_REASON:
         raise InputError("--reason", reason, f"give why, in 1 to {MAX_REASON} characters")
-    if (
-        machine is not None
-        and session.scalar(select(t.Machine.id).where(t.Machine.name == machine)) is None
-        and not imported_machine(session=session, name=machine)
-    ):
-        raise InputError(
-            "--machine", machine, "no stored plan or imported model is of this machine"
-        )
+    if machine is not None:
+        _known_machine(session, machine)
     if plan_id is not None and get_plan_row(session=session, plan_id=plan_id) is None:
-        raise InputError("PLAN", plan_id, "no such plan")
+        raise InputError("--plan", plan_id, "no such plan")
     same = (
         t.FleetExclusion.plan_id == plan_id
         if machine is None
@@ -53,22 +78,73 @@ def exclude(
     session.add(t.FleetExclusion(plan_id=plan_id, machine=machine, reason=text, actor=actor))
 
 
-def include(*, session: Session, plan_id: int | None, machine: str | None) -> int:
-    """Put ``plan_id`` or ``machine`` back; a plan's changes so far are accepted. Returns them."""
-    _one(plan_id, machine)
+def include(*, session: Session, plan_id: int | None, machine: str | None) -> Included:
+    """Put ``plan_id`` or ``machine`` back; a plan's changes so far are accepted.
+
+    Raises :class:`~models.errors.InputError` naming ``--machine`` or ``--plan`` for a machine
+    no stored plan or imported model is of, a plan not stored, or a plan whose strategy
+    learns no posterior (never in the fleet). What is not out is left as it is.
+    """
+    one_of(plan_id, machine)
     if machine is not None:
-        session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.machine == machine))
-        return 0
+        _known_machine(session, machine)
+        gone = session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.machine == machine))
+        return Included(bool(getattr(gone, "rowcount", 0)), 0, "")
     row = get_plan_row(session=session, plan_id=plan_id or 0, lock=True)
     if row is None:
-        raise InputError("PLAN", plan_id, "no such plan")
-    session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.plan_id == plan_id))
+        raise InputError("--plan", plan_id, "no such plan")
+    strategy = _strategy(row)
+    if strategy != "learn":
+        raise InputError(
+            "--plan", plan_id, f"strategy {strategy} learns no posterior: never in the fleet"
+        )
+    gone = session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.plan_id == row.id))
     changes = plan_changes(session=session, plan_ids=[row.id])[row.id]
+    changed = changes > row.fleet_changes_accepted or row.fleet_change_part is not None
+    still = _still_out(session, row)
+    if not (getattr(gone, "rowcount", 0) or changed):
+        return Included(False, 0, still)
     row.fleet_changes_accepted = changes
     clear_fleet_change(row)
-    return changes
+    return Included(True, changes, still)
 
 
-def _one(plan_id: int | None, machine: str | None) -> None:
-    if (plan_id is None) == (machine is None):
-        raise InputError("--plan/--machine", None, "name exactly one of a plan and a machine")
+def one_of(plan: object, machine: object) -> None:
+    """Refuse both or neither of ``--plan`` and ``--machine`` (:class:`OneOfError`)."""
+    if plan is not None and machine is not None:
+        raise OneOfError("--plan/--machine", "name exactly one of a plan and a machine, not both")
+    if plan is None and machine is None:
+        raise OneOfError("--plan/--machine", "name exactly one of a plan and a machine, not none")
+
+
+def _known_machine(session: Session, machine: str) -> None:
+    """Refuse a machine no stored plan or imported model is of (names compare exactly)."""
+    if session.scalar(select(t.Machine.id).where(t.Machine.name == machine)) is not None:
+        return
+    if imported_machine(session=session, name=machine):
+        return
+    reason = "no stored plan or imported model is of this machine"
+    alike = select(t.Machine.name).where(func.lower(t.Machine.name) == machine.lower())
+    close = session.scalar(alike.order_by(t.Machine.name).limit(1))
+    if close is not None:  # names compare exactly: LATHE-B is not lathe-b
+        reason += f" (names are exact: {close}?)"
+    raise InputError("--machine", machine, reason)
+
+
+def _strategy(row: t.Plan) -> str:
+    """The plan's strategy; a stored setting this version refuses leaves it as stored."""
+    try:
+        return plan_settings(row).strategy
+    except StoredSettingsError:
+        return str((row.settings or {}).get("strategy") or "learn")
+
+
+def _still_out(session: Session, row: t.Plan) -> str:
+    """What keeps the plan out besides its own exclusion and its changes ("" nothing)."""
+    machine = session.scalar(select(t.Machine.name).where(t.Machine.id == row.machine_id))
+    found = select(t.FleetExclusion.id).where(t.FleetExclusion.machine == machine).limit(1)
+    if machine is not None and session.scalar(found) is not None:
+        return f"its machine {machine} is taken out (rcb fleet include --machine {machine})"
+    if row.halt is not None:
+        return "it is halted (a halted plan does not count)"
+    return ""

@@ -8,14 +8,19 @@ by itself until an engineer puts it back, which accepts the changes it counted s
 from __future__ import annotations
 
 import json
+import re
 import sys
-from collections.abc import Callable
+import textwrap
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.table import Table
 
 from api.cli.common import (
+    WIDTH,
     DbOption,
     JsonOption,
     as_option,
@@ -24,6 +29,7 @@ from api.cli.common import (
     plan_of,
     say,
     say_command,
+    say_filled,
 )
 from api.cli.tables import fmt, new_table
 from api.cli.who import ByOption, cli_actor
@@ -88,9 +94,13 @@ def law(
 
 
 def _print_law(tool: str, q: dict[str, Any]) -> None:
-    """One quantity's law: the fleet's and the catalogue's parameters, then where it cut."""
+    """One quantity's law: the fleet's and the catalogue's parameters, then where it is known.
+
+    The point of the last line is where the machines' readings pin the law best
+    (:func:`supervisor.fleet.hierarchy.best_determined`), not where any machine cut.
+    """
     console = Console()
-    console.print(f"{tool} {q['text']}", markup=False, highlight=False)
+    _print_filled(console, f"{tool} {q['text']}")
     table = new_table("parameter", "fleet", "catalogue")  # a value and its sd: words that wrap
     table.add_row("K", fmt(q["K"]), fmt(q["catalogue_K"]))
     for p in q["parameters"]:
@@ -101,14 +111,43 @@ def _print_law(tool: str, q: dict[str, Any]) -> None:
         else:
             table.add_row(p["name"], *(f"{fmt(v)} ± {sd:.2g}" for v, sd in row))
     console.print(table)
-    where = ", ".join(f"{name} {fmt(value)}" for name, value in q["reference"].items())
-    console.print(
-        f"Where the fleet cut ({where}), on a new edge, Y is known to ± "
-        f"{100 * q['law_sd']:.1f} %, a new machine's to ± {100 * q['new_machine_sd']:.1f} %, "
-        f"the catalogue's to ± {100 * q['catalogue_sd']:.1f} % (1 sd).\n",
-        markup=False,
-        highlight=False,
+    where = ", ".join(f"{name}{NBSP}{fmt(value)}" for name, value in q["reference"].items())
+    _print_filled(
+        console,
+        f"Where the machines' readings pin the law best ({where}), on a new edge, Y is known "
+        f"to ± {100 * q['law_sd']:.1f} %, a new machine's to ± {100 * q['new_machine_sd']:.1f} "
+        f"%, the catalogue's to ± {100 * q['catalogue_sd']:.1f} % (1 sd).",
     )
+    console.print()
+
+
+#: A no-break space: joins what a line may not end between (textwrap breaks at ASCII spaces).
+NBSP = "\u00a0"
+#: ``± 2.9`` and ``2.9 %``: a number with its sign and its unit, kept on one line.
+_TOGETHER = re.compile(r"(?<=±) (?=[0-9])|(?<=[0-9]) (?=%)")
+
+
+def _print_filled(console: Console, text: str) -> None:
+    """``text`` filled to the console's width (80 at most), never between a number and its unit.
+
+    ``± 2.9 %`` and ``depth_mm 2.988`` stay whole; rich alone wraps at any space (``spread
+    4.1`` at a line's end, ``%,`` on the next).
+    """
+    filled = _filled(text, min(console.width, WIDTH))
+    console.print(filled, markup=False, highlight=False, soft_wrap=True)
+
+
+def _filled(text: str, width: int = WIDTH, indent: str = "") -> str:
+    """``text`` filled to ``width``, not broken at a no-break space nor inside ``± 2.9 %``."""
+    joined = _TOGETHER.sub(NBSP, text)
+    filled = textwrap.fill(
+        joined,
+        width=width,
+        subsequent_indent=indent,
+        break_on_hyphens=False,
+        break_long_words=False,
+    )
+    return filled.replace(NBSP, " ")
 
 
 @fleet_app.command("imported")
@@ -170,6 +209,24 @@ def _read(
 
 
 def _print_members(page: dict[str, Any], first: bool) -> None:
+    """The page's plans (no table where there are none), then what else holds the tool."""
+    tool = page["tool"]
+    if page["plans"]:
+        Console().print(_members_table(page))
+    if not first:
+        return
+    if not page["plans"]:
+        start = "the imported models" if page["imported"] else "the catalogue"
+        say_filled(f"rcb: no stored plan uses {tool}: new plans start from {start}")
+    if page["imported"]:
+        command = f"(rcb fleet imported {tool} names their machines)".replace(" ", NBSP)
+        text = f"rcb: and {page['imported']} learned models imported from other databases "
+        say(_filled(text + command, indent="  "))  # the command whole, to copy
+    if any(not m["out"] for m in page["plans"]):
+        say_command("rcb: what they learned of its law:", f"rcb fleet law {tool}")
+
+
+def _members_table(page: dict[str, Any]) -> Table:
     table = new_table(title=f"{page['tool']}: the plans using it")
     for column in ("id", "plan", "machine", "readings", "in the fleet"):
         table.add_column(column, justify="right" if column in ("id", "readings") else "left")
@@ -178,17 +235,7 @@ def _print_members(page: dict[str, Any], first: bool) -> None:
         if m["let_go"]:
             fleet += f"; prior let go: {', '.join(m['let_go'])}"
         table.add_row(str(m["plan_id"]), m["plan"], m["machine"], str(m["readings"]), fleet)
-    Console().print(table)
-    if page["imported"] and first:
-        say(
-            f"rcb: and {page['imported']} learned models imported from other databases "
-            f"(rcb fleet imported {page['tool']} names their machines)"
-        )
-    if first and not page["plans"]:
-        start = "the imported models" if page["imported"] else "the catalogue"
-        say(f"rcb: no stored plan uses {page['tool']}: new plans start from {start}")
-    elif first and any(not m["out"] for m in page["plans"]):
-        say(f"rcb: what they learned of its law: rcb fleet law {page['tool']}")
+    return table
 
 
 @fleet_app.command("exclude")
@@ -201,15 +248,18 @@ def exclude(
 ) -> None:
     """Take a plan (--plan) or every plan of a machine (--machine) out of the fleet."""
     from api.services.fleet_models import exclude_from_fleet
+    from db.fleet_exclusions import one_of
 
     with errors():
+        one_of(plan, machine)  # before the plan is looked up: say both, not a name's error
         actor = cli_actor(by)
         engine = engine_of(db)
         plan_id = None if plan is None else plan_of(engine, plan, "--plan")
-        done = exclude_from_fleet(
-            engine=engine, plan_id=plan_id, machine=machine, reason=reason, actor=actor
-        )
-    say(f"rcb: {done.body['excluded']} is out of the fleet ({done.body['reason']})")
+        with _as_typed(plan):
+            done = exclude_from_fleet(
+                engine=engine, plan_id=plan_id, machine=machine, reason=reason, actor=actor
+            )
+    say_filled(f"rcb: {done.body['excluded']} is out of the fleet ({done.body['reason']})")
 
 
 @fleet_app.command("include")
@@ -221,12 +271,45 @@ def include(
 ) -> None:
     """Put a plan or a machine back in the fleet (a plan's changes so far accepted)."""
     from api.services.fleet_models import include_in_fleet
+    from db.fleet_exclusions import one_of
 
     with errors():
+        one_of(plan, machine)
         actor = cli_actor(by)
         engine = engine_of(db)
         plan_id = None if plan is None else plan_of(engine, plan, "--plan")
-        done = include_in_fleet(engine=engine, plan_id=plan_id, machine=machine, actor=actor)
-    accepted = done.body["changes_accepted"]
+        with _as_typed(plan):
+            done = include_in_fleet(engine=engine, plan_id=plan_id, machine=machine, actor=actor)
+    say_filled(_included(done.body))
+
+
+def _included(body: dict[str, Any]) -> str:
+    """What ``include`` did: put back, nothing to put back, and what keeps the plan out."""
+    target, still = body["included"], body["still_out"]
+    if not body["put_back"]:
+        itself = " itself" if still else ""
+        text = f"rcb: {target} is not taken out of the fleet{itself}: nothing to put back"
+        return f"{text}; it stays out: {still}" if still else text
+    accepted = body["changes_accepted"]
+    if still:
+        extra = f" ({accepted} changes of its process accepted)" if accepted else ""
+        return f"rcb: {target} is put back{extra}, but stays out of the fleet: {still}"
     extra = f"; {accepted} changes of its process accepted" if accepted else ""
-    say(f"rcb: {done.body['included']} is back in the fleet{extra}")
+    return f"rcb: {target} is back in the fleet{extra}"
+
+
+@contextmanager
+def _as_typed(plan: str | None) -> Iterator[None]:
+    """The use case's error in 80 columns, a ``--plan`` one with the plan as typed.
+
+    ``--plan = 'vl-f'`` for a name, the id for digits; exit 2, as :func:`errors` does.
+    """
+    from models.errors import InputError
+
+    try:
+        yield
+    except InputError as err:
+        if err.field == "--plan" and plan is not None and not plan.isdigit():
+            err = InputError("--plan", plan, err.reason)
+        say_filled(f"rcb: error: {err}")
+        raise typer.Exit(2) from None

@@ -8,7 +8,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from api.services.idempotency import Written
-from api.services.transactions import audited, write
+from api.services.transactions import audited, transaction, write
 from db import api_keys
 from db.api_keys import Actor
 from db.fleet_exclusions import exclude, include
@@ -70,7 +70,7 @@ def exclude_from_fleet(
     actor: Actor = api_keys.CLI_ACTOR,
 ) -> Written:
     """Take a plan or a machine out of the fleet (audited)."""
-    target = f"plan {plan_id}" if machine is None else f"machine {machine}"
+    target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
     with audited(engine, actor, "fleet exclude", target, plan_id=plan):
 
@@ -95,21 +95,35 @@ def exclude_from_fleet(
 def include_in_fleet(
     *, engine: Engine, plan_id: int | None, machine: str | None, actor: Actor = api_keys.CLI_ACTOR
 ) -> Written:
-    """Put a plan or a machine back in the fleet; a plan's changes so far accepted (audited)."""
-    target = f"plan {plan_id}" if machine is None else f"machine {machine}"
+    """Put a plan or a machine back in the fleet; a plan's changes so far accepted.
+
+    Audited when something was put back, or refused; putting back what is not out changes
+    nothing and writes no audit entry (``put_back`` false, ``still_out``: why the plan stays
+    out all the same, "" if nothing keeps it).
+    """
+    target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
-    with audited(engine, actor, "fleet include", target, plan_id=plan):
+    with (
+        audited(engine, actor, "fleet include", target, plan_id=plan),
+        transaction(engine, actor, "fleet include", target, None, plan=plan) as tx,
+    ):
+        done = include(session=tx.session, plan_id=plan_id, machine=machine)
+        body = {
+            "included": target,
+            "put_back": done.put_back,
+            "changes_accepted": done.changes_accepted,
+            "still_out": done.still_out,
+        }
+        if not done.put_back:  # nothing changed: no entry in the audit log
+            return Written(200, body)
+        return tx.answer(200, body)
 
-        def work(session: Session) -> tuple[int, dict[str, Any]]:
-            accepted = include(session=session, plan_id=plan_id, machine=machine)
-            return 200, {"included": target, "changes_accepted": accepted}
 
-        return write(
-            engine,
-            actor=actor,
-            action="fleet include",
-            target=target,
-            idempotency=None,
-            work=work,
-            plan=plan,
-        )
+def fleet_target(plan_id: int | None, machine: str | None) -> str:
+    """The audit target of an exclusion or inclusion: ``plan 3``, ``machine lathe-b``.
+
+    Both or neither (refused): what was named, so the log says what was asked.
+    """
+    named = [f"plan {plan_id}"] if plan_id is not None else []
+    named += [f"machine {machine}"] if machine is not None else []
+    return " and ".join(named) or "neither a plan nor a machine"

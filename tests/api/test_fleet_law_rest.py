@@ -49,7 +49,10 @@ def test_what_two_machines_learned_of_a_tool_is_shown_and_an_excluded_plan_leave
     text = invoke(runner, "fleet", "law", "VCMR331", "--db", server.url)
     assert text.exit_code == 0, text.output
     assert "VCMR331 force_N: prior from 2 plans on 2 machines" in text.stdout
-    assert "feed_mm_rev" in text.stdout and "Where the fleet cut (depth_mm" in text.stdout
+    assert (
+        "feed_mm_rev" in text.stdout
+        and "Where the machines' readings pin the law best (depth_mm" in text.stdout
+    )
     out = invoke(
         runner,
         "fleet",

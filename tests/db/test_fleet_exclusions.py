@@ -75,7 +75,7 @@ def test_rcb_fleet_at_the_cli_names_what_is_wrong(engine, runner) -> None:
     )
     assert done.exit_code == 2 and "--machine = 'nope'" in done.output
     done = runner.invoke(app, ["fleet", "exclude", "--plan", "99", "--reason", "r", "--db", url])
-    assert done.exit_code == 2 and "PLAN = 99: no such plan" in done.output  # not "concurrent"
+    assert done.exit_code == 2 and "--plan = 99: no such plan" in done.output  # not "concurrent"
     for blank in ("", "  "):
         done = runner.invoke(
             app, ["fleet", "exclude", "--plan", "fleet-a", "--reason", blank, "--db", url]
