@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from typing import Any
+
+from alembic.runtime.migration import MigrationContext, MigrationInfo
+
 from alembic import context
 from db.engine import make_engine
 from db.migrate import lock_in
@@ -12,6 +16,17 @@ config = context.config
 url = config.attributes.get("url") or config.get_main_option("sqlalchemy.url")
 if not url:
     raise SystemExit("rcb db: no database URL given to the migrations")
+
+#: The migration steps this run applied (stamps are no migration and not counted).
+applied: list[str] = []
+
+
+def _applied(
+    ctx: MigrationContext, step: MigrationInfo, heads: set[str], run_args: dict[str, Any]
+) -> None:
+    if step.is_migration:
+        applied.append(str(step.up_revision_id))
+
 
 engine = make_engine(url)
 with engine.connect() as connection:
@@ -27,6 +42,7 @@ with engine.connect() as connection:
         target_metadata=Base.metadata,
         render_as_batch=sqlite,
         compare_type=True,
+        on_version_apply=_applied,
     )
     with context.begin_transaction():
         if connection.dialect.name == "postgresql":
@@ -34,7 +50,9 @@ with engine.connect() as connection:
             lock_in(connection)
             config.attributes["before"] = revision(connection)
         context.run_migrations()
-        if sqlite:
+        # only after a migration ran: at head nothing changed, and the check reads every row
+        # with a reference (15 ms on a new database, 124 ms after a year, on every command)
+        if sqlite and applied:
             broken = connection.exec_driver_sql("PRAGMA foreign_key_check").fetchall()
             if broken:
                 raise SystemExit(f"rcb db: the migrations broke references: {broken[:5]}")

@@ -206,6 +206,7 @@ class Part(Base):
     __table_args__ = (
         UniqueConstraint("plan_id", "serial"),
         Index("ix_parts_plan_received", "plan_id", "received_at"),  # rcb parts --since
+        Index("ix_parts_plan_id", "plan_id", "id"),  # a page of parts, either order (0028)
     )
     id: Mapped[int] = mapped_column(primary_key=True)
     plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id"))

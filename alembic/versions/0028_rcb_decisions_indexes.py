@@ -1,4 +1,9 @@
-"""The indexes a plan's report finds its newest and its marked RCB decisions by
+"""The indexes a plan's report finds its newest and its marked RCB decisions by, and a page
+of a plan's parts
+
+``ix_parts_plan_id`` on ``(plan_id, id)``: a page of ``GET /plans/{id}/parts`` (oldest or
+newest first) is a seek; SQLite took ``ix_parts_plan_received`` and sorted every part of the
+plan for each page.
 
 ``ix_rcb_decisions_operation_quantity_part`` on ``(operation_id, quantity, part_id)``: the
 newest decision of each of a plan's operations and quantities is one seek of the index's
@@ -32,6 +37,7 @@ MARKED = {"postgresql": "flagged OR note IS NOT NULL", "sqlite": "flagged = 1 OR
 
 
 def upgrade() -> None:
+    op.create_index("ix_parts_plan_id", "parts", ["plan_id", "id"])
     op.create_index(
         "ix_rcb_decisions_operation_quantity_part",
         "rcb_decisions",
@@ -49,3 +55,4 @@ def upgrade() -> None:
 def downgrade() -> None:
     op.drop_index("ix_rcb_decisions_marked", table_name="rcb_decisions")
     op.drop_index("ix_rcb_decisions_operation_quantity_part", table_name="rcb_decisions")
+    op.drop_index("ix_parts_plan_id", table_name="parts")

@@ -10,8 +10,9 @@ So each operation declares what its route can send, derived from what the route 
 - a key: 401 (none, unknown, revoked), 429 (too many failures, :mod:`api.services.throttle`),
   403 where a role may not (or a key scoped to plans writes to no plan, :mod:`api.rest.deps`);
 - a path parameter: 404 (no such plan or tool, or a plan outside a scoped key);
-- parameters or a body: 422 (invalid), 400 (a query parameter given twice, an
-  Idempotency-Key malformed or missing, a body that is not UTF-8 JSON, :mod:`api.rest.strict`);
+- parameters or a body: 422 (invalid, or a query parameter the route does not take), 400 (a
+  query parameter given twice, an Idempotency-Key malformed or missing, a body that is not
+  UTF-8 JSON, :mod:`api.rest.strict`);
 - a write: 409 (the same thing stored by a concurrent request, a request still in flight);
 - the database: 503 with ``Retry-After`` (no connection free, :mod:`api.rest.unavailable`).
 

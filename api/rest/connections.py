@@ -8,8 +8,12 @@ many connections are open, the MES's too. Issue 29: 300 slowloris connections st
 files, so the MES could not connect at all.
 
 :class:`GuardedProtocol` is uvicorn's httptools protocol with what a front server (nginx
-``client_header_timeout``, ``client_body_timeout``, ``limit_conn``; Apache ``mod_reqtimeout``
-and the event MPM, which closes idle kept-alive connections when it runs out of room) does:
+``client_header_timeout``, ``client_body_timeout``, ``limit_conn``,
+``large_client_header_buffers``; Apache ``mod_reqtimeout`` and the event MPM, which closes idle
+kept-alive connections when it runs out of room) does:
+
+- a request's head (request line and header fields) is at most 32 KiB, else 431 or 414
+  problem+json before the app sees it (:mod:`api.rest.heads`);
 
 - a request's head must be complete within ``header_timeout_s`` of the connection's opening,
   or of its first byte on a kept-alive connection, and its body within ``body_timeout_s`` of
@@ -35,8 +39,7 @@ from collections import Counter, OrderedDict
 from functools import cache
 from typing import Any
 
-from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol
-
+from api.rest.heads import HeadLimit
 from api.settings import HttpLimits, http_limits
 
 #: The ``http`` of uvicorn's config: this module's protocol, imported by name in each worker.
@@ -136,8 +139,11 @@ def _limits() -> HttpLimits:
     return http_limits()  # the worker's environment, checked by rcb serve before serving
 
 
-class GuardedProtocol(HttpToolsProtocol):
-    """uvicorn's httptools protocol with deadlines and connection caps (module docstring)."""
+class GuardedProtocol(HeadLimit):
+    """uvicorn's httptools protocol with deadlines and connection caps (module docstring).
+
+    And a bounded request head (:class:`api.rest.heads.HeadLimit`: 431 or 414 past 32 KiB).
+    """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)

@@ -8,6 +8,11 @@ gets an answer to a request it did not mean. Here, before the route's own parame
 - the body (of a route that takes JSON) is UTF-8 (RFC 8259 §8.1): a NUL byte (UTF-16 or UTF-32
   text) or an invalid UTF-8 sequence is 400 ``body_not_utf8``; invalid JSON is 400
   ``malformed_json``; an object with a key twice is 400 ``duplicate_key`` naming the key;
+- a query parameter the route does not declare is 422 ``invalid`` naming it and the known ones
+  (``limitt: unknown query parameter; known: cursor, limit``): it was ignored, and
+  ``GET /plans?limitt=5`` answered the default page as if the client had asked for it. Every
+  route that takes input (a path, query or body) checks it, as every such route declares a 422
+  (:mod:`api.rest.answers`); ``GET /health``, which takes none, answers whatever its query;
 - a query parameter that takes one value, given twice, is 400 ``repeated_parameter`` naming it;
 - an integer path parameter is ASCII digits only, else 422 ``invalid`` naming it.
 
@@ -111,20 +116,35 @@ def _integer(annotation: Any) -> bool:
     return annotation is int
 
 
-def _params(dependant: Dependant) -> tuple[list[str], list[str]]:
-    """The aliases of the single-valued query parameters and of the integer path parameters."""
-    single, integers = [], []
+def _params(dependant: Dependant) -> tuple[list[str], list[str], list[str]]:
+    """The aliases of the query, single-valued query and integer path parameters.
+
+    Every query parameter in the order declared, and a dependency's too.
+    """
+    known, single, integers = [], [], []
     for field in dependant.query_params:
+        known.append(field.alias)
         if not _many(field.field_info.annotation):
             single.append(field.alias)
     for field in dependant.path_params:
         if _integer(field.field_info.annotation):
             integers.append(field.alias)
     for sub in dependant.dependencies:
-        more_single, more_integers = _params(sub)
+        more_known, more_single, more_integers = _params(sub)
+        known += [name for name in more_known if name not in known]
         single += more_single
         integers += more_integers
-    return single, integers
+    return known, single, integers
+
+
+def _unknown_query(request: Request, known: list[str]) -> None:
+    """A query parameter the route does not declare: 422 naming it and the known ones."""
+    for name in request.query_params:
+        if name not in known:
+            listed = ", ".join(known) if known else "none"
+            given = request.query_params.getlist(name)
+            detail = f"{name}: unknown query parameter; known: {listed}"
+            raise ProblemError(422, "invalid", detail, name, given[0] if len(given) == 1 else given)
 
 
 class StrictRoute(APIRoute):
@@ -133,10 +153,13 @@ class StrictRoute(APIRoute):
     def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
         """FastAPI's handler, after the checks."""
         handler = super().get_route_handler()
-        single, integers = _params(self.dependant)
+        known, single, integers = _params(self.dependant)
         takes_json = self.body_field is not None
+        takes_input = bool(known or self.param_convertors or takes_json)
 
         async def strict(request: Request) -> Response:
+            if takes_input:
+                _unknown_query(request, known)
             for name in single:
                 given = request.query_params.getlist(name)
                 if len(given) > 1:

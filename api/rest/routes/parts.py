@@ -17,7 +17,7 @@ from api.rest.routes.common import (
     idempotency_of,
     resource_router,
 )
-from api.rest.schemas.common import IdCursor
+from api.rest.schemas.common import PageOrder, PartCursor
 from api.rest.schemas.parts import PartCreated, PartReportIn, PartsPage
 from api.rest.schemas.setpoints import Setpoints
 from api.services import parts as use_cases
@@ -36,7 +36,10 @@ router = resource_router("mes")
 )
 def setpoints(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """The setpoints in force: what the next part is made with."""
-    return read_setpoints.current_setpoints(engine=engine, plan_id=plan_id)
+    # a key scoped to plans sees no other plan's name in the fleet's provenance
+    return read_setpoints.current_setpoints(
+        engine=engine, plan_id=plan_id, names=actor.plans is None
+    )
 
 
 @router.post(
@@ -75,8 +78,18 @@ def parts(
     engine: EngineDep,
     plan_id: PlanId,
     actor: Anyone,
-    cursor: IdCursor = None,
+    cursor: PartCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = 50,
+    order: Annotated[
+        PageOrder,
+        Query(description="`oldest`: pages forward from the first part; `newest`: back from now"),
+    ] = "oldest",
 ) -> dict[str, Any]:
-    """The plan's parts, oldest first, a page at a time."""
-    return read_parts.parts(engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit)
+    """The plan's parts with their measurements and decisions, a page at a time.
+
+    Each page lists its parts oldest first; ``next_cursor`` continues in ``order`` (a cursor
+    of the other order is refused, naming the order it continues).
+    """
+    return read_parts.parts(
+        engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit, newest=order == "newest"
+    )

@@ -2,7 +2,7 @@
 
 # no "from __future__ import annotations": FastAPI reads these annotations at run time
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from fastapi import Query
 from fastapi.responses import Response
@@ -10,7 +10,7 @@ from fastapi.responses import Response
 from api.rest.deps import Anyone, EngineDep
 from api.rest.rendering import page_response
 from api.rest.routes.common import Named, PlanId, resource_router
-from api.rest.schemas.common import NO_NUL, IdCursor
+from api.rest.schemas.common import NO_NUL, IdCursor, PageOrder
 from api.rest.schemas.review import History, ModelVersions, PlanModels
 from api.rest.schemas.tools import TextCursor
 from api.services.read import history as read_history
@@ -30,7 +30,7 @@ def plan_history(
     cursor: IdCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = read_history.HISTORY_PAGE,
     order: Annotated[
-        Literal["oldest", "newest"],
+        PageOrder,
         Query(description="`oldest`: pages forward from version 1; `newest`: back from now"),
     ] = "oldest",
 ) -> Response:

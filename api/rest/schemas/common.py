@@ -9,7 +9,7 @@ the CLI's readers apply too.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import Query
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, WithJsonSchema
@@ -79,6 +79,17 @@ IdCursor = Annotated[
     str | None,
     Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
 ]
+#: The ``cursor`` of a plan's parts: an id, or ``n`` and an id when it pages back from the
+#: newest (:mod:`api.services.read.plan_parts`: a cursor says which order it continues).
+PartCursor = Annotated[
+    str | None,
+    Query(
+        pattern=r"^n?[0-9]{1,10}$",
+        description="`next_cursor` of the previous page, of the same `order`",
+    ),
+]
+#: The ``order`` of a list that pages either way through time (setpoint versions, parts).
+PageOrder = Literal["oldest", "newest"]
 
 
 def keys_schema(names: list[str]) -> dict[str, Any]:
