@@ -321,17 +321,28 @@ def priors_of(stored: Mapping[str, Any] | None) -> dict[tuple[str, str], Posteri
 
 
 def prior_answer(
-    stored: Mapping[str, Any] | None, noise: Mapping[str, Any] | None = None
+    stored: Mapping[str, Any] | None, noise: Mapping[str, Any] | None = None, names: bool = True
 ) -> dict[str, Any]:
     """``prior``, ``provenance`` and ``noise_provenance`` of a plan's answers (REST, ``--json``).
 
-    ``noise``: ``plans.noise_prior`` (:mod:`db.fleet_noise`).
+    ``noise``: ``plans.noise_prior`` (:mod:`db.fleet_noise`). ``names`` False: for a key
+    scoped to plans, which may not see the fleet's other plans: their names and machines are
+    null, the counts stay (``text``), as ``GET /tools/{name}/fleet/law`` gives counts only.
     """
+    provenance, chains = provenance_of(stored), noise_provenance(noise)
+    if not names:
+        provenance = {op: [_unnamed(p) for p in found] for op, found in provenance.items()}
+        chains = [_unnamed(p) for p in chains]
     return {
         "prior": "fleet" if stored else "catalogue",
-        "provenance": provenance_of(stored),
-        "noise_provenance": noise_provenance(noise),
+        "provenance": provenance,
+        "noise_provenance": chains,
     }
+
+
+def _unnamed(provenance: Mapping[str, Any]) -> dict[str, Any]:
+    """A provenance without the names of the plans and machines it came from."""
+    return {**provenance, **{k: None for k in ("plans", "machines") if k in provenance}}
 
 
 def provenance_of(stored: Mapping[str, Any] | None) -> dict[str, list[dict[str, Any]]]:

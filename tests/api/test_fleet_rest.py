@@ -45,7 +45,7 @@ def _learn(eng, mes, tag: str, machine: int, parts: int) -> int:  # type: ignore
     return int(plan_id)
 
 
-def test_a_third_machine_starts_from_two_and_the_setpoints_say_so(server) -> None:
+def test_a_third_machine_starts_from_two_and_the_setpoints_say_so(server, runner) -> None:
     tag = uuid.uuid4().hex[:8]
     with server.client("engineer") as eng, server.client("mes") as mes:
         _learn(eng, mes, f"{tag}-a", 0, 10)
@@ -68,6 +68,25 @@ def test_a_third_machine_starts_from_two_and_the_setpoints_say_so(server) -> Non
     assert noise == shown["noise_provenance"] == fleet.json()["noise_provenance"] != []
     assert all(p["machines"] == sorted(p["machines"]) and len(p["machines"]) == 2 for p in noise)
     assert all(p["let_go_by_part"] is None and " noise: " in p["text"] for p in noise)
+    # a key scoped to the new plan may not see the fleet's other plans: no names, the counts
+    made = runner.invoke(
+        app,
+        ["keys", "create", "--role", "viewer", "--plan", str(fleet.json()["id"]), "--json"]
+        + ["--db", server.url],
+    )
+    assert made.exit_code == 0, made.output
+    headers = {"Authorization": f"Bearer {json.loads(made.stdout)['key']}"}
+    with httpx.Client(base_url=server.base, headers=headers, timeout=60.0) as scoped:
+        for path in (f"/plans/{fleet.json()['id']}/setpoints", f"/plans/{fleet.json()['id']}"):
+            seen = scoped.get(path).json()
+            line = seen["provenance"]["rough-od"][0]
+            assert line["plans"] is None and line["machines"] is None, path
+            assert line["text"] == setpoints["provenance"]["rough-od"][0]["text"], path
+            assert line["readings"] == 20, path
+            assert all(p["machines"] is None for p in seen["noise_provenance"]), path
+            assert f"fleet-{tag}-a" not in json.dumps(seen) and "lathe-" not in json.dumps(
+                seen["provenance"]
+            ), path
 
 
 def test_a_prior_that_is_not_one_is_a_problem_naming_it(server) -> None:

@@ -113,4 +113,5 @@ def list_plans(
 @router.get("/plans/{plan_id}", response_model=PlanDetail, operation_id="getPlan")
 def get_plan(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, Any]:
     """One plan: machine limits, operations, and the structure it was created from."""
-    return read_plans.get_plan(engine=engine, plan_id=plan_id)
+    # a key scoped to plans sees no other plan's name in the fleet's provenance
+    return read_plans.get_plan(engine=engine, plan_id=plan_id, names=actor.plans is None)

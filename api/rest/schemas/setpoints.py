@@ -118,8 +118,13 @@ class PriorProvenance(Out):
     """Where a quantity's fleet prior came from."""
 
     quantity: str
-    plans: list[str] = Field(description="the stored plans whose readings it holds")
-    machines: list[str] = Field(description="the machines they ran on")
+    plans: list[str] | None = Field(
+        description="the stored plans whose readings it holds (null to a key scoped to plans:"
+        " other plans' names are not shown to it; text gives the counts)"
+    )
+    machines: list[str] | None = Field(
+        description="the machines they ran on (null to a key scoped to plans)"
+    )
     between_machine_spread: float = Field(
         description="the learned spread of ln K between machines [-] (0.041: 4.1 %)"
     )
@@ -142,7 +147,9 @@ class NoiseProvenance(Out):
     """Where a measuring chain's noise prior came from (supervisor.fleet.noise)."""
 
     quantity: str
-    machines: list[str] = Field(description="the machines whose chains' readings it holds")
+    machines: list[str] | None = Field(
+        description="the machines whose chains' readings it holds (null to a key scoped to plans)"
+    )
     readings: int
     noise_scale: float = Field(
         description="the fleet's chains' noise as a multiple of the reported u [-]"

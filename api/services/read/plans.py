@@ -19,8 +19,12 @@ from db.refused import plan_refused
 from models import quantities
 
 
-def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """One plan: summary, machine limits, operations (limits, bounds, volume), the plan body."""
+def get_plan(*, engine: Engine, plan_id: int, names: bool = True) -> dict[str, Any]:
+    """One plan: summary, machine limits, operations (limits, bounds, volume), the plan body.
+
+    ``names`` False: the prior's provenance without the fleet's plans' and machines' names
+    (a key scoped to plans, :func:`db.fleet.prior_answer`).
+    """
     with _read(engine) as session, session.begin():
         row = _plan(session, plan_id)
         machine = session.get(t.Machine, row.machine_id)
@@ -34,7 +38,7 @@ def get_plan(*, engine: Engine, plan_id: int) -> dict[str, Any]:
                 key: machine.limits.get(name) if machine else None
                 for key, name in quantities.machine_fields().items()
             },
-            **prior_answer(row.prior, row.noise_prior),
+            **prior_answer(row.prior, row.noise_prior, names),
             "operations": [
                 {
                     "name": op.name,

@@ -13,8 +13,12 @@ from db.fleet import prior_answer
 from db.plans import setpoints_of
 
 
-def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """The setpoints in force; a halted plan has none (:class:`PlanHaltedError`)."""
+def current_setpoints(*, engine: Engine, plan_id: int, names: bool = True) -> dict[str, Any]:
+    """The setpoints in force; a halted plan has none (:class:`PlanHaltedError`).
+
+    ``names`` False: the prior's provenance without the fleet's plans' and machines' names
+    (a key scoped to plans, :func:`db.fleet.prior_answer`).
+    """
     with _read(engine) as session, session.begin():
         row = _plan(session, plan_id)
         if row.halt is not None:
@@ -24,6 +28,6 @@ def current_setpoints(*, engine: Engine, plan_id: int) -> dict[str, Any]:
     return {
         "plan_id": plan_id,
         "setpoint_version": version,
-        **prior_answer(row.prior, row.noise_prior),
+        **prior_answer(row.prior, row.noise_prior, names),
         "operations": to_json.plan_json(result)["operations"],
     }
