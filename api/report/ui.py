@@ -252,8 +252,13 @@ def _to_login() -> RedirectResponse:
     return RedirectResponse(f"{PREFIX}/login", status_code=303, headers=_HEADERS)
 
 
+#: The most characters of a path's plan id a "not found" page repeats.
+SHOWN_ID = 20
+
+
 def _not_found(plan_id: str, actor: Actor) -> HTMLResponse:
-    text = tag("p", escaped(f"There is no plan with id {plan_id}."))
+    shown = plan_id if len(plan_id) <= SHOWN_ID else plan_id[:SHOWN_ID] + "…"  # a path's echo
+    text = tag("p", escaped(f"There is no plan with id {shown}."))
     return _page("Plan not found", text, actor, status=404)
 
 

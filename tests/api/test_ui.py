@@ -187,6 +187,12 @@ def test_unknown_plan_is_an_html_404(server, plan_id):
             assert r.status_code == 404, path
             assert r.headers["content-type"].startswith("text/html"), path
             assert "Plan not found" in r.text, path
+        # a year's review: a 5 000-digit id was repeated whole on the page
+        long = c.get("/plans/" + "9" * 5000)
+        assert long.status_code == 404 and "There is no plan with id 99999999999999999999…" in (
+            long.text
+        )
+        assert "9" * 21 not in long.text
 
 
 def test_revoked_key_stops_working_and_logout_clears_the_cookie(server, plan_id):
