@@ -214,15 +214,20 @@ def _overview_prior(page: str, raw: bool = False) -> str:
     return found.group(1) if raw else html.unescape(re.sub(r"<[^>]+>", "", found.group(1)))
 
 
+def _page(runner: Any, url: str, folder: Path, plan: str) -> str:
+    """``rcb report PLAN --out FOLDER/PLAN.html`` (it must succeed): the page."""
+    page = folder / f"{plan}.html"
+    done = runner.invoke(app, ["report", plan, "--db", url, "--out", str(page)])
+    assert done.exit_code == 0, done.output
+    return page.read_text(encoding="utf-8")
+
+
 def test_the_report_says_why_each_prior_was_let_go_in_the_plans_order(
     fleet: tuple[str, dict[str, Any], Path], runner: Any
 ) -> None:
     url, answer, folder = fleet
-    page = folder / "fleet-c.html"
-    done = runner.invoke(app, ["report", "fleet-c", "--db", url, "--out", str(page)])
-    assert done.exit_code == 0, done.output
-    said = _overview_prior(page.read_text(encoding="utf-8"))
-    markup = _overview_prior(page.read_text(encoding="utf-8"), raw=True)
+    text = _page(runner, url, folder, "fleet-c")
+    said, markup = _overview_prior(text), _overview_prior(text, raw=True)
     # an operation's name and a serial never break at their hyphen (a 1280 px window wraps)
     assert '<span class="nw">finish-contour</span> roughness_um' in markup
     assert 'by part <span class="nw">c-1</span>:' in markup
@@ -246,10 +251,7 @@ def test_a_new_plans_report_shows_its_next_part_in_the_outputs(
     fleet: tuple[str, dict[str, Any], Path], runner: Any
 ) -> None:
     url, _, folder = fleet
-    page = folder / "fleet-d.html"
-    done = runner.invoke(app, ["report", "fleet-d", "--db", url, "--out", str(page)])
-    assert done.exit_code == 0, done.output
-    text = page.read_text(encoding="utf-8")
+    text = _page(runner, url, folder, "fleet-d")
     assert _overview_prior(text) == "the tools' catalogue models"
     figure = text.split('data-kind="outputs" data-operation="rough-od">')[1].split("</figure>")[0]
     # force, roughness and tool life: each its next part's marker and bar, no empty band
