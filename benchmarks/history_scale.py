@@ -4,10 +4,13 @@ Every part goes through the real use case (``api.services.parts.report_part``: t
 the re-solve, a setpoint version per part) on a virtual lathe, into one SQLite file. At each
 size the script prints: a report's latency warm (state cached) and on a cache miss (cache
 cleared first), the first history page (``GET /plans/{id}/history``'s use case, 100 versions),
-and ``rcb history`` (newest 50), ``rcb report`` and ``rcb parts --last 50 --json`` as separate
-processes, each with its wall time and peak memory (max RSS), and the report's size. Run::
+and ``rcb history`` (newest 50), ``rcb report``, ``rcb parts --last 50 --json`` and ``rcb export``
+(csv, parquet) as separate processes, each with its wall time and peak memory (max RSS), and the
+report's size. ``--reference CHECKOUT`` also runs ``rcb export`` from another checkout of the
+project (an earlier commit's work tree, put first on ``PYTHONPATH``) on the same database, so a
+change is measured against the code before it in one run. Run::
 
-    .venv/bin/python benchmarks/history_scale.py --sizes 100 1000 5000
+    .venv/bin/python benchmarks/history_scale.py --sizes 100 1000 5000 [--reference ../before]
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import os
 import statistics
 import subprocess
 import sys
+import sysconfig
 import tempfile
 import time
 import tomllib
@@ -64,10 +68,20 @@ def _ms(seconds: list[float]) -> float:
     return statistics.median(seconds) * 1000
 
 
-def _process(args: list[str]) -> tuple[float, float, int]:
-    """Wall time [s], peak memory [MB] and stdout size [bytes] of one ``rcb`` process."""
+def _process(args: list[str], checkout: Path | None = None) -> tuple[float, float, int]:
+    """Wall time [s], peak memory [MB] and stdout size [bytes] of one ``rcb`` process.
+
+    ``checkout``: run that work tree's code instead of this one's: Python without its site
+    (``-S``, so the editable install's finder does not take this one's) and without the current
+    directory (``-P``), the checkout then this environment's packages on ``PYTHONPATH``.
+    """
+    env, command = dict(os.environ), [RCB, *args]
+    if checkout is not None:
+        packages = sysconfig.get_paths()["purelib"]
+        env["PYTHONPATH"] = os.pathsep.join([str(checkout.resolve()), packages])
+        command = [sys.executable, "-S", "-P", "-c", "from api.cli.main import app; app()", *args]
     begin = time.perf_counter()
-    child = subprocess.Popen([RCB, *args], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env)
     out = child.stdout.read() if child.stdout else b""
     _, status, usage = os.wait4(child.pid, 0)
     child.returncode = os.waitstatus_to_exitcode(status)
@@ -76,7 +90,9 @@ def _process(args: list[str]) -> tuple[float, float, int]:
     return time.perf_counter() - begin, usage.ru_maxrss / 1024, len(out)
 
 
-def measure(engine: Any, url: str, plan_id: int, lathe: Lathe, work: Path) -> dict[str, float]:
+def measure(
+    engine: Any, url: str, plan_id: int, lathe: Lathe, work: Path, reference: Path | None
+) -> dict[str, float]:
     """The figures at the plan's present size (reports 10 more parts, 5 warm, 5 cold)."""
     warm, cold = [], []
     for timings, clear in ((warm, False), (cold, True)):
@@ -96,6 +112,17 @@ def measure(engine: Any, url: str, plan_id: int, lathe: Lathe, work: Path) -> di
     html = work / "report.html"
     report = _process(["report", str(plan_id), "--out", str(html), "--db", url])
     parts = _process(["parts", str(plan_id), "--last", "50", "--json", "--db", url])
+    exports: dict[str, float] = {}
+    for fmt in ("csv", "parquet"):
+        for label, checkout in (("", None), ("reference ", reference)):
+            if label and checkout is None:
+                continue
+            args = ["export", str(plan_id), "--format", fmt, "--out", str(work / "x"), "--db", url]
+            seconds, mb, _ = _process(args, checkout)
+            exports[f"{label}rcb export {fmt} s"], exports[f"{label}rcb export {fmt} MB"] = (
+                seconds,
+                mb,
+            )
     return {
         "report warm ms": _ms(warm),
         "report cache miss ms": _ms(cold),
@@ -107,6 +134,7 @@ def measure(engine: Any, url: str, plan_id: int, lathe: Lathe, work: Path) -> di
         "report page kB": html.stat().st_size / 1024,
         "rcb parts --last 50 s": parts[0],
         "rcb parts --last 50 MB": parts[1],
+        **exports,
     }
 
 
@@ -114,6 +142,7 @@ def main() -> None:
     """Grow one plan to each size in turn and print the figures as a Markdown table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[100, 1000, 5000])
+    parser.add_argument("--reference", type=Path, help="a checkout whose rcb export to run too")
     args = parser.parse_args()
     settings = RcbSettings("bayes")
     with tempfile.TemporaryDirectory() as tmp:
@@ -130,7 +159,7 @@ def main() -> None:
                 report_part(engine=engine, plan_id=plan_id, report=parse_report(lathe.next()))
             seeded = time.perf_counter() - begin
             print(f"# {lathe.count} parts seeded through report_part ({seeded:.0f} s)", flush=True)
-            results[size] = measure(engine, url, plan_id, lathe, work)
+            results[size] = measure(engine, url, plan_id, lathe, work, args.reference)
             print(f"# {size}: {results[size]}", flush=True)
         engine.dispose()
     sizes = sorted(results)

@@ -12,12 +12,10 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
-import tempfile
 import textwrap
 from collections.abc import Iterator
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -25,6 +23,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.console import Console
 
+from api.cli.atomic import written_atomically
 from api.services.errors import NotFoundError, PlanHaltedError
 from db.errors import ConflictError
 from models.bounds import LARGEST, MAX_DOCUMENT_BYTES
@@ -331,30 +330,9 @@ def check_target(path: Path, field: str = "--out") -> None:
 
 
 def write_atomically(path: Path, data: bytes, field: str = "--out") -> None:
-    """Write ``data`` to ``path`` whole or not at all: a synced temporary file, renamed."""
-    temporary: str | None = None
-    try:
-        handle, temporary = tempfile.mkstemp(
-            prefix=f".{path.name}.", suffix=".tmp", dir=path.parent
-        )
-        with os.fdopen(handle, "wb") as file:
-            file.write(data)
-            file.flush()
-            os.fsync(file.fileno())
-        os.chmod(temporary, 0o666 & ~_umask())  # as a new file would be, not mkstemp's 0600
-        os.replace(temporary, path)
-    except OSError as err:
-        if temporary is not None:
-            with suppress(OSError):
-                os.unlink(temporary)
-        reason = err.strerror or err.__class__.__name__
-        raise InputError(field, str(path), f"cannot be written ({reason})") from None
-
-
-def _umask() -> int:
-    current = os.umask(0o022)
-    os.umask(current)
-    return current
+    """Write ``data`` to ``path`` whole or not at all (:mod:`api.cli.atomic`)."""
+    with written_atomically(path, field) as file:
+        file.write(data)
 
 
 def number_cell(text: str, where: str) -> float:

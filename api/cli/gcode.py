@@ -9,8 +9,8 @@ wherever nothing changed (UTF-8, undecodable bytes carried through unchanged).
 
 Bounded whatever the program's size: the program is read a line at a time (a line longer than
 :data:`supervisor.gcode.MAX_LINE_BYTES` is refused, and read no further) and the new one
-streamed into a temporary file beside ``--out``, synced and renamed only on success (as
-:func:`api.cli.common.write_atomically`; on any error it is removed). Every change and warning
+streamed into a temporary file beside ``--out``, synced and renamed only on success
+(:func:`api.cli.atomic.written_atomically`; on any error it is removed). Every change and warning
 is counted; the table shows the first :data:`SHOWN` changes, stderr the first :data:`SHOWN`
 warnings, and ``--json`` lists the first :data:`supervisor.gcode.MAX_LISTED` of each with
 ``changes_total``/``changes_truncated`` and ``warnings_total``/``warnings_truncated``.
@@ -21,10 +21,8 @@ Errors follow ``rcb`` (exit 2, one line ``rcb: error: FIELD = VALUE: reason``;
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Iterator
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Annotated, Any
 
@@ -32,6 +30,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from api.cli.atomic import written_atomically
 from api.cli.common import (
     DbOption,
     PlanArg,
@@ -175,64 +174,6 @@ def _opened(path: Path) -> Iterator[_Program]:
         yield _Program(file, path)
 
 
-class _Out:
-    """The temporary file the new program goes to: a write error is an error of ``--out``."""
-
-    def __init__(self, file: IO[bytes], path: Path) -> None:
-        self._file, self._path = file, path
-
-    def write(self, data: bytes, /) -> int:
-        """Write ``data``."""
-        try:
-            return self._file.write(data)
-        except OSError as err:
-            raise _unwritable(self._path, err) from None
-
-
-def _unwritable(path: Path, err: OSError) -> InputError:
-    reason = err.strerror or err.__class__.__name__
-    return InputError("--out", str(path), f"cannot be written ({reason})")
-
-
-@contextmanager
-def _written_atomically(path: Path) -> Iterator[_Out]:
-    """A file that becomes ``path`` whole when the block succeeds, else nothing at all.
-
-    As :func:`api.cli.common.write_atomically`, streamed: a temporary file beside ``path``,
-    synced, given the mode a new file would have, and renamed; removed on any error.
-    """
-    try:
-        handle, temporary = tempfile.mkstemp(
-            prefix=f".{path.name}.", suffix=".tmp", dir=path.parent
-        )
-    except OSError as err:
-        raise _unwritable(path, err) from None
-    try:
-        with os.fdopen(handle, "wb") as file:
-            yield _Out(file, path)
-            file.flush()
-            os.fsync(file.fileno())
-        os.chmod(temporary, 0o666 & ~_umask())  # as a new file would be, not mkstemp's 0600
-        os.replace(temporary, path)
-    except OSError as err:
-        _remove(temporary)
-        raise _unwritable(path, err) from None
-    except BaseException:
-        _remove(temporary)
-        raise
-
-
-def _remove(temporary: str) -> None:
-    with suppress(OSError):
-        os.unlink(temporary)
-
-
-def _umask() -> int:
-    current = os.umask(0o022)
-    os.umask(current)
-    return current
-
-
 def _rewrite(
     source: _Program,
     program: Path,
@@ -244,7 +185,7 @@ def _rewrite(
     from supervisor.gcode import GcodeError, rewrite_stream  # when it runs, not for --help
 
     try:
-        with _written_atomically(target) as file:
+        with written_atomically(target) as file:
             return rewrite_stream(source, file, setpoints, ranges, program_name=program.name)
     except GcodeError as err:
         if err.field == "map":

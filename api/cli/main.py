@@ -28,6 +28,7 @@ from api.cli.certify import certify
 from api.cli.collect import collect
 from api.cli.demo import demo
 from api.cli.examples import examples_app
+from api.cli.export import export
 from api.cli.fit import fit
 from api.cli.fleet import fleet_app
 from api.cli.gcode import gcode
@@ -114,10 +115,10 @@ app.add_typer(tools_app, name="tools")  # rcb tools list|show|add: api/cli/tools
 for _review in (
     cli_review.history,
     cli_review.parts,
-    cli_review.export,
+    export,
     cli_replan.replan,
 ):
-    app.command()(_review)  # api/cli/review.py, api/cli/replan.py
+    app.command()(_review)  # api/cli/review.py, export.py, replan.py
 app.add_typer(db_app, name="db")  # rcb db upgrade: api/cli/admin.py
 app.add_typer(keys_app, name="keys")  # rcb keys create|revoke: api/cli/admin.py
 app.command()(audit)  # rcb audit: api/cli/audit.py

@@ -1,4 +1,6 @@
-"""Engineers' review at the command line: ``rcb plans``, ``history``, ``parts``, ``export``.
+"""Engineers' review at the command line: ``rcb plans``, ``history``, ``parts``.
+
+``rcb export`` is :mod:`api.cli.export`.
 
 Thin commands over :mod:`api.services.read` (the REST routes call the same), rich tables or
 ``--json``; every command takes ``--db URL``.
@@ -10,7 +12,6 @@ import json
 import sys
 from collections.abc import Iterable
 from datetime import datetime
-from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -31,16 +32,15 @@ from api.cli.common import (
     refused_line,
     say,
     say_command,
-    write_atomically,
 )
 from api.cli.tables import new_table, short_number
 from api.report import marks
 from api.services import request_limits
+from models.bounds import LARGEST_WHOLE
 from models.errors import InputError
 
 if TYPE_CHECKING:
-    import pandas as pd
-    from sqlalchemy import Engine
+    pass
 
 # Each command imports the queries (SQLAlchemy) and pandas when it runs: rcb --help and the
 # other commands do not load them (README, "Speed").
@@ -156,10 +156,18 @@ def history(
     last: Annotated[
         int, typer.Option(help=f"The newest N setpoint versions (1-{request_limits.READ_PAGE}).")
     ] = 50,
+    before: Annotated[
+        int | None,
+        typer.Option(help="Only versions older than version V: the page before the one shown."),
+    ] = None,
     db: DbOption = None,
     as_json: _JsonOption = False,
 ) -> None:
-    """Setpoint versions with their cause, MRR and the RCB decisions behind each."""
+    """Setpoint versions with their cause, MRR and the RCB decisions behind each.
+
+    The newest ``--last`` versions, or those before ``--before V``; a page that is not the
+    first version says the command that shows the page before it.
+    """
     from api.services.read import history as read_history
     from api.services.read import plan_parts as read_parts
 
@@ -167,8 +175,14 @@ def history(
         engine = engine_of(db)
         plan_key = plan_of(engine, plan)
         data = read_history.plan_history(
-            engine=engine, plan_id=plan_key, page_size=_bounded("--last", last), newest=True
+            engine=engine,
+            plan_id=plan_key,
+            cursor=_version_before(before),
+            page_size=_bounded("--last", last),
+            newest=True,
         )
+        if not data["versions"]:  # only --before 1 asks for less than the first version
+            raise InputError("--before", before, "no setpoint version is older")
         caused = [v["part_id"] for v in data["versions"] if v["part_id"] is not None]
         decisions = read_parts.decisions(engine=engine, plan_id=plan_key, part_ids=caused)
         names = [op["name"] for op in data["versions"][0]["operations"]]
@@ -184,8 +198,20 @@ def history(
         emit(data)
         return
     _out.print(_history_table(data, operation))
+    if data["next_cursor"] is not None:
+        older = f"rcb history {plan} --before {data['next_cursor']}"
+        _out.print(f"older versions: {older}", style="dim", markup=False, highlight=False)
     if data["status"] == "halted":
         _print_halt(plan_key, data["halt"])
+
+
+def _version_before(before: int | None) -> str | None:
+    """``--before`` as the history's cursor (a setpoint version), None for the newest page."""
+    if before is None:
+        return None
+    if not 1 <= before <= LARGEST_WHOLE:
+        raise InputError("--before", before, f"a setpoint version is 1 to {LARGEST_WHOLE}")
+    return str(before)
 
 
 def _bounded(option: str, count: int) -> int:
@@ -292,12 +318,6 @@ def _marked(d: dict[str, Any]) -> str:
     return f" [dim]({label})[/]" if kind == "note" else f" {_mark(d)}"
 
 
-def _all_parts(engine: Engine, plan_id: int) -> list[dict[str, Any]]:
-    from api.services.read import plan_parts as read_parts
-
-    return read_parts.all_parts(engine=engine, plan_id=plan_id)
-
-
 def parts(
     plan: PlanArg,
     since: Annotated[
@@ -346,46 +366,3 @@ def parts(
             _out.print(parts_view.parts_table(title, page, short_number, _mark))
         if not shown:  # an empty table says nothing: say why the list is empty
             _out.print(f"{title}: none" + ("" if since else " reported yet"))
-
-
-def export(
-    plan: PlanArg,
-    out: Annotated[Path, typer.Option("--out", help="Directory to write the tables into.")],
-    fmt: Annotated[str, typer.Option("--format", help="csv or parquet.")] = "csv",
-    db: DbOption = None,
-) -> None:
-    """Parts, measurements, decisions and setpoint history as tidy tables (one row each)."""
-    from api.report import export as tidy
-    from api.services.read import history as read_history
-
-    with errors():
-        if fmt not in ("csv", "parquet"):
-            raise InputError("--format", fmt, "expected csv or parquet")
-        engine = engine_of(db)
-        plan_key = plan_of(engine, plan)
-        tables = tidy.tables(
-            read_history.full_history(engine=engine, plan_id=plan_key), _all_parts(engine, plan_key)
-        )
-        written = _write_tables(tables, out, fmt)
-    for path in written:
-        say(f"rcb: wrote {path}")
-    sys.stdout.flush()
-
-
-def _write_tables(frames: dict[str, pd.DataFrame], out: Path, fmt: str) -> list[Path]:
-    """Write each table as ``OUT/<name>.<fmt>``; each file appears whole or not at all."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise InputError(
-            "--out", str(out), f"cannot create the directory ({err.strerror})"
-        ) from None
-    from api.report.export import csv_bytes
-
-    written = []
-    for name, frame in frames.items():
-        target = out / f"{name}.{fmt}"
-        data = csv_bytes(frame) if fmt == "csv" else frame.to_parquet()
-        write_atomically(target, data)
-        written.append(target)
-    return written

@@ -41,19 +41,66 @@ def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
     return safe
 
 
-def csv_bytes(frame: pd.DataFrame) -> bytes:
-    """``frame`` as RFC 4180 CSV (UTF-8, CRLF) with :func:`csv_safe` cells.
+def csv_bytes(frame: pd.DataFrame, header: bool = True) -> bytes:
+    """``frame`` as RFC 4180 CSV (UTF-8, CRLF) with :func:`csv_safe` cells; ``header``: its names.
 
     CRLF line ends make the writer quote a cell holding a bare carriage return, which a reader
     would otherwise take for the end of the row (the cell and the row after it lost).
     """
-    text: str = csv_safe(frame).to_csv(index=False, lineterminator="\r\n")
+    text: str = csv_safe(frame).to_csv(index=False, header=header, lineterminator="\r\n")
     return text.encode("utf-8")
 
 
-def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd.DataFrame]:
-    """The four tables from :func:`api.services.read.history.plan_history` and the plan's parts."""
-    plan_id = history["plan_id"]
+#: The columns of the tables whose columns every plan shares, with their types (pyarrow's
+#: names): a page whose cells are all empty is written with the same types as the others.
+COLUMNS: dict[str, dict[str, str]] = {
+    "parts": {
+        "plan_id": "int64",
+        "part_id": "int64",
+        "serial": "string",
+        "setpoint_version": "int64",
+        "received_at": "timestamp",
+    },
+    "measurements": {
+        "part_id": "int64",
+        "serial": "string",
+        "operation": "string",
+        "quantity": "string",
+        "value": "float64",
+        "uncertainty": "float64",
+        "raw_quantity": "string",
+        "raw_value": "float64",
+    },
+    "decisions": {
+        "part_id": "int64",
+        "serial": "string",
+        "operation": "string",
+        "quantity": "string",
+        "action": "string",
+        "margin": "float64",
+        "band_before": "float64",
+        "band_after": "float64",
+        "flagged": "bool",
+        "flag": "string",
+        "note": "string",
+        "reason": "string",
+    },
+}
+#: The setpoints table's columns before its parameters and predictions (each a float64).
+SETPOINT_HEAD: dict[str, str] = {
+    "version": "int64",
+    "cause": "string",
+    "serial": "string",
+    "created_at": "timestamp",
+    "operation": "string",
+    "tool": "string",
+}
+#: The setpoints table's text column after the numbers; every other column is a float64.
+SETPOINT_TEXT = ("binding",)
+
+
+def part_frames(plan_id: int, parts: list[dict[str, Any]]) -> dict[str, pd.DataFrame]:
+    """``parts``, ``measurements`` and ``decisions`` of a page of parts (:data:`COLUMNS`)."""
     part_rows = [
         {
             "plan_id": plan_id,
@@ -82,8 +129,18 @@ def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd
     decision_rows = [
         {"part_id": p["part_id"], "serial": p["serial"], **d} for p in parts for d in p["updates"]
     ]
-    setpoint_rows = []
-    for v in history["versions"]:
+    rows = {"parts": part_rows, "measurements": measurement_rows, "decisions": decision_rows}
+    return {name: pd.DataFrame(rows[name], columns=list(COLUMNS[name])) for name in rows}
+
+
+def setpoint_frame(versions: list[dict[str, Any]]) -> pd.DataFrame:
+    """A row per setpoint version and operation of a page of the plan's history.
+
+    The columns: :data:`SETPOINT_HEAD`, the operations' parameters (``depth_mm`` ...),
+    ``mrr_cm3_min``, ``time_min``, ``binding``, and each prediction with its band.
+    """
+    rows = []
+    for v in versions:
         for op in v["operations"]:
             row: dict[str, Any] = {
                 "version": v["version"],
@@ -99,10 +156,13 @@ def tables(history: dict[str, Any], parts: list[dict[str, Any]]) -> dict[str, pd
             }
             for q, p in op["predicted"].items():
                 row[q], row[f"{q}_band"] = p["value"], p["band"]
-            setpoint_rows.append(row)
-    return {
-        "parts": pd.DataFrame(part_rows),
-        "measurements": pd.DataFrame(measurement_rows),
-        "decisions": pd.DataFrame(decision_rows),
-        "setpoints": pd.DataFrame(setpoint_rows),
-    }
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def column_types(name: str, columns: list[str]) -> dict[str, str]:
+    """Each column's type in table ``name``: :data:`COLUMNS`, or a setpoint's (float64)."""
+    if name in COLUMNS:
+        return COLUMNS[name]
+    text = {**SETPOINT_HEAD, **dict.fromkeys(SETPOINT_TEXT, "string")}
+    return {c: text.get(c, "float64") for c in columns}

@@ -85,6 +85,29 @@ def test_history_last_shows_the_newest_versions_and_reads_only_those(runner, sto
     assert table.exit_code == 0 and "SN-0030" in table.stdout and "SN-0028" not in table.stdout
 
 
+def test_history_before_pages_back_to_the_first_version(runner, stored):
+    """--before V: the versions older than V; the table names the command for the page before."""
+    url, plan_id, _ = stored
+    result, statements = _run(runner, url, "history", str(plan_id), "--last", "3", "--before", "29")
+    assert result.exit_code == 0, result.output
+    data = json.loads(
+        _run(runner, url, "history", str(plan_id), "--last", "3", "--before", "29", "--json")[
+            0
+        ].stdout
+    )
+    assert [v["version"] for v in data["versions"]] == [26, 27, 28]
+    assert [v["serial"] for v in data["versions"]] == ["SN-0025", "SN-0026", "SN-0027"]
+    assert f"older versions: rcb history {plan_id} --before 26" in result.stdout
+    assert _scans(url, statements) == []
+    first = _run(runner, url, "history", str(plan_id), "--last", "5", "--before", "3", "--json")[0]
+    assert [v["version"] for v in json.loads(first.stdout)["versions"]] == [1, 2]
+    assert json.loads(first.stdout)["next_cursor"] is None
+    table = _run(runner, url, "history", str(plan_id), "--before", "3")[0]
+    assert table.exit_code == 0 and "older versions" not in table.stdout
+    newest = _run(runner, url, "history", str(plan_id), "--last", "3")[0].stdout
+    assert "--before 29" in newest
+
+
 def test_parts_last_and_since_read_only_what_they_show(runner, stored):
     url, plan_id, bodies = stored
     result, statements = _run(runner, url, "parts", str(plan_id), "--last", "2", "--json")
@@ -112,6 +135,9 @@ def test_parts_last_and_since_read_only_what_they_show(runner, stored):
     ("args", "message"),
     [
         (["history", "1", "--last", "0"], "--last = 0"),
+        (["history", "1", "--before", "0"], "--before = 0: a setpoint version is 1 to 2147483647"),
+        (["history", "1", "--before", "2147483648"], "--before = 2147483648"),
+        (["history", "1", "--before", "1"], "--before = 1: no setpoint version is older"),
         (["parts", "1", "--last", "501"], "--last = 501"),
         (["parts", "99"], "PLAN = 99: no plan with id 99 (rcb plans lists them)"),
         (["parts", "99", "--json"], "PLAN = 99: no plan with id 99 (rcb plans lists them)"),

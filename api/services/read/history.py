@@ -6,6 +6,7 @@ One read transaction per page; the cost grows with the page, not with the plan's
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 from sqlalchemy import Engine
@@ -86,8 +87,22 @@ def plan_history(
     }
 
 
+def history_pages(*, engine: Engine, plan_id: int) -> Iterator[list[dict[str, Any]]]:
+    """A plan's setpoint versions page by page, oldest first: one page in memory at a time."""
+    cursor = None
+    while True:
+        page = plan_history(engine=engine, plan_id=plan_id, cursor=cursor, page_size=MAX_PAGE)
+        yield page["versions"]
+        cursor = page["next_cursor"]
+        if cursor is None:
+            return
+
+
 def full_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """Every setpoint version (:func:`plan_history`, page after page); for exports."""
+    """Every setpoint version in one answer (:func:`plan_history`, page after page).
+
+    Memory grows with the plan's life: ``rcb export`` reads :func:`history_pages` instead.
+    """
     page = plan_history(engine=engine, plan_id=plan_id, page_size=MAX_PAGE)
     versions = page["versions"]
     while page["next_cursor"] is not None:
