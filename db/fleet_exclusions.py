@@ -59,7 +59,8 @@ def exclude(
 
     ``reason`` is kept with the exclusion and shown wherever it is: it must say something, in
     at most :data:`MAX_REASON` characters. Excluding what is already out changes nothing but
-    the reason shown.
+    the reason shown. A plan whose strategy learns no posterior is never in the fleet: it is
+    refused naming ``--plan``, as :func:`include` refuses it.
     """
     one_of(plan_id, machine)
     text = reason.strip()
@@ -67,8 +68,8 @@ def exclude(
         raise InputError("--reason", reason, f"give why, in 1 to {MAX_REASON} characters")
     if machine is not None:
         _known_machine(session, machine)
-    if plan_id is not None and get_plan_row(session=session, plan_id=plan_id) is None:
-        raise InputError("--plan", plan_id, "no such plan")
+    if plan_id is not None:
+        _learning(get_plan_row(session=session, plan_id=plan_id), plan_id)
     same = (
         t.FleetExclusion.plan_id == plan_id
         if machine is None
@@ -90,14 +91,7 @@ def include(*, session: Session, plan_id: int | None, machine: str | None) -> In
         _known_machine(session, machine)
         gone = session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.machine == machine))
         return Included(bool(getattr(gone, "rowcount", 0)), 0, "")
-    row = get_plan_row(session=session, plan_id=plan_id or 0, lock=True)
-    if row is None:
-        raise InputError("--plan", plan_id, "no such plan")
-    strategy = _strategy(row)
-    if strategy != "learn":
-        raise InputError(
-            "--plan", plan_id, f"strategy {strategy} learns no posterior: never in the fleet"
-        )
+    row = _learning(get_plan_row(session=session, plan_id=plan_id or 0, lock=True), plan_id)
     gone = session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.plan_id == row.id))
     changes = plan_changes(session=session, plan_ids=[row.id])[row.id]
     changed = changes > row.fleet_changes_accepted or row.fleet_change_part is not None
@@ -129,6 +123,18 @@ def _known_machine(session: Session, machine: str) -> None:
     if close is not None:  # names compare exactly: LATHE-B is not lathe-b
         reason += f" (names are exact: {close}?)"
     raise InputError("--machine", machine, reason)
+
+
+def _learning(row: t.Plan | None, plan_id: int | None) -> t.Plan:
+    """``row``, a stored plan that learns; else an error naming ``--plan``."""
+    if row is None:
+        raise InputError("--plan", plan_id, "no such plan")
+    strategy = _strategy(row)
+    if strategy != "learn":
+        raise InputError(
+            "--plan", plan_id, f"strategy {strategy} learns no posterior: never in the fleet"
+        )
+    return row
 
 
 def _strategy(row: t.Plan) -> str:

@@ -6,7 +6,8 @@ audit log recorded each as done. Now an unknown machine or plan, or a plan whose
 learns no posterior, is an error naming its option (exit 2, one line, audited as refused);
 what is not out is left as it is, said so, exit 0, with no audit entry. A plan out for a
 change of its process counted by its monitors is put back as before (the changes accepted).
-``exclude`` with both or neither option says so without ``= None``.
+``exclude`` with both or neither option says so without ``= None``, and refuses a plan that
+learns no posterior as ``include`` does.
 """
 
 from __future__ import annotations
@@ -91,6 +92,16 @@ def test_a_plan_that_learns_no_posterior_is_never_in_the_fleet(engine, runner) -
         assert all(len(line) <= 80 for line in done.output.splitlines())
         assert "back in the fleet" not in done.output
     assert [result for _, result in _entries(engine)] == ["refused", "refused"]
+    # nor taken out: an exclusion of it would be listed by rcb fleet show and change nothing
+    args = ("fleet", "exclude", "--plan", "vl-f", "--reason", "wrong bar stock", "--db", url)
+    done = invoke(runner, *args)
+    assert done.exit_code == 2, done.output
+    assert " ".join(done.output.split()) == (
+        "rcb: error: --plan = 'vl-f': strategy ivester learns no posterior: never in the fleet"
+    )
+    assert _excluded(engine) == [] and _entries(engine, "fleet exclude") == [
+        (f"plan {made['id']}", "refused")
+    ]
 
 
 def test_nothing_out_is_nothing_to_put_back_and_no_audit_entry(engine, runner) -> None:
