@@ -80,7 +80,8 @@ def _report_part(
         made_with = _made_with(session, row, report.setpoint_version, state)
         # raw spindle readings become force measurements at the setpoint the part was made with
         measured, raw = resolve(report, state.plan, made_with or state.setpoints)
-        changes = tool_changes(report, made_with or state.setpoints)
+        fastest = state.plan.machine.limit_of.get("feed_rate_mm_min")
+        changes = tool_changes(report, made_with or state.setpoints, fastest)
         new_state, decisions = update(state, measured, made_with)
         token = store_report(
             session=session,

@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from typing import Literal
 
 from models import fields
+from models.bounds import LARGEST
 from models.errors import InputError, ModelDomainError
 from models.sensors.converted import Converted
 from models.sensors.ivester import IvesterSpindleLoadCalibration, _ivester_force, _ivester_idle
@@ -245,4 +246,16 @@ def to_force(
     result, below = _force(calibration, reading, u_reading, context, k, include_residual)
     if result.value < 0:
         raise ModelDomainError(f"{name}.value", value, below)
-    return Converted(result.value, k * result.uncertainty)
+    force, u_force = result.value, k * result.uncertainty
+    for what, field, converted in (
+        ("a force", "value", force),
+        ("an uncertainty", "uncertainty", u_force),
+    ):
+        if not converted <= LARGEST:  # NaN too: one bound for every number (models.bounds)
+            given = value if field == "value" else uncertainty
+            raise ModelDomainError(
+                f"{name}.{field}",
+                given,
+                f"converts to {what} of {converted:.4g} N, beyond {LARGEST:g} N",
+            )
+    return Converted(force, u_force)

@@ -108,14 +108,19 @@ def tool_change(
     return ToolChange(operation, feed_override_percent, commanded, lower, due, reason)
 
 
-def tool_changes(report: Overrides, made_with: Made) -> tuple[ToolChange, ...]:
+def tool_changes(
+    report: Overrides, made_with: Made, max_feed_rate_mm_min: float | None = None
+) -> tuple[ToolChange, ...]:
     """One :class:`ToolChange` per reported feed override, in the report's order.
+
+    ``max_feed_rate_mm_min``: the machine's (absent: none); an override that commands more
+    no control can have given.
 
     Raises
     ------
     InputError
         An override for an operation the plan does not have, or one without constant-load
-        control; the field is named.
+        control, or one that commands a feed above the machine's maximum; the field is named.
     """
     setpoints = {op.name: op for op in made_with.operations}
     changes = []
@@ -126,5 +131,15 @@ def tool_changes(report: Overrides, made_with: Made) -> tuple[ToolChange, ...]:
         constant_load = setpoints[name].constant_load
         if constant_load is None:
             raise InputError(where, percent, f"operation {name!r} has no constant-load control")
-        changes.append(tool_change(name, constant_load, percent))
+        change = tool_change(name, constant_load, percent)
+        commanded = change.commanded_feed_rate_mm_min
+        if max_feed_rate_mm_min is not None and commanded > max_feed_rate_mm_min:
+            raise InputError(
+                where,
+                percent,
+                f"commands {commanded:.6g} mm/min of the programmed "
+                f"{constant_load.programmed_feed_rate_mm_min:.6g}, above the machine's maximum "
+                f"feed rate {max_feed_rate_mm_min:g} mm/min",
+            )
+        changes.append(change)
     return tuple(changes)

@@ -80,9 +80,10 @@ def gross_breach(
         past = 1.0 - (y + u) / limit
     if past <= halt_over:
         return None
+    sign, edge = ("-", y - u) if MODEL_QUANTITIES[quantity].sense == "max" else ("+", y + u)
     message = (
-        f"{operation.name} {quantity} measured {y:.6g} is past its limit {limit:.6g} by "
-        f"{100 * past:.1f} % (more than halt_over {100 * halt_over:.3g} %): an engineer must "
-        "check the process and replan"
+        f"{operation.name} {quantity} measured {y:.6g} {sign} {u:.3g} = {edge:.6g} is past its "
+        f"limit {limit:.6g} by {100 * past:.1f} % (more than halt_over "
+        f"{100 * halt_over:.3g} %): an engineer must check the process and replan"
     )
     return HaltedOperation(operation.name, (), (), message)

@@ -70,7 +70,8 @@ def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server
         assert [c["operation"] for c in two["conflicts"]] == ["rough-od"]
         rough = two["conflicts"][0]
         assert (
-            "rough-od force_N measured 6000 is past its limit 2000 by 199.5 %" in rough["message"]
+            "rough-od force_N measured 6000 - 10 = 5990 is past its limit 2000 by 199.5 %"
+            in rough["message"]
         )
         assert "halt_over 25 %" in rough["message"]
         assert _force_update(two)["flag"] == "breach"

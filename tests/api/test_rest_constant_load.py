@@ -148,3 +148,34 @@ def test_bad_constant_load_input_is_refused_naming_the_field(server):
         assert r.status_code == 422
         assert r.json()["field"] == "operations.slot.feed_override_percent"
         assert eng.get(f"/plans/{plain['id']}/parts").json()["items"] == []
+
+
+def test_an_override_past_the_machines_fastest_feed_is_refused_and_nothing_stored(server):
+    """Before, 1e11 % was stored, answered "commanded feed 500001169217.5 mm/min is above the
+    lower limit", on a machine whose fastest feed is 2000 mm/min (max_feed_rate_mm_min)."""
+    with server.client("mes") as mes, server.client("engineer") as eng:
+        created = eng.post("/plans", json=_named(PLAN, "cl-fastest")).json()
+        slot = _op(created, "slot")["constant_load"]
+        programmed = slot["programmed_feed_rate_mm_min"]
+        fastest = PLAN["machine"]["max_feed_rate_mm_min"]
+        url = f"/plans/{created['id']}/parts"
+        for n, percent in enumerate((1e11, 100.0 * fastest / programmed * 1.001)):
+            body = {
+                "serial": f"F{n}",
+                "setpoint_version": 1,
+                "operations": [{"name": "slot", "feed_override_percent": percent}],
+            }
+            r = mes.post(url, json=body, headers={"Idempotency-Key": f"f{n}"})
+            assert r.status_code == 422, r.text
+            problem = r.json()
+            assert problem["field"] == "operations.slot.feed_override_percent"
+            assert problem["value"] == percent
+            assert f"above the machine's maximum feed rate {fastest:g} mm/min" in problem["detail"]
+        assert eng.get(url).json()["items"] == []
+        at_most = 100.0 * fastest / programmed  # the fastest feed itself is a feed a control gives
+        body = _report("F2", 1, 0.21)
+        body["operations"][0]["feed_override_percent"] = at_most
+        r = mes.post(url, json=body, headers={"Idempotency-Key": "f2"})
+        assert r.status_code == 201, r.text
+        (change,) = [c for c in r.json()["tool_changes"] if c["operation"] == "slot"]
+        assert change["commanded_feed_rate_mm_min"] == pytest.approx(fastest, rel=1e-12)

@@ -66,7 +66,7 @@ def test_a_gross_breach_halts_the_default_strategy_and_a_replan_resumes(
         assert answer["setpoint_version"] == 1  # the setpoints the part was made with stay
         assert [c["operation"] for c in answer["conflicts"]] == ["rough-od"]
         # (6000 − 10) / 2000 − 1 = 199.5 % past the 2000 N limit, more than halt_over 25 %
-        named = "rough-od force_N measured 6000 is past its limit 2000 by 199.5 %"
+        named = "rough-od force_N measured 6000 - 10 = 5990 is past its limit 2000 by 199.5 %"
         message = answer["conflicts"][0]["message"]
         assert named in message and "halt_over 25 %" in message
         breach = _update(answer["updates"], "rough-od", "force_N")

@@ -291,3 +291,26 @@ def test_every_public_function_cites_its_paper():
             and not name.endswith("_from_mapping")
         ):
             assert cited.search(obj.__doc__ or ""), name
+
+
+@pytest.mark.parametrize(
+    ("value", "uncertainty", "field", "reason"),
+    [
+        # 1e11 V is within the ±1e12 every number has, its force (x 173.55 N/A) is not
+        (1e11, 0.02, "spindle_current_A.value", "converts to a force of 1.735e+13 N"),
+        (4.5, 9e10, "spindle_current_A.uncertainty", "converts to an uncertainty of 1.562e+13"),
+    ],
+)
+def test_a_reading_whose_force_is_beyond_every_numbers_bound_is_refused(
+    value, uncertainty, field, reason
+):
+    """Before, a spindle reading under the bound converted to a force over it and was stored
+    (a reported force_N of that size is refused: one bound, read or converted)."""
+    cal = LinearCurrentCalibration(
+        offset_N=-556.4, slope_N_per_A=173.55, u_offset_N=4.0, u_slope_N_per_A=1.0,
+        corr_offset_slope=-0.9, residual_sd_N=3.0, source="test",
+    )  # fmt: skip
+    with pytest.raises(InputError) as err:
+        to_force(cal, "spindle_current_A", value, uncertainty, {})
+    assert err.value.field == field and reason in str(err.value)
+    assert "beyond 1e+12 N" in str(err.value)

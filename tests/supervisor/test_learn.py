@@ -237,7 +237,7 @@ def test_a_gross_breach_halts_every_strategy(plan, strategy):
     assert halted.halt is not None and halted.version == 1
     (only,) = halted.halt.operations
     assert only.operation == "rough-od"
-    assert "measured 6000 is past its limit 2000 by 199.5 %" in only.message
+    assert "measured 6000 - 10 = 5990 is past its limit 2000 by 199.5 %" in only.message
     # the same reading under halt_over 2 (200 %) is no gross breach
     lenient = start(plan, RcbSettings(strategy=strategy, halt_over=2.0))
     kept, _ = update(
