@@ -31,6 +31,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet_changes import plan_changes
+from db.fleet_names import bounded, listed
 from db.fleet_noise import noise_provenance
 from db.fleet_states import newest_state
 from db.fleet_window import newest_imported, newest_local
@@ -249,8 +250,8 @@ def provenance_json(p: Provenance) -> dict[str, Any]:
     """A prior's provenance as stored and answered (REST, ``--json``)."""
     return {
         "quantity": p.quantity,
-        "plans": list(p.plans),
-        "machines": list(p.machines),
+        **listed("plans", p.plans),
+        **listed("machines", p.machines),
         "between_machine_spread": p.spread,
         "operation_spread": p.operation_spread,
         "readings": p.readings,
@@ -325,24 +326,20 @@ def prior_answer(
 ) -> dict[str, Any]:
     """``prior``, ``provenance`` and ``noise_provenance`` of a plan's answers (REST, ``--json``).
 
-    ``noise``: ``plans.noise_prior`` (:mod:`db.fleet_noise`). ``names`` False: for a key
-    scoped to plans, which may not see the fleet's other plans: their names and machines are
-    null, the counts stay (``text``), as ``GET /tools/{name}/fleet/law`` gives counts only.
+    ``noise``: ``plans.noise_prior`` (:mod:`db.fleet_noise`). The plans and machines named
+    are at most :data:`db.fleet_names.MAX_NAMED` of each, with their counts. ``names`` False:
+    for a key scoped to plans, which may not see the fleet's other plans: their names and
+    machines are null, the counts stay, as ``GET /tools/{name}/fleet/law`` gives counts only.
     """
-    provenance, chains = provenance_of(stored), noise_provenance(noise)
-    if not names:
-        provenance = {op: [_unnamed(p) for p in found] for op, found in provenance.items()}
-        chains = [_unnamed(p) for p in chains]
+    provenance = {
+        op: [bounded(p, names) for p in found] for op, found in provenance_of(stored).items()
+    }
+    chains = [bounded(p, names) for p in noise_provenance(noise)]
     return {
         "prior": "fleet" if stored else "catalogue",
         "provenance": provenance,
         "noise_provenance": chains,
     }
-
-
-def _unnamed(provenance: Mapping[str, Any]) -> dict[str, Any]:
-    """A provenance without the names of the plans and machines it came from."""
-    return {**provenance, **{k: None for k in ("plans", "machines") if k in provenance}}
 
 
 def provenance_of(stored: Mapping[str, Any] | None) -> dict[str, list[dict[str, Any]]]:

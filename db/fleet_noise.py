@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from db.fleet_names import listed
 from db.let_go_mark import marked
 from supervisor.fleet.noise import NoisePrior
 from supervisor.rcb.noise import NoiseScale
@@ -26,7 +27,7 @@ def noise_prior_json(priors: Mapping[str, NoisePrior]) -> dict[str, Any] | None:
             "rate": p.belief.rate,
             "provenance": {
                 "quantity": quantity,
-                "machines": list(p.machines),
+                **listed("machines", p.machines),
                 "readings": p.readings,
                 "noise_scale": p.scale,
                 "between_chain_spread": p.spread,

@@ -246,8 +246,8 @@ def _say_prior(answer: dict[str, Any]) -> None:
         table.add_row(
             operation if i == 0 or lines[i - 1][0] != operation else "",
             line["quantity"],
-            str(len(line["plans"])),
-            str(len(line["machines"])),
+            str(line["plans_total"]),
+            str(line["machines_total"]),
             _spreads(line),
             str(line["readings"]),
             line.get("widened_by_part") or "",  # the part that showed it outside the spread
@@ -277,7 +277,7 @@ def _noise_table(noise: list[dict[str, Any]]) -> Table:
         table.add_row(
             line["quantity"],
             f"{line['noise_scale']:.2f} x u",
-            str(len(line["machines"])),
+            str(line["machines_total"]),
             f"{100 * line['between_chain_spread']:.0f} %",
             str(line["readings"]),
             line.get("let_go_by_part") or "",  # the part that showed it noisier

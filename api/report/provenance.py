@@ -31,6 +31,23 @@ def _counted(count: int, noun: str) -> str:
     return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
 
 
+def _in_all(provenances: Sequence[Mapping[str, Any]], field: str) -> str:
+    """``3 plans``: the plans (or machines) behind all the quantities' priors together.
+
+    Where each lists all its names, the names told apart; where one lists only the first
+    (:data:`db.fleet_names.MAX_NAMED`) or none (a key scoped to plans), the most one has:
+    ``at least 320 plans``.
+    """
+    noun = field.removesuffix("s")
+    totals = [int(p.get(f"{field}_total", len(p[field] or []))) for p in provenances]
+    if all(
+        p[field] is not None and len(p[field]) == n
+        for p, n in zip(provenances, totals, strict=True)
+    ):
+        return _counted(len({name for p in provenances for name in p[field]}), noun)
+    return "at least " + _counted(max(totals), noun)
+
+
 def in_plan_order(
     provenance: Mapping[str, Sequence[Mapping[str, Any]]], operations: Sequence[str]
 ) -> list[tuple[str, Sequence[Mapping[str, Any]]]]:
@@ -80,8 +97,7 @@ def prior_line(plan: Mapping[str, Any]) -> str:
     lines = [(f"{op} {p['quantity']}", p) for op, ps in by_operation for p in ps]
     if plan.get("prior") != "fleet" or not lines:
         return CATALOGUE
-    plans = {name for _, p in lines for name in p["plans"]}
-    machines = {name for _, p in lines for name in p["machines"]}
+    provenances = [p for _, p in lines]
     spreads = [100 * p["between_machine_spread"] for _, p in lines]
     ops = [100 * p["operation_spread"] for _, p in lines if p.get("operation_spread") is not None]
     between_ops = f", between a machine's operations {span(ops)} %" if ops else ""
@@ -90,7 +106,7 @@ def prior_line(plan: Mapping[str, Any]) -> str:
         for serial, reason, names in let_go_groups(lines, "widened_by_part")
     )
     return (
-        f"the fleet: {_counted(len(plans), 'plan')} on {_counted(len(machines), 'machine')}, "
+        f"the fleet: {_in_all(provenances, 'plans')} on {_in_all(provenances, 'machines')}, "
         f"between-machine spread {span(spreads)} %{between_ops} (rcb plans show lists each "
         "quantity's)"
         f"{outside}{noise_line(plan.get('noise_provenance', []))}"

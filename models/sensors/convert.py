@@ -246,6 +246,14 @@ def to_force(
     result, below = _force(calibration, reading, u_reading, context, k, include_residual)
     if result.value < 0:
         raise ModelDomainError(f"{name}.value", value, below)
+    return _bounded(result, k, value, uncertainty, name)
+
+
+def _bounded(result: Converted, k: float, value: float, uncertainty: float, name: str) -> Converted:
+    """The force and its uncertainty at coverage ``k``, each at most ``LARGEST``.
+
+    :data:`models.bounds.LARGEST` bounds every number, read or converted (NaN refused too).
+    """
     force, u_force = result.value, k * result.uncertainty
     for what, field, converted in (
         ("a force", "value", force),

@@ -8,6 +8,7 @@ from pydantic import Field
 
 from api.rest.schemas.common import Band, Out
 from api.rest.schemas.quantities import keyed_table
+from db.fleet_names import MAX_NAMED
 from models.kinematics import PARAMETERS, PROCESSES
 from models.quantities import QUANTITIES
 from supervisor.inputs.objectives import Objective
@@ -119,12 +120,16 @@ class PriorProvenance(Out):
 
     quantity: str
     plans: list[str] | None = Field(
-        description="the stored plans whose readings it holds (null to a key scoped to plans:"
-        " other plans' names are not shown to it; text gives the counts)"
+        description=f"the stored plans whose readings it holds, the first {MAX_NAMED} by name "
+        "(null to a key scoped to plans: other plans' names are not shown to it); "
+        "GET /tools/{name}/fleet lists every plan, a page at a time"
     )
+    plans_total: int = Field(description="how many plans it holds the readings of")
     machines: list[str] | None = Field(
-        description="the machines they ran on (null to a key scoped to plans)"
+        description=f"the machines they ran on, the first {MAX_NAMED} by name (null to a key "
+        "scoped to plans)"
     )
+    machines_total: int = Field(description="how many machines they ran on")
     between_machine_spread: float = Field(
         description="the learned spread of ln K between machines [-] (0.041: 4.1 %)"
     )
@@ -148,8 +153,10 @@ class NoiseProvenance(Out):
 
     quantity: str
     machines: list[str] | None = Field(
-        description="the machines whose chains' readings it holds (null to a key scoped to plans)"
+        description="the machines whose chains' readings it holds, the first "
+        f"{MAX_NAMED} by name (null to a key scoped to plans)"
     )
+    machines_total: int = Field(description="how many machines' chains it holds")
     readings: int
     noise_scale: float = Field(
         description="the fleet's chains' noise as a multiple of the reported u [-]"
