@@ -6,7 +6,9 @@ its window of newest plans (:mod:`supervisor.fleet.window`); the script times th
 and the whole prior (best of 3), then copies every stored plan, with its operations and band
 states, ``--copies`` times in SQL (what a year of the same plans would leave), and times them
 again. Each machine speaks for a tool by its newest plans, so the two should be alike; the
-last line is their ratio. Before alembic 0027 the evidence statement sought each picked plan's
+last line is their ratio. It also prints the size of a new plan's ``GET /setpoints`` answer
+and of its stored ``plans.prior`` (the provenance names at most ten plans and machines each:
+:mod:`db.fleet_names`). Before alembic 0027 the evidence statement sought each picked plan's
 operations among all the tool's (docs/benchmarks.md, "A machine's newest plans"). Run::
 
     .venv/bin/python benchmarks/fleet_prior_history.py [--machines 32] [--plans 320] [--copies 30]
@@ -15,12 +17,17 @@ operations among all the tool's (docs/benchmarks.md, "A machine's newest plans")
 from __future__ import annotations
 
 import argparse
+import json
 import sqlite3
 import tempfile
 from pathlib import Path
+from typing import Any
 
-from fleet_prior_scale import BODY, _make, _timed
+from fleet_prior_scale import BODY, LEARN, _body, _make, _timed
+from sqlalchemy import text
 
+from api.services.plans import create_plan
+from api.services.read.setpoints import current_setpoints
 from db.engine import make_engine, upgrade
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.virtual.fleet import sample_fleet
@@ -57,6 +64,17 @@ def _copy(path: Path, copies: int) -> int:
         return int(c.execute("SELECT count(*) FROM plans").fetchone()[0])
 
 
+def _sizes(engine: Any, machines: int) -> None:
+    """A new plan's ``GET /setpoints`` answer and its stored ``plans.prior``, in bytes."""
+    made = create_plan(engine=engine, body=_body("sized", machines), settings=LEARN).body
+    answer = current_setpoints(engine=engine, plan_id=made["id"])
+    with engine.connect() as connection:
+        stored = connection.execute(
+            text("SELECT length(prior) FROM plans WHERE id = :id"), {"id": made["id"]}
+        ).scalar()
+    print(f"GET /setpoints {len(json.dumps(answer, default=str))} B, plans.prior {stored} B")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--machines", type=int, default=32)
@@ -80,6 +98,8 @@ def main() -> None:
             read, prior, models = _timed(engine, args.machines)
             rows.append(prior)
             print(f"{stored:>12} {models:>12} {read:>8.3f} {prior:>8.3f}")
+            if not copies:
+                _sizes(engine, args.machines)
         engine.dispose()
     print(f"prior after {args.copies} copies / before: {rows[1] / rows[0]:.2f}")
 
