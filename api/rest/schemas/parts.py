@@ -297,9 +297,10 @@ class PartCreated(Out):
 
     ``halted``: the bands leave no safe setpoint, or a reading is past its limit by more than
     the plan's ``halt_over`` (that operation's entry in ``conflicts`` then has no conflicts of
-    its own and its ``message`` names the reading); the part is stored, the setpoints shown are
-    those it was made with, and ``GET .../setpoints`` answers 409 ``plan_halted`` until a
-    replan.
+    its own and its ``message`` names the reading); the part is stored, no new setpoint version
+    is made (the setpoints shown are the last version in force, which a part made with an
+    earlier version was not made with), and ``GET .../setpoints`` answers 409 ``plan_halted``
+    until a replan.
     """
 
     part_id: int
