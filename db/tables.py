@@ -239,9 +239,8 @@ class RcbDecision(Base):
     """What one measurement did to one band (supervisor.rcb.state.Decision).
 
     Every field of the Decision but its operation (stored as ``operation_id``) and the
-    measured, predicted, uncertainty and limit it was made from (the part's measurement, the
-    setpoint version and the operation hold those) has a column of its own name;
-    tests/db/test_decision_columns.py pins this.
+    uncertainty and limit it was made from (the part's measurement and the operation hold
+    those) has a column of its own name; tests/db/test_decision_columns.py pins this.
     """
 
     __tablename__ = "rcb_decisions"
@@ -275,6 +274,10 @@ class RcbDecision(Base):
     #: information only (supervisor.rcb.state.Note): ``below_band`` (a maximum) or
     #: ``above_band`` (a minimum), ``past_limit``, ``implausible_low``, ``regime_change``
     note: Mapped[str | None] = mapped_column(String(20))
+    #: the model's prediction at the part's setpoint and the value judged (a spindle-load
+    #: reading's converted force), as the part's report answered them; NULL before alembic 0029
+    predicted: Mapped[float | None]
+    measured: Mapped[float | None]
 
 
 class BandState(Base):

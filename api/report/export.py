@@ -80,6 +80,8 @@ COLUMNS: dict[str, dict[str, str]] = {
         "margin": "float64",
         "band_before": "float64",
         "band_after": "float64",
+        "predicted": "float64",
+        "measured": "float64",
         "flagged": "bool",
         "flag": "string",
         "note": "string",

@@ -19,8 +19,6 @@ from supervisor.rcb.decision import Decision
 #: Decision fields that rcb_decisions does not store under their own name, and why.
 NOT_STORED = {
     "operation": "stored as operation_id (the operations row of that name)",
-    "predicted": "the setpoint version the part was made with holds the prediction",
-    "measured": "the part's measurements row holds the value",
     "uncertainty": "the part's measurements row holds the uncertainty",
     "limit": "the operation's limits hold it (operations.limits, plan revisions)",
 }

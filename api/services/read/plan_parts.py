@@ -154,6 +154,8 @@ def decision_json(d: t.RcbDecision, names: dict[int, str]) -> dict[str, Any]:
         "margin": d.margin,
         "band_before": d.band_before,
         "band_after": d.band_after,
+        "predicted": d.predicted,  # None for a decision stored before alembic 0029
+        "measured": d.measured,
         "flagged": d.flagged,
         "flag": d.flag,
         "note": d.note,
