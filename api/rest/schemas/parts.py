@@ -258,8 +258,16 @@ class Update(Out):
     )
     band_before: float
     band_after: float
-    predicted: float | None = None
-    measured: float | None = None
+    predicted: float | None = Field(
+        None,
+        description="the model's prediction at the setpoint the part was made with, in the "
+        "quantity's unit (null for a decision stored before alembic 0029)",
+    )
+    measured: float | None = Field(
+        None,
+        description="the value the decision judged, in the quantity's unit: a spindle reading's "
+        "converted force (null for a decision stored before alembic 0029)",
+    )
     flagged: bool = Field(description="flag is not null (kept for compatibility)")
     flag: Flag | None = Field(
         None,
