@@ -194,6 +194,7 @@ def history(
         version["decisions"] = decisions.get(version["part_id"], [])
         if operation is not None:
             version["operations"] = [o for o in version["operations"] if o["name"] == operation]
+    data["next_cursor"] = _version_after(data["next_cursor"])  # what --before takes
     if as_json:
         emit(data)
         return
@@ -206,12 +207,28 @@ def history(
 
 
 def _version_before(before: int | None) -> str | None:
-    """``--before`` as the history's cursor (a setpoint version), None for the newest page."""
+    """``--before V`` as the history's cursor of ``order=newest``, None for the newest page.
+
+    The user sees setpoint versions, not cursors: ``--before 29`` is the cursor ``"n29"``
+    (:func:`api.services.read.common.ordered_cursor`).
+    """
+    from api.services.read.common import ordered_cursor
+
     if before is None:
         return None
     if not 1 <= before <= LARGEST_WHOLE:
         raise InputError("--before", before, f"a setpoint version is 1 to {LARGEST_WHOLE}")
-    return str(before)
+    return ordered_cursor(before, newest=True)
+
+
+def _version_after(cursor: str | None) -> str | None:
+    """A ``next_cursor`` of ``order=newest`` as the version ``--before`` takes (``"n29"``: 29).
+
+    None (the page reaches version 1) stays None.
+    """
+    from api.services.read.common import ordered_value
+
+    return None if cursor is None else str(ordered_value(cursor, newest=True))
 
 
 def _bounded(option: str, count: int) -> int:

@@ -12,6 +12,7 @@ from fastapi import FastAPI
 
 from api.report import ui
 from api.rest import answers, content_type, documented, problems
+from api.rest.head_method import HeadAsGet
 from api.rest.lifespan import flushing
 from api.rest.limits import BodyLimit
 from api.rest.routes import health, parts, plans, review, tools
@@ -41,6 +42,8 @@ def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
     content_type.install(app)  # 415 for a body not sent as JSON (api.rest.content_type)
     app.add_middleware(WritesFirstMiddleware)  # reads step aside (api.rest.writes_in_flight)
     app.add_middleware(BodyLimit)  # 413 before a body over 1 MiB is read (api.rest.limits)
+    # outermost: a HEAD is its GET without content, for every route (api.rest.head_method)
+    app.add_middleware(HeadAsGet)
     ui.install(app, engine)  # the read-only web view at /ui/ (api/report/ui.py)
     for resource in (health, plans, parts, review, tools):
         # the routes as they are, each with its full path: FastAPI 0.165's include_router

@@ -78,7 +78,7 @@ def test_history_last_shows_the_newest_versions_and_reads_only_those(runner, sto
     assert [v["version"] for v in data["versions"]] == [29, 30, 31]
     assert [v["serial"] for v in data["versions"]] == ["SN-0028", "SN-0029", "SN-0030"]
     assert all(v["decisions"] for v in data["versions"])  # each version's decisions, no more
-    assert data["next_cursor"] == "29"
+    assert data["next_cursor"] == "29"  # the version --before takes (REST's cursor: "n29")
     assert _scans(url, statements) == []
     assert len(statements) <= 12
     table, _ = _run(runner, url, "history", str(plan_id), "--last", "2")
@@ -97,6 +97,7 @@ def test_history_before_pages_back_to_the_first_version(runner, stored):
     )
     assert [v["version"] for v in data["versions"]] == [26, 27, 28]
     assert [v["serial"] for v in data["versions"]] == ["SN-0025", "SN-0026", "SN-0027"]
+    assert data["next_cursor"] == "26"
     assert f"older versions: rcb history {plan_id} --before 26" in result.stdout
     assert _scans(url, statements) == []
     first = _run(runner, url, "history", str(plan_id), "--last", "5", "--before", "3", "--json")[0]

@@ -17,7 +17,7 @@ from api.services.plans import create_plan
 from db import tables as t
 from db.engine import reader
 
-from conftest import report_at
+from conftest import renamed, report_at
 
 #: Tables whose rows grow with the plan's life: a page may seek in them, never scan them.
 HISTORY_TABLES = ("operation_model_versions", "setpoint_versions", "setpoints", "parts")
@@ -116,7 +116,7 @@ def test_a_history_page_costs_the_same_at_20_and_at_400_versions(bayes_history):
         assert [v["version"] for v in first["versions"]] == list(range(1, 11))
         assert first["next_cursor"] == "10"
         assert [v["version"] for v in last["versions"]] == list(range(size - 9, size + 1))
-        assert last["next_cursor"] == str(size - 9)
+        assert last["next_cursor"] == f"n{size - 9}"  # a cursor that says it pages back
         reference = _walk_of_old(engine, plan_id)
         for page in (first, last):
             assert _models(page) == {v: reference[v] for v in _models(page)}
@@ -158,6 +158,9 @@ def test_a_history_page_out_of_bounds_is_refused(engine):
             queries.plan_history(engine=engine, plan_id=plan_id, page_size=size)
     with pytest.raises(ValueError, match="cursor"):
         queries.plan_history(engine=engine, plan_id=plan_id, cursor="-1")
+    for bad in ("n", "nn3", "n-3", "3n", "n99999999999"):
+        with pytest.raises(ValueError, match="cursor"):
+            queries.plan_history(engine=engine, plan_id=plan_id, cursor=bad, newest=True)
 
 
 def test_rest_history_pages_with_a_cursor_either_way(server):
@@ -179,12 +182,12 @@ def test_rest_history_pages_with_a_cursor_either_way(server):
             {"limit": 2},
             {"limit": 2, "cursor": "2"},
             {"limit": 2, "order": "newest"},
-            {"limit": 2, "order": "newest", "cursor": "3"},
+            {"limit": 2, "order": "newest", "cursor": "n3"},
         ):
             r = c.get(url, params=params)
             assert r.status_code == 200, r.text
             pages.append(([v["version"] for v in r.json()["versions"]], r.json()["next_cursor"]))
-        assert pages == [([1, 2], "2"), ([3, 4], None), ([3, 4], "3"), ([1, 2], None)]
+        assert pages == [([1, 2], "2"), ([3, 4], None), ([3, 4], "n3"), ([1, 2], None)]
         assert c.get(url, params={"limit": 2}).json()["versions"] == whole["versions"][:2]
         for bad, field in (
             ({"limit": 0}, "limit"),
@@ -194,6 +197,50 @@ def test_rest_history_pages_with_a_cursor_either_way(server):
         ):
             r = c.get(url, params=bad)
             assert r.status_code == 422 and r.json()["field"] == field, r.text
+
+
+def test_a_history_cursor_of_one_order_is_refused_in_the_other(server):
+    """``order=newest&cursor=3`` (a cursor of an ``oldest`` page) gave the versions before 3:
+    a page the other way, without a word. As for parts, the cursor says its order."""
+    with server.client("engineer") as c:
+        created = c.post("/plans", json=renamed(BODY), params={"strategy": "ivester"})
+        plan_id = created.json()["id"]
+        setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
+        for i in range(3):
+            setpoints = c.post(
+                f"/plans/{plan_id}/parts",
+                json=report_at(f"P{i}", setpoints),
+                headers={"Idempotency-Key": f"o-{plan_id}-{i}"},
+            ).json()
+        url = f"/plans/{plan_id}/history"
+        forward = c.get(url, params={"limit": 2}).json()["next_cursor"]
+        backward = c.get(url, params={"limit": 2, "order": "newest"}).json()["next_cursor"]
+        assert (forward, backward) == ("2", "n3")
+        for params, made_in in (
+            ({"cursor": forward, "order": "newest"}, "oldest"),
+            ({"cursor": backward}, "newest"),  # order=oldest by default
+            ({"cursor": backward, "order": "oldest"}, "newest"),
+        ):
+            r = c.get(url, params=params)
+            assert r.status_code == 422, r.text
+            assert r.headers["content-type"] == "application/problem+json"
+            body = r.json()
+            assert (body["field"], body["value"]) == ("cursor", params["cursor"])
+            assert f"continues order={made_in}: send it with order={made_in}" in body["detail"]
+        for bad in ("n", "nn3", "n-3", "3n", "n99999999999"):
+            r = c.get(url, params={"cursor": bad, "order": "newest"})
+            assert r.status_code == 422 and r.json()["field"] == "cursor", r.text
+        # each order still chains through every version, a version once
+        for order, mark, chained in (("oldest", "", [1, 2, 3, 4]), ("newest", "n", [4, 3, 2, 1])):
+            seen, cursor = [], None
+            while True:
+                params = {"limit": 1, "order": order, **({"cursor": cursor} if cursor else {})}
+                page = c.get(url, params=params).json()
+                seen += [v["version"] for v in page["versions"]]
+                if (cursor := page["next_cursor"]) is None:
+                    break
+                assert cursor == f"{mark}{seen[-1]}"
+            assert seen == chained
 
 
 def test_the_report_lists_the_newest_200_versions_and_summarises_older_ones(tmp_path):

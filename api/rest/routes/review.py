@@ -10,7 +10,7 @@ from fastapi.responses import Response
 from api.rest.deps import Anyone, EngineDep
 from api.rest.rendering import page_response
 from api.rest.routes.common import Named, PlanId, resource_router
-from api.rest.schemas.common import NO_NUL, IdCursor, PageOrder
+from api.rest.schemas.common import NO_NUL, PageOrder, PartCursor
 from api.rest.schemas.review import History, ModelVersions, PlanModels
 from api.rest.schemas.tools import TextCursor
 from api.services.read import history as read_history
@@ -27,7 +27,7 @@ def plan_history(
     engine: EngineDep,
     plan_id: PlanId,
     actor: Anyone,
-    cursor: IdCursor = None,
+    cursor: PartCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = read_history.HISTORY_PAGE,
     order: Annotated[
         PageOrder,

@@ -74,13 +74,14 @@ Name = Annotated[
 #: A path or query value without NUL (PostgreSQL refuses it in a query).
 NO_NUL = r"^[^\x00]*$"
 
-#: The ``cursor`` of a list keyed by id (plans, parts, setpoint versions, a tool's fleet).
+#: The ``cursor`` of a list keyed by id (plans, a tool's fleet).
 IdCursor = Annotated[
     str | None,
     Query(pattern=r"^[0-9]{1,10}$", description="`next_cursor` of the previous page"),
 ]
-#: The ``cursor`` of a plan's parts: an id, or ``n`` and an id when it pages back from the
-#: newest (:mod:`api.services.read.plan_parts`: a cursor says which order it continues).
+#: The ``cursor`` of a plan's parts or setpoint versions: an id (a version), or ``n`` and one
+#: when it pages back from the newest (:mod:`api.services.read.common`: a cursor says which
+#: order it continues).
 PartCursor = Annotated[
     str | None,
     Query(

@@ -1,7 +1,12 @@
 """What the read use cases share: a read session, page bounds, cursors, UTC times, a plan.
 
 A list's cursor is opaque (:func:`_token`): the ``next_cursor`` of the previous page, null on
-the last page; a page of parts or setpoint versions pages by id (:func:`_cursor`).
+the last page; a page of plans pages by id (:func:`_cursor`). A list that pages either way
+through time (parts, setpoint versions) has cursors that say which way
+(:func:`ordered_cursor`): an id or version (``"41"``) pages forward from the oldest, ``"n41"``
+back from the newest (the REST ``order=newest``); one of the other order is refused, naming the
+order it continues, so that a client mixing them does not get rows it has already seen, or
+skip some, without a word.
 """
 
 from __future__ import annotations
@@ -32,6 +37,9 @@ LIST_PAGE = 100
 MAX_CURSOR = 1200
 #: A PLAN argument of only these characters is a plan's id; any other, its name.
 PLAN_ID = re.compile(r"[0-9]+")
+#: What starts a cursor that pages back from the newest (``next_cursor`` of ``order=newest``).
+NEWEST = "n"
+_ORDERED = re.compile(rf"({NEWEST})?([0-9]{{1,10}})")
 
 
 def resolve_plan(*, engine: Engine, plan: str) -> int:
@@ -66,6 +74,32 @@ def _cursor(cursor: str | None) -> int:
     if re.fullmatch(r"[0-9]{1,10}", cursor) is None or int(cursor) > t.MAX_INT:
         raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
     return int(cursor)
+
+
+def ordered_cursor(edge: int, *, newest: bool) -> str:
+    """The cursor that continues after ``edge`` (an id or version) in its order."""
+    return f"{NEWEST}{edge}" if newest else str(edge)
+
+
+def ordered_value(cursor: str | None, *, newest: bool) -> int:
+    """The id or version a cursor of :func:`ordered_cursor` continues from (0: none).
+
+    InputError naming ``cursor`` for a text no page of this order handed out (module docstring).
+    """
+    if cursor is None:
+        return 0
+    found = _ORDERED.fullmatch(cursor)
+    if found is None or int(found[2]) > t.MAX_INT:
+        raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
+    made_in = "newest" if found[1] else "oldest"
+    if (made_in == "newest") != newest:
+        raise InputError(
+            "cursor",
+            cursor,
+            f"continues order={made_in}: send it with order={made_in}, or start the other "
+            "order without a cursor",
+        )
+    return int(found[2])
 
 
 def _plan(session: Session, plan_id: int) -> t.Plan:

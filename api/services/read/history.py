@@ -11,7 +11,7 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.read.common import MAX_PAGE, _cursor, _plan, _read
+from api.services.read.common import MAX_PAGE, _plan, _read, ordered_cursor, ordered_value
 from api.services.writes_first import GATE
 from db import tables as t
 from db.read import history
@@ -35,14 +35,14 @@ def plan_history(
 ) -> dict[str, Any]:
     """A page of setpoint versions with cause, setpoints and the models (bands) in force.
 
-    Versions come oldest first. ``newest``: the page is the newest ``page_size`` versions
-    before ``cursor`` (the REST ``order=newest``); ``next_cursor`` then pages back in time.
-    Otherwise the page follows ``cursor`` and ``next_cursor`` pages forward. The cost is
-    linear in the page, not in the plan's history (:func:`db.read.history.models_at`).
+    Versions come oldest first. ``newest``: the newest ``page_size`` versions before ``cursor``
+    (REST ``order=newest``), ``next_cursor`` (``"n41"``) pages back; else ``next_cursor``
+    (``"41"``) pages forward (:func:`api.services.read.common.ordered_cursor`). The cost is
+    linear in the page, not in the history (:func:`db.read.history.models_at`).
     """
     if not 1 <= page_size <= MAX_PAGE:
         raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
-    mark = _cursor(cursor)
+    mark = ordered_value(cursor, newest=newest)
     GATE.pause()  # the read transaction starts when no part report is in flight
     with _read(engine) as session, session.begin():
         halt = _plan(session, plan_id).halt
@@ -83,7 +83,7 @@ def plan_history(
         "status": status,
         "halt": halt,
         "versions": out,
-        "next_cursor": str(edge) if more else None,
+        "next_cursor": ordered_cursor(edge, newest=newest) if more else None,
     }
 
 

@@ -3,31 +3,24 @@
 Each runs in one read transaction (on SQLite a deferred one, so it never waits for writers);
 a page reads only its own rows.
 
-A page's cursor says which way it pages: a part's id (``"41"``) pages forward from the
-oldest, ``"n41"`` back from the newest (the REST ``order=newest``); one of the other order is
-refused, naming the order it continues, so that a client mixing them does not get parts it has
-already seen, or skip some, without a word.
+A page's cursor says which way it pages (:func:`api.services.read.common.ordered_cursor`): a
+part's id (``"41"``) pages forward from the oldest, ``"n41"`` back from the newest.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterator
 from datetime import datetime
 from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.read.common import MAX_PAGE, _plan, _read
+from api.services.read.common import MAX_PAGE, _plan, _read, ordered_cursor, ordered_value
 from db import tables as t
 from db.read.parts import decisions_of, parts_page
 from db.read.plans import operations
 from db.table_base import as_utc
 from models.errors import InputError
-
-#: What starts a cursor that pages back from the newest part (``next_cursor`` of ``newest``).
-NEWEST = "n"
-_CURSOR = re.compile(rf"({NEWEST})?([0-9]{{1,10}})")
 
 
 def parts(
@@ -48,7 +41,7 @@ def parts(
     """
     if not 1 <= page_size <= MAX_PAGE:
         raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
-    after = part_cursor(cursor, newest=newest)
+    after = ordered_value(cursor, newest=newest)
     with _read(engine) as session, session.begin():
         _plan(session, plan_id)
         names = {op.id: op.name for op, _ in operations(session=session, plan_id=plan_id)}
@@ -62,29 +55,8 @@ def parts(
         )
         items = [part_json(part, measurements[part.id], decisions[part.id], names) for part in rows]
     edge = (rows[0] if newest else rows[-1]) if rows and more else None
-    mark = NEWEST if newest else ""
-    return {"items": items, "next_cursor": None if edge is None else f"{mark}{edge.id}"}
-
-
-def part_cursor(cursor: str | None, *, newest: bool) -> int:
-    """The part id ``cursor`` continues from (0: none).
-
-    InputError naming ``cursor`` for a text no page of this order handed out (module docstring).
-    """
-    if cursor is None:
-        return 0
-    found = _CURSOR.fullmatch(cursor)
-    if found is None or int(found[2]) > t.MAX_INT:
-        raise InputError("cursor", cursor, "not a cursor returned by this endpoint")
-    made_in = "newest" if found[1] else "oldest"
-    if (made_in == "newest") != newest:
-        raise InputError(
-            "cursor",
-            cursor,
-            f"continues order={made_in}: send it with order={made_in}, or start the other "
-            "order without a cursor",
-        )
-    return int(found[2])
+    following = None if edge is None else ordered_cursor(edge.id, newest=newest)
+    return {"items": items, "next_cursor": following}
 
 
 def decisions(*, engine: Engine, plan_id: int, part_ids: list[int]) -> dict[int, list[Any]]:
