@@ -15,7 +15,6 @@ import math
 import tomllib
 from typing import Any
 
-import pytest
 from sqlalchemy import Engine
 from test_service import BODY, _reports
 
@@ -24,7 +23,6 @@ from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
 from models.sensors import ivester_load_V
 from supervisor.rcb.state import RcbSettings
 
@@ -35,14 +33,6 @@ LATHE = tomllib.loads((ROOT / "examples" / "virtual_lathe_part.toml").read_text(
 #: and back.
 SHARES = (0.92, 0.97, 1.0, 1.06, 0.95)
 IDLE_V = 0.30  # the idle load reported with each reading (Ivester & Heigel Eq. 3)
-
-
-@pytest.fixture
-def engine(backend_url):
-    upgrade(backend_url)
-    engine = make_engine(backend_url)
-    yield engine
-    engine.dispose()
 
 
 def _load_report(serial: str, answer: dict[str, Any], share: float) -> dict[str, Any]:

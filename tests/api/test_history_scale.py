@@ -163,16 +163,22 @@ def test_a_history_page_out_of_bounds_is_refused(engine):
             queries.plan_history(engine=engine, plan_id=plan_id, cursor=bad, newest=True)
 
 
+def _with_three_parts(c, body) -> int:  # type: ignore[no-untyped-def]
+    """An ivester plan of ``body`` with three parts reported (four setpoint versions)."""
+    plan_id = c.post("/plans", json=body, params={"strategy": "ivester"}).json()["id"]
+    setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
+    for i in range(3):
+        setpoints = c.post(
+            f"/plans/{plan_id}/parts",
+            json=report_at(f"P{i}", setpoints),
+            headers={"Idempotency-Key": f"p-{plan_id}-{i}"},
+        ).json()
+    return int(plan_id)
+
+
 def test_rest_history_pages_with_a_cursor_either_way(server):
     with server.client("engineer") as c:
-        plan_id = c.post("/plans", json=BODY, params={"strategy": "ivester"}).json()["id"]
-        setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
-        for i in range(3):
-            setpoints = c.post(
-                f"/plans/{plan_id}/parts",
-                json=report_at(f"P{i}", setpoints),
-                headers={"Idempotency-Key": f"p-{plan_id}-{i}"},
-            ).json()
+        plan_id = _with_three_parts(c, BODY)
         url = f"/plans/{plan_id}/history"
         whole = c.get(url).json()  # no parameter: the first page of 100, as before plus a cursor
         assert [v["version"] for v in whole["versions"]] == [1, 2, 3, 4]
@@ -203,15 +209,7 @@ def test_a_history_cursor_of_one_order_is_refused_in_the_other(server):
     """``order=newest&cursor=3`` (a cursor of an ``oldest`` page) gave the versions before 3:
     a page the other way, without a word. As for parts, the cursor says its order."""
     with server.client("engineer") as c:
-        created = c.post("/plans", json=renamed(BODY), params={"strategy": "ivester"})
-        plan_id = created.json()["id"]
-        setpoints = c.get(f"/plans/{plan_id}/setpoints").json()
-        for i in range(3):
-            setpoints = c.post(
-                f"/plans/{plan_id}/parts",
-                json=report_at(f"P{i}", setpoints),
-                headers={"Idempotency-Key": f"o-{plan_id}-{i}"},
-            ).json()
+        plan_id = _with_three_parts(c, renamed(BODY))
         url = f"/plans/{plan_id}/history"
         forward = c.get(url, params={"limit": 2}).json()["next_cursor"]
         backward = c.get(url, params={"limit": 2, "order": "newest"}).json()["next_cursor"]
