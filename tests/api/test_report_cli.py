@@ -96,7 +96,7 @@ def test_cli_reports_a_failed_write_in_one_line(runner, cli, stored, tmp_path, m
     def refuse(*args, **kwargs):
         raise PermissionError(13, "Permission denied")
 
-    monkeypatch.setattr("api.cli.common.os.replace", refuse)
+    monkeypatch.setattr("api.cli.atomic.os.replace", refuse)
     result = runner.invoke(cli, ["report", str(plan_id), "--out", str(out), "--db", url])
     assert result.exit_code == INPUT_ERROR
     assert result.stderr == f"rcb: error: --out = '{out}': cannot be written (Permission denied)\n"
