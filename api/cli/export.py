@@ -54,8 +54,8 @@ def export(
             for page in read_parts.part_pages(engine=engine, plan_id=plan_key):
                 for name, frame in tidy.part_frames(plan_key, page).items():
                     tables[name].add(frame)
-            for versions in read_history.history_pages(engine=engine, plan_id=plan_key):
-                tables["setpoints"].add(tidy.setpoint_frame(versions))
+            for history in read_history.history_pages(engine=engine, plan_id=plan_key):
+                tables["setpoints"].add(tidy.setpoint_frame(history["versions"]))
             for table in tables.values():
                 table.close()
     for path in paths.values():

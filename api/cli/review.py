@@ -12,7 +12,7 @@ import json
 import sys
 from collections.abc import Iterable
 from datetime import datetime
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -38,9 +38,6 @@ from api.report import marks
 from api.services import request_limits
 from models.bounds import LARGEST_WHOLE
 from models.errors import InputError
-
-if TYPE_CHECKING:
-    pass
 
 # Each command imports the queries (SQLAlchemy) and pandas when it runs: rcb --help and the
 # other commands do not load them (README, "Speed").

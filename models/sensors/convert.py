@@ -255,12 +255,11 @@ def _bounded(result: Converted, k: float, value: float, uncertainty: float, name
     :data:`models.bounds.LARGEST` bounds every number, read or converted (NaN refused too).
     """
     force, u_force = result.value, k * result.uncertainty
-    for what, field, converted in (
-        ("a force", "value", force),
-        ("an uncertainty", "uncertainty", u_force),
+    for what, field, given, converted in (
+        ("a force", "value", value, force),
+        ("an uncertainty", "uncertainty", uncertainty, u_force),
     ):
         if not converted <= LARGEST:  # NaN too: one bound for every number (models.bounds)
-            given = value if field == "value" else uncertainty
             raise ModelDomainError(
                 f"{name}.{field}",
                 given,

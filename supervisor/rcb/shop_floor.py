@@ -75,12 +75,13 @@ def gross_breach(
         return None
     y, u = measurement.value, measurement.uncertainty
     if MODEL_QUANTITIES[quantity].sense == "max":
-        past = (y - u) / limit - 1.0
+        sign, edge = "-", y - u
+        past = edge / limit - 1.0
     else:
-        past = 1.0 - (y + u) / limit
+        sign, edge = "+", y + u
+        past = 1.0 - edge / limit
     if past <= halt_over:
         return None
-    sign, edge = ("-", y - u) if MODEL_QUANTITIES[quantity].sense == "max" else ("+", y + u)
     message = (
         f"{operation.name} {quantity} measured {y:.6g} {sign} {u:.3g} = {edge:.6g} is past its "
         f"limit {limit:.6g} by {100 * past:.1f} % (more than halt_over "

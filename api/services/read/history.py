@@ -87,30 +87,26 @@ def plan_history(
     }
 
 
-def history_pages(*, engine: Engine, plan_id: int) -> Iterator[list[dict[str, Any]]]:
-    """A plan's setpoint versions page by page, oldest first: one page in memory at a time."""
+def history_pages(*, engine: Engine, plan_id: int) -> Iterator[dict[str, Any]]:
+    """A plan's history page by page (:func:`plan_history`), oldest first: one in memory."""
     cursor = None
     while True:
         page = plan_history(engine=engine, plan_id=plan_id, cursor=cursor, page_size=MAX_PAGE)
-        yield page["versions"]
+        yield page
         cursor = page["next_cursor"]
         if cursor is None:
             return
 
 
 def full_history(*, engine: Engine, plan_id: int) -> dict[str, Any]:
-    """Every setpoint version in one answer (:func:`plan_history`, page after page).
+    """Every setpoint version in one answer (:func:`history_pages`), the last page's status.
 
     Memory grows with the plan's life: ``rcb export`` reads :func:`history_pages` instead.
     """
-    page = plan_history(engine=engine, plan_id=plan_id, page_size=MAX_PAGE)
-    versions = page["versions"]
-    while page["next_cursor"] is not None:
-        page = plan_history(
-            engine=engine, plan_id=plan_id, cursor=page["next_cursor"], page_size=MAX_PAGE
-        )
+    versions: list[dict[str, Any]] = []
+    for page in history_pages(engine=engine, plan_id=plan_id):
         versions += page["versions"]
-    return {**page, "versions": versions, "next_cursor": None}
+    return {**page, "versions": versions}
 
 
 def _history_version(
