@@ -304,13 +304,16 @@ def _allowed(request: Request) -> str:
     """Every method of the resource at the request's path (RFC 9110 ``Allow``).
 
     Starlette answers 405 from the first route whose path matched, naming only that route's
-    methods; a path can have several routes (``GET`` and ``POST /plans``).
+    methods; a path can have several routes (``GET`` and ``POST /plans``). A path with a GET
+    answers HEAD too (:mod:`api.rest.head_method`), so it lists ``HEAD``.
     """
     methods: set[str] = set()
     for route in request.app.router.routes:
         match, _ = route.matches(request.scope)
         if match is not Match.NONE:
             methods |= getattr(route, "methods", None) or set()
+    if "GET" in methods:
+        methods.add("HEAD")
     return ", ".join(sorted(methods))
 
 

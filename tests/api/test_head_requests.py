@@ -119,7 +119,7 @@ def test_head_on_a_path_without_get_stays_405(server, plan_id):
         assert head.status_code == 405 and head.headers["allow"] == "POST"
         _same_but_content(c.get(url), head)
         options = c.options("/health")  # OPTIONS is as it was: 405, no CORS
-    assert options.status_code == 405 and options.headers["allow"] == "GET"
+    assert options.status_code == 405 and options.headers["allow"] == "GET, HEAD"
 
 
 def test_head_on_the_web_view(server):

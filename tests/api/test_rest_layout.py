@@ -70,7 +70,7 @@ def test_every_router_is_mounted_with_its_full_path(app):
 def test_a_405_names_every_method_of_the_path(app):
     answer = TestClient(app).delete("/api/v1/plans")
     assert answer.status_code == 405
-    assert answer.headers["Allow"] == "GET, POST"
+    assert answer.headers["Allow"] == "GET, HEAD, POST"  # HEAD: api.rest.head_method
 
 
 def test_the_machine_limits_are_the_derived_quantities():
