@@ -24,7 +24,7 @@ from db.plans import operation_ids, setpoints_of
 from db.state import load_state
 from db.state_cache import CACHE, database_key
 from db.store_report import store_report
-from models.errors import InputError
+from models.errors import InputError, InputErrors
 from supervisor.constant_load.reported_tool_changes import ToolChange, tool_changes
 from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.signals import resolve
@@ -53,7 +53,28 @@ def report_part(
     """
     target = f"plan {plan_id} part {report.serial}"
     with audited(engine, actor, "report part", target, held, plan_id):
-        return _report_part(engine, plan_id, report, actor, idempotency, held)
+        try:
+            return _report_part(engine, plan_id, report, actor, idempotency, held)
+        except InputError as err:
+            raise at_body_path(err, tuple(report.measurements)) from None
+
+
+def at_body_path(err: InputError, order: Sequence[str]) -> InputError:
+    """``err`` naming its field by the report body's path: ``operations[1].measurements...``.
+
+    The domain reads a report by operation name (``operations.finish-od.measurements``); the
+    body lists the operations (``order``, as sent), and the schema's errors name them by index,
+    so the errors found after it do too (an operation the plan lacks: ``operations[i].name``).
+    """
+    if isinstance(err, InputErrors):
+        return InputErrors([at_body_path(e, order) for e in err.errors])
+    by_length = sorted(enumerate(order), key=lambda item: -len(item[1]))
+    for index, name in by_length:
+        prefix = f"operations.{name}"
+        if err.field == prefix or err.field.startswith(prefix + "."):
+            rest = err.field[len(prefix) :] or ".name"
+            return type(err)(f"operations[{index}]{rest}", err.value, err.reason)
+    return err
 
 
 def _report_part(

@@ -18,7 +18,8 @@ The ``context`` each calibration kind needs, each entry in the unit its name car
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from typing import Literal
 
 from models import fields
@@ -232,9 +233,9 @@ def to_force(
     ------
     InputError
         Naming the field: an unknown calibration kind or raw quantity, a bad value, a missing
-        or bad context entry (``context.spindle_speed_rpm`` ...), or a reading outside the
-        calibration (a negative force: a load below the idle load or a current below the
-        zero-force current; a speed or feed rate outside the calibrated range).
+        or bad context entry (``{path}.spindle_speed_rpm``, no path ``context.`` ...), or a
+        reading outside the calibration (a negative force: a load below the idle load or a
+        current below the zero-force current; a speed or feed rate outside its range).
 
     References
     ----------
@@ -243,17 +244,37 @@ def to_force(
     name = path or raw_quantity
     _check_kind(calibration, raw_quantity)
     k, reading, u_reading = _checked_reading(value, uncertainty, coverage_k, name)
-    result, below = _force(calibration, reading, u_reading, context, k, include_residual)
+    with _context_at(path):
+        result, below = _force(calibration, reading, u_reading, context, k, include_residual)
+    return _bounded(result, k, value, uncertainty, name, below)
+
+
+@contextmanager
+def _context_at(path: str | None) -> Iterator[None]:
+    """A context entry's error named as the reading's field that gives it (``{path}.KEY``).
+
+    A part report's reading carries its conversion's context as its own fields
+    (``spindle_speed_rpm``, ``idle_load_V``); without a path, as ``context.KEY``.
+    """
+    try:
+        yield
+    except InputError as err:
+        if not (path and err.field.startswith("context.")):
+            raise
+        key = err.field.removeprefix("context.")
+        raise type(err)(f"{path}.{key}", err.value, err.reason) from None
+
+
+def _bounded(
+    result: Converted, k: float, value: float, uncertainty: float, name: str, below: str
+) -> Converted:
+    """The force and its uncertainty at coverage ``k``: a force >= 0, each at most ``LARGEST``.
+
+    :data:`models.bounds.LARGEST` bounds every number, read or converted (NaN refused too);
+    ``below`` says why a negative force is refused (the reading below the calibration's zero).
+    """
     if result.value < 0:
         raise ModelDomainError(f"{name}.value", value, below)
-    return _bounded(result, k, value, uncertainty, name)
-
-
-def _bounded(result: Converted, k: float, value: float, uncertainty: float, name: str) -> Converted:
-    """The force and its uncertainty at coverage ``k``, each at most ``LARGEST``.
-
-    :data:`models.bounds.LARGEST` bounds every number, read or converted (NaN refused too).
-    """
     force, u_force = result.value, k * result.uncertainty
     for what, field, given, converted in (
         ("a force", "value", value, force),

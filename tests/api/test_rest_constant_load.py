@@ -146,7 +146,7 @@ def test_bad_constant_load_input_is_refused_naming_the_field(server):
         }
         r = mes.post(f"/plans/{plain['id']}/parts", json=body, headers={"Idempotency-Key": "x1"})
         assert r.status_code == 422
-        assert r.json()["field"] == "operations.slot.feed_override_percent"
+        assert r.json()["field"] == "operations[0].feed_override_percent"
         assert eng.get(f"/plans/{plain['id']}/parts").json()["items"] == []
 
 
@@ -168,7 +168,7 @@ def test_an_override_past_the_machines_fastest_feed_is_refused_and_nothing_store
             r = mes.post(url, json=body, headers={"Idempotency-Key": f"f{n}"})
             assert r.status_code == 422, r.text
             problem = r.json()
-            assert problem["field"] == "operations.slot.feed_override_percent"
+            assert problem["field"] == "operations[0].feed_override_percent"
             assert problem["value"] == percent
             assert f"above the machine's maximum feed rate {fastest:g} mm/min" in problem["detail"]
         assert eng.get(url).json()["items"] == []

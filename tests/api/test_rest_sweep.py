@@ -117,17 +117,13 @@ def _tokens(path: str) -> list[str]:
 
 
 def names_the_leaf(field: str, leaf: str, operation: str = "rough-od") -> bool:
-    """``field`` names ``leaf`` or what holds it, by index or (a domain reader's) by name.
+    """``field`` names ``leaf`` or what holds it, by the body's path.
 
-    The plan's RCB names an operation's measurement ``operations.NAME.QUANTITY`` (NAME as sent);
-    a replan's ``bounds.OPERATION.PARAMETER`` is the plan's ``operations[i].bounds.PARAMETER``.
+    A replan's ``bounds.OPERATION.PARAMETER`` is the plan's ``operations[i].bounds.PARAMETER``.
     """
     got = [t for t in _tokens(field) if t != "measurements"]
-    named = re.sub(r"operations\[0\]", f"operations.{operation}", leaf)
     replanned = re.sub(rf"^(bounds|limits)\.{operation}\.", r"operations[0].\1.", leaf)
-    if leaf == "operations[0].name" and got[:1] == ["operations"]:
-        return True  # an operation the plan lacks: named by the name sent
-    for path in (leaf, named, replanned):
+    for path in (leaf, replanned):
         want = [t for t in _tokens(path) if t != "measurements"]
         pairs = zip(got, want, strict=False)
         common = list(itertools.takewhile(lambda pair: pair[0] == pair[1], pairs))

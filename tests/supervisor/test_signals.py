@@ -134,7 +134,7 @@ def test_bad_readings_are_refused_naming_the_field(server):
         bare = c.post("/plans", json={**no_cal, "name": "no-calibration"}).json()
         body = _load_report("B1", {"setpoint_version": 1, **plan}, 1.0, 0.02)
         cases = [
-            (bare["id"], body, "operations.rough-od.measurements.spindle_load_V", "no calibration"),
+            (bare["id"], body, "operations[0].measurements.spindle_load_V", "no calibration"),
         ]
         named = copy.deepcopy(body)
         named["operations"][0]["measurements"]["spindle_load_V"]["calibration"] = "nope"
@@ -142,19 +142,15 @@ def test_bad_readings_are_refused_naming_the_field(server):
             (
                 plan["id"],
                 named,
-                "operations.rough-od.measurements.spindle_load_V.calibration",
+                "operations[0].measurements.spindle_load_V.calibration",
                 "nope",
             )
         )
         twice = copy.deepcopy(body)
         twice["operations"][0]["measurements"]["force_N"] = {"value": 900, "uncertainty": 3}
-        cases.append(
-            (plan["id"], twice, "operations.rough-od.measurements.spindle_load_V", "twice")
-        )
+        cases.append((plan["id"], twice, "operations[0].measurements.spindle_load_V", "twice"))
         below_idle = _load_report("B1", {"setpoint_version": 1, **plan}, 0.1, 0.02)
-        cases.append(
-            (plan["id"], below_idle, "operations.rough-od.measurements.spindle_load_V", "idle")
-        )
+        cases.append((plan["id"], below_idle, "operations[0].measurements.spindle_load_V", "idle"))
         for i, (plan_id, report, field, _) in enumerate(cases):
             r = c.post(f"/plans/{plan_id}/parts", json=report, headers={"Idempotency-Key": f"b{i}"})
             assert r.status_code == 422, (field, r.text)
