@@ -139,6 +139,18 @@ def say_filled(text: str) -> None:
     )
 
 
+def say_error(text: str) -> None:
+    """An error as ``rcb`` says it: filled to :data:`WIDTH` columns on a terminal.
+
+    To a script or a log it stays one line, whole for ``grep``; a terminal would break a long
+    line inside its words.
+    """
+    if err_console.is_terminal:
+        say_filled(text)
+    else:
+        say(text)
+
+
 def say_command(intro: str, command: str) -> None:
     """``intro command`` on one line when it fits :data:`WIDTH`; else the command alone below.
 
@@ -175,22 +187,22 @@ def errors() -> Iterator[None]:
         yield
     except (InputError, NotFoundError, ConflictError) as err:
         for each in err.errors if isinstance(err, InputErrors) else (err,):  # a plan's every one
-            say(f"rcb: error: {told(each)}")
+            say_error(f"rcb: error: {told(each)}")
         raise typer.Exit(2) from None
     except InfeasibleError as err:
-        say(f"rcb: infeasible: {err}")
+        say_error(f"rcb: infeasible: {err}")
         raise typer.Exit(3) from None
     except PlanHaltedError as err:
-        say(f"rcb: halted: {err}")
+        say_error(f"rcb: halted: {err}")
         raise typer.Exit(3) from None
     except SolverError as err:
-        say(f"rcb: solver: {err}")
+        say_error(f"rcb: solver: {err}")
         raise typer.Exit(4) from None
     except Exception as err:
         if not _database_error(err):
             raise
         first = str(err).splitlines()[0] if str(err).strip() else err.__class__.__name__
-        say(f"rcb: error: --db: cannot use this database ({first})")
+        say_error(f"rcb: error: --db: cannot use this database ({first})")
         raise typer.Exit(2) from None
 
 
