@@ -45,7 +45,7 @@ def add_plan(
     noise_prior: dict[str, Any] | None = None,
 ) -> int:
     """Store a plan of a new name, its machine, tools (if new), version 1 and its priors."""
-    _refuse_taken(session, plan.name)  # a name names one plan
+    refuse_taken(session, plan.name)  # a name names one plan
     machine = _machine(session, plan)
     plan_row = t.Plan(
         name=plan.name,
@@ -107,10 +107,11 @@ def new_token() -> str:
     return uuid.uuid4().hex
 
 
-def _refuse_taken(session: Session, name: str) -> None:
+def refuse_taken(session: Session, name: str) -> None:
     """Refuse a name a stored plan has (:class:`db.errors.PlanNameTakenError`).
 
-    Two creates racing, the unique index refuses the second (a retry finds the first).
+    Checked before a new plan's prior is computed, and again as it is stored; two creates
+    racing, the unique index refuses the second (a retry finds the first).
     """
     taken = plan_id_by_name(session=session, name=name)
     if taken is not None:

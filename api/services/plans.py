@@ -22,12 +22,14 @@ from db import api_keys, library
 from db.api_keys import Actor
 from db.fleet import plan_priors, prior_answer, prior_json
 from db.fleet_noise import noise_prior_json
+from db.intake import stored_answer
 from db.plans import (
     add_plan,
     add_replan,
     current_body,
     get_plan_row,
     plan_tools,
+    refuse_taken,
 )
 from db.state import load_state
 from models.errors import Gathered, InputError
@@ -76,6 +78,8 @@ def create_plan(
     with audited(engine, actor, "create plan", f"plan {body.get('name', '')}"):
         with Session(engine) as session:
             settings, plan = _read(session, body, settings, given)
+            if idempotency is None or stored_answer(session, actor.id, idempotency.key) is None:
+                refuse_taken(session, plan.name)  # before the prior: a retry's key replays
             priors, noise = plan_priors(session=session, plan=plan, settings=settings, prior=prior)
         # outside the write transaction: it needs no lock
         result = start(plan, settings, {k: p.posterior for k, p in priors.items()}).setpoints

@@ -46,6 +46,9 @@ def test_create_show_list_and_history_by_name(runner, backend_url, tmp_path):
 
     table = _rcb(runner, "plans", "create", DEMO_PLAN, "--db", backend_url)  # the same name
     _one_line_error(table, "name", NAME, f"plan {plan['id']} has this name", "rcb replan")
+    # told before the prior is looked for (before: "no learn plan in the fleet ...", then this)
+    fleet = _rcb(runner, "plans", "create", DEMO_PLAN, "--db", backend_url, "--prior", "fleet")
+    _one_line_error(fleet, "name", NAME, f"plan {plan['id']} has this name")
 
     other = tmp_path / "other.json"  # JSON of the same structure, as POST /plans takes it
     other.write_text(json.dumps({**PLAN, "name": "second-part"}), encoding="utf-8")
@@ -98,7 +101,16 @@ def test_rest_refuses_a_second_plan_of_a_name(server, runner):
         first = c.post("/plans", json={**PLAN, "name": "rest-name"})
         assert first.status_code == 201, first.text
         again = c.post("/plans", json={**PLAN, "name": "rest-name"}, params={"strategy": "bayes"})
+        fleet = c.post("/plans", json={**PLAN, "name": "rest-name"}, params={"prior": "fleet"})
+        key = {"Idempotency-Key": "rest-name-1"}
+        stored = c.post("/plans", json={**PLAN, "name": "rest-name-2"}, headers=key)
+        replayed = c.post("/plans", json={**PLAN, "name": "rest-name-2"}, headers=key)
         listed = c.get("/plans").json()["plans"]
+    # the name is told before the prior (before: 422, the fleet holds no evidence), and a
+    # retry of a stored create is its answer again, not a taken name
+    assert (fleet.status_code, fleet.json()["code"]) == (409, "plan_name_taken"), fleet.text
+    assert (stored.status_code, replayed.status_code) == (201, 201), replayed.text
+    assert replayed.json()["id"] == stored.json()["id"]
     assert again.status_code == 409, again.text
     assert again.headers["content-type"].startswith("application/problem+json")
     problem = again.json()
