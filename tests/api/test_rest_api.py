@@ -249,7 +249,8 @@ def test_errors_are_problems_naming_the_field(server):
         nope = {"name": "nope", "measurements": {"force_N": {"value": 900, "uncertainty": 3}}}
         unknown = {**body, "serial": "E4", "operations": [nope]}
         r = _post_part(c, plan_id, unknown, f"e-{plan_id}-unknown")
-        assert r.status_code == 422 and "nope" in r.json()["field"]
+        assert r.status_code == 422 and r.json()["field"] == "operations[0].name"
+        assert "nope" in r.json()["detail"], r.json()
         future = {**body, "serial": "E5", "setpoint_version": 99}
         r = _post_part(c, plan_id, future, f"e-{plan_id}-future")
         assert r.status_code == 422 and r.json()["field"] == "setpoint_version"
