@@ -11,13 +11,12 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.read.common import MAX_PAGE, _plan, _read, ordered_cursor, ordered_value
+from api.services.read.common import MAX_PAGE, _bounded, _plan, _read, ordered_cursor, ordered_value
 from api.services.writes_first import GATE
 from db import tables as t
 from db.read import history
 from db.read.plans import operations
 from db.table_base import as_utc
-from models.errors import InputError
 
 #: Versions converted between two pauses for writes in flight (api.services.writes_first).
 PAUSE_EVERY = 10
@@ -40,8 +39,7 @@ def plan_history(
     (``"41"``) pages forward (:func:`api.services.read.common.ordered_cursor`). The cost is
     linear in the page, not in the history (:func:`db.read.history.models_at`).
     """
-    if not 1 <= page_size <= MAX_PAGE:
-        raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
+    _bounded(page_size)
     mark = ordered_value(cursor, newest=newest)
     GATE.pause()  # the read transaction starts when no part report is in flight
     with _read(engine) as session, session.begin():

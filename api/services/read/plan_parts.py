@@ -15,12 +15,11 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api.services.read.common import MAX_PAGE, _plan, _read, ordered_cursor, ordered_value
+from api.services.read.common import MAX_PAGE, _bounded, _plan, _read, ordered_cursor, ordered_value
 from db import tables as t
 from db.read.parts import decisions_of, parts_page
 from db.read.plans import operations
 from db.table_base import as_utc
-from models.errors import InputError
 
 
 def parts(
@@ -39,8 +38,7 @@ def parts(
     module docstring). ``since``: only parts received at or after this time. Only the page's
     rows are read, by an index seek either way (:func:`db.read.parts.parts_page`).
     """
-    if not 1 <= page_size <= MAX_PAGE:
-        raise InputError("limit", page_size, f"must be between 1 and {MAX_PAGE}")
+    _bounded(page_size)
     after = ordered_value(cursor, newest=newest)
     with _read(engine) as session, session.begin():
         _plan(session, plan_id)
