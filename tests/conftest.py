@@ -236,6 +236,16 @@ def engine(backend_url):
     engine.dispose()
 
 
+@pytest.fixture
+def sqlite_engine(tmp_path) -> Iterator[Engine]:
+    """A migrated SQLite database, as an engine (for SQLite's own query plans and hooks)."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    made = make_engine(url)
+    yield made
+    made.dispose()
+
+
 def _serving(url: str, tmp_path_factory) -> Iterator[LiveServer]:
     live = LiveServer(url, tmp_path_factory.mktemp("log") / "serve.log")
     live.start()

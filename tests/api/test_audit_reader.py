@@ -170,6 +170,8 @@ def test_since_with_an_offset_selects_by_the_utc_time(engine):
         (["--limit", "501"], "--limit = 501"),
         (["--since", "yesterday"], "--since = 'yesterday': expected an age"),
         (["--since", "0d"], "--since = '0d'"),
+        (["--since", "0001-01-01T00:00+05:00"], "--since = '0001-01-01T00:00+05:00': outside"),
+        (["--since", "2" * 41], "--since = '" + "2" * 40 + "...': expected an age"),
         (["--cursor", "abc"], "--cursor = 'abc': not a cursor printed by rcb audit"),
         (["--cursor", "WyJ4IiwiMSJd"], "--cursor = 'WyJ4IiwiMSJd'"),  # ["x","1"]: no time
         (["--action", ""], "--action = '': 1 to 100 characters"),

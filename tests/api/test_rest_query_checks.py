@@ -71,6 +71,33 @@ def test_parts_page_from_the_newest_and_back(server, plan):
         assert _page(c, url, order="newest", limit=50) == ([f"P{i}" for i in range(PARTS)], None)
 
 
+def test_parts_since_a_time_in_either_order(server, plan):
+    """``since``, as ``rcb parts --since`` takes it: from the first part received then on,
+    sent again with each cursor; a time that is not one is a 422 naming ``since``."""
+    url = f"/plans/{plan['id']}/parts"
+    with server.client("viewer") as c:
+        stamps = [p["received_at"] for p in c.get(url).json()["items"]]
+        since = stamps[2]  # P2's own time, as the list shows it (ISO 8601, UTC, "Z")
+        first, cursor = _page(c, url, since=since, limit=2)
+        assert first == ["P2", "P3"]
+        assert _page(c, url, since=since, limit=2, cursor=cursor) == (["P4"], None)
+        newest, cursor = _page(c, url, since=since, limit=2, order="newest")
+        assert newest == ["P3", "P4"]
+        assert _page(c, url, since=since, limit=2, order="newest", cursor=cursor) == (["P2"], None)
+        assert _page(c, url, since="2999-01-01") == ([], None)
+        assert _page(c, url, since="2000-01-01T01:00:00+01:00")[0] == [f"P{i}" for i in range(5)]
+        for bad, why in [
+            ("yesterday", "expected an ISO 8601 date or time"),
+            ("7d", "expected an ISO 8601 date or time"),  # an age is the CLI's alone
+            ("1", "expected an ISO 8601 date or time"),  # not taken as a Unix time
+            ("9999-12-31T23:59:59-05:00", "outside the years 1 to 9999 in UTC"),
+            ("0001-01-01T00:00:00+05:00", "outside the years 1 to 9999 in UTC"),
+        ]:
+            body = _problem(c.get(url, params={"since": bad}), 422, "since")
+            assert body["value"] == bad and why in body["detail"], body
+        _problem(c.get(url, params={"since": "2" * 41}), 422, "since")
+
+
 def test_a_cursor_of_one_order_is_refused_in_the_other(server, plan):
     url = f"/plans/{plan['id']}/parts"
     with server.client("viewer") as c:
@@ -92,7 +119,7 @@ def test_a_cursor_of_one_order_is_refused_in_the_other(server, plan):
     ("path", "params", "field", "known"),
     [
         ("/plans", {"limitt": "5"}, "limitt", "cursor, limit"),
-        ("/plans/{plan}/parts", {"since": "2026-01-01"}, "since", "cursor, limit, order"),
+        ("/plans/{plan}/parts", {"sinse": "2026-01-01"}, "sinse", "cursor, limit, order, since"),
         ("/plans/{plan}/history", {"limit": "2", "Order": "newest"}, "Order", None),
         ("/plans/{plan}", {"verbose": "1"}, "verbose", "none"),
     ],

@@ -91,6 +91,10 @@ def test_parts_and_export_round_trip(runner, stored, tmp_path):
         (["history", "99"], "PLAN = 99: no plan with id 99 (rcb plans lists them)"),
         (["parts", "1", "--since", "yesterday"], "--since = 'yesterday': expected an age"),
         (["parts", "1", "--since", "0d"], "--since = '0d': more than 0"),
+        (  # in the year 10000 in UTC: a traceback (OverflowError) before
+            ["parts", "1", "--since", "9999-12-31T23:59:59-05:00"],
+            "--since = '9999-12-31T23:59:59-05:00': outside the years 1 to 9999 in UTC",
+        ),
         (["history", "1", "--operation", "nope"], "--operation = 'nope'"),
         (["export", "1", "--format", "xlsx", "--out", "x"], "--format = 'xlsx'"),
     ],

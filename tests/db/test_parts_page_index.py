@@ -11,24 +11,18 @@ ORDER BY``).
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
 from sqlalchemy import Engine, event, text
 from sqlalchemy.orm import Session
 
-from db.engine import make_engine, upgrade
 from db.read.parts import parts_page
 
 
 @pytest.fixture
-def engine(tmp_path) -> Iterator[Engine]:
-    url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
-    made = make_engine(url)
-    yield made
-    made.dispose()
+def engine(sqlite_engine: Engine) -> Engine:
+    return sqlite_engine  # SQLite's: its query plans
 
 
 def _plans(engine: Engine, *, newest: bool) -> list[str]:

@@ -24,6 +24,7 @@ from api.services import parts as use_cases
 from api.services.read import plan_parts as read_parts
 from api.services.read import setpoints as read_setpoints
 from api.services.read.common import MAX_PAGE
+from api.services.since import LONGEST_TEXT, since_of
 
 router = resource_router("mes")
 
@@ -84,12 +85,23 @@ def parts(
         PageOrder,
         Query(description="`oldest`: pages forward from the first part; `newest`: back from now"),
     ] = "oldest",
+    since: Annotated[
+        str | None,
+        Query(
+            max_length=LONGEST_TEXT,
+            description="Only the parts from the first one received at or after this ISO 8601 "
+            "date or time (UTC without an offset), e.g. `2026-12-01T06:00:00Z`; send it again "
+            "with each `cursor` (`rcb parts --since`)",
+        ),
+    ] = None,
 ) -> dict[str, Any]:
     """The plan's parts with their measurements and decisions, a page at a time.
 
     Each page lists its parts oldest first; ``next_cursor`` continues in ``order`` (a cursor
-    of the other order is refused, naming the order it continues).
+    of the other order is refused, naming the order it continues). ``since``: the parts
+    received from then on (an index seek, ``ix_parts_plan_received``).
     """
+    newest, after = order == "newest", since_of(since, field="since", ages=False)
     return read_parts.parts(
-        engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit, newest=order == "newest"
+        engine=engine, plan_id=plan_id, cursor=cursor, page_size=limit, newest=newest, since=after
     )
