@@ -3,8 +3,8 @@ same after a year of parts as after a day (``db/read/parts.py``, ``first_since``
 
 The cost is SQLite's virtual-machine instructions, counted by a progress handler called at
 each one: repeatable, unlike seconds. Before, the page's own query filtered ``received_at``
-and its seek started at the plan's first part: 4000 parts before ``since`` cost about a
-hundred times the instructions of 40.
+and its seek started at the plan's first part: the first page ``order=oldest`` of 11 parts
+since took 20 305 instructions after 4000 parts and 505 after 40; now 484 and 484.
 """
 
 from __future__ import annotations
