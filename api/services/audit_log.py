@@ -18,6 +18,7 @@ from api.services.request_limits import READ_PAGE
 from api.services.since import since_of
 from db import tables as t
 from db.audit_read import AuditQuery, entries
+from db.table_base import as_utc
 from models.errors import InputError
 
 #: Entries on a page unless asked otherwise.
@@ -55,6 +56,10 @@ def _below(cursor: str | None) -> tuple[datetime, int] | None:
         raise refused from None
     if moment.tzinfo is None or re.fullmatch(r"[0-9]{1,10}", entry_id) is None:
         raise refused
+    try:
+        moment = as_utc(moment)
+    except OverflowError:  # a time in the year 10000 in UTC: no cursor rcb printed
+        raise refused from None
     if int(entry_id) > t.MAX_INT:
         raise refused
     return moment, int(entry_id)

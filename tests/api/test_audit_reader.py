@@ -174,6 +174,10 @@ def test_since_with_an_offset_selects_by_the_utc_time(engine):
         (["--since", "2" * 41], "--since = '" + "2" * 40 + "...': expected an age"),
         (["--cursor", "abc"], "--cursor = 'abc': not a cursor printed by rcb audit"),
         (["--cursor", "WyJ4IiwiMSJd"], "--cursor = 'WyJ4IiwiMSJd'"),  # ["x","1"]: no time
+        (  # ["9999-12-31T23:59:59-05:00","1"]: the year 10000 in UTC (a traceback before)
+            ["--cursor", "WyI5OTk5LTEyLTMxVDIzOjU5OjU5LTA1OjAwIiwiMSJd"],
+            "--cursor = 'WyI5OTk5LTEyLTMxVDIzOjU5OjU5LTA1OjAwIiwiMSJd': not a cursor printed",
+        ),
         (["--action", ""], "--action = '': 1 to 100 characters"),
         (["--actor", "x" * 201], "--actor = "),
     ],
