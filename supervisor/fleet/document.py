@@ -26,8 +26,10 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from models import fields
-from models.bounds import MAX_IDENTITY
+from models.bounds import LARGEST, LARGEST_EXPONENT, MAX_IDENTITY
 from models.errors import InputError
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.learned import Learned
@@ -56,6 +58,12 @@ _ITEM_KEYS = (
     "edge_sd",
     "chain",
 )
+#: The largest ``|ln Y|`` at a posterior's centre, and ``|ln x|`` of its centre: a quantity or
+#: an input within :data:`models.bounds.LARGEST`.
+LN_LARGEST = math.log(LARGEST)
+#: The largest variance in a posterior (of ``ln Y``, an exponent, the noise): a standard
+#: deviation of :data:`models.bounds.LARGEST_EXPONENT`.
+LARGEST_VARIANCE = LARGEST_EXPONENT**2
 #: The most readings' worth a chain's evidence may claim in a document.
 MAX_CHAIN_READINGS = 1e7
 
@@ -155,6 +163,10 @@ def read_item(data: object, path: str) -> Learned:
         raise InputError(
             f"{path}.posterior.quantity", posterior.quantity, "not a model of the tool"
         )
+    inputs = tool.models[posterior.quantity].exponents
+    for name in (*posterior.names, *posterior.context_exponents):
+        if name not in inputs:
+            raise InputError(f"{path}.posterior.names", name, "not an input of the tool's model")
     return Learned(
         fields.text(table, "machine", path, most=MAX_IDENTITY),
         fields.text(table, "plan", path, most=MAX_IDENTITY),
@@ -187,7 +199,42 @@ def _posterior(data: object, path: str) -> Posterior:
         raise InputError(f"{path}.noise_scale2", belief.noise_scale2, "must be a number > 0")
     if not (math.isfinite(belief.prior_widening) and belief.prior_widening >= 0):
         raise InputError(f"{path}.prior_widening", belief.prior_widening, "must be a number >= 0")
+    _within_bounds(belief, path)
     return belief
+
+
+def _within_bounds(belief: Posterior, path: str) -> None:
+    """Every number of ``belief`` as a learned model can hold it, the covariance a covariance.
+
+    ``ln Y`` at the centre within ±ln 1e12 (:data:`models.bounds.LARGEST`, as a quantity's
+    input), the exponents, the edge's rise and their standard deviations within
+    :data:`models.bounds.LARGEST_EXPONENT`, and ``cov`` symmetric positive definite: a
+    document with a mean of 1e300 or a negative variance was stored, and every later fleet
+    prior of the tool overflowed (``rcb plans create``: a traceback).
+    """
+    for i, centre in enumerate(belief.center):
+        fields.number(centre, f"{path}.center[{i}]", largest=LN_LARGEST)
+    for name, exponent in belief.context_exponents.items():
+        fields.number(exponent, f"{path}.context_exponents.{name}", largest=LARGEST_EXPONENT)
+    for i, value in enumerate(belief.mean):
+        fields.number(
+            value, f"{path}.mean[{i}]", largest=LN_LARGEST if i == 0 else LARGEST_EXPONENT
+        )
+    for i, row in enumerate(belief.cov):
+        fields.number(row[i], f"{path}.cov[{i}][{i}]", positive=True, largest=LARGEST_VARIANCE)
+    for name, value in (
+        ("noise_scale2", belief.noise_scale2),
+        ("prior_widening", belief.prior_widening),
+    ):
+        fields.number(value, f"{path}.{name}", largest=LARGEST_VARIANCE)
+    cov = np.array(belief.cov)
+    symmetric = np.allclose(cov, cov.T, rtol=1e-9, atol=0.0)
+    if not symmetric or np.linalg.eigvalsh(cov).min() <= 0:
+        raise InputError(
+            f"{path}.cov",
+            "not positive definite",
+            "must be a covariance: symmetric, positive definite",
+        )
 
 
 def _operation(data: object, tool: str, path: str) -> Operation:
@@ -199,17 +246,22 @@ def _operation(data: object, tool: str, path: str) -> Operation:
         process=process_of(table.get("process"), f"{path}.process"),
         tool=tool,
         volume_mm3=fields.number(table.get("volume_mm3"), f"{path}.volume_mm3", positive=True),
-        limits=_numbers(table.get("limits", {}), f"{path}.limits"),
-        bounds={
-            str(k): (
-                fields.number(v[0], f"{path}.bounds.{k}", positive=True),
-                fields.number(v[1], f"{path}.bounds.{k}", positive=True),
-            )
-            for k, v in bounds.items()
-        },
+        limits=_numbers(table.get("limits", {}), f"{path}.limits", positive=True),
+        bounds={str(k): _bound(v, f"{path}.bounds.{k}") for k, v in bounds.items()},
         context=_numbers(table.get("context", {}), f"{path}.context"),
     )
 
 
-def _numbers(data: object, path: str) -> dict[str, float]:
-    return {str(k): fields.number(v, f"{path}.{k}") for k, v in fields.mapping(data, path).items()}
+def _numbers(data: object, path: str, positive: bool = False) -> dict[str, float]:
+    table = fields.mapping(data, path)
+    return {str(k): fields.number(v, f"{path}.{k}", positive=positive) for k, v in table.items()}
+
+
+def _bound(data: object, path: str) -> tuple[float, float]:
+    """An operation's ``[low, high]`` bound of one cutting parameter."""
+    if not isinstance(data, list) or len(data) != 2:
+        raise InputError(path, data, "must be [low, high]")
+    low, high = (fields.number(v, f"{path}[{i}]", positive=True) for i, v in enumerate(data))
+    if low > high:
+        raise InputError(path, data, f"low {low:g} is above high {high:g}")
+    return low, high

@@ -1,0 +1,77 @@
+"""``rcb models import`` refuses a learned model no plant could have learned (issue 32).
+
+A process engineer's review: a document whose posterior mean was 1e300, whose variance was
+negative or whose operation's force limit was -5 was stored (exit 0), and from then on every
+``rcb plans create`` of the tool, and ``rcb fleet law``, ended in an OverflowError traceback.
+Each is now refused naming the field, nothing is stored, and a new plan still starts.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+from test_fleet_db import LEARN, _body, _learned
+from test_fleet_import_once import _rows, _second
+
+from api.services.fleet_models import export_tool, import_tool
+from api.services.plans import create_plan
+from models.errors import InputError
+
+
+def _set(*path: Any, value: Any) -> Callable[[dict[str, Any]], None]:
+    """A change of the document's first item at ``path`` to ``value``."""
+
+    def change(item: dict[str, Any]) -> None:
+        *head, last = path
+        for key in head:
+            item = item[key]
+        item[last] = value
+
+    return change
+
+
+def _swap_cov(item: dict[str, Any]) -> None:  # symmetric, but one eigenvalue negative
+    cov = item["posterior"]["cov"]
+    cov[0][1] = cov[1][0] = 10 * (cov[0][0] * cov[1][1]) ** 0.5
+
+
+CASES = [
+    (_set("posterior", "mean", 0, value=1e300), "posterior.mean[0]", "within ±27.631"),
+    (_set("posterior", "mean", 0, value=50.0), "posterior.mean[0]", "within ±27.631"),
+    (_set("posterior", "mean", 1, value=-620.0), "posterior.mean[1]", "within ±100"),
+    (_set("posterior", "cov", 0, 0, value=-1.0), "posterior.cov[0][0]", "greater than 0"),
+    (_set("posterior", "cov", 0, 1, value=1e-3), "posterior.cov", "positive definite"),
+    (_swap_cov, "posterior.cov", "positive definite"),
+    (_set("posterior", "center", 0, value=1e5), "posterior.center[0]", "within ±27.631"),
+    (_set("posterior", "noise_scale2", value=1e9), "posterior.noise_scale2", "within ±10000"),
+    (_set("posterior", "names", 0, value="spin"), "posterior.names", "not an input"),
+    (_set("operation", "limits", "force_N", value=-5), "operation.limits.force_N", "than 0"),
+    (_set("operation", "bounds", "feed_mm_rev", value=[0.5, 0.1]), "bounds.feed_mm_rev", "above"),
+    (_set("operation", "bounds", "feed_mm_rev", value=[0.1]), "bounds.feed_mm_rev", "[low, high]"),
+    (_set("start", value={"x": 1}), "start", "is not a posterior"),
+]
+
+
+@pytest.mark.parametrize(("change", "field", "reason"), CASES)
+def test_a_model_no_plant_learned_is_refused_and_plans_still_start(
+    engine, tmp_path, change, field, reason
+) -> None:
+    _learned(engine, "fleet-a", 0, 2)
+    document = export_tool(engine=engine, tool="CNMG432RN")
+    bad = copy.deepcopy(document)
+    change(bad["learned"][0])
+    second = _second(tmp_path)
+    with pytest.raises(InputError) as refused:
+        import_tool(engine=second, data=bad, source="bad.json")
+    assert refused.value.field.startswith("document.learned[0].")
+    assert refused.value.field.endswith(field) and reason in refused.value.reason
+    assert _rows(second) == 0
+    made = create_plan(engine=second, body=_body("after", "lathe-9"), settings=LEARN).body
+    assert made["prior"] == "catalogue"  # nothing stored: the catalogue's, no traceback
+    assert import_tool(engine=second, data=document, source="good.json").body["new"] == 2
+    fleet = create_plan(engine=second, body=_body("fleet", "lathe-9"), settings=LEARN).body
+    assert fleet["prior"] == "fleet"
+    second.dispose()
