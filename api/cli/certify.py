@@ -24,6 +24,7 @@ from rich.table import Table
 from api.cli.cluster import cluster_executor
 from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors
 from api.cli.tables import new_table
+from models.bounds import LARGEST_WHOLE
 from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 from supervisor.virtual.fault_spec import catalogue_help, parse_faults
@@ -55,7 +56,9 @@ _ScenariosOption = Annotated[
 _PartsOption = Annotated[
     int, typer.Option("--parts", min=1, max=MAX_PARTS, help="Parts made per scenario.")
 ]
-_SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Seed of the first scenario.")]
+_SeedOption = Annotated[
+    int, typer.Option("--seed", min=0, max=LARGEST_WHOLE, help="Seed of the first scenario.")
+]
 _WearDriftOption = Annotated[
     float,
     typer.Option(

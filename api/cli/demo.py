@@ -25,6 +25,7 @@ from api.cli.common import (
     say,
     shown,
 )
+from models.bounds import LARGEST_WHOLE
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 from supervisor.virtual.sizes import MAX_PARTS
 
@@ -76,7 +77,9 @@ def demo(
         int,
         typer.Option("--parts", help=f"Parts made with RCB (1-{MAX_PARTS}).", min=1, max=MAX_PARTS),
     ] = 20,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the virtual lathe.")] = 1,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Seed of the virtual lathe.", min=0, max=LARGEST_WHOLE)
+    ] = 1,
     strategy: StrategyOption = DEFAULT_STRATEGY,
     alpha: Annotated[
         float, typer.Option("--alpha", help="Fraction of the margin a band shrinks by.")

@@ -17,6 +17,7 @@ import typer
 
 from api.cli.common import errors, say
 from api.virtual_serve import MAX_PARTS
+from models.bounds import LARGEST_WHOLE
 from models.errors import InputError
 
 if TYPE_CHECKING:
@@ -78,7 +79,9 @@ def serve(
     seconds_per_part: Annotated[
         float, typer.Option(min=0.01, max=3600.0, help="Time to make one part [s].")
     ] = 1.0,
-    seed: Annotated[int, typer.Option(min=0, help="Seed of the virtual machine and noise.")] = 7,
+    seed: Annotated[
+        int, typer.Option(min=0, max=LARGEST_WHOLE, help="Seed of the virtual machine and noise.")
+    ] = 7,
     no_wait_for_reader: _NoWaitOption = False,
     collector: _CollectorOption = None,
     machine: Annotated[

@@ -103,12 +103,16 @@ def test_demo_table_output(runner, tmp_path):
         (["--strategy", "pid"], "strategy"),
         (["--alpha", "0"], "alpha"),
         (["--parts", "0"], "--parts"),
+        # numpy refused it after the plan was stored: a traceback and a plan of no parts
+        (["--seed", "-1"], "Invalid value for '--seed': Input should be greater than or equal"),
+        (["--seed", "99999999999999999999"], "'--seed': Input should be less than or equal"),
     ],
 )
-def test_demo_bad_arguments(runner, args, needle):
-    result = runner.invoke(app, ["demo", *args])
+def test_demo_bad_arguments(runner, tmp_path, args, needle):
+    result = runner.invoke(app, ["demo", *args, *_db(tmp_path)])
     assert result.exit_code == 2
     assert needle in result.stderr and "Traceback" not in result.stderr
+    assert not (tmp_path / "demo.db").exists()  # nothing stored
 
 
 def test_the_demo_is_stored_as_plans_are_and_a_second_run_beside_the_first(runner, tmp_path):
