@@ -29,6 +29,7 @@ from api.cli.common import (
     plan_of,
     say,
     say_command,
+    say_error,
     say_filled,
 )
 from api.cli.tables import fmt, new_table
@@ -311,5 +312,5 @@ def _as_typed(plan: str | None) -> Iterator[None]:
     except InputError as err:
         if err.field == "--plan" and plan is not None and not plan.isdigit():
             err = InputError("--plan", plan, err.reason)
-        say_filled(f"rcb: error: {err}")
+        say_error(f"rcb: error: {err}")
         raise typer.Exit(2) from None

@@ -60,3 +60,16 @@ def test_an_error_is_filled_on_a_terminal_and_one_line_on_a_pipe(tmp_path, colum
     assert len(lines) >= 3 and all(len(each) <= 80 for each in lines), lines
     assert all(each.startswith("  ") for each in lines[1:])  # later lines indented by two
     assert re.sub(r"\s+", " ", shown).strip() == line  # the same words, none broken
+
+
+def test_a_fleet_error_is_one_line_on_a_pipe(tmp_path):
+    """``rcb fleet`` filled its errors whatever the output (a log's grep found half of one)."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    subprocess.run([_rcb(), "db", "upgrade", "--db", url], capture_output=True, check=True)
+    args = [_rcb(), "fleet", "exclude", "--machine", "LATHE-22KW", "--reason", "x", "--db", url]
+    piped = subprocess.run(args, capture_output=True, text=True, timeout=60, check=False)
+    assert piped.returncode == 2
+    [line] = piped.stderr.splitlines()
+    assert line.startswith("rcb: error: --machine = 'LATHE-22KW': ") and len(line) > 80, line
+    code, shown = _on_a_terminal(args, 80)
+    assert code == 2 and all(len(each) <= 80 for each in shown.splitlines()), shown
