@@ -15,7 +15,7 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from api.cli.common import DbOption, emit, engine_of, errors, plan_of, say_command
+from api.cli.common import DbOption, again_db, emit, engine_of, errors, plan_of, say_command
 from api.cli.tables import new_table
 from api.services import request_limits
 
@@ -65,10 +65,10 @@ def audit(
     else:
         _out.print(_table(page["entries"]))
     if page["next_cursor"] is not None:
-        # not --db: it may hold a password
         again = [("--action", action), ("--actor", actor), ("--since", since), ("--plan", plan)]
         kept = "".join(f" {name} {shlex.quote(value)}" for name, value in again if value)
         again_command = f"rcb audit{kept} --cursor {page['next_cursor']} --limit {limit}"
+        again_command += again_db(db)
         say_command("rcb: older entries:", again_command)
 
 

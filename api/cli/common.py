@@ -161,6 +161,22 @@ def say_command(intro: str, command: str) -> None:
     say(line if len(line) <= WIDTH else f"{intro}\n  {command}")
 
 
+def again_db(db: str | None) -> str:
+    """`` --db URL`` of a printed command to run next (a next page): the database just read.
+
+    Without it the command read ``$RCB_DATABASE_URL`` or ``./rcb.db``, another database that may
+    hold a plan of the same id, without a word. A URL with a password is never printed: it is
+    shown as ``--db URL``, which the command refuses naming ``--db`` until it is filled in.
+    """
+    if db is None:
+        return ""
+    import shlex
+
+    from sqlalchemy.engine import make_url
+
+    return " --db URL" if make_url(db).password else f" --db {shlex.quote(db)}"
+
+
 def as_option(err: InputError) -> InputError:
     """A paging input's error naming its option (``--limit``, ``--cursor``).
 

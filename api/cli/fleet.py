@@ -23,6 +23,7 @@ from api.cli.common import (
     WIDTH,
     DbOption,
     JsonOption,
+    again_db,
     as_option,
     engine_of,
     errors,
@@ -72,6 +73,7 @@ def show(
     _print_members(page, first=cursor is None)
     if page["next_cursor"] is not None:
         again = f"rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}"
+        again += again_db(db)
         say_command("rcb: next page:", again)
 
 
@@ -179,6 +181,7 @@ def imported(
         say(f"rcb: no model of {tool} was imported (rcb models import FILE)")
     if page["next_cursor"] is not None:
         again = f"rcb fleet imported {tool} --cursor {page['next_cursor']} --limit {limit}"
+        again += again_db(db)
         say_command("rcb: next page:", again)
 
 

@@ -9,6 +9,7 @@ Thin commands over :mod:`api.services.read` (the REST routes call the same), ric
 from __future__ import annotations
 
 import json
+import shlex
 import sys
 from collections.abc import Iterable
 from datetime import datetime
@@ -24,6 +25,7 @@ from api.cli import parts_view
 from api.cli.common import (
     DbOption,
     PlanArg,
+    again_db,
     as_option,
     emit,
     engine_of,
@@ -92,7 +94,8 @@ def plans(
     if not as_json:
         _print_plans(page["plans"])
     if page["next_cursor"] is not None:
-        say_command("rcb: next page:", f"rcb plans --cursor {page['next_cursor']} --limit {size}")
+        again = f"rcb plans --cursor {page['next_cursor']} --limit {size}{again_db(db)}"
+        say_command("rcb: next page:", again)
 
 
 def _print_plans(listed: list[dict[str, Any]]) -> None:
@@ -197,8 +200,11 @@ def history(
         return
     _out.print(_history_table(data, operation))
     if data["next_cursor"] is not None:
-        older = f"rcb history {plan} --before {data['next_cursor']}"
-        _out.print(f"older versions: {older}", style="dim", markup=False, highlight=False)
+        kept = "" if operation is None else f" --operation {shlex.quote(operation)}"
+        older = f"rcb history {plan} --before {data['next_cursor']}{kept}{again_db(db)}"
+        _out.print(
+            f"older versions: {older}", style="dim", markup=False, highlight=False, soft_wrap=True
+        )
     if data["status"] == "halted":
         _print_halt(plan_key, data["halt"])
 

@@ -20,6 +20,7 @@ from rich.console import Console
 from api.cli.common import (
     DbOption,
     JsonOption,
+    again_db,
     as_option,
     emit,
     engine_of,
@@ -73,7 +74,7 @@ def list_(
     if any(tool.get("refused") for tool in page["tools"]):
         say("rcb: REFUSED: this version's check refuses a stored value (rcb tools show NAME)")
     if page["next_cursor"] is not None:
-        again = f"rcb tools list --cursor {page['next_cursor']} --limit {limit}"
+        again = f"rcb tools list --cursor {page['next_cursor']} --limit {limit}{again_db(db)}"
         say_command("rcb: next page:", again)
 
 

@@ -181,3 +181,28 @@ def test_parts_of_a_plan_without_parts_say_so(runner, tmp_path, args):
         assert result.stdout.strip() == "plan 1: parts since 1m: none"
     else:
         assert result.stdout.strip() == "plan 1: parts: none reported yet"
+
+
+def test_the_older_versions_command_reads_the_same_database_and_operation(runner, stored):
+    """A process engineer's review: ``older versions: rcb history 1 --before 4`` left out
+    ``--db`` and ``--operation``; run as printed, it read ``./rcb.db``'s plan 1 instead."""
+    url, plan_id, _ = stored
+    shown = _run(runner, url, "history", str(plan_id), "--last", "2", "--operation", "rough-od")
+    [hint] = [line for line in shown[0].stdout.splitlines() if "older versions" in line]
+    command = f"rcb history {plan_id} --before 30 --operation rough-od --db {url}"
+    assert hint == f"older versions: {command}"
+    older = runner.invoke(app, [*command.split()[1:], "--last", "1", "--json"])
+    data = json.loads(older.stdout)
+    assert [v["version"] for v in data["versions"]] == [29]
+    assert [op["name"] for op in data["versions"][0]["operations"]] == ["rough-od"]
+
+
+def test_a_password_is_never_printed_in_a_command_to_run_next():
+    from api.cli.common import again_db
+
+    assert again_db(None) == ""
+    assert again_db("postgresql+psycopg://rcb:s3cret@127.0.0.1/plant") == " --db URL"
+    assert again_db("postgresql+psycopg://rcb@127.0.0.1/plant") == (
+        " --db postgresql+psycopg://rcb@127.0.0.1/plant"
+    )
+    assert again_db("sqlite:///my plant.db") == " --db 'sqlite:///my plant.db'"

@@ -42,8 +42,13 @@ def _rcb() -> str:
     return str(script)
 
 
-def rcb(*args: str, columns: int = 80, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+def rcb(
+    *args: str, columns: int = 80, cwd: Path = ROOT, database: str | None = None
+) -> subprocess.CompletedProcess[str]:
+    """``rcb args``; ``database``: as ``$RCB_DATABASE_URL`` (no ``--db``)."""
     env = {**os.environ, "COLUMNS": str(columns)}
+    if database is not None:
+        env["RCB_DATABASE_URL"] = database
     return subprocess.run(
         [_rcb(), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300
     )
@@ -339,20 +344,21 @@ def test_db_prune_says_what_it_deleted_within_80_columns(tmp_path):
 def test_audit_says_how_to_get_older_entries_with_the_command_whole(db):
     """Before: ``rcb: older entries: rcb audit --cursor ... --limit 3`` on one line of 104
     columns. Now the sentence, then the command alone on its line (longer than 80 columns: a
-    cursor is not broken), which run as printed gives the next page."""
+    cursor is not broken), which run as printed gives the next page: of the database read
+    (``--db``; before, it was left out and the command read ``./rcb.db``)."""
     done = rcb("audit", "--limit", "3", "--db", db)
     assert done.returncode == 0, done.stderr
     fits(done.stdout)
     hint, command = done.stderr.splitlines()
     assert hint == "rcb: older entries:"
-    assert re.fullmatch(r"  rcb audit --cursor \S+ --limit 3", command), command
-    older = rcb(*command.split()[1:], "--db", db)
+    assert re.fullmatch(rf"  rcb audit --cursor \S+ --limit 3 --db {re.escape(db)}", command)
+    older = rcb(*command.split()[1:])
     assert older.returncode == 0, older.stderr
     fits(older.stdout)
 
 
 def test_a_next_page_hint_that_fits_stays_one_line(db):
-    done = rcb("tools", "list", "--limit", "1", "--db", db)
+    done = rcb("tools", "list", "--limit", "1", database=db)  # no --db to repeat
     assert done.returncode == 0, done.stderr
     [hint] = _within(done.stderr)
     assert re.fullmatch(r"rcb: next page: rcb tools list --cursor \S+ --limit 1", hint), hint
