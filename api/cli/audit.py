@@ -97,4 +97,5 @@ def _detail(detail: Any) -> str:
     return ", ".join(
         f"{key}: {value if isinstance(value, str) else json.dumps(value, ensure_ascii=False)}"
         for key, value in detail.items()
+        if value not in ("", None)  # a refusal with no field: "field: ," said nothing
     )

@@ -7,7 +7,7 @@ Idempotency-Key, and audited, refused or not.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from contextlib import suppress
+from contextlib import nullcontext, suppress
 from typing import Any
 
 from sqlalchemy import Engine
@@ -147,7 +147,14 @@ def replan(
     The new setpoint version has cause ``replan``; the answer shows the difference to the
     setpoints in force (:mod:`supervisor.rcb.replan`).
     """
-    with audited(engine, actor, "replan", f"plan {plan_id}", plan_id=plan_id):
+    # a dry run stores nothing and is not a write: refused or not, the audit log has no entry
+    # (an engineer's what-ifs read as a series of refused replans that never happened)
+    refusals = (
+        nullcontext()
+        if dry_run
+        else audited(engine, actor, "replan", f"plan {plan_id}", plan_id=plan_id)
+    )
+    with refusals:
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             row = _plan(session, plan_id, lock=True)

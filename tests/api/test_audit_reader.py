@@ -70,7 +70,7 @@ def test_real_commands_are_read_back_newest_first_and_by_filter(runner, engine):
     assert "ivester-demo-part" not in table.stdout  # the fourth entry is on the next page
     hint = table.stderr.split()
     assert hint[:5] == ["rcb:", "older", "entries:", "rcb", "audit"]
-    assert hint[-2:] == ["--limit", "3"]
+    assert hint[-4:] == ["--limit", "3", "--db", url]  # the database read, run as printed
     cursor = hint[hint.index("--cursor") + 1]
     rest = _json(runner, url, "--limit", "3", "--cursor", cursor)
     assert rest == {"entries": listed[3:], "next_cursor": None}

@@ -179,3 +179,27 @@ def test_rcb_replan(runner, tmp_path):
         result = runner.invoke(app, [*args, *bad])
         assert result.exit_code in (2, 3) and message in result.stderr, result.output
         assert "Traceback" not in result.output
+
+
+def test_a_dry_run_leaves_no_audit_entry_refused_or_not(runner, tmp_path):
+    """A process engineer's review: 17 what-if ``--dry-run`` replans that were refused read in
+    ``rcb audit`` as 17 refused replans (with ``field: ,``), while accepted ones left nothing.
+    A dry run stores nothing and is not audited; a refused replan is, without an empty field."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
+    engine.dispose()
+    args = ["replan", str(plan_id), "--db", url]
+    for change in (["--limit", "rough-od.force_N=10"], ["--bound", "rough-od.depth_mm=3:1"]):
+        result = runner.invoke(app, [*args, *change, "--dry-run"])
+        assert result.exit_code in (2, 3), result.output
+    audit = ["audit", "--action", "replan", "--db", url]
+    assert json.loads(runner.invoke(app, [*audit, "--json"]).stdout)["entries"] == []
+    refused = runner.invoke(app, [*args, "--limit", "rough-od.force_N=10"])
+    assert refused.exit_code == 3, refused.output
+    [entry] = json.loads(runner.invoke(app, [*audit, "--json"]).stdout)["entries"]
+    assert (entry["result"], entry["detail"]["error"]) == ("refused", "InfeasibleError")
+    shown = runner.invoke(app, [*audit, "--limit", "5"]).stdout
+    assert "InfeasibleError," in shown and "message:" in shown
+    assert "field:" not in shown  # no field to name: not "field: ,"
