@@ -16,7 +16,7 @@ from rich.console import Console
 from rich.text import Text
 
 from api.cli.common import DbOption, again_db, emit, engine_of, errors, plan_of, say_command
-from api.cli.tables import new_table
+from api.cli.tables import free_text, new_table
 from api.services import request_limits
 
 _out = Console()
@@ -72,9 +72,21 @@ def audit(
         say_command("rcb: older entries:", again_command)
 
 
+#: The longest actor, action, target or result word the audit table keeps on one line.
+NAME_KEPT = 24
+
+
 def _table(entries: list[dict[str, Any]]) -> Any:
     """The entries as a table (text as stored, never markup)."""
     table = new_table("at (UTC)", "actor", "action", "target", "result", "detail", title="audit")
+    for column, key in zip(
+        table.columns[1:5], ("actor", "action", "target", "result"), strict=True
+    ):
+        # a name is kept whole (up to NAME_KEPT): a narrow console folds the detail first,
+        # where "cli:roo" / "t" and "ivester" / "-demo-p" / "art" could not be read or grepped
+        words = [len(word) for entry in entries for word in str(entry[key]).split()]
+        column.min_width = min(max(words, default=0), NAME_KEPT)
+    free_text(table.columns[5])
     for entry in entries:
         detail = entry["detail"]
         table.add_row(

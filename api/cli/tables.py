@@ -99,13 +99,23 @@ def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> l
     return widths
 
 
+def free_text(column: Column) -> None:
+    """Mark ``column`` as free text (an audit entry's detail): its words fold first.
+
+    A word holding a digit there is a message's word (``operations[0].bounds.feed_mm_rev``),
+    not a number kept whole.
+    """
+    column.free_text = True  # type: ignore[attr-defined]  # rich's Column is a plain dataclass
+
+
 def _levels(console: Console, wide: ConsoleOptions, column: Column) -> tuple[int, ...]:
     """A column's widths: numbers whole, heading's words, min_width, words, natural width."""
     cells = [Measurement.get(console, wide, c) for c in (column.header, *column.cells)]
     natural = max([column.min_width or 0, *(m.maximum for m in cells)])  # as rich measures it
     heading = _word_widths(console, wide, column.header)
     body = [_word_widths(console, wide, c) for c in column.cells]
-    numbers = max([heading[0], *(b[0] for b in body)])
+    free = getattr(column, "free_text", False)  # its words fold first, digits or not
+    numbers = max([heading[0], *(0 if free else b[0] for b in body)])
     head = max(numbers, heading[1])
     phrase = max(head, column.min_width or 0)
     words = max([phrase, *(m.minimum for m in cells)])

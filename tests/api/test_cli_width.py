@@ -362,3 +362,22 @@ def test_a_next_page_hint_that_fits_stays_one_line(db):
     assert done.returncode == 0, done.stderr
     [hint] = _within(done.stderr)
     assert re.fullmatch(r"rcb: next page: rcb tools list --cursor \S+ --limit 1", hint), hint
+
+
+def test_the_audit_table_keeps_names_whole_and_folds_the_detail(tmp_path):
+    """A process engineer's review at 80 columns: ``cli:roo`` / ``t`` and ``ivester`` /
+    ``-demo-p`` / ``art``; a detail's path with digits (``operations[0].bounds...``) was kept
+    whole as if a number, and the names were folded to make room for it."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    engine = make_engine(url)
+    plan_id = create_plan(engine=engine, body=BODY).body["id"]
+    engine.dispose()
+    bad = "rough-od.feed_mm_rev=nan:1"
+    refused = rcb("replan", str(plan_id), "--bound", bad, "--by", "Jane Doe", "--db", url)
+    assert refused.returncode == 2, refused.stderr
+    done = rcb("audit", "--db", url)
+    assert done.returncode == 0, done.stderr
+    fits(done.stdout)
+    shown = words(done.stdout)
+    assert {"cli:Jane", "Doe", "ivester-demo-part", "refused"} <= shown, done.stdout
