@@ -152,6 +152,11 @@ def _install_logout(app: FastAPI) -> None:
 def _install_pages(app: FastAPI, engine: Engine) -> None:
     """``/ui/``, the plans the key may see, and ``/ui/plans/{id}``, one plan's report."""
 
+    @app.get(PREFIX, include_in_schema=False)
+    def root() -> Response:
+        """``/ui`` to ``/ui/``, by a relative address (the app redirects no slash itself)."""
+        return RedirectResponse(f"{PREFIX}/", status_code=307, headers=_HEADERS)
+
     @app.get(f"{PREFIX}/", include_in_schema=False)
     def plans(request: Request) -> Response:
         try:

@@ -38,6 +38,9 @@ def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
         lifespan=flushing(engine),  # audit counts written on a timer and at shutdown
     )
     app.state.engine = engine  # the routes' engine (api.rest.deps.engine_of)
+    # /api/v1/plans/ is a 404, not a 307 to an absolute URL built from the Host header, which
+    # behind a proxy names a host the MES cannot reach (a new user's review)
+    app.router.redirect_slashes = False
     problems.install(app)
     content_type.install(app)  # 415 for a body not sent as JSON (api.rest.content_type)
     app.add_middleware(WritesFirstMiddleware)  # reads step aside (api.rest.writes_in_flight)
