@@ -46,6 +46,13 @@ OptionalKey = Annotated[str | None, Header(pattern=KEY_PATTERN, description=_KEY
 #: The Idempotency-Key header of a write that needs one (a part report).
 RequiredKey = Annotated[str, Header(pattern=KEY_PATTERN, description=_KEY_DOC)]
 
+#: ``Location`` of a 201 that created a resource with a path of its own (a plan).
+LOCATION: dict[str, Any] = {
+    "Location": {
+        "description": "The created resource's path (`/api/v1/plans/7`)",
+        "schema": {"type": "string"},
+    }
+}
 #: The header a replayed answer carries (documented on the 201 of a write).
 REPLAYED: dict[str, Any] = {
     "Idempotent-Replayed": {
@@ -72,9 +79,15 @@ def idempotency_of(request: Request, key: str | None, body: object) -> Idempoten
     return Idempotency(key, fingerprint("POST", request.url.path, body))
 
 
-def answer(written: Written) -> Response:
-    """The HTTP answer of a write, marked ``Idempotent-Replayed`` when it is a stored one."""
-    headers = {"Idempotent-Replayed": "true"} if written.replayed else None
+def answer(written: Written, location: str | None = None) -> Response:
+    """The HTTP answer of a write, marked ``Idempotent-Replayed`` when it is a stored one.
+
+    ``location``: the created resource's path, sent as ``Location`` with a 201 (RFC 9110
+    §15.3.2), a replay's too; a relative reference, never built from the Host header.
+    """
+    headers = {"Idempotent-Replayed": "true"} if written.replayed else {}
+    if location is not None and written.status == 201:
+        headers["Location"] = location
     if written.text is not None:  # encoded once, for the database and for this answer
         return Response(
             written.text, written.status, headers=headers, media_type="application/json"

@@ -10,6 +10,8 @@ from fastapi.responses import Response
 from api.rest.answers import problems_at
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import (
+    LOCATION,
+    PREFIX,
     REPLAYED,
     OptionalKey,
     PlanId,
@@ -35,7 +37,7 @@ router = resource_router("plans")
     status_code=201,
     response_model=PlanCreated,
     operation_id="createPlan",
-    responses={201: {"headers": REPLAYED}, **problems_at(500)},  # 500: the solver failed
+    responses={201: {"headers": {**REPLAYED, **LOCATION}}, **problems_at(500)},  # 500: solver
 )
 def create_plan(
     request: Request,
@@ -63,7 +65,7 @@ def create_plan(
         idempotency=idempotency_of(request, idempotency_key, {**body, "?prior": prior}),
         prior=prior,
     )
-    return answer(written)
+    return answer(written, f"{PREFIX}/plans/{written.body.get('id')}")
 
 
 @router.post(
