@@ -70,6 +70,15 @@ def test_a_refused_report_names_the_bodys_path(server):
                 ),
                 "operations[1].name",
             ),
+            (  # an operation listed twice: the second (the schema named the whole list)
+                plan["id"],
+                _part(
+                    "P4",
+                    {"name": "rough-od", "measurements": FORCE},
+                    {"name": "rough-od", "measurements": FORCE},
+                ),
+                "operations[1].name",
+            ),
             (  # a speed outside the idle-load table: the reading's own field that gave it
                 lathe["id"],
                 _part("P3", {"name": "rough-od", "measurements": {"spindle_load_V": too_fast}}),

@@ -77,9 +77,16 @@ def test_a_report_the_physics_cannot_produce_is_refused_naming_the_field(path, v
 
 def test_an_operation_reported_twice_is_refused():
     again = {"name": " rough-od", "feed_override_percent": 80.0}  # the same name, normalised
-    with pytest.raises(InputError, match="operation 'rough-od' reported twice") as err:
-        parse_report({**REPORT, "operations": [*REPORT["operations"], again]})
-    assert err.value.field == "operations"
+    operations = [*REPORT["operations"], again]
+    first = next(i for i, op in enumerate(operations) if op["name"] == "rough-od")
+    with pytest.raises(InputError) as err:
+        parse_report({**REPORT, "operations": operations})
+    # the second by its index, as an unknown operation is named (not the whole list)
+    assert err.value.field == f"operations[{len(operations) - 1}].name"
+    assert (err.value.value, err.value.reason) == (
+        "rough-od",
+        f"reported twice: also operations[{first}]",
+    )
 
 
 def test_a_raw_spindle_current_is_a_signal_and_a_bare_one_a_measurement():

@@ -189,21 +189,19 @@ class PartReportIn(BaseModel):
     setpoint_version: Count
     operations: list[OperationReport] = Field(min_length=1, max_length=MAX_OPERATIONS)
 
-    @field_validator("operations")
-    @classmethod
-    def _each_once(cls, operations: list[OperationReport]) -> list[OperationReport]:
-        seen: set[str] = set()
-        for op in operations:
-            if op.name in seen:
-                raise ValueError(f"operation {op.name!r} reported twice")
-            seen.add(op.name)
-        return operations
-
     def to_report(self) -> PartReport:
-        """The domain's :class:`~supervisor.inputs.part_report.PartReport` (nothing to check)."""
+        """The domain's :class:`~supervisor.inputs.part_report.PartReport`.
+
+        An operation listed twice is refused naming the second by its index
+        (``operations[1].name``); as a schema check it named the whole list.
+        """
         measurements: dict[str, dict[str, Measurement]] = {}
         signals: dict[str, dict[str, Signal]] = {}
-        for op in self.operations:
+        for i, op in enumerate(self.operations):
+            if op.name in measurements:
+                first = next(k for k, o in enumerate(self.operations) if o.name == op.name)
+                why = f"reported twice: also operations[{first}]"
+                raise InputError(f"operations[{i}].name", op.name, why)
             measurements[op.name], raw = {}, {}
             for quantity, reading in op.measurements.items():
                 measured = Measurement(reading.value, reading.uncertainty)
