@@ -36,24 +36,33 @@ from models.errors import Gathered, InputError
 from models.fields import identity
 from supervisor.inputs.plan import Plan, plan_from_mapping
 from supervisor.rcb.replan import replan as supervisor_replan
+from supervisor.rcb.settings import SETTINGS
 from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
 from supervisor.rcb.update import start
 
 
 def floors_from(items: Sequence[str], field: str) -> dict[str, float]:
-    """Floors given as ``QUANTITY=VALUE`` (CLI options, query parameters), checked."""
+    """Floors given as ``QUANTITY=VALUE`` (the query parameter ``floor``), checked.
+
+    An error names ``field`` and the text as sent (``floor = 'force_N=-5'``), not the setting's
+    own name (``floors.force_N``), which the request does not have.
+    """
     floors: dict[str, float] = {}
     for item in items:
         name, sep, value = item.partition("=")
-        if not sep or not name.strip():
+        quantity = name.strip()
+        if not sep or not quantity:
             raise InputError(field, item, "must be QUANTITY=VALUE")
+        if quantity in floors:
+            raise InputError(field, item, f"{quantity} is given twice; give each floor once")
         try:
             number = float(value)
+            SETTINGS["floors"].check({quantity: number}, field)
+        except InputError as err:  # an InputError is a ValueError: first
+            raise InputError(field, item, f"{quantity}: {err.reason}") from None
         except ValueError:
-            raise InputError(f"{field} {name}", value, "must be a number") from None
-        if name.strip() in floors:
-            raise InputError(field, item, f"{name.strip()} is given twice; give each floor once")
-        floors[name.strip()] = number
+            raise InputError(field, item, "the value must be a number") from None
+        floors[quantity] = number
     return floors
 
 

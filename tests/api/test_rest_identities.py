@@ -176,6 +176,16 @@ def test_a_single_valued_query_parameter_given_twice_is_400(server, plan):
     twice = [("floor", "force_N=1"), ("floor", "force_N=2")]
     problem = _problem(_raw(server, "/plans", body, "engineer", twice), 422, "invalid", "floor")
     assert "force_N is given twice" in problem["detail"]
+    # a bad floor is named as sent (it was 'floors.force_N', a name the request does not have)
+    for item, why in [
+        ("force_N=-5", "force_N: must be a number >= 0"),
+        ("force_N=nan", "force_N: must be a number >= 0"),
+        ("foo=5", "foo: unknown quantity"),
+        ("force_N=lots", "the value must be a number"),
+    ]:
+        r = _raw(server, "/plans", body, "engineer", [("floor", item)])
+        problem = _problem(r, 422, "invalid", "floor")
+        assert problem["value"] == item and why in problem["detail"], problem
     assert _plans(server) == names
     with server.client("viewer") as c:
         r = c.get(f"/plans/{plan['id']}/parts", params=[("limit", "1"), ("limit", "500")])
