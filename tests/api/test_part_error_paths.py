@@ -61,24 +61,18 @@ def test_a_refused_report_names_the_bodys_path(server):
                 ),
                 "operations[1].measurements.tool_life_mm3",
             ),
-            (  # an operation the plan does not have: its name in the body
-                plan["id"],
-                _part(
-                    "P2",
-                    {"name": "rough-od", "measurements": FORCE},
-                    {"name": "nope", "measurements": FORCE},
-                ),
-                "operations[1].name",
-            ),
-            (  # an operation listed twice: the second (the schema named the whole list)
-                plan["id"],
-                _part(
-                    "P4",
-                    {"name": "rough-od", "measurements": FORCE},
-                    {"name": "rough-od", "measurements": FORCE},
-                ),
-                "operations[1].name",
-            ),
+            *(  # an operation the plan does not have, or one listed twice: the second's name
+                (
+                    plan["id"],
+                    _part(
+                        serial,
+                        {"name": "rough-od", "measurements": FORCE},
+                        {"name": second, "measurements": FORCE},
+                    ),
+                    "operations[1].name",
+                )
+                for serial, second in (("P2", "nope"), ("P4", "rough-od"))
+            ),  # fmt: skip
             (  # a speed outside the idle-load table: the reading's own field that gave it
                 lathe["id"],
                 _part("P3", {"name": "rough-od", "measurements": {"spindle_load_V": too_fast}}),

@@ -154,13 +154,18 @@ def test_replan_over_rest(server):
         assert v.post(f"/plans/{plan_id}/replan", json=change).status_code == 403
 
 
-def test_rcb_replan(runner, tmp_path):
-    url = f"sqlite:///{tmp_path / 'r.db'}"
+def _replan_args(tmp_path) -> tuple[str, list[str]]:  # type: ignore[no-untyped-def]
+    """A database with the demonstration plan, and ``rcb replan``'s first arguments on it."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
     upgrade(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     engine.dispose()
-    args = ["replan", str(plan_id), "--db", url]
+    return url, ["replan", str(plan_id), "--db", url]
+
+
+def test_rcb_replan(runner, tmp_path):
+    url, args = _replan_args(tmp_path)
     dry = runner.invoke(app, [*args, "--limit", "rough-od.force_N=2200", "--dry-run", "--json"])
     assert dry.exit_code == 0, dry.output
     assert json.loads(dry.stdout)["setpoint_version"] == 1
@@ -185,12 +190,7 @@ def test_a_dry_run_leaves_no_audit_entry_refused_or_not(runner, tmp_path):
     """A process engineer's review: 17 what-if ``--dry-run`` replans that were refused read in
     ``rcb audit`` as 17 refused replans (with ``field: ,``), while accepted ones left nothing.
     A dry run stores nothing and is not audited; a refused replan is, without an empty field."""
-    url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
-    engine = make_engine(url)
-    plan_id = create_plan(engine=engine, body=BODY).body["id"]
-    engine.dispose()
-    args = ["replan", str(plan_id), "--db", url]
+    url, args = _replan_args(tmp_path)
     for change in (["--limit", "rough-od.force_N=10"], ["--bound", "rough-od.depth_mm=3:1"]):
         result = runner.invoke(app, [*args, *change, "--dry-run"])
         assert result.exit_code in (2, 3), result.output
