@@ -31,11 +31,9 @@ def since_of(
     if ages and re.fullmatch(r"\s*[0-9]+[dhm]\s*", text):
         return (now or utcnow()) - parse_duration(field, text)
     shown = text if len(text) <= LONGEST_TEXT else text[:LONGEST_TEXT] + "..."
-    expected = (
-        "an age (7d, 24h, 90m) or an ISO 8601 date or time"
-        if ages
-        else ("an ISO 8601 date or time, e.g. 2026-12-01 or 2026-12-01T06:00:00Z")
-    )
+    dates = "an ISO 8601 date or time"
+    example = f"{dates}, e.g. 2026-12-01 or 2026-12-01T06:00:00Z"
+    expected = f"an age (7d, 24h, 90m) or {dates}" if ages else example
     try:
         moment = datetime.fromisoformat(text) if len(text) <= LONGEST_TEXT else None
     except ValueError:

@@ -195,10 +195,17 @@ def _posterior(data: object, path: str) -> Posterior:
         raise InputError(f"{path}.cov", size, "sizes of mean and cov do not match its names")
     if not all(math.isfinite(v) for v in (*belief.mean, *(x for r in belief.cov for x in r))):
         raise InputError(f"{path}.mean", "non-finite", "mean and cov must be finite numbers")
-    if not (math.isfinite(belief.noise_scale2) and belief.noise_scale2 > 0):
-        raise InputError(f"{path}.noise_scale2", belief.noise_scale2, "must be a number > 0")
-    if not (math.isfinite(belief.prior_widening) and belief.prior_widening >= 0):
-        raise InputError(f"{path}.prior_widening", belief.prior_widening, "must be a number >= 0")
+    most = f"{LARGEST_VARIANCE:g}"
+    if not (math.isfinite(belief.noise_scale2) and 0 < belief.noise_scale2 <= LARGEST_VARIANCE):
+        raise InputError(
+            f"{path}.noise_scale2", belief.noise_scale2, f"must be a number > 0 and <= {most}"
+        )
+    if not (
+        math.isfinite(belief.prior_widening) and 0 <= belief.prior_widening <= LARGEST_VARIANCE
+    ):
+        raise InputError(
+            f"{path}.prior_widening", belief.prior_widening, f"must be a number >= 0 and <= {most}"
+        )
     _within_bounds(belief, path)
     return belief
 
@@ -208,7 +215,8 @@ def _within_bounds(belief: Posterior, path: str) -> None:
 
     ``ln Y`` at the centre within ±ln 1e12 (:data:`models.bounds.LARGEST`, as a quantity's
     input), the exponents, the edge's rise and their standard deviations within
-    :data:`models.bounds.LARGEST_EXPONENT`, and ``cov`` symmetric positive definite: a
+    :data:`models.bounds.LARGEST_EXPONENT` (the noise and the widening: :func:`_posterior`),
+    and ``cov`` symmetric positive definite: a
     document with a mean of 1e300 or a negative variance was stored, and every later fleet
     prior of the tool overflowed (``rcb plans create``: a traceback).
     """
@@ -222,11 +230,6 @@ def _within_bounds(belief: Posterior, path: str) -> None:
         )
     for i, row in enumerate(belief.cov):
         fields.number(row[i], f"{path}.cov[{i}][{i}]", positive=True, largest=LARGEST_VARIANCE)
-    for name, value in (
-        ("noise_scale2", belief.noise_scale2),
-        ("prior_widening", belief.prior_widening),
-    ):
-        fields.number(value, f"{path}.{name}", largest=LARGEST_VARIANCE)
     cov = np.array(belief.cov)
     symmetric = np.allclose(cov, cov.T, rtol=1e-9, atol=0.0)
     if not symmetric or np.linalg.eigvalsh(cov).min() <= 0:

@@ -46,7 +46,7 @@ CASES = [
     (_set("posterior", "cov", 0, 1, value=1e-3), "posterior.cov", "positive definite"),
     (_swap_cov, "posterior.cov", "positive definite"),
     (_set("posterior", "center", 0, value=1e5), "posterior.center[0]", "within ±27.631"),
-    (_set("posterior", "noise_scale2", value=1e9), "posterior.noise_scale2", "within ±10000"),
+    (_set("posterior", "noise_scale2", value=1e9), "posterior.noise_scale2", "> 0 and <= 10000"),
     (_set("posterior", "names", 0, value="spin"), "posterior.names", "not an input"),
     (_set("operation", "limits", "force_N", value=-5), "operation.limits.force_N", "than 0"),
     (_set("operation", "bounds", "feed_mm_rev", value=[0.5, 0.1]), "bounds.feed_mm_rev", "above"),

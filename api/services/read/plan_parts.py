@@ -35,8 +35,9 @@ def parts(
 
     ``page_size``: most parts on the page (the REST query parameter ``limit``). ``newest``:
     the newest parts before ``cursor`` (``next_cursor`` then pages back in time, and says so:
-    module docstring). ``since``: only parts received at or after this time. Only the page's
-    rows are read, by an index seek either way (:func:`db.read.parts.parts_page`).
+    module docstring). ``since``: the parts from the first one received at or after this time
+    on (:func:`db.read.parts.first_since`). Only the page's rows are read, by an index seek
+    either way (:func:`db.read.parts.parts_page`).
     """
     _bounded(page_size)
     after = ordered_value(cursor, newest=newest)
