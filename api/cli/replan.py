@@ -25,7 +25,7 @@ from api.cli.common import (
 )
 from api.cli.tables import new_table, short_number
 from api.cli.who import ByOption, cli_actor
-from models.errors import InputError
+from models.errors import InputError, InputErrors
 
 _out = Console()
 #: The options of which a replan needs one (each makes a change; ``--dry-run`` alone does not).
@@ -73,13 +73,12 @@ def replan(
             raise MissingOptionError(CHANGE_OPTIONS, "none given: nothing to change")
         engine = engine_of(db)
         plan_key = plan_of(engine, plan)
-        written = replan(
-            engine=engine,
-            plan_id=plan_key,
-            changes=changes,
-            dry_run=dry_run,
-            actor=actor,
-        )
+        try:
+            written = replan(
+                engine=engine, plan_id=plan_key, changes=changes, dry_run=dry_run, actor=actor
+            )
+        except InputError as err:
+            raise _as_option(err) from None
     if as_json:
         emit(written.body)
         return
@@ -121,6 +120,26 @@ def _changes(
     if reset_bands:
         changes["reset_bands"] = True
     return {k: v for k, v in changes.items() if v}
+
+
+#: The change document's parts and the options that fill them.
+_OPTIONS = {"limits": "--limit", "bounds": "--bound", "models": "--model", "rcb": "--rcb"}
+
+
+def _as_option(err: InputError) -> InputError:
+    """``err`` named by the option it came from (``--limit rough-od.force_N``).
+
+    The change document's path (``limits.rough-od.force_N``) is REST's, not the command line's.
+    """
+
+    def renamed(one: InputError) -> InputError:
+        part, _, rest = one.field.partition(".")
+        option = _OPTIONS.get(part)
+        return InputError(f"{option} {rest}", one.value, one.reason) if option and rest else one
+
+    if isinstance(err, InputErrors):
+        return InputErrors([renamed(e) for e in err.errors])
+    return renamed(err)
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:

@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from models import fields
-from models.errors import InputError
+from models.errors import InputError, InputErrors
 from models.tool import Tool
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.optimize.optimizer import optimize_plan
@@ -83,7 +83,10 @@ def replan(
     if not any(table.get(k) for k in _CHANGE_KEYS):
         raise InputError("changes", dict(table), "nothing to change")
     new_body = changed_body(body, table)
-    plan = plan_from_mapping(new_body, library)  # names the field of a bad limit or bound
+    try:
+        plan = plan_from_mapping(new_body, library)
+    except InputError as err:  # a bad limit or bound is named as the change gave it
+        raise _as_changed(err, new_body, table) from None
     settings = state.settings
     if table.get("rcb"):
         given = settings_from_table(table["rcb"])
@@ -136,6 +139,31 @@ def changed_body(body: Mapping[str, Any], table: Mapping[str, Any]) -> dict[str,
         op, param = _split(key, "bounds", ops)
         ops[op].setdefault("bounds", {})[param] = value
     return new_body
+
+
+def _as_changed(err: InputError, body: Mapping[str, Any], table: Mapping[str, Any]) -> InputError:
+    """``err`` of the changed plan, its field named by the change that made it.
+
+    The plan's reader names ``operations[0].limits.force_N``, a path the change
+    (``{"limits": {"rough-od.force_N": -5}}``) does not have; a field no change touched (a
+    stored plan this version's check refuses) keeps the plan's path.
+    """
+    index = {fields.identity(op["name"]): i for i, op in enumerate(body["operations"])}
+    paths = {}
+    for where in ("limits", "bounds"):
+        for key in fields.mapping(table.get(where, {}), where):
+            given, _, name = key.rpartition(".")
+            paths[f"operations[{index[fields.identity(given)]}].{where}.{name}"] = f"{where}.{key}"
+
+    def renamed(one: InputError) -> InputError:
+        for path, change in paths.items():
+            if one.field == path or one.field.startswith((path + ".", path + "[")):
+                return InputError(change + one.field[len(path) :], one.value, one.reason)
+        return one
+
+    if isinstance(err, InputErrors):
+        return InputErrors([renamed(e) for e in err.errors])
+    return renamed(err)
 
 
 def _forgotten(state: RcbState) -> RcbState:

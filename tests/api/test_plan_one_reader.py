@@ -155,7 +155,8 @@ def test_a_replan_is_read_by_the_replan_alone_nulls_as_no_change(server):
                                     "rcb": {"alpha": None}})  # fmt: skip
         stored = c.get(f"/plans/{created.json()['id']}").json()
     assert bad.status_code == 422, bad.text
-    assert (bad.json()["field"], bad.json()["value"]) == ("operations[0].limits.force_N", "abc")
+    # the change's path in the request, not the plan's (operations[0].limits.force_N)
+    assert (bad.json()["field"], bad.json()["value"]) == ("limits.rough-od.force_N", "abc")
     assert unknown.status_code == 422, unknown.text
     assert (unknown.json()["field"], unknown.json()["value"]) == ("reset", True)
     assert changed.status_code == 201, changed.text

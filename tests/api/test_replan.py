@@ -125,12 +125,16 @@ def test_bad_changes_are_refused_and_nothing_is_stored(engine):
         replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-odd.force_N": 1}})
     with pytest.raises(ValueError, match="models.NOPE.force_N"):
         replan(engine=engine, plan_id=plan_id, changes={"models": {"NOPE.force_N": {"K": 1}}})
-    with pytest.raises(ValueError, match="operations\\[0\\].bounds.depth_mm"):
-        replan(engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depth_mm": [3, 1]}})
-    with pytest.raises(ValueError, match="operations\\[0\\].limits.forse_N"):  # unknown quantity
-        replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.forse_N": 1}})
-    with pytest.raises(ValueError, match="operations\\[0\\].bounds.depht_mm"):  # unknown parameter
-        replan(engine=engine, plan_id=plan_id, changes={"bounds": {"rough-od.depht_mm": [1, 2]}})
+    # named by the change's path, not the plan's (operations[0].bounds.depth_mm): a review
+    for where, key, value in [
+        ("bounds", "rough-od.depth_mm", [3, 1]),
+        ("limits", "rough-od.forse_N", 1),  # an unknown quantity
+        ("bounds", "rough-od.depht_mm", [1, 2]),  # an unknown parameter
+        ("limits", "finish-od.roughness_um", -1.5),  # the second operation's
+    ]:
+        with pytest.raises(ValueError) as refused:
+            replan(engine=engine, plan_id=plan_id, changes={where: {key: value}})
+        assert (refused.value.field, refused.value.value) == (f"{where}.{key}", value)
     with pytest.raises(InfeasibleError):
         replan(engine=engine, plan_id=plan_id, changes={"limits": {"rough-od.force_N": 10}})
     with pytest.raises(ValueError, match="nothing to change"):
@@ -151,6 +155,9 @@ def test_replan_over_rest(server):
         assert c.get(f"/plans/{plan_id}/setpoints").json()["setpoint_version"] == 2
         bad = c.post(f"/plans/{plan_id}/replan", json={"limits": {"rough-od.force_N": 10}})
         assert bad.status_code == 422 and bad.json()["code"] == "infeasible"
+        negative = c.post(f"/plans/{plan_id}/replan", json={"limits": {"rough-od.force_N": -5}})
+        assert negative.headers["content-type"] == "application/problem+json"
+        assert (negative.status_code, negative.json()["field"]) == (422, "limits.rough-od.force_N")
         assert v.post(f"/plans/{plan_id}/replan", json=change).status_code == 403
 
 
@@ -179,6 +186,12 @@ def test_rcb_replan(runner, tmp_path):
         (["--bound", "rough-od.depth_mm=1-2"], "--bound rough-od.depth_mm = '1-2'"),
         (["--model", "CNMG432RN.force_N"], "--model = 'CNMG432RN.force_N'"),
         (["--limit", "rough-od.force_N=lots"], "--limit rough-od.force_N = 'lots'"),
+        # named by the option, not the plan's operations[0].limits.force_N (a review)
+        (["--limit", "rough-od.force_N=1e309"], "--limit rough-od.force_N = inf"),
+        (["--limit", "rough-od.force_N=-5"], "--limit rough-od.force_N = -5.0"),
+        (["--bound", "rough-od.depth_mm=3:1"], "--bound rough-od.depth_mm = [3.0, 1.0]"),
+        (["--limit", "nope.force_N=5"], "--limit nope.force_N = 'nope'"),
+        (["--model", "CNMG432RN.force_N:K=-3"], "--model CNMG432RN.force_N.K = -3.0"),
         (["--limit", "rough-od.force_N=10"], "infeasible"),
     ]:
         result = runner.invoke(app, [*args, *bad])
