@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from datetime import datetime
+
 
 class ConflictError(Exception):
     """The request contradicts what is stored (a duplicate serial, a tool redefined).
@@ -14,6 +16,10 @@ class ConflictError(Exception):
     def __init__(self, field: str, value: object, reason: str) -> None:
         self.field, self.value, self.reason = field, value, reason
         super().__init__(f"{field} = {value!r}: {reason}")
+
+    def extensions(self) -> dict[str, object] | None:
+        """What the REST problem adds to its ``field`` and ``value`` (None: nothing)."""
+        return None
 
 
 class PlanNameTakenError(ConflictError):
@@ -32,6 +38,31 @@ class PlanNameTakenError(ConflictError):
             f"plan {plan_id} has this name; give the new plan another name, or change plan "
             f"{plan_id} with rcb replan {plan_id} (POST /plans/{plan_id}/replan)",
         )
+
+    def extensions(self) -> dict[str, object]:
+        """The stored plan's id."""
+        return {"plan_id": self.plan_id}
+
+
+class SerialTakenError(ConflictError):
+    """A part of this serial was reported for the plan already.
+
+    ``part_id`` and ``received_at`` are the stored part's: an MES that lost the answer of its
+    first report (and sent it again without its Idempotency-Key) finds its part by them.
+    """
+
+    def __init__(self, serial: str, part_id: int, received_at: datetime) -> None:
+        self.part_id, self.received_at = part_id, received_at
+        at = received_at.isoformat(timespec="seconds").replace("+00:00", "Z")
+        super().__init__(
+            "serial", serial, f"already reported for this plan: part {part_id}, received {at}"
+        )
+
+    def extensions(self) -> dict[str, object]:
+        """The stored part's id and when it was received."""
+        # as the parts page writes it (pydantic: UTC as Z)
+        at = self.received_at.isoformat().replace("+00:00", "Z")
+        return {"part_id": self.part_id, "received_at": at}
 
 
 class StoredPlanError(ConflictError):

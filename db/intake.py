@@ -31,6 +31,7 @@ separate statements, in the same order.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from datetime import datetime
 from typing import Any
 
 from sqlalchemy import JSON, Boolean, Float, Integer, String, select, text
@@ -38,6 +39,7 @@ from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.table_base import as_utc
 
 
 @dataclass
@@ -244,7 +246,10 @@ def insert_part(
     return None if part_id is None else int(part_id)
 
 
-def serial_exists(*, session: Session, plan_id: int, serial: str) -> bool:
-    """Whether a part with this serial was already reported for the plan."""
-    query = select(t.Part.id).where(t.Part.plan_id == plan_id, t.Part.serial == serial)
-    return session.scalars(query).first() is not None
+def reported(*, session: Session, plan_id: int, serial: str) -> tuple[int, datetime] | None:
+    """The id and time (UTC) of the plan's part of this serial, if one was reported."""
+    query = select(t.Part.id, t.Part.received_at).where(
+        t.Part.plan_id == plan_id, t.Part.serial == serial
+    )
+    row = session.execute(query).first()
+    return None if row is None else (row.id, as_utc(row.received_at))

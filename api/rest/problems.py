@@ -26,7 +26,7 @@ from api.rest.schemas.common import field_path
 from api.rest.unavailable import RETRY_AFTER_S, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
-from db.errors import ConflictError, PlanNameTakenError
+from db.errors import ConflictError
 from db.plan_state import halt_json
 from models.errors import InputError, InputErrors
 from models.fields import escaped
@@ -197,8 +197,8 @@ async def _not_found(request: Request, err: NotFoundError) -> JSONResponse:
 
 
 async def _conflict(request: Request, err: ConflictError) -> JSONResponse:
-    # plan_name_taken names the stored plan of that name too
-    extra = {"plan_id": err.plan_id} if isinstance(err, PlanNameTakenError) else None
+    # plan_name_taken names the stored plan of that name too, a serial taken its part
+    extra = err.extensions()
     return problem(request, 409, err.code, str(err), err.field, err.value, extensions=extra)
 
 

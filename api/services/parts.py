@@ -17,8 +17,8 @@ from api.services.plans import operations_json
 from api.services.transactions import audited, transaction
 from db import api_keys
 from db.api_keys import Actor
-from db.errors import ConflictError
-from db.intake import Opening, PlanHead, open_report, serial_exists
+from db.errors import ConflictError, SerialTakenError
+from db.intake import Opening, PlanHead, open_report, reported
 from db.plan_state import halt_json
 from db.plans import operation_ids, setpoints_of
 from db.state import load_state
@@ -153,8 +153,10 @@ def _accepted(
     """
     if part_id is not None:
         return part_id
-    known = 1 <= report.setpoint_version <= state.version
-    if known or serial_exists(session=session, plan_id=plan_id, serial=report.serial):
+    stored = reported(session=session, plan_id=plan_id, serial=report.serial)
+    if stored is not None:
+        raise SerialTakenError(report.serial, *stored)
+    if 1 <= report.setpoint_version <= state.version:  # no row, none stored: not expected
         raise ConflictError("serial", report.serial, "already reported for this plan")
     raise InputError(
         "setpoint_version",

@@ -233,11 +233,17 @@ def test_errors_are_problems_naming_the_field(server):
         body = report_at("E1", setpoints)
         missing = c.post(f"/plans/{plan_id}/parts", json=body)
         assert missing.status_code == 400 and missing.json()["field"] == "Idempotency-Key"
-        assert _post_part(c, plan_id, body, f"e-{plan_id}").status_code == 201
+        first = _post_part(c, plan_id, body, f"e-{plan_id}")
+        assert first.status_code == 201
         reused = _post_part(c, plan_id, {**body, "serial": "E2"}, f"e-{plan_id}")
         assert reused.status_code == 422 and reused.json()["code"] == "idempotency_key_reused"
         duplicate = _post_part(c, plan_id, body, f"e-{plan_id}-other")
         assert duplicate.status_code == 409 and duplicate.json()["field"] == "serial"
+        # the MES that lost the first answer finds its part (a review: the 409 did not say)
+        stored = c.get(f"/plans/{plan_id}/parts").json()["items"][0]
+        assert duplicate.json()["part_id"] == first.json()["part_id"] == stored["part_id"]
+        assert duplicate.json()["received_at"] == stored["received_at"]
+        assert f"part {stored['part_id']}, received " in duplicate.json()["detail"]
         negative = {**body, "serial": "E3"}
         negative["operations"] = [
             {"name": "rough-od", "measurements": {"force_N": {"value": -5, "uncertainty": 3}}}

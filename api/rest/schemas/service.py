@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from datetime import datetime
 from typing import Any, Literal
 
 from pydantic import BaseModel, Field
@@ -41,6 +42,12 @@ class Problem(BaseModel):
     )
     plan_id: int | None = Field(
         None, description="plan_name_taken: the id of the stored plan that has the name"
+    )
+    part_id: int | None = Field(
+        None, description="conflict on serial: the id of the part already reported under it"
+    )
+    received_at: datetime | None = Field(
+        None, description="conflict on serial: when that part was received (UTC)"
     )
 
 
