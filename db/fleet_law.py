@@ -6,6 +6,7 @@ from sqlalchemy.orm import Session
 
 from db.fleet import fleet_evidence
 from db.library import load_tools
+from models.catalogue import catalogue
 from supervisor.fleet.law import FleetLaw, fleet_law
 from supervisor.fleet.prior import tool_beliefs
 from supervisor.rcb.state import RcbSettings
@@ -21,7 +22,13 @@ def tool_law(*, session: Session, tool: str) -> list[FleetLaw]:
     learned = fleet_evidence(session=session, tool_names=[tool])
     if not learned:
         return []
-    stored = load_tools(session=session, names=[tool]).get(tool, learned[0].tool)
+    # this database's tool, else the packaged catalogue's (as a plan reads it), not an
+    # imported document's own copy
+    stored = (
+        load_tools(session=session, names=[tool]).get(tool)
+        or catalogue().get(tool)
+        or learned[0].tool
+    )
     defaults = RcbSettings()
     beliefs = tool_beliefs(
         stored, learned, defaults.coverage_k, defaults.exponent_sd, defaults.edge_sd

@@ -88,7 +88,7 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
     rows = _rows(tool, foreign, source)
     stored = _held(session, tool, rows.keys())
     fresh = [row for key, row in rows.items() if key not in stored]
-    if fresh:  # one statement for them all (a document holds up to 100 000)
+    if fresh:  # one statement for them all (a document holds up to 25 000)
         session.execute(insert(t.core_table(t.ImportedModel)), fresh)
     replaced = 0
     for key, old in stored.items():

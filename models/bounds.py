@@ -51,6 +51,10 @@ MAX_TEXT = 2000
 #: The most bytes of a REST request body, and of a TOML file the CLI reads (a plan file, a
 #: domain file, ``collector.toml``): a plan file is a request body's structure.
 MAX_DOCUMENT_BYTES = 1024 * 1024
+#: The most bytes of a file of learned models (``rcb models export`` writes, ``import`` reads):
+#: a tool's models on a plant's machines, ten plans each, about 2.6 kB a model (a plant of 12
+#: machines wrote 1.25 MB for one insert); a few plants' exports held in one.
+MAX_MODELS_BYTES = 64 * 1024 * 1024
 #: The most bytes of ``rcb fit``'s CSV file.
 MAX_CSV_BYTES = 16 * 1024 * 1024
 #: The most data rows of ``rcb fit``'s CSV file (after the header line).
@@ -94,6 +98,7 @@ BOUNDS: tuple[Bound, ...] = (
     Bound("MAX_IDENTITY", MAX_IDENTITY, "characters of a serial or a name"),
     Bound("MAX_TEXT", MAX_TEXT, "characters of a description, source or reference"),
     Bound("MAX_DOCUMENT_BYTES", MAX_DOCUMENT_BYTES, "bytes of a REST body or a TOML file"),
+    Bound("MAX_MODELS_BYTES", MAX_MODELS_BYTES, "bytes of a file of learned models"),
     Bound("MAX_CSV_BYTES", MAX_CSV_BYTES, "bytes of rcb fit's CSV file"),
     Bound("MAX_CSV_ROWS", MAX_CSV_ROWS, "rows of rcb fit's CSV file"),
 )

@@ -382,15 +382,15 @@ def number_cell(text: str, where: str) -> float:
     return value
 
 
-def read_json_file(path: Path) -> object:
-    """A JSON file of at most ``MAX_DOCUMENT_BYTES`` (errors name FILE; one line, exit 2)."""
+def read_json_file(path: Path, most: int = MAX_DOCUMENT_BYTES) -> object:
+    """A JSON file of at most ``most`` bytes (errors name FILE; one line, exit 2)."""
     try:
         with path.open("rb") as file:
-            raw = file.read(MAX_DOCUMENT_BYTES + 1)
+            raw = file.read(most + 1)
     except OSError as err:
         raise InputError("FILE", str(path), f"cannot be read ({err.strerror})") from None
-    if len(raw) > MAX_DOCUMENT_BYTES:
-        raise InputError("FILE", str(path), f"is larger than {MAX_DOCUMENT_BYTES} bytes")
+    if len(raw) > most:
+        raise InputError("FILE", str(path), f"is larger than {most} bytes")
     try:
         return json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as err:

@@ -23,6 +23,7 @@ from api.cli.common import (
     say,
 )
 from api.cli.who import ByOption, cli_actor
+from models.bounds import MAX_MODELS_BYTES
 from models.errors import InputError
 
 models_app = typer.Typer(
@@ -46,8 +47,17 @@ def export(
     with errors():
         engine = engine_of(db)
         data = export_tool(engine=engine, tool=tool, material=material)
+        text = json.dumps(data, indent=1) + "\n"
+        size = len(text.encode("utf-8"))
+        if size > MAX_MODELS_BYTES:  # what import would refuse is not written
+            raise InputError(
+                "TOOL",
+                tool,
+                f"its {len(data['learned'])} learned models make {size} bytes, more than rcb"
+                f" models import reads ({MAX_MODELS_BYTES}); export one --material at a time",
+            )
         try:
-            out.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+            out.write_text(text, encoding="utf-8")
         except OSError as err:
             raise InputError("--out", str(out), f"cannot be written ({err.strerror})") from None
     say(f"rcb: {len(data['learned'])} learned models of {tool} written to {out}")
@@ -64,7 +74,7 @@ def import_(
 
     with errors():
         actor = cli_actor(by)
-        data = read_json_file(file)
+        data = read_json_file(file, MAX_MODELS_BYTES)
         engine = engine_of(db)
         written = import_tool(engine=engine, data=data, source=file.name, actor=actor)
     say(imported_line(written.body, file.name))

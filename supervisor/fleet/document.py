@@ -23,13 +23,14 @@ every field and names the offending one (``learned[3].posterior.mean``).
 from __future__ import annotations
 
 import math
+import uuid
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from models import fields
-from models.bounds import LARGEST, LARGEST_EXPONENT, MAX_IDENTITY
+from models.bounds import LARGEST, LARGEST_EXPONENT, LARGEST_WHOLE, MAX_IDENTITY
 from models.errors import InputError
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.learned import Learned
@@ -43,8 +44,8 @@ FORMAT = "rcb-fleet-models/2"
 FORMATS = ("rcb-fleet-models/1", FORMAT)
 #: The longest ``origin`` (a UUID's 36 characters).
 MAX_ORIGIN = 36
-#: The most items a document holds (a plant's year of plans on one tool is far fewer).
-MAX_ITEMS = 100_000
+#: The most items a document holds (about :data:`models.bounds.MAX_MODELS_BYTES` of them).
+MAX_ITEMS = 25_000
 _ITEM_KEYS = (
     "origin",
     "machine",
@@ -149,7 +150,13 @@ def _origin(data: object, path: str, version_1: bool) -> str:
         if "origin" in table:
             raise InputError(f"{path}.origin", table["origin"], "version 1 documents have none")
         return ""
-    return fields.text(table, "origin", path, most=MAX_ORIGIN)
+    origin = fields.text(table, "origin", path, most=MAX_ORIGIN)
+    try:  # as rcb models identity names a database; one spelling of each
+        return str(uuid.UUID(origin))
+    except ValueError:
+        raise InputError(
+            f"{path}.origin", origin, "must be a database's identity, a UUID (rcb models identity)"
+        ) from None
 
 
 def read_item(data: object, path: str) -> Learned:
@@ -184,6 +191,11 @@ def read_item(data: object, path: str) -> Learned:
 def _posterior(data: object, path: str) -> Posterior:
     """A posterior whose mean and covariance are finite and of matching sizes."""
     table = fields.mapping(data, path)
+    seen = table.get("observations", 0)  # its readings, as a provenance counts them
+    if isinstance(seen, bool) or not isinstance(seen, int) or not 0 <= seen <= LARGEST_WHOLE:
+        raise InputError(
+            f"{path}.observations", seen, f"must be a whole number in 0..{LARGEST_WHOLE}"
+        )
     try:
         belief = posterior_from_json(table)
     except (KeyError, TypeError, ValueError, AssertionError) as err:

@@ -29,11 +29,11 @@ def test_imported_machines_page_by_name_and_show_who_took_one_out(server, runner
     assert done.exit_code == 0, done.output
     document = json.loads(out.read_text(encoding="utf-8"))
     for item in document["learned"]:  # as another plant's: this one skips its own
-        item["origin"] = "plant-one"
+        item["origin"] = "0c5f0b7e-5d1a-4c55-9f43-2b8f3b1a9e21"  # plant one's identity
     out.write_text(json.dumps(document), encoding="utf-8")
     done = runner.invoke(app, ["models", "import", str(out), "--db", server.url])
     assert done.exit_code == 0 and "(4 new)" in done.output, done.output
-    names = [f"lathe-{tag}-{s}-{m}@plant-on" for s, m in (("a", 0), ("b", 1))]
+    names = [f"lathe-{tag}-{s}-{m}@0c5f0b7e" for s, m in (("a", 0), ("b", 1))]
     done = runner.invoke(
         app,
         ["fleet", "exclude", "--machine", names[1], "--reason", "chatter", "--db", server.url],

@@ -52,6 +52,11 @@ CASES = [
     (_set("operation", "bounds", "feed_mm_rev", value=[0.5, 0.1]), "bounds.feed_mm_rev", "above"),
     (_set("operation", "bounds", "feed_mm_rev", value=[0.1]), "bounds.feed_mm_rev", "[low, high]"),
     (_set("start", value={"x": 1}), "start", "is not a posterior"),
+    # a review: these were stored and counted ("1000000024 readings", machine "a@not-a-uu")
+    (_set("posterior", "observations", value=-5), "posterior.observations", "in 0..2147483647"),
+    (_set("posterior", "observations", value=10**12), "posterior.observations", "whole number"),
+    (_set("posterior", "observations", value="12"), "posterior.observations", "whole number"),
+    (_set("origin", value="not-a-uuid"), "origin", "a UUID (rcb models identity)"),
 ]
 
 

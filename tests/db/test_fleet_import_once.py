@@ -125,7 +125,7 @@ def test_a_version_1_document_imports_once_and_a_version_2_needs_its_origin(
     except InputError as err:
         assert err.field == "document.learned[1].origin"
     assert _rows(second) == 2
-    document["learned"][1]["origin"] = "x"
+    document["learned"][1]["origin"] = "0c5f0b7e-5d1a-4c55-9f43-2b8f3b1a9e21"
     document["learned"][0]["machine"] = "m" * 201  # more than its column holds
     try:
         import_tool(engine=second, data=document, source="long.json")

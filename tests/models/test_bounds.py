@@ -317,6 +317,8 @@ def test_a_csv_over_its_bytes_is_refused_before_it_is_read(tmp_path: Path) -> No
 
 
 FIT_BOUNDS = {"LARGEST", "MAX_CSV_ROWS", "MAX_CSV_BYTES"}
+#: A file of learned models: tests/db/test_models_file_size.py (over it, and export under it).
+MODELS_BOUNDS = {"MAX_MODELS_BYTES"}
 
 
 # --------------------------------------------------------------------------------------------
@@ -327,6 +329,7 @@ FIT_BOUNDS = {"LARGEST", "MAX_CSV_ROWS", "MAX_CSV_BYTES"}
 def test_every_bound_has_a_case(bound: bounds.Bound) -> None:
     assert getattr(bounds, bound.name) == bound.value
     tested = {c[0] for c in PLAN_CASES} | {c[0] for c in REPORT_CASES} | FIT_BOUNDS
+    tested |= MODELS_BOUNDS
     assert bound.name in tested, f"{bound.name}: add a case sent to both surfaces"
 
 
