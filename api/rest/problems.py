@@ -257,14 +257,19 @@ async def _database(request: Request, err: Exception) -> JSONResponse:
     if not unavailable(err):
         return await _unexpected(request, err)
     _log.warning("503 on %s %s: %s", request.method, request.url.path, err)
-    detail = "the database has no connection free now; nothing was stored; retry later"
+    detail = f"the database has no connection free now{_nothing_stored(request)}; retry later"
     headers = {"Retry-After": str(RETRY_AFTER_S)}
     return problem(request, 503, "database_busy", detail, headers=headers)
 
 
 async def _unexpected(request: Request, err: Exception) -> JSONResponse:
     _log.exception("unexpected error on %s %s", request.method, request.url.path)
-    return problem(request, 500, "internal", "internal error; nothing was stored")
+    return problem(request, 500, "internal", f"internal error{_nothing_stored(request)}")
+
+
+def _nothing_stored(request: Request) -> str:
+    """``; nothing was stored`` where the request could have stored something (not a read)."""
+    return "" if request.method in ("GET", "HEAD", "OPTIONS") else "; nothing was stored"
 
 
 #: Each error class and its handler, in the order :func:`install` registers them.

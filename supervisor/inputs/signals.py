@@ -16,6 +16,7 @@ from dataclasses import replace
 from typing import Any, Protocol
 
 from models import kinematics
+from models.bounds import SMALLEST_MEASURED
 from models.errors import InputError
 from models.sensors import Calibration, calibration_to_mapping, to_force
 from models.sensors.convert import converts
@@ -110,7 +111,12 @@ def _converted(
     context: dict[str, object],
     path: str,
 ) -> tuple[Measurement, RawRecord]:
-    """One reading as a ``force_N`` measurement, and the record of what it was converted from."""
+    """One reading as a ``force_N`` measurement, and the record of what it was converted from.
+
+    The force must be a measurement as a reported one is (``>= 1e-9`` and above its
+    uncertainty): a load at the idle load converted to 0 N, which the band law took as a
+    reading far under the band and shrank it on (``ivester``: the setpoints rose).
+    """
     force = to_force(
         calibration,
         quantity,
@@ -119,6 +125,14 @@ def _converted(
         context,
         path=path,
     )
+    if not (force.value >= SMALLEST_MEASURED and force.uncertainty < force.value):
+        raise InputError(
+            f"{path}.value",
+            signal.reading.value,
+            f"converts to a force of {force.value:.4g} ± {force.uncertainty:.4g} N, no"
+            " measurement of a cut (a force is > 0 and above its uncertainty): a load at idle,"
+            " an air cut or a sensor to check",
+        )
     record: RawRecord = {
         "quantity": quantity,
         "value": signal.reading.value,

@@ -33,6 +33,14 @@ def report_readings(
         for name, measured in report.measurements.items()
         for quantity, measurement in measured.items()
     ]
+    for name, quantity, measurement in measured_items:
+        if quantity == "tool_life_mm3":  # what an edge's wear says, not a reading of a part
+            raise InputError(
+                f"operations.{name}.measurements.tool_life_mm3",
+                measurement.value,
+                "tool life is not measured: report the edge's flank wear and the volume it cut"
+                " as tool_wear (flank_wear_mm, volume_mm3)",
+            )
     for name, wear in report.tool_wear.items():
         check_quantity(state.tools[name], name, "tool_life_mm3", f"operations.{name}.tool_wear")
         wear_measured = tool_life_measured(

@@ -117,8 +117,10 @@ def test_tables_of_names_are_typed_from_the_registries(document):
     measurements = _table(document, "Measurements")
     assert list(measurements) == MEASURABLE and "spindle_load_V" in measurements
     assert {p["$ref"] for p in measurements.values()} == {"#/components/schemas/ReadingIn"}
-    # a stored part: also a constant-load operation's reported feed override
-    assert list(_table(document, "MeasurementsOut")) == [*MEASURABLE, "feed_override_percent"]
+    # a stored part: also a constant-load operation's reported feed override, and tool life as
+    # a report gave it before it was refused (a page holding one was a 500: a review)
+    stored = [*MEASURABLE, "feed_override_percent", "tool_life_mm3"]
+    assert list(_table(document, "MeasurementsOut")) == stored
 
 
 def test_the_tables_are_used_where_the_names_are(document):

@@ -51,6 +51,7 @@ def test_a_refused_report_names_the_bodys_path(server):
         plan = c.post("/plans", json=renamed(DEMO)).json()
         lathe = c.post("/plans", json=renamed(LATHE)).json()
         too_fast = {"value": 1.0, "uncertainty": 0.02, "spindle_speed_rpm": 9000.0}
+        at_idle = {"value": 0.5, "uncertainty": 0.01, "idle_load_V": 0.5}  # converts to 0 N
         cases = [
             (  # the finish insert models no tool life: named where the body gives it
                 plan["id"],
@@ -78,6 +79,11 @@ def test_a_refused_report_names_the_bodys_path(server):
                 _part("P3", {"name": "rough-od", "measurements": {"spindle_load_V": too_fast}}),
                 "operations[0].measurements.spindle_load_V.spindle_speed_rpm",
             ),
+            (  # no cut seen: 0 N is no measurement (a review: ivester shrank its band on it)
+                lathe["id"],
+                _part("P5", {"name": "rough-od", "measurements": {"spindle_load_V": at_idle}}),
+                "operations[0].measurements.spindle_load_V.value",
+            ),
         ]
         for n, (plan_id, body, field) in enumerate(cases):
             url = f"/plans/{plan_id}/parts"
@@ -102,3 +108,41 @@ def test_a_conversion_names_a_context_entry_under_its_readings_path(path):
         to_force(calibration, "spindle_load_V", 1.0, 0.02, context, path=path)
     named = "context.spindle_speed_rpm" if path is None else f"{path}.spindle_speed_rpm"
     assert err.value.field == named
+
+
+def test_tool_life_comes_through_tool_wear_and_a_stored_one_still_lists(server):
+    """A review: ``tool_life_mm3`` given as a measurement was stored (201) and learned from, then
+    every page of the plan's parts holding it was a 500 (the stored schema has no such
+    quantity); given with ``tool_wear`` too it was a 409 "a concurrent request stored the same
+    thing", which an MES retries for ever. It is refused, naming the field and ``tool_wear``."""
+    from sqlalchemy import select, update
+
+    from db import tables as t
+    from db.engine import make_engine
+
+    life = {"tool_life_mm3": {"value": 1e6, "uncertainty": 1e4}}
+    wear = {"flank_wear_mm": {"value": 0.1, "uncertainty": 0.01}, "volume_mm3": 5e5}
+    with server.client("engineer") as c:
+        plan_id = c.post("/plans", json=renamed(DEMO)).json()["id"]
+        url = f"/plans/{plan_id}/parts"
+        alone = {"name": "rough-od", "measurements": life}
+        for n, op in enumerate((alone, {**alone, "tool_wear": wear})):
+            r = c.post(url, json=_part(f"L{n}", op), headers={"Idempotency-Key": f"life-{n}"})
+            assert r.status_code == 422, r.text
+            assert r.json()["field"] == "operations[0].measurements.tool_life_mm3"
+            assert "as tool_wear" in r.json()["detail"]
+        made = _part("L2", {"name": "rough-od", "measurements": FORCE})
+        assert c.post(url, json=made, headers={"Idempotency-Key": "life-2"}).status_code == 201
+        engine = make_engine(server.url)  # a part stored before: its force as tool life
+        with engine.begin() as connection:
+            part = select(t.Part.id).where(t.Part.plan_id == plan_id, t.Part.serial == "L2")
+            m = t.Measurement
+            connection.execute(update(m).where(m.part_id == part.scalar_subquery()).values(
+                quantity="tool_life_mm3"))  # fmt: skip
+        engine.dispose()
+        listed = c.get(url)
+    assert listed.status_code == 200, listed.text
+    [item] = listed.json()["items"]
+    assert item["operations"][0]["measurements"] == {
+        "tool_life_mm3": {**FORCE["force_N"], "raw": None}
+    }

@@ -28,8 +28,9 @@ from supervisor.rcb.decision import Action, Flag, Note
 #: ``tool_wear`` (:func:`supervisor.rcb.update.update`; the operation's tool must model it).
 MEASURABLE = [q for q in MODEL_QUANTITIES if q != "tool_life_mm3"] + ["spindle_load_V"]
 #: What a stored part's measurements may hold: the measurable quantities (a spindle reading as
-#: converted), and a constant-load operation's feed override (api.services.read.record.TOOL_CHANGE).
-STORED = [*MEASURABLE, TOOL_CHANGE]
+#: converted), a constant-load operation's feed override (api.services.read.record.TOOL_CHANGE),
+#: and tool life as a report gave it directly before 2026-12-03 (now refused: ``tool_wear``).
+STORED = [*MEASURABLE, TOOL_CHANGE, "tool_life_mm3"]
 _RAW = "the machine's calibration converts it to force_N"
 #: The quantities a raw spindle reading (calibration, context) may be given for.
 RAW_READINGS = ("spindle_load_V", "spindle_current_A")
