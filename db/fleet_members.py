@@ -203,4 +203,5 @@ def _changed(row: t.Plan, unaccepted: int, serial: str | None) -> str:
         return f"its process changed ({accept})"
     if row.fleet_change_confirmed:
         return f"its process changed at part {serial}, confirmed by its readings ({accept})"
-    return f"its process changed at part {serial}, to be judged {JUDGED_AFTER} parts on ({accept})"
+    judged = f"judged once {JUDGED_AFTER} parts have followed it"
+    return f"its process changed at part {serial}, to be {judged} ({accept})"

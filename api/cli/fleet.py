@@ -70,7 +70,7 @@ def show(
     if as_json:  # on stdout, the messages on stderr: a pipe reads the JSON alone
         sys.stdout.write(json.dumps(page) + "\n")
         return
-    _print_members(page, first=cursor is None)
+    _print_members(page, first=cursor is None, db=db)
     if page["next_cursor"] is not None:
         again = f"rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}"
         again += again_db(db)
@@ -109,7 +109,8 @@ def _print_law(tool: str, q: dict[str, Any]) -> None:
     for p in q["parameters"]:
         row = ((p["fleet"], p["fleet_sd"]), (p["catalogue"], p["catalogue_sd"]))
         if p["name"] == "edge_rise":  # of ln Y over an edge's life: a fraction of Y
-            cells = [f"{100 * v:.1f} % ± {100 * sd:.1f} %" for v, sd in row]
+            # + 0.0: a rise of -0.004 % is shown as 0.0 %, not -0.0 %
+            cells = [f"{round(100 * v, 1) + 0.0:.1f} % ± {100 * sd:.1f} %" for v, sd in row]
             table.add_row("rise over an edge", *cells)
         else:
             table.add_row(p["name"], *(f"{fmt(v)} ± {sd:.2g}" for v, sd in row))
@@ -170,14 +171,16 @@ def imported(
     if as_json:
         sys.stdout.write(json.dumps(page) + "\n")
         return
-    table = new_table(title=f"{tool}: machines of the models imported from other databases")
-    for column in ("machine", "models", "readings", "in the fleet"):
-        table.add_column(column, justify="right" if column in ("models", "readings") else "left")
-    for m in page["machines"]:
-        fleet = "yes" if m["in_fleet"] else f"no: {m['out']}"
-        table.add_row(m["machine"], str(m["models"]), str(m["readings"]), fleet)
-    Console().print(table)
-    if cursor is None and not page["machines"]:
+    if page["machines"]:  # none: the sentence alone, no empty table
+        table = new_table(title=f"{tool}: machines of the models imported from other databases")
+        for column in ("machine", "models", "readings", "in the fleet"):
+            right = column in ("models", "readings")
+            table.add_column(column, justify="right" if right else "left")
+        for m in page["machines"]:
+            fleet = "yes" if m["in_fleet"] else f"no: {m['out']}"
+            table.add_row(m["machine"], str(m["models"]), str(m["readings"]), fleet)
+        Console().print(table)
+    elif cursor is None:
         say(f"rcb: no model of {tool} was imported (rcb models import FILE)")
     if page["next_cursor"] is not None:
         again = f"rcb fleet imported {tool} --cursor {page['next_cursor']} --limit {limit}"
@@ -212,8 +215,11 @@ def _read(
     return found
 
 
-def _print_members(page: dict[str, Any], first: bool) -> None:
-    """The page's plans (no table where there are none), then what else holds the tool."""
+def _print_members(page: dict[str, Any], first: bool, db: str | None) -> None:
+    """The page's plans (no table where there are none), then what else holds the tool.
+
+    The commands it prints to run next read the same database (``--db``, :func:`again_db`).
+    """
     tool = page["tool"]
     if page["plans"]:
         Console().print(_members_table(page))
@@ -222,12 +228,11 @@ def _print_members(page: dict[str, Any], first: bool) -> None:
     if not page["plans"]:
         start = "the imported models" if page["imported"] else "the catalogue"
         say_filled(f"rcb: no stored plan uses {tool}: new plans start from {start}")
-    if page["imported"]:
-        command = f"(rcb fleet imported {tool} names their machines)".replace(" ", NBSP)
-        text = f"rcb: and {page['imported']} learned models imported from other databases "
-        say(_filled(text + command, indent="  "))  # the command whole, to copy
+    if page["imported"]:  # the command whole, to copy
+        text = f"rcb: and {page['imported']} learned models imported from other databases;"
+        say_command(f"{text} their machines:", f"rcb fleet imported {tool}{again_db(db)}")
     if any(not m["out"] for m in page["plans"]):
-        say_command("rcb: what they learned of its law:", f"rcb fleet law {tool}")
+        say_command("rcb: what they learned of its law:", f"rcb fleet law {tool}{again_db(db)}")
 
 
 def _members_table(page: dict[str, Any]) -> Table:
@@ -295,10 +300,11 @@ def _included(body: dict[str, Any]) -> str:
         text = f"rcb: {target} is not taken out of the fleet{itself}: nothing to put back"
         return f"{text}; it stays out: {still}" if still else text
     accepted = body["changes_accepted"]
+    changes = f"{accepted} change{'' if accepted == 1 else 's'} of its process accepted"
     if still:
-        extra = f" ({accepted} changes of its process accepted)" if accepted else ""
+        extra = f" ({changes})" if accepted else ""
         return f"rcb: {target} is put back{extra}, but stays out of the fleet: {still}"
-    extra = f"; {accepted} changes of its process accepted" if accepted else ""
+    extra = f"; {changes}" if accepted else ""
     return f"rcb: {target} is back in the fleet{extra}"
 
 

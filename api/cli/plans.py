@@ -33,7 +33,13 @@ from api.cli.common import (
 )
 from api.cli.tables import PARAMETER_HEADINGS, new_table, short_number
 from api.cli.who import ByOption, cli_actor
-from api.report.provenance import CATALOGUE, in_plan_order, let_go_groups, let_go_text
+from api.report.provenance import (
+    CATALOGUE,
+    from_catalogue,
+    in_plan_order,
+    let_go_groups,
+    let_go_text,
+)
 from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
@@ -253,6 +259,10 @@ def _say_prior(answer: dict[str, Any]) -> None:
             line.get("widened_by_part") or "",  # the part that showed it outside the spread
         )
     _out.print(table)
+    rest = from_catalogue(answer)
+    if rest:  # the table lists the fleet's; these start as a plan without one
+        why = "no plan in the fleet measured their tools"
+        say_filled(f"rcb: {', '.join(rest)}: from {CATALOGUE} ({why})")
     if answer["noise_provenance"]:
         _out.print(_noise_table(answer["noise_provenance"]))
 
@@ -267,11 +277,11 @@ def _noise_table(noise: list[dict[str, Any]]) -> Table:
     """Where each chain's noise prior came from, a row per quantity."""
     caption = _let_go_caption([(line["quantity"], line) for line in noise], "let_go_by_part")
     table = new_table(
-        title="learn's noise prior of each measuring chain (fleet)",
+        title="learn's noise prior of each measuring chain (fleet; worth: in readings)",
         caption=caption,
         caption_justify="left",
     )
-    for column in ("quantity", "noise", "machines", "spread", "readings", "let go by"):
+    for column in ("quantity", "noise", "machines", "spread", "worth", "let go by"):
         table.add_column(column, overflow="fold")
     for line in noise:
         table.add_row(

@@ -90,6 +90,16 @@ def let_go_text(serial: str, reason: str) -> str:
     return f"let go by part {serial}: {reason}" if reason else f"let go by part {serial}"
 
 
+def from_catalogue(plan: Mapping[str, Any]) -> list[str]:
+    """The plan's operations, in its order, whose models all start from the catalogue.
+
+    A fleet prior is per operation and quantity: where the fleet measured none of an
+    operation's tool (on its material), the operation starts from the catalogue.
+    """
+    provenance = plan.get("provenance", {})
+    return [op["name"] for op in plan.get("operations", []) if not provenance.get(op["name"])]
+
+
 def prior_line(plan: Mapping[str, Any]) -> str:
     """The catalogue, or the fleet: how many plans and machines, the spreads, what was let go."""
     order = [op["name"] for op in plan.get("operations", [])]
@@ -105,6 +115,8 @@ def prior_line(plan: Mapping[str, Any]) -> str:
         f"; {', '.join(names)} {let_go_text(serial, reason)}"
         for serial, reason, names in let_go_groups(lines, "widened_by_part")
     )
+    rest = from_catalogue(plan)
+    outside += f"; {', '.join(rest)} from {CATALOGUE}" if rest else ""
     return (
         f"the fleet: {_in_all(provenances, 'plans')} on {_in_all(provenances, 'machines')}, "
         f"between-machine spread {span(spreads)} %{between_ops} (rcb plans show lists each "

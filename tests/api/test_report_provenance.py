@@ -67,6 +67,17 @@ def test_a_spread_every_quantity_shares_is_one_value() -> None:
     assert prior_line(_plan(one)).startswith("the fleet: 1 plan on 1 machine, ")
 
 
+def test_the_operations_the_fleet_did_not_measure_are_said_to_start_from_the_catalogue() -> None:
+    """A review: the report said "Models started from the fleet" where one operation of six
+    did; the others are named, in the plan's order, as starting from the catalogue."""
+    plan = _plan(_line("force_N", 0.04, 0.02))
+    plan["operations"] += [{"name": "finish-od"}, {"name": "finish-grooves"}]
+    said = prior_line(plan)
+    assert said.startswith("the fleet: 2 plans on 2 machines, ")
+    assert said.endswith("; finish-od, finish-grooves from the tools' catalogue models")
+    assert "catalogue" not in prior_line(_plan(_line("force_N", 0.04, 0.02)))
+
+
 # --------------------------------------------------------------------------------------------
 # the outputs plot of a plan with no part
 
@@ -258,3 +269,28 @@ def test_a_new_plans_report_shows_its_next_part_in_the_outputs(
     assert figure.count("next part: predicted ± band") == 3
     assert figure.count('fill-opacity="0.2"') == 0
     assert figure.count('marker-end="url(#op1-outputs-mk-open-1f77b4)"') == 3
+
+
+def test_plans_show_names_the_operations_that_start_from_the_catalogue(
+    fleet: tuple[str, dict[str, Any], Path], runner: Any, tmp_path: Path
+) -> None:
+    """A review: a plant that imported one insert's models saw its one operation's fleet prior
+    and nothing of the five that start from the catalogue."""
+    from api.services.fleet_models import export_tool, import_tool
+
+    url, _, _ = fleet
+    first, second = make_engine(url), f"sqlite:///{tmp_path / 'plant2.db'}"
+    upgrade(second)
+    engine = make_engine(second)
+    try:
+        import_tool(
+            engine=engine, data=export_tool(engine=first, tool="CNMG432RN"), source="cnmg.json"
+        )
+        made = create_plan(engine=engine, body=_body("one-insert", "lathe-9"), settings=LEARN)
+    finally:
+        first.dispose()
+        engine.dispose()
+    assert list(made.body["provenance"]) == ["rough-od"]
+    rest = [op["name"] for op in made.body["operations"]][1:]
+    flat = _flat(_show(runner, second, "one-insert"))
+    assert f"rcb: {', '.join(rest)}: from the tools' catalogue models" in flat

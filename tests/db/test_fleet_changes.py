@@ -136,7 +136,7 @@ def test_a_change_the_readings_do_not_confirm_is_accepted_five_parts_on(engine) 
     _parts(engine, a, range(8, 12))
     assert _rough_od_readings(engine) is None  # four parts on: not judged yet
     assert _member(engine).out == (
-        "its process changed at part a-7, to be judged 5 parts on "
+        "its process changed at part a-7, to be judged once 5 parts have followed it "
         "(1 not accepted: rcb fleet include)"
     )
     _parts(engine, a, range(12, 13))

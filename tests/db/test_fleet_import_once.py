@@ -242,7 +242,9 @@ def test_an_imported_machine_is_taken_out_and_put_back_by_its_name_here(
     bad = runner.invoke(app, ["fleet", "imported", "CNMG432RN", "--db", url, "--cursor", "x!"])
     assert bad.exit_code == 2 and "--cursor = 'x!'" in bad.output
     shown = runner.invoke(app, ["fleet", "show", "CNMG432RN", "--db", url])
-    assert "rcb fleet imported CNMG432RN names their machines" in shown.output
+    assert f"their machines: rcb fleet imported CNMG432RN --db {url}" in " ".join(
+        shown.output.split()
+    )
     made = create_plan(engine=second, body=_body("c1", "lathe-9"), settings=LEARN).body
     assert made["provenance"]["rough-od"][0]["machines"] == [f"lathe-1@{origin}"]
     assert {i["machine"] for i in export_tool(engine=second, tool="CNMG432RN")["learned"]} == {
