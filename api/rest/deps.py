@@ -22,6 +22,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import Engine
 
 from api.rest.problems import ProblemError
+from api.rest.refused_audit import keep_actor
 from api.rest.routes.common import MAX_ID
 from api.services import auth
 from db.api_keys import Actor
@@ -141,6 +142,7 @@ def role(*allowed: str) -> Callable[..., Actor]:
             raise too_many(err) from None
         checked = allowed_actor(engine, actor, key, action, allowed)
         in_scope(request, checked)
+        keep_actor(request, checked)  # a refused body is audited as its actor's
         return checked
 
     check.allowed_roles = allowed  # type: ignore[attr-defined]  # read by api.rest.answers
@@ -174,6 +176,7 @@ def holding(*allowed: str) -> Callable[..., AsyncIterator[auth.Authenticated]]:
         try:
             allowed_actor(engine, held.actor, key, action, allowed, held)
             in_scope(request, held.actor)
+            keep_actor(request, held.actor, held)  # a refused body is audited as its actor's
         except BaseException:
             held.close()
             raise

@@ -22,6 +22,7 @@ from sqlalchemy.exc import TimeoutError as PoolTimeoutError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
+from api.rest.refused_audit import audit_refused
 from api.rest.schemas.common import field_path
 from api.rest.unavailable import RETRY_AFTER_S, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
@@ -217,6 +218,14 @@ async def _reuse(request: Request, err: KeyReuseError) -> JSONResponse:
 
 
 async def _validation(request: Request, err: RequestValidationError) -> JSONResponse:
+    answer = _invalid(request, err)
+    said = json.loads(bytes(answer.body))  # a write's refusal is audited (refused_audit)
+    await audit_refused(request, said["code"], said.get("field"), said["detail"])
+    return answer
+
+
+def _invalid(request: Request, err: RequestValidationError) -> JSONResponse:
+    """The 400 or 422 of a request its route's schema refused."""
     errors = [
         {
             "field": clip(field_path(e.get("loc", ()))),
