@@ -16,7 +16,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.errors import StoredSettingsError
-from db.fleet import imported_machine
+from db.fleet import abroad, imported_machine
 from db.fleet_changes import clear_fleet_change, plan_changes
 from db.plan_state import plan_settings
 from db.plans import get_plan_row
@@ -122,6 +122,12 @@ def _known_machine(session: Session, machine: str) -> None:
     close = session.scalar(alike.order_by(t.Machine.name).limit(1))
     if close is not None:  # names compare exactly: LATHE-B is not lathe-b
         reason += f" (names are exact: {close}?)"
+    m = t.ImportedModel
+    found = session.execute(
+        select(m.machine, m.origin).where(m.machine == machine).order_by(m.origin).limit(1)
+    ).first()
+    if close is None and found is not None:  # another plant's machine of this name
+        reason += f" here; imported machines are named NAME@ORIGIN: {abroad(*found)}?"
     raise InputError("--machine", machine, reason)
 
 

@@ -32,6 +32,7 @@ from sqlalchemy.orm import Session
 from db import tables as t
 from db.fleet import imported_evidence, local_evidence
 from db.identity import database_id, plan_origins
+from models.catalogue import catalogue
 from models.errors import InputError
 from supervisor.fleet.document import document, item_json, read_document
 from supervisor.fleet.learned import Learned
@@ -48,18 +49,27 @@ def export_models(*, session: Session, tool: str, material: str | None = None) -
     local = local_evidence(session=session, tool_names=[tool])
     own = database_id(session=session)
     origins = plan_origins(session=session, names=(item.plan for item in local), own=own)
-    learned = [
-        (origin, item)
-        for origin, item in [
-            *((origins[x.plan], x) for x in local),
-            *imported_evidence(session=session, tool_names=[tool]),
-        ]
-        if material is None or item.tool.material == material
+    held = [
+        *((origins[x.plan], x) for x in local),
+        *imported_evidence(session=session, tool_names=[tool]),
     ]
+    learned = [(o, item) for o, item in held if material is None or item.tool.material == material]
     if not learned:
-        on = "" if material is None else f" on {material!r}"
-        raise InputError("TOOL", tool, f"no learn plan of this database measured it{on}")
+        reason = _not_learned(session, tool, material, [item for _, item in held])
+        raise InputError("TOOL", tool, reason)
     return document(tool, learned[0][1].tool.material, learned)
+
+
+def _not_learned(session: Session, tool: str, material: str | None, held: list[Learned]) -> str:
+    """Why nothing of ``tool`` (on ``material``) can be exported: no such tool, or no model."""
+    stored = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
+    if stored is None and tool not in catalogue():
+        return "no such tool in the catalogue or the database"
+    if material is None:
+        return "no learn plan of this database measured it"
+    materials = sorted({item.tool.material for item in held})
+    on = f"; it was measured on {', '.join(map(repr, materials))}" if materials else ""
+    return f"no learn plan of this database measured it on {material!r}{on}"
 
 
 @dataclass(frozen=True)
