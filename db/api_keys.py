@@ -68,8 +68,14 @@ def create_key(
 
 
 def revoke_key(*, session: Session, key_id: int) -> t.ApiKey | None:
-    """Mark a key revoked (kept for the audit log); None if there is no such key."""
-    row = session.get(t.ApiKey, key_id)
+    """Mark a key revoked (kept for the audit log); None if there is no such key.
+
+    A key revoked before keeps its first ``revoked_at`` (the caller tells the two apart by
+    reading it before). An id outside the column's range is no such key, not an overflow.
+    """
+    if not 1 <= key_id <= t.MAX_INT:
+        return None
+    row = session.get(t.ApiKey, key_id, with_for_update=True)
     if row is not None and row.revoked_at is None:
         row.revoked_at = t.utcnow()
     return row

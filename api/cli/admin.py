@@ -13,7 +13,17 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from api.cli.common import DbOption, emit, errors, plan_of, say, say_filled, shown
+from api.cli.common import (
+    DbOption,
+    again_db,
+    emit,
+    errors,
+    plan_of,
+    say,
+    say_command,
+    say_filled,
+    shown,
+)
 from api.cli.tables import new_table
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
@@ -182,7 +192,10 @@ def keys_list(
         )
     _out.print(table)
     if page["next_after"] is not None:
-        say(f"rcb: more keys: rcb keys list --after {page['next_after']} --limit {limit}")
+        say_command(
+            "rcb: more keys:",
+            f"rcb keys list --after {page['next_after']} --limit {limit}{again_db(db)}",
+        )
 
 
 def _minute(at: object) -> str:
@@ -208,6 +221,10 @@ def keys_revoke(
             revoked = revoke_key(engine=make_engine(url), key_id=key_id, actor=actor)
         except NotFoundError as err:
             raise InputError("ID", key_id, "no such API key") from err
+    if revoked["already"]:
+        at = _minute(revoked["revoked_at"])
+        say(f"rcb: key {revoked['id']} ({revoked['role']}) was already revoked, at {at} UTC")
+        return
     say(f"rcb: key {revoked['id']} ({revoked['role']}) revoked")
 
 

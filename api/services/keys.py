@@ -84,11 +84,17 @@ def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, A
 def revoke_key(
     *, engine: Engine, key_id: int, actor: api_keys.Actor = api_keys.CLI_ACTOR
 ) -> dict[str, Any]:
-    """Revoke an API key; it stays stored for the audit log (``actor``: who revokes it)."""
+    """Revoke an API key; it stays stored for the audit log (``actor``: who revokes it).
+
+    ``already``: the key was revoked before (at ``revoked_at``); nothing changes and nothing is
+    audited again.
+    """
     with Session(engine) as session, session.begin():
         row = api_keys.revoke_key(session=session, key_id=key_id)
         if row is None:
             raise NotFoundError("ID", key_id)
+        if session.is_modified(row) is False:
+            return {"id": key_id, "role": row.role, "revoked_at": row.revoked_at, "already": True}
         audit.audit(
             session=session,
             actor=actor.name,
@@ -96,4 +102,4 @@ def revoke_key(
             target=f"key {key_id}",
             result="ok",
         )
-        return {"id": key_id, "role": row.role, "revoked_at": row.revoked_at}
+        return {"id": key_id, "role": row.role, "revoked_at": row.revoked_at, "already": False}

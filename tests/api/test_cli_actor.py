@@ -96,6 +96,34 @@ def test_keys_and_prune_record_who(runner, plan_db):
     ]
 
 
+def test_revoking_twice_says_so_and_audits_once(runner, plan_db):
+    """A second revoke changes nothing and writes nothing; an id past the column is not a
+    traceback (an OverflowError before) but no such key."""
+    url, _ = plan_db
+    created = runner.invoke(app, ["keys", "create", "--role", "mes", "--db", url, "--json"])
+    key_id = json.loads(created.stdout)["id"]
+    first = runner.invoke(app, ["keys", "revoke", str(key_id), "--db", url, "--by", "carol"])
+    again = runner.invoke(app, ["keys", "revoke", str(key_id), "--db", url, "--by", "dave"])
+    assert first.exit_code == again.exit_code == 0, again.output
+    assert f"key {key_id} (mes) was already revoked, at " in again.output
+    assert [a for a in _audit(url) if a[1] == "revoke key"] == [
+        ("cli:carol", "revoke key", f"key {key_id}")
+    ]
+    huge = runner.invoke(app, ["keys", "revoke", "9" * 20, "--db", url])
+    assert huge.exit_code == 2
+    assert huge.output.strip() == f"rcb: error: ID = {'9' * 20}: no such API key"
+
+
+def test_the_next_page_of_keys_names_the_database_read(runner, plan_db):
+    url, _ = plan_db
+    for _ in range(2):
+        runner.invoke(app, ["keys", "create", "--role", "viewer", "--db", url])
+    listed = runner.invoke(app, ["keys", "list", "--limit", "1", "--db", url])
+    assert listed.exit_code == 0, listed.output
+    hint = listed.output[listed.output.index("rcb: more keys:") :]
+    assert f"--db {url}" in hint or "--db URL" in hint  # a URL with a password is not printed
+
+
 @pytest.mark.parametrize(
     ("by", "reason"),
     [
