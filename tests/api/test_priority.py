@@ -3,9 +3,11 @@ time per process, and a page rendered in the route's thread is the document Fast
 
 from __future__ import annotations
 
+import asyncio
 import json
 import threading
 import time
+from collections.abc import Iterator
 
 import pytest
 from test_service import BODY, _reports
@@ -13,10 +15,11 @@ from test_service import BODY, _reports
 from api.rest.rendering import page_response
 from api.rest.schemas.parts import parse_report
 from api.rest.schemas.review import History
+from api.rest.writes_in_flight import WritesFirstMiddleware
 from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from api.services.writes_first import WritesFirst
+from api.services.writes_first import GATE, WritesFirst
 
 
 def test_a_reader_waits_for_the_write_in_flight():
@@ -75,6 +78,44 @@ def test_a_write_error_still_ends_the_write():
     with pytest.raises(RuntimeError), gate.writing():
         raise RuntimeError("the report failed")
     assert gate.writes == 0
+
+
+def test_a_post_counts_as_a_write_only_once_its_body_is_in():
+    """A lockout review: a POST whose body never finishes (no key, a stalled client) held every
+    read at its pauses; it counts from its last body chunk to its answer, a GET never."""
+    seen: list[tuple[str, int]] = []
+    chunks: Iterator[dict] = iter([])
+
+    async def receive() -> dict:
+        return next(chunks)
+
+    async def send(message: dict) -> None:
+        seen.append(("sent", GATE.writes))
+
+    async def app(scope, receive, send) -> None:
+        seen.append(("arrived", GATE.writes))
+        while (await receive()).get("more_body"):
+            seen.append(("part of the body", GATE.writes))
+        seen.append(("whole body", GATE.writes))
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+
+    for method in ("POST", "GET"):
+        chunks = iter(
+            [
+                {"type": "http.request", "body": b"{", "more_body": True},
+                {"type": "http.request", "body": b"}", "more_body": False},
+            ]
+        )
+        seen.clear()
+        asyncio.run(WritesFirstMiddleware(app)({"type": "http", "method": method}, receive, send))
+        writing = 1 if method == "POST" else 0
+        assert seen == [
+            ("arrived", 0),
+            ("part of the body", 0),
+            ("whole body", writing),
+            ("sent", writing),
+        ]
+        assert GATE.writes == 0
 
 
 def test_a_wait_must_be_positive():
