@@ -17,6 +17,7 @@ from api.cli.common import (
     DbOption,
     again_db,
     emit,
+    engine_of,
     errors,
     plan_of,
     say,
@@ -53,15 +54,20 @@ def migrate(url: str, field: str = "--db") -> Migration:
     """Migrate the database at ``url`` (named by ``field``) to the newest revision.
 
     A URL rcb cannot keep data at, or a database it cannot reach, is an InputError with the
-    reason and its fix (:mod:`db.urls`).
+    reason and its fix (:mod:`db.urls`). A database already at the newest revision is not
+    migrated and its migration lock is not taken: a command (``rcb keys revoke`` in an
+    emergency) does not wait for an instance stuck while migrating another copy of rcb's
+    schema, or for one holding the lock (a lockout review: every such command hung).
     """
     from sqlalchemy.exc import ArgumentError, DBAPIError
 
-    from db.engine import upgrade
+    from db.engine import HEAD_REVISION, Migration, current_revision, upgrade
     from db.urls import check, explain
 
     check(url, field)
     try:
+        if current_revision(url) == HEAD_REVISION:
+            return Migration(before=HEAD_REVISION, after=HEAD_REVISION)
         return upgrade(url)
     except (ArgumentError, DBAPIError) as err:
         reason = explain(err, url)
@@ -167,12 +173,9 @@ def keys_list(
 ) -> None:
     """List API keys: id, role, label, plans, created, last use (never the key or its hash)."""
     from api.services.keys import list_keys
-    from db.engine import make_engine
 
-    url = database_url(db)
     with errors():
-        migrate(url, database_field(db))
-        page = list_keys(engine=make_engine(url), after=after, limit=limit)
+        page = list_keys(engine=engine_of(db), after=after, limit=limit)
     if as_json:
         emit(page)
         return
@@ -211,14 +214,12 @@ def keys_revoke(
 ) -> None:
     """Revoke an API key (kept in the audit log, refused from now on)."""
     from api.services.keys import revoke_key
-    from db.engine import make_engine
 
-    url = database_url(db)
     with errors():
         actor = cli_actor(by)
-        migrate(url, database_field(db))
+        engine = engine_of(db)
         try:
-            revoked = revoke_key(engine=make_engine(url), key_id=key_id, actor=actor)
+            revoked = revoke_key(engine=engine, key_id=key_id, actor=actor)
         except NotFoundError as err:
             raise InputError("ID", key_id, "no such API key") from err
     if revoked["already"]:

@@ -114,3 +114,23 @@ def test_an_upgrade_waits_for_the_lock(backend_url):
         assert "alembic_version" not in tables
     assert done.wait(120.0) and not failed, failed
     _at_head(backend_url)
+
+
+def test_commands_on_a_database_at_head_do_not_wait_for_the_lock(backend_url):
+    """A lockout review: with the migration lock held (an instance stuck migrating, or one that
+    hangs holding it), every ``rcb keys`` command hung, ``keys revoke`` in an emergency too.
+    A database already at head is used as it is; the lock is taken only to migrate."""
+    upgrade(backend_url)
+    said = []
+    with migration_lock(backend_url):
+        for args in (["keys", "create", "--role", "mes"], ["keys", "revoke", "1"], ["db", "prune"]):
+            done = subprocess.run(
+                [str(RCB), *args, "--db", backend_url],
+                capture_output=True,
+                text=True,
+                timeout=60,
+                check=False,
+            )
+            assert done.returncode == 0, (args, done.stderr)
+            said.append(done.stderr + done.stdout)
+    assert "rcb: key 1 (mes) revoked" in said[1]
