@@ -21,11 +21,13 @@ from __future__ import annotations
 
 import threading
 import weakref
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine, create_engine, event
+from sqlalchemy import Connection, Engine, create_engine, event
 from sqlalchemy.engine import URL, make_url
 
 from db.bulk import hook_engine
@@ -35,6 +37,12 @@ from db.urls import POOLER_PARAM, behind_pooler
 DEFAULT_URL = "sqlite:///./rcb.db"
 #: Milliseconds a SQLite writer waits for the lock before giving up.
 SQLITE_BUSY_TIMEOUT_MS = 30_000
+#: Milliseconds a PostgreSQL statement waits for a lock (a plan's row) before it fails: a
+#: report of a plan whose row another client holds (a stuck transaction, a psql session) is a
+#: 503 then, instead of waiting without end and holding a pooled connection, until the
+#: pool ran dry and other plans' reports were refused too (a lockout review). A report holds
+#: its plan's row for tens of milliseconds, a replan for about a second.
+PG_LOCK_TIMEOUT_MS = 10_000
 #: Connections of a worker's read pool (:func:`reader`): reads computing at once per worker.
 READ_POOL_SIZE = 1
 #: Seconds a read waits for a connection of the read pool before it fails.
@@ -95,6 +103,8 @@ def _engine(parsed: URL, *, read_pool: bool = False, **pool: Any) -> Engine:
         engine = create_engine(parsed, pool_pre_ping=True, **pool)
         if behind_pooler(parsed):  # the URL keeps the parameter: the read engine sees it too
             event.listen(engine, "do_connect", _through_pooler)
+        elif parsed.get_backend_name() == "postgresql":
+            event.listen(engine, "do_connect", _lock_timeout)
         hook_engine(engine)
         return engine
     engine = create_engine(parsed, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000}, **pool)
@@ -116,6 +126,18 @@ def _engine(parsed: URL, *, read_pool: bool = False, **pool: Any) -> Engine:
         connection.exec_driver_sql("BEGIN" if read_only else "BEGIN IMMEDIATE")
 
     return engine
+
+
+def _lock_timeout(_dialect: Any, _record: Any, _args: Any, params: dict[str, Any]) -> None:
+    """Connect with ``lock_timeout`` :data:`PG_LOCK_TIMEOUT_MS` (libpq's ``options``).
+
+    Options the URL gives are kept, and a ``lock_timeout`` among them wins. Not through
+    PgBouncer, which refuses the startup parameter: there, set it on the database role
+    (``docs/guide/rest-service.md``).
+    """
+    given = str(params.get("options") or "")
+    if "lock_timeout" not in given:
+        params["options"] = f"{given} -c lock_timeout={PG_LOCK_TIMEOUT_MS}".strip()
 
 
 def _through_pooler(_dialect: Any, _record: Any, _args: Any, params: dict[str, Any]) -> None:
@@ -148,6 +170,27 @@ def reader(engine: Engine) -> Engine:
             )
             event.listen(engine, "engine_disposed", lambda _engine: found.dispose())
         return found
+
+
+@contextmanager
+def waiting_at_most(engine: Engine, wait_ms: int) -> Iterator[Connection]:
+    """A connection of ``engine`` whose writes wait at most ``wait_ms`` for SQLite's write lock.
+
+    For a write that is worth less than the time it would wait (a key's last use): the busy
+    timeout of that connection only, restored when it goes back to the pool. PostgreSQL's
+    connections are given as they are (:data:`PG_LOCK_TIMEOUT_MS` bounds their waits).
+    """
+    with engine.connect() as connection:
+        if engine.dialect.name != "sqlite":
+            yield connection
+            return
+        raw = connection.connection.dbapi_connection
+        assert raw is not None
+        raw.execute(f"PRAGMA busy_timeout={int(wait_ms)}")  # outside any transaction
+        try:
+            yield connection
+        finally:
+            raw.execute(f"PRAGMA busy_timeout={SQLITE_BUSY_TIMEOUT_MS}")
 
 
 def one_statement_reader(engine: Engine) -> Engine:

@@ -17,9 +17,10 @@ from sqlalchemy.exc import TimeoutError as PoolTimeoutError
 #: The ``Retry-After`` of a 503 [s].
 RETRY_AFTER_S = 1
 #: SQLSTATE classes and codes of a server that cannot serve now (PostgreSQL Appendix A):
-#: 08 connection exception, 53 insufficient resources (53300 too many connections), 57P01-3
+#: 08 connection exception, 53 insufficient resources (53300 too many connections), 55P03 a
+#: lock not available within ``lock_timeout`` (:data:`db.engine.PG_LOCK_TIMEOUT_MS`), 57P01-3
 #: shutting down, crashed, cannot connect now.
-_SQLSTATE_BUSY = ("08", "53", "57P01", "57P02", "57P03")
+_SQLSTATE_BUSY = ("08", "53", "55P03", "57P01", "57P02", "57P03")
 #: What SQLite says when its busy timeout ran out.
 _SQLITE_BUSY = ("database is locked", "database is busy")
 #: What libpq says when a connection cannot be opened (no SQLSTATE is reported then).

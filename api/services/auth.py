@@ -36,7 +36,7 @@ from api.settings import auth_failure_burst
 from db import api_keys, audit, audit_windows, auth_buckets
 from db import tables as t
 from db.api_keys import Actor
-from db.engine import one_statement_reader
+from db.engine import one_statement_reader, waiting_at_most
 
 __all__ = ["RateLimitedError"]
 
@@ -47,6 +47,8 @@ LIMITER = FailureLimiter(burst=auth_failure_burst())
 _failures: weakref.WeakKeyDictionary[Engine, FailureLog] = weakref.WeakKeyDictionary()
 #: A key's ``last_used_at`` is written at most this often per process [s].
 TOUCH_S = 60.0
+#: Longest a key's last use waits for the write lock [ms]; then it waits for the next use.
+TOUCH_WAIT_MS = 250
 _touched: dict[int, float] = {}
 _touched_lock = threading.Lock()
 
@@ -115,9 +117,18 @@ def authenticate(
 
 
 def _touch(engine: Engine, key_id: int) -> None:
-    """Record a key's last use in its own short transaction (best effort: logged on failure)."""
+    """Record a key's last use in its own short transaction (best effort: logged on failure).
+
+    It waits at most :data:`TOUCH_WAIT_MS` for the write lock: on a SQLite database another
+    process holds locked, a part report waited the whole busy timeout here and then again
+    for its own write (a lockout review: 60 s to a 503).
+    """
     try:
-        with Session(engine) as session, session.begin():
+        with (
+            waiting_at_most(engine, TOUCH_WAIT_MS) as connection,
+            Session(bind=connection) as session,
+            session.begin(),
+        ):
             api_keys.touch_key(session=session, key_id=key_id, at=t.utcnow())
     except OperationalError as err:  # a busy database: the last use waits for the next
         _log.warning("last use of key %s not recorded: %s", key_id, err)
