@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from api.cli.common import errors, say
+from api.cli.common import DbOption, errors, plan_of, say
 from api.virtual_serve import MAX_PARTS
 from models.bounds import LARGEST_WHOLE
 from models.errors import InputError
@@ -89,8 +89,16 @@ def serve(
     ] = "virtual-lathe",
     service_url: _ServiceUrlOption = "http://127.0.0.1:8000/api/v1",
     plan_id: Annotated[
-        int, typer.Option(min=1, help="The stored plan's id, in --collector's file.")
-    ] = 1,
+        int | None,
+        typer.Option(
+            min=1,
+            max=LARGEST_WHOLE,
+            show_default=False,
+            help="The stored plan's id, in --collector's file [default: the plan of the "
+            "file's name in --db].",
+        ),
+    ] = None,
+    db: DbOption = None,
 ) -> None:
     """Serve a virtual lathe making the plan's parts at its version-1 setpoints, until stopped."""
     from api.virtual_serve import run
@@ -106,10 +114,13 @@ def serve(
         except KeyboardInterrupt:  # Ctrl-C while the plan is optimised: nothing served yet
             say("rcb virtual: interrupted before serving")
             raise typer.Exit(130) from None
+        if collector is not None and plan_id is None:
+            plan_id = _stored_plan(db, lathe.plan.name, plan)
         published = _publish(lathe, protocol, chosen)
     try:
         with errors():
             if collector is not None:
+                assert plan_id is not None
                 service = (service_url, plan_id)
                 queue = queue_name(collector)
                 text = collector_toml(lathe, protocol.value, published.url, service, machine, queue)
@@ -134,6 +145,27 @@ def _check(service_url: str, machine: str) -> None:
         raise InputError("--service-url", service_url, "must start with http:// or https://")
     if not machine.strip() or len(machine) > 200:
         raise InputError("--machine", machine, "must be text of 1 to 200 characters")
+
+
+def _stored_plan(db: str | None, name: str, path: Path) -> int:
+    """The id of the plan named ``name`` in the database (``--db``), for the collector's file.
+
+    A first-day review: the default was id 1, which in a folder that had stored another plan
+    first named that plan, and the collector's every part was refused with a calibration error.
+    """
+    from api.cli.common import again_db, engine_of
+
+    import shlex
+
+    engine = engine_of(db)
+    try:
+        return plan_of(engine, name, "--plan")
+    except InputError as err:
+        store = f"rcb plans create {shlex.quote(str(path))}{again_db(db)}"
+        reason = f"{err.reason}; store it first ({store}) or give --plan-id"
+        raise InputError("--plan", str(path), reason) from None
+    finally:
+        engine.dispose()
 
 
 def _publish(lathe: VirtualLathe, protocol: Protocol, port: int) -> Published:

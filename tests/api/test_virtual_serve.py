@@ -21,8 +21,11 @@ from pathlib import Path
 
 import pytest
 
+from api.services.plans import create_plan
+from db.engine import make_engine, upgrade
+
 from collect_support import refused
-from conftest import ROOT, renamed
+from conftest import DEMO_PLAN, ROOT, renamed
 from live import RCB, LiveServer, free_port, stop_group
 
 PLAN = ROOT / "examples" / "virtual_lathe_part.toml"
@@ -230,6 +233,37 @@ def test_bad_input_is_one_line_naming_the_option(tmp_path):
         args = ("--protocol", "mtconnect", "--plan", str(PLAN), "--port", str(port))
         said = _refused(tmp_path, *args)
     assert f"--port = {port}: cannot serve on 127.0.0.1" in said
+
+
+def test_the_collector_file_names_the_plan_stored_under_the_file_name(tmp_path):
+    """A first-day review: the collector's file said plan 1 by default, which in a folder that
+    had stored another plan first was that plan (every part then refused). Now the id is that of
+    the plan of the file's name in --db; none stored is refused before anything is served."""
+    url = f"sqlite:///{tmp_path / 'shop.db'}"
+    upgrade(url)
+    args = ("--protocol", "mtconnect", "--plan", str(PLAN), "--collector", "c.toml", "--db", url)
+    said = _refused(tmp_path, *args)
+    assert f"--plan = '{PLAN}': no plan named 'virtual-lathe-part'" in said
+    assert f"store it first (rcb plans create {PLAN} --db {url}) or give --plan-id" in said
+    assert not (tmp_path / "c.toml").exists()
+    engine = make_engine(url)
+    create_plan(engine=engine, body=tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8")))
+    second = create_plan(engine=engine, body=tomllib.loads(PLAN.read_text(encoding="utf-8")))
+    engine.dispose()
+    machine = subprocess.Popen(
+        [str(RCB), "virtual", "serve", *args, "--port", str(free_port()), "--parts", "1"],
+        cwd=tmp_path,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (tmp_path / "c.toml").exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        written = tomllib.loads((tmp_path / "c.toml").read_text(encoding="utf-8"))
+    finally:
+        stop_group(machine)
+    assert second.body["id"] == 2 and written["service"]["plan"] == 2
 
 
 def test_the_collector_file_refuses_an_unknown_start(tmp_path):
