@@ -160,6 +160,10 @@ def read_tool_file(path: Path) -> dict[str, Any]:
         raise InputError("FILE", str(path), "must hold a tool (a table of name, process, models)")
     tools = data.get("tools")
     if not isinstance(tools, list):
+        if {"machine", "operations"} & set(data):  # a plan file naming catalogue tools only
+            raise InputError(
+                "FILE", str(path), "is a plan file, not a tool (name, process, models)"
+            )
         return data
     if set(data) == {"tools"} and len(tools) == 1 and isinstance(tools[0], dict):
         return tools[0]

@@ -197,6 +197,9 @@ def test_a_plan_files_tools_block_of_one_tool_is_that_tool_and_more_are_one_shor
     for file, said in (
         (two, f"FILE = '{two}': holds 2 tools; a tool file holds one (a file each)"),
         (plan, f"FILE = '{plan}': is a plan file, not a tool (name, process, models)"),
+        # a first-day review: the example plan (catalogue tools only) was its machine table
+        # echoed as an unknown field of a tool
+        (DEMO_PLAN, f"FILE = '{DEMO_PLAN}': is a plan file, not a tool (name, process, models)"),
     ):
         done = invoke(runner, "tools", "add", str(file), "--db", url)
         assert done.exit_code == 2 and done.stderr == f"rcb: error: {said}\n", done.stderr
