@@ -70,5 +70,19 @@ def escape_tree(command: Any) -> None:
         if isinstance(text, str) and not getattr(param, _ESCAPED, False):
             param.help = escape(unquoted(reflowed(text)))
             setattr(param, _ESCAPED, True)
+        _untyped_flag(param)
+    helped = getattr(command, "get_help_option", None)
+    if callable(helped):
+        command.get_help_option = lambda ctx: _untyped_flag(helped(ctx))
     for sub in getattr(command, "commands", {}).values():
         escape_tree(sub)
+
+
+def _untyped_flag(param: Any) -> Any:
+    """A flag (``--json``, ``--help``) with no type column; ``param`` itself, to use in place.
+
+    typer 0.29 showed ``<bool>`` beside each, as if the flag took a value (a first-day review).
+    """
+    if getattr(param, "is_flag", False) and not getattr(param, "count", False):
+        param.metavar = ""
+    return param

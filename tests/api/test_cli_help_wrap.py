@@ -66,3 +66,17 @@ def test_the_plans_create_help_joins_its_source_lines() -> None:
 def test_reflowed_keeps_paragraphs_list_items_and_as_written_blocks() -> None:
     text = "First\nparagraph.\n\n- one\n  more\n- two\n1. three\n\n\bkept\nas written"
     assert reflowed(text) == "First paragraph.\n\n- one more\n- two\n1. three\n\n\bkept\nas written"
+
+
+def test_no_flag_shows_a_type_as_if_it_took_a_value() -> None:
+    """A first-day review: typer 0.29 showed ``--json <bool>`` and ``--help <bool>``; an option
+    that takes a value keeps its type (``--limit <int>``)."""
+    runner = CliRunner()
+    flags = 0
+    for path, _ in _commands(typer.main.get_command(app), ()):
+        output = runner.invoke(app, [*path, "--help"], env={"COLUMNS": "80"}).output
+        assert "<bool>" not in output, f"rcb {' '.join(path)} --help"
+        flags += output.count("--help ")
+    assert flags >= 50  # every command page read (50 on 2026-12-03)
+    limit = runner.invoke(app, ["plans", "--help"], env={"COLUMNS": "80"}).output
+    assert re.search(r"--limit\s+<int>", limit)
