@@ -153,9 +153,9 @@ def _stored_plan(db: str | None, name: str, path: Path) -> int:
     A first-day review: the default was id 1, which in a folder that had stored another plan
     first named that plan, and the collector's every part was refused with a calibration error.
     """
-    from api.cli.common import again_db, engine_of
-
     import shlex
+
+    from api.cli.common import again_db, engine_of
 
     engine = engine_of(db)
     try:
