@@ -90,8 +90,12 @@ def auth_failure_burst(environ: Mapping[str, str] | None = None) -> int:
 
 #: The environment variable with the proxies trusted to name the client (rcb serve's option).
 FORWARDED_VAR = "RCB_FORWARDED_ALLOW_IPS"
-#: Its default, uvicorn's: a reverse proxy on this host.
-FORWARDED_DEFAULT = "127.0.0.1,::1"
+#: Its default: no proxy, the peer is the client. Not uvicorn's (a proxy on this host): with
+#: it, any process on the host picked its address per request by sending the header, and its
+#: wrong keys never met the limit (a lockout review). A proxy, on this host or another, is
+#: named; a valid key passes a limited address anyway, so a proxy left unnamed costs its
+#: clients one shared wrong-key burst, never their service.
+FORWARDED_DEFAULT = "none"
 #: The most addresses and networks it may list.
 MAX_FORWARDED = 64
 

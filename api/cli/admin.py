@@ -241,7 +241,7 @@ def serve(
             metavar="IPS",
             help="Proxies whose X-Forwarded-For names the client (the wrong-key limit and "
             "the audit log count it): addresses and networks, '*' or 'none' (default: "
-            "$RCB_FORWARDED_ALLOW_IPS, else 127.0.0.1,::1).",
+            "$RCB_FORWARDED_ALLOW_IPS, else none: a reverse proxy on this host is 127.0.0.1).",
         ),
     ] = None,
 ) -> None:

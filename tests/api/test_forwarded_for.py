@@ -90,6 +90,16 @@ def test_none_trusts_no_peer_not_even_this_host(tmp_path):
         server.stop()
 
 
+def test_by_default_a_process_on_this_host_cannot_choose_its_address(tmp_path):
+    """A lockout review: the default was uvicorn's (this host is a proxy), so any local
+    process sent a new X-Forwarded-For per request and never met the wrong-key limit."""
+    server = LiveServer(f"sqlite:///{tmp_path / 'rcb.db'}", tmp_path / "serve.log")
+    server.start()
+    try:
+        _locked_out(server, "127.0.0.1", lambda i: f"10.4.{i // 250}.{i % 250 + 1}")
+    finally:
+        server.stop()
+
 @pytest.mark.parametrize(
     ("args", "env", "needles"),
     [
