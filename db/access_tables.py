@@ -96,3 +96,20 @@ class AuthFailureWindow(Base):
     window_start_s: Mapped[float] = mapped_column(primary_key=True)
     count: Mapped[int]
     audit_id: Mapped[int | None]
+
+
+class UiSession(Base):
+    """A sign-in to the web view (``/ui``): its cookie's token, stored only as a hash.
+
+    The cookie held the API key itself before 0030: a copied cookie was the key, for every
+    route of its role, and signing out only deleted the browser's copy. A session is the key's
+    for reading the view only, ends at ``expires_at`` or at sign-out, and with its key
+    (revoked or deleted) (:mod:`db.ui_sessions`).
+    """
+
+    __tablename__ = "ui_sessions"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    token_hash: Mapped[str] = mapped_column(String(64), unique=True)
+    api_key_id: Mapped[int] = mapped_column(ForeignKey("api_keys.id", ondelete="CASCADE"))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+    expires_at: Mapped[datetime] = mapped_column(index=True)

@@ -14,7 +14,7 @@ import secrets
 from dataclasses import dataclass
 from datetime import datetime
 
-from sqlalchemy import JSON, select, text, update
+from sqlalchemy import JSON, delete, select, text, update
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -67,18 +67,21 @@ def create_key(
     return row.id, key
 
 
-def revoke_key(*, session: Session, key_id: int) -> t.ApiKey | None:
-    """Mark a key revoked (kept for the audit log); None if there is no such key.
+def revoke_key(*, session: Session, key_id: int) -> tuple[t.ApiKey | None, bool]:
+    """Mark a key revoked (kept for the audit log): the key (None: none) and whether now.
 
-    A key revoked before keeps its first ``revoked_at`` (the caller tells the two apart by
-    reading it before). An id outside the column's range is no such key, not an overflow.
+    A key revoked before keeps its first ``revoked_at``. An id outside the column's range is
+    no such key, not an overflow.
     """
     if not 1 <= key_id <= t.MAX_INT:
-        return None
+        return None, False
     row = session.get(t.ApiKey, key_id, with_for_update=True)
-    if row is not None and row.revoked_at is None:
-        row.revoked_at = t.utcnow()
-    return row
+    if row is None or row.revoked_at is not None:
+        return row, False
+    row.revoked_at = t.utcnow()
+    # its web view sessions end with it (they find no actor anyway: db.ui_sessions)
+    session.execute(delete(t.UiSession).where(t.UiSession.api_key_id == key_id))
+    return row, True
 
 
 def authenticate(*, session: Session, key: str) -> Actor | None:

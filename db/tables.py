@@ -23,12 +23,19 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
-from db.access_tables import ApiKey, AuditEntry, AuthBucket, AuthFailureWindow, IdempotencyRecord
+from db.access_tables import (
+    ApiKey,
+    AuditEntry,
+    AuthBucket,
+    AuthFailureWindow,
+    IdempotencyRecord,
+    UiSession,
+)
 from db.table_base import MAX_INT, NAMING_CONVENTION, Base, core_table, utcnow
 
 __all__ = [
     "MAX_INT", "NAMING_CONVENTION", "ApiKey", "AuditEntry", "AuthBucket", "AuthFailureWindow",
-    "Base", "IdempotencyRecord", "core_table", "utcnow",
+    "Base", "IdempotencyRecord", "UiSession", "core_table", "utcnow",
 ]  # fmt: skip
 
 

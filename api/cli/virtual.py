@@ -69,6 +69,17 @@ _ServiceUrlOption = Annotated[
     ),
 ]
 
+_PlanIdOption = Annotated[
+    int | None,
+    typer.Option(
+        min=1,
+        max=LARGEST_WHOLE,
+        show_default=False,
+        help="The stored plan's id, in --collector's file [default: the plan of the file's "
+        "name in --db].",
+    ),
+]
+
 
 @virtual_app.command("serve")
 def serve(
@@ -88,21 +99,11 @@ def serve(
         str, typer.Option(help="The machine's name in --collector's file (in each serial).")
     ] = "virtual-lathe",
     service_url: _ServiceUrlOption = "http://127.0.0.1:8000/api/v1",
-    plan_id: Annotated[
-        int | None,
-        typer.Option(
-            min=1,
-            max=LARGEST_WHOLE,
-            show_default=False,
-            help="The stored plan's id, in --collector's file [default: the plan of the "
-            "file's name in --db].",
-        ),
-    ] = None,
+    plan_id: _PlanIdOption = None,
     db: DbOption = None,
 ) -> None:
     """Serve a virtual lathe making the plan's parts at its version-1 setpoints, until stopped."""
     from api.virtual_serve import run
-    from api.virtual_serve.collector_file import collector_toml, queue_name, write_collector
     from api.virtual_serve.lathe import build
 
     _logging()
@@ -122,9 +123,7 @@ def serve(
             if collector is not None:
                 assert plan_id is not None
                 service = (service_url, plan_id)
-                queue = queue_name(collector)
-                text = collector_toml(lathe, protocol.value, published.url, service, machine, queue)
-                write_collector(collector, text)
+                _write_collector(collector, lathe, protocol, published, service, machine)
     except typer.Exit:
         published.close()
         raise
@@ -145,6 +144,22 @@ def _check(service_url: str, machine: str) -> None:
         raise InputError("--service-url", service_url, "must start with http:// or https://")
     if not machine.strip() or len(machine) > 200:
         raise InputError("--machine", machine, "must be text of 1 to 200 characters")
+
+
+def _write_collector(
+    path: Path,
+    lathe: VirtualLathe,
+    protocol: Protocol,
+    published: Published,
+    service: tuple[str, int],
+    machine: str,
+) -> None:
+    """Write the collector's file that reads this machine (``--collector``)."""
+    from api.virtual_serve.collector_file import collector_toml, queue_name, write_collector
+
+    queue = queue_name(path)
+    text = collector_toml(lathe, protocol.value, published.url, service, machine, queue)
+    write_collector(path, text)
 
 
 def _stored_plan(db: str | None, name: str, path: Path) -> int:

@@ -1,12 +1,15 @@
 """A read-only web view under ``/ui/``: the plans, and per plan the page of ``rcb report``.
 
 Browsers send no ``Authorization`` header when they navigate, so the API key is entered once in
-a form (``/ui/login``) and kept in a cookie: HttpOnly (no script can read it), SameSite=Strict
+a form (``/ui/login``), checked, and a session opened (:mod:`api.services.ui_sessions`): the
+cookie holds the session's random token, never the key (a copied cookie was the key, for every
+route of its role, until 0030). The cookie is HttpOnly (no script can read it), SameSite=Strict
 (no other site's page can make the browser send it), ``Path=/ui`` (never sent to ``/api/v1``),
-Secure when the request came over HTTPS. Every request authenticates the key again with
-:func:`api.services.auth.authenticate`, so a revoked key stops working at once; a key scoped
-to plans sees only those (another plan's page is "no such plan"). Any role may look:
-mes, engineer and viewer are all viewer or above.
+Secure when the request came over HTTPS. Every request finds its actor by the token, so a
+revoked key's sessions end at once (and the browser's cookie is cleared), signing out ends the
+session on the server, and a session ends after a working shift; a key scoped to plans sees
+only those (another plan's page is "no such plan"). Any role may look: mes, engineer and
+viewer are all viewer or above.
 
 The pages are self-contained (inline CSS and SVG, no script, nothing loaded from elsewhere); a
 Content-Security-Policy says so to the browser as well. Every text from the database is escaped.
@@ -16,6 +19,7 @@ The routes are left out of the OpenAPI document.
 from __future__ import annotations
 
 import re
+from functools import partial
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
@@ -26,7 +30,7 @@ from starlette.concurrency import run_in_threadpool
 
 from api.report.html import render_record
 from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
-from api.services import auth
+from api.services import auth, ui_sessions
 from api.services.errors import NotFoundError
 from api.services.read import plans as read_plans
 from api.services.read import record
@@ -40,6 +44,8 @@ COOKIE = "rcb_ui_key"
 ROLES = ("mes", "engineer", "viewer")
 #: How long the login cookie lives [s] (a working shift).
 COOKIE_MAX_AGE_S = 8 * 3600
+#: Longest cookie read as a session's token (one is 49 characters).
+MAX_TOKEN_CHARS = 128
 #: Largest login form body [bytes]; a key is 47 characters.
 MAX_FORM_BYTES = 4096
 #: The last parts plotted and listed on a plan page (the totals count every part).
@@ -71,23 +77,19 @@ _NAV_CSS = "nav.ui { font-size: 0.9em; margin-bottom: 1em; } nav.ui form { displ
 def install(app: FastAPI, engine: Engine) -> None:
     """Add the web view's routes to ``app``, reading the database of ``engine``."""
     _install_login(app, engine)
-    _install_logout(app)
+    _install_logout(app, engine)
     _install_pages(app, engine)
 
 
 def _actor_of(engine: Engine, request: Request) -> Actor | None:
-    """The actor of the cookie's key, authenticated again; None without a valid one."""
-    key = request.cookies.get(COOKIE)
-    if not key:
-        return None  # nothing to check (a first visit): not audited
-    route = request.scope.get("route")
-    action = f"{request.method} {getattr(route, 'path', '?')}"
-    client = request.client.host if request.client else ""
-    actor = auth.authenticate(engine=engine, key=key, action=action, client=client)
-    if actor is not None and actor.role not in ROLES:
-        auth.audit_forbidden(engine=engine, actor=actor, action=action)
+    """The actor of the cookie's session; None without one that holds.
+
+    Not audited: a session ends as shifts do, and its token (256 random bits) is not guessed.
+    """
+    token = request.cookies.get(COOKIE)
+    if not token or len(token) > MAX_TOKEN_CHARS:
         return None
-    return actor
+    return ui_sessions.actor_of(engine=engine, token=token)
 
 
 def _install_login(app: FastAPI, engine: Engine) -> None:
@@ -111,17 +113,25 @@ def _install_login(app: FastAPI, engine: Engine) -> None:
         action = f"POST {PREFIX}/login"
         client = request.client.host if request.client else ""
         try:
-            actor = await run_in_threadpool(
-                auth.authenticate, engine=engine, key=key, action=action, client=client
+            opened = await run_in_threadpool(
+                partial(
+                    ui_sessions.sign_in,
+                    engine=engine,
+                    key=key,
+                    action=action,
+                    client=client,
+                    roles=ROLES,
+                    lasts_s=COOKIE_MAX_AGE_S,
+                )
             )
         except auth.RateLimitedError as err:
             return _too_many(err)
-        if actor is None or actor.role not in ROLES:
+        if opened is None:
             return _login_page("Unknown or revoked API key.", 401)
         response = RedirectResponse(f"{PREFIX}/", status_code=303, headers=_HEADERS)
         response.set_cookie(
             COOKIE,
-            key,
+            opened[0],
             max_age=COOKIE_MAX_AGE_S,
             path=PREFIX,
             secure=request.url.scheme == "https",
@@ -131,22 +141,17 @@ def _install_login(app: FastAPI, engine: Engine) -> None:
         return response
 
 
-def _install_logout(app: FastAPI) -> None:
-    """``/ui/logout``: a post that deletes the cookie."""
+def _install_logout(app: FastAPI, engine: Engine) -> None:
+    """``/ui/logout``: a post that ends the session on the server and deletes the cookie."""
 
     @app.post(f"{PREFIX}/logout", include_in_schema=False)
     def logout(request: Request) -> Response:
         if not _same_origin(request):
             return _login_page("This form must be sent from this site.", 403)
-        response = RedirectResponse(f"{PREFIX}/login", status_code=303, headers=_HEADERS)
-        response.delete_cookie(
-            COOKIE,
-            path=PREFIX,
-            secure=request.url.scheme == "https",
-            httponly=True,
-            samesite="strict",
-        )
-        return response
+        token = request.cookies.get(COOKIE)
+        if token and len(token) <= MAX_TOKEN_CHARS:
+            ui_sessions.sign_out(engine=engine, token=token)
+        return _to_login(request)
 
 
 def _install_pages(app: FastAPI, engine: Engine) -> None:
@@ -164,7 +169,7 @@ def _install_pages(app: FastAPI, engine: Engine) -> None:
         except auth.RateLimitedError as err:
             return _too_many(err)
         if actor is None:
-            return _to_login()
+            return _to_login(request)
         cursor = request.query_params.get("cursor")
         try:  # a scoped key's plans are filtered in the query: its page is full
             listed = read_plans.list_plans(engine=engine, cursor=cursor, only=actor.plans)
@@ -179,7 +184,7 @@ def _install_pages(app: FastAPI, engine: Engine) -> None:
         except auth.RateLimitedError as err:
             return _too_many(err)
         if actor is None:
-            return _to_login()
+            return _to_login(request)
         number_id = int(plan_id) if re.fullmatch(r"[0-9]{1,10}", plan_id) else 0
         if not 1 <= number_id <= MAX_INT or not actor.may_see(number_id):
             return _not_found(plan_id, actor)
@@ -253,8 +258,21 @@ def _too_many(err: auth.RateLimitedError) -> HTMLResponse:
     return page
 
 
-def _to_login() -> RedirectResponse:
-    return RedirectResponse(f"{PREFIX}/login", status_code=303, headers=_HEADERS)
+def _to_login(request: Request) -> RedirectResponse:
+    """To the sign-in form, deleting a cookie sent (a session ended, or its key revoked).
+
+    The browser then stops sending it.
+    """
+    response = RedirectResponse(f"{PREFIX}/login", status_code=303, headers=_HEADERS)
+    if COOKIE in request.cookies:
+        response.delete_cookie(
+            COOKIE,
+            path=PREFIX,
+            secure=request.url.scheme == "https",
+            httponly=True,
+            samesite="strict",
+        )
+    return response
 
 
 #: The most characters of a path's plan id a "not found" page repeats.

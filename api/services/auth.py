@@ -107,13 +107,23 @@ def authenticate(
             actor = api_keys.authenticate(session=session, key=key)
     if actor is None:
         _audit_unauthenticated(engine, key, action, client)
-    elif _due(actor):
-        if writing:
+    elif writing:
+        if _due(actor):
             _touch(engine, int(actor.id or 0))
-        else:
-            touch = threading.Thread(target=_touch, args=(engine, int(actor.id or 0)), daemon=True)
-            touch.start()
+    else:
+        used(engine, actor)
     return actor
+
+
+def used(engine: Engine, actor: Actor) -> None:
+    """Record that ``actor``'s key was used for a read.
+
+    At most once a minute per process, in a thread of its own: the read never waits for the
+    write lock.
+    """
+    if _due(actor):
+        touch = threading.Thread(target=_touch, args=(engine, int(actor.id or 0)), daemon=True)
+        touch.start()
 
 
 def _touch(engine: Engine, key_id: int) -> None:

@@ -90,10 +90,10 @@ def revoke_key(
     audited again.
     """
     with Session(engine) as session, session.begin():
-        row = api_keys.revoke_key(session=session, key_id=key_id)
+        row, now = api_keys.revoke_key(session=session, key_id=key_id)
         if row is None:
             raise NotFoundError("ID", key_id)
-        if session.is_modified(row) is False:
+        if not now:
             return {"id": key_id, "role": row.role, "revoked_at": row.revoked_at, "already": True}
         audit.audit(
             session=session,

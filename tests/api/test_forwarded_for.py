@@ -100,6 +100,7 @@ def test_by_default_a_process_on_this_host_cannot_choose_its_address(tmp_path):
     finally:
         server.stop()
 
+
 @pytest.mark.parametrize(
     ("args", "env", "needles"),
     [
