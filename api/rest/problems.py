@@ -24,7 +24,7 @@ from starlette.routing import Match
 
 from api.rest.refused_audit import audit_refused
 from api.rest.schemas.common import field_path
-from api.rest.unavailable import RETRY_AFTER_S, unavailable
+from api.rest.unavailable import RETRY_AFTER_S, reason, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
 from db.errors import ConflictError
@@ -266,7 +266,7 @@ async def _database(request: Request, err: Exception) -> JSONResponse:
     if not unavailable(err):
         return await _unexpected(request, err)
     _log.warning("503 on %s %s: %s", request.method, request.url.path, err)
-    detail = f"the database has no connection free now{_nothing_stored(request)}; retry later"
+    detail = f"{reason(err)}{_nothing_stored(request)}; retry later"
     headers = {"Retry-After": str(RETRY_AFTER_S)}
     return problem(request, 503, "database_busy", detail, headers=headers)
 

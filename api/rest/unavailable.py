@@ -40,3 +40,18 @@ def unavailable(err: BaseException) -> bool:
         return sqlstate.startswith(_SQLSTATE_BUSY)
     message = str(err.orig).lower()
     return any(text in message for text in _SQLITE_BUSY + _CONNECT_FAILED)
+
+
+def reason(err: BaseException) -> str:
+    """What a 503's detail says of ``err`` (one :func:`unavailable` accepts), in a few words."""
+    if isinstance(err, PoolTimeoutError):
+        return "the database has no connection free now"
+    sqlstate = getattr(getattr(err, "orig", None), "sqlstate", None) or ""
+    message = str(getattr(err, "orig", err)).lower()
+    if sqlstate == "55P03":
+        return "a row it needs is locked by another transaction"
+    if any(text in message for text in _SQLITE_BUSY):
+        return "the database is locked by another writer"
+    if sqlstate.startswith("53") or "too many clients" in message:
+        return "the database server has no connection free now"
+    return "the database cannot be reached now"

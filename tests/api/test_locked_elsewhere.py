@@ -97,3 +97,28 @@ def test_a_key_last_use_waits_briefly_for_a_sqlite_lock_held_elsewhere(tmp_path)
     finally:
         other.close()
         engine.dispose()
+
+
+def test_ready_says_a_locked_database_cannot_take_reports_health_that_the_process_answers(
+    sqlite_server, tmp_path
+):
+    """A lockout review: with the SQLite file locked by another process /health said ok and
+    nothing said that every report would wait 30 s for a 503. GET /ready probes the write lock
+    for at most 1 s."""
+    import httpx
+
+    path = sqlite_server.url.removeprefix("sqlite:///")
+    with httpx.Client(base_url=sqlite_server.base, timeout=60) as c:
+        assert c.get("/ready").json() == {"status": "ready"}
+        other = sqlite3.connect(path, isolation_level=None)
+        try:
+            other.execute("BEGIN IMMEDIATE")  # another process's write transaction, left open
+            busy = c.get("/ready")
+            assert c.get("/health").json() == {"status": "ok"}  # the process answers
+        finally:
+            other.execute("ROLLBACK")
+            other.close()
+        assert busy.status_code == 503 and busy.headers["Retry-After"] == "1"
+        assert busy.json()["code"] == "database_busy"
+        assert busy.json()["detail"] == "the database is locked by another writer; retry later"
+        assert c.get("/ready").status_code == 200

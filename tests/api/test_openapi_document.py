@@ -24,6 +24,7 @@ from models.quantities import QUANTITIES
 #: Per operation, every status it declares (issue 30: what each route can answer, no more).
 STATUSES = {
     "getHealth": {200, 413},
+    "getReady": {200, 413, 503},
     "createPlan": {201, 400, 401, 403, 409, 413, 415, 422, 429, 500, 503},
     "listPlans": {200, 400, 401, 413, 422, 429, 503},
     "replanPlan": {200, 201, 400, 401, 403, 404, 409, 413, 415, 422, 429, 500, 503},

@@ -22,6 +22,7 @@ from conftest import ROOT
 #: and stable: a generated client's method names; issue 30).
 OPERATIONS = {
     ("get", "/api/v1/health", "getHealth"),
+    ("get", "/api/v1/ready", "getReady"),
     ("post", "/api/v1/plans", "createPlan"),
     ("get", "/api/v1/plans", "listPlans"),
     ("post", "/api/v1/plans/{plan_id}/replan", "replanPlan"),

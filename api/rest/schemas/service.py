@@ -55,3 +55,9 @@ class Health(Out):
     """Liveness."""
 
     status: Literal["ok"]
+
+
+class Ready(Out):
+    """Readiness: the database takes writes now."""
+
+    status: Literal["ready"]
