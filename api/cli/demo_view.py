@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shlex
 import textwrap
 from collections.abc import Mapping
 from typing import Any
@@ -135,5 +136,7 @@ def stored_line(plan_id: int, name: str, url: str) -> str:
         break_on_hyphens=False,
         break_long_words=False,
     )
-    commands = (f"rcb history {plan_id} {db}", f"rcb report {plan_id} {db} --out demo.html")
+    # a page named after its plan: a second run's (name-2) does not overwrite the first's
+    page = shlex.quote(f"{name}.html")
+    commands = (f"rcb history {plan_id} {db}", f"rcb report {plan_id} {db} --out {page}")
     return "\n".join([told, *(f"  {command}" for command in commands)])

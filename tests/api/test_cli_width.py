@@ -302,9 +302,12 @@ def test_demo_ends_on_its_commands_each_whole_on_a_line(demos, kind):
     """Before: ``... rcb history`` / ``  1 --db sqlite:///rcb-demo.db ...`` (not copyable)."""
     url = _url(demos[kind])
     lines = demos[kind].stderr.splitlines()
+    name = re.search(r"as plan 1 \(([^)]+)\)", demos[kind].stderr)
+    assert name is not None, demos[kind].stderr
     assert lines[-2:] == [
         f"  rcb history 1 --db {url}",
-        f"  rcb report 1 --db {url} --out demo.html",
+        # named after the plan: a second run's page does not overwrite the first's
+        f"  rcb report 1 --db {url} --out {name.group(1)}.html",
     ]
     first = max(i for i, line in enumerate(lines) if line.startswith("rcb: stored in"))
     told = " ".join(line.strip() for line in lines[first:-2])  # the sentence, filled
