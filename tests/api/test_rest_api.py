@@ -19,7 +19,7 @@ from sqlalchemy.orm import Session
 from api.cli.main import app
 from api.rest import serving
 from db import tables as t
-from db.engine import make_engine
+from db.engine import make_engine, upgrade
 from models.errors import InputError
 
 from conftest import DEMO_PLAN, TABLE5_UNCERTAINTY, renamed, report_at
@@ -331,9 +331,20 @@ def test_keys_from_the_cli_work_until_revoked(server, runner):
     ],
 )
 def test_key_commands_refuse_bad_input(tmp_path, runner, args, message):
-    result = runner.invoke(app, [*args, "--db", f"sqlite:///{tmp_path / 'k.db'}"])
+    url = f"sqlite:///{tmp_path / 'k.db'}"
+    upgrade(url)
+    result = runner.invoke(app, [*args, "--db", url])
     assert result.exit_code == 2 and message in result.output
     assert "Traceback" not in result.output
+
+
+@pytest.mark.parametrize("command", [["list"], ["revoke", "1"]])
+def test_keys_list_and_revoke_do_not_create_a_database(tmp_path, runner, command):
+    """A lockout review: they created (and migrated) an empty ./rcb.db where none was."""
+    url = f"sqlite:///{tmp_path / 'none.db'}"
+    result = runner.invoke(app, ["keys", *command, "--db", url])
+    assert result.exit_code == 2 and "no such database file" in result.output
+    assert not (tmp_path / "none.db").exists()
 
 
 def test_serve_migrates_a_fresh_database_on_first_start(tmp_path):
