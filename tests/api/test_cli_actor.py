@@ -169,3 +169,12 @@ def test_get_history_says_who_replanned_over_rest_and_at_the_command_line(runner
         ("replan", engineer_key),
         ("replan", "cli:Jane Doe"),
     ]
+
+
+@pytest.mark.parametrize("command", [["list"], ["revoke", "1"]])
+def test_keys_list_and_revoke_do_not_create_a_database(tmp_path, runner, command):
+    """A lockout review: they created (and migrated) an empty ./rcb.db where none was."""
+    url = f"sqlite:///{tmp_path / 'none.db'}"
+    result = runner.invoke(app, ["keys", *command, "--db", url])
+    assert result.exit_code == 2 and "no such database file" in result.output
+    assert not (tmp_path / "none.db").exists()

@@ -302,7 +302,7 @@ def test_demo_ends_on_its_commands_each_whole_on_a_line(demos, kind):
     """Before: ``... rcb history`` / ``  1 --db sqlite:///rcb-demo.db ...`` (not copyable)."""
     url = _url(demos[kind])
     lines = demos[kind].stderr.splitlines()
-    name = re.search(r"as plan\s+1 \(([^)]+)\)", demos[kind].stderr)
+    name = re.search(r"as plan\s+1\s+\(([^)]+)\)", demos[kind].stderr)
     assert name is not None, demos[kind].stderr
     assert lines[-2:] == [
         f"  rcb history 1 --db {url}",

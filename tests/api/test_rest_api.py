@@ -338,15 +338,6 @@ def test_key_commands_refuse_bad_input(tmp_path, runner, args, message):
     assert "Traceback" not in result.output
 
 
-@pytest.mark.parametrize("command", [["list"], ["revoke", "1"]])
-def test_keys_list_and_revoke_do_not_create_a_database(tmp_path, runner, command):
-    """A lockout review: they created (and migrated) an empty ./rcb.db where none was."""
-    url = f"sqlite:///{tmp_path / 'none.db'}"
-    result = runner.invoke(app, ["keys", *command, "--db", url])
-    assert result.exit_code == 2 and "no such database file" in result.output
-    assert not (tmp_path / "none.db").exists()
-
-
 def test_serve_migrates_a_fresh_database_on_first_start(tmp_path):
     url = f"sqlite:///{tmp_path / 'fresh.db'}"
     port = free_port()
