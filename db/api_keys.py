@@ -110,9 +110,13 @@ def authenticate_claiming(
     row = session.execute(query, params).one_or_none()
     if row is None or not hmac.compare_digest(row.key_hash, digest) or row.revoked_at:
         return None, None
-    scope = None if row.plans is None else frozenset(int(p) for p in row.plans)
-    actor = Actor(row.id, row.role, f"key:{row.id}", scope)
-    return actor, bool(row[5]) if claim else None
+    return key_actor(row.id, row.role, row.plans), bool(row[5]) if claim else None
+
+
+def key_actor(key_id: int, role: str, plans: list[int] | None) -> Actor:
+    """The actor of a key's row: its id, role and the plans it is scoped to (None: every)."""
+    scope = None if plans is None else frozenset(int(p) for p in plans)
+    return Actor(key_id, role, f"key:{key_id}", scope)
 
 
 def touch_key(*, session: Session, key_id: int, at: datetime) -> None:

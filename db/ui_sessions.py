@@ -18,7 +18,7 @@ from sqlalchemy import delete, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.api_keys import Actor, hash_key
+from db.api_keys import Actor, hash_key, key_actor
 
 #: Sessions one key may hold at once (browsers, shifts); a new sign-in ends the oldest.
 MAX_PER_KEY = 20
@@ -62,8 +62,7 @@ def actor_of(*, session: Session, token: str, now: datetime) -> Actor | None:
     row = session.execute(query).one_or_none()
     if row is None or not hmac.compare_digest(row.token_hash, digest):
         return None
-    scope = None if row.plans is None else frozenset(int(p) for p in row.plans)
-    return Actor(row.id, row.role, f"key:{row.id}", scope)
+    return key_actor(row.id, row.role, row.plans)
 
 
 def close_session(*, session: Session, token: str) -> bool:
