@@ -30,7 +30,7 @@ from models.powerlaw import PowerLawModel
 from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted, opens_change
 from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import noise_priors
-from supervisor.fleet.prior import Provenance, fleet_priors
+from supervisor.fleet.prior import FleetPrior, Provenance, fleet_priors
 from supervisor.fleet.window import newest_plans
 from supervisor.inputs.plan import Plan
 from supervisor.rcb.state import RcbSettings, RcbState
@@ -101,28 +101,45 @@ def learned_from(state: RcbState, machine: str, plan: str) -> list[Learned]:
     return out
 
 
-def run_fleet_scenario(
+@dataclass(frozen=True)
+class Starts:
+    """What a scenario's new machine starts from, once the fleet has learned.
+
+    ``plan`` is the plan it runs (on a known machine: renamed to it), ``machine`` the new
+    machine, ``noise`` the seed of its readings' noise; ``from_fleet``, ``catalogue`` and
+    ``known`` its three starts (:func:`run_fleet_scenario`); ``priors`` the fleet prior per
+    (operation, quantity), ``chains`` the fleet's noise prior per quantity; the rest is what
+    the learning machines did (:class:`FleetTrace`).
+    """
+
+    plan: Plan
+    machine: VirtualMachine
+    noise: list[int]
+    outside: bool
+    from_fleet: RcbState
+    catalogue: RcbState
+    known: RcbState
+    priors: dict[tuple[str, str], FleetPrior]
+    chains: int
+    learned_violations: int
+    left_out: int
+    unconfirmed: int
+
+
+def new_machine_starts(
     plan: Plan,
     seed: int,
     machines: int,
-    parts: int,
     learn_parts: int,
     machine_spread: float = DEFAULT_MACHINE_SPREAD,
-    faults: Faults | None = None,
     fleet_faults: Faults | None = None,
     operation_spread: float = 0.0,
     on_known: bool = False,
     learn_plans: int = 1,
     spread_mix: float = 0.0,
     new_z: float | None = None,
-) -> FleetTrace:
-    """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
-
-    ``faults``: the new machine's (its three runs'); ``fleet_faults``: the learning machines'
-    (None: they run clean), whose plans a halt or a change leaves out of the fleet;
-    ``spread_mix``: each tool's spread its own (:func:`~supervisor.virtual.fleet.tool_spreads`);
-    ``new_z``: the cone's ``z`` of the new machine's three starts (None: the default's).
-    """
+) -> Starts:
+    """Scenario ``seed``'s fleet learns; its new machine's starts (:func:`run_fleet_scenario`)."""
     outside = not on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
     spreads = tool_spreads(plan, seed, machine_spread, spread_mix)
     truths = fleet_truths(plan, seed, spreads)  # drawn once: the fleet's and the known's
@@ -147,19 +164,71 @@ def run_fleet_scenario(
         start(plan, settings, {k: p.posterior for k, p in priors.items()}), noise_priors=chains
     )
     known = start(plan, settings, known_priors(plan, truths, spreads, settings))
-    trace, state = run_machine(from_fleet, new, seed, parts, faults=faults, noise_seed=last)
-    return FleetTrace(
-        seed,
+    return Starts(
+        plan,
+        new,
+        last,
         outside,
-        trace,
-        run_machine(catalogue, new, seed, parts, faults=faults, noise_seed=last)[0],
-        run_machine(known, new, seed, parts, faults=faults, noise_seed=last)[0],
+        from_fleet,
+        catalogue,
+        known,
+        priors,
+        len(chains),
         violations,
-        tuple(p.provenance for _, p in sorted(priors.items())),
-        sum(b.prior_widening > 0 for b in state.posterior.values()),
-        len(chains) - len(state.noise_priors),
         left_out,
         unconfirmed,
+    )
+
+
+def run_fleet_scenario(
+    plan: Plan,
+    seed: int,
+    machines: int,
+    parts: int,
+    learn_parts: int,
+    machine_spread: float = DEFAULT_MACHINE_SPREAD,
+    faults: Faults | None = None,
+    fleet_faults: Faults | None = None,
+    operation_spread: float = 0.0,
+    on_known: bool = False,
+    learn_plans: int = 1,
+    spread_mix: float = 0.0,
+    new_z: float | None = None,
+) -> FleetTrace:
+    """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
+
+    ``faults``: the new machine's (its three runs'); ``fleet_faults``: the learning machines'
+    (None: they run clean), whose plans a halt or a change leaves out of the fleet;
+    ``spread_mix``: each tool's spread its own (:func:`~supervisor.virtual.fleet.tool_spreads`);
+    ``new_z``: the cone's ``z`` of the new machine's three starts (None: the default's).
+    """
+    s = new_machine_starts(
+        plan,
+        seed,
+        machines,
+        learn_parts,
+        machine_spread,
+        fleet_faults,
+        operation_spread,
+        on_known,
+        learn_plans,
+        spread_mix,
+        new_z,
+    )
+    new, last = s.machine, s.noise
+    trace, state = run_machine(s.from_fleet, new, seed, parts, faults=faults, noise_seed=last)
+    return FleetTrace(
+        seed,
+        s.outside,
+        trace,
+        run_machine(s.catalogue, new, seed, parts, faults=faults, noise_seed=last)[0],
+        run_machine(s.known, new, seed, parts, faults=faults, noise_seed=last)[0],
+        s.learned_violations,
+        tuple(p.provenance for _, p in sorted(s.priors.items())),
+        sum(b.prior_widening > 0 for b in state.posterior.values()),
+        s.chains - len(state.noise_priors),
+        s.left_out,
+        s.unconfirmed,
     )
 
 
