@@ -112,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         f"New machines inside the spread: {len(inside)} of {args.scenarios}; "
         "MRR/oracle mean (p5) after k parts"
     )
-    print(f"{'':<33}" + "".join(f"{'k=' + str(k):>7}{'':8}" for k in ROWS))
+    print((f"{'':<33}" + "".join(f"{'k=' + str(k):>7}{'':8}" for k in ROWS)).rstrip())
     for v, label in enumerate(KNOWN):
         cells = "".join(
             f"{inside[:, v, i].mean():>7.3f} ({np.percentile(inside[:, v, i], 5):.3f})"

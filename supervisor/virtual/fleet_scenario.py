@@ -126,20 +126,34 @@ class Starts:
     unconfirmed: int
 
 
+@dataclass(frozen=True)
+class FleetWorld:
+    """How a scenario's fleet is drawn and learns (:func:`run_fleet_scenario`'s options)."""
+
+    machine_spread: float = DEFAULT_MACHINE_SPREAD
+    fleet_faults: Faults | None = None
+    operation_spread: float = 0.0
+    on_known: bool = False
+    learn_plans: int = 1
+    spread_mix: float = 0.0
+    new_z: float | None = None
+
+
 def new_machine_starts(
-    plan: Plan,
-    seed: int,
-    machines: int,
-    learn_parts: int,
-    machine_spread: float = DEFAULT_MACHINE_SPREAD,
-    fleet_faults: Faults | None = None,
-    operation_spread: float = 0.0,
-    on_known: bool = False,
-    learn_plans: int = 1,
-    spread_mix: float = 0.0,
-    new_z: float | None = None,
+    plan: Plan, seed: int, machines: int, learn_parts: int, options: FleetWorld = FleetWorld()
 ) -> Starts:
     """Scenario ``seed``'s fleet learns; its new machine's starts (:func:`run_fleet_scenario`)."""
+    machine_spread, fleet_faults, operation_spread = (
+        options.machine_spread,
+        options.fleet_faults,
+        options.operation_spread,
+    )
+    on_known, learn_plans, spread_mix, new_z = (
+        options.on_known,
+        options.learn_plans,
+        options.spread_mix,
+        options.new_z,
+    )
     outside = not on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
     spreads = tool_spreads(plan, seed, machine_spread, spread_mix)
     truths = fleet_truths(plan, seed, spreads)  # drawn once: the fleet's and the known's
@@ -202,19 +216,10 @@ def run_fleet_scenario(
     ``spread_mix``: each tool's spread its own (:func:`~supervisor.virtual.fleet.tool_spreads`);
     ``new_z``: the cone's ``z`` of the new machine's three starts (None: the default's).
     """
-    s = new_machine_starts(
-        plan,
-        seed,
-        machines,
-        learn_parts,
-        machine_spread,
-        fleet_faults,
-        operation_spread,
-        on_known,
-        learn_plans,
-        spread_mix,
-        new_z,
+    options = FleetWorld(
+        machine_spread, fleet_faults, operation_spread, on_known, learn_plans, spread_mix, new_z
     )
+    s = new_machine_starts(plan, seed, machines, learn_parts, options)
     new, last = s.machine, s.noise
     trace, state = run_machine(s.from_fleet, new, seed, parts, faults=faults, noise_seed=last)
     return FleetTrace(
