@@ -10,9 +10,13 @@ for each scenario's new machine inside the spread (:func:`supervisor.virtual.fle
 new_machine_starts`, the benchmark's defaults), the setpoints in force from the fleet prior
 after ``k`` part reports are re-optimised with the quantities ``KNOWN`` of every operation
 replaced by the machine's truth (no band, no cone), every other quantity still robust. No
-reading inside a part can know more than the truth, so each row is an upper bound of what
-adapting to that reading could reach; MRR/oracle is the oracle's cycle time over the
-cycle time (``closed_loop.py``'s plan ratio).
+reading inside a part can know more than the truth, so each such row is an upper bound of
+what adapting to that reading could reach. The ``GAUGED`` rows are what a real gauge's one
+reading could reach: the quantities of every operation as the learner holds them after one
+more report, whose reading is taken at the setpoints in force with the measuring chain's
+noise (what a gauge read on the operation's first stretch would show), the others as after
+``k`` reports. MRR/oracle is the oracle's cycle time over the cycle time (``closed_loop.py``'s
+plan ratio).
 
 Usage (from the repository root)::
 
@@ -59,6 +63,11 @@ KNOWN: dict[str, tuple[str, ...]] = {
     "roughness read before the finish": ("roughness_um",),
     "force and roughness": ("force_N", "roughness_um"),
 }
+#: What one real reading in the part updates, by row label.
+GAUGED: dict[str, tuple[str, ...]] = {
+    "roughness gauged once, as read": ("roughness_um",),
+    "force and roughness read once": ("force_N", "roughness_um"),
+}
 
 
 def with_truth(state: RcbState, truth: Mapping[str, Tool], known: tuple[str, ...]) -> PlanResult:
@@ -76,6 +85,22 @@ def with_truth(state: RcbState, truth: Mapping[str, Tool], known: tuple[str, ...
     return optimize_plan(state.plan, tools, cones=cones)
 
 
+def with_reading(state: RcbState, after: RcbState, gauged: tuple[str, ...]) -> PlanResult:
+    """``state``'s plan re-optimised with ``gauged`` quantities as ``after`` holds them."""
+    tools = {}
+    for op, tool in state.tools.items():
+        later = after.tools[op].models
+        models = {q: later[q] if q in gauged else m for q, m in tool.models.items()}
+        tools[op] = replace(tool, models=models)
+    now, then = learned_cones(state), learned_cones(after)
+    cones = {
+        op: {q: c for q, c in now.get(op, {}).items() if q not in gauged}
+        | {q: c for q, c in then.get(op, {}).items() if q in gauged}
+        for op in state.tools
+    }
+    return optimize_plan(state.plan, tools, cones=cones)
+
+
 def scenario(seed: int) -> tuple[bool, list[list[float]]]:
     """(outside the spread, ratio[variant][row]) of scenario ``seed``."""
     starts = new_machine_starts(load_plan(PLAN), seed, machines=4, learn_parts=30)
@@ -84,7 +109,7 @@ def scenario(seed: int) -> tuple[bool, list[list[float]]]:
         starts.from_fleet,
         starts.machine,
         seed,
-        max(ROWS),
+        max(ROWS) + 1,
         noise_seed=starts.noise,
         on_report=lambda before, after: states.append(after),
     )
@@ -93,6 +118,12 @@ def scenario(seed: int) -> tuple[bool, list[list[float]]]:
     ratios = [
         [oracle.cycle_time_min / with_truth(states[k], truth, known).cycle_time_min for k in ROWS]
         for known in KNOWN.values()
+    ] + [
+        [
+            oracle.cycle_time_min / with_reading(states[k], states[k + 1], gauged).cycle_time_min
+            for k in ROWS
+        ]
+        for gauged in GAUGED.values()
     ]
     return starts.outside, ratios
 
@@ -113,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
         "MRR/oracle mean (p5) after k parts"
     )
     print((f"{'':<33}" + "".join(f"{'k=' + str(k):>7}{'':8}" for k in ROWS)).rstrip())
-    for v, label in enumerate(KNOWN):
+    for v, label in enumerate([*KNOWN, *GAUGED]):
         cells = "".join(
             f"{inside[:, v, i].mean():>7.3f} ({np.percentile(inside[:, v, i], 5):.3f})"
             for i in range(len(ROWS))
