@@ -43,7 +43,7 @@ import numpy as np
 
 from supervisor.inputs.plan import Plan
 from supervisor.virtual.fault_spec import Faults
-from supervisor.virtual.fleet_scenario import FleetTrace, simulate_fleet
+from supervisor.virtual.fleet_scenario import FleetTrace, FleetWorld, simulate_fleet
 
 #: The rows printed: MRR/oracle after k parts.
 ROWS = (0, 1, 2, 3, 5, 10, 30)
@@ -161,14 +161,16 @@ def run(
         args.parts,
         args.learn_parts,
         min(args.jobs, args.scenarios),
-        args.fleet_spread,
         faults,
-        fleet_faults,
-        args.operation_spread,
-        args.new_plan_on == "known",
-        args.learn_plans,
-        args.spread_mix,
-        args.new_z,
+        FleetWorld(
+            machine_spread=args.fleet_spread,
+            fleet_faults=fleet_faults,
+            operation_spread=args.operation_spread,
+            on_known=args.new_plan_on == "known",
+            learn_plans=args.learn_plans,
+            spread_mix=args.spread_mix,
+            new_z=args.new_z,
+        ),
     )
     where = "a new machine" if args.new_plan_on == "new" else "a new plan on machine 0"
     print(

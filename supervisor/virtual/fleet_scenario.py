@@ -128,7 +128,16 @@ class Starts:
 
 @dataclass(frozen=True)
 class FleetWorld:
-    """How a scenario's fleet is drawn and learns (:func:`run_fleet_scenario`'s options)."""
+    """How a scenario's fleet is drawn and learns (:func:`run_fleet_scenario`'s options).
+
+    ``machine_spread``: the fleet's true between-machine spread of ``ln K``;
+    ``fleet_faults``: the learning machines' faults (None: they run clean), whose plans a
+    halt or a change leaves out of the fleet; ``operation_spread``: each operation's true
+    offset about its machine's; ``on_known``: the new plan runs on a learning machine, not a
+    new one; ``learn_plans``: plans per learning machine; ``spread_mix``: each tool's spread
+    its own (:func:`~supervisor.virtual.fleet.tool_spreads`); ``new_z``: the cone's ``z`` of
+    the new machine's three starts (None: the default's).
+    """
 
     machine_spread: float = DEFAULT_MACHINE_SPREAD
     fleet_faults: Faults | None = None
@@ -200,26 +209,15 @@ def run_fleet_scenario(
     machines: int,
     parts: int,
     learn_parts: int,
-    machine_spread: float = DEFAULT_MACHINE_SPREAD,
     faults: Faults | None = None,
-    fleet_faults: Faults | None = None,
-    operation_spread: float = 0.0,
-    on_known: bool = False,
-    learn_plans: int = 1,
-    spread_mix: float = 0.0,
-    new_z: float | None = None,
+    world: FleetWorld = FleetWorld(),
 ) -> FleetTrace:
-    """One scenario (module docstring); ``machine_spread``: the fleet's true spread.
+    """One scenario (module docstring) in ``world`` (:class:`FleetWorld`).
 
-    ``faults``: the new machine's (its three runs'); ``fleet_faults``: the learning machines'
-    (None: they run clean), whose plans a halt or a change leaves out of the fleet;
-    ``spread_mix``: each tool's spread its own (:func:`~supervisor.virtual.fleet.tool_spreads`);
-    ``new_z``: the cone's ``z`` of the new machine's three starts (None: the default's).
+    ``faults``: the new machine's (its three runs'); the learning machines' are
+    ``world.fleet_faults``.
     """
-    options = FleetWorld(
-        machine_spread, fleet_faults, operation_spread, on_known, learn_plans, spread_mix, new_z
-    )
-    s = new_machine_starts(plan, seed, machines, learn_parts, options)
+    s = new_machine_starts(plan, seed, machines, learn_parts, world)
     new, last = s.machine, s.noise
     trace, state = run_machine(s.from_fleet, new, seed, parts, faults=faults, noise_seed=last)
     return FleetTrace(
@@ -320,23 +318,7 @@ def _confirmed(before: RcbState, now: RcbState, catalogue: RcbState) -> bool:
     return confirmed(before.posterior, now.posterior)
 
 
-def _one(
-    task: tuple[
-        Plan,
-        int,
-        int,
-        int,
-        int,
-        float,
-        Faults | None,
-        Faults | None,
-        float,
-        bool,
-        int,
-        float,
-        float | None,
-    ],
-) -> FleetTrace:
+def _one(task: tuple[Plan, int, int, int, int, Faults | None, FleetWorld]) -> FleetTrace:
     return run_fleet_scenario(*task)
 
 
@@ -347,18 +329,11 @@ def simulate_fleet(
     parts: int,
     learn_parts: int,
     jobs: int = 1,
-    machine_spread: float = DEFAULT_MACHINE_SPREAD,
     faults: Faults | None = None,
-    fleet_faults: Faults | None = None,
-    operation_spread: float = 0.0,
-    on_known: bool = False,
-    learn_plans: int = 1,
-    spread_mix: float = 0.0,
-    new_z: float | None = None,
+    world: FleetWorld = FleetWorld(),
 ) -> list[FleetTrace]:
     """:func:`run_fleet_scenario` for every seed, in seed order, on ``jobs`` processes."""
-    world = (faults, fleet_faults, operation_spread, on_known, learn_plans, spread_mix, new_z)
-    tasks = [(plan, s, machines, parts, learn_parts, machine_spread, *world) for s in seeds]
+    tasks = [(plan, s, machines, parts, learn_parts, faults, world) for s in seeds]
     if jobs <= 1:
         return [_one(t) for t in tasks]
     with ProcessPoolExecutor(max_workers=jobs) as pool:

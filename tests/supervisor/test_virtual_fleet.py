@@ -24,7 +24,7 @@ from supervisor.virtual.fleet import (
     sample_fleet,
     tool_spreads,
 )
-from supervisor.virtual.fleet_scenario import run_fleet_scenario
+from supervisor.virtual.fleet_scenario import FleetWorld, run_fleet_scenario
 from supervisor.virtual.scenario import run_machine
 
 PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
@@ -122,7 +122,9 @@ def test_a_new_machine_far_outside_a_wide_fleet_lets_its_prior_go() -> None:
     the part no controller can know; with each operation's own offset about its machine's
     (hierarchy.DEFAULT_OPERATION_SPREAD) not even there. Its priors are let go, and it still
     runs faster than from the catalogue."""
-    trace = run_fleet_scenario(PLAN, 49, 4, parts=6, learn_parts=30, machine_spread=0.06)
+    trace = run_fleet_scenario(
+        PLAN, 49, 4, parts=6, learn_parts=30, world=FleetWorld(machine_spread=0.06)
+    )
     assert trace.outside
     assert trace.fleet.where == ()
     assert trace.let_go >= 1
@@ -151,7 +153,9 @@ def test_a_fleet_whose_process_stepped_is_left_out_and_the_plan_starts_from_the_
     clean = run_fleet_scenario(PLAN, 3, 4, parts=3, learn_parts=20)
     assert clean.left_out == clean.unconfirmed == 0 and clean.provenance
     stepped = parse_faults(["step:10:1.12"])
-    trace = run_fleet_scenario(PLAN, 3, 4, parts=3, learn_parts=20, fleet_faults=stepped)
+    trace = run_fleet_scenario(
+        PLAN, 3, 4, parts=3, learn_parts=20, world=FleetWorld(fleet_faults=stepped)
+    )
     assert (trace.left_out, trace.unconfirmed) == (3, 0) and trace.provenance == ()
     assert trace.fleet.plan_ratio.tolist() == trace.catalogue.plan_ratio.tolist()
     assert trace.fleet.plan_ratio[0] < clean.fleet.plan_ratio[0]  # the clean fleet's start
@@ -177,7 +181,9 @@ def test_a_fleet_whose_operations_bend_apart_teaches_no_false_slope() -> None:
     1.04, and a new machine crossed finish-contour's roughness at parts 4-6. With each
     operation's own offset (hierarchy.of_operation) nothing crosses, as from the catalogue."""
     bent = parse_faults(["curvature"])
-    trace = run_fleet_scenario(PLAN, 97, 4, parts=7, learn_parts=30, fleet_faults=bent)
+    trace = run_fleet_scenario(
+        PLAN, 97, 4, parts=7, learn_parts=30, world=FleetWorld(fleet_faults=bent)
+    )
     assert not trace.outside and trace.left_out == 0
     assert trace.fleet.where == trace.catalogue.where == ()
     assert trace.fleet.plan_ratio[3] > trace.catalogue.plan_ratio[3]
@@ -219,7 +225,7 @@ def test_a_new_plan_on_a_known_machine_takes_the_operations_spread_the_fleet_sho
     learning machine ran in both); learned from how those two differed on each machine
     (hierarchy.operation_spread) neither crosses."""
     trace = run_fleet_scenario(
-        PLAN, 6, 4, parts=1, learn_parts=30, operation_spread=0.06, on_known=True
+        PLAN, 6, 4, parts=1, learn_parts=30, world=FleetWorld(operation_spread=0.06, on_known=True)
     )
     assert not trace.outside
     shared = {"rough-grooves", "rough-contour", "finish-grooves", "finish-contour"}
