@@ -16,6 +16,7 @@ also well-formed XML, so XML tools can read it.
 
 from __future__ import annotations
 
+import html
 import math
 import re
 from collections.abc import Mapping, Sequence
@@ -24,7 +25,17 @@ from typing import Any
 from api.report import plots
 from api.report.full_record import full_record
 from api.report.html_history import history_table, mark, tool_change_table
-from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
+from api.report.html_parts import (
+    document,
+    escaped,
+    name_html,
+    nowrap,
+    row,
+    tag,
+    td,
+    th,
+    timestamp,
+)
 from api.report.marks import halt_cause, halt_lines
 from api.report.plots import number
 from api.report.provenance import prior_line
@@ -48,12 +59,13 @@ th { background: #f3f3f3; text-align: left; }
 td.num, #history td { text-align: right; font-variant-numeric: tabular-nums;
                       white-space: nowrap; }
 #history td:nth-child(4), #history td:last-child, td.band { white-space: normal; }
-.nw, th.name { white-space: nowrap; }
+.nw, th.name { white-space: nowrap; } .brk { white-space: normal; }
+h1, dd { overflow-wrap: anywhere; }
 #history td:nth-child(2), #history td:nth-child(3), #history td:nth-child(4),
 #history td:last-child { text-align: left; }
 tr.flagged td { color: #b00; }
-.breach { color: #b00; font-weight: bold; } .above-band { color: #c50; font-weight: bold; }
-.below-band { color: #c50; font-weight: bold; } .note { color: #555; font-style: italic; }
+.breach { color: #b00; font-weight: bold; } .above-band { color: #a40; font-weight: bold; }
+.below-band { color: #a40; font-weight: bold; } .note { color: #555; font-style: italic; }
 /* a reading too good to be true (implausible_low): a check for the operator, not a note */
 span.check { color: #000; background: #fd0; border: 1px solid #a60; font-weight: bold;
              padding: 0 0.3em; } tr.check td { background: #fff6c2; }
@@ -144,13 +156,13 @@ def _names(plan: Mapping[str, Any]) -> list[str]:
 
 
 def _unbroken(value: object, names: Sequence[str]) -> str:
-    """``value`` escaped, each of ``names`` in it whole on one line (``finish-contour``)."""
+    """``value`` escaped, each of ``names`` in it as :func:`name_html` (``finish-contour``)."""
     text = escaped(value)
     if not names:
         return text
     words = "|".join(re.escape(escaped(n)) for n in sorted(names, key=len, reverse=True))
     return re.sub(
-        f"(?<![\\w-])(?:{words})(?![\\w-])", lambda m: tag("span", m[0], class_="nw"), text
+        f"(?<![\\w-])(?:{words})(?![\\w-])", lambda m: name_html(html.unescape(m[0])), text
     )
 
 
@@ -181,11 +193,6 @@ def _margin(output: Output) -> float | None:
     return 0.0 if abs(margin) <= BINDING_RTOL * output.limit else margin
 
 
-def nowrap(text: object) -> str:
-    """``text`` (escaped) in a span that never breaks across lines."""
-    return tag("span", escaped(text), class_="nw")
-
-
 def _setpoint_text(series: OperationSeries) -> str:
     """The parameters in force, each ``f = 0.32 mm/rev`` on one line (HTML)."""
     return ", ".join(
@@ -204,7 +211,7 @@ def _output_cells(
     measured = escaped("–")
     if d is not None:
         flag = mark(d)
-        serial = nowrap(f"({d['serial']},")
+        serial = name_html(f"({d['serial']},")
         measured = f"{nowrap(number(d['margin']))} {serial} {escaped(d['action'])}" + (
             f", {flag})" if flag else ")"
         )
@@ -242,7 +249,7 @@ def _setpoints_table(record: Mapping[str, Any], series: Sequence[OperationSeries
     for s in series:
         span = max(len(s.outputs), 1)
         first = [
-            tag("td", f"{nowrap(s.name)} {nowrap(f'({s.tool})')}", rowspan=span),
+            tag("td", f"{name_html(s.name)} {name_html(f'({s.tool})')}", rowspan=span),
             tag("td", _setpoint_text(s), rowspan=span),
             _num(float(s.mrr_cm3_min[-1]), rowspan=span),
             _num(float(s.time_min[-1]), rowspan=span),

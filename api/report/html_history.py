@@ -10,7 +10,17 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from api.report.html_parts import escaped, row, tag, td, th, timestamp
+from api.report.html_parts import (
+    ONE_LINE_CHARS,
+    escaped,
+    name_html,
+    nowrap,
+    row,
+    tag,
+    td,
+    th,
+    timestamp_html,
+)
 from api.report.marks import decision_mark
 from api.report.plots import number
 from api.services.read.record import HISTORY_ROWS, TOOL_CHANGE
@@ -44,25 +54,22 @@ def history_table(record: Mapping[str, Any]) -> str:
             th("MRR [cm³/min]", colspan=len(names)),
             th("Flags and notes of the part", rowspan=2),
         ]
-    ) + row(th(n, class_="name") for n in names)
+    ) + row(tag("th", name_html(n), class_="name") for n in names)
     rows = [_summary_row(s, names) for s in record["summaries"]]
     marks = record["marks"]
     for v in listed_versions(history):
         mrr = {o["name"]: o["mrr_cm3_min"] for o in v["operations"]}
         marked = [d for d in marks.get(v["part_id"], []) if decision_mark(d)[0]]
         flagged = [d for d in marked if d["flagged"]]
-        text = ", ".join(
-            tag("span", escaped(f"{d['operation']} {d['quantity']}"), class_="nw") + " " + mark(d)
-            for d in marked
-        )
+        text = ", ".join(f"{_what(d)} {mark(d)}" for d in marked)
         kinds = sorted({decision_mark(d)[1] for d in flagged})
         checks = ["check"] if any(decision_mark(d)[1] == "check" for d in marked) else []
         # numbers right-aligned by the page's CSS (#history), not a class per cell: 200 rows
         cells = [
             td(v["version"]),
             td(v["cause"]),
-            td(v["serial"] or "–"),
-            td(timestamp(v["created_at"])),
+            tag("td", name_html(v["serial"] or "–")),
+            tag("td", timestamp_html(v["created_at"])),
             td(number(v["cycle_time_min"])),
             *(td(number(mrr.get(n))) for n in names),
             tag("td", text),
@@ -74,6 +81,14 @@ def history_table(record: Mapping[str, Any]) -> str:
     return tag("table", caption + body, id="history")
 
 
+def _what(d: Mapping[str, Any]) -> str:
+    """A decision's operation and quantity, on one line unless the operation's name is long."""
+    operation, quantity = d["operation"], d["quantity"]
+    if len(operation) <= ONE_LINE_CHARS:
+        return nowrap(f"{operation} {quantity}")
+    return f"{name_html(operation)} {nowrap(quantity)}"
+
+
 def _summary_row(summary: Mapping[str, Any], names: Sequence[str]) -> str:
     """One row for a group of older versions: their range, first and last cycle time and MRR."""
     first, last = summary["first"], summary["last"]
@@ -81,11 +96,11 @@ def _summary_row(summary: Mapping[str, Any], names: Sequence[str]) -> str:
     cells = [
         td(f"{first['version']}–{last['version']}", class_="num"),
         td(f"{summary['versions']} versions"),
-        td(f"{first['serial'] or '–'} … {last['serial'] or '–'}"),
-        td(f"{timestamp(first['created_at'])} … {timestamp(last['created_at'])}"),
+        tag("td", f"{name_html(first['serial'] or '–')} … {name_html(last['serial'] or '–')}"),
+        tag("td", f"{timestamp_html(first['created_at'])} … {timestamp_html(last['created_at'])}"),
         td(f"{number(first['cycle_time_min'])} → {number(last['cycle_time_min'])}", class_="num"),
         *(_num(mrr.get(n)) for n in names),
-        td("summarised (rcb history --json for every version)"),
+        tag("td", f"summarised ({nowrap('rcb history --json')} for every version)"),
     ]
     return row(cells, class_="summary")
 
@@ -134,8 +149,8 @@ def tool_change_table(parts: Sequence[Mapping[str, Any]]) -> str:
         due = bool(raw.get("tool_change_due"))
         verdict = ("DUE: " if due else "not due: ") + str(raw.get("reason", ""))
         cells = [
-            td(serial, class_="nw"),
-            td(operation, class_="nw"),
+            tag("td", name_html(serial)),
+            tag("td", name_html(operation)),
             _num(reading["value"]),
             _num(raw.get("commanded_feed_rate_mm_min")),
             _num(raw.get("feed_rate_lower_mm_min")),

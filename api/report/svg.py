@@ -65,8 +65,22 @@ def to_svg(chart: Chart, id_prefix: str = "") -> str:
     return (
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{px(WIDTH_PX)}" height="{px(height)}" '
         f'viewBox="0 0 {px(WIDTH_PX)} {px(height)}" font-family="{FONT_FAMILY}" '
-        f'font-size="{px(FONT_PX)}" role="img">{"".join(body)}</svg>'
+        f'font-size="{px(FONT_PX)}" role="img" aria-label="{escaped(accessible_name(chart))}">'
+        f"{''.join(body)}</svg>"
     )
+
+
+def accessible_name(chart: Chart) -> str:
+    """The chart's accessible name: its title, what each panel shows, and the parts it covers.
+
+    A screen reader names the image by it (an SVG ``role="img"`` without one is announced as
+    an unnamed image); the figure's caption then says what the marks are.
+    """
+    xs = [float(v) for p in chart.panels for m in p.marks if m.kind != "hline" for v in m.x]
+    xs = [x for x in xs if math.isfinite(x)]
+    parts = f", parts {min(xs):g} to {max(xs):g}" if xs else ""
+    shown = ", ".join(p.ylabel for p in chart.panels)
+    return f"{chart.title}: {shown}{parts}" if chart.title else f"{shown}{parts}"
 
 
 def render(draw: Callable[[S], Chart], series: S, id_prefix: str = "") -> str:

@@ -9,7 +9,19 @@ import xml.etree.ElementTree as ET
 from datetime import UTC, datetime
 from pathlib import Path
 
-from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
+from api.report.html_parts import (
+    ONE_LINE_CHARS,
+    PIECE_CHARS,
+    document,
+    escaped,
+    name_html,
+    row,
+    tag,
+    td,
+    th,
+    timestamp,
+    timestamp_html,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = (ROOT / "api" / "cli", ROOT / "api" / "report")
@@ -38,6 +50,28 @@ def test_timestamp_prints_a_datetime_to_the_second_and_anything_else_as_str():
     assert timestamp(datetime(2026, 1, 31, 12, 0, 5, 999, tzinfo=UTC)) == "2026-01-31 12:00:05 UTC"
     assert timestamp(datetime(2026, 1, 31, 12, 0, 5)) == "2026-01-31 12:00:05"
     assert timestamp("yesterday") == "yesterday"
+
+
+def test_a_short_name_never_breaks_and_a_long_one_only_between_pieces():
+    assert name_html("rough-od") == '<span class="nw">rough-od</span>'
+    serial = "SERIAL-LONG-CUSTOMER-4711-LOT-2026-11-00012"
+    html = name_html(serial)
+    assert html == (
+        '<span class="brk"><span class="nw">SERIAL-LONG-</span><wbr/>CUSTOMER-<wbr/>'
+        '<span class="nw">4711-LOT-</span><wbr/><span class="nw">2026-11-</span><wbr/>00012</span>'
+    )
+    for name in (serial, "x" * 200, "<a>&" * 30, "a b-c_d/e.f" * 5):
+        html = name_html(name)
+        root = ET.fromstring(html)  # well-formed: escaped, the breaks empty elements
+        assert "".join(root.itertext()) == name  # nothing added, nothing lost
+        pieces = html.removeprefix('<span class="brk">').removesuffix("</span>").split("<wbr/>")
+        texts = ["".join(ET.fromstring(f"<p>{p}</p>").itertext()) for p in pieces]
+        assert max(map(len, texts)) <= PIECE_CHARS < ONE_LINE_CHARS < len(name)
+
+
+def test_timestamp_html_keeps_the_date_and_the_time_each_whole():
+    html = timestamp_html(datetime(2026, 12, 4, 3, 48, 10, tzinfo=UTC))
+    assert html == '<span class="nw">2026-12-04</span> <span class="nw">03:48:10 UTC</span>'
 
 
 def test_document_is_well_formed_xml_with_the_title_escaped():
