@@ -95,10 +95,14 @@ def cached_state(engine: Engine, plan_id: int) -> RcbState:
 
 
 def report_at(
-    serial: str, setpoints: dict[str, Any], uncertainty: dict[str, float] = TABLE5_UNCERTAINTY
+    serial: str,
+    setpoints: dict[str, Any],
+    uncertainty: dict[str, float] = TABLE5_UNCERTAINTY,
+    fraction: float = 1.0,
 ) -> dict[str, Any]:
     """A part report made with ``setpoints`` (an answer's ``setpoint_version`` and
-    ``operations``): each quantity of ``uncertainty`` measured at its prediction."""
+    ``operations``): each quantity of ``uncertainty`` measured at ``fraction`` of its
+    prediction."""
     return {
         "serial": serial,
         "setpoint_version": setpoints["setpoint_version"],
@@ -106,7 +110,7 @@ def report_at(
             {
                 "name": op["name"],
                 "measurements": {
-                    q: {"value": op["predicted"][q]["value"], "uncertainty": u}
+                    q: {"value": op["predicted"][q]["value"] * fraction, "uncertainty": u}
                     for q, u in uncertainty.items()
                 },
             }

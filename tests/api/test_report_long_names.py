@@ -28,6 +28,8 @@ from api.services.read.record import HISTORY_ROWS, report_record
 from api.services.read.setpoints import current_setpoints
 from db.engine import make_engine, upgrade
 
+from conftest import report_at
+
 NAME = "customer-4711-hydraulic-cylinder-piston-rod-end-fitting-revision-C-second-setup-long"
 MACHINE = "okuma-genos-l3000-e-mw-cell-7-bay-north-22kW-lathe"
 SUFFIX = "-with-extended-descriptive-operation-name"
@@ -46,21 +48,7 @@ def _long_body() -> dict:
 
 
 def _report(engine, plan_id: int, serial: str, fraction: float) -> None:
-    sp = current_setpoints(engine=engine, plan_id=plan_id)
-    body = {
-        "serial": serial,
-        "setpoint_version": sp["setpoint_version"],
-        "operations": [
-            {
-                "name": op["name"],
-                "measurements": {
-                    q: {"value": op["predicted"][q]["value"] * fraction, "uncertainty": u}
-                    for q, u in (("force_N", 3.0), ("roughness_um", 0.05))
-                },
-            }
-            for op in sp["operations"]
-        ],
-    }
+    body = report_at(serial, current_setpoints(engine=engine, plan_id=plan_id), fraction=fraction)
     report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
 
 

@@ -21,7 +21,7 @@ from test_report_layout import BROKEN_WORDS_JS, CHROMIUM, CHROMIUM_ARGS, WAIT_BO
 
 from api.report.plots import number
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, report_at
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 NAMES = [op["name"] for op in PLAN["operations"]]
@@ -40,21 +40,7 @@ def plan_id(server):
         assert r.status_code == 201, r.text
         plan_id = r.json()["id"]
         for serial in ("SN-UI-1", "SN-UI-2"):
-            sp = c.get(f"/plans/{plan_id}/setpoints").json()
-            body = {
-                "serial": serial,
-                "setpoint_version": sp["setpoint_version"],
-                "operations": [
-                    {
-                        "name": op["name"],
-                        "measurements": {
-                            q: {"value": op["predicted"][q]["value"], "uncertainty": u}
-                            for q, u in (("force_N", 3.0), ("roughness_um", 0.05))
-                        },
-                    }
-                    for op in sp["operations"]
-                ],
-            }
+            body = report_at(serial, c.get(f"/plans/{plan_id}/setpoints").json())
             r = c.post(f"/plans/{plan_id}/parts", json=body, headers={"Idempotency-Key": serial})
             assert r.status_code == 201, r.text
     return plan_id
