@@ -46,6 +46,7 @@ from models.tool import Tool  # noqa: E402
 from supervisor.inputs.plan import load_plan  # noqa: E402
 from supervisor.optimize.optimizer import optimize_plan  # noqa: E402
 from supervisor.optimize.result import PlanResult  # noqa: E402
+from supervisor.rcb.cone import Cone  # noqa: E402
 from supervisor.rcb.start import learned_cones  # noqa: E402
 from supervisor.rcb.state import RcbState  # noqa: E402
 from supervisor.virtual.fault_oracle import truth_oracle  # noqa: E402
@@ -70,35 +71,31 @@ GAUGED: dict[str, tuple[str, ...]] = {
 }
 
 
-def with_truth(state: RcbState, truth: Mapping[str, Tool], known: tuple[str, ...]) -> PlanResult:
-    """``state``'s plan re-optimised with ``known`` quantities at ``truth``'s models."""
-    if not known:
+def with_models(
+    state: RcbState,
+    quantities: tuple[str, ...],
+    models: Mapping[str, Tool],
+    cones: Mapping[str, Mapping[str, Cone]],
+) -> PlanResult:
+    """``state``'s plan re-optimised with ``quantities`` at ``models`` and under ``cones``.
+
+    Every other quantity keeps ``state``'s model and cone; ``cones`` ({} for the truth: no
+    cone) holds those of ``quantities``.
+    """
+    if not quantities:
         return state.setpoints
     tools = {}
     for op, tool in state.tools.items():
-        models = {q: truth[op].models[q] if q in known else m for q, m in tool.models.items()}
-        tools[op] = replace(tool, models=models)
-    cones = {
-        op: {q: c for q, c in by_q.items() if q not in known}
-        for op, by_q in learned_cones(state).items()
-    }
-    return optimize_plan(state.plan, tools, cones=cones)
-
-
-def with_reading(state: RcbState, after: RcbState, gauged: tuple[str, ...]) -> PlanResult:
-    """``state``'s plan re-optimised with ``gauged`` quantities as ``after`` holds them."""
-    tools = {}
-    for op, tool in state.tools.items():
-        later = after.tools[op].models
-        models = {q: later[q] if q in gauged else m for q, m in tool.models.items()}
-        tools[op] = replace(tool, models=models)
-    now, then = learned_cones(state), learned_cones(after)
-    cones = {
-        op: {q: c for q, c in now.get(op, {}).items() if q not in gauged}
-        | {q: c for q, c in then.get(op, {}).items() if q in gauged}
+        theirs = models[op].models
+        mixed = {q: theirs[q] if q in quantities else m for q, m in tool.models.items()}
+        tools[op] = replace(tool, models=mixed)
+    now = learned_cones(state)
+    kept = {
+        op: {q: c for q, c in now.get(op, {}).items() if q not in quantities}
+        | {q: c for q, c in cones.get(op, {}).items() if q in quantities}
         for op in state.tools
     }
-    return optimize_plan(state.plan, tools, cones=cones)
+    return optimize_plan(state.plan, tools, cones=kept)
 
 
 def scenario(seed: int) -> tuple[bool, list[list[float]]]:
@@ -116,11 +113,17 @@ def scenario(seed: int) -> tuple[bool, list[list[float]]]:
     oracle = truth_oracle(starts.machine)
     truth = oracle_tools(starts.machine)
     ratios = [
-        [oracle.cycle_time_min / with_truth(states[k], truth, known).cycle_time_min for k in ROWS]
+        [
+            oracle.cycle_time_min / with_models(states[k], known, truth, {}).cycle_time_min
+            for k in ROWS
+        ]
         for known in KNOWN.values()
     ] + [
         [
-            oracle.cycle_time_min / with_reading(states[k], states[k + 1], gauged).cycle_time_min
+            oracle.cycle_time_min
+            / with_models(
+                states[k], gauged, states[k + 1].tools, learned_cones(states[k + 1])
+            ).cycle_time_min
             for k in ROWS
         ]
         for gauged in GAUGED.values()
