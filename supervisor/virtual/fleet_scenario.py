@@ -152,36 +152,25 @@ def new_machine_starts(
     plan: Plan, seed: int, machines: int, learn_parts: int, options: FleetWorld = FleetWorld()
 ) -> Starts:
     """Scenario ``seed``'s fleet learns; its new machine's starts (:func:`run_fleet_scenario`)."""
-    machine_spread, fleet_faults, operation_spread = (
-        options.machine_spread,
-        options.fleet_faults,
-        options.operation_spread,
-    )
-    on_known, learn_plans, spread_mix, new_z = (
-        options.on_known,
-        options.learn_plans,
-        options.spread_mix,
-        options.new_z,
-    )
-    outside = not on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
-    spreads = tool_spreads(plan, seed, machine_spread, spread_mix)
+    outside = not options.on_known and seed % OUTSIDE_EVERY == OUTSIDE_EVERY - 1
+    spreads = tool_spreads(plan, seed, options.machine_spread, options.spread_mix)
     truths = fleet_truths(plan, seed, spreads)  # drawn once: the fleet's and the known's
-    world = _world(plan, truths, seed, spreads, operation_spread)
+    world = _world(plan, truths, seed, spreads, options.operation_spread)
     fleet = world(machines, outside=outside)
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
-    plans = [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, learn_plans))]
+    plans = [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, options.learn_plans))]
     learned, violations, (left_out, unconfirmed) = _learn(
-        catalogue, plans, seed, learn_parts, fleet_faults
+        catalogue, plans, seed, learn_parts, options.fleet_faults
     )
     new, last = fleet[-1], noise_seed(seed, machines - 1)
-    if on_known:  # machine 0 again, a new plan's operations
-        new = world(1, plan_draw=learn_plans)[0]
+    if options.on_known:  # machine 0 again, a new plan's operations
+        new = world(1, plan_draw=options.learn_plans)[0]
         plan = replace(plan, machine=replace(plan.machine, name="machine-0"))
     priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
     chains = {q: p.belief for q, p in noise_priors(learned).items()}
-    if new_z is not None:  # the new machine's plans only: the fleet learned at the default
-        settings = replace(settings, z=new_z)
+    if options.new_z is not None:  # the new machine's plans only: the fleet learned at the default
+        settings = replace(settings, z=options.new_z)
         catalogue = start(plan, settings)
     from_fleet = replace(
         start(plan, settings, {k: p.posterior for k, p in priors.items()}), noise_priors=chains
