@@ -66,6 +66,14 @@ def _not_learned(session: Session, tool: str, material: str | None, held: list[L
     if stored is None and tool not in catalogue():
         return "no such tool in the catalogue or the database"
     if material is None:
+        used = session.scalar(
+            select(t.Operation.id)
+            .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+            .where(t.Tool.name == tool)
+            .limit(1)
+        )
+        if used is not None:  # its plans are out, halted or have learned nothing yet
+            return f"no plan in the fleet learned it (rcb fleet show {tool}: each plan and why)"
         return "no learn plan of this database measured it"
     materials = sorted({item.tool.material for item in held})
     on = f"; it was measured on {', '.join(map(repr, materials))}" if materials else ""
@@ -90,8 +98,13 @@ class Imported:
 def import_models(*, session: Session, data: object, source: str) -> Imported:
     """Store a document's learned models (checked whole first; module docstring)."""
     tool, learned = read_document(data)
-    if any(item.tool.name != tool for _, item in learned):
-        raise InputError("document.learned", tool, "holds models of another tool")
+    for i, (_, item) in enumerate(learned):
+        if item.tool.name != tool:
+            raise InputError(
+                f"document.learned[{i}].tool.name",
+                item.tool.name,
+                f"the document's tool is {tool!r}",
+            )
     own = database_id(session=session)
     held = plan_origins(session=session, names=(item.plan for _, item in learned), own=own)
     foreign = [(o, item) for o, item in learned if held.get(item.plan) != o]

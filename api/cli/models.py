@@ -21,6 +21,7 @@ from api.cli.common import (
     errors,
     read_json_file,
     say,
+    write_atomically,
 )
 from api.cli.who import ByOption, cli_actor
 from models.bounds import MAX_MODELS_BYTES
@@ -56,10 +57,7 @@ def export(
                 f"its {len(data['learned'])} learned models make {size} bytes, more than rcb"
                 f" models import reads ({MAX_MODELS_BYTES}); export one --material at a time",
             )
-        try:
-            out.write_text(text, encoding="utf-8")
-        except OSError as err:
-            raise InputError("--out", str(out), f"cannot be written ({err.strerror})") from None
+        write_atomically(out, text.encode("utf-8"))  # a failed write leaves ``out`` as it was
     say(f"rcb: {len(data['learned'])} learned models of {tool} written to {out}")
 
 

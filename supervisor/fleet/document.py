@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import uuid
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -32,8 +32,10 @@ import numpy as np
 from models import fields
 from models.bounds import LARGEST, LARGEST_EXPONENT, LARGEST_WHOLE, MAX_IDENTITY
 from models.errors import InputError
+from models.kinematics import PARAMETERS, Process
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.learned import Learned
+from supervisor.fleet.posterior_fields import posterior_fields
 from supervisor.inputs.plan import Operation
 from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
@@ -174,10 +176,12 @@ def read_item(data: object, path: str) -> Learned:
     for name in (*posterior.names, *posterior.context_exponents):
         if name not in inputs:
             raise InputError(f"{path}.posterior.names", name, "not an input of the tool's model")
+    operation = _operation(table.get("operation"), tool.name, f"{path}.operation")
+    _operation_fits(operation, tool.process, inputs, f"{path}.operation")
     return Learned(
-        fields.text(table, "machine", path, most=MAX_IDENTITY),
-        fields.text(table, "plan", path, most=MAX_IDENTITY),
-        _operation(table.get("operation"), tool.name, f"{path}.operation"),
+        _name(table, "machine", path),
+        _name(table, "plan", path),
+        operation,
         tool,
         posterior,
         fields.number(table.get("coverage_k"), f"{path}.coverage_k", positive=True),
@@ -188,6 +192,25 @@ def read_item(data: object, path: str) -> Learned:
     )
 
 
+def _operation_fits(
+    operation: Operation, process: Process, inputs: Collection[str], path: str
+) -> None:
+    """The operation is of the tool's process and bounds each of its parameters the model uses.
+
+    The prior its plan started from is rebuilt over those bounds
+    (:func:`supervisor.rcb.posterior.prior`): a document whose operation lacked one was
+    stored, and every later fleet prior of the tool failed (``rcb plans create``: a
+    ``KeyError`` traceback; another process: every new plan with the tool refused).
+    """
+    if operation.process != process:
+        raise InputError(f"{path}.process", operation.process, f"the tool's process is {process}")
+    for name in PARAMETERS[process]:
+        if name in inputs and name not in operation.bounds:
+            raise InputError(
+                f"{path}.bounds.{name}", None, "missing: the model's parameter needs its bounds"
+            )
+
+
 def _posterior(data: object, path: str) -> Posterior:
     """A posterior whose mean and covariance are finite and of matching sizes."""
     table = fields.mapping(data, path)
@@ -196,6 +219,7 @@ def _posterior(data: object, path: str) -> Posterior:
         raise InputError(
             f"{path}.observations", seen, f"must be a whole number in 0..{LARGEST_WHOLE}"
         )
+    posterior_fields(table, path)
     try:
         belief = posterior_from_json(table)
     except (KeyError, TypeError, ValueError, AssertionError) as err:
@@ -257,7 +281,7 @@ def _operation(data: object, tool: str, path: str) -> Operation:
     fields.only_keys(table, ("name", "process", "volume_mm3", "limits", "bounds", "context"), path)
     bounds = fields.mapping(table.get("bounds", {}), f"{path}.bounds")
     return Operation(
-        name=fields.text(table, "name", path, most=MAX_IDENTITY),
+        name=_name(table, "name", path),
         process=process_of(table.get("process"), f"{path}.process"),
         tool=tool,
         volume_mm3=fields.number(table.get("volume_mm3"), f"{path}.volume_mm3", positive=True),
@@ -265,6 +289,19 @@ def _operation(data: object, tool: str, path: str) -> Operation:
         bounds={str(k): _bound(v, f"{path}.bounds.{k}") for k, v in bounds.items()},
         context=_numbers(table.get("context", {}), f"{path}.context"),
     )
+
+
+def _name(table: Mapping[str, Any], key: str, path: str) -> str:
+    """A machine's, plan's or operation's name, refused as a plan file's would be.
+
+    At most :data:`~models.bounds.MAX_IDENTITY` characters, none a terminal would not show as
+    written (:func:`models.fields.identity`): the fleet's listings print it.
+    """
+    value = fields.text(table, key, path, most=MAX_IDENTITY)
+    try:
+        return fields.identity(value)
+    except ValueError as err:
+        raise InputError(f"{path}.{key}", value, str(err)) from None
 
 
 def _numbers(data: object, path: str, positive: bool = False) -> dict[str, float]:

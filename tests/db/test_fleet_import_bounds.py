@@ -33,6 +33,18 @@ def _set(*path: Any, value: Any) -> Callable[[dict[str, Any]], None]:
     return change
 
 
+def _drop(*path: Any) -> Callable[[dict[str, Any]], None]:
+    """A change of the document's first item: the key at ``path`` taken out."""
+
+    def change(item: dict[str, Any]) -> None:
+        *head, last = path
+        for key in head:
+            item = item[key]
+        del item[last]
+
+    return change
+
+
 def _swap_cov(item: dict[str, Any]) -> None:  # symmetric, but one eigenvalue negative
     cov = item["posterior"]["cov"]
     cov[0][1] = cov[1][0] = 10 * (cov[0][0] * cov[1][1]) ** 0.5
@@ -57,6 +69,25 @@ CASES = [
     (_set("posterior", "observations", value=10**12), "posterior.observations", "whole number"),
     (_set("posterior", "observations", value="12"), "posterior.observations", "whole number"),
     (_set("origin", value="not-a-uuid"), "origin", "a UUID (rcb models identity)"),
+    # a review: stored, then every rcb plans create of the tool and rcb fleet law ended in a
+    # KeyError traceback (a bound missing) or refused each new plan ("depth_mm = None")
+    (_drop("operation", "bounds", "depth_mm"), "operation.bounds.depth_mm", "needs its bounds"),
+    (_set("operation", "process", value="milling"), "operation.process", "process is turning"),
+    # a review: refused as "posterior = 'dict': is not a posterior (could not convert string
+    # to float: 'a')", naming neither the field nor its value
+    (_set("posterior", "mean", 1, value="a"), "posterior.mean[1]", "must be a number"),
+    (_set("posterior", "cov", 0, 0, value="x"), "posterior.cov[0][0]", "must be a number"),
+    (_set("posterior", "names", 0, value=1), "posterior.names[0]", "an input's name"),
+    (_set("posterior", "edge_max", value="b"), "posterior.edge_max", "whole number >= 0"),
+    (_drop("posterior", "cov"), "posterior", "is not a posterior: no cov"),
+    # a review: "document.learned = 'CNMG432RN': holds models of another tool" named the
+    # document's tool, not the item or the tool it held
+    (_set("tool", "name", value="OTHER"), "tool.name", "the document's tool is 'CNMG432RN'"),
+    # a review: a machine named with an escape and a line feed was stored, and rcb fleet
+    # imported wrote it to the terminal as it was (a plan file's names are refused so)
+    (_set("machine", value="lathe\x1b[31m\nx"), "machine", "must not contain control"),
+    (_set("plan", value="a\u200bb"), "plan", "must not contain invisible format"),
+    (_set("operation", "name", value="od\nx"), "operation.name", "must not contain control"),
 ]
 
 
