@@ -55,7 +55,8 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
     names = sorted(set(tool_names))
     imported = imported_evidence(session=session, tool_names=names)
     return local_evidence(session=session, tool_names=names) + [
-        replace(item, machine=abroad(item.machine, origin)) for origin, item in imported
+        replace(item, machine=abroad(item.machine, origin), plan=abroad(item.plan, origin))
+        for origin, item in imported
     ]
 
 
@@ -65,7 +66,9 @@ def abroad(machine: str, origin: str) -> str:
     Two plants may both have a ``lathe-1``; merged by name, a new plan on this plant's would
     take the other's readings for its own machine's, which the between-machine spread does not
     limit. The first 8 characters of the origin's UUID (``imported`` where a version 1
-    document did not say) keep them apart, and say where each machine is.
+    document did not say) keep them apart, and say where each machine is. An imported plan
+    is named so too (``fleet-a@6f1c2a3b``): two plants' ``fleet-a`` are two plans, counted
+    apart in a prior's provenance (``prior from 2 plans on 2 machines``, not ``1 plan``).
     """
     return f"{machine}@{origin[:8] or 'imported'}"
 

@@ -66,6 +66,8 @@ def exclude(
     text = reason.strip()
     if not text or len(text) > MAX_REASON:
         raise InputError("--reason", reason, f"give why, in 1 to {MAX_REASON} characters")
+    if not text.isprintable():  # it is shown on terminals (rcb fleet show): an escape recolours
+        raise InputError("--reason", reason, "one line, no control or invisible characters")
     if machine is not None:
         _known_machine(session, machine)
     if plan_id is not None:

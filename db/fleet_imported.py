@@ -5,13 +5,14 @@ each in the fleet or taken out (and by whom, why), under the name an engineer ta
 (``rcb fleet exclude --machine lathe-1@6f1c2a3b``, :func:`db.fleet.abroad`). One grouped
 statement on ``imported_models`` (by ``ix_imported_models_tool``, from the page's key on) and
 one seek per name on ``fleet_exclusions``: no cost grows with the pages before.
+:func:`imported_in_fleet` counts the tool's imported models whose machine is not taken out.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sqlalchemy import and_, func, or_, select
+from sqlalchemy import ColumnElement, and_, case, exists, func, literal, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -55,3 +56,22 @@ def imported_machines(
         )
         for name, machine, origin, count, readings in named
     ]
+
+
+def imported_in_fleet(*, session: Session, tool: str) -> int:
+    """``tool``'s imported models whose machine no engineer took out (one counting statement).
+
+    None: a new plan with no stored plan of the tool starts from the catalogue
+    (``rcb fleet show`` says so), whatever was imported.
+    """
+    m, e = t.ImportedModel, t.FleetExclusion
+    out = exists().where(e.machine == _abroad_name())
+    found = session.scalar(select(func.count()).select_from(m).where(m.tool == tool, ~out))
+    return int(found or 0)
+
+
+def _abroad_name() -> ColumnElement[str]:
+    """:func:`db.fleet.abroad` in SQL: ``machine@`` the origin's first 8 characters."""
+    m = t.ImportedModel
+    short = case((m.origin == "", literal("imported")), else_=func.substr(m.origin, 1, 8))
+    return m.machine + literal("@") + short

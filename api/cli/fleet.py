@@ -225,12 +225,18 @@ def _print_members(page: dict[str, Any], first: bool, db: str | None) -> None:
         Console().print(_members_table(page))
     if not first:
         return
-    if not page["plans"]:
-        start = "the imported models" if page["imported"] else "the catalogue"
+    imported, in_fleet = page["imported"], page["imported_in_fleet"]
+    if not page["plans"]:  # the imported models of machines taken out make no prior
+        start = "the imported models" if in_fleet else "the catalogue"
         say_filled(f"rcb: no stored plan uses {tool}: new plans start from {start}")
-    if page["imported"]:  # the command whole, to copy
-        text = f"rcb: and {page['imported']} learned models imported from other databases;"
-        say_command(f"{text} their machines:", f"rcb fleet imported {tool}{again_db(db)}")
+    if imported:  # the command whole, to copy
+        text = f"rcb: and {imported} learned models imported from other databases"
+        command = f"rcb fleet imported {tool}{again_db(db)}"
+        if in_fleet < imported:  # some machines taken out: the sentence filled to 80
+            say_filled(f"{text} ({in_fleet} of them in the fleet); their machines:")
+            say(f"  {command}")
+        else:
+            say_command(f"{text}; their machines:", command)
     if any(not m["out"] for m in page["plans"]):
         say_command("rcb: what they learned of its law:", f"rcb fleet law {tool}{again_db(db)}")
 
@@ -249,7 +255,7 @@ def _members_table(page: dict[str, Any]) -> Table:
 
 @fleet_app.command("exclude")
 def exclude(
-    reason: Annotated[str, typer.Option("--reason", help="Why (kept with the exclusion).")],
+    reason: Annotated[str, typer.Option("--reason", help="Why, one line (kept with it).")],
     plan: PlanOption = None,
     machine: MachineOption = None,
     db: DbOption = None,

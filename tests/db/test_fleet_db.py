@@ -200,12 +200,16 @@ def test_exported_models_imported_into_a_fresh_database_give_the_same_prior(
 
 
 def _named_as_here(provenance: Any, suffix: str) -> Any:
-    """``provenance`` with every machine's ``suffix`` (which each must carry) taken off."""
+    """``provenance`` with every machine's and plan's ``suffix`` (each must carry it) taken off.
+
+    An imported plan is named as its machine is (``fleet-a@6f1c2a3b``): a second plant's plan
+    of the same name is another plan (tests/db/test_fleet_imported_plan_names.py).
+    """
     if isinstance(provenance, dict):
         return {k: _named_as_here(v, suffix) for k, v in provenance.items()}
     if isinstance(provenance, list):
         return [_named_as_here(v, suffix) for v in provenance]
-    if isinstance(provenance, str) and provenance.startswith("lathe-"):
+    if isinstance(provenance, str) and provenance.startswith(("lathe-", "fleet-")):
         assert provenance.endswith(suffix), provenance
         return provenance.removesuffix(suffix)
     return provenance

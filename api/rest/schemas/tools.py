@@ -162,6 +162,9 @@ class FleetList(Out):
         description="learned models imported from other databases (their machines: "
         "GET /tools/{name}/fleet/imported)"
     )
+    imported_in_fleet: int = Field(
+        description="of imported, the models of machines not taken out of the fleet"
+    )
     next_cursor: str | None
 
 

@@ -15,7 +15,7 @@ from sqlalchemy.orm import Session
 from api.services.errors import NotFoundError
 from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read, _token, _untoken
 from db import tables as t
-from db.fleet_imported import imported_machines
+from db.fleet_imported import imported_in_fleet, imported_machines
 from db.fleet_law import tool_law
 from db.fleet_members import members
 from models.catalogue import catalogue
@@ -36,6 +36,7 @@ def fleet_members(
 
     ``imported``: the learned models of the tool other databases exported and this one
     imported (``rcb models import``); :func:`imported_fleet` names their machines.
+    ``imported_in_fleet``: of those, the models of machines not taken out.
     """
     _bounded(page_size)
     after = _cursor(cursor)
@@ -45,12 +46,14 @@ def fleet_members(
         imported = session.scalar(
             select(func.count()).select_from(t.ImportedModel).where(t.ImportedModel.tool == tool)
         )
+        in_fleet = imported_in_fleet(session=session, tool=tool) if imported else 0
     more = len(rows) > page_size
     rows = rows[:page_size]
     return {
         "tool": tool,
         "plans": [{**asdict(m), "in_fleet": not m.out} for m in rows],
         "imported": int(imported or 0),
+        "imported_in_fleet": in_fleet,
         "next_cursor": str(rows[-1].plan_id) if more else None,
     }
 
@@ -125,7 +128,16 @@ def _law_json(law: FleetLaw) -> dict[str, Any]:
 
 
 def _known(session: Session, tool: str) -> None:
-    """NotFoundError unless ``tool`` is stored or in the packaged catalogue."""
-    known = session.scalar(select(t.Tool.id).where(t.Tool.name == tool))
-    if known is None and tool not in catalogue():
+    """NotFoundError unless ``tool`` is stored, in the packaged catalogue, or imported.
+
+    Imported: another database's own tool whose learned models ``rcb models import`` stored
+    here (``imported_models``, by ``ix_imported_models_tool``): its machines are listed and
+    taken out by name before any plan here uses it.
+    """
+    if tool in catalogue():
+        return
+    if session.scalar(select(t.Tool.id).where(t.Tool.name == tool)) is not None:
+        return
+    m = t.ImportedModel
+    if session.scalar(select(m.id).where(m.tool == tool).limit(1)) is None:
         raise NotFoundError("tool", tool)
