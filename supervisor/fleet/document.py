@@ -34,7 +34,8 @@ from models.bounds import LARGEST, LARGEST_EXPONENT, LARGEST_WHOLE, MAX_IDENTITY
 from models.errors import InputError
 from models.kinematics import PARAMETERS, Process
 from models.tool import process_of, tool_from_mapping, tool_mapping
-from supervisor.fleet.learned import Learned
+from supervisor.fleet.evidence import LEAST_VARIANCE
+from supervisor.fleet.learned import Learned, proper, start_of
 from supervisor.fleet.posterior_fields import posterior_fields
 from supervisor.inputs.plan import Operation
 from supervisor.rcb.noise import NoiseScale
@@ -178,7 +179,7 @@ def read_item(data: object, path: str) -> Learned:
             raise InputError(f"{path}.posterior.names", name, "not an input of the tool's model")
     operation = _operation(table.get("operation"), tool.name, f"{path}.operation")
     _operation_fits(operation, tool.process, inputs, f"{path}.operation")
-    return Learned(
+    item = Learned(
         _name(table, "machine", path),
         _name(table, "plan", path),
         operation,
@@ -190,6 +191,38 @@ def read_item(data: object, path: str) -> Learned:
         None if start is None else _posterior(start, f"{path}.start"),
         _chain(table.get("chain"), f"{path}.chain"),
     )
+    _posed(item, path)
+    return item
+
+
+def _posed(item: Learned, path: str) -> None:
+    """``item``'s belief, and the one it started from, each :func:`~.learned.proper`.
+
+    Stored, an item that is not would add nothing to a fleet prior (its evidence is not made),
+    yet be counted and listed as if it did: a ``dK`` of 1e-9 of K, say, hand-written. A start
+    that knows a parameter exactly (``exponent_sd = 0``, a plan's setting) is let in, as a
+    plan here with it is: that model adds nothing, the plan's others do.
+    """
+    quantity = item.posterior.quantity
+    if not proper(item.posterior):
+        raise InputError(f"{path}.posterior.cov", None, _NOT_PROPER)
+    start = start_of(item, quantity)
+    if proper(start) or min(start.cov[i][i] for i in range(len(start.cov))) <= 0.0:
+        return
+    if item.start is not None:
+        raise InputError(f"{path}.start.cov", None, _NOT_PROPER)
+    model = item.tool.models[quantity]
+    raise InputError(
+        f"{path}.tool.models.{quantity}",
+        {"K": model.K, "dK": model.dK},
+        f"the prior it makes over the operation's bounds (dK, exponent_stderr) {_NOT_PROPER}",
+    )
+
+
+_NOT_PROPER = (
+    f"knows the law (nearly) exactly, a variance under {LEAST_VARIANCE:g}: no evidence can "
+    "be made of its readings"
+)
 
 
 def _operation_fits(

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from models.tool import Tool
-from supervisor.fleet.evidence import Evidence, evidences
+from supervisor.fleet.evidence import LEAST_VARIANCE, Evidence, evidences, least_variance
 from supervisor.inputs.plan import Operation
 from supervisor.rcb import posterior as post
 from supervisor.rcb.learning import as_started
@@ -44,13 +44,16 @@ class Learned:
 
 
 def proper(belief: Posterior) -> bool:
-    """Every parameter of ``belief`` uncertain (a variance > 0), as the information form needs.
+    """Every parameter of ``belief`` uncertain enough for the information form to be made.
 
     ``exponent_sd = 0`` (or an exponent of 0, ``edge_sd = 0`` with an edge-life limit) makes a
     prior that knows a parameter exactly: its inverse does not exist, and no evidence can move
-    that parameter.
+    that parameter. Nearly so (a ``dK`` of 1e-9 of K) is as bad: its inverse exists, but the
+    evidence made with it is round-off (:data:`~supervisor.fleet.evidence.LEAST_VARIANCE`).
     """
-    return all(0.0 < belief.cov[i][i] < math.inf for i in range(len(belief.cov)))
+    if not all(0.0 < belief.cov[i][i] < math.inf for i in range(len(belief.cov))):
+        return False
+    return least_variance(belief) >= LEAST_VARIANCE
 
 
 def start_of(item: Learned, quantity: str) -> Posterior:
@@ -66,7 +69,7 @@ def start_of(item: Learned, quantity: str) -> Posterior:
 
 
 def readings_of(learned: Sequence[Learned]) -> list[tuple[Learned, Evidence | None]]:
-    """Each learned model's evidence (None: its start knows a parameter exactly), made once.
+    """Each learned model's evidence (None: it or its start is not :func:`proper`), made once.
 
     A plan's operations that share a tool read the same models; the evidence of all of them
     is made in one stacked computation (:func:`~supervisor.fleet.evidence.evidences`).
@@ -77,6 +80,7 @@ def readings_of(learned: Sequence[Learned]) -> list[tuple[Learned, Evidence | No
         for i, (item, start) in enumerate(zip(learned, starts, strict=True))
         if (start.names, start.edge_max) == (item.posterior.names, item.posterior.edge_max)
         and proper(start)
+        and proper(item.posterior)
     ]
     made = evidences(
         [(learned[i].posterior, starts[i], learned[i].operation.context) for i in usable]

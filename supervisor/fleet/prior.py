@@ -243,16 +243,18 @@ def _pair(
     if not proper(catalogue):  # a parameter known exactly: the catalogue's stands
         return None
     operations: dict[str, list[Evidence]] = {}
+    used = []  # what the provenance names and counts: the models whose evidence is in it
     for item, seen in matched:
         if seen is None or item.posterior.names != catalogue.names:
             continue
         operations.setdefault(item.machine, []).append(seen)
+        used.append(item)
     if not operations:
         return None
     prior_mean, prior_cov = in_tool_terms(catalogue, frame.context, edge_sd)
     key = (tool.name, tool.process, tool.material, catalogue.quantity)
     p0 = np.linalg.inv(prior_cov)
-    return _Pair(key, frame, catalogue, tuple(found), operations, prior_mean, prior_cov, p0)
+    return _Pair(key, frame, catalogue, tuple(used), operations, prior_mean, prior_cov, p0)
 
 
 #: A spread's default for one tool and quantity, and the floor its own estimates keep it above.

@@ -45,6 +45,18 @@ def _drop(*path: Any) -> Callable[[dict[str, Any]], None]:
     return change
 
 
+def _band_of_a_ppb(item: dict[str, Any]) -> None:  # its tool's model known to 1e-9 of K
+    model = item["tool"]["models"][item["posterior"]["quantity"]]
+    model["dK"] = 1e-9 * model["K"]
+
+
+def _pinned_cov(item: dict[str, Any]) -> None:  # ln Y and the first exponent all but one
+    cov = item["posterior"]["cov"]
+    for i in range(2, len(cov)):
+        cov[0][i] = cov[i][0] = cov[1][i] = cov[i][1] = 0.0
+    cov[0][1] = cov[1][0] = (1 - 1e-13) * (cov[0][0] * cov[1][1]) ** 0.5
+
+
 def _swap_cov(item: dict[str, Any]) -> None:  # symmetric, but one eigenvalue negative
     cov = item["posterior"]["cov"]
     cov[0][1] = cov[1][0] = 10 * (cov[0][0] * cov[1][1]) ** 0.5
@@ -88,6 +100,10 @@ CASES = [
     (_set("machine", value="lathe\x1b[31m\nx"), "machine", "must not contain control"),
     (_set("plan", value="a\u200bb"), "plan", "must not contain invisible format"),
     (_set("operation", "name", value="od\nx"), "operation.name", "must not contain control"),
+    # a review: stored, a force model whose dK was 1e-9 of K made the next plan's fleet law
+    # K = 1.8e-8 N with a feed exponent of -17.8 (its evidence was round-off of 1e18)
+    (_band_of_a_ppb, "tool.models.force_N", "knows the law (nearly) exactly"),
+    (_pinned_cov, "posterior.cov", "knows the law (nearly) exactly"),
 ]
 
 
