@@ -48,13 +48,15 @@ def history_table(record: Mapping[str, Any]) -> str:
     history = record["history"]
     names = [o["name"] for o in history["versions"][-1]["operations"]]
     fixed = ("Version", "Cause", "Part", "Created", "Cycle time [min]")
+    # two header rows: each cell says it heads the columns under it (WCAG technique H63; the
+    # MRR cell all the operations' columns it spans), for a screen reader to name each cell
     head = row(
         [
-            *(th(h, rowspan=2) for h in fixed),
-            th("MRR [cm³/min]", colspan=len(names)),
-            th("Flags and notes of the part", rowspan=2),
+            *(th(h, rowspan=2, scope="col") for h in fixed),
+            th("MRR [cm³/min]", colspan=len(names), scope="col"),
+            th("Flags and notes of the part", rowspan=2, scope="col"),
         ]
-    ) + row(tag("th", name_html(n), class_="name") for n in names)
+    ) + row(tag("th", name_html(n), class_="name", scope="col") for n in names)
     rows = [_summary_row(s, names) for s in record["summaries"]]
     marks = record["marks"]
     for v in listed_versions(history):

@@ -142,6 +142,16 @@ def test_history_table_holds_the_stored_numbers(stored, page):
     )  # Ivester & Heigel Table 5 step 1 R
 
 
+def test_history_headers_say_what_they_head(stored, page):
+    """Its header has two rows (MRR over one column per operation): each ``th`` says it heads
+    the columns under it (``scope="col"``, WCAG technique H63), so a screen reader names a cell
+    "MRR, rough-od" (a review at 1280 px found none)."""
+    table = _table(_xml(page), "history")
+    heads = [th for tr in table.findall("thead/tr") for th in tr.findall("th")]
+    assert len(heads) == 7 + 6  # 7 over two rows, one per operation
+    assert [th.get("scope") for th in heads] == ["col"] * len(heads)
+
+
 def test_setpoints_table_shows_the_setpoints_in_force(stored, page):
     _, _, plan, history, _ = stored
     table = _table(_xml(page), "setpoints")
