@@ -26,11 +26,12 @@ from collections.abc import Collection
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from sqlalchemy import insert, select
+from sqlalchemy import func, insert, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet import imported_evidence, local_evidence
+from db.fleet import local_evidence
+from db.fleet_imported import imported_evidence
 from db.identity import database_id, plan_origins
 from models.catalogue import catalogue
 from models.errors import InputError
@@ -56,6 +57,8 @@ def export_models(*, session: Session, tool: str, material: str | None = None) -
     learned = [(o, item) for o, item in held if material is None or item.tool.material == material]
     if not learned:
         reason = _not_learned(session, tool, material, [item for _, item in held])
+        if material is not None and held:  # the tool was learned, on another material
+            raise InputError("--material", material, reason)
         raise InputError("TOOL", tool, reason)
     return document(tool, learned[0][1].tool.material, learned)
 
@@ -105,6 +108,7 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
                 item.tool.name,
                 f"the document's tool is {tool!r}",
             )
+    _one_machine_a_plan(session, tool, learned)
     own = database_id(session=session)
     held = plan_origins(session=session, names=(item.plan for _, item in learned), own=own)
     foreign = [(o, item) for o, item in learned if held.get(item.plan) != o]
@@ -127,6 +131,44 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
     copied = sum(1 for origin, _ in foreign if origin == own)
     new, own_count = len(fresh), len(learned) - len(foreign)
     return Imported(new, replaced, len(foreign) - new - replaced, own_count, copied)
+
+
+def _one_machine_a_plan(session: Session, tool: str, learned: list[tuple[str, Learned]]) -> None:
+    """Refuse an item whose plan the document or a stored import has on another machine.
+
+    A plan runs on one machine (a database names a plan once): a hand-edited document that
+    moved some of a plan's models to another machine would be counted as one plan on two,
+    its readings split between them. Of a version 1 document (no ``origin``), two plants'
+    plans of one name cannot be told apart: not checked. One statement for the stored rows.
+    """
+    first: dict[tuple[str, str], tuple[int, str]] = {}
+    for i, (origin, item) in enumerate(learned):
+        seen = first.setdefault((origin, item.plan), (i, item.machine))
+        if origin and seen[1] != item.machine:
+            raise InputError(
+                f"document.learned[{i}].machine",
+                item.machine,
+                f"plan {item.plan!r} of {origin} runs on one machine; learned[{seen[0]}] is on"
+                f" {seen[1]!r}",
+            )
+    m = t.ImportedModel
+    origins = sorted({origin for origin, _ in first if origin})
+    if not origins:
+        return
+    stored = session.execute(
+        select(m.origin, m.plan, m.machine, func.min(m.source))
+        .where(m.tool == tool, m.origin.in_(origins))  # uq_imported_models_key
+        .group_by(m.origin, m.plan, m.machine)
+    )
+    for origin, plan, machine, source in stored:
+        i, given = first.get((origin, plan), (-1, machine))
+        if given != machine:
+            raise InputError(
+                f"document.learned[{i}].machine",
+                given,
+                f"plan {plan!r} of {origin} runs on one machine; it is stored on {machine!r}"
+                f" ({source})",
+            )
 
 
 def _rows(

@@ -42,7 +42,14 @@ def export(
     ] = None,
     db: DbOption = None,
 ) -> None:
-    """Write TOOL's learned models (every learn plan's posterior, where it was learned)."""
+    """Write TOOL's learned models in the fleet: what new plans' fleet priors start from.
+
+    Of each machine, its 10 newest learn plans with the tool that learned a model of it,
+    neither halted nor taken out (rcb fleet exclude) nor with a change of process not yet
+    accepted (rcb fleet include): this database's plans and, counted the same way, the models
+    it imported from other databases. Each model names the database that learned it. rcb
+    fleet show TOOL lists the plans, and why one is out.
+    """
     from api.services.fleet_models import export_tool
 
     with errors():

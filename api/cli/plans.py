@@ -31,7 +31,7 @@ from api.cli.common import (
     say,
     say_filled,
 )
-from api.cli.tables import PARAMETER_HEADINGS, new_table, short_number
+from api.cli.tables import PARAMETER_HEADINGS, free_text, new_table, short_number
 from api.cli.who import ByOption, cli_actor
 from api.report.provenance import (
     CATALOGUE,
@@ -40,7 +40,7 @@ from api.report.provenance import (
     let_go_groups,
     let_go_text,
 )
-from models.errors import InputError
+from models.errors import InputError, InputErrors
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
 if TYPE_CHECKING:
@@ -56,10 +56,23 @@ class Prior(StrEnum):
     catalogue = "catalogue"
 
 
+def _prior(value: str | None) -> str | None:
+    """``--prior``: one of :class:`Prior` (none: the default), said as ``--strategy`` is.
+
+    Not typer's check of an enum: its message was pydantic's (``Invalid value for '--prior':
+    Value error, 'bogus' is not one of 'fleet', 'catalogue'. (got 'bogus')``).
+    """
+    if value is not None and value not in tuple(Prior):
+        raise InputError("--prior", value, f"must be one of {', '.join(Prior)}")
+    return value
+
+
 PriorOption = Annotated[
-    Prior | None,
+    str | None,
     typer.Option(
         "--prior",
+        metavar=f"<{'|'.join(Prior)}>",
+        callback=_prior,
         help="learn's start: fleet (what the stored plans learned with the plan's tools) or "
         "catalogue. [default: fleet where the database holds it]",
         show_default=False,
@@ -106,8 +119,10 @@ def create(
             given["strategy"] = strategy
         engine = engine_of(db)
         # the file's [rcb] table, the options over it; its errors and the plan's together
-        chosen = None if prior is None else prior.value
-        written = create_plan(engine=engine, body=body, given=given, actor=actor, prior=chosen)
+        try:
+            written = create_plan(engine=engine, body=body, given=given, actor=actor, prior=prior)
+        except InputError as err:
+            raise _as_prior_option(err) from None
     answer = written.body
     if as_json:
         emit(answer)
@@ -116,7 +131,7 @@ def create(
     _out.print(_setpoint_table(title, answer["operations"]))
     _say_prior(answer)
     _say_band_held(answer)
-    say(
+    say_filled(
         f"rcb: plan {answer['id']} {answer['name']}: setpoint version "
         f"{answer['setpoint_version']}, cycle time {answer['cycle_time_min']:.4g} min"
     )
@@ -190,7 +205,7 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     refused = [data[k] for k in ("settings_refused", "plan_refused") if data.get(k)]
     if data["status"] != "halted" and refused:
         state = "REFUSED (below)"
-    say(f"rcb: plan {data['id']} {data['name']} on {data['machine']}: {state}")
+    say_filled(f"rcb: plan {data['id']} {data['name']} on {data['machine']}: {state}")
     rule = (
         f"rcb: setpoint version {data['setpoint_version']}, {data['parts']} parts; "
         f"RCB {data['strategy']} alpha={data['alpha']:g} ({settings})"
@@ -198,6 +213,25 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     say_filled(rule)
     for why in refused:  # its reports are refused until a replan sets it anew
         say(refused_line(data["id"], why))
+
+
+def _as_prior_option(err: InputError) -> InputError:
+    """The service's ``prior`` (REST's query parameter) said as the option: ``--prior``."""
+    if isinstance(err, InputErrors):
+        return InputErrors([_as_prior_option(each) for each in err.errors])
+    if err.field != "prior":
+        return err
+    return InputError("--prior", err.value, err.reason)
+
+
+def _name_column(table: Table, heading: str) -> None:
+    """A column of names (an operation's, a tool's, a part's serial): a digit makes no number.
+
+    Free text (:func:`api.cli.tables.free_text`): where the table is wider than the console,
+    a long name is folded, not the other columns' words (``roughness_um``, ``rough-od``).
+    """
+    table.add_column(heading, overflow="fold")
+    free_text(table.columns[-1])
 
 
 def settings_text(settings: dict[str, Any]) -> str:
@@ -245,9 +279,10 @@ def _say_prior(answer: dict[str, Any]) -> None:
         caption=_let_go_caption(lines, "widened_by_part"),
         caption_justify="left",
     )
-    columns = ("operation", "quantity", "plans", "machines", "spread %", "readings", "let go by")
-    for column in columns:
+    _name_column(table, "operation")
+    for column in ("quantity", "plans", "machines", "spread %", "readings"):
         table.add_column(column, overflow="fold")
+    _name_column(table, "let go by")  # a part's serial: a name, its digits no number's
     for i, (operation, line) in enumerate(lines):
         table.add_row(
             operation if i == 0 or lines[i - 1][0] != operation else "",
@@ -281,8 +316,9 @@ def _noise_table(noise: list[dict[str, Any]]) -> Table:
         caption=caption,
         caption_justify="left",
     )
-    for column in ("quantity", "noise", "machines", "spread", "worth", "let go by"):
+    for column in ("quantity", "noise", "machines", "spread", "worth"):
         table.add_column(column, overflow="fold")
+    _name_column(table, "let go by")
     for line in noise:
         table.add_row(
             line["quantity"],
@@ -300,7 +336,9 @@ def _show_tables(data: dict[str, Any], current: dict[str, Any] | None) -> list[T
     title = f"plan {data['id']} {data['name']}: setpoint version {data['setpoint_version']}"
     tables = [] if current is None else [_setpoint_table(title, current["operations"])]
     limits = new_table(title=f"plan {data['id']} {data['name']}: limits and bounds")
-    for column in ("operation", "tool", "limits", "bounds"):
+    _name_column(limits, "operation")
+    _name_column(limits, "tool")
+    for column in ("limits", "bounds"):
         limits.add_column(column, overflow="fold")
     for op in data["operations"]:
         limits.add_row(
@@ -322,8 +360,8 @@ def _setpoint_table(title: str, operations: list[dict[str, Any]]) -> Table:
     """
     table = new_table(title=title)
     params = list(dict.fromkeys(k for op in operations for k in op["setpoint"]))
-    table.add_column("operation", overflow="fold")
-    table.add_column("tool", overflow="fold")
+    _name_column(table, "operation")
+    _name_column(table, "tool")
     for p in params:
         table.add_column(PARAMETER_HEADINGS.get(p, p), justify="right")
     table.add_column("MRR\ncm³/min", justify="right")

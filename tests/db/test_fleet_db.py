@@ -157,12 +157,13 @@ def test_a_fleet_prior_needs_a_fleet_and_learn(engine) -> None:
 
 
 def test_rcb_plans_create_prior_fleet_without_a_fleet_says_so_plainly(engine, runner) -> None:
-    """The option's value, not its enum's repr (``prior = <Prior.fleet: 'fleet'>`` before)."""
+    """The option named as typed, its value not its enum's repr (``prior = <Prior.fleet: 'fleet'>``
+    before)."""
     example = Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml"
     url = engine_url(engine)
     done = runner.invoke(app, ["plans", "create", str(example), "--prior", "fleet", "--db", url])
     assert done.exit_code == 2
-    assert "rcb: error: prior = 'fleet': no learn plan in the fleet has measured" in done.output
+    assert "rcb: error: --prior = 'fleet': no learn plan in the fleet has measured" in done.output
     assert "rcb fleet show TOOL" in done.output and "Traceback" not in done.output
 
 
