@@ -26,20 +26,25 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any
 
-from sqlalchemy import ColumnElement, and_, select
+from sqlalchemy import ColumnElement, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet_changes import plan_changes
+
+# re-exported: the imported models' reads were here (db.fleet_exclusions, tests import them)
+from db.fleet_imported import abroad as abroad
+from db.fleet_imported import imported_evidence as imported_evidence
+from db.fleet_imported import imported_machine as imported_machine
+from db.fleet_imported import taken_out as taken_out
 from db.fleet_names import bounded, listed
 from db.fleet_noise import noise_provenance
 from db.fleet_states import newest_state
-from db.fleet_window import newest_imported, newest_local
+from db.fleet_window import newest_local
 from db.let_go_mark import marked
 from db.library import load_tools
 from db.plan_state import settings_of
 from models.errors import InputError
-from supervisor.fleet.document import read_item
 from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import NoisePrior, noise_priors
 from supervisor.fleet.prior import FleetPrior, Provenance, fleet_priors
@@ -58,76 +63,6 @@ def fleet_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learn
         replace(item, machine=abroad(item.machine, origin), plan=abroad(item.plan, origin))
         for origin, item in imported
     ]
-
-
-def abroad(machine: str, origin: str) -> str:
-    """An imported model's machine as the fleet tells it apart: ``lathe-1@6f1c2a3b``.
-
-    Two plants may both have a ``lathe-1``; merged by name, a new plan on this plant's would
-    take the other's readings for its own machine's, which the between-machine spread does not
-    limit. The first 8 characters of the origin's UUID (``imported`` where a version 1
-    document did not say) keep them apart, and say where each machine is. An imported plan
-    is named so too (``fleet-a@6f1c2a3b``): two plants' ``fleet-a`` are two plans, counted
-    apart in a prior's provenance (``prior from 2 plans on 2 machines``, not ``1 plan``).
-    """
-    return f"{machine}@{origin[:8] or 'imported'}"
-
-
-def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tuple[str, Learned]]:
-    """The models of the named tools other databases exported, each with its ``origin``.
-
-    Left out: those of a machine an engineer took out by its name here (``rcb fleet exclude
-    --machine lathe-1@6f1c2a3b``, :func:`abroad`).
-    """
-    names = sorted(set(tool_names))
-    m, window = t.ImportedModel, newest_imported(names)  # each machine's newest plans
-    kept = window.c
-    imported = (
-        select(m.origin, m.machine, m.body)
-        .join(
-            window,
-            and_(
-                kept.tool == m.tool,
-                kept.origin == m.origin,
-                kept.machine == m.machine,
-                kept.plan == m.plan,
-            ),
-        )
-        .where(m.tool.in_(names))
-        .order_by(m.id)
-    )
-    rows = [
-        (abroad(machine, origin), origin, body)
-        for origin, machine, body in session.execute(imported)
-    ]
-    out = taken_out(session=session, names={name for name, _, _ in rows})
-    return [
-        (origin, read_item(body, "imported_models.body"))
-        for name, origin, body in rows
-        if name not in out
-    ]
-
-
-def taken_out(*, session: Session, names: Iterable[str]) -> dict[str, str]:
-    """Of the named imported machines (:func:`abroad`), those an engineer took out, and why.
-
-    One seek per name on ``fleet_exclusions``: ``taken out by ACTOR: REASON``.
-    """
-    wanted = sorted(set(names))
-    if not wanted:
-        return {}
-    e = t.FleetExclusion
-    found = select(e.machine, e.actor, e.reason).where(e.machine.in_(wanted)).order_by(e.id)
-    return {str(m): f"taken out by {actor}: {why}" for m, actor, why in session.execute(found)}
-
-
-def imported_machine(*, session: Session, name: str) -> bool:
-    """Whether ``name`` is an imported model's machine as :func:`abroad` names it."""
-    machine, _, short = name.rpartition("@")
-    m = t.ImportedModel
-    origin = m.origin == "" if short == "imported" else m.origin.startswith(short)
-    found = select(m.id).where(m.machine == machine, origin).limit(1)
-    return bool(machine and short) and session.scalar(found) is not None
 
 
 def local_evidence(*, session: Session, tool_names: Iterable[str]) -> list[Learned]:

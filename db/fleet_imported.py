@@ -1,22 +1,133 @@
 """The machines whose models this database imported, by the names the fleet gives them.
 
-``rcb fleet imported TOOL`` (``GET /tools/{name}/fleet/imported``) lists them a page at a time,
-each in the fleet or taken out (and by whom, why), under the name an engineer takes one out by
-(``rcb fleet exclude --machine lathe-1@6f1c2a3b``, :func:`db.fleet.abroad`). One grouped
-statement on ``imported_models`` (by ``ix_imported_models_tool``, from the page's key on) and
-one seek per name on ``fleet_exclusions``: no cost grows with the pages before.
+:func:`imported_evidence` reads their models for a new plan's prior (each machine's newest
+plans, :func:`db.fleet_window.newest_imported`), a machine taken out left unread, and names
+the machine of a stored model this version refuses with the command that takes it out
+(:func:`stale`). ``rcb fleet imported TOOL`` (``GET /tools/{name}/fleet/imported``) lists
+them a page at a time, each in the fleet or taken out (and by whom, why), under the name an
+engineer takes one out by (``rcb fleet exclude --machine lathe-1@6f1c2a3b``, :func:`abroad`).
+One grouped statement on ``imported_models`` (by ``ix_imported_models_tool``, from the page's
+key on) and one seek per name on ``fleet_exclusions``: no cost grows with the pages before.
 :func:`imported_in_fleet` counts the tool's imported models whose machine is not taken out.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from sqlalchemy import ColumnElement, and_, case, exists, func, literal, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
-from db.fleet import abroad, taken_out
+from db.fleet_window import newest_imported
+from models.errors import Gathered, InputError
+from supervisor.fleet.document import read_item
+from supervisor.fleet.learned import Learned
+
+
+def abroad(machine: str, origin: str) -> str:
+    """An imported model's machine as the fleet tells it apart: ``lathe-1@6f1c2a3b``.
+
+    Two plants may both have a ``lathe-1``; merged by name, a new plan on this plant's would
+    take the other's readings for its own machine's, which the between-machine spread does not
+    limit. The first 8 characters of the origin's UUID (``imported`` where a version 1
+    document did not say) keep them apart, and say where each machine is. An imported plan
+    is named so too (``fleet-a@6f1c2a3b``): two plants' ``fleet-a`` are two plans, counted
+    apart in a prior's provenance (``prior from 2 plans on 2 machines``, not ``1 plan``).
+    """
+    return f"{machine}@{origin[:8] or 'imported'}"
+
+
+def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tuple[str, Learned]]:
+    """The models of the named tools other databases exported, each with its ``origin``.
+
+    Left out: those of a machine an engineer took out by its name here (``rcb fleet exclude
+    --machine lathe-1@6f1c2a3b``, :func:`abroad`), before they are read.
+
+    Raises
+    ------
+    InputError
+        A row this version refuses (imported before it checked so: :func:`stale`), one error
+        per machine (:class:`~models.errors.InputErrors` for several).
+    """
+    names = sorted(set(tool_names))
+    m, window = t.ImportedModel, newest_imported(names)  # each machine's newest plans
+    kept = window.c
+    imported = (
+        select(m.origin, m.machine, m.body, m.source)
+        .join(
+            window,
+            and_(
+                kept.tool == m.tool,
+                kept.origin == m.origin,
+                kept.machine == m.machine,
+                kept.plan == m.plan,
+            ),
+        )
+        .where(m.tool.in_(names))
+        .order_by(m.id)
+    )
+    rows = [
+        (abroad(machine, origin), origin, body, source)
+        for origin, machine, body, source in session.execute(imported)
+    ]
+    out = taken_out(session=session, names={name for name, *_ in rows})
+    read: list[tuple[str, Learned]] = []
+    refused = Gathered()
+    named: set[str] = set()
+    for name, origin, body, source in rows:
+        if name in out:
+            continue
+        try:
+            read.append((origin, read_item(body, "imported_models.body")))
+        except InputError as err:
+            if name not in named:  # one error per machine: one exclusion takes it out
+                named.add(name)
+                refused.read(stale, err, name, source)
+    refused.raise_any()
+    return read
+
+
+def stale(err: InputError, machine: str, source: str) -> None:
+    """Raise ``err`` of an imported row this version refuses, saying whose it is and the way out.
+
+    ``rcb models import`` stored, before it checked so, models this version refuses (an
+    operation without a bound its model needs, of another process). Dropped unasked, a plant's
+    machine would leave the fleet with no one knowing; refused unnamed, no new plan of the tool
+    could start from the fleet, and the error named only ``imported_models.body…``. The error
+    names the machine as an engineer takes it out, and the command: taken out, its rows are
+    not read (:func:`imported_evidence`), and ``rcb fleet include`` puts it back.
+    """
+    raise InputError(
+        err.field,
+        err.value,
+        f"{err.reason} (a model of imported machine {machine}, {source}, stored before this"
+        f" version checked it: take the machine out of the fleet with `rcb fleet exclude"
+        f" --machine {machine} --reason TEXT`, or create the plan with --prior catalogue)",
+    )
+
+
+def taken_out(*, session: Session, names: Iterable[str]) -> dict[str, str]:
+    """Of the named imported machines (:func:`abroad`), those an engineer took out, and why.
+
+    One seek per name on ``fleet_exclusions``: ``taken out by ACTOR: REASON``.
+    """
+    wanted = sorted(set(names))
+    if not wanted:
+        return {}
+    e = t.FleetExclusion
+    found = select(e.machine, e.actor, e.reason).where(e.machine.in_(wanted)).order_by(e.id)
+    return {str(m): f"taken out by {actor}: {why}" for m, actor, why in session.execute(found)}
+
+
+def imported_machine(*, session: Session, name: str) -> bool:
+    """Whether ``name`` is an imported model's machine as :func:`abroad` names it."""
+    machine, _, short = name.rpartition("@")
+    m = t.ImportedModel
+    origin = m.origin == "" if short == "imported" else m.origin.startswith(short)
+    found = select(m.id).where(m.machine == machine, origin).limit(1)
+    return bool(machine and short) and session.scalar(found) is not None
 
 
 @dataclass(frozen=True)

@@ -25,15 +25,28 @@ def export_tool(*, engine: Engine, tool: str, material: str | None = None) -> di
 def import_tool(
     *, engine: Engine, data: object, source: str, actor: Actor = api_keys.CLI_ACTOR
 ) -> Written:
-    """Store a document's learned models, all or none (audited)."""
+    """Store a document's learned models, all or none (audited, with what it did).
+
+    The audit entry's detail holds the counts the answer reports (``stored``, ``new``,
+    ``replaced``, ``kept``, ``own``, ``copied``), so ``rcb audit`` says what an import did.
+    """
+    counts: dict[str, Any] = {}  # the entry's detail, filled in by the work before it is written
     with audited(engine, actor, "import models", source):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             done = import_models(session=session, data=data, source=source)
+            counts.clear()
+            counts.update(done.to_json())
             return 201, {**done.to_json(), "source": source}
 
         return write(
-            engine, actor=actor, action="import models", target=source, idempotency=None, work=work
+            engine,
+            actor=actor,
+            action="import models",
+            target=source,
+            idempotency=None,
+            work=work,
+            detail=counts,
         )
 
 
