@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sqlalchemy import Engine, insert, select
+from sqlalchemy import Engine, Subquery, func, insert, select
 from sqlalchemy.orm import Session
 
 from api.rest.schemas.parts import parse_report
@@ -104,18 +104,40 @@ def _fill(
             rows = []
 
 
-def _timed(engine: Engine) -> tuple[float, float, int]:
-    """Best of 5: the fleet's imported read, the window alone (seconds), the models read."""
-    read, window, models = float("inf"), float("inf"), 0
+def _grouped(tool_names: list[str], n: int = PLANS_PER_MACHINE) -> Subquery:
+    """The window before alembic 0031, the reference: every row of the tools grouped by plan."""
+    m = t.ImportedModel
+    per_plan = (
+        select(m.tool, m.origin, m.machine, m.plan, func.max(m.id).label("last"))
+        .where(m.tool.in_(tool_names))
+        .group_by(m.tool, m.origin, m.machine, m.plan)
+        .subquery()
+    )
+    c = per_plan.c
+    rank = func.row_number().over(
+        partition_by=(c.tool, c.origin, c.machine), order_by=c.last.desc()
+    )
+    ranked = select(c.tool, c.origin, c.machine, c.plan, rank.label("rank")).subquery()
+    return select(ranked.c[:4]).where(ranked.c.rank <= n).subquery()
+
+
+def _timed(engine: Engine) -> tuple[float, float, float, int]:
+    """Best of 5: the fleet's imported read, the window, the grouped reference (seconds), and
+    the models read; the window and the reference must pick the same plans."""
+    read, window, grouped, models = float("inf"), float("inf"), float("inf"), 0
     for _ in range(5):
         with Session(engine) as session:
             start = time.perf_counter()
             models = len(imported_evidence(session=session, tool_names=[TOOL]))
             read = min(read, time.perf_counter() - start)
             start = time.perf_counter()
-            session.execute(select(newest_imported([TOOL]))).all()
+            walked = session.execute(select(newest_imported([TOOL], "sqlite"))).all()
             window = min(window, time.perf_counter() - start)
-    return read, window, models
+            start = time.perf_counter()
+            reference = session.execute(select(_grouped([TOOL]))).all()
+            grouped = min(grouped, time.perf_counter() - start)
+            assert sorted(map(tuple, walked)) == sorted(map(tuple, reference))
+    return read, window, grouped, models
 
 
 def main() -> None:
@@ -137,19 +159,19 @@ def main() -> None:
             f"{args.machines} imported machines, {len(templates)} models a plan, the newest "
             f"{PLANS_PER_MACHINE} plans of each machine per tool"
         )
-        print(f"{'rows':>7} {'models read':>12} {'read s':>8} {'window s':>9}")
+        print(f"{'rows':>7} {'models read':>12} {'read s':>8} {'window s':>9} {'grouped s':>10}")
         stored, figures = 0, []
         for size in sorted(args.sizes):
             _fill(engine, templates, stored, size, args.machines)
             stored = size
-            read, window, models = _timed(engine)
-            figures.append((read, window))
-            print(f"{size:>7} {models:>12} {read:>8.4f} {window:>9.4f}")
+            read, window, grouped, models = _timed(engine)
+            figures.append((read, window, grouped))
+            print(f"{size:>7} {models:>12} {read:>8.4f} {window:>9.4f} {grouped:>10.4f}")
         engine.dispose()
-    (read_0, window_0), (read_1, window_1) = figures[0], figures[-1]
+    first, last = figures[0], figures[-1]
     large, small = max(args.sizes), min(args.sizes)
-    print(f"read at {large} rows / at {small}: {read_1 / read_0:.2f}")
-    print(f"window at {large} rows / at {small}: {window_1 / window_0:.2f}")
+    for i, label in enumerate(("read", "window", "grouped reference (before 0031)")):
+        print(f"{label} at {large} rows / at {small}: {last[i] / first[i]:.2f}")
 
 
 if __name__ == "__main__":

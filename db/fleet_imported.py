@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 from sqlalchemy import ColumnElement, and_, case, exists, func, literal, or_, select
 from sqlalchemy.orm import Session
@@ -39,6 +40,11 @@ def abroad(machine: str, origin: str) -> str:
     return f"{machine}@{origin[:8] or 'imported'}"
 
 
+#: The imported machines one statement reads the newest plans of: each is a term of an ``OR``
+#: that SQLite nests one level deeper a term (its expressions stop at a depth of 1000).
+_MACHINES_A_STATEMENT = 200
+
+
 def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tuple[str, Learned]]:
     """The models of the named tools other databases exported, each with its ``origin``.
 
@@ -52,31 +58,29 @@ def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tu
         per machine (:class:`~models.errors.InputErrors` for several).
     """
     names = sorted(set(tool_names))
-    m, window = t.ImportedModel, newest_imported(names)  # each machine's newest plans
-    kept = window.c
-    imported = (
-        select(m.origin, m.machine, m.body, m.source)
-        .join(
-            window,
-            and_(
-                kept.tool == m.tool,
-                kept.origin == m.origin,
-                kept.machine == m.machine,
-                kept.plan == m.plan,
-            ),
-        )
-        .where(m.tool.in_(names))
-        .order_by(m.id)
-    )
-    rows = [
-        (abroad(machine, origin), origin, body, source)
-        for origin, machine, body, source in session.execute(imported)
-    ]
-    out = taken_out(session=session, names={name for name, *_ in rows})
+    dialect = session.get_bind().dialect.name
+    # the window first, then its plans' rows, a seek of uq_imported_models_key a plan: joined
+    # in one statement, SQLite read every row of the tool (4.2 s at 100 000 rows)
+    picked: dict[tuple[str, str, str], list[str]] = {}
+    for tool, origin, machine, plan in session.execute(select(newest_imported(names, dialect))):
+        picked.setdefault((tool, origin, machine), []).append(plan)
+    m, machines = t.ImportedModel, sorted(picked)
+    rows: list[Any] = []
+    for at in range(0, len(machines), _MACHINES_A_STATEMENT):
+        chosen = [
+            and_(m.tool == tool, m.origin == origin, m.machine == machine, m.plan.in_(plans))
+            for tool, origin, machine in machines[at : at + _MACHINES_A_STATEMENT]
+            for plans in [picked[(tool, origin, machine)]]
+        ]
+        found = select(m.id, m.origin, m.machine, m.body, m.source).where(or_(*chosen))
+        rows += list(session.execute(found))
+    rows.sort(key=lambda row: row[0])  # in the order they were imported
+    listed = [(abroad(row.machine, row.origin), row.origin, row.body, row.source) for row in rows]
+    out = taken_out(session=session, names={name for name, *_ in listed})
     read: list[tuple[str, Learned]] = []
     refused = Gathered()
     named: set[str] = set()
-    for name, origin, body, source in rows:
+    for name, origin, body, source in listed:
         if name in out:
             continue
         try:

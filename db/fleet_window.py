@@ -16,8 +16,23 @@ by when this database imported them.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import Any
 
-from sqlalchemy import ColumnElement, Exists, Subquery, and_, exists, func, or_, select, true
+from sqlalchemy import (
+    CTE,
+    ColumnElement,
+    Exists,
+    ScalarSelect,
+    String,
+    Subquery,
+    and_,
+    exists,
+    func,
+    literal,
+    or_,
+    select,
+    true,
+)
 from sqlalchemy.orm import aliased
 
 from db import tables as t
@@ -94,22 +109,91 @@ def _learned() -> Exists:
     )
 
 
-def newest_imported(tool_names: Iterable[str], n: int = PLANS_PER_MACHINE) -> Subquery:
+def newest_imported(
+    tool_names: Iterable[str], dialect: str, n: int = PLANS_PER_MACHINE
+) -> Subquery:
     """``(tool, origin, machine, plan)`` of each imported machine's newest ``n`` plans per tool.
 
-    Newest by the last row this database imported of the plan (``imported_models.id``).
+    Newest by the last row this database imported of the plan (``imported_models.id``). The
+    tool's imported machines are stepped through in order, one seek of
+    ``ix_imported_models_machine_id`` each (a recursive statement, :func:`_imported_machines`);
+    each machine's rows are walked from that index's end, a row kept where its plan has no
+    newer one, and the walk stops at the ``n``-th plan (``LATERAL`` on PostgreSQL, ``IN`` on
+    SQLite, ``dialect``, as :func:`newest_local`). The rows read are bounded by the machines
+    and their newest plans, not by what was ever imported (alembic 0031).
+    """
+    machines = _imported_machines(sorted(set(tool_names))).c
+    w, newer = aliased(t.ImportedModel, name="walked"), aliased(t.ImportedModel, name="newer")
+    walk = (
+        select(w.id.label("id"), w.plan.label("plan"))
+        .where(w.tool == machines.tool, w.origin == machines.origin)
+        .where(w.machine == machines.machine)
+        .where(
+            ~exists().where(
+                newer.tool == w.tool,
+                newer.origin == w.origin,
+                newer.machine == w.machine,
+                newer.plan == w.plan,
+                newer.id > w.id,
+            )
+        )
+        .order_by(w.id.desc())
+        .limit(n)
+    )
+    found = select(machines.tool, machines.origin, machines.machine).where(
+        machines.origin.is_not(None)
+    )
+    if dialect == "postgresql":
+        newest = walk.lateral("newest")
+        return found.add_columns(newest.c.plan).join(newest, true()).subquery()
+    row = aliased(t.ImportedModel, name="newest_row")
+    ids = walk.with_only_columns(w.id)
+    return found.add_columns(row.plan).join(row, row.id.in_(ids)).subquery()
+
+
+def _imported_machines(tool_names: list[str]) -> CTE:
+    """``(tool, origin, machine)`` of each tool's imported machines, stepped through in order.
+
+    Each step is the next machine of the same origin, or else the first of the next origin:
+    a seek of ``ix_imported_models_machine_id`` each (a row value ``(origin, machine) > …``
+    was read by SQLite as ``origin >= …``, every row of the origin). The last step's is
+    ``NULL`` (the caller leaves it out).
     """
     m = t.ImportedModel
-    per_plan = (
-        select(m.tool, m.origin, m.machine, m.plan, func.max(m.id).label("last"))
-        .where(m.tool.in_(sorted(set(tool_names))))
-        .group_by(m.tool, m.origin, m.machine, m.plan)
-        .subquery()
+
+    def seek(column: Any, *where: ColumnElement[bool], of: Any = None) -> ScalarSelect[Any]:
+        """``column`` of the first row where ``where`` holds; ``of``: the step's last machine."""
+        found = select(column).where(*where).order_by(m.origin, m.machine).limit(1)
+        return (found if of is None else found.correlate(of)).scalar_subquery()
+
+    def first(column: Any, tool: Any) -> ScalarSelect[Any]:  # of the origin seek(origin) finds
+        origin = seek(m.origin, m.tool == tool)
+        return seek(column, m.tool == tool, m.origin == origin)
+
+    seeds = [
+        select(
+            literal(name, String).label("tool"),
+            seek(m.origin, m.tool == name).label("origin"),
+            first(m.machine, name).label("machine"),
+        )
+        for name in tool_names or [""]
+    ]
+    machines = seeds[0].cte("imported_machines", recursive=True)  # the others' seeds: below
+    last = machines.alias("last_machine")
+    same = (m.tool == last.c.tool, m.origin == last.c.origin, m.machine > last.c.machine)
+    o = aliased(t.ImportedModel, name="next_origin")
+    later_origin = (  # the next origin's, from an alias: the enclosing seek reads imported_models
+        select(o.origin)
+        .where(o.tool == last.c.tool, o.origin > last.c.origin)
+        .order_by(o.origin)
+        .limit(1)
+        .correlate(last)
+        .scalar_subquery()
     )
-    c = per_plan.c
-    rank = func.row_number().over(
-        partition_by=(c.tool, c.origin, c.machine), order_by=c.last.desc()
+    next_origin = func.coalesce(seek(m.origin, *same, of=last), later_origin)
+    next_machine = func.coalesce(
+        seek(m.machine, *same, of=last),
+        seek(m.machine, m.tool == last.c.tool, m.origin == later_origin, of=last),
     )
-    ranked = select(c.tool, c.origin, c.machine, c.plan, rank.label("rank")).subquery()
-    kept = ranked.c
-    return select(kept.tool, kept.origin, kept.machine, kept.plan).where(kept.rank <= n).subquery()
+    step = select(last.c.tool, next_origin, next_machine).where(last.c.origin.is_not(None))
+    return machines.union_all(*seeds[1:], step)
