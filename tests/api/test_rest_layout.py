@@ -30,6 +30,7 @@ OPERATIONS = {
     ("get", "/api/v1/plans/{plan_id}/setpoints", "getSetpoints"),
     ("post", "/api/v1/plans/{plan_id}/parts", "reportPart"),
     ("get", "/api/v1/plans/{plan_id}/parts", "listParts"),
+    ("get", "/api/v1/plans/{plan_id}/parts/{part_id}", "getPart"),
     ("get", "/api/v1/plans/{plan_id}/history", "getHistory"),
     ("get", "/api/v1/plans/{plan_id}/models", "getModels"),
     ("get", "/api/v1/plans/{plan_id}/models/versions", "listModelVersions"),

@@ -27,6 +27,8 @@ _KEY_DOC = (
 )
 
 PlanId = Annotated[int, Path(ge=1, le=MAX_ID)]
+#: A part's id in a path (``/plans/{plan_id}/parts/{part_id}``).
+PartId = Annotated[int, Path(ge=1, le=MAX_ID)]
 
 
 def _named(value: str | None) -> str | None:
@@ -46,7 +48,7 @@ OptionalKey = Annotated[str | None, Header(pattern=KEY_PATTERN, description=_KEY
 #: The Idempotency-Key header of a write that needs one (a part report).
 RequiredKey = Annotated[str, Header(pattern=KEY_PATTERN, description=_KEY_DOC)]
 
-#: ``Location`` of a 201 that created a resource with a path of its own (a plan).
+#: ``Location`` of a 201 that created a resource with a path of its own (a plan, a part).
 LOCATION: dict[str, Any] = {
     "Location": {
         "description": "The created resource's path (`/api/v1/plans/7`)",

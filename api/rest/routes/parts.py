@@ -10,7 +10,10 @@ from fastapi.responses import Response
 from api.rest.answers import problems_at
 from api.rest.deps import Anyone, EngineDep, Reporter
 from api.rest.routes.common import (
+    LOCATION,
+    PREFIX,
     REPLAYED,
+    PartId,
     PlanId,
     RequiredKey,
     answer,
@@ -18,7 +21,7 @@ from api.rest.routes.common import (
     resource_router,
 )
 from api.rest.schemas.common import PageOrder, PartCursor
-from api.rest.schemas.parts import PartCreated, PartReportIn, PartsPage
+from api.rest.schemas.parts import PartCreated, PartOut, PartReportIn, PartsPage
 from api.rest.schemas.setpoints import Setpoints
 from api.services import parts as use_cases
 from api.services.read import plan_parts as read_parts
@@ -48,7 +51,7 @@ def setpoints(engine: EngineDep, plan_id: PlanId, actor: Anyone) -> dict[str, An
     status_code=201,
     response_model=PartCreated,
     operation_id="reportPart",
-    responses={201: {"headers": REPLAYED}, **problems_at(500)},  # 500: the solver failed
+    responses={201: {"headers": {**REPLAYED, **LOCATION}}, **problems_at(500)},  # 500: solver
 )
 def report_part(
     request: Request,
@@ -71,7 +74,16 @@ def report_part(
         )
     finally:
         held.close()  # here, in the route's thread (api.rest.deps.holding)
-    return answer(written)
+    return answer(written, f"{PREFIX}/plans/{plan_id}/parts/{written.body.get('part_id')}")
+
+
+@router.get("/plans/{plan_id}/parts/{part_id}", response_model=PartOut, operation_id="getPart")
+def part(engine: EngineDep, plan_id: PlanId, part_id: PartId, actor: Anyone) -> dict[str, Any]:
+    """One part as the parts' pages list it: its measurements and the RCB decisions made.
+
+    Where a part report's 201 says it is (``Location``); a part of another plan is not found.
+    """
+    return read_parts.part(engine=engine, plan_id=plan_id, part_id=part_id)
 
 
 @router.get("/plans/{plan_id}/parts", response_model=PartsPage, operation_id="listParts")

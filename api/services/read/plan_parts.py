@@ -15,6 +15,7 @@ from typing import Any
 
 from sqlalchemy import Engine
 
+from api.services.errors import NotFoundError
 from api.services.read.common import MAX_PAGE, _bounded, _plan, _read, ordered_cursor, ordered_value
 from db import tables as t
 from db.read.parts import decisions_of, parts_page
@@ -56,6 +57,23 @@ def parts(
     edge = (rows[0] if newest else rows[-1]) if rows and more else None
     following = None if edge is None else ordered_cursor(edge.id, newest=newest)
     return {"items": items, "next_cursor": following}
+
+
+def part(*, engine: Engine, plan_id: int, part_id: int) -> dict[str, Any]:
+    """One part of a plan as :func:`parts` lists it (``GET /plans/{id}/parts/{part_id}``).
+
+    The page of one part from ``part_id`` on (one seek); a part of another plan is not found,
+    as one that does not exist.
+    """
+    with _read(engine) as session, session.begin():
+        _plan(session, plan_id)
+        rows, measurements, decisions, _ = parts_page(
+            session=session, plan_id=plan_id, after_id=part_id - 1, limit=1
+        )
+        if not rows or rows[0].id != part_id:
+            raise NotFoundError("part_id", part_id)
+        names = {op.id: op.name for op, _ in operations(session=session, plan_id=plan_id)}
+        return part_json(rows[0], measurements[part_id], decisions[part_id], names)
 
 
 def decisions(*, engine: Engine, plan_id: int, part_ids: list[int]) -> dict[int, list[Any]]:
