@@ -31,12 +31,7 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet_changes import plan_changes
-
-# re-exported: the imported models' reads were here (db.fleet_exclusions, tests import them)
-from db.fleet_imported import abroad as abroad
-from db.fleet_imported import imported_evidence as imported_evidence
-from db.fleet_imported import imported_machine as imported_machine
-from db.fleet_imported import taken_out as taken_out
+from db.fleet_imported import abroad, imported_evidence
 from db.fleet_names import bounded, listed
 from db.fleet_noise import noise_provenance
 from db.fleet_states import newest_state

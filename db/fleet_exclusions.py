@@ -16,8 +16,8 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.errors import StoredSettingsError
-from db.fleet import abroad, imported_machine
 from db.fleet_changes import clear_fleet_change, plan_changes
+from db.fleet_imported import abroad, imported_machine
 from db.plan_state import plan_settings
 from db.plans import get_plan_row
 from models.errors import InputError

@@ -186,7 +186,7 @@ def imported_in_fleet(*, session: Session, tool: str) -> int:
 
 
 def _abroad_name() -> ColumnElement[str]:
-    """:func:`db.fleet.abroad` in SQL: ``machine@`` the origin's first 8 characters."""
+    """:func:`abroad` in SQL: ``machine@`` the origin's first 8 characters."""
     m = t.ImportedModel
     short = case((m.origin == "", literal("imported")), else_=func.substr(m.origin, 1, 8))
     return m.machine + literal("@") + short

@@ -9,8 +9,8 @@ stops at its limit on an index (:func:`newest_local`), and the models are read f
 picked plans only, so the cost of a new plan's fleet prior is bounded by the machines, not
 by the plans they made.
 
-An imported machine (:func:`db.fleet.abroad`) speaks by its newest plans the same way, newest
-by when this database imported them.
+An imported machine (:func:`db.fleet_imported.abroad`) speaks by its newest plans the same
+way, newest by when this database imported them.
 """
 
 from __future__ import annotations

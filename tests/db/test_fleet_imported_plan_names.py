@@ -16,7 +16,7 @@ from test_fleet_import_once import _second
 from api.services.fleet_models import export_tool, import_tool
 from api.services.plans import create_plan
 from api.services.read.fleet import fleet_law
-from db.fleet import abroad
+from db.fleet_imported import abroad
 
 
 def test_a_plan_of_the_same_name_at_another_plant_is_another_plan(engine, tmp_path) -> None:

@@ -10,7 +10,8 @@ from test_fleet_db import _learned
 from api.services.fleet_models import exclude_from_fleet, import_tool
 from api.services.read.fleet import fleet_members
 from db.engine import make_engine, upgrade
-from db.fleet import fleet_evidence, imported_evidence, local_evidence
+from db.fleet import fleet_evidence, local_evidence
+from db.fleet_imported import imported_evidence
 from db.fleet_models import export_models
 from supervisor.fleet.window import PLANS_PER_MACHINE, newest_plans
 

@@ -112,7 +112,7 @@ def test_two_stale_machines_are_named_together(engine, tmp_path) -> None:
 
 
 def _abroad_of(engine, machine: str) -> str:  # type: ignore[no-untyped-def]
-    from db.fleet import abroad
+    from db.fleet_imported import abroad
     from db.identity import database_id
 
     with Session(engine) as session:
