@@ -64,7 +64,9 @@ def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tu
     picked: dict[tuple[str, str, str], list[str]] = {}
     for tool, origin, machine, plan in session.execute(select(newest_imported(names, dialect))):
         picked.setdefault((tool, origin, machine), []).append(plan)
-    m, machines = t.ImportedModel, sorted(picked)
+    out = taken_out(session=session, names={abroad(machine, o) for _, o, machine in picked})
+    m = t.ImportedModel
+    machines = sorted(k for k in picked if abroad(k[2], k[1]) not in out)  # out: not read
     rows: list[Any] = []
     for at in range(0, len(machines), _MACHINES_A_STATEMENT):
         chosen = [
@@ -75,20 +77,17 @@ def imported_evidence(*, session: Session, tool_names: Iterable[str]) -> list[tu
         found = select(m.id, m.origin, m.machine, m.body, m.source).where(or_(*chosen))
         rows += list(session.execute(found))
     rows.sort(key=lambda row: row[0])  # in the order they were imported
-    listed = [(abroad(row.machine, row.origin), row.origin, row.body, row.source) for row in rows]
-    out = taken_out(session=session, names={name for name, *_ in listed})
     read: list[tuple[str, Learned]] = []
     refused = Gathered()
     named: set[str] = set()
-    for name, origin, body, source in listed:
-        if name in out:
-            continue
+    for row in rows:
         try:
-            read.append((origin, read_item(body, "imported_models.body")))
+            read.append((row.origin, read_item(row.body, "imported_models.body")))
         except InputError as err:
+            name = abroad(row.machine, row.origin)
             if name not in named:  # one error per machine: one exclusion takes it out
                 named.add(name)
-                refused.read(stale, err, name, source)
+                refused.read(stale, err, name, row.source)
     refused.raise_any()
     return read
 
