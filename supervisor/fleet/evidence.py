@@ -79,20 +79,14 @@ def transform(belief: Posterior, context: Mapping[str, float]) -> tuple[np.ndarr
 
     Over ``β``'s own length: ``ω`` only where ``belief`` has the edge feature.
     """
-    t = _frame(belief)
-    offset = np.zeros(len(t))
-    offset[0] = -sum(e * math.log(context[name]) for name, e in belief.context_exponents.items())
-    return t, offset
-
-
-def _frame(belief: Posterior) -> np.ndarray:
-    """``T`` of ``belief`` (module docstring), over ``β``'s own length."""
     n = len(belief.names)
     t = np.eye(n + 2 if belief.edge_max else n + 1)
     t[0, 1 : n + 1] = -np.array(belief.center)
     if belief.edge_max:
         t[n + 1, n + 1] = belief.edge_max
-    return t
+    offset = np.zeros(len(t))
+    offset[0] = -sum(e * math.log(context[name]) for name, e in belief.context_exponents.items())
+    return t, offset
 
 
 #: The least variance a belief about ``θ`` may have in any direction (a standard deviation of
@@ -107,15 +101,11 @@ LEAST_VARIANCE = 1e-12
 def least_variance(belief: Posterior) -> float:
     """The smallest eigenvalue of ``θ``'s covariance under ``belief`` (``T Σ Tᵀ``).
 
-    It does not depend on the context (that moves the mean only); a wearing quantity's ``ω``
-    without an edge feature is at the catalogue's ``N(0, edge_sd²)``, as :func:`_stacked`.
+    :func:`_stacked`'s, at any context (it moves the mean only): a wearing quantity's ``ω``
+    without an edge feature is at the catalogue's ``N(0, edge_sd²)``.
     """
-    t = _frame(belief)
-    cov = t @ np.array(belief.cov)[: len(t), : len(t)] @ t.T
-    if size(belief) > len(t):
-        cov = np.pad(cov, ((0, 1), (0, 1)))
-        cov[-1, -1] = DEFAULT_EDGE_SD**2
-    return float(np.linalg.eigvalsh(0.5 * (cov + cov.T))[0])
+    _, cov = _stacked([(belief, dict.fromkeys(belief.context_exponents, 1.0))])
+    return float(np.linalg.eigvalsh(0.5 * (cov[0] + cov[0].T))[0])
 
 
 def in_tool_terms(
