@@ -177,12 +177,16 @@ def again_db(db: str | None) -> str:
     return " --db URL" if make_url(db).password else f" --db {shlex.quote(db)}"
 
 
-def as_option(err: InputError) -> InputError:
-    """A paging input's error naming its option (``--limit``, ``--cursor``).
+def as_option(err: InputError, fields: tuple[str, ...] = ("limit", "cursor")) -> InputError:
+    """An input's error naming its option (``--limit``, ``--cursor``, ``--prior``).
 
-    Any other error (a stored value's, say) as it is.
+    The service's ``fields`` (REST's query parameters; by default a page's) said as the command
+    line takes them; each of several errors so (``rcb plans create``: the plan's and
+    ``--prior``'s together); any other error (a stored value's, say) as it is.
     """
-    if err.field not in ("limit", "cursor"):
+    if isinstance(err, InputErrors):
+        return InputErrors([as_option(each, fields) for each in err.errors])
+    if err.field not in fields:
         return err
     return InputError(f"--{err.field}", err.value, err.reason)
 

@@ -23,6 +23,7 @@ from api.cli.common import (
     PlanArg,
     RcbOption,
     StrategyOption,
+    as_option,
     emit,
     engine_of,
     errors,
@@ -40,7 +41,7 @@ from api.report.provenance import (
     let_go_groups,
     let_go_text,
 )
-from models.errors import InputError, InputErrors
+from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
 
 if TYPE_CHECKING:
@@ -122,7 +123,7 @@ def create(
         try:
             written = create_plan(engine=engine, body=body, given=given, actor=actor, prior=prior)
         except InputError as err:
-            raise _as_prior_option(err) from None
+            raise as_option(err, ("prior",)) from None
     answer = written.body
     if as_json:
         emit(answer)
@@ -213,15 +214,6 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     say_filled(rule)
     for why in refused:  # its reports are refused until a replan sets it anew
         say(refused_line(data["id"], why))
-
-
-def _as_prior_option(err: InputError) -> InputError:
-    """The service's ``prior`` (REST's query parameter) said as the option: ``--prior``."""
-    if isinstance(err, InputErrors):
-        return InputErrors([_as_prior_option(each) for each in err.errors])
-    if err.field != "prior":
-        return err
-    return InputError("--prior", err.value, err.reason)
 
 
 def _name_column(table: Table, heading: str) -> None:
