@@ -34,10 +34,10 @@ def import_tool(
     with audited(engine, actor, "import models", source):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
-            done = import_models(session=session, data=data, source=source)
+            done = import_models(session=session, data=data, source=source).to_json()
             counts.clear()
-            counts.update(done.to_json())
-            return 201, {**done.to_json(), "source": source}
+            counts.update(done)
+            return 201, {**done, "source": source}
 
         return write(
             engine,
