@@ -180,9 +180,8 @@ def again_db(db: str | None) -> str:
 def as_option(err: InputError, fields: tuple[str, ...] = ("limit", "cursor")) -> InputError:
     """An input's error naming its option (``--limit``, ``--cursor``, ``--prior``).
 
-    The service's ``fields`` (REST's query parameters; by default a page's) said as the command
-    line takes them; each of several errors so (``rcb plans create``: the plan's and
-    ``--prior``'s together); any other error (a stored value's, say) as it is.
+    The service's ``fields`` (REST's query parameters) as options, each of several errors so;
+    any other error (a stored value's, say) as it is.
     """
     if isinstance(err, InputErrors):
         return InputErrors([as_option(each, fields) for each in err.errors])
