@@ -21,6 +21,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import Engine
 
+from api.rest.head_method import sent_method
 from api.rest.problems import ProblemError
 from api.rest.refused_audit import keep_actor
 from api.rest.routes.common import MAX_ID
@@ -41,9 +42,9 @@ EngineDep = Annotated[Engine, Depends(engine_of)]
 
 
 def action_of(request: Request) -> str:
-    """The audit log's action: the method and the route's path template (a bounded set)."""
+    """The audit log's action: the method sent and the route's path template (a bounded set)."""
     route = request.scope.get("route")
-    return f"{request.method} {getattr(route, 'path', '?')}"
+    return f"{sent_method(request)} {getattr(route, 'path', '?')}"
 
 
 def client_of(request: Request) -> str:

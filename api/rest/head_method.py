@@ -12,12 +12,23 @@ GET goes through, a HEAD goes through: authentication (a wrong key is 401), the 
 query checks, the problems (404, 422, 405 with ``Allow`` on a path that has no GET, as
 ``HEAD /api/v1/plans/1/replan``). The web view (``/ui``) is served by the same app and
 answers HEAD too. Other methods, OPTIONS among them, are passed on untouched. The OpenAPI
-document lists the GET operations only.
+document lists the GET operations only. The scope the app sees keeps the method sent under
+:data:`SENT_METHOD`, so the audit log names a HEAD as what it was (:func:`sent_method`).
 """
 
 from __future__ import annotations
 
+from starlette.requests import Request
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+#: The scope's key holding the method a client sent, where it was handed on as another.
+SENT_METHOD = "rcb.sent_method"
+
+
+def sent_method(request: Request) -> str:
+    """The method the client sent: HEAD for a HEAD answered as its GET."""
+    method: str = request.scope.get(SENT_METHOD, request.method)
+    return method
 
 
 class HeadAsGet:
@@ -38,4 +49,4 @@ class HeadAsGet:
             await send(message)
 
         # a copy: the server's scope keeps HEAD, so it sends no content whatever it is given
-        await self.app({**scope, "method": "GET"}, receive, without_content)
+        await self.app({**scope, "method": "GET", SENT_METHOD: "HEAD"}, receive, without_content)

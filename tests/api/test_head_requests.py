@@ -13,7 +13,12 @@ from typing import Any
 
 import httpx
 import pytest
+from sqlalchemy import select
+from sqlalchemy.orm import Session
 from test_service import BODY
+
+from db import tables as t
+from db.engine import make_engine
 
 from conftest import renamed
 
@@ -130,3 +135,19 @@ def test_head_on_the_web_view(server):
         assert home.content == b""
         logout = c.head("/logout")
     assert logout.status_code == 405 and logout.headers["allow"] == "POST"
+
+
+def test_a_head_refused_is_audited_as_head(server, plan_id):
+    """The audit log named a HEAD's failure ``GET ...``: the app is handed a GET."""
+    local = "127.0.0.5"  # an address of its own: its failures are counted apart
+    transport = httpx.HTTPTransport(local_address=local)
+    headers = {"Authorization": "Bearer rcb_not-a-key"}
+    with httpx.Client(base_url=server.base, transport=transport, headers=headers) as c:
+        assert c.head(f"/plans/{plan_id}/setpoints").status_code == 401
+        assert c.get("/plans").status_code == 401
+    engine = make_engine(server.url)
+    with Session(engine) as session:
+        rows = session.scalars(select(t.AuditEntry).where(t.AuditEntry.result == "unauthenticated"))
+        actions = {r.action for r in rows if (r.detail or {}).get("client") == local}
+    engine.dispose()
+    assert actions == {"HEAD /api/v1/plans/{plan_id}/setpoints", "GET /api/v1/plans"}
