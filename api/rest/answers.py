@@ -6,7 +6,9 @@ So each operation declares what its route can send, derived from what the route 
 (:func:`statuses_of`), plus what its use case may refuse, which the route names itself
 (:func:`problems_at`: 409 for a halted plan, 500 for a solver failure):
 
-- every route: 413, a body over the limit (:mod:`api.rest.limits` reads every request);
+- every route: 413, a body over the limit (:mod:`api.rest.limits` reads every request); 414
+  and 431, a request line or header fields over the head's limit (``rcb serve``'s connections,
+  :mod:`api.rest.heads`, before the app reads the request);
 - a key: 401 (none, unknown, revoked), 429 (too many failures, :mod:`api.services.throttle`),
   403 where a role may not (or a key scoped to plans writes to no plan, :mod:`api.rest.deps`);
 - a path parameter: 404 (no such plan or tool, or a plan outside a scoped key);
@@ -28,6 +30,7 @@ from fastapi.dependencies.models import Dependant
 from fastapi.routing import APIRoute
 from fastapi.utils import create_model_field
 
+from api.rest.heads import MAX_HEAD_BYTES
 from api.rest.limits import MAX_BODY_BYTES
 from api.rest.problems import MEDIA_TYPE
 from api.rest.schemas.service import Problem
@@ -42,9 +45,13 @@ MEANINGS = {
     404: "No such resource (a plan outside a key's scope answers so too)",
     409: "Conflict: see `code` (a halted plan, a name or serial taken, a request in flight)",
     413: f"The request body is over the limit of {MAX_BODY_BYTES // 2**20} MiB",
+    414: f"The request line (its URL) is over the request head's limit of "
+    f"{MAX_HEAD_BYTES // 2**10} KiB; the connection is closed",
     422: "Invalid input: `field` and `value` name it (`errors`: every one); `infeasible`: "
     "`conflicts` names the limits that cannot all be met",
     429: "Too many failed authentications from this address; wait `Retry-After` seconds",
+    431: f"The request's header fields are over the head's limit of {MAX_HEAD_BYTES // 2**10} "
+    "KiB (`field`: the one alone over half of it, else `headers`); the connection is closed",
     500: "The solver failed; nothing was stored",
     503: "The database has no connection free now; nothing was stored; retry after "
     "`Retry-After` seconds",
@@ -90,7 +97,7 @@ def statuses_of(route: APIRoute) -> set[int]:
     """The problem statuses ``route`` can answer, from its parameters, key and method."""
     query, header, path = (_any(route.dependant, kind) for kind in ("query", "header", "path"))
     methods = route.methods or set()
-    found = {413}
+    found = {413, 414, 431}
     roles = _roles(route.dependant)
     if roles is not None:
         found |= {401, 429}

@@ -262,3 +262,16 @@ def test_the_docs_generate_the_client_as_this_test_does():
     for flag in ("--url", "/api/v1/openapi.json", "--meta none", "--fail-on-warning"):
         assert flag in generate[0], flag
     assert f"--output-path {PACKAGE}" in generate[0]
+
+
+def test_a_head_over_the_limit_is_a_typed_431(generated, sqlite_server):
+    """``rcb serve`` answers 431 before any operation; the client decodes it (was undeclared)."""
+    get_health = _module("api.service.get_health")
+    with generated.Client(
+        base_url=sqlite_server.base.removesuffix("/api/v1"),
+        headers={"X-Big": "x" * 40_000},
+        raise_on_unexpected_status=True,
+    ) as big:
+        answer = get_health.sync_detailed(client=big)
+    assert answer.status_code == 431
+    assert answer.parsed.code == "header_fields_too_large" and answer.parsed.field == "X-Big"
