@@ -16,7 +16,9 @@ So each operation declares what its route can send, derived from what the route 
   query parameter given twice, an Idempotency-Key malformed or missing, a body that is not
   UTF-8 JSON, :mod:`api.rest.strict`);
 - a write: 409 (the same thing stored by a concurrent request, a request still in flight);
-- the database: 503 with ``Retry-After`` (no connection free, :mod:`api.rest.unavailable`).
+- every route: 503 with ``Retry-After``: the database has no connection free
+  (:mod:`api.rest.unavailable`), or ``rcb serve`` holds too many connections
+  (:mod:`api.rest.connections`, before the app reads the request).
 
 415 (a body not sent as JSON) is declared by :mod:`api.rest.content_type`, with its header.
 """
@@ -53,8 +55,8 @@ MEANINGS = {
     431: f"The request's header fields are over the head's limit of {MAX_HEAD_BYTES // 2**10} "
     "KiB (`field`: the one alone over half of it, else `headers`); the connection is closed",
     500: "The solver failed; nothing was stored",
-    503: "The database has no connection free now; nothing was stored; retry after "
-    "`Retry-After` seconds",
+    503: "The database has no connection free now, or (`too_many_connections`) the server "
+    "holds too many connections; nothing was stored; retry after `Retry-After` seconds",
 }
 _RETRY_AFTER = {"description": "seconds to wait", "schema": {"type": "integer"}}
 _HEADERS: dict[int, dict[str, Any]] = {
@@ -97,7 +99,7 @@ def statuses_of(route: APIRoute) -> set[int]:
     """The problem statuses ``route`` can answer, from its parameters, key and method."""
     query, header, path = (_any(route.dependant, kind) for kind in ("query", "header", "path"))
     methods = route.methods or set()
-    found = {413, 414, 431}
+    found = {413, 414, 431, 503}  # 503: rcb serve's too_many_connections too
     roles = _roles(route.dependant)
     if roles is not None:
         found |= {401, 429}
@@ -112,8 +114,6 @@ def statuses_of(route: APIRoute) -> set[int]:
         found.add(422)
     if methods & _WRITES:
         found.add(409)
-    if _uses_database(route.dependant):
-        found.add(503)
     return found
 
 
@@ -121,13 +121,6 @@ def _any(dependant: Dependant, kind: str) -> bool:
     """Whether the route or a dependency of it takes a ``kind`` (query, header, path) parameter."""
     return bool(getattr(dependant, f"{kind}_params")) or any(
         _any(sub, kind) for sub in dependant.dependencies
-    )
-
-
-def _uses_database(dependant: Dependant) -> bool:
-    return any(
-        getattr(sub.call, "__name__", "") == "engine_of" or _uses_database(sub)
-        for sub in dependant.dependencies
     )
 
 

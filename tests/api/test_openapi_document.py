@@ -23,7 +23,7 @@ from models.quantities import QUANTITIES
 
 #: Per operation, every status it declares (issue 30: what each route can answer, no more).
 STATUSES = {
-    "getHealth": {200, 413, 414, 431},
+    "getHealth": {200, 413, 414, 431, 503},
     "getReady": {200, 413, 414, 431, 503},
     "createPlan": {201, 400, 401, 403, 409, 413, 414, 415, 422, 429, 431, 500, 503},
     "listPlans": {200, 400, 401, 413, 414, 422, 429, 431, 503},
