@@ -19,6 +19,7 @@ from api.cli import examples
 from api.cli.common import (
     JsonOption,
     StrategyOption,
+    as_option,
     emit,
     err_console,
     errors,
@@ -26,6 +27,7 @@ from api.cli.common import (
     shown,
 )
 from models.bounds import LARGEST_WHOLE
+from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY
 from supervisor.virtual.sizes import MAX_PARTS
 
@@ -107,7 +109,10 @@ def demo(
     from supervisor.rcb.state import RcbSettings
 
     with errors():
-        settings = RcbSettings(strategy=strategy, alpha=alpha)
+        try:
+            settings = RcbSettings(strategy=strategy, alpha=alpha)
+        except InputError as err:
+            raise as_option(err, ("alpha",)) from None
         with _plan_path(plan_file, milling) as path:
             body = read_plan_file(path, "plan file")  # read once, JSON or TOML
         plan = plan_from_mapping(body)

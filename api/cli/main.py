@@ -38,6 +38,7 @@ from api.cli.lazy import lazy_group
 from api.cli.models import models_app
 from api.cli.optimize import optimize, predict
 from api.cli.tools import tools_app
+from api.cli.usage_words import said
 from api.cli.virtual import virtual_app
 from models.errors import InputError
 
@@ -68,12 +69,8 @@ class _OneLineErrors(TyperGroup):
                 typer.echo(text)
             sys.exit(err.exit_code)
         except click_errors.ClickException as err:
-            message = " ".join(err.format_message().split())
-            # typer's own coercion (it loads pydantic when it runs: rcb --help does not)
-            pydantic = sys.modules.get("pydantic")
-            if pydantic is not None and isinstance(err.__cause__, pydantic.ValidationError):
-                given = ", ".join(repr(e.get("input")) for e in err.__cause__.errors())
-                message = f"{message} (got {given})"
+            # typer's own coercion, in rcb's words (api.cli.usage_words)
+            message = said(err) or " ".join(err.format_message().split())
             typer.echo(f"rcb: error: {message}", err=True)
             sys.exit(err.exit_code)
         except InputError as err:  # an option's own check as it is read (--strategy)

@@ -100,12 +100,12 @@ def test_demo_table_output(runner, tmp_path):
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
-        (["--strategy", "pid"], "strategy"),
-        (["--alpha", "0"], "alpha"),
-        (["--parts", "0"], "--parts"),
+        (["--strategy", "pid"], "--strategy = 'pid': must be one of"),
+        (["--alpha", "0"], "--alpha = 0.0: must be a number in (0, 1]"),
+        (["--parts", "0"], "--parts = 0: must be at least 1"),
         # numpy refused it after the plan was stored: a traceback and a plan of no parts
-        (["--seed", "-1"], "Invalid value for '--seed': Input should be greater than or equal"),
-        (["--seed", "99999999999999999999"], "'--seed': Input should be less than or equal"),
+        (["--seed", "-1"], "rcb: error: --seed = -1: must be at least 0"),
+        (["--seed", "99999999999999999999"], "--seed = 99999999999999999999: must be at most"),
     ],
 )
 def test_demo_bad_arguments(runner, tmp_path, args, needle):

@@ -1,0 +1,76 @@
+"""A value typer refused, in rcb's words: ``--limit = 'abc': must be a whole number``.
+
+typer (0.29) coerces an option's value with pydantic, and its usage error was pydantic's
+sentence: ``Invalid value for '--limit': Input should be a valid integer, unable to parse
+string as an integer (got 'abc')``, worded unlike every other error of rcb
+(``--strategy = 'x': must be one of ...``, :class:`models.errors.InputError`). :func:`said`
+words each of pydantic's errors as rcb words an input's (the option, the value as given, what
+it must be); an error it does not know keeps pydantic's sentence, without its "Value error, ".
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+#: pydantic's error type -> what the value must be (``str.format`` of the error's ``ctx``).
+_MUST = {
+    "int_parsing": "must be a whole number",
+    "int_from_float": "must be a whole number",
+    "int_type": "must be a whole number",
+    "float_parsing": "must be a number",
+    "float_type": "must be a number",
+    "finite_number": "must be a finite number",
+    "bool_parsing": "must be true or false",
+    "greater_than_equal": "must be at least {ge}",
+    "greater_than": "must be greater than {gt}",
+    "less_than_equal": "must be at most {le}",
+    "less_than": "must be less than {lt}",
+    "enum": "must be one of {expected}",
+    "literal_error": "must be one of {expected}",
+    "string_too_long": "must be at most {max_length} characters",
+    "string_too_short": "must be at least {min_length} characters",
+}
+
+
+def said(err: BaseException) -> str | None:
+    """``err`` (a usage error typer raised from pydantic's) in rcb's words; None if not such."""
+    pydantic = sys.modules.get("pydantic")  # loaded by typer's coercion when it ran
+    cause = err.__cause__
+    if pydantic is None or not isinstance(cause, pydantic.ValidationError):
+        return None
+    name = _name(getattr(err, "param", None))
+    return "; ".join(f"{name} = {_given(e.get('input'))}: {_must(e)}" for e in cause.errors())
+
+
+def _given(value: Any) -> str:
+    """The value as typed: a number bare (``--parts = 5000``), any other text quoted."""
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return repr(value)
+        return value if value.strip() == value and value.isascii() else repr(value)
+    return repr(value)
+
+
+def _name(param: Any) -> str:
+    """The option as typed (its long name), or the argument as the help names it."""
+    if param is None:
+        return "value"
+    opts = [o for o in getattr(param, "opts", ()) if o.startswith("-")]
+    if opts:
+        return max(opts, key=len)
+    return str(getattr(param, "human_readable_name", None) or "value")
+
+
+def _must(error: Any) -> str:
+    """What the value must be, for one of pydantic's errors."""
+    template = _MUST.get(error.get("type", ""))
+    if template is not None:
+        try:
+            return template.format(**(error.get("ctx") or {}))
+        except (KeyError, IndexError):
+            pass
+    message = str(error.get("msg", "invalid"))
+    return message.removeprefix("Value error, ")
