@@ -60,7 +60,7 @@ def _name(param: Any) -> str:
         return "value"
     opts = [o for o in getattr(param, "opts", ()) if o.startswith("-")]
     if opts:
-        return max(opts, key=len)
+        return str(max(opts, key=len))
     return str(getattr(param, "human_readable_name", None) or "value")
 
 
