@@ -22,9 +22,10 @@ from api.report.series import Array
 
 #: How a mark is drawn: ``line`` (straight segments), ``steps`` (a step per part, centred on
 #: it), ``points`` (a marker per value), ``band`` (shaded between ``y`` and ``y2``, stepped),
-#: ``bars`` (a vertical bar from ``y`` to ``y2`` per value), ``hline`` (across the panel at
-#: ``y[0]``).
-MarkKind = Literal["line", "steps", "points", "band", "bars", "hline"]
+#: ``bars`` (a vertical bar from ``y`` to ``y2`` per value), ``ranges`` (a thick bar from ``y``
+#: to ``y2`` per group of parts, never shorter than a dot: the lowest to the highest of many
+#: parts), ``hline`` (across the panel at ``y[0]``).
+MarkKind = Literal["line", "steps", "points", "band", "bars", "ranges", "hline"]
 #: The shape of a point marker.
 Marker = Literal["dot", "open", "cross", "triangle", "diamond"]
 #: The round steps of an axis, per power of ten.
@@ -42,7 +43,7 @@ class Mark:
     x, y : ndarray
         Part numbers and values (NaN: nothing drawn there).
     y2 : ndarray, optional
-        The other edge of a ``band`` or ``bars``.
+        The other edge of a ``band``, ``bars`` or ``ranges``.
     color : str
         An SVG colour.
     label : str, optional

@@ -14,6 +14,9 @@ every operation:
   with, and the band the RCB update of that part left at the same setpoint.
 - :func:`productivity_figure`: the operation's MRR and machining time.
 
+From :data:`DENSE_FROM` parts on (a year of parts: ``--last 1000``) the readings and the
+bands after the updates are drawn as the range of each group of parts, flags still per part.
+
 and for the plan :func:`cycle_figure`, the cycle time. The last point of every series (open
 markers) is the setpoint in force: what the next part will be made with.
 
@@ -40,6 +43,11 @@ from api.report.series import QUANTITIES, Array, CycleSeries, OperationSeries, O
 
 #: Beyond this many parts the setpoint lines have no marker per part (smaller SVG).
 MARKERS_UP_TO = 40
+#: From this many rows on, a part is under 2.5 px wide: the readings and the bands after
+#: the RCB updates are drawn as the range (lowest to highest) of each group of parts, at
+#: most :data:`DENSE_GROUPS` groups, instead of a marker and a bar per part (1000 markers 5
+#: px wide on 476 px are a black band). Flagged and quarantined parts keep their own marks.
+DENSE_FROM, DENSE_GROUPS = 200, 160
 #: The x label of every chart.
 PART_AXIS = "part (in the order received; the last point: next part)"
 #: Colours: the setpoint (blue), the RCB update (green), limits and flags (red), bounds (grey).
@@ -124,8 +132,34 @@ def _setpoint_line(x: Array, y: Array, label: str) -> tuple[Mark, ...]:
     return tuple(marks)
 
 
+def group_size(rows: int) -> int:
+    """How many parts a ``ranges`` mark groups: 1 below :data:`DENSE_FROM` rows (no grouping)."""
+    return 1 if rows < DENSE_FROM else math.ceil(rows / DENSE_GROUPS)
+
+
+def _ranges(x: Array, y: Array, color: str, label: str) -> Mark:
+    """The lowest to the highest finite ``y`` of each :func:`group_size` parts, at their middle.
+
+    A group with no finite value draws nothing (NaN).
+    """
+    size = group_size(len(x))
+    starts = np.arange(0, len(x), size)
+    middles = np.array([float(np.mean(x[i : i + size])) for i in starts])
+    low, high = np.full(len(starts), np.nan), np.full(len(starts), np.nan)
+    for k, i in enumerate(starts):
+        values = y[i : i + size][np.isfinite(y[i : i + size])]
+        if values.size:
+            low[k], high[k] = values.min(), values.max()
+    return Mark("ranges", middles, low, color, f"{label}, range of {size} parts", y2=high)
+
+
 def _error_bars(x: Array, y: Array, u: Array) -> tuple[Mark, ...]:
-    """Points ± u: the bars are one path, not one SVG element per bar."""
+    """Points ± u: the bars are one path, not one SVG element per bar.
+
+    From :data:`DENSE_FROM` rows on, the range of the readings per group of parts.
+    """
+    if group_size(len(x)) > 1:
+        return (_ranges(x, y, "#000", "measured"),)
     return (
         Mark("bars", x, y - u, "#000", "± u (measurement)", y2=y + u),
         Mark("points", x, y, "#000", "measured"),
@@ -197,15 +231,24 @@ def outputs_figure(series: OperationSeries) -> Chart:
 
 def _band_marks(x: Array, output: Output) -> tuple[Mark, ...]:
     marks = list(_setpoint_line(x, output.band, "ΔY in force (the optimiser's)"))
+    dense = group_size(len(x)) > 1
     if np.isfinite(output.band_after).any():
         used = np.where(output.held, np.nan, output.band_after)
         if np.isfinite(used).any():
             after = "ΔY after the part's RCB update"
-            marks.append(Mark("points", x, used, UPDATE, after, marker="triangle"))
+            marks.append(
+                _ranges(x, used, UPDATE, "ΔY after RCB")
+                if dense
+                else Mark("points", x, used, UPDATE, after, marker="triangle")
+            )
     if output.held.any():  # a wider band learned from few parts: not taken up
         held = np.where(output.held, output.band_after, np.nan)
         label = "ΔY learned, still wider: held"
-        marks.append(Mark("points", x, held, BOUND, label, marker="triangle"))
+        marks.append(
+            _ranges(x, held, BOUND, "ΔY held")
+            if dense
+            else Mark("points", x, held, BOUND, label, marker="triangle")
+        )
     if output.flagged.any():
         flagged = output.band_after[output.flagged]
         marks.append(Mark("points", x[output.flagged], flagged, ALARM, "flagged", marker="cross"))

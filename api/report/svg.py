@@ -22,7 +22,7 @@ import numpy as np
 
 from api.report.chart import Chart, Mark, Panel, nice_ticks
 from api.report.html_parts import escaped
-from api.report.svg_marks import Scale, mark_svg, marker_defs, px, use_shape
+from api.report.svg_marks import RANGE_PX, Scale, mark_svg, marker_defs, px, use_shape
 
 S = TypeVar("S")
 
@@ -200,6 +200,11 @@ def _swatch(mark: Mark, x: float, y: float, prefix: str) -> str:
     dash = ' stroke-dasharray="1.5 2"' if mark.dotted else dash
     if mark.kind == "bars":
         return f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}"/>'
+    if mark.kind == "ranges":
+        return (
+            f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}" '
+            f'stroke-width="{px(RANGE_PX)}"/>'
+        )
     return f'<path d="M{px(x)} {px(y)}h20" stroke="{mark.color}" stroke-width="1.2"{dash}/>'
 
 

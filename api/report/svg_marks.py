@@ -25,6 +25,8 @@ MARKER_PATHS: dict[Marker, str] = {
 }
 #: Markers drawn as strokes (no fill) and the width of their stroke [px].
 STROKED: dict[Marker, float] = {"cross": 2.0, "open": 1.2}
+#: The width of a ``ranges`` bar and its least height, so that one value reads as a dot [px].
+RANGE_PX = 2.0
 
 
 @dataclass(frozen=True)
@@ -163,12 +165,14 @@ def mark_svg(mark: Mark, scale: Scale, prefix: str) -> str:
             f'<line{gid} x1="{px(scale.left)}" x2="{px(scale.right)}" y1="{y}" y2="{y}" '
             f'stroke="{mark.color}" stroke-width="1.2"{_dash(mark)}/>'
         )
-    if mark.kind in ("band", "bars"):
+    if mark.kind in ("band", "bars", "ranges"):
         if mark.y2 is None:
             raise ValueError(f"mark kind = {mark.kind!r}: needs y2, the other edge")
         y2 = [scale.y(float(v)) if math.isfinite(v) else math.nan for v in mark.y2]
         if mark.kind == "band":
             return _band(mark, xs, ys, y2, gid)
+        if mark.kind == "ranges":
+            return _ranges(xs, ys, y2, gid, mark.color)
         return _bars(xs, ys, y2, gid, mark.color)
     runs = [[(xs[i], ys[i]) for i in run] for run in _runs(ys)]
     if not runs:
@@ -204,3 +208,16 @@ def _bars(xs: list[float], low: list[float], high: list[float], gid: str, color:
         if math.isfinite(lo) and math.isfinite(hi)
     )
     return f'<path{gid} d="{d}" stroke="{color}" stroke-width="1"/>' if d else ""
+
+
+def _ranges(xs: list[float], low: list[float], high: list[float], gid: str, color: str) -> str:
+    """Thick bars, each at least :data:`RANGE_PX` tall: a range of one value is a dot."""
+    d = ""
+    for x, lo, hi in zip(xs, low, high, strict=True):
+        if math.isfinite(lo) and math.isfinite(hi):
+            bottom, top = max(lo, hi), min(lo, hi)
+            middle, half = (bottom + top) / 2, max(bottom - top, RANGE_PX) / 2
+            d += f"M{px(x)} {px(middle + half)}V{px(middle - half)}"
+    if not d:
+        return ""
+    return f'<path{gid} d="{d}" stroke="{color}" stroke-width="{px(RANGE_PX)}"/>'
