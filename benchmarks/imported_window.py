@@ -9,9 +9,12 @@ the script times, best of 5, the fleet's read of the tool's imported models
 the window's statement alone (``db.fleet_window.newest_imported``), and counts the models read: each
 machine speaks by its newest :data:`~supervisor.fleet.window.PLANS_PER_MACHINE` plans, so the
 count stays put. The last lines are the ratios of the largest size's times to the smallest's.
+``--import-cost ROWS`` also times writing ROWS rows into an empty table as it is and with
+``ix_imported_models_tool`` dropped (a prefix of two other indexes), alternated, best of 3.
 Run::
 
     .venv/bin/python benchmarks/imported_window.py [--sizes 1000 20000] [--machines 5]
+        [--import-cost 20000]
 """
 
 from __future__ import annotations
@@ -140,11 +143,38 @@ def _timed(engine: Engine) -> tuple[float, float, float, int]:
     return read, window, grouped, models
 
 
+def _import_cost(folder: Path, templates: list[dict[str, Any]], rows: int, machines: int) -> None:
+    """Writing ``rows`` imported rows with and without the tool's own index, best of 3 each."""
+    best = {False: float("inf"), True: float("inf")}
+    size = {False: 0, True: 0}
+    for run in range(6):
+        without = bool(run % 2)
+        url = f"sqlite:///{folder / f'cost-{run}.db'}"
+        upgrade(url)
+        engine = make_engine(url)
+        if without:
+            with engine.begin() as connection:
+                connection.exec_driver_sql("DROP INDEX ix_imported_models_tool")
+        start = time.perf_counter()
+        _fill(engine, templates, 0, rows, machines)
+        best[without] = min(best[without], time.perf_counter() - start)
+        engine.dispose()
+        size[without] = (folder / f"cost-{run}.db").stat().st_size
+    print(
+        f"writing {rows} imported rows: {best[False]:.3f} s as now, {best[True]:.3f} s without "
+        f"ix_imported_models_tool: {best[True] / best[False]:.2f}; the file "
+        f"{size[False] / 2**20:.2f} MiB, {size[True] / 2**20:.2f} MiB"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 20000])
     parser.add_argument("--machines", type=int, default=5)
+    parser.add_argument("--import-cost", type=int, default=0, metavar="ROWS")
     args = parser.parse_args()
+    if not 0 <= args.import_cost <= 200_000:
+        parser.error("--import-cost must be 0..200000")
     if not 1 <= args.machines <= 100:
         parser.error("--machines must be 1..100")
     if not all(1 <= size <= 200_000 for size in args.sizes):
@@ -168,6 +198,8 @@ def main() -> None:
             figures.append((read, window, grouped))
             print(f"{size:>7} {models:>12} {read:>8.4f} {window:>9.4f} {grouped:>10.4f}")
         engine.dispose()
+        if args.import_cost:
+            _import_cost(folder, templates, args.import_cost, args.machines)
     first, last = figures[0], figures[-1]
     large, small = max(args.sizes), min(args.sizes)
     for i, label in enumerate(("read", "window", "grouped reference (before 0031)")):
