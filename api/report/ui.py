@@ -14,6 +14,12 @@ viewer are all viewer or above.
 The pages are self-contained (inline CSS and SVG, no script, nothing loaded from elsewhere); a
 Content-Security-Policy says so to the browser as well. Every text from the database is escaped.
 The routes are left out of the OpenAPI document.
+
+As the REST API refuses a query parameter its route does not take, so does the view: a page
+asked with one (``/ui/?afer=5``), with a parameter given twice, or with a malformed ``cursor``
+is a 400 page naming the parameter and its value, never the first page shown as if asked for.
+The plan list takes ``cursor`` (its "next page" link); every other page takes none (the login
+form's key comes in the body). A page that needs a session redirects to the sign-in first.
 """
 
 from __future__ import annotations
@@ -29,7 +35,7 @@ from sqlalchemy import Engine
 from starlette.concurrency import run_in_threadpool
 
 from api.report.html import render_record
-from api.report.html_parts import document, escaped, row, tag, td, th, timestamp
+from api.report.html_parts import document, escaped, name_html, row, tag, td, th, timestamp
 from api.services import auth, ui_sessions
 from api.services.errors import NotFoundError
 from api.services.read import plans as read_plans
@@ -69,6 +75,8 @@ table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; }
 th { background: #f3f3f3; text-align: left; } td.num { text-align: right; }
 p.error, td.halted { color: #b00; } nav form { display: inline; }
+/* a long plan name folds after a "-" or "_" between its pieces, never inside one */
+.nw { white-space: nowrap; } .brk { white-space: normal; }
 """
 
 _NAV_CSS = "nav.ui { font-size: 0.9em; margin-bottom: 1em; } nav.ui form { display: inline; }"
@@ -96,11 +104,14 @@ def _install_login(app: FastAPI, engine: Engine) -> None:
     """``/ui/login``: the form, and its post that checks the key and sets the cookie."""
 
     @app.get(f"{PREFIX}/login", include_in_schema=False)
-    def login_form() -> HTMLResponse:
-        return _login_page(None, 200)
+    def login_form(request: Request) -> HTMLResponse:
+        refused = _query_refused(request)
+        return _login_page(None, 200) if refused is None else _bad_request(refused)
 
     @app.post(f"{PREFIX}/login", include_in_schema=False)
     async def login(request: Request) -> Response:
+        if (refused := _query_refused(request)) is not None:
+            return _bad_request(refused)  # before the key is read: nothing is checked
         if not _same_origin(request):
             return _login_page("This form must be sent from this site.", 403)
         body = await request.body()
@@ -146,6 +157,8 @@ def _install_logout(app: FastAPI, engine: Engine) -> None:
 
     @app.post(f"{PREFIX}/logout", include_in_schema=False)
     def logout(request: Request) -> Response:
+        if (refused := _query_refused(request)) is not None:
+            return _bad_request(refused)  # the form sends none; the session is left as it is
         if not _same_origin(request):
             return _login_page("This form must be sent from this site.", 403)
         token = request.cookies.get(COOKIE)
@@ -158,20 +171,27 @@ def _install_pages(app: FastAPI, engine: Engine) -> None:
     """``/ui/``, the plans the key may see, and ``/ui/plans/{id}``, one plan's report."""
 
     @app.get(PREFIX, include_in_schema=False)
-    def root() -> Response:
-        """``/ui`` to ``/ui/``, by a relative address (the app redirects no slash itself)."""
-        return RedirectResponse(f"{PREFIX}/", status_code=307, headers=_HEADERS)
+    def root(request: Request) -> Response:
+        """``/ui`` to ``/ui/``, by a relative address (the app redirects no slash itself).
+
+        The query goes along, so ``/ui/`` judges it (a page asked for is never dropped).
+        """
+        query = request.url.query
+        to = f"{PREFIX}/?{query}" if query else f"{PREFIX}/"
+        return RedirectResponse(to, status_code=307, headers=_HEADERS)
 
     @app.get(f"{PREFIX}/", include_in_schema=False)
     def plans(request: Request) -> Response:
         actor = _actor_of(engine, request)  # a session's token: no wrong-key limit to meet
         if actor is None:
             return _to_login(request)
+        if (refused := _query_refused(request, "cursor")) is not None:
+            return _bad_request(refused, actor)
         cursor = request.query_params.get("cursor")
         try:  # a scoped key's plans are filtered in the query: its page is full
             listed = read_plans.list_plans(engine=engine, cursor=cursor, only=actor.plans)
-        except InputError as err:
-            return _page("Bad page", tag("p", escaped(str(err)), class_="error"), actor, 400)
+        except InputError as err:  # a cursor no "next page" link holds
+            return _bad_request(err, actor)
         return _page("Plans", _plans_table(listed["plans"], listed["next_cursor"]), actor)
 
     @app.get(f"{PREFIX}/plans/{{plan_id}}", include_in_schema=False)
@@ -179,6 +199,8 @@ def _install_pages(app: FastAPI, engine: Engine) -> None:
         actor = _actor_of(engine, request)  # a session's token: no wrong-key limit to meet
         if actor is None:
             return _to_login(request)
+        if (refused := _query_refused(request)) is not None:
+            return _bad_request(refused, actor)
         number_id = int(plan_id) if re.fullmatch(r"[0-9]{1,10}", plan_id) else 0
         if not 1 <= number_id <= MAX_INT or not actor.may_see(number_id):
             return _not_found(plan_id, actor)
@@ -191,6 +213,23 @@ def _install_pages(app: FastAPI, engine: Engine) -> None:
         nav = tag("style", _NAV_CSS) + _nav(actor)
         page = page.replace("</head><body>", f"</head><body>{nav}", 1)
         return HTMLResponse(page, headers=_HEADERS)
+
+
+def _query_refused(request: Request, *known: str) -> InputError | None:
+    """Why the page refuses the request's query (``known``: the parameters it takes), or None.
+
+    A parameter it does not take, or one it takes given twice (which of the two was meant?),
+    in the REST API's words (:mod:`api.rest.strict`): ``afer = '5': unknown query parameter``.
+    """
+    listed = ", ".join(known) if known else "none"
+    for name in request.query_params:
+        given = request.query_params.getlist(name)
+        if name not in known:
+            reason = f"unknown query parameter; this page takes {listed}"
+            return InputError(name, given[0] if len(given) == 1 else given, reason)
+        if len(given) > 1:
+            return InputError(name, given, f"given {len(given)} times; it takes one value")
+    return None
 
 
 def _same_origin(request: Request) -> bool:
@@ -226,6 +265,18 @@ def _nav(actor: Actor) -> str:
 
 def _page(title: str, content: str, actor: Actor, status: int = 200) -> HTMLResponse:
     return _document(f"rcb: {title}", _nav(actor) + tag("h1", escaped(title)) + content, status)
+
+
+def _bad_request(err: InputError, actor: Actor | None = None) -> HTMLResponse:
+    """400: the parameter and its value (as :class:`InputError` words them), and the way back.
+
+    ``actor``: the session's, whose navigation the page has; None on the sign-in pages.
+    """
+    back = tag("p", tag("a", escaped("Back to the plan list"), href=f"{PREFIX}/"))
+    text = tag("p", escaped(str(err)), class_="error", role="alert") + back
+    if actor is not None:
+        return _page("Bad request", text, actor, 400)
+    return _document("rcb: Bad request", tag("h1", escaped("Bad request")) + text, 400)
 
 
 def _login_page(message: str | None, status: int) -> HTMLResponse:
@@ -292,8 +343,8 @@ def _plans_table(plans: list[dict[str, Any]], next_cursor: str | None = None) ->
         link = tag("a", "record, plots", href=f"{PREFIX}/plans/{int(p['id'])}")
         cells = [
             td(p["id"], class_="num"),
-            td(p["name"]),
-            td(p["machine"]),
+            tag("td", name_html(p["name"])),  # folds after a "-" or "_", never mid-piece
+            tag("td", name_html(p["machine"])),
             td(p["setpoint_version"], class_="num"),
             td(p["parts"], class_="num"),
             td(timestamp(p["created_at"])),
