@@ -23,7 +23,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
 from api.rest.refused_audit import audit_refused
-from api.rest.schemas.common import field_path
+from api.rest.schemas.common import field_path, plain_message
 from api.rest.unavailable import RETRY_AFTER_S, reason, unavailable
 from api.services.errors import NotFoundError, PlanHaltedError
 from api.services.idempotency import InFlightError, KeyReuseError
@@ -225,11 +225,13 @@ async def _validation(request: Request, err: RequestValidationError) -> JSONResp
 
 
 def _invalid(request: Request, err: RequestValidationError) -> JSONResponse:
-    """The 400 or 422 of a request its route's schema refused."""
+    """The 400 or 422 of a request its route's schema refused, in the service's words."""
+    body = getattr(request.scope.get("route"), "body_field", None)
+    model = None if body is None else body.field_info.annotation
     errors = [
         {
             "field": clip(field_path(e.get("loc", ()))),
-            "message": e.get("msg", ""),
+            "message": plain_message(e, model),
             # a missing field's "input" is the object it is missing from: no value to echo
             "value": None if e.get("type") == "missing" else echo(e.get("input")),
         }

@@ -248,5 +248,9 @@ def test_a_missing_field_is_named_without_echoing_the_body(server, plan, missing
     assert r.status_code == 422, r.text
     problem = r.json()
     assert (problem["field"], problem["value"]) == (missing, None)
-    assert problem["detail"] == f"{missing}: Field required"
-    assert problem["errors"][0] == {"field": missing, "message": "Field required", "value": None}
+    assert problem["detail"] == f"{missing}: required field missing"
+    assert problem["errors"][0] == {
+        "field": missing,
+        "message": "required field missing",
+        "value": None,
+    }

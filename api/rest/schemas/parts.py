@@ -7,7 +7,15 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
 
-from api.rest.schemas.common import Count, Name, NonNegative, Out, Positive, field_path
+from api.rest.schemas.common import (
+    Count,
+    Name,
+    NonNegative,
+    Out,
+    Positive,
+    field_path,
+    plain_message,
+)
 from api.rest.schemas.halts import HaltedOperationOut
 from api.rest.schemas.quantities import keyed_table
 from api.rest.schemas.setpoints import OperationSetpoint
@@ -239,7 +247,8 @@ def parse_report(data: object) -> PartReport:
         return PartReportIn.model_validate(data).to_report()
     except ValidationError as err:
         first = err.errors()[0]
-        raise InputError(field_path(first["loc"]), first.get("input"), first["msg"]) from None
+        message = plain_message(first, PartReportIn)
+        raise InputError(field_path(first["loc"]), first.get("input"), message) from None
 
 
 class Update(Out):

@@ -7,7 +7,7 @@ from typing import Annotated, Any
 from fastapi import Query
 from pydantic import BaseModel, ConfigDict, Field
 
-from api.rest.schemas.common import Name, NonNegative, Out, Positive, Text, keys_schema
+from api.rest.schemas.common import Name, NonNegative, Out, Positive, Text, allowed, keys_schema
 from models.bounds import LARGEST_EXPONENT
 from models.kinematics import CONTEXT, PARAMETERS, PROCESSES, Process
 from models.quantities import MODEL_QUANTITIES
@@ -220,7 +220,10 @@ class FleetLawOut(Out):
 TextCursor = Annotated[
     str | None,
     Query(
-        pattern=r"^[A-Za-z0-9_-]{1,1200}$",
+        pattern=allowed(
+            r"^[A-Za-z0-9_-]{1,1200}$",
+            "must be the previous page's next_cursor: 1 to 1200 letters, digits, _ or -",
+        ),
         description="`next_cursor` of the previous page (opaque)",
     ),
 ]
