@@ -5,32 +5,14 @@ sentence: ``Invalid value for '--limit': Input should be a valid integer, unable
 string as an integer (got 'abc')``, worded unlike every other error of rcb
 (``--strategy = 'x': must be one of ...``, :class:`models.errors.InputError`). :func:`said`
 words each of pydantic's errors as rcb words an input's (the option, the value as given, what
-it must be); an error it does not know keeps pydantic's sentence, without its "Value error, ".
+it must be), in the words of the service's problems
+(:func:`api.rest.schemas.common.plain_message`).
 """
 
 from __future__ import annotations
 
 import sys
 from typing import Any
-
-#: pydantic's error type -> what the value must be (``str.format`` of the error's ``ctx``).
-_MUST = {
-    "int_parsing": "must be a whole number",
-    "int_from_float": "must be a whole number",
-    "int_type": "must be a whole number",
-    "float_parsing": "must be a number",
-    "float_type": "must be a number",
-    "finite_number": "must be a finite number",
-    "bool_parsing": "must be true or false",
-    "greater_than_equal": "must be at least {ge}",
-    "greater_than": "must be greater than {gt}",
-    "less_than_equal": "must be at most {le}",
-    "less_than": "must be less than {lt}",
-    "enum": "must be one of {expected}",
-    "literal_error": "must be one of {expected}",
-    "string_too_long": "must be at most {max_length} characters",
-    "string_too_short": "must be at least {min_length} characters",
-}
 
 
 def said(err: BaseException) -> str | None:
@@ -65,12 +47,7 @@ def _name(param: Any) -> str:
 
 
 def _must(error: Any) -> str:
-    """What the value must be, for one of pydantic's errors."""
-    template = _MUST.get(error.get("type", ""))
-    if template is not None:
-        try:
-            return template.format(**(error.get("ctx") or {}))
-        except (KeyError, IndexError):
-            pass
-    message = str(error.get("msg", "invalid"))
-    return message.removeprefix("Value error, ")
+    """What the value must be, for one of pydantic's errors: as the service says it."""
+    from api.rest.schemas.common import plain_message  # loaded only for an error: not at start
+
+    return plain_message(error)
