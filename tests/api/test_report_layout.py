@@ -77,10 +77,10 @@ TEXT_OUTSIDE_SVG_JS = """
 """
 
 
-def chromium_page(playwright):
-    """A browser (Debian's Chromium) and a page at a 1280 x 800 viewport."""
+def chromium_page(playwright, height: int = VIEWPORT["height"]):
+    """A browser (Debian's Chromium) and a page at a 1280 px wide viewport (800 high)."""
     browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-    context = browser.new_context(viewport=VIEWPORT)
+    context = browser.new_context(viewport={**VIEWPORT, "height": height})
     context.set_default_timeout(WAIT_BOUND_MS)  # only a hung browser reaches it
     return browser, context.new_page()
 

@@ -17,7 +17,14 @@ from urllib.parse import urlsplit
 
 import httpx
 import pytest
-from test_report_layout import BROKEN_WORDS_JS, CHROMIUM, CHROMIUM_ARGS, WAIT_BOUND_MS
+from test_report_layout import (
+    BROKEN_WORDS_JS,
+    CHROMIUM,
+    CHROMIUM_ARGS,
+    WAIT_BOUND_MS,
+    chromium_page,
+    needs_chromium,
+)
 
 from api.report.plots import number
 
@@ -48,6 +55,14 @@ def plan_id(server):
 
 def _ui(server) -> str:
     return f"http://127.0.0.1:{server.port}/ui"
+
+
+def sign_in(page, server, role: str = "viewer") -> None:
+    """Sign ``page`` in to the web view with the server's ``role`` key: at the plan list."""
+    page.goto(f"{_ui(server)}/login")
+    page.fill("input[name=key]", server.keys[role])
+    page.click("button[type=submit]")
+    page.wait_for_url(f"{_ui(server)}/")
 
 
 def _browser(server) -> httpx.Client:
@@ -324,21 +339,11 @@ def test_constant_load_page_shows_the_tool_change_and_no_nan(server, three_plans
 
 
 def test_plan_pages_fit_1280_wide_in_chromium(server, three_plans, tmp_path):
-    if not CHROMIUM.is_file() or shutil.which(str(CHROMIUM)) is None:
-        pytest.skip(f"{CHROMIUM} not installed (apt-get install chromium)")
-    sync_api = pytest.importorskip(
-        "playwright.sync_api", reason="the playwright Python package is not installed"
-    )
+    sync_api = needs_chromium()
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        browser, page = chromium_page(p)
         try:
-            context = browser.new_context(viewport={"width": 1280, "height": 800})
-            context.set_default_timeout(WAIT_BOUND_MS)
-            page = context.new_page()
-            page.goto(f"{_ui(server)}/login")
-            page.fill("input[name=key]", server.keys["viewer"])
-            page.click("button[type=submit]")
-            page.wait_for_url(f"{_ui(server)}/")
+            sign_in(page, server)
             for kind, plan in three_plans.items():
                 page.goto(f"{_ui(server)}/plans/{plan}")
                 shot = tmp_path / f"ui_{kind}.png"

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import httpx
 import pytest
-from test_report_layout import CHROMIUM, CHROMIUM_ARGS, WAIT_BOUND_MS
+from test_report_layout import chromium_page, needs_chromium
+from test_ui import sign_in
 
 from api.report.html_parts import ONE_LINE_CHARS
 
@@ -240,22 +241,12 @@ def test_long_names_offer_breaks_only_after_separators(server, plan_ids):
 
 
 def test_long_names_fold_at_separators_in_chromium(server, plan_ids, tmp_path):
-    if not CHROMIUM.is_file() or shutil.which(str(CHROMIUM)) is None:
-        pytest.skip(f"{CHROMIUM} not installed (apt-get install chromium)")
-    sync_api = pytest.importorskip(
-        "playwright.sync_api", reason="the playwright Python package is not installed"
-    )
+    sync_api = needs_chromium()
     shot = tmp_path / "ui_plan_list.png"
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        browser, page = chromium_page(p, height=900)
         try:
-            context = browser.new_context(viewport={"width": 1280, "height": 900})
-            context.set_default_timeout(WAIT_BOUND_MS)
-            page = context.new_page()
-            page.goto(f"{_ui(server)}/login")
-            page.fill("input[name=key]", server.keys["viewer"])
-            page.click("button[type=submit]")
-            page.wait_for_url(f"{_ui(server)}/")
+            sign_in(page, server)
             page.screenshot(path=str(shot), full_page=True)
             shutil.copyfile(shot, SCREENSHOT)
             broken = page.evaluate(PIECES_BROKEN_JS, ONE_LINE_CHARS)
