@@ -24,8 +24,9 @@ from api.report.series import Array
 #: it), ``points`` (a marker per value), ``band`` (shaded between ``y`` and ``y2``, stepped),
 #: ``bars`` (a vertical bar from ``y`` to ``y2`` per value), ``ranges`` (a thick bar from ``y``
 #: to ``y2`` per group of parts, never shorter than a dot: the lowest to the highest of many
-#: parts), ``hline`` (across the panel at ``y[0]``).
-MarkKind = Literal["line", "steps", "points", "band", "bars", "ranges", "hline"]
+#: parts), ``hline`` (across the panel at ``y[0]``), ``vlines`` (top to bottom of the panel at
+#: each ``x``: an event at a part, its ``y`` unused).
+MarkKind = Literal["line", "steps", "points", "band", "bars", "ranges", "hline", "vlines"]
 #: The shape of a point marker.
 Marker = Literal["dot", "open", "cross", "triangle", "diamond"]
 #: The round steps of an axis, per power of ten.

@@ -50,8 +50,12 @@ MARKERS_UP_TO = 40
 DENSE_FROM, DENSE_GROUPS = 200, 160
 #: The x label of every chart.
 PART_AXIS = "part (in the order received; the last point: next part)"
-#: Colours: the setpoint (blue), the RCB update (green), limits and flags (red), bounds (grey).
+#: Colours: the setpoint (blue), the RCB update (green), limits and flags (red), bounds (grey),
+#: a sensor check (yellow), a change of the process (purple).
 SETPOINT, UPDATE, ALARM, BOUND, CHECK = "#1f77b4", "#2ca02c", "#d62728", "#666666", "#ffdd00"
+CHANGE = "#7b3294"
+#: The legend entry of a part whose reading showed the process changed.
+CHANGED = "process changed: re-learned"
 #: The legend entry of the next part's open marker; in the outputs, with its band's bar.
 NEXT, NEXT_BAND = "next part", "next part: predicted ± band"
 #: How a limit's sense is written: "min" next to a time in minutes would read as minutes.
@@ -213,6 +217,7 @@ def _output_marks(x: Array, output: Output) -> tuple[Mark, ...]:
         checked = output.measured[output.checked]
         label = "check sensor: implausibly low"
         marks.append(Mark("points", x[output.checked], checked, CHECK, label, marker="diamond"))
+    marks += _changes(x, output)
     if output.limit is not None:
         limit = np.array([output.limit])
         gid = f"limit-{output.quantity}"
@@ -252,7 +257,18 @@ def _band_marks(x: Array, output: Output) -> tuple[Mark, ...]:
     if output.flagged.any():
         flagged = output.band_after[output.flagged]
         marks.append(Mark("points", x[output.flagged], flagged, ALARM, "flagged", marker="cross"))
-    return tuple(marks)
+    return (*marks, *_changes(x, output))
+
+
+def _changes(x: Array, output: Output) -> tuple[Mark, ...]:
+    """A dashed rule at each part whose reading showed the process changed (``regime_change``).
+
+    Its bands widen there and it is re-learned from it: drawn at any density of parts.
+    """
+    if output.changed is None or not output.changed.any():
+        return ()
+    at = x[output.changed]
+    return (Mark("vlines", at, np.full(len(at), np.nan), CHANGE, CHANGED, dashed=True),)
 
 
 def bands_figure(series: OperationSeries) -> Chart:

@@ -27,6 +27,8 @@ Array = npt.NDArray[np.float64]
 QUANTITIES = quantities.QUANTITIES
 #: The note of a reading quarantined as implausibly low (supervisor.rcb.state.Note), marked apart.
 CHECKED = "implausible_low"
+#: The note of a decision that saw the process change (supervisor.rcb.state.Note).
+CHANGED = "regime_change"
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,9 @@ class Output:
     held : ndarray of bool
         The RCB decision held the band in force although the band it computed is wider (action
         ``hold``, ``band_after > band``: a model learned from few parts, not taken up).
+    changed : ndarray of bool, optional
+        The RCB decision saw the process change (note ``regime_change``): the quantity is
+        re-learned from that part on. None: no part's.
     """
 
     quantity: str
@@ -68,6 +73,7 @@ class Output:
     flagged: npt.NDArray[np.bool_]
     checked: npt.NDArray[np.bool_]
     held: npt.NDArray[np.bool_]
+    changed: npt.NDArray[np.bool_] | None = None
 
 
 @dataclass(frozen=True)
@@ -195,6 +201,7 @@ def _output(
         flagged=np.array([bool(d and d["flagged"]) for d in decided], dtype=bool),
         checked=np.array([bool(d and d.get("note") == CHECKED) for d in decided], dtype=bool),
         held=hold & (band_after > band),
+        changed=np.array([bool(d and d.get("note") == CHANGED) for d in decided], dtype=bool),
     )
 
 

@@ -198,8 +198,8 @@ def _swatch(mark: Mark, x: float, y: float, prefix: str) -> str:
         )
     dash = ' stroke-dasharray="5 3"' if mark.dashed else ""
     dash = ' stroke-dasharray="1.5 2"' if mark.dotted else dash
-    if mark.kind == "bars":
-        return f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}"/>'
+    if mark.kind in ("bars", "vlines"):
+        return f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}"{dash}/>'
     if mark.kind == "ranges":
         return (
             f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}" '

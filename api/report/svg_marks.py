@@ -159,6 +159,10 @@ def mark_svg(mark: Mark, scale: Scale, prefix: str) -> str:
     gid = f' id="{prefix}{escaped(mark.gid)}"' if mark.gid else ""
     xs = [scale.x(float(v)) for v in mark.x]
     ys = [scale.y(float(v)) if math.isfinite(v) else math.nan for v in mark.y]
+    if mark.kind == "vlines":
+        top, bottom = px(scale.top), px(scale.bottom)
+        d = "".join(f"M{px(x)} {top}V{bottom}" for x in xs)
+        return f'<path{gid} d="{d}" stroke="{mark.color}" stroke-width="1"{_dash(mark)}/>'
     if mark.kind == "hline":
         y = px(scale.y(float(mark.y[0])))
         return (

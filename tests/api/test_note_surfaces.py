@@ -316,6 +316,31 @@ def test_the_outputs_plot_marks_the_implausible_reading_apart(stored):
     assert list(labels["check sensor: implausibly low"].x) == [1]  # part number
 
 
+def test_the_plots_draw_the_change_of_the_process_where_it_was_seen(stored):
+    """A rule at each part whose reading saw the process change, on the readings' and the
+    bands' panels of that quantity alone (was only in the tables): SN-REGIME (part 2) for
+    the two it was written on, and wherever the real update saw one."""
+    shown = stored["record"]
+    changed = {
+        (u["operation"], u["quantity"], number)
+        for number, part in enumerate(shown["parts"], start=1)
+        for u in part["updates"]
+        if u.get("note") == "regime_change"
+    }
+    second = PLAN["operations"][1]["name"]
+    assert {("rough-od", "force_N", 2), (second, "roughness_um", 2)} <= changed
+    drawn = set()
+    for operation in {o["name"] for o in PLAN["operations"]}:
+        series = operation_series(shown["plan"], shown["history"], shown["parts"], operation)
+        for figure in (plots.outputs_figure(series), plots.bands_figure(series)):
+            for output, panel in zip(series.outputs, figure.panels, strict=True):
+                for rule in (m for m in panel.marks if m.kind == "vlines"):
+                    assert rule.label == plots.CHANGED
+                    drawn |= {(operation, output.quantity, int(x)) for x in rule.x}
+    assert drawn == changed
+    assert f'stroke="{plots.CHANGE}"' in stored["page"]
+
+
 def test_the_web_view_shows_the_notes_and_the_halt(stored):
     live = stored["server"]
     base = f"http://127.0.0.1:{live.port}/ui"
