@@ -19,6 +19,7 @@ from api.report.svg import LEGEND_PX, TICK_FONT_PX, render
 
 FLAGGED = (137, 502, 503, 871)  # row indices (part = index + 1)
 CHECKED = (640,)
+CHANGED = (311,)  # a regime_change note
 
 
 def _series(parts: int, first_part: int = 1) -> OperationSeries:
@@ -41,6 +42,7 @@ def _series(parts: int, first_part: int = 1) -> OperationSeries:
     band_after = 400.0 + 200.0 * np.exp(-np.arange(rows) / 10.0)
     band_after[-1] = np.nan
     held = np.arange(rows) < 20
+    changed = np.isin(np.arange(rows), CHANGED)
     output = Output(
         quantity="force_N",
         limit=2000.0,
@@ -53,6 +55,7 @@ def _series(parts: int, first_part: int = 1) -> OperationSeries:
         flagged=flagged,
         checked=checked,
         held=held,
+        changed=changed,
     )
     flat = np.full(rows, 0.32)
     return OperationSeries(
@@ -164,3 +167,12 @@ def test_legend_entries_fit_the_legend_at_1000_parts():
             for mark in panel.marks:
                 if mark.label:
                     assert 26 + _width(mark.label, TICK_FONT_PX) * 0.9 <= LEGEND_PX, mark.label
+
+
+def test_a_change_of_the_process_keeps_its_rule_at_1000_parts():
+    series = _series(1000)
+    for figure in (plots.outputs_figure(series), plots.bands_figure(series)):
+        (rule,) = [m for m in figure.panels[0].marks if m.kind == "vlines"]
+        assert list(rule.x) == [i + 1 for i in CHANGED]
+        svg = render(lambda s, f=figure: f, series)
+        assert svg.count(f'stroke="{plots.CHANGE}"') == 2  # the rule and its legend swatch
