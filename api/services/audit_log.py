@@ -73,7 +73,7 @@ def audit_page(
     ``next_cursor``: what ``--cursor`` takes for the older entries, None on the last page.
     """
     if not 1 <= limit <= READ_PAGE:
-        raise InputError("--limit", limit, f"a page holds 1 to {READ_PAGE} entries")
+        raise InputError("--limit", limit, f"must be between 1 and {READ_PAGE}")
     below = _below(cursor)
     with _read(engine) as session, session.begin():
         rows = entries(session=session, query=query, below=below, limit=limit + 1)

@@ -61,7 +61,7 @@ def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, A
     ``next_after``: the cursor of the next page, None after the last.
     """
     if not 1 <= limit <= MAX_PAGE:
-        raise InputError("--limit", limit, f"a page holds 1 to {MAX_PAGE} keys")
+        raise InputError("--limit", limit, f"must be between 1 and {MAX_PAGE}")
     if not 0 <= after <= MAX_INT:
         raise InputError("--after", after, f"a key id is 0 to {MAX_INT}")
     with Session(engine) as session, session.begin():

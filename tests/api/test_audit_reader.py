@@ -166,7 +166,7 @@ def test_since_with_an_offset_selects_by_the_utc_time(engine):
 @pytest.mark.parametrize(
     ("args", "named"),
     [
-        (["--limit", "0"], "--limit = 0: a page holds 1 to 500 entries"),
+        (["--limit", "0"], "--limit = 0: must be between 1 and 500"),
         (["--limit", "501"], "--limit = 501"),
         (["--since", "yesterday"], "--since = 'yesterday': expected an age"),
         (["--since", "0d"], "--since = '0d'"),
