@@ -40,6 +40,7 @@ def test_a_reported_part_is_located_and_read_there(server) -> None:
         assert force["rough-od"]["value"] == 0.9 * first["predicted"]["force_N"]["value"]
         again = mes.post(f"/plans/{plan_id}/parts", json=body, headers=key)
         assert again.headers["idempotent-replayed"] == "true"
+        assert again.content == made.content  # byte for byte (was re-encoded: other spacing)
         assert (again.status_code, again.headers["location"]) == (201, where)
         # another plan's part, a part not stored, an id out of range: as a plan not found
         for path, field in (

@@ -5,12 +5,13 @@
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Header, Path, Request
-from fastapi.responses import JSONResponse, Response
+from fastapi.responses import Response
 from pydantic import AfterValidator
 
 from api.rest.schemas.common import NO_NUL
 from api.rest.strict import StrictRoute
 from api.services.idempotency import Idempotency, Written, fingerprint
+from db.bulk import Encoded
 from db.tables import MAX_INT
 from models.bounds import MAX_IDENTITY
 from models.fields import identity
@@ -90,8 +91,7 @@ def answer(written: Written, location: str | None = None) -> Response:
     headers = {"Idempotent-Replayed": "true"} if written.replayed else {}
     if location is not None and written.status == 201:
         headers["Location"] = location
-    if written.text is not None:  # encoded once, for the database and for this answer
-        return Response(
-            written.text, written.status, headers=headers, media_type="application/json"
-        )
-    return JSONResponse(written.body, status_code=written.status, headers=headers)
+    # a new answer's text was encoded once, for the database and for this answer; a replay's
+    # is encoded as it was (db.bulk.Encoded): the same bytes as the first answer's
+    text = written.text if written.text is not None else Encoded.of(written.body).text
+    return Response(text, written.status, headers=headers, media_type="application/json")
