@@ -268,12 +268,13 @@ def test_cli_table_and_exit_code_1_on_violations():
     ("args", "needles"),
     [
         (["--strategy", "bogus"], ["--strategy", "'bogus'", "ivester"]),
-        (["--scenarios", "0"], ["--scenarios", "'0'"]),
-        (["--scenarios", "100001"], ["--scenarios", "'100001'"]),
-        (["--parts", "0"], ["--parts", "'0'"]),
-        (["--parts", "1001"], ["--parts", "'1001'"]),
+        # the value as given, a number bare (api.cli.usage_words), and what it must be
+        (["--scenarios", "0"], ["--scenarios = 0: must be at least 1"]),
+        (["--scenarios", "100001"], ["--scenarios = 100001: must be at most 100000"]),
+        (["--parts", "0"], ["--parts = 0: must be at least 1"]),
+        (["--parts", "1001"], ["--parts = 1001: must be at most"]),
         (["--wear-drift", "-1"], ["--wear-drift", "-1"]),
-        (["--jobs", "0"], ["--jobs", "'0'"]),
+        (["--jobs", "0"], ["--jobs = 0: must be at least 1"]),
     ],
 )
 def test_cli_bad_options(args, needles):
