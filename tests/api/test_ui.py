@@ -98,10 +98,14 @@ def _history_mrr(root: ET.Element, version: int, operation: str) -> str:
 
 def test_without_cookie_redirects_to_login(server, plan_id):
     with _browser(server) as c:
-        for path in ("/", f"/plans/{plan_id}", "/plans/999999"):
+        for path, back in (
+            ("/", ""),  # the plan list: where a sign-in goes anyway
+            (f"/plans/{plan_id}", f"?next=%2Fui%2Fplans%2F{plan_id}"),
+            ("/plans/999999", "?next=%2Fui%2Fplans%2F999999"),  # its own answer once in
+        ):
             r = c.get(path)
             assert r.status_code == 303, path
-            assert r.headers["location"] == "/ui/login", path
+            assert r.headers["location"] == f"/ui/login{back}", path
         form = c.get("/login")
         c.cookies.set("rcb_ui_key", "rcb_not-a-key", domain="127.0.0.1", path="/ui")
         r = c.get("/")
@@ -230,10 +234,12 @@ def test_plan_page_renders_in_headless_chromium(server, plan_id, tmp_path):
             context.route("**/*", local_only)
             page = context.new_page()
             page.goto(f"{_ui(server)}/plans/{plan_id}")
-            assert page.url == f"{_ui(server)}/login"  # redirected: no cookie yet
+            # redirected: no cookie yet; the sign-in comes back to the page asked for
+            assert page.url == f"{_ui(server)}/login?next=%2Fui%2Fplans%2F{plan_id}"
             page.fill("input[name=key]", server.keys["viewer"])
             page.click("button[type=submit]")
-            page.wait_for_url(f"{_ui(server)}/")
+            page.wait_for_url(f"{_ui(server)}/plans/{plan_id}")
+            page.goto(f"{_ui(server)}/")  # and the plan list links to it
             page.click(f"a[href='/ui/plans/{plan_id}']")
             page.wait_for_url(f"{_ui(server)}/plans/{plan_id}")
             page.screenshot(path=str(shot), full_page=True)

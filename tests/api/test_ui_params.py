@@ -201,11 +201,12 @@ def test_login_and_logout_take_no_query_and_still_work(server, plan_ids):
     key = server.keys["viewer"]
     with httpx.Client(base_url=_ui(server), timeout=60.0, follow_redirects=False) as c:
         form = c.get("/login")
-        odd_form = c.get("/login", params={"next": "/ui/"})
+        odd_form = c.get("/login", params={"back": "/ui/"})  # it takes next, nothing else
         odd_login = c.post("/login", params={"next": "/ui/"}, data={"key": key})
         assert form.status_code == 200 and 'name="key"' in form.text
-        _assert_refused(odd_form, "next", "/ui/", signed_in=False)
-        _assert_refused(odd_login, "next", "/ui/", signed_in=False)  # no session opened
+        _assert_refused(odd_form, "back", "/ui/", signed_in=False)
+        # the post's next comes in the form's body, as its key does: no session opened
+        _assert_refused(odd_login, "next", "/ui/", signed_in=False)
         login = c.post("/login", data={"key": key})  # the form's post: the key in the body
         assert (login.status_code, login.headers["location"]) == (303, "/ui/")
         assert c.get("/").status_code == 200
