@@ -45,7 +45,11 @@ _log = logging.getLogger("rcb.api")
 
 
 class ProblemError(Exception):
-    """An error the REST layer itself raises (authentication, a missing header)."""
+    """An error the REST layer itself raises (authentication, a missing header).
+
+    ``reason``: what ``errors[].message`` of an ``invalid`` one says, the reason alone as an
+    input's (the field and value are its own members); the whole ``detail`` if not given.
+    """
 
     def __init__(
         self,
@@ -55,9 +59,11 @@ class ProblemError(Exception):
         field: str | None = None,
         value: object = None,
         headers: dict[str, str] | None = None,
+        reason: str | None = None,
     ) -> None:
         self.status, self.code, self.detail = status, code, detail
         self.field, self.value, self.headers = field, value, headers
+        self.reason = detail if reason is None else reason
         super().__init__(detail)
 
 
@@ -155,7 +161,7 @@ async def _problem(request: Request, err: ProblemError) -> JSONResponse:
     errors = None
     if err.code == "invalid":
         errors = [
-            {"field": clip(err.field or "body"), "message": err.detail, "value": echo(err.value)}
+            {"field": clip(err.field or "body"), "message": err.reason, "value": echo(err.value)}
         ]
     return problem(
         request,

@@ -143,8 +143,9 @@ def _unknown_query(request: Request, known: list[str]) -> None:
         if name not in known:
             listed = ", ".join(known) if known else "none"
             given = request.query_params.getlist(name)
-            detail = f"{name}: unknown query parameter; known: {listed}"
-            raise ProblemError(422, "invalid", detail, name, given[0] if len(given) == 1 else given)
+            reason = f"unknown query parameter; known: {listed}"
+            value = given[0] if len(given) == 1 else given
+            raise ProblemError(422, "invalid", f"{name}: {reason}", name, value, reason=reason)
 
 
 class StrictRoute(APIRoute):
@@ -171,8 +172,9 @@ class StrictRoute(APIRoute):
             for name in integers:
                 raw = request.path_params.get(name)
                 if isinstance(raw, str) and not _DIGITS.fullmatch(raw):
-                    detail = f"{name} = {raw!r}: must be a whole number in digits 0-9"
-                    raise ProblemError(422, "invalid", detail, name, raw)
+                    reason = "must be a whole number in digits 0-9"
+                    detail = f"{name} = {raw!r}: {reason}"
+                    raise ProblemError(422, "invalid", detail, name, raw, reason=reason)
             if takes_json:
                 try:
                     body = await request.body()
