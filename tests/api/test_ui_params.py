@@ -34,7 +34,7 @@ LONG_NAMES = (
     "rough-groove-lathe-12-shaft-4711-rev-c_customer-acme-line-3-op20",
 )
 SCREENSHOT = Path("/tmp/ui_plan_list.png")
-#: The headers every page of the view carries (api.report.ui._HEADERS).
+#: The headers every page of the view carries (api.report.ui_base.HEADERS).
 SECURITY_HEADERS = ("content-security-policy", "x-content-type-options", "referrer-policy")
 HOSTILE = "<script>alert(1)</script>"
 
