@@ -35,7 +35,6 @@ CHROMIUM_ARGS = [
     "--disable-sync",
 ]
 VIEWPORT = {"width": 1280, "height": 800}
-SCREENSHOT = Path("/tmp/report_layout.png")
 #: Playwright's bound on each wait [ms]: the pages answer in under a second (issue 30), so only
 #: a hung server or browser reaches it; not Playwright's 30 s default, which a loaded host hit.
 WAIT_BOUND_MS = 180_000
@@ -106,9 +105,10 @@ def test_no_word_breaks_inside_a_cell_at_1280(report_page, tmp_path):
     sync_api = needs_chromium()
     with sync_api.sync_playwright() as p:
         browser, page = chromium_page(p)
+        shot = tmp_path / "report_layout.png"  # for the failure's message
         try:
             page.set_content(report_page, wait_until="load")
-            page.screenshot(path=str(SCREENSHOT), full_page=True)
+            page.screenshot(path=str(shot), full_page=True)
             broken = page.evaluate(BROKEN_WORDS_JS, None)
             cells = page.evaluate("() => document.querySelectorAll('th, td').length")
             scroll = page.evaluate("() => document.documentElement.scrollWidth")
@@ -117,7 +117,7 @@ def test_no_word_breaks_inside_a_cell_at_1280(report_page, tmp_path):
         finally:
             browser.close()
     assert cells > 400  # the check saw the tables (31 versions x 12 columns, setpoints ...)
-    assert broken == [], f"words broken across lines: {broken}; screenshot {SCREENSHOT}"
+    assert broken == [], f"words broken across lines: {broken}; screenshot {shot}"
     assert scroll <= VIEWPORT["width"]  # and the page still fits: nothing scrolls sideways
     assert limit == "864,000 (minimum)"  # never "(min)" beside a "Time [min]" column
     assert outside == [], f"plot text cut at the plot's edge: {outside}"

@@ -34,7 +34,6 @@ PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 NAMES = [op["name"] for op in PLAN["operations"]]
 MRR_V1 = 191.2  # cm³/min, Ivester & Heigel Table 5, step 1 row R
 PLOT_KINDS = 4  # parameters, outputs, bands, productivity per operation; plus one cycle plot
-SCREENSHOT = Path("/tmp/ui_plan.png")
 #: The XML namespace names inline SVG declares: identifiers, never fetched.
 SVG_NAMESPACES = {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
 
@@ -243,7 +242,6 @@ def test_plan_page_renders_in_headless_chromium(server, plan_id, tmp_path):
             page.click(f"a[href='/ui/plans/{plan_id}']")
             page.wait_for_url(f"{_ui(server)}/plans/{plan_id}")
             page.screenshot(path=str(shot), full_page=True)
-            shutil.copyfile(shot, SCREENSHOT)
 
             svgs = page.locator("figure.plot svg")
             assert svgs.count() == 1 + PLOT_KINDS * len(NAMES), f"screenshot: {shot}"
@@ -354,7 +352,6 @@ def test_plan_pages_fit_1280_wide_in_chromium(server, three_plans, tmp_path):
                 page.goto(f"{_ui(server)}/plans/{plan}")
                 shot = tmp_path / f"ui_{kind}.png"
                 page.screenshot(path=str(shot), full_page=True)
-                shutil.copyfile(shot, Path(f"/tmp/ui_plan_{kind}.png"))
                 widths = page.evaluate(
                     "() => ({doc: document.documentElement.scrollWidth,"
                     " view: document.documentElement.clientWidth,"

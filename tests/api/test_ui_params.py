@@ -11,12 +11,10 @@ Chromium as well (skipped, saying why, without it or the ``playwright`` package)
 from __future__ import annotations
 
 import re
-import shutil
 import tomllib
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
 import httpx
 import pytest
@@ -33,7 +31,6 @@ LONG_NAMES = (
     "finish-od-lathe-12-shaft-4711-rev-c-customer-acme-line-3-cell-07",
     "rough-groove-lathe-12-shaft-4711-rev-c_customer-acme-line-3-op20",
 )
-SCREENSHOT = Path("/tmp/ui_plan_list.png")
 #: The headers every page of the view carries (api.report.ui_base.HEADERS).
 SECURITY_HEADERS = ("content-security-policy", "x-content-type-options", "referrer-policy")
 HOSTILE = "<script>alert(1)</script>"
@@ -249,7 +246,6 @@ def test_long_names_fold_at_separators_in_chromium(server, plan_ids, tmp_path):
         try:
             sign_in(page, server)
             page.screenshot(path=str(shot), full_page=True)
-            shutil.copyfile(shot, SCREENSHOT)
             broken = page.evaluate(PIECES_BROKEN_JS, ONE_LINE_CHARS)
             cells = page.locator("#plans tbody td:nth-child(2)").count()
             scroll = page.evaluate("() => document.documentElement.scrollWidth")
