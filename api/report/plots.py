@@ -265,7 +265,7 @@ def _changes(x: Array, output: Output) -> tuple[Mark, ...]:
 
     Its bands widen there and it is re-learned from it: drawn at any density of parts.
     """
-    if output.changed is None or not output.changed.any():
+    if not output.changed.any():
         return ()
     at = x[output.changed]
     return (Mark("vlines", at, np.full(len(at), np.nan), CHANGE, CHANGED, dashed=True),)

@@ -57,9 +57,9 @@ class Output:
     held : ndarray of bool
         The RCB decision held the band in force although the band it computed is wider (action
         ``hold``, ``band_after > band``: a model learned from few parts, not taken up).
-    changed : ndarray of bool, optional
+    changed : ndarray of bool
         The RCB decision saw the process change (note ``regime_change``): the quantity is
-        re-learned from that part on. None: no part's.
+        re-learned from that part on.
     """
 
     quantity: str
@@ -73,7 +73,7 @@ class Output:
     flagged: npt.NDArray[np.bool_]
     checked: npt.NDArray[np.bool_]
     held: npt.NDArray[np.bool_]
-    changed: npt.NDArray[np.bool_] | None = None
+    changed: npt.NDArray[np.bool_]
 
 
 @dataclass(frozen=True)

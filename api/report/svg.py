@@ -198,13 +198,10 @@ def _swatch(mark: Mark, x: float, y: float, prefix: str) -> str:
         )
     dash = ' stroke-dasharray="5 3"' if mark.dashed else ""
     dash = ' stroke-dasharray="1.5 2"' if mark.dotted else dash
-    if mark.kind in ("bars", "vlines"):
-        return f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}"{dash}/>'
-    if mark.kind == "ranges":
-        return (
-            f'<path d="M{px(x + 10)} {px(y - 5)}V{px(y + 5)}" stroke="{mark.color}" '
-            f'stroke-width="{px(RANGE_PX)}"/>'
-        )
+    if mark.kind in ("bars", "vlines", "ranges"):  # a vertical stroke, a range's thick
+        width = f' stroke-width="{px(RANGE_PX)}"' if mark.kind == "ranges" else ""
+        d = f"M{px(x + 10)} {px(y - 5)}V{px(y + 5)}"
+        return f'<path d="{d}" stroke="{mark.color}"{width}{dash}/>'
     return f'<path d="M{px(x)} {px(y)}h20" stroke="{mark.color}" stroke-width="1.2"{dash}/>'
 
 

@@ -51,10 +51,9 @@ def install(app: FastAPI, engine: Engine) -> None:
 
     @app.get(f"{PREFIX}/login", include_in_schema=False)
     def login_form(request: Request) -> HTMLResponse:
+        if (refused := query_refused(request, "next")) is not None:
+            return bad_request(refused)
         try:
-            refused = query_refused(request, "next")
-            if refused is not None:
-                raise refused
             back = next_page(request.query_params.get("next"))
         except InputError as err:
             return bad_request(err)

@@ -97,6 +97,7 @@ def _output(parts: int) -> Output:
         flagged=np.zeros(rows, dtype=bool),
         checked=np.zeros(rows, dtype=bool),
         held=np.zeros(rows, dtype=bool),
+        changed=np.zeros(rows, dtype=bool),
     )
 
 

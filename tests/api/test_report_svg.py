@@ -38,6 +38,7 @@ def _output(n: int = 5) -> Output:
         flagged=np.array([False, False, True, False, False, False][: n + 1]),
         checked=np.zeros(n + 1, dtype=bool),
         held=np.zeros(n + 1, dtype=bool),
+        changed=np.zeros(n + 1, dtype=bool),
     )
 
 
