@@ -181,9 +181,11 @@ def _answer(
 ) -> dict[str, Any]:
     """The 201 answer: the part, its decisions and tool changes, the setpoints in force.
 
-    A halted plan: the part is stored all the same, and the MES is told (DESIGN.md, RCB).
+    A halted plan: the part is stored all the same, and the MES is told (DESIGN.md, RCB); it
+    is handed no setpoint (``operations`` empty), as ``GET .../setpoints`` refuses them.
     """
     halt = halt_json(new_state.halt) if new_state.halt is not None else None
+    in_force = {"operations": []} if halt is not None else operations_json(new_state.setpoints)
     return {
         "part_id": part_id,
         "serial": serial,
@@ -192,5 +194,5 @@ def _answer(
         "conflicts": halt["conflicts"] if halt is not None else [],
         "updates": [to_json.decision_json(d) for d in decisions],
         "tool_changes": [to_json.tool_change_json(c) for c in changes],
-        **operations_json(new_state.setpoints),
+        **in_force,
     }

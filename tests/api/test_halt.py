@@ -67,6 +67,8 @@ def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server
         two = second.json()
         assert two["halted"] is True
         assert two["setpoint_version"] == 2  # the setpoints the part was made with stay
+        # no setpoint is handed out while halted, as GET .../setpoints refuses them
+        assert one["operations"] and two["operations"] == []
         assert [c["operation"] for c in two["conflicts"]] == ["rough-od"]
         rough = two["conflicts"][0]
         assert (
@@ -86,7 +88,7 @@ def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server
         # a late part made with the first version is still accepted and stored
         late = _post(mes, plan_id, _force_report("SN-late", 1, 1900.0))
         assert late.status_code == 201, late.text
-        assert late.json()["halted"] is True
+        assert late.json()["halted"] is True and late.json()["operations"] == []
 
         parts = eng.get(f"/plans/{plan_id}/parts").json()["items"]
         assert [p["serial"] for p in parts] == ["SN-2300", "SN-6000", "SN-late"]
@@ -117,6 +119,7 @@ def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server
         assert detail["parts"] == 3
         after = _post(mes, plan_id, _force_report("SN-after", 3, 1500.0))
         assert after.status_code == 201 and after.json()["halted"] is False
+        assert after.json()["operations"]  # handed out again after the replan
 
 
 @pytest.mark.parametrize("floor", [None, 50.0])

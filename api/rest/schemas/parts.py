@@ -314,9 +314,9 @@ class PartCreated(Out):
     ``halted``: the bands leave no safe setpoint, or a reading is past its limit by more than
     the plan's ``halt_over`` (that operation's entry in ``conflicts`` then has no conflicts of
     its own and its ``message`` names the reading); the part is stored, no new setpoint version
-    is made (the setpoints shown are the last version in force, which a part made with an
-    earlier version was not made with), and ``GET .../setpoints`` answers 409 ``plan_halted``
-    until a replan.
+    is made (``setpoint_version`` is the last one in force), no setpoint is handed out
+    (``operations`` is empty: no part is to be made until an engineer replans), and ``GET
+    .../setpoints`` answers 409 ``plan_halted`` until a replan.
     """
 
     part_id: int
@@ -326,7 +326,9 @@ class PartCreated(Out):
     conflicts: list[HaltedOperationOut] = Field(default_factory=list)
     updates: list[Update]
     tool_changes: list[ToolChangeOut] = Field(default_factory=list)
-    operations: list[OperationSetpoint]
+    operations: list[OperationSetpoint] = Field(
+        description="The setpoints the next part is made with; empty while the plan is halted"
+    )
 
 
 class ToolWearOut(Out):
