@@ -23,6 +23,7 @@ from rich.table import Table
 
 from api.cli.cluster import cluster_executor
 from api.cli.common import JsonOption, StrategyOption, emit, err_console, errors
+from api.cli.plan_file import PlanToolsDbOption, file_plan
 from api.cli.tables import new_table
 from models.bounds import LARGEST_WHOLE
 from models.errors import InputError
@@ -103,6 +104,7 @@ def certify(
     fault: _FaultOption = None,
     jobs: _JobsOption = None,
     scheduler: _SchedulerOption = None,
+    db: PlanToolsDbOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Monte Carlo certificate of a plan under an RCB strategy (violations, MRR).
@@ -132,6 +134,7 @@ def certify(
             fault=fault or [],
             jobs=jobs,
             scheduler=scheduler,
+            db=db,
             as_json=as_json,
         )
     if as_json:
@@ -153,18 +156,18 @@ def _certified(
     fault: list[str],
     jobs: int | None,
     scheduler: str | None,
+    db: str | None,
     as_json: bool,
 ) -> CertificateSummary:
     """The options checked, the plan loaded and certified (a progress bar on a terminal)."""
     # imported here (NumPy, SciPy, the solvers): rcb --help and the other commands do not load them
     from models import fields
-    from supervisor.inputs.plan import load_plan
     from supervisor.virtual.certificate import summarize
     from supervisor.virtual.certify import available_cpus
 
     drift = fields.number(wear_drift, "--wear-drift", minimum=0.0)
     faults = parse_faults(fault, wear_drift=drift, wear_flag="--wear-drift")
-    plan = load_plan(plan_file)
+    plan = file_plan(plan_file, db)
     if scheduler is not None and jobs is not None:
         why = "not with --scheduler: the cluster's workers run the scenarios"
         raise InputError("--jobs", jobs, why)

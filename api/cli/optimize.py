@@ -15,6 +15,7 @@ from rich.table import Table
 
 from api.cli import tables
 from api.cli.common import JsonOption, MissingOptionError, emit, errors
+from api.cli.plan_file import STORED_HINT, PlanToolsDbOption, file_plan
 from models.errors import InputError, ModelDomainError
 from models.kinematics import CONTEXT, DEFAULT_FLANK_WEAR_MM, PARAMETERS
 from supervisor.errors import InfeasibleError
@@ -191,15 +192,14 @@ def _tool(name: str, plan: Path | None, db: str | None) -> Tool:
 
     from api.settings import DATABASE_URL_VAR
     from models.catalogue import get_tool
-    from supervisor.inputs.plan import load_plan
 
-    if plan is not None and name in (tools := load_plan(plan).tools):
+    if plan is not None and name in (tools := file_plan(plan, db).tools):
         return tools[name]
     if db is None and not os.environ.get(DATABASE_URL_VAR):
         try:
             return get_tool(name, "--tool")
         except InputError as err:
-            hint = f"{err.reason}; a stored tool: --db URL (rcb tools list)"
+            hint = f"{err.reason}; {STORED_HINT}"
             raise InputError(err.field, err.value, hint) from None
     from api.cli.common import engine_of
     from api.services.read.tools import stored_tool
@@ -210,6 +210,7 @@ def _tool(name: str, plan: Path | None, db: str | None) -> Tool:
 
 def optimize(
     plan_file: Annotated[Path, typer.Argument(metavar="PLAN.toml", help="The plan file.")],
+    db: PlanToolsDbOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Robust optimum of every operation of a plan: max MRR, every limit met at the band edge.
@@ -218,12 +219,11 @@ def optimize(
     """
     # imported here (the solvers): rcb --help and the other commands do not load them
     from api.services import to_json
-    from supervisor.inputs.plan import load_plan
     from supervisor.optimize.optimizer import optimize_plan
 
     with errors():
         try:
-            result = optimize_plan(load_plan(plan_file))
+            result = optimize_plan(file_plan(plan_file, db))
         except InfeasibleError as err:
             if as_json:
                 emit(infeasible_problem(err))

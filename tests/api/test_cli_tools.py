@@ -175,6 +175,46 @@ def test_predict_takes_a_stored_tool_from_the_database_and_else_reads_none(
     assert json.loads(catalogue.stdout)["predicted"]["force_N"]["value"] == pytest.approx(expected)
 
 
+def test_optimize_and_certify_read_a_plan_naming_a_stored_tool_as_plans_create_does(
+    runner, engine, tmp_path, monkeypatch
+):
+    """Before, both read the catalogue alone: a plan ``rcb plans create`` took was refused."""
+    url = engine_url(engine)
+    file = tmp_path / "plant2.toml"
+    file.write_text(TOOL_TOML, encoding="utf-8")
+    assert invoke(runner, "tools", "add", str(file), "--db", url).exit_code == 0
+    plan = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+    plan["name"], plan["operations"][0]["tool"] = "plant2-part", "CNMG432-PLANT2"
+    plan["operations"][0]["limits"] = {"force_N": 2000.0}
+    plan_file = tmp_path / "plan.json"
+    plan_file.write_text(json.dumps(plan), encoding="utf-8")
+    for given, env in ((["--db", url], {}), ([], {"RCB_DATABASE_URL": url})):
+        done = runner.invoke(app, ["optimize", str(plan_file), "--json", *given], env=env)
+        assert done.exit_code == 0, done.stderr
+        rough = json.loads(done.stdout)["operations"][0]
+        assert rough["tool"] == "CNMG432-PLANT2"
+        d, f, v = (rough["setpoint"][k] for k in ("depth_mm", "feed_mm_rev", "speed_m_min"))
+        # Ivester & Heigel Eq. 5 with plant 2's K and band: 2200 ± 120 N at the optimum
+        force_N = 2200 * d**0.888 * f**0.783 * v**-0.0395
+        predicted = rough["predicted"]["force_N"]
+        assert predicted["value"] == pytest.approx(force_N, rel=1e-9)
+        assert predicted["band"] == pytest.approx(force_N * 120 / 2200, rel=1e-9)
+        assert predicted["value"] + predicted["band"] <= 2000.0 * (1 + 1e-9)
+    args = ["certify", str(plan_file), "--scenarios", "2", "--parts", "2", "--jobs", "1"]
+    done = invoke(runner, *args, "--json", "--db", url)
+    assert done.exit_code == 0, done.stderr
+    assert json.loads(done.stdout)["plan"] == "plant2-part"
+    (elsewhere := tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(elsewhere)
+    monkeypatch.delenv("RCB_DATABASE_URL", raising=False)
+    for command in (["optimize", str(plan_file)], args):
+        done = invoke(runner, *command)  # no database named: the catalogue alone, none made
+        assert done.exit_code == 2, done.stderr
+        assert "operations[0].tool = 'CNMG432-PLANT2': unknown tool" in done.stderr
+        assert "a stored tool: --db URL (rcb tools list)" in done.stderr
+    assert list(elsewhere.iterdir()) == []
+
+
 def test_a_plan_files_tools_block_of_one_tool_is_that_tool_and_more_are_one_short_line(
     runner, engine, tmp_path
 ):

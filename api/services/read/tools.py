@@ -7,6 +7,7 @@ the list.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from sqlalchemy import Engine
@@ -61,3 +62,13 @@ def list_tools(
         "tools": [stored[n] if n in stored else to_json.tool_json(packaged[n]) for n in page],
         "next_cursor": _token([page[-1]]) if more else None,
     }
+
+
+def tools_of_plan(*, engine: Engine, body: object) -> dict[str, Tool]:
+    """The stored tools a plan file's operations name, as ``rcb plans create`` looks them up."""
+    from api.services.plans import named_tools
+
+    if not isinstance(body, Mapping):  # the plan's reader refuses it, naming what it is
+        return {}
+    with _read(engine) as session, session.begin():
+        return named_tools(session, body)
