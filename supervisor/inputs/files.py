@@ -23,13 +23,13 @@ def read_toml(path: Path, label: str) -> object:
     ------
     InputError
         No such file, unreadable, over :data:`models.bounds.MAX_DOCUMENT_BYTES` (a REST body's
-        bound: checked before the file is parsed), or not UTF-8 TOML; the field is ``label``,
-        the value the path.
+        bound: checked before the file is parsed), not UTF-8 text (:func:`_text`) or not TOML;
+        the field is ``label``, the value the path.
     """
-    raw = _read(path, label)
+    text = _text(_read(path, label), path, label)
     try:
-        return tomllib.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
         raise InputError(label, str(path), f"is not valid TOML ({err})") from None
 
 
@@ -44,10 +44,10 @@ def read_document(path: Path, label: str) -> object:
     """
     if path.suffix.lower() != ".json":
         return read_toml(path, label)
-    raw = _read(path, label)
+    text = _text(_read(path, label), path, label)
     try:
-        return json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as err:
+        return json.loads(text)
+    except ValueError as err:
         raise InputError(label, str(path), f"is not valid JSON ({err})") from None
 
 
@@ -64,3 +64,30 @@ def _read(path: Path, label: str) -> bytes:
         why = f"is larger than {MAX_DOCUMENT_BYTES} bytes (a REST body's bound too)"
         raise InputError(label, str(path), why)
     return raw
+
+
+#: The byte-order marks of UTF-16 and UTF-32 text ("Unicode" in some editors' save dialogs).
+_WIDE_BOMS = (b"\xff\xfe", b"\xfe\xff")
+
+
+def _text(raw: bytes, path: Path, label: str) -> str:
+    """``raw`` as UTF-8 text; a UTF-8 byte-order mark (as Windows editors save) is dropped.
+
+    Text in another encoding is refused naming where the first byte UTF-8 cannot read is, by
+    line and column, and what to do: an editor shows nothing wrong at the start of a file
+    whose mark the parser trips on, or in a line whose accent is Latin-1.
+    """
+    if raw.startswith(_WIDE_BOMS):
+        why = "is UTF-16 or UTF-32 text (a byte-order mark FF FE or FE FF): save it as UTF-8"
+        raise InputError(label, str(path), why)
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        before = raw[: err.start]
+        line = before.count(b"\n") + 1
+        column = err.start - (before.rfind(b"\n") + 1) + 1
+        why = (
+            f"is not UTF-8 text (byte 0x{raw[err.start]:02x} at line {line}, column {column}):"
+            " save it as UTF-8"
+        )
+        raise InputError(label, str(path), why) from None

@@ -17,7 +17,7 @@ from models.errors import InputError, InputErrors
 from models.tool import tool_body
 from supervisor.inputs.plan import load_plan, plan_body, plan_from_mapping
 
-from conftest import step1_plan
+from conftest import DEMO_PLAN, step1_plan
 
 
 def _broken() -> dict:
@@ -97,6 +97,32 @@ def test_load_plan_reads_a_json_file_by_its_extension_as_plans_create_does(tmp_p
     as_json.write_text("{not json", encoding="utf-8")
     with pytest.raises(InputError, match=r"^plan file = '.*plan.JSON': is not valid JSON \("):
         load_plan(as_json)
+
+
+def test_a_file_saved_with_a_byte_order_mark_is_read_and_other_encodings_are_named(tmp_path):
+    """A UTF-8 BOM (Windows Notepad) was "not valid TOML (Invalid statement (at line 1, column
+    1))", where an editor shows nothing; UTF-16 and Latin-1 text said a codec's words."""
+    text = DEMO_PLAN.read_text(encoding="utf-8")
+    plan = tomllib.loads(text)
+    toml, as_json = tmp_path / "plan.toml", tmp_path / "plan.json"
+    toml.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    as_json.write_bytes(b"\xef\xbb\xbf" + json.dumps(plan).encode("utf-8"))
+    assert load_plan(toml) == load_plan(as_json) == plan_from_mapping(plan)
+    toml.write_bytes(text.encode("utf-16"))  # a BOM, then two bytes a character
+    with pytest.raises(InputError) as wide:
+        load_plan(toml)
+    assert str(wide.value) == (
+        f"plan file = {str(toml)!r}: is UTF-16 or UTF-32 text (a byte-order mark FF FE or FE"
+        " FF): save it as UTF-8"
+    )
+    toml.write_bytes('name = "step-1"\ndescription = "caf\u00e9"\n'.encode("latin-1"))
+    with pytest.raises(InputError) as latin:
+        load_plan(toml)
+    # é is 0xe9 in Latin-1, the 19th character of line 2 (18 before it: description = "caf)
+    assert str(latin.value) == (
+        f"plan file = {str(toml)!r}: is not UTF-8 text (byte 0xe9 at line 2, column 19):"
+        " save it as UTF-8"
+    )
 
 
 def test_a_null_optional_field_is_one_left_out_and_a_null_value_is_refused():
