@@ -13,8 +13,8 @@ So each operation declares what its route can send, derived from what the route 
   403 where a role may not (or a key scoped to plans writes to no plan, :mod:`api.rest.deps`);
 - a path parameter: 404 (no such plan or tool, or a plan outside a scoped key);
 - parameters or a body: 422 (invalid, or a query parameter the route does not take), 400 (a
-  query parameter given twice, an Idempotency-Key malformed or missing, a body that is not
-  UTF-8 JSON, :mod:`api.rest.strict`);
+  query parameter given twice, an Idempotency-Key malformed or missing, a body that is empty
+  or not UTF-8 JSON, :mod:`api.rest.strict`);
 - a write: 409 (the same thing stored by a concurrent request, a request still in flight);
 - every route: 503 with ``Retry-After``: the database has no connection free
   (:mod:`api.rest.unavailable`), or ``rcb serve`` holds too many connections
@@ -41,7 +41,7 @@ from db.api_keys import ROLES
 #: What each status means, as its response's description.
 MEANINGS = {
     400: "Bad request: a query parameter given twice, an Idempotency-Key malformed or missing, "
-    "or a body that is not UTF-8 JSON",
+    "or a body that is empty or not UTF-8 JSON",
     401: "No API key, or an unknown or revoked one",
     403: "The key's role may not do this (or a key scoped to plans writes to no plan)",
     404: "No such resource (a plan outside a key's scope answers so too)",

@@ -6,8 +6,9 @@ path id ``%201`` (`` 1``), ``+1`` or ``١`` as plan 1. A client that sends eithe
 gets an answer to a request it did not mean. Here, before the route's own parameters are read:
 
 - the body (of a route that takes JSON) is UTF-8 (RFC 8259 §8.1): a NUL byte (UTF-16 or UTF-32
-  text) or an invalid UTF-8 sequence is 400 ``body_not_utf8``; invalid JSON is 400
-  ``malformed_json``; an object with a key twice is 400 ``duplicate_key`` naming the key;
+  text) or an invalid UTF-8 sequence is 400 ``body_not_utf8``; an empty body (every route that
+  takes one requires it) or invalid JSON is 400 ``malformed_json`` saying which; an object with
+  a key twice is 400 ``duplicate_key`` naming the key;
 - a query parameter the route does not declare is 422 ``invalid`` naming it and the known ones
   (``limitt: unknown query parameter; known: cursor, limit``): it was ignored, and
   ``GET /plans?limitt=5`` answered the default page as if the client had asked for it. Every
@@ -58,6 +59,9 @@ def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 def loads(body: bytes) -> Any:
     """The JSON document in ``body``, read strictly; :class:`ProblemError` when it is not one."""
+    if not body.strip(b" \t\r\n"):  # JSON's white space (RFC 8259 §2)
+        empty = "the body is empty" + (" (white space only)" if body else "")
+        raise ProblemError(400, "malformed_json", f"{empty}; send a JSON document", "body")
     if b"\x00" in body:
         at = body.index(b"\x00")
         detail = (
@@ -180,8 +184,7 @@ class StrictRoute(APIRoute):
                     body = await request.body()
                 except ClientDisconnect:  # or cut by api.rest.limits, whose 413 replaces this
                     raise HTTPException(400, "the body was not received whole") from None
-                if body:
-                    request = _Read(request, body, loads(body))
+                request = _Read(request, body, loads(body))  # an empty body: 400 too
             return await handler(request)
 
         return strict

@@ -1,0 +1,51 @@
+"""Requests the service cannot take, answered in its words (a real ``rcb serve``, both databases).
+
+An MES integrator's audit: an empty body, JSON nested too deeply, a lone surrogate in a string,
+a path or method the service lacks, a replan with nothing to change, a misspelt quantity, a
+reading field of another kind of reading; and the ``Location`` of a created tool. Each problem
+names its ``field`` and ``value`` and says what to send instead.
+"""
+
+from __future__ import annotations
+
+import itertools
+import tomllib
+
+import pytest
+
+from conftest import DEMO_PLAN
+
+PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+PROBLEM = "application/problem+json"
+_keys = itertools.count()
+
+
+@pytest.fixture(scope="module")
+def plan(server):
+    with server.client("engineer") as c:
+        r = c.post("/plans", json={**PLAN, "name": "request-errors"})
+        assert r.status_code == 201, r.text
+        return r.json()
+
+
+def _raw(server, path, content, role="mes"):
+    headers = {"Idempotency-Key": f"re-{next(_keys)}", "Content-Type": "application/json"}
+    with server.client(role) as c:
+        return c.post(path, content=content, headers=headers)
+
+
+def _problem(r, status, code, field):
+    assert r.status_code == status, r.text
+    assert r.headers["content-type"] == PROBLEM
+    problem = r.json()
+    assert (problem["code"], problem["field"]) == (code, field), problem
+    return problem
+
+
+@pytest.mark.parametrize("content", [b"", b"  \r\n"])
+@pytest.mark.parametrize("path", ["/plans/{id}/parts", "/plans", "/plans/{id}/replan", "/tools"])
+def test_an_empty_body_is_400_malformed_json_naming_the_body(server, plan, path, content):
+    r = _raw(server, path.format(id=plan["id"]), content, role="engineer")
+    problem = _problem(r, 400, "malformed_json", "body")
+    assert problem["detail"].startswith("the body is empty"), problem
+    assert "send a JSON document" in problem["detail"]
