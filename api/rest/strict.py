@@ -7,8 +7,9 @@ gets an answer to a request it did not mean. Here, before the route's own parame
 
 - the body (of a route that takes JSON) is UTF-8 (RFC 8259 §8.1): a NUL byte (UTF-16 or UTF-32
   text) or an invalid UTF-8 sequence is 400 ``body_not_utf8``; an empty body (every route that
-  takes one requires it) or invalid JSON is 400 ``malformed_json`` saying which; an object with
-  a key twice is 400 ``duplicate_key`` naming the key;
+  takes one requires it), invalid JSON, or JSON nested over :data:`MAX_DEPTH` levels is 400
+  ``malformed_json`` saying which; an object with a key twice is 400 ``duplicate_key`` naming
+  the key;
 - a query parameter the route does not declare is 422 ``invalid`` naming it and the known ones
   (``limitt: unknown query parameter; known: cursor, limit``): it was ignored, and
   ``GET /plans?limitt=5`` answered the default page as if the client had asked for it. Every
@@ -37,6 +38,13 @@ from starlette.responses import Response
 from api.rest.problems import ProblemError
 
 _DIGITS = re.compile(r"[0-9]+")
+#: The most levels of objects and arrays nested in a body (a plan's go 5 deep). Deeper JSON is
+#: valid, but Python's reader refuses it past its recursion limit, which is no fixed number.
+MAX_DEPTH = 64
+_TOO_DEEP = (
+    f"the body nests objects and arrays more than {MAX_DEPTH} levels deep, "
+    "the most the service reads"
+)
 _MANY = (list, set, frozenset, tuple, Sequence)
 
 
@@ -78,15 +86,32 @@ def loads(body: bytes) -> Any:
         )
         raise ProblemError(400, "body_not_utf8", detail, "body") from None
     try:
-        return json.loads(text, object_pairs_hook=_no_duplicates)
+        document = json.loads(text, object_pairs_hook=_no_duplicates)
     except DuplicateKeyError as err:
         detail = f"the key {err.key!r} appears twice in one object; send each key once"
         raise ProblemError(400, "duplicate_key", detail, err.key, err.key) from None
     except json.JSONDecodeError as err:
         detail = f"the body is not valid JSON: {err.msg} (line {err.lineno} column {err.colno})"
         raise ProblemError(400, "malformed_json", detail, "body") from None
-    except (ValueError, RecursionError):  # an integer of over 4300 digits; nesting too deep
+    except RecursionError:  # valid, but past the reader's recursion limit
+        raise ProblemError(400, "malformed_json", _TOO_DEEP, "body") from None
+    except ValueError:  # an integer of over 4300 digits
         raise ProblemError(400, "malformed_json", "the body is not valid JSON", "body") from None
+    if _depth(document) > MAX_DEPTH:
+        raise ProblemError(400, "malformed_json", _TOO_DEEP, "body")
+    return document
+
+
+def _depth(document: Any) -> int:
+    """How many levels of objects and arrays ``document`` nests (a scalar: 0)."""
+    deepest, stack = 0, [(document, 1)]
+    while stack:
+        item, level = stack.pop()
+        children = item.values() if isinstance(item, dict) else item
+        if isinstance(item, dict | list):
+            deepest = max(deepest, level)
+            stack.extend((child, level + 1) for child in children if isinstance(child, dict | list))
+    return deepest
 
 
 class _Read(Request):

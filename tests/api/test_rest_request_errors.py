@@ -9,11 +9,12 @@ names its ``field`` and ``value`` and says what to send instead.
 from __future__ import annotations
 
 import itertools
+import json
 import tomllib
 
 import pytest
 
-from conftest import DEMO_PLAN
+from conftest import DEMO_PLAN, report_at
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 PROBLEM = "application/problem+json"
@@ -49,3 +50,22 @@ def test_an_empty_body_is_400_malformed_json_naming_the_body(server, plan, path,
     problem = _problem(r, 400, "malformed_json", "body")
     assert problem["detail"].startswith("the body is empty"), problem
     assert "send a JSON document" in problem["detail"]
+
+
+@pytest.mark.parametrize("depth", [65, 900, 5000])
+def test_json_nested_too_deeply_is_said_so(server, plan, depth):
+    content = b'{"a":' * depth + b"1" + b"}" * depth
+    problem = _problem(
+        _raw(server, f"/plans/{plan['id']}/parts", content), 400, "malformed_json", "body"
+    )
+    assert "not valid JSON" not in problem["detail"]
+    assert "more than 64 levels deep" in problem["detail"], problem
+
+
+def test_json_nested_to_the_limit_is_read(server, plan):
+    report = report_at("DEEP-64", plan)
+    report["x"] = json.loads('{"a":' * 63 + "1" + "}" * 63)  # 64 levels with the body's own
+    problem = _problem(
+        _raw(server, f"/plans/{plan['id']}/parts", json.dumps(report).encode()), 422, "invalid", "x"
+    )
+    assert "nest" not in problem["detail"]
