@@ -69,3 +69,20 @@ def test_json_nested_to_the_limit_is_read(server, plan):
         _raw(server, f"/plans/{plan['id']}/parts", json.dumps(report).encode()), 422, "invalid", "x"
     )
     assert "nest" not in problem["detail"]
+
+
+@pytest.mark.parametrize(
+    ("token", "where", "field"),
+    [('"X\\ud800"', "serial", "serial"), ('"\\udfff"', "name", "operations[0].name")],
+)
+def test_a_lone_surrogate_is_worded_as_the_service_words_it(server, plan, token, where, field):
+    body = report_at("@@" if where == "serial" else "SURROGATE-1", plan)
+    if where == "name":
+        body["operations"][0]["name"] = "@@"
+    text = json.dumps(body).replace('"@@"', token)
+    problem = _problem(
+        _raw(server, f"/plans/{plan['id']}/parts", text.encode()), 422, "invalid", field
+    )
+    said = [problem["detail"], *(e["message"] for e in problem["errors"])]
+    assert not any("unable to parse" in s or "valid string" in s for s in said), said
+    assert problem["errors"][0]["message"].startswith("is not valid Unicode text: a lone surrogate")

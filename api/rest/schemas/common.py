@@ -155,6 +155,9 @@ def field_path(loc: Sequence[str | int]) -> str:
 _MUST = {
     "missing": "required field missing",
     "string_type": "must be text (a JSON string)",
+    # JSON's "\ud800" escape alone, which no UTF-8 holds (pydantic: "unable to parse raw data")
+    "string_unicode": "is not valid Unicode text: a lone surrogate (a \\ud800-\\udfff escape "
+    "without its pair)",
     "int_type": "must be a whole number",
     "int_parsing": "must be a whole number",
     "int_from_float": "must be a whole number",
