@@ -101,6 +101,14 @@ def explain(err: Exception, url: str) -> str | None:
     return f"cannot connect to the server at {where} ({first})"
 
 
+def unknown_revision(found: str) -> str:
+    """Why a database at a revision this rcb has no migration for is refused (a newer rcb's).
+
+    Neither used nor migrated: Alembic cannot go from a revision it does not know.
+    """
+    return f"the database is at revision {found!r}, unknown to this rcb (a newer one?)"
+
+
 def _connecting(err: DBAPIError) -> bool:
     """Whether ``err`` happened while connecting (psycopg and sqlite3 both say so)."""
     text = str(err.orig)

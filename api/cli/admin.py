@@ -57,17 +57,22 @@ def migrate(url: str, field: str = "--db") -> Migration:
     reason and its fix (:mod:`db.urls`). A database already at the newest revision is not
     migrated and its migration lock is not taken: a command (``rcb keys revoke`` in an
     emergency) does not wait for an instance stuck while migrating another copy of rcb's
-    schema, or for one holding the lock (a lockout review: every such command hung).
+    schema, or for one holding the lock (a lockout review: every such command hung). A
+    database at a revision this rcb does not know (a newer rcb's) is refused as
+    :func:`api.cli.common.existing_engine` refuses it, and left as it is.
     """
     from sqlalchemy.exc import ArgumentError, DBAPIError
 
-    from db.engine import HEAD_REVISION, Migration, current_revision, upgrade
-    from db.urls import check, explain
+    from db.engine import HEAD_REVISION, Migration, current_revision, revisions, upgrade
+    from db.urls import check, explain, unknown_revision
 
     check(url, field)
     try:
-        if current_revision(url) == HEAD_REVISION:
+        found = current_revision(url)
+        if found == HEAD_REVISION:
             return Migration(before=HEAD_REVISION, after=HEAD_REVISION)
+        if found is not None and found not in revisions():  # a newer rcb's: left as it is
+            raise InputError(field, shown(url), unknown_revision(found))
         return upgrade(url)
     except (ArgumentError, DBAPIError) as err:
         reason = explain(err, url)

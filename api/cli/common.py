@@ -309,7 +309,7 @@ def _check_revision(engine: Engine, url: str, field: str) -> None:
     from sqlalchemy.exc import DBAPIError
 
     from db.engine import HEAD_REVISION, revisions
-    from db.urls import explain, revision
+    from db.urls import explain, revision, unknown_revision
 
     try:
         with engine.connect() as connection:
@@ -325,7 +325,7 @@ def _check_revision(engine: Engine, url: str, field: str) -> None:
     if found is None:
         reason = f"the database is not migrated; run {_upgrade(url, field)}"
     elif found not in known:
-        reason = f"the database is at revision {found!r}, unknown to this rcb (a newer one?)"
+        reason = unknown_revision(found)
     elif found != known[-1]:
         reason = f"the database is at revision {found}, not {known[-1]}; run {_upgrade(url, field)}"
     else:
