@@ -6,8 +6,9 @@ path id ``%201`` (`` 1``), ``+1`` or ``١`` as plan 1. A client that sends eithe
 gets an answer to a request it did not mean. Here, before the route's own parameters are read:
 
 - the body (of a route that takes JSON) is UTF-8 (RFC 8259 §8.1): a NUL byte (UTF-16 or UTF-32
-  text) or an invalid UTF-8 sequence is 400 ``body_not_utf8``; an empty body (every route that
-  takes one requires it), invalid JSON, or JSON nested over :data:`MAX_DEPTH` levels is 400
+  text) or an invalid UTF-8 sequence is 400 ``body_not_utf8``; an empty body sent as JSON
+  (every route that takes one requires it; none and no ``Content-Type``: 422 ``body`` missing),
+  invalid JSON, or JSON nested over :data:`MAX_DEPTH` levels is 400
   ``malformed_json`` saying which; an object with a key twice is 400 ``duplicate_key`` naming
   the key;
 - a query parameter the route does not declare is 422 ``invalid`` naming it and the known ones
@@ -209,7 +210,10 @@ class StrictRoute(APIRoute):
                     body = await request.body()
                 except ClientDisconnect:  # or cut by api.rest.limits, whose 413 replaces this
                     raise HTTPException(400, "the body was not received whole") from None
-                request = _Read(request, body, loads(body))  # an empty body: 400 too
+                # an empty body sent as JSON is 400; none at all (no Content-Type either) is
+                # FastAPI's 422 of a required body missing
+                if body or "content-type" in request.headers:
+                    request = _Read(request, body, loads(body))
             return await handler(request)
 
         return strict
