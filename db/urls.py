@@ -11,6 +11,7 @@ answer, a database not yet migrated. :func:`check` refuses a URL before an engin
 from __future__ import annotations
 
 import os
+import re
 
 from sqlalchemy import Connection, inspect, text
 from sqlalchemy.engine import URL, make_url
@@ -26,18 +27,28 @@ SUPPORTED = {
 #: The table Alembic keeps the database's revision in.
 VERSION_TABLE = "alembic_version"
 _SUPPORTED_TEXT = ", ".join(f"{name} ({example})" for name, example in SUPPORTED.items())
+_BAD_PORT = (
+    "the port after the host must be a whole number from 1 to 65535 "
+    "(host:5432; an IPv6 address in brackets, [::1]:5432)"
+)
 
 
 def check(url: str, field: str = "--db") -> URL:
     """``url`` parsed, if rcb can keep its data there; else InputError naming ``field``.
 
     Refused: text that is not a URL (a file path gets its ``sqlite:///`` form, absolute), a
-    driver rcb does not install, and an in-memory SQLite database.
+    port that is not a whole number from 1 to 65535 (``host:notaport``, an IPv6 address
+    without its closing bracket), a driver rcb does not install, and an in-memory SQLite
+    database.
     """
     try:
         parsed = make_url(url)
     except ArgumentError:
         raise InputError(field, url, _not_a_url(url)) from None
+    except ValueError:  # SQLAlchemy's int() of the text after the host's last ':'
+        raise InputError(field, _password_hidden(url), _BAD_PORT) from None
+    if parsed.port is not None and not 0 < parsed.port < 65536:
+        raise InputError(field, _shown(url, parsed), _BAD_PORT)
     name = parsed.drivername
     if name in ("sqlite", "sqlite+pysqlite"):
         if _in_memory(parsed):
@@ -61,6 +72,11 @@ def _not_a_url(url: str) -> str:
         path = os.path.abspath(os.path.expanduser(url))
         return f"a file path, not a database URL; write it as sqlite:///{path}"
     return f"not a database URL; use {_SUPPORTED_TEXT}"
+
+
+def _password_hidden(url: str) -> str:
+    """``url``, which SQLAlchemy cannot parse, with a password in it shown as ``***``."""
+    return re.sub(r"^([^:/]*://[^:/@]*:).*@", r"\1***@", url)
 
 
 def _in_memory(parsed: URL) -> bool:

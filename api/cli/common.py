@@ -268,7 +268,7 @@ def shown(url: str) -> str:
 
     try:
         return make_url(url).render_as_string(hide_password=True)
-    except ArgumentError:
+    except (ArgumentError, ValueError):  # refused by db.urls.check, which hides a password
         return url
 
 
