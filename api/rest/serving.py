@@ -61,6 +61,9 @@ PARENT_POLL_S = 0.5
 #: throughput kept on SQLite with the bounded read pool).
 SWITCH_INTERVAL_S = 0.0005
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+#: What ``bind`` says when the host, not the port, cannot be listened on: an address not of
+#: this machine, a family it does not have (a name it cannot resolve is ``socket.gaierror``).
+_HOST_ERRNOS = (errno.EADDRNOTAVAIL, errno.EAFNOSUPPORT)
 
 
 class PortInUseError(InputError):
@@ -127,7 +130,9 @@ def tcp_listener(host: str, port: int) -> socket.socket:
     PortInUseError
         Another process listens on the port.
     InputError
-        The address cannot be listened on for another reason (not local, no permission).
+        The address cannot be listened on for another reason: naming ``--host`` when the host
+        is what fails (not a name or address, not this machine's), ``--port`` otherwise (a
+        port below 1024 without the permission).
     """
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
@@ -141,9 +146,9 @@ def tcp_listener(host: str, port: int) -> socket.socket:
             raise PortInUseError(
                 "--port", port, f"{host}:{port} is already in use by another process"
             ) from None
-        raise InputError(
-            "--port", port, f"cannot listen on {host}:{port} ({err.strerror})"
-        ) from None
+        host_failed = isinstance(err, socket.gaierror) or err.errno in _HOST_ERRNOS
+        field, value = ("--host", host) if host_failed else ("--port", port)
+        raise InputError(field, value, f"cannot listen on {host}:{port} ({err.strerror})") from None
     sock.set_inheritable(True)
     return sock
 
