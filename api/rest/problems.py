@@ -20,8 +20,8 @@ from fastapi.responses import JSONResponse
 from sqlalchemy.exc import OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeoutError
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.routing import Match
 
+from api.rest import no_route
 from api.rest.refused_audit import audit_refused
 from api.rest.schemas.common import field_path, plain_message
 from api.rest.unavailable import RETRY_AFTER_S, reason, unavailable
@@ -264,10 +264,17 @@ def _invalid(request: Request, err: RequestValidationError) -> JSONResponse:
 async def _http(request: Request, err: StarletteHTTPException) -> JSONResponse:
     code = {404: "not_found", 405: "method_not_allowed"}.get(err.status_code, "http_error")
     headers = getattr(err, "headers", None)
-    if err.status_code == 405:
-        headers = {**(headers or {}), "Allow": _allowed(request)}
-    field = "body" if err.status_code == 400 else None  # a body FastAPI could not read
-    return problem(request, err.status_code, code, str(err.detail), field, headers=headers)
+    detail, field, value = str(err.detail), None, None
+    if err.status_code == 400:
+        field = "body"  # a body FastAPI could not read
+    elif err.status_code == 404:  # no route has the path (a missing resource: NotFoundError)
+        detail = no_route.not_found(request, clip(request.url.path))
+        field, value = "path", request.url.path
+    elif err.status_code == 405:
+        headers = {**(headers or {}), "Allow": no_route.allowed(request)}
+        detail = no_route.not_allowed(request, clip(request.url.path))
+        field, value = "method", request.method
+    return problem(request, err.status_code, code, detail, field, value, headers=headers)
 
 
 async def _database(request: Request, err: Exception) -> JSONResponse:
@@ -320,23 +327,6 @@ def conflicts_of(err: InfeasibleError) -> list[dict[str, Any]]:
     halted = HaltedOperation(err.operation, err.conflicts, err.against, str(err))
     conflicts: list[dict[str, Any]] = halt_json(Halt((halted,)))["conflicts"]
     return conflicts
-
-
-def _allowed(request: Request) -> str:
-    """Every method of the resource at the request's path (RFC 9110 ``Allow``).
-
-    Starlette answers 405 from the first route whose path matched, naming only that route's
-    methods; a path can have several routes (``GET`` and ``POST /plans``). A path with a GET
-    answers HEAD too (:mod:`api.rest.head_method`), so it lists ``HEAD``.
-    """
-    methods: set[str] = set()
-    for route in request.app.router.routes:
-        match, _ = route.matches(request.scope)
-        if match is not Match.NONE:
-            methods |= getattr(route, "methods", None) or set()
-    if "GET" in methods:
-        methods.add("HEAD")
-    return ", ".join(sorted(methods))
 
 
 def _document(app: FastAPI) -> None:

@@ -86,3 +86,38 @@ def test_a_lone_surrogate_is_worded_as_the_service_words_it(server, plan, token,
     said = [problem["detail"], *(e["message"] for e in problem["errors"])]
     assert not any("unable to parse" in s or "valid string" in s for s in said), said
     assert problem["errors"][0]["message"].startswith("is not valid Unicode text: a lone surrogate")
+
+
+@pytest.mark.parametrize(
+    ("path", "detail"),
+    [
+        ("/plans/", "no such path: /api/v1/plans/; did you mean /api/v1/plans?"),
+        ("/plans/{id}/part", "no such path: /api/v1/plans/{id}/part"),
+        (
+            "/plans/{id}/parts/",
+            "no such path: /api/v1/plans/{id}/parts/; did you mean /api/v1/plans/{id}/parts?",
+        ),
+    ],
+)
+def test_an_unknown_path_is_named_with_the_one_meant(server, plan, path, detail):
+    path, detail = path.format(id=plan["id"]), detail.format(id=plan["id"])
+    with server.client("viewer") as c:
+        problem = _problem(c.get(path), 404, "not_found", "path")
+    assert (problem["detail"], problem["value"]) == (detail, f"/api/v1{path}")
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "allowed"),
+    [("PUT", "/plans", "GET, HEAD, POST"), ("DELETE", "/plans/{id}/parts", "GET, HEAD, POST")],
+)
+def test_a_method_the_path_lacks_is_named_with_those_it_takes(server, plan, method, path, allowed):
+    path = path.format(id=plan["id"])
+    with server.client("engineer") as c:
+        r = c.request(method, path, json={})
+    problem = _problem(r, 405, "method_not_allowed", "method")
+    assert r.headers["allow"] == allowed
+    assert problem["value"] == method
+    assert (
+        problem["detail"]
+        == f"the method {method} is not allowed on /api/v1{path}; allowed: {allowed}"
+    )
