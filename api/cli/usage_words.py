@@ -37,13 +37,21 @@ def _given(value: Any) -> str:
 
 
 def _name(param: Any) -> str:
-    """The option as typed (its long name), or the argument as the help names it."""
+    """The option as typed (its long name), or the argument as the help names it.
+
+    An argument's metavar (``ID``), else its name in capitals (``KEY_ID``), as other errors
+    name arguments (``PLAN``, ``FILE``): typer's arguments have no ``human_readable_name``.
+    """
     if param is None:
         return "value"
     opts = [o for o in getattr(param, "opts", ()) if o.startswith("-")]
     if opts:
         return str(max(opts, key=len))
-    return str(getattr(param, "human_readable_name", None) or "value")
+    for name in (getattr(param, "human_readable_name", None), getattr(param, "metavar", None)):
+        if name:
+            return str(name)
+    name = getattr(param, "name", None)
+    return name.upper() if name else "value"
 
 
 def _must(error: Any) -> str:
