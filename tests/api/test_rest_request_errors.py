@@ -121,3 +121,19 @@ def test_a_method_the_path_lacks_is_named_with_those_it_takes(server, plan, meth
         problem["detail"]
         == f"the method {method} is not allowed on /api/v1{path}; allowed: {allowed}"
     )
+
+
+@pytest.mark.parametrize("body", [{}, {"limits": {}}, {"reset_bands": False}])
+@pytest.mark.parametrize("dry_run", [False, True])
+def test_a_replan_without_a_change_names_the_body(server, plan, body, dry_run):
+    with server.client("engineer") as c:
+        r = c.post(
+            f"/plans/{plan['id']}/replan",
+            json=body,
+            params={"dry_run": dry_run} if dry_run else None,
+        )
+    problem = _problem(r, 422, "invalid", "body")
+    assert problem["value"] == body and problem["errors"][0]["field"] == "body"
+    assert problem["errors"][0]["message"] == (
+        "nothing to change: give one of limits, bounds, models, reset_bands, rcb"
+    )

@@ -22,10 +22,11 @@ from api.rest.routes.common import (
 from api.rest.schemas.common import IdCursor
 from api.rest.schemas.plans import PLAN_EXAMPLE, PlanCreated, PlanDetail, PlanList
 from api.rest.schemas.rcb_settings import settings_in_query
-from api.rest.schemas.replan import Replanned
+from api.rest.schemas.replan import ReplanIn, Replanned
 from api.services import plans as use_cases
 from api.services.read import plans as read_plans
 from api.services.read.common import LIST_PAGE, MAX_PAGE
+from models.errors import InputError
 from supervisor.inputs.plan import plan_body
 from supervisor.rcb.replan import replan_body
 
@@ -90,14 +91,20 @@ def replan(
 ) -> Response:
     """Change limits, bounds or models (or reset the bands) and re-optimise."""
     body = replan_body(changes)  # read by the replan alone (ReplanIn documents it)
-    written = use_cases.replan(
-        engine=engine,
-        plan_id=plan_id,
-        changes=body,
-        dry_run=dry_run,
-        actor=actor,
-        idempotency=None if dry_run else idempotency_of(request, idempotency_key, body),
-    )
+    try:
+        written = use_cases.replan(
+            engine=engine,
+            plan_id=plan_id,
+            changes=body,
+            dry_run=dry_run,
+            actor=actor,
+            idempotency=None if dry_run else idempotency_of(request, idempotency_key, body),
+        )
+    except InputError as err:
+        if err.field != "changes":  # the reader's name of the whole of them: the body here
+            raise
+        given = ", ".join(ReplanIn.model_fields)
+        raise InputError("body", err.value, f"{err.reason}: give one of {given}") from None
     return answer(written)
 
 
