@@ -1,14 +1,17 @@
 """The readings of a part report and the setpoints they were made at, checked whole.
 
 :func:`supervisor.rcb.update.update` refuses a report before applying any of it: an unknown
-operation, a quantity its tool has no model of, a setpoint version the state does not hold.
+operation, a quantity its tool has no model of (a misspelt one: the name meant, ``unknown
+quantity 'Force_N'; did you mean force_N?``), a setpoint version the state does not hold.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import difflib
+from collections.abc import Mapping, Sequence
 
 from models.errors import InputError
+from models.quantities import QUANTITIES
 from models.tool import Tool
 from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.inputs.plan import Operation
@@ -71,9 +74,26 @@ def check_quantity(tool: Tool, operation: str, quantity: str, where: str | None 
     ``where``: the report's field (default: the operation's measurement of ``quantity``).
     """
     if quantity not in tool.models:
-        known = ", ".join(q for q in tool.models if q != "tool_life_mm3") or "none"
+        measurable = [q for q in tool.models if q != "tool_life_mm3"]
+        known = ", ".join(measurable) or "none"
+        meant = meant_quantity(quantity, measurable)
+        reason = f"tool {tool.name!r} has no model of it; measurable: {known}"
+        if meant is not None:  # one line: the CLI's collector prints it as its error
+            reason = f"unknown quantity {quantity!r}; did you mean {meant}? measurable: {known}"
         raise InputError(
-            where or f"operations.{operation}.measurements.{quantity}",
-            quantity,
-            f"tool {tool.name!r} has no model of it; measurable: {known}",
+            where or f"operations.{operation}.measurements.{quantity}", quantity, reason
         )
+
+
+def meant_quantity(name: str, measurable: Sequence[str]) -> str | None:
+    """The measurable quantity ``name`` misspells (case, white space, a letter), or None.
+
+    None for a quantity of the registry (:data:`models.quantities.QUANTITIES`): a tool without
+    its model is what the message says then, not a misspelling.
+    """
+    if name in QUANTITIES:
+        return None
+    plain = name.strip().casefold()
+    same = [q for q in measurable if q.casefold() == plain]
+    close = same or difflib.get_close_matches(name.strip(), measurable, n=1, cutoff=0.8)
+    return close[0] if close else None

@@ -137,3 +137,35 @@ def test_a_replan_without_a_change_names_the_body(server, plan, body, dry_run):
     assert problem["errors"][0]["message"] == (
         "nothing to change: give one of limits, bounds, models, reset_bands, rcb"
     )
+
+
+@pytest.mark.parametrize("name", ["Force_N", "force_n", "force_N ", "forse_N"])
+def test_a_misspelt_quantity_is_named_with_the_one_meant(server, plan, name):
+    body = report_at("MISSPELT-1", plan)
+    measured = body["operations"][0]["measurements"]
+    measured[name] = measured.pop("force_N")
+    with server.client("mes") as c:
+        r = c.post(
+            f"/plans/{plan['id']}/parts",
+            json=body,
+            headers={"Idempotency-Key": f"re-{next(_keys)}"},
+        )
+    problem = _problem(r, 422, "invalid", f"operations[0].measurements.{name}")
+    assert problem["value"] == name
+    assert problem["errors"][0]["message"] == (
+        f"unknown quantity {name!r}; did you mean force_N? measurable: force_N, roughness_um"
+    )
+
+
+def test_a_quantity_the_tool_does_not_model_is_still_said_so(server, plan):
+    body = report_at("UNMODELLED-1", plan)
+    body["operations"][0]["measurements"]["power_kW"] = {"value": 5.0, "uncertainty": 0.1}
+    with server.client("mes") as c:
+        r = c.post(
+            f"/plans/{plan['id']}/parts",
+            json=body,
+            headers={"Idempotency-Key": f"re-{next(_keys)}"},
+        )
+    problem = _problem(r, 422, "invalid", "operations[0].measurements.power_kW")
+    assert "has no model of it; measurable: force_N, roughness_um" in problem["detail"]
+    assert "did you mean" not in problem["detail"]
