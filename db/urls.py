@@ -38,8 +38,8 @@ def check(url: str, field: str = "--db") -> URL:
 
     Refused: text that is not a URL (a file path gets its ``sqlite:///`` form, absolute), a
     port that is not a whole number from 1 to 65535 (``host:notaport``, an IPv6 address
-    without its closing bracket), a driver rcb does not install, and an in-memory SQLite
-    database.
+    without its closing bracket), a driver rcb does not install, an in-memory SQLite
+    database, and a SQLite path that is a directory.
     """
     try:
         parsed = make_url(url)
@@ -58,6 +58,12 @@ def check(url: str, field: str = "--db") -> URL:
                 "an in-memory database keeps nothing after rcb exits; "
                 f"give a file, e.g. {SUPPORTED['sqlite']}",
             )
+        if os.path.isdir(parsed.database or ""):
+            inside = os.path.join(os.path.abspath(parsed.database or ""), "rcb.db")
+            reason = (
+                f"is a directory, not a database file; give a file in it, e.g. sqlite:///{inside}"
+            )
+            raise InputError(field, _shown(url, parsed), reason)
         return parsed
     if name == "postgresql+psycopg":
         return parsed

@@ -32,10 +32,13 @@ _UNITS = {"d": "days", "h": "hours", "m": "minutes"}
 
 def parse_duration(option: str, text: str) -> timedelta:
     """``365d``, ``24h`` or ``90m`` as a timedelta; InputError naming ``option`` otherwise."""
-    match = re.fullmatch(r"([0-9]{1,9})([dhm])", text.strip())
+    match = re.fullmatch(r"([0-9]+)([dhm])", text.strip())
     if match is None:
         raise InputError(option, text, "expected a whole number and d, h or m, e.g. 365d")
-    duration = timedelta(**{_UNITS[match[2]]: int(match[1])})
+    digits = match[1].lstrip("0")
+    if len(digits) > 9:  # more than LONGEST in any unit, and beyond what timedelta holds
+        raise InputError(option, text, "more than 0 and at most 36500d")
+    duration = timedelta(**{_UNITS[match[2]]: int(digits or "0")})
     if not timedelta(0) < duration <= LONGEST:
         raise InputError(option, text, "more than 0 and at most 36500d")
     return duration
