@@ -169,3 +169,35 @@ def test_a_quantity_the_tool_does_not_model_is_still_said_so(server, plan):
     problem = _problem(r, 422, "invalid", "operations[0].measurements.power_kW")
     assert "has no model of it; measurable: force_N, roughness_um" in problem["detail"]
     assert "did you mean" not in problem["detail"]
+
+
+@pytest.mark.parametrize("name", ["LOC-TOOL-1", "LOC TOOL #2?%é"])
+def test_a_created_tool_has_its_location(server, name):
+    tool = {
+        "name": name,
+        "process": "turning",
+        "models": {"force_N": {"K": 2000.0, "dK": 200.0, "exponents": {"depth_mm": 0.9}}},
+    }
+    headers = {"Idempotency-Key": f"re-tool-{next(_keys)}"}
+    with server.client("engineer") as c:
+        r = c.post("/tools", json=tool, headers=headers)
+        assert r.status_code == 201, r.text
+        location = r.headers["location"]
+        assert location.startswith("/api/v1/tools/") and "/" not in location.removeprefix(
+            "/api/v1/tools/"
+        )
+        got = c.get(location.removeprefix("/api/v1"))
+        assert got.status_code == 200 and got.json()["name"] == name
+        replay = c.post("/tools", json=tool, headers=headers)
+        assert replay.headers["idempotent-replayed"] == "true"
+        assert replay.headers["location"] == location
+
+
+def test_the_document_declares_the_location_of_a_created_tool(server):
+    with server.client(None) as c:
+        document = c.get("/openapi.json").json()
+    created = document["paths"]["/api/v1/tools"]["post"]["responses"]["201"]["headers"]
+    assert (
+        created["Location"]
+        == document["paths"]["/api/v1/plans"]["post"]["responses"]["201"]["headers"]["Location"]
+    )

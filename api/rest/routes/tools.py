@@ -3,6 +3,7 @@
 # no "from __future__ import annotations": FastAPI reads these annotations at run time
 
 from typing import Annotated, Any
+from urllib.parse import quote
 
 from fastapi import Body, Query, Request
 from fastapi.responses import Response
@@ -10,6 +11,8 @@ from fastapi.responses import Response
 from api.rest.answers import problems_at
 from api.rest.deps import Anyone, EngineDep, Engineer
 from api.rest.routes.common import (
+    LOCATION,
+    PREFIX,
     REPLAYED,
     OptionalKey,
     ToolName,
@@ -117,7 +120,7 @@ def get_tool_fleet_law(
     status_code=201,
     response_model=ToolOut,
     operation_id="addTool",
-    responses={201: {"headers": REPLAYED}},
+    responses={201: {"headers": {**REPLAYED, **LOCATION}}},
 )
 def add_tool(
     request: Request,
@@ -135,4 +138,5 @@ def add_tool(
         actor=actor,
         idempotency=idempotency_of(request, idempotency_key, body),
     )
-    return answer(written)
+    # the name as a path segment: a tool's name may hold "/", "?", "#" or a space
+    return answer(written, f"{PREFIX}/tools/{quote(str(written.body.get('name')), safe='')}")
