@@ -201,3 +201,29 @@ def test_the_document_declares_the_location_of_a_created_tool(server):
         created["Location"]
         == document["paths"]["/api/v1/plans"]["post"]["responses"]["201"]["headers"]["Location"]
     )
+
+
+@pytest.mark.parametrize(
+    ("quantity", "extra", "takes"),
+    [
+        ("spindle_current_A", "idle_load_V", "feed_rate_mm_min"),
+        ("spindle_current_A", "workpiece_diameter_mm", "feed_rate_mm_min"),
+        ("spindle_load_V", "feed_rate_mm_min", "idle_load_V"),
+    ],
+)
+def test_a_reading_field_of_another_kind_is_refused_naming_it(server, plan, quantity, extra, takes):
+    body = report_at("OTHER-KIND-1", plan)
+    measured = body["operations"][0]["measurements"]
+    measured.pop("force_N")
+    measured[quantity] = {"value": 12.0, "uncertainty": 0.1, extra: 3.0}
+    with server.client("mes") as c:
+        r = c.post(
+            f"/plans/{plan['id']}/parts",
+            json=body,
+            headers={"Idempotency-Key": f"re-{next(_keys)}"},
+        )
+    problem = _problem(r, 422, "invalid", f"operations[0].measurements.{quantity}.{extra}")
+    assert problem["value"] == 3.0
+    message = problem["errors"][0]["message"]
+    assert message.startswith(f"not a field of a {quantity} reading; it takes: calibration, ")
+    assert takes in message and extra not in message

@@ -42,6 +42,19 @@ STORED = [*MEASURABLE, TOOL_CHANGE, "tool_life_mm3"]
 _RAW = "the machine's calibration converts it to force_N"
 #: The quantities a raw spindle reading (calibration, context) may be given for.
 RAW_READINGS = ("spindle_load_V", "spindle_current_A")
+#: The context fields each raw reading's conversion reads (models.sensors.convert): the spindle
+#: load's (Ivester & Heigel) the speed, the diameter and the idle load; the current's (Kim &
+#: Jeon) the speed and the feed rate. Another is refused: it would be ignored.
+READING_FIELDS = {
+    "spindle_load_V": (
+        "spindle_speed_rpm",
+        "workpiece_diameter_mm",
+        "u_workpiece_diameter_mm",
+        "idle_load_V",
+        "u_idle_load_V",
+    ),
+    "spindle_current_A": ("spindle_speed_rpm", "feed_rate_mm_min", "u_feed_rate_mm_min"),
+}
 
 
 def _measured(name: str) -> str:
@@ -213,6 +226,7 @@ class PartReportIn(BaseModel):
                 raise InputError(f"operations[{i}].name", op.name, why)
             measurements[op.name], raw = {}, {}
             for quantity, reading in op.measurements.items():
+                _only_its_fields(f"operations[{i}].measurements.{quantity}", quantity, reading)
                 measured = Measurement(reading.value, reading.uncertainty)
                 if quantity == "spindle_load_V" or reading.raw_fields():
                     raw[quantity] = Signal(
@@ -235,6 +249,16 @@ class PartReportIn(BaseModel):
             },
             {op.name: op.edge_parts for op in self.operations if op.edge_parts is not None},
         )
+
+
+def _only_its_fields(path: str, quantity: str, reading: ReadingIn) -> None:
+    """Refuse a context field the conversion of a ``quantity`` reading does not read."""
+    takes = READING_FIELDS.get(quantity)
+    for name in [] if takes is None else sorted(reading.context()):
+        if name not in takes:
+            known = ", ".join(["calibration", *takes])
+            why = f"not a field of a {quantity} reading; it takes: {known}"
+            raise InputError(f"{path}.{name}", getattr(reading, name), why)
 
 
 def parse_report(data: object) -> PartReport:
