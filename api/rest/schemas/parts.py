@@ -253,8 +253,10 @@ class PartReportIn(BaseModel):
 
 def _only_its_fields(path: str, quantity: str, reading: ReadingIn) -> None:
     """Refuse a context field the conversion of a ``quantity`` reading does not read."""
-    takes = READING_FIELDS.get(quantity)
-    for name in [] if takes is None else sorted(reading.context()):
+    if quantity not in READING_FIELDS:  # a measurement: raw fields refused by the schema
+        return
+    takes = READING_FIELDS[quantity]
+    for name in sorted(reading.context()):
         if name not in takes:
             known = ", ".join(["calibration", *takes])
             why = f"not a field of a {quantity} reading; it takes: {known}"
