@@ -7,8 +7,9 @@ So each operation declares what its route can send, derived from what the route 
 (:func:`problems_at`: 409 for a halted plan, 500 for a solver failure):
 
 - every route: 413, a body over the limit (:mod:`api.rest.limits` reads every request); 414
-  and 431, a request line or header fields over the head's limit (``rcb serve``'s connections,
-  :mod:`api.rest.heads`, before the app reads the request);
+  and 431, a request line or header fields over the head's limit, and 400 a request the HTTP
+  parser refuses (``rcb serve``'s connections, :mod:`api.rest.heads`, before the app reads the
+  request);
 - a key: 401 (none, unknown, revoked), 429 (too many failures, :mod:`api.services.throttle`),
   403 where a role may not (or a key scoped to plans writes to no plan, :mod:`api.rest.deps`);
 - a path parameter: 404 (no such plan or tool, or a plan outside a scoped key);
@@ -41,7 +42,8 @@ from db.api_keys import ROLES
 #: What each status means, as its response's description.
 MEANINGS = {
     400: "Bad request: a query parameter given twice, an Idempotency-Key malformed or missing, "
-    "or a body that is empty or not UTF-8 JSON",
+    "a body that is empty or not UTF-8 JSON, or (`malformed_request`, before any operation) a "
+    "request that is not valid HTTP/1.1; the connection is then closed",
     401: "No API key, or an unknown or revoked one",
     403: "The key's role may not do this (or a key scoped to plans writes to no plan)",
     404: "No such resource (a plan outside a key's scope answers so too)",
@@ -99,7 +101,9 @@ def statuses_of(route: APIRoute) -> set[int]:
     """The problem statuses ``route`` can answer, from its parameters, key and method."""
     query, header, path = (_any(route.dependant, kind) for kind in ("query", "header", "path"))
     methods = route.methods or set()
-    found = {413, 414, 431, 503}  # 503: rcb serve's too_many_connections too
+    # 400: a request the parser refuses; 414, 431: a head over the limit; 503: rcb serve's
+    # too_many_connections too (api.rest.heads, api.rest.connections: before any route)
+    found = {400, 413, 414, 431, 503}
     roles = _roles(route.dependant)
     if roles is not None:
         found |= {401, 429}

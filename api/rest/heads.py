@@ -19,11 +19,18 @@ the app sees the request:
 as RFC 9457 problem+json (:mod:`api.rest.problems`), and the connection is closed. An answer in
 progress on the connection (HTTP/1.1 pipelining) is finished first; the refused request is
 never read further.
+
+A request the parser refuses (a header field's name with a space, a NUL in its value,
+``Content-Length: abc``, two of them, or one beside ``Transfer-Encoding: chunked``) got
+uvicorn's plain-text ``400 Invalid HTTP request received.``; it is 400 ``malformed_request``
+problem+json too, field ``request``, its detail the parser's reason (llhttp's words, e.g.
+"Invalid header value char"), and the connection is closed.
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from typing import Any
 
 from uvicorn.protocols.http.httptools_impl import STATUS_LINE, HttpToolsProtocol
@@ -37,11 +44,11 @@ LINGER_S = 2.0
 #: Bytes of the line being read kept to name the header field it starts.
 _KEPT = 256
 _TYPE_BASE = "urn:rcb-supervisor:problem:"
-_TITLES = {414: "URI too long", 431: "Request header fields too large"}
+_TITLES = {400: "Bad request", 414: "URI too long", 431: "Request header fields too large"}
 
 
-class HeadTooLarge(Exception):
-    """A request's head passed :data:`MAX_HEAD_BYTES`; the problem that says so."""
+class HeadRefused(Exception):
+    """A request's head refused before the app sees it; the problem that says so."""
 
     def __init__(self, status: int, code: str, detail: str, field: str, instance: str) -> None:
         self.status, self.code, self.detail = status, code, detail
@@ -68,6 +75,10 @@ class HeadTooLarge(Exception):
         head.append(b"content-type: " + MEDIA_TYPE.encode("ascii") + b"\r\n")
         head.append(b"content-length: %d\r\nconnection: close\r\n\r\n" % len(body))
         return b"".join(head) + body
+
+
+class HeadTooLarge(HeadRefused):
+    """A request's head passed :data:`MAX_HEAD_BYTES`."""
 
 
 class HeadLimit(HttpToolsProtocol):
@@ -100,6 +111,19 @@ class HeadLimit(HttpToolsProtocol):
                 super().data_received(piece)
         except HeadTooLarge as refused:
             self._refuse(refused)
+
+    def send_400_response(self, msg: str) -> None:
+        """The parser refused the request: 400 ``malformed_request`` problem+json, then close.
+
+        uvicorn calls this while it handles the parser's exception, whose reason is the detail.
+        """
+        error = sys.exc_info()[1]
+        reason = str(error).strip() if error is not None else ""
+        detail = f"the request is not valid HTTP/1.1: {reason or msg}"
+        path = clip((getattr(self, "url", None) or b"").split(b"?")[0].decode("latin-1"))
+        refused = HeadRefused(400, "malformed_request", clip(detail), "request", path)
+        self.transport.write(refused.answer(self.server_state.default_headers))
+        self.transport.close()
 
     def on_headers_complete(self) -> None:
         """The head is in: what follows is its body, not counted."""
@@ -154,7 +178,7 @@ class HeadLimit(HttpToolsProtocol):
             )
         return HeadTooLarge(431, "header_fields_too_large", detail, field, path)
 
-    def _refuse(self, refused: HeadTooLarge) -> None:
+    def _refuse(self, refused: HeadRefused) -> None:
         """Answer ``refused`` and close, once the answer in progress (if any) is sent."""
         self._refused = refused
         busy = self.cycle is not None and not self.cycle.response_complete

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import pytest
 import uvicorn
 from uvicorn.server import ServerState
 
@@ -172,3 +173,32 @@ def test_a_refusal_waits_for_the_answer_in_progress():
     assert [(status, body[:4]) for status, _, body in answers] == [(200, b"slow"), (431, b'{"ty')]
     assert json.loads(answers[1][2])["field"] == "X-Big"
     assert seen == ["/slow"]
+
+
+@pytest.mark.parametrize(
+    "head",
+    [
+        HEALTH + b"X-Bad: a\x00b\r\n\r\n",  # a NUL in a field's value
+        HEALTH + b"Bad Name: 1\r\n\r\n",  # a space in a field's name
+        b"POST /api/v1/health HTTP/1.1\r\nHost: t\r\nContent-Length: abc\r\n\r\n",
+        b"POST /api/v1/health HTTP/1.1\r\nHost: t\r\nContent-Length: 1\r\n"
+        b"Content-Length: 2\r\n\r\n",
+        b"POST /api/v1/health HTTP/1.1\r\nHost: t\r\nContent-Length: 1\r\n"
+        b"Transfer-Encoding: chunked\r\n\r\n",
+    ],
+    ids=[
+        "nul-in-value",
+        "space-in-name",
+        "length-not-a-number",
+        "two-lengths",
+        "length-and-chunked",
+    ],
+)
+def test_a_request_the_parser_refuses_is_400_problem_json(sqlite_server, head):
+    """uvicorn answered these ``400 text/plain Invalid HTTP request received.``"""
+    problem = _problem(_exchange(sqlite_server.port, head), 400, "request")
+    assert problem["code"] == "malformed_request"
+    assert problem["type"] == "urn:rcb-supervisor:problem:malformed_request"
+    assert problem["detail"].startswith("the request is not valid HTTP/1.1: ")
+    assert problem["detail"] != "the request is not valid HTTP/1.1: "  # the parser's reason
+    assert "Invalid HTTP request received" not in problem["detail"], problem
