@@ -92,7 +92,7 @@ class HeadLimit(HttpToolsProtocol):
         self._head_bytes = 0
         self._line = b""  # the start of the line being read (of the byte stream)
         self._line_bytes = 0
-        self._refused: HeadTooLarge | None = None
+        self._refused: HeadRefused | None = None
 
     def data_received(self, data: bytes) -> None:
         """Hand ``data`` to the parser; at most the limit's worth of a head."""
