@@ -211,6 +211,9 @@ def tool_from_mapping(data: object, path: str) -> Tool:
     table = fields.mapping(data, path)
     fields.only_keys(table, _TOOL_KEYS, path)
     name = fields.identity_field(table, "name", path)
+    if "/" in name or name in (".", ".."):  # a client resolves ".." away, a server splits at /
+        why = "a tool's name is a segment of its URL (/api/v1/tools/NAME): no '/', not . or .."
+        raise InputError(_at(path, "name"), name, why)
     process = process_of(table.get("process"), _at(path, "process"))
     source = fields.text(table, "source", path, default="plan file")
     models_table: Mapping[str, Any] = fields.mapping(table.get("models", {}), _at(path, "models"))

@@ -97,6 +97,9 @@ def test_every_bad_add_is_one_line_naming_the_field_and_stores_nothing(runner, e
             "name = 'CNMG432RN': a catalogue tool has this name",
         ),
         "unknown key": ("dK = 120", "dK = 120\nKK = 3", "models.force_N.KK"),
+        # GET /tools/CNMG432%2FB routed as /tools/CNMG432/B: a tool no client could read
+        "a slash": ('name = "CNMG432-PLANT2"', 'name = "CNMG432/B"', "name = 'CNMG432/B': a"),
+        "dots": ('name = "CNMG432-PLANT2"', 'name = ".."', "name = '..': a tool's name is"),
         "not TOML": ("[models.force_N]", "[models.force_N", "is not valid TOML"),
     }
     for old, new, said in cases.values():

@@ -227,3 +227,20 @@ def test_a_reading_field_of_another_kind_is_refused_naming_it(server, plan, quan
     message = problem["errors"][0]["message"]
     assert message.startswith(f"not a field of a {quantity} reading; it takes: calibration, ")
     assert takes in message and extra not in message
+
+
+@pytest.mark.parametrize("name", ["LOC/TOOL", "..", "."])
+def test_a_tool_name_no_url_can_reach_is_refused(server, name):
+    """``A/B`` was stored, and ``GET /tools/A%2FB`` routed as ``/tools/A/B`` (404); a client
+    resolves ``/tools/..`` to ``/``: no client could read such a tool."""
+    tool = {
+        "name": name,
+        "process": "turning",
+        "models": {"force_N": {"K": 2000.0, "dK": 200.0, "exponents": {"depth_mm": 0.9}}},
+    }
+    with server.client("engineer") as c:
+        r = c.post("/tools", json=tool, headers={"Idempotency-Key": f"re-tool-{next(_keys)}"})
+        problem = _problem(r, 422, "invalid", "name")
+        assert "a tool's name is a segment of its URL" in problem["detail"], problem
+        assert problem["value"] == name
+        assert name not in [t["name"] for t in c.get("/tools").json()["tools"]]
