@@ -1,15 +1,19 @@
-"""Rich tables of the CLI: their common look and width rule, predictions, a plan's setpoints.
+r"""Rich tables of the CLI: their common look and width rule, predictions, a plan's setpoints.
 
 Every table of every command is made by :func:`new_table` and fits the console (80 columns in
 a pipe, a log or a default terminal): cells wrap between words and a word wider than its
 column is folded onto the next line, never cut with an ellipsis, so no number is ever lost. A
 word holding a digit (``0.3557``, ``feed=0.3557``, a serial) is the last to be folded: only
 where the numbers alone are wider than the console.
+
+A cell shows its text, never acts on the terminal: a control or invisible format character in
+it (an ESC of stored text, a zero-width space) is shown escaped, ``\x1b`` (:func:`shown_text`).
 """
 
 from __future__ import annotations
 
 import re
+import unicodedata
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -43,6 +47,47 @@ PARAMETER_HEADINGS = {
 }
 
 
+#: Characters a cell shows escaped: controls (but a line break), invisible format characters,
+#: surrogates, line and paragraph separators (as :func:`models.fields.identity` refuses).
+_ESCAPED = frozenset(("Cc", "Cf", "Cs", "Zl", "Zp"))
+
+
+def _escape(char: str) -> str:
+    code = ord(char)
+    return (
+        f"\\x{code:02x}"
+        if code < 0x100
+        else f"\\u{code:04x}"
+        if code < 0x10000
+        else f"\\U{code:08x}"
+    )
+
+
+def shown_text(text: str, limit: int | None = None) -> str:
+    r"""``text`` as a terminal may show it: control and format characters escaped (``\x1b``).
+
+    A line break is kept. ``limit``: at most that many characters, cut with ``…``.
+    """
+    if not all(line.isprintable() for line in text.split("\n")):  # fast: most text is
+        text = "".join(
+            _escape(c) if c != "\n" and unicodedata.category(c) in _ESCAPED else c for c in text
+        )
+    if limit is not None and len(text) > limit:
+        text = text[: limit - 1] + "…"
+    return text
+
+
+def _shown_cell(cell: Any) -> Any:
+    """A cell with its text shown safely (:func:`shown_text`); a Text keeps its style."""
+    if isinstance(cell, str):
+        return shown_text(cell)
+    if isinstance(cell, Text):
+        plain = cell.plain
+        safe = shown_text(plain)
+        return cell if safe == plain else Text(safe, style=cell.style)
+    return cell
+
+
 class _FoldingTable(Table):
     """A table whose every column wraps between words and folds a longer word: never cut.
 
@@ -53,6 +98,10 @@ class _FoldingTable(Table):
     def add_column(self, *args: Any, **kwargs: Any) -> None:
         """As :meth:`rich.table.Table.add_column`, with ``no_wrap`` off and ``overflow="fold"``."""
         super().add_column(*args, **{**kwargs, "no_wrap": False, "overflow": "fold"})
+
+    def add_row(self, *renderables: Any, **kwargs: Any) -> None:
+        """As :meth:`rich.table.Table.add_row`, each text cell shown safely (:func:`shown_text`)."""
+        super().add_row(*(_shown_cell(cell) for cell in renderables), **kwargs)
 
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         """Rendered with :func:`_shared_widths` when too wide (rich alone folds the widest)."""

@@ -1,4 +1,10 @@
-"""The use cases of API keys (CLI only): create one for a role and plans, list, revoke one."""
+"""The use cases of API keys (CLI only): create one for a role and plans, list, revoke one.
+
+A key's label is text an operator reads in ``rcb keys list``: it is checked as a name is
+(:func:`models.fields.identity`: NFKC, trimmed, no control or invisible format character, at
+most :data:`models.bounds.MAX_IDENTITY` characters), empty for none. A label stored before
+that check is listed as it is; the table shows it safely (:func:`api.cli.tables.shown_text`).
+"""
 
 from __future__ import annotations
 
@@ -12,6 +18,7 @@ from api.services.errors import NotFoundError
 from db import api_keys, audit
 from db.tables import MAX_INT
 from models.errors import InputError
+from models.fields import identity
 
 #: Largest page of ``rcb keys list``.
 MAX_PAGE = request_limits.KEYS_PAGE
@@ -34,6 +41,7 @@ def create_key(
     """
     if role not in api_keys.ROLES:
         raise InputError("--role", role, f"expected one of: {', '.join(api_keys.ROLES)}")
+    label = checked_label(label)
     scope = sorted(set(plans)) if plans else None
     if scope is not None:
         if len(scope) > MAX_PLANS:
@@ -52,6 +60,21 @@ def create_key(
             session=session, actor=actor.name, action="create key", target=target, result=role
         )
     return {"key": key, "role": role, "id": key_id, "plans": scope}
+
+
+def checked_label(label: str) -> str:
+    """A key's label as stored: as :func:`models.fields.identity` normalises it, "" for none.
+
+    InputError naming ``--label``: a control character (an ESC, a newline), an invisible format
+    character (a zero-width space), surrogates, blank, or more than
+    :data:`models.bounds.MAX_IDENTITY` characters, the reason saying which.
+    """
+    if label == "":
+        return ""
+    try:
+        return identity(label)
+    except ValueError as err:
+        raise InputError("--label", label, str(err)) from None
 
 
 def list_keys(*, engine: Engine, after: int = 0, limit: int = 50) -> dict[str, Any]:
