@@ -27,7 +27,7 @@ from db.engine import reader
 from db.plans import get_plan_row, plan_id_by_name
 from models.bounds import MAX_IDENTITY
 from models.errors import InputError
-from models.fields import storable
+from models.fields import identity, storable
 
 #: Most parts (or setpoint versions) one page may hold.
 MAX_PAGE = request_limits.READ_PAGE
@@ -45,19 +45,26 @@ _ORDERED = re.compile(rf"({NEWEST})?([0-9]{{1,10}})")
 def resolve_plan(*, engine: Engine, plan: str) -> int:
     """The id of the plan that ``plan`` names: its id (digits), else its name.
 
-    Names are unique (:class:`db.errors.PlanNameTakenError`). An id is checked against the
-    range the database holds (the use case that reads the plan says so when there is none);
-    a name longer than any plan's is refused before the database is asked.
+    Names are unique (:class:`db.errors.PlanNameTakenError`) and compared as they are stored
+    (:func:`models.fields.identity`, as REST reads a name: NFKC, no white space around it), so
+    ``' virtual-lathe-part '`` and full-width ``ｖｉｒｔｕａｌ-lathe-part`` name
+    ``virtual-lathe-part``. An id is checked against the range the database holds (the use
+    case that reads the plan says so when there is none); a name no plan could have (longer
+    than any, or with a control or invisible character) is refused before the database is asked.
     """
     text = plan.strip()
     if PLAN_ID.fullmatch(text):
         if not 1 <= int(text) <= t.MAX_INT:
             raise InputError("PLAN", plan, f"a plan's id is 1 to {t.MAX_INT}")
         return int(text)
-    if len(plan) > MAX_IDENTITY:
+    if len(text) > MAX_IDENTITY:  # as REST's Name: the length as given, then normalised
         raise InputError("PLAN", plan, f"a plan's name is at most {MAX_IDENTITY} characters")
+    try:
+        name = identity(plan)
+    except ValueError as err:
+        raise InputError("PLAN", plan, f"a plan's name {err}") from None
     with Session(engine) as session:
-        plan_id = plan_id_by_name(session=session, name=plan)
+        plan_id = plan_id_by_name(session=session, name=name)
     if plan_id is None:
         raise InputError("PLAN", plan, f"no plan named {plan!r} (rcb plans lists them)")
     return plan_id
