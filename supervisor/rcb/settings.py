@@ -19,6 +19,7 @@ A ``[rcb]`` table of a plan file, e.g.::
 
 from __future__ import annotations
 
+import difflib
 import importlib
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -197,9 +198,11 @@ def assignments(items: Sequence[str], path: str) -> dict[str, object]:
         name, sep, text = (part.strip() for part in item.partition("="))
         key, _, quantity = name.partition(".")
         setting = SETTINGS.get(key)
-        if not sep or setting is None or (setting.kind == "floors") != bool(quantity):
-            known = ", ".join(n if n != "floors" else "floors.QUANTITY" for n in SETTINGS)
+        known = ", ".join(n if n != "floors" else "floors.QUANTITY" for n in SETTINGS)
+        if not sep:
             raise InputError(path, item, f"must be NAME=VALUE, NAME one of: {known}")
+        if setting is None or (setting.kind == "floors") != bool(quantity):
+            raise InputError(f"{path} {name}", text, _unknown(key, setting, known))
         if name in given or quantity in given.get(key, {}):
             raise InputError(path, item, f"{name} is given twice; give each setting once")
         value: object = text
@@ -212,6 +215,17 @@ def assignments(items: Sequence[str], path: str) -> dict[str, object]:
         else:
             given[name] = value
     return checked(given, path, " ")
+
+
+def _unknown(key: str, setting: Setting | None, known: str) -> str:
+    """Why ``NAME`` of a ``NAME=VALUE`` is no setting, with the close match if there is one."""
+    if setting is None:
+        close = difflib.get_close_matches(key, list(SETTINGS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        return f"unknown setting {key!r}{hint}; one of: {known}"
+    if setting.kind == "floors":
+        return "give each floor as floors.QUANTITY=VALUE (floors.force_N=50)"
+    return f"{key} is one setting: give it as {key}=VALUE, without .QUANTITY"
 
 
 def _float(text: str, path: str) -> float:

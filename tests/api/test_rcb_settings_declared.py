@@ -120,7 +120,14 @@ def test_bad_settings_are_named_with_their_value(engine, runner, tmp_path):
         done = runner.invoke(app, ["plans", "create", str(plan_file), "--db", url])
         assert done.exit_code == 2 and "Traceback" not in done.output
         assert all(w in done.stderr for w in words), done.stderr
-    for option, words in (("alpha=0", ["--rcb alpha", "0"]), ("beta=1", ["--rcb", "beta=1"])):
+    for option, words in (
+        ("alpha=0", ["--rcb alpha", "0"]),
+        ("beta=1", ["--rcb beta = '1': unknown setting 'beta'; one of: strategy, alpha"]),
+        ("alfa=0.3", ["--rcb alfa = '0.3': unknown setting 'alfa' (did you mean 'alpha'?)"]),
+        ("floors=5", ["--rcb floors = '5': give each floor as floors.QUANTITY=VALUE"]),
+        ("alpha.force_N=0.3", ["--rcb alpha.force_N = '0.3': alpha is one setting"]),
+        ("alpha", ["--rcb = 'alpha': must be NAME=VALUE, NAME one of: strategy, alpha"]),
+    ):
         done = runner.invoke(app, ["replan", "1", "--rcb", option, "--db", url])
         assert done.exit_code == 2 and "Traceback" not in done.output
         assert all(w in done.stderr for w in words), done.stderr
