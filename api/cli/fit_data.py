@@ -4,11 +4,13 @@ Tool lives come from wear series (``--life-to-wear``, :func:`wear_lives`).
 
 Every cell is read as text (so ``--where`` compares text); rows are counted from 1 after the
 header line. Errors are :class:`models.errors.InputError` naming the option or the cell
-(``Ra[row 3]``) and the value.
+(``Ra[row 3]``) and the value; a row of fewer fields than the header is refused as such
+(``data file[row 6]``), not as the empty cells pandas would give it.
 """
 
 from __future__ import annotations
 
+import csv
 from contextlib import suppress
 from pathlib import Path
 
@@ -49,12 +51,31 @@ def read_csv(path: Path) -> pd.DataFrame:
     except OSError as err:
         raise InputError("data file", str(path), f"cannot be read ({err.strerror})") from None
     table.columns = [str(c).strip() for c in table.columns]
+    _refuse_short_rows(path, len(table.columns))
     if table.empty:
         raise InputError("data file", str(path), "has a header line but no rows")
     if len(table) > MAX_CSV_ROWS:
         why = f"has {len(table)} rows; at most {MAX_CSV_ROWS}"
         raise InputError("data file", str(path), why)
     return table
+
+
+def _refuse_short_rows(path: Path, width: int) -> None:
+    """Refuse a row of fewer fields than the header's ``width`` (pandas reads it as empty cells).
+
+    Rows are counted as pandas counts them: from 1 after the header, blank lines skipped.
+    """
+    with path.open(encoding="utf-8-sig", newline="") as file:
+        rows = (fields for fields in csv.reader(file) if fields)
+        next(rows, None)  # the header
+        for number, fields in enumerate(rows, start=1):
+            if len(fields) < width:
+                have = f"{len(fields)} field{'s' if len(fields) != 1 else ''}"
+                raise InputError(
+                    f"data file[row {number}]",
+                    ",".join(fields),
+                    f"has {have} where the header has {width}",
+                )
 
 
 def check_column(table: pd.DataFrame, column: str, option: str, path: Path) -> None:

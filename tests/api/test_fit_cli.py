@@ -114,3 +114,16 @@ def test_a_negative_wear_names_its_cell(runner, tmp_path):
     result = runner.invoke(app, ["fit", *args, "--var=axial_depth_mm=DOC"])
     assert result.exit_code == 2
     assert "VB[row 2] = '-0.1': flank wear cannot be negative" in result.stderr
+
+
+def test_a_short_row_is_named_as_short(runner, tmp_path):
+    """A row of 2 fields under a header of 4 said ``F[row 6] = '': missing value``."""
+    csv = tmp_path / "short.csv"
+    rows = "".join(f"{n},0.{n},{n + 1}00,1\n" for n in range(1, 6))
+    csv.write_text(f"V,f,F,DOC\n{rows}\n2,0.2\n", encoding="utf-8")
+    args = [str(csv), "--process=turning", "--response=F", "--var=feed_mm_rev=f"]
+    result = runner.invoke(app, ["fit", *args])
+    assert result.exit_code == 2
+    assert result.stderr.splitlines() == [
+        "rcb: error: data file[row 6] = '2,0.2': has 2 fields where the header has 4"
+    ]
