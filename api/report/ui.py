@@ -124,7 +124,7 @@ def _not_found(plan_id: str, actor: Actor) -> HTMLResponse:
 def _plans_table(plans: list[dict[str, Any]], next_cursor: str | None = None) -> str:
     """A page of plans; ``next_cursor``: a "next" link to the page after it."""
     if not plans:
-        return tag("p", escaped("No plans yet (rcb plan create, or POST /api/v1/plans)."))
+        return tag("p", escaped("No plans yet (rcb plans create, or POST /api/v1/plans)."))
     head = "".join(
         th(h)
         for h in ("ID", "Name", "Machine", "Setpoint version", "Parts", "Created", "Status", "")
