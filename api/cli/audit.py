@@ -9,15 +9,19 @@ from __future__ import annotations
 
 import json
 import shlex
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.text import Text
 
-from api.cli.common import DbOption, again_db, emit, engine_of, errors, plan_of, say_command
+from api.cli.common import DbOption, again_db, emit, engine_of, errors, say_command
 from api.cli.tables import free_text, new_table
 from api.services import request_limits
+from models.errors import InputError
+
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
 
 _out = Console()
 
@@ -57,7 +61,7 @@ def audit(
 
     with errors():
         engine = engine_of(db)
-        plan_id = None if plan is None else plan_of(engine, plan, "--plan")
+        plan_id = None if plan is None else _plan_id(engine, plan)
         query = query_of(action, actor, since, plan_id)
         page = audit_page(engine=engine, query=query, cursor=cursor, limit=limit)
     if as_json:
@@ -70,6 +74,16 @@ def audit(
         again_command = f"rcb audit{kept} --cursor {page['next_cursor']} --limit {limit}"
         again_command += again_db(db)
         say_command("rcb: older entries:", again_command)
+
+
+def _plan_id(engine: Engine, plan: str) -> int:
+    """``--plan``: a stored plan's id or name, or an id the audit log is about (exit 2 if none)."""
+    from api.services.read.common import resolve_audited_plan
+
+    try:
+        return resolve_audited_plan(engine=engine, plan=plan)
+    except InputError as err:
+        raise InputError("--plan", plan, err.reason) from None
 
 
 #: The longest actor, action, target or result word the audit table keeps on one line.

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from sqlalchemy.orm import Session
 from test_service import BODY, _reports
 
 from api.cli.main import app
@@ -17,6 +18,7 @@ from api.rest.schemas.parts import parse_report
 from api.services.idempotency import Idempotency
 from api.services.parts import report_part
 from api.services.plans import create_plan
+from db import audit
 from db.engine import make_engine, upgrade
 from db.errors import ConflictError
 
@@ -70,7 +72,24 @@ def test_a_plans_history_by_id_and_by_name(runner, backend_url):
     ]
     whole = _json(runner, backend_url)["entries"]
     assert [e["plan_id"] for e in whole if e["target"] == f"machine {MACHINE}"] == [None]
-    assert _json(runner, backend_url, "--plan", "999")["entries"] == []  # no such plan: none
+    # an id never stored is refused as an unknown name is (was an empty page, exit 0)
+    unknown = runner.invoke(app, ["audit", "--db", backend_url, "--plan", "999"])
+    assert unknown.exit_code == 2
+    assert unknown.stderr.splitlines() == [
+        "rcb: error: --plan = '999': no plan with id 999 (rcb plans lists them)"
+    ]
+
+
+def test_an_id_only_the_audit_log_names_is_kept(runner, backend_url):
+    """No command deletes a plan, but the log's plan_id is no foreign key: its entries stay
+    readable by the id of a plan the database no longer has."""
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    with Session(engine) as session, session.begin():
+        audit.audit(session=session, actor="rcb", action="create plan", target="plan 77",
+                    result="201", plan_id=77)  # fmt: skip
+    entries = _json(runner, backend_url, "--plan", "77")["entries"]
+    assert _seen(entries) == [("create plan", "plan 77", "201", 77)]
 
 
 @pytest.mark.parametrize(

@@ -17,7 +17,7 @@ import json
 import re
 from typing import Any
 
-from sqlalchemy import Engine
+from sqlalchemy import Engine, select
 from sqlalchemy.orm import Session
 
 from api.services import request_limits
@@ -68,6 +68,24 @@ def resolve_plan(*, engine: Engine, plan: str) -> int:
     if plan_id is None:
         raise InputError("PLAN", plan, f"no plan named {plan!r} (rcb plans lists them)")
     return plan_id
+
+
+def resolve_audited_plan(*, engine: Engine, plan: str) -> int:
+    """As :func:`resolve_plan`, but an id must be a stored plan's or one the audit log is about.
+
+    For ``rcb audit --plan``: an id never stored is refused as an unknown name is (it answered
+    an empty page). One the audit log is about is kept though no plan has it: no command
+    deletes a plan today, but the log's ``plan_id`` is no foreign key, and its entries are
+    what someone asking after a plan gone from a restored or pruned database wants.
+    """
+    plan_id = resolve_plan(engine=engine, plan=plan)
+    with Session(engine) as session:
+        if get_plan_row(session=session, plan_id=plan_id) is not None:
+            return plan_id
+        about = select(t.AuditEntry.id).where(t.AuditEntry.plan_id == plan_id).limit(1)
+        if session.scalars(about).first() is not None:
+            return plan_id
+    raise InputError("PLAN", plan, f"no plan with id {plan_id} (rcb plans lists them)")
 
 
 def _read(engine: Engine) -> Session:
