@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import json
+from collections.abc import Callable, Mapping, Sequence
 from typing import ParamSpec, TypeVar
 
 T = TypeVar("T")
@@ -13,12 +14,54 @@ MAX_ECHO = 200
 
 
 def shown(value: object, limit: int = MAX_ECHO) -> str:
-    """``repr(value)`` as a message echoes it: at most ``limit`` characters, cut with ``…``."""
+    """``value`` as a message echoes it: at most ``limit`` characters, cut with ``…``.
+
+    As a user writes it in a plan file or a request, not as Python holds it: ``true`` and
+    ``false``, a table or a list as JSON (``{"K": 2500.0, "e": null}``, not ``{'K': 2500.0, 'e':
+    None}``); text quoted and a number as its ``repr`` (``2.0`` stays ``2.0``: "must be a whole
+    number" would not read right of ``2``).
+    """
     try:
-        text = repr(value)
-    except ValueError:  # an int of more digits than repr allows
+        text = _plain(value)
+    except ValueError:  # an int of more digits than Python turns into text
         return "(a number too long to show)"
     return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _plain(value: object) -> str:
+    """:func:`shown`'s text of ``value``, whole."""
+    value = _scalar(value)
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, Mapping | list | tuple):
+        return json.dumps(_jsonable(value), ensure_ascii=False)
+    return repr(value)
+
+
+def _jsonable(value: object) -> object:
+    """``value`` for :func:`json.dumps`: what JSON has no value for, as its ``repr``."""
+    value = _scalar(value)
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    return repr(value)
+
+
+def _scalar(value: object) -> object:
+    """A NumPy scalar (``np.True_``, ``np.float64(2.5)``) as Python's; anything else as it is.
+
+    Told by its type's module, not by importing NumPy: ``rcb --help`` does not load it.
+    """
+    numpy = type(value).__module__ == "numpy" and getattr(value, "ndim", None) == 0
+    if numpy and callable(item := getattr(value, "item", None)):
+        scalar: object = item()
+        return scalar
+    return value
 
 
 class ModelError(Exception):
@@ -34,7 +77,7 @@ class InputError(ModelError, ValueError):
         Dotted path of the offending field, e.g. ``tools[0].models.force_N.K``.
     value : object
         The offending value, as given (the message echoes at most :data:`MAX_ECHO` characters
-        of its ``repr``).
+        of it, as :func:`shown` writes it; None, no value, is not echoed).
     reason : str
         What is wrong with it.
     """
@@ -44,7 +87,9 @@ class InputError(ModelError, ValueError):
         self.value = value
         self.reason = reason
         name = field if len(field) <= MAX_ECHO else field[: MAX_ECHO - 1] + "…"
-        super().__init__(f"{name} = {shown(value)}: {reason}")
+        # no value (a field left out, a JSON null): the field alone, not "= None"
+        said = name if value is None else f"{name} = {shown(value)}"
+        super().__init__(f"{said}: {reason}")
 
 
 class ModelDomainError(InputError):

@@ -144,12 +144,12 @@ PLAN_INPUT_ERRORS: list[Any] = [
     ),
     pytest.param(
         _set("operations[3].unknown", True),
-        ["operations[3].unknown", "True"],
+        ["operations[3].unknown = true:"],  # as the file spells it (was Python's True)
         id="unknown-operation-field",
     ),
     pytest.param(
         _pop("operations[0].bounds.feed_mm_rev"),
-        ["operations[0].bounds.feed_mm_rev", "None", "required"],
+        ["operations[0].bounds.feed_mm_rev: required"],  # no value: not "= None"
         id="missing-bound",
     ),
     pytest.param(
@@ -234,7 +234,7 @@ PLAN_INPUT_ERRORS: list[Any] = [
     ),
     pytest.param(
         _pop("machine"),
-        ["machine", "None", "required"],
+        ["rcb: error: machine: required"],  # no value: not "= None"
         id="missing-machine",
     ),
     pytest.param(

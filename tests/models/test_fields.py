@@ -20,10 +20,20 @@ def test_numbers_include_numpy_scalars_and_come_back_as_floats(value):
     assert result == float(value)
 
 
-@pytest.mark.parametrize("value", [True, np.bool_(True), "3", None, [3.0]])
-def test_bools_strings_and_lists_are_not_numbers(value):
-    with pytest.raises(InputError, match=r"^x = .*: must be a number$"):
+@pytest.mark.parametrize(
+    ("value", "said"),
+    [
+        (True, "x = true"),  # as a file spells it, not Python's True
+        (np.bool_(True), "x = true"),
+        ("3", "x = '3'"),
+        (None, "x"),  # no value: the field alone, not "x = None"
+        ([3.0], "x = [3.0]"),
+    ],
+)
+def test_bools_strings_and_lists_are_not_numbers(value, said):
+    with pytest.raises(InputError) as refused:
         fields.number(value, "x")
+    assert str(refused.value) == f"{said}: must be a number"
 
 
 def test_messages_name_the_field_and_the_value():
@@ -61,7 +71,7 @@ def test_check_field_stores_plain_floats_and_keeps_an_optional_none():
     fields.check_fields(part, positives=("a",), non_negatives=("b",))
     fields.check_field(part, "c", positive=True, optional=True)
     assert (type(part.a), type(part.b), part.c) == (float, float, None)
-    with pytest.raises(InputError, match=r"^c = None: must be a number$"):
+    with pytest.raises(InputError, match=r"^c: must be a number$"):
         fields.check_field(part, "c", positive=True)
     with pytest.raises(InputError, match=r"^r = 1.5: must be a correlation coefficient"):
         fields.check_field(_Part(1.0, r=1.5), "r", correlation=True)
@@ -73,3 +83,23 @@ def test_sensors_and_the_mill_check_through_fields():
     with pytest.raises(InputError, match=r"^lower_feed_rate_mm_min = -1: must be greater than 0$"):
         FeedLimits(-1, 10.0)
     assert type(FeedLimits(np.int64(1), 10).lower_feed_rate_mm_min) is float
+
+
+def test_a_message_shows_a_value_as_a_plan_file_or_a_request_spells_it():
+    """Python's spelling reached the user: ``operations = None: a plan needs ...``, ``= True``,
+    ``--model ... = {'K': 2500.0}`` (a first-day audit)."""
+    said = {
+        None: "operations: x",  # no value: the field alone
+        True: "operations = true: x",
+        np.bool_(False): "operations = false: x",
+        np.float64(2.5): "operations = 2.5: x",
+        2.0: "operations = 2.0: x",  # kept: "must be a whole number" of "2" would not read
+        "abc": "operations = 'abc': x",
+    }
+    for value, message in said.items():
+        assert str(InputError("operations", value, "x")) == message
+    table = {"K": 2500.0, "e": [1, None, True], "n": np.float32(0.5)}
+    assert (
+        str(InputError("m", table, "x")) == 'm = {"K": 2500.0, "e": [1, null, true], "n": 0.5}: x'
+    )
+    assert str(InputError("m", np.array([1.0, 2.0]), "x")) == "m = array([1., 2.]): x"
