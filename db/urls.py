@@ -131,6 +131,23 @@ def unknown_revision(found: str) -> str:
     return f"the database is at revision {found!r}, unknown to this rcb (a newer one?)"
 
 
+#: PostgreSQL's read_only_sql_transaction (a standby, ``default_transaction_read_only``).
+_PG_READ_ONLY = "25006"
+
+
+def read_only(err: BaseException) -> bool:
+    """Whether ``err`` says the database takes no writes.
+
+    A SQLite file (or its directory) read-only: SQLITE_READONLY; a PostgreSQL standby or
+    read-only transaction: SQLSTATE 25006.
+    """
+    if not isinstance(err, DBAPIError):
+        return False
+    if getattr(err.orig, "sqlstate", None) == _PG_READ_ONLY:
+        return True
+    return "readonly database" in str(err.orig)
+
+
 def _connecting(err: DBAPIError) -> bool:
     """Whether ``err`` happened while connecting (psycopg and sqlite3 both say so)."""
     text = str(err.orig)

@@ -7,6 +7,8 @@ Each command migrates the database first (``rcb db upgrade`` does nothing else).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Annotated
 
 import typer
@@ -82,6 +84,51 @@ def migrate(url: str, field: str = "--db") -> Migration:
         raise InputError(field, shown(url), reason) from None
 
 
+@contextmanager
+def _using(url: str, field: str) -> Iterator[None]:
+    """A database error of the block as one line naming ``field`` and the URL.
+
+    ``--db = 'sqlite:///ro.db': cannot use this database (OperationalError: attempt to write a
+    readonly database)``, the password hidden; :func:`api.cli.common.errors` said ``--db:``
+    alone, without the URL.
+    """
+    from sqlalchemy.exc import DBAPIError
+
+    try:
+        yield
+    except DBAPIError as err:
+        cause = err.orig if err.orig is not None else err
+        first = (str(cause).strip().splitlines() or [""])[0]
+        why = f"cannot use this database ({cause.__class__.__name__}: {first})"
+        raise InputError(field, shown(url), why) from None
+
+
+def writable(url: str, field: str = "--db") -> None:
+    """Refuse a database that takes no writes (:func:`db.urls.read_only`), naming it.
+
+    ``rcb serve`` checks it before serving: every part report would fail (a read-only SQLite
+    file answered ``/ready`` ready, then 500 to each write). A database locked or busy now
+    is not refused: ``/ready`` says so while it lasts.
+    """
+    from sqlalchemy.exc import DBAPIError
+
+    from api.services.readiness import ready
+    from db.engine import make_engine
+    from db.urls import read_only
+
+    engine = make_engine(url)
+    try:
+        ready(engine)
+    except DBAPIError as err:
+        if not read_only(err):
+            return
+        first = str(err.orig).strip().splitlines()[0]
+        reason = f"the database is read-only ({first}); rcb serve stores reports: make it writable"
+        raise InputError(field, shown(url), reason) from None
+    finally:
+        engine.dispose()
+
+
 @db_app.command("upgrade")
 def db_upgrade(db: DbOption = None) -> None:
     """Create or migrate the database to the newest schema; says which revisions it applied."""
@@ -116,12 +163,13 @@ def db_prune(
     with errors():
         actor = cli_actor(by)
         migrate(url, database_field(db))
-        pruned = retention.prune(
-            engine=make_engine(url),
-            audit_older_than=audit_older_than,
-            idempotency_older_than=idempotency_older_than,
-            actor=actor,
-        )
+        with _using(url, database_field(db)):
+            pruned = retention.prune(
+                engine=make_engine(url),
+                audit_older_than=audit_older_than,
+                idempotency_older_than=idempotency_older_than,
+                actor=actor,
+            )
     if as_json:
         emit(pruned)
         return
@@ -158,7 +206,8 @@ def keys_create(
         migrate(url, database_field(db))
         engine = make_engine(url)
         plans = None if plan is None else [plan_of(engine, p, "--plan") for p in plan]
-        created = create_key(engine=engine, role=role, label=label, plans=plans, actor=actor)
+        with _using(url, database_field(db)):
+            created = create_key(engine=engine, role=role, label=label, plans=plans, actor=actor)
     if as_json:
         emit(created)
         return
@@ -224,7 +273,8 @@ def keys_revoke(
         actor = cli_actor(by)
         engine = engine_of(db)
         try:
-            revoked = revoke_key(engine=engine, key_id=key_id, actor=actor)
+            with _using(database_url(db), database_field(db)):
+                revoked = revoke_key(engine=engine, key_id=key_id, actor=actor)
         except NotFoundError as err:
             raise InputError("ID", key_id, "no such API key") from err
     if revoked["already"]:
@@ -263,6 +313,7 @@ def serve(
         http_limits()  # and RCB_HTTP_*
         forwarded = trusted_proxies(forwarded_allow_ips)
         migrate(url, database_field(db))
+        writable(url, database_field(db))
         try:
             listener = serving.tcp_listener(host, port)
         except serving.PortInUseError as err:

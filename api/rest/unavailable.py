@@ -6,13 +6,17 @@ connections ("sorry, too many clients already", SQLSTATE 53300) or not reachable
 database still locked after its busy timeout are answered 503 ``database_busy`` with
 ``Retry-After``: nothing was stored, and the same request may be sent again (with its
 Idempotency-Key). Before, they were 500 "nothing was stored", which a client cannot tell from a
-bug (issue 29).
+bug (issue 29). So is a database that takes no writes (a SQLite file or its directory made
+read-only, a PostgreSQL standby or read-only transaction, SQLSTATE 25006): the reason names it
+as not writable, for the operator to fix; ``GET /ready`` says so before any report fails.
 """
 
 from __future__ import annotations
 
 from sqlalchemy.exc import DBAPIError
 from sqlalchemy.exc import TimeoutError as PoolTimeoutError
+
+from db.urls import read_only
 
 #: The ``Retry-After`` of a 503 [s].
 RETRY_AFTER_S = 1
@@ -33,7 +37,7 @@ def unavailable(err: BaseException) -> bool:
         return True
     if not isinstance(err, DBAPIError):
         return False
-    if err.connection_invalidated:
+    if err.connection_invalidated or read_only(err):
         return True
     sqlstate = getattr(err.orig, "sqlstate", None)
     if isinstance(sqlstate, str) and sqlstate:
@@ -48,6 +52,8 @@ def reason(err: BaseException) -> str:
         return "the database has no connection free now"
     sqlstate = getattr(getattr(err, "orig", None), "sqlstate", None) or ""
     message = str(getattr(err, "orig", err)).lower()
+    if read_only(err):
+        return "the database is not writable (read-only)"
     if sqlstate == "55P03":
         return "a row it needs is locked by another transaction"
     if any(text in message for text in _SQLITE_BUSY):
