@@ -44,10 +44,14 @@ _RAW = "the machine's calibration converts it to force_N"
 RAW_READINGS = ("spindle_load_V", "spindle_current_A")
 #: The context fields each raw reading's conversion reads (models.sensors.convert): the spindle
 #: load's (Ivester & Heigel) the speed, the diameter and the idle load; the current's (Kim &
-#: Jeon) the speed and the feed rate. Another is refused: it would be ignored.
+#: Jeon) the speed and the feed rate. Another is refused: it would be ignored. A load reading
+#: also takes the pass's feed rate, which the conversion does not read: ``rcb collect`` sends
+#: the machine's (supervisor.collect.report), and the reading's record keeps it.
 READING_FIELDS = {
     "spindle_load_V": (
         "spindle_speed_rpm",
+        "feed_rate_mm_min",
+        "u_feed_rate_mm_min",
         "workpiece_diameter_mm",
         "u_workpiece_diameter_mm",
         "idle_load_V",
