@@ -151,7 +151,8 @@ def test_a_malformed_or_repeated_cursor_is_a_400_naming_it(server, plan_ids):
     _assert_refused(empty, "cursor", "")
     _assert_refused(huge, "cursor", "9" * 11)
     assert twice.status_code == 400 and "given 2 times" in twice.text
-    assert f"cursor = [&#x27;{plan_ids[0]}&#x27;, &#x27;0&#x27;]" in twice.text
+    # the list as JSON spells it (models.errors.shown), escaped for HTML
+    assert f"cursor = [&quot;{plan_ids[0]}&quot;, &quot;0&quot;]" in twice.text
 
 
 def test_a_hostile_parameter_is_escaped(server, plan_ids):
