@@ -101,7 +101,7 @@ def explain(err: Exception, url: str) -> str | None:
         return None
     parsed = make_url(url)
     text = str(err.orig) if err.orig is not None else str(err)
-    first = text.strip().splitlines()[0] if text.strip() else err.__class__.__name__
+    first = first_line(err)
     if parsed.get_backend_name() == "sqlite":
         if "unable to open database file" in text:
             folder = os.path.dirname(os.path.abspath(parsed.database or "."))
@@ -121,6 +121,27 @@ def explain(err: Exception, url: str) -> str | None:
     if "refused" in text or "timeout" in text or "timed out" in text:
         return f"the server does not answer at {where} (is PostgreSQL running there?)"
     return f"cannot connect to the server at {where} ({first})"
+
+
+def cannot_use(err: Exception, url: str) -> str:
+    """Why the database at ``url`` cannot be used, after ``err`` (SQLAlchemy's).
+
+    :func:`explain`'s reason and fix when it failed on connecting; else the driver's class
+    and first line, ``cannot use this database (OperationalError: attempt to write a
+    readonly database)``.
+    """
+    reason = explain(err, url)
+    if reason is not None:
+        return reason
+    cause = err.orig if isinstance(err, DBAPIError) and err.orig is not None else err
+    return f"cannot use this database ({cause.__class__.__name__}: {first_line(cause)})"
+
+
+def first_line(err: BaseException) -> str:
+    """The first line of what ``err`` (or the driver's error under it) says, else its class."""
+    cause = err.orig if isinstance(err, DBAPIError) and err.orig is not None else err
+    lines = str(cause).strip().splitlines()
+    return lines[0] if lines else cause.__class__.__name__
 
 
 def unknown_revision(found: str) -> str:

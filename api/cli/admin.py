@@ -66,7 +66,7 @@ def migrate(url: str, field: str = "--db") -> Migration:
     from sqlalchemy.exc import ArgumentError, DBAPIError
 
     from db.engine import HEAD_REVISION, Migration, current_revision, revisions, upgrade
-    from db.urls import check, explain, unknown_revision
+    from db.urls import cannot_use, check, unknown_revision
 
     check(url, field)
     try:
@@ -77,11 +77,7 @@ def migrate(url: str, field: str = "--db") -> Migration:
             raise InputError(field, shown(url), unknown_revision(found))
         return upgrade(url)
     except (ArgumentError, DBAPIError) as err:
-        reason = explain(err, url)
-        if reason is None:
-            first = str(err).splitlines()[0]
-            reason = f"cannot use this database ({err.__class__.__name__}: {first})"
-        raise InputError(field, shown(url), reason) from None
+        raise InputError(field, shown(url), cannot_use(err, url)) from None
 
 
 @contextmanager
@@ -89,18 +85,18 @@ def _using(url: str, field: str) -> Iterator[None]:
     """A database error of the block as one line naming ``field`` and the URL.
 
     ``--db = 'sqlite:///ro.db': cannot use this database (OperationalError: attempt to write a
-    readonly database)``, the password hidden; :func:`api.cli.common.errors` said ``--db:``
-    alone, without the URL.
+    readonly database)``, the password hidden, worded as :func:`migrate` words it
+    (:func:`db.urls.cannot_use`); :func:`api.cli.common.errors` said ``--db:`` alone,
+    without the URL.
     """
     from sqlalchemy.exc import DBAPIError
+
+    from db.urls import cannot_use
 
     try:
         yield
     except DBAPIError as err:
-        cause = err.orig if err.orig is not None else err
-        first = (str(cause).strip().splitlines() or [""])[0]
-        why = f"cannot use this database ({cause.__class__.__name__}: {first})"
-        raise InputError(field, shown(url), why) from None
+        raise InputError(field, shown(url), cannot_use(err, url)) from None
 
 
 def writable(url: str, field: str = "--db") -> None:
@@ -114,7 +110,7 @@ def writable(url: str, field: str = "--db") -> None:
 
     from api.services.readiness import ready
     from db.engine import make_engine
-    from db.urls import read_only
+    from db.urls import first_line, read_only
 
     engine = make_engine(url)
     try:
@@ -122,8 +118,10 @@ def writable(url: str, field: str = "--db") -> None:
     except DBAPIError as err:
         if not read_only(err):
             return
-        first = str(err.orig).strip().splitlines()[0]
-        reason = f"the database is read-only ({first}); rcb serve stores reports: make it writable"
+        reason = (
+            f"the database is read-only ({first_line(err)}); rcb serve stores reports: "
+            "make it writable"
+        )
         raise InputError(field, shown(url), reason) from None
     finally:
         engine.dispose()

@@ -79,3 +79,26 @@ def test_a_write_names_the_database(runner, immutable, command):
         f"rcb: error: --db = {immutable!r}: cannot use this database "
         "(OperationalError: attempt to write a readonly database)\n",
     )
+
+
+def test_an_upgrade_of_a_read_only_file_is_worded_as_a_write_on_it(tmp_path, runner):
+    """``rcb db upgrade`` of a read-only file said SQLAlchemy's wrapper twice over:
+    ``(OperationalError: (sqlite3.OperationalError) attempt to write ...)``; it now says what
+    ``rcb keys create`` says of the same file (:func:`db.urls.cannot_use`)."""
+    if shutil.which("chattr") is None:
+        pytest.skip("no chattr")
+    path = tmp_path / "empty.db"
+    path.write_bytes(b"")  # SQLite's empty database: never migrated
+    url = f"sqlite:///{path}"
+    if subprocess.run(["chattr", "+i", str(path)], check=False).returncode:
+        pytest.skip("chattr +i refused here")
+    try:
+        done = invoke(runner, "db", "upgrade", "--db", url)
+    finally:
+        subprocess.run(["chattr", "-i", str(path)], check=True)
+    assert (done.exit_code, done.stderr) == (
+        2,
+        f"rcb: error: --db = {url!r}: cannot use this database "
+        "(OperationalError: attempt to write a readonly database)\n",
+    )
+    assert path.read_bytes() == b""  # nothing written
