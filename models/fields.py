@@ -14,6 +14,7 @@ the collector's console.
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 import unicodedata
@@ -139,6 +140,32 @@ def table(data: Mapping[str, Any], key: str, path: str = "") -> Mapping[str, Any
     return value
 
 
+def meant(name: str, known: Iterable[str]) -> str | None:
+    """The one of ``known`` that ``name`` likely misspells, or None.
+
+    The same name but for case and white space (``Force_N``, ``force_N ``), else the closest
+    by :func:`difflib.get_close_matches` at its default cutoff 0.6 (``alfa``: ``alpha``;
+    ``forse_N``: ``force_N``). One rule for every "did you mean" of a file, a request and
+    the command line.
+    """
+    known = tuple(known)
+    plain = name.strip().casefold()
+    same = [each for each in known if each.casefold() == plain]
+    close = same or difflib.get_close_matches(name.strip(), known, n=1)
+    return close[0] if close else None
+
+
+def unknown_field(name: str, allowed: Iterable[str]) -> str:
+    """Why ``name`` is refused among the fields ``allowed``: the one it may mean, the list.
+
+    ``unknown field (did you mean 'feed_mm_rev'?); expected one of: ...``
+    """
+    allowed = tuple(allowed)
+    close = meant(name, allowed)
+    hint = f" (did you mean {close!r}?)" if close is not None else ""
+    return f"unknown field{hint}; expected one of: {', '.join(allowed)}"
+
+
 def only_keys(
     data: Mapping[str, Any], allowed: Iterable[str], path: str, *, list_allowed: bool = True
 ) -> None:
@@ -153,9 +180,7 @@ def only_keys(
             where = f"{path}.{key}" if path else key
             if not list_allowed:
                 raise InputError(where, data[key], "unknown field")
-            raise InputError(
-                where, data[key], f"unknown field; expected one of: {', '.join(allowed)}"
-            )
+            raise InputError(where, data[key], unknown_field(key, allowed))
 
 
 def text(

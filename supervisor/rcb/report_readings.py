@@ -7,10 +7,10 @@ quantity 'Force_N'; did you mean force_N?``), a setpoint version the state does 
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Mapping, Sequence
 
 from models.errors import InputError
+from models.fields import meant
 from models.quantities import QUANTITIES
 from models.tool import Tool
 from supervisor.inputs.part_report import Measurement, PartReport
@@ -91,9 +91,4 @@ def meant_quantity(name: str, measurable: Sequence[str]) -> str | None:
     None for a quantity of the registry (:data:`models.quantities.QUANTITIES`): a tool without
     its model is what the message says then, not a misspelling.
     """
-    if name in QUANTITIES:
-        return None
-    plain = name.strip().casefold()
-    same = [q for q in measurable if q.casefold() == plain]
-    close = same or difflib.get_close_matches(name.strip(), measurable, n=1, cutoff=0.8)
-    return close[0] if close else None
+    return None if name in QUANTITIES else meant(name, measurable)

@@ -19,7 +19,6 @@ A ``[rcb]`` table of a plan file, e.g.::
 
 from __future__ import annotations
 
-import difflib
 import importlib
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -27,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from models.errors import InputError
+from models.fields import meant
 from models.quantities import MODEL_QUANTITIES
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY
 
@@ -220,8 +220,8 @@ def assignments(items: Sequence[str], path: str) -> dict[str, object]:
 def _unknown(key: str, setting: Setting | None, known: str) -> str:
     """Why ``NAME`` of a ``NAME=VALUE`` is no setting, with the close match if there is one."""
     if setting is None:
-        close = difflib.get_close_matches(key, list(SETTINGS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        close = meant(key, SETTINGS)
+        hint = f" (did you mean {close!r}?)" if close is not None else ""
         return f"unknown setting {key!r}{hint}; one of: {known}"
     if setting.kind == "floors":
         return "give each floor as floors.QUANTITY=VALUE (floors.force_N=50)"

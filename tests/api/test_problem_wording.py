@@ -105,6 +105,8 @@ REPORTS = [
      "nothing measured: give a measurement, tool_wear or feed_override_percent"),
     (("bogus",), 1, "bogus", "unknown field; expected one of: serial, setpoint_version, "
      "operations"),
+    (("serail",), "S-1", "serail", "unknown field (did you mean 'serial'?); expected one of: "
+     "serial, setpoint_version, operations"),
     ((*FORCE, "bogus"), 1, f"{FORCE_FIELD}.bogus", "unknown field; expected one of: value, "
      "uncertainty, calibration, spindle_speed_rpm, workpiece_diameter_mm, "
      "u_workpiece_diameter_mm, idle_load_V, u_idle_load_V, feed_rate_mm_min, u_feed_rate_mm_min"),

@@ -103,3 +103,33 @@ def test_a_message_shows_a_value_as_a_plan_file_or_a_request_spells_it():
         str(InputError("m", table, "x")) == 'm = {"K": 2500.0, "e": [1, null, true], "n": 0.5}: x'
     )
     assert str(InputError("m", np.array([1.0, 2.0]), "x")) == "m = array([1., 2.]): x"
+
+
+@pytest.mark.parametrize(
+    ("name", "known", "expected"),
+    [
+        ("Force_N", ["force_N", "roughness_um"], "force_N"),  # case
+        (" force_N ", ["force_N", "roughness_um"], "force_N"),  # white space
+        ("forse_N", ["force_N", "roughness_um"], "force_N"),  # a letter
+        ("alfa", ["alpha", "z", "strategy"], "alpha"),  # difflib's 0.667, over its 0.6
+        ("power_kW", ["force_N", "roughness_um"], None),  # another quantity, not a typo
+        ("bogus", ["serial", "setpoint_version", "operations"], None),
+        ("x", [], None),
+    ],
+)
+def test_meant_is_the_one_name_a_misspelling_is_close_to(name, known, expected):
+    assert fields.meant(name, known) == expected
+
+
+def test_an_unknown_field_of_a_file_names_the_one_it_may_mean():
+    with pytest.raises(InputError) as caught:
+        fields.only_keys({"feed_mm_rv": 0.2}, ["feed_mm_rev", "speed_m_min"], "operations.od")
+    assert str(caught.value) == (
+        "operations.od.feed_mm_rv = 0.2: unknown field (did you mean 'feed_mm_rev'?); "
+        "expected one of: feed_mm_rev, speed_m_min"
+    )
+    with pytest.raises(InputError) as caught:  # nothing close: the list alone, as before
+        fields.only_keys({"colour": "red"}, ["feed_mm_rev", "speed_m_min"], "")
+    assert str(caught.value) == (
+        "colour = 'red': unknown field; expected one of: feed_mm_rev, speed_m_min"
+    )

@@ -22,7 +22,7 @@ from models.bounds import (
     MAX_TEXT,
     SMALLEST_POSITIVE,
 )
-from models.fields import identity, storable
+from models.fields import identity, storable, unknown_field
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
 #: What the docs say of each strategy: its name and summary from the registry.
@@ -198,8 +198,9 @@ def plain_message(error: Mapping[str, Any], model: Any = None) -> str:
         # a pattern not declared: a test fails (tests/api/test_problem_wording.py); never a 500
         return PATTERN_WORDS.get(str(ctx.get("pattern")), "is not in the form this field takes")
     if kind == "extra_forbidden":
-        names = _fields_at(model, list(error.get("loc", ()))[:-1])
-        return "unknown field" + (f"; expected one of: {', '.join(names)}" if names else "")
+        loc = list(error.get("loc", ()))
+        names = _fields_at(model, loc[:-1])
+        return unknown_field(str(loc[-1]) if loc else "", names) if names else "unknown field"
     shown = {k: f"{v:g}" if isinstance(v, float) else v for k, v in ctx.items()}
     try:
         return _MUST[kind].format(**shown)
