@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from models.errors import InputError
-from models.fields import meant
+from models.misspelt import meant
 from models.quantities import QUANTITIES
 from models.tool import Tool
 from supervisor.inputs.part_report import Measurement, PartReport

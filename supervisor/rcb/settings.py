@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from models.errors import InputError
-from models.fields import meant
+from models.misspelt import meant
 from models.quantities import MODEL_QUANTITIES
 from supervisor.rcb.strategies import DEFAULT_ALPHA, DEFAULT_STRATEGY, REGISTRY
 

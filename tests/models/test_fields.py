@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from models import fields
+from models import fields, misspelt
 from models.errors import InputError
 from models.sensors import LinearCurrentCalibration
 from supervisor.virtual.mill.feed_limits import FeedLimits
@@ -118,7 +118,7 @@ def test_a_message_shows_a_value_as_a_plan_file_or_a_request_spells_it():
     ],
 )
 def test_meant_is_the_one_name_a_misspelling_is_close_to(name, known, expected):
-    assert fields.meant(name, known) == expected
+    assert misspelt.meant(name, known) == expected
 
 
 def test_an_unknown_field_of_a_file_names_the_one_it_may_mean():

@@ -22,7 +22,8 @@ from models.bounds import (
     MAX_TEXT,
     SMALLEST_POSITIVE,
 )
-from models.fields import identity, storable, unknown_field
+from models.fields import identity, storable
+from models.misspelt import unknown_field
 from supervisor.rcb.strategies import REGISTRY, STRATEGY_NAMES
 
 #: What the docs say of each strategy: its name and summary from the registry.
