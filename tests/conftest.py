@@ -7,10 +7,12 @@ per session with a short timeout; otherwise those tests skip, saying how to enab
 
 from __future__ import annotations
 
+import copy
 import functools
 import itertools
 import os
 import socket
+import tomllib
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -92,6 +94,16 @@ def cached_state(engine: Engine, plan_id: int) -> RcbState:
         state = CACHE.get(database_key(session), plan_id, row.state_token)
     assert state is not None
     return state
+
+
+def demo_body() -> dict[str, Any]:
+    """The demonstration plan file as a REST body, a fresh copy a test may change."""
+    return copy.deepcopy(_demo_body())
+
+
+@functools.cache
+def _demo_body() -> dict[str, Any]:
+    return tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
 
 def report_at(
@@ -265,6 +277,18 @@ def server(request, tmp_path_factory) -> Iterator[LiveServer]:
     else:
         url = request.getfixturevalue("module_postgres")
     yield from _serving(url, tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def plan(server, request) -> dict[str, Any]:
+    """The demonstration plan created once on the module's :func:`server`: the answer to its
+    ``POST /plans`` (id and first setpoints). Named after the module: ``test_rest_identities``
+    makes ``identities``, ``test_content_type`` ``content-type``. A module may define its own."""
+    name = request.module.__name__.removeprefix("test_").removeprefix("rest_")
+    with server.client("engineer") as c:
+        r = c.post("/plans", json={**demo_body(), "name": name.replace("_", "-")})
+        assert r.status_code == 201, r.text
+        return r.json()
 
 
 @pytest.fixture(scope="module")

@@ -9,15 +9,14 @@ from __future__ import annotations
 import itertools
 import json
 import socket
-import tomllib
 
 import pytest
 
 from api.rest.content_type import accepted
 
-from conftest import DEMO_PLAN
+from conftest import demo_body
 
-PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+PLAN = demo_body()
 TOOL = {
     "name": "CT-TEST-1",
     "process": "turning",
@@ -28,14 +27,6 @@ _keys = itertools.count()
 FORM = "application/x-www-form-urlencoded"
 #: Every route taking a JSON body (POST), with a body it would accept.
 ROUTES = ["/plans", "/plans/{id}/parts", "/plans/{id}/replan", "/tools"]
-
-
-@pytest.fixture(scope="module")
-def plan(server):
-    with server.client("engineer") as c:
-        r = c.post("/plans", json={**PLAN, "name": "content-type"})
-        assert r.status_code == 201, r.text
-        return r.json()
 
 
 def _body(route: str, plan: dict) -> dict:

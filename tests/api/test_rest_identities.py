@@ -10,26 +10,17 @@ from __future__ import annotations
 
 import itertools
 import json
-import tomllib
 import unicodedata
 
 import pytest
 
-from conftest import DEMO_PLAN, report_at
+from conftest import demo_body, report_at
 
-PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+PLAN = demo_body()
 PROBLEM = "application/problem+json"
 NFC = unicodedata.normalize("NFC", "SÉRIE-é")
 NFD = unicodedata.normalize("NFD", "SÉRIE-é")
 _keys = itertools.count()
-
-
-@pytest.fixture(scope="module")
-def plan(server):
-    with server.client("engineer") as c:
-        r = c.post("/plans", json={**PLAN, "name": "identities"})
-        assert r.status_code == 201, r.text
-        return r.json()
 
 
 def _report(server, plan, serial):

@@ -11,24 +11,14 @@ import copy
 import itertools
 import json
 import socket
-import tomllib
 
 import pytest
 
-from conftest import DEMO_PLAN, report_at
+from conftest import demo_body, report_at
 
-PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
+PLAN = demo_body()
 MIB = 1024 * 1024
 _keys = itertools.count()
-
-
-@pytest.fixture(scope="module")
-def plan(server):
-    """The demonstration plan, created once per server: its id and first setpoints."""
-    with server.client("engineer") as c:
-        r = c.post("/plans", json={**PLAN, "name": "validation"})
-        assert r.status_code == 201, r.text
-        return r.json()
 
 
 def _post(server, plan, body=None, content=None):
