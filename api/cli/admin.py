@@ -27,7 +27,7 @@ from api.cli.common import (
     say_filled,
     shown,
 )
-from api.cli.tables import new_table
+from api.cli.tables import new_table, shown_text
 from api.cli.who import ByOption, cli_actor
 from api.services import request_limits
 from api.services.errors import NotFoundError
@@ -39,6 +39,7 @@ from api.settings import (
     pool,
     trusted_proxies,
 )
+from models.bounds import MAX_IDENTITY
 from models.errors import InputError
 
 if TYPE_CHECKING:
@@ -239,7 +240,7 @@ def keys_list(
         table.add_row(
             str(key["id"]),
             key["role"],
-            Text(key["label"]),
+            Text(shown_text(key["label"], MAX_IDENTITY)),  # one stored before the check: cut
             ", ".join(map(str, key["plans"])) if key["plans"] else "every plan",
             _minute(key["created_at"]),
             _minute(key["last_used_at"]) or "never",

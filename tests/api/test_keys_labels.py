@@ -61,3 +61,14 @@ def test_stored_bad_label_listed_safely(runner, engine) -> None:
     assert done.exit_code == 0, done.output
     assert "\x1b" not in done.stdout and "\u200b" not in done.stdout
     assert "\\x1b[31mred\\u200b" in done.stdout
+
+
+def test_stored_long_label_listed_cut(runner, engine) -> None:
+    """A 100 000-character label stored before the check filled 1 250 lines of the table."""
+    with Session(engine) as session, session.begin():
+        api_keys.create_key(session=session, role="mes", label="L" * 100_000)
+    done = invoke(runner, "keys", "list", "--db", engine_url(engine))
+    assert done.exit_code == 0, done.output
+    assert done.stdout.count("L") == 199 and "…" in done.stdout  # 200 with the ellipsis
+    listed = invoke(runner, "keys", "list", "--json", "--db", engine_url(engine))
+    assert json.loads(listed.stdout)["keys"][0]["label"] == "L" * 100_000  # JSON: as stored
