@@ -71,6 +71,8 @@ span.check { color: #000; background: #fd0; border: 1px solid #a60; font-weight:
              padding: 0 0.3em; } tr.check td { background: #fff6c2; }
 section.halt { border: 2px solid #b00; padding: 0 1em; margin: 1em 0; }
 section.halt h2 { color: #b00; border: none; }
+/* narrower windows (800 px): a wide table scrolls sideways in its own box, never the page */
+div.wide { overflow-x: auto; }
 figure { margin: 1em 0; } figure svg { max-width: 100%; height: auto; display: block; }
 figcaption { font-size: 0.9em; color: #555; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 0.1em 1em; }
@@ -264,6 +266,14 @@ def _setpoints_table(record: Mapping[str, Any], series: Sequence[OperationSeries
     return tag("table", caption + body, id="setpoints")
 
 
+def _scrolls(table: str, label: str) -> str:
+    """``table`` in a box of its own that scrolls sideways when the window is too narrow.
+
+    Focusable and named, so a keyboard can scroll it too (WAI-ARIA: a region).
+    """
+    return tag("div", table, class_="wide", tabindex="0", role="region", aria_label=label)
+
+
 def _figure(svg: str, caption: str, kind: str, operation: str | None) -> str:
     """An inline SVG (from :func:`api.report.svg.render`, already markup) with its caption."""
     return tag(
@@ -318,11 +328,13 @@ def render_record(record: Mapping[str, Any]) -> str:
             _overview(record),
             _halt_section(plan),
             tag("h2", escaped("Setpoints in force")),
-            _setpoints_table(record, series),
-            tag("h2", escaped("Tool changes")) + changes if changes else "",
+            _scrolls(_setpoints_table(record, series), "Setpoints in force"),
+            tag("h2", escaped("Tool changes")) + _scrolls(changes, "Tool changes")
+            if changes
+            else "",
             tag("h2", escaped("Setpoint history")),
             _figure(cycle, "Cycle time of the plan (all operations).", "cycle", None),
-            history_table(record),
+            _scrolls(history_table(record), "Setpoint versions"),
             *(_operation_section(i, s) for i, s in enumerate(series, start=1)),
             tag("footer", escaped("Written by rcb report. Plots after Ivester & Heigel, Fig. 4.")),
         ]
