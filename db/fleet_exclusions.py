@@ -54,13 +54,15 @@ class Included:
 
 def exclude(
     *, session: Session, plan_id: int | None, machine: str | None, reason: str, actor: str
-) -> None:
-    """Take ``plan_id`` or ``machine`` (one of them) out of the fleet.
+) -> str | None:
+    """Take ``plan_id`` or ``machine`` (one of them) out of the fleet; the earlier exclusion.
 
     ``reason`` is kept with the exclusion and shown wherever it is: it must say something, in
     at most :data:`MAX_REASON` characters. Excluding what is already out changes nothing but
-    the reason shown. A plan whose strategy learns no posterior is never in the fleet: it is
-    refused naming ``--plan``, as :func:`include` refuses it.
+    the reason shown, and returns the one it replaces (``taken out by cli:ann: chipped``;
+    None if it was not out), so the answer can say so. A plan whose strategy learns no
+    posterior is never in the fleet: it is refused naming ``--plan``, as :func:`include`
+    refuses it.
     """
     one_of(plan_id, machine)
     text = reason.strip()
@@ -77,8 +79,11 @@ def exclude(
         if machine is None
         else t.FleetExclusion.machine == machine
     )
+    was = session.execute(select(t.FleetExclusion.actor, t.FleetExclusion.reason).where(same))
+    earlier = [f"taken out by {by}: {why}" for by, why in was]
     session.execute(delete(t.FleetExclusion).where(same))
     session.add(t.FleetExclusion(plan_id=plan_id, machine=machine, reason=text, actor=actor))
+    return earlier[0] if earlier else None
 
 
 def include(*, session: Session, plan_id: int | None, machine: str | None) -> Included:

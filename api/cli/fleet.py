@@ -25,6 +25,7 @@ from api.cli.common import (
     JsonOption,
     again_db,
     as_option,
+    emit,
     engine_of,
     errors,
     plan_of,
@@ -260,6 +261,7 @@ def exclude(
     machine: MachineOption = None,
     db: DbOption = None,
     by: ByOption = None,
+    as_json: JsonOption = False,
 ) -> None:
     """Take a plan (--plan) or every plan of a machine (--machine) out of the fleet."""
     from api.services.fleet_models import exclude_from_fleet
@@ -274,7 +276,18 @@ def exclude(
             done = exclude_from_fleet(
                 engine=engine, plan_id=plan_id, machine=machine, reason=reason, actor=actor
             )
-    say_filled(f"rcb: {done.body['excluded']} is out of the fleet ({done.body['reason']})")
+    if as_json:
+        emit(done.body)
+    else:
+        say_filled(_excluded(done.body))
+
+
+def _excluded(body: dict[str, Any]) -> str:
+    """What ``exclude`` did: taken out, or already out and only its reason changed."""
+    target, reason, was = body["excluded"], body["reason"], body.get("was")
+    if was is None:
+        return f"rcb: {target} is out of the fleet ({reason})"
+    return f"rcb: {target} was already out of the fleet ({was}); its reason is now: {reason}"
 
 
 @fleet_app.command("include")
@@ -283,6 +296,7 @@ def include(
     machine: MachineOption = None,
     db: DbOption = None,
     by: ByOption = None,
+    as_json: JsonOption = False,
 ) -> None:
     """Put a plan or a machine back in the fleet (a plan's changes so far accepted)."""
     from api.services.fleet_models import include_in_fleet
@@ -295,7 +309,10 @@ def include(
         plan_id = None if plan is None else plan_of(engine, plan, "--plan")
         with _as_typed(plan):
             done = include_in_fleet(engine=engine, plan_id=plan_id, machine=machine, actor=actor)
-    say_filled(_included(done.body))
+    if as_json:
+        emit(done.body)
+    else:
+        say_filled(_included(done.body))
 
 
 def _included(body: dict[str, Any]) -> str:

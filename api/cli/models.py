@@ -41,6 +41,7 @@ def export(
         str | None, typer.Option("--material", help="Only the models on this work material.")
     ] = None,
     db: DbOption = None,
+    as_json: JsonOption = False,
 ) -> None:
     """Write TOOL's learned models in the fleet: what new plans' fleet priors start from.
 
@@ -65,7 +66,18 @@ def export(
                 f" models import reads ({MAX_MODELS_BYTES}); export one --material at a time",
             )
         write_atomically(out, text.encode("utf-8"))  # a failed write leaves ``out`` as it was
-    say(f"rcb: {len(data['learned'])} learned models of {tool} written to {out}")
+    if as_json:  # the document is in the file: what was written, and where
+        emit(
+            {
+                "tool": tool,
+                "material": data["material"],
+                "learned": len(data["learned"]),
+                "out": str(out),
+                "bytes": size,
+            }
+        )
+    else:
+        say(f"rcb: {len(data['learned'])} learned models of {tool} written to {out}")
 
 
 @models_app.command("import")
@@ -73,6 +85,7 @@ def import_(
     file: Annotated[Path, typer.Argument(metavar="FILE", help="A file rcb models export wrote.")],
     db: DbOption = None,
     by: ByOption = None,
+    as_json: JsonOption = False,
 ) -> None:
     """Store the learned models of FILE (all or none): new plans with the tool start from them."""
     from api.services.fleet_models import import_tool
@@ -82,7 +95,10 @@ def import_(
         data = read_json_file(file, MAX_MODELS_BYTES)
         engine = engine_of(db)
         written = import_tool(engine=engine, data=data, source=file.name, actor=actor)
-    say(imported_line(written.body, file.name))
+    if as_json:
+        emit(written.body)
+    else:
+        say(imported_line(written.body, file.name))
 
 
 @models_app.command("identity")

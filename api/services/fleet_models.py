@@ -82,16 +82,20 @@ def exclude_from_fleet(
     reason: str,
     actor: Actor = api_keys.CLI_ACTOR,
 ) -> Written:
-    """Take a plan or a machine out of the fleet (audited)."""
+    """Take a plan or a machine out of the fleet (audited).
+
+    ``was``: the exclusion this one replaces (``taken out by cli:ann: chipped``), None if what
+    is named was not out: excluding it again changes the reason alone.
+    """
     target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
     with audited(engine, actor, "fleet exclude", target, plan_id=plan):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
-            exclude(
+            was = exclude(
                 session=session, plan_id=plan_id, machine=machine, reason=reason, actor=actor.name
             )
-            return 200, {"excluded": target, "reason": reason.strip()}
+            return 200, {"excluded": target, "reason": reason.strip(), "was": was}
 
         return write(
             engine,

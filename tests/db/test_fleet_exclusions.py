@@ -87,8 +87,10 @@ def test_rcb_fleet_at_the_cli_names_what_is_wrong(engine, runner) -> None:
     assert done.exit_code == 2 and "1 to 500 characters" in done.output
     done = runner.invoke(
         app, ["fleet", "exclude", "--plan", "fleet-a", "--reason", " chipped ", "--db", url]
-    )  # again: one exclusion, its reason the newest
-    assert done.exit_code == 0 and "plan 1 is out of the fleet (chipped)" in done.output
+    )  # again: one exclusion, its reason the newest, the one it replaces said
+    said = " ".join(done.output.split())
+    assert done.exit_code == 0 and "plan 1 was already out of the fleet (taken out by" in said
+    assert ": r); its reason is now: chipped" in said
     with Session(engine) as session:
         assert list(session.scalars(select(t.FleetExclusion.reason))) == ["chipped"]
     done = runner.invoke(app, ["fleet", "include", "--plan", "fleet-a", "--db", url])
