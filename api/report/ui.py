@@ -34,7 +34,7 @@ from sqlalchemy import Engine
 
 from api.report import ui_login
 from api.report.html import render_record
-from api.report.html_parts import escaped, name_html, row, tag, td, th, timestamp
+from api.report.html_parts import escaped, name_html, row, tag, td, th, timestamp_html
 from api.report.ui_base import (
     HEADERS,
     NAV_CSS,
@@ -138,7 +138,7 @@ def _plans_table(plans: list[dict[str, Any]], next_cursor: str | None = None) ->
             tag("td", name_html(p["machine"])),
             td(p["setpoint_version"], class_="num"),
             td(p["parts"], class_="num"),
-            td(timestamp(p["created_at"])),
+            tag("td", timestamp_html(p["created_at"])),  # never "2026-12-" over "04"
             _status_cell(p),
             tag("td", link),
         ]
