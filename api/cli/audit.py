@@ -100,7 +100,11 @@ def _table(entries: list[dict[str, Any]]) -> Any:
         # where "cli:roo" / "t" and "ivester" / "-demo-p" / "art" could not be read or grepped
         words = [len(word) for entry in entries for word in str(entry[key]).split()]
         column.min_width = min(max(words, default=0), NAME_KEPT)
-    free_text(table.columns[5])
+        free_text(column)  # a name's digit (plan-7, /api/v1/...) makes no number: kept so
+    # the detail keeps its numbers whole (1796389920.0,), and its keys (window_start_s:) but
+    # where the names are folded to their headings' width
+    keys = [len(key) + 1 for e in entries if isinstance(e["detail"], dict) for key in e["detail"]]
+    free_text(table.columns[5], kept=max(keys, default=0))
     for entry in entries:
         detail = entry["detail"]
         table.add_row(

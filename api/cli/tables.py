@@ -32,6 +32,9 @@ if TYPE_CHECKING:  # only in signatures: the tables load no NumPy (rcb --help im
 
 #: A word holding a digit: a number, ``name=value``, a date, a serial (never folded).
 _DIGIT = re.compile(r"[0-9]")
+#: A number word of free text: ``1796389920.0,``, ``-3.5e-4``, ``127.0.0.1``, ``2026-12-04``,
+#: ``60%`` (never folded there); not ``v1`` nor ``operations[0].bounds`` (a name, a path).
+_NUMBER = re.compile(r"[(\[]?[-+±]?\.?[0-9][0-9.,:eE+\-]*%?[)\],;:]*")
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
 
@@ -118,7 +121,7 @@ class _FoldingTable(Table):
 
 
 def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> list[int] | None:
-    """Column widths for a table wider than the console, or None (it fits, or only folding does).
+    """Column widths for a table wider than the console, or None (it fits, or cannot).
 
     Each column has five widths, each at least the one before (:func:`_levels`): its widest
     word holding a digit (a number, ``feed=0.3557``, a date, a serial: never folded), its
@@ -126,7 +129,7 @@ def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> l
     natural width. Every column gets the widest level the console holds for all of them, and
     the rest of the width goes to the columns short of the next level, the widest cut first:
     a narrow console folds a long name (``roughness_um``) before a heading, and a heading
-    before a number.
+    before a number; where the numbers alone are wider, the widest column's number.
     """
     if any(column.width is not None for column in table.columns):
         return None
@@ -135,44 +138,53 @@ def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> l
     natural = sum(level[-1] for level in levels)
     room = options.max_width - (Measurement.get(console, wide, table).maximum - natural)
     totals = [sum(level[k] for level in levels) for k in range(len(levels[0]))]
-    if totals[-1] <= room or totals[0] > room:
+    if totals[-1] <= room or room < len(levels):
         return None
-    k = next(k for k, total in enumerate(totals) if total > room)
+    # below the numbers (k 0: they alone are wider than the console) the widest folds first;
+    # rich would keep each min_width and cut the table's right edge off
+    k = next((k for k, total in enumerate(totals) if total > room), 0)
     widths = [level[k] for level in levels]
     while sum(widths) > room:  # one cell off the widest column still above its lower level
         cut = max(
-            (i for i, level in enumerate(levels) if widths[i] > level[k - 1]),
+            (i for i, level in enumerate(levels) if widths[i] > (level[k - 1] if k else 1)),
             key=lambda i: (widths[i], i),
         )
         widths[cut] -= 1
     return widths
 
 
-def free_text(column: Column) -> None:
-    """Mark ``column`` as free text (an audit entry's detail): its words fold first.
+def free_text(column: Column, kept: int = 0) -> None:
+    """Mark ``column`` as free text (an audit entry's detail, a name): its words fold first.
 
-    A word holding a digit there is a message's word (``operations[0].bounds.feed_mm_rev``),
-    not a number kept whole.
+    A word holding a digit there is a message's word (``operations[0].bounds.feed_mm_rev``)
+    or a name (``plan-7``), folded as any; only a number word (``1796389920.0,``, ``60.0``,
+    ``127.0.0.1``: :data:`_NUMBER`) is kept whole, at the never-fold level. ``kept``: a width
+    folded as late as the headings (an audit detail's longest key, ``window_start_s:``).
     """
     column.free_text = True  # type: ignore[attr-defined]  # rich's Column is a plain dataclass
+    column.free_kept = kept  # type: ignore[attr-defined]
 
 
 def _levels(console: Console, wide: ConsoleOptions, column: Column) -> tuple[int, ...]:
-    """A column's widths: numbers whole, heading's words, min_width, words, natural width."""
+    """A column's widths: numbers whole, heading's words (and kept), min_width, words, natural."""
     cells = [Measurement.get(console, wide, c) for c in (column.header, *column.cells)]
     natural = max([column.min_width or 0, *(m.maximum for m in cells)])  # as rich measures it
-    heading = _word_widths(console, wide, column.header)
-    body = [_word_widths(console, wide, c) for c in column.cells]
-    free = getattr(column, "free_text", False)  # its words fold first, digits or not
-    numbers = max([heading[0], *(0 if free else b[0] for b in body)])
-    head = max(numbers, heading[1])
+    heading = _word_widths(console, wide, column.header, None)
+    free = getattr(column, "free_text", False)  # its words fold first, but a number's
+    body = [_word_widths(console, wide, c, _NUMBER if free else None) for c in column.cells]
+    numbers = max([heading[0], *(b[0] for b in body)])
+    head = max(numbers, heading[1], min(getattr(column, "free_kept", 0), natural))
     phrase = max(head, column.min_width or 0)
     words = max([phrase, *(m.minimum for m in cells)])
     return numbers, head, phrase, words, natural
 
 
-def _word_widths(console: Console, wide: ConsoleOptions, cell: RenderableType) -> tuple[int, int]:
-    """The widest word of a cell holding a digit, and its widest word (0 if none).
+def _word_widths(
+    console: Console, wide: ConsoleOptions, cell: RenderableType, number: re.Pattern[str] | None
+) -> tuple[int, int]:
+    """The widest number word of a cell, and its widest word (0 if none).
+
+    A number word: one holding a digit, or, given ``number``, one it matches whole.
 
     A cell that is not text (a nested table, a padding) is kept whole: both its minimum width.
     """
@@ -182,7 +194,8 @@ def _word_widths(console: Console, wide: ConsoleOptions, cell: RenderableType) -
         least = Measurement.get(console, wide, cell).minimum
         return least, least
     words = cell.plain.split()
-    numbers = max((cell_len(w) for w in words if _DIGIT.search(w)), default=0)
+    kept = [w for w in words if (_DIGIT.search(w) if number is None else number.fullmatch(w))]
+    numbers = max((cell_len(w) for w in kept), default=0)
     return numbers, max((cell_len(w) for w in words), default=0)
 
 

@@ -1,0 +1,104 @@
+"""``rcb audit`` at 80 columns with long names: numbers, keys and headings whole.
+
+Before: a 24-character plan name in the target column and an authentication failure's detail
+(``window_start_s: 1796395440.0, window_s: 60.0``) left the detail 6 columns: ``179639`` /
+``5440.0`` / ``,``, ``window`` / ``_start`` / ``_s:``. A route's path as the action
+(``POST /api/v1/plans/{plan_id}/parts``, its ``v1`` a digit: "a number, never folded") made
+the table wider than the console, and rich cut its right edge off: ``ref`` of ``refused``, and
+no detail at all.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+from sqlalchemy.orm import Session
+from test_cli_width import fits, rcb, words
+
+from db import audit_windows
+from db.engine import make_engine, upgrade
+
+from conftest import DEMO_PLAN
+
+#: A plan's name of 24 characters, as the audit table keeps one whole (api/cli/audit.py).
+NAME = "ivester-demo-part-lot-07"
+
+
+@pytest.fixture(scope="module")
+def audited(tmp_path_factory) -> str:
+    """A database whose audit log has a plan, a key, a replan, a refusal, a wrong key."""
+    where = tmp_path_factory.mktemp("audit-width")
+    url = f"sqlite:///{where / 'rcb.db'}"
+    upgrade(url)
+    text = DEMO_PLAN.read_text(encoding="utf-8")
+    plan = where / "plan.toml"
+    plan.write_text(text.replace('name = "ivester-demo-part"', f'name = "{NAME}"', 1))
+    for args in (
+        ["plans", "create", str(plan)],
+        ["keys", "create", "--role", "mes", "--label", "line 3"],
+        ["replan", "1", "--rcb", "z=3"],
+    ):
+        done = rcb(*args, "--db", url)
+        assert done.returncode == 0, done.stderr
+    refused = rcb("replan", "1", "--bound", "rough-od.feed_mm_rev=nan:1", "--db", url)
+    assert refused.returncode == 2, refused.stderr
+    engine = make_engine(url)
+    with Session(engine) as session, session.begin():  # as the service counts a wrong key
+        audit_windows.add(
+            session=session,
+            client="127.0.0.1",
+            action="POST /api/v1/plans/{plan_id}/parts",
+            reason="unknown or revoked key",
+            start_s=1796395440.0,
+            window_s=60.0,
+            delta=1,
+        )
+    engine.dispose()
+    return url
+
+
+def _headings(stdout: str) -> list[str]:
+    """The words above the heading rule (the title's and the headings')."""
+    lines = stdout.splitlines()
+    rule = next(i for i, line in enumerate(lines) if line.startswith("─"))
+    return " ".join(lines[:rule]).split()
+
+
+def test_the_audit_table_keeps_numbers_keys_and_headings_whole_at_80_columns(audited):
+    done = rcb("audit", "--db", audited)
+    assert done.returncode == 0, done.stderr
+    fits(done.stdout)
+    assert _headings(done.stdout) == ["audit", "at", "(UTC)", "actor", "action", "target"] + [
+        "result",
+        "detail",
+    ]
+    entries = json.loads(rcb("audit", "--db", audited, "--json").stdout)["entries"]
+    shown = words(done.stdout)
+    numbers = {
+        json.dumps(value)
+        for entry in entries
+        if isinstance(entry["detail"], dict)
+        for value in entry["detail"].values()
+        if isinstance(value, int | float)
+    }
+    assert numbers >= {"1796395440.0", "60.0", "1"}
+    assert numbers <= shown, numbers - shown
+    assert {"127.0.0.1", "window_start_s:", "window_s:", "message:"} <= shown
+    # each entry's time whole, and the results right of the names: none cut off at the edge
+    told = {e["at"][11:19] for e in entries} | {"refused", "201", "mes"}
+    assert told <= shown, told - shown
+    # the long names fold first (the name, the route, "unauthenticated"), cut never
+    assert "ivester-demo" in done.stdout and "unauthentica" in done.stdout
+
+
+@pytest.mark.parametrize("columns", [60, 40])
+def test_a_narrower_audit_table_folds_names_not_numbers(audited, columns):
+    done = rcb("audit", "--db", audited, columns=columns)
+    assert done.returncode == 0, done.stderr
+    fits(done.stdout, columns)
+    told = set(done.stdout.split())
+    assert {"1796395440.0,", "60.0", "127.0.0.1,"} <= told, done.stdout
+    dates = re.findall(r"^\d{4}-\d\d-\d\d ", done.stdout, re.M)
+    assert len(dates) == len(json.loads(rcb("audit", "--db", audited, "--json").stdout)["entries"])
