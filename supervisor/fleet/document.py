@@ -300,12 +300,20 @@ def _within_bounds(belief: Posterior, path: str) -> None:
     for i, row in enumerate(belief.cov):
         fields.number(row[i], f"{path}.cov[{i}][{i}]", positive=True, largest=LARGEST_VARIANCE)
     cov = np.array(belief.cov)
-    symmetric = np.allclose(cov, cov.T, rtol=1e-9, atol=0.0)
-    if not symmetric or np.linalg.eigvalsh(cov).min() <= 0:
+    apart = ~np.isclose(cov, cov.T, rtol=1e-9, atol=0.0)
+    if apart.any():  # the first element that differs from its mirror, by both names
+        i, j = (int(k) for k in np.argwhere(apart)[0])
+        raise InputError(
+            f"{path}.cov[{i}][{j}]",
+            float(cov[i, j]),
+            f"must equal cov[{j}][{i}] = {float(cov[j, i])!r}: a covariance is symmetric",
+        )
+    least = float(np.linalg.eigvalsh(cov).min())
+    if least <= 0:
         raise InputError(
             f"{path}.cov",
-            "not positive definite",
-            "must be a covariance: symmetric, positive definite",
+            f"{len(cov)}x{len(cov)}, smallest eigenvalue {least:.3g}",
+            "must be positive definite: a covariance",
         )
 
 

@@ -67,7 +67,7 @@ CASES = [
     (_set("posterior", "mean", 0, value=50.0), "posterior.mean[0]", "within ±27.631"),
     (_set("posterior", "mean", 1, value=-620.0), "posterior.mean[1]", "within ±100"),
     (_set("posterior", "cov", 0, 0, value=-1.0), "posterior.cov[0][0]", "greater than 0"),
-    (_set("posterior", "cov", 0, 1, value=1e-3), "posterior.cov", "positive definite"),
+    (_set("posterior", "cov", 0, 1, value=1e-3), "posterior.cov[0][1]", "must equal cov[1][0]"),
     (_swap_cov, "posterior.cov", "positive definite"),
     (_set("posterior", "center", 0, value=1e5), "posterior.center[0]", "within ±27.631"),
     (_set("posterior", "noise_scale2", value=1e9), "posterior.noise_scale2", "> 0 and <= 10000"),
