@@ -35,7 +35,7 @@ from api.cli.common import (
     say,
     say_command,
 )
-from api.cli.tables import new_table, short_number
+from api.cli.tables import free_text, new_table, short_number
 from api.report import marks
 from api.services import request_limits
 from models.bounds import LARGEST_WHOLE
@@ -103,6 +103,8 @@ def _print_plans(listed: list[dict[str, Any]]) -> None:
     table = new_table(title="plans")
     for column in ("id", "name", "machine", "RCB", "ver", "parts", "status", "created"):
         table.add_column(column, justify="right" if column in ("id", "ver", "parts") else "left")
+    for name in table.columns[1:3]:  # a name's digit (lot-07, lathe-22kW) makes no number:
+        free_text(name)  # a long name folds, not the headings (i / d, v / e / r) and dates
     for p in listed:
         halted = p["status"] == "halted"
         table.add_row(

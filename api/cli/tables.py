@@ -35,6 +35,11 @@ _DIGIT = re.compile(r"[0-9]")
 #: A number word of free text: ``1796389920.0,``, ``-3.5e-4``, ``127.0.0.1``, ``2026-12-04``,
 #: ``60%`` (never folded there); not ``v1`` nor ``operations[0].bounds`` (a name, a path).
 _NUMBER = re.compile(r"[(\[]?[-+±]?\.?[0-9][0-9.,:eE+\-]*%?[)\],;:]*")
+#: The widest word holding a digit kept whole as a number (a serial, ``lathe-22kW``) unless
+#: it is one (:data:`_NUMBER`) or ``name=number``: a longer one is a name
+#: (``milling-demo-part-for-the-customer-acme-lot-07``) and folds as words do.
+DIGIT_KEPT = 20
+_PAIR = re.compile(r"[^=\s]+=" + _NUMBER.pattern)
 
 _UNITS = {q.name: q.unit for q in (*MODEL_QUANTITIES.values(), *DERIVED_QUANTITIES.values())}
 
@@ -129,7 +134,9 @@ def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> l
     natural width. Every column gets the widest level the console holds for all of them, and
     the rest of the width goes to the columns short of the next level, the widest cut first:
     a narrow console folds a long name (``roughness_um``) before a heading, and a heading
-    before a number; where the numbers alone are wider, the widest column's number.
+    before a number. Where the numbers alone are wider than the console, the widest columns
+    are cut to one width first, their numbers folded (rich would keep each ``min_width`` and
+    cut the table's right edge off).
     """
     if any(column.width is not None for column in table.columns):
         return None
@@ -137,16 +144,19 @@ def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> l
     levels = [_levels(console, wide, column) for column in table.columns]
     natural = sum(level[-1] for level in levels)
     room = options.max_width - (Measurement.get(console, wide, table).maximum - natural)
-    totals = [sum(level[k] for level in levels) for k in range(len(levels[0]))]
-    if totals[-1] <= room or room < len(levels):
+    if sum(level[-1] for level in levels) <= room or room < len(levels):
         return None
-    # below the numbers (k 0: they alone are wider than the console) the widest folds first;
-    # rich would keep each min_width and cut the table's right edge off
-    k = next((k for k, total in enumerate(totals) if total > room), 0)
+    if sum(level[0] for level in levels) > room:  # the numbers alone: the widest columns fold
+        cap = max(c for c in range(1, room + 1) if sum(min(lv[-1], c) for lv in levels) <= room)
+        levels = [tuple(min(width, cap) for width in level) for level in levels]
+    totals = [sum(level[k] for level in levels) for k in range(len(levels[0]))]
+    k = next((k for k, total in enumerate(totals) if total > room), None)
+    if k is None:
+        return [level[-1] for level in levels]
     widths = [level[k] for level in levels]
     while sum(widths) > room:  # one cell off the widest column still above its lower level
         cut = max(
-            (i for i, level in enumerate(levels) if widths[i] > (level[k - 1] if k else 1)),
+            (i for i, level in enumerate(levels) if widths[i] > level[k - 1]),
             key=lambda i: (widths[i], i),
         )
         widths[cut] -= 1
@@ -184,7 +194,8 @@ def _word_widths(
 ) -> tuple[int, int]:
     """The widest number word of a cell, and its widest word (0 if none).
 
-    A number word: one holding a digit, or, given ``number``, one it matches whole.
+    A number word: one holding a digit (a longer one than :data:`DIGIT_KEPT` only if a number
+    or ``name=number``), or, given ``number``, one it matches whole.
 
     A cell that is not text (a nested table, a padding) is kept whole: both its minimum width.
     """
@@ -194,9 +205,18 @@ def _word_widths(
         least = Measurement.get(console, wide, cell).minimum
         return least, least
     words = cell.plain.split()
-    kept = [w for w in words if (_DIGIT.search(w) if number is None else number.fullmatch(w))]
+    kept = [w for w in words if _kept(w, number)]
     numbers = max((cell_len(w) for w in kept), default=0)
     return numbers, max((cell_len(w) for w in words), default=0)
+
+
+def _kept(word: str, number: re.Pattern[str] | None) -> bool:
+    """Whether ``word`` is kept whole as a number (``number``: what one is, else a digit)."""
+    if number is not None:
+        return number.fullmatch(word) is not None
+    if not _DIGIT.search(word):
+        return False
+    return len(word) <= DIGIT_KEPT or bool(_NUMBER.fullmatch(word) or _PAIR.fullmatch(word))
 
 
 def new_table(*headings: str, **options: Any) -> Table:
