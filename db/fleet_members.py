@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from sqlalchemy import or_, select
+from sqlalchemy import func, or_, select
 from sqlalchemy.orm import Session
 
 from db import tables as t
@@ -67,8 +67,15 @@ def members(
     )
     if only is not None:
         page = page.where(t.Operation.plan_id.in_(sorted(only)))
+    r = t.PlanRevision
+    reset = (  # the part its bands were last reset after (rcb replan --reset-bands), if any
+        select(func.max(r.bands_reset_after_part))
+        .where(r.plan_id == t.Plan.id, r.reset_bands.is_(True))
+        .correlate(t.Plan)
+        .scalar_subquery()
+    )
     query = (
-        select(t.Plan, t.Machine.name, t.Part.serial)
+        select(t.Plan, t.Machine.name, t.Part.serial, reset)
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .outerjoin(t.Part, t.Part.id == t.Plan.fleet_change_part)
         .where(t.Plan.id.in_(page))
@@ -77,7 +84,7 @@ def members(
     plans = session.execute(query).all()
     if not plans:
         return []
-    ids = [row.id for row, _, _ in plans]
+    ids = [row.id for row, _, _, _ in plans]
     states = _states(session, tool, ids)
     window = newest_local([tool], session.get_bind().dialect.name)
     newest = set(session.scalars(select(window.c.plan_id).where(window.c.plan_id.in_(ids))))
@@ -87,7 +94,7 @@ def members(
         .where(
             or_(
                 t.FleetExclusion.plan_id.in_(ids),
-                t.FleetExclusion.machine.in_({machine for _, machine, _ in plans}),
+                t.FleetExclusion.machine.in_({machine for _, machine, _, _ in plans}),
             )
         )
         .order_by(t.FleetExclusion.id)
@@ -100,8 +107,9 @@ def members(
             exclusions,
             (changes[row.id], serial),
             row.id in newest,
+            bool(reset_after),
         )
-        for row, machine, serial in plans
+        for row, machine, serial, reset_after in plans
     ]
 
 
@@ -131,6 +139,7 @@ def _member(
     exclusions: Sequence[t.FleetExclusion],
     changes: tuple[int, str | None],
     newest: bool,
+    reset: bool = False,
 ) -> Member:
     operations = tuple(dict.fromkeys(op for op, _ in states))
     beliefs = {
@@ -150,7 +159,8 @@ def _member(
         machine,
         operations,
         sum(b.observations for b in beliefs.values()),
-        _why_out(row, machine, bool(beliefs), changes, exclusions) or _older(machine, newest),
+        _why_out(row, machine, bool(beliefs), changes, exclusions, reset)
+        or _older(machine, newest),
         let_go,
     )
 
@@ -170,8 +180,13 @@ def _why_out(
     learned: bool,
     changes: tuple[int, str | None],
     exclusions: Sequence[t.FleetExclusion],
+    reset: bool = False,
 ) -> str:
-    """Why the plan's models are not in the fleet ("" where they are): the first that holds."""
+    """Why the plan's models are not in the fleet ("" where they are): the first that holds.
+
+    ``reset``: its bands were reset after a part (``rcb replan --reset-bands``): with nothing
+    learned since, it has made parts, none since the reset.
+    """
     for e in exclusions:
         if e.plan_id == row.id:
             return f"taken out by {e.actor}: {e.reason}"
@@ -191,6 +206,8 @@ def _why_out(
     count, serial = changes
     if count > row.fleet_changes_accepted:
         return _changed(row, count - row.fleet_changes_accepted, serial)
+    if not learned and reset:
+        return "no part since its bands were reset (rcb replan --reset-bands)"
     if not learned:
         return "no part reported yet"
     return ""
