@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from sqlalchemy import func, or_, select
 from sqlalchemy.orm import Session
+from sqlalchemy.sql.selectable import ScalarSelect
 
 from db import tables as t
 from db.errors import StoredSettingsError
@@ -67,15 +68,8 @@ def members(
     )
     if only is not None:
         page = page.where(t.Operation.plan_id.in_(sorted(only)))
-    r = t.PlanRevision
-    reset = (  # the part its bands were last reset after (rcb replan --reset-bands), if any
-        select(func.max(r.bands_reset_after_part))
-        .where(r.plan_id == t.Plan.id, r.reset_bands.is_(True))
-        .correlate(t.Plan)
-        .scalar_subquery()
-    )
     query = (
-        select(t.Plan, t.Machine.name, t.Part.serial, reset)
+        select(t.Plan, t.Machine.name, t.Part.serial, _reset_after())
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .outerjoin(t.Part, t.Part.id == t.Plan.fleet_change_part)
         .where(t.Plan.id.in_(page))
@@ -111,6 +105,21 @@ def members(
         )
         for row, machine, serial, reset_after in plans
     ]
+
+
+def _reset_after() -> ScalarSelect[int | None]:
+    """The part the plan's bands were last reset after (None: never reset).
+
+    ``rcb replan --reset-bands``; correlated with ``plans``, a column of the page's first
+    statement.
+    """
+    r = t.PlanRevision
+    return (
+        select(func.max(r.bands_reset_after_part))
+        .where(r.plan_id == t.Plan.id, r.reset_bands.is_(True))
+        .correlate(t.Plan)
+        .scalar_subquery()
+    )
 
 
 def _states(
