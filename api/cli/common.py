@@ -26,7 +26,7 @@ from rich.console import Console
 from api.cli.atomic import written_atomically
 from api.services.errors import NotFoundError, PlanHaltedError
 from db.errors import ConflictError
-from models.bounds import LARGEST, MAX_DOCUMENT_BYTES
+from models.bounds import LARGEST
 from models.errors import InputError, InputErrors
 from supervisor.errors import InfeasibleError, SolverError
 from supervisor.rcb.settings import SETTINGS
@@ -383,18 +383,3 @@ def number_cell(text: str, where: str) -> float:
     if abs(value) > LARGEST:
         raise InputError(where, cell, f"must be within ±{LARGEST:g}")
     return value
-
-
-def read_json_file(path: Path, most: int = MAX_DOCUMENT_BYTES) -> object:
-    """A JSON file of at most ``most`` bytes (errors name FILE; one line, exit 2)."""
-    try:
-        with path.open("rb") as file:
-            raw = file.read(most + 1)
-    except OSError as err:
-        raise InputError("FILE", str(path), f"cannot be read ({err.strerror})") from None
-    if len(raw) > most:
-        raise InputError("FILE", str(path), f"is larger than {most} bytes")
-    try:
-        return json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as err:
-        raise InputError("FILE", str(path), f"is not valid JSON ({err})") from None

@@ -19,13 +19,13 @@ from api.cli.common import (
     emit,
     engine_of,
     errors,
-    read_json_file,
     say,
     write_atomically,
 )
 from api.cli.who import ByOption, cli_actor
 from models.bounds import MAX_MODELS_BYTES
 from models.errors import InputError
+from supervisor.inputs.files import read_json
 
 models_app = typer.Typer(
     help="A tool's learned models between databases (the fleet prior of a second plant).",
@@ -92,7 +92,7 @@ def import_(
 
     with errors():
         actor = cli_actor(by)
-        data = read_json_file(file, MAX_MODELS_BYTES)
+        data = read_json(file, "FILE", MAX_MODELS_BYTES)
         engine = engine_of(db)
         written = import_tool(engine=engine, data=data, source=file.name, actor=actor)
     if as_json:

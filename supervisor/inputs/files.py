@@ -39,30 +39,40 @@ def read_document(path: Path, label: str) -> object:
     Raises
     ------
     InputError
-        As :func:`read_toml`; a ``.json`` file that is not UTF-8 JSON, naming ``label`` and
-        the path.
+        As :func:`read_toml`; a ``.json`` file as :func:`read_json`.
     """
     if path.suffix.lower() != ".json":
         return read_toml(path, label)
-    text = _text(_read(path, label), path, label)
+    return read_json(path, label)
+
+
+def read_json(path: Path, label: str, most: int = MAX_DOCUMENT_BYTES) -> object:
+    """The parsed JSON file at ``path``, of at most ``most`` bytes.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_toml`, over ``most`` bytes, or not JSON; naming ``label`` and the path.
+    """
+    text = _text(_read(path, label, most), path, label)
     try:
         return json.loads(text)
     except ValueError as err:
         raise InputError(label, str(path), f"is not valid JSON ({err})") from None
 
 
-def _read(path: Path, label: str) -> bytes:
-    """The bytes of ``path``, at most :data:`models.bounds.MAX_DOCUMENT_BYTES` of them."""
+def _read(path: Path, label: str, most: int = MAX_DOCUMENT_BYTES) -> bytes:
+    """The bytes of ``path``, at most ``most`` of them."""
     try:
         with path.open("rb") as file:
-            raw = file.read(MAX_DOCUMENT_BYTES + 1)
+            raw = file.read(most + 1)
     except FileNotFoundError:
         raise InputError(label, str(path), "no such file") from None
     except OSError as err:
         raise InputError(label, str(path), f"cannot be read ({err.strerror})") from None
-    if len(raw) > MAX_DOCUMENT_BYTES:
-        why = f"is larger than {MAX_DOCUMENT_BYTES} bytes (a REST body's bound too)"
-        raise InputError(label, str(path), why)
+    if len(raw) > most:
+        also = " (a REST body's bound too)" if most == MAX_DOCUMENT_BYTES else ""
+        raise InputError(label, str(path), f"is larger than {most} bytes{also}")
     return raw
 
 

@@ -97,3 +97,24 @@ def test_the_fleet_law_sets_the_catalogue_of_this_database_beside_it(engine, tmp
     shown = {law["quantity"]: law["catalogue_K"] for law in laws}
     assert shown and shown == {q: pytest.approx(packaged[q].K, rel=1e-9) for q in shown}
     second.dispose()
+
+
+def test_a_file_saved_with_a_byte_order_mark_is_imported(engine, tmp_path: Path, runner) -> None:
+    """A plant's engineer opened the export in Notepad and saved it: UTF-8 with a BOM, which
+    ``rcb models import`` refused as "not valid JSON" (plan and tool files took it since
+    650f6d9); UTF-16 is refused naming the encoding, nothing stored."""
+    _learned(engine, "fleet-bom", 0, 2)
+    text = json.dumps(export_tool(engine=engine, tool="CNMG432RN"), indent=1)
+    second = _second(tmp_path)
+    url = engine_url(second)
+    wide = tmp_path / "wide.json"
+    wide.write_text(text, encoding="utf-16")
+    done = runner.invoke(app, ["models", "import", str(wide), "--db", url])
+    assert (done.exit_code, _rows(second)) == (2, 0), done.output
+    assert f"FILE = '{wide}': is UTF-16 or UTF-32 text" in done.output
+    marked = tmp_path / "marked.json"
+    marked.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    done = runner.invoke(app, ["models", "import", str(marked), "--db", url])
+    assert done.exit_code == 0, done.output
+    assert _rows(second) > 0
+    second.dispose()
