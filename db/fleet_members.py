@@ -107,6 +107,25 @@ def members(
     ]
 
 
+def plan_out(*, session: Session, row: t.Plan, machine: str) -> str | None:
+    """Why none of the plan's learned models make a new plan's prior, whatever the tool.
+
+    An engineer took the plan or its machine out (the reason and who), it is halted, its
+    strategy learns nothing, or its process changed beyond what an engineer accepted; None
+    where none holds (``rcb fleet show TOOL`` says, per tool, whether it is among its
+    machine's newest plans and has learned). Three statements.
+    """
+    exclusions = session.scalars(
+        select(t.FleetExclusion)
+        .where(or_(t.FleetExclusion.plan_id == row.id, t.FleetExclusion.machine == machine))
+        .order_by(t.FleetExclusion.id)
+    ).all()
+    count = plan_changes(session=session, plan_ids=[row.id])[row.id]
+    part = None if row.fleet_change_part is None else session.get(t.Part, row.fleet_change_part)
+    changes = (count, None if part is None else part.serial)
+    return _why_out(row, machine, True, changes, exclusions) or None
+
+
 def _reset_after() -> ScalarSelect[int | None]:
     """The part the plan's bands were last reset after (None: never reset).
 

@@ -214,6 +214,8 @@ def show(plan: PlanArg, db: DbOption = None, as_json: JsonOption = False) -> Non
     say_filled(rule)
     for why in refused:  # its reports are refused until a replan sets it anew
         say(refused_line(data["id"], why))
+    if data.get("fleet_out"):  # no new plan's prior starts from it, and why
+        say_filled(f"rcb: out of the fleet: {data['fleet_out']}")
 
 
 def _name_column(table: Table, heading: str) -> None:

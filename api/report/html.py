@@ -136,6 +136,8 @@ def _overview(record: Mapping[str, Any]) -> str:
         ("Flagged RCB decisions", f"{totals['flagged']} ({totals['breaches']} past a limit)"),
         ("Notes (information: below band, past limit, regime change …)", totals["notes"]),
     ]
+    if plan.get("fleet_out"):  # its learned models make no new plan's prior, and why
+        items.append(("Out of the fleet", plan["fleet_out"]))
     if len(plotted) < count:
         shown = f"the last {len(plotted)} parts, from {plotted[0]['serial']}" if plotted else "none"
         items.append(("Plotted", shown))

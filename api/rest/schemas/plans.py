@@ -101,6 +101,13 @@ class PlanDetail(PlanSummary):
         "version's check refuses (stored under an earlier one): which, and the way to set it "
         "anew; its part reports are 409 until then (null: none)",
     )
+    fleet_out: str | None = Field(
+        None,
+        description="why none of the plan's learned models make a new plan's fleet prior: an "
+        "engineer took the plan or its machine out (who, and the reason), it is halted, its "
+        "strategy learns none, or its process changed beyond what an engineer accepted (null: "
+        "none of these; GET /tools/{name}/fleet says per tool)",
+    )
 
 
 #: What an operation's ``limits`` may name (the quantity registry, models.quantities): maxima

@@ -12,6 +12,7 @@ from sqlalchemy import Engine
 from api.services.read.common import LIST_PAGE, _bounded, _cursor, _plan, _read
 from db import tables as t
 from db.fleet import prior_answer
+from db.fleet_members import plan_out
 from db.parts import count_parts
 from db.plans import current_body
 from db.read import plans as plan_rows
@@ -54,6 +55,9 @@ def get_plan(*, engine: Engine, plan_id: int, names: bool = True) -> dict[str, A
             ],
             "body": body,
             "plan_refused": plan_refused(session=session, plan_row=row),
+            "fleet_out": plan_out(
+                session=session, row=row, machine=machine.name if machine else ""
+            ),
         }
 
 
