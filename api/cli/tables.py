@@ -223,7 +223,13 @@ def new_table(*headings: str, **options: Any) -> Table:
     """A CLI table: a rule under the headings, no frame, two spaces between columns.
 
     ``headings`` and ``options`` (``title``, ``caption`` ...) as :class:`rich.table.Table`'s.
+    A title wraps at the table's width: the table is at least as wide as the title's longest
+    word (a plan's name, up to the console's width), which was folded mid-word above a narrow
+    table (``...-lot-07-seco`` / ``nd-op``).
     """
+    title = options.get("title")
+    if isinstance(title, str) and title.split() and "min_width" not in options:
+        options["min_width"] = max(cell_len(word) for word in title.split())
     style: dict[str, Any] = {
         "box": box.SIMPLE_HEAD,
         "show_edge": False,

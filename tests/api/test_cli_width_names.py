@@ -64,3 +64,20 @@ def test_fleet_show_keeps_its_headings_whole_beside_a_long_name(named):
     headings = {"id", "plan", "machine", "readings", "in", "the", "fleet"}  # on two lines
     assert headings <= set(_headings(done.stdout)), done.stdout
     assert {"no:", "part", "reported", "yet"} <= words(done.stdout)
+
+
+def test_a_long_plan_name_in_a_table_title_is_not_folded(tmp_path) -> None:
+    """``rcb plans show``: the end-mill plan's setpoints table (56 columns) folded its title's
+    name mid-word (``...-gmbh-l`` / ``ot-07: setpoint version 1``); the table is now at
+    least as wide as the title's longest word."""
+    url = f"sqlite:///{tmp_path / 'rcb.db'}"
+    upgrade(url)
+    text = (ROOT / "examples" / "milling_demo_part.toml").read_text(encoding="utf-8")
+    plan = tmp_path / "plan.toml"
+    plan.write_text(text.replace('name = "milling-demo-part"', f'name = "{PLAN}"'), "utf-8")
+    assert rcb("plans", "create", str(plan), "--db", url).returncode == 0
+    done = rcb("plans", "show", "1", "--db", url)
+    assert done.returncode == 0, done.stderr
+    fits(done.stdout)
+    titles = [line.strip() for line in done.stdout.splitlines() if PLAN in line]
+    assert titles == [f"{PLAN}:", f"plan 1 {PLAN}:"], done.stdout  # setpoints', limits'
