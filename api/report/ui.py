@@ -157,5 +157,8 @@ def _status_cell(plan: dict[str, Any]) -> str:
     if plan["status"] == "halted":
         return tag("td", tag("strong", escaped("HALTED")), class_="halted")
     if plan.get("settings_refused"):  # its reports are refused until a replan sets it anew
-        return tag("td", tag("strong", escaped("REFUSED")), title=plan["settings_refused"])
+        # the reason opens under the word (a click, Enter, a touch): a title showed it on
+        # hover alone, which no keyboard or touch screen can
+        said = tag("summary", tag("strong", escaped("REFUSED")))
+        return tag("td", tag("details", said + escaped(plan["settings_refused"])))
     return td("running")

@@ -159,13 +159,15 @@ def test_over_rest_a_refused_report_is_a_409_naming_the_repair_and_a_replan_free
         )
         assert f'POST /plans/{plan_id}/replan {{"rcb": {{"alpha": VALUE}}}}' in problem["detail"]
         assert "rcb replan" in eng.get(f"/plans/{plan_id}").json()["settings_refused"]
-        with _browser(server) as page:  # the web view's list says so, the reason on hover
-            _login(page, server.keys["viewer"])
+        with _browser(server) as page:  # the web view's list says so, the reason opens under
+            _login(page, server.keys["viewer"])  # it (a title on hover: no keyboard, no touch)
             root = _xml(page.get("/").text)
         row = root.find(f".//table[@id='plans']/tbody/tr[@data-plan='{plan_id}']")
         assert row is not None
         status = row.findall("td")[6]
-        assert _text(status) == "REFUSED" and "rcb replan" in (status.get("title") or "")
+        said = status.find("details/summary")
+        assert said is not None and _text(said) == "REFUSED"
+        assert f"rcb replan {plan_id} --rcb alpha=VALUE" in _text(status)
         freed = eng.post(f"/plans/{plan_id}/replan", json={"rcb": {"alpha": 0.25}})
         assert freed.status_code == 201, freed.text
         assert eng.get(f"/plans/{plan_id}").json()["settings_refused"] is None
