@@ -332,17 +332,18 @@ def _show_tables(data: dict[str, Any], current: dict[str, Any] | None) -> list[T
     limits = new_table(title=f"plan {data['id']} {data['name']}: limits and bounds")
     _name_column(limits, "operation")
     _name_column(limits, "tool")
-    for column in ("limits", "bounds"):
-        limits.add_column(column, overflow="fold")
-    for op in data["operations"]:
-        limits.add_row(
-            op["name"],
-            op["tool"],
-            "\n".join(f"{k} {short_number(v)}" for k, v in op["limits"].items()),
-            "\n".join(
-                f"{k} {short_number(lo)}-{short_number(hi)}" for k, (lo, hi) in op["bounds"].items()
-            ),
+    cells = [
+        (
+            [f"{k} {short_number(v)}" for k, v in op["limits"].items()],
+            [f"{k} {short_number(lo)}-{short_number(hi)}" for k, (lo, hi) in op["bounds"].items()],
         )
+        for op in data["operations"]
+    ]
+    for i, column in enumerate(("limits", "bounds")):  # a pair on one line, a name folds first
+        pairs = [len(pair) for each in cells for pair in each[i]]
+        limits.add_column(column, overflow="fold", min_width=max(pairs, default=0))
+    for op, (limit, bound) in zip(data["operations"], cells, strict=True):
+        limits.add_row(op["name"], op["tool"], "\n".join(limit), "\n".join(bound))
     return [*tables, limits]
 
 

@@ -81,3 +81,13 @@ def test_a_long_plan_name_in_a_table_title_is_not_folded(tmp_path) -> None:
     fits(done.stdout)
     titles = [line.strip() for line in done.stdout.splitlines() if PLAN in line]
     assert titles == [f"{PLAN}:", f"plan 1 {PLAN}:"], done.stdout  # setpoints', limits'
+
+
+def test_each_limit_and_bound_stays_on_one_line_beside_a_long_tool(named) -> None:
+    """``rcb plans show``: beside a 47-character tool the pairs split (``roughness_um`` over
+    ``3.2``, ``feed_per_tooth_mm`` over ``0.018-0.047``) while the tool kept 34 columns."""
+    done = rcb("plans", "show", "1", "--db", named)
+    assert done.returncode == 0, done.stderr
+    fits(done.stdout)
+    for pair in ("roughness_um 3.2", "feed_per_tooth_mm 0.018-0.047", "axial_depth_mm 1-4"):
+        assert pair in done.stdout, done.stdout
