@@ -62,6 +62,13 @@ def fits(stdout: str, columns: int = 80) -> None:
         assert not CUT.search(line), line
 
 
+def headings(stdout: str) -> list[str]:
+    """The words above the heading rule (the title's and the headings')."""
+    lines = stdout.splitlines()
+    rule = next(i for i, line in enumerate(lines) if line.startswith("─"))
+    return " ".join(lines[:rule]).split()
+
+
 def words(stdout: str) -> set[str]:
     """The whitespace-separated words of ``stdout``, a leading ``±`` or trailing comma off."""
     return {w.lstrip("±").rstrip(",") for w in stdout.split()}

@@ -15,7 +15,7 @@ import re
 
 import pytest
 from sqlalchemy.orm import Session
-from test_cli_width import fits, rcb, words
+from test_cli_width import fits, headings, rcb, words
 
 from db import audit_windows
 from db.engine import make_engine, upgrade
@@ -59,18 +59,11 @@ def audited(tmp_path_factory) -> str:
     return url
 
 
-def _headings(stdout: str) -> list[str]:
-    """The words above the heading rule (the title's and the headings')."""
-    lines = stdout.splitlines()
-    rule = next(i for i, line in enumerate(lines) if line.startswith("─"))
-    return " ".join(lines[:rule]).split()
-
-
 def test_the_audit_table_keeps_numbers_keys_and_headings_whole_at_80_columns(audited):
     done = rcb("audit", "--db", audited)
     assert done.returncode == 0, done.stderr
     fits(done.stdout)
-    assert _headings(done.stdout) == ["audit", "at", "(UTC)", "actor", "action", "target"] + [
+    assert headings(done.stdout) == ["audit", "at", "(UTC)", "actor", "action", "target"] + [
         "result",
         "detail",
     ]

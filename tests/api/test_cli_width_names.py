@@ -8,7 +8,7 @@ part reported yet`` one letter a line, the name whole in 60 columns.
 from __future__ import annotations
 
 import pytest
-from test_cli_width import fits, rcb, words
+from test_cli_width import fits, headings, rcb, words
 
 from db.engine import upgrade
 
@@ -36,19 +36,12 @@ def named(tmp_path_factory) -> str:
     return url
 
 
-def _headings(stdout: str) -> list[str]:
-    """The words above the heading rule (the title's and the headings')."""
-    lines = stdout.splitlines()
-    rule = next(i for i, line in enumerate(lines) if line.startswith("─"))
-    return " ".join(lines[:rule]).split()
-
-
 def test_plans_keep_their_headings_and_dates_whole_beside_a_long_name(named):
     """Passed before too (rich's own collapse); kept: the name is now free text (review.py)."""
     done = rcb("plans", "--db", named)
     assert done.returncode == 0, done.stderr
     fits(done.stdout)
-    assert _headings(done.stdout) == ["plans", "id", "name", "machine", "RCB", "ver"] + [
+    assert headings(done.stdout) == ["plans", "id", "name", "machine", "RCB", "ver"] + [
         "parts",
         "status",
         "created",
@@ -61,8 +54,8 @@ def test_fleet_show_keeps_its_headings_whole_beside_a_long_name(named):
     done = rcb("fleet", "show", TOOL, "--db", named)
     assert done.returncode == 0, done.stderr
     fits(done.stdout)
-    headings = {"id", "plan", "machine", "readings", "in", "the", "fleet"}  # on two lines
-    assert headings <= set(_headings(done.stdout)), done.stdout
+    expected = {"id", "plan", "machine", "readings", "in", "the", "fleet"}  # on two lines
+    assert expected <= set(headings(done.stdout)), done.stdout
     assert {"no:", "part", "reported", "yet"} <= words(done.stdout)
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import pytest
 from report_support import stored_demo
-from test_report_layout import BROKEN_WORDS_JS, chromium_page, needs_chromium
+from test_report_layout import BROKEN_WORDS_JS, shown
 
 from api.report.html import render_record
 from api.services.read.record import report_record
@@ -44,20 +44,13 @@ def report_page(tmp_path_factory) -> str:
 
 
 def test_a_wide_table_scrolls_in_its_own_box_at_800(report_page, tmp_path):
-    sync_api = needs_chromium()
     shot = tmp_path / "report_800.png"
-    with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(p)
-        try:
-            page.set_viewport_size({"width": NARROW, "height": 800})
-            page.set_content(report_page, wait_until="load")
-            page.screenshot(path=str(shot))
-            scroll = page.evaluate("() => document.documentElement.scrollWidth")
-            view = page.evaluate("() => window.innerWidth")
-            tables = page.evaluate(TABLES_JS)
-            broken = page.evaluate(BROKEN_WORDS_JS, None)
-        finally:
-            browser.close()
+    with shown(report_page, NARROW) as page:
+        page.screenshot(path=str(shot))
+        scroll = page.evaluate("() => document.documentElement.scrollWidth")
+        view = page.evaluate("() => window.innerWidth")
+        tables = page.evaluate(TABLES_JS)
+        broken = page.evaluate(BROKEN_WORDS_JS, None)
     assert view == NARROW
     assert scroll <= view, f"the page scrolls sideways: {scroll} px; {tables}; {shot}"
     assert {t[0] for t in tables} >= {"setpoints", "history"}, tables
@@ -71,12 +64,6 @@ def test_a_wide_table_scrolls_in_its_own_box_at_800(report_page, tmp_path):
 
 
 def test_the_tables_still_fit_1280_without_scrolling(report_page):
-    sync_api = needs_chromium()
-    with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(p)
-        try:
-            page.set_content(report_page, wait_until="load")
-            tables = page.evaluate(TABLES_JS)
-        finally:
-            browser.close()
+    with shown(report_page) as page:
+        tables = page.evaluate(TABLES_JS)
     assert [t for t in tables if t[4]] == [], f"a box scrolls at 1280 px: {tables}"

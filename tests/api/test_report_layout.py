@@ -15,7 +15,10 @@ downloaded browser); without either they skip, saying which is missing.
 from __future__ import annotations
 
 import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 from report_support import stored_demo
@@ -93,6 +96,21 @@ def needs_chromium():
     )
 
 
+@contextmanager
+def shown(html: str, width: int = VIEWPORT["width"]) -> Iterator[Any]:
+    """A Chromium page ``width`` px wide showing ``html`` (skips where Chromium is missing)."""
+    sync_api = needs_chromium()
+    with sync_api.sync_playwright() as p:
+        browser, page = chromium_page(p)
+        try:
+            if width != VIEWPORT["width"]:
+                page.set_viewport_size({**VIEWPORT, "width": width})
+            page.set_content(html, wait_until="load")
+            yield page
+        finally:
+            browser.close()
+
+
 @pytest.fixture(scope="module")
 def report_page(tmp_path_factory) -> str:
     _, engine, plan_id = stored_demo(tmp_path_factory.mktemp("layout"), PARTS)
@@ -102,20 +120,14 @@ def report_page(tmp_path_factory) -> str:
 
 
 def test_no_word_breaks_inside_a_cell_at_1280(report_page, tmp_path):
-    sync_api = needs_chromium()
-    with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(p)
-        shot = tmp_path / "report_layout.png"  # for the failure's message
-        try:
-            page.set_content(report_page, wait_until="load")
-            page.screenshot(path=str(shot), full_page=True)
-            broken = page.evaluate(BROKEN_WORDS_JS, None)
-            cells = page.evaluate("() => document.querySelectorAll('th, td').length")
-            scroll = page.evaluate("() => document.documentElement.scrollWidth")
-            limit = page.locator("#setpoints td", has_text="864,000").first.inner_text()
-            outside = page.evaluate(TEXT_OUTSIDE_SVG_JS)
-        finally:
-            browser.close()
+    shot = tmp_path / "report_layout.png"  # for the failure's message
+    with shown(report_page) as page:
+        page.screenshot(path=str(shot), full_page=True)
+        broken = page.evaluate(BROKEN_WORDS_JS, None)
+        cells = page.evaluate("() => document.querySelectorAll('th, td').length")
+        scroll = page.evaluate("() => document.documentElement.scrollWidth")
+        limit = page.locator("#setpoints td", has_text="864,000").first.inner_text()
+        outside = page.evaluate(TEXT_OUTSIDE_SVG_JS)
     assert cells > 400  # the check saw the tables (31 versions x 12 columns, setpoints ...)
     assert broken == [], f"words broken across lines: {broken}; screenshot {shot}"
     assert scroll <= VIEWPORT["width"]  # and the page still fits: nothing scrolls sideways
@@ -125,20 +137,14 @@ def test_no_word_breaks_inside_a_cell_at_1280(report_page, tmp_path):
 
 def test_the_check_finds_a_word_broken_inside(report_page):
     """The same check on the report's history table squeezed to 400 px with the old CSS."""
-    sync_api = needs_chromium()
     squeezed = report_page.replace(
         "</style>",
         "#history { width: 400px; } #history * { overflow-wrap: anywhere; "
         "white-space: normal !important; }</style>",
         1,
     )
-    with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(p)
-        try:
-            page.set_content(squeezed, wait_until="load")
-            broken = page.evaluate(BROKEN_WORDS_JS, None)
-        finally:
-            browser.close()
+    with shown(squeezed) as page:
+        broken = page.evaluate(BROKEN_WORDS_JS, None)
     words = {word for word, _ in broken}
     assert "Version" in words or "rough-grooves" in words, broken
 

@@ -18,7 +18,7 @@ import re
 
 import pytest
 from report_support import BODY
-from test_report_layout import BROKEN_WORDS_JS, TEXT_OUTSIDE_SVG_JS, chromium_page, needs_chromium
+from test_report_layout import BROKEN_WORDS_JS, TEXT_OUTSIDE_SVG_JS, shown
 
 from api.report.html import render_record
 from api.rest.schemas.parts import parse_report
@@ -80,19 +80,13 @@ WIDTHS_JS = """
 def test_long_names_and_serials_fit_1280_without_breaking_a_word(long_page, tmp_path):
     assert "summary" in long_page and NAME in long_page  # the summarised versions are shown
     assert "below band" in long_page  # the marks name the operations too
-    sync_api = needs_chromium()
     shot = tmp_path / "long_names.png"
-    with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(p)
-        try:
-            page.set_content(long_page, wait_until="load")
-            page.screenshot(path=str(shot), full_page=True)
-            widths = page.evaluate(WIDTHS_JS)
-            broken = page.evaluate(BROKEN_WORDS_JS, None)
-            outside = page.evaluate(TEXT_OUTSIDE_SVG_JS)
-            header = page.locator("#history th.name").first.inner_text()
-        finally:
-            browser.close()
+    with shown(long_page) as page:
+        page.screenshot(path=str(shot), full_page=True)
+        widths = page.evaluate(WIDTHS_JS)
+        broken = page.evaluate(BROKEN_WORDS_JS, None)
+        outside = page.evaluate(TEXT_OUTSIDE_SVG_JS)
+        header = page.locator("#history th.name").first.inner_text()
     assert widths["doc"] <= widths["view"] and widths["wide"] == [], f"{widths}; {shot}"
     assert broken == [], f"words broken across lines: {broken[:10]}; {shot}"
     assert outside == [], f"plot text cut at the plot's edge: {outside}"
@@ -102,16 +96,10 @@ def test_long_names_and_serials_fit_1280_without_breaking_a_word(long_page, tmp_
 
 def test_every_plot_is_a_named_image(long_page):
     """Each SVG (role img) has an accessible name: a screen reader announces what it shows."""
-    sync_api = needs_chromium()
-    with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(p)
-        try:
-            page.set_content(long_page, wait_until="load")
-            images = page.get_by_role("img").count()
-            named = page.get_by_role("img", name=re.compile(r"\S")).count()
-            outputs = page.get_by_role("img", name=re.compile("constrained outputs")).count()
-        finally:
-            browser.close()
+    with shown(long_page) as page:
+        images = page.get_by_role("img").count()
+        named = page.get_by_role("img", name=re.compile(r"\S")).count()
+        outputs = page.get_by_role("img", name=re.compile("constrained outputs")).count()
     assert images == 1 + 4 * len(BODY["operations"])  # the cycle plot, 4 per operation
     assert named == images
     assert outputs == len(BODY["operations"])
@@ -150,14 +138,8 @@ CONTRAST_JS = """
 
 def test_flag_and_note_colours_have_aa_contrast(long_page):
     """Every mark's text on every row it may sit in: at least 4.5:1 (#c50 on white was 4.3)."""
-    sync_api = needs_chromium()
-    with sync_api.sync_playwright() as p:
-        browser, page = chromium_page(p)
-        try:
-            page.set_content(long_page, wait_until="load")
-            ratios = page.evaluate(CONTRAST_JS)
-        finally:
-            browser.close()
+    with shown(long_page) as page:
+        ratios = page.evaluate(CONTRAST_JS)
     assert len(ratios) == 4 * 5
     low = [(row, kind, round(ratio, 2)) for row, kind, ratio in ratios if ratio < AA_CONTRAST]
     assert low == [], f"text below {AA_CONTRAST}:1 contrast: {low}"
