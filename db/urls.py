@@ -100,7 +100,7 @@ def explain(err: Exception, url: str) -> str | None:
     if not isinstance(err, DBAPIError) or not _connecting(err):
         return None
     parsed = make_url(url)
-    text = str(err.orig) if err.orig is not None else str(err)
+    text = str(_cause(err))
     first = first_line(err)
     if parsed.get_backend_name() == "sqlite":
         if "unable to open database file" in text:
@@ -133,15 +133,20 @@ def cannot_use(err: Exception, url: str) -> str:
     reason = explain(err, url)
     if reason is not None:
         return reason
-    cause = err.orig if isinstance(err, DBAPIError) and err.orig is not None else err
-    return f"cannot use this database ({cause.__class__.__name__}: {first_line(cause)})"
+    return f"cannot use this database ({_cause(err).__class__.__name__}: {first_line(err)})"
 
 
 def first_line(err: BaseException) -> str:
     """The first line of what ``err`` (or the driver's error under it) says, else its class."""
-    cause = err.orig if isinstance(err, DBAPIError) and err.orig is not None else err
+    cause = _cause(err)
     lines = str(cause).strip().splitlines()
     return lines[0] if lines else cause.__class__.__name__
+
+
+def _cause(err: BaseException) -> BaseException:
+    """The driver's error under SQLAlchemy's ``err`` (``sqlite3.OperationalError``), or ``err``."""
+    orig = getattr(err, "orig", None) if isinstance(err, DBAPIError) else None
+    return orig if isinstance(orig, BaseException) else err
 
 
 def unknown_revision(found: str) -> str:
