@@ -144,7 +144,7 @@ def _shared_widths(table: Table, console: Console, options: ConsoleOptions) -> l
     levels = [_levels(console, wide, column) for column in table.columns]
     natural = sum(level[-1] for level in levels)
     room = options.max_width - (Measurement.get(console, wide, table).maximum - natural)
-    if sum(level[-1] for level in levels) <= room or room < len(levels):
+    if natural <= room or room < len(levels):
         return None
     if sum(level[0] for level in levels) > room:  # the numbers alone: the widest columns fold
         cap = max(c for c in range(1, room + 1) if sum(min(lv[-1], c) for lv in levels) <= room)
