@@ -15,13 +15,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from models.errors import InputError
 
 #: Coverage factor of a reported (expanded) uncertainty: ``σ = U / 2`` (GUM 6.2-6.3; Ivester &
 #: Heigel Table 5's ±2σ).
 COVERAGE_FACTOR = 2.0
+#: The least expanded uncertainty a reading is counted with, as a fraction of its value [-]:
+#: half the tightest of Ivester & Heigel Table 5 (a force read to ±2 N, 0.1 % of the paper's
+#: 2000 N force limit). A chain that states less (its resolution given as its uncertainty, a
+#: near-zero by mistake) is counted at this: ``learn`` took a reading stated to 1e-9 N as
+#: exact, its posterior lost its positive definiteness (numerically) and it set setpoints past
+#: the limits or failed on every later report (:func:`counted`).
+LEAST_REL_UNCERTAINTY = 5e-4
 
 
 @dataclass(frozen=True)
@@ -39,6 +46,14 @@ class Measurement:
             raise InputError("value", self.value, "must be a finite number >= 0")
         if not (math.isfinite(self.uncertainty) and self.uncertainty >= 0):
             raise InputError("uncertainty", self.uncertainty, "must be a finite number >= 0")
+
+
+def counted(measurement: Measurement) -> Measurement:
+    """``measurement`` with its uncertainty at least :data:`LEAST_REL_UNCERTAINTY` of its value."""
+    least = LEAST_REL_UNCERTAINTY * measurement.value
+    if measurement.uncertainty >= least:
+        return measurement
+    return replace(measurement, uncertainty=least)
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from models.errors import InputError
 from models.misspelt import meant
 from models.quantities import QUANTITIES
 from models.tool import Tool
-from supervisor.inputs.part_report import Measurement, PartReport
+from supervisor.inputs.part_report import Measurement, PartReport, counted
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.passes import measured_at
 from supervisor.optimize.result import OperationResult, PlanResult
@@ -27,7 +27,11 @@ def report_readings(
     operations: Mapping[str, Operation],
     results: Mapping[str, OperationResult],
 ) -> list[tuple[str, str, Measurement]]:
-    """Every reading of the report (tool wear as tool life), the whole report checked first."""
+    """Every reading of the report (tool wear as tool life), the whole report checked first.
+
+    Each as it is counted: its uncertainty at least the least a chain can claim
+    (:func:`~supervisor.inputs.part_report.counted`).
+    """
     for name in [*report.measurements, *report.tool_wear]:
         if name not in operations:
             raise InputError(f"operations.{name}", name, f"not an operation of {state.plan.name!r}")
@@ -52,7 +56,7 @@ def report_readings(
         measured_items.append((name, "tool_life_mm3", wear_measured))
     for name, quantity, _ in measured_items:  # check the whole report before applying any
         check_quantity(state.tools[name], name, quantity)
-    return measured_items
+    return [(name, quantity, counted(m)) for name, quantity, m in measured_items]
 
 
 def setpoints_of(state: RcbState, report: PartReport, made_with: PlanResult | None) -> PlanResult:

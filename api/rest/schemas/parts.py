@@ -90,7 +90,12 @@ class MeasurementIn(BaseModel):
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     value: Measured
-    uncertainty: Measured = Field(description="> 0 and < value")
+    uncertainty: Measured = Field(
+        description=(
+            "> 0 and < value, expanded (k = 2); RCB counts at least 0.05 % of the value "
+            "(LEAST_REL_UNCERTAINTY: no chain reads a cut closer)"
+        )
+    )
 
     @field_validator("uncertainty")
     @classmethod
