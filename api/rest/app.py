@@ -17,6 +17,7 @@ from api.rest.lifespan import flushing
 from api.rest.limits import BodyLimit
 from api.rest.routes import health, parts, plans, review, tools
 from api.rest.routes.common import PREFIX
+from api.rest.unexpected import UnexpectedAsProblem
 from api.rest.writes_in_flight import WritesFirstMiddleware
 from api.settings import Settings
 from db.engine import DEFAULT_POOL, Pool, make_engine
@@ -45,6 +46,7 @@ def create_app(url: str, pool: Pool = DEFAULT_POOL) -> FastAPI:
     content_type.install(app)  # 415 for a body not sent as JSON (api.rest.content_type)
     app.add_middleware(WritesFirstMiddleware)  # reads step aside (api.rest.writes_in_flight)
     app.add_middleware(BodyLimit)  # 413 before a body over 1 MiB is read (api.rest.limits)
+    app.add_middleware(UnexpectedAsProblem)  # a 500 keeps the connection (api.rest.unexpected)
     # outermost: a HEAD is its GET without content, for every route (api.rest.head_method)
     app.add_middleware(HeadAsGet)
     ui.install(app, engine)  # the read-only web view at /ui/ (api/report/ui.py)

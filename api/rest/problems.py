@@ -279,14 +279,18 @@ async def _http(request: Request, err: StarletteHTTPException) -> JSONResponse:
 
 async def _database(request: Request, err: Exception) -> JSONResponse:
     if not unavailable(err):
-        return await _unexpected(request, err)
+        return await unexpected(request, err)
     _log.warning("503 on %s %s: %s", request.method, request.url.path, err)
     detail = f"{reason(err)}{_nothing_stored(request)}; retry later"
     headers = {"Retry-After": str(RETRY_AFTER_S)}
     return problem(request, 503, "database_busy", detail, headers=headers)
 
 
-async def _unexpected(request: Request, err: Exception) -> JSONResponse:
+async def unexpected(request: Request, err: Exception) -> JSONResponse:
+    """The 500 of an error no other handler takes, its traceback logged.
+
+    :class:`api.rest.unexpected.UnexpectedAsProblem` sends it, the connection kept open.
+    """
     _log.exception("unexpected error on %s %s", request.method, request.url.path)
     return problem(request, 500, "internal", f"internal error{_nothing_stored(request)}")
 
@@ -311,7 +315,7 @@ _HANDLERS: tuple[tuple[type[Exception], Callable[..., Awaitable[JSONResponse]]],
     (StarletteHTTPException, _http),
     (OperationalError, _database),
     (PoolTimeoutError, _database),
-    (Exception, _unexpected),
+    (Exception, unexpected),
 )
 
 
