@@ -303,7 +303,7 @@ def plan_priors(
     ------
     InputError
         ``prior`` is none of :data:`PRIORS`; or ``fleet`` for a strategy other than ``learn``,
-        or with no stored evidence for the plan's tools.
+        with ``exponent_sd`` 0, or with no stored evidence for the plan's tools.
     """
     if prior is not None and prior not in PRIORS:
         raise InputError("prior", prior, f"must be one of {', '.join(PRIORS)}")
@@ -312,6 +312,13 @@ def plan_priors(
     if settings.strategy != "learn":
         raise InputError(
             "prior", prior, f"only learn starts from a fleet prior, not {settings.strategy}"
+        )
+    if prior == "fleet" and settings.exponent_sd <= 0:  # the catalogue's prior it starts from
+        raise InputError(
+            "exponent_sd",
+            settings.exponent_sd,
+            "a fleet prior is learned exponents and all: it needs exponent_sd > 0 (the"
+            " exponents known exactly take no evidence); or use prior catalogue",
         )
     learned = fleet_evidence(session=session, tool_names=[op.tool for op in plan.operations])
     priors = fleet_priors(

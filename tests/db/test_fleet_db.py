@@ -154,6 +154,15 @@ def test_a_fleet_prior_needs_a_fleet_and_learn(engine) -> None:
         engine=engine, body=_body("z", "lathe-z"), settings=RcbSettings(strategy="ivester")
     ).body
     assert ivester["prior"] == "catalogue"  # the default for a strategy that does not learn
+    # exponents known exactly: was refused as "no learn plan in the fleet has measured" (prior)
+    with pytest.raises(InputError) as fixed:
+        create_plan(
+            engine=engine,
+            body=_body("e", "lathe-e"),
+            settings=RcbSettings(strategy="learn", exponent_sd=0.0),
+            prior="fleet",
+        )
+    assert (fixed.value.field, fixed.value.value) == ("exponent_sd", 0.0)
 
 
 def test_rcb_plans_create_prior_fleet_without_a_fleet_says_so_plainly(engine, runner) -> None:
