@@ -136,14 +136,14 @@ class PriorProvenance(Out):
     operation_spread: float | None = Field(
         None,
         description="the learned spread of an operation's ln K about its machine's [-] "
-        "(absent: a prior made before it was learned, at the default 0.02)",
+        "(null: a prior made before it was learned, at the default 0.02)",
     )
     readings: int
     widened_by_part: str | None = Field(
         None,
         description="the serial of the part whose readings showed this machine outside the "
         "fleet's spread: its ln K was then let go to the catalogue's band, the exponents kept "
-        "(absent: the fleet prior holds)",
+        "(null: the fleet prior holds)",
     )
     text: str = Field(description="the provenance as one line")
 
@@ -167,7 +167,7 @@ class NoiseProvenance(Out):
     let_go_by_part: str | None = Field(
         None,
         description="the serial of the part whose readings showed this machine's chain "
-        "noisier than the fleet's: its noise was then learned from the default (absent: the "
+        "noisier than the fleet's: its noise was then learned from the default (null: the "
         "fleet's noise prior holds)",
     )
     text: str = Field(description="the provenance as one line")
