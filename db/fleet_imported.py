@@ -184,6 +184,14 @@ def imported_in_fleet(*, session: Session, tool: str) -> int:
     return int(found or 0)
 
 
+def imported_machines_in_fleet(*, session: Session, tool: str) -> int:
+    """How many machines ``tool``'s imported models are on, none taken out (one statement)."""
+    m, e = t.ImportedModel, t.FleetExclusion
+    out = exists().where(e.machine == _abroad_name())
+    machines = select(m.machine, m.origin).where(m.tool == tool, ~out).distinct().subquery()
+    return int(session.scalar(select(func.count()).select_from(machines)) or 0)
+
+
 def _abroad_name() -> ColumnElement[str]:
     """:func:`abroad` in SQL: ``machine@`` the origin's first 8 characters."""
     m = t.ImportedModel

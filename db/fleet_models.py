@@ -31,11 +31,16 @@ from sqlalchemy.orm import Session
 
 from db import tables as t
 from db.fleet import local_evidence
-from db.fleet_imported import imported_evidence
+from db.fleet_imported import imported_evidence, imported_machines_in_fleet
 from db.identity import database_id, plan_origins
 from models.catalogue import catalogue
 from models.errors import InputError
-from supervisor.fleet.document import document, item_json, read_document
+from supervisor.fleet.document import (
+    MAX_IMPORTED_MACHINES,
+    document,
+    item_json,
+    read_document,
+)
 from supervisor.fleet.learned import Learned
 
 
@@ -128,6 +133,17 @@ def import_models(*, session: Session, data: object, source: str) -> Imported:
             old.imported_at = t.utcnow()
             replaced += 1
     session.flush()
+    if fresh:  # all imports together: each machine's newest plans are read by a fleet prior
+        machines = imported_machines_in_fleet(session=session, tool=tool)
+        if machines > MAX_IMPORTED_MACHINES:
+            raise InputError(
+                "document.learned",
+                f"{len(learned)} models",
+                f"would put {tool!r}'s imported models on {machines} machines in the fleet,"
+                f" more than {MAX_IMPORTED_MACHINES} (each new plan's fleet prior reads every"
+                " one): take machines out first (rcb fleet imported, rcb fleet exclude"
+                " --machine) or import fewer; nothing was stored",
+            )
     copied = sum(1 for origin, _ in foreign if origin == own)
     new, own_count = len(fresh), len(learned) - len(foreign)
     return Imported(new, replaced, len(foreign) - new - replaced, own_count, copied)

@@ -57,6 +57,8 @@ def export(
         engine = engine_of(db)
         data = export_tool(engine=engine, tool=tool, material=material)
         text = json.dumps(data, indent=1) + "\n"
+        if len(text) > MAX_MODELS_BYTES:  # compact, as an import may have read it (a review)
+            text = json.dumps(data, separators=(",", ":")) + "\n"
         size = len(text.encode("utf-8"))
         if size > MAX_MODELS_BYTES:  # what import would refuse is not written
             raise InputError(

@@ -49,6 +49,12 @@ FORMATS = ("rcb-fleet-models/1", FORMAT)
 MAX_ORIGIN = 36
 #: The most items a document holds (about :data:`models.bounds.MAX_MODELS_BYTES` of them).
 MAX_ITEMS = 25_000
+#: The most machines a tool's imported models may be on in the fleet (those no engineer took
+#: out), all imports together: a new plan's fleet prior reads each one's newest plans, about
+#: 1.5 ms a model, so 1 150 machines (23 000 models, one 62 MB file) made every fleet prior
+#: and ``rcb fleet law`` of the tool take 35 s (a year's plant, audited); 200 machines of 10
+#: plans and 2 models, about 6 s. Several plants' exports of a tool hold far fewer.
+MAX_IMPORTED_MACHINES = 200
 _ITEM_KEYS = (
     "origin",
     "machine",

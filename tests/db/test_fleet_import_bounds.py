@@ -16,9 +16,10 @@ import pytest
 from test_fleet_db import LEARN, _body, _learned
 from test_fleet_import_once import _rows, _second
 
-from api.services.fleet_models import export_tool, import_tool
+from api.services.fleet_models import exclude_from_fleet, export_tool, import_tool
 from api.services.plans import create_plan
 from models.errors import InputError
+from supervisor.fleet.document import MAX_IMPORTED_MACHINES
 
 
 def _set(*path: Any, value: Any) -> Callable[[dict[str, Any]], None]:
@@ -126,4 +127,30 @@ def test_a_model_no_plant_learned_is_refused_and_plans_still_start(
     assert import_tool(engine=second, data=document, source="good.json").body["new"] == 2
     fleet = create_plan(engine=second, body=_body("fleet", "lathe-9"), settings=LEARN).body
     assert fleet["prior"] == "fleet"
+    second.dispose()
+
+
+def test_imports_past_the_machines_a_fleet_prior_reads_are_refused_whole(engine, tmp_path):
+    """A year's plant (audited): one 62 MB file put a tool's imported models on 1 150 machines,
+    and every new plan's fleet prior and ``rcb fleet law`` of the tool then took 35 s."""
+    _learned(engine, "fleet-a", 0, 2)
+    document = export_tool(engine=engine, tool="CNMG432RN")
+    item = document["learned"][0]
+    many = copy.deepcopy(document)
+    many["learned"] = [
+        {**copy.deepcopy(item), "machine": f"m-{i:03d}", "plan": f"p-{i:03d}"}
+        for i in range(MAX_IMPORTED_MACHINES)
+    ]
+    more = copy.deepcopy(many)
+    more["learned"][0]["machine"], more["learned"][0]["plan"] = "m-new", "p-new"
+    second = _second(tmp_path)
+    assert import_tool(engine=second, data=many, source="many.json").body["new"] == 200
+    with pytest.raises(InputError) as refused:  # one machine more, in a second file
+        import_tool(engine=second, data=more, source="more.json")
+    assert (refused.value.field, refused.value.value) == ("document.learned", "200 models")
+    assert "on 201 machines in the fleet, more than 200" in refused.value.reason
+    assert _rows(second) == 200  # the second file stored nothing
+    name = f"m-000@{item['origin'][:8]}"
+    exclude_from_fleet(engine=second, plan_id=None, machine=name, reason="sold")
+    assert import_tool(engine=second, data=more, source="more.json").body["new"] == 1
     second.dispose()

@@ -83,6 +83,25 @@ def test_export_does_not_write_what_import_would_refuse(
     assert runner.invoke(app, args).exit_code == 0 and out.exists()
 
 
+def test_export_writes_compact_json_where_indented_would_pass_the_bound(
+    engine, tmp_path: Path, runner, monkeypatch
+) -> None:
+    """A year's plant (audited): a database that imported a 62 MB file (compact JSON) could not
+    export the tool again: export wrote it indented, 1.3 x larger, and refused it."""
+    _learned(engine, "fleet-a", 0, 2)
+    document = export_tool(engine=engine, tool="CNMG432RN")
+    compact = len(json.dumps(document, separators=(",", ":"))) + 1
+    monkeypatch.setattr("api.cli.models.MAX_MODELS_BYTES", compact)  # under the indented size
+    out = tmp_path / "cnmg.json"
+    args = ["models", "export", "CNMG432RN", "--out", str(out), "--db", engine_url(engine)]
+    done = runner.invoke(app, args)
+    assert done.exit_code == 0, done.output
+    assert out.stat().st_size == compact and json.loads(out.read_text()) == document
+    monkeypatch.undo()
+    assert runner.invoke(app, args).exit_code == 0
+    assert b'\n "learned"' in out.read_bytes()  # under the bound: indented, for a reader
+
+
 def test_the_fleet_law_sets_the_catalogue_of_this_database_beside_it(engine, tmp_path) -> None:
     _learned(engine, "fleet-a", 0, 2)
     document = export_tool(engine=engine, tool="CNMG432RN")
