@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from sqlalchemy import func, or_, select
 from sqlalchemy.orm import Session
-from sqlalchemy.sql.selectable import ScalarSelect
+from sqlalchemy.sql.selectable import ScalarSelect, Select
 
 from db import tables as t
 from db.errors import StoredSettingsError
@@ -53,19 +53,15 @@ def members(
     after_id: int,
     limit: int,
     only: frozenset[int] | None = None,
+    newest_first: bool = False,
 ) -> list[Member]:
     """Up to ``limit`` plans using ``tool`` with id above ``after_id``, by id (module doc).
 
     ``only``: just these plan ids (a REST key scoped to plans), filtered in the query.
+    ``newest_first``: ids below ``after_id`` (0: from the newest), so that the plans in the
+    fleet, each machine's newest, come first on a tool of a year's plans.
     """
-    page = (  # the tool's plans after the cursor, on ix_operations_tool_plan
-        select(t.Operation.plan_id)
-        .join(t.Tool, t.Operation.tool_id == t.Tool.id)
-        .where(t.Tool.name == tool, t.Operation.plan_id > after_id)
-        .distinct()
-        .order_by(t.Operation.plan_id)
-        .limit(limit)
-    )
+    page = _page(tool, after_id, limit, newest_first)
     if only is not None:
         page = page.where(t.Operation.plan_id.in_(sorted(only)))
     query = (
@@ -73,7 +69,7 @@ def members(
         .join(t.Machine, t.Plan.machine_id == t.Machine.id)
         .outerjoin(t.Part, t.Part.id == t.Plan.fleet_change_part)
         .where(t.Plan.id.in_(page))
-        .order_by(t.Plan.id)
+        .order_by(t.Plan.id.desc() if newest_first else t.Plan.id)
     )
     plans = session.execute(query).all()
     if not plans:
@@ -105,6 +101,23 @@ def members(
         )
         for row, machine, serial, reset_after in plans
     ]
+
+
+def _page(tool: str, after_id: int, limit: int, newest_first: bool) -> Select[int]:
+    """The ids of the tool's plans after the cursor, on ix_operations_tool_plan."""
+    plan_id = t.Operation.plan_id
+    if newest_first:
+        after = plan_id < after_id if after_id else plan_id > 0
+    else:
+        after = plan_id > after_id
+    return (
+        select(plan_id)
+        .join(t.Tool, t.Operation.tool_id == t.Tool.id)
+        .where(t.Tool.name == tool, after)
+        .distinct()
+        .order_by(plan_id.desc() if newest_first else plan_id)
+        .limit(limit)
+    )
 
 
 def plan_out(*, session: Session, row: t.Plan, machine: str) -> str | None:

@@ -61,21 +61,41 @@ def show(
         int, typer.Option(help=f"Plans on the page (1-{request_limits.READ_PAGE}).")
     ] = 100,
     cursor: CursorOption = None,
+    newest: Annotated[
+        bool,
+        typer.Option(
+            "--newest",
+            help="Newest plans first: each machine's newest, those in the fleet, come first.",
+        ),
+    ] = False,
     db: DbOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """The plans using TOOL: in the fleet or why not, readings, priors let go."""
     from api.services.read.fleet import fleet_members
 
-    page = _page(fleet_members, tool, cursor, limit, db)
+    _same_order(cursor, newest)
+    page = _read(fleet_members, tool, db, cursor=cursor, page_size=limit, newest=newest)
     if as_json:  # on stdout, the messages on stderr: a pipe reads the JSON alone
         sys.stdout.write(json.dumps(page) + "\n")
         return
     _print_members(page, first=cursor is None, db=db)
     if page["next_cursor"] is not None:
         again = f"rcb fleet show {tool} --cursor {page['next_cursor']} --limit {limit}"
-        again += again_db(db)
+        again += " --newest" * newest + again_db(db)
         say_command("rcb: next page:", again)
+
+
+def _same_order(cursor: str | None, newest: bool) -> None:
+    """Refuse a ``--cursor`` of the other order, in this command's words (not REST's)."""
+    from models.errors import InputError
+
+    digits = (cursor or "").removeprefix("n")
+    if cursor is None or not digits.isdigit() or cursor.startswith("n") == newest:
+        return
+    made = "with --newest" if cursor.startswith("n") else "without --newest"
+    with errors():
+        raise InputError("--cursor", cursor, f"continues a page made {made}: send it so")
 
 
 @fleet_app.command("law")

@@ -127,7 +127,18 @@ def test_the_fleet_of_a_tool_over_rest_says_who_is_in_and_a_scoped_key_sees_its_
         _learn(eng, mes, f"{tag}-a", 0, 2)
         _learn(eng, mes, f"{tag}-b", 1, 2)
         listed = {p["plan"]: p for p in _fleet_of(mes, "VCMR331", 2)}
+        newest = mes.get("/tools/VCMR331/fleet", params={"limit": 1, "order": "newest"}).json()
+        older = mes.get(
+            "/tools/VCMR331/fleet",
+            params={"limit": 1, "order": "newest", "cursor": newest["next_cursor"]},
+        ).json()
         missing = eng.get("/tools/NO-SUCH-TOOL/fleet")
+    # newest first (a year's plant: the fleet's plans were on the last pages), cursor "n" + id
+    assert [p["plan"] for p in newest["plans"] + older["plans"]] == [
+        f"fleet-{tag}-b",
+        f"fleet-{tag}-a",
+    ]
+    assert newest["next_cursor"] == f"n{newest['plans'][0]['plan_id']}"
     a, b = listed[f"fleet-{tag}-a"], listed[f"fleet-{tag}-b"]
     assert a["in_fleet"] and a["out"] == "" and a["readings"] == 8
     assert a["operations"] == ["rough-grooves", "rough-contour"]

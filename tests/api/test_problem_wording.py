@@ -147,7 +147,8 @@ QUERIES = [
     ("/plans/{id}/parts", "cursor", "abc", NEXT + "1 to 10 digits, after an n when it pages "
      "from the newest"),
     ("/plans", "cursor", "abc", NEXT + "1 to 10 digits"),
-    ("/tools/x/fleet", "cursor", "z", NEXT + "1 to 10 digits"),
+    ("/tools/x/fleet", "cursor", "z", NEXT + "1 to 10 digits, after an n when it pages from "
+     "the newest"),  # its order=newest (a year's plant: the fleet's plans first)
     ("/tools/x/fleet/imported", "cursor", "!!", NEXT + "1 to 1200 letters, digits, _ or -"),
     ("/plans/{id}/models/versions", "operation", "a\x00", "must not contain NUL characters"),
     ("/plans/{id}/parts", "limit", "0", "must be at least 1"),

@@ -7,6 +7,7 @@ from __future__ import annotations
 from sqlalchemy.orm import Session
 from test_fleet_db import _learned
 
+from api.cli.main import app
 from api.services.fleet_models import exclude_from_fleet, import_tool
 from api.services.read.fleet import fleet_members
 from db.engine import make_engine, upgrade
@@ -14,6 +15,8 @@ from db.fleet import fleet_evidence, local_evidence
 from db.fleet_imported import imported_evidence
 from db.fleet_models import export_models
 from supervisor.fleet.window import PLANS_PER_MACHINE, newest_plans
+
+from conftest import engine_url
 
 #: Plans of lathe-0 beyond its window, by name, oldest first.
 OLD = ("w-0", "w-1")
@@ -77,3 +80,30 @@ def test_an_export_carries_the_newest_plans_and_an_import_keeps_the_newest(engin
 def _imported(engine):  # type: ignore[no-untyped-def]
     with Session(engine) as session:
         return [item for _, item in imported_evidence(session=session, tool_names=["VCMR331"])]
+
+
+def test_newest_first_the_plans_in_the_fleet_come_first_and_page_down(engine, runner) -> None:
+    """A year's plant (audited): at 1000 plans on a tool, ``rcb fleet show``'s first page, by
+    id from the first, was all "older than ... newest plans", the fleet on the last pages."""
+    ids = _lathe_0(engine, 12)
+    names = list(ids)
+    first = fleet_members(engine=engine, tool="VCMR331", page_size=5, newest=True)
+    assert [p["plan"] for p in first["plans"]] == names[::-1][:5]
+    assert all(p["in_fleet"] for p in first["plans"]) and first["next_cursor"] == (f"n{ids['w-7']}")
+    rest = fleet_members(
+        engine=engine, tool="VCMR331", cursor=first["next_cursor"], page_size=10, newest=True
+    )
+    assert [p["plan"] for p in rest["plans"]] == names[::-1][5:]  # w-6 .. w-0, none twice
+    assert [p["in_fleet"] for p in rest["plans"]][-2:] == [False, False]  # OLD, the oldest
+    url = engine_url(engine)
+    args = ["fleet", "show", "VCMR331", "--newest", "--limit", "5", "--db", url]
+    shown = runner.invoke(app, args, env={"COLUMNS": "80"})
+    assert shown.exit_code == 0, shown.output
+    assert f"--cursor n{ids['w-7']} --limit 5 --newest" in shown.output  # the next page's
+    other = ["fleet", "show", "VCMR331", "--cursor", f"n{ids['w-7']}", "--db", url]
+    wrong = runner.invoke(app, other)
+    assert (wrong.exit_code, wrong.output) == (
+        2,
+        f"rcb: error: --cursor = 'n{ids['w-7']}': continues a page made with --newest: send it"
+        " so\n",
+    )

@@ -20,7 +20,7 @@ from api.rest.routes.common import (
     idempotency_of,
     resource_router,
 )
-from api.rest.schemas.common import IdCursor
+from api.rest.schemas.common import PageOrder, PartCursor
 from api.rest.schemas.tools import (
     FleetLawOut,
     FleetList,
@@ -64,14 +64,29 @@ def get_tool_fleet(
     engine: EngineDep,
     name: ToolName,
     actor: Anyone,
-    cursor: IdCursor = None,
+    cursor: PartCursor = None,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = LIST_PAGE,
+    order: Annotated[
+        PageOrder,
+        Query(
+            description="`oldest`: by id from the first plan; `newest`: back from the newest, "
+            "each machine's newest plans (those in the fleet) first"
+        ),
+    ] = "oldest",
 ) -> dict[str, Any]:
     """The stored plans using the tool, by id: each in the fleet or why not.
 
     New plans' fleet priors come from those in it. A key scoped to plans: those plans only.
+    ``next_cursor`` continues in ``order`` (a cursor of the other order is refused).
     """
-    return fleet_members(engine=engine, tool=name, cursor=cursor, page_size=limit, only=actor.plans)
+    return fleet_members(
+        engine=engine,
+        tool=name,
+        cursor=cursor,
+        page_size=limit,
+        only=actor.plans,
+        newest=order == "newest",
+    )
 
 
 @router.get(

@@ -99,9 +99,9 @@ IdCursor = Annotated[
         description="`next_cursor` of the previous page",
     ),
 ]
-#: The ``cursor`` of a plan's parts or setpoint versions: an id (a version), or ``n`` and one
-#: when it pages back from the newest (:mod:`api.services.read.common`: a cursor says which
-#: order it continues).
+#: The ``cursor`` of a plan's parts or setpoint versions, or of a tool's fleet: an id (a
+#: version), or ``n`` and one when it pages back from the newest
+#: (:mod:`api.services.read.common`: a cursor says which order it continues).
 PartCursor = Annotated[
     str | None,
     Query(
@@ -113,7 +113,8 @@ PartCursor = Annotated[
         description="`next_cursor` of the previous page, of the same `order`",
     ),
 ]
-#: The ``order`` of a list that pages either way through time (setpoint versions, parts).
+#: The ``order`` of a list that pages either way through time (setpoint versions, parts, a
+#: tool's fleet).
 PageOrder = Literal["oldest", "newest"]
 
 

@@ -13,7 +13,15 @@ from sqlalchemy import Engine, func, select
 from sqlalchemy.orm import Session
 
 from api.services.errors import NotFoundError
-from api.services.read.common import LIST_PAGE, _bounded, _cursor, _read, _token, _untoken
+from api.services.read.common import (
+    LIST_PAGE,
+    _bounded,
+    _read,
+    _token,
+    _untoken,
+    ordered_cursor,
+    ordered_value,
+)
 from db import tables as t
 from db.fleet_imported import imported_in_fleet, imported_machines
 from db.fleet_law import tool_law
@@ -29,20 +37,29 @@ def fleet_members(
     cursor: str | None = None,
     page_size: int = LIST_PAGE,
     only: frozenset[int] | None = None,
+    newest: bool = False,
 ) -> dict[str, Any]:
     """A page of the plans using ``tool``: each in the fleet (``out`` empty) or why not.
 
     ``only``: just these plans (a key scoped to plans sees no other plan's name).
+    ``newest``: newest first (the cursor then pages down the ids).
 
     ``imported``: the learned models of the tool other databases exported and this one
     imported (``rcb models import``); :func:`imported_fleet` names their machines.
     ``imported_in_fleet``: of those, the models of machines not taken out.
     """
     _bounded(page_size)
-    after = _cursor(cursor)
+    after = ordered_value(cursor, newest=newest)
     with _read(engine) as session, session.begin():
         _known(session, tool)
-        rows = members(session=session, tool=tool, after_id=after, limit=page_size + 1, only=only)
+        rows = members(
+            session=session,
+            tool=tool,
+            after_id=after,
+            limit=page_size + 1,
+            only=only,
+            newest_first=newest,
+        )
         imported = session.scalar(
             select(func.count()).select_from(t.ImportedModel).where(t.ImportedModel.tool == tool)
         )
@@ -54,7 +71,7 @@ def fleet_members(
         "plans": [{**asdict(m), "in_fleet": not m.out} for m in rows],
         "imported": int(imported or 0),
         "imported_in_fleet": in_fleet,
-        "next_cursor": str(rows[-1].plan_id) if more else None,
+        "next_cursor": ordered_cursor(rows[-1].plan_id, newest=newest) if more else None,
     }
 
 
