@@ -42,9 +42,10 @@ class Included:
     """What ``rcb fleet include`` did.
 
     ``put_back``: something was out and is back (False: nothing to put back, nothing
-    changed). ``changes_accepted``: the plan's changes of its process counted so far, now
-    accepted (0 for a machine, or where none was put back). ``still_out``: why the plan stays
-    out all the same ("" if nothing keeps it: its machine is taken out, it is halted).
+    changed). ``changes_accepted``: the plan's changes of its process this include accepted,
+    those counted since the last were (0 for a machine, or where none was put back).
+    ``still_out``: why the plan stays out all the same ("" if nothing keeps it: its machine
+    is taken out, it is halted).
     """
 
     put_back: bool
@@ -105,9 +106,10 @@ def include(*, session: Session, plan_id: int | None, machine: str | None) -> In
     still = _still_out(session, row)
     if not (getattr(gone, "rowcount", 0) or changed):
         return Included(False, 0, still)
+    accepted_now = max(changes - row.fleet_changes_accepted, 0)  # not the running total
     row.fleet_changes_accepted = changes
     clear_fleet_change(row)
-    return Included(True, changes, still)
+    return Included(True, accepted_now, still)
 
 
 def one_of(plan: object, machine: object) -> None:

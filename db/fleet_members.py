@@ -225,14 +225,26 @@ def _why_out(
 ) -> str:
     """Why the plan's models are not in the fleet ("" where they are): the first that holds.
 
+    After an engineer's exclusion, what else keeps it out too: ``rcb fleet include`` accepts
+    a change it lists, which the exclusion hid (a review of a changed process).
+
     ``reset``: its bands were reset after a part (``rcb replan --reset-bands``): with nothing
     learned since, it has made parts, none since the reset.
     """
     for e in exclusions:
+        taken = ""
         if e.plan_id == row.id:
-            return f"taken out by {e.actor}: {e.reason}"
-        if e.machine == machine:
-            return f"machine {machine} taken out by {e.actor}: {e.reason}"
+            taken = f"taken out by {e.actor}: {e.reason}"
+        elif e.machine == machine:
+            taken = f"machine {machine} taken out by {e.actor}: {e.reason}"
+        if taken:
+            also = _why_else(row, learned, changes, reset)
+            return f"{taken}; also {also}" if also else taken
+    return _why_else(row, learned, changes, reset)
+
+
+def _why_else(row: t.Plan, learned: bool, changes: tuple[int, str | None], reset: bool) -> str:
+    """:func:`_why_out` but an engineer's exclusion."""
     if row.halt is not None:
         return "halted"
     try:

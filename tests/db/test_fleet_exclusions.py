@@ -14,6 +14,7 @@ from test_fleet_db import LEARN, _body, _learned, _made
 from api.cli.main import app
 from api.services.fleet_models import exclude_from_fleet, include_in_fleet
 from api.services.plans import create_plan, replan
+from api.services.read.fleet import fleet_members
 from db import tables as t
 from db.fleet import fleet_evidence
 
@@ -59,6 +60,36 @@ def test_a_plan_whose_process_changed_is_out_until_an_engineer_accepts_it(engine
     done = include_in_fleet(engine=engine, plan_id=a, machine=None)
     assert done.body["changes_accepted"] == 1
     assert _plans_behind(engine, "c2") == ["fleet-a", "fleet-b"]
+
+
+def _count_change(engine, plan_id: int) -> None:  # type: ignore[no-untyped-def]
+    """One more change counted by ``plan_id``'s newest monitor (as a part report would)."""
+    with Session(engine) as session, session.begin():
+        newest = session.scalars(
+            select(t.BandState)
+            .join(t.Operation, t.BandState.operation_id == t.Operation.id)
+            .where(t.Operation.plan_id == plan_id)
+            .order_by(t.BandState.id.desc())
+        ).first()
+        assert newest is not None and newest.monitor is not None
+        newest.monitor = {**newest.monitor, "changes": newest.monitor.get("changes", 0) + 1}
+
+
+def test_an_exclusion_does_not_hide_a_change_and_include_says_what_it_accepted(engine) -> None:
+    """A process engineer's review: a plan taken out then changed said only "taken out by ...",
+    and ``rcb fleet include`` then accepted the change unseen; it said the running total of
+    accepted changes (the same count again after an exclude and include with none new)."""
+    a = _learned(engine, "fleet-a", 0, 3)
+    exclude_from_fleet(engine=engine, plan_id=a, machine=None, reason="check spindle")
+    _count_change(engine, a)
+    out = fleet_members(engine=engine, tool="VCMR331")["plans"][0]["out"]
+    assert out.startswith("taken out by cli") and "check spindle; also its process changed" in out
+    assert include_in_fleet(engine=engine, plan_id=a, machine=None).body["changes_accepted"] == 1
+    exclude_from_fleet(engine=engine, plan_id=a, machine=None, reason="again")
+    again = include_in_fleet(engine=engine, plan_id=a, machine=None).body
+    assert (again["put_back"], again["changes_accepted"]) == (True, 0)  # was 1 again
+    _count_change(engine, a)
+    assert include_in_fleet(engine=engine, plan_id=a, machine=None).body["changes_accepted"] == 1
 
 
 def test_rcb_fleet_at_the_cli_names_what_is_wrong(engine, runner) -> None:
