@@ -44,24 +44,6 @@ def test_an_excluded_plan_or_machine_leaves_the_prior_and_comes_back(engine) -> 
     assert {"fleet exclude", "fleet include"} <= reasons
 
 
-def test_a_plan_whose_process_changed_is_out_until_an_engineer_accepts_it(engine) -> None:
-    a = _learned(engine, "fleet-a", 0, 3)
-    _learned(engine, "fleet-b", 1, 3)
-    with Session(engine) as session, session.begin():  # a change counted by a's monitor
-        newest = session.scalars(
-            select(t.BandState)
-            .join(t.Operation, t.BandState.operation_id == t.Operation.id)
-            .where(t.Operation.plan_id == a)
-            .order_by(t.BandState.id.desc())
-        ).first()
-        assert newest is not None and newest.monitor is not None
-        newest.monitor = {**newest.monitor, "changes": 1}
-    assert _plans_behind(engine, "c1") == ["fleet-b"]
-    done = include_in_fleet(engine=engine, plan_id=a, machine=None)
-    assert done.body["changes_accepted"] == 1
-    assert _plans_behind(engine, "c2") == ["fleet-a", "fleet-b"]
-
-
 def _count_change(engine, plan_id: int) -> None:  # type: ignore[no-untyped-def]
     """One more change counted by ``plan_id``'s newest monitor (as a part report would)."""
     with Session(engine) as session, session.begin():
@@ -73,6 +55,16 @@ def _count_change(engine, plan_id: int) -> None:  # type: ignore[no-untyped-def]
         ).first()
         assert newest is not None and newest.monitor is not None
         newest.monitor = {**newest.monitor, "changes": newest.monitor.get("changes", 0) + 1}
+
+
+def test_a_plan_whose_process_changed_is_out_until_an_engineer_accepts_it(engine) -> None:
+    a = _learned(engine, "fleet-a", 0, 3)
+    _learned(engine, "fleet-b", 1, 3)
+    _count_change(engine, a)  # a change counted by a's monitor
+    assert _plans_behind(engine, "c1") == ["fleet-b"]
+    done = include_in_fleet(engine=engine, plan_id=a, machine=None)
+    assert done.body["changes_accepted"] == 1
+    assert _plans_behind(engine, "c2") == ["fleet-a", "fleet-b"]
 
 
 def test_an_exclusion_does_not_hide_a_change_and_include_says_what_it_accepted(engine) -> None:
