@@ -45,7 +45,7 @@ class Included:
     changed). ``changes_accepted``: the plan's changes of its process this include accepted,
     those counted since the last were (0 for a machine, or where none was put back).
     ``still_out``: why the plan stays out all the same ("" if nothing keeps it: its machine
-    is taken out, it is halted).
+    is taken out, it is halted); of a machine, its plans taken out on their own.
     """
 
     put_back: bool
@@ -66,11 +66,7 @@ def exclude(
     refuses it.
     """
     one_of(plan_id, machine)
-    text = reason.strip()
-    if not text or len(text) > MAX_REASON:
-        raise InputError("--reason", reason, f"give why, in 1 to {MAX_REASON} characters")
-    if not text.isprintable():  # it is shown on terminals (rcb fleet show): an escape recolours
-        raise InputError("--reason", reason, "one line, no control or invisible characters")
+    text = checked_reason(reason)
     if machine is not None:
         _known_machine(session, machine)
     if plan_id is not None:
@@ -87,29 +83,68 @@ def exclude(
     return earlier[0] if earlier else None
 
 
-def include(*, session: Session, plan_id: int | None, machine: str | None) -> Included:
+def checked_reason(reason: str, field: str = "--reason") -> str:
+    """``reason`` stripped: 1 to :data:`MAX_REASON` printable characters, else an error."""
+    text = reason.strip()
+    if not text or len(text) > MAX_REASON:
+        raise InputError(field, reason, f"give why, in 1 to {MAX_REASON} characters")
+    if not text.isprintable():  # it is shown on terminals (rcb fleet show): an escape recolours
+        raise InputError(field, reason, "one line, no control or invisible characters")
+    return text
+
+
+def include(
+    *, session: Session, plan_id: int | None, machine: str | None, changes: int | None = None
+) -> Included:
     """Put ``plan_id`` or ``machine`` back; a plan's changes so far are accepted.
+
+    ``changes``: how many changes of its process not accepted the engineer saw (``rcb fleet
+    show``: ``2 not accepted``); given, the plan is put back only if it has that many still,
+    so a change counted after the engineer looked is not accepted unseen (None: accept all).
 
     Raises :class:`~models.errors.InputError` naming ``--machine`` or ``--plan`` for a machine
     no stored plan or imported model is of, a plan not stored, or a plan whose strategy
-    learns no posterior (never in the fleet). What is not out is left as it is.
+    learns no posterior (never in the fleet); naming ``--changes`` for a count given with a
+    machine, below 0, or not the plan's. What is not out is left as it is.
     """
     one_of(plan_id, machine)
+    _changes_asked(changes, machine)
     if machine is not None:
         _known_machine(session, machine)
         gone = session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.machine == machine))
-        return Included(bool(getattr(gone, "rowcount", 0)), 0, "")
+        return Included(bool(getattr(gone, "rowcount", 0)), 0, _plans_out(session, machine))
     row = _learning(get_plan_row(session=session, plan_id=plan_id or 0, lock=True), plan_id)
+    counted = plan_changes(session=session, plan_ids=[row.id])[row.id]
+    unaccepted = max(counted - row.fleet_changes_accepted, 0)
+    if changes is not None and changes != unaccepted:
+        raise InputError("--changes", changes, _not_seen(row.id, unaccepted))
     gone = session.execute(delete(t.FleetExclusion).where(t.FleetExclusion.plan_id == row.id))
-    changes = plan_changes(session=session, plan_ids=[row.id])[row.id]
-    changed = changes > row.fleet_changes_accepted or row.fleet_change_part is not None
+    changed = unaccepted > 0 or row.fleet_change_part is not None
     still = _still_out(session, row)
     if not (getattr(gone, "rowcount", 0) or changed):
         return Included(False, 0, still)
-    accepted_now = max(changes - row.fleet_changes_accepted, 0)  # not the running total
-    row.fleet_changes_accepted = changes
+    row.fleet_changes_accepted = counted
     clear_fleet_change(row)
-    return Included(True, accepted_now, still)
+    return Included(True, unaccepted, still)  # what it accepted, not the running total
+
+
+def _changes_asked(changes: int | None, machine: str | None) -> None:
+    """Refuse ``--changes`` with a machine (it has none of its own) or below 0."""
+    if changes is None:
+        return
+    if machine is not None:
+        raise InputError("--changes", changes, "a plan's count: give it with --plan, not --machine")
+    if changes < 0:
+        raise InputError("--changes", changes, "a count of changes, 0 or more")
+
+
+def _not_seen(plan_id: int, unaccepted: int) -> str:
+    """Why ``--changes`` is refused: the plan's count now, and where to review it."""
+    has = f"{unaccepted} change{'' if unaccepted == 1 else 's'}"
+    return (
+        f"plan {plan_id} has {has} of its process not accepted now: nothing put back; "
+        f"review them (rcb plans show {plan_id}) and give that count"
+    )
 
 
 def one_of(plan: object, machine: object) -> None:
@@ -158,6 +193,30 @@ def _strategy(row: t.Plan) -> str:
         return plan_settings(row).strategy
     except StoredSettingsError:
         return str((row.settings or {}).get("strategy") or "learn")
+
+
+#: The most plan ids :func:`_plans_out` names (a line, not a list: ``rcb fleet show`` has all).
+NAMED_PLANS = 5
+
+
+def _plans_out(session: Session, machine: str) -> str:
+    """The plans of ``machine`` taken out on their own, which stay out ("" none)."""
+    e = t.FleetExclusion
+    ids = session.scalars(
+        select(e.plan_id)
+        .join(t.Plan, t.Plan.id == e.plan_id)
+        .join(t.Machine, t.Machine.id == t.Plan.machine_id)
+        .where(t.Machine.name == machine)
+        .order_by(e.plan_id)
+        .limit(NAMED_PLANS + 1)
+    ).all()
+    if not ids:
+        return ""
+    more = ", ..." if len(ids) > NAMED_PLANS else ""
+    named = ", ".join(str(i) for i in ids[:NAMED_PLANS]) + more
+    plans = f"plan {named} is" if len(ids) == 1 else f"plans {named} are"
+    own = "its" if len(ids) == 1 else "their"
+    return f"its {plans} taken out on {own} own (rcb fleet include --plan ID)"
 
 
 def _still_out(session: Session, row: t.Plan) -> str:

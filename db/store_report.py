@@ -3,8 +3,9 @@
 :func:`store_report` writes, in the caller's transaction, everything a part adds after its row
 (:func:`db.intake.open_report` inserts that, in the statement that locks the plan): its
 measurements and decisions (:mod:`db.parts`), the band states its decisions touched, the model
-versions it changed, the setpoint version it made (:func:`db.plans.add_setpoints`) and the
-plan's new pointers (setpoint version, state token, halt).
+versions it changed, the setpoint version it made (:func:`db.plans.add_setpoints`), the
+plan's new pointers (setpoint version, state token, halt) and, if it halted the plan, an audit
+entry of the halt (actor ``rcb``, action ``halt``).
 
 Only the setpoints are inserted at once (their version's id is needed for their rows); the other
 rows and the plan's pointers are deferred (:func:`db.bulk.defer`) so that, on PostgreSQL, they go
@@ -20,6 +21,7 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from db import tables as t
+from db.audit import audit_row
 from db.bulk import defer
 from db.fleet import let_go
 from db.fleet_changes import fleet_change
@@ -81,6 +83,8 @@ def store_report(
             part_id=part_id,
         )
     pointers = _pointers(plan_row, before, after)
+    if "halt" in pointers:  # in the audit log too: rcb audit --action halt, the plant's halts
+        rows.append((t.AuditEntry, [_halt_entry(plan_row.id, report.serial, after)]))
     pointers.update(
         fleet_change(session=session, plan=plan_row, part_id=part_id, before=before, after=after)
     )
@@ -96,6 +100,19 @@ def store_report(
     if "halt" in pointers:
         plan_row.halt = pointers["halt"]
     return plan_row.state_token
+
+
+def _halt_entry(plan_id: int, serial: str, after: RcbState) -> dict[str, Any]:
+    """The audit entry of the part that halted the plan: which part, which operations, why."""
+    halt = after.halt
+    assert halt is not None
+    detail = {
+        "part": serial,
+        "operations": [o.operation for o in halt.operations],
+        "message": halt.message,
+    }
+    result = "halted until a replan"
+    return audit_row("rcb", "halt", f"plan {plan_id}", result, detail, plan_id)
 
 
 def _let_go(plan_row: PlanHead, before: RcbState, after: RcbState, serial: str) -> dict[str, Any]:

@@ -1,8 +1,9 @@
 """``rcb audit``: who did what to the database, and when, newest first.
 
-Every write over REST or at the CLI, every refused key, every fleet verdict (actor ``rcb``)
-and every pruning is in the audit log (``audit_log``). This is its reader: a page at a time,
-optionally of one action, one actor, one plan, from a time on (api/services/audit_log.py).
+Every write over REST or at the CLI, every refused key, every fleet verdict and halt (actor
+``rcb``) and every pruning is in the audit log (``audit_log``). This is its reader: a page at
+a time, optionally of one action, one actor, one plan, from a time on
+(api/services/audit_log.py).
 """
 
 from __future__ import annotations
@@ -29,7 +30,9 @@ _out = Console()
 def audit(
     action: Annotated[
         str | None,
-        typer.Option(help="Only this action, e.g. 'replan', 'fleet exclude', 'report part'."),
+        typer.Option(
+            help="Only this action, e.g. 'replan', 'fleet exclude', 'report part', 'halt'."
+        ),
     ] = None,
     actor: Annotated[
         str | None,

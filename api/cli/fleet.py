@@ -314,6 +314,19 @@ def _excluded(body: dict[str, Any]) -> str:
 def include(
     plan: PlanOption = None,
     machine: MachineOption = None,
+    changes: Annotated[
+        int | None,
+        typer.Option(
+            "--changes",
+            help="The plan's changes not accepted you reviewed (as shown: '2 not accepted');"
+            " refused if it has another count now.",
+            show_default=False,
+        ),
+    ] = None,
+    reason: Annotated[
+        str | None,
+        typer.Option("--reason", help="Why, one line (kept in the audit log).", show_default=False),
+    ] = None,
     db: DbOption = None,
     by: ByOption = None,
     as_json: JsonOption = False,
@@ -328,7 +341,14 @@ def include(
         engine = engine_of(db)
         plan_id = None if plan is None else plan_of(engine, plan, "--plan")
         with _as_typed(plan):
-            done = include_in_fleet(engine=engine, plan_id=plan_id, machine=machine, actor=actor)
+            done = include_in_fleet(
+                engine=engine,
+                plan_id=plan_id,
+                machine=machine,
+                changes=changes,
+                reason=reason,
+                actor=actor,
+            )
     if as_json:
         emit(done.body)
     else:
@@ -338,6 +358,9 @@ def include(
 def _included(body: dict[str, Any]) -> str:
     """What ``include`` did: put back, nothing to put back, and what keeps the plan out."""
     target, still = body["included"], body["still_out"]
+    if target.startswith("machine ") and still:  # the machine is in; some of its plans are not
+        done = "is back in the fleet" if body["put_back"] else "is not taken out of the fleet"
+        return f"rcb: {target} {done}, but {still}"
     if not body["put_back"]:
         itself = " itself" if still else ""
         text = f"rcb: {target} is not taken out of the fleet{itself}: nothing to put back"

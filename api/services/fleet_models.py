@@ -11,7 +11,7 @@ from api.services.idempotency import Written
 from api.services.transactions import audited, transaction, write
 from db import api_keys
 from db.api_keys import Actor
-from db.fleet_exclusions import exclude, include
+from db.fleet_exclusions import checked_reason, exclude, include
 from db.fleet_models import export_models, import_models
 from db.identity import database_id, inherited, renew
 
@@ -110,21 +110,32 @@ def exclude_from_fleet(
 
 
 def include_in_fleet(
-    *, engine: Engine, plan_id: int | None, machine: str | None, actor: Actor = api_keys.CLI_ACTOR
+    *,
+    engine: Engine,
+    plan_id: int | None,
+    machine: str | None,
+    changes: int | None = None,
+    reason: str | None = None,
+    actor: Actor = api_keys.CLI_ACTOR,
 ) -> Written:
     """Put a plan or a machine back in the fleet; a plan's changes so far accepted.
 
-    Audited when something was put back, or refused; putting back what is not out changes
-    nothing and writes no audit entry (``put_back`` false, ``still_out``: why the plan stays
-    out all the same, "" if nothing keeps it).
+    ``changes``: the count of changes not accepted the engineer reviewed; the plan must still
+    have that many (:func:`db.fleet_exclusions.include`). ``reason``: why, kept in the audit
+    entry (optional). Audited when something was put back, with what it accepted and what
+    still keeps the plan out, or refused; putting back what is not out changes nothing and
+    writes no audit entry (``put_back`` false, ``still_out``: why the plan stays out all the
+    same, "" if nothing keeps it).
     """
     target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
+    detail: dict[str, Any] = {}  # the entry's, filled in before the answer writes it
     with (
         audited(engine, actor, "fleet include", target, plan_id=plan),
-        transaction(engine, actor, "fleet include", target, None, plan=plan) as tx,
+        transaction(engine, actor, "fleet include", target, None, detail=detail, plan=plan) as tx,
     ):
-        done = include(session=tx.session, plan_id=plan_id, machine=machine)
+        why = None if reason is None else checked_reason(reason)
+        done = include(session=tx.session, plan_id=plan_id, machine=machine, changes=changes)
         body = {
             "included": target,
             "put_back": done.put_back,
@@ -133,6 +144,7 @@ def include_in_fleet(
         }
         if not done.put_back:  # nothing changed: no entry in the audit log
             return Written(200, body)
+        detail.update({"reason": why, **{k: body[k] for k in ("changes_accepted", "still_out")}})
         return tx.answer(200, body)
 
 

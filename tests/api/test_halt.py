@@ -8,9 +8,13 @@ no setpoint under the grown band: the part is still stored whole, the answer is 
 
 from __future__ import annotations
 
+import json
 import tomllib
 
 import pytest
+from typer.testing import CliRunner
+
+from api.cli.main import app
 
 from conftest import DEMO_PLAN, renamed
 
@@ -98,6 +102,7 @@ def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server
         stored = by_serial["SN-6000"]["updates"][0]
         assert stored["flag"] == "breach" and stored["flagged"]
         assert stored["band_after"] == pytest.approx(_force_update(two)["band_after"])
+        _halt_audited(server.url, plan_id)
         history = eng.get(f"/plans/{plan_id}/history").json()
         assert history["status"] == "halted" and history["halt"]["conflicts"] == two["conflicts"]
         assert [v["version"] for v in history["versions"]] == [1, 2]
@@ -120,6 +125,24 @@ def test_an_over_limit_part_halts_the_plan_is_stored_and_a_replan_resumes(server
         after = _post(mes, plan_id, _force_report("SN-after", 3, 1500.0))
         assert after.status_code == 201 and after.json()["halted"] is False
         assert after.json()["operations"]  # handed out again after the replan
+
+
+def _halt_audited(url: str, plan_id: int) -> None:
+    """The halt is in the audit log, found by ``rcb audit --action halt``: which part, which
+    operations and why (before, it was only the part report's 201 entry)."""
+    done = CliRunner().invoke(
+        app, ["audit", "--action", "halt", "--plan", str(plan_id)] + ["--json", "--db", url]
+    )
+    assert done.exit_code == 0, done.output
+    (entry,) = json.loads(done.stdout)["entries"]  # one: the late part halted nothing new
+    assert (entry["actor"], entry["target"], entry["result"]) == (
+        "rcb",
+        f"plan {plan_id}",
+        "halted until a replan",
+    )
+    detail = entry["detail"]
+    assert (detail["part"], detail["operations"]) == ("SN-6000", ["rough-od"])
+    assert "replan" in detail["message"]
 
 
 @pytest.mark.parametrize("floor", [None, 50.0])
