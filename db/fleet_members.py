@@ -268,7 +268,8 @@ def _why_else(row: t.Plan, learned: bool, changes: tuple[int, str | None], reset
 
 def _changed(row: t.Plan, unaccepted: int, serial: str | None) -> str:
     """A change not accepted: where it was counted, and judged yet or not (db.fleet_changes)."""
-    accept = f"{unaccepted} not accepted: rcb fleet include"
+    # the command that accepts these and no change counted after the engineer read them
+    accept = f"{unaccepted} not accepted: rcb fleet include --plan {row.id} --changes {unaccepted}"
     if row.fleet_change_part is None or serial is None:  # counted before alembic 0022
         return f"its process changed ({accept})"
     if row.fleet_change_confirmed:

@@ -107,7 +107,8 @@ def test_a_change_the_readings_confirm_keeps_the_plan_out_until_an_engineer_acce
     assert _rough_od_readings(engine) is None  # judged at a-12: confirmed, out
     assert _member(engine).out == (
         "its process changed at part a-7, confirmed by its readings "
-        f"({_counted(engine, a)} not accepted: rcb fleet include)"
+        f"({_counted(engine, a)} not accepted: rcb fleet include --plan {a} --changes "
+        f"{_counted(engine, a)})"
     )
     entry = _entry(engine, "fleet change confirmed")
     assert (entry.actor, entry.target) == ("rcb", f"plan {a}")
@@ -137,7 +138,7 @@ def test_a_change_the_readings_do_not_confirm_is_accepted_five_parts_on(engine) 
     assert _rough_od_readings(engine) is None  # four parts on: not judged yet
     assert _member(engine).out == (
         "its process changed at part a-7, to be judged once 5 parts have followed it "
-        "(1 not accepted: rcb fleet include)"
+        f"(1 not accepted: rcb fleet include --plan {a} --changes 1)"
     )
     _parts(engine, a, range(12, 13))
     assert _cut(engine, a) is None and _rough_od_readings(engine) == 12

@@ -48,7 +48,8 @@ def test_a_change_counted_after_the_review_is_not_accepted_unseen(engine, runner
     exclude_from_fleet(engine=engine, plan_id=a, machine=None, reason="check spindle")
     _count_change(engine, a)
     seen = fleet_members(engine=engine, tool="VCMR331")["plans"][0]["out"]
-    assert "(1 not accepted: rcb fleet include)" in seen  # what the engineer reviewed
+    # what the engineer reviewed, and the command that accepts that and nothing counted since
+    assert seen.endswith(f"(1 not accepted: rcb fleet include --plan {a} --changes 1)")
     _count_change(engine, a)  # a second, counted after the look
     args = ("fleet", "include", "--plan", "fleet-a", "--changes", "1", "--db", url)
     done = invoke(runner, *args, "--reason", "spindle checked")
