@@ -142,8 +142,8 @@ def _not_seen(plan_id: int, unaccepted: int) -> str:
     """Why ``--changes`` is refused: the plan's count now, and where to review it."""
     has = f"{unaccepted} change{'' if unaccepted == 1 else 's'}"
     return (
-        f"plan {plan_id} has {has} of its process not accepted now: nothing put back; "
-        f"review them (rcb plans show {plan_id}) and give that count"
+        f"plan {plan_id} has {has} of its process not accepted now: nothing put back "
+        f"(where they were counted: rcb plans show {plan_id})"
     )
 
 
@@ -214,9 +214,9 @@ def _plans_out(session: Session, machine: str) -> str:
         return ""
     more = ", ..." if len(ids) > NAMED_PLANS else ""
     named = ", ".join(str(i) for i in ids[:NAMED_PLANS]) + more
-    plans = f"plan {named} is" if len(ids) == 1 else f"plans {named} are"
-    own = "its" if len(ids) == 1 else "their"
-    return f"its {plans} taken out on {own} own (rcb fleet include --plan ID)"
+    if len(ids) == 1:  # the command whole, to copy
+        return f"its plan {named} is taken out on its own (rcb fleet include --plan {named})"
+    return f"its plans {named} are taken out on their own (rcb fleet include --plan ID)"
 
 
 def _still_out(session: Session, row: t.Plan) -> str:

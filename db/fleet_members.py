@@ -223,47 +223,50 @@ def _why_out(
     exclusions: Sequence[t.FleetExclusion],
     reset: bool = False,
 ) -> str:
-    """Why the plan's models are not in the fleet ("" where they are): the first that holds.
+    """Why the plan's models are not in the fleet ("" where they are): all that holds.
 
-    After an engineer's exclusion, what else keeps it out too: ``rcb fleet include`` accepts
-    a change it lists, which the exclusion hid (a review of a changed process).
+    An engineer's exclusions (the plan's, its machine's) first, then what else keeps it out
+    too, joined by ``; also``: ``rcb fleet include`` accepts a change listed here, which an
+    exclusion or a halt must not hide (a review of a changed process).
 
     ``reset``: its bands were reset after a part (``rcb replan --reset-bands``): with nothing
     learned since, it has made parts, none since the reset.
     """
-    for e in exclusions:
-        taken = ""
-        if e.plan_id == row.id:
-            taken = f"taken out by {e.actor}: {e.reason}"
-        elif e.machine == machine:
-            taken = f"machine {machine} taken out by {e.actor}: {e.reason}"
-        if taken:
-            also = _why_else(row, learned, changes, reset)
-            return f"{taken}; also {also}" if also else taken
-    return _why_else(row, learned, changes, reset)
+    taken = [
+        f"taken out by {e.actor}: {e.reason}"
+        if e.plan_id == row.id
+        else f"machine {machine} taken out by {e.actor}: {e.reason}"
+        for e in sorted(exclusions, key=lambda e: e.plan_id is None)  # the plan's first
+        if e.plan_id == row.id or e.machine == machine
+    ]
+    return "; also ".join([*taken, *_why_else(row, learned, changes, reset)])
 
 
-def _why_else(row: t.Plan, learned: bool, changes: tuple[int, str | None], reset: bool) -> str:
-    """:func:`_why_out` but an engineer's exclusion."""
-    if row.halt is not None:
-        return "halted"
+def _why_else(
+    row: t.Plan, learned: bool, changes: tuple[int, str | None], reset: bool
+) -> list[str]:
+    """:func:`_why_out` but an engineer's exclusions: a halt, then a change not accepted."""
+    halted = ["halted"] if row.halt is not None else []
     try:
         strategy = plan_settings(row).strategy
     except StoredSettingsError as err:  # out until an engineer sets it anew
-        return (
+        return [
+            *halted,
             f"stored {err.setting} = {err.value!r} fails this version's check ({err.check}): "
-            f"rcb replan {row.id} --rcb {err.setting}=VALUE"
-        )
+            f"rcb replan {row.id} --rcb {err.setting}=VALUE",
+        ]
     if strategy != "learn":
-        return f"strategy {strategy} learns no posterior"
+        return [*halted, f"strategy {strategy} learns no posterior"]
     count, serial = changes
     if count > row.fleet_changes_accepted:
-        return _changed(row, count - row.fleet_changes_accepted, serial)
+        return [*halted, _changed(row, count - row.fleet_changes_accepted, serial)]
+    if halted:
+        return halted
     if not learned and reset:
-        return "no part since its bands were reset (rcb replan --reset-bands)"
+        return ["no part since its bands were reset (rcb replan --reset-bands)"]
     if not learned:
-        return "no part reported yet"
-    return ""
+        return ["no part reported yet"]
+    return []
 
 
 def _changed(row: t.Plan, unaccepted: int, serial: str | None) -> str:

@@ -56,7 +56,7 @@ def test_a_change_counted_after_the_review_is_not_accepted_unseen(engine, runner
     assert done.exit_code == 2, done.output
     assert done.output.splitlines() == [
         f"rcb: error: --changes = 1: plan {a} has 2 changes of its process not accepted now: "
-        f"nothing put back; review them (rcb plans show {a}) and give that count"
+        f"nothing put back (where they were counted: rcb plans show {a})"
     ]
     assert _state(engine, a) == (0, ["check spindle"])  # nothing changed
     assert "fleet-a" not in _in_fleet(engine, "CNMG432RN")
@@ -135,7 +135,7 @@ def test_changes_and_reason_are_checked_before_anything_is_put_back(engine, runn
         {
             "reason": "fixed",
             "changes_accepted": 0,
-            "still_out": f"its plan {a} is taken out on its own (rcb fleet include --plan ID)",
+            "still_out": f"its plan {a} is taken out on its own (rcb fleet include --plan {a})",
         },
     )
 
@@ -152,7 +152,7 @@ def test_a_machine_put_back_says_which_of_its_plans_stay_out(engine, runner) -> 
     assert done.exit_code == 0, done.output
     assert " ".join(done.output.split()) == (
         f"rcb: machine lathe-0 is back in the fleet, but its plan {a} is taken out on its own "
-        "(rcb fleet include --plan ID)"
+        f"(rcb fleet include --plan {a})"
     )
     assert all(len(line) <= 80 for line in done.output.splitlines())
     assert _in_fleet(engine, "CNMG432RN") == {"fleet-b"}
@@ -165,5 +165,34 @@ def test_a_machine_put_back_says_which_of_its_plans_stay_out(engine, runner) -> 
     assert _include_entries(engine)[-1][1] == {
         "reason": None,
         "changes_accepted": 0,
-        "still_out": f"its plan {a} is taken out on its own (rcb fleet include --plan ID)",
+        "still_out": f"its plan {a} is taken out on its own (rcb fleet include --plan {a})",
     }
+
+
+def test_a_halt_or_an_exclusion_does_not_hide_what_else_keeps_a_plan_out(engine) -> None:
+    """An audit: a halted plan said only ``halted`` while it had changes not accepted, which
+    a plain ``include`` then accepted unseen (and the replan that resumed it put it straight
+    back with the halting part); a plan taken out, then its machine, said only the first."""
+    a = _learned(engine, "fleet-a", 0, 3)
+    with Session(engine) as session, session.begin():
+        plan = session.get(t.Plan, a)
+        assert plan is not None
+        plan.halt = {"message": "rough-od force_N past its limit", "conflicts": []}
+    assert _out(engine) == "halted"
+    _count_change(engine, a)
+    assert _out(engine) == (
+        f"halted; also its process changed (1 not accepted: rcb fleet include --plan {a} "
+        "--changes 1)"
+    )
+    exclude_from_fleet(engine=engine, plan_id=a, machine=None, reason="1040 bar")
+    exclude_from_fleet(engine=engine, plan_id=None, machine="lathe-0", reason="loose spindle")
+    assert _out(engine) == (
+        "taken out by cli: 1040 bar; also machine lathe-0 taken out by cli: loose "
+        f"spindle; also halted; also its process changed (1 not accepted: rcb fleet include "
+        f"--plan {a} --changes 1)"
+    )
+
+
+def _out(engine) -> str:  # type: ignore[no-untyped-def]
+    (member,) = fleet_members(engine=engine, tool="VCMR331")["plans"]
+    return str(member["out"])
