@@ -9,6 +9,7 @@ setpoint version 1 exactly as over REST, and a name already stored is refused th
 
 from __future__ import annotations
 
+import shlex
 from collections.abc import Mapping
 from enum import StrEnum
 from pathlib import Path
@@ -135,6 +136,24 @@ def create(
     say_filled(
         f"rcb: plan {answer['id']} {answer['name']}: setpoint version "
         f"{answer['setpoint_version']}, cycle time {answer['cycle_time_min']:.4g} min"
+    )
+    _say_taken_out(answer, body)
+
+
+def _say_taken_out(answer: dict[str, Any], body: Mapping[str, Any]) -> None:
+    """That the new plan's machine is taken out of the fleet, as ``rcb plans show`` says it.
+
+    ``fleet_out`` is null otherwise (:func:`api.services.plans.create_plan`); the machine is
+    the plan file's, as it is stored (:func:`models.fields.identity`).
+    """
+    if not answer.get("fleet_out"):
+        return
+    from models.fields import identity  # NumPy: not at import (rcb --help)
+
+    machine = shlex.quote(identity(str(body["machine"]["name"])))
+    say_filled(
+        f"rcb: out of the fleet: {answer['fleet_out']}; this plan's readings make no new "
+        f"plan's prior until rcb fleet include --machine {machine}"
     )
 
 

@@ -30,6 +30,11 @@ from models.errors import InputError, InputErrors
 _out = Console()
 #: The options of which a replan needs one (each makes a change; ``--dry-run`` alone does not).
 CHANGE_OPTIONS = "--limit/--bound/--model/--rcb/--reset-bands"
+#: ``--reason``: why, kept in the replan's audit entry (checked by the use case).
+ReasonOption = Annotated[
+    str | None,
+    typer.Option("--reason", help="Why, one line (kept in the audit log: rcb audit --plan PLAN)."),
+]
 
 
 def replan(
@@ -50,6 +55,7 @@ def replan(
         bool, typer.Option("--reset-bands", help="Back to the tools' baseline bands.")
     ] = False,
     rcb: RcbOption = None,
+    reason: ReasonOption = None,
     dry_run: Annotated[
         bool, typer.Option("--dry-run", help="Show the result; store nothing.")
     ] = False,
@@ -75,7 +81,12 @@ def replan(
         plan_key = plan_of(engine, plan)
         try:
             written = replan(
-                engine=engine, plan_id=plan_key, changes=changes, dry_run=dry_run, actor=actor
+                engine=engine,
+                plan_id=plan_key,
+                changes=changes,
+                dry_run=dry_run,
+                actor=actor,
+                reason=reason,
             )
         except InputError as err:
             raise _as_option(err) from None
@@ -124,15 +135,19 @@ def _changes(
 
 #: The change document's parts and the options that fill them.
 _OPTIONS = {"limits": "--limit", "bounds": "--bound", "models": "--model", "rcb": "--rcb"}
+#: The use case's arguments besides the changes, and their options.
+_ARGUMENTS = {"reason": "--reason"}
 
 
 def _as_option(err: InputError) -> InputError:
-    """``err`` named by the option it came from (``--limit rough-od.force_N``).
+    """``err`` named by the option it came from (``--limit rough-od.force_N``, ``--reason``).
 
     The change document's path (``limits.rough-od.force_N``) is REST's, not the command line's.
     """
 
     def renamed(one: InputError) -> InputError:
+        if one.field in _ARGUMENTS:
+            return InputError(_ARGUMENTS[one.field], one.value, one.reason)
         part, _, rest = one.field.partition(".")
         option = _OPTIONS.get(part)
         return InputError(f"{option} {rest}", one.value, one.reason) if option and rest else one

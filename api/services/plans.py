@@ -17,10 +17,12 @@ from api.services import to_json
 from api.services.errors import NotFoundError
 from api.services.idempotency import Idempotency, Written
 from api.services.read.common import PLAN_ID
-from api.services.transactions import audited, write
+from api.services.transactions import Work, audited, write
 from db import api_keys, library
 from db.api_keys import Actor
 from db.fleet import plan_priors, prior_answer, prior_json
+from db.fleet_exclusions import MAX_REASON, checked_reason
+from db.fleet_members import plan_out
 from db.fleet_noise import noise_prior_json
 from db.intake import stored_answer
 from db.plans import (
@@ -38,6 +40,7 @@ from supervisor.inputs.plan import Plan, plan_from_mapping
 from supervisor.rcb.replan import replan as supervisor_replan
 from supervisor.rcb.settings import SETTINGS
 from supervisor.rcb.state import RcbSettings, RcbState, plan_settings
+from supervisor.rcb.strategies import REGISTRY
 from supervisor.rcb.update import start
 
 
@@ -110,6 +113,7 @@ def create_plan(
                 "setpoint_version": 1,
                 "cycle_time_min": result.cycle_time_min,
                 **prior_answer(stored_prior, stored_noise),
+                "fleet_out": _taken_out(session, plan_id, plan, settings),
                 **operations_json(result),
             }
 
@@ -142,6 +146,20 @@ def _read(
     return chosen, plan
 
 
+def _taken_out(session: Session, plan_id: int, plan: Plan, settings: RcbSettings) -> str | None:
+    """The new plan's ``fleet_out``: what ``GET /plans/{id}`` says, where its strategy learns.
+
+    :func:`db.fleet_members.plan_out`, which does not count having no part yet: a plan just
+    stored is out only where an engineer took its machine out of the fleet (nothing has
+    halted it or changed its process yet); then its readings make no new plan's prior. None
+    where its strategy learns no posterior: never in the fleet, an exclusion takes nothing
+    from it, and ``plan_out``'s "learns no posterior" would be said of every such plan.
+    """
+    if not REGISTRY[settings.strategy].learns_model:
+        return None
+    return plan_out(session=session, row=_plan(session, plan_id), machine=plan.machine.name)
+
+
 def replan(
     *,
     engine: Engine,
@@ -150,11 +168,14 @@ def replan(
     dry_run: bool = False,
     actor: Actor = api_keys.CLI_ACTOR,
     idempotency: Idempotency | None = None,
+    reason: str | None = None,
 ) -> Written:
     """Apply an engineer's change and re-optimise; unless ``dry_run``, store it.
 
     The new setpoint version has cause ``replan``; the answer shows the difference to the
-    setpoints in force (:mod:`supervisor.rcb.replan`).
+    setpoints in force (:mod:`supervisor.rcb.replan`). ``reason``: why, checked as a fleet
+    exclusion's (refused naming ``reason``, a dry run's too) and kept in the audit entry's
+    detail, ``{"reason": ...}`` (``rcb audit --plan``).
     """
     # a dry run stores nothing and is not a write: refused or not, the audit log has no entry
     # (an engineer's what-ifs read as a series of refused replans that never happened)
@@ -164,6 +185,7 @@ def replan(
         else audited(engine, actor, "replan", f"plan {plan_id}", plan_id=plan_id)
     )
     with refusals:
+        detail = _reason_detail(reason)
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             row = _plan(session, plan_id, lock=True)
@@ -186,13 +208,7 @@ def replan(
             return (200 if dry_run else 201), answer
 
         if dry_run:
-            with Session(engine) as session:
-                session.begin()
-                try:
-                    status, body = work(session)
-                finally:
-                    session.rollback()  # a dry run stores nothing
-            return Written(status, body)
+            return _rolled_back(engine, work)
         return write(
             engine,
             actor=actor,
@@ -200,8 +216,32 @@ def replan(
             target=f"plan {plan_id}",
             idempotency=idempotency,
             work=work,
+            detail=detail,
             plan=plan_id,
         )
+
+
+def _rolled_back(engine: Engine, work: Work) -> Written:
+    """``work``'s answer, its transaction rolled back: a dry run stores nothing."""
+    with Session(engine) as session:
+        session.begin()
+        try:
+            status, body = work(session)
+        finally:
+            session.rollback()
+    return Written(status, body)
+
+
+def _reason_detail(reason: object) -> dict[str, Any] | None:
+    """A replan's audit detail: its reason checked as an exclusion's is; None without one.
+
+    ``reason`` as sent: a JSON body's may be any value, refused unless text.
+    """
+    if reason is None:
+        return None
+    if not isinstance(reason, str):
+        raise InputError("reason", reason, f"give why as text, in 1 to {MAX_REASON} characters")
+    return {"reason": checked_reason(reason, "reason")}
 
 
 def named_tools(session: Session, body: Mapping[str, Any]) -> dict[str, Any]:

@@ -89,22 +89,27 @@ def replan(
     dry_run: Annotated[bool, Query(description="show the result, store nothing")] = False,
     idempotency_key: OptionalKey = None,
 ) -> Response:
-    """Change limits, bounds or models (or reset the bands) and re-optimise."""
+    """Change limits, bounds or models (or reset the bands) and re-optimise.
+
+    ``reason`` (why, kept in the audit entry) is no change: the use case checks it apart.
+    """
     body = replan_body(changes)  # read by the replan alone (ReplanIn documents it)
+    only = {k: v for k, v in body.items() if k != "reason"}
     try:
         written = use_cases.replan(
             engine=engine,
             plan_id=plan_id,
-            changes=body,
+            changes=only,
             dry_run=dry_run,
             actor=actor,
             idempotency=None if dry_run else idempotency_of(request, idempotency_key, body),
+            reason=body.get("reason"),
         )
     except InputError as err:
         if err.field != "changes":  # the reader's name of the whole of them: the body here
             raise
-        given = ", ".join(ReplanIn.model_fields)
-        raise InputError("body", err.value, f"{err.reason}: give one of {given}") from None
+        given = ", ".join(k for k in ReplanIn.model_fields if k != "reason")
+        raise InputError("body", body, f"{err.reason}: give one of {given}") from None
     return answer(written)
 
 

@@ -39,6 +39,13 @@ class PlanCreated(Out):
     prior: PriorSource
     provenance: Provenances
     noise_provenance: NoiseProvenances
+    fleet_out: str | None = Field(
+        None,
+        description="the plan's machine is taken out of the fleet by an engineer: what GET "
+        "/plans/{id} says in its fleet_out (who, and the reason); its readings make no new "
+        "plan's prior until the machine is put back (null: not taken out, or the plan's "
+        "strategy learns no posterior)",
+    )
     operations: list[OperationSetpoint]
 
 

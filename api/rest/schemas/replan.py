@@ -7,6 +7,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictBool
 from api.rest.schemas.common import NonNegative, Out, Positive
 from api.rest.schemas.rcb_settings import RcbSettingsIn
 from api.rest.schemas.setpoints import OperationSetpoint
+from db.fleet_exclusions import MAX_REASON
 
 
 class ModelChangeIn(BaseModel):
@@ -32,6 +33,13 @@ class ReplanIn(BaseModel):
     )
     reset_bands: StrictBool | None = Field(None, description="back to the tools' baseline bands")
     rcb: RcbSettingsIn | None = Field(None, description="new RCB settings (the others stay)")
+    reason: str | None = Field(
+        None,
+        min_length=1,
+        description=f"why (no change itself): kept in the replan's audit entry, detail "
+        f"{{reason}} (rcb audit --plan); 1 to {MAX_REASON} printable characters once stripped, "
+        "as a fleet exclusion's reason",
+    )
 
 
 class SetpointChange(Out):
