@@ -61,6 +61,27 @@ def changed(decision: Decision, watched: Watched, common: float | None = None) -
     return replace(decision, note=note, reason=f"{why}; {decision.reason}")
 
 
+def own_flags(shifted: Decision, own: Decision) -> Decision:
+    """The decision of a reading learned at its part's common shift, flagged on the reading.
+
+    ``shifted``: the law's decision on the shift the part's other operations showed
+    (:mod:`supervisor.rcb.common_cause`), whose upper edge was above the reading's, with the
+    shift's wide ``u``; ``own``: the law's on the reading itself. The band and the margin are
+    the shift's (the higher); the flag and the note are the reading's: judged at the shift's
+    ``u``, a reading of 2600 N against a 1500 N limit was no breach ("inside the learned
+    cone"), and the parts and the report said it crossed nothing.
+    """
+    if (own.flag, own.note) == (shifted.flag, shifted.note):
+        return shifted
+    action = "hold" if own.flagged and shifted.action == "shrink" else shifted.action
+    why = shifted.reason
+    if own.flagged:
+        why = f"{own.reason}; the band covers the shift the part's other operations showed"
+    return replace(
+        shifted, action=action, flag=own.flag, flagged=own.flagged, note=own.note, reason=why
+    )
+
+
 def gross_breach(
     operation: Operation, quantity: str, measurement: Measurement, halt_over: float
 ) -> HaltedOperation | None:

@@ -78,7 +78,7 @@ from supervisor.rcb.noise_check import chains_of, kept
 from supervisor.rcb.posterior import Posterior
 from supervisor.rcb.prior_check import checked, with_let_go
 from supervisor.rcb.report_readings import report_readings, setpoints_of
-from supervisor.rcb.shop_floor import changed, gross_breach, quarantined
+from supervisor.rcb.shop_floor import changed, gross_breach, own_flags, quarantined
 from supervisor.rcb.start import learned_cones as learned_cones  # callers import it from here
 from supervisor.rcb.start import optimize_state
 from supervisor.rcb.start import start as start  # callers import it from here
@@ -239,6 +239,9 @@ def _reading(
     decision, model, sigma[key], seen[key] = apply_law(
         judged, op, made, quantity, evidence, projection, moved, prudent_u, bound_u
     )
+    if evidence is not scaled:  # learned at the others' shift, flagged on its own reading
+        own = apply_law(judged, op, made, quantity, scaled, projection, moved, prudent_u, bound_u)
+        decision = own_flags(decision, own[0])
     decision = replace(decision, measured=measurement.value, uncertainty=measurement.uncertainty)
     if watched.changed:
         decision = changed(decision, watched, None if common is None else common.z)
