@@ -53,7 +53,9 @@ def fleet_change(
     if session.scalar(select(func.count()).select_from(parts)) != JUDGED_AFTER + 1:
         return {}  # not yet
     shift = largest_shift(_before(session, plan.id), after.posterior)
+    serial = session.scalar(select(t.Part.serial).where(t.Part.id == plan.fleet_change_part))
     detail = {
+        "part": serial,  # the serial, as the surfaces name it (a-7); part_id the row's id
         "part_id": plan.fleet_change_part,
         "largest_shift": None if shift is None else shift.where,
         "z": None if shift is None or shift.z is None else round(shift.z, 3),

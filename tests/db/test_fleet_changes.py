@@ -114,6 +114,7 @@ def test_a_change_the_readings_confirm_keeps_the_plan_out_until_an_engineer_acce
     assert (entry.actor, entry.target) == ("rcb", f"plan {a}")
     assert entry.result == "out of the fleet until rcb fleet include"
     assert entry.detail is not None and entry.detail["largest_shift"] == "rough-od force_N"
+    assert entry.detail["part"] == "a-7"  # the serial the surfaces say (an audit: the id alone)
     assert entry.detail["z"] > CONFIRM_Z
     _parts(engine, a, range(13, 15), scale=1.15)  # judged once: no second verdict
     assert _entry(engine, "fleet change confirmed").id == entry.id
