@@ -1,50 +1,37 @@
-"""One operation's spike past its limit: a breach of that operation, no one else's change.
+"""One operation's spike past its limit is a breach of that operation, whatever else it moves.
 
 A process engineer's audit (2026-12-04): on a plan of three roughing operations, one reading
 of 2600 N where 1455 N was expected (limit 1500 N) halted the plan, but its decision was
-``hold``/``shrink`` with no flag ("inside the learned cone"), the report said "0 past a limit",
-and the two other operations, which read +0.9σ and +0.2σ, were each noted ``regime_change``
-with margins of -900 N (each counted a change of its process: three changes to accept). The
-spike made Stouffer's pooled ``Z`` 81 alone (:mod:`supervisor.rcb.common_cause`): every
-operation was learned at a shared shift, and the spiking reading itself was judged at that
-shift's wide ``u``, under which 2600 N was no breach. Now an innovation counts at most at the
-one-reading alarm's 4σ in ``Z``, and a reading learned at a common shift keeps its own flag.
+``hold``/``shrink`` with no flag ("inside the learned cone") and the report said "0 past a
+limit". The spike made Stouffer's pooled ``Z`` 81 (:mod:`supervisor.rcb.common_cause`), so
+the spiking reading was learned at the shift the other operations showed, with that shift's
+wide ``u``, and judged at it: under it 2600 N was no breach. A reading learned at a common
+shift now keeps its own flag and note (:func:`supervisor.rcb.shop_floor.own_flags`).
+
+The spike still counts whole in ``Z``, so the other operations are learned at a common shift
+they hardly showed (conservative: slower, never past a limit). Bounding each reading's share at
+the one-reading alarm's 4σ was tried and measured (``closed_loop.py``, 1000 x 30, all five
+faults): it lost a real step seen by two of five operations (seed 644, part 15: ``Z`` 4.01
+became 3.15), and ``ivester`` crossed finish-od's roughness limit at the part after it, its
+first avoidable crossing; so it was not kept.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
-import pytest
 
 from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.inputs.plan import load_plan
-from supervisor.rcb import common_cause as cc
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.shop_floor import own_flags
 from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
+from supervisor.virtual.fault_spec import parse_faults
+from supervisor.virtual.scenario import run_scenario
 
-from conftest import ROOT
-
-
-def test_one_operations_spike_is_not_every_operations_change():
-    # r = 140, 0.9, 0.2 (v = 0.0016, sd 0.04): unbounded Z = 141.1/sqrt(3) = 81.46 > 3.5;
-    # the spike counted at 4: Z = 5.1/sqrt(3) = 2.944, no common change
-    innovations = [(140 * 0.04, 0.0016), (0.9 * 0.04, 0.0016), (0.2 * 0.04, 0.0016)]
-    assert cc.pooled_sigma(innovations) == pytest.approx(141.1 / math.sqrt(3))
-    assert cc.common_shifts([("force_N", i) for i in innovations]) == {}
-
-
-def test_a_shared_rise_with_one_spike_is_still_a_change_learned_at_the_raw_shift():
-    # r = 5, 5, 100: Z = (4 + 4 + 4)/sqrt(3) = 6.928; the shift is of the readings as read
-    innovations = [(0.20, 0.0016), (0.20, 0.0016), (4.0, 0.0016)]
-    (found,) = cc.common_shifts([("force_N", i) for i in innovations]).values()
-    assert found.z == pytest.approx(12 / math.sqrt(3))
-    assert found.innovations == tuple(innovations)
-    assert found.shift(without=2)[0] == pytest.approx(0.20)
+from conftest import DEMO_PLAN, ROOT
 
 
 def _decision(**kw: object) -> Decision:
@@ -110,23 +97,27 @@ def _virtual_lathe(spike_N: float):  # type: ignore[no-untyped-def]
     return state, decisions
 
 
-@pytest.mark.parametrize("bounded", [True, False])
-def test_a_spike_past_its_limit_is_a_breach_and_the_others_carry_on(bounded, monkeypatch):
-    """``bounded`` False: the pooled ``Z`` unbounded above as before, so the spike still makes
-    a common shift, learned at its wide ``u``: the reading's own breach stands all the same
-    (shop_floor.own_flags)."""
-    if not bounded:
-        monkeypatch.setattr(cc, "CEILING_SIGMA", math.inf)
+def test_a_spike_past_its_limit_is_a_breach_and_the_others_are_learned_prudently():
     after, decisions = _virtual_lathe(2600.0)
     by = {d.operation: d for d in decisions}
     spike = by["rough-od"]
     assert (spike.flag, spike.flagged, spike.measured) == ("breach", True, 2600.0)
+    assert spike.note == "regime_change" and "past the limit" in spike.reason
     assert after.halt is not None  # 73 % over: past halt_over's 25 %
     others = [d for op, d in by.items() if op != "rough-od"]
     assert len(others) == 2 and all(not d.flagged for d in others)
-    noted = [d.note for d in others]
-    assert noted == ([None, None] if bounded else ["regime_change", "regime_change"])
-    if bounded:  # their margins of their own readings, near their 600 N limits (was -900 N)
-        assert all(abs(d.margin or 0.0) < 10.0 for d in others)
-    else:  # learned at the shift: the margins the audit saw
-        assert all((d.margin or 0.0) < -500.0 for d in others)
+    # learned at the spike's common shift: a change noted, margins the audit saw (-900 N)
+    assert all(d.note == "regime_change" for d in others)
+    assert all((d.margin or 0.0) < -500.0 for d in others)
+
+
+def test_a_step_two_of_five_operations_show_is_a_common_change_under_every_fault():
+    """The seed the 4σ bound lost (module docstring): ``ivester`` under all five faults, the
+    step at part 15 (+12 %), finish-od's roughness reading a dropout at it: moved by the
+    others' shift, its band covers the step, and part 16 crosses nothing."""
+    faults = parse_faults(["dropout", "noise-scale", "step", "curvature", "wear"])
+    initial = start(load_plan(DEMO_PLAN), RcbSettings(strategy="ivester"))
+    trace = run_scenario(initial, 644, 17, faults=faults)
+    assert trace.unavoidable_at == (1, 15)
+    assert [p for p, _, _ in trace.where] == [15, 15, 15]  # the step's part alone
+    assert list(trace.violations[15:]) == [0, 0]
