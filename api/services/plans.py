@@ -125,6 +125,12 @@ def create_plan(
             idempotency=idempotency,
             work=work,
             attempts=3,
+            # what the audit log says of a new plan: its machine, strategy and start
+            detail={
+                "machine": plan.machine.name,
+                "strategy": settings.strategy,
+                "prior": "fleet" if stored_prior else "catalogue",
+            },
             plan="id",  # the new plan's, in the answer
         )
 

@@ -65,6 +65,11 @@ def test_a_plans_history_by_id_and_by_name(runner, backend_url):
     ]
     assert _seen(_json(runner, backend_url, "--plan", str(first))["entries"]) == mine
     assert _seen(_json(runner, backend_url, "--plan", BODY["name"])["entries"]) == mine
+    # a creation says the plan's machine, strategy and start (an audit: its detail was null)
+    (created,) = _json(runner, backend_url, "--plan", str(first), "--action", "create plan")[
+        "entries"
+    ]
+    assert created["detail"] == {"machine": MACHINE, "strategy": "learn", "prior": "catalogue"}
     theirs = _json(runner, backend_url, "--plan", "second-bar")["entries"]
     assert _seen(theirs) == [
         ("fleet exclude", f"plan {second}", "200", second),
