@@ -11,12 +11,12 @@ from __future__ import annotations
 import json
 
 import pytest
+from test_replan import _replan_args
 from test_service import BODY
 
 from api.cli.main import app
 from api.services import read as queries
-from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import renamed
 
@@ -44,12 +44,7 @@ def _version(url: str, plan_id: int) -> int:
 @pytest.fixture
 def stored(tmp_path) -> tuple[str, list[str]]:
     """A SQLite database with the demonstration plan, and ``rcb replan``'s first arguments."""
-    url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
-    engine = make_engine(url)
-    plan_id = create_plan(engine=engine, body=BODY).body["id"]
-    engine.dispose()
-    return url, ["replan", str(plan_id), "--db", url]
+    return _replan_args(tmp_path)
 
 
 def test_rcb_replan_keeps_its_reason_in_the_audit_entry(runner, stored):
