@@ -125,14 +125,15 @@ def create_plan(
             idempotency=idempotency,
             work=work,
             attempts=3,
-            # what the audit log says of a new plan: its machine, strategy and start
-            detail={
-                "machine": plan.machine.name,
-                "strategy": settings.strategy,
-                "prior": "fleet" if stored_prior else "catalogue",
-            },
+            detail=_created(plan, settings, stored_prior),
             plan="id",  # the new plan's, in the answer
         )
+
+
+def _created(plan: Plan, settings: RcbSettings, prior: object) -> dict[str, Any]:
+    """What the audit log says of a new plan: its machine, its strategy and its start."""
+    start_from = "fleet" if prior else "catalogue"
+    return {"machine": plan.machine.name, "strategy": settings.strategy, "prior": start_from}
 
 
 def _read(
