@@ -83,8 +83,13 @@ def exclude(
     return earlier[0] if earlier else None
 
 
-def checked_reason(reason: str, field: str = "--reason") -> str:
-    """``reason`` stripped: 1 to :data:`MAX_REASON` printable characters, else an error."""
+def checked_reason(reason: object, field: str = "--reason") -> str:
+    """``reason`` stripped: 1 to :data:`MAX_REASON` printable characters, else an error.
+
+    ``reason`` as sent: a JSON body's may be any value, refused unless text.
+    """
+    if not isinstance(reason, str):
+        raise InputError(field, reason, f"give why as text, in 1 to {MAX_REASON} characters")
     text = reason.strip()
     if not text or len(text) > MAX_REASON:
         raise InputError(field, reason, f"give why, in 1 to {MAX_REASON} characters")
