@@ -53,7 +53,8 @@ of MRR at the first part and nothing from the second (200 scenarios).
 each machine that ran the tool in two operations or more (two plans, or one plan's grooving
 and contouring), the operations' ``ln Y`` are compared where they pin it best, and their
 DerSimonian-Laird ``τ̂²`` is pooled over the machines with the default 2 % held as
-``ν_0`` operations' worth (:func:`operation_estimates`, :func:`pooled`). It matters most to
+``ν_0`` operations' worth (:func:`.spread.operation_estimates`, :func:`.spread.pooled`).
+It matters most to
 a new plan on a machine the fleet knows, whose own readings leave its operation's ``γ`` the
 whole of its first part's uncertainty: with operations 6 % apart (``closed_loop.py --fleet 4
 --operation-spread 0.06 --new-plan-on known``, 100 scenarios) the fixed 2 % crossed the
@@ -74,21 +75,30 @@ so a machine, however many parts it made, says at most ``σ_b`` about the fleet'
 ``P = P_0 + Σ J'_m``, ``μ = P^{-1}(P_0 m_0 + Σ h'_m)``. A new machine's ``θ`` is
 ``N(μ, P^{-1} + D)``, and its operation's ``ln K`` has ``σ_o^2`` more.
 
-**The spread.** Each machine's own posterior (the catalogue prior and its evidence alone)
-gives its ``ln Y`` at a reference point, ``y_m ± √v_m``. The point is where the machines'
-readings pin ``ln Y`` best, ``φ = (1, x, 0)`` minimising ``Σ_m φ^\mathsf{T} C_m φ``
-(:func:`best_determined`): at the centre of the bounds, where machines that learned near
-their optima never cut, every ``v_m`` holds the exponents' uncertainty (10 % and more), the
-machines' differences drown in it and the estimate is 0 whatever they are. DerSimonian and
-Laird's moment estimate [2]_ of the spread between them, ``τ̂²``, is pooled with a default
-``σ_0`` held as ``ν_0`` machines' worth of evidence (the scaled inverse-χ² prior of a
-normal variance, [1]_ §2.6):
+**The spread.** Each machine's evidence gives its ``ln Y`` at a reference point,
+``y_m ± √v_m``, with the catalogue's exponents but not its ``ln K`` (the comparison,
+below). The point is where the machines' readings pin ``ln Y`` best, ``φ = (1, x, 0)``
+minimising ``Σ_m φ^\mathsf{T} C_m φ`` (:func:`.spread.best_determined`): at the centre of
+the bounds, where machines that learned near their optima never cut, every ``v_m`` holds
+the exponents' uncertainty (10 % and more), the machines' differences drown in it and the
+estimate is 0 whatever they are. DerSimonian and Laird's moment estimate [2]_ of the spread
+between them, ``τ̂²``, is pooled with a default ``σ_0`` held as ``ν_0`` machines' worth of
+evidence (the scaled inverse-χ² prior of a normal variance, [1]_ §2.6):
 
 .. math:: σ_b^2 = \frac{ν_0 σ_0^2 + (M − 1) τ̂^2}{ν_0 + M − 1}
 
 never zero, the default until machines disagree, and the machines' own spread as they
 accumulate (:data:`DEFAULT_SPREAD`, :data:`SPREAD_WEIGHT`: ``benchmarks/closed_loop.py
 --fleet``).
+
+**The comparison.** DerSimonian and Laird's ``y_m`` are each machine's own estimate; a
+posterior that the catalogue's ``ln K`` had pulled toward one value holds their differences
+times ``J/(J + P_0)`` and ``τ̂²`` far under them where a machine's ``ln K`` is known to no
+better than the catalogue's (an operation's offset ``σ_o`` of 10 % caps it at 10 %). So
+each machine is compared from its evidence with a prior flat in ``ln K`` given the exponents
+(the exponents' marginal, :func:`.spread.intercept_free`): three machines 20 % apart, each known to
+10 %, a catalogue's ``ln K`` to 10 %, gave ``τ̂`` 7 % pulled and 17 % so. Evidence that
+does not pin its ``ln Y`` (a plan with no reading) is left out of the comparison.
 
 **A plan's tools.** Three machines give one tool's quantity 2 degrees of freedom, so held
 against the default's 2 its spread stays near the default's share whatever the machines
@@ -129,7 +139,6 @@ References
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -149,8 +158,8 @@ DEFAULT_EXPONENT_SPREAD = 0.02
 #: ``ln`` [-] (the module docstring; benchmarks/closed_loop.py --fleet 4 --fault wear).
 DEFAULT_EDGE_SPREAD = 0.01
 #: ``σ_o``: the default spread of an operation's ``ln K`` about its machine's [-], learned
-#: from the fleet's operations where a machine ran two (:func:`operation_estimates`; the module
-#: docstring; benchmarks/closed_loop.py --fleet 4 --fleet-fault curvature).
+#: from the fleet's operations where a machine ran two (:func:`.spread.operation_estimates`;
+#: the module docstring; benchmarks/closed_loop.py --fleet 4 --fleet-fault curvature).
 DEFAULT_OPERATION_SPREAD = 0.02
 
 
@@ -239,110 +248,6 @@ def summed(operations: Sequence[Evidence], op_spread: float) -> Evidence:
     return Evidence(first.names, information.sum(axis=0), vector.sum(axis=0), readings)
 
 
-def best_determined(
-    machines: Sequence[Evidence],
-    prior_information: np.ndarray,
-    exponents: int,
-    centre: Sequence[float],
-) -> np.ndarray:
-    """``φ = (1, x, 0 …)`` where the machines' ``ln Y`` is best known (module docstring).
-
-    ``x`` (the ``exponents`` log-inputs) minimises ``Σ_m φ^T C_m φ``, ``C_m`` machine ``m``'s
-    covariance with the prior: ``x = −(Σ C_xx)^{-1} Σ C_x0``; a quantity's ``ω`` (if any) at
-    0, a new edge. With no machine, ``x`` is ``centre``, the new operation's log-centre: the
-    spread is then the default at any point, and the exponents pivot where it cuts.
-    """
-    reference = np.zeros(len(prior_information))
-    reference[0] = 1.0
-    if exponents == 0:
-        return reference
-    if not machines:
-        reference[1 : exponents + 1] = centre
-        return reference
-    covs = np.linalg.inv(prior_information + np.array([m.information for m in machines]))
-    block = covs[:, 1 : exponents + 1, 1 : exponents + 1].sum(axis=0)
-    cross = covs[:, 1 : exponents + 1, 0].sum(axis=0)
-    reference[1 : exponents + 1] = -np.linalg.solve(block, cross)
-    return reference
-
-
-def between_estimate(
-    machines: Sequence[Evidence],
-    prior_mean: np.ndarray,
-    prior_information: np.ndarray,
-    reference: np.ndarray,
-) -> tuple[float, int]:
-    """``(τ̂², M − 1)``: the machines' DerSimonian-Laird spread at ``reference`` (module doc)."""
-    if not machines:
-        return dersimonian_laird([])
-    return dersimonian_laird(_at_each(reference, machines, prior_mean, prior_information))
-
-
-def operation_estimates(
-    machines: Sequence[Sequence[Evidence]],
-    prior_mean: np.ndarray,
-    prior_information: np.ndarray,
-    exponents: int,
-) -> list[tuple[float, int]]:
-    """Per machine of two operations or more, their DerSimonian-Laird ``(τ̂², dof)``.
-
-    The operations' ``ln Y`` are compared where they pin it best (:func:`best_determined`).
-    """
-    found = []
-    for ops in machines:
-        if len(ops) < 2:
-            continue
-        centre = (0.0,) * exponents  # unused: two or more operations fix the point
-        reference = best_determined(ops, prior_information, exponents, centre)
-        found.append(dersimonian_laird(_at_each(reference, ops, prior_mean, prior_information)))
-    return found
-
-
-def pooled(default: float, weight: float, found: Sequence[tuple[float, int]]) -> float:
-    """``√((ν_0 σ_0² + Σ dof τ̂²)/(ν_0 + Σ dof))`` of estimates ``(τ̂², dof)`` (module doc)."""
-    dof = sum(d for _, d in found)
-    tau2 = sum(d * t2 for t2, d in found)
-    return math.sqrt((weight * default**2 + tau2) / (weight + dof))
-
-
-def _at_each(
-    reference: np.ndarray,
-    seen: Sequence[Evidence],
-    prior_mean: np.ndarray,
-    prior_information: np.ndarray,
-) -> list[tuple[float, float]]:
-    """Per evidence of ``seen``, ``(y, v)``: ``ln Y`` at ``reference``, and its variance.
-
-    From the prior and that evidence alone; stacked, at once.
-    """
-    cov = np.linalg.inv(prior_information + np.array([s.information for s in seen]))
-    vector = prior_information @ prior_mean + np.array([s.vector for s in seen])
-    mean = (cov @ vector[..., np.newaxis])[..., 0]
-    values = mean @ reference
-    variances = (reference @ cov) @ reference
-    return [(float(y), float(v)) for y, v in zip(values, variances, strict=True)]
-
-
-def dersimonian_laird(estimates: Sequence[tuple[float, float]]) -> tuple[float, int]:
-    """``(τ̂², k − 1)`` of ``k`` estimates ``(y, v)``: their moment estimate of the spread [2]_."""
-    if len(estimates) < 2:
-        return 0.0, 0
-    weights = [1.0 / v for _, v in estimates]
-    total = sum(weights)
-    centre = sum(w * y for w, (y, _) in zip(weights, estimates, strict=True)) / total
-    q = sum(w * (y - centre) ** 2 for w, (y, _) in zip(weights, estimates, strict=True))
-    scale = total - sum(w * w for w in weights) / total
-    tau2 = max(0.0, (q - (len(estimates) - 1)) / scale) if scale > 0 else 0.0
-    return tau2, len(estimates) - 1
-
-
-def pooled_spread(
-    estimates: Sequence[tuple[float, float]], default: float, weight: float = SPREAD_WEIGHT
-) -> float:
-    """``σ_b`` of estimates ``(y_m, v_m)``: the default pooled with their ``τ̂²`` (module doc)."""
-    return pooled(default, weight, [dersimonian_laird(estimates)])
-
-
 def fleet_belief(
     machines: Sequence[Evidence],
     prior_mean: np.ndarray,
@@ -358,7 +263,7 @@ def fleet_belief(
     ``reference``: ``φ``, where the machines' ``ln Y`` are compared and their exponents pivot;
     ``exponents``: how many of ``θ``'s parameters after ``ln K`` are exponents (the rest, the
     edge's rise, has no between-machine spread); ``spread``: ``σ_b``
-    (:func:`between_estimate` pooled, :func:`supervisor.fleet.prior.fleet_priors`).
+    (:func:`.spread.between_estimate` pooled, :func:`supervisor.fleet.prior.fleet_priors`).
     """
     p0 = np.linalg.inv(prior_cov)
     scales = exponent_spread * np.abs(prior_mean[1 : exponents + 1])

@@ -8,7 +8,7 @@ terms, so each parameter is set beside the catalogue prior's. ``K`` alone says l
 how well the law is known: it is ``Y`` extrapolated to every input at 1 (1 mm, 1 m/min),
 far from where any machine cut, and its uncertainty there is mostly the exponents'. The law
 is known best where the machines' readings pin it (``φ = (1, x_r[, 0])``,
-:func:`~supervisor.fleet.hierarchy.best_determined`), so the uncertainty of ``ln Y`` is given
+:func:`~supervisor.fleet.spread.best_determined`), so the uncertainty of ``ln Y`` is given
 there: the fleet's law, a new machine's operation (the law with the between-machine spread
 ``σ_b`` and the operation's ``σ_o``: what a new plan's first part holds its cone to) and the
 catalogue's, each as a standard deviation of ``ln Y`` (a fraction of ``Y``).

@@ -40,8 +40,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from supervisor.fleet.hierarchy import pooled_spread
 from supervisor.fleet.learned import Learned
+from supervisor.fleet.spread import pooled_spread
 from supervisor.rcb.noise import NoiseScale
 
 #: ``σ_0``: the default between-chain spread of ``ln λ`` [-]: two instruments of one kind differ

@@ -33,14 +33,11 @@ from supervisor.fleet.hierarchy import (
     DEFAULT_SPREAD,
     SPREAD_WEIGHT,
     FleetBelief,
-    best_determined,
-    between_estimate,
     fleet_belief,
-    operation_estimates,
-    pooled,
     summed,
 )
 from supervisor.fleet.learned import Learned, proper, readings_of
+from supervisor.fleet.spread import best_determined, between_estimate, operation_estimates, pooled
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.posterior import Posterior
@@ -206,7 +203,7 @@ class _Pair:
         """``machine``'s evidence (None: none), the others', and where they pin ``ln Y``.
 
         Each machine's operations integrated over ``op_spread`` (``σ_o``); the point is
-        :func:`~supervisor.fleet.hierarchy.best_determined` of the others.
+        :func:`~supervisor.fleet.spread.best_determined` of the others.
         """
         by_machine = {m: summed(seen, op_spread) for m, seen in self.operations.items()}
         own = by_machine.pop(machine, None)
@@ -307,7 +304,7 @@ def _moderated(
     """Each key's default: ``default`` held as ``weight`` with the other keys' estimates.
 
     ``found``: per tool and quantity, its estimates ``(τ̂², dof)``. The default is what each
-    one's own estimates are pooled with (:func:`supervisor.fleet.hierarchy.pooled`); where the
+    one's own estimates are pooled with (:func:`supervisor.fleet.spread.pooled`); where the
     others had any degree of freedom it is also the floor, else the floor is 0.
     """
     out = {}

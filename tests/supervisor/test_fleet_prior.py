@@ -20,17 +20,14 @@ from supervisor.fleet.hierarchy import (
     DEFAULT_OPERATION_SPREAD,
     DEFAULT_SPREAD,
     SPREAD_WEIGHT,
-    best_determined,
     between,
-    between_estimate,
     fleet_belief,
     marginal,
     of_operation,
-    operation_estimates,
-    pooled,
 )
 from supervisor.fleet.learned import Learned
 from supervisor.fleet.prior import Provenance, fleet_priors
+from supervisor.fleet.spread import best_determined, between_estimate, operation_estimates, pooled
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
@@ -212,7 +209,7 @@ def test_the_operations_spread_pools_the_default_with_each_machines_operations()
     """Machine A's two operations at ``ln Y`` 0 and 0.1 (variance 1e-4 each, a flat prior):
     ``τ̂² = 0.0049`` on 1 degree of freedom (the worked case above); machine B's two at 0 and
     0: ``τ̂² = 0``, 1 more; machine C's one operation says nothing of the spread. ``σ_o² =
-    (2 · 0.02² + 0.0049 + 0)/(2 + 2)`` (hierarchy.operation_estimates, pooled): 3.77 %, where
+    (2 · 0.02² + 0.0049 + 0)/(2 + 2)`` (spread.operation_estimates, pooled): 3.77 %, where
     the fixed 2 % had held it."""
     flat = np.array([[1e-12]])
 
