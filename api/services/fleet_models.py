@@ -11,7 +11,7 @@ from api.services.idempotency import Written
 from api.services.transactions import audited, transaction, write
 from db import api_keys
 from db.api_keys import Actor
-from db.fleet_exclusions import checked_reason, exclude, include
+from db.fleet_exclusions import checked_reason, exclude, include, one_of
 from db.fleet_models import export_models, import_models
 from db.identity import database_id, inherited, renew
 
@@ -82,14 +82,17 @@ def exclude_from_fleet(
     reason: str,
     actor: Actor = api_keys.CLI_ACTOR,
 ) -> Written:
-    """Take a plan or a machine out of the fleet (audited).
+    """Take a plan or a machine out of the fleet (audited, refused too: with the reason).
 
     ``was``: the exclusion this one replaces (``taken out by cli:ann: chipped``), None if what
     is named was not out: excluding it again changes the reason alone.
     """
     target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
-    with audited(engine, actor, "fleet exclude", target, plan_id=plan):
+    kept: dict[str, Any] = {}  # a refused entry's: the reason, once it is checked
+    with audited(engine, actor, "fleet exclude", target, plan_id=plan, kept=kept):
+        one_of(plan_id, machine)  # refused before the reason, as exclude refuses it
+        kept["reason"] = checked_reason(reason)
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             was = exclude(
@@ -123,18 +126,21 @@ def include_in_fleet(
     ``changes``: the count of changes not accepted the engineer reviewed; the plan must still
     have that many (:func:`db.fleet_exclusions.include`). ``reason``: why, kept in the audit
     entry (optional). Audited when something was put back, with what it accepted and what
-    still keeps the plan out, or refused; putting back what is not out changes nothing and
-    writes no audit entry (``put_back`` false, ``still_out``: why the plan stays out all the
-    same, "" if nothing keeps it).
+    still keeps the plan out, or refused (with the reason, once checked); putting back what
+    is not out changes nothing and writes no audit entry (``put_back`` false, ``still_out``:
+    why the plan stays out all the same, "" if nothing keeps it).
     """
     target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
     detail: dict[str, Any] = {}  # the entry's, filled in before the answer writes it
+    kept: dict[str, Any] = {}  # a refused entry's: the reason, once it is checked
     with (
-        audited(engine, actor, "fleet include", target, plan_id=plan),
+        audited(engine, actor, "fleet include", target, plan_id=plan, kept=kept),
         transaction(engine, actor, "fleet include", target, None, detail=detail, plan=plan) as tx,
     ):
         why = None if reason is None else checked_reason(reason)
+        if why is not None:
+            kept["reason"] = why
         done = include(session=tx.session, plan_id=plan_id, machine=machine, changes=changes)
         body = {
             "included": target,

@@ -251,10 +251,13 @@ def audited(
     target: str,
     held: Authenticated | None = None,
     plan_id: int | None = None,
+    kept: dict[str, Any] | None = None,
 ) -> Iterator[None]:
     """Append a refused write (any exception) to the audit log, then let it propagate.
 
-    ``plan_id``: the plan the write was about, if known before it ran.
+    ``plan_id``: the plan the write was about, if known before it ran. ``kept``: what the
+    entry keeps beside the refusal (an engineer's ``reason``, checked), as the block filled
+    it in before it was refused.
     """
     try:
         yield
@@ -263,6 +266,7 @@ def audited(
             "error": err.__class__.__name__,
             "field": str(getattr(err, "field", "")),
             "message": str(err)[:500],
+            **(kept or {}),
         }
         with aside(engine, held.session if held else None) as session:
             audit.audit(

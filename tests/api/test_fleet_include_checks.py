@@ -7,7 +7,8 @@ learns no posterior, is an error naming its option (exit 2, one line, audited as
 what is not out is left as it is, said so, exit 0, with no audit entry. A plan out for a
 change of its process counted by its monitors is put back as before (the changes accepted).
 ``exclude`` with both or neither option says so without ``= None``, and refuses a plan that
-learns no posterior as ``include`` does.
+learns no posterior as ``include`` does. A refused entry keeps the engineer's ``--reason``
+(checked) beside what was refused; it dropped it.
 """
 
 from __future__ import annotations
@@ -187,3 +188,39 @@ def test_both_or_neither_of_plan_and_machine_is_said_without_a_value(engine, run
     assert _entries(engine, "fleet exclude") == [("plan 1 and machine lathe-0", "refused")]
     done = invoke(runner, "fleet", "exclude", "--plan", "99", "--reason", "x", "--db", url)
     assert done.exit_code == 2 and "rcb: error: --plan = 99: no such plan" in done.output
+
+
+def _details(engine, action: str) -> list[object]:  # type: ignore[no-untyped-def]
+    with Session(engine) as session:
+        rows = session.scalars(
+            select(t.AuditEntry.detail)
+            .where(t.AuditEntry.action == action)
+            .order_by(t.AuditEntry.id)
+        )
+        return list(rows)
+
+
+def test_a_refused_exclude_or_include_keeps_the_reason_in_its_entry(engine, runner) -> None:
+    _learned(engine, "fleet-a", 1, 2)
+    url = engine_url(engine)
+    for command in ("exclude", "include"):
+        args = ("fleet", command, "--machine", "LATHE-1", "--reason", " loose spindle ")
+        done = invoke(runner, *args, "--db", url)
+        assert done.exit_code == 2, done.output
+        assert _details(engine, f"fleet {command}") == [
+            {
+                "error": "InputError",
+                "field": "--machine",
+                "message": "--machine = 'LATHE-1': no stored plan or imported model is of this "
+                "machine (names are exact: lathe-1?)",
+                "reason": "loose spindle",
+            }
+        ]
+    # a reason refused itself is not kept beside: the message names it, as sent
+    done = invoke(runner, "fleet", "exclude", "--machine", "lathe-1", "--reason", " ", "--db", url)
+    assert done.exit_code == 2, done.output
+    assert _details(engine, "fleet exclude")[-1] == {
+        "error": "InputError",
+        "field": "--reason",
+        "message": "--reason = ' ': give why, in 1 to 500 characters",
+    }

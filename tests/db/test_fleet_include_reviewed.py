@@ -4,7 +4,8 @@ A process engineer's audit: ``include`` accepted every change counted up to the 
 so one counted between the engineer's look (``rcb fleet show``: ``1 not accepted``) and the
 command was accepted unseen. With ``--changes N`` the plan is put back only if it has N changes
 not accepted still; else nothing changes and the error names ``--changes`` with the count now.
-``--reason`` is kept in the audit entry, with what the include accepted (its detail was null).
+``--reason`` is kept in the audit entry, with what the include accepted (its detail was null),
+and in a refused include's entry too, beside what was refused (a refusal dropped it).
 """
 
 from __future__ import annotations
@@ -60,7 +61,18 @@ def test_a_change_counted_after_the_review_is_not_accepted_unseen(engine, runner
     ]
     assert _state(engine, a) == (0, ["check spindle"])  # nothing changed
     assert "fleet-a" not in _in_fleet(engine, "CNMG432RN")
-    assert [result for result, _ in _include_entries(engine)] == ["refused"]
+    # the refusal keeps why the engineer asked, beside what was refused (it dropped it)
+    assert _include_entries(engine) == [
+        (
+            "refused",
+            {
+                "error": "InputError",
+                "field": "--changes",
+                "message": done.output.removeprefix("rcb: error: ").strip(),
+                "reason": "spindle checked",
+            },
+        )
+    ]
     done = invoke(runner, *args[:5], "2", "--db", url, "--reason", " spindle checked ")
     assert done.exit_code == 0, done.output
     said = " ".join(done.output.split())
