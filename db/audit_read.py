@@ -3,7 +3,10 @@
 A page is ordered by time, then id, both descending, and continues below the last entry of
 the previous page (keyset paging: the same rows read on the first page as after a year).
 Its filters are served by an index each: one action (``action, at``) and one actor (``actor,
-at``, alembic 0024), one plan (``plan_id, at``, alembic 0026), from a time on (``at``).
+at``, alembic 0024), one plan (``plan_id, at``, alembic 0026), from a time on (``at``). One
+plan's history holds its machine's fleet exclusions and inclusions too (``rcb fleet exclude
+--machine``: no ``plan_id``, the target ``machine NAME``), read through the action's index:
+each of the three reads its index in the page's order and the page merges them.
 """
 
 from __future__ import annotations
@@ -12,9 +15,10 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import or_, select
+from sqlalchemy import ColumnElement, Select, literal, or_, select, union_all
 from sqlalchemy.orm import Session
 
+from db import tables as t
 from db.audit import AUDIT
 from db.table_base import as_utc
 
@@ -43,18 +47,50 @@ def entries(
 
     Each: ``id, at`` (UTC), ``actor, action, target, result, detail, plan_id``.
     """
+    where = _filters(query, below)
+    if query.plan_id is None:
+        members = [select(AUDIT).where(*where)]
+    else:
+        members = [select(AUDIT).where(AUDIT.c.plan_id == query.plan_id, *where)]
+        machine = (
+            select(literal("machine ") + t.Machine.name)
+            .join(t.Plan, t.Plan.machine_id == t.Machine.id)
+            .where(t.Plan.id == query.plan_id)
+            .scalar_subquery()
+        )
+        for action in MACHINE_ACTIONS:
+            if query.action in (None, action):
+                about = (AUDIT.c.action == action, AUDIT.c.target == machine)
+                members.append(select(AUDIT).where(*about, *where))
+    if len(members) > 1:  # each its page, as it reads its index; the page merges them
+        pages = [_newest(m, limit).subquery() for m in members]
+        members = [union_all(*(select(page) for page in pages)).subquery().select()]
+    statement = _newest(members[0], limit)
+    return [{**row._asdict(), "at": as_utc(row.at)} for row in session.execute(statement).all()]
+
+
+def _newest(statement: Select[Any], limit: int) -> Select[Any]:
+    """``statement``'s newest ``limit`` rows: by time, then id, both descending."""
+    columns = statement.selected_columns
+    return statement.order_by(columns.at.desc(), columns.id.desc()).limit(limit)
+
+
+#: The actions of a machine's entries a plan's history holds (``rcb fleet ... --machine``).
+MACHINE_ACTIONS = ("fleet exclude", "fleet include")
+
+
+def _filters(query: AuditQuery, below: tuple[datetime, int] | None) -> list[ColumnElement[bool]]:
+    """The conditions of ``query`` but its plan, and below the cursor's ``below``."""
     table = AUDIT
-    statement = select(table).order_by(table.c.at.desc(), table.c.id.desc()).limit(limit)
+    where: list[ColumnElement[bool]] = []
     if query.action is not None:
-        statement = statement.where(table.c.action == query.action)
+        where.append(table.c.action == query.action)
     if query.actor is not None:
-        statement = statement.where(table.c.actor == query.actor)
-    if query.plan_id is not None:
-        statement = statement.where(table.c.plan_id == query.plan_id)
+        where.append(table.c.actor == query.actor)
     if query.since is not None:
-        statement = statement.where(table.c.at >= as_utc(query.since))
+        where.append(table.c.at >= as_utc(query.since))
     if below is not None:
         at, entry_id = as_utc(below[0]), below[1]
         # at <= at' bounds the index's range (a deep page seeks, as the first page does)
-        statement = statement.where(table.c.at <= at, or_(table.c.at < at, table.c.id < entry_id))
-    return [{**row._asdict(), "at": as_utc(row.at)} for row in session.execute(statement).all()]
+        where += [table.c.at <= at, or_(table.c.at < at, table.c.id < entry_id)]
+    return where

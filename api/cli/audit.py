@@ -46,7 +46,8 @@ def audit(
         str | None,
         typer.Option(
             help="Only entries about this plan (id or name): its creation, part reports, "
-            "replans, fleet exclusions and verdicts."
+            "replans, fleet exclusions and verdicts, and its machine's fleet exclusions "
+            "and inclusions (rcb fleet exclude --machine)."
         ),
     ] = None,
     limit: Annotated[

@@ -2,7 +2,9 @@
 
 On SQLite and PostgreSQL, from real writes: a plan's creation (its id known only once it is
 stored), its part reports (answered, replayed and refused), a replan and a fleet exclusion
-are the plan's; another plan's and a machine's are not; the entries carry ``plan_id``.
+are the plan's; another plan's are not; the entries carry ``plan_id``. A fleet exclusion or
+inclusion of the plan's machine (``--machine``, no ``plan_id``) is listed with each plan of
+the machine (it was with none), and another machine's is not.
 """
 
 from __future__ import annotations
@@ -56,7 +58,9 @@ def test_a_plans_history_by_id_and_by_name(runner, backend_url):
         done = runner.invoke(app, [*step, "--db", backend_url])
         assert done.exit_code == 0, done.stderr
     serial = bodies[0]["serial"]
+    machine = ("fleet exclude", f"machine {MACHINE}", "200", None)  # its machine's, each plan's
     mine = [
+        machine,
         ("replan", f"plan {first}", "201", first),
         ("report part", f"plan {first} part {serial}", "refused", first),
         ("report part", f"plan {first} part {serial}", "replayed 201", first),
@@ -72,6 +76,7 @@ def test_a_plans_history_by_id_and_by_name(runner, backend_url):
     assert created["detail"] == {"machine": MACHINE, "strategy": "learn", "prior": "catalogue"}
     theirs = _json(runner, backend_url, "--plan", "second-bar")["entries"]
     assert _seen(theirs) == [
+        machine,
         ("fleet exclude", f"plan {second}", "200", second),
         ("create plan", "plan second-bar", "201", second),
     ]
@@ -112,3 +117,45 @@ def test_an_unknown_plan_name_is_one_line_naming_the_option(runner, tmp_path, co
     assert done.exit_code == 2
     assert done.stderr.startswith("rcb: error: --plan = 'no-such-plan': no plan named")
     assert len(done.stderr.strip().splitlines()) == 1
+
+
+def test_a_plans_history_lists_its_machines_fleet_entries_and_no_other_machines(
+    runner, backend_url
+):
+    upgrade(backend_url)
+    engine = make_engine(backend_url)
+    mine = create_plan(engine=engine, body=BODY).body["id"]
+    other = {**BODY, "name": "other-bar", "machine": {**BODY["machine"], "name": "lathe-z"}}
+    create_plan(engine=engine, body=other)
+    engine.dispose()
+    for machine, command, by in (
+        (MACHINE, "exclude", "bo"),
+        ("lathe-z", "exclude", "bo"),
+        (MACHINE, "include", "cy"),
+        ("lathe-z", "include", "cy"),
+    ):
+        reason = ("--reason", "spindle") if command == "exclude" else ()
+        step = ("fleet", command, "--machine", machine, *reason, "--by", by)
+        done = runner.invoke(app, [*step, "--db", backend_url])
+        assert done.exit_code == 0, done.stderr
+    target = f"machine {MACHINE}"
+    listed = _json(runner, backend_url, "--plan", str(mine))["entries"]
+    assert _seen(listed) == [
+        ("fleet include", target, "200", None),
+        ("fleet exclude", target, "200", None),
+        ("create plan", f"plan {BODY['name']}", "201", mine),
+    ]
+    # with the other filters, and a page at a time as the rest (each page chains to the next)
+    only = _json(runner, backend_url, "--plan", str(mine), "--action", "fleet include")
+    assert _seen(only["entries"]) == [("fleet include", target, "200", None)]
+    by_bo = _json(runner, backend_url, "--plan", str(mine), "--actor", "cli:bo")["entries"]
+    assert _seen(by_bo) == [("fleet exclude", target, "200", None)]
+    assert _json(runner, backend_url, "--plan", str(mine), "--action", "replan")["entries"] == []
+    paged, cursor = [], []
+    while True:
+        page = _json(runner, backend_url, "--plan", str(mine), "--limit", "1", *cursor)
+        paged += page["entries"]
+        if page["next_cursor"] is None:
+            break
+        cursor = ["--cursor", page["next_cursor"]]
+    assert paged == listed
