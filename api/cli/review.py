@@ -35,6 +35,7 @@ from api.cli.common import (
     say,
     say_command,
 )
+from api.cli.replan import CHANGE_OPTIONS
 from api.cli.tables import free_text, new_table, short_number
 from api.report import marks
 from api.services import request_limits
@@ -147,7 +148,8 @@ def _print_halt(plan_id: int, halt: dict[str, Any]) -> None:
     _out.print(f"[bold red]plan {plan_id} HALTED[/]: {marks.halt_cause(halt)}", highlight=False)
     for line in marks.halt_lines(halt):  # a long line (a gross breach's message) wraps indented
         _out.print(Padding(Text(line), (0, 0, 0, 2)), highlight=False)
-    _out.print(f"  resume: rcb replan {plan_id} (--limit, --model or --reset-bands)", markup=False)
+    # any change resumes (--reason, --dry-run alone do not); 80 columns for a 10-digit id
+    _out.print(f"  resume: rcb replan {plan_id} ({CHANGE_OPTIONS})", markup=False)
 
 
 def history(
