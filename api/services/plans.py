@@ -182,17 +182,18 @@ def replan(
     The new setpoint version has cause ``replan``; the answer shows the difference to the
     setpoints in force (:mod:`supervisor.rcb.replan`). ``reason``: why, checked as a fleet
     exclusion's (refused naming ``reason``, a dry run's too) and kept in the audit entry's
-    detail, ``{"reason": ...}`` (``rcb audit --plan``).
+    detail, ``{"reason": ...}`` (``rcb audit --plan``), a refused replan's too.
     """
-    # a dry run stores nothing and is not a write: refused or not, the audit log has no entry
-    # (an engineer's what-ifs read as a series of refused replans that never happened)
+    # a dry run is no write, so no entry (what-ifs are no refused replans); a refusal keeps why
+    kept: dict[str, Any] = {}
     refusals = (
         nullcontext()
         if dry_run
-        else audited(engine, actor, "replan", f"plan {plan_id}", plan_id=plan_id)
+        else audited(engine, actor, "replan", f"plan {plan_id}", plan_id=plan_id, kept=kept)
     )
     with refusals:
         detail = _reason_detail(reason)
+        kept.update(detail or {})
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             row = _plan(session, plan_id, lock=True)

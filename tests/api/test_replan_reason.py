@@ -65,6 +65,21 @@ def test_rcb_replan_keeps_its_reason_in_the_audit_entry(runner, stored):
     assert _version(url, plan_id) == 3
 
 
+def test_a_refused_replan_keeps_its_reason(runner, stored):
+    """A replan refused for its change (a limit of 0 N) keeps the engineer's reason beside
+    the refusal, as a refused ``rcb fleet include`` does; nothing is stored."""
+    url, args = stored
+    plan_id = int(args[1])
+    why = "try the spindle at 0 N (ann)"
+    done = runner.invoke(app, [*args, "--limit", "rough-od.force_N=0", "--reason", why])
+    assert done.exit_code == 2, done.output
+    [refused] = _audit(runner, url, plan_id)
+    assert refused["result"] == "refused"
+    assert refused["detail"]["reason"] == why
+    assert refused["detail"]["field"] == "limits.rough-od.force_N", refused["detail"]
+    assert _version(url, plan_id) == 1
+
+
 @pytest.mark.parametrize("dry_run", [False, True])
 def test_a_bad_reason_is_refused_naming_the_option_and_nothing_is_stored(runner, stored, dry_run):
     url, args = stored
