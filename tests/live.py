@@ -12,6 +12,7 @@ from pathlib import Path
 
 import httpx
 
+from api.rest.serving import EXIT_PORT_IN_USE
 from api.services.keys import create_key
 from db.engine import make_engine, upgrade
 
@@ -53,9 +54,29 @@ class LiveServer:
         self.keys = {r: create_key(engine=engine, role=r)["key"] for r in ROLES}
         engine.dispose()
 
-    def start(self, timeout_s: float = 60.0) -> None:
+    def start(self, timeout_s: float = 60.0, attempts: int = 5) -> None:
+        """Start the server and wait until it answers on the port it listens on.
+
+        The port was free when drawn, but another worker's server may bind it first: then
+        ``rcb serve`` exits naming it (exit 5), and a health check alone could be answered by
+        that other server, whose database and keys are not this one's (seen in CI: a module's
+        every test 401). The server is ours once its own log says it listens (``rcb:
+        serving``, printed once its socket is bound) and the port answers; a port taken is
+        drawn again, ``attempts`` times at most.
+        """
+        for attempt in range(attempts):
+            if attempt:
+                self.port = free_port()
+                self.base = f"http://127.0.0.1:{self.port}/api/v1"
+            if self._started(timeout_s):
+                return
+        raise RuntimeError(f"rcb serve found no free port in {attempts} tries: {self._tail()}")
+
+    def _started(self, timeout_s: float) -> bool:
+        """True once ours answers; False if its port was taken; raises on any other failure."""
         command = [str(RCB), "serve", "--db", self.url, "--port", str(self.port)]
         command += ["--workers", str(self.workers), "--no-access-log", *self.args]
+        offset = self.log.stat().st_size if self.log.exists() else 0
         with self.log.open("ab") as log:
             self.process = subprocess.Popen(
                 command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
@@ -63,15 +84,23 @@ class LiveServer:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
-                raise RuntimeError(f"rcb serve exited: {self.log.read_text()[-3000:]}")
+                code, self.process = self.process.returncode, None
+                if code == EXIT_PORT_IN_USE:
+                    return False
+                raise RuntimeError(f"rcb serve exited: {self._tail()}")
+            listening = "rcb: serving" in self.log.read_bytes()[offset:].decode(errors="replace")
             try:
-                if httpx.get(f"{self.base}/health", timeout=1.0).status_code == 200:
-                    return
+                if listening and httpx.get(f"{self.base}/health", timeout=1.0).status_code == 200:
+                    return True
             except httpx.HTTPError:
                 pass
             time.sleep(0.1)
         self.stop()
-        raise RuntimeError(f"rcb serve did not answer in {timeout_s} s: {self.log.read_text()}")
+        raise RuntimeError(f"rcb serve did not answer in {timeout_s} s: {self._tail()}")
+
+    def _tail(self) -> str:
+        """The end of the server's log."""
+        return self.log.read_text()[-3000:]
 
     def kill(self) -> None:
         """``kill -9`` the whole server (process group): no shutdown, no cleanup."""
