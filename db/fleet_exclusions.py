@@ -152,6 +152,18 @@ def _not_seen(plan_id: int, unaccepted: int) -> str:
     )
 
 
+def kept_reason(reason: object) -> dict[str, str]:
+    """What a refused write's audit entry keeps of an engineer's reason.
+
+    ``{"reason": text}`` where it passes :func:`checked_reason`, else nothing: a refused
+    reason is named, as sent, by the refusal itself; none given is none kept.
+    """
+    try:
+        return {"reason": checked_reason(reason)}
+    except InputError:
+        return {}
+
+
 def one_of(plan: object, machine: object) -> None:
     """Refuse both or neither of ``--plan`` and ``--machine`` (:class:`OneOfError`)."""
     if plan is not None and machine is not None:

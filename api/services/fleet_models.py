@@ -11,7 +11,7 @@ from api.services.idempotency import Written
 from api.services.transactions import audited, transaction, write
 from db import api_keys
 from db.api_keys import Actor
-from db.fleet_exclusions import checked_reason, exclude, include, one_of
+from db.fleet_exclusions import checked_reason, exclude, include, kept_reason
 from db.fleet_models import export_models, import_models
 from db.identity import database_id, inherited, renew
 
@@ -89,10 +89,7 @@ def exclude_from_fleet(
     """
     target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
-    kept: dict[str, Any] = {}  # a refused entry's: the reason, once it is checked
-    with audited(engine, actor, "fleet exclude", target, plan_id=plan, kept=kept):
-        one_of(plan_id, machine)  # refused before the reason, as exclude refuses it
-        kept["reason"] = checked_reason(reason)
+    with audited(engine, actor, "fleet exclude", target, plan_id=plan, kept=kept_reason(reason)):
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             was = exclude(
@@ -133,14 +130,11 @@ def include_in_fleet(
     target = fleet_target(plan_id, machine)
     plan = plan_id if machine is None else None
     detail: dict[str, Any] = {}  # the entry's, filled in before the answer writes it
-    kept: dict[str, Any] = {}  # a refused entry's: the reason, once it is checked
     with (
-        audited(engine, actor, "fleet include", target, plan_id=plan, kept=kept),
+        audited(engine, actor, "fleet include", target, plan_id=plan, kept=kept_reason(reason)),
         transaction(engine, actor, "fleet include", target, None, detail=detail, plan=plan) as tx,
     ):
         why = None if reason is None else checked_reason(reason)
-        if why is not None:
-            kept["reason"] = why
         done = include(session=tx.session, plan_id=plan_id, machine=machine, changes=changes)
         body = {
             "included": target,

@@ -21,7 +21,7 @@ from api.services.transactions import Work, audited, write
 from db import api_keys, library
 from db.api_keys import Actor
 from db.fleet import plan_priors, prior_answer, prior_json
-from db.fleet_exclusions import checked_reason
+from db.fleet_exclusions import checked_reason, kept_reason
 from db.fleet_members import plan_out
 from db.fleet_noise import noise_prior_json
 from db.intake import stored_answer
@@ -184,8 +184,9 @@ def replan(
     exclusion's (refused naming ``reason``, a dry run's too) and kept in the audit entry's
     detail, ``{"reason": ...}`` (``rcb audit --plan``), a refused replan's too.
     """
-    # a dry run is no write, so no entry (what-ifs are no refused replans); a refusal keeps why
-    kept: dict[str, Any] = {}
+    # a dry run stores nothing and is not a write: refused or not, the audit log has no entry
+    # (an engineer's what-ifs read as a series of refused replans that never happened)
+    kept = kept_reason(reason)
     refusals = (
         nullcontext()
         if dry_run
@@ -193,7 +194,6 @@ def replan(
     )
     with refusals:
         detail = _reason_detail(reason)
-        kept.update(detail or {})
 
         def work(session: Session) -> tuple[int, dict[str, Any]]:
             row = _plan(session, plan_id, lock=True)

@@ -10,7 +10,7 @@ to the audit log.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any
 
@@ -251,13 +251,13 @@ def audited(
     target: str,
     held: Authenticated | None = None,
     plan_id: int | None = None,
-    kept: dict[str, Any] | None = None,
+    kept: Mapping[str, Any] | None = None,
 ) -> Iterator[None]:
     """Append a refused write (any exception) to the audit log, then let it propagate.
 
     ``plan_id``: the plan the write was about, if known before it ran. ``kept``: what the
-    entry keeps beside the refusal (an engineer's ``reason``, checked), as the block filled
-    it in before it was refused.
+    entry keeps beside the refusal (an engineer's reason that passed its check,
+    :func:`db.fleet_exclusions.kept_reason`).
     """
     try:
         yield
