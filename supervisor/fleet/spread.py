@@ -56,8 +56,6 @@ def between_estimate(
     reference: np.ndarray,
 ) -> tuple[float, int]:
     """``(τ̂², M − 1)``: the machines' DerSimonian-Laird spread at ``reference`` (module doc)."""
-    if not machines:
-        return dersimonian_laird([])
     return dersimonian_laird(_at_each(reference, machines, prior_mean, prior_information))
 
 
@@ -149,7 +147,10 @@ def _intercept_information(information: np.ndarray) -> float:
 
 
 def dersimonian_laird(estimates: Sequence[tuple[float, float]]) -> tuple[float, int]:
-    """``(τ̂², k − 1)`` of ``k`` estimates ``(y, v)``: their moment estimate of the spread [2]_."""
+    """``(τ̂², k − 1)`` of ``k`` estimates ``(y, v)``: their moment estimate of the spread.
+
+    DerSimonian & Laird (1986), :mod:`.hierarchy`'s reference [2].
+    """
     if len(estimates) < 2:
         return 0.0, 0
     weights = [1.0 / v for _, v in estimates]
