@@ -20,10 +20,38 @@ RCB = Path(sys.executable).with_name("rcb")
 ROLES = ("mes", "engineer", "viewer")
 
 
+# Ports are drawn under Linux's ephemeral range (32768-60999), where no client connection
+# (to PostgreSQL, to a server under test) takes one between the draw and the bind, each
+# xdist worker from a block of its own, so two workers never draw the same port.
+_PORTS_FROM, _BLOCK, _BLOCKS = 20_000, 1_000, 12
+_drawn = {"next": os.getpid() % _BLOCK}
+
+
+def _worker() -> int:
+    """This xdist worker's number (``gw3`` is 3), 0 outside xdist."""
+    name = os.environ.get("PYTEST_XDIST_WORKER", "gw0")
+    return int(name[2:]) if name[2:].isdigit() else 0
+
+
 def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A port on 127.0.0.1 nothing listens on, from this worker's block, never the last one drawn.
+
+    A port drawn by binding port 0 comes from the ephemeral range, which the kernel also
+    hands to outgoing connections: one made between the draw and the server's bind took
+    the port (a CI flake). The blocks stay under that range; a port in use (a service, a
+    socket in TIME_WAIT) is skipped.
+    """
+    first = _PORTS_FROM + (_worker() % _BLOCKS) * _BLOCK
+    for _ in range(_BLOCK):
+        port = first + _drawn["next"] % _BLOCK
+        _drawn["next"] += 1
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return port
+    raise RuntimeError(f"no free port in {first}-{first + _BLOCK - 1}")
 
 
 def kill_group(process: subprocess.Popen[bytes]) -> None:
