@@ -9,11 +9,14 @@ a time, optionally of one action, one actor, one plan, from a time on
 from __future__ import annotations
 
 import json
+import re
 import shlex
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.console import Console
+from rich.console import Console, ConsoleOptions, RenderResult
+from rich.padding import Padding
+from rich.segment import Segment
 from rich.text import Text
 
 from api.cli.common import DbOption, again_db, emit, engine_of, errors, say_command
@@ -71,7 +74,7 @@ def audit(
     if as_json:
         emit(page)
     else:
-        _out.print(_table(page["entries"]))
+        _out.print(_Entries(page["entries"]))
     if page["next_cursor"] is not None:
         again = [("--action", action), ("--actor", actor), ("--since", since), ("--plan", plan)]
         kept = "".join(f" {name} {shlex.quote(value)}" for name, value in again if value)
@@ -92,32 +95,52 @@ def _plan_id(engine: Engine, plan: str) -> int:
 
 #: The longest actor, action, target or result word the audit table keeps on one line.
 NAME_KEPT = 24
+#: Where an entry's detail starts, under its row.
+DETAIL_INDENT = 4
+#: The first line of an entry's row: its time (the ``at`` column's date, never folded).
+_ROW = re.compile(r"\d{4}-\d\d-\d\d ")
+
+
+class _Entries:
+    """The entries' table (when, who, what, on what, the result), each one's detail under it.
+
+    The detail is as wide as the console: it is the longest cell (a refusal's message, a wrong
+    key's window), and as a sixth column it had 15 of 80 columns, a refusal 11 lines. Text as
+    stored, never markup.
+    """
+
+    def __init__(self, entries: list[dict[str, Any]]) -> None:
+        self.entries = entries
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        lines = console.render_lines(_table(self.entries), options, pad=False)
+        plain = ["".join(segment.text for segment in line) for line in lines]
+        rows = [i for i, text in enumerate(plain) if _ROW.match(text)]
+        for line in lines[: rows[0] if rows else len(lines)]:  # the title, headings, rule
+            yield from (*line, Segment.line())
+        for entry, first, last in zip(self.entries, rows, [*rows[1:], len(lines)], strict=True):
+            for line in lines[first:last]:
+                yield from (*line, Segment.line())
+            detail = _detail(entry["detail"])
+            if detail:
+                yield Padding(Text(detail, overflow="fold"), (0, 0, 0, DETAIL_INDENT))
 
 
 def _table(entries: list[dict[str, Any]]) -> Any:
-    """The entries as a table (text as stored, never markup)."""
-    table = new_table("at (UTC)", "actor", "action", "target", "result", "detail", title="audit")
-    for column, key in zip(
-        table.columns[1:5], ("actor", "action", "target", "result"), strict=True
-    ):
-        # a name is kept whole (up to NAME_KEPT): a narrow console folds the detail first,
+    """The entries' rows without their detail (text as stored, never markup)."""
+    table = new_table("at (UTC)", "actor", "action", "target", "result", title="audit")
+    # the time on one line, folded as late as the headings: the rows are scanned by it
+    free_text(table.columns[0], kept=len("2026-12-05 01:37:39"))
+    for column, key in zip(table.columns[1:], ("actor", "action", "target", "result"), strict=True):
+        # a name is kept whole (up to NAME_KEPT): a narrow console folds the longest first,
         # where "cli:roo" / "t" and "ivester" / "-demo-p" / "art" could not be read or grepped
         words = [len(word) for entry in entries for word in str(entry[key]).split()]
         column.min_width = min(max(words, default=0), NAME_KEPT)
         free_text(column)  # a name's digit (plan-7, /api/v1/...) makes no number: kept so
-    # the detail keeps its numbers whole (1796389920.0,), and its keys (window_start_s:) but
-    # where the names are folded to their headings' width
-    keys = [len(key) + 1 for e in entries if isinstance(e["detail"], dict) for key in e["detail"]]
-    free_text(table.columns[5], kept=max(keys, default=0))
     for entry in entries:
-        detail = entry["detail"]
         table.add_row(
             entry["at"].strftime("%Y-%m-%d %H:%M:%S"),
-            Text(entry["actor"]),
-            Text(entry["action"]),
-            Text(entry["target"]),
-            Text(entry["result"]),
-            Text(_detail(detail)),
+            *(Text(entry[key]) for key in ("actor", "action", "target", "result")),
         )
     return table
 

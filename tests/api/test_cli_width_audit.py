@@ -5,7 +5,8 @@ Before: a 24-character plan name in the target column and an authentication fail
 ``5440.0`` / ``,``, ``window`` / ``_start`` / ``_s:``. A route's path as the action
 (``POST /api/v1/plans/{plan_id}/parts``, its ``v1`` a digit: "a number, never folded") made
 the table wider than the console, and rich cut its right edge off: ``ref`` of ``refused``, and
-no detail at all.
+no detail at all. Then the detail, a sixth column, had 15 of 80 columns and a refusal took
+11 lines: it is now on the lines under its entry's row, as wide as the console.
 """
 
 from __future__ import annotations
@@ -64,8 +65,7 @@ def test_the_audit_table_keeps_numbers_keys_and_headings_whole_at_80_columns(aud
     assert done.returncode == 0, done.stderr
     fits(done.stdout)
     assert headings(done.stdout) == ["audit", "at", "(UTC)", "actor", "action", "target"] + [
-        "result",
-        "detail",
+        "result"
     ]
     entries = json.loads(rcb("audit", "--db", audited, "--json").stdout)["entries"]
     shown = words(done.stdout)
@@ -95,3 +95,22 @@ def test_a_narrower_audit_table_folds_names_not_numbers(audited, columns):
     assert {"1796395440.0,", "60.0", "127.0.0.1,"} <= told, done.stdout
     dates = re.findall(r"^\d{4}-\d\d-\d\d ", done.stdout, re.M)
     assert len(dates) == len(json.loads(rcb("audit", "--db", audited, "--json").stdout)["entries"])
+
+
+def test_each_entry_is_its_row_and_its_detail_under_it_at_80_columns(audited):
+    done = rcb("audit", "--db", audited)
+    assert done.returncode == 0, done.stderr
+    entries = json.loads(rcb("audit", "--db", audited, "--json").stdout)["entries"]
+    lines = done.stdout.splitlines()
+    rows = [i for i, line in enumerate(lines) if re.match(r"\d{4}-\d\d-\d\d \d\d:", line)]
+    assert len(rows) == len(entries), done.stdout  # each row's date and time on one line
+    for entry, first, end in zip(entries, rows, [*rows[1:], len(lines)], strict=True):
+        assert entry["at"][:19].replace("T", " ") in lines[first]
+        folded = [line for line in lines[first + 1 : end] if line.startswith(" " * 21)]
+        under = lines[first + 1 + len(folded) : end]  # a long name's fold, then the detail
+        assert all(re.match(r" {4}\S", line) for line in under), under
+        detail = entry["detail"] or {}
+        told = {json.dumps(v) if not isinstance(v, str) else v for v in detail.values() if v}
+        shown = " ".join(" ".join(line.split()) for line in under)
+        assert all(value in shown for value in told), (told, shown)
+        assert len(under) <= 3, under  # a refusal's message took 11 lines in a sixth column
