@@ -9,7 +9,6 @@ a time, optionally of one action, one actor, one plan, from a time on
 from __future__ import annotations
 
 import json
-import re
 import shlex
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -97,8 +96,6 @@ def _plan_id(engine: Engine, plan: str) -> int:
 NAME_KEPT = 24
 #: Where an entry's detail starts, under its row.
 DETAIL_INDENT = 4
-#: The first line of an entry's row: its time (the ``at`` column's date, never folded).
-_ROW = re.compile(r"\d{4}-\d\d-\d\d ")
 
 
 class _Entries:
@@ -106,7 +103,10 @@ class _Entries:
 
     The detail is as wide as the console: it is the longest cell (a refusal's message, a wrong
     key's window), and as a sixth column it had 15 of 80 columns, a refusal 11 lines. Text as
-    stored, never markup.
+    stored, never markup. The table draws a line between its rows (``show_lines``; blank in
+    its box), so each blank line after the heading rule ends the row above it. A console so
+    narrow that a row's time folds onto a blank line of its own makes more of them than
+    rows: each entry is then a table of its own, unaligned, never an error.
     """
 
     def __init__(self, entries: list[dict[str, Any]]) -> None:
@@ -114,22 +114,40 @@ class _Entries:
 
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         lines = console.render_lines(_table(self.entries), options, pad=False)
-        plain = ["".join(segment.text for segment in line) for line in lines]
-        rows = [i for i, text in enumerate(plain) if _ROW.match(text)]
-        for line in lines[: rows[0] if rows else len(lines)]:  # the title, headings, rule
+        plain = ["".join(segment.text for segment in line).strip() for line in lines]
+        rule = next(i for i, text in enumerate(plain) if text and not text.strip("─"))
+        between = [i for i in range(rule + 1, len(lines)) if not plain[i]]
+        for line in lines[: rule + 1]:  # the title, headings, rule
             yield from (*line, Segment.line())
-        for entry, first, last in zip(self.entries, rows, [*rows[1:], len(lines)], strict=True):
-            for line in lines[first:last]:
+        starts, ends = [rule, *between], [*between, len(lines)]
+        if len(starts) != len(self.entries):
+            rows = [
+                console.render_lines(_table([e], heading=False), options, pad=False)
+                for e in self.entries
+            ]
+            starts, ends = [-1] * len(rows), [len(row) for row in rows]
+        else:
+            rows = [lines] * len(self.entries)
+        for entry, row, first, last in zip(self.entries, rows, starts, ends, strict=True):
+            for line in row[first + 1 : last]:
                 yield from (*line, Segment.line())
             detail = _detail(entry["detail"])
             if detail:
                 yield Padding(Text(detail, overflow="fold"), (0, 0, 0, DETAIL_INDENT))
 
 
-def _table(entries: list[dict[str, Any]]) -> Any:
-    """The entries' rows without their detail (text as stored, never markup)."""
-    table = new_table("at (UTC)", "actor", "action", "target", "result", title="audit")
-    # the time on one line, folded as late as the headings: the rows are scanned by it
+def _table(entries: list[dict[str, Any]], heading: bool = True) -> Any:
+    """The entries' rows without their detail (text as stored, never markup).
+
+    ``heading``: with the title and the headings (else the rows alone).
+    """
+    table = new_table(
+        *("at (UTC)", "actor", "action", "target", "result"),
+        title="audit" if heading else None,
+        show_header=heading,
+        show_lines=True,
+    )
+    # the time on one line, folded as late as the headings (entries are scanned by it)
     free_text(table.columns[0], kept=len("2026-12-05 01:37:39"))
     for column, key in zip(table.columns[1:], ("actor", "action", "target", "result"), strict=True):
         # a name is kept whole (up to NAME_KEPT): a narrow console folds the longest first,

@@ -114,3 +114,19 @@ def test_each_entry_is_its_row_and_its_detail_under_it_at_80_columns(audited):
         shown = " ".join(" ".join(line.split()) for line in under)
         assert all(value in shown for value in told), (told, shown)
         assert len(under) <= 3, under  # a refusal's message took 11 lines in a sixth column
+
+
+def test_a_console_too_narrow_for_a_row_still_shows_every_entry_and_its_detail(audited):
+    """At 12 columns a row's time folds a character a line, its space a blank line of its
+    own: the rows were told apart by their time, then by the blank line between rows, and
+    the command failed with a traceback (zip() of unequal lengths)."""
+    done = rcb("audit", "--db", audited, columns=12)
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr
+    fits(done.stdout, 12)
+    entries = json.loads(rcb("audit", "--db", audited, "--json").stdout)["entries"]
+    # each detail starts under its row with its first key (folded at the 8 columns left)
+    firsts = [f"    {next(iter(e['detail']))}:"[:12] for e in entries if e["detail"]]
+    starts = [line.rstrip() for line in done.stdout.splitlines() if re.match(r" {4}\S", line)]
+    assert all(first in starts for first in firsts), (firsts, starts)
+    assert {"reason:", "error:"} <= set(done.stdout.split()), done.stdout
