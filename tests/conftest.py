@@ -25,7 +25,7 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session
 from typer.testing import CliRunner
 
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.plans import get_plan_row
 from db.state import load_state
 from db.state_cache import CACHE, database_key
@@ -33,6 +33,7 @@ from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.rcb.state import RcbState
 
 from live import LiveServer
+from migrated import migrated
 
 if TYPE_CHECKING:
     from scale_support import Copied, PostgresCopied
@@ -246,7 +247,7 @@ def backend_url(request, tmp_path) -> str:
 @pytest.fixture
 def engine(backend_url):
     """A migrated database on each backend, as an engine."""
-    upgrade(backend_url)
+    migrated(backend_url)
     engine = make_engine(backend_url)
     yield engine
     engine.dispose()
@@ -256,7 +257,7 @@ def engine(backend_url):
 def sqlite_engine(tmp_path) -> Iterator[Engine]:
     """A migrated SQLite database, as an engine (for SQLite's own query plans and hooks)."""
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     made = make_engine(url)
     yield made
     made.dispose()

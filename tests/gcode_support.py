@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 from api.services import read as queries
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from supervisor.gcode import (
     GcodeError,
     OperationSetpoint,
@@ -30,6 +30,7 @@ from supervisor.gcode import (
 )
 
 from conftest import DEMO_PLAN, ROOT
+from migrated import migrated
 
 DATA = ROOT / "tests" / "data" / "gcode"
 
@@ -93,7 +94,7 @@ def _app() -> typer.Typer:
 def store_demo_plan(tmp_path_factory) -> tuple[str, int, dict]:
     """The demonstration plan in a new SQLite database: URL, plan id, setpoints in force."""
     url = f"sqlite:///{tmp_path_factory.mktemp('gcode') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     body = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
     plan_id = create_plan(engine=engine, body=body).body["id"]

@@ -15,13 +15,14 @@ from api.rest.schemas.parts import parse_report
 from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from supervisor.inputs.plan import plan_from_mapping
 from supervisor.rcb.update import start, update
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
 from conftest import DEMO_PLAN
+from migrated import migrated
 
 BODY = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 PARTS = 10
@@ -58,7 +59,7 @@ def stored_demo(folder: Path, parts: int) -> tuple[str, Engine, int]:
     """A SQLite database in ``folder`` with the demonstration plan and ``parts`` parts reported:
     its URL, an engine on it (the caller disposes of it) and the plan's id."""
     url = f"sqlite:///{folder / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     for body in _reports(parts):

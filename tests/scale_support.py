@@ -32,8 +32,10 @@ from test_service import BODY, _reports
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from supervisor.rcb.state import RcbSettings
+
+from migrated import migrated
 
 #: The plan's id in each database (the first and only plan).
 PLAN_ID = 1
@@ -76,7 +78,7 @@ def _build(folder: Path, strategy: str | None) -> None:
     counts = SNAPSHOTS[strategy]
     work = folder / "work.db"
     url = f"sqlite:///{work}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     settings = settings_of(strategy)
     bodies, _ = _reports(max(counts), settings=settings)
@@ -125,7 +127,7 @@ def _build_postgres(folder: Path, server: str) -> None:
             names.write_text(f"{work}\n")
             connection.execute(text(f'CREATE DATABASE "{work}"'))
         url = _database(server, work)
-        upgrade(url)
+        migrated(url)
         settings = settings_of("bayes")
         bodies, _ = _reports(max(POSTGRES_SNAPSHOTS), settings=settings)
         done = 0

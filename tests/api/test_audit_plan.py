@@ -21,8 +21,10 @@ from api.services.idempotency import Idempotency
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import audit
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.errors import ConflictError
+
+from migrated import migrated
 
 #: The machine of the example plan.
 MACHINE = BODY["machine"]["name"]
@@ -39,7 +41,7 @@ def _seen(entries: list[dict]) -> list[tuple]:
 
 
 def test_a_plans_history_by_id_and_by_name(runner, backend_url):
-    upgrade(backend_url)
+    migrated(backend_url)
     engine = make_engine(backend_url)
     first = create_plan(engine=engine, body=BODY).body["id"]
     second = create_plan(engine=engine, body={**BODY, "name": "second-bar"}).body["id"]
@@ -93,7 +95,7 @@ def test_a_plans_history_by_id_and_by_name(runner, backend_url):
 def test_an_id_only_the_audit_log_names_is_kept(runner, backend_url):
     """No command deletes a plan, but the log's plan_id is no foreign key: its entries stay
     readable by the id of a plan the database no longer has."""
-    upgrade(backend_url)
+    migrated(backend_url)
     engine = make_engine(backend_url)
     with Session(engine) as session, session.begin():
         audit.audit(session=session, actor="rcb", action="create plan", target="plan 77",
@@ -112,7 +114,7 @@ def test_an_id_only_the_audit_log_names_is_kept(runner, backend_url):
 )
 def test_an_unknown_plan_name_is_one_line_naming_the_option(runner, tmp_path, command):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     done = runner.invoke(app, [*command, "--db", url, "--plan", "no-such-plan"])
     assert done.exit_code == 2
     assert done.stderr.startswith("rcb: error: --plan = 'no-such-plan': no plan named")
@@ -122,7 +124,7 @@ def test_an_unknown_plan_name_is_one_line_naming_the_option(runner, tmp_path, co
 def test_a_plans_history_lists_its_machines_fleet_entries_and_no_other_machines(
     runner, backend_url
 ):
-    upgrade(backend_url)
+    migrated(backend_url)
     engine = make_engine(backend_url)
     mine = create_plan(engine=engine, body=BODY).body["id"]
     other = {**BODY, "name": "other-bar", "machine": {**BODY["machine"], "name": "lathe-z"}}

@@ -23,9 +23,10 @@ from api.services.audit_log import audit_page, query_of
 from api.services.since import since_of
 from db import audit
 from db.audit_read import AuditQuery
-from db.engine import make_engine, reader, upgrade
+from db.engine import make_engine, reader
 
 from conftest import ROOT, engine_url, invoke
+from migrated import migrated
 
 PLAN = ROOT / "examples" / "ivester_demo_part.toml"
 #: A fixed moment the seeded entries are dated from.
@@ -126,7 +127,7 @@ def test_pages_chain_to_the_whole_log_with_ties_on_both_backends(engine):
 @pytest.fixture(scope="module")
 def sqlite_engine(tmp_path_factory):
     url = f"sqlite:///{tmp_path_factory.mktemp('audit') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     yield engine
     engine.dispose()
@@ -185,7 +186,7 @@ def test_since_with_an_offset_selects_by_the_utc_time(engine):
 )
 def test_bad_options_are_one_line_naming_the_option(runner, tmp_path, args, named):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     done = invoke(runner, "audit", "--db", url, *args)
     assert done.exit_code == 2
     assert named in done.stderr and len(done.stderr.strip().splitlines()) == 1

@@ -20,7 +20,9 @@ from api.cli.main import app
 from api.cli.who import MAX_NAME, os_user
 from api.services.plans import create_plan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
+
+from migrated import migrated
 
 LIMIT = ["--limit", "rough-od.force_N=2200"]
 
@@ -40,7 +42,7 @@ def _audit(url: str) -> list[tuple[str, str, str]]:
 @pytest.fixture
 def plan_db(backend_url) -> tuple[str, int]:
     """A migrated database holding the test plan: its URL and the plan's id."""
-    upgrade(backend_url)
+    migrated(backend_url)
     engine = make_engine(backend_url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     engine.dispose()

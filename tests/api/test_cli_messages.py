@@ -22,16 +22,17 @@ from api.cli.main import app
 from api.cli.plans import settings_text
 from api.rest.app import create_app
 from db.api_keys import create_key
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import DEMO_PLAN, invoke
+from migrated import migrated
 
 
 @pytest.fixture(scope="module")
 def url(tmp_path_factory) -> str:
     """A SQLite database holding the demonstration plan as plan 1."""
     url = f"sqlite:///{tmp_path_factory.mktemp('messages') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     done = CliRunner().invoke(app, ["plans", "create", str(DEMO_PLAN), "--db", url])
     assert done.exit_code == 0, done.stderr
     return url

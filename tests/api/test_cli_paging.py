@@ -14,8 +14,10 @@ from api.cli.main import app
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from supervisor.rcb.state import RcbSettings
+
+from migrated import migrated
 
 #: Tables that grow with the plan's life.
 GROWING = ("parts", "measurements", "rcb_decisions", "setpoint_versions", "setpoints")
@@ -24,7 +26,7 @@ GROWING = ("parts", "measurements", "rcb_decisions", "setpoint_versions", "setpo
 @pytest.fixture(scope="module")
 def stored(tmp_path_factory):
     url = f"sqlite:///{tmp_path_factory.mktemp('paging') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     bayes = RcbSettings("bayes")  # a setpoint version per part
     plan_id = create_plan(engine=engine, body=BODY, settings=bayes).body["id"]
@@ -169,7 +171,7 @@ def test_parts_of_a_plan_without_parts_say_so(runner, tmp_path, args):
     """``rcb parts`` of a plan no part was reported to: a line saying so (it printed nothing,
     and with ``--last`` a traceback: a new user's and an integrator's review, 2026-12-02)."""
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     create_plan(engine=engine, body=BODY)
     engine.dispose()

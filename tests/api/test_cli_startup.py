@@ -17,9 +17,10 @@ import tomllib
 import pytest
 
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import DEMO_PLAN, ROOT
+from migrated import migrated
 
 #: What ``rcb --help`` must not load: the solvers, the numerics, the database and web stacks.
 LAZY = (
@@ -98,7 +99,7 @@ def test_demo_still_imports_what_it_uses(tmp_path):
 def one_plan(tmp_path_factory) -> str:
     """A migrated SQLite database holding the demonstration plan (id 1), as a URL."""
     url = f"sqlite:///{tmp_path_factory.mktemp('startup') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     create_plan(engine=engine, body=tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8")))
     engine.dispose()

@@ -25,9 +25,10 @@ from api.rest import problems
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import ROOT
+from migrated import migrated
 
 EXAMPLES = ROOT / "examples"
 CSV = ROOT / "tests" / "data"
@@ -78,7 +79,7 @@ def words(stdout: str) -> set[str]:
 def db(tmp_path_factory) -> str:
     """A SQLite database with the demonstration plan and four parts reported."""
     url = f"sqlite:///{tmp_path_factory.mktemp('width') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     for body in _reports(4)[0]:
@@ -342,7 +343,7 @@ def test_report_says_what_it_wrote_within_80_columns(db, tmp_path):
 def test_db_prune_says_what_it_deleted_within_80_columns(tmp_path):
     """Before: one line of 84 columns."""
     url = f"sqlite:///{tmp_path / 'prune.db'}"
-    upgrade(url)
+    migrated(url)
     done = rcb("db", "prune", "--db", url)
     assert done.returncode == 0, done.stderr
     told = " ".join(line.strip() for line in _within(done.stderr))
@@ -379,7 +380,7 @@ def test_the_audit_table_keeps_names_whole_and_folds_the_detail(tmp_path):
     ``-demo-p`` / ``art``; a detail's path with digits (``operations[0].bounds...``) was kept
     whole as if a number, and the names were folded to make room for it."""
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     engine.dispose()

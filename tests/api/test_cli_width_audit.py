@@ -19,9 +19,10 @@ from sqlalchemy.orm import Session
 from test_cli_width import fits, headings, rcb, words
 
 from db import audit_windows
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import DEMO_PLAN
+from migrated import migrated
 
 #: A plan's name of 24 characters, as the audit table keeps one whole (api/cli/audit.py).
 NAME = "ivester-demo-part-lot-07"
@@ -32,7 +33,7 @@ def audited(tmp_path_factory) -> str:
     """A database whose audit log has a plan, a key, a replan, a refusal, a wrong key."""
     where = tmp_path_factory.mktemp("audit-width")
     url = f"sqlite:///{where / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     text = DEMO_PLAN.read_text(encoding="utf-8")
     plan = where / "plan.toml"
     plan.write_text(text.replace('name = "ivester-demo-part"', f'name = "{NAME}"', 1))

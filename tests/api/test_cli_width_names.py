@@ -10,9 +10,8 @@ from __future__ import annotations
 import pytest
 from test_cli_width import fits, headings, rcb, words
 
-from db.engine import upgrade
-
 from conftest import ROOT
+from migrated import migrated
 
 PLAN = "milling-demo-part-for-the-customer-acme-precision-gmbh-lot-07"
 TOOL = "SANDVIK-CoroMill-390-R390-11T308M-PM-1030-D10mm"
@@ -23,7 +22,7 @@ def named(tmp_path_factory) -> str:
     """A database with the end-mill plan under :data:`PLAN`, its tool named :data:`TOOL`."""
     where = tmp_path_factory.mktemp("names-width")
     url = f"sqlite:///{where / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     text = (ROOT / "examples" / "milling_demo_part.toml").read_text(encoding="utf-8")
     assert text.count('name = "milling-demo-part"') == 1
     plan = where / "plan.toml"
@@ -64,7 +63,7 @@ def test_a_long_plan_name_in_a_table_title_is_not_folded(tmp_path) -> None:
     name mid-word (``...-gmbh-l`` / ``ot-07: setpoint version 1``); the table is now at
     least as wide as the title's longest word."""
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     text = (ROOT / "examples" / "milling_demo_part.toml").read_text(encoding="utf-8")
     plan = tmp_path / "plan.toml"
     plan.write_text(text.replace('name = "milling-demo-part"', f'name = "{PLAN}"'), "utf-8")

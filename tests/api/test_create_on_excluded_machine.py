@@ -15,9 +15,9 @@ from pathlib import Path
 from test_service import BODY
 
 from api.cli.main import app
-from db.engine import upgrade
 
 from conftest import renamed
+from migrated import migrated
 
 MACHINE = BODY["machine"]["name"]
 WIDTH = 80
@@ -46,7 +46,7 @@ def _create(runner, url: str, path: str, *args: str):
 
 def test_rcb_plans_create_on_an_excluded_machine_says_so(runner, tmp_path):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     first = _create(runner, url, _plan_file(tmp_path, BODY))
     assert "fleet" not in first.stderr  # in the fleet (no part yet): nothing said
     assert (

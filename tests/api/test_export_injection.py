@@ -21,7 +21,9 @@ from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
+
+from migrated import migrated
 
 #: Serials a spreadsheet would run: OWASP's examples and one per starting character.
 HOSTILE = [
@@ -39,7 +41,7 @@ FILES = ("parts", "measurements", "decisions", "setpoints")
 def exported(tmp_path_factory):
     root = tmp_path_factory.mktemp("inject")
     url = f"sqlite:///{root / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, _ = _reports(len(HOSTILE) + len(STORED_RAW))

@@ -28,8 +28,10 @@ from api.services.plans import create_plan
 from api.services.read import history as read_history
 from api.services.read import plan_parts as read_parts
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from supervisor.rcb.state import RcbSettings
+
+from migrated import migrated
 
 PARTS = 30
 NOTE = "=checked the insert"  # a formula cell too: neutralised in csv, kept in parquet
@@ -39,7 +41,7 @@ NOTE = "=checked the insert"  # a formula cell too: neutralised in csv, kept in 
 def stored(tmp_path_factory):
     root = tmp_path_factory.mktemp("export_pages")
     url = f"sqlite:///{root / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     bayes = RcbSettings("bayes")  # a setpoint version per part: 31 versions
     plan_id = create_plan(engine=engine, body=BODY, settings=bayes).body["id"]

@@ -22,9 +22,10 @@ from api.cli.fleet import _print_filled
 from api.cli.main import app
 from api.services.fleet_models import export_tool, import_tool
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import engine_url, invoke
+from migrated import migrated
 
 COLUMNS = {"COLUMNS": "80"}
 
@@ -91,7 +92,7 @@ def test_fleet_show_of_imported_models_only_fits_80_columns(engine, runner, tmp_
     _learned(engine, "fleet-a", 0, 2)
     _learned(engine, "fleet-b", 1, 2)
     url = f"sqlite:///{tmp_path / 'plant2.db'}"
-    upgrade(url)
+    migrated(url)
     plant2 = make_engine(url)
     import_tool(engine=plant2, data=export_tool(engine=engine, tool="CNMG432RN"), source="a.json")
     with Session(plant2) as session:

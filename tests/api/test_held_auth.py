@@ -23,15 +23,16 @@ from api.services.keys import create_key
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import DEMO_PLAN, engine_url, report_at
+from migrated import migrated
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
 
 def _setup(url):
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     key = create_key(engine=engine, role="mes")["key"]
     viewer = create_key(engine=engine, role="viewer")["key"]

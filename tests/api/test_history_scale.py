@@ -18,6 +18,7 @@ from db import tables as t
 from db.engine import reader
 
 from conftest import renamed, report_at
+from migrated import migrated
 
 #: Tables whose rows grow with the plan's life: a page may seek in them, never scan them.
 HISTORY_TABLES = ("operation_model_versions", "setpoint_versions", "setpoints", "parts")
@@ -247,10 +248,10 @@ def test_the_report_lists_the_newest_200_versions_and_summarises_older_ones(tmp_
     import xml.etree.ElementTree as ET
 
     from api.report.html import render_html_report
-    from db.engine import make_engine, upgrade
+    from db.engine import make_engine
 
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     plan = queries.get_plan(engine=engine, plan_id=plan_id)

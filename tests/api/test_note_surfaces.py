@@ -34,13 +34,14 @@ from api.services import parts as part_service
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from api.services.read import record
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.state_cache import CACHE
 from supervisor.rcb.decision import Decision
 from supervisor.rcb.state import Halt, HaltedOperation, RcbSettings, RcbState
 
 from conftest import DEMO_PLAN, ROOT, renamed, report_at, stored_state
 from live import RCB, LiveServer
+from migrated import migrated
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 #: The halt the gross-breach rule hands over (issue 27): no conflicts, the reading named.
@@ -89,7 +90,7 @@ def _gross(before, after, decisions):
 
 def _stored_plan(url: str) -> dict[str, Any]:
     """A plan with three parts: an implausible_low, a regime_change, a gross-breach halt."""
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     try:
         created = create_plan(engine=engine, body=PLAN, settings=RcbSettings("ivester")).body

@@ -17,9 +17,10 @@ from fastapi.routing import APIRoute
 
 from api.rest.app import create_app
 from api.rest.schemas.parts import MEASURABLE
-from db.engine import upgrade
 from models.kinematics import PARAMETERS
 from models.quantities import QUANTITIES
+
+from migrated import migrated
 
 #: Per operation, every status it declares (issue 30: what each route can answer, no more).
 #: 400 on every operation: a request the HTTP parser refuses (api.rest.heads), before any route
@@ -50,7 +51,7 @@ PROBLEM = {"$ref": "#/components/schemas/Problem"}
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     url = f"sqlite:///{tmp_path_factory.mktemp('openapi') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     return create_app(url)
 
 

@@ -24,7 +24,7 @@ from api.rest.schemas.setpoints import OperationSetpoint
 from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.plans import get_plan_row
 from db.state import load_state
 from supervisor.inputs.part_report import Measurement, PartReport
@@ -35,6 +35,8 @@ from supervisor.rcb.state import RcbSettings
 from supervisor.rcb.update import start, update
 from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
+
+from migrated import migrated
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TURNING = EXAMPLES / "turning_passes_part.toml"
@@ -92,7 +94,7 @@ def test_passes_survive_the_database_and_match_the_rest_schema(tmp_path):
     body = tomllib.loads(TURNING.read_text(encoding="utf-8"))
     PlanIn.model_validate(body)  # the REST body accepts stock_mm and finish
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     try:
         settings_ = RcbSettings("ivester")

@@ -19,6 +19,7 @@ from db.engine import make_engine, upgrade
 from db.tables import utcnow
 
 from conftest import DEMO_PLAN
+from migrated import migrated
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 NAME = PLAN["name"]
@@ -37,7 +38,7 @@ def _one_line_error(result, *words):
 
 
 def test_create_show_list_and_history_by_name(runner, backend_url, tmp_path):
-    upgrade(backend_url)
+    migrated(backend_url)
     created = _rcb(runner, "plans", "create", DEMO_PLAN, "--db", backend_url, "--json")
     assert created.exit_code == 0, created.output
     plan = json.loads(created.stdout)
@@ -82,7 +83,7 @@ def test_create_show_list_and_history_by_name(runner, backend_url, tmp_path):
 
 def test_digit_names_bad_files_and_misplaced_options_one_line(runner, tmp_path):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     digits = tmp_path / "digits.json"
     digits.write_text(json.dumps({**PLAN, "name": "4711"}), encoding="utf-8")
     _one_line_error(_rcb(runner, "plans", "create", digits, "--db", url), "name", "only digits")
@@ -147,7 +148,7 @@ def test_migration_0011_renames_later_duplicates(backend_url):
                 {"name": name, "now": utcnow()},
             )
     engine.dispose()
-    upgrade(backend_url)
+    migrated(backend_url)
     engine = make_engine(backend_url)
     with engine.connect() as connection:
         rows = connection.execute(text("SELECT id, name FROM plans ORDER BY id")).all()

@@ -20,10 +20,10 @@ from api.rest.app import create_app
 from api.rest.schemas.common import PATTERN_WORDS
 from api.rest.schemas.parts import parse_report
 from api.services.keys import create_key
-from db.engine import upgrade
 from models.errors import InputError
 
 from conftest import DEMO_PLAN, report_at
+from migrated import migrated
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 #: pydantic's wording, none of which a problem may carry.
@@ -40,7 +40,7 @@ FORCE_FIELD = "operations[0].measurements.force_N"
 def service(tmp_path_factory):
     """A client of the app on SQLite, its keys by role, and a plan's first setpoints."""
     url = f"sqlite:///{tmp_path_factory.mktemp('wording')}/rcb.db"
-    upgrade(url)
+    migrated(url)
     app = create_app(url)
     engine = app.state.engine
     keys = {r: create_key(engine=engine, role=r)["key"] for r in ("engineer", "mes", "viewer")}

@@ -15,11 +15,13 @@ from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.plans import get_plan_row
 from db.state import load_state
 from supervisor.errors import InfeasibleError
 from supervisor.rcb.state import RcbSettings
+
+from migrated import migrated
 
 
 def _count(engine, table):
@@ -164,7 +166,7 @@ def test_replan_over_rest(server):
 def _replan_args(tmp_path) -> tuple[str, list[str]]:  # type: ignore[no-untyped-def]
     """A database with the demonstration plan, and ``rcb replan``'s first arguments on it."""
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     engine.dispose()

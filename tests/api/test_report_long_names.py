@@ -26,9 +26,10 @@ from api.services.parts import report_part
 from api.services.plans import create_plan
 from api.services.read.record import HISTORY_ROWS, report_record
 from api.services.read.setpoints import current_setpoints
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from conftest import report_at
+from migrated import migrated
 
 NAME = "customer-4711-hydraulic-cylinder-piston-rod-end-fitting-revision-C-second-setup-long"
 MACHINE = "okuma-genos-l3000-e-mw-cell-7-bay-north-22kW-lathe"
@@ -55,7 +56,7 @@ def _report(engine, plan_id: int, serial: str, fraction: float) -> None:
 @pytest.fixture(scope="module")
 def long_page(tmp_path_factory) -> str:
     url = f"sqlite:///{tmp_path_factory.mktemp('long') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     try:
         plan_id = create_plan(engine=engine, body=_long_body()).body["id"]

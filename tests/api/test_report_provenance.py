@@ -30,7 +30,9 @@ from api.report.series import Output
 from api.report.svg import to_svg
 from api.services.plans import create_plan
 from api.services.read import get_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
+
+from migrated import migrated
 
 SVG = "{http://www.w3.org/2000/svg}"
 
@@ -152,7 +154,7 @@ def test_the_next_parts_prediction_and_band_are_drawn(parts: int) -> None:
 def fleet(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict[str, Any], Path]:
     folder = tmp_path_factory.mktemp("fleet")
     url = f"sqlite:///{folder / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     try:
         _learned(engine, "fleet-a", 0, 12)
@@ -281,7 +283,7 @@ def test_plans_show_names_the_operations_that_start_from_the_catalogue(
 
     url, _, _ = fleet
     first, second = make_engine(url), f"sqlite:///{tmp_path / 'plant2.db'}"
-    upgrade(second)
+    migrated(second)
     engine = make_engine(second)
     try:
         import_tool(

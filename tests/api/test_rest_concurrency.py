@@ -27,11 +27,12 @@ from api.services import read as queries
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from supervisor.rcb.state import RcbSettings
 
 from conftest import DEMO_PLAN, report_at
 from live import LiveServer
+from migrated import migrated
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 DECISIONS_PER_PART = 2 * len(PLAN["operations"])  # force_N and roughness_um on 6 operations
@@ -170,7 +171,7 @@ def _check_log(live: LiveServer) -> None:
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory) -> Reference:
     url = f"sqlite:///{tmp_path_factory.mktemp('reference') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     try:
         plan_id = create_plan(engine=engine, body=PLAN, settings=RcbSettings("ivester")).body["id"]

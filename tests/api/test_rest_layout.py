@@ -13,10 +13,11 @@ from api.rest.app import create_app
 from api.rest.routes import health, parts, plans, review, tools
 from api.rest.schemas.plans import MachineIn
 from api.settings import DATABASE_URL_VAR, Settings, database_url
-from db.engine import DEFAULT_URL, upgrade
+from db.engine import DEFAULT_URL
 from models.quantities import DERIVED_QUANTITIES
 
 from conftest import ROOT
+from migrated import migrated
 
 #: The operations of the contract: method, path and operation id (named on each route, short
 #: and stable: a generated client's method names; issue 30).
@@ -46,7 +47,7 @@ OPERATIONS = {
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     url = f"sqlite:///{tmp_path_factory.mktemp('layout') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     return create_app(url)
 
 

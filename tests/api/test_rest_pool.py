@@ -28,7 +28,7 @@ from api.rest.unavailable import unavailable
 from db.engine import Pool, make_engine
 
 from conftest import report_at, step1_plan
-from live import LiveServer
+from live import LOOPBACK_TLS, LiveServer
 
 INSTANCES, WORKERS, CLIENTS, REPORTS = 2, 2, 120, 2
 #: Bounds of the load test: every request, every client's retries, the whole burst [s].
@@ -91,7 +91,9 @@ def test_a_burst_of_120_clients_on_2_instances_is_201_or_503(empty_postgres, tmp
         def client(n: int) -> None:
             live = servers[n % INSTANCES]
             headers = {"Authorization": f"Bearer {live.keys['mes']}"}
-            with httpx.Client(base_url=live.base, headers=headers, timeout=REQUEST_S) as c:
+            with httpx.Client(
+                base_url=live.base, headers=headers, timeout=REQUEST_S, verify=LOOPBACK_TLS
+            ) as c:
                 start.wait()
                 for k in range(REPORTS):
                     serial, key = f"S{n}-{k}", uuid.uuid4().hex

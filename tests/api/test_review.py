@@ -12,13 +12,15 @@ from api.cli.main import app
 from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
+
+from migrated import migrated
 
 
 @pytest.fixture(scope="module")
 def stored(tmp_path_factory):
     url = f"sqlite:///{tmp_path_factory.mktemp('review') / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     plan_id = create_plan(engine=engine, body=BODY).body["id"]
     bodies, state = _reports(4)

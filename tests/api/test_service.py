@@ -14,7 +14,7 @@ from api.services import read as queries
 from api.services.errors import NotFoundError
 from api.services.parts import report_part
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.errors import ConflictError
 from db.parts import count_parts
 from db.plans import get_plan_row
@@ -28,6 +28,7 @@ from supervisor.virtual.sampling import sample_machine
 from supervisor.virtual.simulate import run_part
 
 from conftest import DEMO_PLAN
+from migrated import migrated
 
 BODY = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
@@ -38,7 +39,7 @@ def engine(request, tmp_path):
         url = f"sqlite:///{tmp_path / 'rcb.db'}"
     else:
         url = request.getfixturevalue("empty_postgres")
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     yield engine
     engine.dispose()

@@ -42,11 +42,12 @@ from api.services import throttle
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from supervisor.rcb.state import RcbSettings
 
 from conftest import DEMO_PLAN, _fresh_postgres, report_at, stored_state, without_ids
-from live import LiveServer
+from live import LOOPBACK_TLS, LiveServer
+from migrated import migrated
 from pgbouncer_support import ConnectionPeak, pgbouncer
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
@@ -112,7 +113,10 @@ class Group:
         """One MES's clients, an address each, one API key for both (an idempotency key is
         the API key's: with another key a fail-over is 409, not the stored answer)."""
         mes = {"Authorization": f"Bearer {self.servers[0].keys['mes']}"}
-        return [httpx.Client(base_url=s.base, headers=mes, timeout=60.0) for s in self.servers]
+        return [
+            httpx.Client(base_url=s.base, headers=mes, timeout=60.0, verify=LOOPBACK_TLS)
+            for s in self.servers
+        ]
 
     def send(self, clients: list[httpx.Client], first: int, path: str, r: Report) -> httpx.Response:
         headers = {"Idempotency-Key": r.key}
@@ -220,7 +224,7 @@ def _stored(url: str, plan_id: int) -> tuple[dict[str, list[int]], list[int], li
 def _replayed(tmp_path, reports: list[list[Report]], order: list[list[int]]) -> Any:
     """The same reports, per plan in ``order``, into a fresh SQLite database in process."""
     url = f"sqlite:///{tmp_path / 'serial.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     answers, ids = [], []
     for i, (plan_reports, indices) in enumerate(zip(reports, order, strict=True)):

@@ -21,16 +21,16 @@ import pytest
 import uvicorn
 
 from api.rest.app import create_app
-from db.engine import upgrade
 
 from live import free_port
+from migrated import migrated
 
 
 @pytest.fixture
 def failing(tmp_path) -> Iterator[str]:
     """The service on a fresh database with one more route, which fails; its base URL."""
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     app = create_app(url)
 
     @app.post("/api/v1/fails")

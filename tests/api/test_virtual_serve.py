@@ -22,11 +22,12 @@ from pathlib import Path
 import pytest
 
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 
 from collect_support import refused
 from conftest import DEMO_PLAN, ROOT, renamed
 from live import RCB, LiveServer, free_port, stop_group
+from migrated import migrated
 
 PLAN = ROOT / "examples" / "virtual_lathe_part.toml"
 TIMEOUT_S = 120.0
@@ -241,7 +242,7 @@ def test_the_collector_file_names_the_plan_stored_under_the_file_name(tmp_path):
     had stored another plan first was that plan (every part then refused). Now the id is that of
     the plan of the file's name in --db; none stored is refused before anything is served."""
     url = f"sqlite:///{tmp_path / 'shop.db'}"
-    upgrade(url)
+    migrated(url)
     args = ("--protocol", "mtconnect", "--plan", str(PLAN), "--collector", "c.toml", "--db", url)
     said = _refused(tmp_path, *args)
     assert f"--plan = '{PLAN}': no plan named 'virtual-lathe-part'" in said

@@ -23,7 +23,6 @@ from api.services.fleet_models import include_in_fleet
 from api.services.parts import report_part
 from api.services.plans import create_plan, replan
 from db import tables as t
-from db.engine import upgrade
 from db.fleet import fleet_evidence
 from db.fleet_members import members
 from supervisor.fleet.changes import CONFIRM_Z
@@ -31,6 +30,7 @@ from supervisor.virtual.fleet import noise_seed
 from supervisor.virtual.simulate import run_part
 
 from conftest import engine_url, stored_state
+from migrated import migrated
 
 
 def _parts(engine, plan_id: int, serials: range, scale: float = 1.0) -> None:  # type: ignore[no-untyped-def]
@@ -184,6 +184,6 @@ def test_0023_marks_the_changes_0022_had_judged_confirmed(engine) -> None:
     url = engine_url(engine)
     engine.dispose()
     _downgrade(url, "0022")
-    upgrade(url)
+    migrated(url)
     assert _confirmed_flags(engine) == {"fleet-a": True, "b": False}
     _no_difference(url)

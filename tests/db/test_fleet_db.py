@@ -21,7 +21,7 @@ from api.services.fleet_models import export_tool, import_tool
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.fleet import fleet_evidence
 from db.fleet_law import tool_law
 from db.fleet_members import members
@@ -33,6 +33,7 @@ from supervisor.virtual.fleet import noise_seed, sample_fleet
 from supervisor.virtual.simulate import run_part
 
 from conftest import engine_url, stored_state
+from migrated import migrated
 
 LEARN = RcbSettings(strategy="learn")
 
@@ -184,7 +185,7 @@ def test_exported_models_imported_into_a_fresh_database_give_the_same_prior(
     _learned(engine, "fleet-a", 0, 6)
     _learned(engine, "fleet-b", 1, 6)
     url = f"sqlite:///{tmp_path / 'second.db'}"
-    upgrade(url)
+    migrated(url)
     second = make_engine(url)
     tools = sorted({op["tool"] for op in BODY["operations"]})
     for tool in tools:
@@ -246,7 +247,7 @@ def test_rcb_models_export_and_import_at_the_cli(engine, tmp_path, runner) -> No
     assert done.exit_code == 0, done.output
     assert "4 learned models of VCMR331 written" in done.output  # 2 operations x 2 quantities
     second = f"sqlite:///{tmp_path / 'second.db'}"
-    upgrade(second)
+    migrated(second)
     done = runner.invoke(app, ["models", "import", str(out), "--db", second])
     assert done.exit_code == 0
     assert "rcb: 4 learned models stored from vcmr331.json (4 new)" in done.output

@@ -108,15 +108,24 @@ CASES = [
 ]
 
 
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory) -> dict[str, Any]:
+    """The document of a plan that made 2 parts on a plant's SQLite database, once."""
+    first = _second(tmp_path_factory.mktemp("first"), "first")
+    _learned(first, "fleet-a", 0, 2)
+    document = export_tool(engine=first, tool="CNMG432RN")
+    first.dispose()
+    return document
+
+
 @pytest.mark.parametrize(("change", "field", "reason"), CASES)
 def test_a_model_no_plant_learned_is_refused_and_plans_still_start(
-    engine, tmp_path, change, field, reason
+    engine, exported, change, field, reason
 ) -> None:
-    _learned(engine, "fleet-a", 0, 2)
-    document = export_tool(engine=engine, tool="CNMG432RN")
+    """Imported into a second plant's database on each backend: refused, nothing stored."""
+    document, second = copy.deepcopy(exported), engine
     bad = copy.deepcopy(document)
     change(bad["learned"][0])
-    second = _second(tmp_path)
     with pytest.raises(InputError) as refused:
         import_tool(engine=second, data=bad, source="bad.json")
     assert refused.value.field.startswith("document.learned[0].")
@@ -127,14 +136,12 @@ def test_a_model_no_plant_learned_is_refused_and_plans_still_start(
     assert import_tool(engine=second, data=document, source="good.json").body["new"] == 2
     fleet = create_plan(engine=second, body=_body("fleet", "lathe-9"), settings=LEARN).body
     assert fleet["prior"] == "fleet"
-    second.dispose()
 
 
-def test_imports_past_the_machines_a_fleet_prior_reads_are_refused_whole(engine, tmp_path):
+def test_imports_past_the_machines_a_fleet_prior_reads_are_refused_whole(engine, exported):
     """A year's plant (audited): one 62 MB file put a tool's imported models on 1 150 machines,
     and every new plan's fleet prior and ``rcb fleet law`` of the tool then took 35 s."""
-    _learned(engine, "fleet-a", 0, 2)
-    document = export_tool(engine=engine, tool="CNMG432RN")
+    document, second = copy.deepcopy(exported), engine
     item = document["learned"][0]
     many = copy.deepcopy(document)
     many["learned"] = [
@@ -143,7 +150,6 @@ def test_imports_past_the_machines_a_fleet_prior_reads_are_refused_whole(engine,
     ]
     more = copy.deepcopy(many)
     more["learned"][0]["machine"], more["learned"][0]["plan"] = "m-new", "p-new"
-    second = _second(tmp_path)
     assert import_tool(engine=second, data=many, source="many.json").body["new"] == 200
     with pytest.raises(InputError) as refused:  # one machine more, in a second file
         import_tool(engine=second, data=more, source="more.json")
@@ -153,4 +159,3 @@ def test_imports_past_the_machines_a_fleet_prior_reads_are_refused_whole(engine,
     name = f"m-000@{item['origin'][:8]}"
     exclude_from_fleet(engine=second, plan_id=None, machine=name, reason="sold")
     assert import_tool(engine=second, data=more, source="more.json").body["new"] == 1
-    second.dispose()

@@ -26,10 +26,13 @@ from db.identity import database_id
 from db.tables import utcnow
 from models.errors import InputError
 
+from migrated import migrated
+
 
 def _second(tmp_path, name: str = "second"):  # type: ignore[no-untyped-def]
+    """Another plant's database: SQLite at head, an identity of its own."""
     url = f"sqlite:///{tmp_path / f'{name}.db'}"
-    upgrade(url)
+    migrated(url)
     return make_engine(url)
 
 

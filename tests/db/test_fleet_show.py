@@ -14,11 +14,12 @@ from test_fleet_db import LEARN, READS, _body, _executed, _learned
 from api.cli.main import app
 from api.services.fleet_models import exclude_from_fleet
 from api.services.plans import create_plan
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.fleet import fleet_evidence
 from supervisor.rcb.state import RcbSettings
 
 from conftest import engine_url
+from migrated import migrated
 
 
 def _show(runner, url: str, *args: str) -> Any:  # type: ignore[no-untyped-def]
@@ -98,7 +99,7 @@ def test_the_fleet_is_read_by_index_seeks_alone(tmp_path) -> None:
     seeks a tool's operations by the tool alone: that walked every plan that ever used it
     (13 s for a prior over 9 760 plans before 0027, docs/benchmarks.md)."""
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     _learned(engine, "fleet-a", 0, 2)
     _learned(engine, "fleet-b", 1, 2)

@@ -10,13 +10,14 @@ from test_fleet_db import _learned
 from api.cli.main import app
 from api.services.fleet_models import exclude_from_fleet, import_tool
 from api.services.read.fleet import fleet_members
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.fleet import fleet_evidence, local_evidence
 from db.fleet_imported import imported_evidence
 from db.fleet_models import export_models
 from supervisor.fleet.window import PLANS_PER_MACHINE, newest_plans
 
 from conftest import engine_url
+from migrated import migrated
 
 #: Plans of lathe-0 beyond its window, by name, oldest first.
 OLD = ("w-0", "w-1")
@@ -67,7 +68,7 @@ def test_an_export_carries_the_newest_plans_and_an_import_keeps_the_newest(engin
         second = export_models(session=session, tool="VCMR331")
     assert {item["plan"] for item in second["learned"]} == set(names[2:])
     url = f"sqlite:///{tmp_path / 'other.db'}"
-    upgrade(url)
+    migrated(url)
     other = make_engine(url)
     for document in (first, second):
         import_tool(engine=other, data=document, source="plant one")

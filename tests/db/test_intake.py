@@ -16,10 +16,11 @@ from api.services.keys import create_key
 from api.services.plans import create_plan
 from db import idempotency
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.intake import PlanHead, open_report
 
 from conftest import DEMO_PLAN
+from migrated import migrated
 
 PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 
@@ -27,7 +28,7 @@ PLAN = tomllib.loads(DEMO_PLAN.read_text(encoding="utf-8"))
 @pytest.fixture
 def stored(backend_url):
     """A plan at setpoint version 1, an API key, and one answer stored under key "done"."""
-    upgrade(backend_url)
+    migrated(backend_url)
     engine = make_engine(backend_url)
     plan_id = create_plan(engine=engine, body=PLAN).body["id"]
     key_id = create_key(engine=engine, role="mes")["id"]

@@ -23,7 +23,7 @@ from db.engine import MIGRATIONS, make_engine, upgrade
 from db.migrate import migration_lock
 from db.tables import Base
 
-from live import RCB, free_port, stop_group
+from live import LOOPBACK_TLS, RCB, free_port, stop_group
 
 INSTANCES = 3
 #: Seconds for all instances to answer (each imports the solver stack, on 2 shared cores).
@@ -68,7 +68,9 @@ def _start_together(url: str, logs: Path) -> None:
                 log = (logs / f"serve{i}.log").read_text()
                 assert processes[i].poll() is None, f"instance {i} exited: {log[-3000:]}"
                 try:
-                    r = httpx.get(f"http://127.0.0.1:{port}/api/v1/health", timeout=1.0)
+                    r = httpx.get(
+                        f"http://127.0.0.1:{port}/api/v1/health", timeout=1.0, verify=LOOPBACK_TLS
+                    )
                     if r.status_code == 200:
                         del waiting[i]
                 except httpx.HTTPError:

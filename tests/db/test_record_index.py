@@ -22,12 +22,14 @@ from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
-from db.engine import make_engine, upgrade
+from db.engine import make_engine
 from db.read import record
+
+from migrated import migrated
 
 
 def _plans(url: str) -> list[int]:
-    upgrade(url)
+    migrated(url)
     engine = make_engine(url)
     bodies, _ = _reports(4)
     ids = []
