@@ -33,7 +33,7 @@ from supervisor.inputs.resolution import DEFAULT_RESOLUTION
 from supervisor.rcb.state import RcbState
 
 from live import LiveServer
-from migrated import migrated
+from migrated import admin_engine, migrated
 
 if TYPE_CHECKING:
     from scale_support import Copied, PostgresCopied
@@ -225,7 +225,7 @@ def _fresh_postgres() -> Iterator[str]:
     if server is None:
         pytest.skip(postgres_skip_reason())
     name = f"rcb_test_{uuid.uuid4().hex[:12]}"
-    admin = make_engine(server).execution_options(isolation_level="AUTOCOMMIT")
+    admin = admin_engine(server)
     with admin.connect() as connection:
         connection.execute(text(f'CREATE DATABASE "{name}"'))
     try:

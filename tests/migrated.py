@@ -18,11 +18,10 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from sqlalchemy import create_engine, inspect, text
-from sqlalchemy.engine import URL, make_url
-from sqlalchemy.pool import NullPool
+from sqlalchemy import Engine, inspect, text
+from sqlalchemy.engine import make_url
 
-from db.engine import current_revision, upgrade
+from db.engine import make_engine, upgrade
 
 #: Each backend's template in this process: a SQLite path, a PostgreSQL database name.
 _templates: dict[str, str] = {}
@@ -37,44 +36,45 @@ def migrated(url: str) -> None:
     """
     parsed = make_url(url)
     backend = parsed.get_backend_name()
-    if backend == "sqlite" and parsed.database and not _has_tables(url):
+    if backend == "sqlite" and parsed.database and _empty(url):
         _copy_sqlite(Path(parsed.database))
-    elif (
-        backend == "postgresql"
-        and not parsed.query
-        and not _has_tables(url)
-        and not _has_settings(url)
-    ):
+    elif backend == "postgresql" and not parsed.query and _empty(url):
         _copy_postgres(url)
     else:
         upgrade(url)
         return
-    assert current_revision(url) is not None, f"the template did not reach {url}"
+    _new_identity(url)
 
 
-def _has_tables(url: str) -> bool:
-    """Whether the database at ``url`` exists with a table in it."""
+def copy_sqlite(source: Path, target: Path) -> None:
+    """A consistent copy of a SQLite database (WAL included), whatever is connected to it."""
+    with sqlite3.connect(source) as src, sqlite3.connect(target) as dst:
+        src.backup(dst)
+    src.close()
+    dst.close()
+
+
+def admin_engine(server: str) -> Engine:
+    """An engine on the PostgreSQL server's database for ``CREATE`` and ``DROP DATABASE``."""
+    return make_engine(server).execution_options(isolation_level="AUTOCOMMIT")
+
+
+def _empty(url: str) -> bool:
+    """Whether the database at ``url`` has no table, nor (PostgreSQL) settings of its own
+    (``ALTER DATABASE ... SET``), which a copy made from the template would not keep."""
     parsed = make_url(url)
     if parsed.get_backend_name() == "sqlite":
         path = Path(parsed.database or "")
         if not path.exists() or path.stat().st_size == 0:
-            return False
-    engine = create_engine(url, poolclass=NullPool)
+            return True
+    engine = make_engine(url)
     try:
         with engine.connect() as connection:
-            return bool(inspect(connection).get_table_names())
-    finally:
-        engine.dispose()
-
-
-def _has_settings(url: str) -> bool:
-    """Whether the PostgreSQL database at ``url`` has settings of its own (``ALTER DATABASE
-    ... SET``), which a copy made from the template would not keep."""
-    engine = create_engine(url, poolclass=NullPool)
-    try:
-        with engine.connect() as connection:
-            return bool(
-                connection.execute(
+            if inspect(connection).get_table_names():
+                return False
+            return (
+                parsed.get_backend_name() != "postgresql"
+                or not connection.execute(
                     text(
                         "SELECT count(*) FROM pg_db_role_setting s JOIN pg_database d"
                         " ON d.oid = s.setdatabase WHERE d.datname = current_database()"
@@ -85,9 +85,17 @@ def _has_settings(url: str) -> bool:
         engine.dispose()
 
 
-def _new_identity(connection: sqlite3.Connection) -> None:
-    connection.execute("UPDATE database_identity SET uuid = ?", (str(uuid.uuid4()),))
-    connection.commit()
+def _new_identity(url: str) -> None:
+    """The copy's own identity, drawn anew; its one row proves the copy is a migrated one."""
+    engine = make_engine(url)
+    try:
+        with engine.begin() as connection:
+            renewed = connection.execute(
+                text("UPDATE database_identity SET uuid = :uuid"), {"uuid": str(uuid.uuid4())}
+            )
+            assert renewed.rowcount == 1, f"the template did not reach {url}"
+    finally:
+        engine.dispose()
 
 
 def _copy_sqlite(path: Path) -> None:
@@ -98,23 +106,16 @@ def _copy_sqlite(path: Path) -> None:
         template = folder / "template.db"
         upgrade(f"sqlite:///{template}")
         _templates["sqlite"] = str(template)
-    source = sqlite3.connect(_templates["sqlite"])
-    target = sqlite3.connect(path)
-    try:
-        source.backup(target)
-        _new_identity(target)
-    finally:
-        target.close()
-        source.close()
+    copy_sqlite(Path(_templates["sqlite"]), path)
 
 
 def _copy_postgres(url: str) -> None:
     """The empty PostgreSQL database of ``url`` becomes a copy of this process's template."""
     from conftest import postgres_url  # the server the tests' databases are made on
 
-    parsed, server = make_url(url), make_url(postgres_url() or url)
-    name = parsed.database
-    admin = create_engine(server, poolclass=NullPool, isolation_level="AUTOCOMMIT")
+    parsed = make_url(url)
+    server = postgres_url() or url
+    admin = admin_engine(server)
     try:
         with admin.connect() as connection:
             if "postgresql" not in _templates:
@@ -124,23 +125,15 @@ def _copy_postgres(url: str) -> None:
                 atexit.register(_drop, server, template)
                 upgrade(parsed.set(database=template).render_as_string(hide_password=False))
             template = _templates["postgresql"]
-            connection.execute(text(f'DROP DATABASE "{name}"'))
-            connection.execute(text(f'CREATE DATABASE "{name}" TEMPLATE "{template}"'))
+            connection.execute(text(f'DROP DATABASE "{parsed.database}"'))
+            connection.execute(text(f'CREATE DATABASE "{parsed.database}" TEMPLATE "{template}"'))
     finally:
         admin.dispose()
-    engine = create_engine(url, poolclass=NullPool)
-    try:
-        with engine.begin() as connection:
-            connection.execute(
-                text("UPDATE database_identity SET uuid = :uuid"), {"uuid": str(uuid.uuid4())}
-            )
-    finally:
-        engine.dispose()
 
 
-def _drop(server: URL, name: str) -> None:
+def _drop(server: str, name: str) -> None:
     """Drop this process's PostgreSQL template (at exit)."""
-    admin = create_engine(server, poolclass=NullPool, isolation_level="AUTOCOMMIT")
+    admin = admin_engine(server)
     try:
         with admin.connect() as connection:
             connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))

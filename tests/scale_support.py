@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import fcntl
 import os
-import sqlite3
 import uuid
 from pathlib import Path
 from typing import Any
@@ -35,7 +34,7 @@ from api.services.plans import create_plan
 from db.engine import make_engine
 from supervisor.rcb.state import RcbSettings
 
-from migrated import migrated
+from migrated import admin_engine, copy_sqlite, migrated
 
 #: The plan's id in each database (the first and only plan).
 PLAN_ID = 1
@@ -65,14 +64,6 @@ def _run_folder(tmp_path_factory: Any) -> Path:
     return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
 
 
-def _copy(source: Path, target: Path) -> None:
-    """A consistent copy of a SQLite database (WAL included), whatever is connected to it."""
-    with sqlite3.connect(source) as src, sqlite3.connect(target) as dst:
-        src.backup(dst)
-    src.close()
-    dst.close()
-
-
 def _build(folder: Path, strategy: str | None) -> None:
     """Report the strategy's parts into one database, copied at each count of SNAPSHOTS."""
     counts = SNAPSHOTS[strategy]
@@ -90,7 +81,7 @@ def _build(folder: Path, strategy: str | None) -> None:
                 report_part(engine=engine, plan_id=PLAN_ID, report=parse_report(body)).status == 201
             )
         done = count
-        _copy(work, folder / f"{count}.db")
+        copy_sqlite(work, folder / f"{count}.db")
     engine.dispose()
     work.unlink()
 
@@ -112,16 +103,12 @@ def _database(server: str, name: str) -> str:
     return make_url(server).set(database=name).render_as_string(hide_password=False)
 
 
-def _admin(server: str) -> Engine:
-    return make_engine(server).execution_options(isolation_level="AUTOCOMMIT")
-
-
 def _build_postgres(folder: Path, server: str) -> None:
     """The bayes reports into one PostgreSQL database, copied at each POSTGRES_SNAPSHOTS."""
     stem = f"rcb_test_hist_{uuid.uuid4().hex[:8]}"
     names = folder / "databases"
     work = f"{stem}_work"
-    admin = _admin(server)
+    admin = admin_engine(server)
     try:
         with admin.connect() as connection:
             names.write_text(f"{work}\n")
@@ -171,7 +158,7 @@ def drop_postgres_snapshots(base: Path, server: str) -> None:
     names = base / POSTGRES_FOLDER / "databases"
     if not names.exists():
         return
-    admin = _admin(server)
+    admin = admin_engine(server)
     try:
         with admin.connect() as connection:
             for name in names.read_text().split():
@@ -191,7 +178,7 @@ class PostgresCopied:
     def at(self, parts: int) -> Engine:
         template = _postgres_snapshot(self.factory, self.server, parts)
         name = f"rcb_test_{uuid.uuid4().hex[:12]}"
-        admin = _admin(self.server)
+        admin = admin_engine(self.server)
         try:
             with admin.connect() as connection:
                 connection.execute(text(f'CREATE DATABASE "{name}" TEMPLATE "{template}"'))
@@ -202,7 +189,7 @@ class PostgresCopied:
         return engine
 
     def close(self) -> None:
-        admin = _admin(self.server)
+        admin = admin_engine(self.server)
         try:
             for name, engine in self.made:
                 engine.dispose()
@@ -222,7 +209,7 @@ class Copied:
 
     def at(self, parts: int) -> Engine:
         target = self.tmp / f"copy-{parts}-{len(self.engines)}.db"
-        _copy(_snapshot(self.factory, self.strategy, parts), target)
+        copy_sqlite(_snapshot(self.factory, self.strategy, parts), target)
         engine = make_engine(f"sqlite:///{target}")
         self.engines.append(engine)
         return engine
