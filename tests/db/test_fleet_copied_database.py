@@ -27,7 +27,17 @@ from api.services.fleet_models import export_tool, identity, import_tool
 from db import tables as t
 from db.engine import make_engine
 
+from conftest import postgres_url
+from migrated import admin_engine
+
 TOOL = "CNMG432RN"
+
+
+def _server_admin() -> Engine:
+    """An admin engine on the tests' PostgreSQL server (not on the database to copy)."""
+    server = postgres_url()
+    assert server, "a PostgreSQL backend_url is made on postgres_url()'s server"
+    return admin_engine(server)
 
 
 @pytest.fixture
@@ -47,8 +57,8 @@ def copy_of(backend_url) -> Iterator:  # type: ignore[no-untyped-def,type-arg]
             shutil.copyfile(str(url.database), str(target.database))
         else:  # a template copy, as createdb --template does
             target = url.set(database=f"rcb_copy_{uuid.uuid4().hex[:12]}")
-            admin = make_engine(url.set(database="postgres"))
-            with admin.execution_options(isolation_level="AUTOCOMMIT").connect() as c:
+            admin = _server_admin()
+            with admin.connect() as c:
                 c.execute(text(f'CREATE DATABASE "{target.database}" TEMPLATE "{url.database}"'))
             admin.dispose()
         made.append((str(url.database), make_engine(url)))
@@ -61,8 +71,8 @@ def copy_of(backend_url) -> Iterator:  # type: ignore[no-untyped-def,type-arg]
     for name, engine in made[1::2]:  # the copies
         engine.dispose()
         if engine.url.get_backend_name() != "sqlite":
-            admin = make_engine(engine.url.set(database="postgres"))
-            with admin.execution_options(isolation_level="AUTOCOMMIT").connect() as c:
+            admin = _server_admin()
+            with admin.connect() as c:
                 c.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
             admin.dispose()
 

@@ -18,6 +18,7 @@ from db.engine import make_engine, upgrade
 from db.table_base import as_utc
 
 from conftest import ROOT
+from migrated import admin_engine
 
 PLAN = ROOT / "examples" / "ivester_demo_part.toml"
 
@@ -39,7 +40,7 @@ def _json(runner, *args: str) -> dict:
 
 def test_times_are_utc_from_a_database_in_another_zone(runner, empty_postgres):
     name = empty_postgres.rsplit("/", 1)[1]
-    admin = make_engine(empty_postgres).execution_options(isolation_level="AUTOCOMMIT")
+    admin = admin_engine(empty_postgres)
     with admin.connect() as connection:
         connection.execute(text(f"ALTER DATABASE \"{name}\" SET timezone TO 'Asia/Tokyo'"))
         assert connection.execute(text("SELECT 1")).scalar() == 1
