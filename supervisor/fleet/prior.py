@@ -20,8 +20,9 @@ A quantity no plan of the fleet measured with the tool keeps the catalogue prior
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -77,6 +78,14 @@ class FleetPrior:
 
     posterior: Posterior
     provenance: Provenance
+
+
+#: The confidence at which a fleet prior's cones veto the catalogue band's optimum where the
+#: fleet's machines differ by more than the band (:func:`_beyond_band`; else at the mean).
+#: Measured (docs/benchmarks.md, "The band's veto"; 200 scenarios): machines 20 % apart,
+#: first-part crossings 237 -> 97 in 180 new machines, 0.793 -> 0.893 of the oracle after 3
+#: parts; machines 3 % apart, no change (their spread is inside the band).
+FLEET_VETO_Z = 2.0
 
 
 def same_tool(a: Tool, b: Tool) -> bool:
@@ -192,6 +201,7 @@ class _Pair:
     prior_mean: np.ndarray
     prior_cov: np.ndarray
     prior_information: np.ndarray
+    band_rel: float = math.inf  # the catalogue band's dK/K
 
     def operation_estimates(self) -> list[tuple[float, int]]:
         """``σ_o``'s estimates: one per machine that ran the tool in two operations or more."""
@@ -251,7 +261,8 @@ def _pair(
     prior_mean, prior_cov = in_tool_terms(catalogue, frame.context, edge_sd)
     key = (tool.name, tool.process, tool.material, catalogue.quantity)
     p0 = np.linalg.inv(prior_cov)
-    return _Pair(key, frame, catalogue, tuple(used), operations, prior_mean, prior_cov, p0)
+    band = model.dK / model.K
+    return _Pair(key, frame, catalogue, tuple(used), operations, prior_mean, prior_cov, p0, band)
 
 
 #: A spread's default for one tool and quantity, and the floor its own estimates keep it above.
@@ -259,11 +270,16 @@ _Default = tuple[float, float]
 
 
 class _Seen(NamedTuple):
-    """A pair's spreads ``σ_b`` and ``σ_o``, and its machines, each integrated over ``σ_o``."""
+    """A pair's spreads ``σ_b`` and ``σ_o``, and its machines, each integrated over ``σ_o``.
+
+    ``measured``: the machines' own estimate of ``σ_b²`` and its degrees of freedom (0: fewer
+    than two machines measured it).
+    """
 
     spread: float
     operation_spread: float
     machines: _Machines
+    measured: tuple[float, int] = (0.0, 0)
 
 
 def _spreads(
@@ -293,8 +309,10 @@ def _spreads(
         {tool: [found[key]] for tool, key in speaks.items()}, default_spread, weight
     )
     return {
-        key: _Seen(_at_least(defaults[pair.key], weight, [found[key]]), op_spread[key], seen[key])
-        for key, pair in pairs.items()
+        key: _Seen(
+            _at_least(defaults[p.key], weight, [found[key]]), op_spread[key], seen[key], found[key]
+        )
+        for key, p in pairs.items()
     }
 
 
@@ -327,7 +345,20 @@ def _prior(pair: _Pair, seen: _Seen) -> FleetPrior:
     cov = cov.copy()
     cov[0, 0] += seen.operation_spread**2  # the new operation's own offset (hierarchy)
     prior = in_operation_terms(pair.catalogue, pair.op.context, mean, cov)
+    if _beyond_band(pair, seen):
+        prior = replace(prior, band_veto_z=FLEET_VETO_Z)
     return FleetPrior(prior, provenance)
+
+
+def _beyond_band(pair: _Pair, seen: _Seen) -> bool:
+    """Whether the fleet's machines, by their own readings, differ by more than the band.
+
+    The prior's between-machine spread ``σ_b`` past the band's ``dK/K``, where at least two
+    machines measured it (one machine's spread is the default: an assumption is no evidence
+    against the catalogue): a new machine may well lie outside the band, whose optimum the
+    fleet's cone then vetoes at :data:`FLEET_VETO_Z` (``optimizer._agrees``).
+    """
+    return seen.measured[1] >= 1 and seen.spread > pair.band_rel
 
 
 def _fleet(pair: _Pair, seen: _Seen) -> tuple[FleetBelief, Provenance]:

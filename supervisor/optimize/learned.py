@@ -28,6 +28,14 @@ class LearnedCone(Protocol):
         ...
 
     @property
+    def veto_z(self) -> float:
+        """The confidence at which the cone vetoes the band program's optimum [-].
+
+        0: at its mean (:func:`supervisor.optimize.optimizer.optimize_operation`).
+        """
+        ...
+
+    @property
     def edges(self) -> tuple[int, ...]:
         """The edge ages (parts an edge made) the cone is imposed at."""
         ...

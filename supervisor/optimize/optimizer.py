@@ -124,21 +124,21 @@ def _agrees(
     cones: Mapping[str, LearnedCone],
     band: OperationResult,
 ) -> bool:
-    """Whether the learned models' means put the band optimum within every limit.
+    """Whether the learned models put the band optimum within every limit at their ``veto_z``.
 
-    The band covers what was measured at the setpoints that measured it; where the learned
-    mean says the band optimum is past a limit (the band's exponents carry a reading's
-    evidence elsewhere, e.g. after a change of the process), the learned optimum is taken
-    though it is slower: evidence against the model wins (DESIGN.md, RCB). The mean, not
-    the cone: the band is the proven fallback, vetoed only by what was learned, not by what
-    is still uncertain (the cone of a new plan is wide at an edge's end).
+    Where the learned mean says the band optimum is past a limit (the band's exponents
+    carry a reading's evidence elsewhere, e.g. after a change of the process), the learned
+    optimum is taken though slower: evidence against the model wins (DESIGN.md, RCB). The
+    mean, not the cone: the band is the proven fallback, vetoed by what was learned, not by
+    what is still uncertain; a fleet whose machines differ by more than the band is evidence
+    against it, and vetoes at 2 sd (:mod:`supervisor.fleet.prior`, ``FLEET_VETO_Z``).
     """
-    usable = {q: c for q, c in cones.items() if q in tool.models}
+    usable = {q: c.at_z(c.veto_z) for q, c in cones.items() if q in tool.models}
     if not usable:
         return True
     lp = formulate(operation, tool, machine, usable)
     x = np.array([math.log(band.setpoint[p]) for p in lp.parameters])
-    return socp.meets(lp, x, max(c.z for c in usable.values()))
+    return socp.meets(lp, x)
 
 
 def _learned(

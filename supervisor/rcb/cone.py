@@ -29,11 +29,14 @@ class Cone:
     Derived in :mod:`supervisor.rcb.posterior`'s docstring.
 
     ``drift`` is the random-walk step of the part to come, added to ``Σ``'s intercept.
+    ``veto_z``: the confidence at which the cone vetoes the band program's optimum (0: the
+    posterior mean; a fleet prior's :attr:`Posterior.band_veto_z`).
     """
 
     posterior: Posterior
     z: float
     drift: float
+    veto_z: float = 0.0
 
     @property
     def edges(self) -> tuple[int, ...]:

@@ -168,10 +168,17 @@ def settled(state: Beliefs, chains: Mapping[str, NoiseScale]) -> dict[tuple[str,
 
 
 def cones(state: Beliefs) -> dict[str, dict[str, Cone]]:
-    """The cone constraints of a ``learn`` state, per operation and quantity."""
+    """The cone constraints of a ``learn`` state, per operation and quantity.
+
+    Each vetoes the band optimum at its start prior's ``band_veto_z`` (a fleet's whose machines
+    differ by more than the band; never above the plan's ``z``), else at its mean.
+    """
     out: dict[str, dict[str, Cone]] = {}
-    for (name, quantity), belief in state.posterior.items():
-        out.setdefault(name, {})[quantity] = Cone(belief, state.settings.z, state.settings.tau)
+    z, tau = state.settings.z, state.settings.tau
+    for key, belief in state.posterior.items():
+        started = state.priors.get(key)
+        veto_z = 0.0 if started is None else min(started.band_veto_z, z)
+        out.setdefault(key[0], {})[key[1]] = Cone(belief, z, tau, veto_z)
     return out
 
 

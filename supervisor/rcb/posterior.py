@@ -119,6 +119,10 @@ class Posterior:
     prior_widening : float
         The variance the start prior's intercept was grown by when the readings rejected a
         fleet prior (:mod:`supervisor.rcb.prior_check`; 0: the prior as it started).
+    band_veto_z : float
+        A fleet prior's: the confidence at which its cones veto the catalogue band's optimum,
+        where the fleet's machines differ by more than the band (:mod:`supervisor.fleet.prior`;
+        0: at the mean, as every catalogue start). An update does not carry it on.
     """
 
     quantity: str
@@ -131,6 +135,7 @@ class Posterior:
     edge_max: int = 0
     noise_scale2: float = 1.0
     prior_widening: float = 0.0
+    band_veto_z: float = 0.0
 
     def cholesky(self, drift: float) -> np.ndarray:
         """The Cholesky factor of ``Σ + drift² e₀e₀ᵀ`` (kept on the object: it is immutable)."""
@@ -215,6 +220,8 @@ class Posterior:
     def to_json(self) -> dict[str, object]:
         """A JSON-able mapping (:func:`from_json` reads it back exactly)."""
         widening = {"prior_widening": self.prior_widening} if self.prior_widening else {}
+        if self.band_veto_z:
+            widening["band_veto_z"] = self.band_veto_z
         return {
             "quantity": self.quantity,
             "names": list(self.names),
@@ -247,6 +254,7 @@ def from_json(data: Mapping[str, object]) -> Posterior:
         edge_max=int(data.get("edge_max", 0)),  # type: ignore[call-overload]
         noise_scale2=float(data.get("noise_scale2", 1.0)),  # type: ignore[arg-type]
         prior_widening=float(data.get("prior_widening", 0.0)),  # type: ignore[arg-type]
+        band_veto_z=float(data.get("band_veto_z", 0.0)),  # type: ignore[arg-type]
     )
 
 

@@ -1,0 +1,108 @@
+"""A fleet whose machines differ by more than the catalogue's band vetoes the band's optimum.
+
+The optimiser runs the faster of the band's and the cone's optimum, the band vetoed by the
+learned mean only (:func:`supervisor.optimize.optimizer._agrees`). Where the fleet's machines,
+by their own readings, differ by more than the band's ``dK/K`` (DerSimonian and Laird over at
+least two machines, not pooled with the default spread), a new machine may well lie outside
+the band: the fleet prior's cones then veto it at 2 sd (:func:`supervisor.fleet.prior._beyond_band`;
+docs/benchmarks.md, "The band's veto").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from supervisor.fleet.learned import Learned
+from supervisor.fleet.prior import FLEET_VETO_Z, fleet_priors
+from supervisor.inputs.part_report import Measurement
+from supervisor.inputs.plan import load_plan
+from supervisor.rcb import posterior as post
+from supervisor.rcb.state import RcbSettings
+from supervisor.rcb.update import start
+
+PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
+SETTINGS = RcbSettings(strategy="learn")
+ROUGH_OD = next(o for o in PLAN.operations if o.name == "rough-od")
+KEY = ("rough-od", "force_N")
+#: CNMG432RN's force band, dK/K (Ivester & Heigel Table 2, the demo's catalogue).
+BAND = (
+    PLAN.tools[ROUGH_OD.tool].models["force_N"].dK / PLAN.tools[ROUGH_OD.tool].models["force_N"].K
+)
+
+
+def _catalogue() -> post.Posterior:
+    model = PLAN.tools[ROUGH_OD.tool].models["force_N"]
+    return post.prior(model, ROUGH_OD, SETTINGS.coverage_k, SETTINGS.exponent_sd, SETTINGS.edge_sd)
+
+
+def _machine(name: str, offset: float, parts: int = 30) -> Learned:
+    """rough-od's force on ``name``: ``parts`` readings at ``exp(offset)`` times the catalogue's
+    mean, at the corners of the half-size box in turn, on new edges, ``u`` 2 %."""
+    belief = prior = _catalogue()
+    half = [0.25 * math.log(ROUGH_OD.bounds[n][1] / ROUGH_OD.bounds[n][0]) for n in prior.names]
+    for i in range(parts):
+        signs = [1 if (i >> j) & 1 else -1 for j in range(len(half))]
+        ln_x = [c + s * h for c, s, h in zip(prior.center, signs, half, strict=True)]
+        point = {n: math.exp(v) for n, v in zip(prior.names, ln_x, strict=True)}
+        y = math.exp(float(prior.features(point) @ prior.mean_array) + offset)
+        belief = post.observe(belief, point, Measurement(y, 0.02 * y), 2.0, 0.0, 0)
+    tool = PLAN.tools[ROUGH_OD.tool]
+    return Learned(name, f"plan on {name}", ROUGH_OD, tool, belief, 2.0, SETTINGS.exponent_sd)
+
+
+def _veto(offsets: list[float]) -> float:
+    learned = [_machine(f"m{i}", o) for i, o in enumerate(offsets)]
+    return fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)[KEY].posterior.band_veto_z
+
+
+def test_machines_further_apart_than_the_band_veto_it_and_close_ones_do_not() -> None:
+    """Three machines at -20 %, 0, +20 % (sd 0.2 in ln K, past the 7 % band): the prior
+    vetoes at 2 sd. At -1 %, 0, +1 %: at the mean, as the catalogue start."""
+    assert BAND == pytest.approx(0.07, abs=0.005)
+    assert _veto([-0.2, 0.0, 0.2]) == FLEET_VETO_Z == 2.0
+    assert _veto([-0.01, 0.0, 0.01]) == 0.0
+
+
+def test_one_machine_is_no_evidence_against_the_band() -> None:
+    """One machine, however far from the catalogue: no between-machine estimate (its spread
+    is the default, an assumption), so no veto; two machines 30 % apart are evidence."""
+    assert _veto([0.3]) == 0.0
+    assert _veto([-0.15, 0.15]) == FLEET_VETO_Z
+
+
+def _fleet(sd: float, veto_z: float) -> post.Posterior:
+    """rough-od's catalogue force belief with its ``ln Y(c)`` sd ``sd``, vetoing at ``veto_z``."""
+    belief = _catalogue()
+    cov = [list(row) for row in belief.cov]
+    cov[0][0] = sd**2
+    return replace(belief, cov=tuple(tuple(row) for row in cov), band_veto_z=veto_z)
+
+
+def test_a_vetoing_prior_runs_its_cone_where_the_band_optimum_is_past_2_sd() -> None:
+    """A fleet at the catalogue's mean whose machines differ by 5 % (2 sd = 10 %, past the 7 %
+    band): without the veto the band optimum runs, as from the catalogue; with it the cone's
+    optimum runs, slower, and holds the force limit at z = 4 (the plan's)."""
+    catalogue = start(PLAN, SETTINGS).setpoints.operations[0]
+    kept = start(PLAN, SETTINGS, {KEY: _fleet(0.05, 0.0)}).setpoints.operations[0]
+    assert kept.setpoint == catalogue.setpoint
+    vetoed = start(PLAN, SETTINGS, {KEY: _fleet(0.05, FLEET_VETO_Z)}).setpoints.operations[0]
+    assert vetoed.robust_by == "cone" and vetoed.fallback == catalogue
+    assert vetoed.mrr_cm3_min < catalogue.mrr_cm3_min
+    belief = _fleet(0.05, FLEET_VETO_Z)
+    mean = float(belief.features(vetoed.setpoint) @ belief.mean_array)
+    assert math.exp(mean + SETTINGS.z * 0.05) <= ROUGH_OD.limits["force_N"] * (1 + 1e-6)
+
+
+def test_the_veto_is_stored_with_the_prior_and_not_carried_by_an_update() -> None:
+    """``plans.prior`` holds the posterior's JSON: the veto round-trips; a reading's update
+    is the plan's own belief, which vetoes by its start prior (learning.cones), not itself."""
+    belief = _fleet(0.05, FLEET_VETO_Z)
+    assert post.from_json(belief.to_json()) == belief
+    assert "band_veto_z" not in _catalogue().to_json()
+    point = {n: math.exp(c) for n, c in zip(belief.names, belief.center, strict=True)}
+    after = post.observe(belief, point, Measurement(1000.0, 20.0), 2.0, 0.0, 0)
+    assert after.band_veto_z == 0.0
