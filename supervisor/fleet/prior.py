@@ -43,6 +43,15 @@ from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.posterior import Posterior
 
+#: The confidence at which a fleet prior's cones veto the catalogue band's optimum where the
+#: fleet's machines differ by more than the band (:func:`_beyond_band`; else at the mean).
+#: Measured (docs/benchmarks.md, "The band's veto"; 200 scenarios): machines 20 % apart,
+#: first-part crossings 237 -> 97 in 180 new machines, 0.793 -> 0.893 of the oracle after 3
+#: parts; machines 3 % apart, no change (their spread is inside the band).
+FLEET_VETO_Z = 2.0
+#: What a vetoing prior's provenance line adds.
+_VETOED = f"; machines differ by more than the catalogue band: checked at {FLEET_VETO_Z:g} sd"
+
 
 @dataclass(frozen=True)
 class Provenance:
@@ -55,6 +64,8 @@ class Provenance:
     readings: int
     #: ``σ_o``, learned where a machine ran the tool in two operations (hierarchy).
     operation_spread: float = DEFAULT_OPERATION_SPREAD
+    #: The machines differ by more than the catalogue band: it is vetoed at 2 sd (_beyond_band).
+    band_vetoed: bool = False
 
     def describe(self) -> str:
         """One line: ``force_N: prior from 3 plans on 2 machines, …, 96 readings``.
@@ -65,10 +76,11 @@ class Provenance:
             return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
         plans = "plan" if len(self.plans) == 1 else "plans"
         machines = "machine" if len(self.machines) == 1 else "machines"
+        vetoed = _VETOED if self.band_vetoed else ""
         return (
             f"{self.quantity}: prior from {len(self.plans)} {plans} on {len(self.machines)} "
             f"{machines}, between-machine spread {100 * self.spread:.1f} %, between operations "
-            f"{100 * self.operation_spread:.1f} %, {self.readings} readings"
+            f"{100 * self.operation_spread:.1f} %, {self.readings} readings{vetoed}"
         )
 
 
@@ -78,14 +90,6 @@ class FleetPrior:
 
     posterior: Posterior
     provenance: Provenance
-
-
-#: The confidence at which a fleet prior's cones veto the catalogue band's optimum where the
-#: fleet's machines differ by more than the band (:func:`_beyond_band`; else at the mean).
-#: Measured (docs/benchmarks.md, "The band's veto"; 200 scenarios): machines 20 % apart,
-#: first-part crossings 237 -> 97 in 180 new machines, 0.793 -> 0.893 of the oracle after 3
-#: parts; machines 3 % apart, no change (their spread is inside the band).
-FLEET_VETO_Z = 2.0
 
 
 def same_tool(a: Tool, b: Tool) -> bool:
@@ -347,6 +351,7 @@ def _prior(pair: _Pair, seen: _Seen) -> FleetPrior:
     prior = in_operation_terms(pair.catalogue, pair.op.context, mean, cov)
     if _beyond_band(pair, seen):
         prior = replace(prior, band_veto_z=FLEET_VETO_Z)
+        provenance = replace(provenance, band_vetoed=True)
     return FleetPrior(prior, provenance)
 
 

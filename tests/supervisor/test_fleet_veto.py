@@ -55,8 +55,13 @@ def _machine(name: str, offset: float, parts: int = 30) -> Learned:
 
 
 def _veto(offsets: list[float]) -> float:
+    """The fleet prior's ``band_veto_z`` from machines at ``offsets``; its provenance line says
+    so where it vetoes, and only there."""
     learned = [_machine(f"m{i}", o) for i, o in enumerate(offsets)]
-    return fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)[KEY].posterior.band_veto_z
+    made = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd)[KEY]
+    said = "; machines differ by more than the catalogue band: checked at 2 sd"
+    assert made.provenance.describe().endswith(said) == (made.posterior.band_veto_z > 0)
+    return made.posterior.band_veto_z
 
 
 def test_machines_further_apart_than_the_band_veto_it_and_close_ones_do_not() -> None:
