@@ -20,7 +20,6 @@ A quantity no plan of the fleet measured with the tool keeps the catalogue prior
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import NamedTuple
@@ -205,7 +204,7 @@ class _Pair:
     prior_mean: np.ndarray
     prior_cov: np.ndarray
     prior_information: np.ndarray
-    band_rel: float = math.inf  # the catalogue band's dK/K
+    band_rel: float  # the catalogue band's dK/K
 
     def operation_estimates(self) -> list[tuple[float, int]]:
         """``σ_o``'s estimates: one per machine that ran the tool in two operations or more."""
@@ -276,14 +275,14 @@ _Default = tuple[float, float]
 class _Seen(NamedTuple):
     """A pair's spreads ``σ_b`` and ``σ_o``, and its machines, each integrated over ``σ_o``.
 
-    ``measured``: the machines' own estimate of ``σ_b²`` and its degrees of freedom (0: fewer
+    ``machines_dof``: the degrees of freedom of the machines' own estimate of ``σ_b`` (0: fewer
     than two machines measured it).
     """
 
     spread: float
     operation_spread: float
     machines: _Machines
-    measured: tuple[float, int] = (0.0, 0)
+    machines_dof: int = 0
 
 
 def _spreads(
@@ -314,7 +313,10 @@ def _spreads(
     )
     return {
         key: _Seen(
-            _at_least(defaults[p.key], weight, [found[key]]), op_spread[key], seen[key], found[key]
+            _at_least(defaults[p.key], weight, [found[key]]),
+            op_spread[key],
+            seen[key],
+            found[key][1],
         )
         for key, p in pairs.items()
     }
@@ -363,7 +365,7 @@ def _beyond_band(pair: _Pair, seen: _Seen) -> bool:
     against the catalogue): a new machine may well lie outside the band, whose optimum the
     fleet's cone then vetoes at :data:`FLEET_VETO_Z` (``optimizer._agrees``).
     """
-    return seen.measured[1] >= 1 and seen.spread > pair.band_rel
+    return seen.machines_dof >= 1 and seen.spread > pair.band_rel
 
 
 def _fleet(pair: _Pair, seen: _Seen) -> tuple[FleetBelief, Provenance]:
