@@ -37,6 +37,7 @@ from api.cli.tables import PARAMETER_HEADINGS, free_text, new_table, short_numbe
 from api.cli.who import ByOption, cli_actor
 from api.report.provenance import (
     CATALOGUE,
+    band_checked,
     from_catalogue,
     in_plan_order,
     let_go_groups,
@@ -289,7 +290,7 @@ def _say_prior(answer: dict[str, Any]) -> None:
     table = new_table(
         title="learn's fleet prior (spread: between machines/between a machine's "
         "operations; --json names the plans and machines)",
-        caption=_let_go_caption(lines, "widened_by_part"),
+        caption=_prior_caption(lines),
         caption_justify="left",
     )
     _name_column(table, "operation")
@@ -313,6 +314,13 @@ def _say_prior(answer: dict[str, Any]) -> None:
         say_filled(f"rcb: {', '.join(rest)}: from {CATALOGUE} ({why})")
     if answer["noise_provenance"]:
         _out.print(_noise_table(answer["noise_provenance"]))
+
+
+def _prior_caption(lines: list[tuple[str, Mapping[str, Any]]]) -> str | None:
+    """The fleet prior table's caption: what let a prior go, where the band is checked."""
+    named = [(f"{op} {line['quantity']}", line) for op, line in lines]
+    said = [_let_go_caption(lines, "widened_by_part"), band_checked(named)]
+    return "\n".join(s for s in said if s) or None
 
 
 def _let_go_caption(lines: list[tuple[str, Mapping[str, Any]]], field: str) -> str | None:

@@ -90,6 +90,26 @@ def let_go_text(serial: str, reason: str) -> str:
     return f"let go by part {serial}: {reason}" if reason else f"let go by part {serial}"
 
 
+def band_checked(items: Iterable[tuple[str, Mapping[str, Any]]]) -> str | None:
+    """Where the fleet's machines differ by more than the catalogue band, in words (None: nowhere).
+
+    ``items``: ``(name, line)`` pairs; a line with ``band_checked_at_sd`` names its quantity
+    (:func:`db.fleet.provenance_json`): the band's optimum runs there only where it holds at
+    that many sd of the fleet prior (:data:`supervisor.fleet.prior.FLEET_VETO_Z`).
+    """
+    groups: dict[float, list[str]] = {}
+    for name, line in items:
+        sd = line.get("band_checked_at_sd")  # none in a prior stored before it was kept
+        if sd is not None:
+            groups.setdefault(float(sd), []).append(name)
+    said = [
+        f"{', '.join(names)}: the machines differ by more than the catalogue band, whose "
+        f"setpoint runs only where it holds at {sd:g} sd of the fleet prior"
+        for sd, names in groups.items()
+    ]
+    return "; ".join(said) or None
+
+
 def from_catalogue(plan: Mapping[str, Any]) -> list[str]:
     """The plan's operations, in its order, whose models all start from the catalogue.
 
@@ -115,6 +135,8 @@ def prior_line(plan: Mapping[str, Any]) -> str:
         f"; {', '.join(names)} {let_go_text(serial, reason)}"
         for serial, reason, names in let_go_groups(lines, "widened_by_part")
     )
+    checked = band_checked(lines)
+    outside += f"; {checked}" if checked else ""
     rest = from_catalogue(plan)
     outside += f"; {', '.join(rest)} from {CATALOGUE}" if rest else ""
     return (

@@ -139,6 +139,12 @@ class PriorProvenance(Out):
         "(null: a prior made before it was learned, at the default 0.02)",
     )
     readings: int
+    band_checked_at_sd: float | None = Field(
+        None,
+        description="where the fleet's machines differ by more than the catalogue's band: "
+        "the band's optimum runs only where it holds at this many standard deviations of the "
+        "fleet prior, else the prior's (slower) setpoint does (null: checked at its mean)",
+    )
     widened_by_part: str | None = Field(
         None,
         description="the serial of the part whose readings showed this machine outside the "
