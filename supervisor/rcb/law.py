@@ -16,8 +16,7 @@ the limit matters. For a maximum:
   ``breach``, the process crossed the limit beyond what the reading's noise explains (a
   Shewhart 3σ control limit [4]_); else ``y + u`` above the band's upper edge ``Y + ΔY``:
   ``above_band`` (the band must cover measured + u, as the paper's bands "encompass all of the
-  points"). Either is flagged and the band grows to ``y + u − Y`` so it covers the measurement
-  (action ``expand``); it never shrinks then.
+  points"). Either is flagged; the band grows to ``y + P u − Y`` (below): ``expand``, no shrink.
 - ``y − u`` above the limit but ``y − 3σ`` under it: the note ``past_limit`` (the part is out
   of tolerance by ISO 14253-1's decision rule [3]_), not an alarm (a process at its limit
   gives one in 44 parts; 3σ, one in 740). Under a band setpoint it is still ``above_band``.
@@ -25,16 +24,17 @@ the limit matters. For a maximum:
   carries the note ``below_band`` (the model is pessimistic there), never a flag: a part that
   came out better than predicted is no reason to widen a band.
 - a ``learn`` setpoint held by a cone is ``above_band`` only when ``y − 3σ`` is past the
-  cone's edge; its fallback band still grows to cover ``y + u``, unflagged.
+  cone's edge; its fallback band still grows to cover ``y + P u``, unflagged.
 
 A maximum's reading is read at the measuring chain's noise scales (:mod:`supervisor.rcb.
 noise`; the reported ``u`` is a prior on the noise, not its value, DESIGN.md): where ``y + P u``
 is past the limit, ``P`` the *prudent* scale (2.11 before any reading has shown the chain's
-noise, 1 once it is as quiet as it says), the alarm and a grown band read ``y + P u``; a reading
-that shows the process changed (``moved > 0``) reads ``y + Q u``, ``Q`` the *bound* scale (the
-chain's upper ``Φ(2)`` quantile, 3.15 before any reading): the band covered the old truth, not
-the new one. The floor and the ``breach`` alarm read ``u`` at the measured ``ŝ``. A chain 3x
-noisier than it claims reads more than ``u`` under the truth once in 4 parts.
+noise, 1 once it is as quiet as it says), the alarm reads ``y + P u``, a grown band always
+(its edge is run at the limit: at ``y + u`` one reading in 44 crossed there, docs/concepts/
+rcb.md); a reading that shows the process changed (``moved > 0``) reads ``y + Q u``, ``Q`` the
+*bound* scale (the chain's upper ``Φ(2)`` quantile, 3.15 before any reading): the band covered
+the old truth, not the new one. The floor and the ``breach`` alarm read ``u`` at the measured
+``ŝ``. A chain 3x noisier than it claims reads more than ``u`` under the truth once in 4 parts.
 
 The margin of a reading over the prediction ``Y`` at its setpoint counts ``u + δ``, ``δ = y −
 Y``, up to ``Q u``: ``M = Y_lim − (y + u + min(δ, (Q − 1) u))``; at or under the prediction the
@@ -45,16 +45,15 @@ e``), over it ``d`` may be near 0 and the unknown noise decides. Table 5 step 1 
 µm, under its prediction) keeps the paper's 0.85 µm; step 2 (1.82 ± 0.07 µm, 0.098 µm over,
 the chain's noise not yet known) takes 2.0 − (1.82 + 0.07 + 0.098) = 0.012 µm where the paper
 takes 0.11, still a shrink (``y + P u`` = 1.97 µm is under the limit; ``Q`` at the alarm
-would back it off). A minimum (tool life) keeps its ``u`` (no monitor learns its noise).
+would back it off). A minimum (tool life) keeps its ``u`` (no monitor learns its noise);
 ``ivester``, all five faults, 1000 x 30 parts: 28 avoidable crossings with ``y + u``, 0 now.
 
 Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, flags ``breach``, ``below_band``.
 With tool wear (an operation with a ``parts_per_edge`` limit, a report giving the edge's age),
-a rising quantity's margin is taken from the reading projected to the edge's last part,
-``M = Y_lim − (y↑ + u)`` (:mod:`supervisor.rcb.wear`); flags, notes and the cover rule stay on
-the reading itself.
-``ΔY'`` is stored as a new ``ΔK`` through the first-order law of
-:func:`models.powerlaw.relative_band`: ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
+a rising quantity's margin is taken from the reading projected to the edge's last part, ``M =
+Y_lim − (y↑ + u)`` (:mod:`supervisor.rcb.wear`); flags, notes and the cover rule stay on the
+reading itself. ``ΔY'`` is stored as a new ``ΔK`` through the first-order law of :func:`models.
+powerlaw.relative_band`: ``ΔK'/K = sqrt((ΔY'/Y)² − Σ(e_i Δx_i/x_i)²)``.
 
 References
 ----------
@@ -263,12 +262,13 @@ def _apply_law(
     y_new = model.predict(point, rel).value
     # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
     cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new
-    if flag is not None or fallback_only:
-        reach = alarm - y_new if is_max else y_new - alarm
+    if flag is not None or fallback_only:  # a grown band covers y + P u (module docstring)
+        grown = max(alarm, y + max(u, alarm_u)) if is_max else alarm
+        reach = grown - y_new if is_max else y_new - alarm
         if moved > 0 and is_max and alarm > limit:  # a change: the back-off's exponent error
             reach = alarm * (alarm / limit) ** (settings.coverage_k * moved) - y_new
         new = _with_band(model, max(predicted.band, reach, cover), y_new, point, rel)
-        why = _grown_why(case, result, flag, wide)
+        why = _grown_why(case, result, flag, grown - y if is_max else wide)
         action: Action = "expand" if new.predict(point, rel).band > predicted.band else "hold"
         return case.decision(action, new, margin, why, flag, note), new, sigma, worst
     worn = is_max and projection > 1.0

@@ -119,14 +119,16 @@ def test_one_sided_law_hand_computed(state):
     assert low.note == "below_band"
     assert_allclose(low.margin, 615.0)
     assert_allclose(low.band_after, f.band - 153.75)
-    # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.40: expand to cover
-    # it (765 − 578.35 = 186.65 N), flagged above_band; y + P u = 770.56 is under the limit,
-    # so the band covers the paper's y + u; over the prediction by more than (Q − 1) u, the
+    # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.40: flagged
+    # above_band; the band grows to cover it at the chain's prudent scale, y + P u = 770.56 N
+    # (192.21 N over the prediction; the paper's y + u, 186.65 N, left a reading 2σ low to
+    # cross at the grown band's edge); over the prediction by more than (Q − 1) u, the
     # margin reads y + Q u: 1000 − 775.73 = 224.27 N (the paper's 235 N)
     above = one(760.0, 5.0)
     assert above.action == "expand" and above.flagged and above.flag == "above_band"
     assert above.note is None
-    assert_allclose(above.band_after, 765.0 - f.value)
+    assert_allclose(above.band_after, 760.0 + PRUDENT * 5.0 - f.value)
+    assert_allclose(above.band_after, 192.21, atol=0.01)
     assert_allclose(above.margin, 1000.0 - 760.0 - 5 * BOUND)
     assert_allclose(above.margin, 224.27, atol=0.01)
     # over the prediction, inside the band: 620 ± 5, margin 1000 − 635.73 = 364.27 N, the band
@@ -145,13 +147,17 @@ def test_one_sided_law_hand_computed(state):
     assert_allclose(just_over.margin, 413.35, atol=0.01)
     # near the limit, before the chain has shown its noise, u counts at the prudent scale P
     # where y + P u is past the limit: 990 ± 5 → 990 + 5 P = 1000.56 > 1000, the band covers
-    # it (1000.56 − 578.35 = 422.21 N); 985 ± 5 → 995.56 under it, the band covers y + u
+    # it (1000.56 − 578.35 = 422.21 N); 985 ± 5 → 995.56 under it: flagged at y + u, the
+    # band covers y + P u all the same (417.21 N; y + u, 411.65 N, before 2026-12-05)
     near = one(990.0, 5.0)
     assert near.flag == "above_band" and near.action == "expand"
     assert_allclose(near.band_after, 990.0 + 5 * PRUDENT - f.value)
     assert_allclose(near.band_after, 422.21, atol=0.01)
     assert_allclose(near.margin, 1000.0 - 990.0 - 5 * BOUND, atol=1e-6)  # −5.73 N: none
-    assert_allclose(one(985.0, 5.0).band_after, 990.0 - f.value)
+    under = one(985.0, 5.0)
+    assert under.flag == "above_band"
+    assert_allclose(under.band_after, 985.0 + 5 * PRUDENT - f.value)
+    assert_allclose(under.band_after, 417.21, atol=0.01)
     # measured over the limit: 1010 ± 5 → breach, the band covers 1010 + 5 P = 1020.56 N
     over = one(1010.0, 5.0)
     assert over.action == "expand" and over.flag == "breach"
