@@ -59,13 +59,15 @@ def proper(belief: Posterior) -> bool:
 def start_of(item: Learned, quantity: str) -> Posterior:
     """The prior ``item``'s plan started from: the catalogue's, or a fleet's as it stands.
 
-    A fleet prior its readings rejected was widened (:mod:`supervisor.rcb.prior_check`): the
-    plan's evidence is what it learned beyond the widened one.
+    A start its readings rejected was widened (a fleet prior by :mod:`supervisor.rcb.
+    prior_check`, any by a surprise: :mod:`supervisor.rcb.learning`): the plan's evidence is
+    what it learned beyond the widened one.
     """
-    if item.start is None:
+    start = item.start
+    if start is None:
         model = item.tool.models[quantity]
-        return post.prior(model, item.operation, item.coverage_k, item.exponent_sd, item.edge_sd)
-    return as_started(item.start, item.posterior)
+        start = post.prior(model, item.operation, item.coverage_k, item.exponent_sd, item.edge_sd)
+    return as_started(start, item.posterior)
 
 
 def readings_of(learned: Sequence[Learned]) -> list[tuple[Learned, Evidence | None]]:

@@ -7,7 +7,16 @@ Per operation and quantity ``learn`` keeps a posterior of the whole power law
 1. a change (or a confirmed quarantine) first discounts the old regime: the intercept's
    variance grows by the ``q`` the monitor sized to explain the innovation;
 2. a confirmed quarantined reading is learned, then the reading itself, each with the noise at
-   the monitor's measured scale ``ŝ`` (``u`` becomes ``ŝ u``);
+   the monitor's measured scale ``ŝ`` (``u`` becomes ``ŝ u``); a reading past the band that
+   is no change, its innovation ``e`` beyond its spread ``v`` (the monitor's), first widens
+   the intercept's variance by ``q = e² − v``, the change's moment matching below the change's
+   threshold [3]_: the prior held ``ln K`` too tightly for this machine, and the update would
+   put the surprise where the prior is loosest, in an exponent at the box's edge (a machine
+   1.59x the catalogue's force, read at depth's edge, taught a depth exponent of 1.44 for
+   0.98 and crossed after a step: docs/benchmarks.md, *A surprise at the box's edge*). The
+   widening is the start's (``prior_widening``), the prior the readings are counted against.
+   Only a catalogue start: a fleet prior's widening is :mod:`.prior_check`'s, whose Bayes
+   factor lets it go, for good and on every surface, at 19 to 1 odds, not on one surprise;
 3. *evidence against the model wins at once*: after a reading past the band (``above_band``,
    ``breach``) or a change, the posterior mean at the setpoint that made it is at least
    ``ln(y − ŝ u)``, the reading less its scatter as measured; where the update left it under
@@ -26,6 +35,8 @@ References
    linear regression).
 .. [2] Ivester & Heigel (NIST), "Adaptive Control Optimization": the bands "encompass all of
    the points" (the reading a band must cover).
+.. [3] Jazwinski (1969), "Adaptive filtering", Automatica 5(4), 475-485 (the process noise
+   that explains an innovation's excess over its predicted variance).
 """
 
 from __future__ import annotations
@@ -58,11 +69,13 @@ def belief_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
 def _prior_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
     """The prior of ``operation``'s ``quantity``: the plan's start (a fleet's) or the catalogue.
 
-    A fleet prior its readings rejected is read widened (:mod:`supervisor.rcb.prior_check`).
+    A start its readings rejected is read widened (``prior_widening``: a fleet prior by
+    :mod:`supervisor.rcb.prior_check`, any start by a surprise, module docstring 2).
     """
     started = state.priors.get((operation.name, quantity))
+    belief = state.posterior.get((operation.name, quantity))
     if started is not None:
-        return as_started(started, state.posterior.get((operation.name, quantity)))
+        return as_started(started, belief)
     settings = state.settings
     key = (operation.name, quantity, settings.coverage_k, settings.exponent_sd, settings.edge_sd)
     # kept on the (immutable) plan: a part asks for it at every reading and re-check
@@ -75,7 +88,7 @@ def _prior_of(state: Beliefs, operation: Operation, quantity: str) -> Posterior:
             model, operation, settings.coverage_k, settings.exponent_sd, settings.edge_sd
         )
         kept = cache[key] = (operation, made)
-    return kept[1]
+    return as_started(kept[1], belief)
 
 
 def expects(
@@ -137,6 +150,8 @@ def learn(
             after, _held_point(watched.held), held, settings.coverage_k, settings.tau, age
         )
     if measurement.value > 0 and measurement.uncertainty > 0:
+        if law.flagged and not watched.changed:
+            after = _surprised(state, operation, law.quantity, after, watched)
         after = post.observe(after, point, measurement, settings.coverage_k, settings.tau, age)
         if law.flagged or watched.changed:
             after = _at_least(after, point, measurement, age)
@@ -180,6 +195,19 @@ def cones(state: Beliefs) -> dict[str, dict[str, Cone]]:
         veto_z = 0.0 if started is None else min(started.band_veto_z, z)
         out.setdefault(key[0], {})[key[1]] = Cone(belief, z, tau, veto_z)
     return out
+
+
+def _surprised(
+    state: Beliefs, operation: Operation, quantity: str, belief: Posterior, watched: Watched
+) -> Posterior:
+    """``belief`` with its start widened by a flagged reading's surprise (module docstring, 2)."""
+    if watched.innovation is None or (operation.name, quantity) in state.priors:
+        return belief
+    e, spread2 = watched.innovation
+    excess = e * e - spread2
+    if excess <= 0:
+        return belief
+    return replace(discount(belief, excess), prior_widening=belief.prior_widening + excess)
 
 
 def _held_point(held: Reading) -> dict[str, float]:

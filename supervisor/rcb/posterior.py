@@ -117,8 +117,9 @@ class Posterior:
         ``λ``, the noise variance's scale the readings' precision is counted at
         (:func:`supervisor.rcb.learning.rescaled`; 1: as reported).
     prior_widening : float
-        The variance the start prior's intercept was grown by when the readings rejected a
-        fleet prior (:mod:`supervisor.rcb.prior_check`; 0: the prior as it started).
+        The variance the start prior's intercept was grown by when the readings rejected it
+        (a fleet prior: :mod:`supervisor.rcb.prior_check`; a reading past the band beyond its
+        spread: :mod:`supervisor.rcb.learning`; 0: the prior as it started).
     band_veto_z : float
         A fleet prior's: the confidence at which its cones veto the catalogue band's optimum,
         where the fleet's machines differ by more than the band (:mod:`supervisor.fleet.prior`;

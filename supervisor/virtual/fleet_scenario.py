@@ -217,7 +217,7 @@ def run_fleet_scenario(
         run_machine(s.known, new, seed, parts, faults=faults, noise_seed=last)[0],
         s.learned_violations,
         tuple(p.provenance for _, p in sorted(s.priors.items())),
-        sum(b.prior_widening > 0 for b in state.posterior.values()),
+        sum(b.prior_widening > 0 for k, b in state.posterior.items() if k in state.priors),
         s.chains - len(state.noise_priors),
         s.left_out,
         s.unconfirmed,
