@@ -42,7 +42,7 @@ from db.plan_state import settings_of
 from models.errors import InputError
 from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import NoisePrior, noise_priors
-from supervisor.fleet.prior import FLEET_VETO_Z, FleetPrior, Provenance, fleet_priors
+from supervisor.fleet.prior import FleetPrior, Provenance, fleet_priors
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior
@@ -189,7 +189,7 @@ def provenance_json(p: Provenance) -> dict[str, Any]:
         "operation_spread": p.operation_spread,
         "readings": p.readings,
         # the machines differ by more than the catalogue band: its optimum checked at this sd
-        "band_checked_at_sd": FLEET_VETO_Z if p.band_vetoed else None,
+        "band_checked_at_sd": p.band_checked_at_sd,
         "widened_by_part": None,  # a part whose readings let the prior go (:func:`let_go`)
         "text": p.describe(),
     }

@@ -48,8 +48,8 @@ from supervisor.rcb.posterior import Posterior
 #: first-part crossings 237 -> 97 in 180 new machines, 0.793 -> 0.893 of the oracle after 3
 #: parts; machines 3 % apart, no change (their spread is inside the band).
 FLEET_VETO_Z = 2.0
-#: What a vetoing prior's provenance line adds.
-_VETOED = f"; machines differ by more than the catalogue band: checked at {FLEET_VETO_Z:g} sd"
+#: What a vetoing prior's provenance line adds (its sd).
+_VETOED = "; machines differ by more than the catalogue band: checked at {:g} sd"
 
 
 @dataclass(frozen=True)
@@ -63,8 +63,8 @@ class Provenance:
     readings: int
     #: ``σ_o``, learned where a machine ran the tool in two operations (hierarchy).
     operation_spread: float = DEFAULT_OPERATION_SPREAD
-    #: The machines differ by more than the catalogue band: it is vetoed at 2 sd (_beyond_band).
-    band_vetoed: bool = False
+    #: The band's optimum checked at this sd (its band_veto_z; None: the mean; _beyond_band).
+    band_checked_at_sd: float | None = None
 
     def describe(self) -> str:
         """One line: ``force_N: prior from 3 plans on 2 machines, …, 96 readings``.
@@ -75,7 +75,8 @@ class Provenance:
             return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
         plans = "plan" if len(self.plans) == 1 else "plans"
         machines = "machine" if len(self.machines) == 1 else "machines"
-        vetoed = _VETOED if self.band_vetoed else ""
+        sd = self.band_checked_at_sd
+        vetoed = "" if sd is None else _VETOED.format(sd)
         return (
             f"{self.quantity}: prior from {len(self.plans)} {plans} on {len(self.machines)} "
             f"{machines}, between-machine spread {100 * self.spread:.1f} %, between operations "
@@ -353,7 +354,7 @@ def _prior(pair: _Pair, seen: _Seen) -> FleetPrior:
     prior = in_operation_terms(pair.catalogue, pair.op.context, mean, cov)
     if _beyond_band(pair, seen):
         prior = replace(prior, band_veto_z=FLEET_VETO_Z)
-        provenance = replace(provenance, band_vetoed=True)
+        provenance = replace(provenance, band_checked_at_sd=prior.band_veto_z)
     return FleetPrior(prior, provenance)
 
 

@@ -251,7 +251,7 @@ def _apply_law(
     # u at the chain's prudent scale (module docstring): the alarm and a grown band read it
     # where that side is past the limit, the margin as far as the reading is over the prediction
     read = _noise_read(y, u, shown.value, limit, alarm_u, bound_u, moved)
-    wide, margin_u = read if is_max else (u, u)
+    wide, margin_u, cover_u = read if is_max else (u, u, u)
     alarm = y + wide if is_max else guard
     # the margin the edge will still have at its last part (wear, supervisor.rcb.wear)
     margin = limit - (y * projection + margin_u) if is_max else guard - limit
@@ -263,8 +263,8 @@ def _apply_law(
     # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
     cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new
     if flag is not None or fallback_only:  # a grown band covers y + P u (module docstring)
-        grown = max(alarm, y + max(u, alarm_u)) if is_max else alarm
-        reach = grown - y_new if is_max else y_new - alarm
+        grown = max(alarm, y + cover_u) if is_max else alarm
+        reach = grown - y_new if is_max else y_new - grown
         if moved > 0 and is_max and alarm > limit:  # a change: the back-off's exponent error
             reach = alarm * (alarm / limit) ** (settings.coverage_k * moved) - y_new
         new = _with_band(model, max(predicted.band, reach, cover), y_new, point, rel)
@@ -279,18 +279,18 @@ def _apply_law(
 
 def _noise_read(
     y: float, u: float, y_hat: float, limit: float, alarm_u: float, bound_u: float, moved: float
-) -> tuple[float, float]:
-    """A maximum's ``u`` for the alarm and the cover, and for the margin (module docstring).
+) -> tuple[float, float, float]:
+    """A maximum's ``u`` for the alarm, for the margin and for a grown band (module docstring).
 
     ``P u`` where ``y + P u`` is past the limit, ``Q u`` for a change; the margin's ``u + δ``
-    over the prediction ``y_hat`` up to ``Q u``.
+    over the prediction ``y_hat`` up to ``Q u``; a grown band's ``P u`` wherever it lies.
     """
     prudent_u = max(u, alarm_u)
     bound_u = max(prudent_u, bound_u)
     wide = prudent_u if y + alarm_u > limit else u
     if moved > 0:  # a change: the band covered the old truth, not the new one
         wide = bound_u
-    return wide, u + min(max(y - y_hat, 0.0), bound_u - u)
+    return wide, u + min(max(y - y_hat, 0.0), bound_u - u), prudent_u
 
 
 def _flags(
