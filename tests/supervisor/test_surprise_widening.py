@@ -16,9 +16,13 @@ from pathlib import Path
 
 import pytest
 
+from supervisor.inputs.part_report import PartReport
 from supervisor.inputs.plan import load_plan
+from supervisor.rcb.decision import Decision
 from supervisor.rcb.learning import belief_of
 from supervisor.rcb.state import RcbState, prior_sigma
+from supervisor.rcb.update import update
+from supervisor.virtual import scenario
 from supervisor.virtual.fault_spec import parse_faults
 from supervisor.virtual.fleet_scenario import FleetWorld, new_machine_starts
 from supervisor.virtual.scenario import run_machine
@@ -31,9 +35,17 @@ OPERATIONS = {op.name: op for op in PLAN.operations}
 
 @pytest.mark.parametrize("seed", [42])
 def test_a_surprise_at_the_box_edge_goes_to_ln_k_and_nothing_crosses_after_the_step(
-    seed: int,
+    seed: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     starts = new_machine_starts(PLAN, seed, 4, 30, FleetWorld(machine_spread=0.2))
+    decided: list[tuple[Decision, ...]] = []
+
+    def updated(state: RcbState, report: PartReport) -> tuple[RcbState, tuple[Decision, ...]]:
+        after, decisions = update(state, report)  # the real update, its decisions kept
+        decided.append(decisions)
+        return after, decisions
+
+    monkeypatch.setattr(scenario, "update", updated)
     seen: list[RcbState] = []
     trace, _ = run_machine(
         starts.catalogue,
@@ -51,6 +63,10 @@ def test_a_surprise_at_the_box_edge_goes_to_ln_k_and_nothing_crosses_after_the_s
     # ... and the reading, learned on the widened start, moved ln K by most of it: 4.870 -> 5.298
     prior = belief_of(starts.catalogue, OPERATIONS[KEY[0]], KEY[1])
     assert first.mean[0] - prior.mean[0] > 0.8 * 0.46
+    # and the decision says so: sqrt(0.1948) = 44 % of K as one sd
+    (said,) = [d for d in decided[0] if (d.operation, d.quantity) == KEY]
+    assert said.flag == "above_band" and said.action == "expand"
+    assert "past what the catalogue's K allows: its sd grown by 44 % of K first" in said.reason
     truth = starts.machine.processes[KEY[0]].tool.models[KEY[1]].exponents
     learned = dict(zip(first.names, first.mean[1:], strict=False))
     for name in first.names:  # no exponent took the surprise (depth: 1.44 on the code before)
