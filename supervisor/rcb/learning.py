@@ -270,8 +270,8 @@ def _decision(
         why = f"{law.reason}; learned from {after.observations} measurements"
     elif law.note == "below_band":
         why += " (note: below the band: the model is pessimistic here)"
-    surprise = after.prior_widening - before.prior_widening  # a catalogue start's (_surprised)
-    if surprise > 0 and (operation.name, law.quantity) not in state.priors:
+    surprise = after.prior_widening - before.prior_widening  # only _surprised grows it here
+    if surprise > 0:
         sd = 100 * math.sqrt(surprise)
         why += f"; past what the catalogue's K allows: its sd grown by {sd:.2g} % of K first"
     return replace(
