@@ -42,7 +42,8 @@ from db.plan_state import settings_of
 from models.errors import InputError
 from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import NoisePrior, noise_priors
-from supervisor.fleet.prior import FleetPrior, Provenance, fleet_priors
+from supervisor.fleet.prior import fleet_priors
+from supervisor.fleet.provenance import FleetPrior, Provenance
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb.monitor_state import from_json as monitor_from_json
 from supervisor.rcb.posterior import Posterior

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from supervisor.fleet.prior import Provenance, ToolBelief
+from supervisor.fleet.prior import ToolBelief
+from supervisor.fleet.provenance import Provenance
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from what the plan's other tools and quantities show, and its own machines may r
 (:func:`_spreads`; :mod:`.hierarchy`, "A plan's tools").
 
 A quantity no plan of the fleet measured with the tool keeps the catalogue prior and says so
-(:class:`Provenance` with no plans).
+(:class:`.provenance.Provenance` with no plans).
 """
 
 from __future__ import annotations
@@ -37,59 +37,17 @@ from supervisor.fleet.hierarchy import (
     summed,
 )
 from supervisor.fleet.learned import Learned, proper, readings_of
-from supervisor.fleet.spread import best_determined, between_estimate, operation_estimates, pooled
+from supervisor.fleet.provenance import FLEET_VETO_Z, FleetPrior, Provenance
+from supervisor.fleet.spread import (
+    best_determined,
+    between_estimate,
+    lower_bound,
+    operation_estimates,
+    pooled,
+)
 from supervisor.inputs.plan import Operation, Plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.posterior import Posterior
-
-#: The confidence at which a fleet prior's cones veto the catalogue band's optimum where the
-#: fleet's machines differ by more than the band (:func:`_beyond_band`; else at the mean).
-#: Measured (docs/benchmarks.md, "The band's veto"; 200 scenarios): machines 20 % apart,
-#: first-part crossings 237 -> 97 in 180 new machines, 0.793 -> 0.893 of the oracle after 3
-#: parts; machines 3 % apart, no change (their spread is inside the band).
-FLEET_VETO_Z = 2.0
-#: What a vetoing prior's provenance line adds (its sd).
-_VETOED = "; machines differ by more than the catalogue band: checked at {:g} sd"
-
-
-@dataclass(frozen=True)
-class Provenance:
-    """Where a fleet prior came from: shown with it on every surface."""
-
-    quantity: str
-    plans: tuple[str, ...]
-    machines: tuple[str, ...]
-    spread: float
-    readings: int
-    #: ``σ_o``, learned where a machine ran the tool in two operations (hierarchy).
-    operation_spread: float = DEFAULT_OPERATION_SPREAD
-    #: The band's optimum checked at this sd (its band_veto_z; None: the mean; _beyond_band).
-    band_checked_at_sd: float | None = None
-
-    def describe(self) -> str:
-        """One line: ``force_N: prior from 3 plans on 2 machines, …, 96 readings``.
-
-        Between them the spreads: ``between-machine spread 4.1 %, between operations 2.0 %``.
-        """
-        if not self.plans:
-            return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
-        plans = "plan" if len(self.plans) == 1 else "plans"
-        machines = "machine" if len(self.machines) == 1 else "machines"
-        sd = self.band_checked_at_sd
-        vetoed = "" if sd is None else _VETOED.format(sd)
-        return (
-            f"{self.quantity}: prior from {len(self.plans)} {plans} on {len(self.machines)} "
-            f"{machines}, between-machine spread {100 * self.spread:.1f} %, between operations "
-            f"{100 * self.operation_spread:.1f} %, {self.readings} readings{vetoed}"
-        )
-
-
-@dataclass(frozen=True)
-class FleetPrior:
-    """An operation's prior for one quantity and its provenance."""
-
-    posterior: Posterior
-    provenance: Provenance
 
 
 def same_tool(a: Tool, b: Tool) -> bool:
@@ -277,13 +235,14 @@ class _Seen(NamedTuple):
     """A pair's spreads ``σ_b`` and ``σ_o``, and its machines, each integrated over ``σ_o``.
 
     ``machines_dof``: the degrees of freedom of the machines' own estimate of ``σ_b`` (0: fewer
-    than two machines measured it).
+    than two machines measured it); ``spread_low``: ``σ_b``'s 95 % lower credible bound.
     """
 
     spread: float
     operation_spread: float
     machines: _Machines
     machines_dof: int = 0
+    spread_low: float = 0.0
 
 
 def _spreads(
@@ -312,14 +271,16 @@ def _spreads(
     defaults = _moderated(
         {tool: [found[key]] for tool, key in speaks.items()}, default_spread, weight
     )
+    spreads = {key: _at_least(defaults[p.key], weight, [found[key]]) for key, p in pairs.items()}
     return {
         key: _Seen(
-            _at_least(defaults[p.key], weight, [found[key]]),
+            spread,
             op_spread[key],
             seen[key],
             found[key][1],
+            lower_bound(spread, weight + found[key][1]),
         )
-        for key, p in pairs.items()
+        for key, spread in spreads.items()
     }
 
 
@@ -361,12 +322,12 @@ def _prior(pair: _Pair, seen: _Seen) -> FleetPrior:
 def _beyond_band(pair: _Pair, seen: _Seen) -> bool:
     """Whether the fleet's machines, by their own readings, differ by more than the band.
 
-    The prior's between-machine spread ``σ_b`` past the band's ``dK/K``, where at least two
-    machines measured it (one machine's spread is the default: an assumption is no evidence
-    against the catalogue): a new machine may well lie outside the band, whose optimum the
-    fleet's cone then vetoes at :data:`FLEET_VETO_Z` (``optimizer._agrees``).
+    ``FLEET_VETO_Z`` times ``σ_b``'s lower credible bound past the band's ``dK/K`` (at 95 %,
+    more than one new machine in 20 lies outside the band), where two machines or more
+    measured it (one machine's spread is the default's, an assumption): the fleet's cone then
+    vetoes the band's optimum at :data:`FLEET_VETO_Z` (``optimizer._agrees``).
     """
-    return seen.machines_dof >= 1 and seen.spread > pair.band_rel
+    return seen.machines_dof >= 1 and FLEET_VETO_Z * seen.spread_low > pair.band_rel
 
 
 def _fleet(pair: _Pair, seen: _Seen) -> tuple[FleetBelief, Provenance]:

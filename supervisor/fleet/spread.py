@@ -5,7 +5,7 @@ spread", "The comparison", "The operations' spread"): each machine's (or operati
 where the readings pin it best (:func:`best_determined`), from its evidence with the
 catalogue's exponents but not its ``ln K`` (:func:`intercept_free`), compared by
 DerSimonian and Laird's moment estimate (:func:`dersimonian_laird`) and pooled with a
-default (:func:`pooled`).
+default (:func:`pooled`), with its lower credible bound (:func:`lower_bound`).
 """
 
 from __future__ import annotations
@@ -84,6 +84,19 @@ def pooled(default: float, weight: float, found: Sequence[tuple[float, int]]) ->
     dof = sum(d for _, d in found)
     tau2 = sum(d * t2 for t2, d in found)
     return math.sqrt((weight * default**2 + tau2) / (weight + dof))
+
+
+def lower_bound(sigma: float, dof: float, probability: float = 0.95) -> float:
+    """``σ``'s lower credible bound: the true spread is above it with ``probability``.
+
+    ``σ`` as :func:`pooled` gives it, the scale of the scaled inverse-χ² posterior of ``σ²`` on
+    ``dof`` (``ν_0 + Σ dof``) degrees of freedom (Gelman et al., BDA 3rd ed., §2.6):
+    ``σ √(ν / χ²_{probability, ν})``, the χ² quantile as ``2 P^{-1}(ν/2, probability)``.
+    """
+    # imported here: scipy takes 0.2-0.5 s to import (supervisor/fleet/noise.py)
+    from scipy import special
+
+    return sigma * math.sqrt(dof / (2.0 * float(special.gammaincinv(dof / 2.0, probability))))
 
 
 def _at_each(

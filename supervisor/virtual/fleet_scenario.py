@@ -30,7 +30,8 @@ from models.powerlaw import PowerLawModel
 from supervisor.fleet.changes import JUDGED_AFTER, confirmed, counted, opens_change
 from supervisor.fleet.learned import Learned
 from supervisor.fleet.noise import noise_priors
-from supervisor.fleet.prior import FleetPrior, Provenance, fleet_priors
+from supervisor.fleet.prior import fleet_priors
+from supervisor.fleet.provenance import FleetPrior, Provenance
 from supervisor.fleet.window import newest_plans
 from supervisor.inputs.plan import Plan
 from supervisor.rcb.state import RcbSettings, RcbState

@@ -19,7 +19,8 @@ from api.report.provenance import prior_line
 from api.rest.schemas.setpoints import PriorProvenance
 from db.fleet import prior_json
 from db.fleet_names import bounded
-from supervisor.fleet.prior import FLEET_VETO_Z, fleet_priors
+from supervisor.fleet.prior import fleet_priors
+from supervisor.fleet.provenance import FLEET_VETO_Z
 
 SAID = (
     "rough-od force_N: the machines differ by more than the catalogue band, whose setpoint "

@@ -16,7 +16,7 @@ from db.fleet import prior_answer, provenance_json
 from db.fleet_names import MAX_NAMED, bounded
 from db.fleet_noise import noise_prior_json
 from supervisor.fleet.noise import NoisePrior
-from supervisor.fleet.prior import Provenance
+from supervisor.fleet.provenance import Provenance
 from supervisor.rcb.noise import NoiseScale
 
 PLANS = tuple(f"plan-{i:03d}" for i in range(320))

@@ -26,7 +26,8 @@ from supervisor.fleet.hierarchy import (
     of_operation,
 )
 from supervisor.fleet.learned import Learned
-from supervisor.fleet.prior import Provenance, fleet_priors
+from supervisor.fleet.prior import fleet_priors
+from supervisor.fleet.provenance import Provenance
 from supervisor.fleet.spread import best_determined, between_estimate, operation_estimates, pooled
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan

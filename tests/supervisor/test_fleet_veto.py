@@ -2,9 +2,9 @@
 
 The optimiser runs the faster of the band's and the cone's optimum, the band vetoed by the
 learned mean only (:func:`supervisor.optimize.optimizer._agrees`). Where the fleet's machines,
-by their own readings, differ by more than the band's ``dK/K`` (DerSimonian and Laird over at
-least two machines, not pooled with the default spread), a new machine may well lie outside
-the band: the fleet prior's cones then veto it at 2 sd (:func:`supervisor.fleet.prior._beyond_band`;
+by their own readings, differ by more than the band's ``dK/K`` (at least two machines; 2 sd of
+the spread's 95 % lower credible bound past it), a new machine may well lie outside the band:
+the fleet prior's cones then veto it at 2 sd (:func:`supervisor.fleet.prior._beyond_band`;
 docs/benchmarks.md, "The band's veto").
 """
 
@@ -15,9 +15,12 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from scipy.stats import chi2
 
 from supervisor.fleet.learned import Learned
-from supervisor.fleet.prior import FLEET_VETO_Z, fleet_priors
+from supervisor.fleet.prior import fleet_priors
+from supervisor.fleet.provenance import FLEET_VETO_Z
+from supervisor.fleet.spread import lower_bound
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
@@ -70,6 +73,24 @@ def test_machines_further_apart_than_the_band_veto_it_and_close_ones_do_not() ->
     assert BAND == pytest.approx(0.07, abs=0.005)
     assert _veto([-0.2, 0.0, 0.2]) == FLEET_VETO_Z == 2.0
     assert _veto([-0.01, 0.0, 0.01]) == 0.0
+
+
+def test_a_spread_under_the_band_vetoes_where_it_credibly_leaves_machines_outside() -> None:
+    """Three machines at -8 %, 0, +8 %: ``σ_b`` 6.5 %, under the 7 % band, but at 95 % it is
+    above 4.2 % (4 degrees of freedom, the default's 2 with the machines' 2), and 2 sd of
+    that is past the band: more than one new machine in 20 outside it. Two machines 6 % apart
+    (4.6 %, 3 degrees of freedom): 2 x 2.9 % is not, and the band runs."""
+    assert _veto([-0.08, 0.0, 0.08]) == FLEET_VETO_Z
+    assert _veto([-0.03, 0.03]) == 0.0
+
+
+def test_the_lower_bound_is_the_scaled_inverse_chi2_quantile() -> None:
+    """``σ √(ν/χ²_{0.95,ν})`` with the χ² table's 95 % points (7.815 at 3 degrees of freedom,
+    9.488 at 4; any statistics text's table), and scipy's for any ``ν``."""
+    assert lower_bound(1.0, 3.0) == pytest.approx(math.sqrt(3 / 7.815), rel=1e-4)
+    assert lower_bound(0.05, 4.0) == pytest.approx(0.05 * math.sqrt(4 / 9.488), rel=1e-4)
+    for nu in (1.0, 2.5, 30.0):
+        assert lower_bound(0.1, nu, 0.9) == pytest.approx(0.1 * math.sqrt(nu / chi2.ppf(0.9, nu)))
 
 
 def test_one_machine_is_no_evidence_against_the_band() -> None:

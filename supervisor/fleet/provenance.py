@@ -1,0 +1,61 @@
+"""A fleet prior and where it came from, the line every surface shows with it.
+
+:func:`supervisor.fleet.prior.fleet_priors` makes them; the database stores the provenance
+(``db/fleet.py``) and the REST service, the CLI and the report show :meth:`Provenance.describe`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from supervisor.fleet.hierarchy import DEFAULT_OPERATION_SPREAD
+from supervisor.rcb.posterior import Posterior
+
+#: The sd at which a fleet prior's cones veto the catalogue band's optimum where the band
+#: holds too few of the fleet's machines (:func:`.prior._beyond_band`; else at the mean).
+#: Measured (docs/benchmarks.md, "The band's veto"; 200 scenarios, machines 20 % apart):
+#: first-part crossings 237 -> 63 in 180 new machines, 0.793 -> 0.912 of the oracle after
+#: 3 parts; machines 3 % apart, no change.
+FLEET_VETO_Z = 2.0
+#: What a vetoing prior's provenance line adds (its sd).
+_VETOED = "; machines differ by more than the catalogue band: checked at {:g} sd"
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a fleet prior came from: shown with it on every surface."""
+
+    quantity: str
+    plans: tuple[str, ...]
+    machines: tuple[str, ...]
+    spread: float
+    readings: int
+    #: ``σ_o``, learned where a machine ran the tool in two operations (hierarchy).
+    operation_spread: float = DEFAULT_OPERATION_SPREAD
+    #: The band's optimum checked at this sd (its band_veto_z; None: the mean; prior._beyond_band).
+    band_checked_at_sd: float | None = None
+
+    def describe(self) -> str:
+        """One line: ``force_N: prior from 3 plans on 2 machines, …, 96 readings``.
+
+        Between them the spreads: ``between-machine spread 4.1 %, between operations 2.0 %``.
+        """
+        if not self.plans:
+            return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
+        plans = "plan" if len(self.plans) == 1 else "plans"
+        machines = "machine" if len(self.machines) == 1 else "machines"
+        sd = self.band_checked_at_sd
+        vetoed = "" if sd is None else _VETOED.format(sd)
+        return (
+            f"{self.quantity}: prior from {len(self.plans)} {plans} on {len(self.machines)} "
+            f"{machines}, between-machine spread {100 * self.spread:.1f} %, between operations "
+            f"{100 * self.operation_spread:.1f} %, {self.readings} readings{vetoed}"
+        )
+
+
+@dataclass(frozen=True)
+class FleetPrior:
+    """An operation's prior for one quantity and its provenance."""
+
+    posterior: Posterior
+    provenance: Provenance
