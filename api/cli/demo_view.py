@@ -68,13 +68,13 @@ def _meas(m: Measurement | None) -> str:
 
 
 def demo_tables(result: DemoResult) -> list[Table | str]:
-    """One Table-5-like table per operation, the cycle times, then two lines of summary.
+    """What the rows are, one Table-5-like table per operation, the cycle times, a summary.
 
     The summary is not the cycle table's caption: a caption wraps at its table's width (39
     cells), which split a count from its noun (``0`` at a line's end, ``true-limit
     violations`` on the next); each line here fits 60 columns whole.
     """
-    tables: list[Table | str] = []
+    tables: list[Table | str] = [legend(result), ""]
     for op in result.operations:
         table = new_table(title=f"{op.name}", title_justify="left")
         names = tuple(op.robust.setpoint)
@@ -116,6 +116,23 @@ def demo_tables(result: DemoResult) -> list[Table | str]:
         f"{result.violations} true-limit violations, {result.flagged} flagged measurements"
     )
     return tables
+
+
+def legend(result: DemoResult) -> str:
+    """What the tables' rows and columns are, filled to 80 columns.
+
+    Before it, a first run showed rows ``C`` and ``R`` unexplained.
+    """
+    plan, parts = result.final_state.plan, result.parts
+    return textwrap.fill(
+        f"{plan.name} on a virtual {plan.machine.name}, {parts} parts. Per operation, C: the "
+        f"catalogue's parameters, R: the robust start, final: the setpoints after part "
+        f"{parts}; model: the prediction ± its band, meas.: the reading at those "
+        f"setpoints ± its uncertainty (the layout of Ivester & Heigel's Table 5).",
+        width=80,
+        break_on_hyphens=False,
+        break_long_words=False,
+    )
 
 
 def _change(value: float, reference: float | None) -> str:
