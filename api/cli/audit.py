@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import shlex
+from http import HTTPStatus
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -141,6 +142,7 @@ def _table(entries: list[dict[str, Any]], heading: bool = True) -> Any:
 
     ``heading``: with the title and the headings (else the rows alone).
     """
+    entries = [{**entry, "result": said(entry["result"])} for entry in entries]
     table = new_table(
         *("at (UTC)", "actor", "action", "target", "result"),
         title="audit" if heading else None,
@@ -161,6 +163,22 @@ def _table(entries: list[dict[str, Any]], heading: bool = True) -> Any:
             *(Text(entry[key]) for key in ("actor", "action", "target", "result")),
         )
     return table
+
+
+def said(result: str) -> str:
+    """A result that is an HTTP status, with the status's words: ``201 created``.
+
+    A write at the CLI goes through the REST service's code and is audited with its status
+    (``201``, ``replayed 201``), which an engineer should not have to look up; the JSON
+    keeps the stored value.
+    """
+    code = result.removeprefix("replayed ")  # the two forms of api/services/transactions.py
+    if not (code.isdigit() and len(code) == 3):
+        return result
+    try:
+        return f"{result} {HTTPStatus(int(code)).phrase.lower()}"
+    except ValueError:  # not a status Python knows: as stored
+        return result
 
 
 def _detail(detail: Any) -> str:

@@ -18,6 +18,7 @@ import pytest
 from sqlalchemy.orm import Session
 from test_cli_width import fits, headings, rcb, words
 
+from api.cli.audit import said
 from db import audit_windows
 from db.engine import make_engine
 
@@ -131,3 +132,18 @@ def test_a_console_too_narrow_for_a_row_still_shows_every_entry_and_its_detail(a
     starts = [line.rstrip() for line in done.stdout.splitlines() if re.match(r" {4}\S", line)]
     assert all(first in starts for first in firsts), (firsts, starts)
     assert {"reason:", "error:"} <= set(done.stdout.split()), done.stdout
+
+
+@pytest.mark.parametrize(
+    ("stored", "shown"),
+    [
+        ("201", "201 created"),  # a write at the CLI, audited with the REST service's status
+        ("replayed 201", "replayed 201 created"),
+        ("409", "409 conflict"),
+        ("599", "599"),  # no status Python knows: as stored
+        ("accepted", "accepted"),
+        ("out of the fleet until rcb fleet include", "out of the fleet until rcb fleet include"),
+    ],
+)
+def test_a_status_is_shown_with_its_words(stored, shown):
+    assert said(stored) == shown
