@@ -91,11 +91,14 @@ def lower_bound(sigma: float, dof: float, probability: float = 0.95) -> float:
 
     ``σ`` as :func:`pooled` gives it, the scale of the scaled inverse-χ² posterior of ``σ²`` on
     ``dof`` (``ν_0 + Σ dof``) degrees of freedom (Gelman et al., BDA 3rd ed., §2.6):
-    ``σ √(ν / χ²_{probability, ν})``, the χ² quantile as ``2 P^{-1}(ν/2, probability)``.
+    ``σ √(ν / χ²_{probability, ν})``, the χ² quantile as ``2 P^{-1}(ν/2, probability)``; 0
+    under 1 degree of freedom.
     """
     # imported here: scipy takes 0.2-0.5 s to import (supervisor/fleet/noise.py)
     from scipy import special
 
+    if dof < 1.0:  # too little evidence for a bound (under 1 the quantile's tail passes σ)
+        return 0.0
     return sigma * math.sqrt(dof / (2.0 * float(special.gammaincinv(dof / 2.0, probability))))
 
 

@@ -91,6 +91,8 @@ def test_the_lower_bound_is_the_scaled_inverse_chi2_quantile() -> None:
     assert lower_bound(0.05, 4.0) == pytest.approx(0.05 * math.sqrt(4 / 9.488), rel=1e-4)
     for nu in (1.0, 2.5, 30.0):
         assert lower_bound(0.1, nu, 0.9) == pytest.approx(0.1 * math.sqrt(nu / chi2.ppf(0.9, nu)))
+    # under 1 degree of freedom no bound (at 0.01 the formula gave 16 x the spread; at 0, 0/0)
+    assert lower_bound(0.05, 0.0) == lower_bound(0.05, 0.01) == 0.0
 
 
 def test_one_machine_is_no_evidence_against_the_band() -> None:
