@@ -176,14 +176,6 @@ def test_demo_tables_show_every_number_whole(milling, tmp_path):
     gain = result["gain_captured"]
     share = "" if gain is None else f"{100 * gain:.0f} % of the oracle's gain, "
     lines = shown.stdout.splitlines()
-    # what C, R and final are, filled to 80 columns, first (before: unexplained)
-    legend = " ".join(shown.stdout.split("\n\n")[0].split())
-    assert legend.endswith(
-        "Per operation, C: the catalogue's parameters, R: the robust start, "
-        "final: the setpoints after part 3; model: the prediction ± its band, "
-        "meas.: the reading at those setpoints ± its uncertainty (the layout "
-        "of Ivester & Heigel's Table 5)."
-    )
     assert f"3 parts, {share}setpoint version {result['setpoint_version']}" in lines
     violations, flagged = result["violations"], result["flagged"]
     assert f"{violations} true-limit violations, {flagged} flagged measurements" in lines

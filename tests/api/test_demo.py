@@ -97,6 +97,21 @@ def test_demo_table_output(runner, tmp_path):
     assert "vs catalogue" in result.stdout
 
 
+@pytest.mark.parametrize("milling", [False, True])
+def test_demo_says_first_what_its_rows_are(runner, tmp_path, milling):
+    """C, R and final, model and meas., filled to 80 columns (before: C and R unexplained)."""
+    args = ["demo", "--parts", "3", *(["--milling"] if milling else []), *_db(tmp_path)]
+    result = runner.invoke(app, args, env={"COLUMNS": "80"})
+    assert result.exit_code == 0, result.output
+    first = result.stdout.split("\n\n")[0]
+    assert all(len(line) <= 80 for line in first.splitlines()), first
+    assert " ".join(first.split()).endswith(
+        ", 3 parts. Per operation, C: the catalogue's parameters, R: the robust start, final: "
+        "the setpoints after part 3; model: the prediction ± its band, meas.: the reading at "
+        "those setpoints ± its uncertainty (the layout of Ivester & Heigel's Table 5)."
+    )
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
