@@ -16,7 +16,7 @@ the limit matters. For a maximum:
   ``breach``, the process crossed the limit beyond what the reading's noise explains (a
   Shewhart 3σ control limit [4]_); else ``y + u`` above the band's upper edge ``Y + ΔY``:
   ``above_band`` (the band must cover measured + u, as the paper's bands "encompass all of the
-  points"). Either is flagged; the band grows to ``y + P u − Y`` (below): ``expand``, no shrink.
+  points"). Either is flagged; the band grows to cover the reading (below): ``expand``.
 - ``y − u`` above the limit but ``y − 3σ`` under it: the note ``past_limit`` (the part is out
   of tolerance by ISO 14253-1's decision rule [3]_), not an alarm (a process at its limit
   gives one in 44 parts; 3σ, one in 740). Under a band setpoint it is still ``above_band``.
@@ -24,17 +24,18 @@ the limit matters. For a maximum:
   carries the note ``below_band`` (the model is pessimistic there), never a flag: a part that
   came out better than predicted is no reason to widen a band.
 - a ``learn`` setpoint held by a cone is ``above_band`` only when ``y − 3σ`` is past the
-  cone's edge; its fallback band still grows to cover ``y + P u``, unflagged.
+  cone's edge; its fallback band still grows to cover the reading, unflagged.
 
 A maximum's reading is read at the measuring chain's noise scales (:mod:`supervisor.rcb.
 noise`; the reported ``u`` is a prior on the noise, not its value, DESIGN.md): where ``y + P u``
 is past the limit, ``P`` the *prudent* scale (2.11 before any reading has shown the chain's
-noise, 1 once it is as quiet as it says), the alarm reads ``y + P u``, a grown band always
-(its edge is run at the limit: at ``y + u`` one reading in 44 crossed there, docs/concepts/
-rcb.md); a reading that shows the process changed (``moved > 0``) reads ``y + Q u``, ``Q`` the
-*bound* scale (the chain's upper ``Φ(2)`` quantile, 3.15 before any reading): the band covered
-the old truth, not the new one. The floor and the ``breach`` alarm read ``u`` at the measured
-``ŝ``. A chain 3x noisier than it claims reads more than ``u`` under the truth once in 4 parts.
+noise, 1 once it is as quiet as it says), the alarm reads ``y + P u``; a reading that shows the
+process changed (``moved > 0``) reads ``y + Q u``, ``Q`` the *bound* scale (the chain's upper
+``Φ(2)`` quantile, 3.15 before any reading): the band covered the old truth, not the new one.
+A grown band's edge is run at the limit: it covers the reading at the margin's ``u + δ``
+(below), at least ``P u``, up to ``Q u`` the further the reading lies over its prediction (past
+``P u``: one reading in 140 under the noise prior's Student t, one in 13 from a chain 3x
+noisier than it says; ``Q u``: one in 440 and 56). The floor and the alarm's 3σ read ``ŝ u``.
 
 The margin of a reading over the prediction ``Y`` at its setpoint counts ``u + δ``, ``δ = y −
 Y``, up to ``Q u``: ``M = Y_lim − (y + u + min(δ, (Q − 1) u))``; at or under the prediction the
@@ -43,12 +44,11 @@ about ``α M``, so a reading ``e`` under a truth ``d`` under the limit is safe w
 3 d``; under the prediction the band stands between the reading and the limit (``d ≥ ΔY −
 e``), over it ``d`` may be near 0 and the unknown noise decides. Table 5 step 1 (3.06 ± 0.09
 µm, under its prediction) keeps the paper's 0.85 µm; step 2 (1.82 ± 0.07 µm, 0.098 µm over,
-the chain's noise not yet known) takes 2.0 − (1.82 + 0.07 + 0.098) = 0.012 µm where the paper
-takes 0.11, still a shrink (``y + P u`` = 1.97 µm is under the limit; ``Q`` at the alarm
-would back it off). A minimum (tool life) keeps its ``u`` (no monitor learns its noise);
-``ivester``, all five faults, 1000 x 30 parts: 28 avoidable crossings with ``y + u``, 0 now.
+the chain's noise not yet known) takes 2.0 − (1.82 + 0.07 + 0.098) = 0.012 µm, the paper 0.11
+(``y + P u`` = 1.97 µm is under the limit). ``ivester``, all five faults, 1000 x 30 parts: 28
+avoidable crossings with ``y + u``, 0 now.
 
-Minima (tool life) mirror this: ``M = (y − u) − Y_lim``, flags ``breach``, ``below_band``.
+Minima (tool life) mirror it at the reported u: ``M = (y − u) − Y_lim``, breach, below_band.
 With tool wear (an operation with a ``parts_per_edge`` limit, a report giving the edge's age),
 a rising quantity's margin is taken from the reading projected to the edge's last part, ``M =
 Y_lim − (y↑ + u)`` (:mod:`supervisor.rcb.wear`); flags, notes and the cover rule stay on the
@@ -248,8 +248,7 @@ def _apply_law(
     worst = max(before, edge_now) if is_max else min(before, edge_now)
     if limit is None:
         return case.decision("hold", model, None, "no limit on this quantity"), model, sigma, worst
-    # u at the chain's prudent scale (module docstring): the alarm and a grown band read it
-    # where that side is past the limit, the margin as far as the reading is over the prediction
+    # u at the chain's scales (module docstring): the alarm's, the margin's and a grown band's
     read = _noise_read(y, u, shown.value, limit, alarm_u, bound_u, moved)
     wide, margin_u, cover_u = read if is_max else (u, u, u)
     alarm = y + wide if is_max else guard
@@ -262,7 +261,7 @@ def _apply_law(
     y_new = model.predict(point, rel).value
     # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
     cover = (worst / model.K - 1.0 if is_max else 1.0 - worst / model.K) * y_new
-    if flag is not None or fallback_only:  # a grown band covers y + P u (module docstring)
+    if flag is not None or fallback_only:  # a grown band covers the reading (module docstring)
         grown = max(alarm, y + cover_u) if is_max else alarm
         reach = grown - y_new if is_max else y_new - grown
         if moved > 0 and is_max and alarm > limit:  # a change: the back-off's exponent error
@@ -283,14 +282,15 @@ def _noise_read(
     """A maximum's ``u`` for the alarm, for the margin and for a grown band (module docstring).
 
     ``P u`` where ``y + P u`` is past the limit, ``Q u`` for a change; the margin's ``u + δ``
-    over the prediction ``y_hat`` up to ``Q u``; a grown band's ``P u`` wherever it lies.
+    over the prediction ``y_hat`` up to ``Q u``; a grown band's the margin's, at least ``P u``.
     """
     prudent_u = max(u, alarm_u)
     bound_u = max(prudent_u, bound_u)
     wide = prudent_u if y + alarm_u > limit else u
     if moved > 0:  # a change: the band covered the old truth, not the new one
         wide = bound_u
-    return wide, u + min(max(y - y_hat, 0.0), bound_u - u), prudent_u
+    margin_u = u + min(max(y - y_hat, 0.0), bound_u - u)
+    return wide, margin_u, max(prudent_u, margin_u)
 
 
 def _flags(
@@ -333,7 +333,7 @@ def _grown_why(case: _Case, result: OperationResult, flag: Flag | None, wide: fl
     elif result.robust_by == "cone":
         where = f"measured {'−' if is_max else '+'} {ALARM_SIGMA:g}σ past the cone"
     else:
-        times = f"{wide / case.u:.3g} " if wide > case.u else ""  # the chain's prudent scale
+        times = f"{wide / case.u:.3g} " if wide > case.u else ""  # the cover's scale
         where = f"measured {'+' if is_max else '−'} {times}u {flag}"
     return f"{where}: never shrink; band covers it"
 

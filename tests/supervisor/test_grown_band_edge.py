@@ -1,5 +1,5 @@
 """A band grown to cover a reading is run to its edge at the limit: it covers the reading at
-the chain's prudent scale, ``y + P u`` (``supervisor/rcb/law.py``, docs/concepts/rcb.md).
+more than the paper's ``y + u`` (``supervisor/rcb/law.py``, docs/concepts/rcb.md).
 
 Found at machines 20 % apart (``closed_loop.py --fleet 4 --fleet-spread 0.2``, seed 113): the
 new machine's fleet start ran rough-od at the fleet prior's cone at part 1 (the force prior
@@ -7,7 +7,8 @@ vetoed the catalogue band); its roughness read 2.928 ± 0.05 µm where the truth
 the fallback band grew to cover the paper's ``y + u``. The band program took that band to its
 edge at the limit, where the truth stood 1.08 u over the reading's cover: 4.004 µm on a 4 µm
 limit at part 2, an avoidable crossing. At ``y + P u`` (P = 2.11 before the chain's noise is
-known) the band covers it and part 2 runs under the limit.
+known) the band covers it and part 2 runs under the limit; since 2026-12-06 at ``y + Q u``
+(test_grown_band_noise.py).
 """
 
 from __future__ import annotations
@@ -25,5 +26,6 @@ def test_seed_113_at_a_20_per_cent_spread_crosses_no_limit_after_its_first_part(
     assert not trace.outside
     for start in (trace.fleet, trace.catalogue, trace.known):
         assert [w for w in start.where if w[0] > 1] == []  # part 1 may cross: no reading yet
-    # and it ran near the limit: the band's cover costs rough-od little after part 1
-    assert trace.fleet.op_ratio[1][0] > 0.95
+    # and it ran near the limit: the band's cover costs rough-od little after part 1 (0.969 of
+    # its oracle at y + P u, 0.948 at y + Q u: the price of a chain 3 x noisier held)
+    assert trace.fleet.op_ratio[1][0] > 0.94

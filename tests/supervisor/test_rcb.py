@@ -88,14 +88,14 @@ def test_the_floor_holds(state):
 
 def test_a_violation_expands_and_never_shrinks(state):
     # Ra 4.3 ± 0.05 µm is over the 4.0 µm limit: a breach; the band grows to cover it, its u
-    # at the chain's prudent scale (no reading has shown the chain's noise yet: the prior's
-    # upper 93 % quantile, P = 2.1111, supervisor.rcb.noise)
+    # at the chain's bound scale (no reading has shown the chain's noise yet: the prior's
+    # upper Φ(2) quantile, Q = 3.1458, supervisor.rcb.noise; P = 2.1111 before 2026-12-06)
     ra = _rough_od(state).predicted["roughness_um"]
     new, (d,) = update(
         state, _report(state, {"rough-od": {"roughness_um": Measurement(4.3, 0.05)}})
     )
     assert d.action == "expand" and d.flagged and d.flag == "breach" and d.note is None
-    assert_allclose(d.band_after, 4.3 + PRUDENT * 0.05 - ra.value)  # y + P u − Y
+    assert_allclose(d.band_after, 4.3 + BOUND * 0.05 - ra.value)  # y + Q u − Y
     assert d.band_after > d.band_before and d.margin < 0
     assert new.setpoints.operations[0].mrr_cm3_min < _rough_od(state).mrr_cm3_min  # backs off
 
@@ -120,15 +120,16 @@ def test_one_sided_law_hand_computed(state):
     assert_allclose(low.margin, 615.0)
     assert_allclose(low.band_after, f.band - 153.75)
     # above the upper edge, under the limit: 760 ± 5 → y + u = 765 > 755.40: flagged
-    # above_band; the band grows to cover it at the chain's prudent scale, y + P u = 770.56 N
-    # (192.21 N over the prediction; the paper's y + u, 186.65 N, left a reading 2σ low to
-    # cross at the grown band's edge); over the prediction by more than (Q − 1) u, the
-    # margin reads y + Q u: 1000 − 775.73 = 224.27 N (the paper's 235 N)
+    # above_band; the band grows to cover it at the chain's bound scale, y + Q u = 775.73 N
+    # (197.38 N over the prediction; the paper's y + u, 186.65 N, left a reading 2σ low to
+    # cross at the grown band's edge, y + P u, 192.21 N, one 4.2σ low); over the prediction
+    # by more than (Q − 1) u, the margin reads y + Q u: 1000 − 775.73 = 224.27 N (the
+    # paper's 235 N)
     above = one(760.0, 5.0)
     assert above.action == "expand" and above.flagged and above.flag == "above_band"
     assert above.note is None
-    assert_allclose(above.band_after, 760.0 + PRUDENT * 5.0 - f.value)
-    assert_allclose(above.band_after, 192.21, atol=0.01)
+    assert_allclose(above.band_after, 760.0 + BOUND * 5.0 - f.value)
+    assert_allclose(above.band_after, 197.38, atol=0.01)
     assert_allclose(above.margin, 1000.0 - 760.0 - 5 * BOUND)
     assert_allclose(above.margin, 224.27, atol=0.01)
     # over the prediction, inside the band: 620 ± 5, margin 1000 − 635.73 = 364.27 N, the band
@@ -146,29 +147,30 @@ def test_one_sided_law_hand_computed(state):
     assert_allclose(just_over.margin, 1000.0 - 580.0 - 5.0 - (580.0 - f.value))
     assert_allclose(just_over.margin, 413.35, atol=0.01)
     # near the limit, before the chain has shown its noise, u counts at the prudent scale P
-    # where y + P u is past the limit: 990 ± 5 → 990 + 5 P = 1000.56 > 1000, the band covers
-    # it (1000.56 − 578.35 = 422.21 N); 985 ± 5 → 995.56 under it: flagged at y + u, the
-    # band covers y + P u all the same (417.21 N; y + u, 411.65 N, before 2026-12-05)
+    # where y + P u is past the limit: 990 ± 5 → 990 + 5 P = 1000.56 > 1000, flagged, and the
+    # band covers y + Q u (1005.73 − 578.35 = 427.38 N); 985 ± 5 → 995.56 under it: flagged at
+    # y + u, the band covers y + Q u all the same (422.38 N; y + P u, 417.21 N, before
+    # 2026-12-06; y + u, 411.65 N, before 2026-12-05)
     near = one(990.0, 5.0)
     assert near.flag == "above_band" and near.action == "expand"
-    assert_allclose(near.band_after, 990.0 + 5 * PRUDENT - f.value)
-    assert_allclose(near.band_after, 422.21, atol=0.01)
+    assert_allclose(near.band_after, 990.0 + 5 * BOUND - f.value)
+    assert_allclose(near.band_after, 427.38, atol=0.01)
     assert_allclose(near.margin, 1000.0 - 990.0 - 5 * BOUND, atol=1e-6)  # −5.73 N: none
     under = one(985.0, 5.0)
     assert under.flag == "above_band"
-    assert_allclose(under.band_after, 985.0 + 5 * PRUDENT - f.value)
-    assert_allclose(under.band_after, 417.21, atol=0.01)
-    # measured over the limit: 1010 ± 5 → breach, the band covers 1010 + 5 P = 1020.56 N
+    assert_allclose(under.band_after, 985.0 + 5 * BOUND - f.value)
+    assert_allclose(under.band_after, 422.38, atol=0.01)
+    # measured over the limit: 1010 ± 5 → breach, the band covers 1010 + 5 Q = 1025.73 N
     over = one(1010.0, 5.0)
     assert over.action == "expand" and over.flag == "breach"
-    assert_allclose(over.band_after, 1010.0 + 5 * PRUDENT - f.value)
+    assert_allclose(over.band_after, 1010.0 + 5 * BOUND - f.value)
     assert_allclose(over.margin, -10.0 - 5 * BOUND)
     # past the limit by more than u but within the reading's 3σ (σ = u/2): 1006 ± 5 → y − u
     # = 1001 > 1000 (out of tolerance by ISO 14253-1: the note past_limit), y − 1.5u = 998.5
     # under it (no process alarm); a band setpoint still flags it above_band and backs off
     iso = one(1006.0, 5.0)
     assert iso.flag == "above_band" and iso.note == "past_limit" and iso.action == "expand"
-    assert_allclose(iso.band_after, 1006.0 + 5 * PRUDENT - f.value)
+    assert_allclose(iso.band_after, 1006.0 + 5 * BOUND - f.value)
     assert_allclose(iso.margin, -6.0 - 5 * BOUND)
     # the 3σ alarm's edge: y − 1.5u = 1000.0 is not past the limit, 1000.15 is
     assert one(1007.5, 5.0).flag == "above_band"

@@ -230,5 +230,6 @@ def test_the_paper_law_on_a_wearing_edge_stays_under_the_limit():
         ).violations.sum()
     # the same law without the projection still crosses: issue 27's measured noise scale
     # (supervisor.rcb.monitor: the rise inflates successive differences, so u grows) stops most
-    # of the crossings it made before (12 seeds, 2 violations left), not all
-    assert crossed >= 2
+    # of the crossings it made before (12 seeds, 2 violations left; 1 since a grown band covers
+    # its reading up to Q u, 2026-12-06), not all: the projection is still what holds them
+    assert crossed >= 1
