@@ -18,7 +18,10 @@ from pathlib import Path
 
 FENCE = re.compile(r"^```console\s*$")
 SKIP = re.compile(r"<!--\s*docs-test:\s*skip\b(.*?)-->")
-PORT = "8000"  # the port the docs write; the test puts a free one in its place
+PORT = 8000  # the REST service's port the docs write; the test puts a free one in its place
+#: Any other port a page serves on (``--port 5001``): each gets a free one too, since two
+#: pages run at once, or a server another test left, would otherwise meet on it.
+SERVED = re.compile(r"--port (\d+)\b")
 
 
 @dataclass(frozen=True)
@@ -83,8 +86,22 @@ def commands(page: Path, root: Path) -> list[Command]:
     return found
 
 
-def script(cmds: list[Command], port: int, outputs: Path) -> str:
+def written_ports(cmds: list[Command]) -> list[int]:
+    """The ports ``cmds`` write: the service's 8000 and every ``--port N``, in order."""
+    found = [PORT, *(int(n) for c in cmds for n in SERVED.findall(c.text))]
+    return list(dict.fromkeys(found))
+
+
+def _with_ports(text: str, ports: dict[int, int]) -> str:
+    for written, given in ports.items():
+        text = re.sub(rf"(?<=:){written}\b|(?<=--port ){written}\b", str(given), text)
+    return text
+
+
+def script(cmds: list[Command], ports: dict[int, int], outputs: Path) -> str:
     """A bash script running ``cmds`` in one shell, each one's output to its own file.
+
+    Each port the page writes is replaced by the one ``ports`` gives it (``written_ports``).
 
     Variables and background jobs carry from one command to the next, as in a terminal. The
     script stops at the first command that fails, leaving its index and status in
@@ -92,14 +109,46 @@ def script(cmds: list[Command], port: int, outputs: Path) -> str:
     """
     lines = ["set -u", "set -o pipefail"]
     for index, cmd in enumerate(cmds):
-        text = cmd.text.replace(f":{PORT}", f":{port}").replace(f"--port {PORT}", f"--port {port}")
+        text = _with_ports(cmd.text, ports)
         out = shlex.quote(str(outputs / f"{index}.out"))
         failed = shlex.quote(str(outputs / "failed"))
         times = shlex.quote(str(outputs / "seconds"))
-        if text.rstrip().endswith("&") and not text.rstrip().endswith("&&"):
+        if _in_background(text):
             lines.append(f"{text.rstrip()[:-1].rstrip()} > {out} 2>&1 &")
             continue
         lines.append(f"start=$EPOCHREALTIME; {{\n{text}\n}} > {out} 2>&1")
         lines.append(f"status=$?; echo {index} $start $EPOCHREALTIME >> {times}")
         lines.append(f"if [ $status -ne 0 ]; then echo {index} $status > {failed}; exit 1; fi")
     return "\n".join(lines) + "\n"
+
+
+def hung(cmds: list[Command], outputs: Path, seconds: float) -> str:
+    """What a script that did not end in ``seconds`` was running, and every command's last lines.
+
+    The running command is the first one that neither finished (``outputs/seconds``) nor runs
+    in the background; each background command's output is shown too, since a server or a
+    machine that died is what a foreground wait most often waits for.
+    """
+    times = outputs / "seconds"
+    done = (
+        {int(line.split()[0]) for line in times.read_text().splitlines()}
+        if times.exists()
+        else set()
+    )
+    background = {i for i, c in enumerate(cmds) if _in_background(c.text)}
+    running = next((i for i in range(len(cmds)) if i not in done | background), None)
+    where = (
+        f"{cmds[running].page}:{cmds[running].line}: $ {cmds[running].text}"
+        if running is not None
+        else "?"
+    )
+    lines = [f"the page did not end in {seconds} s; running: {where}"]
+    for index in sorted(background | ({running} if running is not None else set())):
+        file = outputs / f"{index}.out"
+        tail = file.read_text(errors="replace")[-1500:] if file.exists() else "(no output)"
+        lines.append(f"--- {cmds[index].line}: $ {cmds[index].text}\n{tail}")
+    return "\n".join(lines)
+
+
+def _in_background(text: str) -> bool:
+    return text.rstrip().endswith("&") and not text.rstrip().endswith("&&")

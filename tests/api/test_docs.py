@@ -6,8 +6,10 @@ with ``rcb`` of this virtual environment first on PATH and a fresh SQLite databa
 checkout's ``examples/`` and ``tests/data/`` are linked into it, as a command run from a
 checkout sees them): each
 command must exit 0 and print the lines its block shows (``tests/docs_console.py``). A server
-a page starts (``rcb serve ... &``) gets a free port in place of the 8000 it writes, and the
-page's process group is killed at the end. A page may declare ``<!-- docs-test: serve -->``
+a page starts (``rcb serve ... &``) gets a free port in place of the 8000 it writes, as does
+a machine's (``--port 5001``), and the page's process group is killed at the end; a page that
+does not end in ``PAGE_SECONDS`` fails with the command it was waiting in and what its
+background servers printed. A page may declare ``<!-- docs-test: serve -->``
 on a line of its own: the test then starts ``rcb serve`` on ``./rcb.db`` (port 8000 in the
 page) before its commands.
 
@@ -34,7 +36,7 @@ from pathlib import Path
 import pytest
 
 from conftest import invoke
-from docs_console import Command, commands, script
+from docs_console import PORT, Command, commands, hung, script, written_ports
 from live import free_port
 
 ROOT = Path(__file__).parents[2]
@@ -79,15 +81,17 @@ def _wait_for(port: int, seconds: float) -> None:
     raise AssertionError(f"rcb serve did not listen on 127.0.0.1:{port} in {seconds} s")
 
 
-def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int, Path]:
+def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int | None, Path]:
+    """Run the page's script in ``folder``: its exit status (None: not done in PAGE_SECONDS)."""
     outputs = folder / ".docs-test"
     outputs.mkdir()
     (folder / "examples").symlink_to(ROOT / "examples")
     (folder / "tests").mkdir()
     (folder / "tests" / "data").symlink_to(ROOT / "tests" / "data")
-    port = free_port()
+    ports = {written: free_port() for written in written_ports(cmds)}
+    port = ports[PORT]
     env = _environment(folder)
-    (outputs / "run.sh").write_text(script(cmds, port, outputs), encoding="utf-8")
+    (outputs / "run.sh").write_text(script(cmds, ports, outputs), encoding="utf-8")
     serve = None
     if SERVE.search(page.read_text(encoding="utf-8")):
         serve = subprocess.Popen(
@@ -109,8 +113,11 @@ def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int, Path]:
     shell = subprocess.Popen(
         ["bash", str(outputs / "run.sh")], cwd=folder, env=env, start_new_session=True
     )
+    code: int | None = None
     try:
         code = shell.wait(timeout=PAGE_SECONDS)
+    except subprocess.TimeoutExpired:
+        pass  # the group is killed below; the test says what was running
     finally:
         for process in (shell, serve):
             if process is not None:
@@ -126,6 +133,8 @@ def _run(page: Path, cmds: list[Command], folder: Path) -> tuple[int, Path]:
 def test_every_command_of_the_page_runs_and_prints_what_it_shows(page, tmp_path):
     cmds = commands(page, ROOT)
     code, outputs = _run(page, cmds, tmp_path)
+    if code is None:
+        pytest.fail(hung(cmds, outputs, PAGE_SECONDS))
     failed = outputs / "failed"
     if code != 0 or failed.exists():
         index, status = failed.read_text().split() if failed.exists() else ("?", str(code))
@@ -243,23 +252,30 @@ def test_the_script_stops_at_the_first_failing_command_and_names_it(tmp_path):
     outputs = tmp_path / "out"
     outputs.mkdir()
     run = outputs / "run.sh"
-    run.write_text(script(commands(page, tmp_path), 1234, outputs), encoding="utf-8")
+    run.write_text(script(commands(page, tmp_path), {PORT: 1234}, outputs), encoding="utf-8")
     code = subprocess.run(["bash", str(run)], cwd=tmp_path, timeout=30).returncode
     assert code == 1
     assert (outputs / "failed").read_text().split() == ["1", "1"]
     assert not (tmp_path / "ran").exists()
 
 
-def test_the_port_the_docs_write_becomes_the_tests_port(tmp_path):
+def test_each_port_the_docs_write_becomes_a_free_port(tmp_path):
+    """Before: only 8000 was; three fleet pages at once met on 5001 and two hung 600 s."""
     page = tmp_path / "page.md"
     page.write_text(
-        "```console\n$ rcb serve --port 8000 &\n$ curl http://127.0.0.1:8000/api/v1/health\n```\n",
+        "```console\n$ rcb serve --port 8000 &\n$ curl http://127.0.0.1:8000/api/v1/health\n"
+        "$ rcb virtual serve --port 5001 --service-url http://127.0.0.1:8000/api/v1 &\n"
+        "$ curl http://127.0.0.1:5001/lathe/current http://127.0.0.1:50012/x\n```\n",
         "utf-8",
     )
-    text = script(commands(page, tmp_path), 40123, tmp_path)
+    cmds = commands(page, tmp_path)
+    assert written_ports(cmds) == [8000, 5001]
+    text = script(cmds, {8000: 40123, 5001: 40124}, tmp_path)
     serve = next(line for line in text.splitlines() if line.startswith("rcb serve"))
     assert serve.startswith("rcb serve --port 40123 > ") and serve.endswith(" 2>&1 &")
     assert "http://127.0.0.1:40123/api/v1/health" in text and "8000" not in text
+    assert "rcb virtual serve --port 40124 --service-url http://127.0.0.1:40123/api/v1 >" in text
+    assert "http://127.0.0.1:40124/lathe/current http://127.0.0.1:50012/x" in text
 
 
 def _hook(name: str):
@@ -315,3 +331,26 @@ def test_a_page_that_declares_a_server_gets_one_on_the_port_it_writes(tmp_path):
     assert code == 0 and not (outputs / "failed").exists()
     assert cmds[0].expects_in((outputs / "0.out").read_text()) == []
     assert (folder / "rcb.db").exists()  # the test's server made the page's database
+
+
+def test_a_page_that_hangs_is_reported_with_what_ran_and_what_died(tmp_path):
+    """The fleet page once hung 600 s in a CI run and the failure said nothing more."""
+    page = tmp_path / "page.md"
+    page.write_text(
+        "```console\n$ sh -c 'echo no such port >&2; exit 3' &\n$ echo waiting\n"
+        "$ until [ -f never.toml ]; do sleep 0.2; done\n```\n",
+        "utf-8",
+    )
+    outputs = tmp_path / "out"
+    outputs.mkdir()
+    cmds = commands(page, tmp_path)
+    (outputs / "run.sh").write_text(script(cmds, {PORT: 1234}, outputs), encoding="utf-8")
+    shell = subprocess.Popen(["bash", str(outputs / "run.sh")], cwd=tmp_path)
+    with pytest.raises(subprocess.TimeoutExpired):
+        shell.wait(timeout=3)
+    shell.kill()
+    shell.wait()
+    report = hung(cmds, outputs, 3)
+    assert report.startswith("the page did not end in 3 s; running: page.md:4: $ until [ -f")
+    assert "--- 2: $ sh -c 'echo no such port >&2; exit 3' &\nno such port" in report
+    assert "$ echo waiting" not in report
