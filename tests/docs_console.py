@@ -123,7 +123,7 @@ def script(cmds: list[Command], ports: dict[int, int], outputs: Path) -> str:
 
 
 def hung(cmds: list[Command], outputs: Path, seconds: float) -> str:
-    """What a script that did not end in ``seconds`` was running, and every command's last lines.
+    """What a script that did not end in ``seconds`` was running, with its and its servers' output.
 
     The running command is the first one that neither finished (``outputs/seconds``) nor runs
     in the background; each background command's output is shown too, since a server or a
