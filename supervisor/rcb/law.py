@@ -256,7 +256,7 @@ def _apply_law(
     margin = limit - (y * projection + margin_u) if is_max else guard - limit
     flag, note, fallback_only = _flags(case, result, limit, alarm, guard)
     model, sigma = settings.rule.adjust(
-        model, point, measurement, sigma, settings.coverage_k, settings.tau
+        model, point, Measurement(y, max(u, bound_u)), sigma, settings.coverage_k, settings.tau
     )
     y_new = model.predict(point, rel).value
     # the band keeps covering every measurement so far: K(1 ± ΔY/Y) reaches the worst one
