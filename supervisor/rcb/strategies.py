@@ -188,10 +188,10 @@ class Bayes(Strategy):
         """Conjugate normal update of ``ln K`` (Gelman et al. §2.5), with the discrepancy.
 
         ``measurement``'s ``u`` is the chain's bound ``Q u`` (:mod:`supervisor.rcb.law`, at
-        least the reported ``u``): the update is normal, so one reading's error moves ``K``
-        in full, and a chain noisier than it says (``noise-scale:3``) or one reading 4.9 σ
-        low (seed 902) put the next setpoint past a limit when read at ``u``
-        (docs/benchmarks.md, *bayes reads its readings at the chain's bound*).
+        least the reported ``u``): the update weighs a reading by the variance it is read
+        at, and read at ``u`` a chain noisier than it says (``noise-scale:3``) or one
+        reading 4.9 σ low (seed 902) moved ``K`` far enough to put the next setpoint past a
+        limit (docs/benchmarks.md, *bayes reads its readings at the chain's bound*).
         """
         if measurement.value <= 0:
             return model, sigma
