@@ -47,7 +47,7 @@ def test_fault_free_results_are_those_from_before_the_catalogue():
     # b85724fe872d with it up to the chain's bound Q u and a change read at y + Q u; then
     # fa897c612b31 / a9057698ec01 with the chain's noise evidence worth at most 20 readings
     # per operation, noise.NOISE_MEMORY); then 8505a21b0657 / bf5fb4a65576 with a grown band
-    # covering its reading at the chain's bound Q u, not P u; and these are today's:
+    # covering its reading at the margin's u + δ up to Q u, at least P u; today's:
     # without a fault, the catalogue changes nothing, and wear:0.05 is --wear-drift 0.05
     assert digest(simulate(PLAN, ["ivester", "learn"], scenarios=3, parts=12)) == "8505a21b0657"
     wear = simulate(PLAN, ["ivester"], scenarios=2, parts=12, seed=4, wear_drift_per_edge_life=0.05)

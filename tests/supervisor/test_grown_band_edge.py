@@ -7,7 +7,8 @@ vetoed the catalogue band); its roughness read 2.928 ± 0.05 µm where the truth
 the fallback band grew to cover the paper's ``y + u``. The band program took that band to its
 edge at the limit, where the truth stood 1.08 u over the reading's cover: 4.004 µm on a 4 µm
 limit at part 2, an avoidable crossing. At ``y + P u`` (P = 2.11 before the chain's noise is
-known) the band covers it and part 2 runs under the limit; since 2026-12-06 at ``y + Q u``
+known) the band covers it and part 2 runs under the limit; since 2026-12-06 at the margin's
+``u + δ``, up to ``y + Q u`` the further the reading lies over its prediction
 (test_grown_band_noise.py).
 """
 
