@@ -16,12 +16,18 @@ import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
+from api.cli.virtual import DEFAULT_PORTS, Protocol
+
 FENCE = re.compile(r"^```console\s*$")
 SKIP = re.compile(r"<!--\s*docs-test:\s*skip\b(.*?)-->")
 PORT = 8000  # the REST service's port the docs write; the test puts a free one in its place
 #: Any other port a page serves on (``--port 5001``): each gets a free one too, since two
 #: pages run at once, or a server another test left, would otherwise meet on it.
 SERVED = re.compile(r"--port (\d+)\b")
+#: A virtual machine started on its protocol's default port (no ``--port``: 5000 for
+#: MTConnect, 4840 for OPC UA, as try-a-machine.md shows it) is given ``--port`` in the test.
+VIRTUAL = re.compile(r"\brcb virtual serve\b")
+PROTOCOL = re.compile(r"--protocol (\w+)")
 
 
 @dataclass(frozen=True)
@@ -88,11 +94,25 @@ def commands(page: Path, root: Path) -> list[Command]:
 
 def written_ports(cmds: list[Command]) -> list[int]:
     """The ports ``cmds`` write: the service's 8000 and every ``--port N``, in order."""
-    found = [PORT, *(int(n) for c in cmds for n in SERVED.findall(c.text))]
+    found = [PORT]
+    for c in cmds:
+        default = _default_port(c.text)
+        found += [int(n) for n in SERVED.findall(c.text)] + ([default] if default else [])
     return list(dict.fromkeys(found))
 
 
+def _default_port(text: str) -> int | None:
+    """The port a ``rcb virtual serve`` with no ``--port`` serves on (None: not one)."""
+    protocol = PROTOCOL.search(text)
+    if not VIRTUAL.search(text) or SERVED.search(text) or protocol is None:
+        return None
+    return DEFAULT_PORTS.get(Protocol(protocol.group(1)))
+
+
 def _with_ports(text: str, ports: dict[int, int]) -> str:
+    default = _default_port(text)
+    if default is not None:
+        text = VIRTUAL.sub(f"rcb virtual serve --port {default}", text, count=1)
     for written, given in ports.items():
         text = re.sub(rf"(?<=:){written}\b|(?<=--port ){written}\b", str(given), text)
     return text

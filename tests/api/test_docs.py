@@ -278,6 +278,25 @@ def test_each_port_the_docs_write_becomes_a_free_port(tmp_path):
     assert "http://127.0.0.1:40124/lathe/current http://127.0.0.1:50012/x" in text
 
 
+def test_a_machine_on_its_default_port_gets_a_free_one_too(tmp_path):
+    """Before: try-a-machine.md's lathes kept 5000 and 4840, where two suites at once meet."""
+    page = tmp_path / "page.md"
+    page.write_text(
+        "```console\n$ rcb virtual serve --protocol mtconnect --plan p.toml &\n"
+        "$ curl http://127.0.0.1:5000/lathe/current\n"
+        "$ rcb virtual serve --protocol opcua --plan p.toml --parts 3 &\n"
+        "$ rcb virtual serve --protocol opcua --port 4841 &\n```\n",
+        "utf-8",
+    )
+    cmds = commands(page, tmp_path)
+    assert written_ports(cmds) == [8000, 5000, 4840, 4841]
+    text = script(cmds, {8000: 1, 5000: 40125, 4840: 40126, 4841: 40127}, tmp_path)
+    assert "rcb virtual serve --port 40125 --protocol mtconnect --plan p.toml >" in text
+    assert "curl http://127.0.0.1:40125/lathe/current" in text
+    assert "rcb virtual serve --port 40126 --protocol opcua --plan p.toml --parts 3 >" in text
+    assert "rcb virtual serve --protocol opcua --port 40127 >" in text
+
+
 def _hook(name: str):
     import importlib.util
 
