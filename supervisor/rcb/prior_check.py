@@ -69,6 +69,9 @@ from supervisor.rcb.state import RcbState, prior_sigma
 #: The prior probability that a new machine's ``ln K`` lies outside the fleet's spread: the
 #: odds ``(1 − ε)/ε = 19`` a Bayes factor must beat ("strong" evidence, Kass & Raftery 1995).
 OUTLIER_PROBABILITY = 0.05
+#: A belief whose precision lies under its start's by more than this fraction of the start's
+#: in some direction was discounted since (a change): :func:`rebased` widens it as it is.
+FORGOTTEN = 1e-6
 
 
 def checked(
@@ -175,16 +178,30 @@ def _log_evidence(
 def rebased(before: Posterior, start: Posterior, variance: float) -> Posterior:
     """``before``'s readings on ``start`` widened by ``variance`` (its intercept let go).
 
-    The readings' information is what ``before`` holds beyond ``start`` where it is evidence
-    (:func:`~supervisor.rcb.posterior.positive_part`, as the fleet reads a plan's). Where a
-    change's discount left less precision than the start's, adding the whole difference to
-    the widened start extrapolated the combination and ran the mean off (the known prior
-    under ``--fault curvature``, seed 139: ``ln Ra`` from 0.87 to 4.4 at part 8 after a
-    change, ``K`` past a float's range at part 12); there the widened start stands.
+    The readings' information is what ``before`` holds beyond ``start``, ``P − P₀`` with its
+    round-off dropped (:func:`~supervisor.rcb.posterior.positive_part`, as the fleet reads a
+    plan's). A belief a change discounted since its start holds less precision than the
+    start's in some direction (past :data:`FORGOTTEN`), and then ``P − P₀`` sums the readings'
+    information and the discount's loss, whose eigenvectors mix the intercept with the
+    exponents: adding the whole difference to the widened start extrapolated the two and ran
+    the mean off (the known prior under ``--fault curvature``, seed 139: ``ln Ra`` from 0.87
+    to 4.4 at part 8, ``K`` past a float's range at part 12), and its positive part put
+    evidence on an exponent that no reading gave (``closed_loop.py --fleet 4 --fleet-fault
+    noise-scale:3``, seed 49, a machine outside the fleet: finish-od's feed exponent 1.08 ±
+    0.07 became 0.97 at the widening and 0.62 twelve parts on, the truth 1.14, and the
+    roughness limit was crossed at parts 18 and 19). Such a belief's own ``ln K`` is widened
+    by ``variance`` instead, as a change's discount widens it: the exponents stay what the
+    readings made them (until 2026-12-06 such a belief was rebased on the positive part: in
+    one dimension, where it is empty, the widened start stood and the readings were lost).
     """
+    information = before.precision - start.precision
+    if np.linalg.eigvalsh(0.5 * (information + information.T)).min() < -FORGOTTEN * (
+        start.precision_norm
+    ):
+        return replace(discount(before, variance), prior_widening=variance)
     wide = discount(start, variance)
     readings, vector = post.positive_part(
-        before.precision - start.precision,
+        information,
         before.precision @ before.mean_array - start.precision @ start.mean_array,
     )
     # the widened start is proper and the readings' part semidefinite: their sum inverts

@@ -36,6 +36,7 @@ from supervisor.virtual.fleet import (
     known_priors,
     machines_of,
 )
+from supervisor.virtual.fleet_scenario import FleetWorld, new_machine_starts
 from supervisor.virtual.scenario import run_machine
 from supervisor.virtual.simulate import run_part
 
@@ -131,12 +132,12 @@ def test_rebased_keeps_the_readings_and_lets_the_intercept_go() -> None:
     assert post.from_json(moved.to_json()) == moved  # it is stored with the belief
 
 
-def test_a_belief_a_change_discounted_below_its_start_is_rebased_on_the_widened_start() -> None:
+def test_a_belief_a_change_discounted_below_its_start_widens_as_it_is() -> None:
     """After a change's discount the belief holds less precision than the fleet prior it
-    started from (``1/(4.4e-5 + 0.05²) < 1/0.02²``): its readings no longer count as evidence
-    beyond the start (``positive_part``), so the widened start stands, ``N(0, 0.02² + 0.1²)``
-    (before: the discounted belief widened, at 0.17, in one dimension; an extrapolation of
-    the two in more, the next test)."""
+    started from (``1/(4.4e-5 + 0.05²) < 1/0.02²``): its readings can no longer be read off
+    it, so its own ``ln K`` is widened, mean kept (until 2026-12-06 the widened start stood,
+    ``N(0, 0.02² + 0.1²)``, the readings' 1.2 thrown away; before that, an extrapolation of
+    the two, the next tests)."""
     prior, widening = _intercept(0.0, 0.02**2), 0.1**2
     before = prior
     for m in (Measurement(1.2, 0.024), Measurement(1.21, 0.0242)):
@@ -144,8 +145,70 @@ def test_a_belief_a_change_discounted_below_its_start_is_rebased_on_the_widened_
     before = discount(before, 0.05**2)
     assert before.cov[0][0] > prior.cov[0][0]
     moved = rebased(before, prior, widening)
-    assert moved.mean[0] == pytest.approx(0.0, abs=1e-12)
-    assert moved.cov[0][0] == pytest.approx(0.02**2 + widening, rel=1e-9)
+    assert moved.mean[0] == pytest.approx(before.mean[0], rel=1e-12)
+    assert moved.mean[0] == pytest.approx(math.log(1.2), abs=0.02)
+    assert moved.cov[0][0] == pytest.approx(before.cov[0][0] + widening, rel=1e-12)
+    assert moved.prior_widening == widening
+
+
+#: Seed 49's finish-od roughness belief (depth, feed, speed exponents) at part 6's report,
+#: where the fleet prior was let go: the start (the fleet's) and the belief after 5 readings
+#: and a change's discount (``closed_loop.py --fleet 4 --fleet-fault noise-scale:3``).
+_CENTER = (-0.8047189562170501, -2.0998525389399636, 4.926097129074289)
+_START_49 = (
+    (0.665945, -0.086295, 1.096652, -0.002),
+    (
+        (0.00136616, -0.000134104, -0.00110786, -2.89246e-08),
+        (-0.000134104, 0.000168882, -3.65776e-06, -1.04865e-10),
+        (-0.00110786, -3.65776e-06, 0.00483428, -7.88934e-10),
+        (-2.89246e-08, -1.04865e-10, -7.88934e-10, 9.16e-08),
+    ),
+)
+_BEFORE_49 = (
+    (0.751729, -0.086243, 1.082806, -0.002),
+    (
+        (0.00131278, -0.000135408, -0.00052212, -2.92057e-08),
+        (-0.000135408, 0.000168881, -3.40784e-06, -1.0502e-10),
+        (-0.00052212, -3.40784e-06, 0.00469598, -7.35029e-10),
+        (-2.92057e-08, -1.0502e-10, -7.35029e-10, 9.16e-08),
+    ),
+)
+
+
+def test_a_discounted_belief_widened_keeps_its_exponent() -> None:
+    """Seed 49 (above): rebased on the widened start with the positive part of ``P − P₀``,
+    whose eigenvectors mix the discount's loss with the readings, the feed exponent went from
+    1.083 to 0.971 (and on to 0.62; the truth 1.14) and the roughness limit was crossed at
+    parts 18-19. Widened as it is, every exponent is the belief's and only ``ln K`` grows."""
+    names = ("depth_mm", "feed_mm_rev", "speed_m_min")
+    start, before = (
+        post.Posterior("roughness_um", names, _CENTER, {}, mean, cov)
+        for mean, cov in (_START_49, _BEFORE_49)
+    )
+    variance = 0.03628117913832199  # the catalogue prior's ln K variance (finish-od's insert)
+    moved = rebased(before, start, variance)
+    assert moved.mean == before.mean
+    assert moved.cov[0][0] == pytest.approx(before.cov[0][0] + variance, rel=1e-12)
+    assert [row[1:] for row in moved.cov[1:]] == [row[1:] for row in before.cov[1:]]
+    # what the positive part made of it: a feed exponent no reading gave
+    j, h = post.positive_part(
+        before.precision - start.precision,
+        before.precision @ before.mean_array - start.precision @ start.mean_array,
+    )
+    wide = discount(start, variance)
+    old = np.linalg.solve(wide.precision + j, wide.precision @ wide.mean_array + h)
+    assert old[2] == pytest.approx(0.971, abs=0.002)
+
+
+def test_a_machine_outside_a_noisy_fleet_crosses_no_limit_after_its_first_part() -> None:
+    """Seed 49 of ``closed_loop.py --fleet 4 --fleet-fault noise-scale:3`` (the learning
+    machines' chains 3 x noisier than they say; the new machine outside the spread, clean):
+    finish-od's roughness crossed at parts 18 and 19 (the test before), none now."""
+    world = FleetWorld(fleet_faults=parse_faults(["noise-scale:3"]))
+    s = new_machine_starts(PLAN, 49, 4, 30, world)
+    assert s.outside
+    trace, _ = run_machine(s.from_fleet, s.machine, 49, 20, noise_seed=s.noise)
+    assert [w for w in trace.where if w[0] > 1] == []
 
 
 def test_a_known_prior_on_a_curved_truth_keeps_its_belief_finite() -> None:
