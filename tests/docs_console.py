@@ -16,7 +16,7 @@ import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
-from api.cli.virtual import DEFAULT_PORTS, Protocol
+from api.cli.virtual import DEFAULT_PORTS
 
 FENCE = re.compile(r"^```console\s*$")
 SKIP = re.compile(r"<!--\s*docs-test:\s*skip\b(.*?)-->")
@@ -93,7 +93,8 @@ def commands(page: Path, root: Path) -> list[Command]:
 
 
 def written_ports(cmds: list[Command]) -> list[int]:
-    """The ports ``cmds`` write: the service's 8000 and every ``--port N``, in order."""
+    """The ports ``cmds`` write: the service's 8000, every ``--port N`` and a virtual machine's
+    default (:func:`_default_port`), in order."""
     found = [PORT]
     for c in cmds:
         default = _default_port(c.text)
@@ -106,7 +107,7 @@ def _default_port(text: str) -> int | None:
     protocol = PROTOCOL.search(text)
     if not VIRTUAL.search(text) or SERVED.search(text) or protocol is None:
         return None
-    return DEFAULT_PORTS.get(Protocol(protocol.group(1)))
+    return DEFAULT_PORTS.get(protocol.group(1))  # a StrEnum key is its text; a typo: None
 
 
 def _with_ports(text: str, ports: dict[int, int]) -> str:
