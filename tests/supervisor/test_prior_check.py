@@ -203,7 +203,7 @@ def test_a_discounted_belief_widened_keeps_its_exponent() -> None:
 def test_a_machine_outside_a_noisy_fleet_crosses_no_limit_after_its_first_part() -> None:
     """Seed 49 of ``closed_loop.py --fleet 4 --fleet-fault noise-scale:3`` (the learning
     machines' chains 3 x noisier than they say; the new machine outside the spread, clean):
-    finish-od's roughness crossed at parts 18 and 19 (the test before), none now."""
+    finish-od's roughness crossed at parts 18 and 19 on the code before, none now."""
     world = FleetWorld(fleet_faults=parse_faults(["noise-scale:3"]))
     s = new_machine_starts(PLAN, 49, 4, 30, world)
     assert s.outside
