@@ -36,7 +36,7 @@ from models.kinematics import PARAMETERS, Process
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.evidence import LEAST_VARIANCE
 from supervisor.fleet.learned import Learned, proper, start_of
-from supervisor.fleet.posterior_fields import posterior_fields
+from supervisor.fleet.posterior_fields import posterior_fields, readings_held
 from supervisor.inputs.plan import Operation
 from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
@@ -282,6 +282,7 @@ def _posterior(data: object, path: str) -> Posterior:
             f"{path}.prior_widening", belief.prior_widening, f"must be a number >= 0 and <= {most}"
         )
     _within_bounds(belief, path)
+    readings_held(belief, path)
     return belief
 
 

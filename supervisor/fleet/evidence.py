@@ -21,13 +21,16 @@ an edge limit says nothing of ``ω``: its belief gets ``ω ~ N(0, edge_sd²)``, 
 (:data:`~supervisor.rcb.posterior.DEFAULT_EDGE_SD`), uncorrelated, and its evidence none.
 A Gaussian belief maps to ``N(T μ + o, T Σ T^\mathsf{T})``.
 
-The *evidence* of the readings is the posterior less the prior it started from, in
-information form (the product of Gaussians [1]_): ``J = P − P_0``, ``h = P m − P_0 m_0`` with
-``P = (TΣT^\mathsf{T})^{-1}``. Where the learner's forgetting (the random walk ``τ``, a change's
-discount) left less precision than the prior's in some direction, ``J`` is not positive
-semidefinite there; that direction carries no evidence and is dropped (the projection on the
-eigenvectors of positive eigenvalue), so a process that changed teaches the fleet only what
-its readings since show.
+The *evidence* of the readings is their own information about ``β``, ``(J, h)``, which a
+belief keeps and every update moves as it moves the belief (:mod:`supervisor.rcb.information`:
+a change's discount steps it, so a process that changed teaches the fleet what its readings
+say of the process as it is now), mapped to ``θ`` (the product of Gaussians [1]_):
+``J_θ = T^{-T} J T^{-1}``, ``h_θ = T^{-T} h + J_θ o``. A belief stored before 2026-12-06
+keeps none: its evidence is the posterior less the prior it started from, ``J = P − P₀``,
+``h = P m − P_0 m_0`` with ``P = (TΣT^\mathsf{T})^{-1}``, projected on the eigenvectors of
+positive eigenvalue where a discount left less precision than the prior's (which mixes the
+discount's loss in ``ln K`` with the exponents' evidence: the reason the readings' own are
+kept). Either is the same without a discount.
 
 References
 ----------
@@ -43,7 +46,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior, positive_parts
+from supervisor.rcb.information import positive_parts
+from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior
 
 
 @dataclass(frozen=True)
@@ -134,26 +138,52 @@ def evidences(
     Beliefs of one shape are stacked and go through numpy's stacked inverse and
     eigendecomposition at once (a new plan's fleet prior reads thousands).
     """
-    groups: dict[tuple[int, bool, int], list[int]] = {}
+    groups: dict[tuple[int, bool, int, bool], list[int]] = {}
     for index, (posterior, prior, _) in enumerate(beliefs):
         if posterior.names != prior.names or posterior.edge_max != prior.edge_max:
             raise ValueError(
                 f"posterior over {posterior.names} (edge {posterior.edge_max}), "
                 f"prior over {prior.names} (edge {prior.edge_max})"
             )
-        shape = (len(posterior.names), bool(posterior.edge_max), size(posterior))
+        kept = posterior.readings_information is not None
+        shape = (len(posterior.names), bool(posterior.edge_max), size(posterior), kept)
         groups.setdefault(shape, []).append(index)
     out: list[Evidence | None] = [None] * len(beliefs)
-    for indices in groups.values():
+    for (*_, kept), indices in groups.items():
         chosen = [beliefs[i] for i in indices]
-        m, s = _stacked([(b[0], b[2]) for b in chosen])
-        m0, s0 = _stacked([(b[1], b[2]) for b in chosen])
-        p, p0 = np.linalg.inv(s), np.linalg.inv(s0)
-        vector = (p @ m[..., np.newaxis] - p0 @ m0[..., np.newaxis])[..., 0]
-        j, h = positive_parts(p - p0, vector)
+        j, h = positive_parts(*(_kept(chosen) if kept else _difference(chosen)))
         for row, (index, (posterior, _, _)) in enumerate(zip(indices, chosen, strict=True)):
             out[index] = Evidence(posterior.names, j[row], h[row], posterior.observations)
     return [e for e in out if e is not None]
+
+
+def _kept(
+    beliefs: Sequence[tuple[Posterior, Posterior, Mapping[str, float]]],
+) -> tuple[np.ndarray, np.ndarray]:
+    """The readings' own ``(J, h)`` of beliefs that keep them, about ``θ``, stacked.
+
+    ``θ = T β + o`` (:func:`transform`): ``J_θ = T⁻ᵀ J T⁻¹``, ``h_θ = T⁻ᵀ h + J_θ o``; a
+    wearing quantity's ``ω`` without the edge feature: no evidence.
+    """
+    frames = [transform(posterior, context) for posterior, _, context in beliefs]
+    t_inv = np.linalg.inv(np.array([frame for frame, _ in frames]))
+    t_inv_t = np.swapaxes(t_inv, -1, -2)
+    offset = np.array([o for _, o in frames])
+    j = t_inv_t @ np.array([p.readings_information for p, _, _ in beliefs]) @ t_inv
+    vector = np.array([p.readings_vector for p, _, _ in beliefs])[..., np.newaxis]
+    h = (t_inv_t @ vector + j @ offset[..., np.newaxis])[..., 0]
+    extra = size(beliefs[0][0]) - j.shape[-1]
+    return np.pad(j, ((0, 0), (0, extra), (0, extra))), np.pad(h, ((0, 0), (0, extra)))
+
+
+def _difference(
+    beliefs: Sequence[tuple[Posterior, Posterior, Mapping[str, float]]],
+) -> tuple[np.ndarray, np.ndarray]:
+    """``P − P₀`` and ``P m − P₀ m₀`` about ``θ`` of beliefs stored before 2026-12-06, stacked."""
+    m, s = _stacked([(b[0], b[2]) for b in beliefs])
+    m0, s0 = _stacked([(b[1], b[2]) for b in beliefs])
+    p, p0 = np.linalg.inv(s), np.linalg.inv(s0)
+    return p - p0, (p @ m[..., np.newaxis] - p0 @ m0[..., np.newaxis])[..., 0]
 
 
 def _stacked(

@@ -12,8 +12,11 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
+
 from models import fields
 from models.errors import InputError
+from supervisor.rcb.posterior import Posterior
 
 #: The fields every posterior holds (:meth:`~supervisor.rcb.posterior.Posterior.to_json`).
 _POSTERIOR_KEYS = ("quantity", "names", "center", "context_exponents", "mean", "cov")
@@ -49,6 +52,61 @@ def posterior_fields(table: Mapping[str, Any], path: str) -> None:
     for key in ("noise_scale2", "prior_widening"):
         if key in table:
             fields.number(table[key], f"{path}.{key}", largest=math.inf)
+    _readings_fields(table, path)
+
+
+def _readings_fields(table: Mapping[str, Any], path: str) -> None:
+    """The readings' own information (:mod:`supervisor.rcb.information`): both or neither."""
+    rows, vector = table.get("readings_information"), table.get("readings_vector")
+    if (rows is None) != (vector is None):
+        given, missing = (
+            ("readings_information", "readings_vector")
+            if vector is None
+            else ("readings_vector", "readings_information")
+        )
+        raise InputError(f"{path}.{missing}", None, f"missing: {given} needs it")
+    if rows is None:
+        return
+    if not isinstance(rows, list):
+        raise InputError(f"{path}.readings_information", rows, "must be a list of rows of numbers")
+    for i, row in enumerate(rows):
+        _listed_numbers(row, f"{path}.readings_information[{i}]")
+    _listed_numbers(vector, f"{path}.readings_vector")
+
+
+def readings_held(belief: Posterior, path: str) -> None:
+    """``belief``'s readings' information, if it keeps one, as its readings can make it.
+
+    Of ``β``'s size, finite, symmetric positive semidefinite, and no more than ``belief``'s
+    own precision (``P − J``, the start's part, positive semidefinite): a document's ``J``
+    is the evidence a fleet prior takes from it, so one that claimed more than the belief
+    holds would make the fleet surer than any reading did.
+    """
+    if belief.readings_information is None or belief.readings_vector is None:
+        return
+    j, h = np.array(belief.readings_information), np.array(belief.readings_vector)
+    size = len(belief.mean)
+    if j.shape != (size, size) or h.shape != (size,):
+        raise InputError(
+            f"{path}.readings_information",
+            [len(r) for r in belief.readings_information],
+            f"must be {size} x {size} with a readings_vector of {size}, as the mean",
+        )
+    if not (np.isfinite(j).all() and np.isfinite(h).all()):
+        raise InputError(f"{path}.readings_information", "non-finite", "must be finite numbers")
+    scale = max(float(np.abs(belief.precision).max()), 1e-300)
+    if float(np.abs(j - j.T).max()) > _ROUND_OFF * scale:
+        raise InputError(f"{path}.readings_information", "not symmetric", "must be symmetric")
+    for matrix, why in ((j, _NOT_SEMIDEFINITE), (belief.precision - j, _MORE_THAN_HELD)):
+        least = float(np.linalg.eigvalsh(0.5 * (matrix + matrix.T))[0])
+        if least < -_ROUND_OFF * scale:
+            raise InputError(f"{path}.readings_information", least, why)
+
+
+#: Round-off a stored information may carry, relative to the belief's largest precision.
+_ROUND_OFF = 1e-6
+_NOT_SEMIDEFINITE = "an eigenvalue under 0: readings' information is positive semidefinite"
+_MORE_THAN_HELD = "is more than the belief's precision holds (an eigenvalue of P - J under 0)"
 
 
 def _listed_numbers(value: object, path: str) -> None:

@@ -50,6 +50,7 @@ import numpy as np
 from supervisor.inputs.part_report import COVERAGE_FACTOR, Measurement
 from supervisor.inputs.plan import Operation
 from supervisor.optimize.result import OperationResult
+from supervisor.rcb import information
 from supervisor.rcb import posterior as post
 from supervisor.rcb.beliefs import Beliefs
 from supervisor.rcb.cone import Cone
@@ -299,13 +300,14 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
     (exact without discounts, as a normal-inverse-gamma posterior's data term scales with the
     noise variance, Gelman et al. §14.8). Both ways: ``learn``'s scale starts high (an upper
     quantile of the chain's noise, :mod:`supervisor.rcb.noise`) and comes down as readings
-    show a quiet chain, and the readings then weigh what they are worth. ``ρ > 1`` extrapolates
-    the combination; where discounts (a change's ``q``, the random walk ``τ``) have left less
-    precision than the prior's in some direction (``P − P₀`` not positive semi-definite),
-    weighing the readings more takes precision away there and the mean runs off (a posterior
-    whose ``ln K`` overflowed, noise-scale 3, once the report's end rescaled every posterior):
-    then the belief stays as it is (the more cautious of the two), as where ``P'`` loses
-    definiteness.
+    show a quiet chain, and the readings then weigh what they are worth. A belief that keeps
+    its readings' own information ``J`` is re-weighed as ``P + (ρ − 1) J``, the same without
+    discounts and, after one, leaving what the discount took
+    (:func:`supervisor.rcb.information.reweighed`). One stored before 2026-12-06 takes the
+    formula above, which a discount (a change's ``q``, the random walk ``τ``) makes extrapolate:
+    where ``P − P₀`` is not positive semi-definite and ``ρ > 1`` the mean ran off (a posterior
+    whose ``ln K`` overflowed, noise-scale 3): then the belief stays as it is, as where ``P'``
+    loses definiteness.
     """
     if noise_scale2 == belief.noise_scale2:
         return belief
@@ -319,6 +321,9 @@ def rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) ->
 
 def _rescaled(belief: Posterior, prior_belief: Posterior, noise_scale2: float) -> Posterior:
     rho = belief.noise_scale2 / noise_scale2
+    if belief.readings_information is not None:  # the readings' own (J, h): P + (ρ − 1) J
+        again = information.reweighed(belief, rho)
+        return belief if again is None else replace(again, noise_scale2=noise_scale2)
     p0 = prior_belief.precision
     p = belief.precision
     if rho > 1.0 and not _readings_add_precision(belief, prior_belief):
@@ -387,8 +392,7 @@ def restarted(start: Posterior, belief: Posterior | None) -> Posterior:
 def discount(belief: Posterior, variance: float) -> Posterior:
     """The belief after a random-walk step ``variance`` of its intercept: old evidence weighs less.
 
-    ``Σ₀₀ + q`` (:mod:`supervisor.rcb.monitor`: a change of the process sized by its innovation).
+    ``Σ₀₀ + q`` (:mod:`supervisor.rcb.monitor`: a change of the process sized by its innovation),
+    the readings' own information with it (:func:`supervisor.rcb.information.stepped`).
     """
-    cov = [list(row) for row in belief.cov]
-    cov[0][0] += variance
-    return replace(belief, cov=tuple(tuple(row) for row in cov))
+    return information.stepped(belief, variance)

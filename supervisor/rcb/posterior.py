@@ -75,6 +75,7 @@ from models.powerlaw import PowerLawModel
 from models.quantities import PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import Operation
+from supervisor.rcb import information
 
 #: The cone's multiple of the posterior standard deviation (README, closed-loop benchmark).
 DEFAULT_Z = 4.0
@@ -85,8 +86,6 @@ DEFAULT_EXPONENT_SD = 0.15
 DEFAULT_EDGE_SD = 0.1
 #: Quantities that rise as an edge wears, and so get the edge-age feature.
 WEARING = ("force_N", "roughness_um", "spindle_current_A")
-#: Eigenvalues of readings' information under this fraction of its largest are round-off.
-EVIDENCE_FLOOR = 1e-9
 #: Relative jitter of the covariance's Cholesky factor (numerical safety only).
 _JITTER = 1e-12
 
@@ -124,6 +123,10 @@ class Posterior:
         A fleet prior's: the confidence at which its cones veto the catalogue band's optimum,
         where the fleet's machines differ by more than the band (:mod:`supervisor.fleet.prior`;
         0: at the mean, as every catalogue start). An update does not carry it on.
+    readings_information, readings_vector : optional
+        ``(J, h)``, what the readings alone say of ``β`` at ``noise_scale2``, moved by every
+        update as the belief is (:mod:`supervisor.rcb.information`); None: a belief stored
+        before they were kept.
     """
 
     quantity: str
@@ -137,6 +140,8 @@ class Posterior:
     noise_scale2: float = 1.0
     prior_widening: float = 0.0
     band_veto_z: float = 0.0
+    readings_information: tuple[tuple[float, ...], ...] | None = None
+    readings_vector: tuple[float, ...] | None = None
 
     def cholesky(self, drift: float) -> np.ndarray:
         """The Cholesky factor of ``Σ + drift² e₀e₀ᵀ`` (kept on the object: it is immutable)."""
@@ -220,9 +225,14 @@ class Posterior:
 
     def to_json(self) -> dict[str, object]:
         """A JSON-able mapping (:func:`from_json` reads it back exactly)."""
-        widening = {"prior_widening": self.prior_widening} if self.prior_widening else {}
+        widening: dict[str, object] = {}
+        if self.prior_widening:
+            widening["prior_widening"] = self.prior_widening
         if self.band_veto_z:
             widening["band_veto_z"] = self.band_veto_z
+        if self.readings_information is not None and self.readings_vector is not None:
+            widening["readings_information"] = [list(r) for r in self.readings_information]
+            widening["readings_vector"] = list(self.readings_vector)
         return {
             "quantity": self.quantity,
             "names": list(self.names),
@@ -239,8 +249,10 @@ class Posterior:
 
 def from_json(data: Mapping[str, object]) -> Posterior:
     """The :class:`Posterior` of :meth:`Posterior.to_json`."""
-    cov = data["cov"]
+    cov, rows, vector = data["cov"], data.get("readings_information"), data.get("readings_vector")
     assert isinstance(cov, list)
+    assert rows is None or isinstance(rows, list)
+    assert vector is None or isinstance(vector, list)
     return Posterior(
         quantity=str(data["quantity"]),
         names=tuple(str(n) for n in data["names"]),  # type: ignore[attr-defined]
@@ -256,6 +268,8 @@ def from_json(data: Mapping[str, object]) -> Posterior:
         noise_scale2=float(data.get("noise_scale2", 1.0)),  # type: ignore[arg-type]
         prior_widening=float(data.get("prior_widening", 0.0)),  # type: ignore[arg-type]
         band_veto_z=float(data.get("band_veto_z", 0.0)),  # type: ignore[arg-type]
+        readings_information=None if rows is None else tuple(tuple(map(float, r)) for r in rows),
+        readings_vector=None if vector is None else tuple(map(float, vector)),
     )
 
 
@@ -295,7 +309,19 @@ def prior(
     cov = tuple(
         tuple(v if i == j else 0.0 for j in range(len(variances))) for i, v in enumerate(variances)
     )
-    return Posterior(model.quantity, names, center, context, tuple(mean), cov, 0, edge_max)
+    readings, vector = information.none_yet(len(mean))
+    return Posterior(
+        model.quantity,
+        names,
+        center,
+        context,
+        tuple(mean),
+        cov,
+        0,
+        edge_max,
+        readings_information=readings,
+        readings_vector=vector,
+    )
 
 
 def observe(
@@ -318,10 +344,12 @@ def observe(
     mu = np.array(belief.mean)
     cov = np.array(belief.cov)
     cov[0, 0] += drift**2
+    ln_y = math.log(measurement.value)
+    readings, vector = information.observed(belief, phi, ln_y, noise, drift**2)
     cov_phi = cov @ phi
     s2 = float(phi @ cov_phi) + noise**2
     gain = cov_phi / s2
-    mu = mu + gain * (math.log(measurement.value) - float(phi @ mu))
+    mu = mu + gain * (ln_y - float(phi @ mu))
     cov = cov - np.outer(gain, cov_phi)
     cov = 0.5 * (cov + cov.T)
     return Posterior(
@@ -335,34 +363,6 @@ def observe(
         belief.edge_max,
         belief.noise_scale2,
         belief.prior_widening,
+        readings_information=readings,
+        readings_vector=vector,
     )
-
-
-def positive_part(information: np.ndarray, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Readings' information ``(J, h)`` with what is not evidence dropped.
-
-    ``J = P − P₀`` (a posterior's precision less its prior's) is not positive semidefinite
-    where the learner's forgetting (the random walk ``τ``, a change's discount) left less
-    precision than the prior's: that direction carries no evidence. ``J`` is projected on the
-    eigenvectors of positive eigenvalue (those under :data:`EVIDENCE_FLOOR` of the largest
-    are round-off) and ``h`` with it, so a process that changed shows only what its readings
-    since do.
-    """
-    j, h = positive_parts(information[np.newaxis], vector[np.newaxis])
-    return j[0], h[0]
-
-
-def positive_parts(information: np.ndarray, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`positive_part` of a stack: ``information`` ``(N, k, k)``, ``vector`` ``(N, k)``.
-
-    One call of numpy's stacked eigendecomposition for the stack, not one a belief: the
-    fleet reads thousands of beliefs for a new plan's prior.
-    """
-    j = 0.5 * (information + np.swapaxes(information, -1, -2))
-    values, vectors = np.linalg.eigh(j)
-    top = np.maximum(values.max(axis=-1, keepdims=True), 0.0)
-    keep = values > EVIDENCE_FLOOR * top
-    kept = vectors * keep[:, np.newaxis, :]  # the dropped eigenvectors' columns are 0
-    kept_t = np.swapaxes(kept, -1, -2)
-    projected = kept @ (kept_t @ vector[..., np.newaxis])
-    return (kept * np.where(keep, values, 0.0)[:, np.newaxis, :]) @ kept_t, projected[..., 0]

@@ -23,10 +23,9 @@ this one included, is
     + c(y)
 
 (the Gaussian linear model's evidence [2]_; ``P' = P + J``, ``b = P m + h``, ``J`` and ``h``
-the readings' information, the posterior's less the start's where it is evidence:
-:func:`~supervisor.rcb.posterior.positive_part`, as :func:`rebased` and the fleet read it; a
-change's discount or the random walk ``τ`` leaves less precision than the start's in some
-direction, which no reading showed), with ``S`` the fleet prior and
+the readings' own information, which the belief keeps and a change's discount steps as it
+steps the belief: :mod:`supervisor.rcb.information`, as :func:`rebased` and the fleet read
+it), with ``S`` the fleet prior and
 ``S_w`` the same with the intercept's variance grown by the catalogue prior's. When the
 posterior odds favour the wide law, ``B > (1 − ε)/ε``, the prior is widened for good: the
 belief becomes ``S_w`` with the earlier readings' information, and the reading is then learned
@@ -60,6 +59,7 @@ import numpy as np
 from supervisor.inputs.part_report import Measurement, PartReport
 from supervisor.rcb import posterior as post
 from supervisor.rcb.decision import Decision
+from supervisor.rcb.information import readings_of
 from supervisor.rcb.judged import Judged, judge
 from supervisor.rcb.learning import discount
 from supervisor.rcb.noise import NoiseScale
@@ -154,9 +154,7 @@ def log_bayes_factor(start: Posterior, after: Posterior, variance: float) -> flo
     information is projected on its evidence, positive semidefinite).
     """
     p_start, m = start.precision, start.mean_array
-    info, h = post.positive_part(
-        after.precision - p_start, after.precision @ after.mean_array - p_start @ m
-    )
+    info, h = readings_of(after, start)
     fleet = _log_evidence(m, p_start, info, h)
     widened = _log_evidence(m, discount(start, variance).precision, info, h)
     return None if fleet is None or widened is None else widened - fleet
@@ -178,32 +176,32 @@ def _log_evidence(
 def rebased(before: Posterior, start: Posterior, variance: float) -> Posterior:
     """``before``'s readings on ``start`` widened by ``variance`` (its intercept let go).
 
-    The readings' information is what ``before`` holds beyond ``start``, ``P − P₀`` with its
-    round-off dropped (:func:`~supervisor.rcb.posterior.positive_part`, as the fleet reads a
-    plan's). A belief a change discounted since its start holds less precision than the
-    start's in some direction (past :data:`FORGOTTEN`), and then ``P − P₀`` sums the readings'
-    information and the discount's loss, whose eigenvectors mix the intercept with the
-    exponents: adding the whole difference to the widened start extrapolated the two and ran
-    the mean off (the known prior under ``--fault curvature``, seed 139: ``ln Ra`` from 0.87
-    to 4.4 at part 8, ``K`` past a float's range at part 12), and its positive part put
-    evidence on an exponent that no reading gave (``closed_loop.py --fleet 4 --fleet-fault
-    noise-scale:3``, seed 49, a machine outside the fleet: finish-od's feed exponent 1.08 ±
-    0.07 became 0.97 at the widening and 0.62 twelve parts on, the truth 1.14, and the
-    roughness limit was crossed at parts 18 and 19). Such a belief's own ``ln K`` is widened
+    The readings' information is the one ``before`` keeps (:mod:`supervisor.rcb.information`;
+    one stored before 2026-12-06: ``P − P₀``'s positive part), as the fleet reads a plan's. A
+    belief a change discounted since its start holds less precision than the start's in some
+    direction (past :data:`FORGOTTEN`); ``P − P₀`` then sums the readings' information and the
+    discount's loss, whose eigenvectors mix the intercept with the exponents: adding the whole
+    difference to the widened start extrapolated the two and ran the mean off (the known
+    prior under ``--fault curvature``, seed 139: ``ln Ra`` from 0.87 to 4.4 at part 8, ``K``
+    past a float's range at part 12), and its positive part put evidence on an exponent that
+    no reading gave (``closed_loop.py --fleet 4 --fleet-fault noise-scale:3``, seed 49, a
+    machine outside the fleet: finish-od's feed exponent 1.08 ± 0.07 became 0.97 at the
+    widening and 0.62 twelve parts on, the truth 1.14, and the roughness limit was crossed
+    at parts 18 and 19). Such a belief's own ``ln K`` is widened
     by ``variance`` instead, as a change's discount widens it: the exponents stay what the
     readings made them (until 2026-12-06 such a belief was rebased on the positive part: in
     one dimension, where it is empty, the widened start stood and the readings were lost).
+    Rebasing such a belief on its readings' own information would hold the widened start at
+    its full precision where the discount grew the start's variance too: widening as it is
+    stays the cautious one.
     """
-    information = before.precision - start.precision
-    if np.linalg.eigvalsh(0.5 * (information + information.T)).min() < -FORGOTTEN * (
+    difference = before.precision - start.precision
+    if np.linalg.eigvalsh(0.5 * (difference + difference.T)).min() < -FORGOTTEN * (
         start.precision_norm
     ):
         return replace(discount(before, variance), prior_widening=variance)
     wide = discount(start, variance)
-    readings, vector = post.positive_part(
-        information,
-        before.precision @ before.mean_array - start.precision @ start.mean_array,
-    )
+    readings, vector = readings_of(before, start)
     # the widened start is proper and the readings' part semidefinite: their sum inverts
     cov = np.linalg.inv(wide.precision + readings)
     cov = 0.5 * (cov + cov.T)

@@ -63,6 +63,16 @@ def _swap_cov(item: dict[str, Any]) -> None:  # symmetric, but one eigenvalue ne
     cov[0][1] = cov[1][0] = 10 * (cov[0][0] * cov[1][1]) ** 0.5
 
 
+def _scaled_readings(factor: float) -> Callable[[dict[str, Any]], None]:
+    """A change of the first item: its readings' information (not their vector) x ``factor``."""
+
+    def change(item: dict[str, Any]) -> None:
+        rows = item["posterior"]["readings_information"]
+        item["posterior"]["readings_information"] = [[factor * v for v in r] for r in rows]
+
+    return change
+
+
 CASES = [
     (_set("posterior", "mean", 0, value=1e300), "posterior.mean[0]", "within ±27.631"),
     (_set("posterior", "mean", 0, value=50.0), "posterior.mean[0]", "within ±27.631"),
@@ -105,6 +115,12 @@ CASES = [
     # K = 1.8e-8 N with a feed exponent of -17.8 (its evidence was round-off of 1e18)
     (_band_of_a_ppb, "tool.models.force_N", "knows the law (nearly) exactly"),
     (_pinned_cov, "posterior.cov", "knows the law (nearly) exactly"),
+    # the readings' own information (2026-12-06): the evidence a fleet prior takes from it
+    (_set("posterior", "readings_vector", 0, value="a"), "readings_vector[0]", "a number"),
+    (_drop("posterior", "readings_vector"), "posterior.readings_vector", "information needs it"),
+    (_set("posterior", "readings_information", value=[[1.0]]), "readings_information", " x "),
+    (_scaled_readings(-1.0), "posterior.readings_information", "is positive semidefinite"),
+    (_scaled_readings(1e6), "posterior.readings_information", "more than the belief's"),
 ]
 
 

@@ -23,6 +23,7 @@ from supervisor.fleet.learned import Learned
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
+from supervisor.rcb.information import positive_part
 from supervisor.rcb.learning import as_started, belief_of, discount
 from supervisor.rcb.prior_check import OUTLIER_PROBABILITY, log_bayes_factor, rebased
 from supervisor.rcb.replan import replan
@@ -191,7 +192,7 @@ def test_a_discounted_belief_widened_keeps_its_exponent() -> None:
     assert moved.cov[0][0] == pytest.approx(before.cov[0][0] + variance, rel=1e-12)
     assert [row[1:] for row in moved.cov[1:]] == [row[1:] for row in before.cov[1:]]
     # what the positive part made of it: a feed exponent no reading gave
-    j, h = post.positive_part(
+    j, h = positive_part(
         before.precision - start.precision,
         before.precision @ before.mean_array - start.precision @ start.mean_array,
     )
