@@ -26,6 +26,8 @@ So a belief keeps ``(J, h)``, at its noise scale, and each update moves it as it
 
   so the readings before a change still say what they said of the exponents, and of the
   intercept what the step leaves;
+- the intercept moved by ``d`` (a change other operations showed, a raise to a reading):
+  ``h += J e₀ d``, the readings' own mean moved as the belief's;
 - the noise scale ``λ → λ'``: ``J`` and ``h`` times ``ρ = λ/λ'``.
 
 The start's part ``P − J`` is left as it is by a reading and a re-weighing, and a step keeps it
@@ -96,6 +98,24 @@ def stepped(belief: Posterior, variance: float) -> Posterior:
         readings_information=readings,
         readings_vector=vector,
     )
+
+
+def shifted(belief: Posterior, shift: float) -> Posterior:
+    """``belief`` with its intercept moved by ``shift`` [ln], its readings' own mean with it.
+
+    ``h + J e₀ shift``: a change other operations showed, or a raise to a reading
+    (:mod:`supervisor.rcb.learning`), moves what the readings say of ``ln K`` as it moves the
+    belief; left where it was, re-weighing the readings pulled the belief back towards the
+    level before the change, and the exponents took up the difference (``closed_loop.py
+    --fault step:15:1.12``, seed 32: finish-od's feed exponent 1.13 → 1.08 over 10 parts,
+    roughness crossed at parts 24-29).
+    """
+    mean = (belief.mean[0] + shift, *belief.mean[1:])
+    if belief.readings_information is None or belief.readings_vector is None:
+        return replace(belief, mean=mean)
+    column = np.array(belief.readings_information)[:, 0]
+    vector = tuple(float(v) for v in np.array(belief.readings_vector) + column * shift)
+    return replace(belief, mean=mean, readings_vector=vector)
 
 
 def reweighed(belief: Posterior, rho: float) -> Posterior | None:

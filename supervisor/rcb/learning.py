@@ -235,8 +235,7 @@ def _at_least(
     deficit = math.log(y - u) - float(at @ belief.mean_array)
     if deficit <= 0:
         return belief
-    raised = replace(belief, mean=(belief.mean[0] + deficit, *belief.mean[1:]))
-    return discount(raised, deficit * deficit)
+    return discount(shifted(belief, deficit), deficit * deficit)
 
 
 def _decision(
@@ -356,7 +355,7 @@ def shifted(belief: Posterior, shift: float) -> Posterior:
 
     (:mod:`supervisor.rcb.common_cause`).
     """
-    return replace(belief, mean=(belief.mean[0] + shift, *belief.mean[1:]))
+    return information.shifted(belief, shift)
 
 
 def moved(

@@ -22,7 +22,11 @@ from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import information
 from supervisor.rcb import posterior as post
-from supervisor.rcb.learning import discount, rescaled
+from supervisor.rcb.learning import discount, rescaled, shifted
+from supervisor.rcb.state import RcbSettings
+from supervisor.rcb.update import start
+from supervisor.virtual.fault_spec import parse_faults
+from supervisor.virtual.scenario import run_scenario
 
 PLAN = load_plan(Path(__file__).resolve().parents[2] / "examples" / "ivester_demo_part.toml")
 ROUGH_OD = PLAN.operations[0]  # force_N with the edge feature: parts_per_edge = 10
@@ -59,14 +63,11 @@ def _learned(
     return belief
 
 
-@settings(max_examples=60, deadline=None)
-@given(st.lists(st.floats(-1.0, 1.0), min_size=12, max_size=12), st.floats(1e-4, 1.0))
-def test_a_step_is_the_covariance_forms(entries: list[float], variance: float) -> None:
-    """For a full-rank ``J``: ``J' = (J⁻¹ + v e₀e₀ᵀ)⁻¹`` and ``h' = J' J⁻¹ h``."""
+def _held(entries: list[float]) -> post.Posterior:
+    """A belief of 3 parameters whose readings' ``J`` (full rank) and ``h`` are ``entries``."""
     a = np.array(entries[:9]).reshape(3, 3)
     j = a @ a.T + 0.1 * np.eye(3)
-    h = np.array(entries[9:])
-    belief = post.Posterior(
+    return post.Posterior(
         "force_N",
         ("feed_mm_rev", "speed_m_min"),
         (0.0, 0.0),
@@ -74,8 +75,16 @@ def test_a_step_is_the_covariance_forms(entries: list[float], variance: float) -
         (0.0, 0.0, 0.0),
         tuple(tuple(row) for row in np.linalg.inv(j + np.eye(3))),
         readings_information=tuple(tuple(row) for row in j),
-        readings_vector=tuple(h),
+        readings_vector=tuple(entries[9:]),
     )
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=12, max_size=12), st.floats(1e-4, 1.0))
+def test_a_step_is_the_covariance_forms(entries: list[float], variance: float) -> None:
+    """For a full-rank ``J``: ``J' = (J⁻¹ + v e₀e₀ᵀ)⁻¹`` and ``h' = J' J⁻¹ h``."""
+    belief = _held(entries)
+    j, h = np.array(belief.readings_information), np.array(belief.readings_vector)
     stepped = information.stepped(belief, variance)
     cov = np.linalg.inv(j)
     cov[0, 0] += variance
@@ -164,3 +173,29 @@ def test_the_fleet_reads_the_readings_own_about_the_tools_law(step: float) -> No
     # the feed exponent's information given ln K: every reading's, less nothing the step took
     feed = 1 + belief.names.index("feed_mm_rev")
     assert new.information[feed, feed] > 1.05 * before.information[feed, feed]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=12, max_size=12), st.floats(-0.3, 0.3))
+def test_a_shift_moves_the_readings_own_mean_as_the_belief(entries: list[float], d: float) -> None:
+    """``J⁻¹ h`` moves by ``d`` in ``ln K`` and nothing else; ``J`` stays."""
+    belief = _held(entries)
+    moved = shifted(belief, d)
+    assert moved.mean[0] == belief.mean[0] + d and moved.mean[1:] == belief.mean[1:]
+    assert moved.readings_information == belief.readings_information
+    j = np.array(belief.readings_information)
+    change = np.linalg.solve(j, moved.readings_vector) - np.linalg.solve(j, belief.readings_vector)
+    np.testing.assert_allclose(change, [d, 0.0, 0.0], atol=1e-9)
+
+
+def test_a_step_of_the_process_teaches_no_false_exponent() -> None:
+    """``closed_loop.py --fault step:15:1.12``, seed 32: the common change moves the
+    intercept at part 15; with the readings' own mean left where it was, each new noise
+    scale pulled the belief back towards the old level, the feed exponent of finish-od's
+    roughness went 1.13 → 1.08 and the limit was crossed at parts 24-29 (a version of this
+    change before it was committed). Only the step's own part crosses."""
+    plan, seed = PLAN, 32
+    trace = run_scenario(
+        start(plan, RcbSettings(strategy="learn")), seed, 30, faults=parse_faults(["step:15:1.12"])
+    )
+    assert {part for part, _, _ in trace.where} == {15}
