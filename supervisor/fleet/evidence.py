@@ -46,7 +46,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from supervisor.rcb.information import positive_parts
+from supervisor.rcb.information_form import positive_parts
 from supervisor.rcb.posterior import DEFAULT_EDGE_SD, WEARING, Posterior
 
 

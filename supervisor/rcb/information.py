@@ -34,7 +34,7 @@ The start's part ``P − J`` is left as it is by a reading and a re-weighing, an
 positive semidefinite (the step's map is monotone in ``P``), so re-weighing the readings,
 ``P' = P + (ρ − 1) J``, never gives back what a step took. A belief stored before 2026-12-06
 holds no ``(J, h)``: its readings are read as before, the positive part of ``P − P₀``
-(:func:`positive_part`).
+(:func:`~supervisor.rcb.information_form.positive_part`).
 
 References
 ----------
@@ -46,37 +46,11 @@ References
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from supervisor.rcb.posterior import Posterior
-
-#: Eigenvalues of readings' information under this fraction of its largest are round-off.
-EVIDENCE_FLOOR = 1e-9
-
-
-def none_yet(size: int) -> tuple[tuple[tuple[float, ...], ...], tuple[float, ...]]:
-    """``(J, h)`` of no reading, over ``β`` of ``size``: zeros, as tuples a belief holds."""
-    return tuple((0.0,) * size for _ in range(size)), (0.0,) * size
-
-
-def observed(
-    belief: Posterior, phi: np.ndarray, ln_y: float, noise: float, variance: float
-) -> tuple[tuple[tuple[float, ...], ...] | None, tuple[float, ...] | None]:
-    """``belief``'s ``(J, h)`` after a step ``variance`` and a reading (module docstring).
-
-    ``(None, None)`` for a belief that holds none (stored before they were kept).
-    """
-    if belief.readings_information is None or belief.readings_vector is None:
-        return None, None
-    j, h = _stepped(
-        np.array(belief.readings_information), np.array(belief.readings_vector), variance
-    )
-    j = j + np.outer(phi, phi) / noise**2
-    h = h + phi * (ln_y / noise**2)
-    return _tuples(0.5 * (j + j.T), h)
+from supervisor.rcb.information_form import positive_part, step, tuples
+from supervisor.rcb.posterior import Posterior
 
 
 def stepped(belief: Posterior, variance: float) -> Posterior:
@@ -88,10 +62,8 @@ def stepped(belief: Posterior, variance: float) -> Posterior:
     cov[0][0] += variance
     if belief.readings_information is None or belief.readings_vector is None:
         return replace(belief, cov=tuple(tuple(row) for row in cov))
-    j, h = _stepped(
-        np.array(belief.readings_information), np.array(belief.readings_vector), variance
-    )
-    readings, vector = _tuples(j, h)
+    j, h = step(np.array(belief.readings_information), np.array(belief.readings_vector), variance)
+    readings, vector = tuples(j, h)
     return replace(
         belief,
         cov=tuple(tuple(row) for row in cov),
@@ -134,7 +106,7 @@ def reweighed(belief: Posterior, rho: float) -> Posterior | None:
     cov = np.linalg.inv(precision)
     cov = 0.5 * (cov + cov.T)
     mean = cov @ (belief.precision @ belief.mean_array + (rho - 1.0) * h)
-    readings, vector = _tuples(rho * j, rho * h)
+    readings, vector = tuples(rho * j, rho * h)
     return replace(
         belief,
         mean=tuple(float(m) for m in mean),
@@ -156,48 +128,3 @@ def readings_of(belief: Posterior, start: Posterior) -> tuple[np.ndarray, np.nda
         belief.precision - start.precision,
         belief.precision @ belief.mean_array - start.precision @ start.mean_array,
     )
-
-
-def positive_part(information: np.ndarray, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Readings' information ``(J, h)`` with what is not evidence dropped.
-
-    ``J = P − P₀`` (a posterior's precision less its prior's) is not positive semidefinite
-    where the learner's forgetting (the random walk ``τ``, a change's discount) left less
-    precision than the prior's: that direction carries no evidence. ``J`` is projected on the
-    eigenvectors of positive eigenvalue (those under :data:`EVIDENCE_FLOOR` of the largest
-    are round-off) and ``h`` with it. A belief stored before 2026-12-06 is read so; one
-    that keeps its readings' ``(J, h)`` is not (module docstring).
-    """
-    j, h = positive_parts(information[np.newaxis], vector[np.newaxis])
-    return j[0], h[0]
-
-
-def positive_parts(information: np.ndarray, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`positive_part` of a stack: ``information`` ``(N, k, k)``, ``vector`` ``(N, k)``.
-
-    One call of numpy's stacked eigendecomposition for the stack, not one a belief.
-    """
-    j = 0.5 * (information + np.swapaxes(information, -1, -2))
-    values, vectors = np.linalg.eigh(j)
-    top = np.maximum(values.max(axis=-1, keepdims=True), 0.0)
-    keep = values > EVIDENCE_FLOOR * top
-    kept = vectors * keep[:, np.newaxis, :]  # the dropped eigenvectors' columns are 0
-    kept_t = np.swapaxes(kept, -1, -2)
-    projected = kept @ (kept_t @ vector[..., np.newaxis])
-    return (kept * np.where(keep, values, 0.0)[:, np.newaxis, :]) @ kept_t, projected[..., 0]
-
-
-def _stepped(j: np.ndarray, h: np.ndarray, variance: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(J, h)`` after a step ``variance`` of the intercept (module docstring)."""
-    if variance <= 0.0:
-        return j, h
-    column = j[:, 0].copy()
-    denominator = 1.0 / variance + column[0]
-    j = j - np.outer(column, column) / denominator
-    return 0.5 * (j + j.T), h - column * (h[0] / denominator)
-
-
-def _tuples(
-    j: np.ndarray, h: np.ndarray
-) -> tuple[tuple[tuple[float, ...], ...], tuple[float, ...]]:
-    return tuple(tuple(float(v) for v in row) for row in j), tuple(float(v) for v in h)

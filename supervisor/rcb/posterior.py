@@ -75,7 +75,7 @@ from models.powerlaw import PowerLawModel
 from models.quantities import PARTS_PER_EDGE
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import Operation
-from supervisor.rcb import information
+from supervisor.rcb import information_form as form
 
 #: The cone's multiple of the posterior standard deviation (README, closed-loop benchmark).
 DEFAULT_Z = 4.0
@@ -309,7 +309,7 @@ def prior(
     cov = tuple(
         tuple(v if i == j else 0.0 for j in range(len(variances))) for i, v in enumerate(variances)
     )
-    readings, vector = information.none_yet(len(mean))
+    readings, vector = form.none_yet(len(mean))
     return Posterior(
         model.quantity,
         names,
@@ -345,7 +345,9 @@ def observe(
     cov = np.array(belief.cov)
     cov[0, 0] += drift**2
     ln_y = math.log(measurement.value)
-    readings, vector = information.observed(belief, phi, ln_y, noise, drift**2)
+    readings, vector = form.observed(
+        belief.readings_information, belief.readings_vector, phi, ln_y, noise, drift**2
+    )
     cov_phi = cov @ phi
     s2 = float(phi @ cov_phi) + noise**2
     gain = cov_phi / s2

@@ -23,7 +23,7 @@ from supervisor.fleet.learned import Learned
 from supervisor.inputs.part_report import Measurement
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
-from supervisor.rcb.information import positive_part
+from supervisor.rcb.information_form import positive_part
 from supervisor.rcb.learning import as_started, belief_of, discount
 from supervisor.rcb.prior_check import OUTLIER_PROBABILITY, log_bayes_factor, rebased
 from supervisor.rcb.replan import replan
