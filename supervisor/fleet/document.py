@@ -36,7 +36,7 @@ from models.kinematics import PARAMETERS, Process
 from models.tool import process_of, tool_from_mapping, tool_mapping
 from supervisor.fleet.evidence import LEAST_VARIANCE
 from supervisor.fleet.learned import Learned, proper, start_of
-from supervisor.fleet.posterior_fields import posterior_fields, readings_held
+from supervisor.fleet.posterior_fields import posterior_fields, readings_held, symmetric
 from supervisor.inputs.plan import Operation
 from supervisor.rcb.noise import NoiseScale
 from supervisor.rcb.posterior import Posterior
@@ -307,14 +307,7 @@ def _within_bounds(belief: Posterior, path: str) -> None:
     for i, row in enumerate(belief.cov):
         fields.number(row[i], f"{path}.cov[{i}][{i}]", positive=True, largest=LARGEST_VARIANCE)
     cov = np.array(belief.cov)
-    apart = ~np.isclose(cov, cov.T, rtol=1e-9, atol=0.0)
-    if apart.any():  # the first element that differs from its mirror, by both names
-        i, j = (int(k) for k in np.argwhere(apart)[0])
-        raise InputError(
-            f"{path}.cov[{i}][{j}]",
-            float(cov[i, j]),
-            f"must equal cov[{j}][{i}] = {float(cov[j, i])!r}: a covariance is symmetric",
-        )
+    symmetric(cov, f"{path}.cov", "a covariance")
     least = float(np.linalg.eigvalsh(cov).min())
     if least <= 0:
         raise InputError(

@@ -77,10 +77,11 @@ def _readings_fields(table: Mapping[str, Any], path: str) -> None:
 def readings_held(belief: Posterior, path: str) -> None:
     """``belief``'s readings' information, if it keeps one, as its readings can make it.
 
-    Of ``β``'s size, finite, symmetric positive semidefinite, and no more than ``belief``'s
-    own precision (``P − J``, the start's part, positive semidefinite): a document's ``J``
-    is the evidence a fleet prior takes from it, so one that claimed more than the belief
-    holds would make the fleet surer than any reading did.
+    Of ``β``'s size, symmetric positive semidefinite (its numbers finite:
+    :func:`posterior_fields`), and no more than ``belief``'s own precision (``P − J``, the
+    start's part, positive semidefinite): a document's ``J`` is the evidence a fleet prior
+    takes from it, so one that claimed more than the belief holds would make the fleet surer
+    than any reading did.
     """
     if belief.readings_information is None or belief.readings_vector is None:
         return
@@ -92,15 +93,29 @@ def readings_held(belief: Posterior, path: str) -> None:
             [len(r) for r in belief.readings_information],
             f"must be {size} x {size} with a readings_vector of {size}, as the mean",
         )
-    if not (np.isfinite(j).all() and np.isfinite(h).all()):
-        raise InputError(f"{path}.readings_information", "non-finite", "must be finite numbers")
+    symmetric(j, f"{path}.readings_information", "an information")  # finite: posterior_fields
     scale = max(float(np.abs(belief.precision).max()), 1e-300)
-    if float(np.abs(j - j.T).max()) > _ROUND_OFF * scale:
-        raise InputError(f"{path}.readings_information", "not symmetric", "must be symmetric")
     for matrix, why in ((j, _NOT_SEMIDEFINITE), (belief.precision - j, _MORE_THAN_HELD)):
         least = float(np.linalg.eigvalsh(0.5 * (matrix + matrix.T))[0])
         if least < -_ROUND_OFF * scale:
             raise InputError(f"{path}.readings_information", least, why)
+
+
+def symmetric(matrix: np.ndarray, path: str, what: str) -> None:
+    """``matrix`` equal to its transpose (to 1e-9), an error naming the first element that is not.
+
+    ``path``: the matrix's field (``learned[0].posterior.cov``); ``what``: what it is ("a
+    covariance"), which the error says is symmetric.
+    """
+    apart = ~np.isclose(matrix, matrix.T, rtol=1e-9, atol=0.0)
+    if apart.any():  # the first element that differs from its mirror, by both names
+        i, j = (int(k) for k in np.argwhere(apart)[0])
+        name = path.rsplit(".", 1)[-1]
+        raise InputError(
+            f"{path}[{i}][{j}]",
+            float(matrix[i, j]),
+            f"must equal {name}[{j}][{i}] = {float(matrix[j, i])!r}: {what} is symmetric",
+        )
 
 
 #: Round-off a stored information may carry, relative to the belief's largest precision.

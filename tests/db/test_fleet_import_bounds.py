@@ -119,6 +119,11 @@ CASES = [
     (_set("posterior", "readings_vector", 0, value="a"), "readings_vector[0]", "a number"),
     (_drop("posterior", "readings_vector"), "posterior.readings_vector", "information needs it"),
     (_set("posterior", "readings_information", value=[[1.0]]), "readings_information", " x "),
+    (
+        _set("posterior", "readings_information", 0, 1, value=1.0),
+        "readings_information[0][1]",
+        "must equal readings_information[1][0]",
+    ),
     (_scaled_readings(-1.0), "posterior.readings_information", "is positive semidefinite"),
     (_scaled_readings(1e6), "posterior.readings_information", "more than the belief's"),
 ]
