@@ -26,6 +26,7 @@ from api.cli.audit import audit
 from api.cli.cam import cam_app
 from api.cli.certify import certify
 from api.cli.collect import collect
+from api.cli.common import say_error
 from api.cli.demo import demo
 from api.cli.examples import examples_app
 from api.cli.export import export
@@ -38,6 +39,7 @@ from api.cli.lazy import lazy_group
 from api.cli.models import models_app
 from api.cli.optimize import optimize, predict
 from api.cli.tools import tools_app
+from api.cli.usage_errors import said as usage_said
 from api.cli.usage_words import said
 from api.cli.virtual import virtual_app
 from models.errors import InputError
@@ -69,9 +71,9 @@ class _OneLineErrors(TyperGroup):
                 typer.echo(text)
             sys.exit(err.exit_code)
         except click_errors.ClickException as err:
-            # typer's own coercion, in rcb's words (api.cli.usage_words)
-            message = said(err) or " ".join(err.format_message().split())
-            typer.echo(f"rcb: error: {message}", err=True)
+            # typer's own coercion and click's usage errors, in rcb's words
+            message = said(err) or usage_said(err) or " ".join(err.format_message().split())
+            say_error(f"rcb: error: {message}")
             sys.exit(err.exit_code)
         except InputError as err:  # an option's own check as it is read (--strategy)
             typer.echo(f"rcb: error: {err}", err=True)

@@ -21,7 +21,7 @@ def said(err: BaseException) -> str | None:
     cause = err.__cause__
     if pydantic is None or not isinstance(cause, pydantic.ValidationError):
         return None
-    name = _name(getattr(err, "param", None))
+    name = param_name(getattr(err, "param", None))
     return "; ".join(f"{name} = {_given(e.get('input'))}: {_must(e)}" for e in cause.errors())
 
 
@@ -36,7 +36,7 @@ def _given(value: Any) -> str:
     return repr(value)
 
 
-def _name(param: Any) -> str:
+def param_name(param: Any) -> str:
     """The option as typed (its long name), or the argument as the help names it.
 
     An argument's metavar (``ID``), else its name in capitals (``KEY_ID``), as other errors

@@ -1,7 +1,7 @@
 """A refused argument is named as rcb names arguments: its metavar (``ID``), else its name.
 
 ``rcb keys revoke abc`` said ``value = 'abc': must be a whole number``: typer's arguments have
-no ``human_readable_name``, and :func:`api.cli.usage_words._name` fell back to ``value``.
+no ``human_readable_name``, and :func:`api.cli.usage_words.param_name` fell back to ``value``.
 """
 
 from __future__ import annotations
