@@ -298,7 +298,8 @@ class BandState(Base):
     the rise per part an edge makes (:meth:`supervisor.rcb.wear.WearRise.to_json`), NULL for a
     quantity that does not wear; ``monitor``: what RCB watches in the readings (the noise scale,
     the last reading learned from, a quarantined one: :meth:`supervisor.rcb.monitor_state.Monitor.
-    to_json`), NULL for rows stored before 0010. Appended per part; the newest row is in force.
+    to_json`), NULL for rows stored before 0010. Appended per part; the newest row is in force
+    (``rcb db prune`` deletes old rows a newer one replaced: :mod:`db.state_retention`).
     """
 
     __tablename__ = "band_states"

@@ -2,7 +2,7 @@
 
 Each command migrates the database first (``rcb db upgrade`` does nothing else).
 ``rcb keys create|list|revoke`` manage API keys (a key may be scoped to plans);
-``rcb db prune`` deletes old audit entries and idempotency records.
+``rcb db prune`` deletes old audit entries, idempotency records and replaced band states.
 """
 
 from __future__ import annotations
@@ -150,11 +150,18 @@ def db_prune(
     idempotency_older_than: Annotated[
         str, typer.Option(help="Delete idempotency records older than this (at least 24h).")
     ] = request_limits.IDEMPOTENCY_DEFAULT,
+    states_older_than: Annotated[
+        str,
+        typer.Option(
+            help="Delete band states older than this that a newer one replaced (each band's "
+            "newest is kept, whatever its age)."
+        ),
+    ] = request_limits.STATES_DEFAULT,
     db: DbOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     by: ByOption = None,
 ) -> None:
-    """Delete old audit entries and idempotency records; prints how many."""
+    """Delete old audit entries, idempotency records and replaced band states; prints how many."""
     from api.services import retention
     from db.engine import make_engine
 
@@ -167,15 +174,17 @@ def db_prune(
                 engine=make_engine(url),
                 audit_older_than=audit_older_than,
                 idempotency_older_than=idempotency_older_than,
+                states_older_than=states_older_than,
                 actor=actor,
             )
     if as_json:
         emit(pruned)
         return
     say_filled(
-        f"rcb: deleted {pruned['audit_log']} audit entries older than {audit_older_than} and "
+        f"rcb: deleted {pruned['audit_log']} audit entries older than {audit_older_than}, "
         f"{pruned['idempotency_records']} idempotency records older than "
-        f"{idempotency_older_than}"
+        f"{idempotency_older_than} and {pruned['band_states']} band states older than "
+        f"{states_older_than} that newer ones replaced"
     )
 
 

@@ -19,3 +19,5 @@ REPORT_MAX_LAST = 1000
 AUDIT_DEFAULT = "365d"
 #: The default retention of idempotency records.
 IDEMPOTENCY_DEFAULT = "7d"
+#: The default retention of band states a newer one replaced (db.state_retention).
+STATES_DEFAULT = "30d"

@@ -1,21 +1,25 @@
-"""How long the audit log and idempotency records are kept: ``rcb db prune``.
+"""How long audit entries, idempotency records and replaced band states are kept: rcb db prune.
 
-Durations are written as a number and a unit, ``365d``, ``24h``, ``90m``. Idempotency records
-are kept at least 24 hours, as draft-ietf-httpapi-idempotency-key-header asks of a server
-that honours a key (a retry within a day must find its first answer).
+Band states are deleted a batch at a time (:data:`STATES_BATCH`), each batch its own short
+transaction, so that a first prune of a year's states does not hold a SQLite database's write
+lock while the MES reports parts; each band's newest state is never deleted
+(:mod:`db.state_retention`). Durations are written as a number and a unit, ``365d``, ``24h``,
+``90m``. Idempotency records are kept at least 24 hours, as
+draft-ietf-httpapi-idempotency-key-header asks of a server that honours a key (a retry within a
+day must find its first answer).
 """
 
 from __future__ import annotations
 
 import re
-from datetime import timedelta
+from datetime import datetime, timedelta
 from typing import Any
 
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from api.services import request_limits
-from db import api_keys, audit
+from db import api_keys, audit, state_retention
 from db import tables as t
 from models.errors import InputError
 
@@ -23,6 +27,10 @@ from models.errors import InputError
 AUDIT_DEFAULT = request_limits.AUDIT_DEFAULT
 #: The default retention of idempotency records.
 IDEMPOTENCY_DEFAULT = request_limits.IDEMPOTENCY_DEFAULT
+#: The default retention of band states a newer one replaced.
+STATES_DEFAULT = request_limits.STATES_DEFAULT
+#: Band states deleted per transaction.
+STATES_BATCH = 2000
 #: The shortest retention of idempotency records.
 IDEMPOTENCY_MIN = timedelta(hours=24)
 #: The longest duration accepted (100 years).
@@ -49,16 +57,21 @@ def prune(
     engine: Engine,
     audit_older_than: str = AUDIT_DEFAULT,
     idempotency_older_than: str = IDEMPOTENCY_DEFAULT,
+    states_older_than: str = STATES_DEFAULT,
     actor: api_keys.Actor = api_keys.CLI_ACTOR,
 ) -> dict[str, Any]:
-    """Delete audit entries and idempotency records older than the given ages, in one transaction.
+    """Delete audit entries, idempotency records and replaced band states older than the ages.
 
-    Returns ``{"audit_log": n, "idempotency_records": m, "audit_before", "idempotency_before"}``.
-    Raises InputError (naming the option) for a malformed age, or an idempotency age under 24 h.
-    ``actor``: who prunes, for the audit entry the pruning leaves (``rcb db prune --by``).
+    The band states first, a batch per transaction (module docstring); then the audit entries
+    and idempotency records in one transaction with the audit entry that says what was deleted.
+    Returns ``{"audit_log": n, "idempotency_records": m, "band_states": s, "audit_before",
+    "idempotency_before", "states_before"}``. Raises InputError (naming the option) for a
+    malformed age, or an idempotency age under 24 h, before anything is deleted. ``actor``: who
+    prunes, for the audit entry the pruning leaves (``rcb db prune --by``).
     """
     audit_age = parse_duration("--audit-older-than", audit_older_than)
     idem_age = parse_duration("--idempotency-older-than", idempotency_older_than)
+    states_age = parse_duration("--states-older-than", states_older_than)
     if idem_age < IDEMPOTENCY_MIN:
         raise InputError(
             "--idempotency-older-than",
@@ -66,19 +79,43 @@ def prune(
             "idempotency records are kept at least 24h (a retry within a day finds its answer)",
         )
     now = t.utcnow()
-    before = {"audit_before": now - audit_age, "idempotency_before": now - idem_age}
+    before = {
+        "audit_before": now - audit_age,
+        "idempotency_before": now - idem_age,
+        "states_before": now - states_age,
+    }
+    states = _prune_states(engine, before["states_before"])
     with Session(engine) as session, session.begin():
         deleted = audit.prune(
             session=session,
             audit_before=before["audit_before"],
             idempotency_before=before["idempotency_before"],
         )
+        deleted["band_states"] = states
         audit.audit(
             session=session,
             actor=actor.name,
             action="prune",
-            target=f"older than {audit_older_than} / {idempotency_older_than}",
+            target=(
+                f"older than {audit_older_than} / {idempotency_older_than} / {states_older_than}"
+            ),
             result="ok",
             detail=dict(deleted),
         )
     return {**deleted, **before}
+
+
+def _prune_states(engine: Engine, before: datetime) -> int:
+    """Delete the band states no reader needs of parts received before ``before``; how many.
+
+    A batch per transaction. It ends: each batch deletes what it found, and finds none twice.
+    """
+    total = 0
+    while True:
+        with Session(engine) as session, session.begin():
+            ids = state_retention.prunable_states(
+                session=session, before=before, limit=STATES_BATCH
+            )
+            total += state_retention.delete_states(session=session, ids=ids)
+        if len(ids) < STATES_BATCH:
+            return total

@@ -348,7 +348,8 @@ def test_db_prune_says_what_it_deleted_within_80_columns(tmp_path):
     assert done.returncode == 0, done.stderr
     told = " ".join(line.strip() for line in _within(done.stderr))
     assert told.endswith(
-        "rcb: deleted 0 audit entries older than 365d and 0 idempotency records older than 7d"
+        "rcb: deleted 0 audit entries older than 365d, 0 idempotency records older than 7d"
+        " and 0 band states older than 30d that newer ones replaced"
     )
 
 

@@ -58,7 +58,8 @@ def test_prune_deletes_what_is_older_and_keeps_a_day_of_idempotency(runner, engi
 
     pruned = runner.invoke(app, ["db", "prune", "--db", url])  # 365d and 7d
     assert pruned.exit_code == 0, pruned.output
-    assert "deleted 1 audit entries older than 365d and 1 idempotency records" in pruned.stderr
+    told = " ".join(pruned.stderr.split())
+    assert "deleted 1 audit entries older than 365d, 1 idempotency records older than 7d" in told
     assert _left(engine) == ({"a quarter"}, {"two days", "23 hours"})
 
     args = ["db", "prune", "--audit-older-than", "30d", "--idempotency-older-than", "24h"]
@@ -70,15 +71,16 @@ def test_prune_deletes_what_is_older_and_keeps_a_day_of_idempotency(runner, engi
     with Session(engine) as session:  # the prunes are audited themselves
         prunes = session.scalars(select(t.AuditEntry).where(t.AuditEntry.action == "prune"))
         assert [p.detail for p in prunes] == [
-            {"audit_log": 1, "idempotency_records": 1},
-            {"audit_log": 1, "idempotency_records": 1},
+            {"audit_log": 1, "idempotency_records": 1, "band_states": 0},
+            {"audit_log": 1, "idempotency_records": 1, "band_states": 0},
         ]
 
 
 def test_prune_refuses_a_malformed_age_naming_the_option(runner, tmp_path):
     url = f"sqlite:///{tmp_path / 'rcb.db'}"
     for option, value in (("--audit-older-than", "1y"), ("--audit-older-than", "0d"),
-                          ("--idempotency-older-than", "99999999d")):  # fmt: skip
+                          ("--idempotency-older-than", "99999999d"),
+                          ("--states-older-than", "0d")):  # fmt: skip
         r = runner.invoke(app, ["db", "prune", option, value, "--db", url])
         assert r.exit_code == 2 and f"{option} = '{value}'" in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
