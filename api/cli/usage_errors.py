@@ -55,7 +55,8 @@ def _missing(err: Any, ctx: Any) -> str | None:
     param = getattr(err, "param", None)
     if param is None:
         return None
-    if getattr(err, "param_type", None) == "option" or getattr(param, "opts", [""])[0][:1] == "-":
+    option = any(str(o).startswith("-") for o in getattr(param, "opts", ()))
+    if getattr(err, "param_type", None) == "option" or option:
         return f"{ctx.command_path}: {param_name(param)} is required {_usage(ctx)}"
     return f"{ctx.command_path}: {param_name(param)} is missing {_usage(ctx)}"
 

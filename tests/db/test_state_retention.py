@@ -11,6 +11,9 @@ from __future__ import annotations
 import json
 from datetime import timedelta
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from sqlalchemy import delete as sql_delete
 from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 from test_service import BODY, _reports
@@ -22,6 +25,7 @@ from api.services.parts import report_part
 from api.services.plans import create_plan
 from db import tables as t
 from db.fleet_changes import _before as before_change
+from db.state_retention import prunable_states
 
 from conftest import engine_url, stored_state
 
@@ -153,3 +157,71 @@ def test_rcb_db_prune_says_how_many_states_and_refuses_a_bad_age(runner, engine)
         ).all()[-1]
     assert entry.detail["band_states"] == answer["band_states"]
     assert entry.target == "older than 365d / 7d / 30d"
+
+
+#: A random history (Hypothesis): per part, the bands (of 3) its report moved.
+_moved = st.lists(st.sets(st.integers(0, 2), min_size=1), min_size=1, max_size=10)
+
+
+def _stored_history(engine, plan_id: int, bands, moved, old: int) -> dict[int, tuple]:
+    """Parts 1..len(moved) of ``plan_id`` (the first ``old`` 40 days old), a band state for
+    each band a part moved; {state id: (band, part number)}."""
+    now = t.utcnow()
+    states = {}
+    with Session(engine) as session, session.begin():
+        session.execute(sql_delete(t.BandState))
+        session.execute(sql_delete(t.Part))
+        for number, touched in enumerate(moved, start=1):
+            part = t.Part(
+                plan_id=plan_id,
+                serial=f"p{number}",
+                setpoint_version=1,
+                received_at=now - timedelta(days=40 if number <= old else 0),
+            )
+            session.add(part)
+            session.flush()
+            for band in sorted(touched):
+                op, quantity = bands[band]
+                row = t.BandState(
+                    operation_id=op, quantity=quantity, part_id=part.id, seen=1.0, sigma=0.1
+                )
+                session.add(row)
+                session.flush()
+                states[row.id] = (band, number, part.id)
+    return states
+
+
+def test_the_prune_keeps_what_is_read_and_deletes_the_rest_of_what_is_old(sqlite_engine):
+    """Any history (Hypothesis): the rows kept are each band's newest, the newest before a
+    pending change, and the states of recent parts; every other row is deleted."""
+    plan_id = create_plan(engine=sqlite_engine, body=BODY).body["id"]
+    with Session(sqlite_engine) as session:
+        ops = session.scalars(select(t.Operation.id).where(t.Operation.plan_id == plan_id))
+        first, second = list(ops)[:2]
+    bands = [(first, "force_N"), (first, "roughness_um"), (second, "force_N")]
+
+    @settings(max_examples=60, deadline=None)
+    @given(moved=_moved, old=st.integers(0, 10), cut=st.none() | st.integers(1, 10))
+    def check(moved, old, cut) -> None:
+        states = _stored_history(sqlite_engine, plan_id, bands, moved, old)
+        part_ids = {number: part for _, number, part in states.values()}
+        cut_part = None if cut is None or cut > len(moved) else part_ids.get(cut)
+        with Session(sqlite_engine) as session, session.begin():
+            session.execute(
+                update(t.Plan).where(t.Plan.id == plan_id).values(fleet_change_part=cut_part)
+            )
+        read = set()  # what a reader reads: each band's newest, and its newest before the cut
+        for band in range(3):
+            rows = sorted((n, i) for i, (b, n, _) in states.items() if b == band)
+            if rows:
+                read.add(rows[-1][1])
+            before = [i for n, i in rows if cut_part is not None and n < cut]
+            if before:
+                read.add(before[-1])
+        recent = {i for i, (_, n, _) in states.items() if n > old}
+        with Session(sqlite_engine) as session:
+            gone = set(prunable_states(session=session, before=t.utcnow() - timedelta(days=30),
+                                       limit=1000))  # fmt: skip
+        assert gone == set(states) - read - recent
+
+    check()
