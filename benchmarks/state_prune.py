@@ -28,7 +28,6 @@ from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
 from api.services import retention
-from db import state_retention
 from db import tables as t
 from db.engine import make_engine
 
@@ -52,22 +51,18 @@ def grow(url: str, plans: int, parts: int) -> None:
 
 
 def prune(url: str) -> list[tuple[int, float]]:
-    """The prune's batches as the service runs them: (rows deleted, seconds) each."""
+    """The prune's batches, as ``rcb db prune`` runs them: (rows deleted, seconds) each."""
     engine = make_engine(url)
-    before = t.utcnow() - timedelta(days=30)
-    batches = []
+    batches = retention.state_batches(engine, t.utcnow() - timedelta(days=30))
+    timed = []
     while True:
         started = time.perf_counter()
-        with Session(engine) as session, session.begin():
-            ids = state_retention.prunable_states(
-                session=session, before=before, limit=retention.STATES_BATCH
-            )
-            done = state_retention.delete_states(session=session, ids=ids)
-        batches.append((done, time.perf_counter() - started))
-        if len(ids) < retention.STATES_BATCH:
+        done = next(batches, None)
+        if done is None:
             break
+        timed.append((done, time.perf_counter() - started))
     engine.dispose()
-    return batches
+    return timed
 
 
 def states(url: str) -> int:

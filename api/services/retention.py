@@ -12,6 +12,7 @@ day must find its first answer).
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from datetime import datetime, timedelta
 from typing import Any
 
@@ -106,16 +107,22 @@ def prune(
 
 
 def _prune_states(engine: Engine, before: datetime) -> int:
-    """Delete the band states no reader needs of parts received before ``before``; how many.
+    """Delete the band states no reader needs of parts received before ``before``; how many."""
+    return sum(state_batches(engine, before))
 
-    A batch per transaction. It ends: each batch deletes what it found, and finds none twice.
+
+def state_batches(engine: Engine, before: datetime) -> Iterator[int]:
+    """Delete the band states no reader needs of parts received before ``before``, by batches.
+
+    A batch per transaction, its count yielded once it is committed. It ends: each batch
+    deletes what it found, and finds none twice.
     """
-    total = 0
     while True:
         with Session(engine) as session, session.begin():
             ids = state_retention.prunable_states(
                 session=session, before=before, limit=STATES_BATCH
             )
-            total += state_retention.delete_states(session=session, ids=ids)
+            done = state_retention.delete_states(session=session, ids=ids)
+        yield done
         if len(ids) < STATES_BATCH:
-            return total
+            return

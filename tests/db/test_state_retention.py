@@ -165,7 +165,7 @@ _moved = st.lists(st.sets(st.integers(0, 2), min_size=1), min_size=1, max_size=1
 
 def _stored_history(engine, plan_id: int, bands, moved, old: int) -> dict[int, tuple]:
     """Parts 1..len(moved) of ``plan_id`` (the first ``old`` 40 days old), a band state for
-    each band a part moved; {state id: (band, part number)}."""
+    each band a part moved; {state id: (band, part number, part id)}."""
     now = t.utcnow()
     states = {}
     with Session(engine) as session, session.begin():
@@ -205,7 +205,7 @@ def test_the_prune_keeps_what_is_read_and_deletes_the_rest_of_what_is_old(sqlite
     def check(moved, old, cut) -> None:
         states = _stored_history(sqlite_engine, plan_id, bands, moved, old)
         part_ids = {number: part for _, number, part in states.values()}
-        cut_part = None if cut is None or cut > len(moved) else part_ids.get(cut)
+        cut_part = None if cut is None else part_ids.get(cut)  # None past the last part
         with Session(sqlite_engine) as session, session.begin():
             session.execute(
                 update(t.Plan).where(t.Plan.id == plan_id).values(fleet_change_part=cut_part)
