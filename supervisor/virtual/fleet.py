@@ -41,6 +41,7 @@ import numpy as np
 
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
+from supervisor.fleet.provenance import FLEET_VETO_Z
 from supervisor.inputs.plan import Plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.state import RcbSettings
@@ -180,7 +181,11 @@ def known_priors(
 
     The bound of any fleet prior (``benchmarks/closed_loop.py --fleet``): ``ln Y(c)`` at the
     fleet's truth with the true spread's variance, every exponent and the edge's rise (none:
-    the virtual fleet's edges do not wear) known to :data:`KNOWN_SD`.
+    the virtual fleet's edges do not wear) known to :data:`KNOWN_SD`. Where the machines
+    differ by more than a quantity's band (``FLEET_VETO_Z`` spreads past ``dK/K``), it checks
+    the band's optimum at ``FLEET_VETO_Z`` sd, as a fleet prior whose readings show that
+    does (:func:`supervisor.fleet.prior._beyond_band`, here with the spread itself for its
+    lower bound): without it the reference ran the band's optimum on machines 20 % apart.
     """
     out = {}
     for op in plan.operations:
@@ -192,8 +197,12 @@ def known_priors(
             cov = [[0.0] * size for _ in range(size)]
             for i in range(size):
                 cov[i][i] = KNOWN_SD**2
-            cov[0][0] = max(_of(machine_spread, (op.tool, quantity)), KNOWN_SD) ** 2
-            out[(op.name, quantity)] = replace(truth, cov=tuple(tuple(row) for row in cov))
+            spread = _of(machine_spread, (op.tool, quantity))
+            cov[0][0] = max(spread, KNOWN_SD) ** 2
+            known = replace(truth, cov=tuple(tuple(row) for row in cov))
+            if FLEET_VETO_Z * spread > model.dK / model.K:  # the fleet's veto, spread known
+                known = replace(known, band_veto_z=FLEET_VETO_Z)
+            out[(op.name, quantity)] = known
     return out
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from supervisor.fleet.provenance import FLEET_VETO_Z
 from supervisor.inputs.plan import load_plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.state import RcbSettings
@@ -113,6 +114,32 @@ def test_the_known_prior_is_the_fleets_law_with_the_spread_on_ln_K() -> None:
     assert set(priors) == {
         (o.name, q) for o in PLAN.operations for q, m in PLAN.tools[o.tool].models.items() if m.dK
     }
+
+
+ALL = None  # every quantity of the plan
+
+
+@pytest.mark.parametrize(
+    ("spread", "unchecked"),
+    [
+        # 2 x 3 % under every band of the demonstration plan (rough-od's force, 7 %, the
+        # narrowest; examples/ivester_demo_part.toml)
+        (0.03, ALL),
+        # 2 x 20 % past every band but rough-od's tool life (52 %)
+        (0.2, {("rough-od", "tool_life_mm3")}),
+    ],
+)
+def test_the_known_prior_checks_the_band_at_2_sd_where_the_machines_differ_by_more(
+    spread: float, unchecked: set[tuple[str, str]] | None
+) -> None:
+    """The reference applies the fleet prior's veto with the spread known (FLEET_VETO_Z spreads
+    past the band's dK/K): without it, on machines 20 % apart, it ran the catalogue's band
+    optimum and crossed 230 limits at first parts in 200 scenarios (closed_loop.py --fleet 4
+    --fleet-spread 0.2), so it bounded nothing there."""
+    truths = fleet_truths(PLAN, 7, spread)
+    priors = known_priors(PLAN, truths, spread, RcbSettings(strategy="learn"))
+    checked = {key: prior.band_veto_z for key, prior in priors.items() if prior.band_veto_z}
+    assert checked == dict.fromkeys(set(priors) - (unchecked or set(priors)), FLEET_VETO_Z)
 
 
 def test_a_new_machine_far_outside_a_wide_fleet_lets_its_prior_go() -> None:
