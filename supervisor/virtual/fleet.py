@@ -179,7 +179,7 @@ def known_priors(
 ) -> dict[tuple[str, str], post.Posterior]:
     """The prior of a controller that knows the fleet's law and spread and not the machine.
 
-    The bound of any fleet prior (``benchmarks/closed_loop.py --fleet``): ``ln Y(c)`` at the
+    The reference of any fleet prior (``benchmarks/closed_loop.py --fleet``): ``ln Y(c)`` at the
     fleet's truth with the true spread's variance, every exponent and the edge's rise (none:
     the virtual fleet's edges do not wear) known to :data:`KNOWN_SD`. Where the machines
     differ by more than a quantity's band (``FLEET_VETO_Z`` spreads past ``dK/K``), it checks
