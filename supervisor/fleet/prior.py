@@ -37,7 +37,7 @@ from supervisor.fleet.hierarchy import (
     summed,
 )
 from supervisor.fleet.learned import Learned, proper, readings_of
-from supervisor.fleet.provenance import FLEET_VETO_Z, FleetPrior, Provenance
+from supervisor.fleet.provenance import FLEET_VETO_Z, FleetPrior, Provenance, beyond_band
 from supervisor.fleet.spread import (
     best_determined,
     between_estimate,
@@ -327,7 +327,7 @@ def _beyond_band(pair: _Pair, seen: _Seen) -> bool:
     measured it (one machine's spread is the default's, an assumption): the fleet's cone then
     vetoes the band's optimum at :data:`FLEET_VETO_Z` (``optimizer._agrees``).
     """
-    return seen.machines_dof >= 1 and FLEET_VETO_Z * seen.spread_low > pair.band_rel
+    return seen.machines_dof >= 1 and beyond_band(seen.spread_low, pair.band_rel)
 
 
 def _fleet(pair: _Pair, seen: _Seen) -> tuple[FleetBelief, Provenance]:

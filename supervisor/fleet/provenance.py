@@ -21,6 +21,16 @@ FLEET_VETO_Z = 2.0
 _VETOED = "; machines differ by more than the catalogue band: checked at {:g} sd"
 
 
+def beyond_band(spread: float, band_rel: float) -> bool:
+    """Whether :data:`FLEET_VETO_Z` spreads of ln K pass a band's ``dK/K`` (``band_rel``).
+
+    More than one machine in 20 then lies outside the band, and its optimum is checked at
+    ``FLEET_VETO_Z`` sd. ``spread``: what the caller knows of it (a fleet prior, its lower
+    credible bound: :func:`.prior._beyond_band`; the benchmark's known reference, the truth).
+    """
+    return FLEET_VETO_Z * spread > band_rel
+
+
 @dataclass(frozen=True)
 class Provenance:
     """Where a fleet prior came from: shown with it on every surface."""

@@ -41,7 +41,7 @@ import numpy as np
 
 from models.powerlaw import PowerLawModel
 from models.tool import Tool
-from supervisor.fleet.provenance import FLEET_VETO_Z
+from supervisor.fleet.provenance import FLEET_VETO_Z, beyond_band
 from supervisor.inputs.plan import Plan
 from supervisor.rcb import posterior as post
 from supervisor.rcb.state import RcbSettings
@@ -200,7 +200,7 @@ def known_priors(
             spread = _of(machine_spread, (op.tool, quantity))
             cov[0][0] = max(spread, KNOWN_SD) ** 2
             known = replace(truth, cov=tuple(tuple(row) for row in cov))
-            if FLEET_VETO_Z * spread > model.dK / model.K:  # the fleet's veto, spread known
+            if beyond_band(spread, model.dK / model.K):  # the fleet's veto, spread known
                 known = replace(known, band_veto_z=FLEET_VETO_Z)
             out[(op.name, quantity)] = known
     return out
