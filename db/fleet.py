@@ -23,7 +23,7 @@ itself (:mod:`db.fleet_changes`, :mod:`supervisor.fleet.changes`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Any
 
 from sqlalchemy import ColumnElement, select
@@ -32,6 +32,7 @@ from sqlalchemy.orm import Session
 from db import tables as t
 from db.fleet_changes import plan_changes
 from db.fleet_imported import abroad, imported_evidence
+from db.fleet_left_out import left_out
 from db.fleet_names import bounded, listed
 from db.fleet_noise import noise_provenance
 from db.fleet_states import newest_state
@@ -41,6 +42,7 @@ from db.library import load_tools
 from db.plan_state import settings_of
 from models.errors import InputError
 from supervisor.fleet.learned import Learned
+from supervisor.fleet.left_out import LeftOut
 from supervisor.fleet.noise import NoisePrior, noise_priors
 from supervisor.fleet.prior import fleet_priors
 from supervisor.fleet.provenance import FleetPrior, Provenance
@@ -191,6 +193,8 @@ def provenance_json(p: Provenance) -> dict[str, Any]:
         "readings": p.readings,
         # the machines differ by more than the catalogue band: its optimum checked at this sd
         "band_checked_at_sd": p.band_checked_at_sd,
+        # the tool's plans the fleet left out, by why (db.fleet_left_out)
+        "left_out": asdict(p.left_out),
         "widened_by_part": None,  # a part whose readings let the prior go (:func:`let_go`)
         "text": p.describe(),
     }
@@ -287,6 +291,13 @@ def provenance_of(stored: Mapping[str, Any] | None) -> dict[str, list[dict[str, 
     return out
 
 
+def _with_left_out(prior: FleetPrior, out: LeftOut | None) -> FleetPrior:
+    """``prior`` whose provenance counts its tool's plans the fleet left out (None: none)."""
+    if out is None:
+        return prior
+    return replace(prior, provenance=replace(prior.provenance, left_out=out))
+
+
 #: What ``--prior`` / ``?prior=`` take.
 PRIORS = ("fleet", "catalogue")
 
@@ -298,6 +309,8 @@ def plan_priors(
 
     The chains' noise priors (:mod:`supervisor.fleet.noise`) come with the fleet's priors of
     the models, from the same plans' monitors; none with the catalogue's.
+    Each fleet prior's provenance counts its tool's plans the fleet left out
+    (:mod:`db.fleet_left_out`, two statements more, bounded as the evidence is).
 
     ``prior``: ``fleet``, ``catalogue`` or None (the fleet's where the database holds evidence
     for the plan's tools and the plan learns, else the catalogue's).
@@ -323,10 +336,13 @@ def plan_priors(
             "a fleet prior is learned exponents and all: it needs exponent_sd > 0 (the"
             " exponents known exactly take no evidence); or use prior catalogue",
         )
-    learned = fleet_evidence(session=session, tool_names=[op.tool for op in plan.operations])
+    tools = {op.name: op.tool for op in plan.operations}
+    learned = fleet_evidence(session=session, tool_names=tools.values())
     priors = fleet_priors(
         plan, learned, settings.coverage_k, settings.exponent_sd, settings.edge_sd
     )
+    outs = left_out(session=session, tool_names=tools.values()) if priors else {}
+    priors = {(op, q): _with_left_out(p, outs.get(tools[op])) for (op, q), p in priors.items()}
     if prior == "fleet" and not priors:
         raise InputError(
             "prior",

@@ -45,11 +45,15 @@ excluded: ColumnElement[bool] = or_(
 )
 
 
-def newest_local(tool_names: Iterable[str], dialect: str, n: int = PLANS_PER_MACHINE) -> Subquery:
+def newest_local(
+    tool_names: Iterable[str], dialect: str, n: int = PLANS_PER_MACHINE, every: bool = False
+) -> Subquery:
     """``(operation_id, plan_id, tool_id)`` of each machine's newest ``n`` plans with each tool.
 
     Plans that learned a model of the tool since their bands were last reset, not halted,
-    not taken out; a plan whose process changed counts here and is left out by the caller.
+    not taken out (``every``: halted and taken out too, for what the fleet left out of them,
+    :mod:`db.fleet_left_out`); a plan whose process changed counts here and is left out by
+    the caller.
     Each machine and tool is walked newest first on ``ix_operations_tool_machine_plan`` and
     the walk stops at the ``n``-th plan (a correlated ``LIMIT``: ``LATERAL`` on PostgreSQL,
     ``IN`` on SQLite, ``dialect``), so the rows read are bounded by the machines, not by the
@@ -61,8 +65,8 @@ def newest_local(tool_names: Iterable[str], dialect: str, n: int = PLANS_PER_MAC
         select(o.plan_id.label("plan_id"))
         .join(t.Plan, t.Plan.id == o.plan_id)
         .join(t.Machine, t.Machine.id == o.machine_id)
-        .where(o.tool_id == tool.id, o.machine_id == machine.id, t.Plan.halt.is_(None))
-        .where(_learned(), ~exists().where(excluded))
+        .where(o.tool_id == tool.id, o.machine_id == machine.id, _learned())
+        .where(*(() if every else (t.Plan.halt.is_(None), ~exists().where(excluded))))
         .distinct()
         .order_by(o.plan_id.desc())
         .limit(n)

@@ -37,11 +37,10 @@ from api.cli.tables import PARAMETER_HEADINGS, free_text, new_table, short_numbe
 from api.cli.who import ByOption, cli_actor
 from api.report.provenance import (
     CATALOGUE,
-    band_checked,
     from_catalogue,
     in_plan_order,
-    let_go_groups,
-    let_go_text,
+    let_go_caption,
+    prior_caption,
 )
 from models.errors import InputError
 from supervisor.rcb.strategies import DEFAULT_STRATEGY
@@ -290,7 +289,7 @@ def _say_prior(answer: dict[str, Any]) -> None:
     table = new_table(
         title="learn's fleet prior (spread: between machines/between a machine's "
         "operations; --json names the plans and machines)",
-        caption=_prior_caption(lines),
+        caption=prior_caption(lines, answer),
         caption_justify="left",
     )
     _name_column(table, "operation")
@@ -316,22 +315,9 @@ def _say_prior(answer: dict[str, Any]) -> None:
         _out.print(_noise_table(answer["noise_provenance"]))
 
 
-def _prior_caption(lines: list[tuple[str, Mapping[str, Any]]]) -> str | None:
-    """The fleet prior table's caption: what let a prior go, where the band is checked."""
-    named = [(f"{op} {line['quantity']}", line) for op, line in lines]
-    said = [_let_go_caption(lines, "widened_by_part"), band_checked(named)]
-    return "\n".join(s for s in said if s) or None
-
-
-def _let_go_caption(lines: list[tuple[str, Mapping[str, Any]]], field: str) -> str | None:
-    """``let go by part c-1: REASON``, a line per part and reason (None: nothing let go)."""
-    groups = let_go_groups(lines, field)
-    return "\n".join(let_go_text(serial, reason) for serial, reason, _ in groups) or None
-
-
 def _noise_table(noise: list[dict[str, Any]]) -> Table:
     """Where each chain's noise prior came from, a row per quantity."""
-    caption = _let_go_caption([(line["quantity"], line) for line in noise], "let_go_by_part")
+    caption = let_go_caption([(line["quantity"], line) for line in noise], "let_go_by_part")
     table = new_table(
         title="learn's noise prior of each measuring chain (fleet; worth: in readings)",
         caption=caption,

@@ -15,6 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from db.let_go_mark import marked
+from supervisor.fleet.left_out import LeftOut
 
 #: What a plan's models start from without a fleet prior.
 CATALOGUE = "the tools' catalogue models"
@@ -110,6 +111,28 @@ def band_checked(items: Iterable[tuple[str, Mapping[str, Any]]]) -> str | None:
     return "; ".join(said) or None
 
 
+def left_out_said(
+    plan: Mapping[str, Any], items: Iterable[tuple[str, Mapping[str, Any]]]
+) -> str | None:
+    """Per tool, its plans the fleet left out, in words (None: none left out).
+
+    ``items``: ``(operation, line)`` pairs of ``plan`` (its operations name their tools); a
+    line's ``left_out`` (:func:`db.fleet.provenance_json`) is its tool's, the same for each
+    quantity of each operation with the tool.
+    """
+    tools = {op["name"]: op.get("tool", op["name"]) for op in plan.get("operations", [])}
+    said: dict[str, str] = {}
+    for operation, line in items:
+        counts = line.get("left_out")  # none in a prior stored before they were counted
+        text = LeftOut(**counts).counted() if counts else ""
+        if text:
+            said.setdefault(tools.get(operation, operation), text)
+    if not said:
+        return None
+    each = ", ".join(f"{tool} {text}" for tool, text in said.items())
+    return f"left out of the fleet: {each} (rcb fleet show TOOL says which and why)"
+
+
 def from_catalogue(plan: Mapping[str, Any]) -> list[str]:
     """The plan's operations, in its order, whose models all start from the catalogue.
 
@@ -137,6 +160,8 @@ def prior_line(plan: Mapping[str, Any]) -> str:
     )
     checked = band_checked(lines)
     outside += f"; {checked}" if checked else ""
+    left = left_out_said(plan, ((op, p) for op, ps in by_operation for p in ps))
+    outside += f"; {left}" if left else ""
     rest = from_catalogue(plan)
     outside += f"; {', '.join(rest)} from {CATALOGUE}" if rest else ""
     return (
@@ -159,3 +184,22 @@ def noise_line(noise: Sequence[Mapping[str, Any]]) -> str:
         )
     )
     return f"; measuring chains' noise from the fleet: {chains}{let_go}"
+
+
+def prior_caption(
+    lines: list[tuple[str, Mapping[str, Any]]], answer: Mapping[str, Any] | None = None
+) -> str | None:
+    """``rcb plans show``'s fleet prior table's caption: let go, band checked, left out.
+
+    ``answer``: the plan's, whose operations name their tools (None: operations named).
+    """
+    named = [(f"{op} {line['quantity']}", line) for op, line in lines]
+    left = left_out_said(answer or {}, lines)
+    said = [let_go_caption(lines, "widened_by_part"), band_checked(named), left]
+    return "\n".join(s for s in said if s) or None
+
+
+def let_go_caption(lines: list[tuple[str, Mapping[str, Any]]], field: str) -> str | None:
+    """``let go by part c-1: REASON``, a line per part and reason (None: nothing let go)."""
+    groups = let_go_groups(lines, field)
+    return "\n".join(let_go_text(serial, reason) for serial, reason, _ in groups) or None

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from supervisor.fleet.hierarchy import DEFAULT_OPERATION_SPREAD
+from supervisor.fleet.left_out import LeftOut
 from supervisor.rcb.posterior import Posterior
 
 #: The sd at which a fleet prior's cones veto the catalogue band's optimum where the band
@@ -44,11 +45,14 @@ class Provenance:
     operation_spread: float = DEFAULT_OPERATION_SPREAD
     #: The band's optimum checked at this sd (its band_veto_z; None: the mean; prior._beyond_band).
     band_checked_at_sd: float | None = None
+    #: The tool's plans left out of the fleet, among its machines' newest (db.fleet_left_out).
+    left_out: LeftOut = LeftOut()
 
     def describe(self) -> str:
         """One line: ``force_N: prior from 3 plans on 2 machines, …, 96 readings``.
 
-        Between them the spreads: ``between-machine spread 4.1 %, between operations 2.0 %``.
+        Between them the spreads: ``between-machine spread 4.1 %, between operations 2.0 %``;
+        after them, where the band is checked and what the fleet left out.
         """
         if not self.plans:
             return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
@@ -56,6 +60,8 @@ class Provenance:
         machines = "machine" if len(self.machines) == 1 else "machines"
         sd = self.band_checked_at_sd
         vetoed = "" if sd is None else _VETOED.format(sd)
+        out = self.left_out.describe()
+        vetoed += f"; {out}: rcb fleet show says why" if out else ""
         return (
             f"{self.quantity}: prior from {len(self.plans)} {plans} on {len(self.machines)} "
             f"{machines}, between-machine spread {100 * self.spread:.1f} %, between operations "

@@ -14,8 +14,7 @@ from typing import Any
 
 from test_fleet_veto import PLAN, SETTINGS, _machine
 
-from api.cli.plans import _prior_caption
-from api.report.provenance import prior_line
+from api.report.provenance import prior_caption, prior_line
 from api.rest.schemas.setpoints import PriorProvenance
 from db.fleet import prior_json
 from db.fleet_names import bounded
@@ -56,8 +55,8 @@ def test_the_report_and_the_prior_table_say_it_where_it_holds_only() -> None:
     far, near = _provenance([-0.2, 0.0, 0.2]), _provenance([-0.01, 0.0, 0.01])
     assert SAID in prior_line(_plan(far))
     assert "differ by more" not in prior_line(_plan(near))
-    assert _prior_caption([("rough-od", far)]) == SAID
-    assert _prior_caption([("rough-od", near)]) is None
+    assert prior_caption([("rough-od", far)]) == SAID
+    assert prior_caption([("rough-od", near)]) is None
 
 
 def test_a_prior_stored_before_the_key_reads_as_checked_at_its_mean() -> None:

@@ -87,6 +87,20 @@ def test_a_third_machine_starts_from_two_and_the_setpoints_say_so(server, runner
             assert f"fleet-{tag}-a" not in json.dumps(seen) and "lathe-" not in json.dumps(
                 seen["provenance"]
             ), path
+    # what the fleet left out of the tool's plans is said too: b's machine taken out
+    out = runner.invoke(
+        app,
+        ["fleet", "exclude", "--machine", f"lathe-{tag}-b-1", "--reason", "loose spindle"]
+        + ["--db", server.url],
+    )
+    assert out.exit_code == 0, out.output
+    with server.client("engineer") as eng:
+        later = eng.post("/plans", json=_body(f"{tag}-e", 3))
+    assert later.status_code == 201, later.text
+    line = later.json()["provenance"]["rough-od"][0]
+    assert line["plans"] == [f"fleet-{tag}-a"]
+    assert line["left_out"]["taken_out"] >= 1  # the server's other tests may take out more
+    assert "of its tool left out (" in line["text"] and "taken out" in line["text"]
 
 
 def test_a_prior_that_is_not_one_is_a_problem_naming_it(server) -> None:

@@ -24,6 +24,7 @@ from db import tables as t
 from db.engine import make_engine
 from db.fleet import fleet_evidence
 from db.fleet_law import tool_law
+from db.fleet_left_out import left_out
 from db.fleet_members import members
 from db.identity import database_id
 from models.errors import InputError
@@ -108,6 +109,8 @@ READS: dict[str, Callable[[Session], Sequence[object]]] = {
     "evidence": lambda s: fleet_evidence(session=s, tool_names=["CNMG432RN", "VCMR331"]),
     "members": lambda s: members(session=s, tool="CNMG432RN", after_id=0, limit=100),
     "law": lambda s: tool_law(session=s, tool="CNMG432RN"),
+    # what the fleet left out of a new plan's tools (a list: nothing left out is an answer)
+    "left_out": lambda s: [left_out(session=s, tool_names=["CNMG432RN", "VCMR331"])],
 }
 
 

@@ -115,6 +115,16 @@ class OperationSetpoint(Out):
     )
 
 
+class LeftOutPlans(Out):
+    """A tool's plans the fleet left out, among its machines' newest, by their first reason."""
+
+    taken_out: int = Field(description="taken out by an engineer (the plan or its machine)")
+    halted: int = Field(description="halted")
+    changed: int = Field(
+        description="its process changed beyond what an engineer accepted (rcb fleet include)"
+    )
+
+
 class PriorProvenance(Out):
     """Where a quantity's fleet prior came from."""
 
@@ -150,6 +160,12 @@ class PriorProvenance(Out):
         description="the serial of the part whose readings showed this machine outside the "
         "fleet's spread: its ln K was then let go to the catalogue's band, the exponents kept "
         "(null: the fleet prior holds)",
+    )
+    left_out: LeftOutPlans | None = Field(
+        None,
+        description="the tool's plans the fleet left out of this prior, among each machine's "
+        "newest with it: GET /tools/{name}/fleet says which and why (null: a prior made "
+        "before they were counted)",
     )
     text: str = Field(description="the provenance as one line")
 
