@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from api.collect.tls import ca_file
 from models.bounds import (
     LARGEST,
     LARGEST_WHOLE,
@@ -77,6 +78,7 @@ class MTConnectConfig:
     poll_s: float = 0.2
     spindle: str | None = None  # the spindle component's name or id; default: found by its mode
     start: str = "next"  # without a checkpoint: "next" (new observations) or "buffer" (oldest)
+    ca_file: Path | None = None  # the CA to trust for an https url (api.collect.tls)
 
 
 @dataclass(frozen=True)
@@ -114,6 +116,7 @@ class CollectorConfig:
     mtconnect: MTConnectConfig | None = None
     opcua: OpcUaConfig | None = None
     retry_max_s: float = 5.0
+    service_ca_file: Path | None = None  # the CA to trust for an https url (api.collect.tls)
 
     def api_key(self) -> str:
         """The API key from the environment (never stored, never logged)."""
@@ -143,7 +146,10 @@ def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
     collector, service, signal = (table(data, key) for key in ("collector", "service", "signal"))
     only_keys(collector, ("machine", "queue", "retry_max_s"), "collector", list_allowed=False)
     only_keys(
-        service, ("url", "plan", "setpoint_version", "api_key_env"), "service", list_allowed=False
+        service,
+        ("url", "plan", "setpoint_version", "api_key_env", "ca_file"),
+        "service",
+        list_allowed=False,
     )
     keys = ("quantity", "uncertainty", "calibration", "percentile", "operations")
     only_keys(signal, keys, "signal", list_allowed=False)
@@ -185,12 +191,18 @@ def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
             signal, "percentile", "signal", low=1e-9, high=100.0, default=100.0
         ),
         selectors=selectors,
-        mtconnect=_mtconnect(data["mtconnect"]) if "mtconnect" in data else None,
+        mtconnect=_mtconnect(data["mtconnect"], base) if "mtconnect" in data else None,
         opcua=_opcua(data["opcua"]) if "opcua" in data else None,
         retry_max_s=number_within(
             collector, "retry_max_s", "collector", low=0.01, high=3600.0, default=5.0
         ),
+        service_ca_file=ca_file(_text(service, "ca_file", "service"), "service", url, base),
     )
+
+
+def _text(data: Mapping[str, Any], key: str, section: str) -> str | None:
+    """An optional text field (None: not given)."""
+    return None if data.get(key) is None else text_within(data, key, section, most=MAX_FIELD_TEXT)
 
 
 def _items(data: object, path: str, known: tuple[str, ...]) -> dict[str, str]:
@@ -206,12 +218,12 @@ def _items(data: object, path: str, known: tuple[str, ...]) -> dict[str, str]:
     return dict(data)
 
 
-def _mtconnect(data: object) -> MTConnectConfig:
+def _mtconnect(data: object, base: Path) -> MTConnectConfig:
     if not isinstance(data, Mapping):
         raise InputError("mtconnect", data, "must be a table")
     only_keys(
         data,
-        ("url", "count", "poll_s", "data_items", "spindle", "start"),
+        ("url", "count", "poll_s", "data_items", "spindle", "start", "ca_file"),
         "mtconnect",
         list_allowed=False,
     )
@@ -232,6 +244,7 @@ def _mtconnect(data: object) -> MTConnectConfig:
         start=start,
         count=whole_within(data, "count", "mtconnect", most=100_000, default=1000),
         poll_s=number_within(data, "poll_s", "mtconnect", low=0.001, high=60.0, default=0.2),
+        ca_file=ca_file(_text(data, "ca_file", "mtconnect"), "mtconnect", url, base),
     )
 
 

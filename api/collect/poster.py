@@ -19,6 +19,7 @@ import httpx
 
 from api.collect.config import CollectorConfig
 from api.collect.queue import Pending, Queue
+from api.collect.tls import trusted, unreached
 
 log = logging.getLogger("rcb.collect")
 _REJECTED = (400, 413, 415, 422)
@@ -57,7 +58,8 @@ async def post_one(
     try:
         answer = await http.post(url, content=item.body, headers=headers)
     except httpx.HTTPError as err:
-        log.warning("part %d: service not reached (%s)", item.part_count, type(err).__name__)
+        why = unreached(err, "service.ca_file")
+        log.warning("part %d: service not reached (%s)", item.part_count, why)
         return "retry", 0, {}
     summary = _summary(answer)
     if answer.status_code in (200, 201):
@@ -90,7 +92,7 @@ async def post_one(
 async def post_loop(config: CollectorConfig, queue: Queue, stop: asyncio.Event) -> None:
     """Send the queue in order until ``stop`` is set."""
     delay = 0.05
-    async with httpx.AsyncClient(timeout=30.0) as http:
+    async with httpx.AsyncClient(timeout=30.0, verify=trusted(config.service_ca_file)) as http:
         while not stop.is_set():
             item = queue.next_pending()
             if item is None:

@@ -20,10 +20,18 @@ from api.collect.config import CollectorConfig, MTConnectConfig
 from api.collect.mtconnect import Agent, AgentError, Streams
 from api.collect.poster import post_loop
 from api.collect.queue import Checkpoint, Queue
+from api.collect.tls import trusted, unreached
 from supervisor.collect.report import idempotency_key, part_report
 from supervisor.collect.segment import Gap, Observation, Outcome, PartDone, Segmenter
 
 log = logging.getLogger("rcb.collect")
+#: The field that names the CA the agent's certificate needs (api.collect.tls).
+_CA_FIELD = "mtconnect.ca_file"
+
+
+def _why(err: Exception) -> str:
+    """An agent's error for the log: its answer, or why it was not reached."""
+    return str(err) if isinstance(err, AgentError) else unreached(err, _CA_FIELD)
 
 
 class Recorder:
@@ -89,7 +97,7 @@ async def mtconnect_loop(
 ) -> None:
     """Read the agent from the checkpoint on, until ``stop`` is set."""
     recorder = Recorder(config, queue)
-    async with httpx.AsyncClient(timeout=30.0) as http:
+    async with httpx.AsyncClient(timeout=30.0, verify=trusted(source.ca_file)) as http:
         agent = Agent(
             http, source.url, source.items, spindle=source.spindle, required=required(config)
         )
@@ -120,7 +128,7 @@ async def mtconnect_loop(
                 start = first
                 continue
             except httpx.HTTPError as err:
-                log.warning("agent not reached (%s); retrying", type(err).__name__)
+                log.warning("agent not reached (%s); retrying", unreached(err, _CA_FIELD))
                 await _pause(stop, source.poll_s * 5)
                 continue
             if streams.instance_id != instance:
@@ -148,7 +156,7 @@ async def _bind(agent: Agent, source: MTConnectConfig, stop: asyncio.Event) -> b
             for signal, bound in (await agent.bind()).items():
                 log.info("%s: data item %s, scale %g", signal, bound.item.describe(), bound.scale)
         except (httpx.HTTPError, AgentError) as err:
-            log.warning("agent's device model not read (%s); retrying", err)
+            log.warning("agent's device model not read (%s); retrying", _why(err))
             await _pause(stop, max(1.0, source.poll_s))
     return True
 
@@ -162,7 +170,7 @@ async def _current(agent: Agent, source: MTConnectConfig, stop: asyncio.Event) -
         try:
             current = await agent.current()
         except (httpx.HTTPError, AgentError) as err:
-            log.warning("agent not read (%s); retrying", err)
+            log.warning("agent not read (%s); retrying", _why(err))
             await _pause(stop, max(1.0, source.poll_s))
     return current
 
