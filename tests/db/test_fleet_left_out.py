@@ -12,20 +12,20 @@ from __future__ import annotations
 
 import json
 
-from sqlalchemy.orm import Session
 from test_fleet_db import _body, _learned
 from test_fleet_exclusions import _count_change
 
 from api.cli.main import app
 from api.report.provenance import prior_line
+from api.rest.schemas.parts import parse_report
 from api.rest.schemas.setpoints import PriorProvenance
 from api.services.fleet_models import exclude_from_fleet
+from api.services.parts import report_part
 from api.services.plans import create_plan
-from db import tables as t
 from db.fleet_names import bounded
 from supervisor.rcb.state import RcbSettings
 
-from conftest import engine_url
+from conftest import engine_url, stored_state
 
 LEARN = RcbSettings(strategy="learn")
 #: What the new plan's lines say of the three plans left out (each quantity of each tool).
@@ -33,11 +33,16 @@ SAID = "3 plans of its tool left out (1 halted, 1 taken out, 1 changed)"
 
 
 def _halt(engine, plan_id: int) -> None:  # type: ignore[no-untyped-def]
-    """``plan_id`` halted, as a part past a limit halts it."""
-    with Session(engine) as session, session.begin():
-        plan = session.get(t.Plan, plan_id)
-        assert plan is not None
-        plan.halt = {"message": "rough-od force_N past its limit", "conflicts": []}
+    """``plan_id`` halted by a part: rough-od's force at three times its 2000 N limit."""
+    version = stored_state(engine, plan_id).version
+    force = {"force_N": {"value": 6000.0, "uncertainty": 10.0}}
+    body = {
+        "serial": f"halt-{plan_id}",
+        "setpoint_version": version,
+        "operations": [{"name": "rough-od", "measurements": force}],
+    }
+    answer = report_part(engine=engine, plan_id=plan_id, report=parse_report(body))
+    assert answer.status == 201 and answer.body["halted"] is True, answer.body
 
 
 def _lines(plan: dict) -> list[dict]:  # type: ignore[type-arg]
