@@ -155,3 +155,53 @@ def test_every_grid_neighbour_of_the_tightened_optimum_meets_every_row(
     points = grid.candidates(params, np.exp(x), bounds, resolution)
     event(f"{len(points)} neighbours")
     assert grid.meets(lp, points).all()
+
+
+def test_limits_met_exactly_at_a_corner_of_bounds_off_the_grid_find_a_grid_point():
+    """Found by Hypothesis (tests/supervisor/test_properties.py): force and tool life both
+    met exactly at the corner of depth's lower bound, feed's upper and speed's lower (off the
+    1e-9 grid). The tightened program's optimum passed its tool-life row by 2e-7, within
+    HiGHS's tolerance, so no grid point next to it met the rows and the plan was called
+    infeasible, with conflicts that asked for the limits it had (127.303 needing 127.3). A
+    grid point exists (depth one step up, feed three down): step 5 tightens again and finds
+    one."""
+    from models.powerlaw import PowerLawModel
+    from supervisor.inputs.plan import plan_from_mapping
+    from supervisor.optimize.optimizer import optimize_plan
+
+    force = {"K": 148.4131591025766, "dK": 0.0, "exponents": {"depth_mm": 1.0, "feed_mm_rev": 0.5}}
+    life = {
+        "K": 14650719.428953517,
+        "dK": 0.0,
+        "exponents": {"depth_mm": 0.5, "speed_m_min": -3.0, "flank_wear_mm": 1.0},
+    }
+    limits = {"force_N": 127.30344793111759, "parts_per_edge": 0.00122603143153922}
+    bounds = {
+        "depth_mm": [1.0, 2.0],
+        "speed_m_min": [148.4131591025766, 296.8263182051532],
+        "feed_mm_rev": [0.36787944117144233, 0.7357588823428847],
+    }
+    data = {
+        "name": "corner",
+        "machine": {"name": "m", "resolution": dict.fromkeys(bounds, 1e-9)},
+        "tools": [
+            {"name": "T", "process": "turning", "models": {"force_N": force, "tool_life_mm3": life}}
+        ],
+        "operations": [
+            {
+                "name": "op-1",
+                "tool": "T",
+                "workpiece_diameter_mm": 20.085536923187668,
+                "volume_mm3": 1096.6331584284585,
+                "limits": limits,
+                "bounds": bounds,
+            }
+        ],
+    }
+    (result,) = optimize_plan(plan_from_mapping(data)).operations
+    point = dict(result.setpoint)
+    assert point["depth_mm"] > 1.0 and point["feed_mm_rev"] < bounds["feed_mm_rev"][1]
+    for name, value in point.items():  # on the grid
+        assert abs(value / 1e-9 - round(value / 1e-9)) < 1e-3, name
+    assert PowerLawModel("force_N", **force).predict(point, {}).upper <= limits["force_N"]
+    assert result.predicted["tool_life_mm3"].lower >= limits["parts_per_edge"] * 1096.6331584284585
