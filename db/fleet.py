@@ -310,7 +310,9 @@ def plan_priors(
     The chains' noise priors (:mod:`supervisor.fleet.noise`) come with the fleet's priors of
     the models, from the same plans' monitors; none with the catalogue's.
     Each fleet prior's provenance counts its tool's plans the fleet left out
-    (:mod:`db.fleet_left_out`, two statements more, bounded as the evidence is).
+    (:mod:`db.fleet_left_out`, two statements more, bounded as the evidence is); where one
+    of them halted (its first reason), the prior checks the band's optimum at 2 sd
+    (:func:`supervisor.fleet.prior._prior`).
 
     ``prior``: ``fleet``, ``catalogue`` or None (the fleet's where the database holds evidence
     for the plan's tools and the plan learns, else the catalogue's).
@@ -338,10 +340,11 @@ def plan_priors(
         )
     tools = {op.name: op.tool for op in plan.operations}
     learned = fleet_evidence(session=session, tool_names=tools.values())
+    outs = left_out(session=session, tool_names=tools.values()) if learned else {}
+    halted = {tool for tool, out in outs.items() if out.halted}
     priors = fleet_priors(
-        plan, learned, settings.coverage_k, settings.exponent_sd, settings.edge_sd
+        plan, learned, settings.coverage_k, settings.exponent_sd, settings.edge_sd, halted=halted
     )
-    outs = left_out(session=session, tool_names=tools.values()) if priors else {}
     priors = {(op, q): _with_left_out(p, outs.get(tools[op])) for (op, q), p in priors.items()}
     if prior == "fleet" and not priors:
         raise InputError(

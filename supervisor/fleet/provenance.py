@@ -13,7 +13,8 @@ from supervisor.fleet.left_out import LeftOut
 from supervisor.rcb.posterior import Posterior
 
 #: The sd at which a fleet prior's cones veto the catalogue band's optimum where the band
-#: holds too few of the fleet's machines (:func:`.prior._beyond_band`; else at the mean).
+#: holds too few of the fleet's machines (:func:`.prior._beyond_band`), or a plan of the tool
+#: halted (:func:`.prior._prior`); else at the mean.
 #: Measured (docs/benchmarks.md, "The band's veto"; 200 scenarios, machines 20 % apart):
 #: first-part crossings 237 -> 63 in 180 new machines, 0.793 -> 0.912 of the oracle after
 #: 3 parts; machines 3 % apart, no change.

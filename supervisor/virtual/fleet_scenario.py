@@ -163,14 +163,14 @@ def new_machine_starts(
     settings = RcbSettings(strategy="learn")
     catalogue = start(plan, settings)
     plans = [fleet[:-1], *(world(machines - 1, plan_draw=p) for p in range(1, options.learn_plans))]
-    learned, violations, (left_out, unconfirmed) = _learn(
+    learned, violations, (left_out, unconfirmed), halted = _learn(
         catalogue, plans, seed, learn_parts, options.fleet_faults
     )
     new, last = fleet[-1], noise_seed(seed, machines - 1)
     if options.on_known:  # machine 0 again, a new plan's operations
         new = world(1, plan_draw=options.learn_plans)[0]
         plan = replace(plan, machine=replace(plan.machine, name="machine-0"))
-    priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd)
+    priors = fleet_priors(plan, learned, settings.coverage_k, settings.exponent_sd, halted=halted)
     chains = {q: p.belief for q, p in noise_priors(learned).items()}
     if options.new_z is not None:  # the new machine's plans only: the fleet learned at the default
         settings = replace(settings, z=options.new_z)
@@ -251,15 +251,18 @@ def _learn(
     seed: int,
     parts: int,
     faults: Faults | None,
-) -> tuple[list[Learned], int, tuple[int, int]]:
+) -> tuple[list[Learned], int, tuple[int, int], set[str]]:
     """The learning machines' plans from the catalogue: what the fleet learned from them.
 
     ``plans[p][m]``: machine ``m`` as plan ``p``'s operations meet it (plan 0 with the noise
-    of :func:`noise_seed`). Returns ``(learned, violations, (left out, unconfirmed))``: their
-    violations, how many plans a halt or a change of their process not judged a false alarm
-    left out, and how many are in after a change their readings did not confirm.
+    of :func:`noise_seed`). Returns ``(learned, violations, (left out, unconfirmed),
+    halted)``: their violations, how many plans a halt or a change of their process not
+    judged a false alarm left out, how many are in after a change their readings did not
+    confirm, and the tools of the halted plans that learned a model of them (as
+    :mod:`db.fleet_left_out` counts them).
     """
     learned: list[Learned] = []
+    halted: set[str] = set()
     violations = left_out = unconfirmed = 0
     for p, machines in enumerate(plans):
         for m, machine in enumerate(machines):
@@ -273,10 +276,13 @@ def _learn(
             out = judged.pending is not None
             found = [] if out else learned_from(state, f"machine-{m}", name)
             left_out += not found
+            if state.halt is not None:
+                tools = {op.name: op.tool for op in state.plan.operations}
+                halted |= {tools[name] for name, _ in state.posterior}
             unconfirmed += bool(found and judged.unconfirmed)
             learned += found
     # each machine's newest plans, as the database reads them (supervisor.fleet.window)
-    return newest_plans(learned), violations, (left_out, unconfirmed)
+    return newest_plans(learned), violations, (left_out, unconfirmed), halted
 
 
 class _Judged:

@@ -1,4 +1,5 @@
-"""A new plan's fleet prior says what the fleet left out of its tool's plans (issue 32).
+"""A new plan's fleet prior says what the fleet left out of its tool's plans (issue 32), and
+checks the band's optimum at 2 sd where one of them halted.
 
 A review: a prior read "from 1 plan on 1 machine" where three newer plans of the tool were
 out of the fleet (halted, taken out, changed), and only ``rcb fleet show TOOL`` said so; the
@@ -59,6 +60,7 @@ def test_a_new_plan_counts_the_plans_left_out_by_why(engine, runner) -> None:
         json.dumps({"taken_out": 0, "halted": 0, "changed": 0})
     }
     assert not any("left out" in p["text"] for p in _lines(before))
+    assert {p["band_checked_at_sd"] for p in _lines(before)} == {None}  # 3 % apart: the mean
     _halt(engine, halted)
     exclude_from_fleet(engine=engine, plan_id=taken, machine=None, reason="1040 bar")
     _count_change(engine, changed)
@@ -68,7 +70,9 @@ def test_a_new_plan_counts_the_plans_left_out_by_why(engine, runner) -> None:
     lines = _lines(plan)
     assert {p["plans_total"] for p in lines} == {1}  # fleet-a alone
     assert all(p["left_out"] == {"taken_out": 1, "halted": 1, "changed": 1} for p in lines)
-    assert all(p["text"].endswith(f"; {SAID}: rcb fleet show says why") for p in lines)
+    # a plan of each tool halted: the band's optimum is checked at 2 sd (prior._prior)
+    assert {p["band_checked_at_sd"] for p in lines} == {2.0}
+    assert all(p["text"].endswith(f"2 sd; {SAID}: rcb fleet show says why") for p in lines)
     for line in lines:  # what REST declares
         assert PriorProvenance.model_validate(bounded(line)).left_out is not None
     # the report's overview and rcb plans show, per operation (each its own tool)
@@ -95,6 +99,7 @@ def test_a_plan_that_learns_nothing_is_not_counted(engine) -> None:
     _halt(engine, int(other["id"]))
     plan = create_plan(engine=engine, body=_body("new", "lathe-2"), settings=LEARN).body
     assert all(sum(p["left_out"].values()) == 0 for p in _lines(plan))
+    assert {p["band_checked_at_sd"] for p in _lines(plan)} == {None}
     assert "left out" not in prior_line(plan)
 
 

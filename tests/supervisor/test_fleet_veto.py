@@ -84,6 +84,18 @@ def test_a_spread_under_the_band_vetoes_where_it_credibly_leaves_machines_outsid
     assert _veto([-0.03, 0.03]) == 0.0
 
 
+def test_a_halted_plan_of_the_tool_checks_the_band_at_2_sd() -> None:
+    """Machines 1 % apart check the band at the mean; where a plan of their tool halted
+    (its readings left out), at 2 sd: the spread read from the rest is the lower for it.
+    Another tool's halt changes nothing."""
+    learned = [_machine(f"m{i}", o) for i, o in enumerate([-0.01, 0.0, 0.01])]
+    tool = ROUGH_OD.tool
+    for halted, veto in (((), 0.0), ((tool,), FLEET_VETO_Z), (("ANOTHER",), 0.0)):
+        made = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd, halted=halted)[KEY]
+        assert made.posterior.band_veto_z == veto, halted
+        assert made.provenance.band_checked_at_sd == (veto or None), halted
+
+
 def test_the_lower_bound_is_the_scaled_inverse_chi2_quantile() -> None:
     """``σ √(ν/χ²_{0.95,ν})`` with the χ² table's 95 % points (7.815 at 3 degrees of freedom,
     9.488 at 4; any statistics text's table), and scipy's for any ``ν``."""

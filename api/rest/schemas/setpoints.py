@@ -151,9 +151,10 @@ class PriorProvenance(Out):
     readings: int
     band_checked_at_sd: float | None = Field(
         None,
-        description="where the fleet's machines differ by more than the catalogue's band: "
-        "the band's optimum runs only where it holds at this many standard deviations of the "
-        "fleet prior, else the prior's (slower) setpoint does (null: checked at its mean)",
+        description="where the fleet's machines differ by more than the catalogue's band "
+        "(their spread past it, or a plan of the tool halted: left_out.halted): the band's "
+        "optimum runs only where it holds at this many standard deviations of the fleet "
+        "prior, else the prior's (slower) setpoint does (null: checked at its mean)",
     )
     widened_by_part: str | None = Field(
         None,
