@@ -167,9 +167,7 @@ def config_from_mapping(data: Mapping[str, Any], base: Path) -> CollectorConfig:
     queue = Path(
         text_within(collector, "queue", "collector", "collector-queue.sqlite", most=MAX_FIELD_TEXT)
     )
-    calibration = signal.get("calibration")
-    if calibration is not None:
-        calibration = text_within(signal, "calibration", "signal", most=MAX_FIELD_TEXT)
+    calibration = _text(signal, "calibration", "signal")
     url = text_within(service, "url", "service", most=MAX_FIELD_TEXT)
     if not url.startswith(("http://", "https://")):
         raise InputError("service.url", url, "must start with http:// or https://")
@@ -231,9 +229,7 @@ def _mtconnect(data: object, base: Path) -> MTConnectConfig:
     if not url.startswith(("http://", "https://")):
         raise InputError("mtconnect.url", url, "must start with http:// or https://")
     items = {**MTCONNECT_ITEMS, **_items(data.get("data_items"), "mtconnect.data_items", _ITEMS)}
-    spindle = data.get("spindle")
-    if spindle is not None:
-        spindle = text_within(data, "spindle", "mtconnect", most=MAX_FIELD_TEXT)
+    spindle = _text(data, "spindle", "mtconnect")
     start = data.get("start", "next")
     if start not in MTCONNECT_STARTS:
         raise InputError("mtconnect.start", start, f"must be one of {', '.join(MTCONNECT_STARTS)}")
@@ -268,15 +264,9 @@ def _opcua(data: object) -> OpcUaConfig:
     active = data.get("active_values", list(OPCUA_ACTIVE))
     if not isinstance(active, list) or not active:
         raise InputError("opcua.active_values", active, "must be a list of values")
-    username = data.get("username")
-    if username is not None:
-        username = text_within(data, "username", "opcua", most=MAX_FIELD_TEXT)
-    security = data.get("security")
-    if security is not None:
-        security = text_within(data, "security", "opcua", most=MAX_FIELD_TEXT)
-    password_env = data.get("password_env")
-    if password_env is not None:
-        password_env = text_within(data, "password_env", "opcua", most=MAX_FIELD_TEXT)
+    username = _text(data, "username", "opcua")
+    security = _text(data, "security", "opcua")
+    password_env = _text(data, "password_env", "opcua")
     return OpcUaConfig(
         url=url,
         nodes=nodes,
