@@ -29,12 +29,15 @@ class LeftOut:
 
     def counted(self) -> str:
         """``3 plans (2 halted, 1 taken out)`` ("" where none was left out)."""
-        counts = [(self.halted, "halted"), (self.taken_out, "taken out"), (self.changed, "changed")]
-        said = ", ".join(f"{n} {why}" for n, why in counts if n)
-        plans = "plan" if self.total == 1 else "plans"
-        return f"{self.total} {plans} ({said})" if self.total else ""
+        return f"{self._plans()} ({self._reasons()})" if self.total else ""
 
     def describe(self) -> str:
         """``3 plans of its tool left out (2 halted, 1 taken out)`` ("" where none was)."""
-        n, _, why = self.counted().partition(" (")
-        return f"{n} of its tool left out ({why}" if self.total else ""
+        return f"{self._plans()} of its tool left out ({self._reasons()})" if self.total else ""
+
+    def _plans(self) -> str:
+        return f"{self.total} {'plan' if self.total == 1 else 'plans'}"
+
+    def _reasons(self) -> str:
+        counts = [(self.halted, "halted"), (self.taken_out, "taken out"), (self.changed, "changed")]
+        return ", ".join(f"{n} {why}" for n, why in counts if n)

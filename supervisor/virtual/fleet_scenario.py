@@ -278,7 +278,7 @@ def _learn(
             left_out += not found
             if state.halt is not None:
                 tools = {op.name: op.tool for op in state.plan.operations}
-                halted |= {tools[name] for name, _ in state.posterior}
+                halted |= {tools[op] for op, _ in state.posterior}
             unconfirmed += bool(found and judged.unconfirmed)
             learned += found
     # each machine's newest plans, as the database reads them (supervisor.fleet.window)
