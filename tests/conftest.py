@@ -38,6 +38,9 @@ from migrated import admin_engine, migrated
 if TYPE_CHECKING:
     from scale_support import Copied, PostgresCopied
 
+#: Bytecode compiled once and each typer app's click command built once: tests/suite_speed.py.
+pytest_plugins = ["suite_speed"]
+
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_PLAN = ROOT / "examples" / "ivester_demo_part.toml"
 #: The variable naming the PostgreSQL server the tests create their databases on.
