@@ -41,10 +41,29 @@ class Conflict:
     sense: str
 
     def describe(self) -> str:
-        """One phrase: ``force_N <= 100 needs >= 512.3``."""
-        if self.sense == "max":
-            return f"{self.name} <= {self.limit:.6g} needs a limit of at least {self.required:.4g}"
-        return f"{self.name} >= {self.limit:.6g} can reach at most {self.required:.4g}"
+        """One phrase: ``force_N <= 100 needs a limit of at least 512.3``."""
+        needs = "needs a limit of at least" if self.sense == "max" else "can reach at most"
+        sign = "<=" if self.sense == "max" else ">="
+        limit, required = self.texts()
+        return f"{self.name} {sign} {limit} {needs} {required}"
+
+    def texts(self) -> tuple[str, str]:
+        """The limit (6 significant digits) and what it needs (4), shown.
+
+        Each takes more digits where the number needed would not read beyond the limit: a
+        maximum of 127.303 that needs 127.30312 is not said to need "at least 127.3" (seen
+        where the program was infeasible only just).
+        """
+        for digits in range(4, 18):
+            limit = f"{self.limit:.{max(6, digits)}g}"
+            required = f"{self.required:.{digits}g}"
+            if (
+                float(required) > float(limit)
+                if self.sense == "max"
+                else float(required) < float(limit)
+            ):
+                return limit, required
+        return repr(self.limit), repr(self.required)
 
 
 class InfeasibleError(SupervisorError):

@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from supervisor.errors import Conflict
+
 #: How a flagged decision is shown at a glance, per flag (the band grew: never a note).
 FLAG_LABELS = {"breach": "BREACH", "above_band": "ABOVE", "below_band": "BELOW"}
 #: How a note is shown: information only, never a flag (past_limit: the part is out of
@@ -71,11 +73,8 @@ def halt_lines(halt: Mapping[str, Any]) -> list[str]:
             lines.append(prefix + message)
             continue
         for c in o["conflicts"]:
-            needs = "needs a limit of at least" if c["sense"] == "max" else "can reach at most"
-            sign = "<=" if c["sense"] == "max" else ">="
-            lines.append(
-                f"{o['operation']}: {c['name']} {sign} {c['limit']:.6g} {needs} {c['required']:.4g}"
-            )
+            conflict = Conflict(c["name"], c["limit"], c["required"], c["sense"])
+            lines.append(f"{o['operation']}: {conflict.describe()}")
         if o.get("held_by"):
             lines.append(f"{o['operation']}: held by {', '.join(o['held_by'])}")
     if not operations and halt.get("message"):

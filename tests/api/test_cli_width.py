@@ -26,6 +26,7 @@ from api.rest.schemas.parts import parse_report
 from api.services.parts import report_part
 from api.services.plans import create_plan
 from db.engine import make_engine
+from supervisor.errors import Conflict
 
 from conftest import ROOT
 from migrated import migrated
@@ -243,7 +244,8 @@ def test_optimize_json_on_an_infeasible_plan_is_a_problem_document(tmp_path):
     assert conflict["required"] > 50
     # the detail and the one line on stderr say the same, with the required limit
     assert done.stderr.strip() == f"rcb: infeasible: {body['detail']}"
-    assert f"needs a limit of at least {conflict['required']:.4g}" in body["detail"]
+    needs = Conflict("force_N", 50.0, conflict["required"], "max").texts()[1]
+    assert f"needs a limit of at least {needs}" in body["detail"]
 
 
 #: A ``name=value`` word of a table (``feed=0.3557``); its value up to the next blank.
