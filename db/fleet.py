@@ -191,8 +191,10 @@ def provenance_json(p: Provenance) -> dict[str, Any]:
         "between_machine_spread": p.spread,
         "operation_spread": p.operation_spread,
         "readings": p.readings,
-        # the machines differ by more than the catalogue band: its optimum checked at this sd
+        # the band's optimum checked at this sd, and why: the machines differ by more than
+        # the catalogue band ("spread"), a plan of the tool halted ("halted")
         "band_checked_at_sd": p.band_checked_at_sd,
+        "band_checked_because": list(p.band_checked_why),
         # the tool's plans the fleet left out, by why (db.fleet_left_out)
         "left_out": asdict(p.left_out),
         "widened_by_part": None,  # a part whose readings let the prior go (:func:`let_go`)

@@ -16,6 +16,7 @@ from typing import Any
 
 from db.let_go_mark import marked
 from supervisor.fleet.left_out import LeftOut
+from supervisor.fleet.provenance import BAND_CHECKED_WHY
 
 #: What a plan's models start from without a fleet prior.
 CATALOGUE = "the tools' catalogue models"
@@ -92,23 +93,35 @@ def let_go_text(serial: str, reason: str) -> str:
 
 
 def band_checked(items: Iterable[tuple[str, Mapping[str, Any]]]) -> str | None:
-    """Where the fleet's machines differ by more than the catalogue band, in words (None: nowhere).
+    """Where the band's optimum is checked at some sd of the fleet prior, and why (None: nowhere).
 
     ``items``: ``(name, line)`` pairs; a line with ``band_checked_at_sd`` names its quantity
     (:func:`db.fleet.provenance_json`): the band's optimum runs there only where it holds at
-    that many sd of the fleet prior (:data:`supervisor.fleet.prior.FLEET_VETO_Z`).
+    that many sd of the fleet prior (:data:`supervisor.fleet.prior.FLEET_VETO_Z`), because
+    the machines differ by more than the band or a plan of the tool halted
+    (``band_checked_because``; a line stored before it was kept says no reason).
     """
-    groups: dict[float, list[str]] = {}
+    groups: dict[tuple[float, tuple[str, ...]], list[str]] = {}
     for name, line in items:
         sd = line.get("band_checked_at_sd")  # none in a prior stored before it was kept
         if sd is not None:
-            groups.setdefault(float(sd), []).append(name)
+            why = tuple(line.get("band_checked_because") or ())
+            groups.setdefault((float(sd), why), []).append(name)
     said = [
-        f"{', '.join(names)}: the machines differ by more than the catalogue band, whose "
-        f"setpoint runs only where it holds at {sd:g} sd of the fleet prior"
-        for sd, names in groups.items()
+        f"{', '.join(names)}: {_why_checked(why)}runs only where it holds at {sd:g} sd of the "
+        "fleet prior"
+        for (sd, why), names in groups.items()
     ]
     return "; ".join(said) or None
+
+
+def _why_checked(why: Sequence[str]) -> str:
+    """The start of :func:`band_checked`'s sentence, up to "runs", for the reasons ``why``."""
+    if list(why) == ["spread"]:
+        return "the machines differ by more than the catalogue band, whose setpoint "
+    said = [("the " if r == "spread" else "") + BAND_CHECKED_WHY.get(r, r) for r in why]
+    band = "the catalogue band's setpoint "
+    return f"{' and '.join(said)}, so {band}" if said else band
 
 
 def left_out_said(

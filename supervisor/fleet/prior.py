@@ -325,9 +325,10 @@ def _prior(pair: _Pair, seen: _Seen, halted: bool = False) -> FleetPrior:
     cov = cov.copy()
     cov[0, 0] += seen.operation_spread**2  # the new operation's own offset (hierarchy)
     prior = in_operation_terms(pair.catalogue, pair.op.context, mean, cov)
-    if halted or _beyond_band(pair, seen):
+    why = tuple(r for r, on in (("spread", _beyond_band(pair, seen)), ("halted", halted)) if on)
+    if why:
         prior = replace(prior, band_veto_z=FLEET_VETO_Z)
-        provenance = replace(provenance, band_checked_at_sd=prior.band_veto_z)
+        provenance = replace(provenance, band_checked_at_sd=prior.band_veto_z, band_checked_why=why)
     return FleetPrior(prior, provenance)
 
 

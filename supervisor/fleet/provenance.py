@@ -19,8 +19,12 @@ from supervisor.rcb.posterior import Posterior
 #: first-part crossings 237 -> 63 in 180 new machines, 0.793 -> 0.912 of the oracle after
 #: 3 parts; machines 3 % apart, no change.
 FLEET_VETO_Z = 2.0
-#: What a vetoing prior's provenance line adds (its sd).
-_VETOED = "; machines differ by more than the catalogue band: checked at {:g} sd"
+#: Why a prior checks the band's optimum at :data:`FLEET_VETO_Z` sd, in words, by its key in
+#: :attr:`Provenance.band_checked_why`.
+BAND_CHECKED_WHY = {
+    "spread": "machines differ by more than the catalogue band",
+    "halted": "a plan of its tool halted",
+}
 
 
 def beyond_band(spread: float, band_rel: float) -> bool:
@@ -46,6 +50,8 @@ class Provenance:
     operation_spread: float = DEFAULT_OPERATION_SPREAD
     #: The band's optimum checked at this sd (its band_veto_z; None: the mean; prior._beyond_band).
     band_checked_at_sd: float | None = None
+    #: Why, by the keys of :data:`BAND_CHECKED_WHY` ("spread", "halted"; empty: not checked).
+    band_checked_why: tuple[str, ...] = ()
     #: The tool's plans left out of the fleet, among its machines' newest (db.fleet_left_out).
     left_out: LeftOut = LeftOut()
 
@@ -60,7 +66,8 @@ class Provenance:
         plans = "plan" if len(self.plans) == 1 else "plans"
         machines = "machine" if len(self.machines) == 1 else "machines"
         sd = self.band_checked_at_sd
-        vetoed = "" if sd is None else _VETOED.format(sd)
+        why = " and ".join(BAND_CHECKED_WHY[r] for r in self.band_checked_why)
+        vetoed = "" if sd is None else f"; {why or 'the catalogue band'}: checked at {sd:g} sd"
         out = self.left_out.describe()
         vetoed += f"; {out}: rcb fleet show says why" if out else ""
         return (

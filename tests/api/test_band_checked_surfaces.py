@@ -65,3 +65,17 @@ def test_a_prior_stored_before_the_key_reads_as_checked_at_its_mean() -> None:
     del old["band_checked_at_sd"]
     assert PriorProvenance.model_validate(bounded(old)).band_checked_at_sd is None
     assert "differ by more" not in prior_line(_plan(old))
+
+
+def test_a_check_stored_before_its_reason_names_none() -> None:
+    """A line checked at 2 sd but stored before ``band_checked_because`` was kept: null over
+    REST, and the words say the band is checked without saying why (it may have been a
+    halt, not the spread)."""
+    old = _provenance([-0.2, 0.0, 0.2])
+    assert old["band_checked_because"] == ["spread"]
+    del old["band_checked_because"]
+    assert PriorProvenance.model_validate(bounded(old)).band_checked_because is None
+    assert prior_caption([("rough-od", old)]) == (
+        "rough-od force_N: the catalogue band's setpoint runs only where it holds at 2 sd of "
+        "the fleet prior"
+    )

@@ -61,6 +61,7 @@ def test_a_new_plan_counts_the_plans_left_out_by_why(engine, runner) -> None:
     }
     assert not any("left out" in p["text"] for p in _lines(before))
     assert {p["band_checked_at_sd"] for p in _lines(before)} == {None}  # 3 % apart: the mean
+    assert all(p["band_checked_because"] == [] for p in _lines(before))
     _halt(engine, halted)
     exclude_from_fleet(engine=engine, plan_id=taken, machine=None, reason="1040 bar")
     _count_change(engine, changed)
@@ -72,6 +73,8 @@ def test_a_new_plan_counts_the_plans_left_out_by_why(engine, runner) -> None:
     assert all(p["left_out"] == {"taken_out": 1, "halted": 1, "changed": 1} for p in lines)
     # a plan of each tool halted: the band's optimum is checked at 2 sd (prior._prior)
     assert {p["band_checked_at_sd"] for p in lines} == {2.0}
+    assert all(p["band_checked_because"] == ["halted"] for p in lines)  # 3 % apart: no spread
+    assert all("a plan of its tool halted: checked at 2 sd" in p["text"] for p in lines)
     assert all(p["text"].endswith(f"2 sd; {SAID}: rcb fleet show says why") for p in lines)
     for line in lines:  # what REST declares
         assert PriorProvenance.model_validate(bounded(line)).left_out is not None
@@ -83,6 +86,8 @@ def test_a_new_plan_counts_the_plans_left_out_by_why(engine, runner) -> None:
         "fleet show TOOL says which and why)"
     )
     assert each in prior_line(plan)
+    halted_said = "a plan of its tool halted, so the catalogue band's setpoint runs only where"
+    assert halted_said in prior_line(plan) and "differ by more" not in prior_line(plan)
     shown = runner.invoke(app, ["plans", "show", str(plan["id"]), "--db", engine_url(engine)])
     assert shown.exit_code == 0, shown.output
     assert each in " ".join(shown.output.split())

@@ -94,6 +94,19 @@ def test_a_halted_plan_of_the_tool_checks_the_band_at_2_sd() -> None:
         made = fleet_priors(PLAN, learned, 2.0, SETTINGS.exponent_sd, halted=halted)[KEY]
         assert made.posterior.band_veto_z == veto, halted
         assert made.provenance.band_checked_at_sd == (veto or None), halted
+        # it says why: the halt, not a spread these machines do not have
+        assert made.provenance.band_checked_why == (("halted",) if veto else ()), halted
+        said = "; a plan of its tool halted: checked at 2 sd"
+        assert made.provenance.describe().endswith(said) == bool(veto), halted
+        assert "differ by more" not in made.provenance.describe()
+    # machines 20 % apart whose tool also halted: both reasons
+    far = [_machine(f"m{i}", o) for i, o in enumerate([-0.2, 0.0, 0.2])]
+    both = fleet_priors(PLAN, far, 2.0, SETTINGS.exponent_sd, halted=(tool,))[KEY].provenance
+    assert both.band_checked_why == ("spread", "halted")
+    assert both.describe().endswith(
+        "; machines differ by more than the catalogue band and a plan of its tool halted: "
+        "checked at 2 sd"
+    )
 
 
 def test_the_lower_bound_is_the_scaled_inverse_chi2_quantile() -> None:

@@ -151,10 +151,17 @@ class PriorProvenance(Out):
     readings: int
     band_checked_at_sd: float | None = Field(
         None,
-        description="where the fleet's machines differ by more than the catalogue's band "
-        "(their spread past it, or a plan of the tool halted: left_out.halted): the band's "
+        description="where the fleet's machines differ by more than the catalogue's band, "
+        "or a plan of the tool halted (band_checked_because says which): the band's "
         "optimum runs only where it holds at this many standard deviations of the fleet "
         "prior, else the prior's (slower) setpoint does (null: checked at its mean)",
+    )
+    band_checked_because: list[Literal["spread", "halted"]] | None = Field(
+        None,
+        description="why the band's optimum is checked at band_checked_at_sd: 'spread', the "
+        "machines' spread of ln K passes the band; 'halted', a plan of the tool halted "
+        "(left_out.halted counts them); empty where it is not (null: a prior stored before "
+        "the reason was kept)",
     )
     widened_by_part: str | None = Field(
         None,
