@@ -243,5 +243,5 @@ def _still_out(session: Session, row: t.Plan) -> str:
     if machine is not None and session.scalar(found) is not None:
         return f"its machine {machine} is taken out (rcb fleet include --machine {machine})"
     if row.halt is not None:
-        return "it is halted (a halted plan does not count)"
+        return f"it is halted: a replan resumes it (rcb replan {row.id})"
     return ""

@@ -208,3 +208,27 @@ def test_a_halt_or_an_exclusion_does_not_hide_what_else_keeps_a_plan_out(engine)
 def _out(engine) -> str:  # type: ignore[no-untyped-def]
     (member,) = fleet_members(engine=engine, tool="VCMR331")["plans"]
     return str(member["out"])
+
+
+def test_a_halted_plan_put_back_says_what_resumes_it(engine, runner) -> None:
+    """Its exclusion is gone, but the halt keeps it out until an engineer replans it (issue
+    32: a halt takes its evidence out until an engineer puts it back): the include says so,
+    with the command, and a replan that resumes it puts it back in the fleet."""
+    a = _learned(engine, "fleet-a", 0, 3)
+    exclude_from_fleet(engine=engine, plan_id=a, machine=None, reason="1040 bar")
+    with Session(engine) as session, session.begin():
+        plan = session.get(t.Plan, a)
+        assert plan is not None
+        plan.halt = {"message": "rough-od force_N past its limit", "conflicts": []}
+    url = engine_url(engine)
+    done = invoke(runner, "fleet", "include", "--plan", str(a), "--db", url)
+    assert done.exit_code == 0, done.output
+    said = " ".join(done.output.split())
+    assert said.endswith(
+        f"stays out of the fleet: it is halted: a replan resumes it (rcb replan {a})"
+    )
+    assert _out(engine) == "halted"
+    # a replan needs a change to make: the alpha the plan has already will do
+    resumed = invoke(runner, "replan", str(a), "--rcb", "alpha=0.25", "--db", url)
+    assert resumed.exit_code == 0, resumed.output
+    assert _in_fleet(engine, "VCMR331") == {"fleet-a"}
