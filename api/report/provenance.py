@@ -15,8 +15,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from db.let_go_mark import marked
+from supervisor.fleet.band_check import BAND_CHECKED_WHY
 from supervisor.fleet.left_out import LeftOut
-from supervisor.fleet.provenance import BAND_CHECKED_WHY
 
 #: What a plan's models start from without a fleet prior.
 CATALOGUE = "the tools' catalogue models"

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from supervisor.fleet.band_check import BAND_CHECKED_WHY
 from supervisor.fleet.hierarchy import DEFAULT_OPERATION_SPREAD
 from supervisor.fleet.left_out import LeftOut
 from supervisor.rcb.posterior import Posterior
@@ -19,12 +20,6 @@ from supervisor.rcb.posterior import Posterior
 #: first-part crossings 237 -> 63 in 180 new machines, 0.793 -> 0.912 of the oracle after
 #: 3 parts; machines 3 % apart, no change.
 FLEET_VETO_Z = 2.0
-#: Why a prior checks the band's optimum at :data:`FLEET_VETO_Z` sd, in words, by its key in
-#: :attr:`Provenance.band_checked_why`.
-BAND_CHECKED_WHY = {
-    "spread": "machines differ by more than the catalogue band",
-    "halted": "a plan of its tool halted",
-}
 
 
 def beyond_band(spread: float, band_rel: float) -> bool:
