@@ -328,7 +328,7 @@ def _prior(pair: _Pair, seen: _Seen, halted: bool = False) -> FleetPrior:
     why = tuple(r for r, on in (("spread", _beyond_band(pair, seen)), ("halted", halted)) if on)
     if why:
         prior = replace(prior, band_veto_z=FLEET_VETO_Z)
-        provenance = replace(provenance, band_checked_at_sd=prior.band_veto_z, band_checked_why=why)
+        provenance = replace(provenance, band_checked_why=why)
     return FleetPrior(prior, provenance)
 
 

@@ -43,12 +43,16 @@ class Provenance:
     readings: int
     #: ``σ_o``, learned where a machine ran the tool in two operations (hierarchy).
     operation_spread: float = DEFAULT_OPERATION_SPREAD
-    #: The band's optimum checked at this sd (its band_veto_z; None: the mean; prior._beyond_band).
-    band_checked_at_sd: float | None = None
-    #: Why, by the keys of :data:`BAND_CHECKED_WHY` ("spread", "halted"; empty: not checked).
+    #: Why the band's optimum is checked at :data:`FLEET_VETO_Z` sd, by the keys of
+    #: :data:`BAND_CHECKED_WHY` ("spread", "halted"; empty: at the mean; prior._prior).
     band_checked_why: tuple[str, ...] = ()
     #: The tool's plans left out of the fleet, among its machines' newest (db.fleet_left_out).
     left_out: LeftOut = LeftOut()
+
+    @property
+    def band_checked_at_sd(self) -> float | None:
+        """The sd the band's optimum is checked at (the prior's band_veto_z; None: the mean)."""
+        return FLEET_VETO_Z if self.band_checked_why else None
 
     def describe(self) -> str:
         """One line: ``force_N: prior from 3 plans on 2 machines, …, 96 readings``.
@@ -60,9 +64,8 @@ class Provenance:
             return f"{self.quantity}: catalogue prior (no plan of the fleet measured it)"
         plans = "plan" if len(self.plans) == 1 else "plans"
         machines = "machine" if len(self.machines) == 1 else "machines"
-        sd = self.band_checked_at_sd
         why = " and ".join(BAND_CHECKED_WHY[r] for r in self.band_checked_why)
-        vetoed = "" if sd is None else f"; {why or 'the catalogue band'}: checked at {sd:g} sd"
+        vetoed = f"; {why}: checked at {FLEET_VETO_Z:g} sd" if why else ""
         out = self.left_out.describe()
         vetoed += f"; {out}: rcb fleet show says why" if out else ""
         return (
